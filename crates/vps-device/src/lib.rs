@@ -1,0 +1,1 @@
+//! Haptic devices. Work in progress.

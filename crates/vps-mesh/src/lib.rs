@@ -1,0 +1,20 @@
+//! Triangle meshes for vps.
+//!
+//! All coordinates are metres (SI), in f64 so that voxelization of a 3 m scene at sub-millimetre voxels
+//! keeps full precision. A [`TriMesh`] is an indexed triangle list; it may be open (the scan converter
+//! and flood fill do not need watertight input).
+//!
+//! Module map:
+//! - [`mesh`]: the [`TriMesh`] type, bounds, transforms.
+//! - [`validate`]: checks with errors naming the element at fault.
+//! - [`load`]: OBJ, STL (binary and ASCII), PLY readers.
+//! - [`builtin`]: deterministic built-in scenes (teapot, aircraft bay) and primitives.
+
+pub mod builtin;
+pub mod load;
+pub mod mesh;
+pub mod validate;
+
+pub use load::{load_mesh, LoadedMesh};
+pub use mesh::{Aabb, TriMesh};
+pub use validate::{MeshError, ValidationReport};

@@ -1,0 +1,1 @@
+//! Voxelization (DESIGN §2). Work in progress: filled by the voxelizer module set.

@@ -1,0 +1,4 @@
+//! `vps`: command-line entry point. Work in progress.
+fn main() {
+    println!("vps: work in progress");
+}
