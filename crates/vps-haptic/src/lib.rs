@@ -11,7 +11,30 @@
 //!   `i mod C`); `sample_class` returns that class's [`PartialSums`].
 //! - [`PartialSums`]: integer fixed-point sums that merge exactly in any grouping and order.
 //! - [`HapticParams`]: validated parameters with derived defaults (TOML-loadable).
-//! - [`step`]: merged sums + handle + state → device wrench, next state, [`FrameReport`].
+//! - [`step`]: merged sums + handle + state → device wrench, next state, flags ([`FrameOutput`]).
+//!
+//! Module map: [`state`] (part state, kernel pose), [`classed`] (cyclic classes), [`kernel`]
+//! (sampling), [`sums`] (fixed-point sums), [`params`] and [`stability`] (parameters and the bound
+//! behind the default gains), [`contact`] (force field, braking), [`coupling`] (virtual coupling),
+//! [`dynamics`] (integration, tunnelling guard), [`frame`] (one frame).
+
+pub mod classed;
+pub mod contact;
+pub mod coupling;
+pub mod dynamics;
+pub mod frame;
+pub mod kernel;
+pub mod params;
+pub mod stability;
+pub mod state;
+pub mod sums;
+
+pub use classed::ClassedShell;
+pub use frame::{step, FrameOutput};
+pub use kernel::{sample_all, sample_class, sample_classes};
+pub use params::{Gains, HapticParams, ParamsError, StabilityIndices};
+pub use state::{KernelPose, PartState};
+pub use sums::PartialSums;
 
 use glam::{DQuat, DVec3};
 

@@ -1,0 +1,74 @@
+//! The force model of DESIGN §3 applied to merged sums: contact (force field with averaging) and
+//! pre-contact braking. Pure functions; no allocation.
+
+use crate::params::{Gains, HapticParams};
+use crate::state::PartState;
+use crate::sums::PartialSums;
+use crate::Wrench;
+use glam::DVec3;
+
+/// The contact wrench on the part at its centre of mass: `K_ff Σ d N` and `K_ff Σ (P−x) × d N`,
+/// scaled by `threshold / N` once the contact count N reaches the averaging threshold (10).
+pub fn contact_wrench(params: &HapticParams, gains: &Gains, sums: &PartialSums) -> Wrench {
+    let n = sums.contacts;
+    let threshold = u64::from(params.contact_average_threshold);
+    let scale = if n >= threshold {
+        gains.k_ff * threshold as f64 / n as f64
+    } else {
+        gains.k_ff
+    };
+    Wrench {
+        force: sums.depth_normal_si() * scale,
+        torque: sums.depth_torque_si() * scale,
+    }
+}
+
+/// The pre-contact braking wrench (zero when braking is off or no Proximity point approaches).
+///
+/// `u = S_f / |S_f|` is the approach direction (the braking force `−b S_f` points against it) and
+/// `v_n = v·u` the part's approach speed. Braking viscosity `b = m v_n² / (2 dt S_q)` (remove the
+/// approach kinetic energy in one frame), capped at `m v_n / (dt |S_f|)` so that one frame's braking
+/// impulse can at most stop the approach, never reverse it (which keeps braking dissipative when
+/// the points' approach speeds differ, e.g. under rotation). Force `−b S_f`; torque `−b S_t` only
+/// with `braking_torque`, capped so one frame can at most stop the angular velocity.
+pub fn brake_wrench(
+    params: &HapticParams,
+    gains: &Gains,
+    state: &PartState,
+    sums: &PartialSums,
+) -> Wrench {
+    let s_q = sums.brake_sq_si();
+    let s_f = sums.brake_force_si();
+    let s_f_len = s_f.length();
+    if !params.braking || sums.approaching == 0 || s_q <= 0.0 || s_f_len <= 0.0 {
+        return Wrench::ZERO;
+    }
+    let v_n = state.linear_velocity.dot(s_f / s_f_len);
+    if !(v_n > 0.0) {
+        return Wrench::ZERO;
+    }
+    let (m, dt) = (params.mass, params.dt);
+    let b = (m * v_n * v_n / (2.0 * dt * s_q)).min(m * v_n / (dt * s_f_len));
+    let torque = if params.braking_torque {
+        let t = -b * sums.brake_torque_si();
+        let max = gains.inertia * state.angular_velocity.length() / dt;
+        clamp_length(t, max).0
+    } else {
+        DVec3::ZERO
+    };
+    Wrench {
+        force: -b * s_f,
+        torque,
+    }
+}
+
+/// `v` scaled down to length `max` if longer (to just under `max`, so rounding cannot leave it
+/// above); the flag says whether it was.
+pub(crate) fn clamp_length(v: DVec3, max: f64) -> (DVec3, bool) {
+    let len = v.length();
+    if len > max {
+        (v * (max * (1.0 - 1e-12) / len), true)
+    } else {
+        (v, false)
+    }
+}

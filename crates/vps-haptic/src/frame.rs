@@ -1,0 +1,162 @@
+//! One haptic frame (DESIGN §3): merged sums + handle + state → device wrench and next state.
+
+use crate::contact::{brake_wrench, clamp_length, contact_wrench};
+use crate::coupling::coupling_wrench;
+use crate::dynamics::integrate;
+use crate::params::HapticParams;
+use crate::state::PartState;
+use crate::sums::PartialSums;
+use crate::{HandleSample, Wrench};
+
+/// A handle position farther than this from the world origin (m) is rejected as absurd.
+pub const MAX_HANDLE_POSITION: f64 = 1.0e3;
+/// A handle speed above this (m/s) is rejected as absurd.
+pub const MAX_HANDLE_SPEED: f64 = 1.0e3;
+/// A handle angular speed above this (rad/s) is rejected as absurd.
+pub const MAX_HANDLE_ANGULAR_SPEED: f64 = 1.0e4;
+/// A handle quaternion whose norm differs from 1 by more than this is rejected (smaller deviations
+/// are normalised away).
+pub const HANDLE_QUATERNION_TOLERANCE: f64 = 1.0e-2;
+
+/// Everything one frame produces.
+///
+/// Invariant: `device_wrench` is always finite, `|force| ≤ device_max_force` and
+/// `|torque| ≤ device_max_torque`.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FrameOutput {
+    /// What to send to the device: `−F_s`, `−T_s` limited to the device maxima; exactly zero when
+    /// every point is in a Free voxel, when the input was rejected or when a result was non-finite.
+    pub device_wrench: Wrench,
+    /// The part's state for the next frame (the input state when rejected or non-finite).
+    pub next_state: PartState,
+    /// Force-field wrench on the part (N, N·m), after averaging.
+    pub contact_wrench: Wrench,
+    /// Coupling wrench on the part (N, N·m), after its clamp.
+    pub coupling_wrench: Wrench,
+    /// Braking wrench on the part (N, N·m).
+    pub brake_wrench: Wrench,
+    /// Contact count N (points with d > 0), saturated to `u32::MAX`.
+    pub contacts: u32,
+    /// At least one point in a Surface or Interior voxel.
+    pub touching: bool,
+    /// At least one point in an Interior voxel (a potential exact-surface penetration).
+    pub penetrating: bool,
+    /// The device wrench was limited to the device maxima.
+    pub clamped: bool,
+    /// The coupling force or torque hit its half-voxel clamp.
+    pub coupling_clamped: bool,
+    /// The tunnelling guard scaled the velocities down.
+    pub velocity_limited: bool,
+    /// The handle sample was non-finite or absurd: zero device wrench, state kept.
+    pub rejected_input: bool,
+    /// The state or a computed quantity was non-finite: zero device wrench, state kept.
+    pub non_finite: bool,
+}
+
+impl FrameOutput {
+    /// Zero wrenches, `state` kept, with the contact flags of `sums`.
+    fn hold(state: &PartState, sums: &PartialSums) -> Self {
+        Self {
+            device_wrench: Wrench::ZERO,
+            next_state: *state,
+            contact_wrench: Wrench::ZERO,
+            coupling_wrench: Wrench::ZERO,
+            brake_wrench: Wrench::ZERO,
+            contacts: u32::try_from(sums.contacts).unwrap_or(u32::MAX),
+            touching: sums.surface + sums.interior > 0,
+            penetrating: sums.interior > 0,
+            clamped: false,
+            coupling_clamped: false,
+            velocity_limited: false,
+            rejected_input: false,
+            non_finite: false,
+        }
+    }
+}
+
+/// True when `handle` is finite and not absurd (see the `MAX_HANDLE_*` constants).
+pub fn handle_is_valid(handle: &HandleSample) -> bool {
+    let q_norm = handle.orientation.length();
+    handle.position.is_finite()
+        && handle.linear_velocity.is_finite()
+        && handle.angular_velocity.is_finite()
+        && handle.orientation.is_finite()
+        && handle.position.length() <= MAX_HANDLE_POSITION
+        && handle.linear_velocity.length() <= MAX_HANDLE_SPEED
+        && handle.angular_velocity.length() <= MAX_HANDLE_ANGULAR_SPEED
+        && (q_norm - 1.0).abs() <= HANDLE_QUATERNION_TOLERANCE
+}
+
+/// One frame: the force model on the merged `sums` (sampled at `state`), the coupling to `handle`,
+/// one integration step, and the device wrench.
+///
+/// Net force on the part = coupling + contact + braking. The device gets `−F_s, −T_s` limited to
+/// the device maxima, or exactly zero when no point is in a non-Free voxel (the paper's free-space
+/// rule). A rejected handle sample or a non-finite state or result gives a zero device wrench and
+/// keeps `state`. `params` should have passed [`HapticParams::validate`]; invalid parameters
+/// produce non-finite results and therefore the same safe output. Pure; does not allocate or block.
+pub fn step(
+    params: &HapticParams,
+    state: &PartState,
+    handle: &HandleSample,
+    sums: &PartialSums,
+) -> FrameOutput {
+    let mut out = FrameOutput::hold(state, sums);
+    if !handle_is_valid(handle) {
+        out.rejected_input = true;
+        return out;
+    }
+    if !state.is_finite() {
+        out.non_finite = true;
+        return out;
+    }
+    let gains = params.gains();
+    let (coupling, coupling_clamped) = coupling_wrench(params, &gains, state, handle);
+    let contact = contact_wrench(params, &gains, sums);
+    let brake = brake_wrench(params, &gains, state, sums);
+    let net = Wrench {
+        force: coupling.force + contact.force + brake.force,
+        torque: coupling.torque + contact.torque + brake.torque,
+    };
+    let (next_state, velocity_limited) = integrate(params, &gains, state, &net);
+    let all_finite = next_state.is_finite()
+        && [coupling, contact, brake]
+            .iter()
+            .all(|w| w.force.is_finite() && w.torque.is_finite());
+    if !all_finite {
+        out.non_finite = true;
+        return out;
+    }
+    let (device_wrench, clamped) = if sums.non_free == 0 {
+        (Wrench::ZERO, false)
+    } else {
+        device_limits(params, &coupling)
+    };
+    FrameOutput {
+        device_wrench,
+        next_state,
+        contact_wrench: contact,
+        coupling_wrench: coupling,
+        brake_wrench: brake,
+        clamped,
+        coupling_clamped,
+        velocity_limited,
+        ..out
+    }
+}
+
+/// `−coupling` limited to the device maxima; zero if that is not finite and within the limits
+/// (e.g. for non-finite limits).
+fn device_limits(params: &HapticParams, coupling: &Wrench) -> (Wrench, bool) {
+    let (force, f_clamped) = clamp_length(-coupling.force, params.device_max_force);
+    let (torque, t_clamped) = clamp_length(-coupling.torque, params.device_max_torque);
+    let within = force.is_finite()
+        && torque.is_finite()
+        && force.length() <= params.device_max_force
+        && torque.length() <= params.device_max_torque;
+    if within {
+        (Wrench { force, torque }, f_clamped || t_clamped)
+    } else {
+        (Wrench::ZERO, true)
+    }
+}

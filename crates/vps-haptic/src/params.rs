@@ -1,0 +1,282 @@
+//! Haptic parameters: validated, TOML-loadable, with gains derived from the stability bound of
+//! [`crate::stability`] when not given.
+
+use crate::stability::{
+    coupling_step_ratio, stability_index, COUPLING_TO_FIELD, SPHERE_INERTIA_FACTOR,
+    STABILITY_MARGIN,
+};
+use std::path::Path;
+
+/// An invalid parameter set or an unreadable parameter file.
+#[derive(Debug, thiserror::Error)]
+pub enum ParamsError {
+    /// The file could not be read.
+    #[error("cannot read haptic parameters from {path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The TOML is malformed, has an unknown key or a value of the wrong type.
+    #[error("{source_name}: {message}")]
+    Toml {
+        /// Where the text came from (file name or a label).
+        source_name: String,
+        /// The parser's message, with line and column.
+        message: String,
+    },
+    /// A field has a value outside its range.
+    #[error("{source_name}: haptic parameter `{field}` = {value} is invalid: {reason}")]
+    Invalid {
+        /// Where the parameters came from.
+        source_name: String,
+        /// The field's TOML key.
+        field: &'static str,
+        /// The offending value.
+        value: f64,
+        /// The rule it breaks.
+        reason: &'static str,
+    },
+}
+
+/// Parameters of one haptic frame (DESIGN §3). SI units. Gains left `None` are derived
+/// ([`HapticParams::gains`]) from `dt`, `mass`, the inertia and the stability bound; see
+/// [`crate::stability`] for the derivation. `voxel_size` and `max_radius` describe the scene and the
+/// part; set them from the loaded data with [`HapticParams::with_scene`].
+///
+/// TOML: every key is optional, unknown keys are an error. `configs/haptic.toml` lists them all.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct HapticParams {
+    /// Fixed time step (s). Default 0.001 (1 kHz). Range (0, 0.1].
+    pub dt: f64,
+    /// Mass of the dynamic object, the reflected mass felt at the handle (kg). Default 0.012, the
+    /// paper's 12 g: small reflected inertia; the stiffness the bound allows grows with it.
+    /// Range (0, 1e4].
+    pub mass: f64,
+    /// Isotropic moment of inertia (kg·m²). Default (None): a solid sphere of radius `max_radius`,
+    /// `0.4 m r_max²` (the paper's isotropic-inertia assumption).
+    pub inertia: Option<f64>,
+    /// Voxel size of the scene's voxmap (m). Default 0.005. Range (0, 10].
+    pub voxel_size: f64,
+    /// Bounding radius of the part about its centre of mass, `r_max` (m). Default 0.0375 (a 75 mm
+    /// part). Range (0, 1e3].
+    pub max_radius: f64,
+    /// Force-field stiffness per contact point, K_ff (N/m). Default: `k_T / κ` from the bound.
+    pub k_ff: Option<f64>,
+    /// Coupling translational stiffness k_T (N/m). Default: `κ K_ff` when `k_ff` is given, else
+    /// `h² m / dt²` from the bound.
+    pub k_t: Option<f64>,
+    /// Coupling rotational stiffness k_R (N·m/rad). Default: `k_T I / m` (same natural frequency).
+    pub k_r: Option<f64>,
+    /// Coupling translational damping b_T (N·s/m). Default: critical, `2 √(k_T m)`.
+    pub b_t: Option<f64>,
+    /// Coupling rotational damping b_R (N·m·s/rad). Default: critical, `2 √(k_R I)`.
+    pub b_r: Option<f64>,
+    /// Contact count from which forces are averaged (the paper's 10). Range [1, 1e6].
+    pub contact_average_threshold: u32,
+    /// Pre-contact braking in Proximity voxels. Default true.
+    pub braking: bool,
+    /// Also apply a braking torque `−b S_t` (an extension of the paper, off by default).
+    pub braking_torque: bool,
+    /// Tunnelling guard: `|v| + |w| r_max ≤ f s / dt`. Default 0.25. Range (0, 1].
+    pub velocity_guard_fraction: f64,
+    /// Largest force the device may be sent (N). Default 15 (the paper's device).
+    pub device_max_force: f64,
+    /// Largest torque the device may be sent (N·m). Default 0.1 (the paper's device).
+    pub device_max_torque: f64,
+}
+
+impl Default for HapticParams {
+    fn default() -> Self {
+        Self {
+            dt: 0.001,
+            mass: 0.012,
+            inertia: None,
+            voxel_size: 0.005,
+            max_radius: 0.0375,
+            k_ff: None,
+            k_t: None,
+            k_r: None,
+            b_t: None,
+            b_r: None,
+            contact_average_threshold: 10,
+            braking: true,
+            braking_torque: false,
+            velocity_guard_fraction: 0.25,
+            device_max_force: 15.0,
+            device_max_torque: 0.1,
+        }
+    }
+}
+
+/// Fully resolved gains and derived quantities, SI units. Made by [`HapticParams::gains`]; cheap
+/// (a few square roots), no allocation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Gains {
+    /// Isotropic moment of inertia (kg·m²).
+    pub inertia: f64,
+    /// Per-point field stiffness (N/m).
+    pub k_ff: f64,
+    /// Coupling translational stiffness (N/m).
+    pub k_t: f64,
+    /// Coupling rotational stiffness (N·m/rad).
+    pub k_r: f64,
+    /// Coupling translational damping (N·s/m).
+    pub b_t: f64,
+    /// Coupling rotational damping (N·m·s/rad).
+    pub b_r: f64,
+}
+
+/// The stability indices of a parameter set (see [`crate::stability`]): < 1 is stable by the
+/// linearised bound, the defaults sit at [`STABILITY_MARGIN`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StabilityIndices {
+    /// Translation: coupling + `threshold · K_ff`, coupling damping.
+    pub translational: f64,
+    /// Rotation: coupling + `threshold · K_ff r_max²`, coupling damping.
+    pub rotational: f64,
+}
+
+impl StabilityIndices {
+    /// The worse of the two.
+    pub fn worst(&self) -> f64 {
+        self.translational.max(self.rotational)
+    }
+}
+
+impl HapticParams {
+    /// Parses and validates TOML text; `source_name` (a file name or label) prefixes every error.
+    pub fn from_toml_str(s: &str, source_name: &str) -> Result<Self, ParamsError> {
+        let params: HapticParams = toml::from_str(s).map_err(|e| ParamsError::Toml {
+            source_name: source_name.to_owned(),
+            message: e.to_string(),
+        })?;
+        params.validate(source_name)?;
+        Ok(params)
+    }
+
+    /// Reads, parses and validates a TOML file.
+    pub fn from_file(path: impl AsRef<Path>) -> Result<Self, ParamsError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| ParamsError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Self::from_toml_str(&text, &path.display().to_string())
+    }
+
+    /// These parameters with the scene's voxel size and the part's bounding radius (m), validated.
+    pub fn with_scene(mut self, voxel_size: f64, max_radius: f64) -> Result<Self, ParamsError> {
+        self.voxel_size = voxel_size;
+        self.max_radius = max_radius;
+        self.validate("scene")?;
+        Ok(self)
+    }
+
+    /// Checks every field: finite, positive, in range; errors name the field and value.
+    pub fn validate(&self, source_name: &str) -> Result<(), ParamsError> {
+        let bad = |field, value, reason| ParamsError::Invalid {
+            source_name: source_name.to_owned(),
+            field,
+            value,
+            reason,
+        };
+        let in_range = |field, value: f64, lo: f64, hi: f64| {
+            if value.is_finite() && value > lo && value <= hi {
+                Ok(())
+            } else {
+                Err(bad(
+                    field,
+                    value,
+                    "must be finite and in the documented range",
+                ))
+            }
+        };
+        in_range("dt", self.dt, 0.0, 0.1)?;
+        in_range("mass", self.mass, 0.0, 1e4)?;
+        in_range("voxel_size", self.voxel_size, 0.0, 10.0)?;
+        in_range("max_radius", self.max_radius, 0.0, 1e3)?;
+        in_range(
+            "velocity_guard_fraction",
+            self.velocity_guard_fraction,
+            0.0,
+            1.0,
+        )?;
+        in_range("device_max_force", self.device_max_force, 0.0, 1e4)?;
+        in_range("device_max_torque", self.device_max_torque, 0.0, 1e3)?;
+        let optional = [
+            ("inertia", self.inertia, 1e6),
+            ("k_ff", self.k_ff, 1e9),
+            ("k_t", self.k_t, 1e9),
+            ("k_r", self.k_r, 1e9),
+            ("b_t", self.b_t, 1e9),
+            ("b_r", self.b_r, 1e9),
+        ];
+        for (field, value, hi) in optional {
+            if let Some(v) = value {
+                in_range(field, v, 0.0, hi)?;
+            }
+        }
+        let threshold = self.contact_average_threshold;
+        if !(1..=1_000_000).contains(&threshold) {
+            return Err(bad(
+                "contact_average_threshold",
+                threshold as f64,
+                "must be in 1..=1000000",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The resolved gains: given values, or the defaults derived from the stability bound.
+    pub fn gains(&self) -> Gains {
+        let m = self.mass;
+        let inertia = self
+            .inertia
+            .unwrap_or(SPHERE_INERTIA_FACTOR * m * self.max_radius * self.max_radius);
+        let k_t = self
+            .k_t
+            .or(self.k_ff.map(|k_ff| k_ff * COUPLING_TO_FIELD))
+            .unwrap_or_else(|| {
+                let rho = self.field_to_coupling_ratio(inertia);
+                let h = coupling_step_ratio(rho, STABILITY_MARGIN);
+                h * h * m / (self.dt * self.dt)
+            });
+        let k_ff = self.k_ff.unwrap_or(k_t / COUPLING_TO_FIELD);
+        let k_r = self.k_r.unwrap_or(k_t * inertia / m);
+        Gains {
+            inertia,
+            k_ff,
+            k_t,
+            k_r,
+            b_t: self.b_t.unwrap_or(2.0 * (k_t * m).sqrt()),
+            b_r: self.b_r.unwrap_or(2.0 * (k_r * inertia).sqrt()),
+        }
+    }
+
+    /// The linearised stability indices of these parameters (see [`crate::stability`]).
+    pub fn stability(&self) -> StabilityIndices {
+        let g = self.gains();
+        let dt = self.dt;
+        let n = self.contact_average_threshold as f64;
+        let r2 = self.max_radius * self.max_radius;
+        let omega_t2 = (g.k_t + n * g.k_ff) / self.mass;
+        let omega_r2 = (g.k_r + n * g.k_ff * r2) / g.inertia;
+        StabilityIndices {
+            translational: stability_index(omega_t2.sqrt() * dt, g.b_t / self.mass * dt),
+            rotational: stability_index(omega_r2.sqrt() * dt, g.b_r / g.inertia * dt),
+        }
+    }
+
+    /// ρ of the bound: the worse of the translational and rotational field stiffness relative to
+    /// the coupling's, with `K_ff = k_T / κ` and `k_R = k_T I / m`.
+    fn field_to_coupling_ratio(&self, inertia: f64) -> f64 {
+        let n = self.contact_average_threshold as f64;
+        let translational = n / COUPLING_TO_FIELD;
+        let rotational =
+            n * self.mass * self.max_radius * self.max_radius / (COUPLING_TO_FIELD * inertia);
+        translational.max(rotational)
+    }
+}

@@ -1,0 +1,184 @@
+//! Integer fixed-point partial sums (DESIGN §4): what one class, one share or the whole shell
+//! contributes to a frame. Integer addition is associative and commutative, so sums merged in any
+//! grouping and any order are bit-identical.
+//!
+//! Quantisation: each point's contribution is computed in f32, multiplied by a power of two (exact
+//! in floating point) and truncated toward zero to an `i64` (Rust's `as` saturates, so an absurd
+//! value cannot wrap). The scales:
+//!
+//! | sum | unit | LSB |
+//! |---|---|---|
+//! | `depth_normal` = Σ d_i N_i | m | 2^-40 m ≈ 9.1e-13 m |
+//! | `depth_torque` = Σ (P_i − x) × d_i N_i | m² | 2^-48 m² ≈ 3.6e-15 m² |
+//! | `brake_sq` = S_q = Σ (V_i·N_i)² | m²/s² | 2^-40 m²/s² |
+//! | `brake_force` = S_f = Σ (V_i·N_i) N_i | m/s | 2^-40 m/s |
+//! | `brake_torque` = S_t = Σ (P_i − x) × (V_i·N_i) N_i | m²/s | 2^-48 m²/s |
+//!
+//! These LSBs are finer than the f32 rounding of the values they hold for any voxel size above
+//! 1 µm, so quantisation adds no visible error. Per-point truncation error is below one LSB, so a sum
+//! of n points is within n LSB of the exact sum of the f32 contributions.
+//!
+//! Overflow bound: accumulators are `i128` and each contribution is at most 2^63 in magnitude, so
+//! 2^64 points cannot overflow them. For scale: 10^7 points at the 5 mm voxel size put at most
+//! 10^7 · 4.4e-3 m · 2^40 ≈ 4.8e16 (< 2^56) into `depth_normal`. Counters are `u64`.
+
+use glam::DVec3;
+
+/// Scale of length-like sums (`depth_normal`, `brake_force`, `brake_sq`): 2^40 per SI unit.
+pub const LENGTH_SCALE: f64 = (1u64 << 40) as f64;
+/// Scale of area-like sums (`depth_torque`, `brake_torque`): 2^48 per SI unit.
+pub const AREA_SCALE: f64 = (1u64 << 48) as f64;
+
+pub(crate) const LENGTH_SCALE_F32: f32 = LENGTH_SCALE as f32;
+pub(crate) const AREA_SCALE_F32: f32 = AREA_SCALE as f32;
+
+/// The sums a worker or a local thread returns for a set of classes. All-zero (`Default`) is the
+/// empty sum. Plain data: `Copy`, serde-serialisable, no allocation.
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
+)]
+pub struct PartialSums {
+    /// Σ d_i N_i over Surface points, LSB 2^-40 m per component.
+    pub depth_normal: [i128; 3],
+    /// Σ (P_i − x) × d_i N_i over Surface points, LSB 2^-48 m² per component.
+    pub depth_torque: [i128; 3],
+    /// Number of Surface points with d_i > 0 (the paper's N).
+    pub contacts: u64,
+    /// S_q = Σ (V_i·N_i)² over approaching Proximity points, LSB 2^-40 m²/s².
+    pub brake_sq: i128,
+    /// S_f = Σ (V_i·N_i) N_i over approaching Proximity points, LSB 2^-40 m/s per component.
+    pub brake_force: [i128; 3],
+    /// S_t = Σ (P_i − x) × (V_i·N_i) N_i over approaching Proximity points, LSB 2^-48 m²/s.
+    pub brake_torque: [i128; 3],
+    /// Number of approaching Proximity points (V_i·N_i < 0).
+    pub approaching: u64,
+    /// Number of points in Surface voxels.
+    pub surface: u64,
+    /// Number of points in Interior voxels.
+    pub interior: u64,
+    /// Number of points in any voxel that is not Free (Surface, Interior, Proximity).
+    pub non_free: u64,
+    /// Number of points sampled.
+    pub sampled: u64,
+}
+
+impl PartialSums {
+    /// Adds `other` into `self`: integer addition, exact in any grouping and order. Does not
+    /// allocate. Wrapping is impossible for fewer than 2^64 points (see the module docs).
+    #[inline]
+    pub fn merge(&mut self, other: &PartialSums) {
+        add3(&mut self.depth_normal, &other.depth_normal);
+        add3(&mut self.depth_torque, &other.depth_torque);
+        add3(&mut self.brake_force, &other.brake_force);
+        add3(&mut self.brake_torque, &other.brake_torque);
+        self.brake_sq = self.brake_sq.wrapping_add(other.brake_sq);
+        self.contacts = self.contacts.wrapping_add(other.contacts);
+        self.approaching = self.approaching.wrapping_add(other.approaching);
+        self.surface = self.surface.wrapping_add(other.surface);
+        self.interior = self.interior.wrapping_add(other.interior);
+        self.non_free = self.non_free.wrapping_add(other.non_free);
+        self.sampled = self.sampled.wrapping_add(other.sampled);
+    }
+
+    /// Consistency checks for a reply that claims to cover `points_in_share` points sampled against
+    /// a voxmap of voxel size `voxel_size` (m). True when: `sampled == points_in_share`;
+    /// `contacts ≤ surface`; `surface + interior + approaching ≤ non_free ≤ sampled`; every
+    /// component of Σ d N at most `contacts · (√3/2) s` (d never exceeds a voxel's half diagonal);
+    /// depth sums zero without contacts; `S_q ≥ 0`; braking sums zero without approaching points and
+    /// `|S_f component| ≤ √(approaching · S_q)` (Cauchy–Schwarz), each with one LSB per point of
+    /// rounding slack. Torque sums need the part's radius: see [`PartialSums::torque_within`].
+    pub fn is_plausible(&self, points_in_share: u64, voxel_size: f64) -> bool {
+        let counts_ok = self.sampled == points_in_share
+            && self.contacts <= self.surface
+            && self
+                .surface
+                .checked_add(self.interior)
+                .and_then(|x| x.checked_add(self.approaching))
+                .is_some_and(|x| x <= self.non_free)
+            && self.non_free <= self.sampled;
+        if !counts_ok || !(voxel_size.is_finite() && voxel_size > 0.0) {
+            return false;
+        }
+        let slack = self.sampled as f64;
+        let depth_bound = self.contacts as f64 * 0.5 * 3f64.sqrt() * voxel_size * LENGTH_SCALE;
+        let depth_ok = self
+            .depth_normal
+            .iter()
+            .all(|&c| (c as f64).abs() <= depth_bound + slack);
+        let no_contact_ok =
+            self.contacts > 0 || (self.depth_normal == [0; 3] && self.depth_torque == [0; 3]);
+        let brake_bound = (self.approaching as f64 * self.brake_sq as f64 * LENGTH_SCALE).sqrt();
+        let brake_ok = self.brake_sq >= 0
+            && self
+                .brake_force
+                .iter()
+                .all(|&c| (c as f64).abs() <= brake_bound + slack);
+        let no_brake_ok = self.approaching > 0
+            || (self.brake_sq == 0 && self.brake_force == [0; 3] && self.brake_torque == [0; 3]);
+        depth_ok && no_contact_ok && brake_ok && no_brake_ok
+    }
+
+    /// True when the torque sums are consistent with levers no longer than `max_radius` (m) at
+    /// voxel size `voxel_size` (m): `|Σ (P−x) × d N|_c ≤ r_max · contacts · (√3/2) s` and
+    /// `|S_t|_c ≤ r_max · √(approaching · S_q)`, with one LSB per point of slack.
+    pub fn torque_within(&self, max_radius: f64, voxel_size: f64) -> bool {
+        if !(max_radius.is_finite() && max_radius >= 0.0 && voxel_size.is_finite()) {
+            return false;
+        }
+        let slack = self.sampled as f64;
+        let ratio = AREA_SCALE / LENGTH_SCALE;
+        // |r × a|_c ≤ |r| |a| ≤ r_max · √3/2 s per contact, summed over contacts.
+        let depth_bound =
+            self.contacts as f64 * max_radius * 0.5 * 3f64.sqrt() * voxel_size * AREA_SCALE;
+        // |r × (V·N) N|_c ≤ r_max |V·N|, and Σ|V·N| ≤ √(n S_q).
+        let brake_bound = max_radius
+            * (self.approaching as f64 * self.brake_sq as f64 * LENGTH_SCALE).sqrt()
+            * ratio;
+        self.depth_torque
+            .iter()
+            .all(|&c| (c as f64).abs() <= depth_bound + slack)
+            && self
+                .brake_torque
+                .iter()
+                .all(|&c| (c as f64).abs() <= brake_bound + slack)
+    }
+}
+
+#[inline]
+fn add3(a: &mut [i128; 3], b: &[i128; 3]) {
+    for (x, y) in a.iter_mut().zip(b) {
+        *x = x.wrapping_add(*y);
+    }
+}
+
+/// The sums in SI units (f64), for the force model.
+impl PartialSums {
+    /// Σ d_i N_i (m).
+    pub fn depth_normal_si(&self) -> DVec3 {
+        to_dvec3(&self.depth_normal, LENGTH_SCALE)
+    }
+
+    /// Σ (P_i − x) × d_i N_i (m²).
+    pub fn depth_torque_si(&self) -> DVec3 {
+        to_dvec3(&self.depth_torque, AREA_SCALE)
+    }
+
+    /// S_q = Σ (V_i·N_i)² (m²/s²).
+    pub fn brake_sq_si(&self) -> f64 {
+        self.brake_sq as f64 / LENGTH_SCALE
+    }
+
+    /// S_f = Σ (V_i·N_i) N_i (m/s).
+    pub fn brake_force_si(&self) -> DVec3 {
+        to_dvec3(&self.brake_force, LENGTH_SCALE)
+    }
+
+    /// S_t = Σ (P_i − x) × (V_i·N_i) N_i (m²/s).
+    pub fn brake_torque_si(&self) -> DVec3 {
+        to_dvec3(&self.brake_torque, AREA_SCALE)
+    }
+}
+
+fn to_dvec3(v: &[i128; 3], scale: f64) -> DVec3 {
+    DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64) / scale
+}
