@@ -1,0 +1,169 @@
+//! The device contract: what the haptic loop reads and writes once per frame.
+
+use vps_haptic::{HandleSample, Wrench};
+
+/// The largest wrench a device can render. Invariant: both maxima finite and > 0.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct DeviceLimits {
+    /// Largest force magnitude (N).
+    pub max_force: f64,
+    /// Largest torque magnitude (N·m).
+    pub max_torque: f64,
+}
+
+impl DeviceLimits {
+    /// The limits of the device in McNeely et al. 1999: 15 N and 0.1 N·m.
+    pub const PAPER: DeviceLimits = DeviceLimits {
+        max_force: 15.0,
+        max_torque: 0.1,
+    };
+
+    /// `wrench` with force and torque each scaled down (direction kept) to fit the limits.
+    /// A non-finite component yields the zero wrench. Does not allocate or block.
+    pub fn saturate(&self, wrench: &Wrench) -> Wrench {
+        if !wrench.force.is_finite() || !wrench.torque.is_finite() {
+            return Wrench::ZERO;
+        }
+        Wrench {
+            force: wrench.force.clamp_length_max(self.max_force),
+            torque: wrench.torque.clamp_length_max(self.max_torque),
+        }
+    }
+
+    /// True when `wrench` is finite and within both maxima (with a relative slack of 1e-9 for
+    /// rounding in [`DeviceLimits::saturate`]).
+    pub fn admits(&self, wrench: &Wrench) -> bool {
+        wrench.force.is_finite()
+            && wrench.torque.is_finite()
+            && wrench.force.length() <= self.max_force * (1.0 + 1e-9)
+            && wrench.torque.length() <= self.max_torque * (1.0 + 1e-9)
+    }
+}
+
+impl Default for DeviceLimits {
+    fn default() -> Self {
+        Self::PAPER
+    }
+}
+
+/// Why a device could not be read or written. Any of these ends a haptic session (after the loop
+/// has written a zero wrench).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DeviceError {
+    /// The caller passed a time earlier than the previous call's.
+    #[error("device {device}: time went backwards from {previous} s to {now} s")]
+    TimeWentBackwards {
+        /// Device name.
+        device: String,
+        /// The previous time (s).
+        previous: f64,
+        /// The time passed now (s).
+        now: f64,
+    },
+    /// A value read from or written to the device was NaN or infinite.
+    #[error("device {device}: non-finite {what}")]
+    NonFinite {
+        /// Device name.
+        device: String,
+        /// Which value ("written force", "handle position", ...).
+        what: &'static str,
+    },
+    /// A replayed trace has no more frames.
+    #[error("device {device}: trace exhausted after {frames} frames")]
+    TraceExhausted {
+        /// Device name.
+        device: String,
+        /// Number of frames the trace held.
+        frames: u64,
+    },
+    /// The device was configured with invalid parameters.
+    #[error("device {device}: invalid configuration: {message}")]
+    Config {
+        /// Device name.
+        device: String,
+        /// Which parameter and why.
+        message: String,
+    },
+    /// The hardware or its driver failed.
+    #[error("device {device}: {message}")]
+    Hardware {
+        /// Device name.
+        device: String,
+        /// The driver's message.
+        message: String,
+    },
+}
+
+/// A 6-DOF haptic device, driven by one thread at the frame rate.
+///
+/// Per frame the loop calls [`HapticDevice::read`] once, then [`HapticDevice::write`] once. Time is
+/// passed in (seconds since the session started, the frame's scheduled tick), never read from a clock
+/// inside the device, so simulated devices are deterministic.
+///
+/// Blocking: implementations must return within a small fraction of a frame (the loop's watchdog
+/// counts a frame whose compute overruns its budget). The devices in this crate never block, never
+/// sleep and do not allocate in `read`/`write` (except [`TraceRecorder`](crate::TraceRecorder)
+/// growth, which is not a device). A hardware driver may block for its bus transfer; it must document
+/// how long.
+pub trait HapticDevice: Send {
+    /// The handle's pose and velocities at time `t` (s since start; non-decreasing between calls).
+    fn read(&mut self, t: f64) -> Result<HandleSample, DeviceError>;
+    /// Commands the wrench the device applies to the user's hand (N, N·m, world frame) until the
+    /// next write. A device saturates a wrench beyond its [`DeviceLimits`]; a non-finite wrench is
+    /// an error and the device keeps its previous output.
+    fn write(&mut self, wrench: &Wrench) -> Result<(), DeviceError>;
+    /// The largest wrench this device renders.
+    fn limits(&self) -> DeviceLimits;
+    /// A short human-readable name, used in errors and reports.
+    fn name(&self) -> &str;
+}
+
+/// Checks every component of a handle sample is finite.
+pub(crate) fn check_sample(device: &str, s: &HandleSample) -> Result<(), DeviceError> {
+    let what = if !s.position.is_finite() {
+        "handle position"
+    } else if !s.orientation.is_finite() {
+        "handle orientation"
+    } else if !s.linear_velocity.is_finite() {
+        "handle linear velocity"
+    } else if !s.angular_velocity.is_finite() {
+        "handle angular velocity"
+    } else {
+        return Ok(());
+    };
+    Err(DeviceError::NonFinite {
+        device: device.to_string(),
+        what,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec3;
+
+    #[test]
+    fn saturate_keeps_direction_and_fits_limits() {
+        let lim = DeviceLimits::PAPER;
+        let w = Wrench {
+            force: DVec3::new(30.0, 40.0, 0.0),
+            torque: DVec3::new(0.0, 0.0, -0.05),
+        };
+        let s = lim.saturate(&w);
+        assert!((s.force.length() - 15.0).abs() < 1e-12);
+        assert!((s.force.normalize() - w.force.normalize()).length() < 1e-12);
+        assert_eq!(s.torque, w.torque);
+        assert!(lim.admits(&s));
+        assert!(!lim.admits(&w));
+    }
+
+    #[test]
+    fn saturate_zeroes_non_finite() {
+        let w = Wrench {
+            force: DVec3::new(f64::NAN, 0.0, 0.0),
+            torque: DVec3::ZERO,
+        };
+        assert_eq!(DeviceLimits::PAPER.saturate(&w), Wrench::ZERO);
+        assert!(!DeviceLimits::PAPER.admits(&w));
+    }
+}
