@@ -1,0 +1,58 @@
+//! Errors of the voxelizer and the point-shell builder.
+
+use thiserror::Error;
+
+/// Largest grid the voxelizer accepts (voxels). The workspace needs about 1.9 bytes per voxel (the
+/// one-byte [`vps_voxmap::DenseGrid`] plus five bit planes), so this caps memory near 7.6 GB.
+pub const MAX_VOXELS: u64 = 4_000_000_000;
+
+/// Why voxelization or point-shell sampling failed.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum VoxelizeError {
+    /// The voxel size is zero, negative, NaN or infinite.
+    #[error("voxel size must be positive and finite, got {value} m")]
+    InvalidVoxelSize {
+        /// The rejected size (m).
+        value: f64,
+    },
+    /// The grid would hold more than [`MAX_VOXELS`] voxels (or a dimension exceeds `i32::MAX`).
+    #[error(
+        "grid of {dims:?} = {voxels} voxels (about {bytes} bytes of workspace) exceeds the limit of \
+         {limit} voxels; use a larger voxel size or a smaller scene"
+    )]
+    GridTooLarge {
+        /// Requested dimensions (x, y, z), saturated at `u64::MAX`.
+        dims: [u64; 3],
+        /// Requested voxel count (saturating).
+        voxels: u64,
+        /// Estimated workspace memory (bytes, saturating).
+        bytes: u64,
+        /// The limit, [`MAX_VOXELS`].
+        limit: u64,
+    },
+    /// The grid specification is unusable (zero dimension or non-finite origin).
+    #[error("invalid grid: {reason}")]
+    InvalidGrid {
+        /// What is wrong.
+        reason: String,
+    },
+    /// `voxelize` was given no objects.
+    #[error("no objects to voxelize")]
+    NoObjects,
+    /// An object (by position in the input list) has no triangles.
+    #[error("object {object} has no triangles")]
+    EmptyObject {
+        /// Index of the object in the input slice.
+        object: usize,
+    },
+    /// A triangle refers to a missing vertex or a vertex is not finite.
+    #[error("object {object}, triangle {triangle}: {reason}")]
+    InvalidMesh {
+        /// Index of the object in the input slice (0 for a point-shell mesh).
+        object: usize,
+        /// Index of the offending triangle.
+        triangle: usize,
+        /// What is wrong.
+        reason: String,
+    },
+}
