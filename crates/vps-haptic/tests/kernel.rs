@@ -1,0 +1,223 @@
+//! The sampling kernel against hand-made voxmaps: the tangent-plane formula, grid boundaries, and
+//! exact merging of partial sums in any split, grouping and order.
+
+mod common;
+
+use common::*;
+use glam::{DQuat, DVec3, IVec3, Vec3};
+use proptest::prelude::*;
+use rand::seq::SliceRandom;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use vps_haptic::{
+    sample_all, sample_class, sample_classes, step, ClassedShell, HapticParams, KernelPose,
+    PartState, PartialSums,
+};
+use vps_voxmap::{DenseGrid, Voxel};
+
+/// One point in one Surface voxel: the sums are d N and (P − x) × d N with
+/// d = max(0, N·(C − P)), computed here independently in f64.
+#[test]
+fn single_point_matches_the_tangent_plane_formula() {
+    let mut grid = DenseGrid::new(spec());
+    let ijk = IVec3::new(21, 22, 23);
+    grid.set(ijk, Voxel::Surface);
+    let centre = grid.spec.center_of(ijk);
+    let body_point = Vec3::new(0.004, -0.002, 0.003);
+    let body_normal = Vec3::new(0.3, -0.5, 0.8).normalize();
+    let shell = ClassedShell::new(&shell_from(&[body_point], &[body_normal]), 1);
+    let orientation = DQuat::from_euler(glam::EulerRot::XYZ, 0.3, -0.2, 0.7);
+    let lever = orientation * body_point.as_dvec3();
+    let normal = orientation * body_normal.as_dvec3();
+    // Place the point 1.1 mm from the centre against the normal, plus a tangential offset.
+    let tangent = normal.any_orthonormal_vector();
+    let world = centre - 0.0011 * normal + 0.0007 * tangent;
+    let state = PartState::at_rest(world - lever, orientation);
+    let sums = sample_all(&grid, &shell, &KernelPose::from_state(&state));
+
+    let depth = normal.dot(centre - world).max(0.0);
+    assert!((depth - 0.0011).abs() < 1e-9);
+    assert_eq!((sums.surface, sums.contacts, sums.non_free, sums.sampled), (1, 1, 1, 1));
+    let tol = 1e-6 * S;
+    assert!((sums.depth_normal_si() - depth * normal).length() < tol, "{sums:?}");
+    assert!((sums.depth_torque_si() - lever.cross(depth * normal)).length() < tol * 0.05);
+
+    // The frame's contact force is K_ff d N (one contact: no averaging).
+    let params = HapticParams::default();
+    let handle = handle_at(state.position, DVec3::ZERO);
+    let out = step(&params, &state, &handle, &sums);
+    let expected = params.gains().k_ff * depth * normal;
+    assert!((out.contact_wrench.force - expected).length() < 1e-5 * expected.length());
+    assert!(out.touching && !out.penetrating && out.contacts == 1);
+}
+
+/// A point above the voxel centre (along its normal) has zero depth: it is in Surface but not a
+/// contact.
+#[test]
+fn point_on_the_outer_half_of_a_surface_voxel_is_not_a_contact() {
+    let mut grid = DenseGrid::new(spec());
+    let ijk = IVec3::new(20, 20, 20);
+    grid.set(ijk, Voxel::Surface);
+    let shell = ClassedShell::new(&shell_from(&[Vec3::ZERO], &[Vec3::Z]), 1);
+    let state = PartState::at_rest(grid.spec.center_of(ijk) + DVec3::Z * 0.001, DQuat::IDENTITY);
+    let sums = sample_all(&grid, &shell, &KernelPose::from_state(&state));
+    assert_eq!((sums.surface, sums.contacts), (1, 0));
+    assert_eq!(sums.depth_normal, [0; 3]);
+}
+
+/// Points outside the grid, on every side, read Free; a point just inside the minimum corner reads
+/// its voxel.
+#[test]
+fn outside_the_grid_is_free() {
+    let mut grid = DenseGrid::new(spec());
+    grid.data.fill(Voxel::Interior as u8);
+    let lo = grid.spec.origin;
+    let hi = grid.spec.max_corner();
+    let outside = [
+        lo - DVec3::splat(1e-4),
+        DVec3::new(lo.x - 1e-4, 0.0, 0.0),
+        DVec3::new(0.0, hi.y + 1e-4, 0.0),
+        DVec3::new(0.0, 0.0, hi.z + 1e-4),
+        DVec3::splat(1e5),
+    ];
+    let shell = ClassedShell::new(&shell_from(&[Vec3::ZERO], &[Vec3::Z]), 1);
+    for p in outside {
+        let sums = sample_all(&grid, &shell, &KernelPose::from_state(&PartState::at_rest(p, DQuat::IDENTITY)));
+        assert_eq!(sums.non_free, 0, "{p}");
+    }
+    let inside = PartState::at_rest(lo + DVec3::splat(1e-4), DQuat::IDENTITY);
+    let sums = sample_all(&grid, &shell, &KernelPose::from_state(&inside));
+    assert_eq!(sums.interior, 1);
+}
+
+/// Approaching Proximity points feed the braking sums; receding ones do not.
+#[test]
+fn braking_sums_only_for_approaching_points() {
+    let grid = wall();
+    let shell = ClassedShell::new(&shell_from(&[Vec3::ZERO], &[Vec3::Z]), 1);
+    let mut state = PartState::at_rest(DVec3::new(0.0011, 0.0012, 0.002), DQuat::IDENTITY);
+    state.linear_velocity = DVec3::new(0.1, 0.0, -0.3);
+    let sums = sample_all(&grid, &shell, &KernelPose::from_state(&state));
+    assert_eq!((sums.non_free, sums.approaching), (1, 1));
+    assert!((sums.brake_sq_si() - 0.09).abs() < 1e-7);
+    assert!((sums.brake_force_si() - DVec3::new(0.0, 0.0, -0.3)).length() < 1e-7);
+    state.linear_velocity.z = 0.3;
+    let sums = sample_all(&grid, &shell, &KernelPose::from_state(&state));
+    assert_eq!((sums.non_free, sums.approaching, sums.brake_sq), (1, 0, 0));
+}
+
+/// A random voxmap around the origin and a random shell of `n` points.
+fn random_scene(seed: u64, n: usize) -> (DenseGrid, vps_voxmap::PointShell) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut grid = DenseGrid::new(spec());
+    for b in grid.data.iter_mut() {
+        *b = rng.gen_range(0..4u8);
+    }
+    let points: Vec<Vec3> = (0..n)
+        .map(|_| Vec3::new(rng.gen_range(-0.03..0.03), rng.gen_range(-0.03..0.03), rng.gen_range(-0.03..0.03)))
+        .collect();
+    let normals: Vec<Vec3> = (0..n)
+        .map(|_| Vec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(0.1..1.0)))
+        .collect();
+    (grid, shell_from(&points, &normals))
+}
+
+fn random_state(rng: &mut ChaCha8Rng) -> PartState {
+    let mut s = PartState::at_rest(
+        DVec3::new(rng.gen_range(-0.05..0.05), rng.gen_range(-0.05..0.05), rng.gen_range(-0.05..0.05)),
+        DQuat::from_scaled_axis(DVec3::new(rng.gen_range(-2.0..2.0), rng.gen_range(-2.0..2.0), rng.gen_range(-2.0..2.0))),
+    );
+    s.linear_velocity = DVec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0));
+    s.angular_velocity = DVec3::new(rng.gen_range(-9.0..9.0), rng.gen_range(-9.0..9.0), rng.gen_range(-9.0..9.0));
+    s
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    /// The merged sums, and the step's output, are bit-identical for class counts 1, 2, 3, 8 and
+    /// for any grouping of the classes merged in any order.
+    #[test]
+    fn partial_sums_merge_exactly_in_any_split(seed in any::<u64>(), n in 1usize..600) {
+        let (grid, shell) = random_scene(seed, n);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed);
+        let state = random_state(&mut rng);
+        let pose = KernelPose::from_state(&state);
+        let reference = sample_all(&grid, &ClassedShell::new(&shell, 1), &pose);
+        prop_assert_eq!(reference.sampled, n as u64);
+        prop_assert!(reference.non_free > 0 || n < 5);
+        prop_assert!(reference.is_plausible(n as u64, S));
+        prop_assert!(reference.torque_within(shell.max_radius() + 1e-6, S));
+        let params = HapticParams::default();
+        let handle = handle_at(DVec3::new(0.01, 0.0, 0.0), DVec3::ZERO);
+        let reference_out = step(&params, &state, &handle, &reference);
+        for classes in [2u32, 3, 8] {
+            let classed = ClassedShell::new(&shell, classes);
+            prop_assert_eq!(classed.len(), n);
+            let total: usize = (0..classes).map(|c| classed.class_len(c)).sum();
+            prop_assert_eq!(total, n);
+            // Random order, random groups, groups merged in random order.
+            let mut order: Vec<u32> = (0..classes).collect();
+            order.shuffle(&mut rng);
+            let mut groups: Vec<PartialSums> = Vec::new();
+            let mut rest = order.as_slice();
+            while !rest.is_empty() {
+                let take = rng.gen_range(1..=rest.len());
+                groups.push(sample_classes(&grid, &classed, &pose, &rest[..take]));
+                rest = &rest[take..];
+            }
+            groups.shuffle(&mut rng);
+            let mut merged = PartialSums::default();
+            for g in &groups {
+                merged.merge(g);
+            }
+            prop_assert_eq!(merged, reference);
+            let mut one_by_one = PartialSums::default();
+            for &c in order.iter().rev() {
+                one_by_one.merge(&sample_class(&grid, &classed, &pose, c));
+            }
+            prop_assert_eq!(one_by_one, reference);
+            prop_assert_eq!(step(&params, &state, &handle, &merged), reference_out);
+        }
+    }
+}
+
+/// Tampered replies fail the plausibility checks.
+#[test]
+fn implausible_sums_are_detected() {
+    let (grid, shell) = random_scene(7, 400);
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let sums = sample_all(&grid, &ClassedShell::new(&shell, 1), &KernelPose::from_state(&random_state(&mut rng)));
+    assert!(sums.is_plausible(400, S));
+    assert!(!sums.is_plausible(399, S));
+    let mut bad = sums;
+    bad.contacts = bad.surface + 1;
+    assert!(!bad.is_plausible(400, S));
+    let mut bad = sums;
+    bad.depth_normal[0] = i128::from(i64::MAX);
+    assert!(!bad.is_plausible(400, S));
+    let mut bad = sums;
+    bad.brake_sq = -1;
+    assert!(!bad.is_plausible(400, S));
+    let mut bad = sums;
+    bad.non_free = bad.sampled + 1;
+    assert!(!bad.is_plausible(400, S));
+    let mut bad = sums;
+    bad.depth_torque[2] = i128::MAX / 2;
+    assert!(!bad.torque_within(0.06, S));
+}
+
+/// A class index past the end, or an insane pose, samples nothing.
+#[test]
+fn unknown_class_and_insane_pose_sample_nothing() {
+    let (grid, shell) = random_scene(3, 50);
+    let classed = ClassedShell::new(&shell, 4);
+    let pose = KernelPose::from_state(&PartState::at_rest(DVec3::ZERO, DQuat::IDENTITY));
+    assert_eq!(sample_class(&grid, &classed, &pose, 4), PartialSums::default());
+    let mut insane = pose;
+    insane.translation.x = f32::NAN;
+    let sums = sample_class(&grid, &classed, &insane, 0);
+    assert_eq!((sums.sampled, sums.non_free), (classed.class_len(0) as u64, 0));
+    assert_eq!(ClassedShell::new(&shell, 0).class_count(), 1);
+    assert_eq!(ClassedShell::new(&shell, 80).class_len(79), 0);
+}
