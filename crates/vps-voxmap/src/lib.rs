@@ -10,13 +10,17 @@
 //! - [`file`]: the versioned `.vmap` and `.vshell` binary formats with content hashes.
 
 pub mod dense;
+pub mod file;
 pub mod grid;
 pub mod shell;
+pub mod tree;
 pub mod voxel;
 
 pub use dense::DenseGrid;
+pub use file::FileError;
 pub use grid::GridSpec;
 pub use shell::{MassProperties, PointShell};
+pub use tree::{NodeCounts, TreeAccessor, TreeConfig, TreeError, VoxelTree};
 pub use voxel::Voxel;
 
 /// Read access to a voxmap by integer voxel index: implemented by the tree (runtime) and the dense

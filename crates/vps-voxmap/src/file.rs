@@ -1,0 +1,617 @@
+//! Versioned little-endian binary files with a blake3 trailer: `.vmap` (a [`VoxelTree`]) and
+//! `.vshell` (a [`PointShell`]).
+//!
+//! `.vmap` v1: magic `VPSVMAP\0`, u32 version, f64 voxel size (m), 3×f64 origin (m), 3×u32 dims,
+//! 3×u8 log2 dims (leaf, lower, upper), then four arenas each as a u64 element count followed by the
+//! elements: root slots (u32), upper slots (u32), lower slots (u32), leaf words (u64); then the
+//! 32-byte blake3 hash of every byte before it. The hash equals [`VoxelTree::content_hash`].
+//!
+//! `.vshell` v1: magic `VPSSHEL\0`, u32 version, f64 voxel size (m), u8 method, f64 volume (m³),
+//! 3×f64 centre of mass (m), f64 bounding radius (m), u64 point count `n`, `n`×3×f32 points (m),
+//! `n`×3×f32 normals, then the blake3 trailer.
+//!
+//! Readers never trust a length: arrays grow only as their bytes actually arrive, so a corrupt count
+//! cannot trigger a huge allocation. Any truncation, flipped byte or trailing data is an error.
+
+use crate::shell::ShellMethod;
+use crate::tree::{TreeConfig, TreeError, VoxelTree};
+use crate::{GridSpec, MassProperties, PointShell};
+use glam::{DVec3, Vec3};
+use std::fs::File;
+use std::io::{self, BufReader, BufWriter, Read, Write};
+use std::path::{Path, PathBuf};
+
+/// Magic bytes opening a `.vmap` file.
+pub const VOXMAP_MAGIC: [u8; 8] = *b"VPSVMAP\0";
+/// The `.vmap` version this build writes and reads.
+pub const VOXMAP_VERSION: u32 = 1;
+/// Magic bytes opening a `.vshell` file.
+pub const SHELL_MAGIC: [u8; 8] = *b"VPSSHEL\0";
+/// The `.vshell` version this build writes and reads.
+pub const SHELL_VERSION: u32 = 1;
+/// Largest voxel count a `.vmap` header may declare (2^40).
+pub const MAX_VOXELS: u64 = 1 << 40;
+/// Largest allowed deviation of a shell normal's length from 1.
+pub const NORMAL_TOLERANCE: f32 = 1e-3;
+
+/// Elements decoded per read call, bounding the bytes requested ahead of the data.
+const CHUNK_BYTES: usize = 64 * 1024;
+
+/// Why a file could not be written or read. Every variant names the field (or path) at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum FileError {
+    /// The data ended inside `field`.
+    #[error("{field}: file ends early (truncated)")]
+    Truncated {
+        /// The field being read.
+        field: &'static str,
+    },
+    /// An I/O error other than end of file.
+    #[error("{field}: {source}")]
+    Io {
+        /// The field being read or written.
+        field: &'static str,
+        /// The underlying error.
+        #[source]
+        source: io::Error,
+    },
+    /// The file does not start with the expected magic bytes.
+    #[error("magic: expected {}, found {}", (expected).escape_ascii(), (found).escape_ascii())]
+    BadMagic {
+        /// The format's magic.
+        expected: [u8; 8],
+        /// The first 8 bytes read.
+        found: [u8; 8],
+    },
+    /// The version field names a format this build does not read.
+    #[error("version: {found} is not supported (this build reads version {supported})")]
+    UnsupportedVersion {
+        /// The version in the file.
+        found: u32,
+        /// The version this build reads.
+        supported: u32,
+    },
+    /// A field's value is out of range or inconsistent with the header.
+    #[error("{field}: {reason}")]
+    InvalidField {
+        /// The field (with element index where one applies, e.g. `normals[12]`).
+        field: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// The tree arenas break a tree invariant.
+    #[error("tree: {0}")]
+    Tree(#[from] TreeError),
+    /// The blake3 trailer does not match the content: the file is corrupted.
+    #[error("hash: trailer does not match the content (corrupted file)")]
+    HashMismatch,
+    /// Bytes follow the hash trailer.
+    #[error("trailer: unexpected data after the hash")]
+    TrailingBytes,
+    /// An error while reading or writing the file at `path`.
+    #[error("{}: {source}", path.display())]
+    AtPath {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        #[source]
+        source: Box<FileError>,
+    },
+}
+
+fn invalid(field: impl Into<String>, reason: impl Into<String>) -> FileError {
+    FileError::InvalidField {
+        field: field.into(),
+        reason: reason.into(),
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// .vmap
+
+/// Writes `tree` as a `.vmap` stream (unbuffered writes go straight to `w`; wrap it in a
+/// `BufWriter` for files).
+pub fn write_voxmap(tree: &VoxelTree, w: impl Write) -> Result<(), FileError> {
+    let mut enc = Encoder::new(w);
+    encode_voxmap_body(tree, &mut enc).map_err(|source| FileError::Io {
+        field: "write",
+        source,
+    })?;
+    enc.finish()
+}
+
+/// Reads a `.vmap` stream, validating header, arena lengths, tree invariants and the hash.
+pub fn read_voxmap(r: impl Read) -> Result<VoxelTree, FileError> {
+    let mut dec = Decoder::new(r);
+    dec.magic(VOXMAP_MAGIC)?;
+    dec.version(VOXMAP_VERSION)?;
+    let spec = read_spec(&mut dec)?;
+    let config = TreeConfig {
+        log2_dims: [
+            dec.u8("log2_dims[0]")?,
+            dec.u8("log2_dims[1]")?,
+            dec.u8("log2_dims[2]")?,
+        ],
+    };
+    config.validate()?;
+
+    let root_cells = spec
+        .dims
+        .map(|d| (d as u64).div_ceil(config.extent(2) as u64))
+        .iter()
+        .product::<u64>();
+    let root = dec.counted_u32s("root slots", root_cells)?;
+    let upper_len = count_children(&root) * slots_per_node(config, 2);
+    let upper = dec.counted_u32s("upper slots", upper_len)?;
+    let lower_len = count_children(&upper) * slots_per_node(config, 1);
+    let lower = dec.counted_u32s("lower slots", lower_len)?;
+    let words_per_leaf = (2u64 << (3 * config.log2_dims[0])).div_ceil(64);
+    let leaves = dec.counted_u64s("leaf words", count_children(&lower) * words_per_leaf)?;
+    dec.finish()?;
+    Ok(VoxelTree::from_parts(
+        spec, config, root, upper, lower, leaves,
+    )?)
+}
+
+/// Writes `tree` to `path` (created or truncated); errors name the path.
+pub fn save_voxmap(tree: &VoxelTree, path: impl AsRef<Path>) -> Result<(), FileError> {
+    save(path.as_ref(), |w| write_voxmap(tree, w))
+}
+
+/// Reads the `.vmap` file at `path`; errors name the path.
+pub fn load_voxmap(path: impl AsRef<Path>) -> Result<VoxelTree, FileError> {
+    load(path.as_ref(), read_voxmap)
+}
+
+/// See [`VoxelTree::content_hash`].
+pub(crate) fn voxmap_content_hash(tree: &VoxelTree) -> [u8; 32] {
+    let mut hasher = blake3::Hasher::new();
+    // blake3::Hasher's `Write` impl never fails.
+    let _ = encode_voxmap_body(tree, &mut hasher);
+    hasher.finalize().into()
+}
+
+fn encode_voxmap_body(tree: &VoxelTree, w: &mut impl Write) -> io::Result<()> {
+    w.write_all(&VOXMAP_MAGIC)?;
+    w.write_all(&VOXMAP_VERSION.to_le_bytes())?;
+    let spec = tree.spec();
+    w.write_all(&spec.voxel_size.to_le_bytes())?;
+    for c in spec.origin.to_array() {
+        w.write_all(&c.to_le_bytes())?;
+    }
+    for d in spec.dims {
+        w.write_all(&d.to_le_bytes())?;
+    }
+    w.write_all(&tree.config().log2_dims)?;
+    let (root, upper, lower, leaves) = tree.arenas();
+    for arena in [root, upper, lower] {
+        write_array(w, arena, |x| x.to_le_bytes())?;
+    }
+    write_array(w, leaves, |x| x.to_le_bytes())
+}
+
+fn read_spec<R: Read>(dec: &mut Decoder<R>) -> Result<GridSpec, FileError> {
+    let voxel_size = dec.f64("voxel_size")?;
+    if !(voxel_size.is_finite() && voxel_size > 0.0) {
+        return Err(invalid(
+            "voxel_size",
+            format!("{voxel_size} is not finite and > 0"),
+        ));
+    }
+    let origin = DVec3::new(
+        dec.f64("origin.x")?,
+        dec.f64("origin.y")?,
+        dec.f64("origin.z")?,
+    );
+    if !origin.is_finite() {
+        return Err(invalid("origin", format!("{origin} is not finite")));
+    }
+    let dims = [
+        dec.u32("dims[0]")?,
+        dec.u32("dims[1]")?,
+        dec.u32("dims[2]")?,
+    ];
+    for (axis, &d) in dims.iter().enumerate() {
+        if d == 0 || d > i32::MAX as u32 {
+            return Err(invalid(
+                format!("dims[{axis}]"),
+                format!("{d} is outside 1..=i32::MAX"),
+            ));
+        }
+    }
+    let spec = GridSpec {
+        origin,
+        voxel_size,
+        dims,
+    };
+    if spec.voxel_count() > MAX_VOXELS {
+        return Err(invalid("dims", format!("{dims:?} exceeds 2^40 voxels")));
+    }
+    Ok(spec)
+}
+
+fn slots_per_node(config: TreeConfig, level: usize) -> u64 {
+    1 << (3 * config.log2_dims[level])
+}
+
+/// Slots holding a child (not a tile).
+fn count_children(slots: &[u32]) -> u64 {
+    slots.iter().filter(|&&s| s >> 31 == 0).count() as u64
+}
+
+// ---------------------------------------------------------------------------------------------
+// .vshell
+
+/// Writes `shell` as a `.vshell` stream. Errors if `points` and `normals` differ in length.
+pub fn write_shell(shell: &PointShell, w: impl Write) -> Result<(), FileError> {
+    if shell.points.len() != shell.normals.len() {
+        return Err(invalid(
+            "normals",
+            format!(
+                "{} normals for {} points",
+                shell.normals.len(),
+                shell.points.len()
+            ),
+        ));
+    }
+    let mut enc = Encoder::new(w);
+    encode_shell_body(shell, &mut enc).map_err(|source| FileError::Io {
+        field: "write",
+        source,
+    })?;
+    enc.finish()
+}
+
+/// Reads a `.vshell` stream, validating every field, every point and normal, and the hash.
+pub fn read_shell(r: impl Read) -> Result<PointShell, FileError> {
+    let mut dec = Decoder::new(r);
+    dec.magic(SHELL_MAGIC)?;
+    dec.version(SHELL_VERSION)?;
+    let voxel_size = dec.f64("voxel_size")?;
+    if !(voxel_size.is_finite() && voxel_size > 0.0) {
+        return Err(invalid(
+            "voxel_size",
+            format!("{voxel_size} is not finite and > 0"),
+        ));
+    }
+    let method = match dec.u8("method")? {
+        0 => ShellMethod::VoxelCentres,
+        1 => ShellMethod::ExactSurface,
+        m => return Err(invalid("method", format!("{m} is not 0 or 1"))),
+    };
+    let volume = dec.f64("mass.volume")?;
+    if !(volume.is_finite() && volume >= 0.0) {
+        return Err(invalid(
+            "mass.volume",
+            format!("{volume} is not finite and >= 0"),
+        ));
+    }
+    let center_of_mass = DVec3::new(
+        dec.f64("mass.center_of_mass.x")?,
+        dec.f64("mass.center_of_mass.y")?,
+        dec.f64("mass.center_of_mass.z")?,
+    );
+    if !center_of_mass.is_finite() {
+        return Err(invalid("mass.center_of_mass", "not finite"));
+    }
+    let bounding_radius = dec.f64("mass.bounding_radius")?;
+    if !(bounding_radius.is_finite() && bounding_radius >= 0.0) {
+        return Err(invalid(
+            "mass.bounding_radius",
+            format!("{bounding_radius} is not finite and >= 0"),
+        ));
+    }
+    let count = dec.u64("point count")?;
+    let points = dec.array(count, "points", decode_vec3)?;
+    let normals = dec.array(count, "normals", decode_vec3)?;
+    dec.finish()?;
+    if let Some(i) = points.iter().position(|p| !p.is_finite()) {
+        return Err(invalid(format!("points[{i}]"), "not finite"));
+    }
+    if let Some(i) = normals
+        .iter()
+        .position(|n| !n.is_finite() || (n.length() - 1.0).abs() > NORMAL_TOLERANCE)
+    {
+        return Err(invalid(format!("normals[{i}]"), "not a finite unit vector"));
+    }
+    Ok(PointShell {
+        points,
+        normals,
+        voxel_size,
+        method,
+        mass: MassProperties {
+            volume,
+            center_of_mass,
+            bounding_radius,
+        },
+    })
+}
+
+/// Writes `shell` to `path` (created or truncated); errors name the path.
+pub fn save_shell(shell: &PointShell, path: impl AsRef<Path>) -> Result<(), FileError> {
+    save(path.as_ref(), |w| write_shell(shell, w))
+}
+
+/// Reads the `.vshell` file at `path`; errors name the path.
+pub fn load_shell(path: impl AsRef<Path>) -> Result<PointShell, FileError> {
+    load(path.as_ref(), read_shell)
+}
+
+fn encode_shell_body(shell: &PointShell, w: &mut impl Write) -> io::Result<()> {
+    w.write_all(&SHELL_MAGIC)?;
+    w.write_all(&SHELL_VERSION.to_le_bytes())?;
+    w.write_all(&shell.voxel_size.to_le_bytes())?;
+    w.write_all(&[shell.method as u8])?;
+    let m = &shell.mass;
+    let scalars = [
+        m.volume,
+        m.center_of_mass.x,
+        m.center_of_mass.y,
+        m.center_of_mass.z,
+    ];
+    for x in scalars.into_iter().chain([m.bounding_radius]) {
+        w.write_all(&x.to_le_bytes())?;
+    }
+    write_array(w, &shell.points, encode_vec3)?;
+    // The count is shared with the points; write the normals without a second one.
+    write_elements(w, &shell.normals, encode_vec3)
+}
+
+fn encode_vec3(v: &Vec3) -> [u8; 12] {
+    let mut b = [0u8; 12];
+    for (dst, c) in b.chunks_exact_mut(4).zip(v.to_array()) {
+        dst.copy_from_slice(&c.to_le_bytes());
+    }
+    b
+}
+
+fn decode_vec3(b: [u8; 12]) -> Vec3 {
+    let c = |i: usize| f32::from_le_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]);
+    Vec3::new(c(0), c(4), c(8))
+}
+
+// ---------------------------------------------------------------------------------------------
+// Shared plumbing
+
+fn save(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<File>) -> Result<(), FileError>,
+) -> Result<(), FileError> {
+    let at_path = |source| FileError::AtPath {
+        path: path.to_path_buf(),
+        source: Box::new(source),
+    };
+    let file = File::create(path).map_err(|source| {
+        at_path(FileError::Io {
+            field: "create",
+            source,
+        })
+    })?;
+    let mut w = BufWriter::new(file);
+    write(&mut w).map_err(at_path)?;
+    w.flush().map_err(|source| {
+        at_path(FileError::Io {
+            field: "write",
+            source,
+        })
+    })
+}
+
+fn load<T>(
+    path: &Path,
+    read: impl FnOnce(BufReader<File>) -> Result<T, FileError>,
+) -> Result<T, FileError> {
+    let at_path = |source| FileError::AtPath {
+        path: path.to_path_buf(),
+        source: Box::new(source),
+    };
+    let file = File::open(path).map_err(|source| {
+        at_path(FileError::Io {
+            field: "open",
+            source,
+        })
+    })?;
+    read(BufReader::new(file)).map_err(at_path)
+}
+
+/// Writes a u64 element count, then the elements.
+fn write_array<T, const N: usize>(
+    w: &mut impl Write,
+    items: &[T],
+    encode: impl Fn(&T) -> [u8; N],
+) -> io::Result<()> {
+    w.write_all(&(items.len() as u64).to_le_bytes())?;
+    write_elements(w, items, encode)
+}
+
+/// Writes the elements, batched into `CHUNK_BYTES` buffers.
+fn write_elements<T, const N: usize>(
+    w: &mut impl Write,
+    items: &[T],
+    encode: impl Fn(&T) -> [u8; N],
+) -> io::Result<()> {
+    let mut buf = Vec::with_capacity(CHUNK_BYTES);
+    for batch in items.chunks(CHUNK_BYTES / N) {
+        buf.clear();
+        for item in batch {
+            buf.extend_from_slice(&encode(item));
+        }
+        w.write_all(&buf)?;
+    }
+    Ok(())
+}
+
+/// A writer that hashes everything it passes on, then appends the hash.
+struct Encoder<W: Write> {
+    inner: W,
+    hasher: blake3::Hasher,
+}
+
+impl<W: Write> Encoder<W> {
+    fn new(inner: W) -> Self {
+        Self {
+            inner,
+            hasher: blake3::Hasher::new(),
+        }
+    }
+
+    fn finish(mut self) -> Result<(), FileError> {
+        let hash = self.hasher.finalize();
+        self.inner
+            .write_all(hash.as_bytes())
+            .and_then(|()| self.inner.flush())
+            .map_err(|source| FileError::Io {
+                field: "hash",
+                source,
+            })
+    }
+}
+
+impl<W: Write> Write for Encoder<W> {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.hasher.update(&buf[..n]);
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// A reader of typed little-endian fields that hashes everything it consumes.
+struct Decoder<R: Read> {
+    inner: R,
+    hasher: blake3::Hasher,
+}
+
+impl<R: Read> Decoder<R> {
+    fn new(inner: R) -> Self {
+        Self {
+            inner,
+            hasher: blake3::Hasher::new(),
+        }
+    }
+
+    fn fill(&mut self, buf: &mut [u8], field: &'static str) -> Result<(), FileError> {
+        read_field(&mut self.inner, buf, field)?;
+        self.hasher.update(buf);
+        Ok(())
+    }
+
+    fn bytes<const N: usize>(&mut self, field: &'static str) -> Result<[u8; N], FileError> {
+        let mut b = [0u8; N];
+        self.fill(&mut b, field)?;
+        Ok(b)
+    }
+
+    fn u8(&mut self, field: &'static str) -> Result<u8, FileError> {
+        Ok(self.bytes::<1>(field)?[0])
+    }
+
+    fn u32(&mut self, field: &'static str) -> Result<u32, FileError> {
+        Ok(u32::from_le_bytes(self.bytes(field)?))
+    }
+
+    fn u64(&mut self, field: &'static str) -> Result<u64, FileError> {
+        Ok(u64::from_le_bytes(self.bytes(field)?))
+    }
+
+    fn f64(&mut self, field: &'static str) -> Result<f64, FileError> {
+        Ok(f64::from_le_bytes(self.bytes(field)?))
+    }
+
+    fn magic(&mut self, expected: [u8; 8]) -> Result<(), FileError> {
+        let found = self.bytes::<8>("magic")?;
+        if found != expected {
+            return Err(FileError::BadMagic { expected, found });
+        }
+        Ok(())
+    }
+
+    fn version(&mut self, supported: u32) -> Result<(), FileError> {
+        let found = self.u32("version")?;
+        if found != supported {
+            return Err(FileError::UnsupportedVersion { found, supported });
+        }
+        Ok(())
+    }
+
+    /// Reads `count` elements of `N` bytes. The Vec grows only as bytes arrive, so a corrupt count
+    /// on a short stream fails with `Truncated` after allocating at most the stream's size.
+    fn array<T, const N: usize>(
+        &mut self,
+        count: u64,
+        field: &'static str,
+        decode: impl Fn([u8; N]) -> T,
+    ) -> Result<Vec<T>, FileError> {
+        let per_chunk = (CHUNK_BYTES / N) as u64;
+        let mut out = Vec::with_capacity(count.min(per_chunk) as usize);
+        let mut buf = vec![0u8; CHUNK_BYTES];
+        let mut left = count;
+        while left > 0 {
+            let n = left.min(per_chunk) as usize;
+            let bytes = &mut buf[..n * N];
+            self.fill(bytes, field)?;
+            out.extend(bytes.chunks_exact(N).map(|c| {
+                let mut a = [0u8; N];
+                a.copy_from_slice(c);
+                decode(a)
+            }));
+            left -= n as u64;
+        }
+        Ok(out)
+    }
+
+    /// Reads a u64 count that must equal `expected`, then that many u32s.
+    fn counted_u32s(&mut self, field: &'static str, expected: u64) -> Result<Vec<u32>, FileError> {
+        let count = self.expected_count(field, expected)?;
+        self.array(count, field, u32::from_le_bytes)
+    }
+
+    /// Reads a u64 count that must equal `expected`, then that many u64s.
+    fn counted_u64s(&mut self, field: &'static str, expected: u64) -> Result<Vec<u64>, FileError> {
+        let count = self.expected_count(field, expected)?;
+        self.array(count, field, u64::from_le_bytes)
+    }
+
+    fn expected_count(&mut self, field: &'static str, want: u64) -> Result<u64, FileError> {
+        let count = self.u64(field)?;
+        if count != want {
+            return Err(invalid(
+                format!("{field} length"),
+                format!("{count}, but the header and parent level imply {want}"),
+            ));
+        }
+        Ok(count)
+    }
+
+    /// Reads the trailer, checks it against the hash of everything read, and checks nothing follows.
+    fn finish(mut self) -> Result<(), FileError> {
+        let computed = self.hasher.finalize();
+        let mut stored = [0u8; 32];
+        read_field(&mut self.inner, &mut stored, "hash")?;
+        if computed.as_bytes() != &stored {
+            return Err(FileError::HashMismatch);
+        }
+        let mut probe = [0u8; 1];
+        loop {
+            return match self.inner.read(&mut probe) {
+                Ok(0) => Ok(()),
+                Ok(_) => Err(FileError::TrailingBytes),
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(source) => Err(FileError::Io {
+                    field: "trailer",
+                    source,
+                }),
+            };
+        }
+    }
+}
+
+fn read_field(r: &mut impl Read, buf: &mut [u8], field: &'static str) -> Result<(), FileError> {
+    r.read_exact(buf).map_err(|source| match source.kind() {
+        io::ErrorKind::UnexpectedEof => FileError::Truncated { field },
+        _ => FileError::Io { field, source },
+    })
+}
