@@ -1,0 +1,98 @@
+//! Wavefront OBJ via tobj: all objects merged into one mesh, polygons fan-triangulated.
+
+use std::io::{BufRead, Read};
+
+use tobj::LoadError;
+
+use super::{parse_error, points_from_f32};
+use crate::{MeshError, TriMesh};
+
+/// Parses OBJ text. Material libraries are not opened (only geometry is needed).
+pub(super) fn parse(bytes: &[u8], file: &str) -> Result<TriMesh, MeshError> {
+    let options = tobj::LoadOptions {
+        triangulate: true,
+        single_index: true,
+        ..Default::default()
+    };
+    let mut reader = LineCounter::new(bytes);
+    let (models, _materials) =
+        tobj::load_obj_buf(&mut reader, &options, |_| Err(LoadError::OpenFileFailed)).map_err(
+            |e| {
+                // Errors raised while parsing a line come back right after that line was read;
+                // index and polygon errors are raised when an object is closed, so no line.
+                let line = match e {
+                    LoadError::FaceVertexOutOfBounds
+                    | LoadError::FaceTexCoordOutOfBounds
+                    | LoadError::FaceNormalOutOfBounds
+                    | LoadError::FaceColorOutOfBounds
+                    | LoadError::InvalidPolygon
+                    | LoadError::GenericFailure
+                    | LoadError::InvalidLoadOptionConfig => None,
+                    _ => Some(reader.current_line()),
+                };
+                parse_error(file, line, e.to_string())
+            },
+        )?;
+    let mut mesh = TriMesh::default();
+    for model in &models {
+        let part = TriMesh::new(
+            points_from_f32(&model.mesh.positions).collect(),
+            model
+                .mesh
+                .indices
+                .chunks_exact(3)
+                .map(|t| [t[0], t[1], t[2]])
+                .collect(),
+        );
+        mesh.append(&part);
+    }
+    Ok(mesh)
+}
+
+/// A `BufRead` over bytes that counts the lines consumed, so a parse error can name its line.
+struct LineCounter<'a> {
+    inner: &'a [u8],
+    newlines: usize,
+    partial: bool,
+}
+
+impl<'a> LineCounter<'a> {
+    fn new(inner: &'a [u8]) -> Self {
+        Self {
+            inner,
+            newlines: 0,
+            partial: false,
+        }
+    }
+
+    /// 1-based number of the line most recently (partly) consumed.
+    fn current_line(&self) -> usize {
+        self.newlines + usize::from(self.partial)
+    }
+}
+
+impl Read for LineCounter<'_> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.fill_buf()?.len().min(buf.len());
+        buf[..n].copy_from_slice(&self.inner[..n]);
+        self.consume(n);
+        Ok(n)
+    }
+}
+
+impl BufRead for LineCounter<'_> {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        Ok(self.inner)
+    }
+
+    fn consume(&mut self, amt: usize) {
+        let (taken, rest) = self.inner.split_at(amt);
+        if let Some(last) = taken.iter().rposition(|&b| b == b'\n') {
+            self.newlines += taken.iter().filter(|&&b| b == b'\n').count();
+            self.partial = last + 1 < taken.len();
+        } else if !taken.is_empty() {
+            self.partial = true;
+        }
+        self.inner = rest;
+    }
+}

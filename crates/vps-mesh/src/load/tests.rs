@@ -1,0 +1,302 @@
+//! Loader tests: round trips of small files in each format, and clean errors on bad input.
+
+use std::path::PathBuf;
+
+use glam::DVec3;
+
+use super::*;
+
+/// A unit-ish tetrahedron (m) used by every round-trip test.
+const TETRA: [[f32; 3]; 4] = [
+    [0.0, 0.0, 0.0],
+    [0.1, 0.0, 0.0],
+    [0.0, 0.1, 0.0],
+    [0.0, 0.0, 0.1],
+];
+const TETRA_FACES: [[usize; 3]; 4] = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+
+fn write(dir: &tempfile::TempDir, name: &str, bytes: &[u8]) -> PathBuf {
+    let path = dir.path().join(name);
+    std::fs::write(&path, bytes).unwrap();
+    path
+}
+
+/// Asserts `m` has exactly the tetrahedron's triangles as sets of corner positions, in order.
+fn assert_is_tetra(m: &TriMesh) {
+    assert_eq!(m.triangle_count(), 4);
+    for (i, f) in TETRA_FACES.iter().enumerate() {
+        let got = m.triangle(i);
+        for k in 0..3 {
+            let want = TETRA[f[k]].map(f64::from);
+            assert_eq!(got[k], DVec3::from_array(want), "triangle {i} corner {k}");
+        }
+    }
+}
+
+fn obj_text() -> String {
+    let mut s = String::from("# tetra\no tetra\n");
+    for v in TETRA {
+        s += &format!("v {} {} {}\n", v[0], v[1], v[2]);
+    }
+    for f in TETRA_FACES {
+        s += &format!("f {} {} {}\n", f[0] + 1, f[1] + 1, f[2] + 1);
+    }
+    s
+}
+
+fn ascii_stl_text() -> String {
+    let mut s = String::from("solid tetra\n");
+    for f in TETRA_FACES {
+        s += "  facet normal 0 0 0\n    outer loop\n";
+        for k in f {
+            let v = TETRA[k];
+            s += &format!("      vertex {} {} {}\n", v[0], v[1], v[2]);
+        }
+        s += "    endloop\n  endfacet\n";
+    }
+    s + "endsolid tetra\n"
+}
+
+fn binary_stl_bytes(header: &[u8]) -> Vec<u8> {
+    let mut b = vec![0u8; 80];
+    b[..header.len()].copy_from_slice(header);
+    b.extend_from_slice(&(TETRA_FACES.len() as u32).to_le_bytes());
+    for f in TETRA_FACES {
+        b.extend_from_slice(&[0u8; 12]);
+        for k in f {
+            for c in TETRA[k] {
+                b.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        b.extend_from_slice(&[0u8; 2]);
+    }
+    b
+}
+
+fn ply_ascii_text(list_name: &str) -> String {
+    let mut s = format!(
+        "ply\nformat ascii 1.0\ncomment tetra\nelement vertex 4\nproperty float x\nproperty float y\n\
+         property float z\nelement face 4\nproperty list uchar int {list_name}\nend_header\n"
+    );
+    for v in TETRA {
+        s += &format!("{} {} {}\n", v[0], v[1], v[2]);
+    }
+    for f in TETRA_FACES {
+        s += &format!("3 {} {} {}\n", f[0], f[1], f[2]);
+    }
+    s
+}
+
+fn ply_binary_bytes() -> Vec<u8> {
+    let mut b = b"ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty double x\n\
+        property double y\nproperty double z\nelement face 4\nproperty list uchar uint vertex_indices\n\
+        end_header\n"
+        .to_vec();
+    for v in TETRA {
+        for c in v {
+            b.extend_from_slice(&f64::from(c).to_le_bytes());
+        }
+    }
+    for f in TETRA_FACES {
+        b.push(3);
+        for k in f {
+            b.extend_from_slice(&(k as u32).to_le_bytes());
+        }
+    }
+    b
+}
+
+#[test]
+fn obj_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    let loaded = load_mesh(&write(&dir, "t.obj", obj_text().as_bytes())).unwrap();
+    assert_is_tetra(&loaded.mesh);
+    assert_eq!(loaded.report.triangle_count, 4);
+}
+
+#[test]
+fn obj_quads_are_triangulated_and_extension_is_case_insensitive() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n";
+    let loaded = load_mesh(&write(&dir, "quad.OBJ", text.as_bytes())).unwrap();
+    assert_eq!(loaded.mesh.triangle_count(), 2);
+    assert!((loaded.mesh.area() - 1.0).abs() < 1e-12);
+}
+
+#[test]
+fn ascii_stl_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    let loaded = load_mesh(&write(&dir, "t.stl", ascii_stl_text().as_bytes())).unwrap();
+    assert_is_tetra(&loaded.mesh);
+    assert_eq!(loaded.mesh.vertices.len(), 4, "stl vertices are welded");
+}
+
+#[test]
+fn binary_stl_round_trip_even_with_solid_header() {
+    let dir = tempfile::tempdir().unwrap();
+    for header in [&b"binary tetra"[..], &b"solid tetra exported as binary"[..]] {
+        let loaded = load_mesh(&write(&dir, "t.stl", &binary_stl_bytes(header))).unwrap();
+        assert_is_tetra(&loaded.mesh);
+    }
+}
+
+#[test]
+fn ply_ascii_round_trip_with_either_list_name() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["vertex_indices", "vertex_index"] {
+        let loaded = load_mesh(&write(&dir, "t.ply", ply_ascii_text(name).as_bytes())).unwrap();
+        assert_is_tetra(&loaded.mesh);
+    }
+}
+
+#[test]
+fn ply_binary_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    let loaded = load_mesh(&write(&dir, "t.ply", &ply_binary_bytes())).unwrap();
+    assert_is_tetra(&loaded.mesh);
+}
+
+#[test]
+fn ply_polygons_are_fan_triangulated() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n\
+                property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+                0 0 0\n1 0 0\n1 1 0\n0.5 1.5 0\n0 1 0\n5 0 1 2 3 4\n";
+    let loaded = load_mesh(&write(&dir, "pent.ply", text.as_bytes())).unwrap();
+    assert_eq!(loaded.mesh.triangles, vec![[0, 1, 2], [0, 2, 3], [0, 3, 4]]);
+    assert!((loaded.mesh.area() - 1.25).abs() < 1e-12);
+}
+
+#[test]
+fn scale_converts_units_before_validation() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(&dir, "mm.obj", obj_text().as_bytes());
+    let loaded = load_mesh_scaled(&path, 0.001).unwrap();
+    let size = loaded.mesh.bounds().size();
+    assert!(
+        (size - DVec3::splat(1e-4)).abs().max_element() < 1e-10,
+        "{size}"
+    );
+    assert!(load_mesh_scaled(&path, 0.0).is_err());
+    assert!(load_mesh_scaled(&path, f64::NAN).is_err());
+}
+
+#[test]
+fn unknown_extension_and_missing_file_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let err = load_mesh(&write(&dir, "part.3ds", b"x")).unwrap_err();
+    assert!(matches!(&err, MeshError::UnknownFormat { extension, .. } if extension == "3ds"));
+    assert!(err.to_string().contains("part.3ds"), "{err}");
+    let missing = dir.path().join("missing.obj");
+    let err = load_mesh(&missing).unwrap_err();
+    assert!(matches!(err, MeshError::Io { .. }));
+    assert!(err.to_string().contains("missing.obj"), "{err}");
+}
+
+#[test]
+fn obj_parse_error_names_file_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 zz\nf 1 2 3\n";
+    let err = load_mesh(&write(&dir, "bad.obj", text.as_bytes())).unwrap_err();
+    assert!(
+        matches!(err, MeshError::Parse { line: Some(3), .. }),
+        "{err:?}"
+    );
+    assert!(
+        err.to_string().starts_with(&format!(
+            "{}: line 3: ",
+            dir.path().join("bad.obj").display()
+        )),
+        "{err}"
+    );
+}
+
+#[test]
+fn obj_out_of_range_face_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n";
+    let err = load_mesh(&write(&dir, "oob.obj", text.as_bytes())).unwrap_err();
+    assert!(err.to_string().contains("oob.obj"), "{err}");
+}
+
+#[test]
+fn ply_parse_error_names_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = ply_ascii_text("vertex_indices").replace("0.1 0 0\n", "0.1 oops 0\n");
+    let err = load_mesh(&write(&dir, "bad.ply", text.as_bytes())).unwrap_err();
+    // Header is 10 lines; the second vertex is line 12.
+    assert!(
+        matches!(err, MeshError::Parse { line: Some(12), .. }),
+        "{err:?}"
+    );
+}
+
+#[test]
+fn ply_face_with_negative_index_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = ply_ascii_text("vertex_indices").replace("3 1 2 3\n", "3 1 -2 3\n");
+    let err = load_mesh(&write(&dir, "neg.ply", text.as_bytes())).unwrap_err();
+    assert!(err.to_string().contains("face 3"), "{err}");
+}
+
+#[test]
+fn stl_with_wrong_length_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bytes = binary_stl_bytes(b"binary");
+    bytes[80..84].copy_from_slice(&u32::MAX.to_le_bytes());
+    let err = load_mesh(&write(&dir, "huge.stl", &bytes)).unwrap_err();
+    assert!(
+        err.to_string().contains("huge.stl") && err.to_string().contains("4294967295"),
+        "{err}"
+    );
+}
+
+/// Deterministic pseudo-random bytes (xorshift64).
+fn garbage(len: usize, seed: u64) -> Vec<u8> {
+    let mut x = seed | 1;
+    (0..len)
+        .map(|_| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 24) as u8
+        })
+        .collect()
+}
+
+#[test]
+fn truncated_and_garbage_files_error_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let samples: [(&str, Vec<u8>); 5] = [
+        ("t.obj", obj_text().into_bytes()),
+        ("t.stl", ascii_stl_text().into_bytes()),
+        ("b.stl", binary_stl_bytes(b"binary")),
+        ("t.ply", ply_ascii_text("vertex_indices").into_bytes()),
+        ("b.ply", ply_binary_bytes()),
+    ];
+    for (name, good) in &samples {
+        for cut in [0, 1, 5, good.len() / 3, good.len() / 2, good.len() - 7] {
+            let path = write(&dir, name, &good[..cut]);
+            // Truncation may still leave a valid (smaller) mesh; it must never panic.
+            if let Err(e) = load_mesh(&path) {
+                assert!(e.to_string().contains(name), "{e}");
+            }
+        }
+        for seed in 1..20u64 {
+            let mut bytes = good.clone();
+            let noise = garbage(bytes.len(), seed);
+            // Corrupt every 7th byte from a random offset on, keeping the header most of the time.
+            let start = (seed as usize * 13) % bytes.len();
+            for i in (start..bytes.len()).step_by(7) {
+                bytes[i] = noise[i];
+            }
+            let path = write(&dir, name, &bytes);
+            if let Err(e) = load_mesh(&path) {
+                assert!(e.to_string().contains(name), "{e}");
+            }
+            let path = write(&dir, name, &garbage(200 + seed as usize * 50, seed));
+            let e = load_mesh(&path).expect_err("pure garbage must not load");
+            assert!(e.to_string().contains(name), "{e}");
+        }
+    }
+}
