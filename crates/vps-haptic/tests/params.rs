@@ -1,0 +1,118 @@
+//! Parameter loading, validation and the derived default gains.
+
+use vps_haptic::stability::STABILITY_MARGIN;
+use vps_haptic::{HapticParams, ParamsError};
+
+fn example_path() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/haptic.toml")
+}
+
+#[test]
+fn example_file_holds_the_defaults() {
+    let p = HapticParams::from_file(example_path()).expect("configs/haptic.toml loads");
+    assert_eq!(p, HapticParams::default());
+}
+
+/// The example documents the derived gains; the numbers quoted there must be the computed ones.
+#[test]
+fn example_file_quotes_the_derived_gains() {
+    let text = std::fs::read_to_string(example_path()).unwrap();
+    let g = HapticParams::default().gains();
+    for (key, value) in [
+        ("inertia", g.inertia),
+        ("k_ff", g.k_ff),
+        ("k_t", g.k_t),
+        ("k_r", g.k_r),
+        ("b_t", g.b_t),
+        ("b_r", g.b_r),
+    ] {
+        let line = text
+            .lines()
+            .find(|l| l.starts_with(&format!("# {key} = ")))
+            .unwrap_or_else(|| panic!("no commented `{key}` line"));
+        let quoted: f64 = line.rsplit(' ').next().unwrap().parse().unwrap();
+        assert!((quoted - value).abs() <= 1e-3 * value, "{key}: quoted {quoted}, computed {value}");
+    }
+}
+
+#[test]
+fn default_gains_sit_at_the_stated_margin() {
+    let p = HapticParams::default();
+    let g = p.gains();
+    let s = p.stability();
+    assert!((s.worst() - STABILITY_MARGIN).abs() < 1e-9, "{s:?}");
+    assert!(s.translational < s.rotational);
+    assert!((g.k_ff - 2.0 * g.k_t).abs() < 1e-9);
+    assert!((g.inertia - 0.4 * p.mass * p.max_radius * p.max_radius).abs() < 1e-15);
+    assert!((g.b_t - 2.0 * (g.k_t * p.mass).sqrt()).abs() < 1e-12);
+    assert!((g.b_r - 2.0 * (g.k_r * g.inertia).sqrt()).abs() < 1e-12);
+    // The numbers quoted in the docs.
+    assert!((g.k_t - 317.5).abs() < 0.1 && (g.k_ff - 635.0).abs() < 0.1, "{g:?}");
+    // Same margin at other masses and steps.
+    for (mass, dt) in [(0.001, 0.00025), (10.0, 0.004), (0.5, 0.001)] {
+        let q = HapticParams { mass, dt, ..p };
+        assert!((q.stability().worst() - STABILITY_MARGIN).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn explicit_gains_override_the_derived_ones() {
+    let p = HapticParams::from_toml_str("k_ff = 1000.0\nb_t = 2.5\n", "test").unwrap();
+    let g = p.gains();
+    assert_eq!((g.k_ff, g.k_t, g.b_t), (1000.0, 500.0, 2.5));
+    let p = HapticParams::from_toml_str("k_t = 100.0\ninertia = 1e-5\n", "test").unwrap();
+    let g = p.gains();
+    assert_eq!((g.k_t, g.k_ff, g.inertia), (100.0, 200.0, 1e-5));
+    assert!((g.k_r - 100.0 * 1e-5 / p.mass).abs() < 1e-15);
+}
+
+#[test]
+fn unknown_keys_are_an_error() {
+    let err = HapticParams::from_toml_str("dt = 0.001\nstifness = 3.0\n", "my.toml").unwrap_err();
+    let msg = err.to_string();
+    assert!(matches!(err, ParamsError::Toml { .. }));
+    assert!(msg.contains("my.toml") && msg.contains("stifness"), "{msg}");
+}
+
+#[test]
+fn bad_values_name_the_field() {
+    let cases = [
+        ("dt = 0.0", "dt"),
+        ("dt = 0.5", "dt"),
+        ("mass = -1.0", "mass"),
+        ("mass = nan", "mass"),
+        ("voxel_size = inf", "voxel_size"),
+        ("k_ff = 0.0", "k_ff"),
+        ("b_r = -3.0", "b_r"),
+        ("inertia = 1e9", "inertia"),
+        ("velocity_guard_fraction = 1.5", "velocity_guard_fraction"),
+        ("contact_average_threshold = 0", "contact_average_threshold"),
+        ("device_max_force = 0.0", "device_max_force"),
+        ("device_max_torque = -0.1", "device_max_torque"),
+        ("max_radius = 0.0", "max_radius"),
+    ];
+    for (text, field) in cases {
+        match HapticParams::from_toml_str(text, "cfg") {
+            Err(ParamsError::Invalid { field: f, .. }) => assert_eq!(f, field, "{text}"),
+            other => panic!("{text}: expected Invalid({field}), got {other:?}"),
+        }
+    }
+    let msg = HapticParams::from_toml_str("mass = -1.0", "cfg").unwrap_err().to_string();
+    assert!(msg.contains("cfg") && msg.contains("mass") && msg.contains("-1"), "{msg}");
+}
+
+#[test]
+fn type_errors_and_missing_files_are_reported() {
+    let err = HapticParams::from_toml_str("\n\ndt = \"fast\"\n", "cfg").unwrap_err();
+    assert!(err.to_string().contains("line 3"), "{err}");
+    let err = HapticParams::from_file("/nonexistent/haptic.toml").unwrap_err();
+    assert!(matches!(err, ParamsError::Io { .. }) && err.to_string().contains("/nonexistent/haptic.toml"));
+}
+
+#[test]
+fn with_scene_sets_and_validates() {
+    let p = HapticParams::default().with_scene(0.001, 0.2).unwrap();
+    assert_eq!((p.voxel_size, p.max_radius), (0.001, 0.2));
+    assert!(HapticParams::default().with_scene(-1.0, 0.2).is_err());
+    assert!(HapticParams::default().with_scene(0.001, f64::NAN).is_err());
+}
