@@ -1,1 +1,48 @@
-//! Real-time runtime. Work in progress.
+//! The vps real-time shell around the sans-IO haptic core: the 1 kHz frame thread, a local worker
+//! pool, frame timing, best-effort real-time scheduling, statistics, watchdog and a state feed.
+//!
+//! Module map:
+//! - [`haptic_loop`]: [`run_loop`] / [`spawn_loop`], [`LoopConfig`], [`LoopReport`].
+//! - [`pool`]: [`ClassPool`], cyclic class shares on local threads, exact merge.
+//! - [`clock`]: [`FrameClock`], absolute deadlines, sleep-then-spin, missed-tick accounting.
+//! - [`rt`]: [`request_realtime`] (SCHED_FIFO, core pinning), [`RtGrant`].
+//! - [`stats`]: [`FrameStats`], [`StatsSummary`] (HDR histograms, penetration ratio).
+//! - [`feed`]: [`state_feed`], a lock-free latest-value slot for viewers.
+
+pub mod clock;
+pub mod feed;
+pub mod haptic_loop;
+pub mod pool;
+pub mod rt;
+pub mod stats;
+#[cfg(test)]
+mod test_scene;
+
+pub use clock::{schedule, FrameClock, Schedule, Tick};
+pub use feed::{state_feed, FeedFrame, StateFeedReceiver, StateFeedSender};
+pub use haptic_loop::{run_loop, spawn_loop, LoopConfig, LoopHandle, LoopReport, SessionEnd};
+pub use pool::{ClassPool, PoolResult};
+pub use rt::{request_realtime, RtGrant};
+pub use stats::{FrameRecord, FrameStats, Percentiles, StatsSummary};
+
+/// Why a session could not start or finish.
+#[derive(Debug, thiserror::Error)]
+pub enum RuntimeError {
+    /// A [`LoopConfig`] field is invalid.
+    #[error("loop config `{field}`: {message}")]
+    Config {
+        /// The field.
+        field: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+    /// The haptic parameters are invalid.
+    #[error(transparent)]
+    Params(#[from] vps_haptic::ParamsError),
+    /// A thread could not be spawned.
+    #[error("cannot spawn a thread: {0}")]
+    Spawn(std::io::Error),
+    /// The frame thread panicked (a bug: the frame path is written not to panic).
+    #[error("the frame thread panicked")]
+    FramePanicked,
+}

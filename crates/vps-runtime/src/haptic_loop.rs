@@ -1,0 +1,653 @@
+//! The 1 kHz haptic loop: one dedicated frame thread that reads the device, samples the shell with
+//! the [`ClassPool`], steps the sans-IO core and writes the device, every tick.
+//!
+//! Per frame: wait for the tick ([`FrameClock`]) → `device.read(tick time)` → [`KernelPose`] of the
+//! current state → pool computes all classes (workers until half the watchdog budget, then the
+//! frame thread computes what is missing) → [`step`] → watchdog check → `device.write` → statistics
+//! → publish to the state feed (never blocks).
+//!
+//! Watchdog: a frame whose compute time (device read to just before the write) reaches
+//! `LoopConfig::watchdog` sends the zero wrench instead (counted in `watchdog_trips`); the part's
+//! state still advances. A device read or write error writes the zero wrench and ends the session
+//! cleanly with the error in the [`LoopReport`]. Every session ends by writing the zero wrench.
+//!
+//! The device is given the scheduled tick time (`tick · period`, s), never the wall clock, so a
+//! simulated device runs identically in real-time and free-running mode.
+
+use crate::clock::FrameClock;
+use crate::feed::{FeedFrame, StateFeedSender};
+use crate::pool::ClassPool;
+use crate::rt::{request_realtime, RtGrant};
+use crate::stats::{FrameRecord, FrameStats, StatsSummary};
+use crate::RuntimeError;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+use vps_device::{DeviceError, HapticDevice, Trace, TraceRecorder};
+use vps_haptic::{step, ClassedShell, HapticParams, KernelPose, PartState, Wrench};
+use vps_voxmap::VoxelLookup;
+
+/// How the loop runs. The number of classes is the [`ClassedShell`]'s own.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LoopConfig {
+    /// Frame period; must equal `HapticParams::dt` to within 1 ns. Default 1 ms.
+    pub period: Duration,
+    /// Frames to run; `None` runs until `stop` is set or the device fails.
+    pub frames: Option<u64>,
+    /// Compute threads, the frame thread included (≥ 1). Default 1.
+    pub threads: usize,
+    /// How long before each deadline the frame thread stops sleeping and starts spinning.
+    /// Default 200 µs.
+    pub spin_margin: Duration,
+    /// Request SCHED_FIFO and core pinning for the frame thread (best effort). Default false.
+    pub realtime: bool,
+    /// The core to pin the frame thread to when `realtime` (`None`: the last available core).
+    pub core: Option<usize>,
+    /// Compute budget per frame; at or over it the device gets the zero wrench. Workers' replies
+    /// are awaited until half of it. Default 800 µs.
+    pub watchdog: Duration,
+    /// Run frames back to back without waiting for ticks (tests, benchmarks). Default false.
+    pub free_running: bool,
+    /// Record every handle sample into [`LoopReport::trace`]. Default false.
+    pub record_trace: bool,
+}
+
+impl Default for LoopConfig {
+    fn default() -> Self {
+        LoopConfig {
+            period: Duration::from_millis(1),
+            frames: None,
+            threads: 1,
+            spin_margin: Duration::from_micros(200),
+            realtime: false,
+            core: None,
+            watchdog: Duration::from_micros(800),
+            free_running: false,
+            record_trace: false,
+        }
+    }
+}
+
+impl LoopConfig {
+    /// Checks the config against the haptic parameters (period = dt, threads ≥ 1).
+    pub fn validate(&self, params: &HapticParams) -> Result<(), RuntimeError> {
+        if self.period.is_zero() {
+            return Err(RuntimeError::Config {
+                field: "period",
+                message: "must be > 0".into(),
+            });
+        }
+        if (self.period.as_secs_f64() - params.dt).abs() > 1e-9 {
+            return Err(RuntimeError::Config {
+                field: "period",
+                message: format!(
+                    "{} s differs from the haptic time step dt = {} s",
+                    self.period.as_secs_f64(),
+                    params.dt
+                ),
+            });
+        }
+        if self.threads == 0 {
+            return Err(RuntimeError::Config {
+                field: "threads",
+                message: "must be at least 1".into(),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Why a session ended.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub enum SessionEnd {
+    /// `LoopConfig::frames` frames ran.
+    FramesDone,
+    /// The stop flag was set.
+    Stopped,
+    /// The device failed (message of the [`DeviceError`], also in [`LoopReport::device_error`]).
+    DeviceFailed(String),
+}
+
+/// What a session did.
+#[derive(Clone, Debug)]
+pub struct LoopReport {
+    /// Why it ended.
+    pub end: SessionEnd,
+    /// The device error that ended it, if any.
+    pub device_error: Option<DeviceError>,
+    /// Frame figures.
+    pub stats: StatsSummary,
+    /// What real-time scheduling was granted (default, empty, when not requested).
+    pub rt: RtGrant,
+    /// The part's state after the last frame.
+    pub final_state: PartState,
+    /// The device's name.
+    pub device_name: String,
+    /// The handle trace, when `record_trace` was set.
+    pub trace: Option<Trace>,
+    /// Why trace recording stopped early, if it did (e.g. a non-finite handle sample).
+    pub trace_error: Option<String>,
+}
+
+/// A running session. Dropping it detaches the frame thread (set the stop flag first).
+pub struct LoopHandle {
+    thread: JoinHandle<LoopReport>,
+}
+
+impl LoopHandle {
+    /// Blocks until the session ends.
+    pub fn join(self) -> Result<LoopReport, RuntimeError> {
+        self.thread.join().map_err(|_| RuntimeError::FramePanicked)
+    }
+
+    /// True once the frame thread has finished.
+    pub fn is_finished(&self) -> bool {
+        self.thread.is_finished()
+    }
+}
+
+/// Starts a session on a new thread named `vps-frame` and returns at once. Validates `params` and
+/// `config` and spawns the pool's workers first (errors are returned, nothing is left running).
+#[allow(clippy::too_many_arguments)]
+pub fn spawn_loop<L: VoxelLookup + Send + Sync + 'static>(
+    map: Arc<L>,
+    shell: Arc<ClassedShell>,
+    params: HapticParams,
+    device: Box<dyn HapticDevice>,
+    initial: PartState,
+    config: LoopConfig,
+    feed: Option<StateFeedSender>,
+    stop: Arc<AtomicBool>,
+) -> Result<LoopHandle, RuntimeError> {
+    params.validate("haptic parameters")?;
+    config.validate(&params)?;
+    let pool = ClassPool::new(map, shell, config.threads)?;
+    let session = Session {
+        pool,
+        params,
+        device,
+        state: initial,
+        config,
+        feed,
+        stop,
+    };
+    let thread = std::thread::Builder::new()
+        .name("vps-frame".into())
+        .spawn(move || session.run())
+        .map_err(RuntimeError::Spawn)?;
+    Ok(LoopHandle { thread })
+}
+
+/// Runs a session on a dedicated `vps-frame` thread and blocks the caller until it ends (see
+/// [`spawn_loop`] to keep the caller free).
+#[allow(clippy::too_many_arguments)]
+pub fn run_loop<L: VoxelLookup + Send + Sync + 'static>(
+    map: Arc<L>,
+    shell: Arc<ClassedShell>,
+    params: HapticParams,
+    device: Box<dyn HapticDevice>,
+    initial: PartState,
+    config: LoopConfig,
+    feed: Option<StateFeedSender>,
+    stop: Arc<AtomicBool>,
+) -> Result<LoopReport, RuntimeError> {
+    spawn_loop(map, shell, params, device, initial, config, feed, stop)?.join()
+}
+
+struct Session<L: VoxelLookup + Send + Sync + 'static> {
+    pool: ClassPool<L>,
+    params: HapticParams,
+    device: Box<dyn HapticDevice>,
+    state: PartState,
+    config: LoopConfig,
+    feed: Option<StateFeedSender>,
+    stop: Arc<AtomicBool>,
+}
+
+/// Largest number of frames a trace recorder reserves up front.
+const MAX_TRACE_RESERVE: u64 = 1 << 22;
+
+impl<L: VoxelLookup + Send + Sync + 'static> Session<L> {
+    fn run(mut self) -> LoopReport {
+        let rt = if self.config.realtime {
+            request_realtime(self.config.core)
+        } else {
+            RtGrant::default()
+        };
+        let period_s = self.config.period.as_secs_f64();
+        let mut recorder = self.config.record_trace.then(|| {
+            let reserve = self.config.frames.unwrap_or(0).min(MAX_TRACE_RESERVE) as usize;
+            TraceRecorder::with_capacity(self.device.name(), period_s, reserve)
+        });
+        let mut trace_error = None;
+        let mut stats = FrameStats::new();
+        let limits = self.device.limits();
+        let mut clock =
+            FrameClock::new(Instant::now(), self.config.period, self.config.spin_margin);
+        let mut frame = 0u64;
+        let end = loop {
+            if self.config.frames.is_some_and(|n| frame >= n) {
+                break Ok(SessionEnd::FramesDone);
+            }
+            if self.stop.load(Ordering::Relaxed) {
+                break Ok(SessionEnd::Stopped);
+            }
+            let tick = if self.config.free_running {
+                clock.next_immediate()
+            } else {
+                clock.wait_next()
+            };
+            let time = tick.index as f64 * period_s;
+            let handle = match self.device.read(time) {
+                Ok(h) => h,
+                Err(e) => break Err(e),
+            };
+            if let Some(rec) = recorder.as_mut() {
+                if let Err(e) = rec.record(frame, time, handle) {
+                    trace_error = Some(e.to_string());
+                    recorder = None;
+                }
+            }
+            let pose = KernelPose::from_state(&self.state);
+            let gathered = self
+                .pool
+                .compute(&pose, tick.started + self.config.watchdog / 2);
+            let out = step(&self.params, &self.state, &handle, &gathered.sums);
+            let mut wrench = limits.saturate(&out.device_wrench);
+            let clamped = out.clamped || wrench != out.device_wrench;
+            let watchdog_tripped = tick.started.elapsed() >= self.config.watchdog;
+            if watchdog_tripped {
+                wrench = Wrench::ZERO;
+            }
+            if let Err(e) = self.device.write(&wrench) {
+                break Err(e);
+            }
+            self.state = out.next_state;
+            stats.record(&FrameRecord {
+                compute_ns: u64::try_from(tick.started.elapsed().as_nanos()).unwrap_or(u64::MAX),
+                period_error_ns: (!self.config.free_running).then(|| tick.lateness_ns()),
+                missed: tick.missed,
+                watchdog_tripped,
+                fallback_shares: gathered.fallback_shares,
+                contact: out.contacts > 0,
+                touching: out.touching,
+                penetrating: out.penetrating,
+                clamped,
+            });
+            if let Some(feed) = &self.feed {
+                let c = stats.counters();
+                feed.publish(FeedFrame {
+                    frame,
+                    time,
+                    part: self.state,
+                    handle,
+                    device_wrench: wrench,
+                    contacts: out.contacts,
+                    touching: out.touching,
+                    penetrating: out.penetrating,
+                    missed_deadlines: c.missed_deadlines,
+                    watchdog_trips: c.watchdog_trips,
+                    penetrating_frames: c.penetrating_frames,
+                    touching_frames: c.touching_frames,
+                });
+            }
+            frame += 1;
+        };
+        // Release the hand whatever happened; a failure here cannot be reported any better.
+        let _ = self.device.write(&Wrench::ZERO);
+        let (end, device_error) = match end {
+            Ok(end) => (end, None),
+            Err(e) => (SessionEnd::DeviceFailed(e.to_string()), Some(e)),
+        };
+        LoopReport {
+            end,
+            device_error,
+            stats: stats.summary(),
+            rt,
+            final_state: self.state,
+            device_name: self.device.name().to_string(),
+            trace: recorder.map(TraceRecorder::finish),
+            trace_error,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::feed::state_feed;
+    use crate::test_scene::{sphere_shell, wall, SPHERE_RADIUS, VOXEL, WALL_TOP};
+    use glam::{DQuat, DVec3};
+    use std::sync::Mutex;
+    use vps_device::script::{approach_and_rest, Pace};
+    use vps_device::{DeviceLimits, HandParams, ReplayDevice, SimulatedHand, SurfaceContact};
+    use vps_haptic::HandleSample;
+    use vps_voxmap::DenseGrid;
+
+    type Writes = Arc<Mutex<Vec<Wrench>>>;
+
+    /// Wraps a device: logs every write, optionally fails a given read or write.
+    struct Probe {
+        inner: Box<dyn HapticDevice>,
+        writes: Writes,
+        fail_read_at: Option<u64>,
+        fail_write_at: Option<u64>,
+        reads: u64,
+    }
+
+    impl HapticDevice for Probe {
+        fn read(&mut self, t: f64) -> Result<HandleSample, DeviceError> {
+            self.reads += 1;
+            if self.fail_read_at == Some(self.reads - 1) {
+                return Err(DeviceError::Hardware {
+                    device: "probe".into(),
+                    message: "unplugged".into(),
+                });
+            }
+            self.inner.read(t)
+        }
+        fn write(&mut self, w: &Wrench) -> Result<(), DeviceError> {
+            self.writes.lock().unwrap().push(*w);
+            if self.fail_write_at == Some(self.reads - 1) {
+                return Err(DeviceError::Hardware {
+                    device: "probe".into(),
+                    message: "bus error".into(),
+                });
+            }
+            self.inner.write(w)
+        }
+        fn limits(&self) -> DeviceLimits {
+            self.inner.limits()
+        }
+        fn name(&self) -> &str {
+            self.inner.name()
+        }
+    }
+
+    const START: DVec3 = DVec3::new(0.05, 0.05, 0.09);
+
+    fn hand() -> Box<dyn HapticDevice> {
+        let contact = SurfaceContact {
+            point: DVec3::new(0.05, 0.05, WALL_TOP + SPHERE_RADIUS),
+            normal: DVec3::Z,
+            orientation: DQuat::IDENTITY,
+        };
+        // The field starts half a voxel inside the Surface layer: press past that.
+        let pace = Pace {
+            speed: 0.1,
+            press_depth: 0.005,
+            dwell: 0.1,
+        };
+        let script = approach_and_rest(START, &contact, &pace).unwrap();
+        Box::new(SimulatedHand::new(script, HandParams::default()).unwrap())
+    }
+
+    fn probe(inner: Box<dyn HapticDevice>) -> (Probe, Writes) {
+        let writes = Writes::default();
+        let p = Probe {
+            inner,
+            writes: writes.clone(),
+            fail_read_at: None,
+            fail_write_at: None,
+            reads: 0,
+        };
+        (p, writes)
+    }
+
+    fn params() -> HapticParams {
+        HapticParams::default()
+            .with_scene(VOXEL, SPHERE_RADIUS)
+            .unwrap()
+    }
+
+    /// Free-running, generous watchdog so that no frame is zeroed by a slow test machine.
+    fn config(frames: u64, threads: usize) -> LoopConfig {
+        LoopConfig {
+            frames: Some(frames),
+            threads,
+            free_running: true,
+            watchdog: Duration::from_secs(10),
+            ..LoopConfig::default()
+        }
+    }
+
+    fn session(
+        device: Box<dyn HapticDevice>,
+        config: LoopConfig,
+        classes: u32,
+        feed: Option<StateFeedSender>,
+    ) -> LoopReport {
+        let map: Arc<DenseGrid> = Arc::new(wall());
+        let shell = Arc::new(ClassedShell::new(&sphere_shell(400), classes));
+        let initial = PartState::at_rest(START, DQuat::IDENTITY);
+        run_loop(
+            map,
+            shell,
+            params(),
+            device,
+            initial,
+            config,
+            feed,
+            Arc::new(AtomicBool::new(false)),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn a_hand_resting_on_a_wall_feels_bounded_contact_forces() {
+        let (device, writes) = probe(hand());
+        let (tx, mut rx) = state_feed();
+        let report = session(Box::new(device), config(600, 2), 8, Some(tx));
+        assert_eq!(report.end, SessionEnd::FramesDone);
+        let s = &report.stats;
+        assert_eq!(s.frames, 600);
+        assert_eq!((s.missed_deadlines, s.watchdog_trips), (0, 0));
+        assert!(
+            s.contact_frames > 0 && s.touching_frames >= s.contact_frames,
+            "{s:?}"
+        );
+        let writes = writes.lock().unwrap();
+        assert_eq!(writes.len(), 601, "one per frame and the final release");
+        assert!(writes.iter().all(|w| DeviceLimits::PAPER.admits(w)));
+        assert!(
+            writes.iter().any(|w| w.force.z > 0.1),
+            "the wall must push the hand back up"
+        );
+        assert!(
+            writes[..100].iter().all(|w| *w == Wrench::ZERO),
+            "free space gives exactly zero"
+        );
+        assert_eq!(writes[600], Wrench::ZERO);
+        let z = report.final_state.position.z;
+        assert!(
+            z > WALL_TOP + SPHERE_RADIUS - 2.0 * VOXEL && z < WALL_TOP + SPHERE_RADIUS + VOXEL,
+            "z = {z}"
+        );
+        assert_eq!(rx.latest().map(|f| f.frame), Some(599));
+    }
+
+    #[test]
+    fn any_thread_count_gives_the_identical_session() {
+        let runs: Vec<(Vec<Wrench>, PartState)> = (1..=4)
+            .map(|threads| {
+                let (device, writes) = probe(hand());
+                let report = session(Box::new(device), config(450, threads), 12, None);
+                assert!(report.stats.contact_frames > 0);
+                let w = writes.lock().unwrap().clone();
+                (w, report.final_state)
+            })
+            .collect();
+        for (threads, run) in runs.iter().enumerate().skip(1) {
+            assert!(
+                run.0 == runs[0].0,
+                "device writes differ with {} threads",
+                threads + 1
+            );
+            assert!(
+                run.1 == runs[0].1,
+                "final state differs with {} threads",
+                threads + 1
+            );
+        }
+    }
+
+    #[test]
+    fn a_recorded_session_replays_identically() {
+        let (device, first) = probe(hand());
+        let report = session(
+            Box::new(device),
+            LoopConfig {
+                record_trace: true,
+                ..config(400, 1)
+            },
+            4,
+            None,
+        );
+        let trace = report.trace.expect("trace requested");
+        assert_eq!(trace.frames.len(), 400);
+        let (replay, second) = probe(Box::new(ReplayDevice::new(trace, DeviceLimits::PAPER)));
+        let again = session(Box::new(replay), config(500, 3), 4, None);
+        // The replay runs out after 400 frames: a clean device error, not a hang.
+        assert!(matches!(
+            again.device_error,
+            Some(DeviceError::TraceExhausted { frames: 400, .. })
+        ));
+        assert_eq!(again.stats.frames, 400);
+        assert!(*first.lock().unwrap() == *second.lock().unwrap());
+        assert_eq!(again.final_state, report.final_state);
+    }
+
+    #[test]
+    fn device_errors_end_the_session_after_a_zero_wrench() {
+        let (mut device, writes) = probe(hand());
+        device.fail_read_at = Some(20);
+        let r = session(Box::new(device), config(100, 2), 4, None);
+        assert!(matches!(r.end, SessionEnd::DeviceFailed(ref m) if m.contains("unplugged")));
+        assert_eq!(r.stats.frames, 20);
+        assert_eq!(writes.lock().unwrap().last(), Some(&Wrench::ZERO));
+
+        let (mut device, writes) = probe(hand());
+        device.fail_write_at = Some(5);
+        let r = session(Box::new(device), config(100, 1), 4, None);
+        assert!(matches!(r.device_error, Some(DeviceError::Hardware { .. })));
+        assert_eq!(r.stats.frames, 5);
+        let writes = writes.lock().unwrap();
+        assert_eq!(
+            writes.len(),
+            7,
+            "five frames, the failed write, the release"
+        );
+        assert_eq!(writes[6], Wrench::ZERO);
+    }
+
+    #[test]
+    fn an_exhausted_watchdog_budget_zeroes_every_output() {
+        let (device, writes) = probe(hand());
+        let cfg = LoopConfig {
+            watchdog: Duration::ZERO,
+            ..config(500, 2)
+        };
+        let r = session(Box::new(device), cfg, 4, None);
+        assert_eq!(r.stats.watchdog_trips, 500);
+        assert!(
+            r.stats.touching_frames > 0,
+            "the part still moves and touches"
+        );
+        assert!(writes.lock().unwrap().iter().all(|w| *w == Wrench::ZERO));
+    }
+
+    #[test]
+    fn the_stop_flag_ends_an_open_ended_session() {
+        let stop = Arc::new(AtomicBool::new(false));
+        let (tx, mut rx) = state_feed();
+        let cfg = LoopConfig {
+            frames: None,
+            ..config(0, 2)
+        };
+        let initial = PartState::at_rest(START, DQuat::IDENTITY);
+        let shell = Arc::new(ClassedShell::new(&sphere_shell(100), 4));
+        let h = spawn_loop(
+            Arc::new(wall()),
+            shell,
+            params(),
+            hand(),
+            initial,
+            cfg,
+            Some(tx),
+            stop.clone(),
+        )
+        .unwrap();
+        while rx.latest().is_none_or(|f| f.frame < 50) {
+            std::thread::yield_now();
+        }
+        stop.store(true, Ordering::Relaxed);
+        let r = h.join().unwrap();
+        assert_eq!(r.end, SessionEnd::Stopped);
+        assert!(r.stats.frames > 50);
+    }
+
+    #[test]
+    fn a_paced_session_runs_its_frames() {
+        let cfg = LoopConfig {
+            free_running: false,
+            watchdog: Duration::from_secs(10),
+            ..config(20, 2)
+        };
+        let r = session(hand(), cfg, 4, None);
+        assert_eq!(r.end, SessionEnd::FramesDone);
+        assert_eq!(r.stats.frames, 20);
+        assert!(
+            r.stats.period_error_ns.max > 0,
+            "period errors are recorded when paced"
+        );
+    }
+
+    #[test]
+    fn bad_configs_are_refused_before_starting() {
+        let run = |cfg: LoopConfig| {
+            let shell = Arc::new(ClassedShell::new(&sphere_shell(10), 1));
+            let initial = PartState::at_rest(START, DQuat::IDENTITY);
+            run_loop(
+                Arc::new(wall()),
+                shell,
+                params(),
+                hand(),
+                initial,
+                cfg,
+                None,
+                Arc::new(AtomicBool::new(false)),
+            )
+        };
+        let e = run(LoopConfig {
+            period: Duration::from_micros(500),
+            ..LoopConfig::default()
+        })
+        .unwrap_err();
+        assert!(
+            matches!(
+                e,
+                RuntimeError::Config {
+                    field: "period",
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        let e = run(LoopConfig {
+            threads: 0,
+            ..LoopConfig::default()
+        })
+        .unwrap_err();
+        assert!(
+            matches!(
+                e,
+                RuntimeError::Config {
+                    field: "threads",
+                    ..
+                }
+            ),
+            "{e}"
+        );
+    }
+}
