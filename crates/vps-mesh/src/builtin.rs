@@ -1,8 +1,14 @@
 //! Deterministic built-in meshes: analytic primitives (metres, centred at the origin).
 
+mod bezier;
 mod primitives;
+mod teapot;
 
+pub use bezier::{parse_bezier_patches, BezierPatches};
 pub use primitives::{cuboid, cylinder, uv_sphere};
+pub use teapot::{
+    teapot, teapot_patches, teapot_with_resolution, TEAPOT_DEFAULT_RESOLUTION, TEAPOT_LENGTH_M,
+};
 
 #[cfg(test)]
 pub(crate) mod test_support {
@@ -26,13 +32,15 @@ pub(crate) mod test_support {
         }
     }
 
-    /// Signed volume by the divergence theorem (m³); positive for outward-facing closed meshes.
-    pub fn signed_volume(m: &TriMesh) -> f64 {
-        (0..m.triangle_count())
-            .map(|i| {
-                let [a, b, c] = m.triangle(i);
-                a.dot(b.cross(c)) / 6.0
-            })
-            .sum()
+    /// Number of directed edges used by more than one triangle: zero when adjacent triangles agree
+    /// on winding and no edge is shared by more than two triangles.
+    pub fn repeated_directed_edges(m: &TriMesh) -> usize {
+        let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
+        for t in &m.triangles {
+            for k in 0..3 {
+                *directed.entry((t[k], t[(k + 1) % 3])).or_default() += 1;
+            }
+        }
+        directed.values().filter(|&&n| n > 1).count()
     }
 }

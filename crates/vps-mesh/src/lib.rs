@@ -9,11 +9,13 @@
 //! - [`validate`]: checks with errors naming the element at fault.
 //! - [`load`]: OBJ, STL (binary and ASCII), PLY readers.
 //! - [`builtin`]: deterministic built-in scenes (teapot, aircraft bay) and primitives.
+//! - [`weld`]: merging coincident vertices.
 
 pub mod builtin;
 pub mod load;
 pub mod mesh;
 pub mod validate;
+pub mod weld;
 
 pub use load::{load_mesh, LoadedMesh};
 pub use mesh::{Aabb, TriMesh};

@@ -121,6 +121,24 @@ impl TriMesh {
         m
     }
 
+    /// Signed enclosed volume by the divergence theorem (m³): positive for a closed mesh whose
+    /// triangles face outward, negative when they all face inward; only indicative for open meshes.
+    pub fn signed_volume(&self) -> f64 {
+        (0..self.triangles.len())
+            .map(|i| {
+                let [a, b, c] = self.triangle(i);
+                a.dot(b.cross(c)) / 6.0
+            })
+            .sum()
+    }
+
+    /// Reverses the winding of every triangle (turns every normal around).
+    pub fn flip_winding(&mut self) {
+        for t in &mut self.triangles {
+            t.swap(1, 2);
+        }
+    }
+
     /// Total surface area (m²).
     pub fn area(&self) -> f64 {
         (0..self.triangles.len())

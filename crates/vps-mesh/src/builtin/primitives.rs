@@ -126,14 +126,14 @@ pub(crate) fn push_quad(triangles: &mut Vec<[u32; 3]>, a: u32, b: u32, c: u32, d
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::builtin::test_support::{assert_closed, signed_volume};
+    use crate::builtin::test_support::assert_closed;
 
     #[test]
     fn cuboid_is_closed_with_right_volume_and_area() {
         let m = cuboid(DVec3::new(0.1, 0.2, 0.3));
         assert_eq!(m.triangle_count(), 12);
         assert_closed(&m);
-        assert!((signed_volume(&m) - 0.2 * 0.4 * 0.6).abs() < 1e-12);
+        assert!((m.signed_volume() - 0.2 * 0.4 * 0.6).abs() < 1e-12);
         let area = 2.0 * (0.2 * 0.4 + 0.4 * 0.6 + 0.2 * 0.6);
         assert!((m.area() - area).abs() < 1e-12);
     }
@@ -147,13 +147,13 @@ mod tests {
         let v = 4.0 / 3.0 * PI * r.powi(3);
         let a = 4.0 * PI * r * r;
         assert!(
-            (signed_volume(&m) - v).abs() / v < 0.01,
+            (m.signed_volume() - v).abs() / v < 0.01,
             "volume {}",
-            signed_volume(&m)
+            m.signed_volume()
         );
         assert!((m.area() - a).abs() / a < 0.01, "area {}", m.area());
         // Inscribed polyhedron: strictly smaller.
-        assert!(signed_volume(&m) < v);
+        assert!(m.signed_volume() < v);
     }
 
     #[test]
@@ -173,7 +173,7 @@ mod tests {
         assert_closed(&m);
         let v = PI * r * r * 2.0 * h;
         let a = 2.0 * PI * r * 2.0 * h + 2.0 * PI * r * r;
-        assert!((signed_volume(&m) - v).abs() / v < 0.005);
+        assert!((m.signed_volume() - v).abs() / v < 0.005);
         assert!((m.area() - a).abs() / a < 0.005);
         let b = m.bounds();
         assert!((b.min.z + h).abs() < 1e-15 && (b.max.z - h).abs() < 1e-15);
