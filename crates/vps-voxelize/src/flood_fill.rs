@@ -77,8 +77,8 @@ fn span_mask(w: usize, l: usize, r: usize) -> u64 {
 /// Pushes one seed per run of set bits of `words` within `l..=r`.
 fn push_runs(words: &[u64], row: usize, l: usize, r: usize, stack: &mut Vec<(u32, u32)>) {
     let mut carry = 0u64; // bit 63 of the previous masked word, so runs crossing words push once
-    for w in l / 64..=r / 64 {
-        let m = words[w] & span_mask(w, l, r);
+    for (w, &word) in words.iter().enumerate().take(r / 64 + 1).skip(l / 64) {
+        let m = word & span_mask(w, l, r);
         let mut starts = m & !((m << 1) | carry);
         carry = m >> 63;
         while starts != 0 {

@@ -46,8 +46,8 @@ pub fn morton_key(ijk: [u32; 3]) -> u64 {
 /// nearest to its centre (within 1e-6 voxel of the nearest: several at an edge or vertex), unit
 /// length. Each triangle's inward side is decided once, by the object's flood-filled voxelization and
 /// not by the winding: from the triangle's centroid (then from the midpoints between centroid and
-/// each corner) probe 1.5, 2.5, then 3.5 voxels along ± its normal; a side scores Interior > Surface
-/// > Free, and the normal points to the side that scores higher at the first probe where they differ.
+/// each corner) probe 1.5, 2.5, then 3.5 voxels along ± its normal; a side scores Interior above
+/// Surface above Free, and the normal points to the side that scores higher at the first probe where they differ.
 /// Only when every probe ties (a sheet with no interior, or a part thinner than the probes resolve)
 /// does the winding decide (inward = minus the counter-clockwise normal). So badly oriented meshes
 /// such as tessellated Bezier teapots still get inward normals.
