@@ -44,7 +44,7 @@ pub fn brake_wrench(
         return Wrench::ZERO;
     }
     let v_n = state.linear_velocity.dot(s_f / s_f_len);
-    if !(v_n > 0.0) {
+    if v_n.is_nan() || v_n <= 0.0 {
         return Wrench::ZERO;
     }
     let (m, dt) = (params.mass, params.dt);

@@ -96,7 +96,8 @@ impl PartialSums {
                 .and_then(|x| x.checked_add(self.approaching))
                 .is_some_and(|x| x <= self.non_free)
             && self.non_free <= self.sampled;
-        if !counts_ok || !(voxel_size.is_finite() && voxel_size > 0.0) {
+        let voxel_ok = voxel_size.is_finite() && voxel_size > 0.0;
+        if !counts_ok || !voxel_ok {
             return false;
         }
         let slack = self.sampled as f64;

@@ -37,9 +37,15 @@ fn averaging_starts_at_ten_contacts() {
     assert!(close(force_z(11), raw * 10.0 / 11.0));
     assert!(close(force_z(40), raw * 0.25));
     // With threshold 5 averaging starts at 5.
-    let p5 = HapticParams { contact_average_threshold: 5, ..params };
+    let p5 = HapticParams {
+        contact_average_threshold: 5,
+        ..params
+    };
     assert_eq!(contact_wrench(&p5, &g, &sums_with_contacts(4)).force.z, raw);
-    assert!(close(contact_wrench(&p5, &g, &sums_with_contacts(6)).force.z, raw * 5.0 / 6.0));
+    assert!(close(
+        contact_wrench(&p5, &g, &sums_with_contacts(6)).force.z,
+        raw * 5.0 / 6.0
+    ));
 }
 
 /// All points Free: the device gets exactly zero, however stretched the spring; the part still
@@ -61,7 +67,12 @@ fn free_space_gives_exactly_zero() {
     assert_eq!(out.device_wrench.torque, DVec3::ZERO);
     assert!(out.coupling_wrench.force.length() > 0.1);
     assert!(!out.touching && out.contacts == 0);
-    assert!((out.next_state.linear_velocity.dot(handle.position - state.position)) > 0.0);
+    assert!(
+        (out.next_state
+            .linear_velocity
+            .dot(handle.position - state.position))
+            > 0.0
+    );
     // One point in Proximity is enough to give the device the coupling force.
     let near = PartState::at_rest(DVec3::new(0.0, 0.0, 0.0115), DQuat::IDENTITY);
     let out = frame(&params, &map, &shell, &near, &handle);
@@ -75,8 +86,17 @@ fn coupling_clamp_holds() {
     let params = HapticParams::default();
     let g = params.gains();
     let state = PartState::at_rest(DVec3::ZERO, DQuat::IDENTITY);
-    let sums = PartialSums { non_free: 1, sampled: 1, ..PartialSums::default() };
-    for (offset, speed, angle) in [(0.001, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 50.0, 0.0), (0.0, 0.0, 3.0)] {
+    let sums = PartialSums {
+        non_free: 1,
+        sampled: 1,
+        ..PartialSums::default()
+    };
+    for (offset, speed, angle) in [
+        (0.001, 0.0, 0.0),
+        (1.0, 0.0, 0.0),
+        (0.0, 50.0, 0.0),
+        (0.0, 0.0, 3.0),
+    ] {
         let handle = HandleSample {
             position: DVec3::new(offset, 0.0, 0.0),
             orientation: DQuat::from_rotation_y(angle),
@@ -86,9 +106,18 @@ fn coupling_clamp_holds() {
         let out = step(&params, &state, &handle, &sums);
         let f = out.coupling_wrench.force.length();
         let t = out.coupling_wrench.torque.length();
-        assert!(f <= g.k_t * params.voxel_size / 2.0, "{offset} {speed}: {f}");
-        assert!(t <= g.k_r * params.voxel_size / (2.0 * params.max_radius), "{angle}: {t}");
-        assert_eq!(out.coupling_clamped, offset > 0.01 || speed > 1.0 || angle > 0.1);
+        assert!(
+            f <= g.k_t * params.voxel_size / 2.0,
+            "{offset} {speed}: {f}"
+        );
+        assert!(
+            t <= g.k_r * params.voxel_size / (2.0 * params.max_radius),
+            "{angle}: {t}"
+        );
+        assert_eq!(
+            out.coupling_clamped,
+            offset > 0.01 || speed > 1.0 || angle > 0.1
+        );
     }
 }
 
@@ -100,7 +129,9 @@ fn rotation_vector_is_shortest_arc() {
     assert!((v - DVec3::new(1.0, 2.0, -1.0).normalize() * 0.7).length() < 1e-12);
     assert!((rotation_vector(-q) - v).length() < 1e-12);
     let big = DQuat::from_rotation_z(1.5 * std::f64::consts::PI);
-    assert!((rotation_vector(big) - DVec3::new(0.0, 0.0, -0.5 * std::f64::consts::PI)).length() < 1e-12);
+    assert!(
+        (rotation_vector(big) - DVec3::new(0.0, 0.0, -0.5 * std::f64::consts::PI)).length() < 1e-12
+    );
     assert_eq!(rotation_vector(DQuat::IDENTITY), DVec3::ZERO);
 }
 
@@ -109,17 +140,37 @@ fn rotation_vector_is_shortest_arc() {
 fn bad_handle_samples_are_rejected() {
     let params = HapticParams::default();
     let state = PartState::at_rest(DVec3::new(0.0, 0.0, 0.001), DQuat::IDENTITY);
-    let sums = PartialSums { non_free: 5, surface: 5, sampled: 5, ..PartialSums::default() };
+    let sums = PartialSums {
+        non_free: 5,
+        surface: 5,
+        sampled: 5,
+        ..PartialSums::default()
+    };
     let good = handle_at(DVec3::new(0.0, 0.0, -0.01), DVec3::ZERO);
     assert!(!step(&params, &state, &good, &sums).rejected_input);
     let mut bad = vec![];
     for f in [f64::NAN, f64::INFINITY, 2e3] {
-        bad.push(HandleSample { position: DVec3::new(f, 0.0, 0.0), ..good });
-        bad.push(HandleSample { linear_velocity: DVec3::new(0.0, f, 0.0), ..good });
-        bad.push(HandleSample { angular_velocity: DVec3::new(0.0, 0.0, f * 10.0), ..good });
+        bad.push(HandleSample {
+            position: DVec3::new(f, 0.0, 0.0),
+            ..good
+        });
+        bad.push(HandleSample {
+            linear_velocity: DVec3::new(0.0, f, 0.0),
+            ..good
+        });
+        bad.push(HandleSample {
+            angular_velocity: DVec3::new(0.0, 0.0, f * 10.0),
+            ..good
+        });
     }
-    bad.push(HandleSample { orientation: DQuat::from_xyzw(0.0, 0.0, 0.0, 2.0), ..good });
-    bad.push(HandleSample { orientation: DQuat::from_xyzw(f64::NAN, 0.0, 0.0, 1.0), ..good });
+    bad.push(HandleSample {
+        orientation: DQuat::from_xyzw(0.0, 0.0, 0.0, 2.0),
+        ..good
+    });
+    bad.push(HandleSample {
+        orientation: DQuat::from_xyzw(f64::NAN, 0.0, 0.0, 1.0),
+        ..good
+    });
     for h in bad {
         let out = step(&params, &state, &h, &sums);
         assert!(out.rejected_input, "{h:?}");
@@ -136,14 +187,23 @@ fn bad_handle_samples_are_rejected() {
 #[test]
 fn quaternion_stays_unit() {
     let params = HapticParams::default();
-    let sums = PartialSums { non_free: 1, sampled: 1, ..PartialSums::default() };
+    let sums = PartialSums {
+        non_free: 1,
+        sampled: 1,
+        ..PartialSums::default()
+    };
     let mut state = PartState::at_rest(DVec3::ZERO, DQuat::IDENTITY);
     let mut worst: f64 = 0.0;
     for i in 0..100_000 {
         let t = i as f64 * params.dt;
         let handle = HandleSample {
             position: DVec3::ZERO,
-            orientation: DQuat::from_euler(glam::EulerRot::XYZ, 3.0 * t, 2.0 * (1.3 * t).sin(), 5.0 * t),
+            orientation: DQuat::from_euler(
+                glam::EulerRot::XYZ,
+                3.0 * t,
+                2.0 * (1.3 * t).sin(),
+                5.0 * t,
+            ),
             linear_velocity: DVec3::ZERO,
             angular_velocity: DVec3::ZERO,
         };

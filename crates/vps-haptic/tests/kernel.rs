@@ -37,9 +37,15 @@ fn single_point_matches_the_tangent_plane_formula() {
 
     let depth = normal.dot(centre - world).max(0.0);
     assert!((depth - 0.0011).abs() < 1e-9);
-    assert_eq!((sums.surface, sums.contacts, sums.non_free, sums.sampled), (1, 1, 1, 1));
+    assert_eq!(
+        (sums.surface, sums.contacts, sums.non_free, sums.sampled),
+        (1, 1, 1, 1)
+    );
     let tol = 1e-6 * S;
-    assert!((sums.depth_normal_si() - depth * normal).length() < tol, "{sums:?}");
+    assert!(
+        (sums.depth_normal_si() - depth * normal).length() < tol,
+        "{sums:?}"
+    );
     assert!((sums.depth_torque_si() - lever.cross(depth * normal)).length() < tol * 0.05);
 
     // The frame's contact force is K_ff d N (one contact: no averaging).
@@ -82,7 +88,11 @@ fn outside_the_grid_is_free() {
     ];
     let shell = ClassedShell::new(&shell_from(&[Vec3::ZERO], &[Vec3::Z]), 1);
     for p in outside {
-        let sums = sample_all(&grid, &shell, &KernelPose::from_state(&PartState::at_rest(p, DQuat::IDENTITY)));
+        let sums = sample_all(
+            &grid,
+            &shell,
+            &KernelPose::from_state(&PartState::at_rest(p, DQuat::IDENTITY)),
+        );
         assert_eq!(sums.non_free, 0, "{p}");
     }
     let inside = PartState::at_rest(lo + DVec3::splat(1e-4), DQuat::IDENTITY);
@@ -114,21 +124,49 @@ fn random_scene(seed: u64, n: usize) -> (DenseGrid, vps_voxmap::PointShell) {
         *b = rng.gen_range(0..4u8);
     }
     let points: Vec<Vec3> = (0..n)
-        .map(|_| Vec3::new(rng.gen_range(-0.03..0.03), rng.gen_range(-0.03..0.03), rng.gen_range(-0.03..0.03)))
+        .map(|_| {
+            Vec3::new(
+                rng.gen_range(-0.03..0.03),
+                rng.gen_range(-0.03..0.03),
+                rng.gen_range(-0.03..0.03),
+            )
+        })
         .collect();
     let normals: Vec<Vec3> = (0..n)
-        .map(|_| Vec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(0.1..1.0)))
+        .map(|_| {
+            Vec3::new(
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(0.1..1.0),
+            )
+        })
         .collect();
     (grid, shell_from(&points, &normals))
 }
 
 fn random_state(rng: &mut ChaCha8Rng) -> PartState {
     let mut s = PartState::at_rest(
-        DVec3::new(rng.gen_range(-0.05..0.05), rng.gen_range(-0.05..0.05), rng.gen_range(-0.05..0.05)),
-        DQuat::from_scaled_axis(DVec3::new(rng.gen_range(-2.0..2.0), rng.gen_range(-2.0..2.0), rng.gen_range(-2.0..2.0))),
+        DVec3::new(
+            rng.gen_range(-0.05..0.05),
+            rng.gen_range(-0.05..0.05),
+            rng.gen_range(-0.05..0.05),
+        ),
+        DQuat::from_scaled_axis(DVec3::new(
+            rng.gen_range(-2.0..2.0),
+            rng.gen_range(-2.0..2.0),
+            rng.gen_range(-2.0..2.0),
+        )),
     );
-    s.linear_velocity = DVec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0));
-    s.angular_velocity = DVec3::new(rng.gen_range(-9.0..9.0), rng.gen_range(-9.0..9.0), rng.gen_range(-9.0..9.0));
+    s.linear_velocity = DVec3::new(
+        rng.gen_range(-1.0..1.0),
+        rng.gen_range(-1.0..1.0),
+        rng.gen_range(-1.0..1.0),
+    );
+    s.angular_velocity = DVec3::new(
+        rng.gen_range(-9.0..9.0),
+        rng.gen_range(-9.0..9.0),
+        rng.gen_range(-9.0..9.0),
+    );
     s
 }
 
@@ -187,7 +225,11 @@ proptest! {
 fn implausible_sums_are_detected() {
     let (grid, shell) = random_scene(7, 400);
     let mut rng = ChaCha8Rng::seed_from_u64(7);
-    let sums = sample_all(&grid, &ClassedShell::new(&shell, 1), &KernelPose::from_state(&random_state(&mut rng)));
+    let sums = sample_all(
+        &grid,
+        &ClassedShell::new(&shell, 1),
+        &KernelPose::from_state(&random_state(&mut rng)),
+    );
     assert!(sums.is_plausible(400, S));
     assert!(!sums.is_plausible(399, S));
     let mut bad = sums;
@@ -213,11 +255,17 @@ fn unknown_class_and_insane_pose_sample_nothing() {
     let (grid, shell) = random_scene(3, 50);
     let classed = ClassedShell::new(&shell, 4);
     let pose = KernelPose::from_state(&PartState::at_rest(DVec3::ZERO, DQuat::IDENTITY));
-    assert_eq!(sample_class(&grid, &classed, &pose, 4), PartialSums::default());
+    assert_eq!(
+        sample_class(&grid, &classed, &pose, 4),
+        PartialSums::default()
+    );
     let mut insane = pose;
     insane.translation.x = f32::NAN;
     let sums = sample_class(&grid, &classed, &insane, 0);
-    assert_eq!((sums.sampled, sums.non_free), (classed.class_len(0) as u64, 0));
+    assert_eq!(
+        (sums.sampled, sums.non_free),
+        (classed.class_len(0) as u64, 0)
+    );
     assert_eq!(ClassedShell::new(&shell, 0).class_count(), 1);
     assert_eq!(ClassedShell::new(&shell, 80).class_len(79), 0);
 }

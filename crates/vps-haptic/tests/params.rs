@@ -31,7 +31,10 @@ fn example_file_quotes_the_derived_gains() {
             .find(|l| l.starts_with(&format!("# {key} = ")))
             .unwrap_or_else(|| panic!("no commented `{key}` line"));
         let quoted: f64 = line.rsplit(' ').next().unwrap().parse().unwrap();
-        assert!((quoted - value).abs() <= 1e-3 * value, "{key}: quoted {quoted}, computed {value}");
+        assert!(
+            (quoted - value).abs() <= 1e-3 * value,
+            "{key}: quoted {quoted}, computed {value}"
+        );
     }
 }
 
@@ -47,7 +50,10 @@ fn default_gains_sit_at_the_stated_margin() {
     assert!((g.b_t - 2.0 * (g.k_t * p.mass).sqrt()).abs() < 1e-12);
     assert!((g.b_r - 2.0 * (g.k_r * g.inertia).sqrt()).abs() < 1e-12);
     // The numbers quoted in the docs.
-    assert!((g.k_t - 317.5).abs() < 0.1 && (g.k_ff - 635.0).abs() < 0.1, "{g:?}");
+    assert!(
+        (g.k_t - 317.5).abs() < 0.1 && (g.k_ff - 635.0).abs() < 0.1,
+        "{g:?}"
+    );
     // Same margin at other masses and steps.
     for (mass, dt) in [(0.001, 0.00025), (10.0, 0.004), (0.5, 0.001)] {
         let q = HapticParams { mass, dt, ..p };
@@ -97,8 +103,13 @@ fn bad_values_name_the_field() {
             other => panic!("{text}: expected Invalid({field}), got {other:?}"),
         }
     }
-    let msg = HapticParams::from_toml_str("mass = -1.0", "cfg").unwrap_err().to_string();
-    assert!(msg.contains("cfg") && msg.contains("mass") && msg.contains("-1"), "{msg}");
+    let msg = HapticParams::from_toml_str("mass = -1.0", "cfg")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        msg.contains("cfg") && msg.contains("mass") && msg.contains("-1"),
+        "{msg}"
+    );
 }
 
 #[test]
@@ -106,7 +117,10 @@ fn type_errors_and_missing_files_are_reported() {
     let err = HapticParams::from_toml_str("\n\ndt = \"fast\"\n", "cfg").unwrap_err();
     assert!(err.to_string().contains("line 3"), "{err}");
     let err = HapticParams::from_file("/nonexistent/haptic.toml").unwrap_err();
-    assert!(matches!(err, ParamsError::Io { .. }) && err.to_string().contains("/nonexistent/haptic.toml"));
+    assert!(
+        matches!(err, ParamsError::Io { .. })
+            && err.to_string().contains("/nonexistent/haptic.toml")
+    );
 }
 
 #[test]
