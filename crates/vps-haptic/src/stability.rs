@@ -44,6 +44,9 @@
 //!   and the clamped coupling force at 5 mm voxels, `k_T s / 2`, is ≈ 0.8 N. Stiffness (and the
 //!   holding force) scales with m / dt²: a heavier reflected mass buys a stiffer wall.
 //!
+//! The bound counts on the coupling damper acting in contact; [`crate::coupling::coupling_wrench`]
+//! clamps the spring before adding the damper so that a long stretch cannot mask it.
+//!
 //! Not covered by the linear bound: the force jumps as points cross voxel boundaries and as N
 //! changes (the paper's non-passivity). The crate's stability tests measure energy over 60 s of
 //! resting contact and sweep K_ff, dt and m (`tests/stability.rs`).
