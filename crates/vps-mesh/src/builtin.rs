@@ -1,14 +1,68 @@
-//! Deterministic built-in meshes: analytic primitives (metres, centred at the origin).
+//! Deterministic built-in meshes (metres): analytic primitives centred at the origin, the Utah
+//! teapot, and the aircraft bay scene. [`by_name`] resolves the names in [`BUILTIN_NAMES`].
 
+mod aircraft_bay;
 mod bezier;
 mod primitives;
+mod rng;
+mod sweep;
 mod teapot;
 
+pub use aircraft_bay::{
+    aircraft_bay, bay_corridor, bay_corridor_box, BAY_CORRIDOR_CLEARANCE_M,
+    BAY_CORRIDOR_HALF_WIDTH_M, BAY_SEED, BAY_SIZE_M,
+};
+
 pub use bezier::{parse_bezier_patches, BezierPatches};
+use glam::DVec3;
 pub use primitives::{cuboid, cylinder, uv_sphere};
+pub use sweep::{bent_pipe_path, swept_tube};
+
+use crate::TriMesh;
+
 pub use teapot::{
     teapot, teapot_patches, teapot_with_resolution, TEAPOT_DEFAULT_RESOLUTION, TEAPOT_LENGTH_M,
 };
+
+/// Names accepted by [`by_name`].
+pub const BUILTIN_NAMES: &[&str] = &["teapot", "aircraft-bay", "box", "sphere", "cylinder"];
+
+/// The built-in mesh called `name`, or `None` for an unknown name:
+/// - `teapot`: [`teapot`] (75 mm long, about 9k triangles);
+/// - `aircraft-bay`: [`aircraft_bay`] (3 m × 2 m × 1.5 m, about 593k triangles);
+/// - `box`: a 0.1 m cube centred at the origin;
+/// - `sphere`: radius 0.05 m, 48 segments × 24 rings;
+/// - `cylinder`: radius 0.025 m, length 0.1 m along z, 48 segments.
+///
+/// Allocates; the bay takes a fraction of a second to generate.
+pub fn by_name(name: &str) -> Option<TriMesh> {
+    Some(match name {
+        "teapot" => teapot(),
+        "aircraft-bay" => aircraft_bay(),
+        "box" => cuboid(DVec3::splat(0.05)),
+        "sphere" => uv_sphere(0.05, 48, 24),
+        "cylinder" => cylinder(0.025, 0.05, 48),
+        _ => return None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::validate::validate;
+
+    #[test]
+    fn every_listed_name_resolves_to_a_valid_mesh() {
+        for name in BUILTIN_NAMES.iter().filter(|&&n| n != "aircraft-bay") {
+            let mesh = by_name(name).unwrap_or_else(|| panic!("{name} missing"));
+            let (_, report) = validate(mesh, name).unwrap();
+            assert_eq!(report.degenerate_dropped, 0, "{name}");
+        }
+        assert!(by_name("teapots").is_none());
+        let cube = by_name("box").unwrap().bounds();
+        assert_eq!(cube.size(), DVec3::splat(0.1));
+    }
+}
 
 #[cfg(test)]
 pub(crate) mod test_support {
