@@ -6,7 +6,7 @@
 //!
 //! Module map:
 //! - [`mesh`]: the [`TriMesh`] type, bounds, transforms.
-//! - [`validate`]: checks with errors naming the element at fault.
+//! - [`validate`](mod@validate): checks with errors naming the element at fault.
 //! - [`load`]: OBJ, STL (binary and ASCII), PLY readers.
 //! - [`builtin`]: deterministic built-in scenes (teapot, aircraft bay) and primitives.
 //! - [`weld`]: merging coincident vertices.
@@ -17,6 +17,7 @@ pub mod mesh;
 pub mod validate;
 pub mod weld;
 
-pub use load::{load_mesh, LoadedMesh};
+pub use load::{load_mesh, load_mesh_scaled, parse_mesh, LoadedMesh, MeshFormat};
 pub use mesh::{Aabb, TriMesh};
-pub use validate::{MeshError, ValidationReport};
+pub use validate::{validate, MeshError, ValidationReport};
+pub use weld::weld_vertices;

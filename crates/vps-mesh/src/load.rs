@@ -61,15 +61,12 @@ pub fn load_mesh(path: &Path) -> Result<LoadedMesh, MeshError> {
 }
 
 /// Loads a mesh file, multiplies every coordinate by `scale` (metres per file unit, e.g. `0.001` for
-/// a file in millimetres), then validates it. `scale` must be finite and positive.
+/// a file in millimetres), then validates it; validation (including the size check) sees metres.
+/// A `scale` that is not finite and positive is [`MeshError::InvalidScale`].
 pub fn load_mesh_scaled(path: &Path, scale: f64) -> Result<LoadedMesh, MeshError> {
     let file = path.display().to_string();
     if !(scale.is_finite() && scale > 0.0) {
-        return Err(MeshError::Parse {
-            file,
-            line: None,
-            message: format!("scale must be finite and positive, got {scale}"),
-        });
+        return Err(MeshError::InvalidScale { file, scale });
     }
     let format = MeshFormat::from_path(path)?;
     let bytes = std::fs::read(path).map_err(|source| MeshError::Io {

@@ -40,6 +40,14 @@ pub enum MeshError {
         /// The extension found (empty when there is none).
         extension: String,
     },
+    /// A unit scale factor that is zero, negative or not finite.
+    #[error("{file}: scale must be finite and positive, got {scale}")]
+    InvalidScale {
+        /// File path.
+        file: String,
+        /// The scale given (metres per file unit).
+        scale: f64,
+    },
     /// The parser rejected the content.
     #[error("{file}: {}parse error: {message}", line.map(|l| format!("line {l}: ")).unwrap_or_default())]
     Parse {

@@ -177,8 +177,13 @@ fn scale_converts_units_before_validation() {
         (size - DVec3::splat(1e-4)).abs().max_element() < 1e-10,
         "{size}"
     );
-    assert!(load_mesh_scaled(&path, 0.0).is_err());
-    assert!(load_mesh_scaled(&path, f64::NAN).is_err());
+    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        let err = load_mesh_scaled(&path, bad).unwrap_err();
+        assert!(matches!(err, MeshError::InvalidScale { .. }), "{err}");
+    }
+    // Without the scale the same file would be accepted; with a huge one it is absurd.
+    let err = load_mesh_scaled(&path, 1e6).unwrap_err();
+    assert!(matches!(err, MeshError::AbsurdSize { .. }), "{err}");
 }
 
 #[test]
