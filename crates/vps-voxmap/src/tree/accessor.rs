@@ -39,7 +39,7 @@ impl<'a> TreeAccessor<'a> {
         }
         match self.cached {
             LeafRef::Tile(v) => v,
-            LeafRef::Leaf(first) => self.tree.leaf_shape.read(&self.tree.leaf_words[first..], p),
+            LeafRef::Leaf(first) => self.tree.leaf_shape.read(&self.tree.leaf_words, first, p),
         }
     }
 }

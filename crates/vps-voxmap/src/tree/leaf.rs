@@ -44,11 +44,11 @@ impl LeafShape {
         2 * local as usize
     }
 
-    /// The voxel at `p` in the leaf whose words are `leaf`.
+    /// The voxel at `p` in the leaf whose words start at `words[first]`.
     #[inline]
-    pub(crate) fn read(self, leaf: &[u64], p: UVec3) -> Voxel {
+    pub(crate) fn read(self, words: &[u64], first: usize, p: UVec3) -> Voxel {
         let bit = self.voxel_bit(p);
-        Voxel::from_bits((leaf[bit >> 6] >> (bit & 63)) as u8)
+        Voxel::from_bits((words[first + (bit >> 6)] >> (bit & 63)) as u8)
     }
 
     /// Bit offset of the row `(y, z)` (leaf-local).
@@ -85,9 +85,20 @@ impl LeafShape {
     ) -> Option<Voxel> {
         let v = Voxel::from_bits(leaf[0] as u8);
         let pattern = LOW_BITS * v.bits() as u64;
-        let uniform = self
-            .rows(leaf, origin, dims)
-            .all(|(row, kept)| row & kept == pattern & kept);
+        let edge = self.edge();
+        let fully_inside = (0..3).all(|a| dims[a] - origin[a] >= edge);
+        let uniform = if fully_inside {
+            let used = self.used_bits();
+            let last_mask = if used >= 64 {
+                u64::MAX
+            } else {
+                (1u64 << used) - 1
+            };
+            leaf.iter().all(|&w| w & last_mask == pattern & last_mask)
+        } else {
+            self.rows(leaf, origin, dims)
+                .all(|(row, kept)| row & kept == pattern & kept)
+        };
         uniform.then_some(v)
     }
 
@@ -123,7 +134,7 @@ impl LeafShape {
         };
         let (row_mask, kept_mask) = (low_bits(edge), low_bits(nx));
         (0..edge * edge).map(move |r| {
-            let (y, z) = (r % edge, r / edge);
+            let (y, z) = (r & (edge - 1), r >> self.log2);
             let at = self.row_bit(y, z);
             let row = (leaf[at >> 6] >> (at & 63)) & row_mask;
             (row, if y < ny && z < nz { kept_mask } else { 0 })
@@ -151,7 +162,7 @@ impl LeafShape {
             for y in 0..edge.min(dims[1] - origin.y) {
                 for x in 0..edge.min(dims[0] - origin.x) {
                     let p = origin + UVec3::new(x, y, z);
-                    grid.set(p.as_ivec3(), self.read(leaf, p));
+                    grid.set(p.as_ivec3(), self.read(leaf, 0, p));
                 }
             }
         }
@@ -221,7 +232,7 @@ mod tests {
             let last = UVec3::splat(shape.edge() - 1);
             let bit = shape.voxel_bit(last);
             leaf[bit >> 6] ^= 1 << (bit & 63);
-            assert_eq!(shape.read(&leaf, last), Voxel::Proximity);
+            assert_eq!(shape.read(&leaf, 0, last), Voxel::Proximity);
             assert_eq!(
                 shape.uniform_value(&leaf, UVec3::ZERO, full),
                 None,

@@ -81,7 +81,7 @@ impl VoxelTree {
         let p = ijk.as_uvec3();
         match self.locate(p) {
             LeafRef::Tile(v) => v,
-            LeafRef::Leaf(first) => self.leaf_shape.read(&self.leaf_words[first..], p),
+            LeafRef::Leaf(first) => self.leaf_shape.read(&self.leaf_words, first, p),
         }
     }
 
