@@ -1,0 +1,201 @@
+//! Command-line definitions (clap). Lengths accept SI metres or a unit suffix (`5mm`).
+
+use crate::units::parse_length;
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+
+/// Voxel-sampling 6-DOF haptic rendering.
+#[derive(Parser, Debug)]
+#[command(name = "vps", version, about)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Voxelize a static scene (a mesh file or builtin:NAME) into a .vmap voxmap.
+    Voxelize(VoxelizeArgs),
+    /// Build the point shell of a dynamic object into a .vshell file.
+    Shell(ShellArgs),
+    /// Print statistics of a .vmap or .vshell file.
+    Inspect(InspectArgs),
+    /// Look up the voxel kind at world points listed in a CSV file (x,y,z per line, metres).
+    Probe(ProbeArgs),
+    /// The main job on the built-in scene: the teapot threading the aircraft bay with a simulated hand.
+    Demo(DemoArgs),
+    /// Measure; prints JSON.
+    Bench(BenchArgs),
+}
+
+/// Where a mesh comes from: a file path or `builtin:NAME`.
+pub type MeshSource = String;
+
+/// Arguments of `vps voxelize`.
+#[derive(Args, Debug)]
+pub struct VoxelizeArgs {
+    /// Mesh file (.obj, .stl, .ply) or builtin:NAME (teapot, aircraft-bay, box, sphere, cylinder).
+    pub mesh: MeshSource,
+    /// Voxel edge length (m, or with unit: 5mm).
+    #[arg(long, value_parser = parse_length, default_value = "5mm")]
+    pub voxel_size: f64,
+    /// Force-layer offset in voxel layers.
+    #[arg(long, default_value_t = 2)]
+    pub offset: u32,
+    /// Tree branching: log2 children per axis at every level (3 = the paper's 512-tree).
+    #[arg(long, default_value_t = 3)]
+    pub tree_n: u8,
+    /// Output file.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Print the statistics as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Point-shell placement on the command line.
+#[derive(ValueEnum, Clone, Copy, Debug)]
+pub enum ShellMethodArg {
+    /// Centres of the object's Surface voxels (the paper).
+    Centres,
+    /// One point per Surface voxel on the exact mesh surface.
+    Exact,
+}
+
+/// Arguments of `vps shell`.
+#[derive(Args, Debug)]
+pub struct ShellArgs {
+    /// Mesh file or builtin:NAME.
+    pub mesh: MeshSource,
+    /// Voxel edge length (m, or with unit).
+    #[arg(long, value_parser = parse_length, default_value = "5mm")]
+    pub voxel_size: f64,
+    /// Point placement.
+    #[arg(long, value_enum, default_value_t = ShellMethodArg::Centres)]
+    pub method: ShellMethodArg,
+    /// Output file.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Print the statistics as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Arguments of `vps inspect`.
+#[derive(Args, Debug)]
+pub struct InspectArgs {
+    /// A .vmap or .vshell file.
+    pub file: PathBuf,
+    /// Print as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Arguments of `vps probe`.
+#[derive(Args, Debug)]
+pub struct ProbeArgs {
+    /// The voxmap.
+    pub voxmap: PathBuf,
+    /// CSV file of world points, one `x,y,z` per line (m); blank lines and lines starting with # skipped.
+    #[arg(long)]
+    pub points: PathBuf,
+    /// Print as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Arguments of `vps demo`.
+#[derive(Args, Debug)]
+pub struct DemoArgs {
+    /// Voxel edge length (m, or with unit).
+    #[arg(long, value_parser = parse_length, default_value = "5mm")]
+    pub voxel_size: f64,
+    /// Longest session time (s); the scripted session is about 40 s.
+    #[arg(long, default_value_t = 60.0)]
+    pub seconds: f64,
+    /// Compute threads (the frame thread included).
+    #[arg(long, default_value_t = 2)]
+    pub threads: usize,
+    /// Print as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Arguments of `vps bench`.
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Which measurement.
+    #[command(subcommand)]
+    pub which: BenchKind,
+}
+
+/// The benchmarks.
+#[derive(Subcommand, Debug)]
+pub enum BenchKind {
+    /// Time and peak memory to voxelize a scene; voxmap memory; tree/dense lookup cost ratio.
+    Voxelize {
+        /// Scene (builtin:NAME or file).
+        #[arg(default_value = "builtin:aircraft-bay")]
+        mesh: MeshSource,
+        /// Voxel edge length.
+        #[arg(long, value_parser = parse_length, default_value = "5mm")]
+        voxel_size: f64,
+        /// Repetitions (the median is reported).
+        #[arg(long, default_value_t = 3)]
+        repeat: u32,
+        /// Print JSON (the default output is JSON too; kept for symmetry with other commands).
+        #[arg(long)]
+        json: bool,
+    },
+    /// Nanoseconds per point of the sampling kernel, free space and full contact, one core.
+    Kernel {
+        /// Shell sizes to measure.
+        #[arg(
+            long,
+            value_delimiter = ',',
+            default_value = "400,10000,100000,1000000"
+        )]
+        points: Vec<usize>,
+        /// Seconds per timing batch (5 batches per case, the median is reported).
+        #[arg(long, default_value_t = 0.2)]
+        seconds: f64,
+        /// Print JSON (always JSON; accepted for symmetry).
+        #[arg(long)]
+        json: bool,
+    },
+    /// The 1 kHz loop end to end over many frames with a large shell: missed deadlines, percentiles.
+    Loop {
+        /// Voxel size of the scene.
+        #[arg(long, value_parser = parse_length, default_value = "5mm")]
+        voxel_size: f64,
+        /// Approximate number of shell points.
+        #[arg(long, default_value_t = 100_000)]
+        points: usize,
+        /// Frames to run (1 ms each).
+        #[arg(long, default_value_t = 100_000)]
+        frames: u64,
+        /// Compute threads, the frame thread included.
+        #[arg(long, default_value_t = 2)]
+        threads: usize,
+        /// Print JSON (always JSON; accepted for symmetry).
+        #[arg(long)]
+        json: bool,
+    },
+    /// Total tree memory against N = 1..5 (the paper's Figure 6).
+    TreeMemory {
+        /// Scene.
+        #[arg(default_value = "builtin:aircraft-bay")]
+        mesh: MeshSource,
+        /// Voxel edge length.
+        #[arg(long, value_parser = parse_length, default_value = "5mm")]
+        voxel_size: f64,
+        /// Write an SVG plot here.
+        #[arg(long)]
+        plot: Option<PathBuf>,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+}

@@ -1,0 +1,198 @@
+//! `vps bench kernel`: nanoseconds per point of the sampling kernel on one core, tree lookup
+//! included, for 400, 10k, 100k and 1M points, in free space and in full contact.
+//!
+//! The synthetic case: a spherical point shell of radius R voxels (Fibonacci lattice, inward
+//! normals, ≈ one point per voxel of area, so R = √(n / 4π) voxels) and a voxmap holding, in one
+//! slot, a spherical Surface band of 3 voxels around radius R (Interior inside, Proximity outside)
+//! and, in a second slot of the same size, nothing. Full contact: the shell centred in the band slot,
+//! every point in a Surface voxel of a mixed (non-tile) leaf. Free space: the same shell centred in
+//! the empty slot, every point in Free tiles. Both poses read the same tree in the same run.
+
+use anyhow::Result;
+use glam::{DQuat, DVec3};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::hint::black_box;
+use std::time::Instant;
+use vps_haptic::{sample_all, ClassedShell, KernelPose, PartState};
+use vps_voxmap::{DenseGrid, GridSpec, MassProperties, PointShell, Voxel, VoxelLookup};
+use vps_voxmap::{TreeConfig, VoxelTree};
+
+/// Voxel size of the synthetic scene (m); only the counts matter to the kernel.
+const VOXEL_SIZE: f64 = 0.005;
+
+/// One measured configuration.
+#[derive(Serialize)]
+pub struct KernelFigure {
+    /// Points in the shell.
+    pub points: usize,
+    /// ns per point, full contact, tree lookup (median of the batches).
+    pub contact_ns_per_point: f64,
+    /// ns per point, free space, tree lookup.
+    pub free_ns_per_point: f64,
+    /// ns per point, full contact, dense-grid lookup (baseline).
+    pub contact_dense_ns_per_point: f64,
+    /// Worst over best of the two tree cases.
+    pub worst_over_best: f64,
+    /// Fraction of points that landed in Surface voxels in the contact pose (should be 1).
+    pub contact_surface_fraction: f64,
+    /// Tree memory of the synthetic scene (bytes).
+    pub tree_bytes: usize,
+}
+
+/// The whole report.
+#[derive(Serialize)]
+pub struct KernelReport {
+    /// What was measured and how.
+    pub method: &'static str,
+    /// One entry per shell size.
+    pub figures: Vec<KernelFigure>,
+}
+
+/// Runs the benchmark for each point count and returns the report.
+pub fn run(point_counts: &[usize], batch_seconds: f64) -> Result<KernelReport> {
+    let mut figures = Vec::new();
+    for &n in point_counts {
+        figures.push(measure(n, batch_seconds)?);
+    }
+    Ok(KernelReport {
+        method: "single thread, class_count 1, sample_all over the whole shell repeated; median of 5 \
+                 batches; synthetic sphere shell and spherical Surface band (see src/cmd/bench_kernel.rs)",
+        figures,
+    })
+}
+
+fn fibonacci_shell(n: usize, radius: f64) -> PointShell {
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let mut points = Vec::with_capacity(n);
+    let mut normals = Vec::with_capacity(n);
+    for i in 0..n {
+        let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+        let r = (1.0 - z * z).sqrt();
+        let dir = DVec3::new(
+            r * (golden * i as f64).cos(),
+            r * (golden * i as f64).sin(),
+            z,
+        );
+        points.push((dir * radius).as_vec3());
+        normals.push((-dir).as_vec3());
+    }
+    PointShell {
+        points,
+        normals,
+        voxel_size: VOXEL_SIZE,
+        method: vps_voxmap::shell::ShellMethod::VoxelCentres,
+        mass: MassProperties {
+            volume: 0.0,
+            center_of_mass: DVec3::ZERO,
+            bounding_radius: radius,
+        },
+    }
+}
+
+fn band_scene(radius_vox: f64) -> DenseGrid {
+    let margin = 4.0;
+    let slot = (2.0 * (radius_vox + margin)).ceil() as u32;
+    let spec = GridSpec {
+        origin: DVec3::ZERO,
+        voxel_size: VOXEL_SIZE,
+        dims: [2 * slot, slot, slot],
+    };
+    let centre = DVec3::splat(slot as f64 / 2.0);
+    let mut grid = DenseGrid::new(spec);
+    let plane = (spec.dims[0] * spec.dims[1]) as usize;
+    grid.data
+        .par_chunks_mut(plane)
+        .enumerate()
+        .for_each(|(z, slice)| {
+            for y in 0..spec.dims[1] as usize {
+                for x in 0..slot as usize {
+                    let p = DVec3::new(x as f64 + 0.5, y as f64 + 0.5, z as f64 + 0.5);
+                    let d = (p - centre).length() - radius_vox;
+                    let v = if d < -1.5 {
+                        Voxel::Interior
+                    } else if d <= 1.5 {
+                        Voxel::Surface
+                    } else if d <= 2.5 {
+                        Voxel::Proximity
+                    } else {
+                        Voxel::Free
+                    };
+                    slice[x + y * spec.dims[0] as usize] = v as u8;
+                }
+            }
+        });
+    grid
+}
+
+fn ns_per_point<L: VoxelLookup>(
+    map: &L,
+    shell: &ClassedShell,
+    pose: &KernelPose,
+    secs: f64,
+) -> f64 {
+    let n = shell.len().max(1);
+    // Calibrate the repetitions of one batch.
+    let start = Instant::now();
+    black_box(sample_all(map, shell, pose));
+    let once = start.elapsed().as_secs_f64().max(1e-7);
+    let reps = ((secs / once) as usize).clamp(1, 1_000_000);
+    let mut batches: Vec<f64> = (0..5)
+        .map(|_| {
+            let t = Instant::now();
+            for _ in 0..reps {
+                black_box(sample_all(black_box(map), shell, black_box(pose)));
+            }
+            t.elapsed().as_secs_f64() * 1e9 / (reps * n) as f64
+        })
+        .collect();
+    batches.sort_by(f64::total_cmp);
+    batches[2]
+}
+
+fn pose_at(spec: &GridSpec, centre_vox: DVec3) -> KernelPose {
+    let state = PartState::at_rest(spec.origin + centre_vox * spec.voxel_size, DQuat::IDENTITY);
+    KernelPose::from_state(&state)
+}
+
+fn measure(n: usize, batch_seconds: f64) -> Result<KernelFigure> {
+    let radius_vox = (n as f64 / (4.0 * std::f64::consts::PI)).sqrt().max(3.0);
+    let dense = band_scene(radius_vox);
+    let tree = VoxelTree::from_dense(&dense, TreeConfig::default())?;
+    let shell = ClassedShell::new(&fibonacci_shell(n, radius_vox * VOXEL_SIZE), 1);
+    let slot = dense.spec.dims[1] as f64;
+    let contact = pose_at(&dense.spec, DVec3::splat(slot / 2.0));
+    let free = pose_at(&dense.spec, DVec3::new(slot * 1.5, slot / 2.0, slot / 2.0));
+    let sums = sample_all(&tree, &shell, &contact);
+    let contact_ns = ns_per_point(&tree, &shell, &contact, batch_seconds);
+    let free_ns = ns_per_point(&tree, &shell, &free, batch_seconds);
+    let dense_ns = ns_per_point(&dense, &shell, &contact, batch_seconds);
+    Ok(KernelFigure {
+        points: n,
+        contact_ns_per_point: contact_ns,
+        free_ns_per_point: free_ns,
+        contact_dense_ns_per_point: dense_ns,
+        worst_over_best: contact_ns.max(free_ns) / contact_ns.min(free_ns),
+        contact_surface_fraction: sums.surface as f64 / n as f64,
+        tree_bytes: tree.memory_bytes(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn contact_pose_puts_every_point_in_surface_and_free_pose_in_free() {
+        let n = 400;
+        let radius_vox = (n as f64 / (4.0 * std::f64::consts::PI)).sqrt().max(3.0);
+        let dense = band_scene(radius_vox);
+        let shell = ClassedShell::new(&fibonacci_shell(n, radius_vox * VOXEL_SIZE), 1);
+        let slot = dense.spec.dims[1] as f64;
+        let contact = pose_at(&dense.spec, DVec3::splat(slot / 2.0));
+        let free = pose_at(&dense.spec, DVec3::new(slot * 1.5, slot / 2.0, slot / 2.0));
+        assert_eq!(sample_all(&dense, &shell, &contact).surface, n as u64);
+        let free_sums = sample_all(&dense, &shell, &free);
+        assert_eq!(free_sums.surface + free_sums.interior, 0);
+    }
+}

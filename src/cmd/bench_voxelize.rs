@@ -1,0 +1,248 @@
+//! `vps bench voxelize` and `vps bench tree-memory`: voxelization time, peak memory, voxmap memory,
+//! tree lookup cost against the dense grid, and the paper's Figure 6 (memory against N).
+
+use super::output::print_json;
+use crate::scene;
+use anyhow::{Context, Result};
+use glam::IVec3;
+use rand::{Rng, SeedableRng};
+use serde::Serialize;
+use std::hint::black_box;
+use std::path::Path;
+use std::time::Instant;
+use vps_voxelize::{voxelize_with_stats, VoxelizeOptions};
+use vps_voxmap::{DenseGrid, TreeConfig, VoxelLookup, VoxelTree};
+
+#[derive(Serialize)]
+struct VoxelizeBench {
+    source: String,
+    triangles: usize,
+    voxel_size_m: f64,
+    dims: [u32; 3],
+    threads: usize,
+    repeats: u32,
+    voxelize_ms_median: f64,
+    voxelize_ms_all: Vec<f64>,
+    phases_ms_last: Phases,
+    tree_build_ms: f64,
+    tree_bytes: usize,
+    dense_one_byte_bytes: u64,
+    dense_two_bit_bytes: u64,
+    peak_rss_bytes: Option<u64>,
+    lookup_queries: usize,
+    tree_ns_per_get: f64,
+    dense_ns_per_get: f64,
+    tree_over_dense: f64,
+}
+
+#[derive(Serialize)]
+struct Phases {
+    scan: f64,
+    fill: f64,
+    merge: f64,
+    offset: f64,
+    output: f64,
+}
+
+/// Peak resident set size of this process (bytes), from /proc (Linux only).
+fn peak_rss_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+fn voxelize_once(
+    mesh: &vps_mesh::TriMesh,
+    voxel_size: f64,
+) -> Result<(DenseGrid, vps_voxelize::VoxelizeStats)> {
+    let opts = VoxelizeOptions {
+        voxel_size,
+        ..VoxelizeOptions::default()
+    };
+    Ok(voxelize_with_stats(std::slice::from_ref(mesh), &opts)?)
+}
+
+/// Mean nanoseconds per `get` over `queries`, best of three passes.
+fn ns_per_get<L: VoxelLookup>(map: &L, queries: &[IVec3]) -> f64 {
+    (0..3)
+        .map(|_| {
+            let t = Instant::now();
+            let mut acc = 0u32;
+            for &q in queries {
+                acc = acc.wrapping_add(black_box(map).get(q) as u32);
+            }
+            black_box(acc);
+            t.elapsed().as_secs_f64() * 1e9 / queries.len() as f64
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Random in-grid query indices, half of them next to non-Free voxels (where contacts happen).
+fn lookup_queries(dense: &DenseGrid, count: usize) -> Vec<IVec3> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let d = dense.spec.dims;
+    let busy: Vec<usize> = dense
+        .data
+        .iter()
+        .enumerate()
+        .filter(|(_, &v)| v != 0)
+        .map(|(i, _)| i)
+        .step_by(97)
+        .collect();
+    (0..count)
+        .map(|k| {
+            if k % 2 == 0 && !busy.is_empty() {
+                let i = busy[rng.gen_range(0..busy.len())];
+                let (x, y, z) = (
+                    i % d[0] as usize,
+                    (i / d[0] as usize) % d[1] as usize,
+                    i / (d[0] * d[1]) as usize,
+                );
+                IVec3::new(x as i32, y as i32, z as i32)
+            } else {
+                IVec3::new(
+                    rng.gen_range(0..d[0] as i32),
+                    rng.gen_range(0..d[1] as i32),
+                    rng.gen_range(0..d[2] as i32),
+                )
+            }
+        })
+        .collect()
+}
+
+/// `vps bench voxelize`: prints JSON.
+pub fn run_voxelize(source: &str, voxel_size: f64, repeat: u32) -> Result<()> {
+    let scene = scene::load(source)?;
+    let mut times = Vec::new();
+    let mut last = None;
+    for _ in 0..repeat.max(1) {
+        let (dense, stats) = voxelize_once(&scene.mesh, voxel_size)
+            .with_context(|| format!("voxelizing {}", scene.source))?;
+        times.push(stats.total_ms);
+        last = Some((dense, stats));
+    }
+    let (dense, stats) = last.expect("at least one repetition");
+    let mut sorted = times.clone();
+    sorted.sort_by(f64::total_cmp);
+    let t = Instant::now();
+    let tree = VoxelTree::from_dense(&dense, TreeConfig::default())?;
+    let tree_build_ms = t.elapsed().as_secs_f64() * 1e3;
+    let queries = lookup_queries(&dense, 4_000_000);
+    let dense_ns = ns_per_get(&dense, &queries);
+    let tree_ns = ns_per_get(&tree, &queries);
+    let report = VoxelizeBench {
+        source: scene.source,
+        triangles: stats.triangles,
+        voxel_size_m: voxel_size,
+        dims: stats.dims,
+        threads: rayon::current_num_threads(),
+        repeats: repeat.max(1),
+        voxelize_ms_median: sorted[sorted.len() / 2],
+        voxelize_ms_all: times,
+        phases_ms_last: Phases {
+            scan: stats.scan_ms,
+            fill: stats.fill_ms,
+            merge: stats.merge_ms,
+            offset: stats.offset_ms,
+            output: stats.output_ms,
+        },
+        tree_build_ms,
+        tree_bytes: tree.memory_bytes(),
+        dense_one_byte_bytes: dense.spec.voxel_count(),
+        dense_two_bit_bytes: tree.dense_equivalent_bytes(),
+        peak_rss_bytes: peak_rss_bytes(),
+        lookup_queries: queries.len(),
+        tree_ns_per_get: tree_ns,
+        dense_ns_per_get: dense_ns,
+        tree_over_dense: tree_ns / dense_ns,
+    };
+    print_json(&report)
+}
+
+#[derive(Serialize)]
+struct TreeMemoryRow {
+    n: u8,
+    children_per_node: u64,
+    tree_bytes: usize,
+    leaves: usize,
+    lower_nodes: usize,
+    upper_nodes: usize,
+}
+
+#[derive(Serialize)]
+struct TreeMemoryReport {
+    source: String,
+    voxel_size_m: f64,
+    dims: [u32; 3],
+    dense_two_bit_bytes: u64,
+    rows: Vec<TreeMemoryRow>,
+}
+
+/// `vps bench tree-memory`: the paper's Figure 6 study; prints JSON, optionally plots SVG.
+pub fn run_tree_memory(source: &str, voxel_size: f64, plot: Option<&Path>) -> Result<()> {
+    let scene = scene::load(source)?;
+    let (dense, stats) = voxelize_once(&scene.mesh, voxel_size)?;
+    let mut rows = Vec::new();
+    let mut dense_two_bit_bytes = 0;
+    for n in 1..=5u8 {
+        let tree = VoxelTree::from_dense(&dense, TreeConfig::uniform(n))?;
+        let nodes = tree.node_counts();
+        dense_two_bit_bytes = tree.dense_equivalent_bytes();
+        rows.push(TreeMemoryRow {
+            n,
+            children_per_node: 1u64 << (3 * n as u64),
+            tree_bytes: tree.memory_bytes(),
+            leaves: nodes.leaves,
+            lower_nodes: nodes.lower,
+            upper_nodes: nodes.upper,
+        });
+    }
+    let report = TreeMemoryReport {
+        source: scene.source,
+        voxel_size_m: voxel_size,
+        dims: stats.dims,
+        dense_two_bit_bytes,
+        rows,
+    };
+    if let Some(path) = plot {
+        plot_tree_memory(&report, path)?;
+    }
+    print_json(&report)
+}
+
+fn plot_tree_memory(report: &TreeMemoryReport, path: &Path) -> Result<()> {
+    use plotters::prelude::*;
+    let mib: Vec<(f64, f64)> = report
+        .rows
+        .iter()
+        .map(|r| (r.n as f64, r.tree_bytes as f64 / (1024.0 * 1024.0)))
+        .collect();
+    let top = mib.iter().map(|p| p.1).fold(0.0, f64::max) * 1.15;
+    let root = SVGBackend::new(path, (640, 420)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            format!(
+                "Voxmap memory of {} at {} mm vs N (2^(3N)-tree)",
+                report.source,
+                report.voxel_size_m * 1e3
+            ),
+            ("sans-serif", 18),
+        )
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.5f64..5.5f64, 0f64..top)?;
+    chart
+        .configure_mesh()
+        .x_desc("N")
+        .y_desc("total memory (MiB)")
+        .x_labels(5)
+        .draw()?;
+    chart.draw_series(LineSeries::new(mib.clone(), &BLUE))?;
+    chart.draw_series(mib.iter().map(|&p| Circle::new(p, 4, BLUE.filled())))?;
+    root.present()
+        .with_context(|| format!("writing {}", path.display()))?;
+    Ok(())
+}

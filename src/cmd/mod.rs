@@ -1,0 +1,48 @@
+//! One module per subcommand; [`dispatch`] routes the parsed command line.
+
+pub mod bench_kernel;
+mod bench_loop;
+mod bench_voxelize;
+mod inspect;
+pub mod output;
+mod probe;
+mod shell;
+mod voxelize;
+
+use crate::cli::{BenchKind, Cli, Command};
+use anyhow::Result;
+
+/// Runs the parsed command.
+pub fn dispatch(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Voxelize(args) => voxelize::run(&args),
+        Command::Shell(args) => shell::run(&args),
+        Command::Inspect(args) => inspect::run(&args),
+        Command::Probe(args) => probe::run(&args),
+        Command::Demo(args) => crate::demo::run(&args),
+        Command::Bench(args) => match args.which {
+            BenchKind::Voxelize {
+                mesh,
+                voxel_size,
+                repeat,
+                ..
+            } => bench_voxelize::run_voxelize(&mesh, voxel_size, repeat),
+            BenchKind::TreeMemory {
+                mesh,
+                voxel_size,
+                plot,
+                ..
+            } => bench_voxelize::run_tree_memory(&mesh, voxel_size, plot.as_deref()),
+            BenchKind::Loop {
+                voxel_size,
+                points,
+                frames,
+                threads,
+                ..
+            } => bench_loop::run(voxel_size, points, frames, threads),
+            BenchKind::Kernel {
+                points, seconds, ..
+            } => output::print_json(&bench_kernel::run(&points, seconds)?),
+        },
+    }
+}

@@ -1,0 +1,127 @@
+//! End-to-end tests of the `vps` binary: real files, real processes.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn vps(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_vps"))
+        .args(args)
+        .output()
+        .expect("vps runs")
+}
+
+fn json(out: &Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "vps failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("valid JSON on stdout")
+}
+
+fn path(dir: &Path, name: &str) -> String {
+    dir.join(name).display().to_string()
+}
+
+#[test]
+fn voxelize_inspect_probe_round_trip_on_builtin_sphere() {
+    let dir = tempfile::tempdir().unwrap();
+    let vmap = path(dir.path(), "sphere.vmap");
+    let made = json(&vps(&[
+        "voxelize",
+        "builtin:sphere",
+        "--voxel-size",
+        "5mm",
+        "-o",
+        &vmap,
+        "--json",
+    ]));
+    let info = json(&vps(&["inspect", &vmap, "--json"]));
+    assert_eq!(
+        made["hash"], info["hash"],
+        "hash survives the file round trip"
+    );
+    assert_eq!(info["voxel_size_m"].as_f64().unwrap(), 0.005);
+    assert!(info["counts"]["interior"].as_u64().unwrap() > 0);
+    assert!(info["counts"]["surface"].as_u64().unwrap() > 0);
+
+    // The built-in sphere has radius 0.05 m and is centred at the origin.
+    let csv = path(dir.path(), "points.csv");
+    std::fs::write(&csv, "# x,y,z\n0,0,0\n1,1,1\n0.2,0,0\n").unwrap();
+    let kinds = json(&vps(&["probe", &vmap, "--points", &csv, "--json"]));
+    let kinds: Vec<&str> = kinds
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["kind"].as_str().unwrap())
+        .collect();
+    assert_eq!(kinds, ["interior", "free", "free"]);
+}
+
+#[test]
+fn corrupted_voxmap_is_a_clear_error_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let vmap = path(dir.path(), "box.vmap");
+    assert!(vps(&[
+        "voxelize",
+        "builtin:box",
+        "--voxel-size",
+        "10mm",
+        "-o",
+        &vmap
+    ])
+    .status
+    .success());
+    let mut bytes = std::fs::read(&vmap).unwrap();
+    let mid = bytes.len() / 2;
+    bytes[mid] ^= 0x5a;
+    std::fs::write(&vmap, &bytes).unwrap();
+    let out = vps(&["inspect", &vmap]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("box.vmap"), "error names the file: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+
+    std::fs::write(&vmap, &bytes[..20]).unwrap();
+    let out = vps(&["inspect", &vmap]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"));
+}
+
+#[test]
+fn bad_arguments_are_rejected_with_a_message() {
+    let out = vps(&[
+        "voxelize",
+        "builtin:box",
+        "--voxel-size",
+        "-5mm",
+        "-o",
+        "/tmp/x.vmap",
+    ]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("positive"));
+    let out = vps(&["voxelize", "builtin:nope", "-o", "/tmp/x.vmap"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("unknown built-in scene"));
+    let out = vps(&["voxelize", "/nonexistent/part.obj", "-o", "/tmp/x.vmap"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/part.obj"));
+}
+
+#[test]
+fn shell_file_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    let shell = path(dir.path(), "teapot.vshell");
+    let made = json(&vps(&[
+        "shell",
+        "builtin:teapot",
+        "--voxel-size",
+        "5mm",
+        "-o",
+        &shell,
+        "--json",
+    ]));
+    let info = json(&vps(&["inspect", &shell, "--json"]));
+    assert_eq!(made["points"], info["points"]);
+    assert!(info["points"].as_u64().unwrap() > 100);
+}
