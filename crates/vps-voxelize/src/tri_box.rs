@@ -8,42 +8,70 @@ use glam::DVec3;
 /// Touching counts as overlap (a triangle lying exactly in a box face overlaps the box), so a surface
 /// lying on a voxel boundary marks the voxels on both sides: conservative, never leaky. Degenerate
 /// triangles (zero area) are handled: parallel edges give a zero axis, which never separates.
-/// Units: metres, any consistent unit works. Pure function, no allocation.
+/// Units: metres, any consistent unit works. Pure function, no allocation. To test one triangle
+/// against many boxes of one size, [`PreparedTriangle`] does the per-triangle work once.
 pub fn triangle_box_overlap(tri: &[DVec3; 3], center: DVec3, half: DVec3) -> bool {
-    let v = [tri[0] - center, tri[1] - center, tri[2] - center];
-    // Box face normals: the triangle's bounding box against the box.
-    for axis in 0..3 {
-        let lo = v[0][axis].min(v[1][axis]).min(v[2][axis]);
-        let hi = v[0][axis].max(v[1][axis]).max(v[2][axis]);
-        if lo > half[axis] || hi < -half[axis] {
-            return false;
+    PreparedTriangle::new(tri, half).overlaps(center)
+}
+
+/// A triangle made ready for separating-axis tests against many boxes of one size: the 13 axes
+/// (3 box normals, the triangle normal, 9 box-edge × triangle-edge cross products; zero axes
+/// dropped), the triangle's projection interval on each and the box's projected radius.
+#[derive(Clone, Debug)]
+pub struct PreparedTriangle {
+    axes: [DVec3; 13],
+    /// Per axis: (min projection, max projection, box radius).
+    bounds: [(f64, f64, f64); 13],
+    count: usize,
+}
+
+impl PreparedTriangle {
+    /// Prepares `tri` for boxes of half extents `half` (same units). No allocation.
+    pub fn new(tri: &[DVec3; 3], half: DVec3) -> Self {
+        let edges = [tri[1] - tri[0], tri[2] - tri[1], tri[0] - tri[2]];
+        let mut axes = [DVec3::ZERO; 13];
+        let mut bounds = [(0.0, 0.0, 0.0); 13];
+        let mut count = 0;
+        let mut add = |axis: DVec3| {
+            if axis == DVec3::ZERO {
+                return;
+            }
+            let p = [tri[0].dot(axis), tri[1].dot(axis), tri[2].dot(axis)];
+            axes[count] = axis;
+            bounds[count] = (
+                p[0].min(p[1]).min(p[2]),
+                p[0].max(p[1]).max(p[2]),
+                half.dot(axis.abs()),
+            );
+            count += 1;
+        };
+        for axis in [DVec3::X, DVec3::Y, DVec3::Z] {
+            add(axis);
+        }
+        add(edges[0].cross(edges[1]));
+        for e in edges {
+            for axis in [DVec3::X, DVec3::Y, DVec3::Z] {
+                add(axis.cross(e));
+            }
+        }
+        Self {
+            axes,
+            bounds,
+            count,
         }
     }
-    let edges = [v[1] - v[0], v[2] - v[1], v[0] - v[2]];
-    // Triangle normal: the plane against the box.
-    let normal = edges[0].cross(edges[1]);
-    if separates(&v, normal, half) {
-        return false;
-    }
-    // Cross products of the box axes with the triangle edges.
-    for e in edges {
-        for axis in [DVec3::X, DVec3::Y, DVec3::Z] {
-            if separates(&v, axis.cross(e), half) {
+
+    /// True when the triangle and the closed box `center ± half` overlap (touching counts).
+    #[inline]
+    pub fn overlaps(&self, center: DVec3) -> bool {
+        for (axis, &(lo, hi, r)) in self.axes[..self.count].iter().zip(&self.bounds) {
+            let c = center.dot(*axis);
+            if lo - c > r || hi - c < -r {
                 return false;
             }
         }
+        true
     }
-    true
-}
-
-/// True when `axis` separates the box-centred triangle `v` from the box of half extents `half`.
-#[inline]
-fn separates(v: &[DVec3; 3], axis: DVec3, half: DVec3) -> bool {
-    let p0 = v[0].dot(axis);
-    let p1 = v[1].dot(axis);
-    let p2 = v[2].dot(axis);
-    let r = half.dot(axis.abs());
-    p0.min(p1).min(p2) > r || p0.max(p1).max(p2) < -r
 }
 
 #[cfg(test)]
