@@ -10,6 +10,8 @@ use crate::offset::{offset, Layers};
 use crate::scan_convert::{scan_convert, Window};
 use glam::DVec3;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rayon::prelude::*;
+use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 use vps_mesh::{Aabb, TriMesh};
 use vps_voxmap::{DenseGrid, GridSpec};
@@ -59,7 +61,8 @@ impl VoxelizeOptions {
     }
 }
 
-/// Timings and counts of one voxelization. Times are wall-clock milliseconds summed over objects.
+/// Timings and counts of one voxelization. Times are milliseconds; the per-object phases (scan, fill,
+/// merge) are summed over objects, which run in parallel, so their sum can exceed `total_ms`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct VoxelizeStats {
     /// Number of objects voxelized.
@@ -221,6 +224,11 @@ fn progress_bar(show: bool, phases: usize) -> ProgressBar {
     bar
 }
 
+/// Locks a mutex, ignoring poisoning (a panicking worker already aborts the whole call).
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
 fn ms(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3
 }
@@ -242,24 +250,34 @@ pub(crate) fn voxelize_planes(
     stats.triangles = triangles;
     stats.dims = spec.dims;
 
-    let mut merged = MergedPlanes::new(dims);
-    for (i, mesh) in objects.iter().enumerate() {
-        bar.set_message(format!("object {i}: scan + fill"));
-        let Some(window) = object_window(&mesh.bounds(), spec) else {
-            bar.inc(1);
-            continue;
-        };
-        let t = Instant::now();
-        let surface = scan_convert(mesh, spec, &window);
-        stats.scan_ms += ms(t);
-        let t = Instant::now();
-        let interior = flood_fill(&surface);
-        stats.fill_ms += ms(t);
-        let t = Instant::now();
-        merged.add(&window, &interior, &surface);
-        stats.merge_ms += ms(t);
+    // Objects run in parallel (each also parallel inside its scan); at most one window per worker
+    // thread is alive at a time. Phase times are summed over objects (CPU-like, may exceed wall).
+    let merged = Mutex::new(MergedPlanes::new(dims));
+    let phase_ms = Mutex::new([0.0f64; 3]);
+    bar.set_message("objects: scan + fill");
+    objects.par_iter().for_each(|mesh| {
+        if let Some(window) = object_window(&mesh.bounds(), spec) {
+            let t = Instant::now();
+            let surface = scan_convert(mesh, spec, &window);
+            let scan = ms(t);
+            let t = Instant::now();
+            let interior = flood_fill(&surface);
+            let fill = ms(t);
+            let t = Instant::now();
+            lock(&merged).add(&window, &interior, &surface);
+            let merge = ms(t);
+            let mut p = lock(&phase_ms);
+            p[0] += scan;
+            p[1] += fill;
+            p[2] += merge;
+        }
         bar.inc(1);
-    }
+    });
+    let [scan_ms, fill_ms, merge_ms] = *lock(&phase_ms);
+    stats.scan_ms += scan_ms;
+    stats.fill_ms += fill_ms;
+    stats.merge_ms += merge_ms;
+    let merged = merged.into_inner().unwrap_or_else(PoisonError::into_inner);
     bar.set_message("proximity + offset");
     let t = Instant::now();
     let (interior, surface) = merged.finish();

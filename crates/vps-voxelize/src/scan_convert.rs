@@ -59,8 +59,8 @@ pub(crate) fn for_each_overlap(
         let first = window.offset[a] as i64;
         let last = first + window.dims[a] as i64 - 1;
         // Touching counts: a vertex exactly on plane i also touches voxel i - 1.
-        lo[a] = (lo_t[a].ceil() as i64 - 1).max(first);
-        hi[a] = (hi_t[a].floor() as i64).min(last);
+        lo[a] = (ceil_i(lo_t[a]) - 1).max(first);
+        hi[a] = floor_i(hi_t[a]).min(last);
         if lo[a] > hi[a] {
             return;
         }
@@ -91,8 +91,8 @@ pub(crate) fn for_each_overlap(
         let Some((c_lo, c_hi)) = strip_range(&proj, j as f64, j as f64 + 1.0) else {
             continue;
         };
-        let k_lo = lo[c].max((c_lo - eps).ceil() as i64 - 1);
-        let k_hi = hi[c].min((c_hi + eps).floor() as i64);
+        let k_lo = lo[c].max(ceil_i(c_lo - eps) - 1);
+        let k_hi = hi[c].min(floor_i(c_hi + eps));
         for k in k_lo..=k_hi {
             let (mut ilo, mut ihi) = (lo[a], hi[a]);
             if cull {
@@ -100,8 +100,8 @@ pub(crate) fn for_each_overlap(
                 let base = d + gb * j as f64 + gc * k as f64;
                 let zmin = base + gb.min(0.0) + gc.min(0.0) - eps;
                 let zmax = base + gb.max(0.0) + gc.max(0.0) + eps;
-                ilo = ilo.max(zmin.ceil() as i64 - 1);
-                ihi = ihi.min(zmax.floor() as i64);
+                ilo = ilo.max(ceil_i(zmin) - 1);
+                ihi = ihi.min(floor_i(zmax));
             }
             for i in ilo..=ihi {
                 let mut ijk = [0i64; 3];
@@ -118,6 +118,28 @@ pub(crate) fn for_each_overlap(
                 }
             }
         }
+    }
+}
+
+/// `x.floor()` as an integer without a libm call (saturating for huge values).
+#[inline]
+fn floor_i(x: f64) -> i64 {
+    let i = x as i64;
+    if (i as f64) > x {
+        i - 1
+    } else {
+        i
+    }
+}
+
+/// `x.ceil()` as an integer without a libm call (saturating for huge values).
+#[inline]
+fn ceil_i(x: f64) -> i64 {
+    let i = x as i64;
+    if (i as f64) < x {
+        i + 1
+    } else {
+        i
     }
 }
 

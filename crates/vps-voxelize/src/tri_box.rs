@@ -14,63 +14,64 @@ pub fn triangle_box_overlap(tri: &[DVec3; 3], center: DVec3, half: DVec3) -> boo
     PreparedTriangle::new(tri, half).overlaps(center)
 }
 
-/// A triangle made ready for separating-axis tests against many boxes of one size: the 13 axes
-/// (3 box normals, the triangle normal, 9 box-edge × triangle-edge cross products; zero axes
-/// dropped), the triangle's projection interval on each and the box's projected radius.
+/// A triangle made ready for separating-axis tests against many boxes of one size. Per axis it keeps
+/// the interval of box-centre projections that do not separate: `[min - r, max + r]` with the
+/// triangle's projection `[min, max]` and the box's projected radius `r`. The 9 edge-cross axes come
+/// first (they reject most near misses), then the triangle normal (zero axes dropped); the 3 box
+/// normals are checked last as plain coordinate intervals.
 #[derive(Clone, Debug)]
 pub struct PreparedTriangle {
-    axes: [DVec3; 13],
-    /// Per axis: (min projection, max projection, box radius).
-    bounds: [(f64, f64, f64); 13],
+    axes: [DVec3; 10],
+    /// Per axis: the non-separating interval of `centre · axis`.
+    keep: [(f64, f64); 10],
     count: usize,
+    /// Non-separating interval of the centre along x, y, z.
+    box_lo: DVec3,
+    box_hi: DVec3,
 }
 
 impl PreparedTriangle {
     /// Prepares `tri` for boxes of half extents `half` (same units). No allocation.
     pub fn new(tri: &[DVec3; 3], half: DVec3) -> Self {
         let edges = [tri[1] - tri[0], tri[2] - tri[1], tri[0] - tri[2]];
-        let mut axes = [DVec3::ZERO; 13];
-        let mut bounds = [(0.0, 0.0, 0.0); 13];
+        let mut axes = [DVec3::ZERO; 10];
+        let mut keep = [(0.0, 0.0); 10];
         let mut count = 0;
         let mut add = |axis: DVec3| {
             if axis == DVec3::ZERO {
                 return;
             }
             let p = [tri[0].dot(axis), tri[1].dot(axis), tri[2].dot(axis)];
+            let r = half.dot(axis.abs());
             axes[count] = axis;
-            bounds[count] = (
-                p[0].min(p[1]).min(p[2]),
-                p[0].max(p[1]).max(p[2]),
-                half.dot(axis.abs()),
-            );
+            keep[count] = (p[0].min(p[1]).min(p[2]) - r, p[0].max(p[1]).max(p[2]) + r);
             count += 1;
         };
-        for axis in [DVec3::X, DVec3::Y, DVec3::Z] {
-            add(axis);
-        }
-        add(edges[0].cross(edges[1]));
         for e in edges {
             for axis in [DVec3::X, DVec3::Y, DVec3::Z] {
                 add(axis.cross(e));
             }
         }
+        add(edges[0].cross(edges[1]));
         Self {
             axes,
-            bounds,
+            keep,
             count,
+            box_lo: tri[0].min(tri[1]).min(tri[2]) - half,
+            box_hi: tri[0].max(tri[1]).max(tri[2]) + half,
         }
     }
 
     /// True when the triangle and the closed box `center ± half` overlap (touching counts).
     #[inline]
     pub fn overlaps(&self, center: DVec3) -> bool {
-        for (axis, &(lo, hi, r)) in self.axes[..self.count].iter().zip(&self.bounds) {
+        for (axis, &(lo, hi)) in self.axes[..self.count].iter().zip(&self.keep) {
             let c = center.dot(*axis);
-            if lo - c > r || hi - c < -r {
+            if c < lo || c > hi {
                 return false;
             }
         }
-        true
+        center.cmpge(self.box_lo).all() && center.cmple(self.box_hi).all()
     }
 }
 
