@@ -55,7 +55,7 @@ pub fn run_session(
     };
     let report = run_loop(
         scene.tree.clone(),
-        classed(&scene.shell, threads),
+        classed(&scene.shell),
         params,
         Box::new(hand),
         PartState::at_rest(start, orientation),

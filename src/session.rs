@@ -136,8 +136,12 @@ pub fn laps_script(
     Ok(b.hold(0.2).build()?)
 }
 
-/// A classed shell for `threads` local threads (class count = threads · 8, so shares stay
-/// balanced when the cluster reassigns classes later).
-pub fn classed(shell: &PointShell, threads: usize) -> Arc<ClassedShell> {
-    Arc::new(ClassedShell::new(shell, (threads.max(1) * 8) as u32))
+/// Classes the shell is split into (DESIGN §4). Fixed, independent of the thread count: a class
+/// is the unit of work and of exact summation, so the same class count gives a bit-identical
+/// wrench however the classes are spread over threads (or, later, worker processes).
+pub const CLASS_COUNT: u32 = 64;
+
+/// The shell split into [`CLASS_COUNT`] classes.
+pub fn classed(shell: &PointShell) -> Arc<ClassedShell> {
+    Arc::new(ClassedShell::new(shell, CLASS_COUNT))
 }

@@ -9,7 +9,7 @@
 //! the empty slot, every point in Free tiles. Both poses read the same tree in the same run.
 
 use anyhow::Result;
-use glam::{DQuat, DVec3};
+use glam::{DQuat, DVec3, Vec3};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::hint::black_box;
@@ -77,6 +77,15 @@ fn fibonacci_shell(n: usize, radius: f64) -> PointShell {
         points.push((dir * radius).as_vec3());
         normals.push((-dir).as_vec3());
     }
+    // Morton order by voxel, as real shells are (the Fibonacci index order jumps across the sphere).
+    let key = |p: &Vec3| {
+        let v = (*p / VOXEL_SIZE as f32 + Vec3::splat(1e6)).as_uvec3();
+        vps_voxelize::shell::morton_key([v.x, v.y, v.z])
+    };
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by_key(|&i| key(&points[i]));
+    let points: Vec<Vec3> = order.iter().map(|&i| points[i]).collect();
+    let normals: Vec<Vec3> = order.iter().map(|&i| normals[i]).collect();
     PointShell {
         points,
         normals,

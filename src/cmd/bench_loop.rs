@@ -52,7 +52,7 @@ pub fn run(voxel_size: f64, points: usize, frames: u64, threads: usize) -> Resul
     };
     let report = run_loop(
         scene.tree.clone(),
-        classed(&scene.shell, threads),
+        classed(&scene.shell),
         params,
         Box::new(SimulatedHand::new(script, HandParams::default())?),
         PartState::at_rest(start, orientation),

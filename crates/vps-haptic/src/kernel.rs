@@ -3,8 +3,8 @@
 
 use crate::classed::ClassedShell;
 use crate::state::KernelPose;
-use crate::sums::{PartialSums, AREA_SCALE_F32, LENGTH_SCALE_F32};
-use glam::{Mat3, Vec3};
+use crate::sums::{PartialSums, AREA_SCALE, LENGTH_SCALE};
+use glam::{DVec3, IVec3, Mat3, Vec3};
 use vps_voxmap::{Voxel, VoxelLookup};
 
 /// The sums of class `class` of `shell` at `pose` against `map`.
@@ -87,7 +87,40 @@ impl GridFrame {
     }
 }
 
+/// Floating-point running sums of one class, accumulated in f64 in ascending point order and
+/// quantised once at the end of the class (see [`accumulate`]).
+#[derive(Default)]
+struct ClassAccumulator {
+    depth_normal: DVec3,
+    depth_torque: DVec3,
+    brake_sq: f64,
+    brake_force: DVec3,
+    brake_torque: DVec3,
+}
+
+impl ClassAccumulator {
+    /// Adds the rounded class totals to `sums`.
+    fn quantise_into(&self, sums: &mut PartialSums) {
+        let q3 = |acc: &mut [i128; 3], v: DVec3, scale: f64| {
+            acc[0] += quantise(v.x, scale);
+            acc[1] += quantise(v.y, scale);
+            acc[2] += quantise(v.z, scale);
+        };
+        q3(&mut sums.depth_normal, self.depth_normal, LENGTH_SCALE);
+        q3(&mut sums.depth_torque, self.depth_torque, AREA_SCALE);
+        sums.brake_sq += quantise(self.brake_sq, LENGTH_SCALE);
+        q3(&mut sums.brake_force, self.brake_force, LENGTH_SCALE);
+        q3(&mut sums.brake_torque, self.brake_torque, AREA_SCALE);
+    }
+}
+
 /// The hot loop over one class's index range.
+///
+/// Exactness (DESIGN §4): within a class, contributions are added in f64 in one canonical order
+/// (ascending point index), so a class's total is the same bits wherever it is computed (IEEE
+/// arithmetic, no fused multiply-add); the total is then quantised to integers once. Classes are
+/// the unit of work, and integers merge exactly, so any grouping of classes gives identical sums.
+/// Quantising once per class instead of once per point keeps the inner loop in floating point.
 #[inline]
 fn accumulate<L: VoxelLookup>(
     map: &L,
@@ -107,12 +140,13 @@ fn accumulate<L: VoxelLookup>(
         &shell.nz[range],
     );
     let rot = frame.rotation;
+    let mut acc = ClassAccumulator::default();
     for i in 0..px.len() {
         // (P − x) in metres, then P in grid coordinates.
         let lever = rot * Vec3::new(px[i], py[i], pz[i]);
         let grid = lever * frame.inv_voxel + frame.translation_grid;
-        let cell = grid.floor();
-        let kind = map.get(cell.as_ivec3());
+        let index = floor_to_ivec3(grid);
+        let kind = map.get(index);
         if kind == Voxel::Free {
             continue;
         }
@@ -121,46 +155,47 @@ fn accumulate<L: VoxelLookup>(
         match kind {
             Voxel::Surface => {
                 sums.surface += 1;
+                let cell = index.as_vec3();
                 let depth = normal.dot(cell + Vec3::splat(0.5) - grid).max(0.0) * frame.voxel;
                 sums.contacts += (depth > 0.0) as u64;
                 let force_dir = normal * depth;
-                add_quantised(&mut sums.depth_normal, force_dir, LENGTH_SCALE_F32);
-                add_quantised(
-                    &mut sums.depth_torque,
-                    lever.cross(force_dir),
-                    AREA_SCALE_F32,
-                );
+                acc.depth_normal += force_dir.as_dvec3();
+                acc.depth_torque += lever.cross(force_dir).as_dvec3();
             }
             Voxel::Proximity => {
                 let velocity = frame.linear_velocity + frame.angular_velocity.cross(lever);
                 let approach = velocity.dot(normal);
                 if approach < 0.0 {
                     sums.approaching += 1;
-                    sums.brake_sq += quantise(approach * approach, LENGTH_SCALE_F32);
+                    acc.brake_sq += (approach * approach) as f64;
                     let brake_dir = normal * approach;
-                    add_quantised(&mut sums.brake_force, brake_dir, LENGTH_SCALE_F32);
-                    add_quantised(
-                        &mut sums.brake_torque,
-                        lever.cross(brake_dir),
-                        AREA_SCALE_F32,
-                    );
+                    acc.brake_force += brake_dir.as_dvec3();
+                    acc.brake_torque += lever.cross(brake_dir).as_dvec3();
                 }
             }
             _ => sums.interior += 1,
         }
     }
+    acc.quantise_into(sums);
 }
 
-/// `value · scale` truncated toward zero (saturating; NaN → 0). `scale` is a power of two, so the
-/// product is exact unless it overflows f32.
+/// `floor(v)` per component as integers, without a libm call: on baseline x86-64 (no SSE4.1)
+/// `f32::floor` is a function call that cost more than the whole voxel lookup. Truncate, then step
+/// down where truncation rounded a negative value up. Values beyond the i32 range saturate, which
+/// lands outside any grid (read as Free).
 #[inline(always)]
-fn quantise(value: f32, scale: f32) -> i128 {
-    ((value * scale) as i64) as i128
+fn floor_to_ivec3(v: Vec3) -> IVec3 {
+    #[inline(always)]
+    fn floor(x: f32) -> i32 {
+        let t = x as i32;
+        t - (x < t as f32) as i32
+    }
+    IVec3::new(floor(v.x), floor(v.y), floor(v.z))
 }
 
+/// `value · scale` truncated toward zero, saturating (NaN → 0). `scale` is a power of two, so the
+/// product is exact unless it overflows.
 #[inline(always)]
-fn add_quantised(acc: &mut [i128; 3], v: Vec3, scale: f32) {
-    acc[0] += quantise(v.x, scale);
-    acc[1] += quantise(v.y, scale);
-    acc[2] += quantise(v.z, scale);
+fn quantise(value: f64, scale: f64) -> i128 {
+    (value * scale) as i128
 }

@@ -2,9 +2,10 @@
 //! contributes to a frame. Integer addition is associative and commutative, so sums merged in any
 //! grouping and any order are bit-identical.
 //!
-//! Quantisation: each point's contribution is computed in f32, multiplied by a power of two (exact
-//! in floating point) and truncated toward zero to an `i64` (Rust's `as` saturates, so an absurd
-//! value cannot wrap). The scales:
+//! Quantisation: the kernel adds each class's point contributions in f64, in ascending point
+//! order (one canonical order, so a class total has the same bits wherever it is computed), then
+//! multiplies the class total by a power of two (exact in floating point) and truncates toward zero
+//! to an integer (Rust's `as` saturates, so an absurd value cannot wrap). The scales:
 //!
 //! | sum | unit | LSB |
 //! |---|---|---|
@@ -15,11 +16,11 @@
 //! | `brake_torque` = S_t = Σ (P_i − x) × (V_i·N_i) N_i | m²/s | 2^-48 m²/s |
 //!
 //! These LSBs are finer than the f32 rounding of the values they hold for any voxel size above
-//! 1 µm, so quantisation adds no visible error. Per-point truncation error is below one LSB, so a sum
-//! of n points is within n LSB of the exact sum of the f32 contributions.
+//! 1 µm, so quantisation adds no visible error: each class total is within one LSB of its f64 sum.
 //!
-//! Overflow bound: accumulators are `i128` and each contribution is at most 2^63 in magnitude, so
-//! 2^64 points cannot overflow them. For scale: 10^7 points at the 5 mm voxel size put at most
+//! Overflow bound: accumulators are `i128` and each class total is at most 2^127 in magnitude
+//! after the saturating conversion; merging 2^64 saturated totals could in principle overflow, a
+//! physically impossible input. For scale: 10^7 points at the 5 mm voxel size put at most
 //! 10^7 · 4.4e-3 m · 2^40 ≈ 4.8e16 (< 2^56) into `depth_normal`. Counters are `u64`.
 
 use glam::DVec3;
@@ -29,8 +30,6 @@ pub const LENGTH_SCALE: f64 = (1u64 << 40) as f64;
 /// Scale of area-like sums (`depth_torque`, `brake_torque`): 2^48 per SI unit.
 pub const AREA_SCALE: f64 = (1u64 << 48) as f64;
 
-pub(crate) const LENGTH_SCALE_F32: f32 = LENGTH_SCALE as f32;
-pub(crate) const AREA_SCALE_F32: f32 = AREA_SCALE as f32;
 
 /// The sums a worker or a local thread returns for a set of classes. All-zero (`Default`) is the
 /// empty sum. Plain data: `Copy`, serde-serialisable, no allocation.

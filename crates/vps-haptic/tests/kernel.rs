@@ -173,27 +173,36 @@ fn random_state(rng: &mut ChaCha8Rng) -> PartState {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
 
-    /// The merged sums, and the step's output, are bit-identical for class counts 1, 2, 3, 8 and
-    /// for any grouping of the classes merged in any order.
+    /// For a fixed class count C, the merged sums and the step's output are bit-identical for any
+    /// grouping of the classes into shares, merged in any order (DESIGN §4: classes are the unit of
+    /// work). Across different class counts the rounding of the class totals differs, so sums
+    /// agree to within a few LSB per class, not bit for bit.
     #[test]
     fn partial_sums_merge_exactly_in_any_split(seed in any::<u64>(), n in 1usize..600) {
         let (grid, shell) = random_scene(seed, n);
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed);
         let state = random_state(&mut rng);
         let pose = KernelPose::from_state(&state);
-        let reference = sample_all(&grid, &ClassedShell::new(&shell, 1), &pose);
-        prop_assert_eq!(reference.sampled, n as u64);
-        prop_assert!(reference.non_free > 0 || n < 5);
-        prop_assert!(reference.is_plausible(n as u64, S));
-        prop_assert!(reference.torque_within(shell.max_radius() + 1e-6, S));
+        let single = sample_all(&grid, &ClassedShell::new(&shell, 1), &pose);
+        prop_assert_eq!(single.sampled, n as u64);
+        prop_assert!(single.non_free > 0 || n < 5);
+        prop_assert!(single.is_plausible(n as u64, S));
+        prop_assert!(single.torque_within(shell.max_radius() + 1e-6, S));
         let params = HapticParams::default();
         let handle = handle_at(DVec3::new(0.01, 0.0, 0.0), DVec3::ZERO);
-        let reference_out = step(&params, &state, &handle, &reference);
-        for classes in [2u32, 3, 8] {
+        for classes in [1u32, 2, 3, 8, 64] {
             let classed = ClassedShell::new(&shell, classes);
             prop_assert_eq!(classed.len(), n);
             let total: usize = (0..classes).map(|c| classed.class_len(c)).sum();
             prop_assert_eq!(total, n);
+            let reference = sample_all(&grid, &classed, &pose);
+            let reference_out = step(&params, &state, &handle, &reference);
+            // Counters are exact across class counts; rounded sums within 2 LSB per class.
+            prop_assert_eq!(reference.contacts, single.contacts);
+            prop_assert_eq!(reference.non_free, single.non_free);
+            for k in 0..3 {
+                prop_assert!((reference.depth_normal[k] - single.depth_normal[k]).abs() <= 2 * classes as i128);
+            }
             // Random order, random groups, groups merged in random order.
             let mut order: Vec<u32> = (0..classes).collect();
             order.shuffle(&mut rng);

@@ -23,20 +23,20 @@ impl GridSpec {
     }
 
     /// The index of the voxel containing world point `p` (may be outside `dims`).
-    #[inline]
+    #[inline(always)]
     pub fn index_of(&self, p: DVec3) -> IVec3 {
         let q = ((p - self.origin) / self.voxel_size).floor();
         IVec3::new(q.x as i32, q.y as i32, q.z as i32)
     }
 
     /// World position of the centre of voxel `ijk` (m).
-    #[inline]
+    #[inline(always)]
     pub fn center_of(&self, ijk: IVec3) -> DVec3 {
         self.origin + (ijk.as_dvec3() + DVec3::splat(0.5)) * self.voxel_size
     }
 
     /// True when `ijk` lies inside `0..dims` on every axis.
-    #[inline]
+    #[inline(always)]
     pub fn contains(&self, ijk: IVec3) -> bool {
         ijk.x >= 0
             && ijk.y >= 0
@@ -47,7 +47,7 @@ impl GridSpec {
     }
 
     /// Linear index (x fastest) of an in-range voxel.
-    #[inline]
+    #[inline(always)]
     pub fn linear(&self, ijk: IVec3) -> usize {
         (ijk.x as usize)
             + self.dims[0] as usize * ((ijk.y as usize) + self.dims[1] as usize * ijk.z as usize)

@@ -19,31 +19,31 @@ impl Slot {
     pub(crate) const MAX_CHILD: u32 = Self::TILE_BIT - 1;
 
     /// A uniform region of `v`.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn tile(v: Voxel) -> Self {
         Slot(Self::TILE_BIT | v.bits() as u32)
     }
 
     /// A child node; `index <= MAX_CHILD` (callers check before building).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn child(index: u32) -> Self {
         Slot(index)
     }
 
     /// True for a tile.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn is_tile(self) -> bool {
         self.0 & Self::TILE_BIT != 0
     }
 
     /// The tile's value (meaningful only for tiles).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn tile_value(self) -> Voxel {
         Voxel::from_bits(self.0 as u8)
     }
 
     /// The child index (meaningful only for children).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn child_index(self) -> usize {
         self.0 as usize
     }
@@ -66,13 +66,13 @@ pub(crate) struct InternalShape {
 
 impl InternalShape {
     /// Slots per node: `2^(3 log2)`.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn slots_per_node(self) -> usize {
         1 << (3 * self.log2)
     }
 
     /// The slot of node `node` that covers in-grid voxel `p` (any `p` inside the node's cube).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn slot_index(self, node: usize, p: UVec3) -> usize {
         let mask = (1 << self.log2) - 1;
         let local = ((p.x >> self.child_shift) & mask)
@@ -82,7 +82,7 @@ impl InternalShape {
     }
 
     /// Voxel offset of slot `local` from its node's minimum corner.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn child_offset(self, local: usize) -> UVec3 {
         let mask = (1 << self.log2) - 1;
         let l = local as u32;
@@ -101,7 +101,7 @@ pub(crate) struct InternalLevel {
 
 impl InternalLevel {
     /// The slot covering `p` in node `node`.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn slot(&self, node: usize, p: UVec3) -> Slot {
         Slot(self.slots[self.shape.slot_index(node, p)])
     }

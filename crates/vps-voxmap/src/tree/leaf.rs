@@ -19,25 +19,25 @@ pub(crate) struct LeafShape {
 
 impl LeafShape {
     /// Voxels per axis.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn edge(self) -> u32 {
         1 << self.log2
     }
 
     /// Bits holding voxels: `2 L³`.
-    #[inline]
+    #[inline(always)]
     fn used_bits(self) -> usize {
         2 << (3 * self.log2)
     }
 
     /// `u64` words per leaf (at least one).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn words_per_leaf(self) -> usize {
         self.used_bits().div_ceil(64)
     }
 
     /// Bit offset of in-grid voxel `p` inside its leaf.
-    #[inline]
+    #[inline(always)]
     fn voxel_bit(self, p: UVec3) -> usize {
         let mask = self.edge() - 1;
         let local = (p.x & mask) | ((p.y & mask) << self.log2) | ((p.z & mask) << (2 * self.log2));
@@ -45,14 +45,14 @@ impl LeafShape {
     }
 
     /// The voxel at `p` in the leaf whose words start at `words[first]`.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn read(self, words: &[u64], first: usize, p: UVec3) -> Voxel {
         let bit = self.voxel_bit(p);
         Voxel::from_bits((words[first + (bit >> 6)] >> (bit & 63)) as u8)
     }
 
     /// Bit offset of the row `(y, z)` (leaf-local).
-    #[inline]
+    #[inline(always)]
     fn row_bit(self, y: u32, z: u32) -> usize {
         2 * ((y + (z << self.log2)) << self.log2) as usize
     }
@@ -170,7 +170,7 @@ impl LeafShape {
 }
 
 /// Packs up to 32 voxel bytes (one leaf row) into 2-bit fields, byte `i` at bits `2i..2i+2`.
-#[inline]
+#[inline(always)]
 fn pack_row(bytes: &[u8]) -> u64 {
     bytes.chunks(8).enumerate().fold(0, |acc, (c, chunk)| {
         let mut b = [0u8; 8];
@@ -180,7 +180,7 @@ fn pack_row(bytes: &[u8]) -> u64 {
 }
 
 /// Packs the low two bits of each of 8 bytes into 16 bits (byte `i` → bits `2i..2i+2`).
-#[inline]
+#[inline(always)]
 fn pack8(x: u64) -> u64 {
     let x = x & 0x0303_0303_0303_0303;
     let x = (x | x >> 6) & 0x000F_000F_000F_000F;

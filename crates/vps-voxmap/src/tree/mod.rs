@@ -73,7 +73,7 @@ impl VoxelTree {
 
     /// The voxel at `ijk`; Free outside `spec().dims`. Constant cost: a bounds check, the root slot,
     /// at most two internal slots and one leaf word. Does not allocate or block.
-    #[inline]
+    #[inline(always)]
     pub fn get(&self, ijk: IVec3) -> Voxel {
         if !self.spec.contains(ijk) {
             return Voxel::Free;
@@ -86,7 +86,7 @@ impl VoxelTree {
     }
 
     /// Walks root → upper → lower for in-grid voxel `p`: no loop, three slot reads at most.
-    #[inline]
+    #[inline(always)]
     fn locate(&self, p: UVec3) -> LeafRef {
         let s = self.root.slot(p);
         if s.is_tile() {
@@ -232,7 +232,7 @@ impl VoxelLookup for VoxelTree {
         &self.spec
     }
 
-    #[inline]
+    #[inline(always)]
     fn get(&self, ijk: IVec3) -> Voxel {
         VoxelTree::get(self, ijk)
     }

@@ -28,7 +28,7 @@ impl RootGrid {
     }
 
     /// The slot covering in-grid voxel `p`.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn slot(&self, p: UVec3) -> Slot {
         let c = p >> self.shift;
         let i = c.x as usize
