@@ -1,0 +1,275 @@
+//! Bridge configuration, its validation, and the bridge's errors.
+
+use std::net::{Ipv4Addr, SocketAddr};
+
+use glam::{DQuat, DVec3};
+use vps_device::DeviceLimits;
+
+use super::protocol::Token;
+
+/// Settings of a [`BridgeDevice`](super::BridgeDevice) (TOML/JSON loadable; defaults for all).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct BridgeConfig {
+    /// Address to bind. Default `127.0.0.1:0` (loopback, any free port).
+    pub bind: SocketAddr,
+    /// Must be true to bind a non-loopback address. Default false.
+    pub allow_remote: bool,
+    /// Shared secret every datagram must carry. Required (and non-zero) for a non-loopback bind;
+    /// optional on loopback (when `None` the token field is ignored).
+    pub token: Option<Token>,
+    /// Handle position reported before any pose arrives (m, world frame; finite).
+    pub initial_position: DVec3,
+    /// Handle orientation reported before any pose arrives (unit quaternion within 1e-6).
+    pub initial_orientation: DQuat,
+    /// When the newest pose is older than this, its velocities are reported as zero (the pose is
+    /// held) (s; finite, > 0). Default 0.1.
+    pub velocity_timeout: f64,
+    /// Saturation limits applied to written wrenches. Default [`DeviceLimits::PAPER`].
+    pub limits: DeviceLimits,
+    /// Device name used in errors and reports. Default "udp bridge".
+    pub name: String,
+}
+
+impl Default for BridgeConfig {
+    fn default() -> Self {
+        Self {
+            bind: SocketAddr::from((Ipv4Addr::LOCALHOST, 0)),
+            allow_remote: false,
+            token: None,
+            initial_position: DVec3::ZERO,
+            initial_orientation: DQuat::IDENTITY,
+            velocity_timeout: 0.1,
+            limits: DeviceLimits::PAPER,
+            name: "udp bridge".to_string(),
+        }
+    }
+}
+
+/// Why a bridge could not be set up or used.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum BridgeError {
+    /// An invalid configuration field.
+    #[error("bridge config field `{field}`: {message}")]
+    Config {
+        /// The field name.
+        field: &'static str,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// The socket could not be bound.
+    #[error("cannot bind UDP socket to {addr}: {message}")]
+    Bind {
+        /// The address.
+        addr: SocketAddr,
+        /// The OS message.
+        message: String,
+    },
+    /// A socket operation failed.
+    #[error("bridge socket {what} failed: {message}")]
+    Io {
+        /// Which operation ("send", "receive", "set non-blocking", ...).
+        what: &'static str,
+        /// The OS message.
+        message: String,
+    },
+}
+
+impl BridgeError {
+    pub(crate) fn io(what: &'static str, e: std::io::Error) -> Self {
+        Self::Io {
+            what,
+            message: e.to_string(),
+        }
+    }
+}
+
+fn bad(field: &'static str, message: impl Into<String>) -> BridgeError {
+    BridgeError::Config {
+        field,
+        message: message.into(),
+    }
+}
+
+impl BridgeConfig {
+    /// Checks every field; the error names the first bad one. A non-loopback `bind` needs
+    /// `allow_remote` and a non-zero `token`.
+    pub fn validate(&self) -> Result<(), BridgeError> {
+        if !self.bind.ip().is_loopback() {
+            if !self.allow_remote {
+                return Err(bad(
+                    "allow_remote",
+                    format!(
+                        "binding non-loopback address {} requires allow_remote = true",
+                        self.bind
+                    ),
+                ));
+            }
+            match self.token {
+                None => {
+                    return Err(bad(
+                        "token",
+                        format!(
+                            "binding non-loopback address {} requires a token",
+                            self.bind
+                        ),
+                    ))
+                }
+                Some(t) if t == [0; 16] => {
+                    return Err(bad("token", "an all-zero token is not a secret"))
+                }
+                Some(_) => {}
+            }
+        }
+        if !self.initial_position.is_finite() {
+            return Err(bad("initial_position", "must be finite"));
+        }
+        let q = self.initial_orientation;
+        if !q.is_finite() || (q.length() - 1.0).abs() > 1e-6 {
+            return Err(bad(
+                "initial_orientation",
+                format!("{q:?} must be a finite unit quaternion"),
+            ));
+        }
+        if !(self.velocity_timeout.is_finite() && self.velocity_timeout > 0.0) {
+            return Err(bad(
+                "velocity_timeout",
+                format!("{} s must be finite and > 0", self.velocity_timeout),
+            ));
+        }
+        let l = self.limits;
+        if !(l.max_force.is_finite() && l.max_force > 0.0) {
+            return Err(bad(
+                "limits",
+                format!("max_force {} N must be finite and > 0", l.max_force),
+            ));
+        }
+        if !(l.max_torque.is_finite() && l.max_torque > 0.0) {
+            return Err(bad(
+                "limits",
+                format!("max_torque {} N·m must be finite and > 0", l.max_torque),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Parses a token written as 32 hex digits (e.g. from a command line or environment variable).
+pub fn parse_token_hex(text: &str) -> Result<Token, BridgeError> {
+    let text = text.trim();
+    let digits = text.as_bytes();
+    if digits.len() != 32 {
+        return Err(bad(
+            "token",
+            format!("expected 32 hex digits, got {} characters", digits.len()),
+        ));
+    }
+    let mut token = [0u8; 16];
+    for (i, (byte, pair)) in token.iter_mut().zip(digits.chunks_exact(2)).enumerate() {
+        let hex = |c: u8| (c as char).to_digit(16);
+        match (hex(pair[0]), hex(pair[1])) {
+            (Some(h), Some(l)) => *byte = (h * 16 + l) as u8,
+            _ => {
+                return Err(bad(
+                    "token",
+                    format!("character {} or {} is not a hex digit", 2 * i, 2 * i + 1),
+                ))
+            }
+        }
+    }
+    Ok(token)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_is_valid_loopback() {
+        let c = BridgeConfig::default();
+        c.validate().unwrap();
+        assert!(c.bind.ip().is_loopback());
+    }
+
+    #[test]
+    fn remote_bind_needs_permission_and_a_token() {
+        let remote = SocketAddr::from(([0, 0, 0, 0], 0));
+        let mut c = BridgeConfig {
+            bind: remote,
+            ..Default::default()
+        };
+        let e = c.validate().unwrap_err();
+        assert!(
+            matches!(
+                e,
+                BridgeError::Config {
+                    field: "allow_remote",
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        c.allow_remote = true;
+        assert!(matches!(
+            c.validate(),
+            Err(BridgeError::Config { field: "token", .. })
+        ));
+        c.token = Some([0; 16]);
+        assert!(matches!(
+            c.validate(),
+            Err(BridgeError::Config { field: "token", .. })
+        ));
+        c.token = Some([9; 16]);
+        c.validate().unwrap();
+    }
+
+    #[test]
+    fn other_fields_are_named() {
+        let c = BridgeConfig {
+            velocity_timeout: 0.0,
+            ..Default::default()
+        };
+        assert!(matches!(
+            c.validate(),
+            Err(BridgeError::Config {
+                field: "velocity_timeout",
+                ..
+            })
+        ));
+        let c = BridgeConfig {
+            initial_orientation: DQuat::from_xyzw(0.0, 0.0, 0.0, 0.0),
+            ..Default::default()
+        };
+        assert!(matches!(
+            c.validate(),
+            Err(BridgeError::Config {
+                field: "initial_orientation",
+                ..
+            })
+        ));
+        let c = BridgeConfig {
+            limits: DeviceLimits {
+                max_force: f64::INFINITY,
+                max_torque: 0.1,
+            },
+            ..Default::default()
+        };
+        assert!(matches!(
+            c.validate(),
+            Err(BridgeError::Config {
+                field: "limits",
+                ..
+            })
+        ));
+    }
+
+    #[test]
+    fn hex_tokens() {
+        let t = parse_token_hex("000102030405060708090a0b0c0d0eFF").unwrap();
+        assert_eq!(t[1], 1);
+        assert_eq!(t[15], 0xff);
+        assert!(parse_token_hex("abc").is_err());
+        assert!(parse_token_hex("zz0102030405060708090a0b0c0d0e0f").is_err());
+        assert!(parse_token_hex("é00102030405060708090a0b0c0d0e0").is_err());
+    }
+}

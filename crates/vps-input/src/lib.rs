@@ -1,0 +1,18 @@
+//! Real input devices for vps, each implementing [`vps_device::HapticDevice`]:
+//!
+//! - [`spacemouse`]: 3Dconnexion SpaceMouse-family 6-axis controllers over hidapi, used as
+//!   rate-controlled handles (deflection → velocity → pose). Input only: no force is rendered;
+//!   the written wrench is recorded for display. [`list_devices`] enumerates every HID device.
+//! - [`bridge`]: a UDP device bridge: another process streams handle poses in and receives the
+//!   wrenches back ([`BridgeDevice`], [`BridgeClient`], datagram format in [`bridge::protocol`]).
+//!
+//! SI units throughout (m, s, rad, N, N·m). Parsers and protocol codecs are pure functions that
+//! never panic on any input; device `read`/`write` never block.
+
+pub mod bridge;
+mod error;
+pub mod spacemouse;
+
+pub use bridge::{BridgeClient, BridgeConfig, BridgeCounters, BridgeDevice, BridgeError};
+pub use error::InputError;
+pub use spacemouse::{list_devices, HidDeviceInfo, SpaceMouse, SpaceMouseConfig};
