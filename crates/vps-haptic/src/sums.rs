@@ -30,7 +30,6 @@ pub const LENGTH_SCALE: f64 = (1u64 << 40) as f64;
 /// Scale of area-like sums (`depth_torque`, `brake_torque`): 2^48 per SI unit.
 pub const AREA_SCALE: f64 = (1u64 << 48) as f64;
 
-
 /// The sums a worker or a local thread returns for a set of classes. All-zero (`Default`) is the
 /// empty sum. Plain data: `Copy`, serde-serialisable, no allocation.
 #[derive(
