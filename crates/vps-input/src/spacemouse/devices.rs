@@ -4,7 +4,7 @@
 //! sources (spacenavd, the Linux kernel's hid-ids, vendor documentation); it is not an official
 //! list and has not been checked against every device here (no hardware was attached when it was
 //! written). An unknown 3Dconnexion product can still be opened by path with
-//! [`Layout::Auto`](crate::spacemouse::Layout::Auto).
+//! [`Layout::Auto`].
 
 use super::report::Layout;
 use crate::InputError;
@@ -124,13 +124,35 @@ pub struct HidDeviceInfo {
     pub layout: Option<Layout>,
 }
 
+impl std::fmt::Display for HidDeviceInfo {
+    /// One line: `vvvv:pppp  name  path  usage page:usage  drivable (layout)` or `-`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let name = if self.name.is_empty() {
+            "(unnamed)"
+        } else {
+            &self.name
+        };
+        write!(
+            f,
+            "{:04x}:{:04x}  {name}  {}  usage {:#06x}:{:#06x}  ",
+            self.vendor_id, self.product_id, self.path, self.usage_page, self.usage
+        )?;
+        match self.layout {
+            Some(layout) if self.drivable => write!(f, "drivable ({layout:?} reports)"),
+            _ => write!(f, "-"),
+        }
+    }
+}
+
 /// Lists every HID device visible to hidapi, in enumeration order. Allocates; blocks for the
 /// enumeration (a few milliseconds); never called on the frame path.
 ///
 /// With the `linux-native-basic-udev` backend, enumeration scans `/sys/class/hidraw`; a machine
 /// without HID devices (a container, CI) yields `Ok(vec![])`, as does a missing or unreadable sysfs
 /// (the backend maps those to an empty list). `Err(InputError::HidInit)` is returned only when
-/// the hidapi context itself fails to initialise (possible on other backends).
+/// the hidapi context itself fails to initialise (possible on other backends). On the container
+/// this crate was written in (no `/dev/hidraw*`, empty `/sys/class/hidraw`) it returns
+/// `Ok(vec![])`.
 pub fn list_devices() -> Result<Vec<HidDeviceInfo>, InputError> {
     let api = hidapi::HidApi::new().map_err(|e| InputError::HidInit {
         message: e.to_string(),
@@ -185,6 +207,28 @@ mod tests {
             "3Dconnexion Universal Receiver"
         );
         assert!(lookup(0x046d, 0xc52b).is_none(), "a Logitech receiver");
+    }
+
+    #[test]
+    fn display_is_one_informative_line() {
+        let d = HidDeviceInfo {
+            vendor_id: 0x046d,
+            product_id: 0xc626,
+            name: "SpaceNavigator".into(),
+            manufacturer: "3Dconnexion".into(),
+            path: "/dev/hidraw3".into(),
+            usage_page: 1,
+            usage: 8,
+            interface_number: 0,
+            drivable: true,
+            layout: Some(Layout::Split),
+        };
+        let line = d.to_string();
+        assert_eq!(
+            line,
+            "046d:c626  SpaceNavigator  /dev/hidraw3  usage 0x0001:0x0008  drivable (Split reports)"
+        );
+        assert!(!line.contains('\n'));
     }
 
     #[test]

@@ -340,6 +340,23 @@ mod tests {
     }
 
     #[test]
+    fn open_first_without_a_spacemouse_says_so() {
+        let devices = list_devices().unwrap();
+        if devices.iter().any(|d| d.drivable) {
+            return; // a real SpaceMouse is attached: opening it is not this test's business
+        }
+        let e = SpaceMouse::open_first(SpaceMouseConfig::default())
+            .err()
+            .expect("no SpaceMouse here");
+        assert_eq!(
+            e,
+            InputError::NoDevice {
+                found: devices.len()
+            }
+        );
+    }
+
+    #[test]
     fn open_path_of_a_missing_device_is_a_clear_error() {
         let e = SpaceMouse::open_path(
             "/dev/hidraw-does-not-exist",

@@ -272,8 +272,8 @@ impl RateControl {
 
     /// Advances time by `dt` (s; a non-finite or negative `dt` is treated as 0): sets the velocity
     /// from the current deflection (zero while not grabbed or stale) and integrates the pose with
-    /// it (explicit Euler for position, exact exponential map for orientation). Returns the new
-    /// sample.
+    /// it (explicit Euler for position, exact exponential map for orientation). Within one long
+    /// step the motion stops where the report turns stale. Returns the new sample.
     pub fn advance(&mut self, dt: f64) -> HandleSample {
         let dt = if dt.is_finite() && dt > 0.0 { dt } else { 0.0 };
         let d = if self.grabbed {
@@ -281,10 +281,14 @@ impl RateControl {
         } else {
             [0.0; 6]
         };
+        // Time within this step while the latest report is still fresh.
+        let moving = self.last_motion.map_or(0.0, |t| {
+            (t + self.config.stale_after - self.time).clamp(0.0, dt)
+        });
         self.linear_velocity = DVec3::new(d[0], d[1], d[2]) * self.config.translation_speed;
         self.angular_velocity = DVec3::new(d[3], d[4], d[5]) * self.config.rotation_speed;
-        self.position += self.linear_velocity * dt;
-        let turn = self.angular_velocity * dt;
+        self.position += self.linear_velocity * moving;
+        let turn = self.angular_velocity * moving;
         if turn != DVec3::ZERO {
             self.orientation = (DQuat::from_scaled_axis(turn) * self.orientation).normalize();
         }
@@ -419,6 +423,17 @@ mod tests {
         rc.on_report(&Report::Translation([350, 0, 0]));
         rc.advance(1e-3);
         assert!(rc.sample().position.x > x);
+    }
+
+    #[test]
+    fn a_long_step_moves_only_while_the_report_is_fresh() {
+        let mut rc = RateControl::new(identity_config()).unwrap();
+        rc.on_report(&Report::Translation([350, 0, 0]));
+        let s = rc.advance(1.0);
+        assert!((s.position.x - 0.1 * 0.1).abs() < 1e-12, "{:?}", s.position);
+        let s = rc.advance(1.0);
+        assert!((s.position.x - 0.01).abs() < 1e-12);
+        assert_eq!(s.linear_velocity, DVec3::ZERO);
     }
 
     #[test]
