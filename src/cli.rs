@@ -26,8 +26,67 @@ pub enum Command {
     Probe(ProbeArgs),
     /// The main job on the built-in scene: the teapot threading the aircraft bay with a simulated hand.
     Demo(DemoArgs),
+    /// One paced 1 kHz session on the built-in scene with a chosen device and parameters.
+    Run(RunArgs),
+    /// Record the handle trace of a session to a file (JSON lines).
+    Record {
+        /// Output trace file.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// The device: sim, spacemouse, bridge[:ADDR].
+        #[arg(long, default_value = "sim")]
+        device: String,
+        /// Session length (s).
+        #[arg(long, default_value_t = 30.0)]
+        seconds: f64,
+    },
+    /// Replay a recorded handle trace exactly, on the built-in scene.
+    Replay {
+        /// The trace file written by `vps record` or `vps run --record`.
+        trace: PathBuf,
+        /// Parameters (TOML, see configs/haptic.toml).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Print as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// List the HID devices this machine sees and which vps can drive.
+    Devices {
+        /// Print as JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// Measure; prints JSON.
     Bench(BenchArgs),
+}
+
+/// Arguments of `vps run`. `Default` matches the command-line defaults.
+#[derive(Args, Debug, Clone)]
+pub struct RunArgs {
+    /// The device: `sim` (simulated hand on the standard script), `spacemouse` (first SpaceMouse
+    /// found; input only), `bridge[:ADDR]` (UDP device bridge, default 127.0.0.1:7700),
+    /// `replay:FILE` (a recorded trace).
+    #[arg(long, default_value = "sim")]
+    pub device: String,
+    /// Haptic parameters (TOML; see configs/haptic.toml). Defaults are derived when absent.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Voxel size of the scene.
+    #[arg(long, value_parser = parse_length, default_value = "5mm")]
+    pub voxel_size: f64,
+    /// Session length (s); a replay runs for the length of its trace.
+    #[arg(long, default_value_t = 30.0)]
+    pub seconds: f64,
+    /// Compute threads, the frame thread included.
+    #[arg(long, default_value_t = 1)]
+    pub threads: usize,
+    /// Record the handle trace to this file.
+    #[arg(long)]
+    pub record: Option<PathBuf>,
+    /// Print as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Where a mesh comes from: a file path or `builtin:NAME`.
@@ -199,4 +258,18 @@ pub enum BenchKind {
         #[arg(long)]
         json: bool,
     },
+}
+
+impl Default for RunArgs {
+    fn default() -> Self {
+        Self {
+            device: "sim".into(),
+            config: None,
+            voxel_size: 0.005,
+            seconds: 30.0,
+            threads: 1,
+            record: None,
+            json: false,
+        }
+    }
 }

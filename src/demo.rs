@@ -69,7 +69,8 @@ pub fn run_session(
     Ok(report)
 }
 
-fn print_summary(label: &str, s: &StatsSummary, paper: f64) {
+/// Prints a session's frame figures; `paper` is the paper's penetration ratio to show beside ours.
+pub fn print_summary(label: &str, s: &StatsSummary, paper: Option<f64>) {
     let us = |ns: u64| ns as f64 / 1e3;
     println!("{label}:");
     println!(
@@ -93,13 +94,13 @@ fn print_summary(label: &str, s: &StatsSummary, paper: f64) {
         );
     }
     println!(
-        "  contact frames {}, touching {}, penetrating {}, penetration ratio {} (paper: {:.1e})",
+        "  contact frames {}, touching {}, penetrating {}, penetration ratio {}{}",
         s.contact_frames,
         s.touching_frames,
         s.penetrating_frames,
         s.penetration_ratio
             .map_or("n/a (no contact)".into(), |r| format!("{r:.2e}")),
-        paper
+        paper.map_or(String::new(), |p| format!(" (paper: {p:.1e})"))
     );
 }
 
@@ -151,12 +152,12 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     print_summary(
         &format!("braking on, 1 kHz paced ({rt})"),
         &on.stats,
-        PAPER_PR_BRAKING,
+        Some(PAPER_PR_BRAKING),
     );
     print_summary(
         "braking off, same script, frames back to back",
         &off.stats,
-        PAPER_PR_NO_BRAKING,
+        Some(PAPER_PR_NO_BRAKING),
     );
     Ok(())
 }

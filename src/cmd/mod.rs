@@ -6,10 +6,11 @@ mod bench_voxelize;
 mod inspect;
 pub mod output;
 mod probe;
+mod run;
 mod shell;
 mod voxelize;
 
-use crate::cli::{BenchKind, Cli, Command};
+use crate::cli::{BenchKind, Cli, Command, RunArgs};
 use anyhow::Result;
 
 /// Runs the parsed command.
@@ -20,6 +21,20 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Inspect(args) => inspect::run(&args),
         Command::Probe(args) => probe::run(&args),
         Command::Demo(args) => crate::demo::run(&args),
+        Command::Run(args) => run::run(&args),
+        Command::Record { output, device, seconds } => run::run(&RunArgs {
+            device,
+            seconds,
+            record: Some(output),
+            ..RunArgs::default()
+        }),
+        Command::Replay { trace, config, json } => run::run(&RunArgs {
+            device: format!("replay:{}", trace.display()),
+            config,
+            json,
+            ..RunArgs::default()
+        }),
+        Command::Devices { json } => run::devices(json),
         Command::Bench(args) => match args.which {
             BenchKind::Voxelize {
                 mesh,

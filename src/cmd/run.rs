@@ -1,0 +1,167 @@
+//! `vps run`, `vps record`, `vps replay` and `vps devices`: one paced 1 kHz session on the
+//! built-in scene with a chosen device, parameters from a TOML file, and handle traces to and from
+//! files.
+
+use super::output::print_json;
+use crate::cli::RunArgs;
+use crate::session::{builtin_scene, classed, standard_script, SessionScene};
+use anyhow::{bail, Context, Result};
+use glam::DQuat;
+use serde::Serialize;
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use vps_device::trace::{load_trace, save_trace, ReplayDevice};
+use vps_device::{DeviceLimits, HandParams, HapticDevice, SimulatedHand};
+use vps_haptic::{HapticParams, PartState};
+use vps_input::{BridgeConfig, BridgeDevice, SpaceMouse, SpaceMouseConfig};
+use vps_runtime::{run_loop, LoopConfig, LoopReport, StatsSummary};
+use vps_voxelize::ShellMethod;
+
+/// The device a session is driven by, parsed from `--device`.
+enum DeviceChoice {
+    /// The simulated hand on the standard script.
+    Simulated,
+    /// The first SpaceMouse-family HID device found (input only).
+    SpaceMouse,
+    /// The UDP device bridge, bound to the address (loopback unless a token is given).
+    Bridge(std::net::SocketAddr),
+    /// A recorded handle trace, played back exactly.
+    Replay(std::path::PathBuf),
+}
+
+fn parse_device(text: &str) -> Result<DeviceChoice> {
+    Ok(match text.split_once(':') {
+        None if text == "sim" => DeviceChoice::Simulated,
+        None if text == "spacemouse" => DeviceChoice::SpaceMouse,
+        None if text == "bridge" => DeviceChoice::Bridge("127.0.0.1:7700".parse()?),
+        Some(("bridge", addr)) => DeviceChoice::Bridge(
+            addr.parse().with_context(|| format!("--device bridge:{addr}: not an address like 127.0.0.1:7700"))?,
+        ),
+        Some(("replay", path)) => DeviceChoice::Replay(path.into()),
+        _ => bail!("--device {text}: expected sim, spacemouse, bridge[:ADDR] or replay:FILE"),
+    })
+}
+
+/// Opens the device; the start pose is where the session begins (m).
+fn open_device(choice: &DeviceChoice, scene: &SessionScene) -> Result<(Box<dyn HapticDevice>, PartState)> {
+    let script = standard_script(&scene.tree, &scene.corridor, 0.8)?;
+    let (start, orientation) = script.sample(0.0);
+    let at_start = PartState::at_rest(start, orientation);
+    Ok(match choice {
+        DeviceChoice::Simulated => (Box::new(SimulatedHand::new(script, HandParams::default())?), at_start),
+        DeviceChoice::SpaceMouse => {
+            let config = SpaceMouseConfig { start_position: start, start_orientation: DQuat::IDENTITY, ..Default::default() };
+            let device = SpaceMouse::open_first(config).context(
+                "opening a SpaceMouse (`vps devices` lists what this machine sees; /dev/hidraw* must be readable)",
+            )?;
+            (Box::new(device), at_start)
+        }
+        DeviceChoice::Bridge(addr) => {
+            let config = BridgeConfig { bind: *addr, initial_position: start, ..Default::default() };
+            let device = BridgeDevice::bind(config).with_context(|| format!("binding the device bridge on {addr}"))?;
+            eprintln!("device bridge listening on {}", device.local_addr());
+            (Box::new(device), at_start)
+        }
+        DeviceChoice::Replay(path) => {
+            let trace = load_trace(path)?;
+            let first = trace.frames.first().with_context(|| format!("{}: the trace has no frames", path.display()))?;
+            let state = PartState::at_rest(first.sample.position, first.sample.orientation);
+            (Box::new(ReplayDevice::new(trace, DeviceLimits::PAPER)), state)
+        }
+    })
+}
+
+#[derive(Serialize)]
+struct RunReport {
+    device: String,
+    shell_points: usize,
+    realtime_granted: bool,
+    end: String,
+    final_position_m: [f64; 3],
+    stats: StatsSummary,
+}
+
+/// Runs one paced session; records the handle trace to `record` when given.
+pub fn run(args: &RunArgs) -> Result<()> {
+    let choice = parse_device(&args.device)?;
+    let scene = builtin_scene(args.voxel_size, ShellMethod::VoxelCentres)?;
+    let params = match &args.config {
+        Some(path) => HapticParams::from_file(path)?,
+        None => HapticParams::default(),
+    }
+    .with_scene(args.voxel_size, scene.shell.max_radius())?;
+    let (device, initial) = open_device(&choice, &scene)?;
+    let frames = match &choice {
+        DeviceChoice::Replay(path) => load_trace(path)?.frames.len() as u64,
+        _ => (args.seconds / params.dt).round().max(1.0) as u64,
+    };
+    let config = LoopConfig {
+        frames: Some(frames),
+        threads: args.threads.max(1),
+        realtime: true,
+        record_trace: args.record.is_some(),
+        ..LoopConfig::default()
+    };
+    let report: LoopReport = run_loop(
+        scene.tree.clone(),
+        classed(&scene.shell),
+        params,
+        device,
+        initial,
+        config,
+        None,
+        Arc::new(AtomicBool::new(false)),
+    )?;
+    if let Some(path) = &args.record {
+        save_recording(&report, path)?;
+    }
+    let end = match &report.device_error {
+        Some(err) => format!("device failed: {err}"),
+        None => format!("{:?}", report.end),
+    };
+    let out = RunReport {
+        device: report.device_name.clone(),
+        shell_points: scene.shell.len(),
+        realtime_granted: report.rt.fifo,
+        end,
+        final_position_m: report.final_state.position.to_array(),
+        stats: report.stats,
+    };
+    if args.json {
+        print_json(&out)?;
+    } else {
+        println!("device: {}, {} shell points, session end: {}", out.device, out.shell_points, out.end);
+        crate::demo::print_summary("session", &out.stats, None);
+        println!("final part position (m): {:?}", out.final_position_m);
+    }
+    if report.device_error.is_some() {
+        bail!("the session stopped because the device failed (the device was sent zero force)");
+    }
+    Ok(())
+}
+
+fn save_recording(report: &LoopReport, path: &Path) -> Result<()> {
+    if let Some(why) = &report.trace_error {
+        bail!("trace recording stopped early: {why}");
+    }
+    let trace = report.trace.as_ref().context("the loop returned no trace")?;
+    save_trace(path, trace)?;
+    eprintln!("recorded {} frames to {}", trace.frames.len(), path.display());
+    Ok(())
+}
+
+/// `vps devices`: the HID devices this machine sees and which of them vps can drive.
+pub fn devices(json: bool) -> Result<()> {
+    let list = vps_input::list_devices()?;
+    if json {
+        return print_json(&list);
+    }
+    if list.is_empty() {
+        println!("no HID devices found on this machine (none attached, or /dev/hidraw* not readable)");
+    }
+    for d in &list {
+        println!("{d}");
+    }
+    Ok(())
+}
