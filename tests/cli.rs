@@ -93,8 +93,7 @@ fn bad_arguments_are_rejected_with_a_message() {
     let out = vps(&[
         "voxelize",
         "builtin:box",
-        "--voxel-size",
-        "-5mm",
+        "--voxel-size=-5mm",
         "-o",
         "/tmp/x.vmap",
     ]);
@@ -131,23 +130,40 @@ fn record_then_replay_reproduces_the_session_exactly() {
     let dir = tempfile::tempdir().unwrap();
     let trace = path(dir.path(), "session.jsonl");
     let out = vps(&["record", "-o", &trace, "--seconds", "1"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let replayed = json(&vps(&["replay", &trace, "--json"]));
     let recorded = json(&vps(&["run", "--seconds", "1", "--json"]));
     assert_eq!(replayed["stats"]["frames"], 1000);
-    assert_eq!(replayed["final_position_m"], recorded["final_position_m"], "replay is bit-exact");
+    assert_eq!(
+        replayed["final_position_m"], recorded["final_position_m"],
+        "replay is bit-exact"
+    );
 
     std::fs::write(&trace, "{\"not\": \"a trace\"}\n").unwrap();
     let out = vps(&["replay", &trace]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("session.jsonl") && !err.contains("panicked"), "{err}");
+    assert!(
+        err.contains("session.jsonl") && !err.contains("panicked"),
+        "{err}"
+    );
 }
 
 #[test]
 fn devices_lists_or_says_there_are_none() {
     let out = vps(&["devices"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let text = String::from_utf8_lossy(&out.stdout);
-    assert!(!text.trim().is_empty(), "prints a device per line or says none were found");
+    assert!(
+        !text.trim().is_empty(),
+        "prints a device per line or says none were found"
+    );
 }
