@@ -100,10 +100,19 @@ pub(crate) struct InternalLevel {
 }
 
 impl InternalLevel {
-    /// The slot covering `p` in node `node`.
+    /// The slot covering in-grid voxel `p` in node `node`, the child index stored in the parent
+    /// slot whose cube holds `p`; `shape` must equal `self.shape` (passed in so a caller can make
+    /// it a constant).
     #[inline(always)]
-    pub(crate) fn slot(&self, node: usize, p: UVec3) -> Slot {
-        Slot(self.slots[self.shape.slot_index(node, p)])
+    pub(crate) fn slot_of(&self, shape: InternalShape, node: usize, p: UVec3) -> Slot {
+        debug_assert_eq!(shape, self.shape);
+        let i = shape.slot_index(node, p);
+        debug_assert!(i < self.slots.len());
+        // SAFETY: `node` comes from a child slot of the parent level, and every stored child index
+        // is below this level's node count (canonical form: children count up from 0 and the arena
+        // holds one node per child; established by `from_dense`, checked by `from_parts`).
+        // `slot_index` is `node * slots_per_node + local` with `local < slots_per_node`.
+        Slot(unsafe { *self.slots.get_unchecked(i) })
     }
 
     /// Number of nodes.

@@ -30,10 +30,17 @@ impl LeafShape {
         2 << (3 * self.log2)
     }
 
-    /// `u64` words per leaf (at least one).
+    /// `u64` words per leaf (at least one; a power of two).
     #[inline(always)]
     pub(crate) fn words_per_leaf(self) -> usize {
-        self.used_bits().div_ceil(64)
+        1 << self.word_shift()
+    }
+
+    /// log2 of [`LeafShape::words_per_leaf`]: `2 L³` bits is `2^(3N + 1)`, so `3N + 1 − 6` when
+    /// that is positive, else one word.
+    #[inline(always)]
+    pub(crate) fn word_shift(self) -> u32 {
+        (3 * self.log2 + 1).saturating_sub(6)
     }
 
     /// Bit offset of in-grid voxel `p` inside its leaf.
@@ -44,11 +51,22 @@ impl LeafShape {
         2 * local as usize
     }
 
+    /// Index, within its leaf, of the word that holds voxel `p` (below `words_per_leaf`).
+    #[inline(always)]
+    pub(crate) fn word_of(self, p: UVec3) -> usize {
+        self.voxel_bit(p) >> 6
+    }
+
+    /// The voxel `p` from the leaf word `word` that holds it (see [`LeafShape::word_of`]).
+    #[inline(always)]
+    pub(crate) fn voxel_in_word(self, word: u64, p: UVec3) -> Voxel {
+        Voxel::from_bits((word >> (self.voxel_bit(p) & 63)) as u8)
+    }
+
     /// The voxel at `p` in the leaf whose words start at `words[first]`.
     #[inline(always)]
     pub(crate) fn read(self, words: &[u64], first: usize, p: UVec3) -> Voxel {
-        let bit = self.voxel_bit(p);
-        Voxel::from_bits((words[first + (bit >> 6)] >> (bit & 63)) as u8)
+        self.voxel_in_word(words[first + self.word_of(p)], p)
     }
 
     /// Bit offset of the row `(y, z)` (leaf-local).
@@ -213,6 +231,14 @@ mod tests {
             if len < 32 {
                 assert_eq!(packed >> (2 * len), 0, "len {len}: padding must be Free");
             }
+        }
+    }
+
+    #[test]
+    fn words_per_leaf_covers_the_used_bits_exactly() {
+        for log2 in 1..=5 {
+            let shape = LeafShape { log2 };
+            assert_eq!(shape.words_per_leaf(), shape.used_bits().div_ceil(64));
         }
     }
 

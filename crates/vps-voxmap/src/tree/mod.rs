@@ -53,6 +53,32 @@ pub struct NodeCounts {
     pub upper: usize,
 }
 
+/// The shifts of a lookup path, taken from the tree's levels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct LookupShape {
+    /// log2 of the upper node's extent in voxels.
+    root_shift: u32,
+    upper: internal::InternalShape,
+    lower: internal::InternalShape,
+    leaf: LeafShape,
+}
+
+impl LookupShape {
+    /// The shape of [`TreeConfig::default`] (`N = 3` at every level), as constants.
+    const TREE_512: LookupShape = LookupShape {
+        root_shift: 9,
+        upper: internal::InternalShape {
+            log2: 3,
+            child_shift: 6,
+        },
+        lower: internal::InternalShape {
+            log2: 3,
+            child_shift: 3,
+        },
+        leaf: LeafShape { log2: 3 },
+    };
+}
+
 /// The end of a lookup path above the voxel: a tile or a leaf (by its first word in the leaf arena).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum LeafRef {
@@ -75,32 +101,79 @@ impl VoxelTree {
     /// at most two internal slots and one leaf word. Does not allocate or block.
     #[inline(always)]
     pub fn get(&self, ijk: IVec3) -> Voxel {
-        if !self.spec.contains(ijk) {
+        let Some(p) = self.in_grid(ijk) else {
             return Voxel::Free;
+        };
+        // The paper's 512-tree (the default) gets a copy of the walk with constant shifts: on
+        // baseline x86-64 a shift by a register amount costs several micro-ops.
+        if self.config == TreeConfig::default() {
+            self.read(p, &LookupShape::TREE_512)
+        } else {
+            self.read(p, &self.lookup_shape())
         }
+    }
+
+    /// `ijk` as unsigned coordinates when it is inside the dims. Dims are at most `i32::MAX`
+    /// (checked on assembly), so a negative coordinate cast to `u32` is never below a dim and one
+    /// unsigned compare per axis covers both ends.
+    #[inline(always)]
+    fn in_grid(&self, ijk: IVec3) -> Option<UVec3> {
         let p = ijk.as_uvec3();
-        match self.locate(p) {
+        let d = self.spec.dims;
+        ((p.x < d[0]) & (p.y < d[1]) & (p.z < d[2])).then_some(p)
+    }
+
+    /// The voxel at in-grid `p`, walking with `shape` (equal to [`VoxelTree::lookup_shape`]).
+    #[inline(always)]
+    fn read(&self, p: UVec3, shape: &LookupShape) -> Voxel {
+        match self.locate_with(p, shape) {
             LeafRef::Tile(v) => v,
-            LeafRef::Leaf(first) => self.leaf_shape.read(&self.leaf_words, first, p),
+            LeafRef::Leaf(first) => {
+                let word = first + shape.leaf.word_of(p);
+                debug_assert!(word < self.leaf_words.len());
+                // SAFETY: `first` is the first word of a stored leaf (`child << word_shift` for a
+                // child index below the leaf count: every child index in the lower arena is, by the
+                // canonical-form invariant that `from_dense` establishes and `from_parts` checks),
+                // and `word_of` is below the words per leaf, so `word < leaf_words.len()`.
+                let bits = unsafe { *self.leaf_words.get_unchecked(word) };
+                shape.leaf.voxel_in_word(bits, p)
+            }
+        }
+    }
+
+    /// The shifts of this tree's lookup path.
+    #[inline(always)]
+    fn lookup_shape(&self) -> LookupShape {
+        LookupShape {
+            root_shift: self.root.shift,
+            upper: self.upper.shape,
+            lower: self.lower.shape,
+            leaf: self.leaf_shape,
         }
     }
 
     /// Walks root → upper → lower for in-grid voxel `p`: no loop, three slot reads at most.
     #[inline(always)]
     fn locate(&self, p: UVec3) -> LeafRef {
-        let s = self.root.slot(p);
+        self.locate_with(p, &self.lookup_shape())
+    }
+
+    /// [`VoxelTree::locate`] with the shifts passed in (constants for the 512-tree).
+    #[inline(always)]
+    fn locate_with(&self, p: UVec3, shape: &LookupShape) -> LeafRef {
+        let s = self.root.slot(p, shape.root_shift);
         if s.is_tile() {
             return LeafRef::Tile(s.tile_value());
         }
-        let s = self.upper.slot(s.child_index(), p);
+        let s = self.upper.slot_of(shape.upper, s.child_index(), p);
         if s.is_tile() {
             return LeafRef::Tile(s.tile_value());
         }
-        let s = self.lower.slot(s.child_index(), p);
+        let s = self.lower.slot_of(shape.lower, s.child_index(), p);
         if s.is_tile() {
             return LeafRef::Tile(s.tile_value());
         }
-        LeafRef::Leaf(s.child_index() * self.leaf_shape.words_per_leaf())
+        LeafRef::Leaf(s.child_index() << shape.leaf.word_shift())
     }
 
     /// A lookup cursor that caches the last leaf, for spatially coherent queries.
@@ -235,5 +308,23 @@ impl VoxelLookup for VoxelTree {
     #[inline(always)]
     fn get(&self, ijk: IVec3) -> Voxel {
         VoxelTree::get(self, ijk)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn constant_512_shape_matches_the_default_tree() {
+        let spec = GridSpec {
+            origin: glam::DVec3::ZERO,
+            voxel_size: 0.01,
+            dims: [700, 20, 9],
+        };
+        let tree = VoxelTree::from_dense(&DenseGrid::new(spec), TreeConfig::default()).unwrap();
+        assert_eq!(tree.lookup_shape(), LookupShape::TREE_512);
+        let other = VoxelTree::from_dense(&DenseGrid::new(spec), TreeConfig::uniform(2)).unwrap();
+        assert_ne!(other.lookup_shape(), LookupShape::TREE_512);
     }
 }

@@ -27,13 +27,19 @@ impl RootGrid {
         dims.iter().map(|&d| d as u64).product()
     }
 
-    /// The slot covering in-grid voxel `p`.
+    /// The slot covering in-grid voxel `p`; `shift` must equal `self.shift` (passed in so a caller
+    /// can make it a constant).
     #[inline(always)]
-    pub(crate) fn slot(&self, p: UVec3) -> Slot {
-        let c = p >> self.shift;
+    pub(crate) fn slot(&self, p: UVec3, shift: u32) -> Slot {
+        debug_assert_eq!(shift, self.shift);
+        let c = p >> shift;
         let i = c.x as usize
             + self.dims[0] as usize * (c.y as usize + self.dims[1] as usize * c.z as usize);
-        Slot(self.slots[i])
+        debug_assert!(i < self.slots.len());
+        // SAFETY: `p` is inside the grid dims, so `c < dims_for(grid dims, shift) = self.dims` per
+        // axis and `i < cell_count(self.dims)`, which is the slot count (`from_dense` builds one
+        // slot per cell; `from_parts` checks the length).
+        Slot(unsafe { *self.slots.get_unchecked(i) })
     }
 
     /// Voxel coordinates of the minimum corner of root cell `index`.
