@@ -181,8 +181,36 @@ fn accumulate<L: VoxelLookup>(
 
 /// `floor(v)` per component as integers, without a libm call: on baseline x86-64 (no SSE4.1)
 /// `f32::floor` is a function call that cost more than the whole voxel lookup. Truncate, then step
-/// down where truncation rounded a negative value up. Values beyond the i32 range saturate, which
-/// lands outside any grid (read as Free).
+/// down where truncation rounded a negative value up. A value beyond the i32 range (or NaN) gives
+/// `i32::MIN` or `i32::MAX`, which lies outside any grid (dims are at most `i32::MAX`): read as
+/// Free.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn floor_to_ivec3(v: Vec3) -> IVec3 {
+    use std::arch::x86_64::{
+        __m128i, _mm_add_epi32, _mm_castps_si128, _mm_cmplt_ps, _mm_cvtepi32_ps, _mm_cvttps_epi32,
+        _mm_set_ps, _mm_storeu_si128,
+    };
+    // All three axes in one SSE2 register: the scalar `as i32` saturates and checks NaN per axis
+    // (a compare, a branch and a conditional move each), where `cvttps2dq` gives `i32::MIN` for
+    // every out-of-range or NaN lane in one instruction.
+    let mut out = [0i32; 4];
+    // SAFETY: SSE and SSE2 are part of the x86-64 baseline, so these instructions exist on every
+    // x86-64 CPU; `out` is 16 writable bytes and `storeu` has no alignment requirement.
+    unsafe {
+        let x = _mm_set_ps(0.0, v.z, v.y, v.x);
+        let truncated = _mm_cvttps_epi32(x);
+        // All ones (−1) where truncation rounded up, i.e. `x < trunc(x)`; adding steps down by one.
+        let rounded_up = _mm_castps_si128(_mm_cmplt_ps(x, _mm_cvtepi32_ps(truncated)));
+        let floored = _mm_add_epi32(truncated, rounded_up);
+        _mm_storeu_si128(out.as_mut_ptr().cast::<__m128i>(), floored);
+    }
+    IVec3::new(out[0], out[1], out[2])
+}
+
+/// Portable form of the x86-64 [`floor_to_ivec3`]: the same results (out-of-range values
+/// saturate, outside any grid).
+#[cfg(not(target_arch = "x86_64"))]
 #[inline(always)]
 fn floor_to_ivec3(v: Vec3) -> IVec3 {
     #[inline(always)]
@@ -198,4 +226,38 @@ fn floor_to_ivec3(v: Vec3) -> IVec3 {
 #[inline(always)]
 fn quantise(value: f64, scale: f64) -> i128 {
     (value * scale) as i128
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn floor_matches_f32_floor_and_sends_huge_values_outside_any_grid() {
+        for &x in &[
+            0.0f32,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            2.999_999,
+            -2.000_001,
+            16_777_215.0,
+        ] {
+            let got = floor_to_ivec3(Vec3::new(x, -x, x * 0.25));
+            let want = IVec3::new(
+                x.floor() as i32,
+                (-x).floor() as i32,
+                (x * 0.25).floor() as i32,
+            );
+            assert_eq!(got, want, "x = {x}");
+        }
+        for &x in &[3e9f32, -3e9, f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            let got = floor_to_ivec3(Vec3::splat(x));
+            for c in got.to_array() {
+                assert!(c < 0 || c == i32::MAX, "x = {x} gave {c}");
+            }
+        }
+    }
 }

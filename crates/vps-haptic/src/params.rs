@@ -40,6 +40,15 @@ pub enum ParamsError {
     },
 }
 
+/// Default k_R as a multiple of `k_T I / m` (the rotational stiffness with the translational natural
+/// frequency). At 1× the coupling torque clamp `k_R s / (2 r_max)` (1.4e-2 N·m for the teapot at
+/// 5 mm) was below the contact torques of side presses (3e-2 to 8e-2 N·m), so contacts spun the part
+/// and drove its thin handle through the force layer: the standard session's penetration ratio was
+/// 9e-2 with braking. At 2× it was 0 with braking (2.4e-2 without), with the rotational stability
+/// index 0.57 instead of 0.50 (`examples/penetration_probe.rs`; a single deterministic session,
+/// so a working choice, not a proven optimum). 10× let the part get stuck in a wall.
+pub const ROTATIONAL_COUPLING_FACTOR: f64 = 2.0;
+
 /// Parameters of one haptic frame (DESIGN §3). SI units. Gains left `None` are derived
 /// ([`HapticParams::gains`]) from `dt`, `mass`, the inertia and the stability bound; see
 /// [`crate::stability`] for the derivation. `voxel_size` and `max_radius` describe the scene and the
@@ -68,7 +77,8 @@ pub struct HapticParams {
     /// Coupling translational stiffness k_T (N/m). Default: `κ K_ff` when `k_ff` is given, else
     /// `h² m / dt²` from the bound.
     pub k_t: Option<f64>,
-    /// Coupling rotational stiffness k_R (N·m/rad). Default: `k_T I / m` (same natural frequency).
+    /// Coupling rotational stiffness k_R (N·m/rad). Default: `2 k_T I / m` (twice the stiffness of
+    /// equal natural frequency; see [`ROTATIONAL_COUPLING_FACTOR`]).
     pub k_r: Option<f64>,
     /// Coupling translational damping b_T (N·s/m). Default: critical, `2 √(k_T m)`.
     pub b_t: Option<f64>,
@@ -245,7 +255,9 @@ impl HapticParams {
                 h * h * m / (self.dt * self.dt)
             });
         let k_ff = self.k_ff.unwrap_or(k_t / COUPLING_TO_FIELD);
-        let k_r = self.k_r.unwrap_or(k_t * inertia / m);
+        let k_r = self
+            .k_r
+            .unwrap_or(ROTATIONAL_COUPLING_FACTOR * k_t * inertia / m);
         Gains {
             inertia,
             k_ff,

@@ -21,7 +21,8 @@
 //! depth give a field stiffness `min(N, 10)·K_ff ≤ 10 K_ff`. The only damping is the coupling's,
 //! critically damped: `c = 2 √(k_T/m)`. Rotationally, each contact has a lever at most `r_max`, so
 //! the field's rotational stiffness is at most `10 K_ff r_max²`; with the coupling's rotational
-//! natural frequency set equal to the translational one (`k_R = k_T I / m`) and
+//! natural frequency set equal to the translational one (`k_R = k_T I / m`; the default is twice
+//! that, [`crate::params::ROTATIONAL_COUPLING_FACTOR`], which raises the rotational index to ≈ 0.57) and
 //! `I = 0.4 m r_max²` (solid sphere), the rotational field term is `10 K_ff r_max² / I = 25 K_ff / m`,
 //! 2.5 times the translational one. So with `h = √(k_T/m) dt` and `K_ff = k_T / κ`:
 //!
