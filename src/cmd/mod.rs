@@ -22,13 +22,21 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Probe(args) => probe::run(&args),
         Command::Demo(args) => crate::demo::run(&args),
         Command::Run(args) => run::run(&args),
-        Command::Record { output, device, seconds } => run::run(&RunArgs {
+        Command::Record {
+            output,
+            device,
+            seconds,
+        } => run::run(&RunArgs {
             device,
             seconds,
             record: Some(output),
             ..RunArgs::default()
         }),
-        Command::Replay { trace, config, json } => run::run(&RunArgs {
+        Command::Replay {
+            trace,
+            config,
+            json,
+        } => run::run(&RunArgs {
             device: format!("replay:{}", trace.display()),
             config,
             json,

@@ -35,39 +35,60 @@ fn parse_device(text: &str) -> Result<DeviceChoice> {
         None if text == "sim" => DeviceChoice::Simulated,
         None if text == "spacemouse" => DeviceChoice::SpaceMouse,
         None if text == "bridge" => DeviceChoice::Bridge("127.0.0.1:7700".parse()?),
-        Some(("bridge", addr)) => DeviceChoice::Bridge(
-            addr.parse().with_context(|| format!("--device bridge:{addr}: not an address like 127.0.0.1:7700"))?,
-        ),
+        Some(("bridge", addr)) => DeviceChoice::Bridge(addr.parse().with_context(|| {
+            format!("--device bridge:{addr}: not an address like 127.0.0.1:7700")
+        })?),
         Some(("replay", path)) => DeviceChoice::Replay(path.into()),
         _ => bail!("--device {text}: expected sim, spacemouse, bridge[:ADDR] or replay:FILE"),
     })
 }
 
 /// Opens the device; the start pose is where the session begins (m).
-fn open_device(choice: &DeviceChoice, scene: &SessionScene) -> Result<(Box<dyn HapticDevice>, PartState)> {
+fn open_device(
+    choice: &DeviceChoice,
+    scene: &SessionScene,
+) -> Result<(Box<dyn HapticDevice>, PartState)> {
     let script = standard_script(&scene.tree, &scene.corridor, 0.8)?;
     let (start, orientation) = script.sample(0.0);
     let at_start = PartState::at_rest(start, orientation);
     Ok(match choice {
-        DeviceChoice::Simulated => (Box::new(SimulatedHand::new(script, HandParams::default())?), at_start),
+        DeviceChoice::Simulated => (
+            Box::new(SimulatedHand::new(script, HandParams::default())?),
+            at_start,
+        ),
         DeviceChoice::SpaceMouse => {
-            let config = SpaceMouseConfig { start_position: start, start_orientation: DQuat::IDENTITY, ..Default::default() };
+            let config = SpaceMouseConfig {
+                start_position: start,
+                start_orientation: DQuat::IDENTITY,
+                ..Default::default()
+            };
             let device = SpaceMouse::open_first(config).context(
                 "opening a SpaceMouse (`vps devices` lists what this machine sees; /dev/hidraw* must be readable)",
             )?;
             (Box::new(device), at_start)
         }
         DeviceChoice::Bridge(addr) => {
-            let config = BridgeConfig { bind: *addr, initial_position: start, ..Default::default() };
-            let device = BridgeDevice::bind(config).with_context(|| format!("binding the device bridge on {addr}"))?;
+            let config = BridgeConfig {
+                bind: *addr,
+                initial_position: start,
+                ..Default::default()
+            };
+            let device = BridgeDevice::bind(config)
+                .with_context(|| format!("binding the device bridge on {addr}"))?;
             eprintln!("device bridge listening on {}", device.local_addr());
             (Box::new(device), at_start)
         }
         DeviceChoice::Replay(path) => {
             let trace = load_trace(path)?;
-            let first = trace.frames.first().with_context(|| format!("{}: the trace has no frames", path.display()))?;
+            let first = trace
+                .frames
+                .first()
+                .with_context(|| format!("{}: the trace has no frames", path.display()))?;
             let state = PartState::at_rest(first.sample.position, first.sample.orientation);
-            (Box::new(ReplayDevice::new(trace, DeviceLimits::PAPER)), state)
+            (
+                Box::new(ReplayDevice::new(trace, DeviceLimits::PAPER)),
+                state,
+            )
         }
     })
 }
@@ -131,7 +152,10 @@ pub fn run(args: &RunArgs) -> Result<()> {
     if args.json {
         print_json(&out)?;
     } else {
-        println!("device: {}, {} shell points, session end: {}", out.device, out.shell_points, out.end);
+        println!(
+            "device: {}, {} shell points, session end: {}",
+            out.device, out.shell_points, out.end
+        );
         crate::demo::print_summary("session", &out.stats, None);
         println!("final part position (m): {:?}", out.final_position_m);
     }
@@ -145,9 +169,16 @@ fn save_recording(report: &LoopReport, path: &Path) -> Result<()> {
     if let Some(why) = &report.trace_error {
         bail!("trace recording stopped early: {why}");
     }
-    let trace = report.trace.as_ref().context("the loop returned no trace")?;
+    let trace = report
+        .trace
+        .as_ref()
+        .context("the loop returned no trace")?;
     save_trace(path, trace)?;
-    eprintln!("recorded {} frames to {}", trace.frames.len(), path.display());
+    eprintln!(
+        "recorded {} frames to {}",
+        trace.frames.len(),
+        path.display()
+    );
     Ok(())
 }
 
@@ -158,7 +189,9 @@ pub fn devices(json: bool) -> Result<()> {
         return print_json(&list);
     }
     if list.is_empty() {
-        println!("no HID devices found on this machine (none attached, or /dev/hidraw* not readable)");
+        println!(
+            "no HID devices found on this machine (none attached, or /dev/hidraw* not readable)"
+        );
     }
     for d in &list {
         println!("{d}");
