@@ -16,7 +16,7 @@
 
 use crate::clock::FrameClock;
 use crate::feed::{FeedFrame, StateFeedSender};
-use crate::pool::ClassPool;
+use crate::pool::{ClassPool, FrameSampler};
 use crate::rt::{request_realtime, RtGrant};
 use crate::stats::{FrameRecord, FrameStats, StatsSummary};
 use crate::RuntimeError;
@@ -163,8 +163,25 @@ pub fn spawn_loop<L: VoxelLookup + Send + Sync + 'static>(
     params.validate("haptic parameters")?;
     config.validate(&params)?;
     let pool = ClassPool::new(map, shell, config.threads)?;
+    spawn_loop_with(Box::new(pool), params, device, initial, config, feed, stop)
+}
+
+/// [`spawn_loop`] with the frame's sums taken from `sampler` instead of a local [`ClassPool`]
+/// (the cluster's extension point; `config.threads` is then unused). Validates `params` and
+/// `config` first.
+pub fn spawn_loop_with(
+    sampler: Box<dyn FrameSampler>,
+    params: HapticParams,
+    device: Box<dyn HapticDevice>,
+    initial: PartState,
+    config: LoopConfig,
+    feed: Option<StateFeedSender>,
+    stop: Arc<AtomicBool>,
+) -> Result<LoopHandle, RuntimeError> {
+    params.validate("haptic parameters")?;
+    config.validate(&params)?;
     let session = Session {
-        pool,
+        pool: sampler,
         params,
         device,
         state: initial,
@@ -195,8 +212,8 @@ pub fn run_loop<L: VoxelLookup + Send + Sync + 'static>(
     spawn_loop(map, shell, params, device, initial, config, feed, stop)?.join()
 }
 
-struct Session<L: VoxelLookup + Send + Sync + 'static> {
-    pool: ClassPool<L>,
+struct Session {
+    pool: Box<dyn FrameSampler>,
     params: HapticParams,
     device: Box<dyn HapticDevice>,
     state: PartState,
@@ -208,7 +225,7 @@ struct Session<L: VoxelLookup + Send + Sync + 'static> {
 /// Largest number of frames a trace recorder reserves up front.
 const MAX_TRACE_RESERVE: u64 = 1 << 22;
 
-impl<L: VoxelLookup + Send + Sync + 'static> Session<L> {
+impl Session {
     fn run(mut self) -> LoopReport {
         let rt = if self.config.realtime {
             request_realtime(self.config.core)

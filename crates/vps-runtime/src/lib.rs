@@ -20,8 +20,10 @@ mod test_scene;
 
 pub use clock::{schedule, FrameClock, Schedule, Tick};
 pub use feed::{state_feed, FeedFrame, StateFeedReceiver, StateFeedSender};
-pub use haptic_loop::{run_loop, spawn_loop, LoopConfig, LoopHandle, LoopReport, SessionEnd};
-pub use pool::{ClassPool, PoolResult};
+pub use haptic_loop::{
+    run_loop, spawn_loop, spawn_loop_with, LoopConfig, LoopHandle, LoopReport, SessionEnd,
+};
+pub use pool::{ClassPool, FrameSampler, PoolResult};
 pub use rt::{request_realtime, RtGrant};
 pub use stats::{FrameRecord, FrameStats, Percentiles, StatsSummary};
 

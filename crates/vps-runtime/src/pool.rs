@@ -175,6 +175,24 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
     }
 }
 
+/// Where the frame thread gets a frame's merged sums: the local [`ClassPool`] by default, or a
+/// cluster gatherer (remote workers with local fallback) passed to
+/// [`spawn_loop_with`](crate::haptic_loop::spawn_loop_with).
+///
+/// Contract: `compute` returns the sums over every class of the shell at `pose` and returns by
+/// `deadline` plus the time to compute locally what is missing at `deadline`; it must not wait on
+/// an async timer. Called once per frame from the frame thread.
+pub trait FrameSampler: Send {
+    /// The merged sums of every class at `pose`; shares not in by `deadline` are computed locally.
+    fn compute(&mut self, pose: &KernelPose, deadline: Instant) -> PoolResult;
+}
+
+impl<L: VoxelLookup + Send + Sync + 'static> FrameSampler for ClassPool<L> {
+    fn compute(&mut self, pose: &KernelPose, deadline: Instant) -> PoolResult {
+        ClassPool::compute(self, pose, deadline)
+    }
+}
+
 impl<L: VoxelLookup + Send + Sync + 'static> Drop for ClassPool<L> {
     /// Closes the job channels and joins the workers (each finishes at most one job).
     fn drop(&mut self) {

@@ -1,0 +1,302 @@
+//! The coordinator's network side: a QUIC server endpoint on a small tokio runtime that admits
+//! pinned workers (join exchange, scene transfer) and turns each worker's datagrams into events on
+//! crossbeam channels, which the frame thread polls through [`RemoteShares`]. Nothing here is on
+//! the frame path.
+
+use crate::protocol::{read_join, write_frame, write_join, JoinMessage, PROTOCOL_VERSION};
+use crate::scene::ClusterScene;
+use crate::shares::{GatherConfig, RemoteShares};
+use crate::tls::{load_pins, server_config, TlsIdentity};
+use crate::ClusterError;
+use bytes::Bytes;
+use crossbeam::channel::{bounded, unbounded, Receiver, Sender};
+use rustls::pki_types::CertificateDer;
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU32, AtomicU64, AtomicUsize, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// How long a worker may take to join, scene transfer included.
+pub const JOIN_TIMEOUT: Duration = Duration::from_secs(60);
+/// Datagrams queued for the frame thread before newer ones are dropped (counted as lost).
+const DATAGRAM_QUEUE: usize = 4096;
+
+/// How the coordinator listens.
+#[derive(Clone, Debug)]
+pub struct CoordinatorConfig {
+    /// UDP address to listen on (port 0: any free port, see [`Coordinator::local_addr`]).
+    pub listen: SocketAddr,
+    /// The coordinator's certificate and key.
+    pub identity: TlsIdentity,
+    /// The worker certificates admitted.
+    pub pins: Vec<CertificateDer<'static>>,
+}
+
+impl CoordinatorConfig {
+    /// A config from PEM files: `cert`/`key` are the coordinator's, `pins` the admitted workers'.
+    pub fn from_files(
+        listen: SocketAddr,
+        cert: &Path,
+        key: &Path,
+        pins: &[PathBuf],
+    ) -> Result<CoordinatorConfig, ClusterError> {
+        Ok(CoordinatorConfig {
+            listen,
+            identity: TlsIdentity::load(cert, key)?,
+            pins: load_pins(pins)?,
+        })
+    }
+}
+
+/// Connection-level events for the frame thread.
+pub(crate) enum Control {
+    /// A worker finished joining and can be given work.
+    Joined { id: u32, conn: quinn::Connection },
+    /// A worker's connection ended.
+    Closed { id: u32 },
+}
+
+/// One datagram from worker `id`, stamped on arrival.
+pub(crate) struct Datagram {
+    pub id: u32,
+    pub bytes: Bytes,
+    pub at: Instant,
+}
+
+/// Counters shared between the network tasks and the owner.
+#[derive(Default)]
+struct NetCounters {
+    joined: AtomicUsize,
+    refused: Arc<AtomicU64>,
+    failed_joins: AtomicU64,
+    queue_full: AtomicU64,
+}
+
+/// A running coordinator endpoint. Dropping it closes every connection (workers then exit).
+pub struct Coordinator {
+    runtime: tokio::runtime::Runtime,
+    endpoint: quinn::Endpoint,
+    scene: Arc<ClusterScene>,
+    control: Receiver<Control>,
+    datagrams: Receiver<Datagram>,
+    counters: Arc<NetCounters>,
+}
+
+impl Coordinator {
+    /// Binds the endpoint and starts admitting workers in the background. Allocates and spawns.
+    pub fn start(
+        config: CoordinatorConfig,
+        scene: Arc<ClusterScene>,
+    ) -> Result<Coordinator, ClusterError> {
+        let runtime = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(2)
+            .thread_name("vps-coord-net")
+            .enable_all()
+            .build()
+            .map_err(|e| ClusterError::Network(format!("cannot start the runtime: {e}")))?;
+        let counters = Arc::new(NetCounters::default());
+        let server = server_config(&config.identity, config.pins, counters.refused.clone())?;
+        let endpoint = {
+            let _guard = runtime.enter();
+            quinn::Endpoint::server(server, config.listen)
+                .map_err(|e| ClusterError::Network(format!("listen on {}: {e}", config.listen)))?
+        };
+        let (control_tx, control) = unbounded();
+        let (datagram_tx, datagrams) = bounded(DATAGRAM_QUEUE);
+        let links = Links {
+            scene: scene.clone(),
+            control: control_tx,
+            datagrams: datagram_tx,
+            counters: counters.clone(),
+            next_id: Arc::new(AtomicU32::new(0)),
+        };
+        runtime.spawn(accept_loop(endpoint.clone(), links));
+        Ok(Coordinator {
+            runtime,
+            endpoint,
+            scene,
+            control,
+            datagrams,
+            counters,
+        })
+    }
+
+    /// The address the endpoint listens on.
+    pub fn local_addr(&self) -> Result<SocketAddr, ClusterError> {
+        self.endpoint
+            .local_addr()
+            .map_err(|e| ClusterError::Network(e.to_string()))
+    }
+
+    /// The scene the workers are given.
+    pub fn scene(&self) -> &Arc<ClusterScene> {
+        &self.scene
+    }
+
+    /// Workers currently joined and connected.
+    pub fn joined_workers(&self) -> usize {
+        self.counters.joined.load(Ordering::Relaxed)
+    }
+
+    /// Connections refused because their certificate was not pinned.
+    pub fn refused_unpinned(&self) -> u64 {
+        self.counters.refused.load(Ordering::Relaxed)
+    }
+
+    /// Joins that failed after the TLS handshake (version, timeout, malformed message).
+    pub fn failed_joins(&self) -> u64 {
+        self.counters.failed_joins.load(Ordering::Relaxed)
+    }
+
+    /// Blocks (sleeping in 5 ms steps) until at least `n` workers have joined or `timeout` passes.
+    /// Not for the frame path.
+    pub fn wait_for_workers(&self, n: usize, timeout: Duration) -> Result<(), ClusterError> {
+        let until = Instant::now() + timeout;
+        while self.joined_workers() < n {
+            if Instant::now() >= until {
+                return Err(ClusterError::Network(format!(
+                    "{} of {n} workers joined within {timeout:?}",
+                    self.joined_workers()
+                )));
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        Ok(())
+    }
+
+    /// The frame-path gatherer fed by this coordinator's workers. Create one at a time: two
+    /// gatherers would split the events between them.
+    pub fn shares(&self, config: GatherConfig) -> Result<RemoteShares, ClusterError> {
+        RemoteShares::new(
+            self.scene.clone(),
+            self.control.clone(),
+            self.datagrams.clone(),
+            config,
+        )
+    }
+}
+
+impl Drop for Coordinator {
+    fn drop(&mut self) {
+        self.endpoint.close(0u32.into(), b"coordinator done");
+        let endpoint = self.endpoint.clone();
+        let _ = self.runtime.block_on(async {
+            tokio::time::timeout(Duration::from_millis(200), endpoint.wait_idle()).await
+        });
+    }
+}
+
+#[derive(Clone)]
+struct Links {
+    scene: Arc<ClusterScene>,
+    control: Sender<Control>,
+    datagrams: Sender<Datagram>,
+    counters: Arc<NetCounters>,
+    next_id: Arc<AtomicU32>,
+}
+
+async fn accept_loop(endpoint: quinn::Endpoint, links: Links) {
+    while let Some(incoming) = endpoint.accept().await {
+        tokio::spawn(serve(incoming, links.clone()));
+    }
+}
+
+async fn serve(incoming: quinn::Incoming, links: Links) {
+    let remote = incoming.remote_address();
+    let conn = match incoming.await {
+        Ok(conn) => conn,
+        Err(e) => {
+            tracing::warn!("refused a connection from {remote}: {e}");
+            return;
+        }
+    };
+    let id = links.next_id.fetch_add(1, Ordering::Relaxed);
+    match tokio::time::timeout(JOIN_TIMEOUT, admit(&conn, id, &links.scene)).await {
+        Ok(Ok(())) => {}
+        Ok(Err(e)) => return fail_join(&conn, &links, id, remote, &e.to_string()),
+        Err(_) => return fail_join(&conn, &links, id, remote, "timed out"),
+    }
+    tracing::info!("worker {id} at {remote} joined");
+    links.counters.joined.fetch_add(1, Ordering::Relaxed);
+    let _ = links.control.send(Control::Joined {
+        id,
+        conn: conn.clone(),
+    });
+    let reason = loop {
+        match conn.read_datagram().await {
+            Ok(bytes) => {
+                let datagram = Datagram {
+                    id,
+                    bytes,
+                    at: Instant::now(),
+                };
+                if links.datagrams.try_send(datagram).is_err() {
+                    links.counters.queue_full.fetch_add(1, Ordering::Relaxed);
+                }
+            }
+            Err(e) => break e,
+        }
+    };
+    tracing::warn!("worker {id} at {remote} left: {reason}");
+    links.counters.joined.fetch_sub(1, Ordering::Relaxed);
+    let _ = links.control.send(Control::Closed { id });
+}
+
+fn fail_join(conn: &quinn::Connection, links: &Links, id: u32, remote: SocketAddr, why: &str) {
+    tracing::warn!("worker {id} at {remote} failed to join: {why}");
+    links.counters.failed_joins.fetch_add(1, Ordering::Relaxed);
+    conn.close(2u32.into(), b"join failed");
+}
+
+/// The coordinator's half of the join exchange (see [`JoinMessage`]).
+async fn admit(
+    conn: &quinn::Connection,
+    id: u32,
+    scene: &ClusterScene,
+) -> Result<(), ClusterError> {
+    let (mut send, mut recv) = conn
+        .accept_bi()
+        .await
+        .map_err(|e| ClusterError::Join(e.to_string()))?;
+    match read_join(&mut recv).await? {
+        JoinMessage::Hello { version } if version == PROTOCOL_VERSION => {}
+        JoinMessage::Hello { version } => {
+            let reason = format!("protocol version {version}, coordinator has {PROTOCOL_VERSION}");
+            write_join(
+                &mut send,
+                &JoinMessage::Reject {
+                    reason: reason.clone(),
+                },
+            )
+            .await?;
+            // Let the refusal reach the worker before the connection is closed.
+            let _ = send.finish();
+            let _ = tokio::time::timeout(Duration::from_secs(1), send.stopped()).await;
+            return Err(ClusterError::Join(reason));
+        }
+        other => return Err(ClusterError::Join(format!("expected Hello, got {other:?}"))),
+    }
+    write_join(
+        &mut send,
+        &JoinMessage::Welcome {
+            worker_id: id,
+            scene: scene.identity,
+        },
+    )
+    .await?;
+    let (voxmap, shell) = match read_join(&mut recv).await? {
+        JoinMessage::Need { voxmap, shell } => (voxmap, shell),
+        other => return Err(ClusterError::Join(format!("expected Need, got {other:?}"))),
+    };
+    if voxmap {
+        write_frame(&mut send, scene.voxmap_file()).await?;
+    }
+    if shell {
+        write_frame(&mut send, scene.shell_file()).await?;
+    }
+    match read_join(&mut recv).await? {
+        JoinMessage::Ready => Ok(()),
+        other => Err(ClusterError::Join(format!("expected Ready, got {other:?}"))),
+    }
+}

@@ -1,0 +1,76 @@
+//! The vps cluster (DESIGN §4): a coordinator that owns the device and the 1 kHz frame loop, and
+//! workers that hold a copy of the scene and compute the class shares they are sent, over QUIC
+//! (quinn) with operator-pinned mutual TLS.
+//!
+//! Topology: workers dial the coordinator (the QUIC server), so workers can join at any time and
+//! `vps cluster --local-workers N` only needs the coordinator's address. Joining uses one reliable
+//! stream (version check, scene identity by content hash, scene files shipped when the worker
+//! lacks them); frames use unreliable datagrams (pose + class mask out, partial sums back).
+//!
+//! The frame thread never waits on a tokio timer: [`RemoteShares`] (a
+//! [`vps_runtime::FrameSampler`]) sends the requests, computes the coordinator's own share on local
+//! threads, waits on a crossbeam channel until shortly before the deadline and then spins, and
+//! computes every share still missing locally. Partial sums are integers, so the result is
+//! bit-identical to a one-process run whoever computed each share.
+//!
+//! Module map: [`protocol`] (wire formats), [`tls`] (certificates, pinning verifiers, QUIC
+//! configs), [`scene`] (scene files, identity, worker cache), [`worker`] ([`run_worker`]),
+//! [`coordinator`] ([`Coordinator`]: endpoint, joins, network events), [`shares`]
+//! ([`RemoteShares`]: assignment, deadline gather, validation, benching, statistics), [`session`]
+//! ([`run_coordinator_session`], [`spawn_local_workers`]).
+
+pub mod coordinator;
+pub mod protocol;
+pub mod scene;
+pub mod session;
+pub mod shares;
+pub mod tls;
+pub mod worker;
+
+pub use coordinator::{Coordinator, CoordinatorConfig};
+pub use scene::ClusterScene;
+pub use session::{
+    local_cluster_certs, run_coordinator_session, spawn_local_workers, LocalCerts, LocalWorkerArgs,
+    LocalWorkers,
+};
+pub use shares::{ClusterReport, GatherConfig, PeerReport, RemoteShares};
+pub use tls::{make_cert, CertFiles, TlsIdentity};
+pub use worker::{run_worker, run_worker_until, WorkerConfig, WorkerReport};
+
+use std::path::PathBuf;
+
+/// Why a cluster operation failed.
+#[derive(Debug, thiserror::Error)]
+pub enum ClusterError {
+    /// Certificate generation, loading or TLS configuration.
+    #[error("TLS: {0}")]
+    Tls(String),
+    /// Reading or writing a file.
+    #[error("{path}: {message}")]
+    File {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+    /// The QUIC endpoint or connection.
+    #[error("network: {0}")]
+    Network(String),
+    /// The join exchange failed (version, scene, malformed message, refused).
+    #[error("join: {0}")]
+    Join(String),
+    /// The scene cannot be used by the cluster.
+    #[error("scene: {0}")]
+    Scene(String),
+    /// A configuration value is invalid.
+    #[error("config `{field}`: {message}")]
+    Config {
+        /// The field.
+        field: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+    /// The frame loop failed to start or finish.
+    #[error(transparent)]
+    Runtime(#[from] vps_runtime::RuntimeError),
+}

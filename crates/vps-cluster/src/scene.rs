@@ -1,0 +1,176 @@
+//! The scene as the cluster ships it: the voxmap and point shell files, their content hashes
+//! ([`SceneIdentity`]) and the classed shell every node samples. A worker keeps received scene
+//! files in a cache directory named by hash, so it rejoins without a transfer.
+
+use crate::protocol::{SceneIdentity, MAX_CLASSES};
+use crate::ClusterError;
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use vps_haptic::{sample_class, ClassedShell, KernelPose, PartialSums};
+use vps_voxmap::file::{read_shell, read_voxmap, write_shell, write_voxmap};
+use vps_voxmap::{PointShell, VoxelTree};
+
+/// Largest scene file a worker accepts (bytes).
+pub const MAX_SCENE_FILE: u64 = 1 << 32;
+
+/// A scene ready for the cluster. Immutable; shared with `Arc`.
+pub struct ClusterScene {
+    /// The voxmap.
+    pub map: Arc<VoxelTree>,
+    /// The point shell split into `identity.class_count` classes.
+    pub shell: Arc<ClassedShell>,
+    /// Content hashes and sizes.
+    pub identity: SceneIdentity,
+    voxmap_file: Vec<u8>,
+    shell_file: Vec<u8>,
+}
+
+impl ClusterScene {
+    /// Builds the scene from a voxmap and a point shell split into `class_count` classes
+    /// (1..=64: one datagram bit per class). Serialises both files once (allocates).
+    pub fn new(
+        map: VoxelTree,
+        shell: &PointShell,
+        class_count: u32,
+    ) -> Result<ClusterScene, ClusterError> {
+        if !(1..=MAX_CLASSES).contains(&class_count) {
+            return Err(ClusterError::Config {
+                field: "class_count",
+                message: format!("{class_count} is outside 1..={MAX_CLASSES}"),
+            });
+        }
+        let mut voxmap_file = Vec::new();
+        write_voxmap(&map, &mut voxmap_file)
+            .map_err(|e| ClusterError::Scene(format!("cannot encode the voxmap: {e}")))?;
+        let mut shell_file = Vec::new();
+        write_shell(shell, &mut shell_file)
+            .map_err(|e| ClusterError::Scene(format!("cannot encode the shell: {e}")))?;
+        let identity = SceneIdentity {
+            voxmap_hash: map.content_hash(),
+            shell_hash: *blake3::hash(&shell_file).as_bytes(),
+            class_count,
+            voxmap_len: voxmap_file.len() as u64,
+            shell_len: shell_file.len() as u64,
+        };
+        Ok(ClusterScene {
+            map: Arc::new(map),
+            shell: Arc::new(ClassedShell::new(shell, class_count)),
+            identity,
+            voxmap_file,
+            shell_file,
+        })
+    }
+
+    /// Rebuilds a scene from received (or cached) file bytes and checks it against `identity`:
+    /// the voxmap's content hash and the shell file's BLAKE3 must match.
+    pub fn from_files(
+        identity: &SceneIdentity,
+        voxmap_file: Vec<u8>,
+        shell_file: Vec<u8>,
+    ) -> Result<ClusterScene, ClusterError> {
+        let map = read_voxmap(voxmap_file.as_slice())
+            .map_err(|e| ClusterError::Scene(format!("received voxmap: {e}")))?;
+        if map.content_hash() != identity.voxmap_hash {
+            return Err(ClusterError::Scene(
+                "received voxmap does not match its content hash".into(),
+            ));
+        }
+        if *blake3::hash(&shell_file).as_bytes() != identity.shell_hash {
+            return Err(ClusterError::Scene(
+                "received shell does not match its content hash".into(),
+            ));
+        }
+        let shell = read_shell(shell_file.as_slice())
+            .map_err(|e| ClusterError::Scene(format!("received shell: {e}")))?;
+        let scene = ClusterScene::new(map, &shell, identity.class_count)?;
+        Ok(scene)
+    }
+
+    /// The merged sums of the classes whose bits are set in `mask`, sampled in parallel on the
+    /// current rayon pool (call inside `ThreadPool::install`). Exact: the same bits for any
+    /// grouping. Does not allocate beyond rayon's own bookkeeping; blocks until done.
+    pub fn sample_mask(&self, pose: &KernelPose, mask: u64) -> PartialSums {
+        (0..MAX_CLASSES)
+            .into_par_iter()
+            .filter(|c| mask >> c & 1 == 1)
+            .map(|c| sample_class(&*self.map, &self.shell, pose, c))
+            .reduce(PartialSums::default, |mut a, b| {
+                a.merge(&b);
+                a
+            })
+    }
+
+    /// The voxmap file bytes (`vps_voxmap::file` format).
+    pub fn voxmap_file(&self) -> &[u8] {
+        &self.voxmap_file
+    }
+
+    /// The point shell file bytes (`vps_voxmap::file` format).
+    pub fn shell_file(&self) -> &[u8] {
+        &self.shell_file
+    }
+}
+
+/// Hex form of a hash (cache file names, logs).
+pub fn hex(hash: &[u8; 32]) -> String {
+    hash.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// Where a worker keeps scene files: `DIR/<hash>.voxmap` and `DIR/<hash>.shell`.
+#[derive(Clone, Debug)]
+pub struct SceneCache {
+    dir: Option<PathBuf>,
+}
+
+impl SceneCache {
+    /// A cache in `dir`; `None` caches nothing (every join transfers the scene).
+    pub fn new(dir: Option<PathBuf>) -> SceneCache {
+        SceneCache { dir }
+    }
+
+    fn path(&self, hash: &[u8; 32], ext: &str) -> Option<PathBuf> {
+        self.dir
+            .as_ref()
+            .map(|d| d.join(format!("{}.{ext}", hex(hash))))
+    }
+
+    /// The cached voxmap file for `hash`, if present (its content is checked by the caller).
+    pub fn voxmap(&self, hash: &[u8; 32]) -> Option<Vec<u8>> {
+        self.path(hash, "voxmap")
+            .and_then(|p| std::fs::read(p).ok())
+    }
+
+    /// The cached shell file for `hash`, if present and matching its hash.
+    pub fn shell(&self, hash: &[u8; 32]) -> Option<Vec<u8>> {
+        let bytes = self
+            .path(hash, "shell")
+            .and_then(|p| std::fs::read(p).ok())?;
+        (blake3::hash(&bytes).as_bytes() == hash).then_some(bytes)
+    }
+
+    /// Stores both files (best effort: a failure is logged, the worker goes on without a cache).
+    pub fn store(&self, identity: &SceneIdentity, voxmap: &[u8], shell: &[u8]) {
+        let Some(dir) = &self.dir else { return };
+        let result = std::fs::create_dir_all(dir).and_then(|()| {
+            for (bytes, path) in [
+                (voxmap, self.path(&identity.voxmap_hash, "voxmap")),
+                (shell, self.path(&identity.shell_hash, "shell")),
+            ] {
+                if let Some(path) = path {
+                    write_atomically(&path, bytes)?;
+                }
+            }
+            Ok(())
+        });
+        if let Err(e) = result {
+            tracing::warn!("cannot cache the scene in {}: {e}", dir.display());
+        }
+    }
+}
+
+fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let tmp = path.with_extension("partial");
+    std::fs::write(&tmp, bytes)?;
+    std::fs::rename(tmp, path)
+}

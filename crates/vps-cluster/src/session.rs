@@ -1,0 +1,169 @@
+//! Entry points for the CLI: a coordinator session on the runtime's frame loop, and local worker
+//! processes for `vps cluster --local-workers N`.
+
+use crate::coordinator::Coordinator;
+use crate::shares::{ClusterReport, GatherConfig};
+use crate::tls::{make_cert, CertFiles};
+use crate::ClusterError;
+use std::ffi::OsString;
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use vps_device::HapticDevice;
+use vps_haptic::{HapticParams, PartState};
+use vps_runtime::{spawn_loop_with, LoopConfig, LoopReport, StateFeedSender};
+
+/// Runs a haptic session whose frames are gathered from `coordinator`'s workers (local fallback
+/// for every missing share), on the runtime's frame loop: same clock, watchdog, statistics and
+/// device handling as `vps_runtime::run_loop`. Replies are awaited until `config.watchdog / 2`
+/// into each frame; `config.threads` is unused (the local share uses `gather.local_threads`).
+/// Blocks until the session ends.
+#[allow(clippy::too_many_arguments)]
+pub fn run_coordinator_session(
+    coordinator: &Coordinator,
+    gather: GatherConfig,
+    params: HapticParams,
+    device: Box<dyn HapticDevice>,
+    initial: PartState,
+    config: LoopConfig,
+    feed: Option<StateFeedSender>,
+    stop: Arc<AtomicBool>,
+) -> Result<(LoopReport, ClusterReport), ClusterError> {
+    let shares = coordinator.shares(gather)?;
+    let slot = shares.report_slot();
+    let report = spawn_loop_with(
+        Box::new(shares),
+        params,
+        device,
+        initial,
+        config,
+        feed,
+        stop,
+    )?
+    .join()?;
+    let cluster = slot
+        .lock()
+        .ok()
+        .and_then(|mut s| s.take())
+        .unwrap_or_default();
+    Ok((report, cluster))
+}
+
+/// The certificates of a local cluster: one for the coordinator, one shared by its workers.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct LocalCerts {
+    /// `DIR/coordinator.crt`, `DIR/coordinator.key`.
+    pub coordinator: CertFiles,
+    /// `DIR/worker.crt`, `DIR/worker.key`.
+    pub worker: CertFiles,
+}
+
+/// Writes fresh coordinator and worker certificates into `dir` (which should be a new private
+/// temporary directory) for `vps cluster --local-workers N`.
+pub fn local_cluster_certs(dir: &Path) -> Result<LocalCerts, ClusterError> {
+    Ok(LocalCerts {
+        coordinator: make_cert(dir, "coordinator")?,
+        worker: make_cert(dir, "worker")?,
+    })
+}
+
+/// The command line of a `vps worker` process.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct LocalWorkerArgs {
+    /// `--coordinator ADDR`.
+    pub coordinator: SocketAddr,
+    /// `--cert FILE`: the worker's certificate.
+    pub cert: PathBuf,
+    /// `--key FILE`: the worker's key.
+    pub key: PathBuf,
+    /// `--pin FILE`, repeated: the coordinator certificates accepted.
+    pub pins: Vec<PathBuf>,
+    /// `--cache DIR`, optional.
+    pub cache_dir: Option<PathBuf>,
+    /// `--threads N`, optional.
+    pub threads: Option<usize>,
+}
+
+impl LocalWorkerArgs {
+    /// The arguments after the program name:
+    /// `worker --coordinator ADDR --cert FILE --key FILE --pin FILE... [--cache DIR] [--threads N]`.
+    pub fn to_args(&self) -> Vec<OsString> {
+        let mut args: Vec<OsString> = vec![
+            "worker".into(),
+            "--coordinator".into(),
+            self.coordinator.to_string().into(),
+            "--cert".into(),
+            self.cert.clone().into(),
+            "--key".into(),
+            self.key.clone().into(),
+        ];
+        for pin in &self.pins {
+            args.push("--pin".into());
+            args.push(pin.clone().into());
+        }
+        if let Some(dir) = &self.cache_dir {
+            args.push("--cache".into());
+            args.push(dir.clone().into());
+        }
+        if let Some(n) = self.threads {
+            args.push("--threads".into());
+            args.push(n.to_string().into());
+        }
+        args
+    }
+}
+
+/// Worker child processes; dropping this kills (SIGKILL) and reaps any still running.
+pub struct LocalWorkers {
+    children: Vec<Child>,
+}
+
+impl LocalWorkers {
+    /// Process ids, in spawn order.
+    pub fn pids(&self) -> Vec<u32> {
+        self.children.iter().map(Child::id).collect()
+    }
+
+    /// Kills worker `index` with SIGKILL and reaps it (no-op if already gone or out of range).
+    pub fn kill(&mut self, index: usize) {
+        if let Some(child) = self.children.get_mut(index) {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+    }
+}
+
+impl Drop for LocalWorkers {
+    fn drop(&mut self) {
+        for index in 0..self.children.len() {
+            self.kill(index);
+        }
+    }
+}
+
+/// Starts `n` worker processes: `exe` (normally `std::env::current_exe()`) with
+/// [`LocalWorkerArgs::to_args`]. stdin is closed, stdout/stderr are inherited. If one fails to
+/// start, those already started are killed.
+pub fn spawn_local_workers(
+    n: usize,
+    exe: &Path,
+    args: &LocalWorkerArgs,
+) -> Result<LocalWorkers, ClusterError> {
+    let mut workers = LocalWorkers {
+        children: Vec::with_capacity(n),
+    };
+    for _ in 0..n {
+        let child = Command::new(exe)
+            .args(args.to_args())
+            .stdin(Stdio::null())
+            .spawn()
+            .map_err(|e| ClusterError::File {
+                path: exe.to_path_buf(),
+                message: format!("cannot start a worker process: {e}"),
+            })?;
+        workers.children.push(child);
+    }
+    Ok(workers)
+}

@@ -1,0 +1,493 @@
+//! The frame-path gatherer: [`RemoteShares`] hands class shares to the joined workers, computes the
+//! coordinator's own share on local threads, collects replies until the deadline and computes
+//! every missing or rejected share locally. It implements [`FrameSampler`], so the runtime's frame
+//! loop ([`vps_runtime::spawn_loop_with`]) drives it.
+//!
+//! Assignment (between frames): with `W` active workers, class `c` goes to party `c mod (W + 1)`,
+//! party 0 being the coordinator. A worker whose share is not merged (no reply by the deadline, or
+//! an invalid reply) `bench_after` frames in a row is benched: it gets no work, only a one-class
+//! probe every `probe_every` frames whose result is checked but not used; `unbench_after` probes
+//! answered in time in a row give it work again.
+//!
+//! Validation: a reply is used only if it decodes strictly, carries this frame's sequence number
+//! (older ones are counted late and dropped), echoes the requested class mask and passes
+//! [`PartialSums::is_plausible`] and [`PartialSums::torque_within`] for the share's point count,
+//! the voxel size and the shell's radius.
+
+use crate::coordinator::{Control, Datagram};
+use crate::protocol::{FrameReply, FrameRequest, REQUEST_LEN};
+use crate::scene::ClusterScene;
+use crate::ClusterError;
+use bytes::Bytes;
+use crossbeam::channel::{Receiver, RecvTimeoutError, TryRecvError};
+use hdrhistogram::Histogram;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use vps_haptic::{KernelPose, PartialSums};
+use vps_runtime::{FrameSampler, Percentiles, PoolResult};
+
+/// How the gatherer runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GatherConfig {
+    /// Threads computing the coordinator's share and the fallback (≥ 1).
+    pub local_threads: usize,
+    /// How long before the deadline the frame thread stops sleeping on the reply channel and
+    /// spins. Default 100 µs.
+    pub spin_margin: Duration,
+    /// Consecutive unmerged shares before a worker is benched (≥ 1). Default 5.
+    pub bench_after: u32,
+    /// A benched worker is probed every this many frames (≥ 1). Default 100.
+    pub probe_every: u64,
+    /// Consecutive timely probe replies before a benched worker gets work again (≥ 1). Default 3.
+    pub unbench_after: u32,
+}
+
+impl Default for GatherConfig {
+    fn default() -> Self {
+        GatherConfig {
+            local_threads: 1,
+            spin_margin: Duration::from_micros(100),
+            bench_after: 5,
+            probe_every: 100,
+            unbench_after: 3,
+        }
+    }
+}
+
+/// One worker's figures.
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct PeerReport {
+    /// The worker id given at join.
+    pub id: u32,
+    /// Requests sent (work and probes).
+    pub requests: u64,
+    /// Shares merged from this worker's replies.
+    pub merged: u64,
+    /// Replies that arrived after their frame's deadline (dropped by sequence number).
+    pub late: u64,
+    /// Work shares with no reply by the deadline.
+    pub lost: u64,
+    /// Replies rejected: malformed, wrong mask, duplicate or implausible sums.
+    pub invalid: u64,
+    /// Work shares recomputed locally (lost, invalid or unsendable).
+    pub recomputed: u64,
+    /// Times the worker was benched.
+    pub benched_times: u64,
+    /// Benched at the end of the session.
+    pub benched: bool,
+    /// Still connected at the end of the session.
+    pub connected: bool,
+    /// Request-to-reply time of timely valid replies (ns).
+    pub rtt_ns: Percentiles,
+}
+
+/// The cluster's figures for a session.
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct ClusterReport {
+    /// Frames gathered.
+    pub frames: u64,
+    /// Worker shares computed locally, summed over frames.
+    pub fallback_shares: u64,
+    /// Frames in which no worker had work (everything local).
+    pub local_only_frames: u64,
+    /// Datagrams from workers that are no longer known.
+    pub orphan_datagrams: u64,
+    /// Every worker seen, in join order.
+    pub peers: Vec<PeerReport>,
+}
+
+/// Largest round-trip time the histograms resolve (ns): 10 s.
+const MAX_RTT_NS: u64 = 10_000_000_000;
+
+/// Where the gatherer leaves its [`ClusterReport`] when it is dropped (at the end of a session).
+pub type ReportSlot = Arc<Mutex<Option<ClusterReport>>>;
+
+struct Peer {
+    conn: Option<quinn::Connection>,
+    benched: bool,
+    misses: u32,
+    probe_hits: u32,
+    /// This frame: the classes asked for (0: nothing asked), whether it is a probe, the points
+    /// in those classes, when it was sent, whether a reply settled it, whether it was merged.
+    asked: u64,
+    probing: bool,
+    points: u64,
+    sent_at: Instant,
+    settled: bool,
+    merged: bool,
+    rtt: Option<Histogram<u64>>,
+    report: PeerReport,
+}
+
+/// The frame thread's view of the cluster. See the module docs.
+pub struct RemoteShares {
+    scene: Arc<ClusterScene>,
+    control: Receiver<Control>,
+    datagrams: Receiver<Datagram>,
+    config: GatherConfig,
+    pool: rayon::ThreadPool,
+    peers: Vec<Peer>,
+    retired: Vec<PeerReport>,
+    active: Vec<usize>,
+    seq: u64,
+    report: ClusterReport,
+    slot: ReportSlot,
+    request: [u8; REQUEST_LEN],
+}
+
+fn config_err(field: &'static str) -> ClusterError {
+    ClusterError::Config {
+        field,
+        message: "must be at least 1".into(),
+    }
+}
+
+impl RemoteShares {
+    pub(crate) fn new(
+        scene: Arc<ClusterScene>,
+        control: Receiver<Control>,
+        datagrams: Receiver<Datagram>,
+        config: GatherConfig,
+    ) -> Result<RemoteShares, ClusterError> {
+        if config.local_threads == 0 {
+            return Err(config_err("local_threads"));
+        }
+        if config.bench_after == 0 {
+            return Err(config_err("bench_after"));
+        }
+        if config.probe_every == 0 {
+            return Err(config_err("probe_every"));
+        }
+        if config.unbench_after == 0 {
+            return Err(config_err("unbench_after"));
+        }
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(config.local_threads)
+            .thread_name(|i| format!("vps-local-{i}"))
+            .build()
+            .map_err(|e| ClusterError::Config {
+                field: "local_threads",
+                message: e.to_string(),
+            })?;
+        Ok(RemoteShares {
+            scene,
+            control,
+            datagrams,
+            config,
+            pool,
+            peers: Vec::new(),
+            retired: Vec::new(),
+            active: Vec::new(),
+            seq: 0,
+            report: ClusterReport::default(),
+            slot: Arc::new(Mutex::new(None)),
+            request: [0; REQUEST_LEN],
+        })
+    }
+
+    /// The slot that receives the final [`ClusterReport`] when this gatherer is dropped.
+    pub fn report_slot(&self) -> ReportSlot {
+        self.slot.clone()
+    }
+
+    /// The figures so far. Allocates.
+    pub fn report(&self) -> ClusterReport {
+        let mut report = self.report.clone();
+        report.peers = self.retired.clone();
+        report.peers.extend(self.peers.iter().map(|p| {
+            let mut r = p.report.clone();
+            r.benched = p.benched;
+            r.connected = p.conn.is_some();
+            r.rtt_ns = percentiles(&p.rtt);
+            r
+        }));
+        report.peers.sort_by_key(|p| p.id);
+        report
+    }
+
+    /// Workers currently given work (joined, connected, not benched).
+    pub fn active_workers(&self) -> usize {
+        self.peers
+            .iter()
+            .filter(|p| p.conn.is_some() && !p.benched)
+            .count()
+    }
+
+    /// Admits joined workers and retires closed ones. Allocates only when membership changes.
+    fn update_membership(&mut self) {
+        while let Ok(event) = self.control.try_recv() {
+            match event {
+                Control::Joined { id, conn } => self.peers.push(Peer {
+                    conn: Some(conn),
+                    benched: false,
+                    misses: 0,
+                    probe_hits: 0,
+                    asked: 0,
+                    probing: false,
+                    points: 0,
+                    sent_at: Instant::now(),
+                    settled: false,
+                    merged: false,
+                    rtt: Histogram::new_with_bounds(1, MAX_RTT_NS, 2).ok(),
+                    report: PeerReport {
+                        id,
+                        ..PeerReport::default()
+                    },
+                }),
+                Control::Closed { id } => {
+                    if let Some(i) = self.peers.iter().position(|p| p.report.id == id) {
+                        let mut peer = self.peers.swap_remove(i);
+                        peer.conn = None;
+                        peer.report.benched = peer.benched;
+                        peer.report.rtt_ns = percentiles(&peer.rtt);
+                        self.retired.push(peer.report);
+                    }
+                }
+            }
+        }
+        // Peers are looked up by id; keep them in join order so the assignment is reproducible.
+        self.peers.sort_by_key(|p| p.report.id);
+    }
+
+    /// Decides this frame's shares; returns the coordinator's own class mask.
+    fn assign(&mut self) -> u64 {
+        self.active.clear();
+        let class_count = self.scene.shell.class_count();
+        for (i, peer) in self.peers.iter_mut().enumerate() {
+            peer.asked = 0;
+            peer.probing = false;
+            peer.settled = false;
+            peer.merged = false;
+            if peer.conn.is_some() && !peer.benched {
+                self.active.push(i);
+            } else if peer.conn.is_some() && self.seq.is_multiple_of(self.config.probe_every) {
+                let class = (self.seq / self.config.probe_every) % u64::from(class_count);
+                peer.asked = 1 << class;
+                peer.probing = true;
+            }
+        }
+        let parties = self.active.len() as u32 + 1;
+        let mut local = 0u64;
+        for c in 0..class_count {
+            match (c % parties) as usize {
+                0 => local |= 1 << c,
+                p => self.peers[self.active[p - 1]].asked |= 1 << c,
+            }
+        }
+        local
+    }
+
+    /// Sends every request; returns how many are awaited. One small allocation per request
+    /// (the datagram buffer); never blocks.
+    fn send_requests(&mut self, pose: &KernelPose) -> usize {
+        let mut pending = 0;
+        for peer in &mut self.peers {
+            let Some(conn) = &peer.conn else { continue };
+            if peer.asked == 0 {
+                continue;
+            }
+            peer.points = crate::protocol::mask_classes(peer.asked)
+                .map(|c| self.scene.shell.class_len(c) as u64)
+                .sum();
+            FrameRequest {
+                seq: self.seq,
+                classes: peer.asked,
+                pose: *pose,
+            }
+            .encode(&mut self.request);
+            peer.report.requests += 1;
+            peer.sent_at = Instant::now();
+            if conn
+                .send_datagram(Bytes::copy_from_slice(&self.request))
+                .is_ok()
+            {
+                pending += 1;
+            } else {
+                peer.settled = true;
+            }
+        }
+        pending
+    }
+
+    /// Handles one datagram; returns true when it settled a share awaited this frame.
+    fn accept(&mut self, datagram: Datagram, sums: &mut PartialSums) -> bool {
+        let Some(peer) = self.peers.iter_mut().find(|p| p.report.id == datagram.id) else {
+            self.report.orphan_datagrams += 1;
+            return false;
+        };
+        let reply = match FrameReply::decode(&datagram.bytes) {
+            Ok(reply) => reply,
+            Err(e) => {
+                peer.report.invalid += 1;
+                tracing::debug!(worker = peer.report.id, "malformed reply: {e}");
+                return false;
+            }
+        };
+        if reply.seq != self.seq {
+            peer.report.late += 1;
+            return false;
+        }
+        if peer.asked == 0 || peer.settled {
+            peer.report.invalid += 1;
+            return false;
+        }
+        peer.settled = true;
+        let voxel = self.scene.map.spec().voxel_size;
+        let valid = reply.classes == peer.asked
+            && reply.sums.is_plausible(peer.points, voxel)
+            && reply
+                .sums
+                .torque_within(self.scene.shell.max_radius(), voxel);
+        if !valid {
+            peer.report.invalid += 1;
+            tracing::debug!(worker = peer.report.id, "implausible reply dropped");
+            return true;
+        }
+        let rtt = datagram.at.saturating_duration_since(peer.sent_at);
+        if let Some(h) = &mut peer.rtt {
+            let _ = h.record(rtt.as_nanos().min(u128::from(MAX_RTT_NS)) as u64);
+        }
+        if peer.probing {
+            peer.probe_hits += 1;
+        } else {
+            sums.merge(&reply.sums);
+            peer.merged = true;
+            peer.report.merged += 1;
+        }
+        true
+    }
+
+    /// Waits for `pending` replies until `deadline`: sleeps on the channel until `spin_margin`
+    /// before it, then spins. Never waits on a tokio timer.
+    fn gather(&mut self, mut pending: usize, deadline: Instant, sums: &mut PartialSums) {
+        while pending > 0 {
+            let now = Instant::now();
+            if now >= deadline {
+                break;
+            }
+            let datagram = if deadline - now > self.config.spin_margin {
+                match self
+                    .datagrams
+                    .recv_deadline(deadline - self.config.spin_margin)
+                {
+                    Ok(d) => d,
+                    Err(RecvTimeoutError::Timeout) => continue,
+                    Err(RecvTimeoutError::Disconnected) => break,
+                }
+            } else {
+                match self.datagrams.try_recv() {
+                    Ok(d) => d,
+                    Err(TryRecvError::Empty) => {
+                        std::hint::spin_loop();
+                        continue;
+                    }
+                    Err(TryRecvError::Disconnected) => break,
+                }
+            };
+            if self.accept(datagram, sums) {
+                pending -= 1;
+            }
+        }
+    }
+
+    /// Books the frame's outcome per worker (benching, un-benching); returns the classes to
+    /// recompute locally and how many worker shares that is.
+    fn settle(&mut self) -> (u64, u32) {
+        let mut missing = 0u64;
+        let mut shares = 0u32;
+        for peer in &mut self.peers {
+            if peer.asked == 0 {
+                continue;
+            }
+            if peer.probing {
+                let answered = peer.settled && peer.probe_hits > 0;
+                if !answered {
+                    peer.probe_hits = 0;
+                }
+                if peer.probe_hits >= self.config.unbench_after {
+                    peer.benched = false;
+                    peer.misses = 0;
+                    peer.probe_hits = 0;
+                    tracing::info!(worker = peer.report.id, "recovered: given work again");
+                }
+                continue;
+            }
+            if peer.merged {
+                peer.misses = 0;
+                continue;
+            }
+            if !peer.settled {
+                peer.report.lost += 1;
+            }
+            missing |= peer.asked;
+            shares += 1;
+            peer.report.recomputed += 1;
+            peer.misses += 1;
+            if peer.misses >= self.config.bench_after && !peer.benched {
+                peer.benched = true;
+                peer.probe_hits = 0;
+                peer.report.benched_times += 1;
+                tracing::warn!(
+                    worker = peer.report.id,
+                    "benched after {} missed frames",
+                    peer.misses
+                );
+            }
+        }
+        (missing, shares)
+    }
+}
+
+impl FrameSampler for RemoteShares {
+    /// One frame: membership, assignment, requests, own share on local threads, gather until
+    /// `deadline`, local fallback. Allocates one datagram buffer per request (and on membership
+    /// changes); blocks only on the reply channel (never past `deadline`) and on local compute.
+    fn compute(&mut self, pose: &KernelPose, deadline: Instant) -> PoolResult {
+        self.seq += 1;
+        self.update_membership();
+        // Replies from earlier frames still queued: counted late, never merged.
+        let mut unused = PartialSums::default();
+        while let Ok(stale) = self.datagrams.try_recv() {
+            self.accept(stale, &mut unused);
+        }
+        let local = self.assign();
+        let pending = self.send_requests(pose);
+        let scene = self.scene.clone();
+        let mut sums = self.pool.install(|| scene.sample_mask(pose, local));
+        self.gather(pending, deadline, &mut sums);
+        let (missing, fallback_shares) = self.settle();
+        if missing != 0 {
+            let fallback = self.pool.install(|| scene.sample_mask(pose, missing));
+            sums.merge(&fallback);
+        }
+        self.report.frames += 1;
+        self.report.fallback_shares += u64::from(fallback_shares);
+        self.report.local_only_frames += self.active.is_empty() as u64;
+        PoolResult {
+            sums,
+            fallback_shares,
+        }
+    }
+}
+
+impl Drop for RemoteShares {
+    /// Leaves the final report in the [`ReportSlot`].
+    fn drop(&mut self) {
+        let report = self.report();
+        if let Ok(mut slot) = self.slot.lock() {
+            *slot = Some(report);
+        }
+    }
+}
+
+fn percentiles(h: &Option<Histogram<u64>>) -> Percentiles {
+    let Some(h) = h.as_ref().filter(|h| !h.is_empty()) else {
+        return Percentiles::default();
+    };
+    Percentiles {
+        p50: h.value_at_quantile(0.5),
+        p99: h.value_at_quantile(0.99),
+        p999: h.value_at_quantile(0.999),
+        max: h.max(),
+    }
+}

@@ -1,0 +1,349 @@
+//! Mutual TLS with operator-pinned certificates (DESIGN §4: only pinned certificates may join).
+//!
+//! Every node has a self-signed certificate and key ([`make_cert`], PEM files). The operator lists
+//! the certificates each side accepts (`--pin FILE`, repeatable). Both verifiers accept a peer only
+//! when its end-entity certificate is byte-for-byte one of the pinned certificates, then check the
+//! TLS 1.3 handshake signature against its key. Names, dates and chains play no part. The
+//! coordinator is the QUIC server and requires a client certificate; a refused peer is logged
+//! (`tracing::warn`, with its fingerprint) and counted.
+//!
+//! One crypto provider, `ring`, is passed explicitly to every config (no process-wide default).
+
+use crate::ClusterError;
+use rustls::client::danger::{HandshakeSignatureValid, ServerCertVerified, ServerCertVerifier};
+use rustls::crypto::CryptoProvider;
+use rustls::pki_types::pem::PemObject;
+use rustls::pki_types::{CertificateDer, PrivateKeyDer, ServerName, UnixTime};
+use rustls::server::danger::{ClientCertVerified, ClientCertVerifier};
+use rustls::{CertificateError, DigitallySignedStruct, DistinguishedName, SignatureScheme};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+/// The TLS server name workers use for the coordinator (ignored by the pinning verifier).
+pub const SERVER_NAME: &str = "vps-coordinator";
+/// The ALPN protocol of the cluster.
+pub const ALPN: &[u8] = b"vps-cluster/1";
+
+/// A node's certificate and private key.
+#[derive(Debug)]
+pub struct TlsIdentity {
+    /// The certificate (DER).
+    pub cert: CertificateDer<'static>,
+    /// The private key (DER).
+    pub key: PrivateKeyDer<'static>,
+}
+
+impl Clone for TlsIdentity {
+    fn clone(&self) -> Self {
+        TlsIdentity {
+            cert: self.cert.clone(),
+            key: self.key.clone_key(),
+        }
+    }
+}
+
+impl TlsIdentity {
+    /// A fresh self-signed ECDSA P-256 certificate for `name` (in memory).
+    pub fn generate(name: &str) -> Result<TlsIdentity, ClusterError> {
+        let ck = rcgen::generate_simple_self_signed(vec![name.to_string()])
+            .map_err(|e| ClusterError::Tls(format!("cannot generate a certificate: {e}")))?;
+        let key = PrivateKeyDer::try_from(ck.key_pair.serialize_der())
+            .map_err(|e| ClusterError::Tls(format!("generated key: {e}")))?;
+        Ok(TlsIdentity {
+            cert: ck.cert.der().clone(),
+            key,
+        })
+    }
+
+    /// Loads a PEM certificate and a PEM private key.
+    pub fn load(cert: &Path, key: &Path) -> Result<TlsIdentity, ClusterError> {
+        Ok(TlsIdentity {
+            cert: load_cert(cert)?,
+            key: PrivateKeyDer::from_pem_file(key).map_err(|e| ClusterError::File {
+                path: key.to_path_buf(),
+                message: format!("not a PEM private key: {e}"),
+            })?,
+        })
+    }
+}
+
+/// Loads one PEM certificate (the first in the file).
+pub fn load_cert(path: &Path) -> Result<CertificateDer<'static>, ClusterError> {
+    CertificateDer::from_pem_file(path).map_err(|e| ClusterError::File {
+        path: path.to_path_buf(),
+        message: format!("not a PEM certificate: {e}"),
+    })
+}
+
+/// Loads the pinned certificates, one PEM file each. Errors on an empty list.
+pub fn load_pins(paths: &[PathBuf]) -> Result<Vec<CertificateDer<'static>>, ClusterError> {
+    if paths.is_empty() {
+        return Err(ClusterError::Tls(
+            "no pinned certificate given (--pin FILE)".into(),
+        ));
+    }
+    paths.iter().map(|p| load_cert(p)).collect()
+}
+
+/// The paths [`make_cert`] wrote.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CertFiles {
+    /// `DIR/NAME.crt` (PEM certificate; give it to the other side's `--pin`).
+    pub cert: PathBuf,
+    /// `DIR/NAME.key` (PEM private key, mode 0600 on Unix).
+    pub key: PathBuf,
+}
+
+/// `vps cert --out DIR --name NAME`: writes a fresh self-signed certificate and key to
+/// `DIR/NAME.crt` and `DIR/NAME.key` (creating `DIR`). Refuses to overwrite existing files.
+pub fn make_cert(dir: &Path, name: &str) -> Result<CertFiles, ClusterError> {
+    let valid_name = !name.is_empty()
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.');
+    if !valid_name {
+        return Err(ClusterError::Tls(format!(
+            "certificate name `{name}`: use letters, digits, '-', '_' or '.'"
+        )));
+    }
+    let ck = rcgen::generate_simple_self_signed(vec![name.to_string()])
+        .map_err(|e| ClusterError::Tls(format!("cannot generate a certificate: {e}")))?;
+    let file_err = |path: &Path, e: std::io::Error| ClusterError::File {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
+    std::fs::create_dir_all(dir).map_err(|e| file_err(dir, e))?;
+    let files = CertFiles {
+        cert: dir.join(format!("{name}.crt")),
+        key: dir.join(format!("{name}.key")),
+    };
+    for path in [&files.cert, &files.key] {
+        if path.exists() {
+            return Err(file_err(
+                path,
+                std::io::Error::new(std::io::ErrorKind::AlreadyExists, "exists already"),
+            ));
+        }
+    }
+    write_private(&files.key, ck.key_pair.serialize_pem().as_bytes())
+        .map_err(|e| file_err(&files.key, e))?;
+    std::fs::write(&files.cert, ck.cert.pem()).map_err(|e| file_err(&files.cert, e))?;
+    Ok(files)
+}
+
+fn write_private(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    use std::io::Write;
+    let mut options = std::fs::OpenOptions::new();
+    options.write(true).create_new(true);
+    #[cfg(unix)]
+    std::os::unix::fs::OpenOptionsExt::mode(&mut options, 0o600);
+    options.open(path)?.write_all(bytes)
+}
+
+/// A short hex fingerprint of a certificate (first 8 bytes of its BLAKE3), for logs.
+pub fn fingerprint(cert: &[u8]) -> String {
+    blake3::hash(cert).as_bytes()[..8]
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+/// Accepts exactly the pinned certificates, as client or server verifier.
+#[derive(Debug)]
+struct PinnedVerifier {
+    pins: Vec<CertificateDer<'static>>,
+    provider: Arc<CryptoProvider>,
+    refused: Arc<AtomicU64>,
+    role: &'static str,
+}
+
+impl PinnedVerifier {
+    fn check(&self, end_entity: &CertificateDer<'_>) -> Result<(), rustls::Error> {
+        if self.pins.iter().any(|p| p.as_ref() == end_entity.as_ref()) {
+            return Ok(());
+        }
+        self.refused.fetch_add(1, Ordering::Relaxed);
+        tracing::warn!(
+            fingerprint = %fingerprint(end_entity),
+            "refused a {} with an unpinned certificate",
+            self.role
+        );
+        Err(rustls::Error::InvalidCertificate(
+            CertificateError::ApplicationVerificationFailure,
+        ))
+    }
+    fn tls12(
+        &self,
+        message: &[u8],
+        cert: &CertificateDer<'_>,
+        dss: &DigitallySignedStruct,
+    ) -> Result<HandshakeSignatureValid, rustls::Error> {
+        rustls::crypto::verify_tls12_signature(
+            message,
+            cert,
+            dss,
+            &self.provider.signature_verification_algorithms,
+        )
+    }
+    fn tls13(
+        &self,
+        message: &[u8],
+        cert: &CertificateDer<'_>,
+        dss: &DigitallySignedStruct,
+    ) -> Result<HandshakeSignatureValid, rustls::Error> {
+        rustls::crypto::verify_tls13_signature(
+            message,
+            cert,
+            dss,
+            &self.provider.signature_verification_algorithms,
+        )
+    }
+    fn schemes(&self) -> Vec<SignatureScheme> {
+        self.provider
+            .signature_verification_algorithms
+            .supported_schemes()
+    }
+}
+
+impl ServerCertVerifier for PinnedVerifier {
+    fn verify_server_cert(
+        &self,
+        end_entity: &CertificateDer<'_>,
+        _intermediates: &[CertificateDer<'_>],
+        _server_name: &ServerName<'_>,
+        _ocsp_response: &[u8],
+        _now: UnixTime,
+    ) -> Result<ServerCertVerified, rustls::Error> {
+        self.check(end_entity)
+            .map(|()| ServerCertVerified::assertion())
+    }
+    fn verify_tls12_signature(
+        &self,
+        message: &[u8],
+        cert: &CertificateDer<'_>,
+        dss: &DigitallySignedStruct,
+    ) -> Result<HandshakeSignatureValid, rustls::Error> {
+        self.tls12(message, cert, dss)
+    }
+    fn verify_tls13_signature(
+        &self,
+        message: &[u8],
+        cert: &CertificateDer<'_>,
+        dss: &DigitallySignedStruct,
+    ) -> Result<HandshakeSignatureValid, rustls::Error> {
+        self.tls13(message, cert, dss)
+    }
+    fn supported_verify_schemes(&self) -> Vec<SignatureScheme> {
+        self.schemes()
+    }
+}
+
+impl ClientCertVerifier for PinnedVerifier {
+    fn root_hint_subjects(&self) -> &[DistinguishedName] {
+        &[]
+    }
+    fn verify_client_cert(
+        &self,
+        end_entity: &CertificateDer<'_>,
+        _intermediates: &[CertificateDer<'_>],
+        _now: UnixTime,
+    ) -> Result<ClientCertVerified, rustls::Error> {
+        self.check(end_entity)
+            .map(|()| ClientCertVerified::assertion())
+    }
+    fn verify_tls12_signature(
+        &self,
+        message: &[u8],
+        cert: &CertificateDer<'_>,
+        dss: &DigitallySignedStruct,
+    ) -> Result<HandshakeSignatureValid, rustls::Error> {
+        self.tls12(message, cert, dss)
+    }
+    fn verify_tls13_signature(
+        &self,
+        message: &[u8],
+        cert: &CertificateDer<'_>,
+        dss: &DigitallySignedStruct,
+    ) -> Result<HandshakeSignatureValid, rustls::Error> {
+        self.tls13(message, cert, dss)
+    }
+    fn supported_verify_schemes(&self) -> Vec<SignatureScheme> {
+        self.schemes()
+    }
+}
+
+fn provider() -> Arc<CryptoProvider> {
+    Arc::new(rustls::crypto::ring::default_provider())
+}
+
+fn tls_err(e: impl std::fmt::Display) -> ClusterError {
+    ClusterError::Tls(e.to_string())
+}
+
+/// QUIC transport settings shared by both sides: keep-alive 500 ms and a 3 s idle timeout, so a
+/// killed peer is noticed within seconds (the frame path never waits for that: it falls back).
+fn transport() -> Arc<quinn::TransportConfig> {
+    let mut t = quinn::TransportConfig::default();
+    t.keep_alive_interval(Some(Duration::from_millis(500)));
+    // IdleTimeout from a VarInt is in milliseconds.
+    t.max_idle_timeout(Some(quinn::VarInt::from_u32(3_000).into()));
+    t.datagram_receive_buffer_size(Some(1 << 20));
+    Arc::new(t)
+}
+
+/// The coordinator's QUIC server config: TLS 1.3, client certificate required and pinned.
+/// `refused` counts peers refused for an unpinned certificate.
+pub fn server_config(
+    identity: &TlsIdentity,
+    pins: Vec<CertificateDer<'static>>,
+    refused: Arc<AtomicU64>,
+) -> Result<quinn::ServerConfig, ClusterError> {
+    let provider = provider();
+    let verifier = Arc::new(PinnedVerifier {
+        pins,
+        provider: provider.clone(),
+        refused,
+        role: "worker",
+    });
+    let mut tls = rustls::ServerConfig::builder_with_provider(provider)
+        .with_protocol_versions(&[&rustls::version::TLS13])
+        .map_err(tls_err)?
+        .with_client_cert_verifier(verifier)
+        .with_single_cert(vec![identity.cert.clone()], identity.key.clone_key())
+        .map_err(tls_err)?;
+    tls.alpn_protocols = vec![ALPN.to_vec()];
+    let quic = quinn::crypto::rustls::QuicServerConfig::try_from(tls).map_err(tls_err)?;
+    let mut config = quinn::ServerConfig::with_crypto(Arc::new(quic));
+    config.transport_config(transport());
+    Ok(config)
+}
+
+/// A worker's QUIC client config: TLS 1.3, presents `identity`, accepts only a pinned server
+/// certificate. `refused` counts coordinators refused for an unpinned certificate.
+pub fn client_config(
+    identity: &TlsIdentity,
+    pins: Vec<CertificateDer<'static>>,
+    refused: Arc<AtomicU64>,
+) -> Result<quinn::ClientConfig, ClusterError> {
+    let provider = provider();
+    let verifier = Arc::new(PinnedVerifier {
+        pins,
+        provider: provider.clone(),
+        refused,
+        role: "coordinator",
+    });
+    let mut tls = rustls::ClientConfig::builder_with_provider(provider)
+        .with_protocol_versions(&[&rustls::version::TLS13])
+        .map_err(tls_err)?
+        .dangerous()
+        .with_custom_certificate_verifier(verifier)
+        .with_client_auth_cert(vec![identity.cert.clone()], identity.key.clone_key())
+        .map_err(tls_err)?;
+    tls.alpn_protocols = vec![ALPN.to_vec()];
+    let quic = quinn::crypto::rustls::QuicClientConfig::try_from(tls).map_err(tls_err)?;
+    let mut config = quinn::ClientConfig::new(Arc::new(quic));
+    config.transport_config(transport());
+    Ok(config)
+}

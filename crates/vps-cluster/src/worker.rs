@@ -1,0 +1,299 @@
+//! `vps worker`: dials the coordinator, joins (receiving the scene unless cached), then answers
+//! frame datagrams with the partial sums of the classes each one asks for.
+//!
+//! Threads: one tokio current-thread runtime for the network, one compute thread that samples on a
+//! rayon pool of `threads` threads. The compute thread always takes the newest request and drops
+//! older queued ones (the coordinator has given up on them anyway). Malformed datagrams are
+//! counted and ignored.
+
+use crate::protocol::{
+    read_frame, read_join, write_join, FrameReply, FrameRequest, JoinMessage, PROTOCOL_VERSION,
+    REPLY_LEN,
+};
+use crate::scene::{ClusterScene, SceneCache, MAX_SCENE_FILE};
+use crate::tls::{client_config, load_pins, TlsIdentity, SERVER_NAME};
+use crate::ClusterError;
+use crossbeam::channel::{unbounded, Receiver};
+use rustls::pki_types::CertificateDer;
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+/// How a worker runs.
+#[derive(Clone, Debug)]
+pub struct WorkerConfig {
+    /// The coordinator's UDP address.
+    pub coordinator: SocketAddr,
+    /// This worker's certificate and key.
+    pub identity: TlsIdentity,
+    /// The coordinator certificates this worker accepts.
+    pub pins: Vec<CertificateDer<'static>>,
+    /// Where received scene files are kept (`None`: no cache).
+    pub cache_dir: Option<PathBuf>,
+    /// Compute threads (≥ 1).
+    pub threads: usize,
+}
+
+impl WorkerConfig {
+    /// A config from PEM files: `cert`/`key` are this worker's, `pins` the accepted coordinator
+    /// certificates. One compute thread per available core, no cache.
+    pub fn from_files(
+        coordinator: SocketAddr,
+        cert: &std::path::Path,
+        key: &std::path::Path,
+        pins: &[PathBuf],
+    ) -> Result<WorkerConfig, ClusterError> {
+        Ok(WorkerConfig {
+            coordinator,
+            identity: TlsIdentity::load(cert, key)?,
+            pins: load_pins(pins)?,
+            cache_dir: None,
+            threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+        })
+    }
+}
+
+/// What a worker did.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct WorkerReport {
+    /// The id the coordinator gave it.
+    pub worker_id: u32,
+    /// The scene was transferred (not found in the cache).
+    pub scene_transferred: bool,
+    /// Valid frame requests received.
+    pub requests: u64,
+    /// Replies sent.
+    pub replies: u64,
+    /// Requests dropped because a newer one was queued.
+    pub superseded: u64,
+    /// Datagrams that failed to decode (garbage, truncated, wrong version).
+    pub invalid_datagrams: u64,
+}
+
+/// Runs a worker until the coordinator closes the connection or goes silent (idle timeout).
+/// Blocking.
+pub fn run_worker(config: WorkerConfig) -> Result<WorkerReport, ClusterError> {
+    run_worker_until(config, Arc::new(AtomicBool::new(false)))
+}
+
+/// [`run_worker`], also ending (closing its connection) within about 20 ms of `stop` being set.
+pub fn run_worker_until(
+    config: WorkerConfig,
+    stop: Arc<AtomicBool>,
+) -> Result<WorkerReport, ClusterError> {
+    if config.threads == 0 {
+        return Err(ClusterError::Config {
+            field: "threads",
+            message: "must be at least 1".into(),
+        });
+    }
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| ClusterError::Network(format!("cannot start the runtime: {e}")))?;
+    runtime.block_on(worker_main(config, stop))
+}
+
+fn net_err(e: impl std::fmt::Display) -> ClusterError {
+    ClusterError::Network(e.to_string())
+}
+
+async fn worker_main(
+    config: WorkerConfig,
+    stop: Arc<AtomicBool>,
+) -> Result<WorkerReport, ClusterError> {
+    let bind: SocketAddr = if config.coordinator.is_ipv4() {
+        ([0, 0, 0, 0], 0).into()
+    } else {
+        ([0u16; 8], 0).into()
+    };
+    let mut endpoint = quinn::Endpoint::client(bind).map_err(net_err)?;
+    endpoint.set_default_client_config(client_config(
+        &config.identity,
+        config.pins.clone(),
+        Arc::new(AtomicU64::new(0)),
+    )?);
+    let conn = endpoint
+        .connect(config.coordinator, SERVER_NAME)
+        .map_err(net_err)?
+        .await
+        .map_err(|e| ClusterError::Network(format!("connect to {}: {e}", config.coordinator)))?;
+    let cache = SceneCache::new(config.cache_dir.clone());
+    let (scene, worker_id, scene_transferred) = join(&conn, &cache).await?;
+    tracing::info!(
+        worker_id,
+        scene_transferred,
+        "joined {}",
+        config.coordinator
+    );
+
+    let counters = Arc::new(Counters::default());
+    let (jobs, job_rx) = unbounded::<FrameRequest>();
+    let compute = {
+        let (conn, counters, threads) = (conn.clone(), counters.clone(), config.threads);
+        std::thread::Builder::new()
+            .name("vps-worker-compute".into())
+            .spawn(move || compute_loop(scene, threads, job_rx, conn, counters))
+            .map_err(|e| ClusterError::Network(format!("cannot spawn a thread: {e}")))?
+    };
+    let mut invalid = 0u64;
+    let mut requests = 0u64;
+    loop {
+        tokio::select! {
+            datagram = conn.read_datagram() => match datagram {
+                Ok(bytes) => match FrameRequest::decode(&bytes) {
+                    Ok(request) => {
+                        requests += 1;
+                        let _ = jobs.send(request);
+                    }
+                    Err(e) => {
+                        invalid += 1;
+                        tracing::debug!("dropped a malformed datagram: {e}");
+                    }
+                },
+                Err(e) => {
+                    tracing::info!("connection ended: {e}");
+                    break;
+                }
+            },
+            _ = tokio::time::sleep(Duration::from_millis(20)) => {
+                if stop.load(Ordering::Relaxed) {
+                    conn.close(0u32.into(), b"worker stopped");
+                    break;
+                }
+            }
+        }
+    }
+    drop(jobs);
+    let compute_ok = compute.join().is_ok();
+    endpoint.close(0u32.into(), b"bye");
+    let _ = tokio::time::timeout(Duration::from_millis(200), endpoint.wait_idle()).await;
+    if !compute_ok {
+        return Err(ClusterError::Network("the compute thread panicked".into()));
+    }
+    Ok(WorkerReport {
+        worker_id,
+        scene_transferred,
+        requests,
+        replies: counters.replies.load(Ordering::Relaxed),
+        superseded: counters.superseded.load(Ordering::Relaxed),
+        invalid_datagrams: invalid,
+    })
+}
+
+#[derive(Default)]
+struct Counters {
+    replies: AtomicU64,
+    superseded: AtomicU64,
+}
+
+/// The join exchange (see [`JoinMessage`]): returns the scene, the worker id and whether the scene
+/// was transferred.
+async fn join(
+    conn: &quinn::Connection,
+    cache: &SceneCache,
+) -> Result<(ClusterScene, u32, bool), ClusterError> {
+    let (mut send, mut recv) = conn.open_bi().await.map_err(net_err)?;
+    write_join(
+        &mut send,
+        &JoinMessage::Hello {
+            version: PROTOCOL_VERSION,
+        },
+    )
+    .await?;
+    let (worker_id, identity) = match read_join(&mut recv).await? {
+        JoinMessage::Welcome { worker_id, scene } => (worker_id, scene),
+        JoinMessage::Reject { reason } => {
+            return Err(ClusterError::Join(format!("refused: {reason}")))
+        }
+        other => return Err(ClusterError::Join(format!("unexpected {other:?}"))),
+    };
+    let cached = match (
+        cache.voxmap(&identity.voxmap_hash),
+        cache.shell(&identity.shell_hash),
+    ) {
+        (Some(v), Some(s)) => ClusterScene::from_files(&identity, v, s).ok(),
+        _ => None,
+    };
+    let transfer = cached.is_none();
+    write_join(
+        &mut send,
+        &JoinMessage::Need {
+            voxmap: transfer,
+            shell: transfer,
+        },
+    )
+    .await?;
+    let scene = match cached {
+        Some(scene) => scene,
+        None => {
+            let voxmap = read_file(&mut recv, identity.voxmap_len, "voxmap").await?;
+            let shell = read_file(&mut recv, identity.shell_len, "shell").await?;
+            cache.store(&identity, &voxmap, &shell);
+            ClusterScene::from_files(&identity, voxmap, shell)?
+        }
+    };
+    write_join(&mut send, &JoinMessage::Ready).await?;
+    let _ = send.finish();
+    Ok((scene, worker_id, transfer))
+}
+
+async fn read_file(
+    recv: &mut quinn::RecvStream,
+    expected: u64,
+    what: &str,
+) -> Result<Vec<u8>, ClusterError> {
+    if expected > MAX_SCENE_FILE {
+        return Err(ClusterError::Join(format!(
+            "{what} file of {expected} bytes exceeds the limit"
+        )));
+    }
+    let bytes = read_frame(recv, expected).await?;
+    if bytes.len() as u64 != expected {
+        return Err(ClusterError::Join(format!(
+            "{what} file: {} bytes received, {expected} announced",
+            bytes.len()
+        )));
+    }
+    Ok(bytes)
+}
+
+fn compute_loop(
+    scene: ClusterScene,
+    threads: usize,
+    jobs: Receiver<FrameRequest>,
+    conn: quinn::Connection,
+    counters: Arc<Counters>,
+) {
+    let pool = match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
+        Ok(pool) => pool,
+        Err(e) => {
+            tracing::error!("cannot start the compute pool: {e}");
+            conn.close(1u32.into(), b"no compute pool");
+            return;
+        }
+    };
+    let mut buf = [0u8; REPLY_LEN];
+    while let Ok(mut request) = jobs.recv() {
+        while let Ok(newer) = jobs.try_recv() {
+            request = newer;
+            counters.superseded.fetch_add(1, Ordering::Relaxed);
+        }
+        let sums = pool.install(|| scene.sample_mask(&request.pose, request.classes));
+        FrameReply {
+            seq: request.seq,
+            classes: request.classes,
+            sums,
+        }
+        .encode(&mut buf);
+        if conn
+            .send_datagram(bytes::Bytes::copy_from_slice(&buf))
+            .is_err()
+        {
+            break;
+        }
+        counters.replies.fetch_add(1, Ordering::Relaxed);
+    }
+}

@@ -1,0 +1,231 @@
+//! Coordinator + workers over real QUIC on loopback, in one process.
+
+mod common;
+
+use common::*;
+use std::time::{Duration, Instant};
+use vps_cluster::protocol::{FrameReply, FrameRequest, REPLY_LEN};
+use vps_cluster::GatherConfig;
+use vps_haptic::sample_all;
+use vps_runtime::FrameSampler;
+
+#[test]
+fn two_workers_give_sums_bit_identical_to_one_process() {
+    let ids = identities();
+    let scene = scene();
+    let coordinator = start_coordinator(&ids, scene.clone());
+    let addr = coordinator.local_addr().unwrap();
+    let workers: Vec<_> = (0..2)
+        .map(|_| ThreadWorker::spawn(worker_config(&ids, addr)))
+        .collect();
+    coordinator
+        .wait_for_workers(2, Duration::from_secs(8))
+        .unwrap();
+    let mut shares = coordinator.shares(GatherConfig::default()).unwrap();
+    let poses = poses(40);
+    let mut touched = false;
+    for pose in &poses {
+        let want = sample_all(&*scene.map, &scene.shell, pose);
+        touched |= want.contacts > 0 && want.approaching > 0;
+        let got = shares.compute(pose, Instant::now() + DEADLINE);
+        assert_eq!(got.sums, want);
+    }
+    assert!(touched, "the poses must touch and brake");
+    let report = shares.report();
+    assert_eq!(report.frames, 40);
+    assert_eq!(report.peers.len(), 2);
+    for peer in &report.peers {
+        assert!(
+            peer.merged > 0,
+            "worker {} contributed nothing: {peer:?}",
+            peer.id
+        );
+        assert_eq!(peer.invalid, 0);
+    }
+    drop(shares);
+    for w in workers {
+        let r = w.stop().unwrap();
+        assert!(r.replies > 0);
+        assert!(r.scene_transferred);
+    }
+}
+
+#[test]
+fn a_worker_leaving_mid_run_changes_nothing_in_the_sums() {
+    let ids = identities();
+    let scene = scene();
+    let coordinator = start_coordinator(&ids, scene.clone());
+    let addr = coordinator.local_addr().unwrap();
+    let mut workers: Vec<_> = (0..2)
+        .map(|_| ThreadWorker::spawn(worker_config(&ids, addr)))
+        .collect();
+    coordinator
+        .wait_for_workers(2, Duration::from_secs(8))
+        .unwrap();
+    let mut shares = coordinator.shares(GatherConfig::default()).unwrap();
+    let poses = poses(60);
+    for (i, pose) in poses.iter().enumerate() {
+        if i == 20 {
+            workers.pop().unwrap().stop().unwrap();
+        }
+        let want = sample_all(&*scene.map, &scene.shell, pose);
+        assert_eq!(
+            shares.compute(pose, Instant::now() + DEADLINE).sums,
+            want,
+            "frame {i}"
+        );
+    }
+    let report = shares.report();
+    assert_eq!(report.peers.len(), 2);
+    assert!(report.peers.iter().any(|p| !p.connected), "{report:?}");
+    workers.pop().unwrap().stop().unwrap();
+}
+
+#[test]
+fn a_silent_worker_is_benched_and_a_recovered_one_gets_work_again() {
+    let ids = identities();
+    let scene = scene();
+    let coordinator = start_coordinator(&ids, scene.clone());
+    let addr = coordinator.local_addr().unwrap();
+    let fake = FakeWorker::new(&ids.worker, &ids.coordinator);
+    let conn = fake
+        .join(addr, vps_cluster::protocol::PROTOCOL_VERSION)
+        .unwrap();
+    coordinator
+        .wait_for_workers(1, Duration::from_secs(8))
+        .unwrap();
+    let config = GatherConfig {
+        bench_after: 3,
+        probe_every: 2,
+        unbench_after: 2,
+        ..GatherConfig::default()
+    };
+    let mut shares = coordinator.shares(config).unwrap();
+    let poses = poses(30);
+    // Silent for 6 frames (short deadline: nobody answers anyway).
+    for pose in &poses[..6] {
+        let want = sample_all(&*scene.map, &scene.shell, pose);
+        let got = shares.compute(pose, Instant::now() + Duration::from_millis(2));
+        assert_eq!(got.sums, want);
+    }
+    assert_eq!(shares.active_workers(), 0, "benched after 3 misses");
+    // Now answer every request correctly from a thread.
+    let answering = {
+        let (scene, conn) = (scene.clone(), conn.clone());
+        let rt = fake.runtime.handle().clone();
+        std::thread::spawn(move || {
+            rt.block_on(async move {
+                let mut buf = [0u8; REPLY_LEN];
+                while let Ok(bytes) = conn.read_datagram().await {
+                    let req = FrameRequest::decode(&bytes).unwrap();
+                    let sums = rayon::ThreadPoolBuilder::new()
+                        .num_threads(1)
+                        .build()
+                        .unwrap()
+                        .install(|| scene.sample_mask(&req.pose, req.classes));
+                    FrameReply {
+                        seq: req.seq,
+                        classes: req.classes,
+                        sums,
+                    }
+                    .encode(&mut buf);
+                    let _ = conn.send_datagram(bytes::Bytes::copy_from_slice(&buf));
+                }
+            })
+        })
+    };
+    for pose in &poses[6..] {
+        let want = sample_all(&*scene.map, &scene.shell, pose);
+        let got = shares.compute(pose, Instant::now() + DEADLINE);
+        assert_eq!(got.sums, want);
+    }
+    let report = shares.report();
+    let peer = &report.peers[0];
+    assert!(peer.benched_times >= 1, "{peer:?}");
+    assert!(!peer.benched, "recovered: {peer:?}");
+    assert!(peer.merged > 0, "{peer:?}");
+    assert!(peer.lost >= 3, "{peer:?}");
+    drop(shares);
+    drop(coordinator);
+    answering.join().unwrap();
+}
+
+#[test]
+fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
+    let ids = identities();
+    let scene = scene();
+    let coordinator = start_coordinator(&ids, scene.clone());
+    let addr = coordinator.local_addr().unwrap();
+    let fake = FakeWorker::new(&ids.worker, &ids.coordinator);
+    let conn = fake
+        .join(addr, vps_cluster::protocol::PROTOCOL_VERSION)
+        .unwrap();
+    coordinator
+        .wait_for_workers(1, Duration::from_secs(8))
+        .unwrap();
+    // Raw UDP garbage at the coordinator's socket: QUIC drops it, nothing panics.
+    let udp = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    for n in [0usize, 1, 7, 100, 1200, 1500] {
+        let _ = udp.send_to(&vec![0xA5; n], addr);
+    }
+    let mut shares = coordinator.shares(GatherConfig::default()).unwrap();
+    let frames = 8;
+    let misbehave = {
+        let (scene, conn) = (scene.clone(), conn.clone());
+        let rt = fake.runtime.handle().clone();
+        std::thread::spawn(move || {
+            rt.block_on(async move {
+                let mut buf = [0u8; REPLY_LEN];
+                while let Ok(bytes) = conn.read_datagram().await {
+                    let req = FrameRequest::decode(&bytes).unwrap();
+                    let good = rayon::ThreadPoolBuilder::new()
+                        .num_threads(1)
+                        .build()
+                        .unwrap()
+                        .install(|| scene.sample_mask(&req.pose, req.classes));
+                    let send = |b: &[u8]| {
+                        let _ = conn.send_datagram(bytes::Bytes::copy_from_slice(b));
+                    };
+                    send(b"garbage");
+                    FrameReply {
+                        seq: req.seq,
+                        classes: req.classes,
+                        sums: good,
+                    }
+                    .encode(&mut buf);
+                    send(&buf[..REPLY_LEN - 1]);
+                    let mut implausible = good;
+                    implausible.sampled += 1;
+                    FrameReply {
+                        seq: req.seq,
+                        classes: req.classes,
+                        sums: implausible,
+                    }
+                    .encode(&mut buf);
+                    send(&buf);
+                    // Correct sums after the share was rejected: too late, dropped.
+                    FrameReply {
+                        seq: req.seq,
+                        classes: req.classes,
+                        sums: good,
+                    }
+                    .encode(&mut buf);
+                    send(&buf);
+                }
+            })
+        })
+    };
+    for pose in poses(frames).iter() {
+        let want = sample_all(&*scene.map, &scene.shell, pose);
+        let got = shares.compute(pose, Instant::now() + DEADLINE);
+        assert_eq!(got.sums, want);
+    }
+    let report = shares.report();
+    let peer = &report.peers[0];
+    assert_eq!(peer.merged, 0, "{peer:?}");
+    assert!(peer.invalid >= 3, "{peer:?}");
+    assert!(peer.benched_times >= 1, "{peer:?}");
+    drop(shares);
+    drop(coordinator);
+    misbehave.join().unwrap();
+}
