@@ -6,13 +6,20 @@ use glam::{DQuat, DVec3, IVec3, Vec3};
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
+use std::sync::Mutex;
 use std::thread::JoinHandle;
 use std::time::Duration;
 use vps_cluster::{
     run_worker_until, ClusterError, ClusterScene, Coordinator, CoordinatorConfig, TlsIdentity,
     WorkerConfig, WorkerReport,
 };
+use vps_device::script::{approach_and_rest, Pace};
+use vps_device::{
+    DeviceError, DeviceLimits, HandParams, HapticDevice, SimulatedHand, SurfaceContact,
+};
+use vps_haptic::{HandleSample, HapticParams, Wrench};
 use vps_haptic::{KernelPose, PartState};
+use vps_runtime::{run_loop, LoopConfig};
 use vps_voxmap::shell::ShellMethod;
 use vps_voxmap::{DenseGrid, GridSpec, MassProperties, PointShell, TreeConfig, Voxel, VoxelTree};
 
@@ -226,4 +233,101 @@ impl FakeWorker {
                 .and_then(|r| r.ok())
         })
     }
+}
+
+// ---- whole-session fixtures ----
+
+pub const START: DVec3 = DVec3::new(0.05, 0.05, 0.09);
+pub const FRAMES: u64 = 400;
+
+pub type Writes = Arc<Mutex<Vec<Wrench>>>;
+
+/// A simulated hand that logs every write and raises `trip` at read number `trip_at`.
+struct Logged {
+    inner: SimulatedHand,
+    writes: Writes,
+    reads: u64,
+    trip_at: u64,
+    trip: Arc<AtomicBool>,
+}
+
+impl HapticDevice for Logged {
+    fn read(&mut self, t: f64) -> Result<HandleSample, DeviceError> {
+        self.reads += 1;
+        if self.reads == self.trip_at {
+            self.trip.store(true, Ordering::Relaxed);
+        }
+        self.inner.read(t)
+    }
+    fn write(&mut self, w: &Wrench) -> Result<(), DeviceError> {
+        self.writes.lock().unwrap().push(*w);
+        self.inner.write(w)
+    }
+    fn limits(&self) -> DeviceLimits {
+        self.inner.limits()
+    }
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+}
+
+pub fn hand(trip_at: u64, trip: Arc<AtomicBool>) -> (Box<dyn HapticDevice>, Writes) {
+    let contact = SurfaceContact {
+        point: DVec3::new(0.05, 0.05, 0.05 + RADIUS),
+        normal: DVec3::Z,
+        orientation: DQuat::IDENTITY,
+    };
+    let pace = Pace {
+        speed: 0.1,
+        press_depth: 0.005,
+        dwell: 0.1,
+    };
+    let script = approach_and_rest(START, &contact, &pace).unwrap();
+    let writes = Writes::default();
+    let device = Logged {
+        inner: SimulatedHand::new(script, HandParams::default()).unwrap(),
+        writes: writes.clone(),
+        reads: 0,
+        trip_at,
+        trip,
+    };
+    (Box::new(device), writes)
+}
+
+pub fn params() -> HapticParams {
+    HapticParams::default().with_scene(VOXEL, RADIUS).unwrap()
+}
+
+/// Free-running; the watchdog is far above any frame's compute so that no frame is zeroed, and
+/// replies are awaited up to half of it.
+pub fn config() -> LoopConfig {
+    LoopConfig {
+        frames: Some(FRAMES),
+        free_running: true,
+        watchdog: Duration::from_millis(200),
+        ..LoopConfig::default()
+    }
+}
+
+pub fn one_process_writes() -> Vec<Wrench> {
+    let scene = scene();
+    let (device, writes) = hand(0, Arc::new(AtomicBool::new(false)));
+    let report = run_loop(
+        scene.map.clone(),
+        scene.shell.clone(),
+        params(),
+        device,
+        PartState::at_rest(START, DQuat::IDENTITY),
+        config(),
+        None,
+        Arc::new(AtomicBool::new(false)),
+    )
+    .unwrap();
+    assert_eq!(report.stats.frames, FRAMES);
+    assert!(
+        report.stats.contact_frames > 0,
+        "the session must touch the wall"
+    );
+    let w = writes.lock().unwrap().clone();
+    w
 }

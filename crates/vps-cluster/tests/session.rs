@@ -1,0 +1,70 @@
+//! Whole haptic sessions on the runtime's frame loop: the cluster's device writes are
+//! bit-identical, frame by frame, to the one-process loop's, also when a worker leaves mid-run.
+
+mod common;
+
+use common::*;
+use glam::DQuat;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::time::Duration;
+use vps_cluster::{run_coordinator_session, GatherConfig};
+use vps_haptic::{PartState, Wrench};
+
+/// Runs a cluster session with two thread workers; worker 1 is stopped at frame `leave_at`
+/// (never when 0).
+fn cluster_writes(leave_at: u64) -> (Vec<Wrench>, vps_cluster::ClusterReport) {
+    let ids = identities();
+    let scene = scene();
+    let coordinator = start_coordinator(&ids, scene);
+    let addr = coordinator.local_addr().unwrap();
+    let mut workers: Vec<_> = (0..2)
+        .map(|_| ThreadWorker::spawn(worker_config(&ids, addr)))
+        .collect();
+    coordinator
+        .wait_for_workers(2, Duration::from_secs(8))
+        .unwrap();
+    let leaving = workers.pop().unwrap();
+    let (device, writes) = hand(leave_at, leaving.stop.clone());
+    let (report, cluster) = run_coordinator_session(
+        &coordinator,
+        GatherConfig::default(),
+        params(),
+        device,
+        PartState::at_rest(START, DQuat::IDENTITY),
+        config(),
+        None,
+        Arc::new(AtomicBool::new(false)),
+    )
+    .unwrap();
+    assert_eq!(report.stats.frames, FRAMES);
+    assert_eq!(report.stats.watchdog_trips, 0);
+    leaving.stop().unwrap();
+    workers.pop().unwrap().stop().unwrap();
+    let w = writes.lock().unwrap().clone();
+    (w, cluster)
+}
+
+#[test]
+fn a_two_worker_session_writes_the_same_wrenches_as_one_process() {
+    let want = one_process_writes();
+    let (got, cluster) = cluster_writes(0);
+    assert_eq!(got.len(), want.len());
+    for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+        assert_eq!(g, w, "frame {i}");
+    }
+    assert_eq!(cluster.frames, FRAMES);
+    assert!(cluster.peers.iter().all(|p| p.merged > 0), "{cluster:?}");
+}
+
+#[test]
+fn a_worker_leaving_mid_session_misses_no_write_and_changes_no_bit() {
+    let want = one_process_writes();
+    let (got, cluster) = cluster_writes(FRAMES / 3);
+    // One write per frame plus the final zero wrench, as in the one-process run.
+    assert_eq!(got.len(), want.len());
+    for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+        assert_eq!(g, w, "frame {i}");
+    }
+    assert_eq!(cluster.peers.len(), 2);
+}
