@@ -27,10 +27,10 @@ pub struct ClusterScene {
 }
 
 impl ClusterScene {
-    /// Builds the scene from a voxmap and a point shell split into `class_count` classes
+    /// Builds the scene from a voxmap (shared, not copied) and a point shell split into `class_count` classes
     /// (1..=64: one datagram bit per class). Serialises both files once (allocates).
     pub fn new(
-        map: VoxelTree,
+        map: Arc<VoxelTree>,
         shell: &PointShell,
         class_count: u32,
     ) -> Result<ClusterScene, ClusterError> {
@@ -54,7 +54,7 @@ impl ClusterScene {
             shell_len: shell_file.len() as u64,
         };
         Ok(ClusterScene {
-            map: Arc::new(map),
+            map,
             shell: Arc::new(ClassedShell::new(shell, class_count)),
             identity,
             voxmap_file,
@@ -83,7 +83,7 @@ impl ClusterScene {
         }
         let shell = read_shell(shell_file.as_slice())
             .map_err(|e| ClusterError::Scene(format!("received shell: {e}")))?;
-        let scene = ClusterScene::new(map, &shell, identity.class_count)?;
+        let scene = ClusterScene::new(Arc::new(map), &shell, identity.class_count)?;
         Ok(scene)
     }
 

@@ -76,7 +76,7 @@ pub fn sphere_shell(n: usize) -> PointShell {
 }
 
 pub fn scene() -> Arc<ClusterScene> {
-    Arc::new(ClusterScene::new(wall(), &sphere_shell(600), CLASSES).expect("scene"))
+    Arc::new(ClusterScene::new(Arc::new(wall()), &sphere_shell(600), CLASSES).expect("scene"))
 }
 
 /// Poses descending onto the wall, turning, with velocities (contacts and braking both occur).
