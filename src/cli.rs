@@ -57,8 +57,83 @@ pub enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Make a self-signed certificate and key for a coordinator or worker (DIR/NAME.crt, .key).
+    Cert {
+        /// Output directory.
+        #[arg(long, default_value = ".")]
+        out: PathBuf,
+        /// Name of the files and of the certificate's subject.
+        #[arg(long)]
+        name: String,
+    },
+    /// Run a worker: join a coordinator over QUIC and compute the shares it is given.
+    Worker(WorkerArgs),
+    /// Run the coordinator: the device loop, with workers from the LAN (pinned certificates).
+    Coordinator(CoordinatorArgs),
+    /// Coordinator plus N local worker processes on loopback (single-host multi-process mode).
+    Cluster(ClusterArgs),
     /// Measure; prints JSON.
     Bench(BenchArgs),
+}
+
+/// Arguments of `vps worker`.
+#[derive(Args, Debug)]
+pub struct WorkerArgs {
+    /// The coordinator's address (host:port).
+    #[arg(long)]
+    pub coordinator: std::net::SocketAddr,
+    /// This worker's certificate (PEM).
+    #[arg(long)]
+    pub cert: PathBuf,
+    /// This worker's private key (PEM).
+    #[arg(long)]
+    pub key: PathBuf,
+    /// A coordinator certificate to accept (repeatable); any other is refused.
+    #[arg(long, required = true)]
+    pub pin: Vec<PathBuf>,
+    /// Directory to cache scenes in, by content hash.
+    #[arg(long)]
+    pub cache: Option<PathBuf>,
+    /// Compute threads (default: one per core).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// Arguments of `vps coordinator`.
+#[derive(Args, Debug)]
+pub struct CoordinatorArgs {
+    /// Address to listen on (UDP, QUIC).
+    #[arg(long, default_value = "0.0.0.0:7800")]
+    pub listen: std::net::SocketAddr,
+    /// The coordinator's certificate (PEM).
+    #[arg(long)]
+    pub cert: PathBuf,
+    /// The coordinator's private key (PEM).
+    #[arg(long)]
+    pub key: PathBuf,
+    /// A worker certificate to admit (repeatable); any other is refused and logged.
+    #[arg(long, required = true)]
+    pub pin: Vec<PathBuf>,
+    /// Workers to wait for before the session starts.
+    #[arg(long, default_value_t = 1)]
+    pub workers: usize,
+    /// The session (device, parameters, length, recording).
+    #[command(flatten)]
+    pub session: RunArgs,
+}
+
+/// Arguments of `vps cluster`.
+#[derive(Args, Debug)]
+pub struct ClusterArgs {
+    /// Worker processes to start on this host.
+    #[arg(long, default_value_t = 2)]
+    pub local_workers: usize,
+    /// Compute threads per worker process.
+    #[arg(long, default_value_t = 1)]
+    pub worker_threads: usize,
+    /// The session (device, parameters, length, recording).
+    #[command(flatten)]
+    pub session: RunArgs,
 }
 
 /// Arguments of `vps run`. `Default` matches the command-line defaults.

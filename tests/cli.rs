@@ -167,3 +167,32 @@ fn devices_lists_or_says_there_are_none() {
         "prints a device per line or says none were found"
     );
 }
+
+/// Single-host multi-process mode: two real worker processes over QUIC (pinned mutual TLS on
+/// loopback) give the same session as one process, to the last bit of the final state. Workers
+/// that miss the frame deadline have their shares recomputed locally, so this holds however late
+/// they are on a loaded machine.
+#[test]
+fn two_local_worker_processes_reproduce_the_one_process_session() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = path(dir.path(), "session.jsonl");
+    assert!(vps(&["record", "-o", &trace, "--seconds", "1"])
+        .status
+        .success());
+    let alone = json(&vps(&["replay", &trace, "--json"]));
+    let device = format!("replay:{trace}");
+    let clustered = json(&vps(&[
+        "cluster",
+        "--local-workers",
+        "2",
+        "--device",
+        &device,
+        "--json",
+    ]));
+    assert_eq!(clustered["final_position_m"], alone["final_position_m"]);
+    assert_eq!(clustered["stats"]["frames"], 1000);
+    let peers = clustered["cluster"]["peers"]
+        .as_array()
+        .expect("per-worker report");
+    assert_eq!(peers.len(), 2, "both workers joined");
+}

@@ -3,6 +3,7 @@
 pub mod bench_kernel;
 mod bench_loop;
 mod bench_voxelize;
+mod cluster;
 mod inspect;
 pub mod output;
 mod probe;
@@ -43,6 +44,10 @@ pub fn dispatch(cli: Cli) -> Result<()> {
             ..RunArgs::default()
         }),
         Command::Devices { json } => run::devices(json),
+        Command::Cert { out, name } => cluster::cert(&out, &name),
+        Command::Worker(args) => cluster::worker(&args),
+        Command::Coordinator(args) => cluster::coordinator(&args),
+        Command::Cluster(args) => cluster::local_cluster(&args),
         Command::Bench(args) => match args.which {
             BenchKind::Voxelize {
                 mesh,

@@ -101,10 +101,26 @@ struct RunReport {
     end: String,
     final_position_m: [f64; 3],
     stats: StatsSummary,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    cluster: Option<serde_json::Value>,
 }
 
-/// Runs one paced session; records the handle trace to `record` when given.
-pub fn run(args: &RunArgs) -> Result<()> {
+/// Everything a session needs, opened from the command line.
+pub struct PreparedSession {
+    /// Scene, voxmap and shell.
+    pub scene: SessionScene,
+    /// Validated haptic parameters.
+    pub params: HapticParams,
+    /// The opened device.
+    pub device: Box<dyn HapticDevice>,
+    /// The part's state at frame 0.
+    pub initial: PartState,
+    /// Frame loop settings.
+    pub config: LoopConfig,
+}
+
+/// Builds the scene, loads parameters and opens the device of `args`.
+pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
     let choice = parse_device(&args.device)?;
     let scene = builtin_scene(args.voxel_size, ShellMethod::VoxelCentres)?;
     let params = match &args.config {
@@ -124,6 +140,24 @@ pub fn run(args: &RunArgs) -> Result<()> {
         record_trace: args.record.is_some(),
         ..LoopConfig::default()
     };
+    Ok(PreparedSession {
+        scene,
+        params,
+        device,
+        initial,
+        config,
+    })
+}
+
+/// Runs one paced session; records the handle trace to `record` when given.
+pub fn run(args: &RunArgs) -> Result<()> {
+    let PreparedSession {
+        scene,
+        params,
+        device,
+        initial,
+        config,
+    } = prepare(args)?;
     let report: LoopReport = run_loop(
         scene.tree.clone(),
         classed(&scene.shell),
@@ -134,8 +168,19 @@ pub fn run(args: &RunArgs) -> Result<()> {
         None,
         Arc::new(AtomicBool::new(false)),
     )?;
+    finish(args, scene.shell.len(), &report, None::<&()>)
+}
+
+/// Saves the recording, prints the session's figures (and `cluster`, when given, as JSON), and
+/// fails when the device failed.
+pub fn finish<C: Serialize>(
+    args: &RunArgs,
+    shell_points: usize,
+    report: &LoopReport,
+    cluster: Option<&C>,
+) -> Result<()> {
     if let Some(path) = &args.record {
-        save_recording(&report, path)?;
+        save_recording(report, path)?;
     }
     let end = match &report.device_error {
         Some(err) => format!("device failed: {err}"),
@@ -143,11 +188,12 @@ pub fn run(args: &RunArgs) -> Result<()> {
     };
     let out = RunReport {
         device: report.device_name.clone(),
-        shell_points: scene.shell.len(),
+        shell_points,
         realtime_granted: report.rt.fifo,
         end,
         final_position_m: report.final_state.position.to_array(),
-        stats: report.stats,
+        stats: report.stats.clone(),
+        cluster: cluster.map(serde_json::to_value).transpose()?,
     };
     if args.json {
         print_json(&out)?;
@@ -158,6 +204,9 @@ pub fn run(args: &RunArgs) -> Result<()> {
         );
         crate::demo::print_summary("session", &out.stats, None);
         println!("final part position (m): {:?}", out.final_position_m);
+        if let Some(cluster) = &out.cluster {
+            println!("cluster: {}", serde_json::to_string_pretty(cluster)?);
+        }
     }
     if report.device_error.is_some() {
         bail!("the session stopped because the device failed (the device was sent zero force)");

@@ -1,0 +1,136 @@
+//! `vps cert`, `vps worker`, `vps coordinator` and `vps cluster`: the cluster modes over QUIC
+//! (DESIGN §4), thin shells over `vps-cluster`.
+
+use super::run::{finish, prepare, PreparedSession};
+use crate::cli::{ClusterArgs, CoordinatorArgs, RunArgs, WorkerArgs};
+use crate::session::CLASS_COUNT;
+use anyhow::{Context, Result};
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::time::Duration;
+use vps_cluster::{
+    local_cluster_certs, make_cert, run_coordinator_session, run_worker, spawn_local_workers,
+    ClusterScene, Coordinator, CoordinatorConfig, GatherConfig, LocalWorkerArgs, WorkerConfig,
+};
+
+/// How long the coordinator waits for its workers to join before it starts.
+const JOIN_TIMEOUT: Duration = Duration::from_secs(20);
+
+/// `vps cert`: a new self-signed certificate and key for a coordinator or worker.
+pub fn cert(out: &std::path::Path, name: &str) -> Result<()> {
+    let files = make_cert(out, name)?;
+    println!("certificate {}", files.cert.display());
+    println!(
+        "key         {} (keep private; pin the certificate on the other side)",
+        files.key.display()
+    );
+    Ok(())
+}
+
+/// `vps worker`: joins a coordinator and answers frame requests until the coordinator goes away.
+pub fn worker(args: &WorkerArgs) -> Result<()> {
+    let mut config = WorkerConfig::from_files(args.coordinator, &args.cert, &args.key, &args.pin)?;
+    config.cache_dir = args.cache.clone();
+    if let Some(threads) = args.threads {
+        config.threads = threads.max(1);
+    }
+    let report = run_worker(config).context("worker")?;
+    eprintln!("worker finished: {report:?}");
+    Ok(())
+}
+
+/// Runs one session on a started coordinator with `workers` joined.
+fn coordinate(
+    session: &RunArgs,
+    listen: SocketAddr,
+    cert: &std::path::Path,
+    key: &std::path::Path,
+    pins: &[PathBuf],
+    workers: usize,
+    spawn: impl FnOnce(SocketAddr) -> Result<Option<vps_cluster::LocalWorkers>>,
+) -> Result<()> {
+    let PreparedSession {
+        scene,
+        params,
+        device,
+        initial,
+        config,
+    } = prepare(session)?;
+    let cluster_scene = Arc::new(ClusterScene::new(
+        scene.tree.clone(),
+        &scene.shell,
+        CLASS_COUNT,
+    )?);
+    let coordinator = Coordinator::start(
+        CoordinatorConfig::from_files(listen, cert, key, pins)?,
+        cluster_scene,
+    )?;
+    let addr = coordinator.local_addr()?;
+    eprintln!("coordinator listening on {addr}, waiting for {workers} worker(s)");
+    let _children = spawn(addr)?;
+    coordinator
+        .wait_for_workers(workers, JOIN_TIMEOUT)
+        .with_context(|| format!("waiting {JOIN_TIMEOUT:?} for {workers} worker(s) to join"))?;
+    let gather = GatherConfig {
+        local_threads: session.threads.max(1),
+        ..GatherConfig::default()
+    };
+    let (report, cluster) = run_coordinator_session(
+        &coordinator,
+        gather,
+        params,
+        device,
+        initial,
+        config,
+        None,
+        Arc::new(AtomicBool::new(false)),
+    )?;
+    finish(session, scene.shell.len(), &report, Some(&cluster))
+}
+
+/// `vps coordinator`: owns the device loop; workers from the LAN join with pinned certificates.
+pub fn coordinator(args: &CoordinatorArgs) -> Result<()> {
+    coordinate(
+        &args.session,
+        args.listen,
+        &args.cert,
+        &args.key,
+        &args.pin,
+        args.workers,
+        |_| Ok(None),
+    )
+}
+
+/// `vps cluster --local-workers N`: the coordinator plus N worker processes on loopback, with
+/// fresh certificates pinned both ways.
+pub fn local_cluster(args: &ClusterArgs) -> Result<()> {
+    let dir = std::env::temp_dir().join(format!("vps-cluster-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let certs = local_cluster_certs(&dir)?;
+    let exe = std::env::current_exe().context("locating the vps executable")?;
+    let workers = args.local_workers;
+    let worker_threads = args.worker_threads;
+    let result = coordinate(
+        &args.session,
+        "127.0.0.1:0".parse()?,
+        &certs.coordinator.cert,
+        &certs.coordinator.key,
+        std::slice::from_ref(&certs.worker.cert),
+        workers,
+        |addr| {
+            let spawn_args = LocalWorkerArgs {
+                coordinator: addr,
+                cert: certs.worker.cert.clone(),
+                key: certs.worker.key.clone(),
+                pins: vec![certs.coordinator.cert.clone()],
+                cache_dir: None,
+                threads: Some(worker_threads),
+            };
+            Ok(Some(spawn_local_workers(workers, &exe, &spawn_args)?))
+        },
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+    result
+}
