@@ -1,7 +1,7 @@
 //! Parameter loading, validation and the derived default gains.
 
-use vps_haptic::stability::STABILITY_MARGIN;
 use vps_haptic::params::ROTATIONAL_COUPLING_FACTOR;
+use vps_haptic::stability::STABILITY_MARGIN;
 use vps_haptic::{HapticParams, ParamsError};
 
 fn example_path() -> std::path::PathBuf {
@@ -50,7 +50,10 @@ fn default_gains_sit_at_the_stated_margin() {
         k_r: Some(g.k_t * g.inertia / p.mass),
         ..p
     };
-    assert!((equal_frequency.stability().worst() - STABILITY_MARGIN).abs() < 1e-9, "{s:?}");
+    assert!(
+        (equal_frequency.stability().worst() - STABILITY_MARGIN).abs() < 1e-9,
+        "{s:?}"
+    );
     assert!(s.translational < s.rotational);
     assert!(s.worst() < 0.6, "{s:?}");
     assert!((g.k_ff - 2.0 * g.k_t).abs() < 1e-9);
