@@ -318,6 +318,15 @@ pub enum BenchKind {
         #[arg(long)]
         json: bool,
     },
+    /// Gather round trip to 1 and 2 local worker processes beside a raw UDP ping-pong.
+    Transport {
+        /// Frames (and raw UDP round trips) per measurement.
+        #[arg(long, default_value_t = 5000)]
+        frames: u64,
+        /// Print JSON (always JSON; accepted for symmetry).
+        #[arg(long)]
+        json: bool,
+    },
     /// Total tree memory against N = 1..5 (the paper's Figure 6).
     TreeMemory {
         /// Scene.

@@ -12,8 +12,10 @@ use std::sync::Arc;
 use std::time::Duration;
 use vps_cluster::{
     local_cluster_certs, make_cert, run_coordinator_session, run_worker, spawn_local_workers,
-    ClusterScene, Coordinator, CoordinatorConfig, GatherConfig, LocalWorkerArgs, WorkerConfig,
+    ClusterReport, ClusterScene, Coordinator, CoordinatorConfig, GatherConfig, LocalWorkerArgs,
+    WorkerConfig,
 };
+use vps_runtime::{LoopConfig, LoopReport};
 
 /// How long the coordinator waits for its workers to join before it starts.
 const JOIN_TIMEOUT: Duration = Duration::from_secs(20);
@@ -41,7 +43,19 @@ pub fn worker(args: &WorkerArgs) -> Result<()> {
     Ok(())
 }
 
-/// Runs one session on a started coordinator with `workers` joined.
+/// What one coordinated session produced.
+pub struct CoordinatedRun {
+    /// The frame loop's report.
+    pub report: LoopReport,
+    /// Per-worker figures.
+    pub cluster: ClusterReport,
+    /// Points in the shell.
+    pub shell_points: usize,
+}
+
+/// Runs one session on a started coordinator once `workers` have joined; `tune` may adjust the
+/// loop settings (benchmarks run frames back to back with a longer reply deadline).
+#[allow(clippy::too_many_arguments)]
 fn coordinate(
     session: &RunArgs,
     listen: SocketAddr,
@@ -50,14 +64,16 @@ fn coordinate(
     pins: &[PathBuf],
     workers: usize,
     spawn: impl FnOnce(SocketAddr) -> Result<Option<vps_cluster::LocalWorkers>>,
-) -> Result<()> {
+    tune: impl FnOnce(&mut LoopConfig),
+) -> Result<CoordinatedRun> {
     let PreparedSession {
         scene,
         params,
         device,
         initial,
-        config,
+        mut config,
     } = prepare(session)?;
+    tune(&mut config);
     let cluster_scene = Arc::new(ClusterScene::new(
         scene.tree.clone(),
         &scene.shell,
@@ -87,12 +103,16 @@ fn coordinate(
         None,
         Arc::new(AtomicBool::new(false)),
     )?;
-    finish(session, scene.shell.len(), &report, Some(&cluster))
+    Ok(CoordinatedRun {
+        report,
+        cluster,
+        shell_points: scene.shell.len(),
+    })
 }
 
 /// `vps coordinator`: owns the device loop; workers from the LAN join with pinned certificates.
 pub fn coordinator(args: &CoordinatorArgs) -> Result<()> {
-    coordinate(
+    let run = coordinate(
         &args.session,
         args.listen,
         &args.cert,
@@ -100,20 +120,46 @@ pub fn coordinator(args: &CoordinatorArgs) -> Result<()> {
         &args.pin,
         args.workers,
         |_| Ok(None),
+        |_| {},
+    )?;
+    finish(
+        &args.session,
+        run.shell_points,
+        &run.report,
+        Some(&run.cluster),
     )
 }
 
 /// `vps cluster --local-workers N`: the coordinator plus N worker processes on loopback, with
 /// fresh certificates pinned both ways.
 pub fn local_cluster(args: &ClusterArgs) -> Result<()> {
+    let run = run_local_cluster(
+        &args.session,
+        args.local_workers,
+        args.worker_threads,
+        |_| {},
+    )?;
+    finish(
+        &args.session,
+        run.shell_points,
+        &run.report,
+        Some(&run.cluster),
+    )
+}
+
+/// A session with `workers` local worker processes of `worker_threads` threads each.
+pub fn run_local_cluster(
+    session: &RunArgs,
+    workers: usize,
+    worker_threads: usize,
+    tune: impl FnOnce(&mut LoopConfig),
+) -> Result<CoordinatedRun> {
     let dir = std::env::temp_dir().join(format!("vps-cluster-{}", std::process::id()));
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let certs = local_cluster_certs(&dir)?;
     let exe = std::env::current_exe().context("locating the vps executable")?;
-    let workers = args.local_workers;
-    let worker_threads = args.worker_threads;
     let result = coordinate(
-        &args.session,
+        session,
         "127.0.0.1:0".parse()?,
         &certs.coordinator.cert,
         &certs.coordinator.key,
@@ -130,6 +176,7 @@ pub fn local_cluster(args: &ClusterArgs) -> Result<()> {
             };
             Ok(Some(spawn_local_workers(workers, &exe, &spawn_args)?))
         },
+        tune,
     );
     let _ = std::fs::remove_dir_all(&dir);
     result

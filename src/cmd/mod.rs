@@ -2,6 +2,7 @@
 
 pub mod bench_kernel;
 mod bench_loop;
+mod bench_transport;
 mod bench_voxelize;
 mod cluster;
 mod inspect;
@@ -68,6 +69,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
                 threads,
                 ..
             } => bench_loop::run(voxel_size, points, frames, threads),
+            BenchKind::Transport { frames, .. } => bench_transport::run(frames),
             BenchKind::Kernel {
                 points, seconds, ..
             } => output::print_json(&bench_kernel::run(&points, seconds)?),

@@ -25,6 +25,7 @@ pub mod scene;
 pub mod session;
 pub mod shares;
 pub mod tls;
+pub mod transport_bench;
 pub mod worker;
 
 pub use coordinator::{Coordinator, CoordinatorConfig};
