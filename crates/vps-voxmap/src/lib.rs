@@ -21,7 +21,7 @@ pub use file::FileError;
 pub use grid::GridSpec;
 pub use shell::{MassProperties, PointShell};
 pub use tree::{NodeCounts, TreeAccessor, TreeConfig, TreeError, VoxelTree};
-pub use voxel::Voxel;
+pub use voxel::{LayeredVoxel, Voxel, VoxelWidth};
 
 /// Read access to a voxmap by integer voxel index: implemented by the tree (runtime) and the dense
 /// grid (test oracle, benchmark baseline). The sampling kernel is generic over it.
@@ -33,6 +33,16 @@ pub trait VoxelLookup: Sync {
     fn spec(&self) -> &GridSpec;
     /// The voxel at `ijk`.
     fn get(&self, ijk: glam::IVec3) -> Voxel;
+
+    /// The voxel at `ijk` with its distance layer (see [`LayeredVoxel`]); same contract as `get`.
+    /// The default reports layer 0, which is exact for 2-bit maps.
+    #[inline]
+    fn get_layered(&self, ijk: glam::IVec3) -> LayeredVoxel {
+        LayeredVoxel {
+            kind: self.get(ijk),
+            layer: 0,
+        }
+    }
 }
 
 impl VoxelLookup for DenseGrid {
