@@ -2,6 +2,10 @@
 //! slot (a crossbeam `ArrayQueue` of capacity 1, overwritten with `force_push`); a viewer reads the
 //! newest value at its own rate (≥ 20 Hz is plenty). Publishing never blocks and never allocates,
 //! whether or not anyone reads.
+//!
+//! A reader at 30 Hz sees one frame in about 33; so that a strip chart still shows the slow frames
+//! in between, each frame also carries [`RecentMax`] figures of compute time and period error over
+//! the last 32 to 64 frames.
 
 use crossbeam::queue::ArrayQueue;
 use std::sync::Arc;
@@ -34,6 +38,42 @@ pub struct FeedFrame {
     pub penetrating_frames: u64,
     /// Frames with ≥ 1 point in Surface or Interior so far.
     pub touching_frames: u64,
+    /// This frame's compute time, device read to the end of the device write (ns).
+    pub compute_ns: u64,
+    /// The largest `compute_ns` over the last 32 to 64 frames, this one included (ns).
+    pub recent_max_compute_ns: u64,
+    /// How late this frame's tick started (ns); 0 in free-running mode.
+    pub period_error_ns: u64,
+    /// The largest `period_error_ns` over the last 32 to 64 frames, this one included (ns).
+    pub recent_max_period_error_ns: u64,
+}
+
+/// The running maximum of a per-frame figure over the last [`RecentMax::WINDOW`] to
+/// 2 × `WINDOW` values: two half windows, the finished one and the one being filled. Plain
+/// integers: recording never allocates or blocks.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RecentMax {
+    current: u64,
+    previous: u64,
+    filled: u32,
+}
+
+impl RecentMax {
+    /// Values per half window.
+    pub const WINDOW: u32 = 32;
+
+    /// Records `value` and returns the largest value of the last `WINDOW` to `2 × WINDOW` records
+    /// (fewer at the start), `value` included.
+    pub fn record(&mut self, value: u64) -> u64 {
+        if self.filled == Self::WINDOW {
+            self.previous = self.current;
+            self.current = 0;
+            self.filled = 0;
+        }
+        self.current = self.current.max(value);
+        self.filled += 1;
+        self.current.max(self.previous)
+    }
 }
 
 /// The loop's end of the feed. `Send`; cloning gives another publisher to the same slot.
@@ -106,7 +146,26 @@ mod tests {
             watchdog_trips: 0,
             penetrating_frames: 0,
             touching_frames: 0,
+            compute_ns: 0,
+            recent_max_compute_ns: 0,
+            period_error_ns: 0,
+            recent_max_period_error_ns: 0,
         }
+    }
+
+    #[test]
+    fn recent_max_keeps_a_spike_for_one_to_two_windows() {
+        let w = RecentMax::WINDOW as usize;
+        let mut m = RecentMax::default();
+        assert_eq!(m.record(5), 5);
+        assert_eq!(m.record(900), 900);
+        // The spike was the 2nd value of the first half window: visible until that window is
+        // dropped, i.e. through the end of the second half window.
+        for i in 2..2 * w {
+            assert_eq!(m.record(1), 900, "record {i}");
+        }
+        assert_eq!(m.record(1), 1, "gone once its half window is two back");
+        assert_eq!(m.record(7), 7);
     }
 
     #[test]

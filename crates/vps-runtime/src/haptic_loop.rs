@@ -15,7 +15,7 @@
 //! simulated device runs identically in real-time and free-running mode.
 
 use crate::clock::FrameClock;
-use crate::feed::{FeedFrame, StateFeedSender};
+use crate::feed::{FeedFrame, RecentMax, StateFeedSender};
 use crate::pool::{ClassPool, FrameSampler};
 use crate::rt::{request_realtime, RtGrant};
 use crate::stats::{FrameRecord, FrameStats, StatsSummary};
@@ -243,6 +243,8 @@ impl Session {
         let mut clock =
             FrameClock::new(Instant::now(), self.config.period, self.config.spin_margin);
         let mut frame = 0u64;
+        let (mut recent_compute, mut recent_lateness) =
+            (RecentMax::default(), RecentMax::default());
         let end = loop {
             if self.config.frames.is_some_and(|n| frame >= n) {
                 break Ok(SessionEnd::FramesDone);
@@ -281,9 +283,11 @@ impl Session {
                 break Err(e);
             }
             self.state = out.next_state;
+            let compute_ns = u64::try_from(tick.started.elapsed().as_nanos()).unwrap_or(u64::MAX);
+            let period_error_ns = (!self.config.free_running).then(|| tick.lateness_ns());
             stats.record(&FrameRecord {
-                compute_ns: u64::try_from(tick.started.elapsed().as_nanos()).unwrap_or(u64::MAX),
-                period_error_ns: (!self.config.free_running).then(|| tick.lateness_ns()),
+                compute_ns,
+                period_error_ns,
                 missed: tick.missed,
                 watchdog_tripped,
                 fallback_shares: gathered.fallback_shares,
@@ -307,6 +311,11 @@ impl Session {
                     watchdog_trips: c.watchdog_trips,
                     penetrating_frames: c.penetrating_frames,
                     touching_frames: c.touching_frames,
+                    compute_ns,
+                    recent_max_compute_ns: recent_compute.record(compute_ns),
+                    period_error_ns: period_error_ns.unwrap_or(0),
+                    recent_max_period_error_ns: recent_lateness
+                        .record(period_error_ns.unwrap_or(0)),
                 });
             }
             frame += 1;

@@ -19,7 +19,7 @@ pub mod stats;
 mod test_scene;
 
 pub use clock::{schedule, FrameClock, Schedule, Tick};
-pub use feed::{state_feed, FeedFrame, StateFeedReceiver, StateFeedSender};
+pub use feed::{state_feed, FeedFrame, RecentMax, StateFeedReceiver, StateFeedSender};
 pub use haptic_loop::{
     run_loop, spawn_loop, spawn_loop_with, LoopConfig, LoopHandle, LoopReport, SessionEnd,
 };
