@@ -1,0 +1,269 @@
+//! [`ExactScene`]: the static meshes prepared for signed-distance queries (two-level BVH: one tree
+//! over the components' boxes, one tree per component over its triangles).
+
+use crate::bvh::{box_distance_sq, Bvh};
+use crate::components::components;
+use crate::triangle::{closest_point, Feature};
+use crate::ReferenceError;
+use glam::DVec3;
+use std::collections::HashMap;
+use vps_mesh::{Aabb, TriMesh};
+
+/// The signed distance of a point to the scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SignedDistance {
+    /// Signed distance (m): positive outside every solid, negative inside one (penetration depth
+    /// = −distance_m). Never negative for unsigned (open) components.
+    pub distance_m: f64,
+    /// The nearest point of the scene's surface (m).
+    pub closest: DVec3,
+    /// Unit outward normal at `closest`: the direction that moves the point away from (out of)
+    /// the surface fastest. From `closest` towards the point outside, away from it inside; the
+    /// angle-weighted pseudo-normal when the point lies on the surface.
+    pub normal: DVec3,
+}
+
+/// One connected component with its own triangle tree.
+#[derive(Debug)]
+struct Object {
+    /// Global triangle indices; the tree's primitives index this list.
+    triangles: Vec<u32>,
+    tree: Bvh,
+    bounds: Aabb,
+    /// Closed and oriented: has an inside.
+    closed: bool,
+}
+
+/// Static triangle meshes (world frame, m) ready for exact signed-distance queries. Immutable and
+/// `Sync`: queries from many threads at once are fine. Building allocates (about 250 bytes per
+/// triangle) and takes about a second for the 600k-triangle bay on one core.
+#[derive(Debug)]
+pub struct ExactScene {
+    triangles: Vec<[DVec3; 3]>,
+    /// Outward pseudo-normals per triangle: face, edges (edge k from corner k to k+1), corners.
+    face_normals: Vec<DVec3>,
+    edge_normals: Vec<[DVec3; 3]>,
+    vertex_normals: Vec<[DVec3; 3]>,
+    objects: Vec<Object>,
+    top: Bvh,
+}
+
+impl ExactScene {
+    /// Prepares `meshes` (world frame, m). Each mesh is split into connected components (triangles
+    /// sharing vertex indices); a component that is closed and consistently oriented is a solid
+    /// (either winding: inward-facing solids are flipped), any other is an unsigned sheet.
+    ///
+    /// Errors: no triangles at all, a vertex index out of range, a non-finite vertex.
+    pub fn new(meshes: &[TriMesh]) -> Result<ExactScene, ReferenceError> {
+        let mut scene = ExactScene {
+            triangles: Vec::new(),
+            face_normals: Vec::new(),
+            edge_normals: Vec::new(),
+            vertex_normals: Vec::new(),
+            objects: Vec::new(),
+            top: Bvh::build(&[]),
+        };
+        for (index, mesh) in meshes.iter().enumerate() {
+            check_mesh(index, mesh)?;
+            scene.add_mesh(mesh);
+        }
+        if scene.triangles.is_empty() {
+            return Err(ReferenceError::Empty);
+        }
+        let boxes: Vec<Aabb> = scene.objects.iter().map(|o| o.bounds).collect();
+        scene.top = Bvh::build(&boxes);
+        Ok(scene)
+    }
+
+    fn add_mesh(&mut self, mesh: &TriMesh) {
+        let base = self.triangles.len() as u32;
+        let parts = components(mesh);
+        let mut orientation = vec![1.0; mesh.triangle_count()];
+        for part in &parts {
+            for &t in &part.triangles {
+                orientation[t as usize] = part.orientation;
+            }
+        }
+        let faces: Vec<DVec3> = (0..mesh.triangle_count())
+            .map(|t| {
+                let [a, b, c] = mesh.triangle(t);
+                (b - a).cross(c - a).normalize_or_zero() * orientation[t]
+            })
+            .collect();
+        let mut at_vertex = vec![DVec3::ZERO; mesh.vertices.len()];
+        let mut at_edge: HashMap<(u32, u32), DVec3> = HashMap::new();
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            let corners = mesh.triangle(t);
+            for k in 0..3 {
+                let e1 = corners[(k + 1) % 3] - corners[k];
+                let e2 = corners[(k + 2) % 3] - corners[k];
+                at_vertex[tri[k] as usize] += faces[t] * e1.angle_between(e2).max(0.0);
+                let key = edge_key(tri[k], tri[(k + 1) % 3]);
+                *at_edge.entry(key).or_insert(DVec3::ZERO) += faces[t];
+            }
+        }
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            self.triangles.push(mesh.triangle(t));
+            self.face_normals.push(faces[t]);
+            self.vertex_normals
+                .push(tri.map(|v| at_vertex[v as usize].normalize_or(faces[t])));
+            self.edge_normals.push(
+                [0, 1, 2]
+                    .map(|k| at_edge[&edge_key(tri[k], tri[(k + 1) % 3])].normalize_or(faces[t])),
+            );
+        }
+        for part in parts {
+            let triangles: Vec<u32> = part.triangles.iter().map(|&t| t + base).collect();
+            let boxes: Vec<Aabb> = triangles
+                .iter()
+                .map(|&t| triangle_bounds(&self.triangles[t as usize]))
+                .collect();
+            let tree = Bvh::build(&boxes);
+            self.objects.push(Object {
+                bounds: tree.bounds(),
+                triangles,
+                tree,
+                closed: part.closed,
+            });
+        }
+    }
+
+    /// Triangles in the scene.
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// Connected components (solids and sheets).
+    pub fn component_count(&self) -> usize {
+        self.objects.len()
+    }
+
+    /// Components that are open or inconsistently oriented, whose distance is unsigned.
+    pub fn unsigned_components(&self) -> usize {
+        self.objects.iter().filter(|o| !o.closed).count()
+    }
+
+    /// Bounds of the whole scene (m).
+    pub fn bounds(&self) -> Aabb {
+        self.top.bounds()
+    }
+
+    /// The exact signed distance from `p` (m) to the scene. Blocking, allocates a small stack.
+    pub fn signed_distance(&self, p: DVec3) -> SignedDistance {
+        let nearest_sq = self
+            .top
+            .nearest(p, f64::INFINITY, |o, best_sq| {
+                self.object_nearest(&self.objects[o as usize], p, best_sq)
+                    .map_or(f64::INFINITY, |(_, d)| d)
+            })
+            .map_or(f64::INFINITY, |(_, d)| d);
+        let reach = nearest_sq.sqrt() * (1.0 + 1e-9) + 1e-12;
+        self.signed_distance_within(p, reach)
+            .expect("the nearest component is within its own distance")
+    }
+
+    /// The signed distance from `p` (m) when it is at most `max_m` (m); `None` when `p` is farther
+    /// than `max_m` outside every component. Points inside a solid are always resolved, however
+    /// deep. Cheaper than [`ExactScene::signed_distance`] for small `max_m`: only components whose
+    /// box lies within `max_m` are searched.
+    pub fn signed_distance_within(&self, p: DVec3, max_m: f64) -> Option<SignedDistance> {
+        let max_sq = max_m * max_m;
+        let mut best: Option<SignedDistance> = None;
+        self.top.within(p, max_sq, |o| {
+            let object = &self.objects[o as usize];
+            let inside_box = box_distance_sq(&object.bounds, p) == 0.0;
+            let cap = if inside_box && object.closed {
+                f64::INFINITY
+            } else {
+                max_sq
+            };
+            let Some((t, d_sq)) = self.object_nearest(object, p, cap) else {
+                return;
+            };
+            let found = self.signed_to_triangle(p, t, d_sq.sqrt(), object.closed);
+            if found.distance_m <= max_m
+                && best.is_none_or(|b: SignedDistance| found.distance_m < b.distance_m)
+            {
+                best = Some(found);
+            }
+        });
+        best
+    }
+
+    /// Nearest triangle (global index) of `object` within `max_sq` and its squared distance.
+    fn object_nearest(&self, object: &Object, p: DVec3, max_sq: f64) -> Option<(u32, f64)> {
+        object
+            .tree
+            .nearest(p, max_sq, |i, _| {
+                let t = &self.triangles[object.triangles[i as usize] as usize];
+                closest_point(p, t).0.distance_squared(p)
+            })
+            .map(|(i, d)| (object.triangles[i as usize], d))
+    }
+
+    fn signed_to_triangle(&self, p: DVec3, t: u32, distance: f64, solid: bool) -> SignedDistance {
+        let t = t as usize;
+        let (closest, feature) = closest_point(p, &self.triangles[t]);
+        let pseudo = match feature {
+            Feature::Face => self.face_normals[t],
+            Feature::Edge(k) => self.edge_normals[t][k as usize],
+            Feature::Vertex(k) => self.vertex_normals[t][k as usize],
+        };
+        let away = p - closest;
+        let sign = if solid && away.dot(pseudo) < 0.0 {
+            -1.0
+        } else {
+            1.0
+        };
+        let normal = if distance > ON_SURFACE_M {
+            away / distance * sign
+        } else {
+            pseudo
+        };
+        SignedDistance {
+            distance_m: sign * distance,
+            closest,
+            normal: normal.normalize_or(pseudo),
+        }
+    }
+}
+
+/// Below this distance (m) a point counts as on the surface and takes the pseudo-normal.
+const ON_SURFACE_M: f64 = 1e-12;
+
+fn edge_key(a: u32, b: u32) -> (u32, u32) {
+    (a.min(b), a.max(b))
+}
+
+fn triangle_bounds(t: &[DVec3; 3]) -> Aabb {
+    Aabb {
+        min: t[0].min(t[1]).min(t[2]),
+        max: t[0].max(t[1]).max(t[2]),
+    }
+}
+
+fn check_mesh(mesh_index: usize, mesh: &TriMesh) -> Result<(), ReferenceError> {
+    if let Some((vertex, value)) = mesh
+        .vertices
+        .iter()
+        .enumerate()
+        .find(|(_, v)| !v.is_finite())
+    {
+        return Err(ReferenceError::NonFinite {
+            mesh: mesh_index,
+            vertex,
+            value: *value,
+        });
+    }
+    for (triangle, tri) in mesh.triangles.iter().enumerate() {
+        if let Some(&index) = tri.iter().find(|&&v| v as usize >= mesh.vertices.len()) {
+            return Err(ReferenceError::VertexIndex {
+                mesh: mesh_index,
+                triangle,
+                index,
+                vertices: mesh.vertices.len(),
+            });
+        }
+    }
+    Ok(())
+}

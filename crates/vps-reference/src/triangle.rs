@@ -1,0 +1,134 @@
+//! Closest point on a triangle (Ericson, Real-Time Collision Detection §5.1.5) and the feature of
+//! the triangle it lies on, which selects the pseudo-normal used for the sign.
+
+use glam::DVec3;
+
+/// The part of a triangle `[a, b, c]` a closest point lies on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Feature {
+    /// Corner `k` (0 = a, 1 = b, 2 = c).
+    Vertex(u8),
+    /// Edge `k` from corner `k` to corner `(k + 1) % 3`.
+    Edge(u8),
+    /// The interior of the face.
+    Face,
+}
+
+/// The point of triangle `t` nearest to `p` and the feature it lies on. Degenerate triangles give
+/// a point on one of their edges or corners.
+pub fn closest_point(p: DVec3, t: &[DVec3; 3]) -> (DVec3, Feature) {
+    let [a, b, c] = *t;
+    let ab = b - a;
+    let ac = c - a;
+    let ap = p - a;
+    let d1 = ab.dot(ap);
+    let d2 = ac.dot(ap);
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return (a, Feature::Vertex(0));
+    }
+    let bp = p - b;
+    let d3 = ab.dot(bp);
+    let d4 = ac.dot(bp);
+    if d3 >= 0.0 && d4 <= d3 {
+        return (b, Feature::Vertex(1));
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return (a + ab * v, Feature::Edge(0));
+    }
+    let cp = p - c;
+    let d5 = ab.dot(cp);
+    let d6 = ac.dot(cp);
+    if d6 >= 0.0 && d5 <= d6 {
+        return (c, Feature::Vertex(2));
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return (a + ac * w, Feature::Edge(2));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (b + (c - b) * w, Feature::Edge(1));
+    }
+    let denom = va + vb + vc;
+    if denom.abs() <= f64::MIN_POSITIVE || !denom.is_finite() {
+        // Degenerate (zero-area) triangle that fell through: nearest of its three edges.
+        return nearest_edge_point(p, t);
+    }
+    let v = vb / denom;
+    let w = vc / denom;
+    (a + ab * v + ac * w, Feature::Face)
+}
+
+/// Nearest point on the three edges of `t` (for degenerate triangles).
+fn nearest_edge_point(p: DVec3, t: &[DVec3; 3]) -> (DVec3, Feature) {
+    (0..3u8)
+        .map(|k| {
+            let (a, b) = (t[k as usize], t[(k as usize + 1) % 3]);
+            let ab = b - a;
+            let len_sq = ab.length_squared();
+            let s = if len_sq > 0.0 {
+                ((p - a).dot(ab) / len_sq).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            (a + ab * s, Feature::Edge(k))
+        })
+        .min_by(|x, y| x.0.distance_squared(p).total_cmp(&y.0.distance_squared(p)))
+        .expect("three edges")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const T: [DVec3; 3] = [
+        DVec3::new(0.0, 0.0, 0.0),
+        DVec3::new(1.0, 0.0, 0.0),
+        DVec3::new(0.0, 1.0, 0.0),
+    ];
+
+    #[test]
+    fn regions() {
+        let cases = [
+            (
+                DVec3::new(0.2, 0.2, 1.0),
+                DVec3::new(0.2, 0.2, 0.0),
+                Feature::Face,
+            ),
+            (DVec3::new(-1.0, -1.0, 0.5), T[0], Feature::Vertex(0)),
+            (DVec3::new(2.0, -0.1, 0.0), T[1], Feature::Vertex(1)),
+            (DVec3::new(-0.1, 3.0, 0.0), T[2], Feature::Vertex(2)),
+            (
+                DVec3::new(0.5, -1.0, 0.0),
+                DVec3::new(0.5, 0.0, 0.0),
+                Feature::Edge(0),
+            ),
+            (
+                DVec3::new(1.0, 1.0, 0.0),
+                DVec3::new(0.5, 0.5, 0.0),
+                Feature::Edge(1),
+            ),
+            (
+                DVec3::new(-2.0, 0.5, 0.3),
+                DVec3::new(0.0, 0.5, 0.0),
+                Feature::Edge(2),
+            ),
+        ];
+        for (p, q, f) in cases {
+            let (got, feature) = closest_point(p, &T);
+            assert!(got.distance(q) < 1e-12, "{p}: {got} != {q}");
+            assert_eq!(feature, f, "{p}");
+        }
+    }
+
+    #[test]
+    fn degenerate_triangle_gives_a_point_on_it() {
+        let t = [DVec3::ZERO, DVec3::X, DVec3::X * 2.0];
+        let (q, _) = closest_point(DVec3::new(1.5, 1.0, 0.0), &t);
+        assert!(q.distance(DVec3::new(1.5, 0.0, 0.0)) < 1e-12);
+    }
+}
