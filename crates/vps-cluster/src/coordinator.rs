@@ -3,6 +3,7 @@
 //! crossbeam channels, which the frame thread polls through [`RemoteShares`]. Nothing here is on
 //! the frame path.
 
+use crate::metrics::{Board, ClusterMetrics};
 use crate::protocol::{read_join, write_frame, write_join, JoinMessage, PROTOCOL_VERSION};
 use crate::scene::ClusterScene;
 use crate::shares::{GatherConfig, RemoteShares};
@@ -13,7 +14,7 @@ use crossbeam::channel::{bounded, unbounded, Receiver, Sender};
 use rustls::pki_types::CertificateDer;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU32, AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -51,8 +52,12 @@ impl CoordinatorConfig {
 
 /// Connection-level events for the frame thread.
 pub(crate) enum Control {
-    /// A worker finished joining and can be given work.
-    Joined { id: u32, conn: quinn::Connection },
+    /// A worker finished joining and can be given work; `scene_sent`: it was sent the scene.
+    Joined {
+        id: u32,
+        conn: quinn::Connection,
+        scene_sent: bool,
+    },
     /// A worker's connection ended.
     Closed { id: u32 },
 }
@@ -68,9 +73,9 @@ pub(crate) struct Datagram {
 #[derive(Default)]
 struct NetCounters {
     joined: AtomicUsize,
+    admitted: AtomicU64,
     refused: Arc<AtomicU64>,
     failed_joins: AtomicU64,
-    queue_full: AtomicU64,
 }
 
 /// A running coordinator endpoint. Dropping it closes every connection (workers then exit).
@@ -81,6 +86,8 @@ pub struct Coordinator {
     control: Receiver<Control>,
     datagrams: Receiver<Datagram>,
     counters: Arc<NetCounters>,
+    board: Arc<Board>,
+    gatherer_made: AtomicBool,
 }
 
 impl Coordinator {
@@ -96,6 +103,7 @@ impl Coordinator {
             .build()
             .map_err(|e| ClusterError::Network(format!("cannot start the runtime: {e}")))?;
         let counters = Arc::new(NetCounters::default());
+        let board = Board::new();
         let server = server_config(&config.identity, config.pins, counters.refused.clone())?;
         let endpoint = {
             let _guard = runtime.enter();
@@ -109,6 +117,7 @@ impl Coordinator {
             control: control_tx,
             datagrams: datagram_tx,
             counters: counters.clone(),
+            board: board.clone(),
             next_id: Arc::new(AtomicU32::new(0)),
         };
         runtime.spawn(accept_loop(endpoint.clone(), links));
@@ -119,7 +128,37 @@ impl Coordinator {
             control,
             datagrams,
             counters,
+            board,
+            gatherer_made: AtomicBool::new(false),
         })
+    }
+
+    /// The live figures of this coordinator's session, readable from any thread without a lock
+    /// (see [`crate::metrics`]). Valid before, during and after the session.
+    pub fn metrics(&self) -> ClusterMetrics {
+        ClusterMetrics::new(self.board.clone())
+    }
+
+    /// Workers admitted since the start (monotonic; a restarted worker counts again). When this
+    /// reaches `n`, the `n`-th join is already queued for the frame thread.
+    pub fn admitted_workers(&self) -> u64 {
+        self.counters.admitted.load(Ordering::Acquire)
+    }
+
+    /// Blocks (sleeping in 2 ms steps) until [`Coordinator::admitted_workers`] reaches `n` or
+    /// `timeout` passes. Not for the frame path.
+    pub fn wait_for_admitted(&self, n: u64, timeout: Duration) -> Result<(), ClusterError> {
+        let until = Instant::now() + timeout;
+        while self.admitted_workers() < n {
+            if Instant::now() >= until {
+                return Err(ClusterError::Network(format!(
+                    "{} of {n} joins within {timeout:?}",
+                    self.admitted_workers()
+                )));
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        Ok(())
     }
 
     /// The address the endpoint listens on.
@@ -165,13 +204,21 @@ impl Coordinator {
         Ok(())
     }
 
-    /// The frame-path gatherer fed by this coordinator's workers. Create one at a time: two
-    /// gatherers would split the events between them.
+    /// The frame-path gatherer fed by this coordinator's workers. One per coordinator (a second
+    /// call is an error): the gatherer owns the session's events and figures.
     pub fn shares(&self, config: GatherConfig) -> Result<RemoteShares, ClusterError> {
+        if self.gatherer_made.swap(true, Ordering::Relaxed) {
+            return Err(ClusterError::Config {
+                field: "shares",
+                message: "this coordinator already made its gatherer (one session per coordinator)"
+                    .into(),
+            });
+        }
         RemoteShares::new(
             self.scene.clone(),
             self.control.clone(),
             self.datagrams.clone(),
+            self.board.clone(),
             config,
         )
     }
@@ -193,6 +240,7 @@ struct Links {
     control: Sender<Control>,
     datagrams: Sender<Datagram>,
     counters: Arc<NetCounters>,
+    board: Arc<Board>,
     next_id: Arc<AtomicU32>,
 }
 
@@ -212,17 +260,22 @@ async fn serve(incoming: quinn::Incoming, links: Links) {
         }
     };
     let id = links.next_id.fetch_add(1, Ordering::Relaxed);
-    match tokio::time::timeout(JOIN_TIMEOUT, admit(&conn, id, &links.scene)).await {
-        Ok(Ok(())) => {}
+    let scene_sent = match tokio::time::timeout(JOIN_TIMEOUT, admit(&conn, id, &links.scene)).await
+    {
+        Ok(Ok(sent)) => sent,
         Ok(Err(e)) => return fail_join(&conn, &links, id, remote, &e.to_string()),
         Err(_) => return fail_join(&conn, &links, id, remote, "timed out"),
-    }
-    tracing::info!("worker {id} at {remote} joined");
-    links.counters.joined.fetch_add(1, Ordering::Relaxed);
+    };
+    tracing::info!("worker {id} at {remote} joined (scene sent: {scene_sent})");
+    // Queue the join for the frame thread before counting it, so that a caller who sees the
+    // count knows the frame thread will admit the worker at its next frame.
     let _ = links.control.send(Control::Joined {
         id,
         conn: conn.clone(),
+        scene_sent,
     });
+    links.counters.joined.fetch_add(1, Ordering::Relaxed);
+    links.counters.admitted.fetch_add(1, Ordering::Release);
     let reason = loop {
         match conn.read_datagram().await {
             Ok(bytes) => {
@@ -232,7 +285,7 @@ async fn serve(incoming: quinn::Incoming, links: Links) {
                     at: Instant::now(),
                 };
                 if links.datagrams.try_send(datagram).is_err() {
-                    links.counters.queue_full.fetch_add(1, Ordering::Relaxed);
+                    links.board.queue_full.fetch_add(1, Ordering::Relaxed);
                 }
             }
             Err(e) => break e,
@@ -249,12 +302,13 @@ fn fail_join(conn: &quinn::Connection, links: &Links, id: u32, remote: SocketAdd
     conn.close(2u32.into(), b"join failed");
 }
 
-/// The coordinator's half of the join exchange (see [`JoinMessage`]).
+/// The coordinator's half of the join exchange (see [`JoinMessage`]); returns whether a scene file
+/// was sent.
 async fn admit(
     conn: &quinn::Connection,
     id: u32,
     scene: &ClusterScene,
-) -> Result<(), ClusterError> {
+) -> Result<bool, ClusterError> {
     let (mut send, mut recv) = conn
         .accept_bi()
         .await
@@ -296,7 +350,7 @@ async fn admit(
         write_frame(&mut send, scene.shell_file()).await?;
     }
     match read_join(&mut recv).await? {
-        JoinMessage::Ready => Ok(()),
+        JoinMessage::Ready => Ok(voxmap || shell),
         other => Err(ClusterError::Join(format!("expected Ready, got {other:?}"))),
     }
 }

@@ -20,7 +20,9 @@
 //! ([`run_coordinator_session`], [`spawn_local_workers`]).
 
 pub mod coordinator;
+pub mod metrics;
 pub mod protocol;
+pub mod relay;
 pub mod scene;
 pub mod session;
 pub mod shares;
@@ -29,6 +31,8 @@ pub mod transport_bench;
 pub mod worker;
 
 pub use coordinator::{Coordinator, CoordinatorConfig};
+pub use metrics::ClusterMetrics;
+pub use relay::{Relay, RelayConfig, RelayStats};
 pub use scene::ClusterScene;
 pub use session::{
     local_cluster_certs, run_coordinator_session, spawn_local_workers, LocalCerts, LocalWorkerArgs,

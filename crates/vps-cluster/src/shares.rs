@@ -15,12 +15,12 @@
 //! the voxel size and the shell's radius.
 
 use crate::coordinator::{Control, Datagram};
+use crate::metrics::{Board, PeerMetrics, Reporter};
 use crate::protocol::{FrameReply, FrameRequest, REQUEST_LEN};
 use crate::scene::ClusterScene;
 use crate::ClusterError;
 use bytes::Bytes;
 use crossbeam::channel::{Receiver, RecvTimeoutError, TryRecvError};
-use hdrhistogram::Histogram;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use vps_haptic::{KernelPose, PartialSums};
@@ -40,6 +40,9 @@ pub struct GatherConfig {
     pub probe_every: u64,
     /// Consecutive timely probe replies before a benched worker gets work again (≥ 1). Default 3.
     pub unbench_after: u32,
+    /// Period of the metrics thread's `info` summary per worker (`None`: no summary; transitions
+    /// are still logged). Default 1 s.
+    pub log_every: Option<Duration>,
 }
 
 impl Default for GatherConfig {
@@ -50,14 +53,15 @@ impl Default for GatherConfig {
             bench_after: 5,
             probe_every: 100,
             unbench_after: 3,
+            log_every: Some(Duration::from_secs(1)),
         }
     }
 }
 
-/// One worker's figures.
+/// One worker's figures (a [`ClusterMetrics`](crate::ClusterMetrics) snapshot or the final report).
 #[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct PeerReport {
-    /// The worker id given at join.
+    /// The worker id given at join (a restarted worker gets a new id).
     pub id: u32,
     /// Requests sent (work and probes).
     pub requests: u64,
@@ -67,17 +71,27 @@ pub struct PeerReport {
     pub late: u64,
     /// Work shares with no reply by the deadline.
     pub lost: u64,
-    /// Replies rejected: malformed, wrong mask, duplicate or implausible sums.
+    /// Datagrams on this worker's authenticated connection that failed to decode (garbage,
+    /// truncated, wrong kind or version).
+    pub malformed: u64,
+    /// Replies that decoded but were rejected: wrong class mask, duplicate, unrequested or
+    /// implausible sums.
     pub invalid: u64,
     /// Work shares recomputed locally (lost, invalid or unsendable).
     pub recomputed: u64,
     /// Times the worker was benched.
     pub benched_times: u64,
-    /// Benched at the end of the session.
+    /// Times a benched worker was given work again.
+    pub unbenched_times: u64,
+    /// Benched at the time of the report.
     pub benched: bool,
-    /// Still connected at the end of the session.
+    /// Still connected at the time of the report.
     pub connected: bool,
-    /// Request-to-reply time of timely valid replies (ns).
+    /// The coordinator sent it the scene files at join (false: it had them in its cache).
+    pub scene_sent: bool,
+    /// Round-trip samples in `rtt_ns`.
+    pub rtt_samples: u64,
+    /// Request-to-reply time of timely, valid replies (ns), from an HDR histogram (1 % resolution).
     pub rtt_ns: Percentiles,
 }
 
@@ -92,12 +106,16 @@ pub struct ClusterReport {
     pub local_only_frames: u64,
     /// Datagrams from workers that are no longer known.
     pub orphan_datagrams: u64,
-    /// Every worker seen, in join order.
+    /// Datagrams dropped because the frame thread's queue was full.
+    pub queue_full_datagrams: u64,
+    /// Round-trip samples the metrics thread could not take (its queue was full).
+    pub rtt_samples_dropped: u64,
+    /// Workers beyond [`MAX_TRACKED_WORKERS`](crate::metrics::MAX_TRACKED_WORKERS) joins, missing
+    /// from live snapshots (the final report lists them).
+    pub untracked_workers: u64,
+    /// Every worker seen, by id (join order).
     pub peers: Vec<PeerReport>,
 }
-
-/// Largest round-trip time the histograms resolve (ns): 10 s.
-const MAX_RTT_NS: u64 = 10_000_000_000;
 
 /// Where the gatherer leaves its [`ClusterReport`] when it is dropped (at the end of a session).
 pub type ReportSlot = Arc<Mutex<Option<ClusterReport>>>;
@@ -115,8 +133,7 @@ struct Peer {
     sent_at: Instant,
     settled: bool,
     merged: bool,
-    rtt: Option<Histogram<u64>>,
-    report: PeerReport,
+    metrics: Arc<PeerMetrics>,
 }
 
 /// The frame thread's view of the cluster. See the module docs.
@@ -127,10 +144,11 @@ pub struct RemoteShares {
     config: GatherConfig,
     pool: rayon::ThreadPool,
     peers: Vec<Peer>,
-    retired: Vec<PeerReport>,
+    retired: Vec<Arc<PeerMetrics>>,
     active: Vec<usize>,
     seq: u64,
-    report: ClusterReport,
+    board: Arc<Board>,
+    reporter: Reporter,
     slot: ReportSlot,
     request: [u8; REQUEST_LEN],
 }
@@ -147,6 +165,7 @@ impl RemoteShares {
         scene: Arc<ClusterScene>,
         control: Receiver<Control>,
         datagrams: Receiver<Datagram>,
+        board: Arc<Board>,
         config: GatherConfig,
     ) -> Result<RemoteShares, ClusterError> {
         if config.local_threads == 0 {
@@ -169,6 +188,8 @@ impl RemoteShares {
                 field: "local_threads",
                 message: e.to_string(),
             })?;
+        let reporter = Reporter::start(board.clone(), config.log_every)
+            .map_err(|e| ClusterError::Network(format!("cannot start the metrics thread: {e}")))?;
         Ok(RemoteShares {
             scene,
             control,
@@ -179,7 +200,8 @@ impl RemoteShares {
             retired: Vec::new(),
             active: Vec::new(),
             seq: 0,
-            report: ClusterReport::default(),
+            board,
+            reporter,
             slot: Arc::new(Mutex::new(None)),
             request: [0; REQUEST_LEN],
         })
@@ -190,19 +212,17 @@ impl RemoteShares {
         self.slot.clone()
     }
 
-    /// The figures so far. Allocates.
+    /// The figures so far, every worker included (round-trip percentiles as last published by
+    /// the metrics thread, at most [`REPORT_TICK`](crate::metrics::REPORT_TICK) old). Allocates.
     pub fn report(&self) -> ClusterReport {
-        let mut report = self.report.clone();
-        report.peers = self.retired.clone();
-        report.peers.extend(self.peers.iter().map(|p| {
-            let mut r = p.report.clone();
-            r.benched = p.benched;
-            r.connected = p.conn.is_some();
-            r.rtt_ns = percentiles(&p.rtt);
-            r
-        }));
-        report.peers.sort_by_key(|p| p.id);
-        report
+        let mut peers: Vec<PeerReport> = self
+            .retired
+            .iter()
+            .chain(self.peers.iter().map(|p| &p.metrics))
+            .map(|m| m.report())
+            .collect();
+        peers.sort_by_key(|p| p.id);
+        self.board.report_with(peers)
     }
 
     /// Workers currently given work (joined, connected, not benched).
@@ -217,36 +237,38 @@ impl RemoteShares {
     fn update_membership(&mut self) {
         while let Ok(event) = self.control.try_recv() {
             match event {
-                Control::Joined { id, conn } => self.peers.push(Peer {
-                    conn: Some(conn),
-                    benched: false,
-                    misses: 0,
-                    probe_hits: 0,
-                    asked: 0,
-                    probing: false,
-                    points: 0,
-                    sent_at: Instant::now(),
-                    settled: false,
-                    merged: false,
-                    rtt: Histogram::new_with_bounds(1, MAX_RTT_NS, 2).ok(),
-                    report: PeerReport {
-                        id,
-                        ..PeerReport::default()
-                    },
-                }),
+                Control::Joined {
+                    id,
+                    conn,
+                    scene_sent,
+                } => {
+                    let metrics = PeerMetrics::new(id, scene_sent);
+                    self.board.track(&metrics);
+                    self.peers.push(Peer {
+                        conn: Some(conn),
+                        benched: false,
+                        misses: 0,
+                        probe_hits: 0,
+                        asked: 0,
+                        probing: false,
+                        points: 0,
+                        sent_at: Instant::now(),
+                        settled: false,
+                        merged: false,
+                        metrics,
+                    });
+                }
                 Control::Closed { id } => {
-                    if let Some(i) = self.peers.iter().position(|p| p.report.id == id) {
-                        let mut peer = self.peers.swap_remove(i);
-                        peer.conn = None;
-                        peer.report.benched = peer.benched;
-                        peer.report.rtt_ns = percentiles(&peer.rtt);
-                        self.retired.push(peer.report);
+                    if let Some(i) = self.peers.iter().position(|p| p.metrics.id() == id) {
+                        let peer = self.peers.swap_remove(i);
+                        peer.metrics.set_disconnected();
+                        self.retired.push(peer.metrics);
                     }
                 }
             }
         }
         // Peers are looked up by id; keep them in join order so the assignment is reproducible.
-        self.peers.sort_by_key(|p| p.report.id);
+        self.peers.sort_by_key(|p| p.metrics.id());
     }
 
     /// Decides this frame's shares; returns the coordinator's own class mask.
@@ -295,7 +317,7 @@ impl RemoteShares {
                 pose: *pose,
             }
             .encode(&mut self.request);
-            peer.report.requests += 1;
+            peer.metrics.bump(|m| &m.requests);
             peer.sent_at = Instant::now();
             if conn
                 .send_datagram(Bytes::copy_from_slice(&self.request))
@@ -311,24 +333,28 @@ impl RemoteShares {
 
     /// Handles one datagram; returns true when it settled a share awaited this frame.
     fn accept(&mut self, datagram: Datagram, sums: &mut PartialSums) -> bool {
-        let Some(peer) = self.peers.iter_mut().find(|p| p.report.id == datagram.id) else {
-            self.report.orphan_datagrams += 1;
+        let Some(peer) = self
+            .peers
+            .iter_mut()
+            .find(|p| p.metrics.id() == datagram.id)
+        else {
+            self.board.bump(|b| &b.orphan_datagrams);
             return false;
         };
         let reply = match FrameReply::decode(&datagram.bytes) {
             Ok(reply) => reply,
             Err(e) => {
-                peer.report.invalid += 1;
-                tracing::debug!(worker = peer.report.id, "malformed reply: {e}");
+                peer.metrics.bump(|m| &m.malformed);
+                tracing::debug!(worker = peer.metrics.id(), "malformed reply: {e}");
                 return false;
             }
         };
         if reply.seq != self.seq {
-            peer.report.late += 1;
+            peer.metrics.bump(|m| &m.late);
             return false;
         }
         if peer.asked == 0 || peer.settled {
-            peer.report.invalid += 1;
+            peer.metrics.bump(|m| &m.invalid);
             return false;
         }
         peer.settled = true;
@@ -339,20 +365,21 @@ impl RemoteShares {
                 .sums
                 .torque_within(self.scene.shell.max_radius(), voxel);
         if !valid {
-            peer.report.invalid += 1;
-            tracing::debug!(worker = peer.report.id, "implausible reply dropped");
+            peer.metrics.bump(|m| &m.invalid);
+            tracing::debug!(worker = peer.metrics.id(), "implausible reply dropped");
             return true;
         }
         let rtt = datagram.at.saturating_duration_since(peer.sent_at);
-        if let Some(h) = &mut peer.rtt {
-            let _ = h.record(rtt.as_nanos().min(u128::from(MAX_RTT_NS)) as u64);
-        }
+        self.board.record_rtt(
+            &peer.metrics,
+            rtt.as_nanos().min(u128::from(u64::MAX)) as u64,
+        );
         if peer.probing {
             peer.probe_hits += 1;
         } else {
             sums.merge(&reply.sums);
             peer.merged = true;
-            peer.report.merged += 1;
+            peer.metrics.bump(|m| &m.merged);
         }
         true
     }
@@ -408,7 +435,7 @@ impl RemoteShares {
                     peer.benched = false;
                     peer.misses = 0;
                     peer.probe_hits = 0;
-                    tracing::info!(worker = peer.report.id, "recovered: given work again");
+                    peer.metrics.set_benched(false);
                 }
                 continue;
             }
@@ -417,21 +444,16 @@ impl RemoteShares {
                 continue;
             }
             if !peer.settled {
-                peer.report.lost += 1;
+                peer.metrics.bump(|m| &m.lost);
             }
             missing |= peer.asked;
             shares += 1;
-            peer.report.recomputed += 1;
+            peer.metrics.bump(|m| &m.recomputed);
             peer.misses += 1;
             if peer.misses >= self.config.bench_after && !peer.benched {
                 peer.benched = true;
                 peer.probe_hits = 0;
-                peer.report.benched_times += 1;
-                tracing::warn!(
-                    worker = peer.report.id,
-                    "benched after {} missed frames",
-                    peer.misses
-                );
+                peer.metrics.set_benched(true);
             }
         }
         (missing, shares)
@@ -460,9 +482,12 @@ impl FrameSampler for RemoteShares {
             let fallback = self.pool.install(|| scene.sample_mask(pose, missing));
             sums.merge(&fallback);
         }
-        self.report.frames += 1;
-        self.report.fallback_shares += u64::from(fallback_shares);
-        self.report.local_only_frames += self.active.is_empty() as u64;
+        self.board.bump(|b| &b.frames);
+        self.board
+            .add(|b| &b.fallback_shares, u64::from(fallback_shares));
+        if self.active.is_empty() {
+            self.board.bump(|b| &b.local_only_frames);
+        }
         PoolResult {
             sums,
             fallback_shares,
@@ -473,21 +498,10 @@ impl FrameSampler for RemoteShares {
 impl Drop for RemoteShares {
     /// Leaves the final report in the [`ReportSlot`].
     fn drop(&mut self) {
+        self.reporter.finish();
         let report = self.report();
         if let Ok(mut slot) = self.slot.lock() {
             *slot = Some(report);
         }
-    }
-}
-
-fn percentiles(h: &Option<Histogram<u64>>) -> Percentiles {
-    let Some(h) = h.as_ref().filter(|h| !h.is_empty()) else {
-        return Percentiles::default();
-    };
-    Percentiles {
-        p50: h.value_at_quantile(0.5),
-        p99: h.value_at_quantile(0.99),
-        p999: h.value_at_quantile(0.999),
-        max: h.max(),
     }
 }

@@ -223,6 +223,12 @@ fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
     let report = shares.report();
     let peer = &report.peers[0];
     assert_eq!(peer.merged, 0, "{peer:?}");
+    // Per request, "garbage" and the truncated reply fail to decode (counted when they arrive
+    // before the session ends); the implausible one is rejected.
+    assert!(
+        peer.malformed >= 2 && peer.malformed <= 2 * peer.requests,
+        "{peer:?}"
+    );
     assert!(peer.invalid >= 3, "{peer:?}");
     assert!(peer.benched_times >= 1, "{peer:?}");
     drop(shares);

@@ -39,6 +39,8 @@ fn cluster_writes(leave_at: u64) -> (Vec<Wrench>, vps_cluster::ClusterReport) {
     .unwrap();
     assert_eq!(report.stats.frames, FRAMES);
     assert_eq!(report.stats.watchdog_trips, 0);
+    // The live snapshot, read after the session, is the final report.
+    assert_eq!(coordinator.metrics().snapshot(), cluster);
     leaving.stop().unwrap();
     workers.pop().unwrap().stop().unwrap();
     let w = writes.lock().unwrap().clone();
@@ -55,6 +57,13 @@ fn a_two_worker_session_writes_the_same_wrenches_as_one_process() {
     }
     assert_eq!(cluster.frames, FRAMES);
     assert!(cluster.peers.iter().all(|p| p.merged > 0), "{cluster:?}");
+    assert!(
+        cluster
+            .peers
+            .iter()
+            .all(|p| p.rtt_samples > 0 && p.scene_sent),
+        "{cluster:?}"
+    );
 }
 
 #[test]

@@ -1,0 +1,234 @@
+//! Fixtures that need no network crate (shared with the root package's `tests/cluster_*.rs`
+//! through `#[path]`): a wall voxmap, a sphere shell, poses, a logging simulated hand, the
+//! one-process reference run.
+#![allow(dead_code)]
+
+use glam::{DQuat, DVec3, IVec3, Vec3};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+use vps_cluster::ClusterScene;
+use vps_device::script::{approach_and_rest, Pace};
+use vps_device::{
+    DeviceError, DeviceLimits, HandParams, HapticDevice, SimulatedHand, SurfaceContact,
+};
+use vps_haptic::{HandleSample, HapticParams, KernelPose, PartState, Wrench};
+use vps_runtime::{run_loop, LoopConfig};
+use vps_voxmap::shell::ShellMethod;
+use vps_voxmap::{DenseGrid, GridSpec, MassProperties, PointShell, TreeConfig, Voxel, VoxelTree};
+
+pub const VOXEL: f64 = 0.005;
+pub const RADIUS: f64 = 0.015;
+pub const CLASSES: u32 = 64;
+
+/// A 5 mm wall: Interior below z index 8, Surface at 8–9, Proximity at 10, face at z = 0.05 m.
+pub fn wall() -> VoxelTree {
+    let spec = GridSpec {
+        origin: DVec3::ZERO,
+        voxel_size: VOXEL,
+        dims: [20, 20, 20],
+    };
+    let mut g = DenseGrid::new(spec);
+    for z in 0..11 {
+        let kind = match z {
+            0..=7 => Voxel::Interior,
+            8 | 9 => Voxel::Surface,
+            _ => Voxel::Proximity,
+        };
+        for y in 0..20 {
+            for x in 0..20 {
+                g.set(IVec3::new(x, y, z), kind);
+            }
+        }
+    }
+    VoxelTree::from_dense(&g, TreeConfig::uniform(2)).expect("valid tree config")
+}
+
+/// `n` points on a sphere of radius [`RADIUS`] (Fibonacci lattice), inward normals.
+pub fn sphere_shell(n: usize) -> PointShell {
+    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+    let (points, normals) = (0..n)
+        .map(|i| {
+            let y = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
+            let r = (1.0 - y * y).sqrt();
+            let phi = golden * i as f32;
+            let dir = Vec3::new(r * phi.cos(), y, r * phi.sin());
+            (dir * RADIUS as f32, -dir)
+        })
+        .unzip();
+    PointShell {
+        points,
+        normals,
+        voxel_size: VOXEL,
+        method: ShellMethod::ExactSurface,
+        mass: MassProperties {
+            volume: 4.0 / 3.0 * std::f64::consts::PI * RADIUS.powi(3),
+            center_of_mass: DVec3::ZERO,
+            bounding_radius: RADIUS,
+        },
+    }
+}
+
+pub fn scene() -> Arc<ClusterScene> {
+    Arc::new(ClusterScene::new(Arc::new(wall()), &sphere_shell(600), CLASSES).expect("scene"))
+}
+
+/// Poses descending onto the wall, turning, with velocities (contacts and braking both occur).
+pub fn poses(n: usize) -> Vec<KernelPose> {
+    (0..n)
+        .map(|i| {
+            let t = i as f64 / n.max(1) as f64;
+            let mut s = PartState::at_rest(
+                DVec3::new(0.05 + 0.01 * t, 0.05, 0.07 - 0.016 * t),
+                DQuat::from_rotation_x(0.3 + t),
+            );
+            s.linear_velocity = DVec3::new(0.01, 0.0, -0.2);
+            s.angular_velocity = DVec3::new(0.0, 1.0, 0.5);
+            KernelPose::from_state(&s)
+        })
+        .collect()
+}
+
+pub const START: DVec3 = DVec3::new(0.05, 0.05, 0.09);
+pub const FRAMES: u64 = 400;
+
+pub type Writes = Arc<Mutex<Vec<Wrench>>>;
+/// Called after write number `n` (1-based) was logged, on the frame thread, before the next
+/// frame starts (so blocking in it delays the session but never a frame's deadline).
+pub type WriteHook = Box<dyn FnMut(u64) + Send>;
+
+/// A simulated hand that logs every write, raises `trip` at read number `trip_at` and runs
+/// `hook` after every write.
+struct Logged {
+    inner: SimulatedHand,
+    writes: Writes,
+    reads: u64,
+    trip_at: u64,
+    trip: Arc<AtomicBool>,
+    hook: Option<WriteHook>,
+}
+
+impl HapticDevice for Logged {
+    fn read(&mut self, t: f64) -> Result<HandleSample, DeviceError> {
+        self.reads += 1;
+        if self.reads == self.trip_at {
+            self.trip.store(true, Ordering::Relaxed);
+        }
+        self.inner.read(t)
+    }
+    fn write(&mut self, w: &Wrench) -> Result<(), DeviceError> {
+        let n = {
+            let mut writes = self.writes.lock().unwrap();
+            writes.push(*w);
+            writes.len() as u64
+        };
+        if let Some(hook) = &mut self.hook {
+            hook(n);
+        }
+        self.inner.write(w)
+    }
+    fn limits(&self) -> DeviceLimits {
+        self.inner.limits()
+    }
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+}
+
+fn logged(
+    trip_at: u64,
+    trip: Arc<AtomicBool>,
+    hook: Option<WriteHook>,
+) -> (Box<dyn HapticDevice>, Writes) {
+    let contact = SurfaceContact {
+        point: DVec3::new(0.05, 0.05, 0.05 + RADIUS),
+        normal: DVec3::Z,
+        orientation: DQuat::IDENTITY,
+    };
+    let pace = Pace {
+        speed: 0.1,
+        press_depth: 0.005,
+        dwell: 0.1,
+    };
+    let script = approach_and_rest(START, &contact, &pace).unwrap();
+    let writes = Writes::default();
+    let device = Logged {
+        inner: SimulatedHand::new(script, HandParams::default()).unwrap(),
+        writes: writes.clone(),
+        reads: 0,
+        trip_at,
+        trip,
+        hook,
+    };
+    (Box::new(device), writes)
+}
+
+/// The logging hand, raising `trip` at read number `trip_at` (never when 0).
+pub fn hand(trip_at: u64, trip: Arc<AtomicBool>) -> (Box<dyn HapticDevice>, Writes) {
+    logged(trip_at, trip, None)
+}
+
+/// The logging hand, running `hook` after every write.
+pub fn hand_with_hook(hook: WriteHook) -> (Box<dyn HapticDevice>, Writes) {
+    logged(0, Arc::new(AtomicBool::new(false)), Some(hook))
+}
+
+pub fn params() -> HapticParams {
+    HapticParams::default().with_scene(VOXEL, RADIUS).unwrap()
+}
+
+/// Free-running, [`FRAMES`] frames; the watchdog is far above any frame's compute so that no
+/// frame is zeroed, and replies are awaited up to half of it.
+pub fn config() -> LoopConfig {
+    config_frames(FRAMES)
+}
+
+/// [`config`] with `frames` frames.
+pub fn config_frames(frames: u64) -> LoopConfig {
+    LoopConfig {
+        frames: Some(frames),
+        free_running: true,
+        watchdog: Duration::from_millis(200),
+        ..LoopConfig::default()
+    }
+}
+
+/// Every device write of the one-process run of [`FRAMES`] frames.
+pub fn one_process_writes() -> Vec<Wrench> {
+    one_process_writes_for(FRAMES)
+}
+
+/// Every device write of the one-process run of `frames` frames (one per frame plus the final
+/// zero wrench).
+pub fn one_process_writes_for(frames: u64) -> Vec<Wrench> {
+    let scene = scene();
+    let (device, writes) = hand(0, Arc::new(AtomicBool::new(false)));
+    let report = run_loop(
+        scene.map.clone(),
+        scene.shell.clone(),
+        params(),
+        device,
+        PartState::at_rest(START, DQuat::IDENTITY),
+        config_frames(frames),
+        None,
+        Arc::new(AtomicBool::new(false)),
+    )
+    .unwrap();
+    assert_eq!(report.stats.frames, frames);
+    assert!(
+        report.stats.contact_frames > 0,
+        "the session must touch the wall"
+    );
+    let w = writes.lock().unwrap().clone();
+    w
+}
+
+/// Asserts that two write traces are the same, frame by frame, to the bit.
+pub fn assert_same_writes(got: &[Wrench], want: &[Wrench]) {
+    assert_eq!(got.len(), want.len(), "device write count");
+    for (i, (g, w)) in got.iter().zip(want).enumerate() {
+        let bits =
+            |w: &Wrench| [w.force.to_array(), w.torque.to_array()].map(|v| v.map(f64::to_bits));
+        assert_eq!(bits(g), bits(w), "frame {i}: {g:?} != {w:?}");
+    }
+}
