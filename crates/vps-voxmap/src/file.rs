@@ -5,6 +5,13 @@
 //! 3×u8 log2 dims (leaf, lower, upper), then four arenas each as a u64 element count followed by the
 //! elements: root slots (u32), upper slots (u32), lower slots (u32), leaf words (u64); then the
 //! 32-byte blake3 hash of every byte before it. The hash equals [`VoxelTree::content_hash`].
+//! Version 1 holds 2-bit maps (voxel value = [`crate::Voxel`], two bits per voxel in the leaves).
+//!
+//! `.vmap` v2 (4- and 8-bit maps): v1 with one more header byte after the log2 dims, the bits per
+//! voxel (4 or 8); leaves hold that many bits per voxel and tiles a code of that width (the code
+//! table is [`crate::VoxelWidth`]'s). 2-bit maps are still written as v1, so their bytes and content
+//! hashes are what they were before v2 existed; a v2 header declaring 2 bits is rejected. Reserved
+//! codes are rejected on read.
 //!
 //! `.vshell` v1: magic `VPSSHEL\0`, u32 version, f64 voxel size (m), u8 method, f64 volume (m³),
 //! 3×f64 centre of mass (m), f64 bounding radius (m), u64 point count `n`, `n`×3×f32 points (m),
@@ -15,7 +22,7 @@
 
 use crate::shell::ShellMethod;
 use crate::tree::{TreeConfig, TreeError, VoxelTree};
-use crate::{GridSpec, MassProperties, PointShell};
+use crate::{GridSpec, MassProperties, PointShell, VoxelWidth};
 use glam::{DVec3, Vec3};
 use std::fs::File;
 use std::io::{self, BufReader, BufWriter, Read, Write};
@@ -23,8 +30,10 @@ use std::path::{Path, PathBuf};
 
 /// Magic bytes opening a `.vmap` file.
 pub const VOXMAP_MAGIC: [u8; 8] = *b"VPSVMAP\0";
-/// The `.vmap` version this build writes and reads.
-pub const VOXMAP_VERSION: u32 = 1;
+/// The newest `.vmap` version this build writes (for 4- and 8-bit maps) and reads.
+pub const VOXMAP_VERSION: u32 = 2;
+/// The `.vmap` version of 2-bit maps (written for them, and read as 2-bit).
+pub const VOXMAP_VERSION_2BIT: u32 = 1;
 /// Magic bytes opening a `.vshell` file.
 pub const SHELL_MAGIC: [u8; 8] = *b"VPSSHEL\0";
 /// The `.vshell` version this build writes and reads.
@@ -64,11 +73,13 @@ pub enum FileError {
         found: [u8; 8],
     },
     /// The version field names a format this build does not read.
-    #[error("version: {found} is not supported (this build reads version {supported})")]
+    #[error(
+        "version: {found} is not supported (the newest version this build reads is {supported})"
+    )]
     UnsupportedVersion {
         /// The version in the file.
         found: u32,
-        /// The version this build reads.
+        /// The newest version this build reads.
         supported: u32,
     },
     /// A field's value is out of range or inconsistent with the header.
@@ -124,7 +135,7 @@ pub fn write_voxmap(tree: &VoxelTree, w: impl Write) -> Result<(), FileError> {
 pub fn read_voxmap(r: impl Read) -> Result<VoxelTree, FileError> {
     let mut dec = Decoder::new(r);
     dec.magic(VOXMAP_MAGIC)?;
-    dec.version(VOXMAP_VERSION)?;
+    let version = dec.version_in(VOXMAP_VERSION_2BIT..=VOXMAP_VERSION)?;
     let spec = read_spec(&mut dec)?;
     let config = TreeConfig {
         log2_dims: [
@@ -134,6 +145,19 @@ pub fn read_voxmap(r: impl Read) -> Result<VoxelTree, FileError> {
         ],
     };
     config.validate()?;
+    let width = match version {
+        VOXMAP_VERSION_2BIT => VoxelWidth::Two,
+        _ => match dec.u8("bits per voxel")? {
+            4 => VoxelWidth::Four,
+            8 => VoxelWidth::Eight,
+            b => {
+                return Err(invalid(
+                    "bits per voxel",
+                    format!("{b} is not 4 or 8 (2-bit maps are version 1)"),
+                ))
+            }
+        },
+    };
 
     let root_cells = spec
         .dims
@@ -145,11 +169,11 @@ pub fn read_voxmap(r: impl Read) -> Result<VoxelTree, FileError> {
     let upper = dec.counted_u32s("upper slots", upper_len)?;
     let lower_len = count_children(&upper) * slots_per_node(config, 1);
     let lower = dec.counted_u32s("lower slots", lower_len)?;
-    let words_per_leaf = (2u64 << (3 * config.log2_dims[0])).div_ceil(64);
+    let words_per_leaf = ((width.bits() as u64) << (3 * config.log2_dims[0])).div_ceil(64);
     let leaves = dec.counted_u64s("leaf words", count_children(&lower) * words_per_leaf)?;
     dec.finish()?;
     Ok(VoxelTree::from_parts(
-        spec, config, root, upper, lower, leaves,
+        spec, config, width, root, upper, lower, leaves,
     )?)
 }
 
@@ -173,7 +197,12 @@ pub(crate) fn voxmap_content_hash(tree: &VoxelTree) -> [u8; 32] {
 
 fn encode_voxmap_body(tree: &VoxelTree, w: &mut impl Write) -> io::Result<()> {
     w.write_all(&VOXMAP_MAGIC)?;
-    w.write_all(&VOXMAP_VERSION.to_le_bytes())?;
+    let width = tree.width();
+    let version = match width {
+        VoxelWidth::Two => VOXMAP_VERSION_2BIT,
+        _ => VOXMAP_VERSION,
+    };
+    w.write_all(&version.to_le_bytes())?;
     let spec = tree.spec();
     w.write_all(&spec.voxel_size.to_le_bytes())?;
     for c in spec.origin.to_array() {
@@ -183,6 +212,9 @@ fn encode_voxmap_body(tree: &VoxelTree, w: &mut impl Write) -> io::Result<()> {
         w.write_all(&d.to_le_bytes())?;
     }
     w.write_all(&tree.config().log2_dims)?;
+    if width != VoxelWidth::Two {
+        w.write_all(&[width.bits() as u8])?;
+    }
     let (root, upper, lower, leaves) = tree.arenas();
     for arena in [root, upper, lower] {
         write_array(w, arena, |x| x.to_le_bytes())?;
@@ -527,6 +559,18 @@ impl<R: Read> Decoder<R> {
             return Err(FileError::BadMagic { expected, found });
         }
         Ok(())
+    }
+
+    /// Reads the version and checks it is in `range`; returns it.
+    fn version_in(&mut self, range: std::ops::RangeInclusive<u32>) -> Result<u32, FileError> {
+        let found = self.u32("version")?;
+        if !range.contains(&found) {
+            return Err(FileError::UnsupportedVersion {
+                found,
+                supported: *range.end(),
+            });
+        }
+        Ok(found)
     }
 
     fn version(&mut self, supported: u32) -> Result<(), FileError> {

@@ -20,7 +20,7 @@ impl<'a> TreeAccessor<'a> {
         Self {
             tree,
             key: UVec3::MAX,
-            cached: LeafRef::Tile(Voxel::Free),
+            cached: LeafRef::Tile(0),
         }
     }
 
@@ -37,9 +37,10 @@ impl<'a> TreeAccessor<'a> {
             self.cached = self.tree.locate(p);
             self.key = key;
         }
-        match self.cached {
-            LeafRef::Tile(v) => v,
+        let code = match self.cached {
+            LeafRef::Tile(code) => code,
             LeafRef::Leaf(first) => self.tree.leaf_shape.read(&self.tree.leaf_words, first, p),
-        }
+        };
+        self.tree.kind_of(code)
     }
 }

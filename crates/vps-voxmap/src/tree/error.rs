@@ -43,6 +43,26 @@ pub enum TreeError {
         /// The level's arena.
         arena: &'static str,
     },
+    /// A leaf row of `2^log2` voxels of `bits` bits does not fit one 64-bit word.
+    #[error("tree config: {bits}-bit voxels need log2_dims[0] <= {}, got {log2}", (64 / bits).trailing_zeros())]
+    LeafTooWide {
+        /// Bits per voxel.
+        bits: u32,
+        /// The leaf's log2 edge.
+        log2: u8,
+    },
+    /// A voxel code is reserved (invalid) for the tree's width.
+    #[error("{arena}[{index}]: code {code} is not a valid {bits}-bit voxel code")]
+    InvalidCode {
+        /// Where the code was found (`leaf words`, a slot arena, or `source`).
+        arena: &'static str,
+        /// Element index in that arena (voxel index for a source cube).
+        index: usize,
+        /// The rejected code.
+        code: u8,
+        /// Bits per voxel.
+        bits: u32,
+    },
     /// A slot or node breaks the canonical form.
     #[error("{arena}[{index}]: {reason}")]
     NotCanonical {

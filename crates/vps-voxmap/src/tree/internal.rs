@@ -7,8 +7,8 @@ use glam::UVec3;
 /// One slot of an internal node or of the root grid, packed in a `u32`.
 ///
 /// The top bit is the tile flag (OpenVDB keeps it in a separate child mask; here it lives in the slot
-/// word so a lookup reads one word per level). A tile stores its [`Voxel`] in the low two bits and
-/// nothing else; a child stores the index of the child node in the next level's arena (`< 2^31`).
+/// word so a lookup reads one word per level). A tile stores its voxel code (see
+/// [`crate::VoxelWidth`]; for 2-bit maps the [`Voxel`] value) in the low `W` bits and nothing else; a child stores the index of the child node in the next level's arena (`< 2^31`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct Slot(pub(crate) u32);
 
@@ -18,10 +18,10 @@ impl Slot {
     /// Largest child index a slot can hold.
     pub(crate) const MAX_CHILD: u32 = Self::TILE_BIT - 1;
 
-    /// A uniform region of `v`.
+    /// A uniform region of voxel code `code`.
     #[inline(always)]
-    pub(crate) fn tile(v: Voxel) -> Self {
-        Slot(Self::TILE_BIT | v.bits() as u32)
+    pub(crate) fn tile(code: u8) -> Self {
+        Slot(Self::TILE_BIT | code as u32)
     }
 
     /// A child node; `index <= MAX_CHILD` (callers check before building).
@@ -36,10 +36,10 @@ impl Slot {
         self.0 & Self::TILE_BIT != 0
     }
 
-    /// The tile's value (meaningful only for tiles).
+    /// The tile's code (meaningful only for tiles; the low 8 bits).
     #[inline(always)]
-    pub(crate) fn tile_value(self) -> Voxel {
-        Voxel::from_bits(self.0 as u8)
+    pub(crate) fn tile_value(self) -> u8 {
+        self.0 as u8
     }
 
     /// The child index (meaningful only for children).
@@ -48,9 +48,10 @@ impl Slot {
         self.0 as usize
     }
 
-    /// True when the raw word is a tile with stray bits set (only flag + two value bits are allowed).
-    pub(crate) fn is_malformed_tile(self) -> bool {
-        self.is_tile() && self.0 & !(Self::TILE_BIT | 3) != 0
+    /// True when the raw word is a tile with stray bits set (only the flag and `bits` value bits are
+    /// allowed).
+    pub(crate) fn is_malformed_tile(self, bits: u32) -> bool {
+        self.is_tile() && self.0 & !(Self::TILE_BIT | ((1 << bits) - 1)) != 0
     }
 }
 
@@ -142,7 +143,7 @@ pub(crate) fn assemble_node(children: &[Option<Slot>], arena: &mut Vec<u32>) -> 
     arena.extend(
         children
             .iter()
-            .map(|s| s.unwrap_or(Slot::tile(Voxel::Free)).0),
+            .map(|s| s.unwrap_or(Slot::tile(Voxel::Free as u8)).0),
     );
     Slot::child(index as u32)
 }

@@ -1,20 +1,38 @@
-//! Leaves: cubes of `L³` voxels (`L = 2^N`), two bits per voxel, packed in `u64` words.
+//! Leaves: cubes of `L³` voxels (`L = 2^N`), `W` bits per voxel (`W` = 2, 4 or 8, the tree's
+//! [`crate::VoxelWidth`]), packed in `u64` words.
 //!
-//! Layout: voxel `(x, y, z)` of a leaf sits at bit `2 * (x + L * (y + L * z))` of the leaf's bit
-//! string. A row of `L` voxels along x is `2L ≤ 64` bits and never straddles a word. Voxels of a leaf
-//! that lie outside the grid are stored as Free (canonical form, so equal content gives equal bits).
+//! Layout: voxel `(x, y, z)` of a leaf sits at bit `W * (x + L * (y + L * z))` of the leaf's bit
+//! string and holds the voxel's code (for `W = 2` the [`Voxel`] value). A row of `L` voxels along x
+//! is `W L ≤ 64` bits (checked when the tree is assembled) and never straddles a word. Voxels of a
+//! leaf that lie outside the grid are stored as code 0 (Free), so equal content gives equal bits.
 
 use crate::{DenseGrid, Voxel};
 use glam::UVec3;
 
-/// `0b01` in every 2-bit field: multiplied by a voxel value, the word of a uniform run.
-const LOW_BITS: u64 = 0x5555_5555_5555_5555;
+/// The word of a uniform run of code 1 in `W`-bit fields, indexed by `log2 W - 1`: multiplied by a
+/// code, the word of a uniform run of that code.
+const LOW_BITS: [u64; 3] = [
+    0x5555_5555_5555_5555,
+    0x1111_1111_1111_1111,
+    0x0101_0101_0101_0101,
+];
+
+/// Codes of a box of voxels, one byte each, x fastest: a dense grid or a cube handed to the builder.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ByteBox<'a> {
+    /// `dims[0] * dims[1] * dims[2]` codes.
+    pub(crate) data: &'a [u8],
+    /// Voxels per axis of the box.
+    pub(crate) dims: [u32; 3],
+}
 
 /// The shape of a leaf.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct LeafShape {
     /// log2 of the voxels per axis.
     pub(crate) log2: u32,
+    /// log2 of the bits per voxel (1, 2 or 3).
+    pub(crate) bits_log2: u32,
 }
 
 impl LeafShape {
@@ -24,10 +42,16 @@ impl LeafShape {
         1 << self.log2
     }
 
-    /// Bits holding voxels: `2 L³`.
+    /// Mask of one voxel's code.
+    #[inline(always)]
+    fn code_mask(self) -> u64 {
+        (1u64 << (1 << self.bits_log2)) - 1
+    }
+
+    /// Bits holding voxels: `W L³`.
     #[inline(always)]
     fn used_bits(self) -> usize {
-        2 << (3 * self.log2)
+        1 << (3 * self.log2 + self.bits_log2)
     }
 
     /// `u64` words per leaf (at least one; a power of two).
@@ -36,11 +60,11 @@ impl LeafShape {
         1 << self.word_shift()
     }
 
-    /// log2 of [`LeafShape::words_per_leaf`]: `2 L³` bits is `2^(3N + 1)`, so `3N + 1 − 6` when
-    /// that is positive, else one word.
+    /// log2 of [`LeafShape::words_per_leaf`]: `W L³` bits is `2^(3N + log2 W)`, so that minus 6
+    /// when positive, else one word.
     #[inline(always)]
     pub(crate) fn word_shift(self) -> u32 {
-        (3 * self.log2 + 1).saturating_sub(6)
+        (3 * self.log2 + self.bits_log2).saturating_sub(6)
     }
 
     /// Bit offset of in-grid voxel `p` inside its leaf.
@@ -48,7 +72,7 @@ impl LeafShape {
     fn voxel_bit(self, p: UVec3) -> usize {
         let mask = self.edge() - 1;
         let local = (p.x & mask) | ((p.y & mask) << self.log2) | ((p.z & mask) << (2 * self.log2));
-        2 * local as usize
+        (local as usize) << self.bits_log2
     }
 
     /// Index, within its leaf, of the word that holds voxel `p` (below `words_per_leaf`).
@@ -57,52 +81,52 @@ impl LeafShape {
         self.voxel_bit(p) >> 6
     }
 
-    /// The voxel `p` from the leaf word `word` that holds it (see [`LeafShape::word_of`]).
+    /// The code of voxel `p` from the leaf word `word` that holds it (see [`LeafShape::word_of`]).
     #[inline(always)]
-    pub(crate) fn voxel_in_word(self, word: u64, p: UVec3) -> Voxel {
-        Voxel::from_bits((word >> (self.voxel_bit(p) & 63)) as u8)
+    pub(crate) fn code_in_word(self, word: u64, p: UVec3) -> u8 {
+        ((word >> (self.voxel_bit(p) & 63)) & self.code_mask()) as u8
     }
 
-    /// The voxel at `p` in the leaf whose words start at `words[first]`.
+    /// The code at `p` in the leaf whose words start at `words[first]`.
     #[inline(always)]
-    pub(crate) fn read(self, words: &[u64], first: usize, p: UVec3) -> Voxel {
-        self.voxel_in_word(words[first + self.word_of(p)], p)
+    pub(crate) fn read(self, words: &[u64], first: usize, p: UVec3) -> u8 {
+        self.code_in_word(words[first + self.word_of(p)], p)
     }
 
     /// Bit offset of the row `(y, z)` (leaf-local).
     #[inline(always)]
     fn row_bit(self, y: u32, z: u32) -> usize {
-        2 * ((y + (z << self.log2)) << self.log2) as usize
+        (((y + (z << self.log2)) << self.log2) as usize) << self.bits_log2
     }
 
-    /// Packs the leaf cube at `origin` from `grid` into `out` (`words_per_leaf` words, overwritten).
-    /// Voxels outside the grid become Free.
-    pub(crate) fn pack(self, grid: &DenseGrid, origin: UVec3, out: &mut [u64]) {
+    /// Packs the leaf cube whose minimum corner is voxel `at` of `src` into `out` (`words_per_leaf`
+    /// words, overwritten), reading `inside` voxels per axis (the part inside the grid; the rest of
+    /// the leaf becomes code 0). Only the low `W` bits of each byte are kept.
+    pub(crate) fn pack(self, src: ByteBox<'_>, at: UVec3, inside: [u32; 3], out: &mut [u64]) {
         out.fill(0);
-        let dims = grid.spec.dims;
-        let edge = self.edge();
-        let row_len = (dims[0] - origin.x).min(edge) as usize;
-        for z in 0..edge.min(dims[2] - origin.z) {
-            for y in 0..edge.min(dims[1] - origin.y) {
-                let (gy, gz) = ((origin.y + y) as usize, (origin.z + z) as usize);
-                let start = origin.x as usize + dims[0] as usize * (gy + dims[1] as usize * gz);
-                let bits = pack_row(&grid.data[start..start + row_len]);
+        let (sx, sy) = (src.dims[0] as usize, src.dims[1] as usize);
+        let row_len = inside[0] as usize;
+        for z in 0..inside[2] {
+            for y in 0..inside[1] {
+                let (gy, gz) = ((at.y + y) as usize, (at.z + z) as usize);
+                let start = at.x as usize + sx * (gy + sy * gz);
+                let bits = pack_row(&src.data[start..start + row_len], self.bits_log2);
                 let at = self.row_bit(y, z);
                 out[at >> 6] |= bits << (at & 63);
             }
         }
     }
 
-    /// The value shared by every in-grid voxel of the leaf at `origin` (voxels outside `dims` do not
+    /// Voxels per axis of the leaf at `origin` that lie inside `dims` (`origin` inside `dims`).
+    pub(crate) fn inside(self, origin: UVec3, dims: [u32; 3]) -> [u32; 3] {
+        std::array::from_fn(|a| (dims[a] - origin[a]).min(self.edge()))
+    }
+
+    /// The code shared by every in-grid voxel of the leaf at `origin` (voxels outside `dims` do not
     /// matter: lookups never reach them), else `None`. `origin` must be inside `dims`.
-    pub(crate) fn uniform_value(
-        self,
-        leaf: &[u64],
-        origin: UVec3,
-        dims: [u32; 3],
-    ) -> Option<Voxel> {
-        let v = Voxel::from_bits(leaf[0] as u8);
-        let pattern = LOW_BITS * v.bits() as u64;
+    pub(crate) fn uniform_value(self, leaf: &[u64], origin: UVec3, dims: [u32; 3]) -> Option<u8> {
+        let code = (leaf[0] & self.code_mask()) as u8;
+        let pattern = LOW_BITS[self.bits_log2 as usize - 1].wrapping_mul(code as u64);
         let edge = self.edge();
         let fully_inside = (0..3).all(|a| dims[a] - origin[a] >= edge);
         let uniform = if fully_inside {
@@ -117,7 +141,7 @@ impl LeafShape {
             self.rows(leaf, origin, dims)
                 .all(|(row, kept)| row & kept == pattern & kept)
         };
-        uniform.then_some(v)
+        uniform.then_some(code)
     }
 
     /// True when every bit that does not hold an in-grid voxel is zero, for the leaf at `origin`.
@@ -128,7 +152,7 @@ impl LeafShape {
             && (used >= 64 || leaf[0] >> used == 0)
     }
 
-    /// Every row of the leaf at `origin` as `(bits, in-grid mask)`: the row's `2L` bits shifted to
+    /// Every row of the leaf at `origin` as `(bits, in-grid mask)`: the row's `W L` bits shifted to
     /// the bottom, and the mask of its bits that hold in-grid voxels (0 for rows outside the grid).
     fn rows<'l>(
         self,
@@ -144,10 +168,11 @@ impl LeafShape {
             inside(2, origin.z),
         );
         let low_bits = |n: u32| {
-            if n >= 32 {
+            let bits = n << self.bits_log2;
+            if bits >= 64 {
                 u64::MAX
             } else {
-                (1u64 << (2 * n)) - 1
+                (1u64 << bits) - 1
             }
         };
         let (row_mask, kept_mask) = (low_bits(edge), low_bits(nx));
@@ -159,42 +184,74 @@ impl LeafShape {
         })
     }
 
-    /// Voxels of each non-Free kind in a leaf: `[Interior, Surface, Proximity]`.
-    pub(crate) fn count_non_free(self, leaf: &[u64]) -> [u64; 3] {
-        let mut c = [0u64; 3];
-        for &w in leaf {
-            let low = w & LOW_BITS;
-            let high = (w >> 1) & LOW_BITS;
-            c[0] += (low & !high).count_ones() as u64;
-            c[1] += (high & !low).count_ones() as u64;
-            c[2] += (low & high).count_ones() as u64;
+    /// Adds the number of voxels holding each code to `hist` (padding voxels count as code 0).
+    pub(crate) fn histogram(self, leaf: &[u64], hist: &mut [u64; 256]) {
+        if self.bits_log2 == 1 {
+            for &w in leaf {
+                let low = w & LOW_BITS[0];
+                let high = (w >> 1) & LOW_BITS[0];
+                hist[1] += (low & !high).count_ones() as u64;
+                hist[2] += (high & !low).count_ones() as u64;
+                hist[3] += (low & high).count_ones() as u64;
+            }
+            let fields = (leaf.len() * 32).min(self.used_bits() / 2) as u64;
+            hist[0] += fields - hist[1..4].iter().sum::<u64>();
+            return;
         }
-        c
+        let per_word = 64 >> self.bits_log2;
+        let voxels = 1usize << (3 * self.log2);
+        for (i, &w) in leaf.iter().enumerate() {
+            for f in 0..per_word.min(voxels.saturating_sub(i * per_word)) {
+                hist[((w >> (f << self.bits_log2)) & self.code_mask()) as usize] += 1;
+            }
+        }
     }
 
-    /// Writes the leaf's in-grid voxels into `grid` (the leaf's cube starts at `origin`).
-    pub(crate) fn unpack(self, leaf: &[u64], origin: UVec3, grid: &mut DenseGrid) {
-        let dims = grid.spec.dims;
-        let edge = self.edge();
-        for z in 0..edge.min(dims[2] - origin.z) {
-            for y in 0..edge.min(dims[1] - origin.y) {
-                for x in 0..edge.min(dims[0] - origin.x) {
+    /// Writes the kinds (`kind_of(code)`) of the leaf's in-grid voxels into `grid` (the leaf's cube
+    /// starts at `origin`).
+    pub(crate) fn unpack(
+        self,
+        leaf: &[u64],
+        origin: UVec3,
+        grid: &mut DenseGrid,
+        kind_of: impl Fn(u8) -> Voxel,
+    ) {
+        let inside = self.inside(origin, grid.spec.dims);
+        for z in 0..inside[2] {
+            for y in 0..inside[1] {
+                for x in 0..inside[0] {
                     let p = origin + UVec3::new(x, y, z);
-                    grid.set(p.as_ivec3(), self.read(leaf, 0, p));
+                    grid.set(p.as_ivec3(), kind_of(self.read(leaf, 0, p)));
                 }
             }
         }
     }
 }
 
-/// Packs up to 32 voxel bytes (one leaf row) into 2-bit fields, byte `i` at bits `2i..2i+2`.
+/// Packs up to `64 / W` code bytes (one leaf row) into `W`-bit fields, byte `i` at bits
+/// `W i..W (i + 1)`.
 #[inline(always)]
-fn pack_row(bytes: &[u8]) -> u64 {
+fn pack_row(bytes: &[u8], bits_log2: u32) -> u64 {
     bytes.chunks(8).enumerate().fold(0, |acc, (c, chunk)| {
         let mut b = [0u8; 8];
         b[..chunk.len()].copy_from_slice(chunk);
-        acc | pack8(u64::from_le_bytes(b)) << (16 * c)
+        let x = u64::from_le_bytes(b);
+        let packed = match bits_log2 {
+            1 => pack8(x),
+            2 => pack8_nibbles(x),
+            _ => x,
+        };
+        acc | packed.checked_shl((8 << bits_log2) * c as u32).unwrap_or(0)
     })
+}
+
+/// Packs the low four bits of each of 8 bytes into 32 bits (byte `i` → bits `4i..4i+4`).
+#[inline(always)]
+fn pack8_nibbles(x: u64) -> u64 {
+    let x = x & 0x0F0F_0F0F_0F0F_0F0F;
+    let x = (x | x >> 4) & 0x00FF_00FF_00FF_00FF;
+    let x = (x | x >> 8) & 0x0000_FFFF_0000_FFFF;
+    (x | x >> 16) & 0xFFFF_FFFF
 }
 
 /// Packs the low two bits of each of 8 bytes into 16 bits (byte `i` → bits `2i..2i+2`).
@@ -222,14 +279,20 @@ mod tests {
 
     #[test]
     fn pack_row_handles_partial_and_long_rows() {
-        let bytes: Vec<u8> = (0..32).map(|i| (i * 7 % 4) as u8).collect();
-        for len in [1, 2, 5, 8, 13, 32] {
-            let packed = pack_row(&bytes[..len]);
-            for (i, &b) in bytes[..len].iter().enumerate() {
-                assert_eq!((packed >> (2 * i)) & 3, b as u64, "len {len} byte {i}");
-            }
-            if len < 32 {
-                assert_eq!(packed >> (2 * len), 0, "len {len}: padding must be Free");
+        for bits_log2 in 1..=3u32 {
+            let w = 1usize << bits_log2;
+            let max = 64 / w;
+            let bytes: Vec<u8> = (0..max).map(|i| (i * 37 % 251) as u8).collect();
+            let mask = (1u64 << w) - 1;
+            for len in [1, 2, 5, 8, 13, max].into_iter().filter(|&l| l <= max) {
+                let packed = pack_row(&bytes[..len], bits_log2);
+                for (i, &b) in bytes[..len].iter().enumerate() {
+                    let got = (packed >> (w * i)) & mask;
+                    assert_eq!(got, b as u64 & mask, "W {w} len {len} byte {i}");
+                }
+                if len < max {
+                    assert_eq!(packed >> (w * len), 0, "W {w} len {len}: padding must be 0");
+                }
             }
         }
     }
@@ -237,28 +300,27 @@ mod tests {
     #[test]
     fn words_per_leaf_covers_the_used_bits_exactly() {
         for log2 in 1..=5 {
-            let shape = LeafShape { log2 };
-            assert_eq!(shape.words_per_leaf(), shape.used_bits().div_ceil(64));
+            for bits_log2 in 1..=3 {
+                let shape = LeafShape { log2, bits_log2 };
+                assert_eq!(shape.words_per_leaf(), shape.used_bits().div_ceil(64));
+            }
         }
     }
 
     #[test]
     fn uniform_value_sees_a_single_odd_voxel() {
         for log2 in 1..=5 {
-            let shape = LeafShape { log2 };
-            let mut leaf = vec![LOW_BITS * 2; shape.words_per_leaf()];
+            let shape = LeafShape { log2, bits_log2: 1 };
+            let mut leaf = vec![LOW_BITS[0] * 2; shape.words_per_leaf()];
             if shape.used_bits() < 64 {
                 leaf[0] &= (1 << shape.used_bits()) - 1;
             }
             let full = [64; 3];
-            assert_eq!(
-                shape.uniform_value(&leaf, UVec3::ZERO, full),
-                Some(Voxel::Surface)
-            );
+            assert_eq!(shape.uniform_value(&leaf, UVec3::ZERO, full), Some(2));
             let last = UVec3::splat(shape.edge() - 1);
             let bit = shape.voxel_bit(last);
             leaf[bit >> 6] ^= 1 << (bit & 63);
-            assert_eq!(shape.read(&leaf, 0, last), Voxel::Proximity);
+            assert_eq!(shape.read(&leaf, 0, last), 3);
             assert_eq!(
                 shape.uniform_value(&leaf, UVec3::ZERO, full),
                 None,
@@ -267,9 +329,12 @@ mod tests {
             // Clipped so the odd voxel is outside the grid: uniform again, but padding not clear.
             let clipped = [shape.edge() - 1, 64, 64];
             let uniform = shape.uniform_value(&leaf, UVec3::ZERO, clipped);
-            assert_eq!(uniform, Some(Voxel::Surface), "log2 {log2}");
+            assert_eq!(uniform, Some(2), "log2 {log2}");
             assert!(!shape.padding_is_clear(&leaf, UVec3::ZERO, clipped));
-            assert_eq!(shape.count_non_free(&leaf)[2], 1);
+            let mut hist = [0u64; 256];
+            shape.histogram(&leaf, &mut hist);
+            assert_eq!(hist[3], 1);
+            assert_eq!(hist[2], (1 << (3 * log2)) - 1);
         }
     }
 }

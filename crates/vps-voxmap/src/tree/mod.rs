@@ -16,25 +16,32 @@ mod validate;
 mod walk;
 
 pub use accessor::TreeAccessor;
+pub use build::CubeSource;
 pub use config::TreeConfig;
 pub use error::TreeError;
 
-use crate::{DenseGrid, GridSpec, Voxel, VoxelLookup};
+use crate::{DenseGrid, GridSpec, LayeredVoxel, Voxel, VoxelLookup, VoxelWidth};
 use glam::{IVec3, UVec3};
 use internal::InternalLevel;
 use leaf::LeafShape;
 use root::RootGrid;
 
-/// A voxmap stored as a fixed-depth tree: root grid → upper node → lower node → leaf.
+/// A voxmap stored as a fixed-depth tree: root grid → upper node → lower node → leaf, holding
+/// [`VoxelWidth`] bits per voxel (2: the kind only; 4 or 8: kind and distance layer, see
+/// [`LayeredVoxel`]).
 ///
-/// Invariants (established by [`VoxelTree::from_dense`] and checked when read from a file): nodes of
+/// Invariants (established by the constructors and checked when read from a file): nodes of
 /// each level are stored in canonical breadth-first order (each parent's children are appended in slot
 /// order, so equal content and config give equal arenas); no node is uniform (it would be a tile);
-/// voxels and slots outside the grid dims are Free. Immutable once built; `Sync`.
+/// voxels and slots outside the grid dims are Free (code 0); every code is valid for the width.
+/// Immutable once built; `Sync`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct VoxelTree {
     spec: GridSpec,
     config: TreeConfig,
+    width: VoxelWidth,
+    /// `config` is the paper's 512-tree and `width` is 2 bits: `get` takes the constant-shift walk.
+    paper_shape: bool,
     root: RootGrid,
     upper: InternalLevel,
     lower: InternalLevel,
@@ -75,14 +82,18 @@ impl LookupShape {
             log2: 3,
             child_shift: 3,
         },
-        leaf: LeafShape { log2: 3 },
+        leaf: LeafShape {
+            log2: 3,
+            bits_log2: 1,
+        },
     };
 }
 
 /// The end of a lookup path above the voxel: a tile or a leaf (by its first word in the leaf arena).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum LeafRef {
-    Tile(Voxel),
+    /// A uniform region of this code.
+    Tile(u8),
     Leaf(usize),
 }
 
@@ -93,24 +104,70 @@ impl VoxelTree {
     /// Errors: invalid `config`, invalid spec (non-finite or non-positive voxel size, non-finite
     /// origin, a dim of 0 or above `i32::MAX`), `grid.data` not `voxel_count` long, or more than
     /// `2^31` nodes in a level.
+    /// The result is a 2-bit tree ([`VoxelWidth::Two`]).
     pub fn from_dense(grid: &DenseGrid, config: TreeConfig) -> Result<VoxelTree, TreeError> {
         build::from_dense(grid, config)
     }
 
-    /// The voxel at `ijk`; Free outside `spec().dims`. Constant cost: a bounds check, the root slot,
-    /// at most two internal slots and one leaf word. Does not allocate or block.
+    /// Builds a tree of `width` over `spec` from `source`, which hands over one lower-node cube
+    /// (`config.extent(1)` voxels per axis) at a time, so no dense grid of the whole scene is ever
+    /// held: memory is the tree plus one cube buffer per worker thread. Parallel (rayon) over
+    /// lower-node cubes; equal content gives the same tree as [`VoxelTree::from_dense`].
+    ///
+    /// Errors: as `from_dense`, plus a code invalid for `width` ([`TreeError::InvalidCode`]) and a
+    /// leaf row wider than 64 bits (`width.bits() * 2^log2_dims[0] > 64`).
+    pub fn from_source(
+        spec: GridSpec,
+        width: VoxelWidth,
+        config: TreeConfig,
+        source: &dyn CubeSource,
+    ) -> Result<VoxelTree, TreeError> {
+        build::from_source(spec, width, config, source)
+    }
+
+    /// The voxel kind at `ijk`; Free outside `spec().dims`. Constant cost: a bounds check, the root
+    /// slot, at most two internal slots and one leaf word. Does not allocate or block.
     #[inline(always)]
     pub fn get(&self, ijk: IVec3) -> Voxel {
         let Some(p) = self.in_grid(ijk) else {
             return Voxel::Free;
         };
-        // The paper's 512-tree (the default) gets a copy of the walk with constant shifts: on
+        // The paper's 2-bit 512-tree (the default) gets a copy of the walk with constant shifts: on
         // baseline x86-64 a shift by a register amount costs several micro-ops.
-        if self.config == TreeConfig::default() {
-            self.read(p, &LookupShape::TREE_512)
+        if self.paper_shape {
+            Voxel::from_bits(self.read(p, &LookupShape::TREE_512))
         } else {
-            self.read(p, &self.lookup_shape())
+            self.kind_of(self.read(p, &self.lookup_shape()))
         }
+    }
+
+    /// The voxel at `ijk` with its distance layer (layer 0 in a 2-bit tree); Free outside the dims.
+    /// Same cost as [`VoxelTree::get`] plus a decode. Does not allocate or block.
+    #[inline]
+    pub fn get_layered(&self, ijk: IVec3) -> LayeredVoxel {
+        let code = match self.in_grid(ijk) {
+            Some(p) => self.read(p, &self.lookup_shape()),
+            None => 0,
+        };
+        self.decode(code)
+    }
+
+    /// The kind of a stored (valid) code.
+    #[inline(always)]
+    fn kind_of(&self, code: u8) -> Voxel {
+        match self.width {
+            VoxelWidth::Two => Voxel::from_bits(code),
+            w => w.kind_of(code),
+        }
+    }
+
+    /// The voxel of a stored (valid) code.
+    #[inline(always)]
+    fn decode(&self, code: u8) -> LayeredVoxel {
+        self.width.decode(code).unwrap_or(LayeredVoxel {
+            kind: Voxel::Free,
+            layer: 0,
+        })
     }
 
     /// `ijk` as unsigned coordinates when it is inside the dims. Dims are at most `i32::MAX`
@@ -123,9 +180,9 @@ impl VoxelTree {
         ((p.x < d[0]) & (p.y < d[1]) & (p.z < d[2])).then_some(p)
     }
 
-    /// The voxel at in-grid `p`, walking with `shape` (equal to [`VoxelTree::lookup_shape`]).
+    /// The code at in-grid `p`, walking with `shape` (equal to [`VoxelTree::lookup_shape`]).
     #[inline(always)]
-    fn read(&self, p: UVec3, shape: &LookupShape) -> Voxel {
+    fn read(&self, p: UVec3, shape: &LookupShape) -> u8 {
         match self.locate_with(p, shape) {
             LeafRef::Tile(v) => v,
             LeafRef::Leaf(first) => {
@@ -136,7 +193,7 @@ impl VoxelTree {
                 // canonical-form invariant that `from_dense` establishes and `from_parts` checks),
                 // and `word_of` is below the words per leaf, so `word < leaf_words.len()`.
                 let bits = unsafe { *self.leaf_words.get_unchecked(word) };
-                shape.leaf.voxel_in_word(bits, p)
+                shape.leaf.code_in_word(bits, p)
             }
         }
     }
@@ -191,6 +248,11 @@ impl VoxelTree {
         self.config
     }
 
+    /// Bits stored per voxel.
+    pub fn width(&self) -> VoxelWidth {
+        self.width
+    }
+
     /// Stored nodes per level.
     pub fn node_counts(&self) -> NodeCounts {
         NodeCounts {
@@ -206,15 +268,31 @@ impl VoxelTree {
             + 8 * self.leaf_words.capacity()
     }
 
-    /// Bytes a dense 2-bit array over the dims would take: `ceil(2 * voxel_count / 8)`.
+    /// Bytes a dense array of the same width over the dims would take:
+    /// `ceil(W * voxel_count / 8)`.
     pub fn dense_equivalent_bytes(&self) -> u64 {
-        (2 * self.spec.voxel_count()).div_ceil(8)
+        (self.width.bits() as u64 * self.spec.voxel_count()).div_ceil(8)
     }
 
     /// Voxels of each kind inside the dims, indexed by the kind's value, computed from tiles (clipped
-    /// to the dims) and leaf popcounts without expanding the tree.
+    /// to the dims) and leaf contents without expanding the tree.
     pub fn counts(&self) -> [u64; 4] {
-        walk::counts(self)
+        let mut c = [0u64; 4];
+        for (v, n) in self.layer_counts() {
+            c[v.kind as usize] += n;
+        }
+        c
+    }
+
+    /// Voxels inside the dims per (kind, layer) that occurs, in code order (for a 2-bit tree: the
+    /// four kinds at layer 0). Computed without expanding the tree.
+    pub fn layer_counts(&self) -> Vec<(LayeredVoxel, u64)> {
+        walk::code_counts(self)
+            .iter()
+            .enumerate()
+            .filter(|&(code, &n)| n > 0 || code < 4)
+            .filter_map(|(code, &n)| Some((self.width.decode(code as u8)?, n)))
+            .collect()
     }
 
     /// The dense grid with the same content (allocates `voxel_count` bytes; for tests and tools).
@@ -242,6 +320,7 @@ impl VoxelTree {
     pub(crate) fn from_parts(
         spec: GridSpec,
         config: TreeConfig,
+        width: VoxelWidth,
         root_slots: Vec<u32>,
         upper_slots: Vec<u32>,
         lower_slots: Vec<u32>,
@@ -250,6 +329,7 @@ impl VoxelTree {
         let tree = VoxelTree::assemble(
             spec,
             config,
+            width,
             root_slots,
             upper_slots,
             lower_slots,
@@ -259,10 +339,11 @@ impl VoxelTree {
         Ok(tree)
     }
 
-    /// Wraps arenas in a tree after checking spec and config (not the arenas' content).
+    /// Wraps arenas in a tree after checking spec, config and width (not the arenas' content).
     fn assemble(
         spec: GridSpec,
         config: TreeConfig,
+        width: VoxelWidth,
         root_slots: Vec<u32>,
         upper_slots: Vec<u32>,
         lower_slots: Vec<u32>,
@@ -271,10 +352,18 @@ impl VoxelTree {
         config.validate()?;
         validate::check_spec(&spec)?;
         let [n0, n1, n2] = config.log2_dims.map(u32::from);
+        if width.bits() << n0 > 64 {
+            return Err(TreeError::LeafTooWide {
+                bits: width.bits(),
+                log2: n0 as u8,
+            });
+        }
         let root_shift = config.shift(2);
         Ok(VoxelTree {
             spec,
             config,
+            width,
+            paper_shape: config == TreeConfig::default() && width == VoxelWidth::Two,
             root: RootGrid {
                 dims: RootGrid::dims_for(spec.dims, root_shift),
                 shift: root_shift,
@@ -294,7 +383,10 @@ impl VoxelTree {
                 },
                 slots: lower_slots,
             },
-            leaf_shape: LeafShape { log2: n0 },
+            leaf_shape: LeafShape {
+                log2: n0,
+                bits_log2: width.bits_log2(),
+            },
             leaf_words,
         })
     }
@@ -308,6 +400,11 @@ impl VoxelLookup for VoxelTree {
     #[inline(always)]
     fn get(&self, ijk: IVec3) -> Voxel {
         VoxelTree::get(self, ijk)
+    }
+
+    #[inline]
+    fn get_layered(&self, ijk: IVec3) -> LayeredVoxel {
+        VoxelTree::get_layered(self, ijk)
     }
 }
 

@@ -5,7 +5,7 @@
 use super::internal::{assemble_node, InternalLevel, Slot};
 use super::root::RootGrid;
 use super::{TreeError, VoxelTree};
-use crate::{GridSpec, Voxel};
+use crate::{GridSpec, VoxelWidth};
 use glam::UVec3;
 
 /// Checks the [`GridSpec`] invariants, with dims also at most `i32::MAX` (voxel indices are `i32`).
@@ -31,11 +31,12 @@ pub(super) fn check_canonical(tree: &VoxelTree) -> Result<(), TreeError> {
     let dims = tree.spec.dims;
     let root_cells = RootGrid::cell_count(tree.root.dims);
     expect_len("root slots", tree.root.slots.len(), root_cells)?;
-    let upper_origins = check_slots("root slots", &tree.root.slots, dims, |i| {
+    let width = tree.width;
+    let upper_origins = check_slots("root slots", &tree.root.slots, dims, width, |i| {
         tree.root.cell_origin(i)
     })?;
-    let lower_origins = check_internal("upper slots", &tree.upper, &upper_origins, dims)?;
-    let leaf_origins = check_internal("lower slots", &tree.lower, &lower_origins, dims)?;
+    let lower_origins = check_internal("upper slots", &tree.upper, &upper_origins, dims, width)?;
+    let leaf_origins = check_internal("lower slots", &tree.lower, &lower_origins, dims, width)?;
 
     let wpl = tree.leaf_shape.words_per_leaf();
     expect_len(
@@ -49,6 +50,7 @@ pub(super) fn check_canonical(tree: &VoxelTree) -> Result<(), TreeError> {
         .zip(&leaf_origins)
         .enumerate()
     {
+        check_leaf_codes(leaf, width, index * wpl)?;
         let reason = if tree.leaf_shape.uniform_value(leaf, origin, dims).is_some() {
             "leaf is uniform inside the grid (must be a tile)"
         } else if !tree.leaf_shape.padding_is_clear(leaf, origin, dims) {
@@ -72,6 +74,7 @@ fn check_internal(
     level: &InternalLevel,
     origins: &[UVec3],
     dims: [u32; 3],
+    width: VoxelWidth,
 ) -> Result<Vec<UVec3>, TreeError> {
     let spn = level.shape.slots_per_node();
     expect_len(arena, level.slots.len(), origins.len() as u64 * spn as u64)?;
@@ -90,7 +93,30 @@ fn check_internal(
             });
         }
     }
-    check_slots(arena, &level.slots, dims, origin_of)
+    check_slots(arena, &level.slots, dims, width, origin_of)
+}
+
+/// Checks that every voxel code of a leaf is valid for `width` (`first_word`: the leaf's first
+/// word in the arena, for the error).
+fn check_leaf_codes(leaf: &[u64], width: VoxelWidth, first_word: usize) -> Result<(), TreeError> {
+    if width == VoxelWidth::Two {
+        return Ok(()); // every 2-bit code is valid
+    }
+    let bits = width.bits();
+    for (w, &word) in leaf.iter().enumerate() {
+        for f in 0..64 / bits {
+            let code = ((word >> (f * bits)) & ((1 << bits) - 1)) as u8;
+            if !width.is_valid_code(code) {
+                return Err(TreeError::InvalidCode {
+                    arena: "leaf words",
+                    index: first_word + w,
+                    code,
+                    bits,
+                });
+            }
+        }
+    }
+    Ok(())
 }
 
 fn is_outside(origin: UVec3, dims: [u32; 3]) -> bool {
@@ -104,15 +130,23 @@ fn check_slots(
     arena: &'static str,
     slots: &[u32],
     dims: [u32; 3],
+    width: VoxelWidth,
     origin_of: impl Fn(usize) -> UVec3,
 ) -> Result<Vec<UVec3>, TreeError> {
     let mut child_origins = Vec::new();
     for (index, &raw) in slots.iter().enumerate() {
         let slot = Slot(raw);
         let origin = origin_of(index);
-        let reason = if slot.is_malformed_tile() {
+        let reason = if slot.is_malformed_tile(width.bits()) {
             "tile has bits besides its value"
-        } else if is_outside(origin, dims) && slot != Slot::tile(Voxel::Free) {
+        } else if slot.is_tile() && !width.is_valid_code(slot.tile_value()) {
+            return Err(TreeError::InvalidCode {
+                arena,
+                index,
+                code: slot.tile_value(),
+                bits: width.bits(),
+            });
+        } else if is_outside(origin, dims) && slot != Slot::tile(0) {
             "slot outside the grid must be a Free tile"
         } else if !slot.is_tile() && slot.child_index() != child_origins.len() {
             "child index out of canonical order"
@@ -146,7 +180,7 @@ fn expect_len(arena: &'static str, found: usize, expected: u64) -> Result<(), Tr
 mod tests {
     use super::*;
     use crate::tree::TreeConfig;
-    use crate::DenseGrid;
+    use crate::{DenseGrid, Voxel};
     use glam::{DVec3, IVec3};
 
     /// A tree with stored nodes at every level, tiles of several kinds, and clipped boundary cubes.

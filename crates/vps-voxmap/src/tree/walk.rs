@@ -11,7 +11,8 @@ enum Block {
     Tile {
         origin: UVec3,
         shift: u32,
-        value: Voxel,
+        /// The tile's code.
+        value: u8,
     },
     /// A leaf at `origin` whose words start at `first_word` in the leaf arena.
     Leaf { origin: UVec3, first_word: usize },
@@ -58,9 +59,9 @@ fn clip(origin: UVec3, shift: u32, dims: [u32; 3]) -> [std::ops::Range<u32>; 3] 
     })
 }
 
-/// See [`VoxelTree::counts`].
-pub(super) fn counts(tree: &VoxelTree) -> [u64; 4] {
-    let mut c = [0u64; 4];
+/// Voxels inside the dims holding each code (see [`VoxelTree::layer_counts`]).
+pub(super) fn code_counts(tree: &VoxelTree) -> [u64; 256] {
+    let mut c = [0u64; 256];
     let wpl = tree.leaf_shape.words_per_leaf();
     let dims = tree.spec.dims;
     for_each_block(tree, |block| match block {
@@ -69,16 +70,17 @@ pub(super) fn counts(tree: &VoxelTree) -> [u64; 4] {
             shift,
             value,
         } => {
-            if value != Voxel::Free {
+            if value != 0 {
                 let [x, y, z] = clip(origin, shift, dims);
                 c[value as usize] += x.len() as u64 * y.len() as u64 * z.len() as u64;
             }
         }
         Block::Leaf { first_word, .. } => {
             let leaf = &tree.leaf_words[first_word..first_word + wpl];
-            let non_free = tree.leaf_shape.count_non_free(leaf);
-            for (kind, n) in non_free.into_iter().enumerate() {
-                c[kind + 1] += n;
+            let mut hist = [0u64; 256];
+            tree.leaf_shape.histogram(leaf, &mut hist);
+            for (total, n) in c.iter_mut().zip(hist).skip(1) {
+                *total += n;
             }
         }
     });
@@ -97,19 +99,21 @@ pub(super) fn to_dense(tree: &VoxelTree) -> DenseGrid {
             shift,
             value,
         } => {
-            if value != Voxel::Free {
+            let kind = tree.kind_of(value);
+            if kind != Voxel::Free {
                 let [x, y, z] = clip(origin, shift, dims);
                 for k in z {
                     for j in y.clone() {
                         let row = grid.spec.linear(UVec3::new(x.start, j, k).as_ivec3());
-                        grid.data[row..row + x.len()].fill(value as u8);
+                        grid.data[row..row + x.len()].fill(kind as u8);
                     }
                 }
             }
         }
         Block::Leaf { origin, first_word } => {
             let leaf = &tree.leaf_words[first_word..first_word + wpl];
-            tree.leaf_shape.unpack(leaf, origin, &mut grid);
+            tree.leaf_shape
+                .unpack(leaf, origin, &mut grid, |code| tree.kind_of(code));
         }
     });
     grid

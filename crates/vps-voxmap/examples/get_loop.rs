@@ -1,0 +1,53 @@
+//! A fixed lookup loop for instruction counting (`valgrind --tool=callgrind`): builds a synthetic
+//! 2-bit scene (nested boxes) as a 512-tree and sums `get` over 1 M pseudo-random indices.
+//! Prints the checksum so the loop cannot be optimised away.
+
+use glam::{DVec3, IVec3};
+use std::hint::black_box;
+use vps_voxmap::{DenseGrid, GridSpec, TreeConfig, Voxel, VoxelLookup, VoxelTree};
+
+fn main() {
+    let n = 300u32;
+    let mut grid = DenseGrid::new(GridSpec {
+        origin: DVec3::ZERO,
+        voxel_size: 0.005,
+        dims: [n; 3],
+    });
+    for z in 0..n as i32 {
+        for y in 0..n as i32 {
+            for x in 0..n as i32 {
+                let r = (x - 150).abs().max((y - 150).abs()).max((z - 150).abs());
+                let v = match r {
+                    0..=99 => Voxel::Interior,
+                    100..=101 => Voxel::Surface,
+                    102 => Voxel::Proximity,
+                    _ => Voxel::Free,
+                };
+                grid.set(IVec3::new(x, y, z), v);
+            }
+        }
+    }
+    let tree = VoxelTree::from_dense(&grid, TreeConfig::default()).expect("tree");
+    drop(grid);
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let queries: Vec<IVec3> = (0..1_000_000)
+        .map(|_| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let c = |s: u64| (s % 310) as i32 - 5;
+            IVec3::new(c(state), c(state >> 20), c(state >> 40))
+        })
+        .collect();
+    let mut acc = 0u64;
+    for &q in &queries {
+        acc = acc.wrapping_add(lookup(&tree, q) as u64);
+    }
+    println!("checksum {acc}");
+}
+
+/// The measured call: one `VoxelLookup::get` through the trait, not inlined into the loop.
+#[inline(never)]
+fn lookup(tree: &VoxelTree, q: IVec3) -> Voxel {
+    VoxelLookup::get(black_box(tree), q)
+}
