@@ -1,0 +1,430 @@
+// vps viewer: dependency-free WebGL2 (2D-canvas fallback). Served by crates/vps-view; no build step.
+//
+// Data: /scene (JSON metadata), /scene/boxes and /scene/shell (little-endian f32 xyz, metres),
+// /state (latest state, JSON) and /ws (the same states pushed at 30 Hz). World frame: z up, metres.
+'use strict';
+(function () {
+  const $ = (id) => document.getElementById(id);
+  const canvas = $('view');
+  const HISTORY = 300; // chart samples (10 s at 30 Hz)
+  const FORCE_SCALE = 0.01; // m of arrow per N
+  const TORQUE_SCALE = 1.0; // m of arrow per N·m
+
+  let scene = null; // metadata
+  let boxes = new Float32Array(0); // world xyz of the scene's boxes
+  let shell = new Float32Array(0); // body-frame xyz of the part's drawn points
+  let state = null; // latest state message
+  let renderer = null;
+  let lastMessageAt = 0;
+  const camera = { yaw: -0.9, pitch: 0.45, dist: 0.6, target: [0, 0, 0], follow: true };
+
+  // ---- small vector and matrix helpers (column-major 4x4, like GL) ----
+  const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+  const add = (a, b) => [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
+  const scale = (a, s) => [a[0] * s, a[1] * s, a[2] * s];
+  const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+  const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+  const len = (a) => Math.sqrt(dot(a, a));
+  const norm = (a) => { const l = len(a) || 1; return scale(a, 1 / l); };
+
+  function perspective(fovy, aspect, near, far) {
+    const f = 1 / Math.tan(fovy / 2), nf = 1 / (near - far);
+    return [f / aspect, 0, 0, 0, 0, f, 0, 0, 0, 0, (far + near) * nf, -1, 0, 0, 2 * far * near * nf, 0];
+  }
+  function lookAt(eye, target, up) {
+    const z = norm(sub(eye, target)), x = norm(cross(up, z)), y = cross(z, x);
+    return [x[0], y[0], z[0], 0, x[1], y[1], z[1], 0, x[2], y[2], z[2], 0,
+      -dot(x, eye), -dot(y, eye), -dot(z, eye), 1];
+  }
+  function mul(a, b) {
+    const o = new Array(16).fill(0);
+    for (let c = 0; c < 4; c++) for (let r = 0; r < 4; r++) {
+      let s = 0;
+      for (let k = 0; k < 4; k++) s += a[k * 4 + r] * b[c * 4 + k];
+      o[c * 4 + r] = s;
+    }
+    return o;
+  }
+  // Rotation + translation from a quaternion [x, y, z, w] and a position.
+  function poseMatrix(q, t) {
+    const [x, y, z, w] = q;
+    return [1 - 2 * (y * y + z * z), 2 * (x * y + z * w), 2 * (x * z - y * w), 0,
+      2 * (x * y - z * w), 1 - 2 * (x * x + z * z), 2 * (y * z + x * w), 0,
+      2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y), 0,
+      t[0], t[1], t[2], 1];
+  }
+  const IDENTITY = poseMatrix([0, 0, 0, 1], [0, 0, 0]);
+  function transform(m, p) {
+    return [m[0] * p[0] + m[4] * p[1] + m[8] * p[2] + m[12],
+      m[1] * p[0] + m[5] * p[1] + m[9] * p[2] + m[13],
+      m[2] * p[0] + m[6] * p[1] + m[10] * p[2] + m[14]];
+  }
+  function project(m, p) { // clip-space projection → [x, y, w]
+    return [m[0] * p[0] + m[4] * p[1] + m[8] * p[2] + m[12],
+      m[1] * p[0] + m[5] * p[1] + m[9] * p[2] + m[13],
+      m[3] * p[0] + m[7] * p[1] + m[11] * p[2] + m[15]];
+  }
+
+  // ---- what to draw this frame, shared by both renderers ----
+  function depthColor(depth) {
+    const t = Math.min(1, depth / (scene ? scene.voxel_size_m : 0.005));
+    return [1, 0.88 * (1 - t), 0.25 * (1 - t)];
+  }
+  function heightColor(z) {
+    const lo = scene.bounds_min_m[2], hi = scene.bounds_max_m[2];
+    const t = Math.max(0, Math.min(1, (z - lo) / ((hi - lo) || 1)));
+    return [0.35 + 0.25 * t, 0.45 + 0.2 * t, 0.55 - 0.15 * t];
+  }
+  function arrows(f) {
+    const c = f.part.position_m;
+    return [
+      { from: c, to: add(c, scale(f.force_n, FORCE_SCALE)), color: [0.25, 1, 0.38] },
+      { from: c, to: add(c, scale(f.torque_nm, TORQUE_SCALE)), color: [1, 0.56, 0.19] },
+    ];
+  }
+  function updateCamera() {
+    const f = state && state.frame;
+    if (camera.follow && f) camera.target = f.part.position_m.slice();
+  }
+  function viewProjection(width, height) {
+    updateCamera();
+    const cp = Math.cos(camera.pitch);
+    const eye = add(camera.target, scale([cp * Math.cos(camera.yaw), cp * Math.sin(camera.yaw), Math.sin(camera.pitch)], camera.dist));
+    const diag = scene ? len(sub(scene.bounds_max_m, scene.bounds_min_m)) : 1;
+    const near = Math.max(1e-4, camera.dist * 0.02), far = camera.dist * 4 + diag * 2;
+    return mul(perspective(0.9, width / Math.max(1, height), near, far), lookAt(eye, camera.target, [0, 0, 1]));
+  }
+
+  // ---- WebGL2 renderer: instanced boxes and lines ----
+  const BOX_VS = `#version 300 es
+  in vec3 a_corner; in vec3 a_normal; in vec3 a_offset; in vec3 a_color;
+  uniform mat4 u_viewProj; uniform mat4 u_model; uniform float u_size; uniform vec3 u_heightLo; uniform float u_heightSpan; uniform bool u_tint;
+  out vec3 v_color; out float v_light;
+  void main() {
+    vec3 c = (u_model * vec4(a_offset, 1.0)).xyz;
+    gl_Position = u_viewProj * vec4(c + a_corner * u_size, 1.0);
+    float t = clamp((c.z - u_heightLo.z) / u_heightSpan, 0.0, 1.0);
+    v_color = u_tint ? vec3(0.35 + 0.25 * t, 0.45 + 0.2 * t, 0.55 - 0.15 * t) : a_color;
+    v_light = 0.45 + 0.55 * max(dot(a_normal, normalize(vec3(0.35, 0.25, 0.9))), 0.0) + 0.15 * abs(a_normal.x);
+  }`;
+  const BOX_FS = `#version 300 es
+  precision mediump float; in vec3 v_color; in float v_light; uniform float u_alpha; out vec4 o;
+  void main() { o = vec4(v_color * v_light, u_alpha); }`;
+  const LINE_VS = `#version 300 es
+  in vec3 a_pos; uniform mat4 u_viewProj; void main() { gl_Position = u_viewProj * vec4(a_pos, 1.0); }`;
+  const LINE_FS = `#version 300 es
+  precision mediump float; uniform vec3 u_color; out vec4 o; void main() { o = vec4(u_color, 1.0); }`;
+
+  function cubeGeometry() {
+    const faces = [[[1, 0, 0], [0, 1, 0], [0, 0, 1]], [[-1, 0, 0], [0, 0, 1], [0, 1, 0]],
+      [[0, 1, 0], [0, 0, 1], [1, 0, 0]], [[0, -1, 0], [1, 0, 0], [0, 0, 1]],
+      [[0, 0, 1], [1, 0, 0], [0, 1, 0]], [[0, 0, -1], [0, 1, 0], [1, 0, 0]]];
+    const pos = [], nrm = [];
+    for (const [n, u, v] of faces) {
+      const corner = (a, b) => [0, 1, 2].map((i) => 0.5 * n[i] + a * 0.5 * u[i] + b * 0.5 * v[i]);
+      for (const [a, b] of [[-1, -1], [1, -1], [1, 1], [-1, -1], [1, 1], [-1, 1]]) {
+        pos.push(...corner(a, b)); nrm.push(...n);
+      }
+    }
+    return { pos: new Float32Array(pos), nrm: new Float32Array(nrm), count: 36 };
+  }
+
+  function makeGL() {
+    let gl = null;
+    try { gl = canvas.getContext('webgl2', { antialias: true, preserveDrawingBuffer: true }); } catch (e) { gl = null; }
+    if (!gl) return null;
+    const program = (vs, fs) => {
+      const p = gl.createProgram();
+      for (const [type, src] of [[gl.VERTEX_SHADER, vs], [gl.FRAGMENT_SHADER, fs]]) {
+        const s = gl.createShader(type);
+        gl.shaderSource(s, src); gl.compileShader(s);
+        if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) throw new Error(gl.getShaderInfoLog(s));
+        gl.attachShader(p, s);
+      }
+      gl.linkProgram(p);
+      if (!gl.getProgramParameter(p, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(p));
+      return p;
+    };
+    let boxProg, lineProg;
+    try { boxProg = program(BOX_VS, BOX_FS); lineProg = program(LINE_VS, LINE_FS); } catch (e) {
+      console.warn('WebGL2 shaders failed, using the 2D canvas:', e); return null;
+    }
+    const loc = (p, n) => gl.getUniformLocation(p, n);
+    const attr = (p, n) => gl.getAttribLocation(p, n);
+    const cube = cubeGeometry();
+    const buffer = (data, usage) => { const b = gl.createBuffer(); gl.bindBuffer(gl.ARRAY_BUFFER, b); gl.bufferData(gl.ARRAY_BUFFER, data, usage || gl.STATIC_DRAW); return b; };
+    const cubePos = buffer(cube.pos), cubeNrm = buffer(cube.nrm);
+    const sceneBuf = buffer(boxes), shellBuf = buffer(shell);
+    const contactBuf = gl.createBuffer(), contactColorBuf = gl.createBuffer(), lineBuf = gl.createBuffer();
+    const A = { corner: attr(boxProg, 'a_corner'), normal: attr(boxProg, 'a_normal'), offset: attr(boxProg, 'a_offset'), color: attr(boxProg, 'a_color') };
+    const bind = (a, buf, size, divisor) => {
+      gl.bindBuffer(gl.ARRAY_BUFFER, buf); gl.enableVertexAttribArray(a);
+      gl.vertexAttribPointer(a, size, gl.FLOAT, false, 0, 0); gl.vertexAttribDivisor(a, divisor);
+    };
+    function drawBoxes(vp, offsets, count, size, model, opts) {
+      if (!count) return;
+      gl.useProgram(boxProg);
+      bind(A.corner, cubePos, 3, 0); bind(A.normal, cubeNrm, 3, 0); bind(A.offset, offsets, 3, 1);
+      if (opts.colors) bind(A.color, opts.colors, 3, 1);
+      else { gl.disableVertexAttribArray(A.color); gl.vertexAttrib3f(A.color, ...(opts.color || [1, 1, 1])); }
+      gl.uniformMatrix4fv(loc(boxProg, 'u_viewProj'), false, vp);
+      gl.uniformMatrix4fv(loc(boxProg, 'u_model'), false, model);
+      gl.uniform1f(loc(boxProg, 'u_size'), size);
+      gl.uniform1f(loc(boxProg, 'u_alpha'), opts.alpha || 1);
+      gl.uniform1i(loc(boxProg, 'u_tint'), opts.tint ? 1 : 0);
+      gl.uniform3fv(loc(boxProg, 'u_heightLo'), scene.bounds_min_m);
+      gl.uniform1f(loc(boxProg, 'u_heightSpan'), (scene.bounds_max_m[2] - scene.bounds_min_m[2]) || 1);
+      gl.drawArraysInstanced(gl.TRIANGLES, 0, cube.count, count);
+      gl.vertexAttribDivisor(A.offset, 0);
+      if (opts.colors) gl.vertexAttribDivisor(A.color, 0);
+    }
+    function drawLines(vp, list) {
+      gl.useProgram(lineProg);
+      const a = attr(lineProg, 'a_pos');
+      gl.uniformMatrix4fv(loc(lineProg, 'u_viewProj'), false, vp);
+      for (const l of list) {
+        gl.bindBuffer(gl.ARRAY_BUFFER, lineBuf);
+        gl.bufferData(gl.ARRAY_BUFFER, new Float32Array(arrowSegments(l)), gl.DYNAMIC_DRAW);
+        gl.enableVertexAttribArray(a); gl.vertexAttribPointer(a, 3, gl.FLOAT, false, 0, 0); gl.vertexAttribDivisor(a, 0);
+        gl.uniform3fv(loc(lineProg, 'u_color'), l.color);
+        gl.drawArrays(gl.LINES, 0, 6);
+      }
+    }
+    return {
+      mode: 'webgl2',
+      draw() {
+        const w = canvas.width, h = canvas.height;
+        gl.viewport(0, 0, w, h);
+        gl.clearColor(0.106, 0.133, 0.169, 1);
+        gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
+        if (!scene) return;
+        const vp = viewProjection(w, h);
+        gl.enable(gl.DEPTH_TEST); gl.disable(gl.BLEND); gl.depthMask(true);
+        drawBoxes(vp, sceneBuf, boxes.length / 3, scene.box_size_m * 0.92, IDENTITY, { tint: true });
+        const f = state && state.frame;
+        if (!f) return;
+        const pointSize = scene.shell_voxel_size_m * 0.8;
+        drawBoxes(vp, shellBuf, shell.length / 3, pointSize, poseMatrix(f.part.orientation_xyzw, f.part.position_m), { color: [0.91, 0.91, 0.91] });
+        const contacts = contactArrays(f);
+        if (contacts.count) {
+          gl.bindBuffer(gl.ARRAY_BUFFER, contactBuf); gl.bufferData(gl.ARRAY_BUFFER, contacts.pos, gl.DYNAMIC_DRAW);
+          gl.bindBuffer(gl.ARRAY_BUFFER, contactColorBuf); gl.bufferData(gl.ARRAY_BUFFER, contacts.col, gl.DYNAMIC_DRAW);
+          drawBoxes(vp, contactBuf, contacts.count, pointSize * 1.3, IDENTITY, { colors: contactColorBuf });
+        }
+        gl.disable(gl.DEPTH_TEST);
+        drawLines(vp, arrows(f));
+        gl.enable(gl.DEPTH_TEST); gl.enable(gl.BLEND); gl.blendFunc(gl.SRC_ALPHA, gl.ONE_MINUS_SRC_ALPHA); gl.depthMask(false);
+        drawBoxes(vp, shellBuf, shell.length / 3, pointSize, poseMatrix(f.handle.orientation_xyzw, f.handle.position_m), { color: [0.35, 0.63, 1], alpha: 0.25 });
+        gl.depthMask(true); gl.disable(gl.BLEND);
+      },
+      setScene() {
+        gl.bindBuffer(gl.ARRAY_BUFFER, sceneBuf); gl.bufferData(gl.ARRAY_BUFFER, boxes, gl.STATIC_DRAW);
+        gl.bindBuffer(gl.ARRAY_BUFFER, shellBuf); gl.bufferData(gl.ARRAY_BUFFER, shell, gl.STATIC_DRAW);
+      },
+    };
+  }
+
+  // An arrow as three segments: the shaft and two barbs.
+  function arrowSegments(l) {
+    const d = sub(l.to, l.from), n = len(d);
+    if (n < 1e-6) return new Array(18).fill(0);
+    const dir = scale(d, 1 / n), side = norm(Math.abs(dir[2]) < 0.9 ? cross(dir, [0, 0, 1]) : cross(dir, [1, 0, 0]));
+    const back = sub(l.to, scale(dir, n * 0.2));
+    return [...l.from, ...l.to, ...l.to, ...add(back, scale(side, n * 0.08)), ...l.to, ...sub(back, scale(side, n * 0.08))];
+  }
+
+  function contactArrays(f) {
+    const n = f.contact_points.length + f.interior_points.length;
+    const pos = new Float32Array(n * 3), col = new Float32Array(n * 3);
+    let i = 0;
+    for (const c of f.contact_points) { pos.set(c.slice(0, 3), i * 3); col.set(depthColor(c[3]), i * 3); i++; }
+    for (const c of f.interior_points) { pos.set(c, i * 3); col.set([1, 0.25, 1], i * 3); i++; }
+    return { pos, col, count: n };
+  }
+
+  // ---- 2D canvas fallback: projected squares, far to near by layer ----
+  function make2D() {
+    const ctx = canvas.getContext('2d');
+    if (!ctx) return null;
+    const css = (c, a) => `rgba(${Math.round(c[0] * 255)},${Math.round(c[1] * 255)},${Math.round(c[2] * 255)},${a || 1})`;
+    return {
+      mode: 'canvas2d',
+      draw() {
+        const w = canvas.width, h = canvas.height;
+        ctx.fillStyle = '#1b222b'; ctx.fillRect(0, 0, w, h);
+        if (!scene) return;
+        const vp = viewProjection(w, h);
+        const square = (p, size, color, alpha) => {
+          const q = project(vp, p);
+          if (q[2] <= 1e-4) return;
+          const x = (q[0] / q[2] * 0.5 + 0.5) * w, y = (0.5 - q[1] / q[2] * 0.5) * h;
+          const s = Math.max(1, size / q[2] * h * 0.9);
+          if (x < -s || y < -s || x > w + s || y > h + s) return;
+          ctx.fillStyle = css(color, alpha); ctx.fillRect(x - s / 2, y - s / 2, s, s);
+        };
+        const stride = Math.max(1, Math.ceil(boxes.length / 3 / 60000));
+        for (let i = 0; i < boxes.length; i += 3 * stride) {
+          const p = [boxes[i], boxes[i + 1], boxes[i + 2]];
+          square(p, scene.box_size_m, heightColor(p[2]));
+        }
+        const f = state && state.frame;
+        if (!f) return;
+        const size = scene.shell_voxel_size_m;
+        for (const [pose, color, alpha] of [[f.handle, [0.35, 0.63, 1], 0.3], [f.part, [0.91, 0.91, 0.91], 1]]) {
+          const m = poseMatrix(pose.orientation_xyzw, pose.position_m);
+          for (let i = 0; i < shell.length; i += 3) square(transform(m, [shell[i], shell[i + 1], shell[i + 2]]), size, color, alpha);
+        }
+        for (const c of f.contact_points) square(c, size * 1.3, depthColor(c[3]));
+        for (const c of f.interior_points) square(c, size * 1.3, [1, 0.25, 1]);
+        ctx.lineWidth = 2;
+        for (const l of arrows(f)) {
+          const s = arrowSegments(l);
+          ctx.strokeStyle = css(l.color); ctx.beginPath();
+          for (let k = 0; k < 18; k += 6) {
+            const a = project(vp, s.slice(k, k + 3)), b = project(vp, s.slice(k + 3, k + 6));
+            if (a[2] <= 1e-4 || b[2] <= 1e-4) continue;
+            ctx.moveTo((a[0] / a[2] * 0.5 + 0.5) * w, (0.5 - a[1] / a[2] * 0.5) * h);
+            ctx.lineTo((b[0] / b[2] * 0.5 + 0.5) * w, (0.5 - b[1] / b[2] * 0.5) * h);
+          }
+          ctx.stroke();
+        }
+      },
+      setScene() {},
+    };
+  }
+
+  // ---- strip charts ----
+  function chart(id, labelId, label, series) {
+    return { canvas: $(id), labelEl: $(labelId), label, series, data: series.map(() => []) };
+  }
+  const charts = [
+    chart('chart-compute', 'lbl-compute', 'frame compute (µs)', [
+      { key: 'compute_us', color: '#6fc3ff' }, { key: 'recent_max_compute_us', color: '#ff8060' }]),
+    chart('chart-period', 'lbl-period', 'period error (µs)', [
+      { key: 'period_error_us', color: '#6fc3ff' }, { key: 'recent_max_period_error_us', color: '#ff8060' }]),
+    chart('chart-contacts', 'lbl-contacts', 'contacts', [{ key: 'contacts', color: '#ffd040' }]),
+    chart('chart-missed', 'lbl-missed', 'missed deadlines (total)', [{ key: 'missed_deadlines', color: '#ff5050' }]),
+  ];
+  function pushCharts(f) {
+    for (const c of charts) {
+      c.series.forEach((s, i) => { const d = c.data[i]; d.push(f[s.key]); if (d.length > HISTORY) d.shift(); });
+      const latest = c.series.map((s) => fmt(f[s.key])).join(' / max ');
+      c.labelEl.textContent = `${c.label}: ${latest}`;
+      drawChart(c);
+    }
+  }
+  function drawChart(c) {
+    const ctx = c.canvas.getContext('2d'), w = c.canvas.width, h = c.canvas.height;
+    ctx.fillStyle = '#0b0f13'; ctx.fillRect(0, 0, w, h);
+    const top = Math.max(1e-9, ...c.data.flat()) * 1.1;
+    ctx.fillStyle = '#56606b'; ctx.font = '10px monospace'; ctx.fillText(fmt(top), 2, 10);
+    c.series.forEach((s, i) => {
+      const d = c.data[i];
+      ctx.strokeStyle = s.color; ctx.beginPath();
+      d.forEach((v, k) => {
+        const x = (k + HISTORY - d.length) / (HISTORY - 1) * w, y = h - 1 - v / top * (h - 12);
+        if (k === 0) ctx.moveTo(x, y); else ctx.lineTo(x, y);
+      });
+      ctx.stroke();
+    });
+  }
+  const fmt = (v) => (typeof v !== 'number' ? String(v) : Math.abs(v) >= 100 || Number.isInteger(v) ? v.toFixed(0) : v.toFixed(1));
+  const v3 = (a) => a.map((x) => x.toFixed(4).padStart(8)).join(' ');
+
+  // ---- state handling ----
+  let drawPending = false;
+  function requestDraw() {
+    if (drawPending || !renderer) return;
+    drawPending = true;
+    requestAnimationFrame(() => { drawPending = false; resize(); renderer.draw(); });
+  }
+  function onState(s) {
+    const fresh = !state || !state.frame || !s.frame || s.frame.frame !== state.frame.frame;
+    state = s;
+    const st = $('status');
+    st.className = s.status;
+    st.textContent = { offline: 'offline (scene only)', waiting: 'waiting for the loop', live: 'live', stale: 'stale: no new frame' }[s.status] || s.status;
+    const f = s.frame;
+    if (f) {
+      $('pose').textContent = [
+        `frame ${f.frame}  t ${f.time_s.toFixed(3)} s`,
+        `part   ${v3(f.part.position_m)} m`,
+        `       q ${f.part.orientation_xyzw.map((x) => x.toFixed(3)).join(' ')}`,
+        `handle ${v3(f.handle.position_m)} m`,
+        `force  ${v3(f.force_n)} N`,
+        `torque ${v3(f.torque_nm)} N·m`,
+        `contacts ${f.contacts} (shown ${f.contact_points.length}, interior ${f.interior_points.length})`,
+        `touching ${f.touching}  penetrating ${f.penetrating}  watchdog ${f.watchdog_trips}`,
+      ].join('\n');
+      if (fresh) pushCharts(f);
+    } else if (s.status === 'offline') {
+      $('pose').textContent = 'no loop: scene only';
+    }
+    requestDraw();
+  }
+  function connect() {
+    let ws;
+    try { ws = new WebSocket(`ws://${location.host}/ws`); } catch (e) { return; }
+    ws.onmessage = (ev) => { lastMessageAt = performance.now(); try { onState(JSON.parse(ev.data)); } catch (e) { console.warn(e); } };
+    ws.onclose = () => setTimeout(connect, 1000);
+  }
+  // Without WebSocket messages (blocked, or a proxy in the way) poll /state instead.
+  async function poll() {
+    if (performance.now() - lastMessageAt > 500) {
+      try { onState(await (await fetch('/state', { cache: 'no-store' })).json()); } catch (e) { /* server gone */ }
+    }
+    setTimeout(poll, 200);
+  }
+
+  // ---- camera input ----
+  function resize() {
+    const r = canvas.getBoundingClientRect(), dpr = window.devicePixelRatio || 1;
+    const w = Math.max(1, Math.round(r.width * dpr)), h = Math.max(1, Math.round(r.height * dpr));
+    if (canvas.width !== w || canvas.height !== h) { canvas.width = w; canvas.height = h; }
+  }
+  let drag = null;
+  canvas.addEventListener('mousedown', (e) => { drag = [e.clientX, e.clientY]; });
+  window.addEventListener('mouseup', () => { drag = null; });
+  window.addEventListener('mousemove', (e) => {
+    if (!drag) return;
+    camera.yaw -= (e.clientX - drag[0]) * 0.01;
+    camera.pitch = Math.max(-1.5, Math.min(1.5, camera.pitch + (e.clientY - drag[1]) * 0.01));
+    drag = [e.clientX, e.clientY]; requestDraw();
+  });
+  canvas.addEventListener('wheel', (e) => { e.preventDefault(); camera.dist *= Math.exp(e.deltaY * 0.001); requestDraw(); }, { passive: false });
+  function setFollow(on) {
+    camera.follow = on; $('follow').checked = on;
+    if (!on && scene) {
+      camera.target = scale(add(scene.bounds_min_m, scene.bounds_max_m), 0.5);
+      camera.dist = len(sub(scene.bounds_max_m, scene.bounds_min_m)) * 0.8;
+    } else camera.dist = Math.max(0.15, (scene ? scene.shell_voxel_size_m : 0.005) * 120);
+    requestDraw();
+  }
+  $('follow').addEventListener('change', (e) => setFollow(e.target.checked));
+  window.addEventListener('keydown', (e) => { if (e.key === 'f') setFollow(!camera.follow); });
+  window.addEventListener('resize', requestDraw);
+
+  // ---- start ----
+  async function start() {
+    resize();
+    renderer = makeGL() || make2D();
+    $('render-mode').textContent = renderer ? renderer.mode : 'none';
+    const get = async (path, kind) => { const r = await fetch(path, { cache: 'no-store' }); if (!r.ok) throw new Error(`${path}: ${r.status}`); return r[kind](); };
+    try {
+      scene = await get('/scene', 'json');
+      boxes = new Float32Array(await get('/scene/boxes', 'arrayBuffer'));
+      shell = new Float32Array(await get('/scene/shell', 'arrayBuffer'));
+    } catch (e) {
+      $('status').className = 'error'; $('status').textContent = `cannot load the scene: ${e.message}`; return;
+    }
+    $('scene-info').textContent = `${scene.label}: ${scene.surface_voxels} Surface voxels of ${(scene.voxel_size_m * 1000).toFixed(1)} mm, ` +
+      `${scene.boxes} boxes of ${(scene.box_size_m * 1000).toFixed(1)} mm; part ${scene.shell_points_total} points`;
+    if (renderer) renderer.setScene();
+    onState(await get('/state', 'json'));
+    setFollow(!!(state && state.status !== 'offline' && scene.shell_points));
+    resize(); if (renderer) renderer.draw();
+    connect();
+    poll();
+  }
+  start();
+})();

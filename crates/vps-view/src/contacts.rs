@@ -1,0 +1,160 @@
+//! The contact points of the part at a pose, for drawing: the shell points in Surface voxels (with
+//! their depth, as the sampling kernel defines it) and in Interior voxels.
+//!
+//! This is the viewer's own re-sampling, on the viewer's thread at the state rate, never the frame
+//! loop's: the loop publishes only the pose. Depth per point (DESIGN §3, `vps_haptic::kernel`):
+//! `d = max(0, N·(C − P))` with `P = R p + x` the world point, `N = R n` its inward normal and `C`
+//! the centre of its voxel; here in f64, so it may differ from the kernel's f32 figure in the last
+//! bits.
+
+use glam::{DQuat, DVec3, Vec3};
+use vps_voxmap::{PointShell, Voxel, VoxelTree};
+
+/// One shell point in a non-free voxel of the static scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactSample {
+    /// World position of the point (m).
+    pub position: Vec3,
+    /// Depth along its normal into the force layer (m); 0 for an Interior point.
+    pub depth: f32,
+    /// The point is in an Interior voxel (the part has gone through the force layer).
+    pub interior: bool,
+}
+
+/// Replaces `out` with the shell points of `shell` at pose (`position` m, `orientation`) that are in
+/// contact: in a Surface voxel with depth > 0, or in an Interior voxel. If there are more than
+/// `max_points`, keeps the Interior points first and then the deepest. Reuses `out`'s capacity;
+/// cost is one voxel lookup per shell point.
+pub fn sample_contacts(
+    tree: &VoxelTree,
+    shell: &PointShell,
+    position: DVec3,
+    orientation: DQuat,
+    max_points: usize,
+    out: &mut Vec<ContactSample>,
+) {
+    out.clear();
+    let spec = tree.spec();
+    for (p, n) in shell.points.iter().zip(&shell.normals) {
+        let world = orientation * p.as_dvec3() + position;
+        let ijk = spec.index_of(world);
+        let sample = match tree.get(ijk) {
+            Voxel::Surface => {
+                let normal = orientation * n.as_dvec3();
+                let depth = normal.dot(spec.center_of(ijk) - world).max(0.0);
+                if depth <= 0.0 {
+                    continue;
+                }
+                ContactSample {
+                    position: world.as_vec3(),
+                    depth: depth as f32,
+                    interior: false,
+                }
+            }
+            Voxel::Interior => ContactSample {
+                position: world.as_vec3(),
+                depth: 0.0,
+                interior: true,
+            },
+            Voxel::Free | Voxel::Proximity => continue,
+        };
+        out.push(sample);
+    }
+    if out.len() > max_points {
+        let deepest_first = |a: &ContactSample, b: &ContactSample| {
+            b.interior
+                .cmp(&a.interior)
+                .then(b.depth.total_cmp(&a.depth))
+        };
+        if max_points > 0 {
+            out.select_nth_unstable_by(max_points - 1, deepest_first);
+        }
+        out.truncate(max_points);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::tests::{slab, square_shell};
+
+    /// The slab's Surface layer spans z ∈ [0.10, 0.11) m (centre 0.105); Interior below.
+    fn at_height(z: f64, max_points: usize) -> Vec<ContactSample> {
+        let mut out = vec![ContactSample {
+            position: Vec3::ZERO,
+            depth: 9.0,
+            interior: false,
+        }];
+        sample_contacts(
+            &slab(),
+            &square_shell(),
+            DVec3::new(0.2, 0.2, z),
+            DQuat::IDENTITY,
+            max_points,
+            &mut out,
+        );
+        out
+    }
+
+    #[test]
+    fn free_space_gives_no_contacts() {
+        assert!(at_height(0.2, 100).is_empty());
+    }
+
+    #[test]
+    fn a_face_pressed_into_the_force_layer_gives_its_depth() {
+        let c = at_height(0.102, 100);
+        assert_eq!(c.len(), 25);
+        for s in &c {
+            assert!(!s.interior);
+            assert!((s.depth - 0.003).abs() < 1e-6, "depth {}", s.depth);
+            assert!((s.position.z - 0.102).abs() < 1e-6);
+        }
+        // Above the voxel centre the normal (+z) points away from it: depth 0, no contact.
+        assert!(at_height(0.108, 100).is_empty());
+    }
+
+    #[test]
+    fn interior_points_are_marked_and_the_cap_keeps_them() {
+        let c = at_height(0.05, 100);
+        assert_eq!(c.len(), 25);
+        assert!(c.iter().all(|s| s.interior));
+        let rotated = {
+            // Tilt the square about x: one edge dips into the Interior, the rest stays in the
+            // force layer at various depths.
+            let mut out = Vec::new();
+            sample_contacts(
+                &slab(),
+                &square_shell(),
+                DVec3::new(0.2, 0.2, 0.1035),
+                DQuat::from_rotation_x(0.2),
+                6,
+                &mut out,
+            );
+            out
+        };
+        assert_eq!(rotated.len(), 6);
+        assert!(rotated.iter().any(|s| s.interior));
+        let kept_min = rotated
+            .iter()
+            .filter(|s| !s.interior)
+            .map(|s| s.depth)
+            .fold(f32::INFINITY, f32::min);
+        let mut all = Vec::new();
+        sample_contacts(
+            &slab(),
+            &square_shell(),
+            DVec3::new(0.2, 0.2, 0.1035),
+            DQuat::from_rotation_x(0.2),
+            usize::MAX,
+            &mut all,
+        );
+        assert!(all.len() > 6);
+        let dropped_max = all
+            .iter()
+            .filter(|s| !s.interior && !rotated.contains(s))
+            .map(|s| s.depth)
+            .fold(0.0, f32::max);
+        assert!(dropped_max <= kept_min, "the cap keeps the deepest");
+    }
+}

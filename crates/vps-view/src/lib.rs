@@ -1,0 +1,54 @@
+//! The live viewer of vps: a small HTTP + WebSocket server (axum on its own tokio runtime thread)
+//! and a dependency-free WebGL page that shows the static scene, the part at its current pose, the
+//! handle ghost, contact points coloured by depth, force and torque arrows and live strip charts.
+//!
+//! The frame loop is never touched: the viewer reads the loop's lock-free latest-value state feed
+//! ([`vps_runtime::state_feed`]) from its own thread at [`STATE_RATE_HZ`], re-samples the point
+//! shell at the published pose for the contact points (off the loop thread, bounded), and pushes
+//! one JSON state message per tick to every WebSocket client. A slow client only ever misses
+//! states: nothing queues up.
+//!
+//! Routes (see [`server`]): `/` the page, `/app.js` its script, `/scene` scene metadata (JSON),
+//! `/scene/boxes` and `/scene/shell` (little-endian f32 xyz triples, m), `/state` the latest state
+//! (JSON), `/ws` the state stream (WebSocket, JSON text messages).
+//!
+//! Module map: [`scene`] (what is drawn: decimated Surface voxels, the shell), [`contacts`]
+//! (contact points at a pose), [`state`] (the JSON state message), [`sampler`] (the feed reader
+//! thread), [`server`] (routes, WebSocket, start and shutdown), [`client`] (a minimal blocking
+//! HTTP/WebSocket client for tests, benchmarks and tools).
+
+pub mod client;
+pub mod contacts;
+pub mod sampler;
+pub mod scene;
+pub mod server;
+pub mod state;
+
+pub use contacts::{sample_contacts, ContactSample};
+pub use scene::{SceneLimits, ViewerScene};
+pub use server::{ViewerHandle, ViewerServer};
+pub use state::{FrameView, ViewState, ViewStatus};
+
+/// How often the viewer reads the feed and pushes a state to its clients (Hz).
+pub const STATE_RATE_HZ: f64 = 30.0;
+
+/// Why the viewer could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum ViewError {
+    /// The listening socket could not be bound.
+    #[error("viewer: cannot listen on {addr}: {source}")]
+    Bind {
+        /// The address asked for.
+        addr: std::net::SocketAddr,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The tokio runtime or a viewer thread could not be started.
+    #[error("viewer: cannot start {what}: {source}")]
+    Start {
+        /// What failed to start.
+        what: &'static str,
+        /// The OS error.
+        source: std::io::Error,
+    },
+}

@@ -1,0 +1,247 @@
+//! The HTTP + WebSocket server: axum on a single-threaded tokio runtime on its own thread
+//! (`vps-view-http`), beside the feed sampler thread (`vps-view-state`). Neither touches the frame
+//! loop; both stop when the [`ViewerHandle`] is dropped.
+//!
+//! Routes: `/` (the page), `/app.js` (its script), `/scene` ([`crate::scene::SceneMeta`] as JSON),
+//! `/scene/boxes` and `/scene/shell` (f32 triples, see [`crate::scene::encode_points`]), `/state`
+//! (the latest [`crate::ViewState`] as JSON), `/ws` (the same states pushed as text messages at
+//! [`crate::STATE_RATE_HZ`]; whatever a client sends is read and dropped, and a client message
+//! over [`MAX_CLIENT_MESSAGE`] bytes or a protocol error closes that connection only).
+
+use crate::sampler::{self, FeedSampler, MAX_CONTACT_POINTS};
+use crate::scene::{encode_points, ViewerScene};
+use crate::{ViewError, STATE_RATE_HZ};
+use axum::body::Bytes;
+use axum::extract::ws::{Message, Utf8Bytes, WebSocket, WebSocketUpgrade};
+use axum::extract::State;
+use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE};
+use axum::response::{IntoResponse, Response};
+use axum::routing::get;
+use axum::Router;
+use std::net::SocketAddr;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::Duration;
+use tokio::sync::watch;
+use vps_runtime::StateFeedReceiver;
+
+/// Largest message or frame a WebSocket client may send (bytes); more closes its connection.
+pub const MAX_CLIENT_MESSAGE: usize = 4096;
+
+const INDEX_HTML: &str = include_str!("../assets/index.html");
+const APP_JS: &str = include_str!("../assets/app.js");
+
+/// Starts viewers.
+#[derive(Debug)]
+pub struct ViewerServer;
+
+/// A running viewer. Dropping it stops the server and the sampler and joins their threads (within
+/// about one state period).
+#[derive(Debug)]
+pub struct ViewerHandle {
+    addr: SocketAddr,
+    stop: Arc<AtomicBool>,
+    shutdown: watch::Sender<bool>,
+    threads: Vec<JoinHandle<()>>,
+}
+
+/// What every route reads; built once.
+struct Shared {
+    scene_json: Bytes,
+    boxes: Bytes,
+    shell: Bytes,
+    states: watch::Receiver<Utf8Bytes>,
+}
+
+impl ViewerServer {
+    /// Binds `addr` (port 0 picks a free one), then starts the server thread and the sampler
+    /// thread reading `feed` (`None`: offline, the scene only). Returns once the socket is bound;
+    /// does not block on clients. Errors: the address cannot be bound, a thread or the runtime
+    /// cannot start.
+    pub fn start(
+        addr: SocketAddr,
+        scene: ViewerScene,
+        feed: Option<StateFeedReceiver>,
+    ) -> Result<ViewerHandle, ViewError> {
+        let listener =
+            std::net::TcpListener::bind(addr).map_err(|source| ViewError::Bind { addr, source })?;
+        let start_err = |what| move |source| ViewError::Start { what, source };
+        listener
+            .set_nonblocking(true)
+            .map_err(start_err("the listener"))?;
+        let local = listener.local_addr().map_err(start_err("the listener"))?;
+        let runtime = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .map_err(start_err("the tokio runtime"))?;
+
+        let mut sampler = FeedSampler::new(feed, scene.contact.clone(), MAX_CONTACT_POINTS);
+        let first = sampler.tick(std::time::Instant::now()).to_json();
+        let (state_tx, state_rx) = watch::channel(Utf8Bytes::from(first));
+        let (shutdown, mut shutdown_rx) = watch::channel(false);
+        let shared = Arc::new(Shared {
+            scene_json: Bytes::from(serde_json::to_vec(&scene.meta).unwrap_or_default()),
+            boxes: Bytes::from(encode_points(&scene.boxes)),
+            shell: Bytes::from(encode_points(&scene.shell)),
+            states: state_rx,
+        });
+        let app = router(shared);
+
+        let stop = Arc::new(AtomicBool::new(false));
+        let sampler_stop = stop.clone();
+        let period = Duration::from_secs_f64(1.0 / STATE_RATE_HZ);
+        let sampler_thread = std::thread::Builder::new()
+            .name("vps-view-state".into())
+            .spawn(move || {
+                sampler::run(sampler, period, sampler_stop, |json| {
+                    state_tx.send_replace(Utf8Bytes::from(json));
+                })
+            })
+            .map_err(start_err("the sampler thread"))?;
+        let server_thread = std::thread::Builder::new()
+            .name("vps-view-http".into())
+            .spawn(move || {
+                runtime.block_on(async move {
+                    let listener = match tokio::net::TcpListener::from_std(listener) {
+                        Ok(l) => l,
+                        Err(e) => return tracing::error!("viewer: {e}"),
+                    };
+                    tokio::select! {
+                        result = axum::serve(listener, app) => {
+                            if let Err(e) = result {
+                                tracing::error!("viewer: {e}");
+                            }
+                        }
+                        _ = shutdown_rx.wait_for(|stop| *stop) => {}
+                    }
+                });
+                // Dropping the runtime drops every connection task, WebSockets included.
+                runtime.shutdown_timeout(Duration::from_millis(200));
+            });
+        let server_thread = match server_thread {
+            Ok(t) => t,
+            Err(source) => {
+                stop.store(true, Ordering::Relaxed);
+                let _ = sampler_thread.join();
+                return Err(ViewError::Start {
+                    what: "the server thread",
+                    source,
+                });
+            }
+        };
+        Ok(ViewerHandle {
+            addr: local,
+            stop,
+            shutdown,
+            threads: vec![sampler_thread, server_thread],
+        })
+    }
+}
+
+impl ViewerHandle {
+    /// The address the server listens on (the bound port when 0 was asked for).
+    pub fn local_addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    /// The page's URL (`http://ADDR/`; an unspecified address is shown as 127.0.0.1).
+    pub fn url(&self) -> String {
+        let mut addr = self.addr;
+        if addr.ip().is_unspecified() {
+            addr.set_ip(std::net::Ipv4Addr::LOCALHOST.into());
+        }
+        format!("http://{addr}/")
+    }
+}
+
+impl Drop for ViewerHandle {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        self.shutdown.send_replace(true);
+        for t in self.threads.drain(..) {
+            let _ = t.join();
+        }
+    }
+}
+
+fn router(shared: Arc<Shared>) -> Router {
+    Router::new()
+        .route(
+            "/",
+            get(|| async { typed("text/html; charset=utf-8", INDEX_HTML) }),
+        )
+        .route(
+            "/app.js",
+            get(|| async { typed("text/javascript; charset=utf-8", APP_JS) }),
+        )
+        .route(
+            "/scene",
+            get(|State(s): State<Arc<Shared>>| async move {
+                typed("application/json", s.scene_json.clone())
+            }),
+        )
+        .route(
+            "/scene/boxes",
+            get(|State(s): State<Arc<Shared>>| async move {
+                typed("application/octet-stream", s.boxes.clone())
+            }),
+        )
+        .route(
+            "/scene/shell",
+            get(|State(s): State<Arc<Shared>>| async move {
+                typed("application/octet-stream", s.shell.clone())
+            }),
+        )
+        .route(
+            "/state",
+            get(|State(s): State<Arc<Shared>>| async move {
+                let json = Bytes::from(s.states.borrow().as_str().to_owned());
+                typed("application/json", json)
+            }),
+        )
+        .route("/ws", get(upgrade))
+        .with_state(shared)
+}
+
+/// A response with `content_type` and no caching (the state changes; the scene may be rebuilt
+/// between runs on the same port).
+fn typed(content_type: &'static str, body: impl IntoResponse) -> Response {
+    (
+        [(CONTENT_TYPE, content_type), (CACHE_CONTROL, "no-store")],
+        body,
+    )
+        .into_response()
+}
+
+async fn upgrade(ws: WebSocketUpgrade, State(shared): State<Arc<Shared>>) -> Response {
+    let states = shared.states.clone();
+    ws.max_message_size(MAX_CLIENT_MESSAGE)
+        .max_frame_size(MAX_CLIENT_MESSAGE)
+        .on_upgrade(move |socket| stream_states(socket, states))
+}
+
+/// Sends the current state, then each new one, until the client goes away or misbehaves. A slow
+/// client skips states (the watch channel keeps only the newest); nothing queues.
+async fn stream_states(mut socket: WebSocket, mut states: watch::Receiver<Utf8Bytes>) {
+    loop {
+        let text = states.borrow_and_update().clone();
+        if socket.send(Message::Text(text)).await.is_err() {
+            return;
+        }
+        loop {
+            tokio::select! {
+                changed = states.changed() => {
+                    if changed.is_err() {
+                        return;
+                    }
+                    break;
+                }
+                incoming = socket.recv() => match incoming {
+                    Some(Ok(Message::Close(_))) | Some(Err(_)) | None => return,
+                    Some(Ok(_)) => {}
+                },
+            }
+        }
+    }
+}
