@@ -74,6 +74,53 @@ pub enum Command {
     Cluster(ClusterArgs),
     /// Measure; prints JSON.
     Bench(BenchArgs),
+    /// Speed against accuracy over voxel sizes and shell methods, against the exact reference.
+    Sweep(SweepArgs),
+    /// Propose the finest voxel size whose frame p99.9 fits a budget on this machine, and verify it.
+    Tune(TuneArgs),
+}
+
+/// Arguments of `vps sweep`.
+#[derive(Args, Debug)]
+pub struct SweepArgs {
+    /// The sweep file (voxel sizes, methods, scene files).
+    #[arg(long, default_value = "configs/sweep.toml")]
+    pub config: PathBuf,
+    /// Write the table as JSON here (default: print it).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write the table as CSV here.
+    #[arg(long)]
+    pub csv: Option<PathBuf>,
+    /// Write one SVG plot per figure into this directory.
+    #[arg(long)]
+    pub plots: Option<PathBuf>,
+    /// Test-sized run: the two coarsest sizes of at least 5 mm, sessions cut to 2 s.
+    #[arg(long)]
+    pub quick: bool,
+}
+
+/// Arguments of `vps tune`.
+#[derive(Args, Debug)]
+pub struct TuneArgs {
+    /// The scene file to tune for.
+    #[arg(long, default_value = "configs/scenes/rig-teapot.toml")]
+    pub scene: PathBuf,
+    /// Budget for frame compute p99.9, as a fraction of the 1 ms period.
+    #[arg(long, default_value_t = 0.6)]
+    pub budget_fraction: f64,
+    /// Free-running frames measured per voxel size.
+    #[arg(long, default_value_t = 5000)]
+    pub frames: u64,
+    /// Paced frames run at the chosen size to verify it.
+    #[arg(long, default_value_t = 10_000)]
+    pub verify_frames: u64,
+    /// The committed sweep table, for the predicted accuracy.
+    #[arg(long, default_value = "docs/sweep/sweep.json")]
+    pub sweep: PathBuf,
+    /// Print as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Arguments of `vps worker`.

@@ -8,6 +8,7 @@ mod cli;
 mod cmd;
 mod demo;
 mod scene;
+mod scene_config;
 mod session;
 mod units;
 

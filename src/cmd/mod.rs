@@ -10,6 +10,9 @@ pub mod output;
 mod probe;
 mod run;
 mod shell;
+mod sweep;
+mod sweep_plots;
+mod tune;
 mod voxelize;
 
 use crate::cli::{BenchKind, Cli, Command, RunArgs};
@@ -49,6 +52,8 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Worker(args) => cluster::worker(&args),
         Command::Coordinator(args) => cluster::coordinator(&args),
         Command::Cluster(args) => cluster::local_cluster(&args),
+        Command::Sweep(args) => sweep::run(&args),
+        Command::Tune(args) => tune::run(&args),
         Command::Bench(args) => match args.which {
             BenchKind::Voxelize {
                 mesh,

@@ -1,0 +1,126 @@
+//! SVG plots of `vps sweep`: one figure per column against voxel size (log2 axis), one line per
+//! scene and shell method.
+
+use super::sweep::SweepRow;
+use anyhow::{Context, Result};
+use plotters::prelude::*;
+use std::path::Path;
+
+/// A figure: file stem, y-axis label, the value of a row.
+type Figure = (&'static str, &'static str, fn(&SweepRow) -> Option<f64>);
+
+const FIGURES: &[Figure] = &[
+    ("shell-points", "shell points", |r| {
+        Some(r.shell_points as f64)
+    }),
+    ("voxmap-mib", "voxmap memory (MiB)", |r| {
+        Some(r.voxmap_bytes as f64 / 1048576.0)
+    }),
+    ("voxelize-ms", "voxelization + tree (ms)", |r| {
+        Some(r.voxelize_ms)
+    }),
+    ("compute-p50-us", "frame compute p50 (µs)", |r| {
+        Some(r.compute_p50_us)
+    }),
+    ("compute-p999-us", "frame compute p99.9 (µs)", |r| {
+        Some(r.compute_p999_us)
+    }),
+    ("penetration-ratio", "penetration ratio", |r| {
+        r.penetration_ratio
+    }),
+    (
+        "direction-error-deg",
+        "force direction error p50 (deg)",
+        |r| r.direction_error_deg_p50,
+    ),
+    (
+        "magnitude-error",
+        "force magnitude error p50 (relative)",
+        |r| r.magnitude_error_p50,
+    ),
+    ("min-separation-mm", "minimum exact separation (mm)", |r| {
+        r.min_separation_mm
+    }),
+];
+
+const COLOURS: [RGBColor; 6] = [BLUE, RED, GREEN, MAGENTA, CYAN, BLACK];
+
+/// Writes `DIR/<figure>.svg` for every figure.
+pub fn plot_all(rows: &[SweepRow], dir: &Path) -> Result<()> {
+    let mut series: Vec<(String, Vec<&SweepRow>)> = Vec::new();
+    for r in rows {
+        let label = format!("{} / {:?}", r.scene, r.method).to_lowercase();
+        match series.iter_mut().find(|(l, _)| *l == label) {
+            Some((_, v)) => v.push(r),
+            None => series.push((label, vec![r])),
+        }
+    }
+    for (stem, label, value) in FIGURES {
+        let path = dir.join(format!("{stem}.svg"));
+        plot_one(&series, label, *value, &path)
+            .with_context(|| format!("plotting {}", path.display()))?;
+    }
+    Ok(())
+}
+
+fn plot_one(
+    series: &[(String, Vec<&SweepRow>)],
+    label: &str,
+    value: fn(&SweepRow) -> Option<f64>,
+    path: &Path,
+) -> Result<()> {
+    let points: Vec<(usize, Vec<(f64, f64)>)> = series
+        .iter()
+        .enumerate()
+        .map(|(i, (_, rows))| {
+            let pts = rows
+                .iter()
+                .filter_map(|r| value(r).map(|v| (r.voxel_size_mm.log2(), v)))
+                .collect();
+            (i, pts)
+        })
+        .collect();
+    let all = points.iter().flat_map(|(_, p)| p.iter());
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for &(x, y) in all {
+        (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
+    }
+    if x0 > x1 {
+        (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
+    }
+    let pad = ((y1 - y0).abs() * 0.1).max(1e-9);
+    let y0 = if y0 >= 0.0 {
+        (y0 - pad).max(0.0)
+    } else {
+        y0 - pad
+    };
+    let root = SVGBackend::new(path, (720, 440)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(format!("{label} against voxel size"), ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d((x0 - 0.3)..(x1 + 0.3), y0..(y1 + pad))?;
+    chart
+        .configure_mesh()
+        .x_desc("voxel size (mm, log scale)")
+        .y_desc(label)
+        .x_label_formatter(&|v| format!("{}", (2f64.powf(*v) * 1000.0).round() / 1000.0))
+        .draw()?;
+    for (i, pts) in &points {
+        let colour = COLOURS[i % COLOURS.len()];
+        chart
+            .draw_series(LineSeries::new(pts.clone(), colour))?
+            .label(series[*i].0.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], colour));
+        chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
