@@ -1,20 +1,32 @@
 //! The sampling kernel (DESIGN §3): transform each point of a class by the part's pose, look up its
 //! voxel and add its contribution to [`PartialSums`]. No allocation, no locks, no I/O.
+//!
+//! Points go through in blocks of [`LANES`] (see [`crate::lanes`]): (1) transform, floor and look
+//! up the whole block; (2) only if some point of the block is not Free, rotate the normals; (3) the
+//! contact arithmetic only if some point is in a Surface voxel, the braking arithmetic only if some
+//! point is in a Proximity voxel, each for all lanes at once with the other lanes masked to zero.
+//! A block in free space therefore costs its transform and lookups only.
 
 use crate::classed::ClassedShell;
+use crate::lanes::{
+    add3_f64, add_cross_uniform, add_f64, cross, dot, floor_i32, mat_vec, reduce, scale, scale_add,
+    F32s, F64s, Vec3s, LANES,
+};
 use crate::state::KernelPose;
 use crate::sums::{PartialSums, AREA_SCALE, LENGTH_SCALE};
-use glam::{DVec3, IVec3, Mat3, Vec3};
-use vps_voxmap::{Voxel, VoxelLookup};
+use glam::{IVec3, Mat3};
+use vps_voxmap::{LayeredVoxel, Voxel, VoxelLookup};
 
 /// The sums of class `class` of `shell` at `pose` against `map`.
 ///
 /// Per point: `P = R p + x`; `ijk = floor((P − origin) / s)` in f32 (indices outside the grid read
-/// as Free through [`VoxelLookup::get`]). Surface: depth `d = max(0, N·(C − P))` with `N = R n`
-/// and `C` the voxel centre, computed in voxel coordinates so that `C − P` is exact to f32 rounding
-/// of the point's own position; adds `d N` and `(P − x) × d N`. Proximity with `V·N < 0`
-/// (`V = v + w × (P − x)`): adds to the braking sums. Interior: counted. Every contribution is
-/// quantised to integers before it is added (see [`crate::sums`]).
+/// as Free through [`VoxelLookup::get_layered`]). Surface of layer ℓ: depth
+/// `d = max(0, N·(C − P) + ℓ s)` with `N = R n` and `C` the voxel centre, computed in voxel
+/// coordinates so that `C − P` is exact to f32 rounding of the point's own position; adds `d N` and
+/// `(P − x) × d N`. A 2-bit map reports ℓ = 0: the tangent-plane depth of DESIGN §3. Proximity
+/// (any layer) with `V·N < 0` (`V = v + w × (P − x)`): adds to the braking sums. Interior: counted.
+/// Contributions are added in f64 in one canonical order per class and quantised to integers once
+/// per class (see [`crate::sums`] and [`accumulate`]).
 ///
 /// A class that does not exist gives the empty sum. A pose failing [`KernelPose::is_sane`] samples
 /// nothing: only `sampled` is set. Does not allocate or block; cost is linear in the class size.
@@ -30,7 +42,17 @@ pub fn sample_class<L: VoxelLookup>(
         sums.sampled = range.len() as u64;
         if pose.is_sane() {
             let frame = GridFrame::new(map, pose);
-            accumulate(map, shell, &frame, range, &mut sums);
+            let points = [
+                &shell.px[range.clone()],
+                &shell.py[range.clone()],
+                &shell.pz[range.clone()],
+            ];
+            let normals = [
+                &shell.nx[range.clone()],
+                &shell.ny[range.clone()],
+                &shell.nz[range],
+            ];
+            accumulate(map, &frame, points, normals).quantise_into(&mut sums);
         }
     }
     sums
@@ -61,14 +83,15 @@ pub fn sample_all<L: VoxelLookup>(map: &L, shell: &ClassedShell, pose: &KernelPo
 }
 
 /// The pose expressed in grid coordinates (voxel units, origin at the grid's minimum corner).
+#[derive(Clone, Copy)]
 struct GridFrame {
     rotation: Mat3,
     /// `(x − origin) / s`.
-    translation_grid: Vec3,
+    translation_grid: [f32; 3],
     inv_voxel: f32,
     voxel: f32,
-    linear_velocity: Vec3,
-    angular_velocity: Vec3,
+    linear_velocity: [f32; 3],
+    angular_velocity: [f32; 3],
 }
 
 impl GridFrame {
@@ -78,147 +101,289 @@ impl GridFrame {
         let inv = 1.0 / spec.voxel_size;
         Self {
             rotation: pose.rotation,
-            translation_grid: ((pose.translation.as_dvec3() - spec.origin) * inv).as_vec3(),
+            translation_grid: ((pose.translation.as_dvec3() - spec.origin) * inv)
+                .as_vec3()
+                .to_array(),
             inv_voxel: inv as f32,
             voxel: spec.voxel_size as f32,
-            linear_velocity: pose.linear_velocity,
-            angular_velocity: pose.angular_velocity,
+            linear_velocity: pose.linear_velocity.to_array(),
+            angular_velocity: pose.angular_velocity.to_array(),
         }
     }
 }
 
-/// Floating-point running sums of one class, accumulated in f64 in ascending point order and
-/// quantised once at the end of the class (see [`accumulate`]).
-#[derive(Default)]
+/// Running sums of one class: per-lane f64 sums (lane `l` holds the points `l, l + 8, …` of the
+/// class, in ascending order) and counters.
+#[derive(Clone, Debug, Default, PartialEq)]
 struct ClassAccumulator {
-    depth_normal: DVec3,
-    depth_torque: DVec3,
-    brake_sq: f64,
-    brake_force: DVec3,
-    brake_torque: DVec3,
+    depth_normal: [F64s; 3],
+    depth_torque: [F64s; 3],
+    brake_sq: F64s,
+    brake_force: [F64s; 3],
+    brake_torque: [F64s; 3],
+    surface: u64,
+    contacts: u64,
+    approaching: u64,
+    interior: u64,
+    non_free: u64,
 }
 
 impl ClassAccumulator {
-    /// Adds the rounded class totals to `sums`.
+    /// Adds the counters and the rounded class totals (lanes reduced in their fixed order) to
+    /// `sums`.
     fn quantise_into(&self, sums: &mut PartialSums) {
-        let q3 = |acc: &mut [i128; 3], v: DVec3, scale: f64| {
-            acc[0] += quantise(v.x, scale);
-            acc[1] += quantise(v.y, scale);
-            acc[2] += quantise(v.z, scale);
+        let q3 = |acc: &mut [i128; 3], lanes: &[F64s; 3], scale: f64| {
+            for (a, l) in acc.iter_mut().zip(lanes) {
+                *a += quantise(reduce(l), scale);
+            }
         };
-        q3(&mut sums.depth_normal, self.depth_normal, LENGTH_SCALE);
-        q3(&mut sums.depth_torque, self.depth_torque, AREA_SCALE);
-        sums.brake_sq += quantise(self.brake_sq, LENGTH_SCALE);
-        q3(&mut sums.brake_force, self.brake_force, LENGTH_SCALE);
-        q3(&mut sums.brake_torque, self.brake_torque, AREA_SCALE);
+        q3(&mut sums.depth_normal, &self.depth_normal, LENGTH_SCALE);
+        q3(&mut sums.depth_torque, &self.depth_torque, AREA_SCALE);
+        sums.brake_sq += quantise(reduce(&self.brake_sq), LENGTH_SCALE);
+        q3(&mut sums.brake_force, &self.brake_force, LENGTH_SCALE);
+        q3(&mut sums.brake_torque, &self.brake_torque, AREA_SCALE);
+        sums.surface += self.surface;
+        sums.contacts += self.contacts;
+        sums.approaching += self.approaching;
+        sums.interior += self.interior;
+        sums.non_free += self.non_free;
     }
 }
 
-/// The hot loop over one class's index range.
+/// Body-frame point coordinates (`px, py, pz`) or normals of one class.
+type Soa<'a> = [&'a [f32]; 3];
+
+/// The hot loop over one class.
 ///
-/// Exactness (DESIGN §4): within a class, contributions are added in f64 in one canonical order
-/// (ascending point index), so a class's total is the same bits wherever it is computed (IEEE
-/// arithmetic, no fused multiply-add); the total is then quantised to integers once. Classes are
-/// the unit of work, and integers merge exactly, so any grouping of classes gives identical sums.
-/// Quantising once per class instead of once per point keeps the inner loop in floating point.
+/// Exactness (DESIGN §4): a class's f64 totals depend only on its points, in one canonical order
+/// (lane `l` adds points `l, l + 8, l + 16, …` in ascending order; [`reduce`] combines the eight
+/// lanes in a fixed tree), computed with IEEE basic operations only (no fused multiply-add), so they
+/// are the same bits wherever and with whichever instruction set they are computed (the AVX2 and
+/// the baseline copy below agree bit for bit; a unit test checks it). The totals are then quantised
+/// to integers once, and integers merge exactly, so any grouping of classes gives identical sums.
 #[inline]
 fn accumulate<L: VoxelLookup>(
     map: &L,
-    shell: &ClassedShell,
     frame: &GridFrame,
-    range: std::ops::Range<usize>,
-    sums: &mut PartialSums,
-) {
-    let (px, py, pz) = (
-        &shell.px[range.clone()],
-        &shell.py[range.clone()],
-        &shell.pz[range.clone()],
-    );
-    let (nx, ny, nz) = (
-        &shell.nx[range.clone()],
-        &shell.ny[range.clone()],
-        &shell.nz[range],
-    );
-    let rot = frame.rotation;
-    let mut acc = ClassAccumulator::default();
-    for i in 0..px.len() {
-        // (P − x) in metres, then P in grid coordinates.
-        let lever = rot * Vec3::new(px[i], py[i], pz[i]);
-        let grid = lever * frame.inv_voxel + frame.translation_grid;
-        let index = floor_to_ivec3(grid);
-        let kind = map.get(index);
-        if kind == Voxel::Free {
-            continue;
-        }
-        sums.non_free += 1;
-        let normal = rot * Vec3::new(nx[i], ny[i], nz[i]);
-        match kind {
-            Voxel::Surface => {
-                sums.surface += 1;
-                let cell = index.as_vec3();
-                let depth = normal.dot(cell + Vec3::splat(0.5) - grid).max(0.0) * frame.voxel;
-                sums.contacts += (depth > 0.0) as u64;
-                let force_dir = normal * depth;
-                acc.depth_normal += force_dir.as_dvec3();
-                acc.depth_torque += lever.cross(force_dir).as_dvec3();
-            }
-            Voxel::Proximity => {
-                let velocity = frame.linear_velocity + frame.angular_velocity.cross(lever);
-                let approach = velocity.dot(normal);
-                if approach < 0.0 {
-                    sums.approaching += 1;
-                    acc.brake_sq += (approach * approach) as f64;
-                    let brake_dir = normal * approach;
-                    acc.brake_force += brake_dir.as_dvec3();
-                    acc.brake_torque += lever.cross(brake_dir).as_dvec3();
-                }
-            }
-            _ => sums.interior += 1,
-        }
+    points: Soa,
+    normals: Soa,
+) -> ClassAccumulator {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2 (checked just above).
+        return unsafe { accumulate_avx2(map, frame, points, normals) };
     }
-    acc.quantise_into(sums);
+    accumulate_lanes(map, frame, points, normals)
 }
 
-/// `floor(v)` per component as integers, without a libm call: on baseline x86-64 (no SSE4.1)
-/// `f32::floor` is a function call that cost more than the whole voxel lookup. Truncate, then step
-/// down where truncation rounded a negative value up. A value beyond the i32 range (or NaN) gives
-/// `i32::MIN` or `i32::MAX`, which lies outside any grid (dims are at most `i32::MAX`): read as
-/// Free.
+/// [`accumulate_lanes`] compiled for AVX2 (one register per lane array instead of two). FMA is not
+/// enabled, so the arithmetic is the baseline copy's, bit for bit.
+///
+/// # Safety
+/// The CPU must support AVX2.
 #[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn floor_to_ivec3(v: Vec3) -> IVec3 {
-    use std::arch::x86_64::{
-        __m128i, _mm_add_epi32, _mm_castps_si128, _mm_cmplt_ps, _mm_cvtepi32_ps, _mm_cvttps_epi32,
-        _mm_set_ps, _mm_storeu_si128,
-    };
-    // All three axes in one SSE2 register: the scalar `as i32` saturates and checks NaN per axis
-    // (a compare, a branch and a conditional move each), where `cvttps2dq` gives `i32::MIN` for
-    // every out-of-range or NaN lane in one instruction.
-    let mut out = [0i32; 4];
-    // SAFETY: SSE and SSE2 are part of the x86-64 baseline, so these instructions exist on every
-    // x86-64 CPU; `out` is 16 writable bytes and `storeu` has no alignment requirement.
-    unsafe {
-        let x = _mm_set_ps(0.0, v.z, v.y, v.x);
-        let truncated = _mm_cvttps_epi32(x);
-        // All ones (−1) where truncation rounded up, i.e. `x < trunc(x)`; adding steps down by one.
-        let rounded_up = _mm_castps_si128(_mm_cmplt_ps(x, _mm_cvtepi32_ps(truncated)));
-        let floored = _mm_add_epi32(truncated, rounded_up);
-        _mm_storeu_si128(out.as_mut_ptr().cast::<__m128i>(), floored);
-    }
-    IVec3::new(out[0], out[1], out[2])
+#[target_feature(enable = "avx2")]
+unsafe fn accumulate_avx2<L: VoxelLookup>(
+    map: &L,
+    frame: &GridFrame,
+    points: Soa,
+    normals: Soa,
+) -> ClassAccumulator {
+    accumulate_lanes(map, frame, points, normals)
 }
 
-/// Portable form of the x86-64 [`floor_to_ivec3`]: the same results (out-of-range values
-/// saturate, outside any grid).
-#[cfg(not(target_arch = "x86_64"))]
+/// The block loop (see the module docs); full blocks, then one zero-padded tail block.
 #[inline(always)]
-fn floor_to_ivec3(v: Vec3) -> IVec3 {
-    #[inline(always)]
-    fn floor(x: f32) -> i32 {
-        let t = x as i32;
-        t - (x < t as f32) as i32
+fn accumulate_lanes<L: VoxelLookup>(
+    map: &L,
+    frame: &GridFrame,
+    points: Soa,
+    normals: Soa,
+) -> ClassAccumulator {
+    let mut acc = ClassAccumulator::default();
+    let n = points[0].len().min(points[1].len()).min(points[2].len());
+    let n = n
+        .min(normals[0].len())
+        .min(normals[1].len())
+        .min(normals[2].len());
+    let full = n - n % LANES;
+    for start in (0..full).step_by(LANES) {
+        sample_block(map, frame, points, normals, start, LANES, &mut acc);
     }
-    IVec3::new(floor(v.x), floor(v.y), floor(v.z))
+    if full < n {
+        sample_block(map, frame, points, normals, full, n - full, &mut acc);
+    }
+    acc
+}
+
+/// `0x01` in every byte.
+const BYTE_ONES: u64 = 0x0101_0101_0101_0101;
+
+/// Number of set bytes in `x`, whose bytes are each 0 or 1.
+#[inline(always)]
+fn count_bytes(x: u64) -> u64 {
+    x.wrapping_mul(BYTE_ONES) >> 56
+}
+
+/// Lanes `start..start + valid` of `xs` (`valid ≤ LANES`), zero-padded.
+#[inline(always)]
+fn load(xs: Soa, start: usize, valid: usize) -> Vec3s {
+    let mut out = [[0.0; LANES]; 3];
+    for (o, x) in out.iter_mut().zip(xs) {
+        o[..valid].copy_from_slice(&x[start..start + valid]);
+    }
+    out
+}
+
+/// One block of `valid ≤ LANES` points starting at `start`: transform, floor, look up; then the
+/// contact and braking arithmetic for the whole block if any lane needs it. Padding lanes read as
+/// Free and contribute nothing.
+#[inline(always)]
+fn sample_block<L: VoxelLookup>(
+    map: &L,
+    frame: &GridFrame,
+    points: Soa,
+    normals: Soa,
+    start: usize,
+    valid: usize,
+    acc: &mut ClassAccumulator,
+) {
+    // (P − x) in metres, then P in grid coordinates and its voxel.
+    let lever = mat_vec(&frame.rotation, &load(points, start, valid));
+    let grid = scale_add(&lever, frame.inv_voxel, frame.translation_grid);
+    let cell = [
+        floor_i32(&grid[0]),
+        floor_i32(&grid[1]),
+        floor_i32(&grid[2]),
+    ];
+    let (kinds, layers) = look_up(map, &cell, valid);
+    // Kinds as bit planes, one byte per lane: Free 00, Interior 01, Surface 10, Proximity 11.
+    let word = u64::from_le_bytes(kinds);
+    if word == 0 {
+        return;
+    }
+    let (low, high) = (word & BYTE_ONES, (word >> 1) & BYTE_ONES);
+    acc.non_free += count_bytes(low | high);
+    acc.interior += count_bytes(low & !high);
+    let (surface, proximity) = (high & !low, high & low);
+    if surface | proximity == 0 {
+        return;
+    }
+    let normal = mat_vec(&frame.rotation, &load(normals, start, valid));
+    if surface != 0 {
+        acc.surface += count_bytes(surface);
+        let is_surface = kinds.map(|k| k == Voxel::Surface.bits());
+        surface_block(
+            frame,
+            &lever,
+            &grid,
+            &cell,
+            &normal,
+            &is_surface,
+            &layers,
+            acc,
+        );
+    }
+    if proximity != 0 {
+        let is_proximity = kinds.map(|k| k == Voxel::Proximity.bits());
+        brake_block(frame, &lever, &normal, &is_proximity, acc);
+    }
+}
+
+/// The kinds and layers of the block's voxels (lanes `valid..` read as Free). When every lane is in
+/// the same voxel, which is the common case for a shell sampled finer than the voxmap, one lookup
+/// serves the whole block.
+#[inline(always)]
+fn look_up<L: VoxelLookup>(
+    map: &L,
+    cell: &[[i32; LANES]; 3],
+    valid: usize,
+) -> ([u8; LANES], [u8; LANES]) {
+    let mut kinds = [0u8; LANES];
+    let mut layers = [0u8; LANES];
+    let same = |r: usize| cell[r].iter().all(|&c| c == cell[r][0]);
+    if valid == LANES && same(0) && same(1) && same(2) {
+        let v = voxel_at(map, cell, 0);
+        return ([v.kind.bits(); LANES], [v.layer; LANES]);
+    }
+    for l in 0..valid {
+        let v = voxel_at(map, cell, l);
+        kinds[l] = v.kind.bits();
+        layers[l] = v.layer;
+    }
+    (kinds, layers)
+}
+
+/// The voxel of lane `l`.
+#[inline(always)]
+fn voxel_at<L: VoxelLookup>(map: &L, cell: &[[i32; LANES]; 3], l: usize) -> LayeredVoxel {
+    map.get_layered(IVec3::new(cell[0][l], cell[1][l], cell[2][l]))
+}
+
+/// Contact arithmetic of a block: `d = max(0, N·(C − P) + ℓ) s` in Surface lanes, 0 elsewhere;
+/// adds `d N` and `(P − x) × d N` and counts `d > 0`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn surface_block(
+    frame: &GridFrame,
+    lever: &Vec3s,
+    grid: &Vec3s,
+    cell: &[[i32; LANES]; 3],
+    normal: &Vec3s,
+    is_surface: &[bool; LANES],
+    layers: &[u8; LANES],
+    acc: &mut ClassAccumulator,
+) {
+    // C − P in voxel units: the voxel centre (cell + 0.5) minus the grid position.
+    let mut to_centre = [[0.0; LANES]; 3];
+    for r in 0..3 {
+        for l in 0..LANES {
+            to_centre[r][l] = cell[r][l] as f32 + 0.5 - grid[r][l];
+        }
+    }
+    let plane = dot(normal, &to_centre);
+    let mut depth: F32s = [0.0; LANES];
+    for l in 0..LANES {
+        let d = plane[l] + f32::from(layers[l]);
+        depth[l] = if is_surface[l] && d > 0.0 {
+            d * frame.voxel
+        } else {
+            0.0
+        };
+    }
+    acc.contacts += depth.iter().filter(|&&d| d > 0.0).count() as u64;
+    let force_dir = scale(normal, &depth);
+    add3_f64(&mut acc.depth_normal, &force_dir);
+    add3_f64(&mut acc.depth_torque, &cross(lever, &force_dir));
+}
+
+/// Braking arithmetic of a block: `a = V·N` in approaching Proximity lanes (`V·N < 0`), 0
+/// elsewhere; adds `a²`, `a N` and `(P − x) × a N` and counts the approaching lanes.
+#[inline(always)]
+fn brake_block(
+    frame: &GridFrame,
+    lever: &Vec3s,
+    normal: &Vec3s,
+    is_proximity: &[bool; LANES],
+    acc: &mut ClassAccumulator,
+) {
+    let velocity = add_cross_uniform(frame.linear_velocity, frame.angular_velocity, lever);
+    let approach = dot(&velocity, normal);
+    let mut a: F32s = [0.0; LANES];
+    let mut a_sq: F32s = [0.0; LANES];
+    for l in 0..LANES {
+        a[l] = if is_proximity[l] && approach[l] < 0.0 {
+            approach[l]
+        } else {
+            0.0
+        };
+        a_sq[l] = a[l] * a[l];
+    }
+    acc.approaching += a.iter().filter(|&&x| x < 0.0).count() as u64;
+    add_f64(&mut acc.brake_sq, &a_sq);
+    let brake_dir = scale(normal, &a);
+    add3_f64(&mut acc.brake_force, &brake_dir);
+    add3_f64(&mut acc.brake_torque, &cross(lever, &brake_dir));
 }
 
 /// `value · scale` truncated toward zero, saturating (NaN → 0). `scale` is a power of two, so the
@@ -228,36 +393,69 @@ fn quantise(value: f64, scale: f64) -> i128 {
     (value * scale) as i128
 }
 
-#[cfg(test)]
+#[cfg(all(test, target_arch = "x86_64"))]
 mod tests {
     use super::*;
+    use glam::{DVec3, Vec3};
+    use vps_voxmap::{DenseGrid, GridSpec};
 
+    /// The AVX2 copy and the baseline copy of the hot loop give the same bits.
     #[test]
-    fn floor_matches_f32_floor_and_sends_huge_values_outside_any_grid() {
-        for &x in &[
-            0.0f32,
-            -0.0,
-            0.5,
-            -0.5,
-            1.0,
-            -1.0,
-            2.999_999,
-            -2.000_001,
-            16_777_215.0,
-        ] {
-            let got = floor_to_ivec3(Vec3::new(x, -x, x * 0.25));
-            let want = IVec3::new(
-                x.floor() as i32,
-                (-x).floor() as i32,
-                (x * 0.25).floor() as i32,
-            );
-            assert_eq!(got, want, "x = {x}");
+    fn avx2_and_baseline_copies_agree_bit_for_bit() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            return;
         }
-        for &x in &[3e9f32, -3e9, f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
-            let got = floor_to_ivec3(Vec3::splat(x));
-            for c in got.to_array() {
-                assert!(c < 0 || c == i32::MAX, "x = {x} gave {c}");
+        let spec = GridSpec {
+            origin: DVec3::splat(-0.1),
+            voxel_size: 0.005,
+            dims: [40, 40, 40],
+        };
+        let mut grid = DenseGrid::new(spec);
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for b in grid.data.iter_mut() {
+            *b = (next() % 4) as u8;
+        }
+        let n = 1003;
+        let mut soa = [(); 6].map(|_| Vec::with_capacity(n));
+        for _ in 0..n {
+            for (k, a) in soa.iter_mut().enumerate() {
+                let u = (next() % 2001) as f32 / 1000.0 - 1.0;
+                a.push(if k < 3 { 0.06 * u } else { u });
             }
         }
+        let pose = KernelPose {
+            rotation: Mat3::from_euler(glam::EulerRot::XYZ, 0.4, -0.9, 2.2),
+            translation: Vec3::new(0.013, -0.021, 0.004),
+            linear_velocity: Vec3::new(0.3, -0.7, 0.2),
+            angular_velocity: Vec3::new(-4.0, 2.5, 7.0),
+        };
+        let frame = GridFrame::new(&grid, &pose);
+        let points = [&soa[0][..], &soa[1][..], &soa[2][..]];
+        let normals = [&soa[3][..], &soa[4][..], &soa[5][..]];
+        let base = accumulate_lanes(&grid, &frame, points, normals);
+        // SAFETY: AVX2 was detected above.
+        let avx2 = unsafe { accumulate_avx2(&grid, &frame, points, normals) };
+        assert!(base.surface > 50 && base.approaching > 20 && base.contacts > 20);
+        let bits = |a: &ClassAccumulator| {
+            let mut v: Vec<u64> = Vec::new();
+            for set in [
+                &a.depth_normal,
+                &a.depth_torque,
+                &a.brake_force,
+                &a.brake_torque,
+            ] {
+                v.extend(set.iter().flatten().map(|x| x.to_bits()));
+            }
+            v.extend(a.brake_sq.iter().map(|x| x.to_bits()));
+            v
+        };
+        assert_eq!(bits(&base), bits(&avx2));
+        assert_eq!(base, avx2);
     }
 }

@@ -24,6 +24,7 @@ pub mod coupling;
 pub mod dynamics;
 pub mod frame;
 pub mod kernel;
+mod lanes;
 pub mod params;
 pub mod stability;
 pub mod state;

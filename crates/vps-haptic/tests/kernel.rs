@@ -278,3 +278,86 @@ fn unknown_class_and_insane_pose_sample_nothing() {
     assert_eq!(ClassedShell::new(&shell, 0).class_count(), 1);
     assert_eq!(ClassedShell::new(&shell, 80).class_len(79), 0);
 }
+
+/// A dense grid whose Surface voxels report one distance layer: a hand-made stand-in for a 4- or
+/// 8-bit voxmap.
+struct LayeredGrid {
+    grid: DenseGrid,
+    surface_layer: u8,
+}
+
+impl vps_voxmap::VoxelLookup for LayeredGrid {
+    fn spec(&self) -> &vps_voxmap::GridSpec {
+        &self.grid.spec
+    }
+    fn get(&self, ijk: IVec3) -> Voxel {
+        self.grid.get(ijk)
+    }
+    fn get_layered(&self, ijk: IVec3) -> vps_voxmap::LayeredVoxel {
+        let kind = self.grid.get(ijk);
+        let layer = if kind == Voxel::Surface {
+            self.surface_layer
+        } else {
+            0
+        };
+        vps_voxmap::LayeredVoxel { kind, layer }
+    }
+}
+
+/// A point in a Surface voxel of layer ℓ gets depth `d = max(0, N·(C − P) + ℓ s)`: the force grows
+/// by `K_ff ℓ s` per layer, also for a point on the outer half of its voxel (negative plane depth).
+#[test]
+fn deeper_surface_layers_add_one_voxel_of_depth_each() {
+    let mut grid = DenseGrid::new(spec());
+    let ijk = IVec3::new(21, 22, 23);
+    grid.set(ijk, Voxel::Surface);
+    let centre = grid.spec.center_of(ijk);
+    let body_normal = Vec3::new(0.3, -0.5, 0.8).normalize();
+    let shell = ClassedShell::new(&shell_from(&[Vec3::ZERO], &[body_normal]), 1);
+    let normal = body_normal.as_dvec3();
+    // 1.3 mm on the outer side of the centre: plane depth −1.3 mm.
+    let world = centre + 0.0013 * normal;
+    let pose = KernelPose::from_state(&PartState::at_rest(world, DQuat::IDENTITY));
+    for layer in [0u8, 1, 2, 5] {
+        let map = LayeredGrid {
+            grid: grid.clone(),
+            surface_layer: layer,
+        };
+        let sums = sample_all(&map, &shell, &pose);
+        let depth = (normal.dot(centre - world) + f64::from(layer) * S).max(0.0);
+        assert_eq!((sums.surface, sums.contacts), (1, u64::from(layer > 0)));
+        assert!(
+            (sums.depth_normal_si() - depth * normal).length() < 1e-6 * S,
+            "layer {layer}: {sums:?}"
+        );
+        let params = HapticParams::default();
+        let state = PartState::at_rest(world, DQuat::IDENTITY);
+        let out = step(&params, &state, &handle_at(world, DVec3::ZERO), &sums);
+        let expected = params.gains().k_ff * depth * normal;
+        assert!((out.contact_wrench.force - expected).length() <= 1e-5 * expected.length());
+    }
+}
+
+/// A map reporting layer 0 everywhere (every 2-bit map) gives bit-identical sums to the kind-only
+/// lookup, on random scenes with every voxel kind; so does the 512-tree of the same grid.
+#[test]
+fn layer_zero_maps_give_bit_identical_sums() {
+    for seed in 0..4 {
+        let (grid, shell) = random_scene(seed, 517);
+        let tree = vps_voxmap::VoxelTree::from_dense(&grid, vps_voxmap::TreeConfig::default())
+            .expect("valid grid");
+        let layered = LayeredGrid {
+            grid: grid.clone(),
+            surface_layer: 0,
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        for classes in [1u32, 3] {
+            let classed = ClassedShell::new(&shell, classes);
+            let pose = KernelPose::from_state(&random_state(&mut rng));
+            let want = sample_all(&grid, &classed, &pose);
+            assert!(want.surface > 0 && want.approaching > 0);
+            assert_eq!(sample_all(&layered, &classed, &pose), want);
+            assert_eq!(sample_all(&tree, &classed, &pose), want);
+        }
+    }
+}

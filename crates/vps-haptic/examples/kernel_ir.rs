@@ -1,0 +1,109 @@
+//! A small, deterministic driver of the sampling kernel for instruction counting under callgrind
+//! (wall time on a shared VM is noisy; instruction counts repeat exactly).
+//!
+//! Scene: the synthetic case of `vps bench kernel` (a sphere shell of `n` points, ≈ one per voxel
+//! of area, inward normals, in voxel order; a spherical Surface band of 3 voxels around it in one
+//! slot of the grid, an empty slot beside it). `contact` centres the shell in the band (every point
+//! in a Surface voxel of a mixed leaf), `free` in the empty slot (every point in a Free tile),
+//! `dense` is the contact pose against the dense byte grid.
+//!
+//! ```sh
+//! cargo build --release -p vps-haptic --example kernel_ir
+//! valgrind --tool=callgrind --toggle-collect='*sample_all*' \
+//!     target/release/examples/kernel_ir 10000 contact 20
+//! ```
+//! Instructions per point = the collected `Ir` / (`reps` · `n`).
+
+use glam::{DQuat, DVec3, Vec3};
+use std::hint::black_box;
+use vps_haptic::{sample_all, ClassedShell, KernelPose, PartState};
+use vps_voxmap::shell::ShellMethod;
+use vps_voxmap::{DenseGrid, GridSpec, MassProperties, PointShell, TreeConfig, Voxel, VoxelTree};
+
+const VOXEL_SIZE: f64 = 0.005;
+
+fn sphere_shell(n: usize, radius: f64) -> PointShell {
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let mut pairs: Vec<(Vec3, Vec3)> = (0..n)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+            let r = (1.0 - z * z).sqrt();
+            let a = golden * i as f64;
+            let dir = DVec3::new(r * a.cos(), r * a.sin(), z);
+            ((dir * radius).as_vec3(), (-dir).as_vec3())
+        })
+        .collect();
+    // Voxel order (z, y, x), coherent like a real shell's Morton order.
+    let key = |p: &Vec3| (*p / VOXEL_SIZE as f32).floor().as_ivec3().to_array();
+    pairs.sort_by_key(|(p, _)| {
+        let [x, y, z] = key(p);
+        (z, y, x)
+    });
+    PointShell {
+        points: pairs.iter().map(|p| p.0).collect(),
+        normals: pairs.iter().map(|p| p.1).collect(),
+        voxel_size: VOXEL_SIZE,
+        method: ShellMethod::VoxelCentres,
+        mass: MassProperties {
+            volume: 0.0,
+            center_of_mass: DVec3::ZERO,
+            bounding_radius: radius,
+        },
+    }
+}
+
+fn band_scene(radius_vox: f64) -> DenseGrid {
+    let slot = (2.0 * (radius_vox + 4.0)).ceil() as u32;
+    let spec = GridSpec {
+        origin: DVec3::ZERO,
+        voxel_size: VOXEL_SIZE,
+        dims: [2 * slot, slot, slot],
+    };
+    let centre = DVec3::splat(slot as f64 / 2.0);
+    let mut grid = DenseGrid::new(spec);
+    for z in 0..slot as i32 {
+        for y in 0..slot as i32 {
+            for x in 0..slot as i32 {
+                let p = DVec3::new(x as f64 + 0.5, y as f64 + 0.5, z as f64 + 0.5);
+                let d = (p - centre).length() - radius_vox;
+                let v = match d {
+                    d if d < -1.5 => Voxel::Interior,
+                    d if d <= 1.5 => Voxel::Surface,
+                    d if d <= 2.5 => Voxel::Proximity,
+                    _ => Voxel::Free,
+                };
+                grid.set(glam::IVec3::new(x, y, z), v);
+            }
+        }
+    }
+    grid
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let n: usize = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(10_000);
+    let mode = args.get(2).map_or("contact", String::as_str);
+    let reps: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(20);
+    let radius_vox = (n as f64 / (4.0 * std::f64::consts::PI)).sqrt().max(3.0);
+    let dense = band_scene(radius_vox);
+    let tree = VoxelTree::from_dense(&dense, TreeConfig::default()).expect("valid scene");
+    let shell = ClassedShell::new(&sphere_shell(n, radius_vox * VOXEL_SIZE), 1);
+    let slot = dense.spec.dims[1] as f64;
+    let centre = match mode {
+        "free" => DVec3::new(slot * 1.5, slot / 2.0, slot / 2.0),
+        _ => DVec3::splat(slot / 2.0),
+    };
+    let state = PartState::at_rest(dense.spec.origin + centre * VOXEL_SIZE, DQuat::IDENTITY);
+    let pose = KernelPose::from_state(&state);
+    let mut last = Default::default();
+    let start = std::time::Instant::now();
+    for _ in 0..reps {
+        last = if mode == "dense" {
+            sample_all(black_box(&dense), &shell, black_box(&pose))
+        } else {
+            sample_all(black_box(&tree), &shell, black_box(&pose))
+        };
+    }
+    let ns = start.elapsed().as_secs_f64() * 1e9 / (reps.max(1) * n) as f64;
+    eprintln!("{mode} n={n} reps={reps}: {ns:.2} ns/point; {last:?}");
+}
