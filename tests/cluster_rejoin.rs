@@ -1,0 +1,155 @@
+//! Cluster membership changes with real `vps worker` processes: a worker SIGKILLed mid-session and
+//! restarted rejoins (from its scene cache) and is given work again, and a worker that joins
+//! mid-session gets work too — while every device write stays bit-identical, frame by frame, to
+//! the one-process run. The coordinator runs in this test process (the same library code as
+//! `vps coordinator`) so that every write can be logged.
+
+#[path = "../crates/vps-cluster/tests/common/fixtures.rs"]
+mod fixtures;
+
+use fixtures::*;
+use glam::DQuat;
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::AtomicBool;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+use vps_cluster::{
+    local_cluster_certs, run_coordinator_session, Coordinator, CoordinatorConfig, GatherConfig,
+    LocalWorkerArgs,
+};
+use vps_haptic::PartState;
+
+const SESSION_FRAMES: u64 = 600;
+const KILL_AT: u64 = 100;
+const RESTART_AT: u64 = 200;
+const NEW_WORKER_AT: u64 = 300;
+const JOIN_WAIT: Duration = Duration::from_secs(20);
+
+/// `vps worker` processes; killed and reaped on drop.
+#[derive(Default)]
+struct Workers(Vec<Child>);
+
+impl Workers {
+    fn spawn(&mut self, args: &LocalWorkerArgs) -> usize {
+        let child = Command::new(env!("CARGO_BIN_EXE_vps"))
+            .args(args.to_args())
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .spawn()
+            .expect("start vps worker");
+        self.0.push(child);
+        self.0.len() - 1
+    }
+
+    fn kill(&mut self, index: usize) {
+        let child = &mut self.0[index];
+        child.kill().expect("SIGKILL the worker");
+        child.wait().expect("reap the worker");
+    }
+}
+
+impl Drop for Workers {
+    fn drop(&mut self) {
+        for child in &mut self.0 {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+    }
+}
+
+#[test]
+fn a_killed_worker_rejoins_and_a_new_worker_joins_mid_session_without_changing_a_bit() {
+    let want = one_process_writes_for(SESSION_FRAMES);
+    let dir = tempfile::tempdir().unwrap();
+    let certs = local_cluster_certs(dir.path()).unwrap();
+    let coordinator = Arc::new(
+        Coordinator::start(
+            CoordinatorConfig::from_files(
+                "127.0.0.1:0".parse().unwrap(),
+                &certs.coordinator.cert,
+                &certs.coordinator.key,
+                std::slice::from_ref(&certs.worker.cert),
+            )
+            .unwrap(),
+            scene(),
+        )
+        .unwrap(),
+    );
+    let args = |cache: &str| LocalWorkerArgs {
+        coordinator: coordinator.local_addr().unwrap(),
+        cert: certs.worker.cert.clone(),
+        key: certs.worker.key.clone(),
+        pins: vec![certs.coordinator.cert.clone()],
+        cache_dir: Some(dir.path().join(cache)),
+        threads: Some(1),
+    };
+    let (args_a, args_b, args_c) = (args("cache-a"), args("cache-b"), args("cache-c"));
+    let workers = Arc::new(Mutex::new(Workers::default()));
+    // Worker ids follow join order: A is 0, B is 1.
+    let a = workers.lock().unwrap().spawn(&args_a);
+    coordinator.wait_for_admitted(1, JOIN_WAIT).unwrap();
+    workers.lock().unwrap().spawn(&args_b);
+    coordinator.wait_for_admitted(2, JOIN_WAIT).unwrap();
+
+    // Membership changes run after a device write, before the next frame starts: blocking here
+    // never shortens a frame's reply deadline.
+    let hook = {
+        let (workers, coordinator) = (workers.clone(), coordinator.clone());
+        Box::new(move |write: u64| match write {
+            KILL_AT => workers.lock().unwrap().kill(a),
+            RESTART_AT => {
+                workers.lock().unwrap().spawn(&args_a);
+                coordinator.wait_for_admitted(3, JOIN_WAIT).unwrap();
+            }
+            NEW_WORKER_AT => {
+                workers.lock().unwrap().spawn(&args_c);
+                coordinator.wait_for_admitted(4, JOIN_WAIT).unwrap();
+            }
+            _ => {}
+        })
+    };
+    let (device, writes) = hand_with_hook(hook);
+    let (report, cluster) = run_coordinator_session(
+        &coordinator,
+        GatherConfig {
+            bench_after: 2,
+            log_every: None,
+            ..GatherConfig::default()
+        },
+        params(),
+        device,
+        PartState::at_rest(START, DQuat::IDENTITY),
+        config_frames(SESSION_FRAMES),
+        None,
+        Arc::new(AtomicBool::new(false)),
+    )
+    .unwrap();
+    assert_eq!(report.stats.frames, SESSION_FRAMES);
+    assert_eq!(report.stats.watchdog_trips, 0);
+    assert_same_writes(&writes.lock().unwrap(), &want);
+
+    eprintln!("{cluster:#?}");
+    let ids: Vec<u32> = cluster.peers.iter().map(|p| p.id).collect();
+    assert_eq!(ids, [0, 1, 2, 3], "A, B, A restarted, C");
+    let [killed, survivor, rejoined, newcomer] = &cluster.peers[..] else {
+        unreachable!()
+    };
+    assert!(killed.scene_sent && survivor.scene_sent && newcomer.scene_sent);
+    assert!(
+        killed.recomputed > 0,
+        "the killed worker's shares were recomputed locally: {killed:?}"
+    );
+    assert!(survivor.merged > 0, "{survivor:?}");
+    assert!(
+        !rejoined.scene_sent,
+        "the restarted worker loaded the scene from its cache: {rejoined:?}"
+    );
+    assert!(
+        rejoined.requests > 0 && rejoined.merged > 0,
+        "the restarted worker was given classes and its replies were used: {rejoined:?}"
+    );
+    assert!(
+        newcomer.requests > 0 && newcomer.merged > 0,
+        "the worker that joined mid-session was given work: {newcomer:?}"
+    );
+}
