@@ -72,6 +72,8 @@ pub enum Command {
     Coordinator(CoordinatorArgs),
     /// Coordinator plus N local worker processes on loopback (single-host multi-process mode).
     Cluster(ClusterArgs),
+    /// Serve the live viewer page for an offline voxmap (inspect a scene before running it).
+    View(ViewArgs),
     /// Measure; prints JSON.
     Bench(BenchArgs),
     /// Speed against accuracy over voxel sizes and shell methods, against the exact reference.
@@ -121,6 +123,19 @@ pub struct TuneArgs {
     /// Print as JSON.
     #[arg(long)]
     pub json: bool,
+}
+
+/// Arguments of `vps view`.
+#[derive(Args, Debug)]
+pub struct ViewArgs {
+    /// The voxmap to show (.vmap).
+    pub voxmap: PathBuf,
+    /// A part's point shell (.vshell) to describe beside it.
+    #[arg(long)]
+    pub shell: Option<PathBuf>,
+    /// Address to serve the page on.
+    #[arg(long, default_value = "127.0.0.1:8080")]
+    pub addr: std::net::SocketAddr,
 }
 
 /// Arguments of `vps worker`.
@@ -209,6 +224,9 @@ pub struct RunArgs {
     /// Print as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Serve the live viewer on this address (e.g. 127.0.0.1:8080; port 0 picks a free one).
+    #[arg(long, value_name = "ADDR")]
+    pub view: Option<std::net::SocketAddr>,
 }
 
 /// Where a mesh comes from: a file path or `builtin:NAME`.
@@ -303,6 +321,9 @@ pub struct DemoArgs {
     /// Print as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Serve the live viewer on this address (e.g. 127.0.0.1:8080; port 0 picks a free one).
+    #[arg(long, value_name = "ADDR")]
+    pub view: Option<std::net::SocketAddr>,
 }
 
 /// Arguments of `vps bench`.
@@ -365,6 +386,15 @@ pub enum BenchKind {
         #[arg(long)]
         json: bool,
     },
+    /// Frame compute of the paced demo session without and with a connected viewer.
+    Viewer {
+        /// Session length per run (s).
+        #[arg(long, default_value_t = 10.0)]
+        seconds: f64,
+        /// Print JSON (always JSON; accepted for symmetry).
+        #[arg(long)]
+        json: bool,
+    },
     /// Gather round trip to 1 and 2 local worker processes beside a raw UDP ping-pong.
     Transport {
         /// Frames (and raw UDP round trips) per measurement.
@@ -401,6 +431,7 @@ impl Default for RunArgs {
             threads: 1,
             record: None,
             json: false,
+            view: None,
         }
     }
 }

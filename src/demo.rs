@@ -11,7 +11,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use vps_device::{HandParams, SimulatedHand};
 use vps_haptic::{HapticParams, PartState};
-use vps_runtime::{run_loop, LoopConfig, LoopReport, StatsSummary};
+use vps_runtime::{run_loop, LoopConfig, LoopReport, StateFeedSender, StatsSummary};
 use vps_voxelize::ShellMethod;
 
 /// The paper's penetration ratios (Table 2): braking on and off.
@@ -34,13 +34,15 @@ struct DemoReport {
 }
 
 /// Runs one session; `paced` runs at 1 kHz on the wall clock, otherwise frames run back to back
-/// (the physics is identical: the device is given the scheduled tick time either way).
+/// (the physics is identical: the device is given the scheduled tick time either way). Every frame
+/// is published to `feed` when given (a viewer).
 pub fn run_session(
     scene: &crate::session::SessionScene,
     params: HapticParams,
     seconds: f64,
     threads: usize,
     paced: bool,
+    feed: Option<StateFeedSender>,
 ) -> Result<LoopReport> {
     let script = standard_script(&scene.tree, &scene.corridor, 0.8)?;
     let frames = ((seconds.min(script.duration()) / params.dt).round() as u64).max(1);
@@ -60,7 +62,7 @@ pub fn run_session(
         Box::new(hand),
         PartState::at_rest(start, orientation),
         config,
-        None,
+        feed,
         Arc::new(AtomicBool::new(false)),
     )?;
     if let Some(err) = &report.device_error {
@@ -123,12 +125,14 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             threads
         );
     }
-    let on = run_session(&scene, params, args.seconds, threads, true)?;
+    let viewer = crate::cmd::view::attach(args.view, &scene)?;
+    let feed = || viewer.as_ref().map(|v| v.feed());
+    let on = run_session(&scene, params, args.seconds, threads, true, feed())?;
     let off_params = HapticParams {
         braking: false,
         ..params
     };
-    let off = run_session(&scene, off_params, args.seconds, threads, false)?;
+    let off = run_session(&scene, off_params, args.seconds, threads, false, feed())?;
     if args.json {
         return print_json(&DemoReport {
             scene_triangles: scene.scene_triangles,

@@ -74,6 +74,7 @@ fn coordinate(
         mut config,
     } = prepare(session)?;
     tune(&mut config);
+    let viewer = super::view::attach(session.view, &scene)?;
     let cluster_scene = Arc::new(ClusterScene::new(
         scene.tree.clone(),
         &scene.shell,
@@ -100,7 +101,7 @@ fn coordinate(
         device,
         initial,
         config,
-        None,
+        viewer.as_ref().map(|v| v.feed()),
         Arc::new(AtomicBool::new(false)),
     )?;
     Ok(CoordinatedRun {

@@ -3,6 +3,7 @@
 pub mod bench_kernel;
 mod bench_loop;
 mod bench_transport;
+mod bench_viewer;
 mod bench_voxelize;
 mod cluster;
 mod inspect;
@@ -13,6 +14,7 @@ mod shell;
 mod sweep;
 mod sweep_plots;
 mod tune;
+pub(crate) mod view;
 mod voxelize;
 
 use crate::cli::{BenchKind, Cli, Command, RunArgs};
@@ -52,6 +54,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Worker(args) => cluster::worker(&args),
         Command::Coordinator(args) => cluster::coordinator(&args),
         Command::Cluster(args) => cluster::local_cluster(&args),
+        Command::View(args) => view::run(&args),
         Command::Sweep(args) => sweep::run(&args),
         Command::Tune(args) => tune::run(&args),
         Command::Bench(args) => match args.which {
@@ -74,6 +77,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
                 threads,
                 ..
             } => bench_loop::run(voxel_size, points, frames, threads),
+            BenchKind::Viewer { seconds, .. } => bench_viewer::run(seconds),
             BenchKind::Transport { frames, .. } => bench_transport::run(frames),
             BenchKind::Kernel {
                 points, seconds, ..

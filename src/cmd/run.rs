@@ -158,6 +158,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
         initial,
         config,
     } = prepare(args)?;
+    let viewer = super::view::attach(args.view, &scene)?;
     let report: LoopReport = run_loop(
         scene.tree.clone(),
         classed(&scene.shell),
@@ -165,7 +166,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
         device,
         initial,
         config,
-        None,
+        viewer.as_ref().map(|v| v.feed()),
         Arc::new(AtomicBool::new(false)),
     )?;
     finish(args, scene.shell.len(), &report, None::<&()>)

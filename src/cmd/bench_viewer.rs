@@ -1,0 +1,81 @@
+//! `vps bench viewer`: the viewer's cost on the loop. The demo's paced 1 kHz session (braking on,
+//! one compute thread) runs twice on the same scene: first without a viewer, then with a viewer
+//! and one WebSocket client in this process reading every state message. Prints both runs' frame
+//! figures and the with/without ratios of the compute percentiles (JSON).
+
+use super::output::print_json;
+use super::view::attach;
+use crate::demo::run_session;
+use crate::session::builtin_scene;
+use anyhow::{Context, Result};
+use serde::Serialize;
+use std::time::Duration;
+use vps_haptic::HapticParams;
+use vps_runtime::StatsSummary;
+use vps_view::client::WsClient;
+use vps_voxelize::ShellMethod;
+
+/// Voxel size of the benchmark's scene (m): the demo's.
+const VOXEL_SIZE: f64 = 0.005;
+
+#[derive(Serialize)]
+struct ViewerBench {
+    session_seconds: f64,
+    shell_points: usize,
+    without_viewer: StatsSummary,
+    with_viewer: StatsSummary,
+    /// State messages the client read during the second run, and their total size.
+    messages_read: u64,
+    message_bytes: u64,
+    /// with / without, per compute percentile.
+    compute_ratio: Ratios,
+}
+
+#[derive(Serialize)]
+struct Ratios {
+    p50: f64,
+    p99: f64,
+    p999: f64,
+    max: f64,
+}
+
+/// Runs both sessions of `seconds` each and prints JSON.
+pub fn run(seconds: f64) -> Result<()> {
+    let scene = builtin_scene(VOXEL_SIZE, ShellMethod::VoxelCentres)?;
+    let params = HapticParams::default().with_scene(VOXEL_SIZE, scene.shell.max_radius())?;
+    let without = run_session(&scene, params, seconds, 1, true, None)?;
+
+    let viewer = attach(Some("127.0.0.1:0".parse()?), &scene)?.context("the viewer")?;
+    let mut client = WsClient::connect(viewer.local_addr(), "/ws", Duration::from_secs(5))
+        .context("connecting to the viewer's WebSocket")?;
+    let reader = std::thread::spawn(move || {
+        let (mut messages, mut bytes) = (0u64, 0u64);
+        while let Ok(Some(text)) = client.read_text() {
+            messages += 1;
+            bytes += text.len() as u64;
+        }
+        (messages, bytes)
+    });
+    let with = run_session(&scene, params, seconds, 1, true, Some(viewer.feed()))?;
+    drop(viewer);
+    let (messages_read, message_bytes) = reader
+        .join()
+        .map_err(|_| anyhow::anyhow!("the WebSocket reader panicked"))?;
+
+    let (a, b) = (&without.stats.compute_ns, &with.stats.compute_ns);
+    let ratio = |with: u64, without: u64| with as f64 / without.max(1) as f64;
+    print_json(&ViewerBench {
+        session_seconds: without.stats.frames as f64 * params.dt,
+        shell_points: scene.shell.len(),
+        compute_ratio: Ratios {
+            p50: ratio(b.p50, a.p50),
+            p99: ratio(b.p99, a.p99),
+            p999: ratio(b.p999, a.p999),
+            max: ratio(b.max, a.max),
+        },
+        without_viewer: without.stats,
+        with_viewer: with.stats,
+        messages_read,
+        message_bytes,
+    })
+}
