@@ -3,9 +3,9 @@
 //!
 //! This is the viewer's own re-sampling, on the viewer's thread at the state rate, never the frame
 //! loop's: the loop publishes only the pose. Depth per point (DESIGN §3, `vps_haptic::kernel`):
-//! `d = max(0, N·(C − P))` with `P = R p + x` the world point, `N = R n` its inward normal and `C`
-//! the centre of its voxel; here in f64, so it may differ from the kernel's f32 figure in the last
-//! bits.
+//! `d = max(0, N·(C − P) + ℓ s)` with `P = R p + x` the world point, `N = R n` its inward normal,
+//! `C` the centre of its voxel and `ℓ` the voxel's distance layer (0 in a 2-bit map); here in f64,
+//! so it may differ from the kernel's f32 figure in the last bits.
 
 use glam::{DQuat, DVec3, Vec3};
 use vps_voxmap::{PointShell, Voxel, VoxelTree};
@@ -38,10 +38,12 @@ pub fn sample_contacts(
     for (p, n) in shell.points.iter().zip(&shell.normals) {
         let world = orientation * p.as_dvec3() + position;
         let ijk = spec.index_of(world);
-        let sample = match tree.get(ijk) {
+        let voxel = tree.get_layered(ijk);
+        let sample = match voxel.kind {
             Voxel::Surface => {
                 let normal = orientation * n.as_dvec3();
-                let depth = normal.dot(spec.center_of(ijk) - world).max(0.0);
+                let layer_depth = voxel.layer as f64 * spec.voxel_size;
+                let depth = (normal.dot(spec.center_of(ijk) - world) + layer_depth).max(0.0);
                 if depth <= 0.0 {
                     continue;
                 }
