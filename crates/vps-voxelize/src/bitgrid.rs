@@ -70,10 +70,28 @@ impl BitGrid {
     }
 
     /// Sets the bit of voxel `(x, y, z)`; indices must be in range.
-    #[cfg(test)]
     pub fn set(&mut self, x: usize, y: usize, z: usize) {
         let (w, b) = self.locate(x, y, z);
         self.words[w] |= 1 << b;
+    }
+
+    /// Heap bytes of the words.
+    pub fn bytes(&self) -> usize {
+        self.words.capacity() * 8
+    }
+
+    /// True when every valid bit is set.
+    pub fn is_full(&self) -> bool {
+        let rw = self.row_words;
+        self.words
+            .iter()
+            .enumerate()
+            .all(|(i, &w)| w == self.valid_mask(i % rw))
+    }
+
+    /// True when no bit is set.
+    pub fn is_empty(&self) -> bool {
+        self.words.iter().all(|&w| w == 0)
     }
 
     /// Number of set bits.

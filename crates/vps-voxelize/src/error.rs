@@ -6,6 +6,11 @@ use thiserror::Error;
 /// one-byte [`vps_voxmap::DenseGrid`] plus five bit planes), so this caps memory near 7.6 GB.
 pub const MAX_VOXELS: u64 = 4_000_000_000;
 
+/// Largest grid the sparse voxelizer ([`crate::voxelize_tree`]) accepts (voxels): 2^40, the `.vmap`
+/// limit. Its memory follows the surface; only a table of one small entry per 64³ chunk grows with
+/// the volume (about 16 bytes per 262,144 voxels).
+pub const MAX_SPARSE_VOXELS: u64 = 1 << 40;
+
 /// Why voxelization or point-shell sampling failed.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum VoxelizeError {
@@ -33,6 +38,12 @@ pub enum VoxelizeError {
     /// The grid specification is unusable (zero dimension or non-finite origin).
     #[error("invalid grid: {reason}")]
     InvalidGrid {
+        /// What is wrong.
+        reason: String,
+    },
+    /// An option cannot be honoured (workspace, offset depth, tree config).
+    #[error("invalid options: {reason}")]
+    InvalidOptions {
         /// What is wrong.
         reason: String,
     },

@@ -37,6 +37,16 @@ pub(crate) fn flood_fill(surface: &BitGrid) -> BitGrid {
             }
         }
     }
+    fill_from(&mut open, &mut stack);
+    open
+}
+
+/// Runs the span fill on `open` (set bits: open voxels not yet reached) from the seeds on `stack`
+/// (`(row, x)` with `row = y + ny * z`), clearing every open voxel 6-connected to a seed. Seeds on
+/// closed voxels are skipped. Leaves `stack` empty.
+pub(crate) fn fill_from(open: &mut BitGrid, stack: &mut Vec<(u32, u32)>) {
+    let [_, ny, nz] = open.dims;
+    let rw = open.row_words;
     while let Some((row, x)) = stack.pop() {
         let (row, x) = (row as usize, x as usize);
         let words = &mut open.words[row * rw..(row + 1) * rw];
@@ -48,7 +58,7 @@ pub(crate) fn flood_fill(surface: &BitGrid) -> BitGrid {
         let (y, z) = (row % ny, row / ny);
         let mut visit = |nrow: usize| {
             let nwords = &open.words[nrow * rw..(nrow + 1) * rw];
-            push_runs(nwords, nrow, l, r, &mut stack);
+            push_runs(nwords, nrow, l, r, stack);
         };
         if y > 0 {
             visit(row - 1);
@@ -63,7 +73,6 @@ pub(crate) fn flood_fill(surface: &BitGrid) -> BitGrid {
             visit(row + ny);
         }
     }
-    open
 }
 
 /// Mask of bits `l..=r` (row bit positions) that fall in word `w`.
@@ -74,8 +83,14 @@ fn span_mask(w: usize, l: usize, r: usize) -> u64 {
     (!0u64 >> (63 - hi)) & (!0u64 << lo)
 }
 
-/// Pushes one seed per run of set bits of `words` within `l..=r`.
-fn push_runs(words: &[u64], row: usize, l: usize, r: usize, stack: &mut Vec<(u32, u32)>) {
+/// Pushes one seed per run of set bits of `words` (one row) within `l..=r`.
+pub(crate) fn push_runs(
+    words: &[u64],
+    row: usize,
+    l: usize,
+    r: usize,
+    stack: &mut Vec<(u32, u32)>,
+) {
     let mut carry = 0u64; // bit 63 of the previous masked word, so runs crossing words push once
     for (w, &word) in words.iter().enumerate().take(r / 64 + 1).skip(l / 64) {
         let m = word & span_mask(w, l, r);

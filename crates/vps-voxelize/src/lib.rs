@@ -8,6 +8,8 @@
 //! - `offset`: the force layer grown outward by `k` layers.
 //! - `merge`: objects combined by precedence Interior > Surface > Proximity > Free.
 //! - [`pipeline`]: [`voxelize`] and friends, options, statistics.
+//! - [`sparse`]: the chunked pipeline behind [`voxelize_tree`]: same voxels, memory that follows
+//!   the surface, optional distance layers (4- and 8-bit voxels).
 //! - [`mass`]: volume, centre of mass and bounding radius of a mesh.
 //! - [`shell`]: the point shell of the dynamic object.
 //!
@@ -26,14 +28,16 @@ pub mod pipeline;
 mod proximity;
 mod scan_convert;
 pub mod shell;
+pub mod sparse;
 pub mod tri_box;
 
-pub use error::{VoxelizeError, MAX_VOXELS};
+pub use error::{VoxelizeError, MAX_SPARSE_VOXELS, MAX_VOXELS};
 pub use mass::{is_closed_and_oriented, mass_properties};
 pub use pipeline::{
-    grid_for, voxelize, voxelize_in, voxelize_in_with_stats, voxelize_with_stats, VoxelizeOptions,
-    VoxelizeStats,
+    clip_to_workspace, grid_for, voxelize, voxelize_in, voxelize_in_with_stats, voxelize_tree,
+    voxelize_tree_in, voxelize_with_stats, VoxelizeOptions, VoxelizeStats,
 };
 pub use shell::point_shell;
 pub use tri_box::triangle_box_overlap;
 pub use vps_voxmap::shell::ShellMethod;
+pub use vps_voxmap::VoxelWidth;

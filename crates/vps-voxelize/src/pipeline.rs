@@ -3,7 +3,7 @@
 //! once on the merged result, written to a [`DenseGrid`].
 
 use crate::bitgrid::BitGrid;
-use crate::error::{VoxelizeError, MAX_VOXELS};
+use crate::error::{VoxelizeError, MAX_SPARSE_VOXELS, MAX_VOXELS};
 use crate::flood_fill::flood_fill;
 use crate::merge::{to_dense, MergedPlanes};
 use crate::offset::{offset, Layers};
@@ -14,7 +14,7 @@ use rayon::prelude::*;
 use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 use vps_mesh::{Aabb, TriMesh};
-use vps_voxmap::{DenseGrid, GridSpec};
+use vps_voxmap::{DenseGrid, GridSpec, TreeConfig, VoxelTree, VoxelWidth};
 
 /// Inputs of at least this many triangles or voxels get a progress bar when asked for.
 const PROGRESS_MIN_TRIANGLES: usize = 100_000;
@@ -40,6 +40,17 @@ pub struct VoxelizeOptions {
     /// Show an indicatif progress bar on stderr for large inputs (hidden when stderr is not a
     /// terminal). Default false.
     pub progress: bool,
+    /// Bits per voxel of the voxmap [`voxelize_tree`] builds: 2 (kinds only, the paper's format) or
+    /// 4 / 8 (kinds plus distance layers, see [`vps_voxmap::LayeredVoxel`]). The dense functions
+    /// ([`voxelize`] and friends) always return 2-bit kinds. Default 2.
+    pub width: VoxelWidth,
+    /// The region the dynamic part can reach (m). When set, only voxels overlapping it are
+    /// voxelized: the grid is the scene's padded grid clipped to the voxels that overlap the
+    /// workspace, voxels outside read Free, and triangles outside are never scan-converted.
+    /// Caveat: the flood fill treats the workspace boundary as the grid's wall, so an object cut by
+    /// it is filled from the cut and its interior there reads Free (as [`voxelize_in`] does).
+    /// Default `None` (the whole scene).
+    pub workspace: Option<Aabb>,
 }
 
 impl Default for VoxelizeOptions {
@@ -49,6 +60,8 @@ impl Default for VoxelizeOptions {
             offset_layers: 2,
             padding_voxels: 4,
             progress: false,
+            width: VoxelWidth::Two,
+            workspace: None,
         }
     }
 }
@@ -91,6 +104,12 @@ pub struct VoxelizeStats {
     pub surface_voxels: u64,
     /// Final Proximity voxels.
     pub proximity_voxels: u64,
+    /// Peak bytes of the voxelizer's working data (bit planes, chunk tables, the dense output grid
+    /// or the tree under construction), counted from the structures' sizes, not from the allocator.
+    /// For the dense pipeline this is the planned figure of about 1.9 bytes per voxel.
+    pub peak_work_bytes: u64,
+    /// Chunks the sparse voxelizer computed Proximity and offset in (0 for the dense pipeline).
+    pub active_chunks: usize,
 }
 
 /// Checks a voxel size (m).
@@ -102,15 +121,15 @@ pub(crate) fn check_voxel_size(s: f64) -> Result<(), VoxelizeError> {
     }
 }
 
-/// Checks grid dimensions against [`MAX_VOXELS`] and `i32` indexing.
-fn check_dims(dims: [u64; 3]) -> Result<(), VoxelizeError> {
+/// Checks grid dimensions against `limit` voxels and `i32` indexing.
+fn check_dims(dims: [u64; 3], limit: u64) -> Result<(), VoxelizeError> {
     let voxels = dims.iter().fold(1u64, |a, &d| a.saturating_mul(d));
-    if voxels > MAX_VOXELS || dims.iter().any(|&d| d > i32::MAX as u64) {
+    if voxels > limit || dims.iter().any(|&d| d > i32::MAX as u64) {
         return Err(VoxelizeError::GridTooLarge {
             dims,
             voxels,
             bytes: voxels.saturating_mul(BYTES_PER_VOXEL_NUM) / BYTES_PER_VOXEL_DEN,
-            limit: MAX_VOXELS,
+            limit,
         });
     }
     if dims.contains(&0) {
@@ -127,6 +146,15 @@ fn check_dims(dims: [u64; 3]) -> Result<(), VoxelizeError> {
 ///
 /// Errors: invalid voxel size, empty or non-finite bounds, or a grid over [`MAX_VOXELS`].
 pub fn grid_for(bounds: &Aabb, opts: &VoxelizeOptions) -> Result<GridSpec, VoxelizeError> {
+    grid_for_limit(bounds, opts, MAX_VOXELS)
+}
+
+/// [`grid_for`] with a voxel-count limit.
+fn grid_for_limit(
+    bounds: &Aabb,
+    opts: &VoxelizeOptions,
+    limit: u64,
+) -> Result<GridSpec, VoxelizeError> {
     let s = opts.voxel_size;
     check_voxel_size(s)?;
     if bounds.is_empty() || !bounds.min.is_finite() || !bounds.max.is_finite() {
@@ -140,7 +168,9 @@ pub fn grid_for(bounds: &Aabb, opts: &VoxelizeOptions) -> Result<GridSpec, Voxel
     let span = hi - lo + DVec3::ONE;
     // Saturating float-to-int casts; absurd sizes are caught by check_dims.
     let dims = [span.x as u64, span.y as u64, span.z as u64];
-    check_dims(dims)?;
+    if opts.workspace.is_none() {
+        check_dims(dims, limit)?;
+    }
     Ok(GridSpec {
         origin: lo * s,
         voxel_size: s,
@@ -148,15 +178,71 @@ pub fn grid_for(bounds: &Aabb, opts: &VoxelizeOptions) -> Result<GridSpec, Voxel
     })
 }
 
-/// Checks a grid given to [`voxelize_in`].
-fn check_spec(spec: &GridSpec) -> Result<(), VoxelizeError> {
+/// Checks a grid given to [`voxelize_in`] against `limit` voxels.
+fn check_spec(spec: &GridSpec, limit: u64) -> Result<(), VoxelizeError> {
     check_voxel_size(spec.voxel_size)?;
     if !spec.origin.is_finite() {
         return Err(VoxelizeError::InvalidGrid {
             reason: format!("origin {} is not finite", spec.origin),
         });
     }
-    check_dims(spec.dims.map(|d| d as u64))
+    check_dims(spec.dims.map(|d| d as u64), limit)
+}
+
+/// `spec` clipped to the voxels that overlap `workspace` (m). Errors when they do not meet or the
+/// workspace is empty or not finite.
+pub fn clip_to_workspace(spec: &GridSpec, workspace: &Aabb) -> Result<GridSpec, VoxelizeError> {
+    if workspace.is_empty() || !workspace.min.is_finite() || !workspace.max.is_finite() {
+        return Err(VoxelizeError::InvalidOptions {
+            reason: format!("workspace {workspace:?} is empty or not finite"),
+        });
+    }
+    let s = spec.voxel_size;
+    let lo = ((workspace.min - spec.origin) / s).floor();
+    let hi = ((workspace.max - spec.origin) / s).floor();
+    let mut first = [0u32; 3];
+    let mut dims = [0u32; 3];
+    for a in 0..3 {
+        let n = spec.dims[a] as f64;
+        let (l, h) = (lo[a].max(0.0), hi[a].min(n - 1.0));
+        if l > h {
+            return Err(VoxelizeError::InvalidOptions {
+                reason: format!(
+                    "workspace {workspace:?} does not overlap the scene's grid ({} .. {} m)",
+                    spec.origin,
+                    spec.max_corner()
+                ),
+            });
+        }
+        first[a] = l as u32;
+        dims[a] = (h - l) as u32 + 1;
+    }
+    Ok(GridSpec {
+        origin: spec.origin + glam::UVec3::from_array(first).as_dvec3() * s,
+        voxel_size: s,
+        dims,
+    })
+}
+
+/// The grid of a whole scene: [`grid_for`] its joint bounds, clipped to `opts.workspace`; at most
+/// `limit` voxels after clipping.
+fn scene_grid(
+    objects: &[TriMesh],
+    opts: &VoxelizeOptions,
+    limit: u64,
+) -> Result<GridSpec, VoxelizeError> {
+    let bounds = objects
+        .iter()
+        .fold(Aabb::EMPTY, |b, m| b.union(&m.bounds()));
+    let spec = grid_for_limit(&bounds, opts, limit)?;
+    match &opts.workspace {
+        None => Ok(spec),
+        Some(ws) => {
+            let clipped = clip_to_workspace(&spec, ws)?;
+            check_spec(&clipped, limit)?;
+            Ok(clipped)
+        }
+    }
 }
 
 /// Checks that every triangle of every object indexes existing, finite vertices.
@@ -313,11 +399,60 @@ pub fn voxelize_with_stats(
 ) -> Result<(DenseGrid, VoxelizeStats), VoxelizeError> {
     check_voxel_size(opts.voxel_size)?;
     check_objects(objects)?;
-    let bounds = objects
-        .iter()
-        .fold(Aabb::EMPTY, |b, m| b.union(&m.bounds()));
-    let spec = grid_for(&bounds, opts)?;
+    let spec = scene_grid(objects, opts, MAX_VOXELS)?;
     voxelize_in_with_stats(objects, spec, opts)
+}
+
+/// Voxelizes static `objects` straight into a [`VoxelTree`] of `config` and `opts.width`, with the
+/// sparse (chunked) pipeline: the same voxels as [`voxelize`] (equal trees for 2-bit), but working
+/// memory and the tree follow the scene's surface, not its bounding volume, so the grid may hold up
+/// to [`MAX_SPARSE_VOXELS`]. Honours `opts.workspace`. Wider voxels add distance layers (up to
+/// [`crate::sparse::MAX_COMPUTED_LAYERS`] per side in 8-bit maps). Blocking, parallel (rayon).
+///
+/// Errors: as [`voxelize`], plus [`VoxelizeError::InvalidOptions`] for a workspace that misses the
+/// scene or an offset too deep for the chunk halo (`offset_layers + layers > 64`).
+pub fn voxelize_tree(
+    objects: &[TriMesh],
+    opts: &VoxelizeOptions,
+    config: TreeConfig,
+) -> Result<(VoxelTree, VoxelizeStats), VoxelizeError> {
+    check_voxel_size(opts.voxel_size)?;
+    check_objects(objects)?;
+    let spec = scene_grid(objects, opts, MAX_SPARSE_VOXELS)?;
+    voxelize_tree_in(objects, spec, opts, config)
+}
+
+/// [`voxelize_tree`] on a given grid `spec` (see [`voxelize_in`]; `opts.workspace` is not applied:
+/// clip the spec with [`clip_to_workspace`] first).
+pub fn voxelize_tree_in(
+    objects: &[TriMesh],
+    spec: GridSpec,
+    opts: &VoxelizeOptions,
+    config: TreeConfig,
+) -> Result<(VoxelTree, VoxelizeStats), VoxelizeError> {
+    let start = Instant::now();
+    check_spec(&spec, MAX_SPARSE_VOXELS)?;
+    check_objects(objects)?;
+    config
+        .validate()
+        .map_err(|e| VoxelizeError::InvalidOptions {
+            reason: e.to_string(),
+        })?;
+    let plan = crate::sparse::plan_for(opts.width, opts.offset_layers)?;
+    let mut stats = VoxelizeStats {
+        objects: objects.len(),
+        triangles: objects.iter().map(TriMesh::triangle_count).sum(),
+        dims: spec.dims,
+        ..VoxelizeStats::default()
+    };
+    let tree = crate::sparse::voxelize_sparse(objects, &spec, &plan, config, &mut stats)?;
+    let [free, interior, surface, proximity] = tree.counts();
+    stats.free_voxels = free;
+    stats.interior_voxels = interior;
+    stats.surface_voxels = surface;
+    stats.proximity_voxels = proximity;
+    stats.total_ms = ms(start);
+    Ok((tree, stats))
 }
 
 /// [`voxelize`] on a given grid: `spec` (its own voxel size wins over `opts.voxel_size`, and
@@ -338,9 +473,12 @@ pub fn voxelize_in_with_stats(
     opts: &VoxelizeOptions,
 ) -> Result<(DenseGrid, VoxelizeStats), VoxelizeError> {
     let start = Instant::now();
-    check_spec(&spec)?;
+    check_spec(&spec, MAX_VOXELS)?;
     check_objects(objects)?;
-    let mut stats = VoxelizeStats::default();
+    let mut stats = VoxelizeStats {
+        peak_work_bytes: spec.voxel_count() * BYTES_PER_VOXEL_NUM / BYTES_PER_VOXEL_DEN,
+        ..VoxelizeStats::default()
+    };
     let layers = voxelize_planes(
         objects,
         &spec,

@@ -71,7 +71,7 @@ pub fn point_shell(
         voxel_size,
         offset_layers: 0,
         padding_voxels: 0,
-        progress: false,
+        ..VoxelizeOptions::default()
     };
     let spec = grid_for(&mesh.bounds(), &opts)?;
     let layers = voxelize_planes(objects, &spec, 0, false, &mut VoxelizeStats::default());
@@ -253,7 +253,7 @@ mod tests {
                 voxel_size: 0.05,
                 offset_layers: 0,
                 padding_voxels: 0,
-                progress: false,
+                ..VoxelizeOptions::default()
             },
         )
         .unwrap();

@@ -85,7 +85,7 @@ fn shell_is_morton_ordered() {
         voxel_size: S,
         offset_layers: 0,
         padding_voxels: 0,
-        progress: false,
+        ..VoxelizeOptions::default()
     };
     let spec = grid_for(&sphere.bounds(), &opts).unwrap();
     let keys: Vec<u64> = shell

@@ -20,7 +20,7 @@ pub use dense::DenseGrid;
 pub use file::FileError;
 pub use grid::GridSpec;
 pub use shell::{MassProperties, PointShell};
-pub use tree::{NodeCounts, TreeAccessor, TreeConfig, TreeError, VoxelTree};
+pub use tree::{CubeSource, NodeCounts, TreeAccessor, TreeConfig, TreeError, VoxelTree};
 pub use voxel::{LayeredVoxel, Voxel, VoxelWidth};
 
 /// Read access to a voxmap by integer voxel index: implemented by the tree (runtime) and the dense
