@@ -72,6 +72,8 @@ pub enum Command {
     Coordinator(CoordinatorArgs),
     /// Coordinator plus N local worker processes on loopback (single-host multi-process mode).
     Cluster(ClusterArgs),
+    /// UDP relay adding seeded delay, jitter and loss (netem in userspace) between workers and a coordinator.
+    NetemRelay(NetemRelayArgs),
     /// Serve the live viewer page for an offline voxmap (inspect a scene before running it).
     View(ViewArgs),
     /// Measure; prints JSON.
@@ -136,6 +138,35 @@ pub struct ViewArgs {
     /// Address to serve the page on.
     #[arg(long, default_value = "127.0.0.1:8080")]
     pub addr: std::net::SocketAddr,
+}
+
+/// Arguments of `vps netem-relay`.
+#[derive(Args, Debug)]
+pub struct NetemRelayArgs {
+    /// Address workers send to (UDP).
+    #[arg(long)]
+    pub listen: std::net::SocketAddr,
+    /// The coordinator's address.
+    #[arg(long)]
+    pub forward: std::net::SocketAddr,
+    /// Mean one-way delay per datagram (e.g. 100us, 1ms).
+    #[arg(long, value_parser = vps_cluster::relay::parse_duration, default_value = "100us")]
+    pub delay: std::time::Duration,
+    /// Half-width of the uniform jitter around the delay.
+    #[arg(long, value_parser = vps_cluster::relay::parse_duration, default_value = "50us")]
+    pub jitter: std::time::Duration,
+    /// Probability of dropping a datagram, per direction (0..1).
+    #[arg(long, default_value_t = 0.01)]
+    pub loss: f64,
+    /// Seed of the drop and delay draws.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Stop after this many seconds and print the figures (default: run until killed).
+    #[arg(long)]
+    pub seconds: Option<f64>,
+    /// Print the final figures as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Arguments of `vps worker`.
@@ -391,6 +422,30 @@ pub enum BenchKind {
         /// Session length per run (s).
         #[arg(long, default_value_t = 10.0)]
         seconds: f64,
+        /// Print JSON (always JSON; accepted for symmetry).
+        #[arg(long)]
+        json: bool,
+    },
+    /// A paced session over W local worker processes with an N-point shell: deadlines, frame times, per-worker metrics.
+    Cluster {
+        /// Approximate number of shell points.
+        #[arg(long, default_value_t = 100_000)]
+        points: usize,
+        /// Frames to run (1 ms each).
+        #[arg(long, default_value_t = 100_000)]
+        frames: u64,
+        /// Worker processes.
+        #[arg(long, default_value_t = 2)]
+        workers: usize,
+        /// Compute threads per worker process.
+        #[arg(long, default_value_t = 1)]
+        worker_threads: usize,
+        /// Compute threads of the coordinator.
+        #[arg(long, default_value_t = 1)]
+        threads: usize,
+        /// Voxel size of the scene.
+        #[arg(long, value_parser = parse_length, default_value = "5mm")]
+        voxel_size: f64,
         /// Print JSON (always JSON; accepted for symmetry).
         #[arg(long)]
         json: bool,

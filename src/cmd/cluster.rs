@@ -66,14 +66,31 @@ fn coordinate(
     spawn: impl FnOnce(SocketAddr) -> Result<Option<vps_cluster::LocalWorkers>>,
     tune: impl FnOnce(&mut LoopConfig),
 ) -> Result<CoordinatedRun> {
+    let mut prepared = prepare(session)?;
+    tune(&mut prepared.config);
+    coordinate_prepared(session, prepared, listen, cert, key, pins, workers, spawn)
+}
+
+/// [`coordinate`] for a session already prepared (benchmarks bring their own scene and device);
+/// `session` gives the local threads and the viewer address.
+#[allow(clippy::too_many_arguments)]
+fn coordinate_prepared(
+    session: &RunArgs,
+    prepared: PreparedSession,
+    listen: SocketAddr,
+    cert: &std::path::Path,
+    key: &std::path::Path,
+    pins: &[PathBuf],
+    workers: usize,
+    spawn: impl FnOnce(SocketAddr) -> Result<Option<vps_cluster::LocalWorkers>>,
+) -> Result<CoordinatedRun> {
     let PreparedSession {
         scene,
         params,
         device,
         initial,
-        mut config,
-    } = prepare(session)?;
-    tune(&mut config);
+        config,
+    } = prepared;
     let viewer = super::view::attach(session.view, &scene)?;
     let cluster_scene = Arc::new(ClusterScene::new(
         scene.tree.clone(),
@@ -155,12 +172,25 @@ pub fn run_local_cluster(
     worker_threads: usize,
     tune: impl FnOnce(&mut LoopConfig),
 ) -> Result<CoordinatedRun> {
+    let mut prepared = prepare(session)?;
+    tune(&mut prepared.config);
+    run_local_cluster_prepared(session, prepared, workers, worker_threads)
+}
+
+/// [`run_local_cluster`] for a session already prepared (`session`: local threads, viewer).
+pub fn run_local_cluster_prepared(
+    session: &RunArgs,
+    prepared: PreparedSession,
+    workers: usize,
+    worker_threads: usize,
+) -> Result<CoordinatedRun> {
     let dir = std::env::temp_dir().join(format!("vps-cluster-{}", std::process::id()));
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let certs = local_cluster_certs(&dir)?;
     let exe = std::env::current_exe().context("locating the vps executable")?;
-    let result = coordinate(
+    let result = coordinate_prepared(
         session,
+        prepared,
         "127.0.0.1:0".parse()?,
         &certs.coordinator.cert,
         &certs.coordinator.key,
@@ -177,7 +207,6 @@ pub fn run_local_cluster(
             };
             Ok(Some(spawn_local_workers(workers, &exe, &spawn_args)?))
         },
-        tune,
     );
     let _ = std::fs::remove_dir_all(&dir);
     result

@@ -1,12 +1,14 @@
 //! One module per subcommand; [`dispatch`] routes the parsed command line.
 
 pub mod bench_kernel;
+mod bench_cluster;
 mod bench_loop;
 mod bench_transport;
 mod bench_viewer;
 mod bench_voxelize;
 mod cluster;
 mod inspect;
+mod netem_relay;
 pub mod output;
 mod probe;
 mod run;
@@ -54,6 +56,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Worker(args) => cluster::worker(&args),
         Command::Coordinator(args) => cluster::coordinator(&args),
         Command::Cluster(args) => cluster::local_cluster(&args),
+        Command::NetemRelay(args) => netem_relay::run(&args),
         Command::View(args) => view::run(&args),
         Command::Sweep(args) => sweep::run(&args),
         Command::Tune(args) => tune::run(&args),
@@ -79,6 +82,22 @@ pub fn dispatch(cli: Cli) -> Result<()> {
             } => bench_loop::run(voxel_size, points, frames, threads),
             BenchKind::Viewer { seconds, .. } => bench_viewer::run(seconds),
             BenchKind::Transport { frames, .. } => bench_transport::run(frames),
+            BenchKind::Cluster {
+                points,
+                frames,
+                workers,
+                worker_threads,
+                threads,
+                voxel_size,
+                ..
+            } => bench_cluster::run(bench_cluster::ClusterBench {
+                voxel_size,
+                points,
+                frames,
+                workers,
+                worker_threads,
+                local_threads: threads,
+            }),
             BenchKind::Kernel {
                 points, seconds, ..
             } => output::print_json(&bench_kernel::run(&points, seconds)?),

@@ -210,12 +210,20 @@ async fn join(
         }
         other => return Err(ClusterError::Join(format!("unexpected {other:?}"))),
     };
-    let cached = match (
-        cache.voxmap(&identity.voxmap_hash),
-        cache.shell(&identity.shell_hash),
-    ) {
-        (Some(v), Some(s)) => ClusterScene::from_files(&identity, v, s).ok(),
-        _ => None,
+    // Reading, hashing and decoding a scene takes seconds for large ones: off the runtime's
+    // thread, so that the connection keeps answering (and sending keep-alives) meanwhile.
+    let cached = {
+        let cache = cache.clone();
+        blocking(move || {
+            match (
+                cache.voxmap(&identity.voxmap_hash),
+                cache.shell(&identity.shell_hash),
+            ) {
+                (Some(v), Some(s)) => ClusterScene::from_files(&identity, v, s).ok(),
+                _ => None,
+            }
+        })
+        .await?
     };
     let transfer = cached.is_none();
     write_join(
@@ -231,13 +239,26 @@ async fn join(
         None => {
             let voxmap = read_file(&mut recv, identity.voxmap_len, "voxmap").await?;
             let shell = read_file(&mut recv, identity.shell_len, "shell").await?;
-            cache.store(&identity, &voxmap, &shell);
-            ClusterScene::from_files(&identity, voxmap, shell)?
+            let cache = cache.clone();
+            blocking(move || {
+                cache.store(&identity, &voxmap, &shell);
+                ClusterScene::from_files(&identity, voxmap, shell)
+            })
+            .await??
         }
     };
     write_join(&mut send, &JoinMessage::Ready).await?;
     let _ = send.finish();
     Ok((scene, worker_id, transfer))
+}
+
+/// Runs `f` on tokio's blocking pool.
+async fn blocking<T: Send + 'static>(
+    f: impl FnOnce() -> T + Send + 'static,
+) -> Result<T, ClusterError> {
+    tokio::task::spawn_blocking(f)
+        .await
+        .map_err(|e| ClusterError::Scene(format!("loading the scene failed: {e}")))
 }
 
 async fn read_file(
