@@ -284,14 +284,14 @@ impl VoxelTree {
         c
     }
 
-    /// Voxels inside the dims per (kind, layer) that occurs, in code order (for a 2-bit tree: the
-    /// four kinds at layer 0). Computed without expanding the tree.
+    /// Voxels inside the dims per (kind, layer), in code order: every kind at layer 0 (even when
+    /// absent) and every deeper layer that occurs. For a 2-bit tree: the four kinds. Computed without expanding the tree.
     pub fn layer_counts(&self) -> Vec<(LayeredVoxel, u64)> {
         walk::code_counts(self)
             .iter()
             .enumerate()
-            .filter(|&(code, &n)| n > 0 || code < 4)
             .filter_map(|(code, &n)| Some((self.width.decode(code as u8)?, n)))
+            .filter(|&(v, n)| n > 0 || v.layer == 0)
             .collect()
     }
 
