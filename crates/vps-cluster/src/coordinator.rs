@@ -96,8 +96,10 @@ impl Coordinator {
         config: CoordinatorConfig,
         scene: Arc<ClusterScene>,
     ) -> Result<Coordinator, ClusterError> {
+        // One network thread: a datagram's connection driver and its reader task then run on the
+        // same thread, with no hand-off between them.
         let runtime = tokio::runtime::Builder::new_multi_thread()
-            .worker_threads(2)
+            .worker_threads(1)
             .thread_name("vps-coord-net")
             .enable_all()
             .build()

@@ -101,6 +101,16 @@ impl ClusterScene {
             })
     }
 
+    /// [`ClusterScene::sample_mask`] on the calling thread alone: the same bits, no rayon
+    /// hand-off (for one compute thread). Does not allocate; blocks until done.
+    pub fn sample_mask_serial(&self, pose: &KernelPose, mask: u64) -> PartialSums {
+        let mut sums = PartialSums::default();
+        for c in crate::protocol::mask_classes(mask) {
+            sums.merge(&sample_class(&*self.map, &self.shell, pose, c));
+        }
+        sums
+    }
+
     /// The voxmap file bytes (`vps_voxmap::file` format).
     pub fn voxmap_file(&self) -> &[u8] {
         &self.voxmap_file

@@ -460,6 +460,18 @@ impl RemoteShares {
     }
 }
 
+impl RemoteShares {
+    /// The sums of the classes in `mask`: on the frame thread itself with one local thread (no
+    /// hand-off), else on the local pool. Blocks until done; does not allocate.
+    fn sample(&self, pose: &KernelPose, mask: u64) -> PartialSums {
+        if self.config.local_threads == 1 {
+            self.scene.sample_mask_serial(pose, mask)
+        } else {
+            self.pool.install(|| self.scene.sample_mask(pose, mask))
+        }
+    }
+}
+
 impl FrameSampler for RemoteShares {
     /// One frame: membership, assignment, requests, own share on local threads, gather until
     /// `deadline`, local fallback. Allocates one datagram buffer per request (and on membership
@@ -474,12 +486,11 @@ impl FrameSampler for RemoteShares {
         }
         let local = self.assign();
         let pending = self.send_requests(pose);
-        let scene = self.scene.clone();
-        let mut sums = self.pool.install(|| scene.sample_mask(pose, local));
+        let mut sums = self.sample(pose, local);
         self.gather(pending, deadline, &mut sums);
         let (missing, fallback_shares) = self.settle();
         if missing != 0 {
-            let fallback = self.pool.install(|| scene.sample_mask(pose, missing));
+            let fallback = self.sample(pose, missing);
             sums.merge(&fallback);
         }
         self.board.bump(|b| &b.frames);

@@ -1,10 +1,11 @@
 //! `vps worker`: dials the coordinator, joins (receiving the scene unless cached), then answers
 //! frame datagrams with the partial sums of the classes each one asks for.
 //!
-//! Threads: one tokio current-thread runtime for the network, one compute thread that samples on a
-//! rayon pool of `threads` threads. The compute thread always takes the newest request and drops
-//! older queued ones (the coordinator has given up on them anyway). Malformed datagrams are
-//! counted and ignored.
+//! Threads: one tokio current-thread runtime for the network, which also computes each share: on
+//! itself with one compute thread (a request is answered without any thread hand-off), or on a
+//! rayon pool of `threads` threads it waits for. It always answers the newest queued request and
+//! drops older ones (the coordinator has given up on them anyway). Malformed datagrams are counted
+//! and ignored.
 
 use crate::protocol::{
     read_frame, read_join, write_join, FrameReply, FrameRequest, JoinMessage, PROTOCOL_VERSION,
@@ -13,8 +14,8 @@ use crate::protocol::{
 use crate::scene::{ClusterScene, SceneCache, MAX_SCENE_FILE};
 use crate::tls::{client_config, load_pins, TlsIdentity, SERVER_NAME};
 use crate::ClusterError;
-use crossbeam::channel::{unbounded, Receiver};
 use rustls::pki_types::CertificateDer;
+use std::future::Future;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -129,30 +130,27 @@ async fn worker_main(
         config.coordinator
     );
 
-    let counters = Arc::new(Counters::default());
-    let (jobs, job_rx) = unbounded::<FrameRequest>();
-    let compute = {
-        let (conn, counters, threads) = (conn.clone(), counters.clone(), config.threads);
-        std::thread::Builder::new()
-            .name("vps-worker-compute".into())
-            .spawn(move || compute_loop(scene, threads, job_rx, conn, counters))
-            .map_err(|e| ClusterError::Network(format!("cannot spawn a thread: {e}")))?
-    };
+    let mut answer = Answerer::new(scene, config.threads)?;
     let mut invalid = 0u64;
-    let mut requests = 0u64;
     loop {
         tokio::select! {
             datagram = conn.read_datagram() => match datagram {
-                Ok(bytes) => match FrameRequest::decode(&bytes) {
-                    Ok(request) => {
-                        requests += 1;
-                        let _ = jobs.send(request);
+                Ok(bytes) => {
+                    let mut newest = answer.decode(&bytes, &mut invalid);
+                    // Requests queued meanwhile: only the newest is answered (the coordinator
+                    // has given up on the older ones).
+                    while let Some(Ok(bytes)) = try_read_datagram(&conn) {
+                        if let Some(request) = answer.decode(&bytes, &mut invalid) {
+                            answer.superseded += u64::from(newest.is_some());
+                            newest = Some(request);
+                        }
                     }
-                    Err(e) => {
-                        invalid += 1;
-                        tracing::debug!("dropped a malformed datagram: {e}");
+                    if let Some(request) = newest {
+                        if !answer.reply(&conn, &request) {
+                            break;
+                        }
                     }
-                },
+                }
                 Err(e) => {
                     tracing::info!("connection ended: {e}");
                     break;
@@ -166,27 +164,101 @@ async fn worker_main(
             }
         }
     }
-    drop(jobs);
-    let compute_ok = compute.join().is_ok();
     endpoint.close(0u32.into(), b"bye");
     let _ = tokio::time::timeout(Duration::from_millis(200), endpoint.wait_idle()).await;
-    if !compute_ok {
-        return Err(ClusterError::Network("the compute thread panicked".into()));
-    }
     Ok(WorkerReport {
         worker_id,
         scene_transferred,
-        requests,
-        replies: counters.replies.load(Ordering::Relaxed),
-        superseded: counters.superseded.load(Ordering::Relaxed),
+        requests: answer.requests,
+        replies: answer.replies,
+        superseded: answer.superseded,
         invalid_datagrams: invalid,
     })
 }
 
-#[derive(Default)]
-struct Counters {
-    replies: AtomicU64,
-    superseded: AtomicU64,
+/// A datagram already received, without waiting (`None`: none queued).
+fn try_read_datagram(
+    conn: &quinn::Connection,
+) -> Option<Result<bytes::Bytes, quinn::ConnectionError>> {
+    let mut read = std::pin::pin!(conn.read_datagram());
+    let mut cx = std::task::Context::from_waker(std::task::Waker::noop());
+    match read.as_mut().poll(&mut cx) {
+        std::task::Poll::Ready(r) => Some(r),
+        std::task::Poll::Pending => None,
+    }
+}
+
+/// Computes and sends replies on the network thread itself: with one compute thread the share is
+/// sampled right there (no thread hand-off between a request's arrival and its reply); with more,
+/// on a rayon pool the network thread waits for.
+struct Answerer {
+    scene: ClusterScene,
+    pool: Option<rayon::ThreadPool>,
+    buf: [u8; REPLY_LEN],
+    requests: u64,
+    replies: u64,
+    superseded: u64,
+}
+
+impl Answerer {
+    fn new(scene: ClusterScene, threads: usize) -> Result<Answerer, ClusterError> {
+        let pool = (threads > 1)
+            .then(|| {
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .thread_name(|i| format!("vps-worker-{i}"))
+                    .build()
+            })
+            .transpose()
+            .map_err(|e| ClusterError::Config {
+                field: "threads",
+                message: format!("cannot start the compute pool: {e}"),
+            })?;
+        Ok(Answerer {
+            scene,
+            pool,
+            buf: [0; REPLY_LEN],
+            requests: 0,
+            replies: 0,
+            superseded: 0,
+        })
+    }
+
+    /// A frame request, or `None` (counted in `invalid`) for a malformed datagram.
+    fn decode(&mut self, bytes: &[u8], invalid: &mut u64) -> Option<FrameRequest> {
+        match FrameRequest::decode(bytes) {
+            Ok(request) => {
+                self.requests += 1;
+                Some(request)
+            }
+            Err(e) => {
+                *invalid += 1;
+                tracing::debug!("dropped a malformed datagram: {e}");
+                None
+            }
+        }
+    }
+
+    /// Samples the requested classes and sends the reply; false when the connection is gone.
+    fn reply(&mut self, conn: &quinn::Connection, request: &FrameRequest) -> bool {
+        let sums = match &self.pool {
+            Some(pool) => pool.install(|| self.scene.sample_mask(&request.pose, request.classes)),
+            None => self
+                .scene
+                .sample_mask_serial(&request.pose, request.classes),
+        };
+        FrameReply {
+            seq: request.seq,
+            classes: request.classes,
+            sums,
+        }
+        .encode(&mut self.buf);
+        let sent = conn
+            .send_datagram(bytes::Bytes::copy_from_slice(&self.buf))
+            .is_ok();
+        self.replies += u64::from(sent);
+        sent
+    }
 }
 
 /// The join exchange (see [`JoinMessage`]): returns the scene, the worker id and whether the scene
@@ -279,42 +351,4 @@ async fn read_file(
         )));
     }
     Ok(bytes)
-}
-
-fn compute_loop(
-    scene: ClusterScene,
-    threads: usize,
-    jobs: Receiver<FrameRequest>,
-    conn: quinn::Connection,
-    counters: Arc<Counters>,
-) {
-    let pool = match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
-        Ok(pool) => pool,
-        Err(e) => {
-            tracing::error!("cannot start the compute pool: {e}");
-            conn.close(1u32.into(), b"no compute pool");
-            return;
-        }
-    };
-    let mut buf = [0u8; REPLY_LEN];
-    while let Ok(mut request) = jobs.recv() {
-        while let Ok(newer) = jobs.try_recv() {
-            request = newer;
-            counters.superseded.fetch_add(1, Ordering::Relaxed);
-        }
-        let sums = pool.install(|| scene.sample_mask(&request.pose, request.classes));
-        FrameReply {
-            seq: request.seq,
-            classes: request.classes,
-            sums,
-        }
-        .encode(&mut buf);
-        if conn
-            .send_datagram(bytes::Bytes::copy_from_slice(&buf))
-            .is_err()
-        {
-            break;
-        }
-        counters.replies.fetch_add(1, Ordering::Relaxed);
-    }
 }
