@@ -277,6 +277,12 @@ pub struct VoxelizeArgs {
     /// Tree branching: log2 children per axis at every level (3 = the paper's 512-tree).
     #[arg(long, default_value_t = 3)]
     pub tree_n: u8,
+    /// Bits per voxel: 2 (kinds only), 4 or 8 (kinds plus distance layers).
+    #[arg(long, default_value_t = 2)]
+    pub width: u32,
+    /// Voxelize only the region the part can reach: MINX,MINY,MINZ,MAXX,MAXY,MAXZ (m).
+    #[arg(long)]
+    pub workspace: Option<String>,
     /// Output file.
     #[arg(short, long)]
     pub output: PathBuf,

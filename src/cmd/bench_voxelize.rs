@@ -10,8 +10,8 @@ use serde::Serialize;
 use std::hint::black_box;
 use std::path::Path;
 use std::time::Instant;
-use vps_voxelize::{voxelize_with_stats, VoxelizeOptions};
-use vps_voxmap::{DenseGrid, TreeConfig, VoxelLookup, VoxelTree};
+use vps_voxelize::{voxelize_tree, voxelize_with_stats, VoxelizeOptions, VoxelizeStats};
+use vps_voxmap::{DenseGrid, TreeConfig, VoxelLookup, VoxelTree, VoxelWidth};
 
 #[derive(Serialize)]
 struct VoxelizeBench {
@@ -33,6 +33,40 @@ struct VoxelizeBench {
     tree_ns_per_get: f64,
     dense_ns_per_get: f64,
     tree_over_dense: f64,
+    /// The sparse (chunked) pipeline, measured first in the same process.
+    sparse: SparseBench,
+}
+
+/// Figures of the sparse pipeline (`voxelize_tree`), 2-bit, and of its 4- and 8-bit maps.
+#[derive(Serialize)]
+struct SparseBench {
+    /// Median wall time of the whole 2-bit voxelization including the tree build (ms).
+    voxelize_ms_median: f64,
+    voxelize_ms_all: Vec<f64>,
+    phases_ms_last: Phases,
+    /// Chunks where Proximity and offset were computed.
+    active_chunks: usize,
+    /// The voxelizer's own count of its peak working bytes.
+    peak_work_bytes: u64,
+    /// Peak RSS of the process after the sparse runs, before the dense ones.
+    peak_rss_bytes: Option<u64>,
+    tree_bytes: usize,
+    /// True when the sparse tree's content hash equals the dense pipeline's.
+    same_tree_as_dense: bool,
+    /// Dense median over sparse median (both include the tree build).
+    dense_over_sparse_time: f64,
+    /// Wider voxels: one run each.
+    widths: Vec<WidthBench>,
+}
+
+#[derive(Serialize)]
+struct WidthBench {
+    bits: u32,
+    voxelize_ms: f64,
+    tree_bytes: usize,
+    peak_work_bytes: u64,
+    surface_layers: usize,
+    proximity_layers: usize,
 }
 
 #[derive(Serialize)]
@@ -111,9 +145,68 @@ fn lookup_queries(dense: &DenseGrid, count: usize) -> Vec<IVec3> {
         .collect()
 }
 
-/// `vps bench voxelize`: prints JSON.
+fn phases(stats: &VoxelizeStats) -> Phases {
+    Phases {
+        scan: stats.scan_ms,
+        fill: stats.fill_ms,
+        merge: stats.merge_ms,
+        offset: stats.offset_ms,
+        output: stats.output_ms,
+    }
+}
+
+fn median(times: &[f64]) -> f64 {
+    let mut sorted = times.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    sorted[sorted.len() / 2]
+}
+
+fn sparse_once(
+    mesh: &vps_mesh::TriMesh,
+    voxel_size: f64,
+    width: VoxelWidth,
+) -> Result<(VoxelTree, VoxelizeStats)> {
+    let opts = VoxelizeOptions {
+        voxel_size,
+        width,
+        ..VoxelizeOptions::default()
+    };
+    Ok(voxelize_tree(
+        std::slice::from_ref(mesh),
+        &opts,
+        TreeConfig::default(),
+    )?)
+}
+
+/// `vps bench voxelize`: prints JSON. The sparse pipeline runs first, so the peak RSS read after it
+/// is its own; then the dense reference pipeline (with the lookup benchmark).
 pub fn run_voxelize(source: &str, voxel_size: f64, repeat: u32) -> Result<()> {
     let scene = scene::load(source)?;
+    let mut sparse_times = Vec::new();
+    let mut sparse_last = None;
+    for _ in 0..repeat.max(1) {
+        let (tree, stats) = sparse_once(&scene.mesh, voxel_size, VoxelWidth::Two)
+            .with_context(|| format!("voxelizing {} (sparse)", scene.source))?;
+        sparse_times.push(stats.total_ms);
+        sparse_last = Some((tree, stats));
+    }
+    let (sparse_tree, sparse_stats) = sparse_last.expect("at least one repetition");
+    let sparse_rss = peak_rss_bytes();
+    let mut widths = Vec::new();
+    for width in [VoxelWidth::Four, VoxelWidth::Eight] {
+        let (tree, stats) = sparse_once(&scene.mesh, voxel_size, width)?;
+        let layers = tree.layer_counts();
+        let count = |k: vps_voxmap::Voxel| layers.iter().filter(|(v, _)| v.kind == k).count();
+        widths.push(WidthBench {
+            bits: width.bits(),
+            voxelize_ms: stats.total_ms,
+            tree_bytes: tree.memory_bytes(),
+            peak_work_bytes: stats.peak_work_bytes,
+            surface_layers: count(vps_voxmap::Voxel::Surface),
+            proximity_layers: count(vps_voxmap::Voxel::Proximity),
+        });
+    }
+
     let mut times = Vec::new();
     let mut last = None;
     for _ in 0..repeat.max(1) {
@@ -123,11 +216,11 @@ pub fn run_voxelize(source: &str, voxel_size: f64, repeat: u32) -> Result<()> {
         last = Some((dense, stats));
     }
     let (dense, stats) = last.expect("at least one repetition");
-    let mut sorted = times.clone();
-    sorted.sort_by(f64::total_cmp);
     let t = Instant::now();
     let tree = VoxelTree::from_dense(&dense, TreeConfig::default())?;
     let tree_build_ms = t.elapsed().as_secs_f64() * 1e3;
+    let dense_median = median(&times);
+    let sparse_median = median(&sparse_times);
     let queries = lookup_queries(&dense, 4_000_000);
     let dense_ns = ns_per_get(&dense, &queries);
     let tree_ns = ns_per_get(&tree, &queries);
@@ -138,15 +231,9 @@ pub fn run_voxelize(source: &str, voxel_size: f64, repeat: u32) -> Result<()> {
         dims: stats.dims,
         threads: rayon::current_num_threads(),
         repeats: repeat.max(1),
-        voxelize_ms_median: sorted[sorted.len() / 2],
+        voxelize_ms_median: dense_median,
         voxelize_ms_all: times,
-        phases_ms_last: Phases {
-            scan: stats.scan_ms,
-            fill: stats.fill_ms,
-            merge: stats.merge_ms,
-            offset: stats.offset_ms,
-            output: stats.output_ms,
-        },
+        phases_ms_last: phases(&stats),
         tree_build_ms,
         tree_bytes: tree.memory_bytes(),
         dense_one_byte_bytes: dense.spec.voxel_count(),
@@ -156,6 +243,18 @@ pub fn run_voxelize(source: &str, voxel_size: f64, repeat: u32) -> Result<()> {
         tree_ns_per_get: tree_ns,
         dense_ns_per_get: dense_ns,
         tree_over_dense: tree_ns / dense_ns,
+        sparse: SparseBench {
+            voxelize_ms_median: sparse_median,
+            voxelize_ms_all: sparse_times,
+            phases_ms_last: phases(&sparse_stats),
+            active_chunks: sparse_stats.active_chunks,
+            peak_work_bytes: sparse_stats.peak_work_bytes,
+            peak_rss_bytes: sparse_rss,
+            tree_bytes: sparse_tree.memory_bytes(),
+            same_tree_as_dense: sparse_tree.content_hash() == tree.content_hash(),
+            dense_over_sparse_time: (dense_median + tree_build_ms) / sparse_median,
+            widths,
+        },
     };
     print_json(&report)
 }

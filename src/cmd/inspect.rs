@@ -50,13 +50,23 @@ struct VoxmapInfo {
     max_corner_m: [f64; 3],
     dims: [u32; 3],
     tree_log2_dims: [u8; 3],
+    width_bits: u32,
     counts: KindCounts,
+    layers: Vec<LayerCount>,
     tree_bytes: usize,
     dense_equivalent_bytes: u64,
     leaves: usize,
     lower_nodes: usize,
     upper_nodes: usize,
     hash: String,
+}
+
+/// Voxels of one kind and distance layer.
+#[derive(Serialize)]
+struct LayerCount {
+    kind: &'static str,
+    layer: u8,
+    voxels: u64,
 }
 
 #[derive(Serialize)]
@@ -99,7 +109,17 @@ fn inspect_voxmap(args: &InspectArgs) -> Result<()> {
         max_corner_m: spec.max_corner().to_array(),
         dims: spec.dims,
         tree_log2_dims: tree.config().log2_dims,
+        width_bits: tree.width().bits(),
         counts: tree.counts().into(),
+        layers: tree
+            .layer_counts()
+            .into_iter()
+            .map(|(v, voxels)| LayerCount {
+                kind: v.kind.name(),
+                layer: v.layer,
+                voxels,
+            })
+            .collect(),
         tree_bytes: tree.memory_bytes(),
         dense_equivalent_bytes: tree.dense_equivalent_bytes(),
         leaves: nodes.leaves,
@@ -112,13 +132,22 @@ fn inspect_voxmap(args: &InspectArgs) -> Result<()> {
     }
     println!("{} (voxmap)", info.file);
     println!(
-        "  voxel size {} m, dims {:?}, log2 dims {:?}",
-        info.voxel_size_m, info.dims, info.tree_log2_dims
+        "  voxel size {} m, dims {:?}, log2 dims {:?}, {}-bit voxels",
+        info.voxel_size_m, info.dims, info.tree_log2_dims, info.width_bits
     );
     println!("  bounds {:?} .. {:?} m", info.origin_m, info.max_corner_m);
     println!("  {}", info.counts);
+    if info.width_bits > 2 {
+        let list: Vec<String> = info
+            .layers
+            .iter()
+            .filter(|l| l.kind == "surface" || l.kind == "proximity")
+            .map(|l| format!("{} {}: {}", l.kind, l.layer, l.voxels))
+            .collect();
+        println!("  layers: {}", list.join(", "));
+    }
     println!(
-        "  tree memory {} ({} leaves, {} lower, {} upper nodes); dense 2-bit equivalent {}",
+        "  tree memory {} ({} leaves, {} lower, {} upper nodes); dense equivalent {}",
         mib(info.tree_bytes as f64),
         info.leaves,
         info.lower_nodes,

@@ -3,10 +3,12 @@
 use super::output::{hex, mib, print_json};
 use crate::cli::VoxelizeArgs;
 use crate::scene;
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
+use glam::DVec3;
 use serde::Serialize;
-use vps_voxelize::{voxelize_with_stats, VoxelizeOptions};
-use vps_voxmap::{TreeConfig, VoxelTree};
+use vps_mesh::Aabb;
+use vps_voxelize::{voxelize_tree, VoxelizeOptions};
+use vps_voxmap::{TreeConfig, VoxelWidth};
 
 /// What `vps voxelize --json` prints.
 #[derive(Serialize)]
@@ -17,9 +19,12 @@ struct VoxelizeSummary {
     degenerate_dropped: usize,
     voxel_size_m: f64,
     dims: [u32; 3],
+    width_bits: u32,
+    workspace_m: Option<[f64; 6]>,
     voxelize_ms: f64,
     tree_ms: f64,
     tree_bytes: usize,
+    peak_work_bytes: u64,
     counts: super::inspect::KindCounts,
     hash: String,
 }
@@ -27,18 +32,25 @@ struct VoxelizeSummary {
 /// Runs the command.
 pub fn run(args: &VoxelizeArgs) -> Result<()> {
     let scene = scene::load(&args.mesh)?;
+    let Some(width) = VoxelWidth::from_bits(args.width) else {
+        bail!("--width {}: must be 2, 4 or 8", args.width);
+    };
+    let workspace = args.workspace.as_deref().map(parse_workspace).transpose()?;
     let opts = VoxelizeOptions {
         voxel_size: args.voxel_size,
         offset_layers: args.offset,
         progress: !args.json,
+        width,
+        workspace,
         ..VoxelizeOptions::default()
     };
-    let (dense, stats) = voxelize_with_stats(std::slice::from_ref(&scene.mesh), &opts)
-        .with_context(|| format!("voxelizing {}", scene.source))?;
-    let start = std::time::Instant::now();
-    let tree = VoxelTree::from_dense(&dense, TreeConfig::uniform(args.tree_n))?;
-    let tree_ms = start.elapsed().as_secs_f64() * 1e3;
-    drop(dense);
+    let (tree, stats) = voxelize_tree(
+        std::slice::from_ref(&scene.mesh),
+        &opts,
+        TreeConfig::uniform(args.tree_n),
+    )
+    .with_context(|| format!("voxelizing {}", scene.source))?;
+    let tree_ms = stats.output_ms;
     vps_voxmap::file::save_voxmap(&tree, &args.output)?;
     let summary = VoxelizeSummary {
         source: scene.source,
@@ -47,9 +59,15 @@ pub fn run(args: &VoxelizeArgs) -> Result<()> {
         degenerate_dropped: scene.degenerate_dropped,
         voxel_size_m: args.voxel_size,
         dims: stats.dims,
+        width_bits: width.bits(),
+        workspace_m: workspace.map(|w| {
+            let (a, b) = (w.min.to_array(), w.max.to_array());
+            [a[0], a[1], a[2], b[0], b[1], b[2]]
+        }),
         voxelize_ms: stats.total_ms,
         tree_ms,
         tree_bytes: tree.memory_bytes(),
+        peak_work_bytes: stats.peak_work_bytes,
         counts: super::inspect::KindCounts::from(tree.counts()),
         hash: hex(&tree.content_hash()),
     };
@@ -57,20 +75,41 @@ pub fn run(args: &VoxelizeArgs) -> Result<()> {
         return print_json(&summary);
     }
     println!(
-        "{}: {} triangles → {:?} voxels of {} m in {:.0} ms (+ tree {:.0} ms)",
+        "{}: {} triangles → {:?} {}-bit voxels of {} m in {:.0} ms (of which tree {:.0} ms)",
         summary.source,
         summary.triangles,
         summary.dims,
+        summary.width_bits,
         summary.voxel_size_m,
         summary.voxelize_ms,
         summary.tree_ms
     );
     println!("{}", summary.counts);
     println!(
-        "tree memory {}, written to {}",
+        "tree memory {}, voxelizer peak working memory {}, written to {}",
         mib(summary.tree_bytes as f64),
+        mib(summary.peak_work_bytes as f64),
         summary.output
     );
     println!("content hash {}", summary.hash);
     Ok(())
+}
+
+/// Parses `MINX,MINY,MINZ,MAXX,MAXY,MAXZ` (m) into a box.
+fn parse_workspace(text: &str) -> Result<Aabb> {
+    let v: Vec<f64> = text
+        .split(',')
+        .map(|t| t.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("--workspace {text:?}: expected six numbers (m)"))?;
+    if v.len() != 6 || v.iter().any(|x| !x.is_finite()) {
+        bail!(
+            "--workspace {text:?}: expected six finite numbers MINX,MINY,MINZ,MAXX,MAXY,MAXZ (m)"
+        );
+    }
+    let (min, max) = (DVec3::new(v[0], v[1], v[2]), DVec3::new(v[3], v[4], v[5]));
+    if min.cmpgt(max).any() {
+        bail!("--workspace {text:?}: a minimum exceeds its maximum");
+    }
+    Ok(Aabb { min, max })
 }
