@@ -5,7 +5,9 @@
 //! of area, inward normals, in voxel order; a spherical Surface band of 3 voxels around it in one
 //! slot of the grid, an empty slot beside it). `contact` centres the shell in the band (every point
 //! in a Surface voxel of a mixed leaf), `free` in the empty slot (every point in a Free tile),
-//! `dense` is the contact pose against the dense byte grid.
+//! `dense` is the contact pose against the dense byte grid. `fine` and `fine-free` use a shell 16×
+//! finer than the voxmap (≈ 256 points per voxel of area, like `vps bench loop`'s 100k-point
+//! teapot) split into 64 cyclic classes, as the runtime does.
 //!
 //! ```sh
 //! cargo build --release -p vps-haptic --example kernel_ir
@@ -22,7 +24,12 @@ use vps_voxmap::{DenseGrid, GridSpec, MassProperties, PointShell, TreeConfig, Vo
 
 const VOXEL_SIZE: f64 = 0.005;
 
-fn sphere_shell(n: usize, radius: f64) -> PointShell {
+/// Bits of `v` spread to every third bit (Morton interleave, 21 bits per axis).
+fn spread(v: u32) -> u64 {
+    (0..21).fold(0, |acc, b| acc | (u64::from(v >> b & 1) << (3 * b)))
+}
+
+fn sphere_shell(n: usize, radius: f64, sample: f64) -> PointShell {
     let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
     let mut pairs: Vec<(Vec3, Vec3)> = (0..n)
         .map(|i| {
@@ -33,11 +40,10 @@ fn sphere_shell(n: usize, radius: f64) -> PointShell {
             ((dir * radius).as_vec3(), (-dir).as_vec3())
         })
         .collect();
-    // Voxel order (z, y, x), coherent like a real shell's Morton order.
-    let key = |p: &Vec3| (*p / VOXEL_SIZE as f32).floor().as_ivec3().to_array();
+    // Morton order of the sampling voxels, as real shells are.
     pairs.sort_by_key(|(p, _)| {
-        let [x, y, z] = key(p);
-        (z, y, x)
+        let v = (*p / sample as f32 + Vec3::splat(1e5)).as_uvec3();
+        spread(v.x) | spread(v.y) << 1 | spread(v.z) << 2
     });
     PointShell {
         points: pairs.iter().map(|p| p.0).collect(),
@@ -84,13 +90,17 @@ fn main() {
     let n: usize = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(10_000);
     let mode = args.get(2).map_or("contact", String::as_str);
     let reps: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(20);
-    let radius_vox = (n as f64 / (4.0 * std::f64::consts::PI)).sqrt().max(3.0);
+    let fine = mode.starts_with("fine");
+    let per_voxel_edge = if fine { 16.0 } else { 1.0 };
+    let radius_vox = (n as f64 / (4.0 * std::f64::consts::PI)).sqrt().max(3.0) / per_voxel_edge;
     let dense = band_scene(radius_vox);
     let tree = VoxelTree::from_dense(&dense, TreeConfig::default()).expect("valid scene");
-    let shell = ClassedShell::new(&sphere_shell(n, radius_vox * VOXEL_SIZE), 1);
+    let sample = VOXEL_SIZE / per_voxel_edge;
+    let shell = sphere_shell(n, radius_vox * VOXEL_SIZE, sample);
+    let shell = ClassedShell::new(&shell, if fine { 64 } else { 1 });
     let slot = dense.spec.dims[1] as f64;
     let centre = match mode {
-        "free" => DVec3::new(slot * 1.5, slot / 2.0, slot / 2.0),
+        "free" | "fine-free" => DVec3::new(slot * 1.5, slot / 2.0, slot / 2.0),
         _ => DVec3::splat(slot / 2.0),
     };
     let state = PartState::at_rest(dense.spec.origin + centre * VOXEL_SIZE, DQuat::IDENTITY);

@@ -207,11 +207,23 @@ fn accumulate_lanes<L: VoxelLookup>(
         .min(normals[1].len())
         .min(normals[2].len());
     let full = n - n % LANES;
+    let mut last = LastVoxel::NONE;
     for start in (0..full).step_by(LANES) {
-        sample_block(map, frame, points, normals, start, LANES, &mut acc);
+        sample_block(
+            map, frame, points, normals, start, LANES, &mut last, &mut acc,
+        );
     }
     if full < n {
-        sample_block(map, frame, points, normals, full, n - full, &mut acc);
+        sample_block(
+            map,
+            frame,
+            points,
+            normals,
+            full,
+            n - full,
+            &mut last,
+            &mut acc,
+        );
     }
     acc
 }
@@ -238,6 +250,7 @@ fn load(xs: Soa, start: usize, valid: usize) -> Vec3s {
 /// One block of `valid ≤ LANES` points starting at `start`: transform, floor, look up; then the
 /// contact and braking arithmetic for the whole block if any lane needs it. Padding lanes read as
 /// Free and contribute nothing.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn sample_block<L: VoxelLookup>(
     map: &L,
@@ -246,6 +259,7 @@ fn sample_block<L: VoxelLookup>(
     normals: Soa,
     start: usize,
     valid: usize,
+    last: &mut LastVoxel,
     acc: &mut ClassAccumulator,
 ) {
     // (P − x) in metres, then P in grid coordinates and its voxel.
@@ -256,7 +270,7 @@ fn sample_block<L: VoxelLookup>(
         floor_i32(&grid[1]),
         floor_i32(&grid[2]),
     ];
-    let (kinds, layers) = look_up(map, &cell, valid);
+    let (kinds, layers) = look_up(map, &cell, valid, last);
     // Kinds as bit planes, one byte per lane: Free 00, Interior 01, Surface 10, Proximity 11.
     let word = u64::from_le_bytes(kinds);
     if word == 0 {
@@ -290,28 +304,86 @@ fn sample_block<L: VoxelLookup>(
     }
 }
 
-/// The kinds and layers of the block's voxels (lanes `valid..` read as Free). When every lane is in
-/// the same voxel, which is the common case for a shell sampled finer than the voxmap, one lookup
-/// serves the whole block.
+/// The voxel looked up last in a class, carried from block to block.
+#[derive(Clone, Copy)]
+struct LastVoxel {
+    cell: [i32; 3],
+    voxel: LayeredVoxel,
+}
+
+impl LastVoxel {
+    /// Before the first lookup: a cell outside every grid, which reads as Free anyway.
+    const NONE: LastVoxel = LastVoxel {
+        cell: [i32::MIN; 3],
+        voxel: LayeredVoxel {
+            kind: Voxel::Free,
+            layer: 0,
+        },
+    };
+}
+
+/// The kinds and layers of the block's voxels (lanes `valid..` read as Free). Only a lane whose
+/// voxel differs from the previous lane's (lane 0: from `last`) is looked up; the others copy the
+/// previous lane's result. Consecutive points of a shell sampled finer than the voxmap often share a
+/// voxel, so this saves most lookups there, and costs a few compares per lane elsewhere.
 #[inline(always)]
 fn look_up<L: VoxelLookup>(
     map: &L,
     cell: &[[i32; LANES]; 3],
     valid: usize,
+    last: &mut LastVoxel,
 ) -> ([u8; LANES], [u8; LANES]) {
+    // Bit l: lane l is in another voxel than lane l − 1.
+    let mut fresh = 0u32;
+    for l in 0..LANES {
+        let prev = |r: usize| if l == 0 { last.cell[r] } else { cell[r][l - 1] };
+        let differs = (cell[0][l] != prev(0)) | (cell[1][l] != prev(1)) | (cell[2][l] != prev(2));
+        fresh |= u32::from(differs) << l;
+    }
+    fresh &= (1u32 << valid) - 1;
     let mut kinds = [0u8; LANES];
     let mut layers = [0u8; LANES];
-    let same = |r: usize| cell[r].iter().all(|&c| c == cell[r][0]);
-    if valid == LANES && same(0) && same(1) && same(2) {
-        let v = voxel_at(map, cell, 0);
-        return ([v.kind.bits(); LANES], [v.layer; LANES]);
+    if fresh == (1u32 << LANES) - 1 {
+        // Every lane in its own voxel (a shell about as fine as the voxmap): no copying.
+        for l in 0..LANES {
+            let v = voxel_at(map, cell, l);
+            kinds[l] = v.kind.bits();
+            layers[l] = v.layer;
+        }
+        last.cell = [cell[0][LANES - 1], cell[1][LANES - 1], cell[2][LANES - 1]];
+        last.voxel = voxel_of(kinds[LANES - 1], layers[LANES - 1]);
+        return (kinds, layers);
     }
-    for l in 0..valid {
+    let mut rest = fresh;
+    while rest != 0 {
+        let l = rest.trailing_zeros() as usize;
         let v = voxel_at(map, cell, l);
         kinds[l] = v.kind.bits();
         layers[l] = v.layer;
+        rest &= rest - 1;
+    }
+    let (mut kind, mut layer) = (last.voxel.kind.bits(), last.voxel.layer);
+    for l in 0..valid {
+        let looked_up = fresh >> l & 1 != 0;
+        kind = if looked_up { kinds[l] } else { kind };
+        layer = if looked_up { layers[l] } else { layer };
+        kinds[l] = kind;
+        layers[l] = layer;
+    }
+    if valid > 0 {
+        last.cell = [cell[0][valid - 1], cell[1][valid - 1], cell[2][valid - 1]];
+        last.voxel = voxel_of(kind, layer);
     }
     (kinds, layers)
+}
+
+/// A [`LayeredVoxel`] from its kind bits and layer.
+#[inline(always)]
+fn voxel_of(kind: u8, layer: u8) -> LayeredVoxel {
+    LayeredVoxel {
+        kind: Voxel::from_bits(kind),
+        layer,
+    }
 }
 
 /// The voxel of lane `l`.

@@ -361,3 +361,42 @@ fn layer_zero_maps_give_bit_identical_sums() {
         }
     }
 }
+
+/// A shell much finer than the voxmap (many consecutive points per voxel, where the kernel looks up
+/// a voxel once for a run of points in it) gives the same counts as sampling every point in a class
+/// of its own (no runs), and sums within the rounding of the class totals.
+#[test]
+fn runs_of_points_in_one_voxel_match_points_sampled_alone() {
+    let shell = cube_shell(0.012, 24);
+    let n = shell.points.len();
+    for (map, z) in [(wall(), 0.0), (thin_plate(), 0.0115)] {
+        let mut state = PartState::at_rest(
+            DVec3::new(0.0013, -0.0021, z),
+            DQuat::from_euler(glam::EulerRot::XYZ, 0.2, -0.1, 0.3),
+        );
+        state.linear_velocity = DVec3::new(0.05, 0.02, -0.2);
+        state.angular_velocity = DVec3::new(0.5, -1.0, 2.0);
+        let pose = KernelPose::from_state(&state);
+        let runs = sample_all(&map, &ClassedShell::new(&shell, 1), &pose);
+        let alone = sample_all(&map, &ClassedShell::new(&shell, n as u32), &pose);
+        assert!(
+            runs.surface > 100 && runs.interior > 10 && runs.approaching > 100,
+            "{runs:?}"
+        );
+        let counts = |s: &PartialSums| {
+            (
+                s.surface,
+                s.contacts,
+                s.interior,
+                s.approaching,
+                s.non_free,
+                s.sampled,
+            )
+        };
+        assert_eq!(counts(&runs), counts(&alone));
+        for k in 0..3 {
+            assert!((runs.depth_normal[k] - alone.depth_normal[k]).abs() <= n as i128);
+            assert!((runs.brake_force[k] - alone.brake_force[k]).abs() <= n as i128);
+        }
+    }
+}
