@@ -71,7 +71,7 @@ cmd_up() {
     ip netns add "$SWITCH_NS"
     ip -n "$SWITCH_NS" link set lo up
     if [[ "$NETEM" != "0" ]] && ! ip netns exec "$SWITCH_NS" tc qdisc add dev lo root netem delay 0us 2>/dev/null; then
-        die "this kernel has no netem qdisc (sch_netem): load it (modprobe sch_netem) or run with VPS_LAN_NETEM=0"
+        die "this kernel has no netem qdisc (sch_netem): load it (modprobe sch_netem), or run with VPS_LAN_NETEM=0 and impair in userspace with 'vps netem-relay' (deploy/README.md section 6)"
     fi
     ip -n "$SWITCH_NS" link add "$BRIDGE" type bridge
     ip -n "$SWITCH_NS" link set "$BRIDGE" up

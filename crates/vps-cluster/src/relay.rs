@@ -558,7 +558,7 @@ pub fn parse_duration(text: &str) -> Result<Duration, String> {
         .parse()
         .map_err(|_| format!("'{text}' is not a duration (examples: 100us, 1.5ms, 2s)"))?;
     let seconds = value * scale;
-    if !seconds.is_finite() || seconds < 0.0 || seconds > 1e6 {
+    if !(0.0..=1e6).contains(&seconds) {
         return Err(format!(
             "'{text}' must be a finite duration ≥ 0 (at most 10^6 s)"
         ));
