@@ -9,8 +9,8 @@
 
 use crate::classed::ClassedShell;
 use crate::lanes::{
-    add3_f64, add_cross_uniform, add_f64, cross, dot, floor_i32, mat_vec, reduce, scale, scale_add,
-    F32s, F64s, Vec3s, LANES,
+    add3_f64, add_cross_uniform, add_f64, cross, differs_from_previous, dot, floor_i32, mat_vec,
+    reduce, scale, scale_add, F32s, F64s, Vec3s, LANES,
 };
 use crate::state::KernelPose;
 use crate::sums::{PartialSums, AREA_SCALE, LENGTH_SCALE};
@@ -334,12 +334,7 @@ fn look_up<L: VoxelLookup>(
     last: &mut LastVoxel,
 ) -> ([u8; LANES], [u8; LANES]) {
     // Bit l: lane l is in another voxel than lane l − 1.
-    let mut fresh = 0u32;
-    for l in 0..LANES {
-        let prev = |r: usize| if l == 0 { last.cell[r] } else { cell[r][l - 1] };
-        let differs = (cell[0][l] != prev(0)) | (cell[1][l] != prev(1)) | (cell[2][l] != prev(2));
-        fresh |= u32::from(differs) << l;
-    }
+    let mut fresh = differs_from_previous(cell, last.cell);
     fresh &= (1u32 << valid) - 1;
     let mut kinds = [0u8; LANES];
     let mut layers = [0u8; LANES];

@@ -133,6 +133,53 @@ pub(crate) fn floor_i32(v: &F32s) -> [i32; LANES] {
     })
 }
 
+/// Bit `l` set where lane `l`'s cell differs from lane `l − 1`'s (lane 0: from `first_prev`).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) fn differs_from_previous(cell: &[[i32; LANES]; 3], first_prev: [i32; 3]) -> u32 {
+    use std::arch::x86_64::{
+        _mm_and_si128, _mm_castsi128_ps, _mm_cmpeq_epi32, _mm_loadu_si128, _mm_movemask_ps,
+        _mm_set1_epi32,
+    };
+    let mut mask = 0u32;
+    for q in 0..LANES / 4 {
+        // SAFETY: SSE2 is part of the x86-64 baseline; every load reads 16 bytes inside a
+        // `[i32; LANES]` array (offset 4q, q < LANES / 4), with no alignment requirement.
+        unsafe {
+            let mut same = _mm_set1_epi32(-1);
+            for r in 0..3 {
+                let mut prev = [0i32; LANES];
+                prev[0] = first_prev[r];
+                prev[1..].copy_from_slice(&cell[r][..LANES - 1]);
+                let a = _mm_loadu_si128(cell[r].as_ptr().add(4 * q).cast());
+                let b = _mm_loadu_si128(prev.as_ptr().add(4 * q).cast());
+                same = _mm_and_si128(same, _mm_cmpeq_epi32(a, b));
+            }
+            mask |= (_mm_movemask_ps(_mm_castsi128_ps(same)) as u32) << (4 * q);
+        }
+    }
+    !mask & ((1 << LANES) - 1)
+}
+
+/// Portable form of the x86-64 [`differs_from_previous`].
+#[cfg(not(target_arch = "x86_64"))]
+#[inline(always)]
+pub(crate) fn differs_from_previous(cell: &[[i32; LANES]; 3], first_prev: [i32; 3]) -> u32 {
+    let mut mask = 0u32;
+    for l in 0..LANES {
+        let prev = |r: usize| {
+            if l == 0 {
+                first_prev[r]
+            } else {
+                cell[r][l - 1]
+            }
+        };
+        let differs = (cell[0][l] != prev(0)) | (cell[1][l] != prev(1)) | (cell[2][l] != prev(2));
+        mask |= u32::from(differs) << l;
+    }
+    mask
+}
+
 /// Per-lane f64 running sums, one canonical order: lane `l` adds the block values of lane `l` in
 /// block order; [`reduce`] combines the lanes in a fixed tree.
 pub(crate) type F64s = [f64; LANES];
@@ -211,6 +258,17 @@ mod tests {
             assert_eq!(dt[l], p.dot(*p));
             assert_eq!(lane(&vel), u + w.cross(*p));
         }
+    }
+
+    #[test]
+    fn differs_from_previous_marks_lanes_that_change_cell() {
+        let mut cell = [[7i32; LANES]; 3];
+        cell[0][3] = 8; // lanes 3.. in another cell than lanes ..3
+        cell[0][4] = 8;
+        cell[2][6] = -1; // lane 6 alone, lane 7 back
+        assert_eq!(differs_from_previous(&cell, [7; 3]), 0b1100_1000);
+        assert_eq!(differs_from_previous(&cell, [7, 7, 6]), 0b1100_1001);
+        assert_eq!(differs_from_previous(&cell, [i32::MIN; 3]) & 1, 1);
     }
 
     #[test]
