@@ -263,11 +263,11 @@ mod tests {
     #[test]
     fn differs_from_previous_marks_lanes_that_change_cell() {
         let mut cell = [[7i32; LANES]; 3];
-        cell[0][3] = 8; // lanes 3.. in another cell than lanes ..3
-        cell[0][4] = 8;
+        cell[0][3] = 8; // lanes 3 and 4 in another cell
+        cell[0][4] = 8; // lane 5 back to x = 7
         cell[2][6] = -1; // lane 6 alone, lane 7 back
-        assert_eq!(differs_from_previous(&cell, [7; 3]), 0b1100_1000);
-        assert_eq!(differs_from_previous(&cell, [7, 7, 6]), 0b1100_1001);
+        assert_eq!(differs_from_previous(&cell, [7; 3]), 0b1110_1000);
+        assert_eq!(differs_from_previous(&cell, [7, 7, 6]), 0b1110_1001);
         assert_eq!(differs_from_previous(&cell, [i32::MIN; 3]) & 1, 1);
     }
 
