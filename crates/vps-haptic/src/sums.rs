@@ -2,8 +2,10 @@
 //! contributes to a frame. Integer addition is associative and commutative, so sums merged in any
 //! grouping and any order are bit-identical.
 //!
-//! Quantisation: the kernel adds each class's point contributions in f64, in ascending point
-//! order (one canonical order, so a class total has the same bits wherever it is computed), then
+//! Quantisation: the kernel adds each class's point contributions in f64 in one canonical order
+//! (eight lanes, lane `l` adding the class's points `l, l + 8, …` in ascending order, the lanes
+//! combined in a fixed pairwise tree; IEEE basic operations only, so a class total has the same bits
+//! wherever and with whichever instruction set it is computed), then
 //! multiplies the class total by a power of two (exact in floating point) and truncates toward zero
 //! to an integer (Rust's `as` saturates, so an absurd value cannot wrap). The scales:
 //!
