@@ -10,6 +10,11 @@
   const FORCE_SCALE = 0.01; // m of arrow per N
   const TORQUE_SCALE = 1.0; // m of arrow per N·m
 
+  // Page options from the query string: ?renderer=2d forces the 2D-canvas fallback; ?fps=N caps
+  // the redraw rate (default 30).
+  const params = new URLSearchParams(location.search);
+  const MAX_FPS = Math.max(0.2, Number(params.get('fps')) || 30);
+
   let scene = null; // metadata
   let boxes = new Float32Array(0); // world xyz of the scene's boxes
   let shell = new Float32Array(0); // body-frame xyz of the part's drawn points
@@ -86,13 +91,53 @@
     const f = state && state.frame;
     if (camera.follow && f) camera.target = f.part.position_m.slice();
   }
+  const FOV = 0.9; // vertical field of view (rad)
+  function cameraEye() {
+    const cp = Math.cos(camera.pitch);
+    return add(camera.target, scale([cp * Math.cos(camera.yaw), cp * Math.sin(camera.yaw), Math.sin(camera.pitch)], camera.dist));
+  }
   function viewProjection(width, height) {
     updateCamera();
-    const cp = Math.cos(camera.pitch);
-    const eye = add(camera.target, scale([cp * Math.cos(camera.yaw), cp * Math.sin(camera.yaw), Math.sin(camera.pitch)], camera.dist));
+    const eye = cameraEye();
     const diag = scene ? len(sub(scene.bounds_max_m, scene.bounds_min_m)) : 1;
     const near = Math.max(1e-4, camera.dist * 0.02), far = camera.dist * 4 + diag * 2;
-    return mul(perspective(0.9, width / Math.max(1, height), near, far), lookAt(eye, camera.target, [0, 0, 1]));
+    return mul(perspective(FOV, width / Math.max(1, height), near, far), lookAt(eye, camera.target, [0, 0, 1]));
+  }
+
+  // ---- level of detail: the scene's boxes sorted into cubic chunks; chunks near the eye are drawn
+  // as boxes, the rest as point sprites (one vertex instead of 36) ----
+  const CHUNK = 0.2; // m
+  let chunks = []; // {first, count, centre, radius}, in box order
+  function buildChunks() {
+    const n = boxes.length / 3, lo = scene.bounds_min_m;
+    const key = new Array(n), dims = [0, 1, 2].map((a) => Math.ceil((scene.bounds_max_m[a] - lo[a]) / CHUNK) + 1);
+    for (let i = 0; i < n; i++) {
+      const c = [0, 1, 2].map((a) => Math.max(0, Math.floor((boxes[3 * i + a] - lo[a]) / CHUNK)));
+      key[i] = (c[2] * dims[1] + c[1]) * dims[0] + c[0];
+    }
+    const order = Array.from({ length: n }, (_, i) => i).sort((a, b) => key[a] - key[b]);
+    const sorted = new Float32Array(boxes.length);
+    order.forEach((from, to) => sorted.set(boxes.subarray(3 * from, 3 * from + 3), 3 * to));
+    boxes = sorted;
+    chunks = [];
+    for (let i = 0; i < n;) {
+      let j = i;
+      while (j < n && key[order[j]] === key[order[i]]) j++;
+      const k = key[order[i]], c = [k % dims[0], Math.floor(k / dims[0]) % dims[1], Math.floor(k / (dims[0] * dims[1]))];
+      chunks.push({ first: i, count: j - i, centre: c.map((v, a) => lo[a] + (v + 0.5) * CHUNK), radius: CHUNK * 0.87 + scene.box_size_m });
+      i = j;
+    }
+  }
+  // Consecutive chunks of the same level merged into ranges.
+  function lodRanges(eye) {
+    const nearLimit = Math.max(0.3, camera.dist * 1.2), ranges = [];
+    for (const c of chunks) {
+      const near = len(sub(c.centre, eye)) - c.radius < nearLimit;
+      const last = ranges[ranges.length - 1];
+      if (last && last.near === near && last.first + last.count === c.first) last.count += c.count;
+      else ranges.push({ first: c.first, count: c.count, near });
+    }
+    return ranges;
   }
 
   // ---- WebGL2 renderer: instanced boxes and lines ----
@@ -110,6 +155,20 @@
   const BOX_FS = `#version 300 es
   precision mediump float; in vec3 v_color; in float v_light; uniform float u_alpha; out vec4 o;
   void main() { o = vec4(v_color * v_light, u_alpha); }`;
+  // Far boxes are drawn as one point sprite each (a square of the box's projected size).
+  const POINT_VS = `#version 300 es
+  in vec3 a_offset;
+  uniform mat4 u_viewProj; uniform float u_size; uniform float u_pixelScale; uniform vec3 u_heightLo; uniform float u_heightSpan;
+  out vec3 v_color;
+  void main() {
+    gl_Position = u_viewProj * vec4(a_offset, 1.0);
+    gl_PointSize = clamp(u_size * u_pixelScale / max(gl_Position.w, 1e-4), 1.0, 64.0);
+    float t = clamp((a_offset.z - u_heightLo.z) / u_heightSpan, 0.0, 1.0);
+    v_color = vec3(0.35 + 0.25 * t, 0.45 + 0.2 * t, 0.55 - 0.15 * t) * 0.85;
+  }`;
+  const POINT_FS = `#version 300 es
+  precision mediump float; in vec3 v_color; out vec4 o;
+  void main() { vec2 d = abs(gl_PointCoord - 0.5); o = vec4(v_color * (max(d.x, d.y) > 0.42 ? 0.7 : 1.0), 1.0); }`;
   const LINE_VS = `#version 300 es
   in vec3 a_pos; uniform mat4 u_viewProj; void main() { gl_Position = u_viewProj * vec4(a_pos, 1.0); }`;
   const LINE_FS = `#version 300 es
@@ -130,6 +189,7 @@
   }
 
   function makeGL() {
+    if (params.get('renderer') === '2d') return null;
     let gl = null;
     try { gl = canvas.getContext('webgl2', { antialias: true, preserveDrawingBuffer: true }); } catch (e) { gl = null; }
     if (!gl) return null;
@@ -145,8 +205,8 @@
       if (!gl.getProgramParameter(p, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(p));
       return p;
     };
-    let boxProg, lineProg;
-    try { boxProg = program(BOX_VS, BOX_FS); lineProg = program(LINE_VS, LINE_FS); } catch (e) {
+    let boxProg, lineProg, pointProg;
+    try { boxProg = program(BOX_VS, BOX_FS); lineProg = program(LINE_VS, LINE_FS); pointProg = program(POINT_VS, POINT_FS); } catch (e) {
       console.warn('WebGL2 shaders failed, using the 2D canvas:', e); return null;
     }
     const loc = (p, n) => gl.getUniformLocation(p, n);
@@ -157,14 +217,15 @@
     const sceneBuf = buffer(boxes), shellBuf = buffer(shell);
     const contactBuf = gl.createBuffer(), contactColorBuf = gl.createBuffer(), lineBuf = gl.createBuffer();
     const A = { corner: attr(boxProg, 'a_corner'), normal: attr(boxProg, 'a_normal'), offset: attr(boxProg, 'a_offset'), color: attr(boxProg, 'a_color') };
-    const bind = (a, buf, size, divisor) => {
+    const bind = (a, buf, size, divisor, first) => {
       gl.bindBuffer(gl.ARRAY_BUFFER, buf); gl.enableVertexAttribArray(a);
-      gl.vertexAttribPointer(a, size, gl.FLOAT, false, 0, 0); gl.vertexAttribDivisor(a, divisor);
+      gl.vertexAttribPointer(a, size, gl.FLOAT, false, 0, (first || 0) * size * 4); gl.vertexAttribDivisor(a, divisor);
     };
-    function drawBoxes(vp, offsets, count, size, model, opts) {
+    // Instances first..first+count of `offsets` as boxes of edge `size` (m).
+    function drawBoxes(vp, offsets, count, size, model, opts, first) {
       if (!count) return;
       gl.useProgram(boxProg);
-      bind(A.corner, cubePos, 3, 0); bind(A.normal, cubeNrm, 3, 0); bind(A.offset, offsets, 3, 1);
+      bind(A.corner, cubePos, 3, 0); bind(A.normal, cubeNrm, 3, 0); bind(A.offset, offsets, 3, 1, first);
       if (opts.colors) bind(A.color, opts.colors, 3, 1);
       else { gl.disableVertexAttribArray(A.color); gl.vertexAttrib3f(A.color, ...(opts.color || [1, 1, 1])); }
       gl.uniformMatrix4fv(loc(boxProg, 'u_viewProj'), false, vp);
@@ -178,6 +239,19 @@
       gl.vertexAttribDivisor(A.offset, 0);
       if (opts.colors) gl.vertexAttribDivisor(A.color, 0);
     }
+    // Boxes first..first+count of the scene as point sprites.
+    function drawPoints(vp, first, count, pixelScale) {
+      if (!count) return;
+      gl.useProgram(pointProg);
+      const a = attr(pointProg, 'a_offset');
+      bind(a, sceneBuf, 3, 0, 0);
+      gl.uniformMatrix4fv(loc(pointProg, 'u_viewProj'), false, vp);
+      gl.uniform1f(loc(pointProg, 'u_size'), scene.box_size_m);
+      gl.uniform1f(loc(pointProg, 'u_pixelScale'), pixelScale);
+      gl.uniform3fv(loc(pointProg, 'u_heightLo'), scene.bounds_min_m);
+      gl.uniform1f(loc(pointProg, 'u_heightSpan'), (scene.bounds_max_m[2] - scene.bounds_min_m[2]) || 1);
+      gl.drawArrays(gl.POINTS, first, count);
+    }
     function drawLines(vp, list) {
       gl.useProgram(lineProg);
       const a = attr(lineProg, 'a_pos');
@@ -190,38 +264,54 @@
         gl.drawArrays(gl.LINES, 0, 6);
       }
     }
+    let fence = null;
     return {
       mode: 'webgl2',
+      busy() {
+        if (!fence) return false;
+        if (gl.getSyncParameter(fence, gl.SYNC_STATUS) !== gl.SIGNALED) return true;
+        gl.deleteSync(fence); fence = null; return false;
+      },
       draw() {
-        const w = canvas.width, h = canvas.height;
-        gl.viewport(0, 0, w, h);
-        gl.clearColor(0.106, 0.133, 0.169, 1);
-        gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
-        if (!scene) return;
-        const vp = viewProjection(w, h);
-        gl.enable(gl.DEPTH_TEST); gl.disable(gl.BLEND); gl.depthMask(true);
-        drawBoxes(vp, sceneBuf, boxes.length / 3, scene.box_size_m * 0.92, IDENTITY, { tint: true });
-        const f = state && state.frame;
-        if (!f) return;
-        const pointSize = scene.shell_voxel_size_m * 0.8;
-        drawBoxes(vp, shellBuf, shell.length / 3, pointSize, poseMatrix(f.part.orientation_xyzw, f.part.position_m), { color: [0.91, 0.91, 0.91] });
-        const contacts = contactArrays(f);
-        if (contacts.count) {
-          gl.bindBuffer(gl.ARRAY_BUFFER, contactBuf); gl.bufferData(gl.ARRAY_BUFFER, contacts.pos, gl.DYNAMIC_DRAW);
-          gl.bindBuffer(gl.ARRAY_BUFFER, contactColorBuf); gl.bufferData(gl.ARRAY_BUFFER, contacts.col, gl.DYNAMIC_DRAW);
-          drawBoxes(vp, contactBuf, contacts.count, pointSize * 1.3, IDENTITY, { colors: contactColorBuf });
-        }
-        gl.disable(gl.DEPTH_TEST);
-        drawLines(vp, arrows(f));
-        gl.enable(gl.DEPTH_TEST); gl.enable(gl.BLEND); gl.blendFunc(gl.SRC_ALPHA, gl.ONE_MINUS_SRC_ALPHA); gl.depthMask(false);
-        drawBoxes(vp, shellBuf, shell.length / 3, pointSize, poseMatrix(f.handle.orientation_xyzw, f.handle.position_m), { color: [0.35, 0.63, 1], alpha: 0.25 });
-        gl.depthMask(true); gl.disable(gl.BLEND);
+        if (fence) { gl.deleteSync(fence); fence = null; }
+        drawGL();
+        fence = gl.fenceSync(gl.SYNC_GPU_COMMANDS_COMPLETE, 0);
+        gl.flush();
       },
       setScene() {
         gl.bindBuffer(gl.ARRAY_BUFFER, sceneBuf); gl.bufferData(gl.ARRAY_BUFFER, boxes, gl.STATIC_DRAW);
         gl.bindBuffer(gl.ARRAY_BUFFER, shellBuf); gl.bufferData(gl.ARRAY_BUFFER, shell, gl.STATIC_DRAW);
       },
     };
+    function drawGL() {
+      const w = canvas.width, h = canvas.height;
+      gl.viewport(0, 0, w, h);
+      gl.clearColor(0.106, 0.133, 0.169, 1);
+      gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
+      if (!scene) return;
+      const vp = viewProjection(w, h);
+      gl.enable(gl.DEPTH_TEST); gl.disable(gl.BLEND); gl.depthMask(true);
+      const eye = cameraEye();
+      for (const r of lodRanges(eye)) {
+        if (r.near) drawBoxes(vp, sceneBuf, r.count, scene.box_size_m * 0.92, IDENTITY, { tint: true }, r.first);
+        else drawPoints(vp, r.first, r.count, h / (2 * Math.tan(FOV / 2)));
+      }
+      const f = state && state.frame;
+      if (!f) return;
+      const pointSize = scene.shell_voxel_size_m * 0.8;
+      drawBoxes(vp, shellBuf, shell.length / 3, pointSize, poseMatrix(f.part.orientation_xyzw, f.part.position_m), { color: [0.91, 0.91, 0.91] });
+      const contacts = contactArrays(f);
+      if (contacts.count) {
+        gl.bindBuffer(gl.ARRAY_BUFFER, contactBuf); gl.bufferData(gl.ARRAY_BUFFER, contacts.pos, gl.DYNAMIC_DRAW);
+        gl.bindBuffer(gl.ARRAY_BUFFER, contactColorBuf); gl.bufferData(gl.ARRAY_BUFFER, contacts.col, gl.DYNAMIC_DRAW);
+        drawBoxes(vp, contactBuf, contacts.count, pointSize * 1.3, IDENTITY, { colors: contactColorBuf });
+      }
+      gl.disable(gl.DEPTH_TEST);
+      drawLines(vp, arrows(f));
+      gl.enable(gl.DEPTH_TEST); gl.enable(gl.BLEND); gl.blendFunc(gl.SRC_ALPHA, gl.ONE_MINUS_SRC_ALPHA); gl.depthMask(false);
+      drawBoxes(vp, shellBuf, shell.length / 3, pointSize, poseMatrix(f.handle.orientation_xyzw, f.handle.position_m), { color: [0.35, 0.63, 1], alpha: 0.25 });
+      gl.depthMask(true); gl.disable(gl.BLEND);
+    }
   }
 
   // An arrow as three segments: the shaft and two barbs.
@@ -332,14 +422,26 @@
   const v3 = (a) => a.map((x) => x.toFixed(4).padStart(8)).join(' ');
 
   // ---- state handling ----
-  let drawPending = false;
+  // Redraws are coalesced: at most one pending, at most MAX_FPS per second, and (WebGL2) never
+  // while the GPU is still busy with the previous frame, so a slow GPU (or a software one) skips
+  // states instead of queueing them.
+  let drawPending = false, lastDrawAt = -1e9;
   function requestDraw() {
     if (drawPending || !renderer) return;
     drawPending = true;
-    requestAnimationFrame(() => { drawPending = false; resize(); renderer.draw(); });
+    const wait = Math.max(0, lastDrawAt + 1000 / MAX_FPS - performance.now());
+    setTimeout(() => requestAnimationFrame(drawWhenReady), wait);
   }
+  function drawWhenReady() {
+    if (renderer.busy && renderer.busy()) { setTimeout(() => requestAnimationFrame(drawWhenReady), 15); return; }
+    drawPending = false; lastDrawAt = performance.now(); drawNow();
+  }
+  // Draws once; the canvas's data-draws attribute counts the draws (tests wait on it).
+  let draws = 0;
+  function drawNow() { resize(); renderer.draw(); canvas.dataset.draws = String(++draws); }
   function onState(s) {
     const fresh = !state || !state.frame || !s.frame || s.frame.frame !== state.frame.frame;
+    const changed = fresh || !state || state.status !== s.status;
     state = s;
     const st = $('status');
     st.className = s.status;
@@ -360,7 +462,7 @@
     } else if (s.status === 'offline') {
       $('pose').textContent = 'no loop: scene only';
     }
-    requestDraw();
+    if (changed) requestDraw();
   }
   function connect() {
     let ws;
@@ -405,12 +507,14 @@
   window.addEventListener('resize', requestDraw);
 
   // ---- start ----
+  // The state comes first (the pose is in the page as soon as possible), then the scene, then the
+  // renderer (a software WebGL context can take seconds to create).
   async function start() {
-    resize();
-    renderer = makeGL() || make2D();
-    $('render-mode').textContent = renderer ? renderer.mode : 'none';
     const get = async (path, kind) => { const r = await fetch(path, { cache: 'no-store' }); if (!r.ok) throw new Error(`${path}: ${r.status}`); return r[kind](); };
     try {
+      onState(await get('/state', 'json'));
+      connect();
+      poll();
       scene = await get('/scene', 'json');
       boxes = new Float32Array(await get('/scene/boxes', 'arrayBuffer'));
       shell = new Float32Array(await get('/scene/shell', 'arrayBuffer'));
@@ -419,12 +523,12 @@
     }
     $('scene-info').textContent = `${scene.label}: ${scene.surface_voxels} Surface voxels of ${(scene.voxel_size_m * 1000).toFixed(1)} mm, ` +
       `${scene.boxes} boxes of ${(scene.box_size_m * 1000).toFixed(1)} mm; part ${scene.shell_points_total} points`;
-    if (renderer) renderer.setScene();
-    onState(await get('/state', 'json'));
+    buildChunks();
     setFollow(!!(state && state.status !== 'offline' && scene.shell_points));
-    resize(); if (renderer) renderer.draw();
-    connect();
-    poll();
+    resize();
+    renderer = makeGL() || make2D();
+    $('render-mode').textContent = renderer ? renderer.mode : 'none';
+    if (renderer) { renderer.setScene(); drawNow(); }
   }
   start();
 })();
