@@ -385,11 +385,22 @@ impl RemoteShares {
     }
 
     /// Waits for `pending` replies until `deadline`: sleeps on the channel until `spin_margin`
-    /// before it, then spins. Never waits on a tokio timer.
+    /// before it, then spins. Never waits on a tokio timer. Past the deadline (the local share
+    /// may take that long) it still takes, without waiting, the replies already queued: they
+    /// arrived while the frame thread was computing.
     fn gather(&mut self, mut pending: usize, deadline: Instant, sums: &mut PartialSums) {
         while pending > 0 {
             let now = Instant::now();
             if now >= deadline {
+                while pending > 0 {
+                    match self.datagrams.try_recv() {
+                        Ok(d) if d.at <= deadline => pending -= usize::from(self.accept(d, sums)),
+                        Ok(d) => {
+                            self.accept_late(d);
+                        }
+                        Err(_) => break,
+                    }
+                }
                 break;
             }
             let datagram = if deadline - now > self.config.spin_margin {
@@ -414,6 +425,14 @@ impl RemoteShares {
             if self.accept(datagram, sums) {
                 pending -= 1;
             }
+        }
+    }
+
+    /// A reply that arrived after this frame's deadline: counted late, never merged.
+    fn accept_late(&mut self, datagram: Datagram) {
+        match self.peers.iter().find(|p| p.metrics.id() == datagram.id) {
+            Some(peer) => peer.metrics.bump(|m| &m.late),
+            None => self.board.bump(|b| &b.orphan_datagrams),
         }
     }
 
