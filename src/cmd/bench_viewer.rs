@@ -27,6 +27,9 @@ struct ViewerBench {
     /// State messages the client read during the second run, and their total size.
     messages_read: u64,
     message_bytes: u64,
+    /// CPU time of the viewer's threads (`vps-view-*`) over the second run (s), from
+    /// /proc/self/task (Linux; `null` elsewhere).
+    viewer_cpu_s: Option<f64>,
     /// with / without, per compute percentile.
     compute_ratio: Ratios,
 }
@@ -56,7 +59,9 @@ pub fn run(seconds: f64) -> Result<()> {
         }
         (messages, bytes)
     });
+    let cpu_before = viewer_threads_cpu_s();
     let with = run_session(&scene, params, seconds, 1, true, Some(viewer.feed()))?;
+    let viewer_cpu_s = cpu_before.zip(viewer_threads_cpu_s()).map(|(a, b)| b - a);
     drop(viewer);
     let (messages_read, message_bytes) = reader
         .join()
@@ -77,5 +82,32 @@ pub fn run(seconds: f64) -> Result<()> {
         with_viewer: with.stats,
         messages_read,
         message_bytes,
+        viewer_cpu_s,
     })
 }
+
+/// User + system CPU time of this process's threads named `vps-view-*` (s), from
+/// `/proc/self/task/*/stat` (10 ms resolution); `None` where that cannot be read.
+fn viewer_threads_cpu_s() -> Option<f64> {
+    let mut total = 0u64;
+    for task in std::fs::read_dir("/proc/self/task").ok()?.flatten() {
+        let Ok(stat) = std::fs::read_to_string(task.path().join("stat")) else {
+            continue;
+        };
+        // "tid (name) state ...": utime and stime are fields 14 and 15, i.e. the 12th and 13th
+        // after the closing parenthesis.
+        let Some((head, rest)) = stat.rsplit_once(')') else {
+            continue;
+        };
+        if !head.contains("(vps-view-") {
+            continue;
+        }
+        let fields: Vec<&str> = rest.split_whitespace().collect();
+        let ticks_of = |i: usize| fields.get(i).and_then(|f| f.parse::<u64>().ok());
+        total += ticks_of(11)? + ticks_of(12)?;
+    }
+    Some(total as f64 / USER_HZ)
+}
+
+/// Clock ticks per second of `/proc/*/stat` times (Linux's fixed `USER_HZ`).
+const USER_HZ: f64 = 100.0;
