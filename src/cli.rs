@@ -428,6 +428,9 @@ pub enum BenchKind {
         /// Session length per run (s).
         #[arg(long, default_value_t = 10.0)]
         seconds: f64,
+        /// Rounds of one run without and one with the viewer.
+        #[arg(long, default_value_t = 3)]
+        rounds: u32,
         /// Print JSON (always JSON; accepted for symmetry).
         #[arg(long)]
         json: bool,

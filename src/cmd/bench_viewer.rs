@@ -1,17 +1,18 @@
 //! `vps bench viewer`: the viewer's cost on the loop. The demo's paced 1 kHz session (braking on,
-//! one compute thread) runs twice on the same scene: first without a viewer, then with a viewer
-//! and one WebSocket client in this process reading every state message. Prints both runs' frame
-//! figures and the with/without ratios of the compute percentiles (JSON).
+//! one compute thread) runs in rounds on the same scene: without a viewer, then with a viewer and
+//! one WebSocket client in this process reading every state message. Prints every run's frame
+//! figures and the with/without ratios of the compute percentiles, per round and their medians
+//! (JSON).
 
 use super::output::print_json;
 use super::view::attach;
 use crate::demo::run_session;
-use crate::session::builtin_scene;
+use crate::session::{builtin_scene, SessionScene};
 use anyhow::{Context, Result};
 use serde::Serialize;
 use std::time::Duration;
 use vps_haptic::HapticParams;
-use vps_runtime::StatsSummary;
+use vps_runtime::{Percentiles, StatsSummary};
 use vps_view::client::WsClient;
 use vps_voxelize::ShellMethod;
 
@@ -22,6 +23,14 @@ const VOXEL_SIZE: f64 = 0.005;
 struct ViewerBench {
     session_seconds: f64,
     shell_points: usize,
+    /// with / without per compute percentile, the median over the rounds.
+    median_compute_ratio: Ratios,
+    rounds: Vec<Round>,
+}
+
+/// One session without a viewer, then one with.
+#[derive(Serialize)]
+struct Round {
     without_viewer: StatsSummary,
     with_viewer: StatsSummary,
     /// State messages the client read during the second run, and their total size.
@@ -34,7 +43,7 @@ struct ViewerBench {
     compute_ratio: Ratios,
 }
 
-#[derive(Serialize)]
+#[derive(Serialize, Clone, Copy)]
 struct Ratios {
     p50: f64,
     p99: f64,
@@ -42,13 +51,59 @@ struct Ratios {
     max: f64,
 }
 
-/// Runs both sessions of `seconds` each and prints JSON.
-pub fn run(seconds: f64) -> Result<()> {
+impl Ratios {
+    fn of(with: &Percentiles, without: &Percentiles) -> Ratios {
+        let r = |a: u64, b: u64| a as f64 / b.max(1) as f64;
+        Ratios {
+            p50: r(with.p50, without.p50),
+            p99: r(with.p99, without.p99),
+            p999: r(with.p999, without.p999),
+            max: r(with.max, without.max),
+        }
+    }
+
+    fn median(all: &[Ratios]) -> Ratios {
+        let median = |f: fn(&Ratios) -> f64| {
+            let mut v: Vec<f64> = all.iter().map(f).collect();
+            v.sort_by(f64::total_cmp);
+            v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+        };
+        Ratios {
+            p50: median(|r| r.p50),
+            p99: median(|r| r.p99),
+            p999: median(|r| r.p999),
+            max: median(|r| r.max),
+        }
+    }
+}
+
+/// Runs `rounds` pairs of sessions of `seconds` each (without, then with a viewer) and prints
+/// JSON. Alternating spreads slow drifts of the machine's load over both kinds of run.
+pub fn run(seconds: f64, rounds: u32) -> Result<()> {
     let scene = builtin_scene(VOXEL_SIZE, ShellMethod::VoxelCentres)?;
     let params = HapticParams::default().with_scene(VOXEL_SIZE, scene.shell.max_radius())?;
-    let without = run_session(&scene, params, seconds, 1, true, None)?;
+    let mut results = Vec::new();
+    for _ in 0..rounds.max(1) {
+        let without = run_session(&scene, params, seconds, 1, true, None)?;
+        results.push(round_with_viewer(&scene, params, seconds, without.stats)?);
+    }
+    let ratios: Vec<Ratios> = results.iter().map(|r| r.compute_ratio).collect();
+    print_json(&ViewerBench {
+        session_seconds: results[0].without_viewer.frames as f64 * params.dt,
+        shell_points: scene.shell.len(),
+        median_compute_ratio: Ratios::median(&ratios),
+        rounds: results,
+    })
+}
 
-    let viewer = attach(Some("127.0.0.1:0".parse()?), &scene)?.context("the viewer")?;
+/// The session with a viewer and one WebSocket client reading every message.
+fn round_with_viewer(
+    scene: &SessionScene,
+    params: HapticParams,
+    seconds: f64,
+    without_viewer: StatsSummary,
+) -> Result<Round> {
+    let viewer = attach(Some("127.0.0.1:0".parse()?), scene)?.context("the viewer")?;
     let mut client = WsClient::connect(viewer.local_addr(), "/ws", Duration::from_secs(5))
         .context("connecting to the viewer's WebSocket")?;
     let reader = std::thread::spawn(move || {
@@ -60,25 +115,15 @@ pub fn run(seconds: f64) -> Result<()> {
         (messages, bytes)
     });
     let cpu_before = viewer_threads_cpu_s();
-    let with = run_session(&scene, params, seconds, 1, true, Some(viewer.feed()))?;
+    let with = run_session(scene, params, seconds, 1, true, Some(viewer.feed()))?;
     let viewer_cpu_s = cpu_before.zip(viewer_threads_cpu_s()).map(|(a, b)| b - a);
     drop(viewer);
     let (messages_read, message_bytes) = reader
         .join()
         .map_err(|_| anyhow::anyhow!("the WebSocket reader panicked"))?;
-
-    let (a, b) = (&without.stats.compute_ns, &with.stats.compute_ns);
-    let ratio = |with: u64, without: u64| with as f64 / without.max(1) as f64;
-    print_json(&ViewerBench {
-        session_seconds: without.stats.frames as f64 * params.dt,
-        shell_points: scene.shell.len(),
-        compute_ratio: Ratios {
-            p50: ratio(b.p50, a.p50),
-            p99: ratio(b.p99, a.p99),
-            p999: ratio(b.p999, a.p999),
-            max: ratio(b.max, a.max),
-        },
-        without_viewer: without.stats,
+    Ok(Round {
+        compute_ratio: Ratios::of(&with.stats.compute_ns, &without_viewer.compute_ns),
+        without_viewer,
         with_viewer: with.stats,
         messages_read,
         message_bytes,

@@ -80,7 +80,9 @@ pub fn dispatch(cli: Cli) -> Result<()> {
                 threads,
                 ..
             } => bench_loop::run(voxel_size, points, frames, threads),
-            BenchKind::Viewer { seconds, .. } => bench_viewer::run(seconds),
+            BenchKind::Viewer {
+                seconds, rounds, ..
+            } => bench_viewer::run(seconds, rounds),
             BenchKind::Transport { frames, .. } => bench_transport::run(frames),
             BenchKind::Cluster {
                 points,
