@@ -42,10 +42,7 @@ pub fn attach(addr: Option<SocketAddr>, scene: &SessionScene) -> Result<Option<L
     let (feed, receiver) = state_feed();
     let server = ViewerServer::start(addr, drawn, Some(receiver))?;
     eprintln!("viewer: {}", server.url());
-    Ok(Some(LiveViewer {
-        server: server,
-        feed,
-    }))
+    Ok(Some(LiveViewer { server, feed }))
 }
 
 /// `vps view FILE.vmap [--shell FILE.vshell]`: serves the scene with no loop until interrupted.
