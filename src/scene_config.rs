@@ -7,7 +7,8 @@ use glam::DVec3;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 use vps_mesh::{Aabb, TriMesh};
-use vps_voxelize::ShellMethod;
+use vps_voxelize::{ShellMethod, VoxelizeOptions};
+use vps_voxmap::VoxelWidth;
 
 /// Why a scene file is rejected: always names the file, and the field when one is at fault.
 #[derive(Debug, thiserror::Error)]
@@ -99,7 +100,8 @@ pub struct Corridor {
 pub struct VoxelSettings {
     /// Voxel edge (m). Default 0.005.
     pub voxel_size: f64,
-    /// Bits per voxel: 2, 4 or 8. Default 2. Only 2 is built; see [`VoxelSettings::check_supported`].
+    /// Bits per voxel: 2 (kinds only, the paper's format), 4 or 8 (kinds plus distance layers: a
+    /// deeper force field, see [`vps_voxmap::LayeredVoxel`]). Default 2. See [`VoxelSettings::width`].
     pub voxel_width: u8,
     /// Force-layer offset in voxel layers (0..=16). Default 2.
     pub offset_layers: u32,
@@ -162,21 +164,24 @@ impl Default for VoxelSettings {
 }
 
 impl VoxelSettings {
-    /// Fails for settings that parse and validate but that this build cannot apply: voxel widths
-    /// other than 2 bits (the 4- and 8-bit voxmaps are not wired into sessions yet).
-    pub fn check_supported(&self, path: &Path) -> Result<(), SceneConfigError> {
-        if self.voxel_width != 2 {
-            return Err(invalid(
-                path,
-                "voxels.voxel_width",
-                format!(
-                    "{} bits is valid but not applied by this build (only 2-bit voxmaps are sampled)",
-                    self.voxel_width
-                ),
-            ));
-        }
-        Ok(())
+    /// The voxmap width of `voxel_width`; errors (naming `path` and the field) unless it is 2, 4 or
+    /// 8 bits.
+    pub fn width(&self, path: &Path) -> Result<VoxelWidth, SceneConfigError> {
+        width_from_bits(self.voxel_width, path, "voxels.voxel_width")
     }
+
+    /// Fails for settings that parse but that this build cannot apply. Every width that
+    /// [`VoxelSettings::width`] accepts (2, 4, 8 bits) is applied: the voxmap is built with
+    /// [`vps_voxelize::voxelize_tree`] at that width and the kernel reads its distance layers.
+    pub fn check_supported(&self, path: &Path) -> Result<(), SceneConfigError> {
+        self.width(path).map(|_| ())
+    }
+}
+
+/// The voxmap width of `bits` (2, 4 or 8); errors name `path` and `field`.
+pub fn width_from_bits(bits: u8, path: &Path, field: &str) -> Result<VoxelWidth, SceneConfigError> {
+    VoxelWidth::from_bits(u32::from(bits))
+        .ok_or_else(|| invalid(path, field, format!("{bits} must be 2, 4 or 8 (bits)")))
 }
 
 fn unit_scale() -> [f64; 3] {
@@ -274,12 +279,7 @@ impl SceneConfig {
                 format!("{} must be a positive length (m)", v.voxel_size),
             );
         }
-        if ![2, 4, 8].contains(&v.voxel_width) {
-            return bad(
-                "voxels.voxel_width",
-                format!("{} must be 2, 4 or 8 (bits)", v.voxel_width),
-            );
-        }
+        v.width(path)?;
         if v.offset_layers > 16 {
             return bad(
                 "voxels.offset_layers",
@@ -307,6 +307,18 @@ impl SceneConfig {
             }
         }
         Ok(())
+    }
+
+    /// The voxelizer's options for this scene at `voxel_size` (m) and `width`: the scene's offset
+    /// layers, and its workspace region (only that region is voxelized) when it declares one.
+    pub fn voxelize_options(&self, voxel_size: f64, width: VoxelWidth) -> VoxelizeOptions {
+        VoxelizeOptions {
+            voxel_size,
+            offset_layers: self.voxels.offset_layers,
+            width,
+            workspace: self.workspace.as_ref().map(Region::aabb),
+            ..VoxelizeOptions::default()
+        }
     }
 
     /// The corridor's waypoints (m).
@@ -382,6 +394,12 @@ max = [0.4, 0.1, 0.2]
         assert_eq!(c.voxels.shell_method.method(), ShellMethod::ExactSurface);
         assert_eq!(c.waypoints().len(), 7);
         assert!(c.voxels.check_supported(Path::new("x")).is_ok());
+        assert_eq!(c.voxels.width(Path::new("x")).unwrap(), VoxelWidth::Two);
+        let opts = c.voxelize_options(0.0025, VoxelWidth::Four);
+        assert_eq!(opts.width, VoxelWidth::Four);
+        assert_eq!(opts.voxel_size, 0.0025);
+        assert_eq!(opts.offset_layers, 2);
+        assert_eq!(opts.workspace, c.workspace.map(|r| r.aabb()));
     }
 
     #[test]
@@ -422,11 +440,16 @@ max = [0.4, 0.1, 0.2]
             assert!(err.starts_with("scene.toml"), "{err}");
             assert!(err.contains(field), "{field} not named in: {err}");
         }
-        let wide = parse(&GOOD.replace("voxel_width = 2", "voxel_width = 8")).unwrap();
-        let err = wide
-            .voxels
-            .check_supported(Path::new("s.toml"))
-            .unwrap_err();
-        assert!(err.to_string().contains("not applied"), "{err}");
+        for (bits, width) in [(4, VoxelWidth::Four), (8, VoxelWidth::Eight)] {
+            let wide =
+                parse(&GOOD.replace("voxel_width = 2", &format!("voxel_width = {bits}"))).unwrap();
+            assert!(wide.voxels.check_supported(Path::new("s.toml")).is_ok());
+            assert_eq!(wide.voxels.width(Path::new("s.toml")).unwrap(), width);
+        }
+        let err = width_from_bits(16, Path::new("sweep.toml"), "widths[1]").unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "sweep.toml: field `widths[1]`: 16 must be 2, 4 or 8 (bits)"
+        );
     }
 }

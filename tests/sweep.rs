@@ -1,10 +1,11 @@
-//! `vps sweep --quick` through the binary: JSON and CSV with the expected columns, plots written;
-//! scene-file errors name the field.
+//! `vps sweep --quick` through the binary: JSON and CSV with the expected columns, one row per size ×
+//! width × method (2- and 4-bit voxmaps), plots written; scene-file and sweep-file errors name the
+//! field.
 
 use std::path::Path;
 use std::process::Command;
 
-const COLUMNS: &str = "scene,method,voxel_size_mm,voxelized,shell_points,voxmap_bytes,voxelize_ms,frames,compute_p50_us,compute_p999_us,penetration_ratio,compared_frames,both_force_frames,voxel_only_frames,reference_only_frames,direction_error_deg_p50,direction_error_deg_p95,magnitude_error_p50,magnitude_ratio_p50,min_separation_mm";
+const COLUMNS: &str = "scene,method,voxel_size_mm,voxel_width,voxelized,shell_points,voxmap_bytes,voxelize_ms,frames,compute_p50_us,compute_p999_us,penetration_ratio,compared_frames,both_force_frames,voxel_only_frames,reference_only_frames,direction_error_deg_p50,direction_error_deg_p95,magnitude_error_p50,magnitude_ratio_p50,min_separation_mm";
 
 fn vps() -> Command {
     Command::new(env!("CARGO_BIN_EXE_vps"))
@@ -18,7 +19,7 @@ fn quick_sweep_writes_json_csv_and_plots() {
     std::fs::write(
         &config,
         format!(
-            "voxel_sizes_mm = [10.0, 5.0, 2.5]\nmethods = [\"centres\", \"exact\"]\n[[run]]\nscene = {:?}\nseconds = 1.0\n",
+            "voxel_sizes_mm = [10.0, 5.0, 2.5]\nmethods = [\"centres\", \"exact\"]\nwidths = [2, 4]\n[[run]]\nscene = {:?}\nseconds = 1.0\n",
             rig.display().to_string()
         ),
     )
@@ -47,12 +48,13 @@ fn quick_sweep_writes_json_csv_and_plots() {
     let csv = std::fs::read_to_string(&csv).unwrap();
     let mut lines = csv.lines();
     assert_eq!(lines.next().unwrap(), COLUMNS);
-    // --quick keeps the two coarsest sizes ≥ 5 mm: 10 and 5 mm, two methods each.
+    // --quick keeps the two coarsest sizes ≥ 5 mm: 10 and 5 mm, two widths and two methods each,
+    // in the order size, width, method.
     let body: Vec<&str> = lines.collect();
-    assert_eq!(body.len(), 4, "{csv}");
+    assert_eq!(body.len(), 8, "{csv}");
     let rows: Vec<serde_json::Value> =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    assert_eq!(rows.len(), 4);
+    assert_eq!(rows.len(), 8);
     for r in &rows {
         for c in COLUMNS.split(',') {
             assert!(r.get(c).is_some(), "column {c} missing from {r}");
@@ -62,9 +64,24 @@ fn quick_sweep_writes_json_csv_and_plots() {
         assert_eq!(r["frames"], 1000);
         assert!(r["shell_points"].as_u64().unwrap() > 50);
     }
+    let widths: Vec<u64> = rows
+        .iter()
+        .map(|r| r["voxel_width"].as_u64().unwrap())
+        .collect();
+    assert_eq!(widths, [2, 2, 4, 4, 2, 2, 4, 4]);
+    assert!(
+        body[2].starts_with("rig-teapot,centres,10.0,4,workspace,"),
+        "{csv}"
+    );
     // Halving the voxel size gives more shell points and a larger voxmap.
     let points = |i: usize| rows[i]["shell_points"].as_u64().unwrap();
-    assert!(points(2) > 2 * points(0), "{rows:?}");
+    let bytes = |i: usize| rows[i]["voxmap_bytes"].as_u64().unwrap();
+    assert!(points(4) > 2 * points(0), "{rows:?}");
+    assert!(bytes(4) > bytes(0), "{rows:?}");
+    // The 4-bit map of the same size holds the same kinds plus distance layers: the same shell,
+    // a larger tree.
+    assert_eq!(points(2), points(0));
+    assert!(bytes(2) > bytes(0), "{rows:?}");
     assert_eq!(rows[0]["method"], "centres");
     assert_eq!(rows[1]["method"], "exact");
     for figure in [
@@ -102,6 +119,32 @@ fn bad_scene_file_names_the_field() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
         err.contains("bad.toml") && err.contains("voxels.offset_layers"),
+        "{err}"
+    );
+}
+
+#[test]
+fn bad_width_in_the_sweep_file_names_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/scenes/rig-teapot.toml");
+    let config = dir.path().join("sweep.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "voxel_sizes_mm = [10.0]\nmethods = [\"centres\"]\n[[run]]\nscene = {:?}\nwidths = [2, 3]\n",
+            rig.display().to_string()
+        ),
+    )
+    .unwrap();
+    let out = vps()
+        .args(["sweep", "--quick", "--config"])
+        .arg(&config)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("sweep.toml") && err.contains("run[0].widths[1]") && err.contains("2, 4 or 8"),
         "{err}"
     );
 }

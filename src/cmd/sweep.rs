@@ -1,11 +1,11 @@
-//! `vps sweep`: speed against accuracy over voxel sizes and point-shell methods on standard scenes
-//! (scene files) and their scripted sessions. Per setting: point count, voxmap memory,
+//! `vps sweep`: speed against accuracy over voxel sizes, voxel widths (2, 4, 8 bits) and point-shell
+//! methods on standard scenes (scene files) and their scripted sessions. Per setting: point count, voxmap memory,
 //! voxelization time, frame compute p50/p99.9 (free-running 1 kHz loop), penetration ratio, and at
 //! sampled touching frames the voxel contact force against the exact reference (vps-reference):
 //! direction and magnitude error, minimum exact separation. Writes JSON, CSV and SVG plots.
 
 use crate::cli::SweepArgs;
-use crate::scene_config::{SceneConfig, ShellMethodName};
+use crate::scene_config::{width_from_bits, SceneConfig, ShellMethodName};
 use crate::session::{classed, laps_script, SessionScene};
 use anyhow::{bail, Context, Result};
 use glam::DVec3;
@@ -19,10 +19,8 @@ use vps_haptic::{sample_all, step, HapticParams, KernelPose, PartState};
 use vps_mesh::TriMesh;
 use vps_reference::{reference_contact, ExactScene};
 use vps_runtime::{run_loop, LoopConfig, StatsSummary};
-use vps_voxelize::{
-    grid_for, point_shell, voxelize_in_with_stats, voxelize_with_stats, VoxelizeOptions,
-};
-use vps_voxmap::{TreeConfig, VoxelTree};
+use vps_voxelize::{point_shell, voxelize_tree};
+use vps_voxmap::{TreeConfig, VoxelTree, VoxelWidth};
 
 /// The sweep file (`configs/sweep.toml`).
 #[derive(Debug, Deserialize)]
@@ -30,8 +28,11 @@ use vps_voxmap::{TreeConfig, VoxelTree};
 struct SweepConfig {
     /// Voxel sizes (mm) for every run that does not list its own.
     voxel_sizes_mm: Vec<f64>,
-    /// Shell methods.
+    /// Shell methods for every run that does not list its own.
     methods: Vec<ShellMethodName>,
+    /// Voxel widths (bits: 2, 4, 8) for every run that does not list its own; default: each
+    /// scene's own `voxels.voxel_width`.
+    widths: Option<Vec<u8>>,
     /// Reference cost budget: the exact reference is computed at every Nth touching frame with
     /// N = ceil(shell points / this).
     #[serde(default = "default_points_per_frame")]
@@ -47,6 +48,10 @@ struct RunSpec {
     scene: PathBuf,
     /// Voxel sizes (mm) for this run.
     voxel_sizes_mm: Option<Vec<f64>>,
+    /// Voxel widths (bits) for this run.
+    widths: Option<Vec<u8>>,
+    /// Shell methods for this run.
+    methods: Option<Vec<ShellMethodName>>,
     /// Longest session (s); default the whole script.
     seconds: Option<f64>,
 }
@@ -55,7 +60,7 @@ fn default_points_per_frame() -> usize {
     500
 }
 
-/// One row of the table: one scene × shell method × voxel size.
+/// One row of the table: one scene × voxel size × voxel width × shell method.
 #[derive(Clone, Debug, Serialize)]
 pub struct SweepRow {
     /// Scene name.
@@ -64,6 +69,8 @@ pub struct SweepRow {
     pub method: ShellMethodName,
     /// Voxel edge (mm).
     pub voxel_size_mm: f64,
+    /// Bits per voxel of the voxmap: 2 (kinds only), 4 or 8 (kinds plus distance layers).
+    pub voxel_width: u32,
     /// What was voxelized: `scene` or `workspace`.
     pub voxelized: String,
     /// Shell points.
@@ -115,10 +122,14 @@ pub fn run(args: &SweepArgs) -> Result<()> {
     }
     let base = args.config.parent().unwrap_or(Path::new("."));
     let mut rows = Vec::new();
-    for spec in &config.run {
+    for (i, spec) in config.run.iter().enumerate() {
         let path = base.join(&spec.scene);
         let scene = SceneConfig::from_file(&path)?;
-        scene.voxels.check_supported(&path)?;
+        let widths = run_widths(&config, spec, &scene, &args.config, i)?;
+        let methods = spec.methods.as_ref().unwrap_or(&config.methods);
+        if methods.is_empty() {
+            bail!("{}: run[{i}].methods is empty", args.config.display());
+        }
         let scene_dir = path.parent().unwrap_or(Path::new("."));
         let (objects, part) = scene.load_meshes(scene_dir)?;
         let exact = ExactScene::new(&objects)
@@ -140,23 +151,59 @@ pub fn run(args: &SweepArgs) -> Result<()> {
                     args.config.display()
                 );
             }
-            for &method in &config.methods {
-                eprintln!("sweep: {} {} mm {:?}", scene.name, size_mm, method);
-                let setting = Setting {
-                    scene: &scene,
-                    objects: &objects,
-                    part: &part,
-                    exact: &exact,
-                    voxel_size: size_mm * 1e-3,
-                    method,
-                    seconds,
-                    points_per_frame: config.reference_points_per_frame.max(1),
-                };
-                rows.push(measure(&setting)?);
+            for &width in &widths {
+                let voxel_size = size_mm * 1e-3;
+                let map = build_map(&scene, &objects, voxel_size, width)?;
+                for &method in methods {
+                    eprintln!(
+                        "sweep: {} {size_mm} mm {}-bit {method:?}",
+                        scene.name,
+                        width.bits()
+                    );
+                    let setting = Setting {
+                        scene: &scene,
+                        part: &part,
+                        exact: &exact,
+                        voxel_size,
+                        method,
+                        seconds,
+                        points_per_frame: config.reference_points_per_frame.max(1),
+                    };
+                    let t = Instant::now();
+                    rows.push(measure(&setting, &map)?);
+                    eprintln!(
+                        "sweep: row done in {:.1} s (voxelization {:.1} s)",
+                        t.elapsed().as_secs_f64(),
+                        map.voxelize_ms / 1e3
+                    );
+                }
             }
         }
     }
     write_outputs(args, &rows)
+}
+
+/// The widths of run `index`: its own list, else the sweep's, else the scene's own width; every
+/// entry must be 2, 4 or 8 (the error names the sweep file and the field).
+fn run_widths(
+    config: &SweepConfig,
+    spec: &RunSpec,
+    scene: &SceneConfig,
+    sweep_path: &Path,
+    index: usize,
+) -> Result<Vec<VoxelWidth>> {
+    let (bits, field) = match (&spec.widths, &config.widths) {
+        (Some(w), _) => (w.clone(), format!("run[{index}].widths")),
+        (None, Some(w)) => (w.clone(), "widths".to_string()),
+        (None, None) => return Ok(vec![scene.voxels.width(sweep_path)?]),
+    };
+    if bits.is_empty() {
+        bail!("{}: field `{field}` is empty", sweep_path.display());
+    }
+    bits.iter()
+        .enumerate()
+        .map(|(j, &b)| Ok(width_from_bits(b, sweep_path, &format!("{field}[{j}]"))?))
+        .collect()
 }
 
 /// Sessions in `--quick` mode are cut to this length (s).
@@ -164,7 +211,6 @@ const QUICK_SECONDS: f64 = 2.0;
 
 struct Setting<'a> {
     scene: &'a SceneConfig,
-    objects: &'a [TriMesh],
     part: &'a TriMesh,
     exact: &'a ExactScene,
     voxel_size: f64,
@@ -173,7 +219,62 @@ struct Setting<'a> {
     points_per_frame: usize,
 }
 
-/// Voxelizes the scene (its workspace region only, when it declares one) and builds the shell.
+/// A static scene's voxmap and what building it cost.
+pub struct BuiltMap {
+    /// The voxmap.
+    pub tree: Arc<VoxelTree>,
+    /// Wall time of voxelization and tree build (ms).
+    pub voxelize_ms: f64,
+    /// Triangles in the static scene.
+    pub scene_triangles: usize,
+}
+
+/// Voxelizes the scene's static `objects` at `voxel_size` (m) into a tree of `width` with the
+/// sparse voxelizer ([`voxelize_tree`]); only the scene's workspace region when it declares one.
+/// Blocking, parallel, allocates the tree.
+pub fn build_map(
+    scene: &SceneConfig,
+    objects: &[TriMesh],
+    voxel_size: f64,
+    width: VoxelWidth,
+) -> Result<BuiltMap> {
+    let opts = scene.voxelize_options(voxel_size, width);
+    let t = Instant::now();
+    let (tree, _) = voxelize_tree(objects, &opts, TreeConfig::default()).with_context(|| {
+        format!(
+            "{}: voxelizing at {} mm, {}-bit",
+            scene.name,
+            voxel_size * 1e3,
+            width.bits()
+        )
+    })?;
+    Ok(BuiltMap {
+        tree: Arc::new(tree),
+        voxelize_ms: t.elapsed().as_secs_f64() * 1e3,
+        scene_triangles: objects.iter().map(TriMesh::triangle_count).sum(),
+    })
+}
+
+/// A session on an already built `map`: the part's shell of `method` at `voxel_size` (m).
+pub fn session_on(
+    scene: &SceneConfig,
+    part: &TriMesh,
+    map: &BuiltMap,
+    voxel_size: f64,
+    method: ShellMethodName,
+) -> Result<SessionScene> {
+    let shell = point_shell(part, voxel_size, method.method())?;
+    Ok(SessionScene {
+        tree: map.tree.clone(),
+        shell,
+        corridor: scene.waypoints(),
+        scene_triangles: map.scene_triangles,
+        voxelize_ms: map.voxelize_ms,
+    })
+}
+
+/// Voxelizes the scene at its own width (its workspace region only, when it declares one) and
+/// builds the shell.
 pub fn build_session(
     scene: &SceneConfig,
     objects: &[TriMesh],
@@ -181,27 +282,9 @@ pub fn build_session(
     voxel_size: f64,
     method: ShellMethodName,
 ) -> Result<SessionScene> {
-    let opts = VoxelizeOptions {
-        voxel_size,
-        offset_layers: scene.voxels.offset_layers,
-        ..VoxelizeOptions::default()
-    };
-    let t = Instant::now();
-    let (dense, _) = match &scene.workspace {
-        Some(region) => voxelize_in_with_stats(objects, grid_for(&region.aabb(), &opts)?, &opts)?,
-        None => voxelize_with_stats(objects, &opts)?,
-    };
-    let tree = VoxelTree::from_dense(&dense, TreeConfig::default())?;
-    let voxelize_ms = t.elapsed().as_secs_f64() * 1e3;
-    drop(dense);
-    let shell = point_shell(part, voxel_size, method.method())?;
-    Ok(SessionScene {
-        tree: Arc::new(tree),
-        shell,
-        corridor: scene.waypoints(),
-        scene_triangles: objects.iter().map(TriMesh::triangle_count).sum(),
-        voxelize_ms,
-    })
+    let width = scene.voxels.width(Path::new(&scene.name))?;
+    let map = build_map(scene, objects, voxel_size, width)?;
+    session_on(scene, part, &map, voxel_size, method)
 }
 
 /// The haptic parameters of a scene at a voxel size.
@@ -217,8 +300,8 @@ pub fn session_params(
     .with_scene(voxel_size, session.shell.max_radius())?)
 }
 
-fn measure(set: &Setting) -> Result<SweepRow> {
-    let session = build_session(set.scene, set.objects, set.part, set.voxel_size, set.method)?;
+fn measure(set: &Setting, map: &BuiltMap) -> Result<SweepRow> {
+    let session = session_on(set.scene, set.part, map, set.voxel_size, set.method)?;
     let params = session_params(set.scene, &session, set.voxel_size)?;
     let script = laps_script(
         &session.tree,
@@ -279,13 +362,11 @@ struct Accuracy {
 /// compares the voxel force with the exact reference at the same pose.
 ///
 /// Voxel force `K_ff Σ d_i N_i` (before the N ≥ 10 averaging, which scales both alike); reference
-/// `K_ff Σ e_i n_i` with exact depths from the surface offset by `δ = (offset_layers + ½) s`: the
-/// voxel field starts to push where a point passes the centre of an outermost force-layer voxel,
-/// which lies `offset_layers × s` plus up to one voxel from the exact surface; `δ` is the middle of
-/// that band. Frames with no point in Surface or Interior are skipped: every point is then in a
-/// Free or Proximity voxel, at least `offset_layers × s` from the exact surface (one voxel less
-/// than `δ` at worst, so a reference force there would be under `K_ff s` per point); the
-/// reference is not computed there.
+/// `K_ff Σ e_i n_i` with exact depths `e_i = max(0, δ − φ_i)` from the surface offset by
+/// [`reference_offset`] `δ = offset_layers × s`. Frames with no point in Surface or Interior are
+/// skipped: every point is then in a Free or Proximity voxel, whose near face lies at least
+/// `offset_layers × s` from a plane (see [`reference_offset`]), so no reference force is missed
+/// there; the reference is not computed there.
 fn accuracy_pass(
     set: &Setting,
     session: &SessionScene,
@@ -297,7 +378,7 @@ fn accuracy_pass(
 ) -> Result<Accuracy> {
     let shell = classed(&session.shell);
     let limits = hand.limits();
-    let offset = (f64::from(set.scene.voxels.offset_layers) + 0.5) * set.voxel_size;
+    let offset = reference_offset(set.scene.voxels.offset_layers, set.voxel_size);
     let reach = offset + 2.0 * set.voxel_size;
     let mut state = initial;
     let mut acc = Accuracy::default();
@@ -324,6 +405,20 @@ fn accuracy_pass(
         state = out.next_state;
     }
     Ok(acc)
+}
+
+/// The offset `δ` (m) the reference measures depths from: `offset_layers × s`, the mean distance
+/// from a plane to the centres of the outermost force-layer voxels (where the voxel field starts
+/// to push, `N·(C − P) = 0`).
+///
+/// A plane at fraction `f ∈ [0, 1)` of the scan-converted voxel below its outer face puts that
+/// voxel's outer face `(1 − f) s` out, and after `offset_layers = k` grown layers the outermost
+/// force-layer voxel spans `[(k − f) s, (k + 1 − f) s]`: its centre lies `(k + ½ − f) s` out, from
+/// `(k − ½) s` to `(k + ½) s`, on average `k s` over placements. (The first sweep used `(k + ½) s`,
+/// the top of that band: the reference then pushed half a voxel per point harder than any voxel
+/// field can, and counted contacts the field had not reached yet.)
+pub fn reference_offset(offset_layers: u32, voxel_size: f64) -> f64 {
+    f64::from(offset_layers) * voxel_size
 }
 
 impl Accuracy {
@@ -360,6 +455,7 @@ fn row(set: &Setting, session: &SessionScene, stats: &StatsSummary, acc: Accurac
         scene: set.scene.name.clone(),
         method: set.method,
         voxel_size_mm: set.voxel_size * 1e3,
+        voxel_width: session.tree.width().bits(),
         voxelized: if set.scene.workspace.is_some() {
             "workspace"
         } else {
@@ -390,6 +486,7 @@ pub const CSV_COLUMNS: &[&str] = &[
     "scene",
     "method",
     "voxel_size_mm",
+    "voxel_width",
     "voxelized",
     "shell_points",
     "voxmap_bytes",
@@ -442,4 +539,113 @@ fn write_outputs(args: &SweepArgs, rows: &[SweepRow]) -> Result<()> {
         super::sweep_plots::plot_all(rows, dir)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vps_voxelize::{grid_for, voxelize_in};
+    use vps_voxmap::{LayeredVoxel, Voxel, VoxelLookup};
+
+    fn rig() -> (SceneConfig, Vec<TriMesh>) {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/scenes/rig-teapot.toml");
+        let scene = SceneConfig::from_file(&path).unwrap();
+        let (objects, _) = scene.load_meshes(path.parent().unwrap()).unwrap();
+        (scene, objects)
+    }
+
+    /// The outermost force-layer voxel centres of an axis-aligned wall average `offset_layers × s`
+    /// from the wall over wall placements: the reference offset.
+    #[test]
+    fn reference_offset_is_the_mean_force_layer_centre_distance() {
+        let objects = [vps_mesh::builtin::cuboid(glam::DVec3::new(
+            0.05, 0.05, 0.05,
+        ))];
+        let s = 0.004;
+        let k = 2;
+        let mut distances = Vec::new();
+        for step in 0..16 {
+            let shift = s * (step as f64 + 0.37) / 16.0;
+            let moved: Vec<TriMesh> = objects
+                .iter()
+                .map(|m| {
+                    let mut m = m.clone();
+                    m.vertices.iter_mut().for_each(|v| v.z += shift);
+                    m
+                })
+                .collect();
+            let opts = vps_voxelize::VoxelizeOptions {
+                voxel_size: s,
+                offset_layers: k,
+                ..Default::default()
+            };
+            let (tree, _) = voxelize_tree(&moved, &opts, TreeConfig::default()).unwrap();
+            let spec = *tree.spec();
+            let top = 0.05 + shift;
+            // Up the z axis through the top face's centre: the outermost Surface voxel.
+            let outermost = (0..spec.dims[2] as i32)
+                .rev()
+                .map(|z| spec.index_of(glam::DVec3::new(0.0, 0.0, 0.0)).with_z(z))
+                .find(|&ijk| tree.get(ijk) == Voxel::Surface)
+                .unwrap();
+            distances.push(spec.center_of(outermost).z - top);
+        }
+        let (lo, hi) = ((k as f64 - 0.5) * s, (k as f64 + 0.5) * s);
+        assert!(
+            distances
+                .iter()
+                .all(|d| (lo - 1e-9..=hi + 1e-9).contains(d)),
+            "{distances:?}"
+        );
+        let mean = distances.iter().sum::<f64>() / distances.len() as f64;
+        assert!(
+            (mean - reference_offset(k, s)).abs() < 0.05 * s,
+            "{mean} {distances:?}"
+        );
+    }
+
+    /// The sparse 2-bit map of the rig's workspace holds the same voxels as the dense pipeline on
+    /// the region's own padded grid (what the sweep used before wide voxels), and the wide maps
+    /// hold the same kinds at layer 0 with deeper layers inside.
+    #[test]
+    fn rig_map_matches_the_dense_pipeline_and_wide_maps_add_layers() {
+        let (scene, objects) = rig();
+        let s = 0.01;
+        let opts = scene.voxelize_options(s, VoxelWidth::Two);
+        let region = scene.workspace.unwrap().aabb();
+        let dense = voxelize_in(&objects, grid_for(&region, &opts).unwrap(), &opts).unwrap();
+        let maps: Vec<BuiltMap> = VoxelWidth::ALL
+            .iter()
+            .map(|&w| build_map(&scene, &objects, s, w).unwrap())
+            .collect();
+        let spec = *maps[0].tree.spec();
+        let (mut deep, mut checked) = (0, 0);
+        for i in 0..spec.dims[0] as i32 {
+            for j in 0..spec.dims[1] as i32 {
+                for k in 0..spec.dims[2] as i32 {
+                    let ijk = glam::IVec3::new(i, j, k);
+                    let centre = spec.center_of(ijk);
+                    let want = dense.get(dense.spec().index_of(centre));
+                    assert_eq!(maps[0].tree.get(ijk), want, "{centre}");
+                    checked += 1;
+                    for wide in &maps[1..] {
+                        let v: LayeredVoxel = wide.tree.get_layered(ijk);
+                        match want {
+                            Voxel::Interior => assert!(
+                                v.kind == Voxel::Interior || v.kind == Voxel::Surface,
+                                "{centre}"
+                            ),
+                            Voxel::Surface => assert_eq!(v.kind, Voxel::Surface),
+                            _ => assert!(v.kind != Voxel::Interior),
+                        }
+                        if want == Voxel::Interior && v.kind == Voxel::Surface {
+                            assert!(v.layer >= 1, "{centre}");
+                            deep += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(checked > 1000 && deep > 100, "{checked} {deep}");
+    }
 }

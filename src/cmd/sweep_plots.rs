@@ -1,5 +1,6 @@
 //! SVG plots of `vps sweep`: one figure per column against voxel size (log2 axis), one line per
-//! scene and shell method.
+//! scene, shell method and voxel width: the colour names the scene and method, the line the width
+//! (solid 2-bit, dashed 4-bit, dotted 8-bit) and the marker too (circle, triangle, cross).
 
 use super::sweep::SweepRow;
 use anyhow::{Context, Result};
@@ -45,16 +46,46 @@ const FIGURES: &[Figure] = &[
 
 const COLOURS: [RGBColor; 6] = [BLUE, RED, GREEN, MAGENTA, CYAN, BLACK];
 
+/// One line of a figure: its legend, colour, width (bits) and rows.
+struct Series<'a> {
+    label: String,
+    colour: RGBColor,
+    width_bits: u32,
+    rows: Vec<&'a SweepRow>,
+}
+
+/// Groups rows into series by scene, method and width, in order of first appearance; one colour
+/// per scene and method.
+fn series_of(rows: &[SweepRow]) -> Vec<Series<'_>> {
+    let mut groups: Vec<String> = Vec::new();
+    let mut series: Vec<Series> = Vec::new();
+    for r in rows {
+        let group = format!("{} / {:?}", r.scene, r.method).to_lowercase();
+        let label = format!("{group} / {}-bit", r.voxel_width);
+        if let Some(s) = series.iter_mut().find(|s| s.label == label) {
+            s.rows.push(r);
+            continue;
+        }
+        let g = match groups.iter().position(|g| *g == group) {
+            Some(g) => g,
+            None => {
+                groups.push(group);
+                groups.len() - 1
+            }
+        };
+        series.push(Series {
+            label,
+            colour: COLOURS[g % COLOURS.len()],
+            width_bits: r.voxel_width,
+            rows: vec![r],
+        });
+    }
+    series
+}
+
 /// Writes `DIR/<figure>.svg` for every figure.
 pub fn plot_all(rows: &[SweepRow], dir: &Path) -> Result<()> {
-    let mut series: Vec<(String, Vec<&SweepRow>)> = Vec::new();
-    for r in rows {
-        let label = format!("{} / {:?}", r.scene, r.method).to_lowercase();
-        match series.iter_mut().find(|(l, _)| *l == label) {
-            Some((_, v)) => v.push(r),
-            None => series.push((label, vec![r])),
-        }
-    }
+    let series = series_of(rows);
     for (stem, label, value) in FIGURES {
         let path = dir.join(format!("{stem}.svg"));
         plot_one(&series, label, *value, &path)
@@ -64,7 +95,7 @@ pub fn plot_all(rows: &[SweepRow], dir: &Path) -> Result<()> {
 }
 
 fn plot_one(
-    series: &[(String, Vec<&SweepRow>)],
+    series: &[Series],
     label: &str,
     value: fn(&SweepRow) -> Option<f64>,
     path: &Path,
@@ -72,8 +103,9 @@ fn plot_one(
     let points: Vec<(usize, Vec<(f64, f64)>)> = series
         .iter()
         .enumerate()
-        .map(|(i, (_, rows))| {
-            let pts = rows
+        .map(|(i, s)| {
+            let pts = s
+                .rows
                 .iter()
                 .filter_map(|r| value(r).map(|v| (r.voxel_size_mm.log2(), v)))
                 .collect();
@@ -109,12 +141,30 @@ fn plot_one(
         .x_label_formatter(&|v| format!("{}", (2f64.powf(*v) * 1000.0).round() / 1000.0))
         .draw()?;
     for (i, pts) in &points {
-        let colour = COLOURS[i % COLOURS.len()];
-        chart
-            .draw_series(LineSeries::new(pts.clone(), colour))?
-            .label(series[*i].0.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], colour));
-        chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
+        let s = &series[*i];
+        let (colour, bits) = (s.colour, s.width_bits);
+        let style = ShapeStyle::from(colour).stroke_width(1);
+        let line = pts.iter().copied();
+        let drawn = match bits {
+            2 => chart.draw_series(LineSeries::new(line, style))?,
+            4 => chart.draw_series(DashedLineSeries::new(line, 8, 5, style))?,
+            _ => chart.draw_series(DashedLineSeries::new(line, 2, 4, style))?,
+        };
+        drawn
+            .label(s.label.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
+        let fill = colour.filled();
+        match bits {
+            2 => {
+                chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, fill)))?;
+            }
+            4 => {
+                chart.draw_series(pts.iter().map(|&p| TriangleMarker::new(p, 4, fill)))?;
+            }
+            _ => {
+                chart.draw_series(pts.iter().map(|&p| Cross::new(p, 4, style.stroke_width(2))))?;
+            }
+        }
     }
     chart
         .configure_series_labels()
