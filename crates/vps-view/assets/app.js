@@ -7,8 +7,8 @@
   const $ = (id) => document.getElementById(id);
   const canvas = $('view');
   const HISTORY = 300; // chart samples (10 s at 30 Hz)
-  const FORCE_SCALE = 0.01; // m of arrow per N
-  const TORQUE_SCALE = 1.0; // m of arrow per N·m
+  const FORCE_SCALE = 0.05; // m of arrow per N
+  const TORQUE_SCALE = 10.0; // m of arrow per N·m
 
   // Page options from the query string: ?renderer=2d forces the 2D-canvas fallback; ?fps=N caps
   // the redraw rate (default 30).
@@ -100,7 +100,10 @@
     updateCamera();
     const eye = cameraEye();
     const diag = scene ? len(sub(scene.bounds_max_m, scene.bounds_min_m)) : 1;
-    const near = Math.max(1e-4, camera.dist * 0.02), far = camera.dist * 4 + diag * 2;
+    // Following the part through a cluttered scene, the near plane cuts away what lies between the
+    // eye and the part (walls behind the camera would hide it); the whole-scene view keeps it all.
+    const near = camera.follow ? camera.dist * 0.6 : Math.max(1e-4, camera.dist * 0.02);
+    const far = camera.dist * 4 + diag * 2;
     return mul(perspective(FOV, width / Math.max(1, height), near, far), lookAt(eye, camera.target, [0, 0, 1]));
   }
 
@@ -499,7 +502,7 @@
     if (!on && scene) {
       camera.target = scale(add(scene.bounds_min_m, scene.bounds_max_m), 0.5);
       camera.dist = len(sub(scene.bounds_max_m, scene.bounds_min_m)) * 0.8;
-    } else camera.dist = Math.max(0.15, (scene ? scene.shell_voxel_size_m : 0.005) * 120);
+    } else camera.dist = Math.max(0.1, (scene ? scene.shell_voxel_size_m : 0.005) * 60);
     requestDraw();
   }
   $('follow').addEventListener('change', (e) => setFollow(e.target.checked));
