@@ -36,7 +36,7 @@ pub trait VoxelLookup: Sync {
 
     /// The voxel at `ijk` with its distance layer (see [`LayeredVoxel`]); same contract as `get`.
     /// The default reports layer 0, which is exact for 2-bit maps.
-    #[inline]
+    #[inline(always)]
     fn get_layered(&self, ijk: glam::IVec3) -> LayeredVoxel {
         LayeredVoxel {
             kind: self.get(ijk),

@@ -143,13 +143,21 @@ impl VoxelTree {
 
     /// The voxel at `ijk` with its distance layer (layer 0 in a 2-bit tree); Free outside the dims.
     /// Same cost as [`VoxelTree::get`] plus a decode. Does not allocate or block.
-    #[inline]
+    #[inline(always)]
     pub fn get_layered(&self, ijk: IVec3) -> LayeredVoxel {
-        let code = match self.in_grid(ijk) {
-            Some(p) => self.read(p, &self.lookup_shape()),
-            None => 0,
+        let Some(p) = self.in_grid(ijk) else {
+            return LayeredVoxel {
+                kind: Voxel::Free,
+                layer: 0,
+            };
         };
-        self.decode(code)
+        if self.paper_shape {
+            return LayeredVoxel {
+                kind: Voxel::from_bits(self.read(p, &LookupShape::TREE_512)),
+                layer: 0,
+            };
+        }
+        self.decode(self.read(p, &self.lookup_shape()))
     }
 
     /// The kind of a stored (valid) code.
@@ -402,7 +410,7 @@ impl VoxelLookup for VoxelTree {
         VoxelTree::get(self, ijk)
     }
 
-    #[inline]
+    #[inline(always)]
     fn get_layered(&self, ijk: IVec3) -> LayeredVoxel {
         VoxelTree::get_layered(self, ijk)
     }
