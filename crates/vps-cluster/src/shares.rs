@@ -358,12 +358,15 @@ impl RemoteShares {
             return false;
         }
         peer.settled = true;
-        let voxel = self.scene.map.spec().voxel_size;
+        let max_depth = PartialSums::max_contact_depth(
+            self.scene.map.spec().voxel_size,
+            self.scene.map.width().surface_layers(),
+        );
         let valid = reply.classes == peer.asked
-            && reply.sums.is_plausible(peer.points, voxel)
+            && reply.sums.is_plausible(peer.points, max_depth)
             && reply
                 .sums
-                .torque_within(self.scene.shell.max_radius(), voxel);
+                .torque_within(self.scene.shell.max_radius(), max_depth);
         if !valid {
             peer.metrics.bump(|m| &m.invalid);
             tracing::debug!(worker = peer.metrics.id(), "implausible reply dropped");

@@ -80,14 +80,23 @@ impl PartialSums {
         self.sampled = self.sampled.wrapping_add(other.sampled);
     }
 
-    /// Consistency checks for a reply that claims to cover `points_in_share` points sampled against
-    /// a voxmap of voxel size `voxel_size` (m). True when: `sampled == points_in_share`;
+    /// The deepest tangent-plane depth one Surface point can report (m) in a voxmap of voxel size
+    /// `voxel_size` (m) whose Surface codes hold `surface_layers` layers (1 for a 2-bit map): a
+    /// voxel's half diagonal plus one voxel per layer below the outermost,
+    /// `(√3/2 + surface_layers − 1) · s`. `surface_layers` of 0 is read as 1.
+    pub fn max_contact_depth(voxel_size: f64, surface_layers: u8) -> f64 {
+        (0.5 * 3f64.sqrt() + f64::from(surface_layers.max(1) - 1)) * voxel_size
+    }
+
+    /// Consistency checks for a reply that claims to cover `points_in_share` points, where no
+    /// Surface point can be deeper than `max_depth` (m; see [`PartialSums::max_contact_depth`]). True when: `sampled == points_in_share`;
     /// `contacts ≤ surface`; `surface + interior + approaching ≤ non_free ≤ sampled`; every
-    /// component of Σ d N at most `contacts · (√3/2) s` (d never exceeds a voxel's half diagonal);
+    /// component of Σ d N at most `contacts · max_depth`;
     /// depth sums zero without contacts; `S_q ≥ 0`; braking sums zero without approaching points and
     /// `|S_f component| ≤ √(approaching · S_q)` (Cauchy–Schwarz), each with one LSB per point of
-    /// rounding slack. Torque sums need the part's radius: see [`PartialSums::torque_within`].
-    pub fn is_plausible(&self, points_in_share: u64, voxel_size: f64) -> bool {
+    /// rounding slack (on `S_q` too: a class whose `S_q` rounds to 0 may still carry an `S_f`).
+    /// Torque sums need the part's radius: see [`PartialSums::torque_within`].
+    pub fn is_plausible(&self, points_in_share: u64, max_depth: f64) -> bool {
         let counts_ok = self.sampled == points_in_share
             && self.contacts <= self.surface
             && self
@@ -96,19 +105,20 @@ impl PartialSums {
                 .and_then(|x| x.checked_add(self.approaching))
                 .is_some_and(|x| x <= self.non_free)
             && self.non_free <= self.sampled;
-        let voxel_ok = voxel_size.is_finite() && voxel_size > 0.0;
-        if !counts_ok || !voxel_ok {
+        let bound_ok = max_depth.is_finite() && max_depth > 0.0;
+        if !counts_ok || !bound_ok {
             return false;
         }
         let slack = self.sampled as f64;
-        let depth_bound = self.contacts as f64 * 0.5 * 3f64.sqrt() * voxel_size * LENGTH_SCALE;
+        let depth_bound = self.contacts as f64 * max_depth * LENGTH_SCALE;
         let depth_ok = self
             .depth_normal
             .iter()
             .all(|&c| (c as f64).abs() <= depth_bound + slack);
         let no_contact_ok =
             self.contacts > 0 || (self.depth_normal == [0; 3] && self.depth_torque == [0; 3]);
-        let brake_bound = (self.approaching as f64 * self.brake_sq as f64 * LENGTH_SCALE).sqrt();
+        let brake_bound =
+            (self.approaching as f64 * (self.brake_sq as f64 + slack) * LENGTH_SCALE).sqrt();
         let brake_ok = self.brake_sq >= 0
             && self
                 .brake_force
@@ -119,21 +129,21 @@ impl PartialSums {
         depth_ok && no_contact_ok && brake_ok && no_brake_ok
     }
 
-    /// True when the torque sums are consistent with levers no longer than `max_radius` (m) at
-    /// voxel size `voxel_size` (m): `|Σ (P−x) × d N|_c ≤ r_max · contacts · (√3/2) s` and
+    /// True when the torque sums are consistent with levers no longer than `max_radius` (m) and
+    /// contact depths of at most `max_depth` (m; see [`PartialSums::max_contact_depth`]):
+    /// `|Σ (P−x) × d N|_c ≤ r_max · contacts · max_depth` and
     /// `|S_t|_c ≤ r_max · √(approaching · S_q)`, with one LSB per point of slack.
-    pub fn torque_within(&self, max_radius: f64, voxel_size: f64) -> bool {
-        if !(max_radius.is_finite() && max_radius >= 0.0 && voxel_size.is_finite()) {
+    pub fn torque_within(&self, max_radius: f64, max_depth: f64) -> bool {
+        if !(max_radius.is_finite() && max_radius >= 0.0 && max_depth.is_finite()) {
             return false;
         }
         let slack = self.sampled as f64;
         let ratio = AREA_SCALE / LENGTH_SCALE;
-        // |r × a|_c ≤ |r| |a| ≤ r_max · √3/2 s per contact, summed over contacts.
-        let depth_bound =
-            self.contacts as f64 * max_radius * 0.5 * 3f64.sqrt() * voxel_size * AREA_SCALE;
+        // |r × a|_c ≤ |r| |a| ≤ r_max · max_depth per contact, summed over contacts.
+        let depth_bound = self.contacts as f64 * max_radius * max_depth * AREA_SCALE;
         // |r × (V·N) N|_c ≤ r_max |V·N|, and Σ|V·N| ≤ √(n S_q).
         let brake_bound = max_radius
-            * (self.approaching as f64 * self.brake_sq as f64 * LENGTH_SCALE).sqrt()
+            * (self.approaching as f64 * (self.brake_sq as f64 + slack) * LENGTH_SCALE).sqrt()
             * ratio;
         self.depth_torque
             .iter()
@@ -182,4 +192,51 @@ impl PartialSums {
 
 fn to_dvec3(v: &[i128; 3], scale: f64) -> DVec3 {
     DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64) / scale
+}
+
+#[cfg(test)]
+mod plausibility_tests {
+    use super::*;
+
+    const S: f64 = 0.005;
+
+    /// One approaching point whose `S_q` rounded to 0 while `S_f` kept a few LSBs: genuine, kept.
+    #[test]
+    fn braking_sums_with_rounded_away_sq_are_plausible() {
+        let sums = PartialSums {
+            sampled: 1,
+            non_free: 1,
+            approaching: 1,
+            brake_sq: 0,
+            brake_force: [5, 0, 0],
+            ..PartialSums::default()
+        };
+        assert!(sums.is_plausible(1, PartialSums::max_contact_depth(S, 1)));
+        let mut absurd = sums;
+        absurd.brake_force = [1 << 30, 0, 0];
+        assert!(!absurd.is_plausible(1, PartialSums::max_contact_depth(S, 1)));
+    }
+
+    /// A contact 2.5 voxels deep is impossible in a 2-bit map and fine with 4 Surface layers.
+    #[test]
+    fn depth_bound_follows_the_surface_layers() {
+        let depth = 2.5 * S;
+        let sums = PartialSums {
+            sampled: 1,
+            non_free: 1,
+            surface: 1,
+            contacts: 1,
+            depth_normal: [(depth * LENGTH_SCALE) as i128, 0, 0],
+            depth_torque: [0, 0, (0.01 * depth * AREA_SCALE) as i128],
+            ..PartialSums::default()
+        };
+        assert!(!sums.is_plausible(1, PartialSums::max_contact_depth(S, 1)));
+        assert!(sums.is_plausible(1, PartialSums::max_contact_depth(S, 4)));
+        assert!(!sums.torque_within(0.01, PartialSums::max_contact_depth(S, 1)));
+        assert!(sums.torque_within(0.01, PartialSums::max_contact_depth(S, 4)));
+        assert_eq!(
+            PartialSums::max_contact_depth(S, 0),
+            PartialSums::max_contact_depth(S, 1)
+        );
+    }
 }

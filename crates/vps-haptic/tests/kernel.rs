@@ -186,8 +186,11 @@ proptest! {
         let single = sample_all(&grid, &ClassedShell::new(&shell, 1), &pose);
         prop_assert_eq!(single.sampled, n as u64);
         prop_assert!(single.non_free > 0 || n < 5);
-        prop_assert!(single.is_plausible(n as u64, S));
-        prop_assert!(single.torque_within(shell.max_radius() + 1e-6, S));
+        prop_assert!(single.is_plausible(n as u64, PartialSums::max_contact_depth(S, 1)));
+        prop_assert!(single.torque_within(
+            shell.max_radius() + 1e-6,
+            PartialSums::max_contact_depth(S, 1)
+        ));
         let params = HapticParams::default();
         let handle = handle_at(DVec3::new(0.01, 0.0, 0.0), DVec3::ZERO);
         for classes in [1u32, 2, 3, 8, 64] {
@@ -239,23 +242,24 @@ fn implausible_sums_are_detected() {
         &ClassedShell::new(&shell, 1),
         &KernelPose::from_state(&random_state(&mut rng)),
     );
-    assert!(sums.is_plausible(400, S));
-    assert!(!sums.is_plausible(399, S));
+    let depth = PartialSums::max_contact_depth(S, 1);
+    assert!(sums.is_plausible(400, depth));
+    assert!(!sums.is_plausible(399, depth));
     let mut bad = sums;
     bad.contacts = bad.surface + 1;
-    assert!(!bad.is_plausible(400, S));
+    assert!(!bad.is_plausible(400, depth));
     let mut bad = sums;
     bad.depth_normal[0] = i128::from(i64::MAX);
-    assert!(!bad.is_plausible(400, S));
+    assert!(!bad.is_plausible(400, depth));
     let mut bad = sums;
     bad.brake_sq = -1;
-    assert!(!bad.is_plausible(400, S));
+    assert!(!bad.is_plausible(400, depth));
     let mut bad = sums;
     bad.non_free = bad.sampled + 1;
-    assert!(!bad.is_plausible(400, S));
+    assert!(!bad.is_plausible(400, depth));
     let mut bad = sums;
     bad.depth_torque[2] = i128::MAX / 2;
-    assert!(!bad.torque_within(0.06, S));
+    assert!(!bad.torque_within(0.06, depth));
 }
 
 /// A class index past the end, or an insane pose, samples nothing.
