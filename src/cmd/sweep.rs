@@ -363,10 +363,10 @@ struct Accuracy {
 ///
 /// Voxel force `K_ff Σ d_i N_i` (before the N ≥ 10 averaging, which scales both alike); reference
 /// `K_ff Σ e_i n_i` with exact depths `e_i = max(0, δ − φ_i)` from the surface offset by
-/// [`reference_offset`] `δ = offset_layers × s`. Frames with no point in Surface or Interior are
-/// skipped: every point is then in a Free or Proximity voxel, whose near face lies at least
-/// `offset_layers × s` from a plane (see [`reference_offset`]), so no reference force is missed
-/// there; the reference is not computed there.
+/// [`reference_offset`] `δ = (offset_layers + ½) s`. Frames with no point in Surface or Interior
+/// are skipped: every point is then in a Free or Proximity voxel, whose near face lies at least
+/// `offset_layers × s` from a plane (see [`reference_offset`]), so a reference force there would be
+/// under `K_ff s / 2` per point; the reference is not computed there.
 fn accuracy_pass(
     set: &Setting,
     session: &SessionScene,
@@ -407,18 +407,20 @@ fn accuracy_pass(
     Ok(acc)
 }
 
-/// The offset `δ` (m) the reference measures depths from: `offset_layers × s`, the mean distance
-/// from a plane to the centres of the outermost force-layer voxels (where the voxel field starts
-/// to push, `N·(C − P) = 0`).
+/// The offset `δ` (m) the reference measures depths from: `(offset_layers + ½) × s`, the outer
+/// edge of the band the outermost force-layer voxel centres (where the voxel field starts to push,
+/// `N·(C − P) = 0`) lie in, so every point the field can push is in the reference's contact set.
 ///
 /// A plane at fraction `f ∈ [0, 1)` of the scan-converted voxel below its outer face puts that
 /// voxel's outer face `(1 − f) s` out, and after `offset_layers = k` grown layers the outermost
 /// force-layer voxel spans `[(k − f) s, (k + 1 − f) s]`: its centre lies `(k + ½ − f) s` out, from
-/// `(k − ½) s` to `(k + ½) s`, on average `k s` over placements. (The first sweep used `(k + ½) s`,
-/// the top of that band: the reference then pushed half a voxel per point harder than any voxel
-/// field can, and counted contacts the field had not reached yet.)
+/// `(k − ½) s` to `(k + ½) s`, `k s` on average over placements. The reference depth therefore
+/// exceeds the field's by `f s` per point (`s / 2` on average): at resting contact, where the
+/// field's depths are a small fraction of a voxel, `|F_vox| / |F_ref|` measures where the lattice
+/// put the force layer, not the field's stiffness. (A mean offset `k s` was tried: where `f` is
+/// small the field then holds the part outside `δ` and most frames have no reference force.)
 pub fn reference_offset(offset_layers: u32, voxel_size: f64) -> f64 {
-    f64::from(offset_layers) * voxel_size
+    (f64::from(offset_layers) + 0.5) * voxel_size
 }
 
 impl Accuracy {
@@ -554,8 +556,8 @@ mod tests {
         (scene, objects)
     }
 
-    /// The outermost force-layer voxel centres of an axis-aligned wall average `offset_layers × s`
-    /// from the wall over wall placements: the reference offset.
+    /// The outermost force-layer voxel centres of an axis-aligned wall lie `(k ± ½) s` from it,
+    /// `k s` on average over wall placements; the reference offset is the band's outer edge.
     #[test]
     fn reference_offset_is_the_mean_force_layer_centre_distance() {
         let objects = [vps_mesh::builtin::cuboid(glam::DVec3::new(
@@ -599,9 +601,10 @@ mod tests {
         );
         let mean = distances.iter().sum::<f64>() / distances.len() as f64;
         assert!(
-            (mean - reference_offset(k, s)).abs() < 0.05 * s,
+            (mean - k as f64 * s).abs() < 0.05 * s,
             "{mean} {distances:?}"
         );
+        assert!((reference_offset(k, s) - hi).abs() < 1e-12);
     }
 
     /// The sparse 2-bit map of the rig's workspace holds the same voxels as the dense pipeline on
