@@ -1,7 +1,7 @@
 //! One module per subcommand; [`dispatch`] routes the parsed command line.
 
-pub mod bench_kernel;
 mod bench_cluster;
+pub mod bench_kernel;
 mod bench_loop;
 mod bench_transport;
 mod bench_viewer;
