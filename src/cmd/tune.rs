@@ -78,7 +78,7 @@ fn session_run(
     Ok(report)
 }
 
-/// The committed sweep's row for this scene, method and size, if the file has one.
+/// The committed sweep's row for this scene, method, voxel width and size, if the file has one.
 fn sweep_row(path: &Path, scene: &SceneConfig, size_mm: f64) -> Option<serde_json::Value> {
     let rows: Vec<serde_json::Value> =
         serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()?;
@@ -86,6 +86,7 @@ fn sweep_row(path: &Path, scene: &SceneConfig, size_mm: f64) -> Option<serde_jso
     rows.into_iter().find(|r| {
         r["scene"] == scene.name.as_str()
             && r["method"] == method
+            && r["voxel_width"].as_u64() == Some(u64::from(scene.voxels.voxel_width))
             && r["voxel_size_mm"]
                 .as_f64()
                 .is_some_and(|s| (s - size_mm).abs() < 1e-9)
