@@ -10,8 +10,10 @@
 //! - [`load`]: OBJ, STL (binary and ASCII), PLY readers.
 //! - [`builtin`]: deterministic built-in scenes (teapot, aircraft bay) and primitives.
 //! - [`weld`]: merging coincident vertices.
+//! - [`closest_point`](mod@closest_point): the point of a triangle nearest to a point.
 
 pub mod builtin;
+pub mod closest_point;
 pub mod load;
 pub mod mesh;
 pub mod validate;

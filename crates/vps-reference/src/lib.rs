@@ -8,7 +8,7 @@
 //!
 //! Module map:
 //! - [`bvh`]: a median-split AABB tree with branch-and-bound nearest queries.
-//! - [`triangle`]: closest point on a triangle and the feature (vertex, edge, face) it lies on.
+//! - closest point on a triangle and its feature: [`vps_mesh::closest_point`].
 //! - [`components`]: connected components of a mesh and whether each is closed and oriented.
 //! - [`scene`]: [`ExactScene`], [`SignedDistance`].
 //! - [`contact`]: [`reference_contact`], [`ReferenceContact`].
@@ -25,7 +25,6 @@ pub mod bvh;
 pub mod components;
 pub mod contact;
 pub mod scene;
-pub mod triangle;
 
 pub use contact::{reference_contact, reference_contact_points, ReferenceContact};
 pub use scene::{ExactScene, SignedDistance};

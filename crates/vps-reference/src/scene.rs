@@ -3,10 +3,10 @@
 
 use crate::bvh::{box_distance_sq, Bvh};
 use crate::components::components;
-use crate::triangle::{closest_point, Feature};
 use crate::ReferenceError;
 use glam::DVec3;
 use std::collections::HashMap;
+use vps_mesh::closest_point::{closest_point, Feature};
 use vps_mesh::{Aabb, TriMesh};
 
 /// The signed distance of a point to the scene.

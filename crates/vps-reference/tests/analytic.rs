@@ -129,7 +129,7 @@ fn open_mesh_is_unsigned_and_matches_brute_force() {
         let p = dir * (0.005 + 0.003 * i as f64);
         let brute = (0..pot.triangle_count())
             .map(|t| {
-                vps_reference::triangle::closest_point(p, &pot.triangle(t))
+                vps_mesh::closest_point::closest_point(p, &pot.triangle(t))
                     .0
                     .distance(p)
             })

@@ -18,7 +18,6 @@
 //! All lengths are metres.
 
 mod bitgrid;
-mod closest_point;
 pub mod error;
 mod flood_fill;
 pub mod mass;

@@ -2,7 +2,6 @@
 //! voxelization (offset 0), with an inward unit normal from the mesh, in the body frame (origin at
 //! the centre of mass), Morton ordered.
 
-use crate::closest_point::closest_point_on_triangle;
 use crate::mass::{is_closed_and_oriented, mass_properties, voxel_mass_properties};
 use crate::pipeline::{
     check_objects, check_voxel_size, grid_for, plane_at, voxelize_planes, VoxelizeOptions,
@@ -12,6 +11,7 @@ use crate::scan_convert::{overlap_pairs, Window};
 use crate::VoxelizeError;
 use glam::{DVec3, IVec3, Vec3};
 use rayon::prelude::*;
+use vps_mesh::closest_point::closest_point;
 use vps_mesh::TriMesh;
 use vps_voxmap::shell::ShellMethod;
 use vps_voxmap::{GridSpec, PointShell};
@@ -150,7 +150,7 @@ fn nearest_and_normal(
     let candidates: Vec<(f64, DVec3, DVec3)> = group
         .iter()
         .map(|&(_, t)| {
-            let q = closest_point_on_triangle(centre, mesh.triangle(t as usize));
+            let q = closest_point(centre, &mesh.triangle(t as usize)).0;
             (q.distance(centre), q, inward[t as usize])
         })
         .collect();

@@ -1,5 +1,6 @@
 //! Closest point on a triangle (Ericson, Real-Time Collision Detection §5.1.5) and the feature of
-//! the triangle it lies on, which selects the pseudo-normal used for the sign.
+//! the triangle it lies on (the exact reference uses it to pick the pseudo-normal for the sign; the
+//! exact-surface point shell uses the point alone). Pure, no allocation.
 
 use glam::DVec3;
 
@@ -130,5 +131,31 @@ mod tests {
         let t = [DVec3::ZERO, DVec3::X, DVec3::X * 2.0];
         let (q, _) = closest_point(DVec3::new(1.5, 1.0, 0.0), &t);
         assert!(q.distance(DVec3::new(1.5, 0.0, 0.0)) < 1e-12);
+    }
+
+    /// No sampled point of a random triangle is closer than the returned one.
+    #[test]
+    fn no_sampled_point_is_closer() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        let mut r = || {
+            DVec3::new(
+                rng.gen_range(-2.0..2.0),
+                rng.gen_range(-2.0..2.0),
+                rng.gen_range(-2.0..2.0),
+            )
+        };
+        for _ in 0..200 {
+            let t = [r(), r(), r()];
+            let p = r();
+            let d = closest_point(p, &t).0.distance(p);
+            for i in 0..=20 {
+                for j in 0..=(20 - i) {
+                    let (u, v) = (i as f64 / 20.0, j as f64 / 20.0);
+                    let s = t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v;
+                    assert!(s.distance(p) >= d - 1e-12);
+                }
+            }
+        }
     }
 }
