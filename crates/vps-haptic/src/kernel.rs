@@ -202,13 +202,7 @@ unsafe fn accumulate_avx2<L: VoxelLookup>(
     accumulate_lanes(map, frame, points, normals)
 }
 
-/// Blocks whose lookups are issued together when the map has a gathered block lookup
-/// ([`VoxelLookup::get_blocks`]): their chains of dependent gathers overlap.
-const GROUP: usize = 4;
-
-/// The block loop (see the module docs): groups of [`GROUP`] full blocks, then the remaining full
-/// blocks one by one, then one zero-padded tail block. Blocks are accumulated in ascending order
-/// whatever the grouping, so the sums do not depend on it.
+/// The block loop (see the module docs); full blocks, then one zero-padded tail block.
 #[inline(always)]
 fn accumulate_lanes<L: VoxelLookup>(
     map: &L,
@@ -223,54 +217,23 @@ fn accumulate_lanes<L: VoxelLookup>(
         .min(normals[1].len())
         .min(normals[2].len());
     let full = n - n % LANES;
-    let grouped = full - full % (GROUP * LANES);
     let mut last = LastVoxel::NONE;
-    for start in (0..grouped).step_by(GROUP * LANES) {
-        // Loops, not closures: a closure would not inherit the AVX2 copy's target feature.
-        let mut placed = [Placed::EMPTY; GROUP];
-        let mut cells = [[[0; LANES]; 3]; GROUP];
-        for g in 0..GROUP {
-            placed[g] = Placed::new(frame, points, start + g * LANES, LANES);
-            cells[g] = placed[g].cell;
-        }
-        match map.get_blocks(&cells) {
-            Some(blocks) => {
-                for (g, (p, block)) in placed.iter().zip(&blocks).enumerate() {
-                    let at = start + g * LANES;
-                    finish_block(
-                        frame,
-                        normals,
-                        at,
-                        LANES,
-                        p,
-                        block.kinds,
-                        block.layers,
-                        &mut acc,
-                    );
-                }
-            }
-            None => {
-                for (g, p) in placed.iter().enumerate() {
-                    let (kinds, layers) = look_up(map, &p.cell, LANES, &mut last);
-                    finish_block(
-                        frame,
-                        normals,
-                        start + g * LANES,
-                        LANES,
-                        p,
-                        kinds,
-                        layers,
-                        &mut acc,
-                    );
-                }
-            }
-        }
+    for start in (0..full).step_by(LANES) {
+        sample_block(
+            map, frame, points, normals, start, LANES, &mut last, &mut acc,
+        );
     }
-    for start in (grouped..n).step_by(LANES) {
-        let valid = (n - start).min(LANES);
-        let p = Placed::new(frame, points, start, valid);
-        let (kinds, layers) = look_up(map, &p.cell, valid, &mut last);
-        finish_block(frame, normals, start, valid, &p, kinds, layers, &mut acc);
+    if full < n {
+        sample_block(
+            map,
+            frame,
+            points,
+            normals,
+            full,
+            n - full,
+            &mut last,
+            &mut acc,
+        );
     }
     acc
 }
@@ -294,53 +257,30 @@ fn load(xs: Soa, start: usize, valid: usize) -> Vec3s {
     out
 }
 
-/// A block of points placed in the grid: `P − x` in metres, `P` in grid coordinates, its voxel.
-#[derive(Clone, Copy)]
-struct Placed {
-    lever: Vec3s,
-    grid: Vec3s,
-    cell: [[i32; LANES]; 3],
-}
-
-impl Placed {
-    /// Placeholder before a block is placed.
-    const EMPTY: Placed = Placed {
-        lever: [[0.0; LANES]; 3],
-        grid: [[0.0; LANES]; 3],
-        cell: [[0; LANES]; 3],
-    };
-
-    /// Lanes `start..start + valid` of `points` (`valid ≤ LANES`; padding lanes sit at the part's
-    /// origin and are masked out by the lookup).
-    #[inline(always)]
-    fn new(frame: &GridFrame, points: Soa, start: usize, valid: usize) -> Self {
-        let lever = mat_vec(&frame.rotation, &load(points, start, valid));
-        let grid = scale_add(&lever, frame.inv_voxel, frame.translation_grid);
-        let cell = [
-            floor_i32(&grid[0]),
-            floor_i32(&grid[1]),
-            floor_i32(&grid[2]),
-        ];
-        Self { lever, grid, cell }
-    }
-}
-
-/// The rest of one block of `valid ≤ LANES` points starting at `start`, once placed and looked up:
-/// the contact and braking arithmetic for the whole block if any lane needs it. Padding lanes read
-/// as Free and contribute nothing.
+/// One block of `valid ≤ LANES` points starting at `start`: transform, floor, look up; then the
+/// contact and braking arithmetic for the whole block if any lane needs it. Padding lanes read as
+/// Free and contribute nothing.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn finish_block(
+fn sample_block<L: VoxelLookup>(
+    map: &L,
     frame: &GridFrame,
+    points: Soa,
     normals: Soa,
     start: usize,
     valid: usize,
-    placed: &Placed,
-    kinds: [u8; LANES],
-    layers: [u8; LANES],
+    last: &mut LastVoxel,
     acc: &mut ClassAccumulator,
 ) {
-    let Placed { lever, grid, cell } = placed;
+    // (P − x) in metres, then P in grid coordinates and its voxel.
+    let lever = mat_vec(&frame.rotation, &load(points, start, valid));
+    let grid = scale_add(&lever, frame.inv_voxel, frame.translation_grid);
+    let cell = [
+        floor_i32(&grid[0]),
+        floor_i32(&grid[1]),
+        floor_i32(&grid[2]),
+    ];
+    let (kinds, layers) = look_up(map, &cell, valid, last);
     // Kinds as bit planes, one byte per lane: Free 00, Interior 01, Surface 10, Proximity 11.
     let word = u64::from_le_bytes(kinds);
     if word == 0 {
@@ -357,11 +297,20 @@ fn finish_block(
     if surface != 0 {
         acc.surface += count_bytes(surface);
         let is_surface = kinds.map(|k| k == Voxel::Surface.bits());
-        surface_block(frame, lever, grid, cell, &normal, &is_surface, &layers, acc);
+        surface_block(
+            frame,
+            &lever,
+            &grid,
+            &cell,
+            &normal,
+            &is_surface,
+            &layers,
+            acc,
+        );
     }
     if proximity != 0 {
         let is_proximity = kinds.map(|k| k == Voxel::Proximity.bits());
-        brake_block(frame, lever, &normal, &is_proximity, acc);
+        brake_block(frame, &lever, &normal, &is_proximity, acc);
     }
 }
 
@@ -383,8 +332,7 @@ impl LastVoxel {
     };
 }
 
-/// The kinds and layers of the block's voxels (lanes `valid..` read as Free): the map's gathered
-/// block lookup ([`VoxelLookup::get_block`]) when it has one; otherwise only a lane whose
+/// The kinds and layers of the block's voxels (lanes `valid..` read as Free). Only a lane whose
 /// voxel differs from the previous lane's (lane 0: from `last`) is looked up; the others copy the
 /// previous lane's result. Consecutive points of a shell sampled finer than the voxmap often share a
 /// voxel, so this saves most lookups there, and costs a few compares per lane elsewhere.
@@ -395,12 +343,6 @@ fn look_up<L: VoxelLookup>(
     valid: usize,
     last: &mut LastVoxel,
 ) -> ([u8; LANES], [u8; LANES]) {
-    if let Some([block]) = map.get_blocks(&[padded(cell, valid)]) {
-        // The gathered path looks up all lanes at once (a lane equal to its neighbour costs
-        // nothing extra there), so it keeps no last voxel.
-        *last = LastVoxel::NONE;
-        return (block.kinds, block.layers);
-    }
     // Bit l: lane l is in another voxel than lane l − 1.
     let mut fresh = differs_from_previous(cell, last.cell);
     fresh &= (1u32 << valid) - 1;
@@ -438,18 +380,6 @@ fn look_up<L: VoxelLookup>(
         last.voxel = voxel_of(kind, layer);
     }
     (kinds, layers)
-}
-
-/// `cell` with lanes `valid..` moved outside every grid (they read as Free).
-#[inline(always)]
-fn padded(cell: &[[i32; LANES]; 3], valid: usize) -> [[i32; LANES]; 3] {
-    let mut out = *cell;
-    if valid < LANES {
-        for axis in &mut out {
-            axis[valid..].fill(-1);
-        }
-    }
-    out
 }
 
 /// A [`LayeredVoxel`] from its kind bits and layer.

@@ -20,9 +20,7 @@ pub use dense::DenseGrid;
 pub use file::FileError;
 pub use grid::GridSpec;
 pub use shell::{MassProperties, PointShell};
-pub use tree::{
-    BlockCells, CubeSource, NodeCounts, TreeAccessor, TreeConfig, TreeError, VoxelTree,
-};
+pub use tree::{CubeSource, NodeCounts, TreeAccessor, TreeConfig, TreeError, VoxelTree};
 pub use voxel::{LayeredVoxel, Voxel, VoxelWidth};
 
 /// Read access to a voxmap by integer voxel index: implemented by the tree (runtime) and the dense
@@ -45,32 +43,6 @@ pub trait VoxelLookup: Sync {
             layer: 0,
         }
     }
-
-    /// The voxels of `N` blocks of [`BLOCK_LANES`] cells at once (`cells[block][axis][lane]`,
-    /// same contract per lane as `get_layered`), when the map has a faster path for that than
-    /// one lookup per cell (the tree on an AVX2 CPU); `None` otherwise, the default. Does not
-    /// allocate or block.
-    #[inline(always)]
-    fn get_blocks<const N: usize>(&self, cells: &[BlockCells; N]) -> Option<[VoxelBlock; N]>
-    where
-        Self: Sized,
-    {
-        let _ = cells;
-        None
-    }
-}
-
-/// Cells per block lookup ([`VoxelLookup::get_block`]).
-pub const BLOCK_LANES: usize = 8;
-
-/// The voxels of a block lookup, per lane: the kind's bits ([`Voxel::bits`]) and the layer (as in
-/// [`LayeredVoxel`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct VoxelBlock {
-    /// [`Voxel::bits`] of each lane's kind.
-    pub kinds: [u8; BLOCK_LANES],
-    /// Each lane's distance layer (0 in a 2-bit map).
-    pub layers: [u8; BLOCK_LANES],
 }
 
 impl VoxelLookup for DenseGrid {

@@ -6,7 +6,6 @@
 //! computations with no loop over depth. Memory follows the scene's surface, not its volume.
 
 mod accessor;
-mod block;
 mod build;
 mod config;
 mod error;
@@ -17,12 +16,11 @@ mod validate;
 mod walk;
 
 pub use accessor::TreeAccessor;
-pub use block::BlockCells;
 pub use build::CubeSource;
 pub use config::TreeConfig;
 pub use error::TreeError;
 
-use crate::{DenseGrid, GridSpec, LayeredVoxel, Voxel, VoxelBlock, VoxelLookup, VoxelWidth};
+use crate::{DenseGrid, GridSpec, LayeredVoxel, Voxel, VoxelLookup, VoxelWidth};
 use glam::{IVec3, UVec3};
 use internal::InternalLevel;
 use leaf::LeafShape;
@@ -205,40 +203,6 @@ impl VoxelTree {
                 let bits = unsafe { *self.leaf_words.get_unchecked(word) };
                 shape.leaf.code_in_word(bits, p)
             }
-        }
-    }
-
-    /// EXPERIMENT: the walk without data-dependent branches.
-    #[doc(hidden)]
-    #[inline(always)]
-    pub fn get_branchless(&self, ijk: IVec3) -> u8 {
-        let Some(p) = self.in_grid(ijk) else {
-            return 0;
-        };
-        if self.leaf_words.is_empty() || self.lower.slots.is_empty() || self.upper.slots.is_empty()
-        {
-            return self.read(p, &LookupShape::TREE_512);
-        }
-        let shape = &LookupShape::TREE_512;
-        let s0 = self.root.slot(p, shape.root_shift);
-        let mut done = s0.is_tile();
-        let mut tile = s0.0;
-        let node = if done { 0 } else { s0.child_index() };
-        let s1 = self.upper.slot_of(shape.upper, node, p);
-        tile = if done { tile } else { s1.0 };
-        done |= s1.is_tile();
-        let node = if done { 0 } else { s1.child_index() };
-        let s2 = self.lower.slot_of(shape.lower, node, p);
-        tile = if done { tile } else { s2.0 };
-        done |= s2.is_tile();
-        let node = if done { 0 } else { s2.child_index() };
-        let word = (node << shape.leaf.word_shift()) + shape.leaf.word_of(p);
-        let bits = unsafe { *self.leaf_words.get_unchecked(word) };
-        let leaf = shape.leaf.code_in_word(bits, p);
-        if done {
-            tile as u8
-        } else {
-            leaf
         }
     }
 
@@ -449,11 +413,6 @@ impl VoxelLookup for VoxelTree {
     #[inline(always)]
     fn get_layered(&self, ijk: IVec3) -> LayeredVoxel {
         VoxelTree::get_layered(self, ijk)
-    }
-
-    #[inline(always)]
-    fn get_blocks<const N: usize>(&self, cells: &[BlockCells; N]) -> Option<[VoxelBlock; N]> {
-        block::get_blocks(self, cells)
     }
 }
 
