@@ -1,29 +1,32 @@
 //! A fixed pool of local threads that samples a [`ClassedShell`] against a voxmap.
 //!
-//! With `threads = T`, share `t` (for `t` in `0..T`) is the set of classes `c` with `c mod T == t`.
-//! Share 0 is computed on the calling (frame) thread; shares `1..T` go to `T − 1` worker threads
-//! spawned once by [`ClassPool::new`]. Each frame the caller hands out the pose, computes share 0,
-//! then collects the workers' replies until a deadline; any share that has not arrived by then
-//! (worker busy, slow or gone) is computed on the calling thread, and a reply that turns up later is
-//! recognised by its sequence number and dropped. Partial sums are integers, so the merged result is
-//! bit-identical for every thread count and whoever computed each share.
+//! The classes of a frame are claimed one at a time from a shared cursor (an atomic counter
+//! stamped with the frame's sequence number) by the calling (frame) thread and by `T − 1` worker
+//! threads spawned once by [`ClassPool::new`]: whoever is free takes the next class, so a worker
+//! that wakes late or is preempted simply takes fewer classes instead of holding back a fixed
+//! share. Once every class is claimed, the frame thread waits until a deadline for the classes
+//! the workers are still computing (at most one each); any class not in by then is computed on
+//! the calling thread, and a reply that turns up later is recognised by its sequence number and
+//! dropped. Partial sums are integers, so the merged result is bit-identical for every thread
+//! count and whoever computed each class.
 
 use crate::RuntimeError;
-use crossbeam::channel::{bounded, Receiver, RecvTimeoutError, Sender, TrySendError};
+use crossbeam::channel::{bounded, Receiver, RecvTimeoutError, Sender};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Instant;
-use vps_haptic::{sample_classes, ClassedShell, KernelPose, PartialSums};
+use vps_haptic::{sample_class, ClassedShell, KernelPose, PartialSums};
 use vps_voxmap::VoxelLookup;
 
 struct Job {
-    seq: u64,
+    seq: u32,
     pose: KernelPose,
 }
 
 struct Reply {
-    seq: u64,
-    share: usize,
+    seq: u32,
+    class: u32,
     sums: PartialSums,
 }
 
@@ -37,22 +40,58 @@ struct Worker {
 pub struct PoolResult {
     /// Sums over every class of the shell.
     pub sums: PartialSums,
-    /// Shares the calling thread computed because their worker missed the deadline or was busy.
+    /// Shares the calling thread computed because whoever had them missed the deadline (for the
+    /// local pool: classes a worker had claimed; for a cluster: a worker's class set).
     pub fallback_shares: u32,
+}
+
+/// The frame's class cursor: `seq << 32 | next class`. A claim succeeds only while the stamp is
+/// the claimer's frame and classes remain, so a worker still busy with an old frame can never
+/// take a class of the new one with the old pose.
+struct Cursor(AtomicU64);
+
+impl Cursor {
+    /// Opens frame `seq` at class 0.
+    fn open(&self, seq: u32) {
+        self.0.store(u64::from(seq) << 32, Ordering::Release);
+    }
+
+    /// The next unclaimed class of frame `seq`, if any (lock-free; a failed compare-exchange
+    /// retries with the value it saw).
+    fn claim(&self, seq: u32, classes: u32) -> Option<u32> {
+        let mut current = self.0.load(Ordering::Acquire);
+        loop {
+            let (stamp, next) = ((current >> 32) as u32, current as u32);
+            if stamp != seq || next >= classes {
+                return None;
+            }
+            match self.0.compare_exchange_weak(
+                current,
+                current + 1,
+                Ordering::AcqRel,
+                Ordering::Acquire,
+            ) {
+                Ok(_) => return Some(next),
+                Err(seen) => current = seen,
+            }
+        }
+    }
 }
 
 /// The pool. Owned by one frame thread (`compute` takes `&mut self`).
 pub struct ClassPool<L: VoxelLookup + Send + Sync + 'static> {
     map: Arc<L>,
     shell: Arc<ClassedShell>,
-    shares: Vec<Vec<u32>>,
+    cursor: Arc<Cursor>,
     workers: Vec<Worker>,
     replies: Receiver<Reply>,
-    arrived: Vec<bool>,
-    seq: u64,
+    /// Per class: its sums are merged into this frame's total.
+    done: Vec<bool>,
+    seq: u32,
 }
 
-/// The classes of share `share` out of `threads`: `c mod threads == share`.
+/// The classes of share `share` out of `threads`: `c mod threads == share` (the cyclic split of
+/// DESIGN §4, used where class sets are fixed per worker).
 pub fn share_classes(class_count: u32, threads: usize, share: usize) -> Vec<u32> {
     (0..class_count)
         .filter(|&c| c as usize % threads == share)
@@ -74,32 +113,29 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
                 message: "must be at least 1".into(),
             });
         }
-        let shares: Vec<Vec<u32>> = (0..threads)
-            .map(|t| share_classes(shell.class_count(), threads, t))
-            .collect();
-        // Each worker has at most one queued and one running job, so two replies each can be in
-        // flight; the frame thread drains stale ones.
-        let (reply_tx, replies) = bounded(2 * threads);
+        let classes = shell.class_count();
+        let cursor = Arc::new(Cursor(AtomicU64::new(0)));
+        // Room for every class of a frame plus stale replies of the previous one (a worker
+        // finishes at most one old class after the frame moves on): a reply never waits for room.
+        let (reply_tx, replies) = bounded(classes as usize + 2 * threads);
         let mut workers = Vec::with_capacity(threads - 1);
-        for (share, classes) in shares.iter().enumerate().skip(1) {
+        for index in 1..threads {
             let (job_tx, job_rx) = bounded::<Job>(1);
-            let (map, shell, classes, reply_tx) = (
-                map.clone(),
-                shell.clone(),
-                classes.clone(),
-                reply_tx.clone(),
-            );
+            let (map, shell, cursor, reply_tx) =
+                (map.clone(), shell.clone(), cursor.clone(), reply_tx.clone());
             let thread = std::thread::Builder::new()
-                .name(format!("vps-pool-{share}"))
+                .name(format!("vps-pool-{index}"))
                 .spawn(move || {
                     for job in job_rx.iter() {
-                        let sums = sample_classes(&*map, &shell, &job.pose, &classes);
-                        // A full reply queue means the frame thread has moved on: drop the reply.
-                        let _ = reply_tx.try_send(Reply {
-                            seq: job.seq,
-                            share,
-                            sums,
-                        });
+                        while let Some(class) = cursor.claim(job.seq, classes) {
+                            let sums = sample_class(&*map, &shell, &job.pose, class);
+                            // Full only if the frame thread stopped reading: drop the reply.
+                            let _ = reply_tx.try_send(Reply {
+                                seq: job.seq,
+                                class,
+                                sums,
+                            });
+                        }
                     }
                 })
                 .map_err(RuntimeError::Spawn)?;
@@ -111,61 +147,71 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
         Ok(ClassPool {
             map,
             shell,
-            shares,
+            cursor,
             workers,
             replies,
-            arrived: vec![false; threads],
+            done: vec![false; classes as usize],
             seq: 0,
         })
     }
 
     /// Number of compute threads, the caller included.
     pub fn threads(&self) -> usize {
-        self.shares.len()
+        self.workers.len() + 1
     }
 
-    /// Samples every class at `pose`: hands shares `1..T` to the workers, computes share 0 here,
-    /// waits for replies until `deadline` (blocking on the reply channel, never past `deadline`),
-    /// then computes any missing share here. Does not allocate.
+    /// Samples every class at `pose`: opens the frame's cursor, wakes the workers, claims and
+    /// computes classes here until none is left, waits for the workers' classes until `deadline`
+    /// (blocking on the reply channel, never past `deadline`), then computes any class still
+    /// missing here. Does not allocate.
     pub fn compute(&mut self, pose: &KernelPose, deadline: Instant) -> PoolResult {
-        self.seq += 1;
+        self.seq = self.seq.wrapping_add(1);
         let seq = self.seq;
-        self.arrived.iter_mut().for_each(|a| *a = false);
-        let mut pending = 0usize;
+        let classes = self.shell.class_count();
+        self.done.iter_mut().for_each(|d| *d = false);
+        // Replies of earlier frames.
+        while self.replies.try_recv().is_ok() {}
+        self.cursor.open(seq);
         for worker in &self.workers {
-            let sent = match &worker.jobs {
-                Some(tx) => !matches!(
-                    tx.try_send(Job { seq, pose: *pose }),
-                    Err(TrySendError::Full(_) | TrySendError::Disconnected(_))
-                ),
-                None => false,
-            };
-            // An unsent share stays not-arrived and is computed below as a fallback.
-            pending += sent as usize;
+            if let Some(tx) = &worker.jobs {
+                // Fails when the worker still holds an older job (it will find that frame closed
+                // and skip it; this frame's classes go to the others) or has gone.
+                let _ = tx.try_send(Job { seq, pose: *pose });
+            }
         }
-        let mut sums = sample_classes(&*self.map, &self.shell, pose, &self.shares[0]);
-        self.arrived[0] = true;
-        while pending > 0 {
+        let mut sums = PartialSums::default();
+        let mut missing = classes as usize;
+        while let Some(class) = self.cursor.claim(seq, classes) {
+            sums.merge(&sample_class(&*self.map, &self.shell, pose, class));
+            self.done[class as usize] = true;
+            missing -= 1;
+        }
+        while missing > 0 {
             match self.replies.recv_deadline(deadline) {
-                Ok(reply) if reply.seq == seq && !self.arrived[reply.share] => {
+                Ok(reply) if reply.seq == seq && !self.done[reply.class as usize] => {
                     sums.merge(&reply.sums);
-                    self.arrived[reply.share] = true;
-                    pending -= 1;
+                    self.done[reply.class as usize] = true;
+                    missing -= 1;
                 }
                 Ok(_stale) => {}
                 Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => break,
             }
         }
         let mut fallback_shares = 0;
-        for share in 1..self.shares.len() {
-            if !self.arrived[share] {
-                sums.merge(&sample_classes(
-                    &*self.map,
-                    &self.shell,
-                    pose,
-                    &self.shares[share],
-                ));
-                fallback_shares += 1;
+        if missing > 0 {
+            // Take what arrived meanwhile (the deadline may have passed long before this frame's
+            // own classes were done), then compute the rest here.
+            while let Ok(reply) = self.replies.try_recv() {
+                if reply.seq == seq && !self.done[reply.class as usize] {
+                    sums.merge(&reply.sums);
+                    self.done[reply.class as usize] = true;
+                }
+            }
+            for class in 0..classes {
+                if !self.done[class as usize] {
+                    sums.merge(&sample_class(&*self.map, &self.shell, pose, class));
+                    fallback_shares += 1;
+                }
             }
         }
         PoolResult {
@@ -220,6 +266,36 @@ mod tests {
         assert_eq!(share_classes(7, 3, 0), vec![0, 3, 6]);
         assert_eq!(share_classes(7, 3, 2), vec![2, 5]);
         assert_eq!(share_classes(2, 4, 3), Vec::<u32>::new());
+    }
+
+    #[test]
+    fn each_class_is_claimed_once_per_frame_and_only_by_that_frame() {
+        let cursor = Arc::new(Cursor(AtomicU64::new(0)));
+        cursor.open(7);
+        let claimed: Vec<Vec<u32>> = std::thread::scope(|scope| {
+            let handles: Vec<_> = (0..4)
+                .map(|_| {
+                    let cursor = cursor.clone();
+                    scope.spawn(move || {
+                        let mut mine = Vec::new();
+                        while let Some(c) = cursor.claim(7, 1000) {
+                            mine.push(c);
+                        }
+                        mine
+                    })
+                })
+                .collect();
+            handles.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        let mut all: Vec<u32> = claimed.concat();
+        all.sort_unstable();
+        assert_eq!(all, (0..1000).collect::<Vec<u32>>());
+        // A claimer of an older or newer frame gets nothing, even with classes left.
+        cursor.open(8);
+        assert_eq!(cursor.claim(7, 1000), None);
+        assert_eq!(cursor.claim(9, 1000), None);
+        assert_eq!(cursor.claim(8, 1000), Some(0));
+        assert_eq!(cursor.claim(8, 1), None);
     }
 
     #[test]
