@@ -332,10 +332,13 @@ impl LastVoxel {
     };
 }
 
-/// The kinds and layers of the block's voxels (lanes `valid..` read as Free). Only a lane whose
-/// voxel differs from the previous lane's (lane 0: from `last`) is looked up; the others copy the
-/// previous lane's result. Consecutive points of a shell sampled finer than the voxmap often share a
-/// voxel, so this saves most lookups there, and costs a few compares per lane elsewhere.
+/// The kinds and layers of the block's voxels (lanes `valid..` read as Free).
+///
+/// A lane whose voxel equals the previous lane's (lane 0: the voxel looked up last, `last`) copies
+/// its result. When few lanes start a new voxel (a shell sampled finer than the voxmap), only those
+/// are looked up, one by one; otherwise the whole block is looked up at once with
+/// [`VoxelLookup::get_block`] (for the tree, one vectorised pass), padding lanes moved outside the
+/// grid.
 #[inline(always)]
 fn look_up<L: VoxelLookup>(
     map: &L,
@@ -343,41 +346,34 @@ fn look_up<L: VoxelLookup>(
     valid: usize,
     last: &mut LastVoxel,
 ) -> ([u8; LANES], [u8; LANES]) {
+    /// At most this many fresh lanes are looked up one by one.
+    const FEW: u32 = 2;
     // Bit l: lane l is in another voxel than lane l − 1.
-    let mut fresh = differs_from_previous(cell, last.cell);
-    fresh &= (1u32 << valid) - 1;
-    let mut kinds = [0u8; LANES];
-    let mut layers = [0u8; LANES];
-    if fresh == (1u32 << LANES) - 1 {
-        // Every lane in its own voxel (a shell about as fine as the voxmap): no copying.
-        for l in 0..LANES {
-            let v = voxel_at(map, cell, l);
-            kinds[l] = v.kind.bits();
-            layers[l] = v.layer;
+    let fresh = differs_from_previous(cell, last.cell) & ((1u32 << valid) - 1);
+    let (kinds, layers) = if fresh.count_ones() > FEW {
+        let mut cells = *cell;
+        for axis in &mut cells {
+            axis[valid..].fill(-1);
         }
-        last.cell = [cell[0][LANES - 1], cell[1][LANES - 1], cell[2][LANES - 1]];
-        last.voxel = voxel_of(kinds[LANES - 1], layers[LANES - 1]);
-        return (kinds, layers);
-    }
-    let mut rest = fresh;
-    while rest != 0 {
-        let l = rest.trailing_zeros() as usize;
-        let v = voxel_at(map, cell, l);
-        kinds[l] = v.kind.bits();
-        layers[l] = v.layer;
-        rest &= rest - 1;
-    }
-    let (mut kind, mut layer) = (last.voxel.kind.bits(), last.voxel.layer);
-    for l in 0..valid {
-        let looked_up = fresh >> l & 1 != 0;
-        kind = if looked_up { kinds[l] } else { kind };
-        layer = if looked_up { layers[l] } else { layer };
-        kinds[l] = kind;
-        layers[l] = layer;
-    }
+        let block = map.get_block(&cells);
+        (block.kinds, block.layers)
+    } else {
+        let mut kinds = [0u8; LANES];
+        let mut layers = [0u8; LANES];
+        let (mut kind, mut layer) = (last.voxel.kind.bits(), last.voxel.layer);
+        for l in 0..valid {
+            if fresh >> l & 1 != 0 {
+                let v = map.get_layered(IVec3::new(cell[0][l], cell[1][l], cell[2][l]));
+                (kind, layer) = (v.kind.bits(), v.layer);
+            }
+            kinds[l] = kind;
+            layers[l] = layer;
+        }
+        (kinds, layers)
+    };
     if valid > 0 {
         last.cell = [cell[0][valid - 1], cell[1][valid - 1], cell[2][valid - 1]];
-        last.voxel = voxel_of(kind, layer);
+        last.voxel = voxel_of(kinds[valid - 1], layers[valid - 1]);
     }
     (kinds, layers)
 }
@@ -389,12 +385,6 @@ fn voxel_of(kind: u8, layer: u8) -> LayeredVoxel {
         kind: Voxel::from_bits(kind),
         layer,
     }
-}
-
-/// The voxel of lane `l`.
-#[inline(always)]
-fn voxel_at<L: VoxelLookup>(map: &L, cell: &[[i32; LANES]; 3], l: usize) -> LayeredVoxel {
-    map.get_layered(IVec3::new(cell[0][l], cell[1][l], cell[2][l]))
 }
 
 /// Contact arithmetic of a block: `d = max(0, N·(C − P) + ℓ) s` in Surface lanes, 0 elsewhere;

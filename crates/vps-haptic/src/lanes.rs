@@ -10,7 +10,7 @@
 use glam::Mat3;
 
 /// Points per block, and the number of per-class f64 accumulator lanes.
-pub(crate) const LANES: usize = 8;
+pub(crate) const LANES: usize = vps_voxmap::BLOCK_LANES;
 
 /// One f32 value per lane.
 pub(crate) type F32s = [f32; LANES];

@@ -20,7 +20,10 @@ pub use dense::DenseGrid;
 pub use file::FileError;
 pub use grid::GridSpec;
 pub use shell::{MassProperties, PointShell};
-pub use tree::{CubeSource, NodeCounts, TreeAccessor, TreeConfig, TreeError, VoxelTree};
+pub use tree::{
+    CubeSource, NodeCounts, TreeAccessor, TreeConfig, TreeError, VoxelTree,
+    DIRECTORY_ALLOWANCE_BYTES, DIRECTORY_MAX_BYTES,
+};
 pub use voxel::{LayeredVoxel, Voxel, VoxelWidth};
 
 /// Read access to a voxmap by integer voxel index: implemented by the tree (runtime) and the dense
@@ -43,6 +46,38 @@ pub trait VoxelLookup: Sync {
             layer: 0,
         }
     }
+
+    /// The voxels of a block of [`BLOCK_LANES`] cells (`cells[axis][lane]`), lane by lane as
+    /// [`VoxelLookup::get_layered`]. The default makes one `get_layered` call per lane; the tree
+    /// overrides it with a lookup whose index arithmetic vectorises. Does not allocate or block.
+    #[allow(clippy::needless_range_loop)] // lane loops: index form vectorises and reads as lanes
+    #[inline(always)]
+    fn get_block(&self, cells: &BlockCells) -> VoxelBlock {
+        let mut block = VoxelBlock::default();
+        for l in 0..BLOCK_LANES {
+            let v = self.get_layered(glam::IVec3::new(cells[0][l], cells[1][l], cells[2][l]));
+            block.kinds[l] = v.kind.bits();
+            block.layers[l] = v.layer;
+        }
+        block
+    }
+}
+
+/// Cells per block lookup ([`VoxelLookup::get_block`]).
+pub const BLOCK_LANES: usize = 8;
+
+/// The cells of a block lookup: voxel indices, `cells[axis][lane]` (any values; outside the
+/// dims reads Free).
+pub type BlockCells = [[i32; BLOCK_LANES]; 3];
+
+/// The voxels of a block lookup, lane by lane: the kind's bits ([`Voxel::bits`]) and the
+/// distance layer (as in [`LayeredVoxel`]; 0 in a 2-bit map).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct VoxelBlock {
+    /// [`Voxel::bits`] of each lane's kind.
+    pub kinds: [u8; BLOCK_LANES],
+    /// Each lane's distance layer.
+    pub layers: [u8; BLOCK_LANES],
 }
 
 impl VoxelLookup for DenseGrid {

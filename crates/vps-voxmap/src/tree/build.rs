@@ -120,7 +120,7 @@ fn build(
         tree.root.slots.push(slot.0);
     }
     tree.upper.slots.shrink_to_fit();
-    Ok(tree)
+    Ok(tree.with_directory())
 }
 
 /// The codes of one lower-node cube: uniform, or a byte box and the cube's origin inside it.

@@ -8,6 +8,7 @@
 mod accessor;
 mod build;
 mod config;
+mod directory;
 mod error;
 mod internal;
 mod leaf;
@@ -18,9 +19,14 @@ mod walk;
 pub use accessor::TreeAccessor;
 pub use build::CubeSource;
 pub use config::TreeConfig;
+pub use directory::{DIRECTORY_ALLOWANCE_BYTES, DIRECTORY_MAX_BYTES};
 pub use error::TreeError;
 
-use crate::{DenseGrid, GridSpec, LayeredVoxel, Voxel, VoxelLookup, VoxelWidth};
+use crate::{
+    BlockCells, DenseGrid, GridSpec, LayeredVoxel, Voxel, VoxelBlock, VoxelLookup, VoxelWidth,
+    BLOCK_LANES,
+};
+use directory::LeafDirectory;
 use glam::{IVec3, UVec3};
 use internal::InternalLevel;
 use leaf::LeafShape;
@@ -47,6 +53,9 @@ pub struct VoxelTree {
     lower: InternalLevel,
     leaf_shape: LeafShape,
     leaf_words: Vec<u64>,
+    /// The flattened upper levels, when small enough (module `directory`); lookups use it
+    /// instead of the walk.
+    directory: Option<LeafDirectory>,
 }
 
 /// Number of stored nodes per level (tiles are not nodes).
@@ -160,6 +169,44 @@ impl VoxelTree {
         self.decode(self.read(p, &self.lookup_shape()))
     }
 
+    /// The voxels of a block of cells, lane by lane as [`VoxelTree::get_layered`]. With the leaf
+    /// directory, one vectorisable pass over the block (see `directory::LeafDirectory::read_block`);
+    /// without it, one walk per lane. Does not allocate or block.
+    #[allow(clippy::needless_range_loop)] // lane loops: index form vectorises and reads as lanes
+    #[inline(always)]
+    pub fn get_block(&self, cells: &BlockCells) -> VoxelBlock {
+        let Some(directory) = &self.directory else {
+            let mut block = VoxelBlock::default();
+            for l in 0..BLOCK_LANES {
+                let v = self.get_layered(IVec3::new(cells[0][l], cells[1][l], cells[2][l]));
+                block.kinds[l] = v.kind.bits();
+                block.layers[l] = v.layer;
+            }
+            return block;
+        };
+        if self.paper_shape {
+            // 2-bit codes are the kinds' bits.
+            let kinds = directory.read_block(
+                &self.leaf_words,
+                LookupShape::TREE_512.leaf,
+                self.spec.dims,
+                cells,
+            );
+            return VoxelBlock {
+                kinds,
+                layers: [0; BLOCK_LANES],
+            };
+        }
+        let codes = directory.read_block(&self.leaf_words, self.leaf_shape, self.spec.dims, cells);
+        let mut block = VoxelBlock::default();
+        for l in 0..BLOCK_LANES {
+            let v = self.decode(codes[l]);
+            block.kinds[l] = v.kind.bits();
+            block.layers[l] = v.layer;
+        }
+        block
+    }
+
     /// The kind of a stored (valid) code.
     #[inline(always)]
     fn kind_of(&self, code: u8) -> Voxel {
@@ -191,6 +238,9 @@ impl VoxelTree {
     /// The code at in-grid `p`, walking with `shape` (equal to [`VoxelTree::lookup_shape`]).
     #[inline(always)]
     fn read(&self, p: UVec3, shape: &LookupShape) -> u8 {
+        if let Some(directory) = &self.directory {
+            return directory.read(&self.leaf_words, shape.leaf, p);
+        }
         match self.locate_with(p, shape) {
             LeafRef::Tile(v) => v,
             LeafRef::Leaf(first) => {
@@ -270,7 +320,9 @@ impl VoxelTree {
         }
     }
 
-    /// Heap bytes held by the arenas (root, upper, lower slot tables and leaf words).
+    /// Heap bytes held by the arenas (root, upper, lower slot tables and leaf words): the voxmap
+    /// itself, what a `.vmap` file stores. The lookup directory derived from it is counted apart
+    /// ([`VoxelTree::directory_bytes`], see [`DIRECTORY_ALLOWANCE_BYTES`]).
     pub fn memory_bytes(&self) -> usize {
         4 * (self.root.slots.capacity() + self.upper.slots.capacity() + self.lower.slots.capacity())
             + 8 * self.leaf_words.capacity()
@@ -344,7 +396,7 @@ impl VoxelTree {
             leaf_words,
         )?;
         validate::check_canonical(&tree)?;
-        Ok(tree)
+        Ok(tree.with_directory())
     }
 
     /// Wraps arenas in a tree after checking spec, config and width (not the arenas' content).
@@ -396,7 +448,23 @@ impl VoxelTree {
                 bits_log2: width.bits_log2(),
             },
             leaf_words,
+            directory: None,
         })
+    }
+
+    /// Adds the leaf directory when it fits [`DIRECTORY_MAX_BYTES`] and
+    /// [`DIRECTORY_ALLOWANCE_BYTES`]. The arenas must be canonical (built or checked).
+    pub(crate) fn with_directory(mut self) -> Self {
+        self.directory = LeafDirectory::build(&self);
+        self
+    }
+
+    /// Heap bytes of the leaf directory, the lookup index derived from the tree (0 when the tree
+    /// has none: see [`DIRECTORY_ALLOWANCE_BYTES`]); not counted in [`VoxelTree::memory_bytes`].
+    pub fn directory_bytes(&self) -> usize {
+        self.directory
+            .as_ref()
+            .map_or(0, LeafDirectory::memory_bytes)
     }
 }
 
@@ -413,6 +481,11 @@ impl VoxelLookup for VoxelTree {
     #[inline(always)]
     fn get_layered(&self, ijk: IVec3) -> LayeredVoxel {
         VoxelTree::get_layered(self, ijk)
+    }
+
+    #[inline(always)]
+    fn get_block(&self, cells: &BlockCells) -> VoxelBlock {
+        VoxelTree::get_block(self, cells)
     }
 }
 

@@ -1,0 +1,351 @@
+//! The leaf directory: a dense array with one slot per leaf-sized cube of the grid, holding what the
+//! root → upper → lower walk would end at (a tile's code, or the leaf's index). With it a lookup
+//! reads one directory slot and one leaf word instead of three slots and one word, and does a
+//! third of the index arithmetic; the leaves themselves are the tree's.
+//!
+//! It costs 4 bytes per `8³` voxels (for the 512-tree): memory that follows the grid's volume, not
+//! the surface. So that the voxmap's memory keeps following the surface, it is built only when it
+//! is at most as large as the tree's own arenas (or [`DIRECTORY_ALLOWANCE_BYTES`], whichever is
+//! larger) and under [`DIRECTORY_MAX_BYTES`]; otherwise lookups walk the tree (same results, more
+//! instructions).
+//! It is derived from the tree's content (equal trees have equal directories) and never stored in
+//! a `.vmap` file.
+
+use super::internal::Slot;
+use super::leaf::LeafShape;
+use super::{LeafRef, VoxelTree};
+use crate::{BlockCells, BLOCK_LANES};
+use glam::UVec3;
+use rayon::prelude::*;
+
+/// Largest directory built (bytes): 64 MiB, i.e. grids up to 2^34 voxels with the 512-tree
+/// (e.g. 2,560³ voxels; the aircraft bay at 5 mm needs about 1.6 MB). Slot indices therefore fit
+/// a `u32`.
+pub const DIRECTORY_MAX_BYTES: usize = 64 << 20;
+
+/// A directory up to this size (bytes, 4 MiB) is built whatever the tree's size; a larger one
+/// only when it is no larger than the tree's arenas ([`VoxelTree::memory_bytes`]). The aircraft
+/// bay at 5 mm: 1.6 MB beside 7.45 MB. A large, mostly empty grid (a small part far from the rest
+/// of the scene) gets no directory and walks the tree instead.
+pub const DIRECTORY_ALLOWANCE_BYTES: usize = 4 << 20;
+
+/// Whether a directory of `directory_bytes` is built beside arenas of `tree_bytes`.
+fn directory_allowed(directory_bytes: u64, tree_bytes: u64) -> bool {
+    directory_bytes <= DIRECTORY_MAX_BYTES as u64
+        && directory_bytes <= tree_bytes.max(DIRECTORY_ALLOWANCE_BYTES as u64)
+}
+
+/// One slot per leaf cube, x fastest.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) struct LeafDirectory {
+    /// Leaf cubes per axis: `ceil(grid dims / leaf edge)`.
+    dims: [u32; 3],
+    /// Raw [`Slot`] words: a tile, or a child holding the leaf's index in the leaf arena.
+    slots: Vec<u32>,
+}
+
+impl LeafDirectory {
+    /// The directory of `tree` (whose arenas must be canonical: built or validated), or `None`
+    /// when it is too large (see [`DIRECTORY_ALLOWANCE_BYTES`]).
+    /// Parallel (rayon) over z slices.
+    pub(crate) fn build(tree: &VoxelTree) -> Option<LeafDirectory> {
+        let shift = tree.leaf_shape.log2;
+        let dims = tree
+            .spec
+            .dims
+            .map(|d| ((d as u64 + (1u64 << shift) - 1) >> shift) as u32);
+        let count = dims.iter().map(|&d| d as u64).product::<u64>();
+        // Block reads index the leaf arena with u32 word numbers.
+        if !directory_allowed(count.saturating_mul(4), tree.memory_bytes() as u64)
+            || tree.leaf_words.len() > u32::MAX as usize
+        {
+            return None;
+        }
+        let mut slots = vec![0u32; count as usize];
+        let slice = dims[0] as usize * dims[1] as usize;
+        let word_shift = tree.leaf_shape.word_shift();
+        slots
+            .par_chunks_mut(slice.max(1))
+            .enumerate()
+            .for_each(|(z, plane)| {
+                for (i, slot) in plane.iter_mut().enumerate() {
+                    let cube = UVec3::new(
+                        (i % dims[0] as usize) as u32,
+                        (i / dims[0] as usize) as u32,
+                        z as u32,
+                    );
+                    // The cube's minimum corner is inside the grid dims (cube < ceil(dims / edge)).
+                    *slot = match tree.locate(cube << shift) {
+                        LeafRef::Tile(code) => Slot::tile(code).0,
+                        LeafRef::Leaf(first) => Slot::child((first >> word_shift) as u32).0,
+                    };
+                }
+            });
+        Some(LeafDirectory { dims, slots })
+    }
+
+    /// Heap bytes held.
+    pub(crate) fn memory_bytes(&self) -> usize {
+        4 * self.slots.capacity()
+    }
+
+    /// The code at in-grid voxel `p`; `leaf` must be the tree's leaf shape (passed in so a caller
+    /// can make it a constant) and `leaf_words` its leaf arena.
+    #[inline(always)]
+    pub(crate) fn read(&self, leaf_words: &[u64], leaf: LeafShape, p: UVec3) -> u8 {
+        let c = p >> leaf.log2;
+        let i = c.x as usize
+            + self.dims[0] as usize * (c.y as usize + self.dims[1] as usize * c.z as usize);
+        debug_assert!(i < self.slots.len());
+        // SAFETY: `p` is inside the grid dims, so `c < self.dims` per axis and `i` is below the
+        // slot count (`build` makes one slot per cube).
+        let slot = Slot(unsafe { *self.slots.get_unchecked(i) });
+        if slot.is_tile() {
+            return slot.tile_value();
+        }
+        let word = (slot.child_index() << leaf.word_shift()) + leaf.word_of(p);
+        debug_assert!(word < leaf_words.len());
+        // SAFETY: a child slot holds the index of a stored leaf (copied from the canonical tree's
+        // lower level by `build`), and `word_of` is below the words per leaf.
+        leaf.code_in_word(unsafe { *leaf_words.get_unchecked(word) }, p)
+    }
+
+    /// The codes at the cells of a block (`cells[axis][lane]`, any values; a cell outside
+    /// `grid_dims` reads 0, Free). `grid_dims` must be the tree's dims, `leaf` its leaf shape and
+    /// `leaf_words` its leaf arena. Same result per lane as [`LeafDirectory::read`]; written as
+    /// loops over lane arrays so that the index arithmetic and the tile test vectorise (the caller
+    /// inlines it into its AVX2 copy), with eight independent slot loads and, only for lanes in a
+    /// leaf, eight independent word loads.
+    #[allow(clippy::needless_range_loop)] // lane loops: index form vectorises and reads as lanes
+    #[inline(always)]
+    pub(crate) fn read_block(
+        &self,
+        leaf_words: &[u64],
+        leaf: LeafShape,
+        grid_dims: [u32; 3],
+        cells: &BlockCells,
+    ) -> [u8; BLOCK_LANES] {
+        const L: usize = BLOCK_LANES;
+        // Lane masks are u32 words (0 or !0) rather than bools so that the loops vectorise.
+        // Unsigned cells: a negative cell wraps above every dim.
+        let p = cells.map(|axis| axis.map(|c| c as u32));
+        // Dims are at most i32::MAX (checked on assembly): signed compares, which vectorise.
+        let dims = grid_dims.map(|d| d as i32);
+        let mut inside = [0u32; L];
+        for (a, axis) in cells.iter().enumerate() {
+            for l in 0..L {
+                let low = 0u32.wrapping_sub(u32::from(axis[l] >= 0));
+                let high = 0u32.wrapping_sub(u32::from(axis[l] < dims[a]));
+                inside[l] = if a == 0 {
+                    low & high
+                } else {
+                    inside[l] & low & high
+                };
+            }
+        }
+        let mut index = [0u32; L];
+        for l in 0..L {
+            let c = [
+                p[0][l] >> leaf.log2,
+                p[1][l] >> leaf.log2,
+                p[2][l] >> leaf.log2,
+            ];
+            // Below the slot count (≤ 2^24) for in-grid lanes; wrapping garbage elsewhere, masked.
+            let i = c[0].wrapping_add(
+                self.dims[0].wrapping_mul(c[1].wrapping_add(self.dims[1].wrapping_mul(c[2]))),
+            );
+            index[l] = i & inside[l];
+        }
+        let mut slot = [0u32; L];
+        for l in 0..L {
+            debug_assert!((index[l] as usize) < self.slots.len());
+            // SAFETY: an in-grid lane's index is below the slot count (see `read`); other lanes
+            // read slot 0, which exists (the grid has at least one voxel, so one cube).
+            slot[l] = unsafe { *self.slots.get_unchecked(index[l] as usize) };
+        }
+        // Out-of-grid lanes become Free tiles.
+        let mut codes = [0u8; L];
+        let mut leaf_lanes = 0u32;
+        for l in 0..L {
+            slot[l] = (slot[l] & inside[l]) | (Slot::TILE_BIT & !inside[l]);
+            codes[l] = slot[l] as u8;
+            leaf_lanes |= u32::from(slot[l] & Slot::TILE_BIT == 0) << l;
+        }
+        if leaf_lanes == 0 {
+            return codes;
+        }
+        // Lanes in a leaf: the word holding the voxel and the voxel's bit in it. Tile lanes read
+        // word 0 (the arena is not empty: some lane is in a leaf) and keep their tile code.
+        let edge_mask = leaf.edge() - 1;
+        let mut word = [0u32; L];
+        let mut shift = [0u64; L];
+        for l in 0..L {
+            let local = (p[0][l] & edge_mask)
+                | ((p[1][l] & edge_mask) << leaf.log2)
+                | ((p[2][l] & edge_mask) << (2 * leaf.log2));
+            let bit = local << leaf.bits_log2;
+            let is_leaf = 0u32.wrapping_sub(u32::from(slot[l] & Slot::TILE_BIT == 0));
+            // Fits a u32: `build` checks that the leaf arena has fewer than 2^32 words.
+            word[l] = ((slot[l] << leaf.word_shift()) + (bit >> 6)) & is_leaf;
+            shift[l] = u64::from(bit & 63);
+        }
+        let mut bits = [0u64; L];
+        for l in 0..L {
+            debug_assert!((word[l] as usize) < leaf_words.len());
+            // SAFETY: a leaf lane's child slot holds a stored leaf's index (as in `read`), so its
+            // word is inside the arena; other lanes read word 0, which exists (see above).
+            bits[l] = unsafe { *leaf_words.get_unchecked(word[l] as usize) };
+        }
+        let code_mask = (1u64 << (1u32 << leaf.bits_log2)) - 1;
+        for l in 0..L {
+            let code = ((bits[l] >> shift[l]) & code_mask) as u8;
+            codes[l] = if leaf_lanes >> l & 1 != 0 {
+                code
+            } else {
+                codes[l]
+            };
+        }
+        codes
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::tree::{CubeSource, VoxelTree};
+    use crate::{DenseGrid, GridSpec, TreeConfig, VoxelWidth, BLOCK_LANES};
+    use glam::{DVec3, IVec3};
+
+    /// A dense grid of codes of any width, as a cube source.
+    struct Codes<'a>(&'a DenseGrid);
+
+    impl CubeSource for Codes<'_> {
+        fn cube(&self, origin: glam::UVec3, extent: u32, out: &mut [u8]) -> Option<u8> {
+            let d = self.0.spec.dims;
+            out.fill(0);
+            for z in 0..extent {
+                for y in 0..extent {
+                    for x in 0..extent {
+                        let g = origin + glam::UVec3::new(x, y, z);
+                        if g.x < d[0] && g.y < d[1] && g.z < d[2] {
+                            let i = (g.x + d[0] * (g.y + d[1] * g.z)) as usize;
+                            out[(x + extent * (y + extent * z)) as usize] = self.0.data[i];
+                        }
+                    }
+                }
+            }
+            None
+        }
+    }
+
+    fn tree_of(dense: &DenseGrid, config: TreeConfig, width: VoxelWidth) -> VoxelTree {
+        VoxelTree::from_source(dense.spec, width, config, &Codes(dense)).unwrap()
+    }
+
+    /// A grid of random-ish codes valid for `width`: clustered so that tiles, leaves and uniform
+    /// internal nodes all occur.
+    fn grid(dims: [u32; 3], width: VoxelWidth, seed: u64) -> DenseGrid {
+        let mut g = DenseGrid::new(GridSpec {
+            origin: DVec3::ZERO,
+            voxel_size: 0.01,
+            dims,
+        });
+        let codes: Vec<u8> = (0..=255u8).filter(|&c| width.decode(c).is_some()).collect();
+        let mut state = seed;
+        for z in 0..dims[2] {
+            for y in 0..dims[1] {
+                for x in 0..dims[0] {
+                    state = state
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    // A slab of mixed codes, Free elsewhere.
+                    let mixed = (x + y + z) % 37 < 9;
+                    let i = (x + dims[0] * (y + dims[1] * z)) as usize;
+                    g.data[i] = if mixed {
+                        codes[(state >> 33) as usize % codes.len()]
+                    } else {
+                        0
+                    };
+                }
+            }
+        }
+        g
+    }
+
+    #[test]
+    fn directory_and_walk_agree_on_every_voxel() {
+        for width in VoxelWidth::ALL {
+            for config in [TreeConfig::default(), TreeConfig::uniform(2)] {
+                let dense = grid([150, 70, 45], width, 7);
+                let tree = tree_of(&dense, config, width);
+                assert!(tree.directory.is_some(), "{width:?} {config:?}");
+                let walk = VoxelTree {
+                    directory: None,
+                    ..tree.clone()
+                };
+                for z in -2..47 {
+                    for y in -2..72 {
+                        for x in -2..152 {
+                            let ijk = IVec3::new(x, y, z);
+                            assert_eq!(tree.get_layered(ijk), walk.get_layered(ijk), "{ijk}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    #[allow(clippy::needless_range_loop)]
+    fn block_reads_equal_single_reads_inside_outside_and_far_away() {
+        for width in VoxelWidth::ALL {
+            let dense = grid([130, 66, 40], width, 11);
+            let tree = tree_of(&dense, TreeConfig::default(), width);
+            assert!(tree.directory.is_some());
+            let mut state = 3u64;
+            let mut next = |span: i64| {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                ((state >> 20) as i64).rem_euclid(span) as i32
+            };
+            for round in 0..20_000 {
+                let mut cells = [[0i32; BLOCK_LANES]; 3];
+                for l in 0..BLOCK_LANES {
+                    for (a, axis) in cells.iter_mut().enumerate() {
+                        axis[l] = match round % 4 {
+                            // Around the grid, borders included.
+                            0 | 1 => next([136, 72, 46][a]) - 3,
+                            // Anywhere in i32.
+                            2 => next(1 << 32) ^ i32::MIN,
+                            // Extremes.
+                            _ => [i32::MIN, i32::MAX, -1, 0][next(4) as usize],
+                        };
+                    }
+                }
+                let block = tree.get_block(&cells);
+                for l in 0..BLOCK_LANES {
+                    let ijk = IVec3::new(cells[0][l], cells[1][l], cells[2][l]);
+                    let one = tree.get_layered(ijk);
+                    assert_eq!(
+                        (block.kinds[l], block.layers[l]),
+                        (one.kind.bits(), one.layer)
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn large_directories_are_built_only_beside_larger_trees() {
+        use super::{directory_allowed, DIRECTORY_ALLOWANCE_BYTES, DIRECTORY_MAX_BYTES};
+        let allowance = DIRECTORY_ALLOWANCE_BYTES as u64;
+        // Small ones always, whatever the tree.
+        assert!(directory_allowed(allowance, 1));
+        // Larger ones up to the tree's size.
+        assert!(directory_allowed(3 * allowance, 3 * allowance));
+        assert!(!directory_allowed(3 * allowance + 1, 3 * allowance));
+        // Never above the hard cap, nor a size that overflowed.
+        assert!(!directory_allowed(DIRECTORY_MAX_BYTES as u64 + 1, u64::MAX));
+        assert!(!directory_allowed(u64::MAX, u64::MAX));
+    }
+}
