@@ -459,6 +459,19 @@ pub enum BenchKind {
         #[arg(long)]
         json: bool,
     },
+    /// How often this machine takes the frame thread's core away (cyclictest-like): ticks a loop
+    /// doing `--busy-us` of work per 1 ms frame would miss with no haptics in it.
+    Host {
+        /// Length of the measurement (s).
+        #[arg(long, default_value_t = 100.0)]
+        seconds: f64,
+        /// Work per frame, spun (µs).
+        #[arg(long, default_value_t = 500)]
+        busy_us: u64,
+        /// Print JSON (always JSON; accepted for symmetry).
+        #[arg(long)]
+        json: bool,
+    },
     /// Gather round trip to 1 and 2 local worker processes beside a raw UDP ping-pong.
     Transport {
         /// Frames (and raw UDP round trips) per measurement.

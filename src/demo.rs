@@ -24,6 +24,8 @@ struct DemoReport {
     voxel_size_m: f64,
     voxelize_ms: f64,
     tree_bytes: usize,
+    /// The lookup directory derived from the tree (not part of `tree_bytes`).
+    directory_bytes: usize,
     shell_points: usize,
     session_seconds: f64,
     threads: usize,
@@ -113,11 +115,13 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let threads = args.threads.max(1);
     if !args.json {
         println!(
-            "scene: aircraft bay, {} triangles, voxelized at {} m in {:.0} ms, tree {:.2} MiB",
+            "scene: aircraft bay, {} triangles, voxelized at {} m in {:.0} ms, tree {:.2} MiB \
+             (+ {:.2} MiB lookup directory)",
             scene.scene_triangles,
             args.voxel_size,
             scene.voxelize_ms,
-            scene.tree.memory_bytes() as f64 / 1048576.0
+            scene.tree.memory_bytes() as f64 / 1048576.0,
+            scene.tree.directory_bytes() as f64 / 1048576.0
         );
         println!(
             "part: Utah teapot, {} shell points; {} thread(s)",
@@ -139,6 +143,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             voxel_size_m: args.voxel_size,
             voxelize_ms: scene.voxelize_ms,
             tree_bytes: scene.tree.memory_bytes(),
+            directory_bytes: scene.tree.directory_bytes(),
             shell_points: scene.shell.len(),
             session_seconds: on.stats.frames as f64 * params.dt,
             threads,

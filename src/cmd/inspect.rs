@@ -54,6 +54,8 @@ struct VoxmapInfo {
     counts: KindCounts,
     layers: Vec<LayerCount>,
     tree_bytes: usize,
+    /// The lookup directory built beside the tree when loaded (not part of `tree_bytes`).
+    directory_bytes: usize,
     dense_equivalent_bytes: u64,
     leaves: usize,
     lower_nodes: usize,
@@ -121,6 +123,7 @@ fn inspect_voxmap(args: &InspectArgs) -> Result<()> {
             })
             .collect(),
         tree_bytes: tree.memory_bytes(),
+        directory_bytes: tree.directory_bytes(),
         dense_equivalent_bytes: tree.dense_equivalent_bytes(),
         leaves: nodes.leaves,
         lower_nodes: nodes.lower,
@@ -153,6 +156,10 @@ fn inspect_voxmap(args: &InspectArgs) -> Result<()> {
         info.lower_nodes,
         info.upper_nodes,
         mib(info.dense_equivalent_bytes as f64)
+    );
+    println!(
+        "  lookup directory {} (built when loaded, not stored)",
+        mib(info.directory_bytes as f64)
     );
     println!("  content hash {}", info.hash);
     Ok(())

@@ -1,6 +1,7 @@
 //! One module per subcommand; [`dispatch`] routes the parsed command line.
 
 mod bench_cluster;
+mod bench_host;
 pub mod bench_kernel;
 mod bench_loop;
 mod bench_transport;
@@ -84,6 +85,9 @@ pub fn dispatch(cli: Cli) -> Result<()> {
                 seconds, rounds, ..
             } => bench_viewer::run(seconds, rounds),
             BenchKind::Transport { frames, .. } => bench_transport::run(frames),
+            BenchKind::Host {
+                seconds, busy_us, ..
+            } => bench_host::run(seconds, busy_us),
             BenchKind::Cluster {
                 points,
                 frames,
