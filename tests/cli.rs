@@ -205,3 +205,35 @@ fn two_local_worker_processes_reproduce_the_one_process_session() {
         .expect("per-worker report");
     assert_eq!(peers.len(), 2, "both workers joined");
 }
+
+#[test]
+fn bench_host_counts_ticks_and_rejects_bad_arguments() {
+    let report = json(&vps(&[
+        "bench",
+        "host",
+        "--seconds",
+        "0.2",
+        "--busy-us",
+        "100",
+    ]));
+    // 200 ticks of 1 ms; a stalled machine may start the last one after the end and skip it.
+    let ticks = report["ticks"].as_u64().unwrap();
+    assert!((190..=200).contains(&ticks), "{ticks} ticks");
+    assert!(report["disturbed_ticks"].as_u64().unwrap() <= ticks);
+    let gaps = report["gaps"].as_array().unwrap();
+    let counts: Vec<u64> = gaps.iter().map(|g| g["count"].as_u64().unwrap()).collect();
+    assert!(
+        counts.windows(2).all(|w| w[0] >= w[1]),
+        "gap counts must fall with the threshold: {counts:?}"
+    );
+    for (bad, field) in [
+        ("--seconds=-1", "--seconds"),
+        ("--seconds=NaN", "--seconds"),
+        ("--busy-us=1000", "--busy-us"),
+    ] {
+        let out = vps(&["bench", "host", bad]);
+        assert!(!out.status.success(), "{bad} accepted");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains(field), "{bad}: {stderr}");
+    }
+}
