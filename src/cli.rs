@@ -210,6 +210,9 @@ pub struct CoordinatorArgs {
     /// Workers to wait for before the session starts.
     #[arg(long, default_value_t = 1)]
     pub workers: usize,
+    /// Give every worker an equal share instead of adapting each share to its round trips.
+    #[arg(long)]
+    pub equal_shares: bool,
     /// The session (device, parameters, length, recording).
     #[command(flatten)]
     pub session: RunArgs,
@@ -224,6 +227,9 @@ pub struct ClusterArgs {
     /// Compute threads per worker process.
     #[arg(long, default_value_t = 1)]
     pub worker_threads: usize,
+    /// Give every worker an equal share instead of adapting each share to its round trips.
+    #[arg(long)]
+    pub equal_shares: bool,
     /// The session (device, parameters, length, recording).
     #[command(flatten)]
     pub session: RunArgs,
@@ -455,6 +461,9 @@ pub enum BenchKind {
         /// Voxel size of the scene.
         #[arg(long, value_parser = parse_length, default_value = "5mm")]
         voxel_size: f64,
+        /// Give every worker an equal share instead of adapting each share to its round trips.
+        #[arg(long)]
+        equal_shares: bool,
         /// Print JSON (always JSON; accepted for symmetry).
         #[arg(long)]
         json: bool,

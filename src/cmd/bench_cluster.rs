@@ -35,6 +35,8 @@ pub struct ClusterBench {
     pub worker_threads: usize,
     /// Compute threads of the coordinator (its own share and the fallback).
     pub local_threads: usize,
+    /// Equal shares instead of shares adapted to each worker's round trips.
+    pub equal_shares: bool,
 }
 
 #[derive(Serialize)]
@@ -83,11 +85,22 @@ pub fn run(bench: ClusterBench) -> Result<()> {
         threads: bench.local_threads,
         ..RunArgs::default()
     };
-    let run = run_local_cluster_prepared(&session, prepared, bench.workers, bench.worker_threads)?;
+    let run = run_local_cluster_prepared(
+        &session,
+        prepared,
+        bench.workers,
+        bench.worker_threads,
+        bench.equal_shares,
+    )?;
     print_json(&ClusterBenchReport {
         command: format!(
-            "vps bench cluster --points {} --frames {} --workers {} --worker-threads {} --threads {}",
-            bench.points, bench.frames, bench.workers, bench.worker_threads, bench.local_threads
+            "vps bench cluster --points {} --frames {} --workers {} --worker-threads {} --threads {}{}",
+            bench.points,
+            bench.frames,
+            bench.workers,
+            bench.worker_threads,
+            bench.local_threads,
+            if bench.equal_shares { " --equal-shares" } else { "" }
         ),
         shell_voxel_size_m: shell_voxel,
         shell_points,

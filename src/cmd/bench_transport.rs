@@ -42,7 +42,8 @@ pub fn run(frames: u64) -> Result<()> {
             seconds: frames as f64 / 1000.0,
             ..RunArgs::default()
         };
-        let run = run_local_cluster(&session, workers, 1, |config| {
+        // Equal shares: the round trip of a fixed share is what is compared with raw UDP.
+        let run = run_local_cluster(&session, workers, 1, true, |config| {
             config.free_running = true;
             config.realtime = false;
             config.watchdog = Duration::from_millis(10);

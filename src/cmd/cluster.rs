@@ -63,16 +63,28 @@ fn coordinate(
     key: &std::path::Path,
     pins: &[PathBuf],
     workers: usize,
+    equal_shares: bool,
     spawn: impl FnOnce(SocketAddr) -> Result<Option<vps_cluster::LocalWorkers>>,
     tune: impl FnOnce(&mut LoopConfig),
 ) -> Result<CoordinatedRun> {
     let mut prepared = prepare(session)?;
     tune(&mut prepared.config);
-    coordinate_prepared(session, prepared, listen, cert, key, pins, workers, spawn)
+    coordinate_prepared(
+        session,
+        prepared,
+        listen,
+        cert,
+        key,
+        pins,
+        workers,
+        equal_shares,
+        spawn,
+    )
 }
 
 /// [`coordinate`] for a session already prepared (benchmarks bring their own scene and device);
-/// `session` gives the local threads and the viewer address.
+/// `session` gives the local threads and the viewer address; `equal_shares` turns off the
+/// adaptation of worker shares ([`GatherConfig::adaptive_shares`]).
 #[allow(clippy::too_many_arguments)]
 fn coordinate_prepared(
     session: &RunArgs,
@@ -82,6 +94,7 @@ fn coordinate_prepared(
     key: &std::path::Path,
     pins: &[PathBuf],
     workers: usize,
+    equal_shares: bool,
     spawn: impl FnOnce(SocketAddr) -> Result<Option<vps_cluster::LocalWorkers>>,
 ) -> Result<CoordinatedRun> {
     let PreparedSession {
@@ -109,6 +122,7 @@ fn coordinate_prepared(
         .with_context(|| format!("waiting {JOIN_TIMEOUT:?} for {workers} worker(s) to join"))?;
     let gather = GatherConfig {
         local_threads: session.threads.max(1),
+        adaptive_shares: !equal_shares,
         ..GatherConfig::default()
     };
     let (report, cluster) = run_coordinator_session(
@@ -137,6 +151,7 @@ pub fn coordinator(args: &CoordinatorArgs) -> Result<()> {
         &args.key,
         &args.pin,
         args.workers,
+        args.equal_shares,
         |_| Ok(None),
         |_| {},
     )?;
@@ -155,6 +170,7 @@ pub fn local_cluster(args: &ClusterArgs) -> Result<()> {
         &args.session,
         args.local_workers,
         args.worker_threads,
+        args.equal_shares,
         |_| {},
     )?;
     finish(
@@ -170,11 +186,12 @@ pub fn run_local_cluster(
     session: &RunArgs,
     workers: usize,
     worker_threads: usize,
+    equal_shares: bool,
     tune: impl FnOnce(&mut LoopConfig),
 ) -> Result<CoordinatedRun> {
     let mut prepared = prepare(session)?;
     tune(&mut prepared.config);
-    run_local_cluster_prepared(session, prepared, workers, worker_threads)
+    run_local_cluster_prepared(session, prepared, workers, worker_threads, equal_shares)
 }
 
 /// [`run_local_cluster`] for a session already prepared (`session`: local threads, viewer).
@@ -183,6 +200,7 @@ pub fn run_local_cluster_prepared(
     prepared: PreparedSession,
     workers: usize,
     worker_threads: usize,
+    equal_shares: bool,
 ) -> Result<CoordinatedRun> {
     let dir = std::env::temp_dir().join(format!("vps-cluster-{}", std::process::id()));
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -196,6 +214,7 @@ pub fn run_local_cluster_prepared(
         &certs.coordinator.key,
         std::slice::from_ref(&certs.worker.cert),
         workers,
+        equal_shares,
         |addr| {
             let spawn_args = LocalWorkerArgs {
                 coordinator: addr,

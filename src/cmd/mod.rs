@@ -95,6 +95,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
                 worker_threads,
                 threads,
                 voxel_size,
+                equal_shares,
                 ..
             } => bench_cluster::run(bench_cluster::ClusterBench {
                 voxel_size,
@@ -103,6 +104,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
                 workers,
                 worker_threads,
                 local_threads: threads,
+                equal_shares,
             }),
             BenchKind::Kernel {
                 points, seconds, ..

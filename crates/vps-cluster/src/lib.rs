@@ -26,6 +26,7 @@ pub mod relay;
 pub mod scene;
 pub mod session;
 pub mod shares;
+pub mod split;
 pub mod tls;
 pub mod transport_bench;
 pub mod worker;

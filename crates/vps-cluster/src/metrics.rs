@@ -53,6 +53,8 @@ pub struct PeerMetrics {
     pub(crate) malformed: AtomicU64,
     pub(crate) invalid: AtomicU64,
     pub(crate) recomputed: AtomicU64,
+    /// Classes asked of the worker in the latest frame (0 when benched).
+    pub(crate) classes: AtomicU64,
     benched_times: AtomicU64,
     unbenched_times: AtomicU64,
     rtt_samples: AtomicU64,
@@ -74,6 +76,7 @@ impl PeerMetrics {
             malformed: AtomicU64::new(0),
             invalid: AtomicU64::new(0),
             recomputed: AtomicU64::new(0),
+            classes: AtomicU64::new(0),
             benched_times: AtomicU64::new(0),
             unbenched_times: AtomicU64::new(0),
             rtt_samples: AtomicU64::new(0),
@@ -118,6 +121,7 @@ impl PeerMetrics {
             malformed: load(&self.malformed),
             invalid: load(&self.invalid),
             recomputed: load(&self.recomputed),
+            classes: load(&self.classes),
             benched_times: load(&self.benched_times),
             unbenched_times: load(&self.unbenched_times),
             benched: self.benched.load(Ordering::Relaxed),
@@ -384,6 +388,7 @@ fn log_summary(board: &Board, peers: &HashMap<u32, Tracked>) {
             malformed = r.malformed,
             invalid = r.invalid,
             recomputed = r.recomputed,
+            classes = r.classes,
             benched = r.benched,
             "worker"
         );

@@ -3,8 +3,12 @@
 //! every missing or rejected share locally. It implements [`FrameSampler`], so the runtime's frame
 //! loop ([`vps_runtime::spawn_loop_with`]) drives it.
 //!
-//! Assignment (between frames): with `W` active workers, class `c` goes to party `c mod (W + 1)`,
-//! party 0 being the coordinator. A worker whose share is not merged (no reply by the deadline, or
+//! Assignment (between frames): [`split_classes`] deals the classes between the coordinator
+//! (weight 1) and the active workers in proportion to their weights, which adapt to each
+//! worker's replies ([`Adapt`]: additive increase while it answers with room to spare, halved on
+//! a miss; see [`crate::split`]). With adaptation off ([`GatherConfig::adaptive_shares`]) every
+//! weight stays 1: class `c` goes to party `c mod (W + 1)`, party 0 being the coordinator. A
+//! worker whose share is not merged (no reply by the deadline, or
 //! an invalid reply) `bench_after` frames in a row is benched: it gets no work, only a one-class
 //! probe every `probe_every` frames whose result is checked but not used; `unbench_after` probes
 //! answered in time in a row give it work again.
@@ -18,6 +22,7 @@ use crate::coordinator::{Control, Datagram};
 use crate::metrics::{Board, PeerMetrics, Reporter};
 use crate::protocol::{FrameReply, FrameRequest, REQUEST_LEN};
 use crate::scene::ClusterScene;
+use crate::split::{split_classes, Adapt, ShareOutcome};
 use crate::ClusterError;
 use bytes::Bytes;
 use crossbeam::channel::{Receiver, RecvTimeoutError, TryRecvError};
@@ -43,6 +48,9 @@ pub struct GatherConfig {
     /// Period of the metrics thread's `info` summary per worker (`None`: no summary; transitions
     /// are still logged). Default 1 s.
     pub log_every: Option<Duration>,
+    /// Adapt each worker's share to its round trips ([`crate::split`]); off: equal shares.
+    /// Default on.
+    pub adaptive_shares: bool,
 }
 
 impl Default for GatherConfig {
@@ -54,6 +62,7 @@ impl Default for GatherConfig {
             probe_every: 100,
             unbench_after: 3,
             log_every: Some(Duration::from_secs(1)),
+            adaptive_shares: true,
         }
     }
 }
@@ -93,6 +102,8 @@ pub struct PeerReport {
     pub rtt_samples: u64,
     /// Request-to-reply time of timely, valid replies (ns), from an HDR histogram (1 % resolution).
     pub rtt_ns: Percentiles,
+    /// Classes asked of it in the latest frame (its adapted share; 0 while benched).
+    pub classes: u64,
 }
 
 /// The cluster's figures for a session.
@@ -123,6 +134,10 @@ pub type ReportSlot = Arc<Mutex<Option<ClusterReport>>>;
 struct Peer {
     conn: Option<quinn::Connection>,
     benched: bool,
+    /// Share weight relative to the coordinator's 1 (see [`crate::split`]).
+    weight: f64,
+    /// Round trip of this frame's merged reply.
+    rtt: Duration,
     misses: u32,
     probe_hits: u32,
     /// This frame: the classes asked for (0: nothing asked), whether it is a probe, the points
@@ -151,6 +166,11 @@ pub struct RemoteShares {
     reporter: Reporter,
     slot: ReportSlot,
     request: [u8; REQUEST_LEN],
+    adapt: Adapt,
+    /// This frame's deadline (set at the start of `compute`).
+    deadline: Instant,
+    /// Scratch for the assignment: the parties' weights.
+    weights: Vec<f64>,
 }
 
 fn config_err(field: &'static str) -> ClusterError {
@@ -204,6 +224,9 @@ impl RemoteShares {
             reporter,
             slot: Arc::new(Mutex::new(None)),
             request: [0; REQUEST_LEN],
+            adapt: Adapt::default(),
+            deadline: Instant::now(),
+            weights: Vec::new(),
         })
     }
 
@@ -247,6 +270,8 @@ impl RemoteShares {
                     self.peers.push(Peer {
                         conn: Some(conn),
                         benched: false,
+                        weight: 1.0,
+                        rtt: Duration::ZERO,
                         misses: 0,
                         probe_hits: 0,
                         asked: 0,
@@ -288,15 +313,31 @@ impl RemoteShares {
                 peer.probing = true;
             }
         }
-        let parties = self.active.len() as u32 + 1;
-        let mut local = 0u64;
-        for c in 0..class_count {
-            match (c % parties) as usize {
-                0 => local |= 1 << c,
-                p => self.peers[self.active[p - 1]].asked |= 1 << c,
-            }
+        self.weights.clear();
+        self.weights.push(1.0);
+        for &i in &self.active {
+            let weight = self.peers[i].weight;
+            self.weights.push(if self.config.adaptive_shares {
+                weight
+            } else {
+                1.0
+            });
         }
-        local
+        let masks = split_classes(class_count, &self.weights);
+        for (&i, &mask) in self.active.iter().zip(&masks[1..]) {
+            self.peers[i].asked = mask;
+        }
+        for peer in &self.peers {
+            let classes = if peer.probing {
+                0
+            } else {
+                peer.asked.count_ones()
+            };
+            peer.metrics
+                .classes
+                .store(u64::from(classes), std::sync::atomic::Ordering::Relaxed);
+        }
+        masks[0]
     }
 
     /// Sends every request; returns how many are awaited. One small allocation per request
@@ -382,6 +423,7 @@ impl RemoteShares {
         } else {
             sums.merge(&reply.sums);
             peer.merged = true;
+            peer.rtt = rtt;
             peer.metrics.bump(|m| &m.merged);
         }
         true
@@ -455,6 +497,8 @@ impl RemoteShares {
                 }
                 if peer.probe_hits >= self.config.unbench_after {
                     peer.benched = false;
+                    // Back with a cautious share; it grows while the worker keeps up.
+                    peer.weight = self.adapt.min_weight.max(0.5);
                     peer.misses = 0;
                     peer.probe_hits = 0;
                     peer.metrics.set_benched(false);
@@ -463,8 +507,15 @@ impl RemoteShares {
             }
             if peer.merged {
                 peer.misses = 0;
+                let window = self.deadline.saturating_duration_since(peer.sent_at);
+                let outcome = ShareOutcome::Merged {
+                    rtt: peer.rtt,
+                    window,
+                };
+                peer.weight = self.adapt.next_weight(peer.weight, outcome);
                 continue;
             }
+            peer.weight = self.adapt.next_weight(peer.weight, ShareOutcome::Missed);
             if !peer.settled {
                 peer.metrics.bump(|m| &m.lost);
             }
@@ -500,6 +551,7 @@ impl FrameSampler for RemoteShares {
     /// changes); blocks only on the reply channel (never past `deadline`) and on local compute.
     fn compute(&mut self, pose: &KernelPose, deadline: Instant) -> PoolResult {
         self.seq += 1;
+        self.deadline = deadline;
         self.update_membership();
         // Replies from earlier frames still queued: counted late, never merged.
         let mut unused = PartialSums::default();
