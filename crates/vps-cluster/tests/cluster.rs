@@ -235,3 +235,114 @@ fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
     drop(coordinator);
     misbehave.join().unwrap();
 }
+
+/// A worker that answers every request correctly after sleeping `per_class` for each class asked:
+/// its round trip grows with its share, as a real worker's does.
+fn answer_slowly(
+    fake: &FakeWorker,
+    conn: quinn::Connection,
+    scene: std::sync::Arc<vps_cluster::ClusterScene>,
+    per_class: Duration,
+) -> std::thread::JoinHandle<()> {
+    let rt = fake.runtime.handle().clone();
+    std::thread::spawn(move || {
+        rt.block_on(async move {
+            let mut buf = [0u8; REPLY_LEN];
+            while let Ok(bytes) = conn.read_datagram().await {
+                let req = FrameRequest::decode(&bytes).unwrap();
+                std::thread::sleep(per_class * req.classes.count_ones());
+                FrameReply {
+                    seq: req.seq,
+                    classes: req.classes,
+                    sums: scene.sample_mask_serial(&req.pose, req.classes),
+                }
+                .encode(&mut buf);
+                let _ = conn.send_datagram(bytes::Bytes::copy_from_slice(&buf));
+            }
+        })
+    })
+}
+
+#[test]
+fn a_slow_worker_is_given_a_smaller_share_and_the_sums_stay_exact() {
+    let ids = identities();
+    let scene = scene();
+    let coordinator = start_coordinator(&ids, scene.clone());
+    let addr = coordinator.local_addr().unwrap();
+    let fake = FakeWorker::new(&ids.worker, &ids.coordinator);
+    let conn = fake
+        .join(addr, vps_cluster::protocol::PROTOCOL_VERSION)
+        .unwrap();
+    coordinator
+        .wait_for_workers(1, Duration::from_secs(8))
+        .unwrap();
+    // An equal share (32 of 64 classes) takes 32 ms against a 20 ms window: always late. Never
+    // benched here, so only the share adaptation can help.
+    let config = GatherConfig {
+        bench_after: u32::MAX,
+        log_every: None,
+        ..GatherConfig::default()
+    };
+    let mut shares = coordinator.shares(config).unwrap();
+    let slow = answer_slowly(&fake, conn, scene.clone(), Duration::from_millis(1));
+    let window = Duration::from_millis(20);
+    let poses = poses(60);
+    let mut merged_at_the_end = 0;
+    for (i, pose) in poses.iter().enumerate() {
+        let want = sample_all(&*scene.map, &scene.shell, pose);
+        let got = shares.compute(pose, Instant::now() + window);
+        assert_eq!(got.sums, want, "frame {i}");
+        if i >= 40 {
+            merged_at_the_end += usize::from(got.fallback_shares == 0);
+        }
+        // Let a late reply drain before the next frame, so frames do not queue behind it.
+        std::thread::sleep(Duration::from_millis(15));
+    }
+    let report = shares.report();
+    let peer = &report.peers[0];
+    assert!(
+        (1..=16).contains(&peer.classes),
+        "a worker needing 1 ms per class in a 20 ms window should hold at most 16 classes: {peer:?}"
+    );
+    assert!(
+        merged_at_the_end >= 10,
+        "after adapting, most of its shares are merged: {merged_at_the_end} of 20; {peer:?}"
+    );
+    drop(shares);
+    drop(coordinator);
+    slow.join().unwrap();
+}
+
+#[test]
+fn equal_shares_keep_a_slow_worker_at_half_the_classes() {
+    let ids = identities();
+    let scene = scene();
+    let coordinator = start_coordinator(&ids, scene.clone());
+    let addr = coordinator.local_addr().unwrap();
+    let fake = FakeWorker::new(&ids.worker, &ids.coordinator);
+    let conn = fake
+        .join(addr, vps_cluster::protocol::PROTOCOL_VERSION)
+        .unwrap();
+    coordinator
+        .wait_for_workers(1, Duration::from_secs(8))
+        .unwrap();
+    let config = GatherConfig {
+        bench_after: u32::MAX,
+        log_every: None,
+        adaptive_shares: false,
+        ..GatherConfig::default()
+    };
+    let mut shares = coordinator.shares(config).unwrap();
+    let slow = answer_slowly(&fake, conn, scene.clone(), Duration::from_millis(1));
+    for pose in &poses(10) {
+        let want = sample_all(&*scene.map, &scene.shell, pose);
+        let got = shares.compute(pose, Instant::now() + Duration::from_millis(20));
+        assert_eq!(got.sums, want);
+        std::thread::sleep(Duration::from_millis(15));
+    }
+    let report = shares.report();
+    assert_eq!(report.peers[0].classes, 32, "{:?}", report.peers[0]);
+    drop(shares);
+    drop(coordinator);
+    slow.join().unwrap();
+}
