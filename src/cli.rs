@@ -210,12 +210,38 @@ pub struct CoordinatorArgs {
     /// Workers to wait for before the session starts.
     #[arg(long, default_value_t = 1)]
     pub workers: usize,
-    /// Give every worker an equal share instead of adapting each share to its round trips.
-    #[arg(long)]
-    pub equal_shares: bool,
+    /// How replies are gathered.
+    #[command(flatten)]
+    pub gather: GatherArgs,
     /// The session (device, parameters, length, recording).
     #[command(flatten)]
     pub session: RunArgs,
+}
+
+/// How the coordinator's frame thread gathers its workers' replies.
+#[derive(Args, Debug, Clone, Copy)]
+pub struct GatherArgs {
+    /// Give every worker an equal share instead of adapting each share to its round trips.
+    #[arg(long)]
+    pub equal_shares: bool,
+    /// Spin instead of sleeping on the reply queue for the last this many µs before the reply
+    /// deadline. A value at least the reply window (half the watchdog budget: 400 µs in a
+    /// session) busy-waits for every reply: one wake-up less per frame (one local worker's gather
+    /// p50 61–93 → 46–47 µs on the project's 2-core VM, docs/cluster.md), but the frame thread's
+    /// core then does nothing else; use it only where each worker and the coordinator's network
+    /// thread have cores of their own (two local workers on two cores: p99.9 0.2 → 4.1 ms).
+    #[arg(long, default_value_t = 100)]
+    pub spin_us: u64,
+}
+
+impl Default for GatherArgs {
+    /// The command-line defaults.
+    fn default() -> Self {
+        GatherArgs {
+            equal_shares: false,
+            spin_us: 100,
+        }
+    }
 }
 
 /// Arguments of `vps cluster`.
@@ -227,9 +253,9 @@ pub struct ClusterArgs {
     /// Compute threads per worker process.
     #[arg(long, default_value_t = 1)]
     pub worker_threads: usize,
-    /// Give every worker an equal share instead of adapting each share to its round trips.
-    #[arg(long)]
-    pub equal_shares: bool,
+    /// How replies are gathered.
+    #[command(flatten)]
+    pub gather: GatherArgs,
     /// The session (device, parameters, length, recording).
     #[command(flatten)]
     pub session: RunArgs,
@@ -461,9 +487,9 @@ pub enum BenchKind {
         /// Voxel size of the scene.
         #[arg(long, value_parser = parse_length, default_value = "5mm")]
         voxel_size: f64,
-        /// Give every worker an equal share instead of adapting each share to its round trips.
-        #[arg(long)]
-        equal_shares: bool,
+        /// How replies are gathered.
+        #[command(flatten)]
+        gather: GatherArgs,
         /// Print JSON (always JSON; accepted for symmetry).
         #[arg(long)]
         json: bool,
@@ -486,6 +512,10 @@ pub enum BenchKind {
         /// Frames (and raw UDP round trips) per measurement.
         #[arg(long, default_value_t = 5000)]
         frames: u64,
+        /// Spin instead of sleeping for the last this many µs before the reply deadline (see
+        /// `vps coordinator --help`).
+        #[arg(long, default_value_t = 100)]
+        spin_us: u64,
         /// Print JSON (always JSON; accepted for symmetry).
         #[arg(long)]
         json: bool,

@@ -10,7 +10,7 @@
 use super::cluster::run_local_cluster_prepared;
 use super::output::print_json;
 use super::run::PreparedSession;
-use crate::cli::RunArgs;
+use crate::cli::{GatherArgs, RunArgs};
 use crate::session::{builtin_scene, laps_script};
 use anyhow::Result;
 use serde::Serialize;
@@ -35,8 +35,8 @@ pub struct ClusterBench {
     pub worker_threads: usize,
     /// Compute threads of the coordinator (its own share and the fallback).
     pub local_threads: usize,
-    /// Equal shares instead of shares adapted to each worker's round trips.
-    pub equal_shares: bool,
+    /// Share adaptation and reply spinning.
+    pub gather: GatherArgs,
 }
 
 #[derive(Serialize)]
@@ -90,17 +90,23 @@ pub fn run(bench: ClusterBench) -> Result<()> {
         prepared,
         bench.workers,
         bench.worker_threads,
-        bench.equal_shares,
+        bench.gather,
     )?;
     print_json(&ClusterBenchReport {
         command: format!(
-            "vps bench cluster --points {} --frames {} --workers {} --worker-threads {} --threads {}{}",
+            "vps bench cluster --points {} --frames {} --workers {} --worker-threads {} --threads {} \
+             --spin-us {}{}",
             bench.points,
             bench.frames,
             bench.workers,
             bench.worker_threads,
             bench.local_threads,
-            if bench.equal_shares { " --equal-shares" } else { "" }
+            bench.gather.spin_us,
+            if bench.gather.equal_shares {
+                " --equal-shares"
+            } else {
+                ""
+            }
         ),
         shell_voxel_size_m: shell_voxel,
         shell_points,

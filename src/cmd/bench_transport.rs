@@ -9,7 +9,7 @@
 
 use super::cluster::run_local_cluster;
 use super::output::print_json;
-use crate::cli::RunArgs;
+use crate::cli::{GatherArgs, RunArgs};
 use anyhow::Result;
 use serde::Serialize;
 use std::time::Duration;
@@ -27,13 +27,15 @@ struct GatherFigure {
 
 #[derive(Serialize)]
 struct TransportReport {
+    /// The coordinator's spin margin (`--spin-us`).
+    spin_us: u64,
     raw_udp: TransportPercentiles,
     raw_udp_round_trips: usize,
     gather: Vec<GatherFigure>,
 }
 
 /// Runs the benchmark and prints JSON.
-pub fn run(frames: u64) -> Result<()> {
+pub fn run(frames: u64, spin_us: u64) -> Result<()> {
     let raw = raw_udp_round_trips(frames as usize, 200)?;
     let raw_udp = percentiles(&raw);
     let mut gather = Vec::new();
@@ -43,7 +45,11 @@ pub fn run(frames: u64) -> Result<()> {
             ..RunArgs::default()
         };
         // Equal shares: the round trip of a fixed share is what is compared with raw UDP.
-        let run = run_local_cluster(&session, workers, 1, true, |config| {
+        let choice = GatherArgs {
+            equal_shares: true,
+            spin_us,
+        };
+        let run = run_local_cluster(&session, workers, 1, choice, |config| {
             config.free_running = true;
             config.realtime = false;
             config.watchdog = Duration::from_millis(10);
@@ -64,6 +70,7 @@ pub fn run(frames: u64) -> Result<()> {
         });
     }
     print_json(&TransportReport {
+        spin_us,
         raw_udp,
         raw_udp_round_trips: raw.len(),
         gather,

@@ -2,7 +2,7 @@
 //! (DESIGN §4), thin shells over `vps-cluster`.
 
 use super::run::{finish, prepare, PreparedSession};
-use crate::cli::{ClusterArgs, CoordinatorArgs, RunArgs, WorkerArgs};
+use crate::cli::{ClusterArgs, CoordinatorArgs, GatherArgs, RunArgs, WorkerArgs};
 use crate::session::CLASS_COUNT;
 use anyhow::{Context, Result};
 use std::net::SocketAddr;
@@ -63,28 +63,20 @@ fn coordinate(
     key: &std::path::Path,
     pins: &[PathBuf],
     workers: usize,
-    equal_shares: bool,
+    gather: GatherArgs,
     spawn: impl FnOnce(SocketAddr) -> Result<Option<vps_cluster::LocalWorkers>>,
     tune: impl FnOnce(&mut LoopConfig),
 ) -> Result<CoordinatedRun> {
     let mut prepared = prepare(session)?;
     tune(&mut prepared.config);
     coordinate_prepared(
-        session,
-        prepared,
-        listen,
-        cert,
-        key,
-        pins,
-        workers,
-        equal_shares,
-        spawn,
+        session, prepared, listen, cert, key, pins, workers, gather, spawn,
     )
 }
 
 /// [`coordinate`] for a session already prepared (benchmarks bring their own scene and device);
-/// `session` gives the local threads and the viewer address; `equal_shares` turns off the
-/// adaptation of worker shares ([`GatherConfig::adaptive_shares`]).
+/// `session` gives the local threads and the viewer address; `gather` the share adaptation
+/// ([`GatherConfig::adaptive_shares`]) and the spin margin ([`GatherConfig::spin_margin`]).
 #[allow(clippy::too_many_arguments)]
 fn coordinate_prepared(
     session: &RunArgs,
@@ -94,7 +86,7 @@ fn coordinate_prepared(
     key: &std::path::Path,
     pins: &[PathBuf],
     workers: usize,
-    equal_shares: bool,
+    gather: GatherArgs,
     spawn: impl FnOnce(SocketAddr) -> Result<Option<vps_cluster::LocalWorkers>>,
 ) -> Result<CoordinatedRun> {
     let PreparedSession {
@@ -122,7 +114,8 @@ fn coordinate_prepared(
         .with_context(|| format!("waiting {JOIN_TIMEOUT:?} for {workers} worker(s) to join"))?;
     let gather = GatherConfig {
         local_threads: session.threads.max(1),
-        adaptive_shares: !equal_shares,
+        adaptive_shares: !gather.equal_shares,
+        spin_margin: Duration::from_micros(gather.spin_us),
         ..GatherConfig::default()
     };
     let (report, cluster) = run_coordinator_session(
@@ -151,7 +144,7 @@ pub fn coordinator(args: &CoordinatorArgs) -> Result<()> {
         &args.key,
         &args.pin,
         args.workers,
-        args.equal_shares,
+        args.gather,
         |_| Ok(None),
         |_| {},
     )?;
@@ -170,7 +163,7 @@ pub fn local_cluster(args: &ClusterArgs) -> Result<()> {
         &args.session,
         args.local_workers,
         args.worker_threads,
-        args.equal_shares,
+        args.gather,
         |_| {},
     )?;
     finish(
@@ -186,12 +179,12 @@ pub fn run_local_cluster(
     session: &RunArgs,
     workers: usize,
     worker_threads: usize,
-    equal_shares: bool,
+    gather: GatherArgs,
     tune: impl FnOnce(&mut LoopConfig),
 ) -> Result<CoordinatedRun> {
     let mut prepared = prepare(session)?;
     tune(&mut prepared.config);
-    run_local_cluster_prepared(session, prepared, workers, worker_threads, equal_shares)
+    run_local_cluster_prepared(session, prepared, workers, worker_threads, gather)
 }
 
 /// [`run_local_cluster`] for a session already prepared (`session`: local threads, viewer).
@@ -200,7 +193,7 @@ pub fn run_local_cluster_prepared(
     prepared: PreparedSession,
     workers: usize,
     worker_threads: usize,
-    equal_shares: bool,
+    gather: GatherArgs,
 ) -> Result<CoordinatedRun> {
     let dir = std::env::temp_dir().join(format!("vps-cluster-{}", std::process::id()));
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -214,7 +207,7 @@ pub fn run_local_cluster_prepared(
         &certs.coordinator.key,
         std::slice::from_ref(&certs.worker.cert),
         workers,
-        equal_shares,
+        gather,
         |addr| {
             let spawn_args = LocalWorkerArgs {
                 coordinator: addr,

@@ -84,7 +84,9 @@ pub fn dispatch(cli: Cli) -> Result<()> {
             BenchKind::Viewer {
                 seconds, rounds, ..
             } => bench_viewer::run(seconds, rounds),
-            BenchKind::Transport { frames, .. } => bench_transport::run(frames),
+            BenchKind::Transport {
+                frames, spin_us, ..
+            } => bench_transport::run(frames, spin_us),
             BenchKind::Host {
                 seconds, busy_us, ..
             } => bench_host::run(seconds, busy_us),
@@ -95,7 +97,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
                 worker_threads,
                 threads,
                 voxel_size,
-                equal_shares,
+                gather,
                 ..
             } => bench_cluster::run(bench_cluster::ClusterBench {
                 voxel_size,
@@ -104,7 +106,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
                 workers,
                 worker_threads,
                 local_threads: threads,
-                equal_shares,
+                gather,
             }),
             BenchKind::Kernel {
                 points, seconds, ..
