@@ -263,8 +263,13 @@ fn answer_slowly(
     })
 }
 
-#[test]
-fn a_slow_worker_is_given_a_smaller_share_and_the_sums_stay_exact() {
+/// One fake worker needing 1 ms per class, `frames` frames with a 20 ms reply window, every
+/// frame's sums checked against the one-process sums. Returns each frame's recomputed shares and
+/// the worker's final report. Never benched, so only the share adaptation (when on) can help.
+fn run_with_one_slow_worker(
+    adaptive_shares: bool,
+    frames: usize,
+) -> (Vec<u32>, vps_cluster::PeerReport) {
     let ids = identities();
     let scene = scene();
     let coordinator = start_coordinator(&ids, scene.clone());
@@ -276,73 +281,51 @@ fn a_slow_worker_is_given_a_smaller_share_and_the_sums_stay_exact() {
     coordinator
         .wait_for_workers(1, Duration::from_secs(8))
         .unwrap();
-    // An equal share (32 of 64 classes) takes 32 ms against a 20 ms window: always late. Never
-    // benched here, so only the share adaptation can help.
     let config = GatherConfig {
         bench_after: u32::MAX,
         log_every: None,
+        adaptive_shares,
         ..GatherConfig::default()
     };
     let mut shares = coordinator.shares(config).unwrap();
     let slow = answer_slowly(&fake, conn, scene.clone(), Duration::from_millis(1));
-    let window = Duration::from_millis(20);
-    let poses = poses(60);
-    let mut merged_at_the_end = 0;
-    for (i, pose) in poses.iter().enumerate() {
+    let mut recomputed = Vec::new();
+    for (i, pose) in poses(frames).iter().enumerate() {
         let want = sample_all(&*scene.map, &scene.shell, pose);
-        let got = shares.compute(pose, Instant::now() + window);
+        let got = shares.compute(pose, Instant::now() + Duration::from_millis(20));
         assert_eq!(got.sums, want, "frame {i}");
-        if i >= 40 {
-            merged_at_the_end += usize::from(got.fallback_shares == 0);
-        }
+        recomputed.push(got.fallback_shares);
         // Let a late reply drain before the next frame, so frames do not queue behind it.
         std::thread::sleep(Duration::from_millis(15));
     }
-    let report = shares.report();
-    let peer = &report.peers[0];
+    let peer = shares.report().peers[0].clone();
+    drop(shares);
+    drop(coordinator);
+    slow.join().unwrap();
+    (recomputed, peer)
+}
+
+#[test]
+fn a_slow_worker_is_given_a_smaller_share_and_the_sums_stay_exact() {
+    // An equal share (32 of 64 classes) takes 32 ms against a 20 ms window: always late.
+    let (recomputed, peer) = run_with_one_slow_worker(true, 60);
     assert!(
         (1..=16).contains(&peer.classes),
         "a worker needing 1 ms per class in a 20 ms window should hold at most 16 classes: {peer:?}"
     );
+    let merged_at_the_end = recomputed[40..].iter().filter(|&&r| r == 0).count();
     assert!(
         merged_at_the_end >= 10,
         "after adapting, most of its shares are merged: {merged_at_the_end} of 20; {peer:?}"
     );
-    drop(shares);
-    drop(coordinator);
-    slow.join().unwrap();
 }
 
 #[test]
 fn equal_shares_keep_a_slow_worker_at_half_the_classes() {
-    let ids = identities();
-    let scene = scene();
-    let coordinator = start_coordinator(&ids, scene.clone());
-    let addr = coordinator.local_addr().unwrap();
-    let fake = FakeWorker::new(&ids.worker, &ids.coordinator);
-    let conn = fake
-        .join(addr, vps_cluster::protocol::PROTOCOL_VERSION)
-        .unwrap();
-    coordinator
-        .wait_for_workers(1, Duration::from_secs(8))
-        .unwrap();
-    let config = GatherConfig {
-        bench_after: u32::MAX,
-        log_every: None,
-        adaptive_shares: false,
-        ..GatherConfig::default()
-    };
-    let mut shares = coordinator.shares(config).unwrap();
-    let slow = answer_slowly(&fake, conn, scene.clone(), Duration::from_millis(1));
-    for pose in &poses(10) {
-        let want = sample_all(&*scene.map, &scene.shell, pose);
-        let got = shares.compute(pose, Instant::now() + Duration::from_millis(20));
-        assert_eq!(got.sums, want);
-        std::thread::sleep(Duration::from_millis(15));
-    }
-    let report = shares.report();
-    assert_eq!(report.peers[0].classes, 32, "{:?}", report.peers[0]);
-    drop(shares);
-    drop(coordinator);
-    slow.join().unwrap();
+    let (recomputed, peer) = run_with_one_slow_worker(false, 10);
+    assert_eq!(peer.classes, 32, "{peer:?}");
+    assert!(
+        recomputed.iter().all(|&r| r == 1),
+        "always late: {recomputed:?}"
+    );
 }
