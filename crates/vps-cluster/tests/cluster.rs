@@ -81,10 +81,16 @@ fn a_worker_leaving_mid_run_changes_nothing_in_the_sums() {
     workers.pop().unwrap().stop().unwrap();
 }
 
-#[test]
-fn a_silent_worker_is_benched_and_a_recovered_one_gets_work_again() {
+/// A coordinator on `scene` with one hand-driven worker joined over real QUIC.
+struct OneFake {
+    coordinator: vps_cluster::Coordinator,
+    addr: std::net::SocketAddr,
+    fake: FakeWorker,
+    conn: quinn::Connection,
+}
+
+fn coordinator_with_one_fake(scene: &std::sync::Arc<vps_cluster::ClusterScene>) -> OneFake {
     let ids = identities();
-    let scene = scene();
     let coordinator = start_coordinator(&ids, scene.clone());
     let addr = coordinator.local_addr().unwrap();
     let fake = FakeWorker::new(&ids.worker, &ids.coordinator);
@@ -94,6 +100,23 @@ fn a_silent_worker_is_benched_and_a_recovered_one_gets_work_again() {
     coordinator
         .wait_for_workers(1, Duration::from_secs(8))
         .unwrap();
+    OneFake {
+        coordinator,
+        addr,
+        fake,
+        conn,
+    }
+}
+
+#[test]
+fn a_silent_worker_is_benched_and_a_recovered_one_gets_work_again() {
+    let scene = scene();
+    let OneFake {
+        coordinator,
+        addr: _,
+        fake,
+        conn,
+    } = coordinator_with_one_fake(&scene);
     let config = GatherConfig {
         bench_after: 3,
         probe_every: 2,
@@ -152,17 +175,13 @@ fn a_silent_worker_is_benched_and_a_recovered_one_gets_work_again() {
 
 #[test]
 fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
-    let ids = identities();
     let scene = scene();
-    let coordinator = start_coordinator(&ids, scene.clone());
-    let addr = coordinator.local_addr().unwrap();
-    let fake = FakeWorker::new(&ids.worker, &ids.coordinator);
-    let conn = fake
-        .join(addr, vps_cluster::protocol::PROTOCOL_VERSION)
-        .unwrap();
-    coordinator
-        .wait_for_workers(1, Duration::from_secs(8))
-        .unwrap();
+    let OneFake {
+        coordinator,
+        addr,
+        fake,
+        conn,
+    } = coordinator_with_one_fake(&scene);
     // Raw UDP garbage at the coordinator's socket: QUIC drops it, nothing panics.
     let udp = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
     for n in [0usize, 1, 7, 100, 1200, 1500] {
@@ -270,17 +289,13 @@ fn run_with_one_slow_worker(
     adaptive_shares: bool,
     frames: usize,
 ) -> (Vec<u32>, vps_cluster::PeerReport) {
-    let ids = identities();
     let scene = scene();
-    let coordinator = start_coordinator(&ids, scene.clone());
-    let addr = coordinator.local_addr().unwrap();
-    let fake = FakeWorker::new(&ids.worker, &ids.coordinator);
-    let conn = fake
-        .join(addr, vps_cluster::protocol::PROTOCOL_VERSION)
-        .unwrap();
-    coordinator
-        .wait_for_workers(1, Duration::from_secs(8))
-        .unwrap();
+    let OneFake {
+        coordinator,
+        addr: _,
+        fake,
+        conn,
+    } = coordinator_with_one_fake(&scene);
     let config = GatherConfig {
         bench_after: u32::MAX,
         log_every: None,
