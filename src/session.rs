@@ -11,7 +11,7 @@ use std::sync::Arc;
 use std::time::Instant;
 use vps_device::script::{Script, ScriptBuilder};
 use vps_haptic::ClassedShell;
-use vps_voxelize::{point_shell, voxelize_with_stats, ShellMethod, VoxelizeOptions};
+use vps_voxelize::{point_shell, voxelize_tree, ShellMethod, VoxelizeOptions};
 use vps_voxmap::{PointShell, TreeConfig, Voxel, VoxelTree};
 
 /// Everything a session needs, built once.
@@ -38,11 +38,11 @@ pub fn builtin_scene(voxel_size: f64, method: ShellMethod) -> Result<SessionScen
         progress: true,
         ..VoxelizeOptions::default()
     };
-    let (dense, _) = voxelize_with_stats(std::slice::from_ref(&bay), &opts)
+    // The sparse pipeline: memory follows the bay's surface, not its bounding box (the same
+    // tree as the dense pipeline, bit for bit; docs/sparse-voxelize.md).
+    let (tree, _) = voxelize_tree(std::slice::from_ref(&bay), &opts, TreeConfig::default())
         .context("voxelizing the aircraft bay")?;
-    let tree = VoxelTree::from_dense(&dense, TreeConfig::default())?;
     let voxelize_ms = t.elapsed().as_secs_f64() * 1e3;
-    drop(dense);
     let shell =
         point_shell(&part, voxel_size, method).context("building the teapot's point shell")?;
     Ok(SessionScene {
