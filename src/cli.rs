@@ -232,6 +232,12 @@ pub struct GatherArgs {
     /// thread have cores of their own (two local workers on two cores: p99.9 0.2 → 4.1 ms).
     #[arg(long, default_value_t = 100)]
     pub spin_us: u64,
+    /// A missing worker share whose local recompute cannot finish before the device write is due
+    /// may be stood in for by its sums from up to this many frames earlier (degraded accuracy,
+    /// counted as `stale_shares`); 0 always recomputes, so the wrench stays bit-identical to a
+    /// one-process session whatever the timing.
+    #[arg(long, default_value_t = 3)]
+    pub max_stale_frames: u64,
 }
 
 impl Default for GatherArgs {
@@ -240,6 +246,7 @@ impl Default for GatherArgs {
         GatherArgs {
             equal_shares: false,
             spin_us: 100,
+            max_stale_frames: 3,
         }
     }
 }

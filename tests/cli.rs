@@ -190,10 +190,13 @@ fn two_local_worker_processes_reproduce_the_one_process_session() {
         .success());
     let alone = json(&vps(&["replay", &trace, "--json"]));
     let device = format!("replay:{trace}");
+    // No stale stand-ins: the wrench must not depend on how late a worker is on this machine.
     let clustered = json(&vps(&[
         "cluster",
         "--local-workers",
         "2",
+        "--max-stale-frames",
+        "0",
         "--device",
         &device,
         "--json",

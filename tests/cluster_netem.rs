@@ -98,6 +98,8 @@ fn session_behind_relay(
         &coordinator,
         GatherConfig {
             log_every: None,
+            // Exactness is the point: no stale stand-ins, whatever the timing.
+            stale: vps_cluster::fallback::StalePolicy::NEVER,
             ..GatherConfig::default()
         },
         params(),

@@ -114,6 +114,8 @@ fn a_killed_worker_rejoins_and_a_new_worker_joins_mid_session_without_changing_a
         GatherConfig {
             bench_after: 2,
             log_every: None,
+            // Exactness is the point: no stale stand-ins, whatever the timing.
+            stale: vps_cluster::fallback::StalePolicy::NEVER,
             ..GatherConfig::default()
         },
         params(),

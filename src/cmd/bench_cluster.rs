@@ -95,13 +95,14 @@ pub fn run(bench: ClusterBench) -> Result<()> {
     print_json(&ClusterBenchReport {
         command: format!(
             "vps bench cluster --points {} --frames {} --workers {} --worker-threads {} --threads {} \
-             --spin-us {}{}",
+             --spin-us {} --max-stale-frames {}{}",
             bench.points,
             bench.frames,
             bench.workers,
             bench.worker_threads,
             bench.local_threads,
             bench.gather.spin_us,
+            bench.gather.max_stale_frames,
             if bench.gather.equal_shares {
                 " --equal-shares"
             } else {

@@ -48,6 +48,7 @@ pub fn run(frames: u64, spin_us: u64) -> Result<()> {
         let choice = GatherArgs {
             equal_shares: true,
             spin_us,
+            ..GatherArgs::default()
         };
         let run = run_local_cluster(&session, workers, 1, choice, |config| {
             config.free_running = true;

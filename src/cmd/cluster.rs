@@ -116,6 +116,10 @@ fn coordinate_prepared(
         local_threads: session.threads.max(1),
         adaptive_shares: !gather.equal_shares,
         spin_margin: Duration::from_micros(gather.spin_us),
+        stale: vps_cluster::fallback::StalePolicy {
+            max_age_frames: gather.max_stale_frames,
+            ..Default::default()
+        },
         ..GatherConfig::default()
     };
     let (report, cluster) = run_coordinator_session(

@@ -20,6 +20,7 @@
 //! ([`run_coordinator_session`], [`spawn_local_workers`]).
 
 pub mod coordinator;
+pub mod fallback;
 pub mod metrics;
 pub mod protocol;
 pub mod relay;

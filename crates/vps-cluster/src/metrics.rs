@@ -55,6 +55,8 @@ pub struct PeerMetrics {
     pub(crate) recomputed: AtomicU64,
     /// Classes asked of the worker in the latest frame (0 when benched).
     pub(crate) classes: AtomicU64,
+    /// Missing shares stood in for by an earlier frame's sums.
+    pub(crate) stale: AtomicU64,
     benched_times: AtomicU64,
     unbenched_times: AtomicU64,
     rtt_samples: AtomicU64,
@@ -77,6 +79,7 @@ impl PeerMetrics {
             invalid: AtomicU64::new(0),
             recomputed: AtomicU64::new(0),
             classes: AtomicU64::new(0),
+            stale: AtomicU64::new(0),
             benched_times: AtomicU64::new(0),
             unbenched_times: AtomicU64::new(0),
             rtt_samples: AtomicU64::new(0),
@@ -122,6 +125,7 @@ impl PeerMetrics {
             invalid: load(&self.invalid),
             recomputed: load(&self.recomputed),
             classes: load(&self.classes),
+            stale: load(&self.stale),
             benched_times: load(&self.benched_times),
             unbenched_times: load(&self.unbenched_times),
             benched: self.benched.load(Ordering::Relaxed),
@@ -143,6 +147,7 @@ impl PeerMetrics {
 pub(crate) struct Board {
     pub(crate) frames: AtomicU64,
     pub(crate) fallback_shares: AtomicU64,
+    pub(crate) stale_shares: AtomicU64,
     pub(crate) local_only_frames: AtomicU64,
     pub(crate) orphan_datagrams: AtomicU64,
     /// Written by the network tasks (several threads): incremented with `fetch_add`.
@@ -159,6 +164,7 @@ impl Board {
         Arc::new(Board {
             frames: AtomicU64::new(0),
             fallback_shares: AtomicU64::new(0),
+            stale_shares: AtomicU64::new(0),
             local_only_frames: AtomicU64::new(0),
             orphan_datagrams: AtomicU64::new(0),
             queue_full: AtomicU64::new(0),
@@ -212,6 +218,7 @@ impl Board {
         ClusterReport {
             frames: load(&self.frames),
             fallback_shares: load(&self.fallback_shares),
+            stale_shares: load(&self.stale_shares),
             local_only_frames: load(&self.local_only_frames),
             orphan_datagrams: load(&self.orphan_datagrams),
             queue_full_datagrams: load(&self.queue_full),
@@ -389,6 +396,7 @@ fn log_summary(board: &Board, peers: &HashMap<u32, Tracked>) {
             invalid = r.invalid,
             recomputed = r.recomputed,
             classes = r.classes,
+            stale = r.stale,
             benched = r.benched,
             "worker"
         );

@@ -13,12 +13,20 @@
 //! probe every `probe_every` frames whose result is checked but not used; `unbench_after` probes
 //! answered in time in a row give it work again.
 //!
+//! Fallback (at the deadline): every missing share (no reply, or a rejected one) is recomputed on
+//! local threads; only when that cannot finish before the device write is due (one reply window
+//! after the deadline) are shares stood in for by their sums from up to
+//! [`StalePolicy::max_age_frames`] frames earlier, largest first, counted as `stale_shares`
+//! ([`crate::fallback`]). The sums are then no longer those of one pose; `StalePolicy::NEVER`
+//! keeps them exact whatever the timing.
+//!
 //! Validation: a reply is used only if it decodes strictly, carries this frame's sequence number
 //! (older ones are counted late and dropped), echoes the requested class mask and passes
 //! [`PartialSums::is_plausible`] and [`PartialSums::torque_within`] for the share's point count,
 //! the voxel size and the shell's radius.
 
 use crate::coordinator::{Control, Datagram};
+use crate::fallback::{plan_fallback, FallbackAction, MissingShare, StalePolicy};
 use crate::metrics::{Board, PeerMetrics, Reporter};
 use crate::protocol::{FrameReply, FrameRequest, REQUEST_LEN};
 use crate::scene::ClusterScene;
@@ -51,6 +59,10 @@ pub struct GatherConfig {
     /// Adapt each worker's share to its round trips ([`crate::split`]); off: equal shares.
     /// Default on.
     pub adaptive_shares: bool,
+    /// When a missing share may be stood in for by its sums from an earlier frame instead of
+    /// being recomputed ([`crate::fallback`]); `max_age_frames: 0` always recomputes (exact).
+    /// Default: up to 3 frames old, only when the recompute cannot finish before the write.
+    pub stale: StalePolicy,
 }
 
 impl Default for GatherConfig {
@@ -63,6 +75,7 @@ impl Default for GatherConfig {
             unbench_after: 3,
             log_every: Some(Duration::from_secs(1)),
             adaptive_shares: true,
+            stale: StalePolicy::default(),
         }
     }
 }
@@ -104,6 +117,8 @@ pub struct PeerReport {
     pub rtt_ns: Percentiles,
     /// Classes asked of it in the latest frame (its adapted share; 0 while benched).
     pub classes: u64,
+    /// Its missing shares stood in for by an earlier frame's sums ([`crate::fallback`]).
+    pub stale: u64,
 }
 
 /// The cluster's figures for a session.
@@ -113,6 +128,9 @@ pub struct ClusterReport {
     pub frames: u64,
     /// Worker shares computed locally, summed over frames.
     pub fallback_shares: u64,
+    /// Missing worker shares stood in for by an earlier frame's sums (degraded accuracy, when
+    /// recomputing them could not finish before the device write), summed over frames.
+    pub stale_shares: u64,
     /// Frames in which no worker had work (everything local).
     pub local_only_frames: u64,
     /// Datagrams from workers that are no longer known.
@@ -138,6 +156,8 @@ struct Peer {
     weight: f64,
     /// Round trip of this frame's merged reply.
     rtt: Duration,
+    /// The latest merged work reply: its class mask, sums and frame sequence number.
+    held: Option<(u64, PartialSums, u64)>,
     misses: u32,
     probe_hits: u32,
     /// This frame: the classes asked for (0: nothing asked), whether it is a probe, the points
@@ -169,6 +189,10 @@ pub struct RemoteShares {
     adapt: Adapt,
     /// This frame's deadline (set at the start of `compute`).
     deadline: Instant,
+    /// Local cost of one class, from the latest frame in which the coordinator had a share.
+    per_class: Duration,
+    /// Scratch for the fallback plan: (peer index, missing share).
+    missing: Vec<(usize, MissingShare)>,
     /// Scratch for the assignment: the parties' weights.
     weights: Vec<f64>,
 }
@@ -226,6 +250,8 @@ impl RemoteShares {
             request: [0; REQUEST_LEN],
             adapt: Adapt::default(),
             deadline: Instant::now(),
+            per_class: Duration::ZERO,
+            missing: Vec::new(),
             weights: Vec::new(),
         })
     }
@@ -272,6 +298,7 @@ impl RemoteShares {
                         benched: false,
                         weight: 1.0,
                         rtt: Duration::ZERO,
+                        held: None,
                         misses: 0,
                         probe_hits: 0,
                         asked: 0,
@@ -424,6 +451,7 @@ impl RemoteShares {
             sums.merge(&reply.sums);
             peer.merged = true;
             peer.rtt = rtt;
+            peer.held = Some((peer.asked, reply.sums, self.seq));
             peer.metrics.bump(|m| &m.merged);
         }
         true
@@ -481,12 +509,11 @@ impl RemoteShares {
         }
     }
 
-    /// Books the frame's outcome per worker (benching, un-benching); returns the classes to
-    /// recompute locally and how many worker shares that is.
-    fn settle(&mut self) -> (u64, u32) {
-        let mut missing = 0u64;
-        let mut shares = 0u32;
-        for peer in &mut self.peers {
+    /// Books the frame's outcome per worker (benching, un-benching, share weight) and lists the
+    /// missing work shares in `self.missing`.
+    fn settle(&mut self) {
+        self.missing.clear();
+        for (index, peer) in self.peers.iter_mut().enumerate() {
             if peer.asked == 0 {
                 continue;
             }
@@ -519,9 +546,17 @@ impl RemoteShares {
             if !peer.settled {
                 peer.metrics.bump(|m| &m.lost);
             }
-            missing |= peer.asked;
-            shares += 1;
-            peer.metrics.bump(|m| &m.recomputed);
+            let stale_age = match peer.held {
+                Some((classes, _, seq)) if classes == peer.asked => Some(self.seq - seq),
+                _ => None,
+            };
+            self.missing.push((
+                index,
+                MissingShare {
+                    classes: peer.asked.count_ones(),
+                    stale_age,
+                },
+            ));
             peer.misses += 1;
             if peer.misses >= self.config.bench_after && !peer.benched {
                 peer.benched = true;
@@ -529,7 +564,39 @@ impl RemoteShares {
                 peer.metrics.set_benched(true);
             }
         }
-        (missing, shares)
+    }
+
+    /// Stands in for the missing shares ([`crate::fallback`]): recomputes them on local threads,
+    /// or, where that cannot finish `write_margin` before the write is due (`write_due`), merges
+    /// their sums from an earlier frame. Returns how many shares were recomputed.
+    fn fall_back(&mut self, pose: &KernelPose, write_due: Instant, sums: &mut PartialSums) -> u32 {
+        if self.missing.is_empty() {
+            return 0;
+        }
+        let shares: Vec<MissingShare> = self.missing.iter().map(|m| m.1).collect();
+        let left = write_due.saturating_duration_since(Instant::now());
+        let plan = plan_fallback(&shares, left, self.per_class, self.config.stale);
+        let mut recompute = 0u64;
+        let mut recomputed = 0;
+        for (&(index, _), action) in self.missing.iter().zip(plan) {
+            let peer = &self.peers[index];
+            match (action, peer.held) {
+                (FallbackAction::ReuseStale, Some((_, held, _))) => {
+                    sums.merge(&held);
+                    peer.metrics.bump(|m| &m.stale);
+                    self.board.bump(|b| &b.stale_shares);
+                }
+                _ => {
+                    recompute |= peer.asked;
+                    recomputed += 1;
+                    peer.metrics.bump(|m| &m.recomputed);
+                }
+            }
+        }
+        if recompute != 0 {
+            sums.merge(&self.sample(pose, recompute));
+        }
+        recomputed
     }
 }
 
@@ -547,9 +614,12 @@ impl RemoteShares {
 
 impl FrameSampler for RemoteShares {
     /// One frame: membership, assignment, requests, own share on local threads, gather until
-    /// `deadline`, local fallback. Allocates one datagram buffer per request (and on membership
-    /// changes); blocks only on the reply channel (never past `deadline`) and on local compute.
+    /// `deadline`, fallback (recompute, or stand in with earlier sums). Allocates one datagram
+    /// buffer per request, the share split, and the fallback plan when shares are missing (and on
+    /// membership changes); blocks only on the reply channel (never past `deadline`) and on local
+    /// compute.
     fn compute(&mut self, pose: &KernelPose, deadline: Instant) -> PoolResult {
+        let entered = Instant::now();
         self.seq += 1;
         self.deadline = deadline;
         self.update_membership();
@@ -560,13 +630,18 @@ impl FrameSampler for RemoteShares {
         }
         let local = self.assign();
         let pending = self.send_requests(pose);
+        let started = Instant::now();
         let mut sums = self.sample(pose, local);
-        self.gather(pending, deadline, &mut sums);
-        let (missing, fallback_shares) = self.settle();
-        if missing != 0 {
-            let fallback = self.sample(pose, missing);
-            sums.merge(&fallback);
+        if local != 0 {
+            self.per_class = started.elapsed() / local.count_ones();
         }
+        self.gather(pending, deadline, &mut sums);
+        self.settle();
+        // The write is due one reply window after the reply deadline (see `crate::fallback`).
+        let write_due = deadline
+            .checked_add(deadline.saturating_duration_since(entered))
+            .unwrap_or(deadline);
+        let fallback_shares = self.fall_back(pose, write_due, &mut sums);
         self.board.bump(|b| &b.frames);
         self.board
             .add(|b| &b.fallback_shares, u64::from(fallback_shares));

@@ -263,11 +263,28 @@ fn answer_slowly(
     scene: std::sync::Arc<vps_cluster::ClusterScene>,
     per_class: Duration,
 ) -> std::thread::JoinHandle<()> {
+    answer(fake, conn, scene, per_class, usize::MAX)
+}
+
+/// Answers the first `count` requests as [`answer_slowly`] does, then reads the rest without
+/// answering.
+fn answer(
+    fake: &FakeWorker,
+    conn: quinn::Connection,
+    scene: std::sync::Arc<vps_cluster::ClusterScene>,
+    per_class: Duration,
+    count: usize,
+) -> std::thread::JoinHandle<()> {
     let rt = fake.runtime.handle().clone();
     std::thread::spawn(move || {
         rt.block_on(async move {
             let mut buf = [0u8; REPLY_LEN];
+            let mut answered = 0;
             while let Ok(bytes) = conn.read_datagram().await {
+                if answered == count {
+                    continue;
+                }
+                answered += 1;
                 let req = FrameRequest::decode(&bytes).unwrap();
                 std::thread::sleep(per_class * req.classes.count_ones());
                 FrameReply {
@@ -343,4 +360,92 @@ fn equal_shares_keep_a_slow_worker_at_half_the_classes() {
         recomputed.iter().all(|&r| r == 1),
         "always late: {recomputed:?}"
     );
+}
+
+#[test]
+fn a_share_that_cannot_be_recomputed_in_time_is_stood_in_for_by_its_last_sums_for_three_frames() {
+    let scene = scene();
+    let OneFake {
+        coordinator,
+        addr: _,
+        fake,
+        conn,
+    } = coordinator_with_one_fake(&scene);
+    // Equal shares, one worker: the coordinator samples the even classes, the worker the odd.
+    let config = GatherConfig {
+        adaptive_shares: false,
+        log_every: None,
+        ..GatherConfig::default()
+    };
+    let mut shares = coordinator.shares(config).unwrap();
+    let worker = answer(&fake, conn, scene.clone(), Duration::ZERO, 1);
+    let (even, odd) = (0x5555_5555_5555_5555u64, 0xAAAA_AAAA_AAAA_AAAAu64);
+    let poses = poses(6);
+    // Frame 1: answered in time and merged.
+    let got = shares.compute(&poses[0], Instant::now() + DEADLINE);
+    assert_eq!(got.sums, sample_all(&*scene.map, &scene.shell, &poses[0]));
+    // Frames 2–4: silent worker, a deadline already past, so no time to recompute: the odd
+    // classes' sums of frame 1 stand in (ages 1, 2, 3).
+    for pose in &poses[1..4] {
+        let got = shares.compute(pose, Instant::now());
+        let mut want = scene.sample_mask_serial(pose, even);
+        want.merge(&scene.sample_mask_serial(&poses[0], odd));
+        assert_eq!(got.sums, want);
+        assert_eq!(got.fallback_shares, 0, "stood in for, not recomputed");
+    }
+    // Frame 5: those sums are 4 frames old, too old: recomputed, exact again.
+    let got = shares.compute(&poses[4], Instant::now());
+    assert_eq!(got.sums, sample_all(&*scene.map, &scene.shell, &poses[4]));
+    assert_eq!(got.fallback_shares, 1);
+    let report = shares.report();
+    assert_eq!(
+        (report.stale_shares, report.peers[0].stale),
+        (3, 3),
+        "{report:?}"
+    );
+    assert_ne!(
+        sample_all(&*scene.map, &scene.shell, &poses[0]),
+        sample_all(&*scene.map, &scene.shell, &poses[3]),
+        "the poses must differ for this test to mean anything"
+    );
+    drop(shares);
+    drop(coordinator);
+    worker.join().unwrap();
+}
+
+#[test]
+fn with_stale_reuse_off_a_late_share_is_always_recomputed() {
+    let scene = scene();
+    let OneFake {
+        coordinator,
+        addr: _,
+        fake,
+        conn,
+    } = coordinator_with_one_fake(&scene);
+    let config = GatherConfig {
+        adaptive_shares: false,
+        log_every: None,
+        stale: vps_cluster::fallback::StalePolicy::NEVER,
+        ..GatherConfig::default()
+    };
+    let mut shares = coordinator.shares(config).unwrap();
+    let worker = answer(&fake, conn, scene.clone(), Duration::ZERO, 1);
+    let poses = poses(4);
+    for (i, pose) in poses.iter().enumerate() {
+        let deadline = if i == 0 {
+            Instant::now() + DEADLINE
+        } else {
+            Instant::now()
+        };
+        let got = shares.compute(pose, deadline);
+        assert_eq!(
+            got.sums,
+            sample_all(&*scene.map, &scene.shell, pose),
+            "frame {i}"
+        );
+    }
+    assert_eq!(shares.report().stale_shares, 0);
+    drop(shares);
+    drop(coordinator);
+    worker.join().unwrap();
 }

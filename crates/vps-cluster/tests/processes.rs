@@ -105,6 +105,8 @@ fn two_worker_processes_one_killed_mid_session_keep_every_write_bit_identical() 
         &coordinator,
         GatherConfig {
             bench_after: 2,
+            // Exactness is the point: no stale stand-ins, whatever the timing.
+            stale: vps_cluster::fallback::StalePolicy::NEVER,
             ..GatherConfig::default()
         },
         params(),

@@ -28,7 +28,11 @@ fn cluster_writes(leave_at: u64) -> (Vec<Wrench>, vps_cluster::ClusterReport) {
     let (device, writes) = hand(leave_at, leaving.stop.clone());
     let (report, cluster) = run_coordinator_session(
         &coordinator,
-        GatherConfig::default(),
+        // Exactness is the point: no stale stand-ins, whatever the timing.
+        GatherConfig {
+            stale: vps_cluster::fallback::StalePolicy::NEVER,
+            ..GatherConfig::default()
+        },
         params(),
         device,
         PartState::at_rest(START, DQuat::IDENTITY),
