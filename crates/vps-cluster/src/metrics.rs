@@ -6,7 +6,7 @@
 //! store, no read-modify-write); the reporter thread (`vps-metrics`) owns the RTT histograms,
 //! publishes their percentiles every [`REPORT_TICK`], logs benched/un-benched transitions as they
 //! happen and a one-line summary per worker every `log_every` at `info` level. Nothing in this
-//! module blocks or allocates on the frame path except [`PeerMetrics::new`] (at join).
+//! module blocks or allocates on the frame path except `PeerMetrics::new` (at join).
 //!
 //! Consistency: every field of a snapshot is read atomically, but fields are read one after the
 //! other, so a snapshot taken mid-frame may mix adjacent frames (e.g. `requests` one ahead of
