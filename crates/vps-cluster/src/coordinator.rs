@@ -109,7 +109,7 @@ impl Coordinator {
         let server = server_config(&config.identity, config.pins, counters.refused.clone())?;
         let endpoint = {
             let _guard = runtime.enter();
-            quinn::Endpoint::server(server, config.listen)
+            crate::udp_count::counting_endpoint(config.listen, Some(server), board.udp.clone())
                 .map_err(|e| ClusterError::Network(format!("listen on {}: {e}", config.listen)))?
         };
         let (control_tx, control) = unbounded();

@@ -30,6 +30,7 @@ pub mod shares;
 pub mod split;
 pub mod tls;
 pub mod transport_bench;
+pub mod udp_count;
 pub mod worker;
 
 pub use coordinator::{Coordinator, CoordinatorConfig};

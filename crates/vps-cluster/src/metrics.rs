@@ -157,6 +157,8 @@ pub(crate) struct Board {
     tracked: AtomicUsize,
     slots: Box<[OnceLock<Arc<PeerMetrics>>]>,
     rtt_queue: ArrayQueue<(Arc<PeerMetrics>, u64)>,
+    /// What the coordinator's UDP socket received (written by its socket wrapper).
+    pub(crate) udp: Arc<crate::udp_count::UdpCounts>,
 }
 
 impl Board {
@@ -172,6 +174,7 @@ impl Board {
             untracked: AtomicU64::new(0),
             tracked: AtomicUsize::new(0),
             slots: (0..MAX_TRACKED_WORKERS).map(|_| OnceLock::new()).collect(),
+            udp: Arc::default(),
             rtt_queue: ArrayQueue::new(RTT_QUEUE),
         })
     }
@@ -224,6 +227,8 @@ impl Board {
             queue_full_datagrams: load(&self.queue_full),
             rtt_samples_dropped: load(&self.rtt_dropped),
             untracked_workers: load(&self.untracked),
+            udp_datagrams: self.udp.datagrams(),
+            udp_not_quic: self.udp.not_quic(),
             peers,
         }
     }

@@ -142,6 +142,11 @@ pub struct ClusterReport {
     /// Workers beyond [`MAX_TRACKED_WORKERS`](crate::metrics::MAX_TRACKED_WORKERS) joins, missing
     /// from live snapshots (the final report lists them).
     pub untracked_workers: u64,
+    /// Datagrams the coordinator's UDP socket received.
+    pub udp_datagrams: u64,
+    /// Of those, datagrams that cannot be QUIC packets by their shape (garbage; see
+    /// [`crate::udp_count`]). Garbage shaped like QUIC is dropped by quinn uncounted.
+    pub udp_not_quic: u64,
     /// Every worker seen, by id (join order).
     pub peers: Vec<PeerReport>,
 }

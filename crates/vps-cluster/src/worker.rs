@@ -71,6 +71,9 @@ pub struct WorkerReport {
     pub superseded: u64,
     /// Datagrams that failed to decode (garbage, truncated, wrong version).
     pub invalid_datagrams: u64,
+    /// UDP datagrams on its socket that cannot be QUIC packets by their shape (raw garbage; see
+    /// [`crate::udp_count`]).
+    pub udp_not_quic: u64,
 }
 
 /// Runs a worker until the coordinator closes the connection or goes silent (idle timeout).
@@ -110,7 +113,9 @@ async fn worker_main(
     } else {
         ([0u16; 8], 0).into()
     };
-    let mut endpoint = quinn::Endpoint::client(bind).map_err(net_err)?;
+    let udp = Arc::new(crate::udp_count::UdpCounts::default());
+    let mut endpoint =
+        crate::udp_count::counting_endpoint(bind, None, udp.clone()).map_err(net_err)?;
     endpoint.set_default_client_config(client_config(
         &config.identity,
         config.pins.clone(),
@@ -173,6 +178,7 @@ async fn worker_main(
         replies: answer.replies,
         superseded: answer.superseded,
         invalid_datagrams: invalid,
+        udp_not_quic: udp.not_quic(),
     })
 }
 
