@@ -388,7 +388,7 @@ fn accuracy_pass(
         let sums = sample_all(&*session.tree, &shell, &KernelPose::from_state(&state));
         if sums.surface + sums.interior > 0 {
             touching += 1;
-            if touching % stride == 0 {
+            if touching.is_multiple_of(stride) {
                 let reference = reference_contact(
                     set.exact,
                     &session.shell.points,
