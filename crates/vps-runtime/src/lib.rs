@@ -15,8 +15,8 @@ pub mod haptic_loop;
 pub mod pool;
 pub mod rt;
 pub mod stats;
-#[cfg(test)]
-mod test_scene;
+#[cfg(any(test, feature = "test-support"))]
+pub mod test_scene;
 
 pub use clock::{schedule, FrameClock, Schedule, Tick};
 pub use feed::{state_feed, FeedFrame, RecentMax, StateFeedReceiver, StateFeedSender};

@@ -1,4 +1,5 @@
-//! Hand-made scenes for the runtime's tests: a flat wall and a sphere point shell.
+//! Hand-made scenes for tests (the runtime's own, and other crates' through the `test-support`
+//! feature): a flat wall and a sphere point shell.
 
 use glam::{DVec3, IVec3, Vec3};
 use vps_voxmap::shell::ShellMethod;

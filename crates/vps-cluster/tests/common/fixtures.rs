@@ -3,7 +3,7 @@
 //! one-process reference run.
 #![allow(dead_code)]
 
-use glam::{DQuat, DVec3, IVec3, Vec3};
+use glam::{DQuat, DVec3};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -14,59 +14,19 @@ use vps_device::{
 };
 use vps_haptic::{HandleSample, HapticParams, KernelPose, PartState, Wrench};
 use vps_runtime::{run_loop, LoopConfig};
-use vps_voxmap::shell::ShellMethod;
-use vps_voxmap::{DenseGrid, GridSpec, MassProperties, PointShell, TreeConfig, Voxel, VoxelTree};
+use vps_voxmap::{TreeConfig, VoxelTree};
 
-pub const VOXEL: f64 = 0.005;
-pub const RADIUS: f64 = 0.015;
+pub use vps_runtime::test_scene::{sphere_shell, VOXEL};
+
+/// Radius of the test sphere shell (m).
+pub const RADIUS: f64 = vps_runtime::test_scene::SPHERE_RADIUS;
 pub const CLASSES: u32 = 64;
 
-/// A 5 mm wall: Interior below z index 8, Surface at 8–9, Proximity at 10, face at z = 0.05 m.
+/// The runtime's test wall (5 mm voxels: Interior below z index 8, Surface at 8–9, Proximity at 10,
+/// face at z = 0.05 m) as a tree.
 pub fn wall() -> VoxelTree {
-    let spec = GridSpec {
-        origin: DVec3::ZERO,
-        voxel_size: VOXEL,
-        dims: [20, 20, 20],
-    };
-    let mut g = DenseGrid::new(spec);
-    for z in 0..11 {
-        let kind = match z {
-            0..=7 => Voxel::Interior,
-            8 | 9 => Voxel::Surface,
-            _ => Voxel::Proximity,
-        };
-        for y in 0..20 {
-            for x in 0..20 {
-                g.set(IVec3::new(x, y, z), kind);
-            }
-        }
-    }
-    VoxelTree::from_dense(&g, TreeConfig::uniform(2)).expect("valid tree config")
-}
-
-/// `n` points on a sphere of radius [`RADIUS`] (Fibonacci lattice), inward normals.
-pub fn sphere_shell(n: usize) -> PointShell {
-    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
-    let (points, normals) = (0..n)
-        .map(|i| {
-            let y = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
-            let r = (1.0 - y * y).sqrt();
-            let phi = golden * i as f32;
-            let dir = Vec3::new(r * phi.cos(), y, r * phi.sin());
-            (dir * RADIUS as f32, -dir)
-        })
-        .unzip();
-    PointShell {
-        points,
-        normals,
-        voxel_size: VOXEL,
-        method: ShellMethod::ExactSurface,
-        mass: MassProperties {
-            volume: 4.0 / 3.0 * std::f64::consts::PI * RADIUS.powi(3),
-            center_of_mass: DVec3::ZERO,
-            bounding_radius: RADIUS,
-        },
-    }
+    VoxelTree::from_dense(&vps_runtime::test_scene::wall(), TreeConfig::uniform(2))
+        .expect("valid tree config")
 }
 
 pub fn scene() -> Arc<ClusterScene> {
