@@ -133,30 +133,7 @@ fn a_silent_worker_is_benched_and_a_recovered_one_gets_work_again() {
     }
     assert_eq!(shares.active_workers(), 0, "benched after 3 misses");
     // Now answer every request correctly from a thread.
-    let answering = {
-        let (scene, conn) = (scene.clone(), conn.clone());
-        let rt = fake.runtime.handle().clone();
-        std::thread::spawn(move || {
-            rt.block_on(async move {
-                let mut buf = [0u8; REPLY_LEN];
-                while let Ok(bytes) = conn.read_datagram().await {
-                    let req = FrameRequest::decode(&bytes).unwrap();
-                    let sums = rayon::ThreadPoolBuilder::new()
-                        .num_threads(1)
-                        .build()
-                        .unwrap()
-                        .install(|| scene.sample_mask(&req.pose, req.classes));
-                    FrameReply {
-                        seq: req.seq,
-                        classes: req.classes,
-                        sums,
-                    }
-                    .encode(&mut buf);
-                    let _ = conn.send_datagram(bytes::Bytes::copy_from_slice(&buf));
-                }
-            })
-        })
-    };
+    let answering = answer_slowly(&fake, conn.clone(), scene.clone(), Duration::ZERO);
     for pose in &poses[6..] {
         let want = sample_all(&*scene.map, &scene.shell, pose);
         let got = shares.compute(pose, Instant::now() + DEADLINE);
