@@ -16,8 +16,8 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
 use vps_cluster::{
-    local_cluster_certs, run_coordinator_session, ClusterReport, Coordinator, CoordinatorConfig,
-    GatherConfig, LocalWorkerArgs, Relay, RelayConfig, RelayStats,
+    run_coordinator_session, ClusterReport, GatherConfig, LocalWorkerArgs, Relay, RelayConfig,
+    RelayStats,
 };
 use vps_haptic::{PartState, Wrench};
 
@@ -41,18 +41,7 @@ fn session_behind_relay(
     launcher: &[&str],
 ) -> (Vec<Wrench>, ClusterReport, RelayStats) {
     let dir = tempfile::tempdir().unwrap();
-    let certs = local_cluster_certs(dir.path()).unwrap();
-    let coordinator = Coordinator::start(
-        CoordinatorConfig::from_files(
-            "127.0.0.1:0".parse().unwrap(),
-            &certs.coordinator.cert,
-            &certs.coordinator.key,
-            std::slice::from_ref(&certs.worker.cert),
-        )
-        .unwrap(),
-        scene(),
-    )
-    .unwrap();
+    let (coordinator, certs) = loopback_coordinator(dir.path());
     let relay = Relay::start(RelayConfig {
         listen: SocketAddr::new(relay_ip, 0),
         forward: coordinator.local_addr().unwrap(),

@@ -13,10 +13,7 @@ use std::process::{Child, Command, Stdio};
 use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
-use vps_cluster::{
-    local_cluster_certs, run_coordinator_session, Coordinator, CoordinatorConfig, GatherConfig,
-    LocalWorkerArgs,
-};
+use vps_cluster::{run_coordinator_session, GatherConfig, LocalWorkerArgs};
 use vps_haptic::PartState;
 
 const SESSION_FRAMES: u64 = 600;
@@ -61,20 +58,8 @@ impl Drop for Workers {
 fn a_killed_worker_rejoins_and_a_new_worker_joins_mid_session_without_changing_a_bit() {
     let want = one_process_writes_for(SESSION_FRAMES);
     let dir = tempfile::tempdir().unwrap();
-    let certs = local_cluster_certs(dir.path()).unwrap();
-    let coordinator = Arc::new(
-        Coordinator::start(
-            CoordinatorConfig::from_files(
-                "127.0.0.1:0".parse().unwrap(),
-                &certs.coordinator.cert,
-                &certs.coordinator.key,
-                std::slice::from_ref(&certs.worker.cert),
-            )
-            .unwrap(),
-            scene(),
-        )
-        .unwrap(),
-    );
+    let (coordinator, certs) = loopback_coordinator(dir.path());
+    let coordinator = Arc::new(coordinator);
     let args = |cache: &str| LocalWorkerArgs {
         coordinator: coordinator.local_addr().unwrap(),
         cert: certs.worker.cert.clone(),

@@ -12,8 +12,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use vps_cluster::{
-    local_cluster_certs, run_coordinator_session, run_worker, Coordinator, CoordinatorConfig,
-    GatherConfig, LocalWorkerArgs, WorkerConfig,
+    run_coordinator_session, run_worker, GatherConfig, LocalWorkerArgs, WorkerConfig,
 };
 use vps_haptic::PartState;
 
@@ -62,18 +61,7 @@ fn spawn_child(args: &LocalWorkerArgs) -> Child {
 fn two_worker_processes_one_killed_mid_session_keep_every_write_bit_identical() {
     let want = one_process_writes();
     let dir = tempfile::tempdir().unwrap();
-    let certs = local_cluster_certs(dir.path()).unwrap();
-    let coordinator = Coordinator::start(
-        CoordinatorConfig::from_files(
-            "127.0.0.1:0".parse().unwrap(),
-            &certs.coordinator.cert,
-            &certs.coordinator.key,
-            std::slice::from_ref(&certs.worker.cert),
-        )
-        .unwrap(),
-        scene(),
-    )
-    .unwrap();
+    let (coordinator, certs) = loopback_coordinator(dir.path());
     let args = LocalWorkerArgs {
         coordinator: coordinator.local_addr().unwrap(),
         cert: certs.worker.cert.clone(),

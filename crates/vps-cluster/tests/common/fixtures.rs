@@ -7,7 +7,7 @@ use glam::{DQuat, DVec3};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
-use vps_cluster::ClusterScene;
+use vps_cluster::{local_cluster_certs, ClusterScene, Coordinator, CoordinatorConfig, LocalCerts};
 use vps_device::script::{approach_and_rest, Pace};
 use vps_device::{
     DeviceError, DeviceLimits, HandParams, HapticDevice, SimulatedHand, SurfaceContact,
@@ -27,6 +27,24 @@ pub const CLASSES: u32 = 64;
 pub fn wall() -> VoxelTree {
     VoxelTree::from_dense(&vps_runtime::test_scene::wall(), TreeConfig::uniform(2))
         .expect("valid tree config")
+}
+
+/// A coordinator on loopback serving [`scene`], with fresh certificates written to `dir` and
+/// pinned both ways (the worker's is the only one admitted).
+pub fn loopback_coordinator(dir: &std::path::Path) -> (Coordinator, LocalCerts) {
+    let certs = local_cluster_certs(dir).expect("certificates");
+    let coordinator = Coordinator::start(
+        CoordinatorConfig::from_files(
+            "127.0.0.1:0".parse().expect("addr"),
+            &certs.coordinator.cert,
+            &certs.coordinator.key,
+            std::slice::from_ref(&certs.worker.cert),
+        )
+        .expect("coordinator config"),
+        scene(),
+    )
+    .expect("coordinator starts");
+    (coordinator, certs)
 }
 
 pub fn scene() -> Arc<ClusterScene> {
