@@ -4,6 +4,7 @@ mod common;
 
 use common::*;
 use std::time::{Duration, Instant};
+use vps_cluster::fallback::StalePolicy;
 use vps_cluster::protocol::{FrameReply, FrameRequest, REPLY_LEN};
 use vps_cluster::GatherConfig;
 use vps_haptic::sample_all;
@@ -345,42 +346,73 @@ fn equal_shares_keep_a_slow_worker_at_half_the_classes() {
     );
 }
 
-#[test]
-fn a_share_that_cannot_be_recomputed_in_time_is_stood_in_for_by_its_last_sums_for_three_frames() {
-    let scene = scene();
+/// One fake worker that answers only the first request, equal shares (the coordinator samples
+/// the even classes, the worker the odd), the given stale policy: frame 0 with a generous deadline
+/// (answered and merged), every later frame with a deadline already past (no time to recompute).
+/// Returns each frame's result and the final report.
+fn frames_after_the_worker_falls_silent(
+    scene: &std::sync::Arc<vps_cluster::ClusterScene>,
+    stale: vps_cluster::fallback::StalePolicy,
+    poses: &[vps_haptic::KernelPose],
+) -> (Vec<vps_runtime::PoolResult>, vps_cluster::ClusterReport) {
     let OneFake {
         coordinator,
         addr: _,
         fake,
         conn,
-    } = coordinator_with_one_fake(&scene);
-    // Equal shares, one worker: the coordinator samples the even classes, the worker the odd.
+    } = coordinator_with_one_fake(scene);
     let config = GatherConfig {
         adaptive_shares: false,
         log_every: None,
+        stale,
         ..GatherConfig::default()
     };
     let mut shares = coordinator.shares(config).unwrap();
     let worker = answer(&fake, conn, scene.clone(), Duration::ZERO, 1);
+    let results = poses
+        .iter()
+        .enumerate()
+        .map(|(i, pose)| {
+            let deadline = if i == 0 {
+                Instant::now() + DEADLINE
+            } else {
+                Instant::now()
+            };
+            shares.compute(pose, deadline)
+        })
+        .collect();
+    let report = shares.report();
+    drop(shares);
+    drop(coordinator);
+    worker.join().unwrap();
+    (results, report)
+}
+
+#[test]
+fn a_share_that_cannot_be_recomputed_in_time_is_stood_in_for_by_its_last_sums_for_three_frames() {
+    let scene = scene();
+    let poses = poses(5);
+    let (got, report) =
+        frames_after_the_worker_falls_silent(&scene, StalePolicy::default(), &poses);
     let (even, odd) = (0x5555_5555_5555_5555u64, 0xAAAA_AAAA_AAAA_AAAAu64);
-    let poses = poses(6);
-    // Frame 1: answered in time and merged.
-    let got = shares.compute(&poses[0], Instant::now() + DEADLINE);
-    assert_eq!(got.sums, sample_all(&*scene.map, &scene.shell, &poses[0]));
-    // Frames 2–4: silent worker, a deadline already past, so no time to recompute: the odd
-    // classes' sums of frame 1 stand in (ages 1, 2, 3).
-    for pose in &poses[1..4] {
-        let got = shares.compute(pose, Instant::now());
+    // Frame 0: answered in time and merged.
+    assert_eq!(
+        got[0].sums,
+        sample_all(&*scene.map, &scene.shell, &poses[0])
+    );
+    // Frames 1–3: the odd classes' sums of frame 0 stand in (ages 1, 2, 3).
+    for (result, pose) in got[1..4].iter().zip(&poses[1..4]) {
         let mut want = scene.sample_mask_serial(pose, even);
         want.merge(&scene.sample_mask_serial(&poses[0], odd));
-        assert_eq!(got.sums, want);
-        assert_eq!(got.fallback_shares, 0, "stood in for, not recomputed");
+        assert_eq!(result.sums, want);
+        assert_eq!(result.fallback_shares, 0, "stood in for, not recomputed");
     }
-    // Frame 5: those sums are 4 frames old, too old: recomputed, exact again.
-    let got = shares.compute(&poses[4], Instant::now());
-    assert_eq!(got.sums, sample_all(&*scene.map, &scene.shell, &poses[4]));
-    assert_eq!(got.fallback_shares, 1);
-    let report = shares.report();
+    // Frame 4: those sums would be 4 frames old, too old: recomputed, exact again.
+    assert_eq!(
+        got[4].sums,
+        sample_all(&*scene.map, &scene.shell, &poses[4])
+    );
+    assert_eq!(got[4].fallback_shares, 1);
     assert_eq!(
         (report.stale_shares, report.peers[0].stale),
         (3, 3),
@@ -391,44 +423,19 @@ fn a_share_that_cannot_be_recomputed_in_time_is_stood_in_for_by_its_last_sums_fo
         sample_all(&*scene.map, &scene.shell, &poses[3]),
         "the poses must differ for this test to mean anything"
     );
-    drop(shares);
-    drop(coordinator);
-    worker.join().unwrap();
 }
 
 #[test]
 fn with_stale_reuse_off_a_late_share_is_always_recomputed() {
     let scene = scene();
-    let OneFake {
-        coordinator,
-        addr: _,
-        fake,
-        conn,
-    } = coordinator_with_one_fake(&scene);
-    let config = GatherConfig {
-        adaptive_shares: false,
-        log_every: None,
-        stale: vps_cluster::fallback::StalePolicy::NEVER,
-        ..GatherConfig::default()
-    };
-    let mut shares = coordinator.shares(config).unwrap();
-    let worker = answer(&fake, conn, scene.clone(), Duration::ZERO, 1);
     let poses = poses(4);
-    for (i, pose) in poses.iter().enumerate() {
-        let deadline = if i == 0 {
-            Instant::now() + DEADLINE
-        } else {
-            Instant::now()
-        };
-        let got = shares.compute(pose, deadline);
+    let (got, report) = frames_after_the_worker_falls_silent(&scene, StalePolicy::NEVER, &poses);
+    for (i, (result, pose)) in got.iter().zip(&poses).enumerate() {
         assert_eq!(
-            got.sums,
+            result.sums,
             sample_all(&*scene.map, &scene.shell, pose),
             "frame {i}"
         );
     }
-    assert_eq!(shares.report().stale_shares, 0);
-    drop(shares);
-    drop(coordinator);
-    worker.join().unwrap();
+    assert_eq!(report.stale_shares, 0);
 }
