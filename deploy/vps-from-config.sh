@@ -26,7 +26,8 @@ case "$role" in
 coordinator)
     # key:flag pairs, in the order the flags are passed.
     keys=(listen:--listen cert:--cert key:--key pin:--pin workers:--workers device:--device
-        seconds:--seconds threads:--threads voxel_size:--voxel-size haptic_config:--config record:--record)
+        seconds:--seconds threads:--threads voxel_size:--voxel-size haptic_config:--config record:--record
+        equal_shares:--equal-shares spin_us:--spin-us max_stale_frames:--max-stale-frames)
     ;;
 worker)
     keys=(coordinator:--coordinator cert:--cert key:--key pin:--pin cache:--cache threads:--threads)
@@ -59,7 +60,14 @@ for pair in "${keys[@]}"; do
     flag="${pair#*:}"
     value="${values[$name]:-}"
     [[ -n "$value" ]] || continue
-    if [[ "$name" == "pin" ]]; then
+    if [[ "$name" == "equal_shares" ]]; then
+        # A switch: "true" passes it, "false" leaves it out.
+        case "$value" in
+        true) args+=("$flag") ;;
+        false) ;;
+        *) die "$config: equal_shares must be \"true\" or \"false\", got '$value'" ;;
+        esac
+    elif [[ "$name" == "pin" ]]; then
         if [[ -d "$value" ]]; then
             shopt -s nullglob
             pins=("$value"/*.crt)
