@@ -240,3 +240,48 @@ fn bench_host_counts_ticks_and_rejects_bad_arguments() {
         assert!(stderr.contains(field), "{bad}: {stderr}");
     }
 }
+
+#[test]
+fn the_lan_config_files_turn_into_flags_the_cli_accepts() {
+    let dir = tempfile::tempdir().unwrap();
+    let pins = dir.path().join("pins");
+    std::fs::create_dir(&pins).unwrap();
+    std::fs::write(pins.join("worker-a.crt"), "").unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    for role in ["coordinator", "worker"] {
+        let text = std::fs::read_to_string(root.join(format!("configs/{role}.toml"))).unwrap();
+        let config = dir.path().join(format!("{role}.toml"));
+        std::fs::write(
+            &config,
+            text.replace("/etc/vps/pins", pins.to_str().unwrap()),
+        )
+        .unwrap();
+        // Every flag the script passes must parse: `--help` at the end prints the help only if
+        // all flags before it are known to the CLI.
+        let out = Command::new("bash")
+            .arg(root.join("deploy/vps-from-config.sh"))
+            .args([role, config.to_str().unwrap(), "--help"])
+            .env("VPS_BIN", env!("CARGO_BIN_EXE_vps"))
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success() && String::from_utf8_lossy(&out.stdout).contains("Usage"),
+            "{role}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    // A bad switch value is refused, naming the file and the key.
+    let config = dir.path().join("bad.toml");
+    std::fs::write(&config, "equal_shares = \"yes\"\n").unwrap();
+    let out = Command::new("bash")
+        .arg(root.join("deploy/vps-from-config.sh"))
+        .args(["coordinator", config.to_str().unwrap()])
+        .env("VPS_DRY_RUN", "1")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("bad.toml") && stderr.contains("equal_shares"),
+        "{stderr}"
+    );
+}
