@@ -11,7 +11,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use vps_device::{HandParams, SimulatedHand};
 use vps_haptic::{HapticParams, PartState};
-use vps_runtime::{run_loop, LoopConfig, LoopReport, StateFeedSender, StatsSummary};
+use vps_runtime::{run_loop, LoopConfig, LoopReport, SessionSetup, StateFeedSender, StatsSummary};
 use vps_voxelize::ShellMethod;
 
 /// The paper's penetration ratios (Table 2): braking on and off.
@@ -60,12 +60,14 @@ pub fn run_session(
     let report = run_loop(
         scene.tree.clone(),
         classed(&scene.shell),
-        params,
-        Box::new(hand),
-        PartState::at_rest(start, orientation),
-        config,
-        feed,
-        Arc::new(AtomicBool::new(false)),
+        SessionSetup {
+            params,
+            device: Box::new(hand),
+            initial: PartState::at_rest(start, orientation),
+            config,
+            feed,
+            stop: Arc::new(AtomicBool::new(false)),
+        },
     )?;
     if let Some(err) = &report.device_error {
         anyhow::bail!("the device failed: {err}");

@@ -20,6 +20,7 @@ use vps_cluster::{
     RelayStats,
 };
 use vps_haptic::{PartState, Wrench};
+use vps_runtime::SessionSetup;
 
 const WORKERS: usize = 2;
 
@@ -91,12 +92,14 @@ fn session_behind_relay(
             stale: vps_cluster::fallback::StalePolicy::NEVER,
             ..GatherConfig::default()
         },
-        params(),
-        device,
-        PartState::at_rest(START, DQuat::IDENTITY),
-        config(),
-        None,
-        Arc::new(AtomicBool::new(false)),
+        SessionSetup {
+            params: params(),
+            device,
+            initial: PartState::at_rest(START, DQuat::IDENTITY),
+            config: config(),
+            feed: None,
+            stop: Arc::new(AtomicBool::new(false)),
+        },
     )
     .unwrap();
     assert_eq!(report.stats.frames, FRAMES);

@@ -15,6 +15,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use vps_cluster::{run_coordinator_session, GatherConfig, LocalWorkerArgs};
 use vps_haptic::PartState;
+use vps_runtime::SessionSetup;
 
 const SESSION_FRAMES: u64 = 600;
 const KILL_AT: u64 = 100;
@@ -103,12 +104,14 @@ fn a_killed_worker_rejoins_and_a_new_worker_joins_mid_session_without_changing_a
             stale: vps_cluster::fallback::StalePolicy::NEVER,
             ..GatherConfig::default()
         },
-        params(),
-        device,
-        PartState::at_rest(START, DQuat::IDENTITY),
-        config_frames(SESSION_FRAMES),
-        None,
-        Arc::new(AtomicBool::new(false)),
+        SessionSetup {
+            params: params(),
+            device,
+            initial: PartState::at_rest(START, DQuat::IDENTITY),
+            config: config_frames(SESSION_FRAMES),
+            feed: None,
+            stop: Arc::new(AtomicBool::new(false)),
+        },
     )
     .unwrap();
     assert_eq!(report.stats.frames, SESSION_FRAMES);

@@ -14,7 +14,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use vps_device::{HandParams, SimulatedHand};
 use vps_haptic::{HapticParams, PartState};
-use vps_runtime::{run_loop, LoopConfig, RtGrant, StatsSummary};
+use vps_runtime::{run_loop, LoopConfig, RtGrant, SessionSetup, StatsSummary};
 use vps_voxelize::{point_shell, ShellMethod};
 
 #[derive(Serialize)]
@@ -53,12 +53,14 @@ pub fn run(voxel_size: f64, points: usize, frames: u64, threads: usize) -> Resul
     let report = run_loop(
         scene.tree.clone(),
         classed(&scene.shell),
-        params,
-        Box::new(SimulatedHand::new(script, HandParams::default())?),
-        PartState::at_rest(start, orientation),
-        config,
-        None,
-        Arc::new(AtomicBool::new(false)),
+        SessionSetup {
+            params,
+            device: Box::new(SimulatedHand::new(script, HandParams::default())?),
+            initial: PartState::at_rest(start, orientation),
+            config,
+            feed: None,
+            stop: Arc::new(AtomicBool::new(false)),
+        },
     )?;
     print_json(&LoopBench {
         scene_triangles: scene.scene_triangles,

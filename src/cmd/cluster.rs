@@ -15,7 +15,7 @@ use vps_cluster::{
     ClusterReport, ClusterScene, Coordinator, CoordinatorConfig, GatherConfig, LocalWorkerArgs,
     WorkerConfig,
 };
-use vps_runtime::{LoopConfig, LoopReport};
+use vps_runtime::{LoopConfig, LoopReport, SessionSetup};
 
 /// How long the coordinator waits for its workers to join before it starts.
 const JOIN_TIMEOUT: Duration = Duration::from_secs(20);
@@ -125,12 +125,14 @@ fn coordinate_prepared(
     let (report, cluster) = run_coordinator_session(
         &coordinator,
         gather,
-        params,
-        device,
-        initial,
-        config,
-        viewer.as_ref().map(|v| v.feed()),
-        Arc::new(AtomicBool::new(false)),
+        SessionSetup {
+            params,
+            device,
+            initial,
+            config,
+            feed: viewer.as_ref().map(|v| v.feed()),
+            stop: Arc::new(AtomicBool::new(false)),
+        },
     )?;
     Ok(CoordinatedRun {
         report,

@@ -15,7 +15,7 @@ use vps_device::trace::{load_trace, save_trace, ReplayDevice};
 use vps_device::{DeviceLimits, HandParams, HapticDevice, SimulatedHand};
 use vps_haptic::{HapticParams, PartState};
 use vps_input::{BridgeConfig, BridgeDevice, SpaceMouse, SpaceMouseConfig};
-use vps_runtime::{run_loop, LoopConfig, LoopReport, StatsSummary};
+use vps_runtime::{run_loop, LoopConfig, LoopReport, SessionSetup, StatsSummary};
 use vps_voxelize::ShellMethod;
 
 /// The device a session is driven by, parsed from `--device`.
@@ -162,12 +162,14 @@ pub fn run(args: &RunArgs) -> Result<()> {
     let report: LoopReport = run_loop(
         scene.tree.clone(),
         classed(&scene.shell),
-        params,
-        device,
-        initial,
-        config,
-        viewer.as_ref().map(|v| v.feed()),
-        Arc::new(AtomicBool::new(false)),
+        SessionSetup {
+            params,
+            device,
+            initial,
+            config,
+            feed: viewer.as_ref().map(|v| v.feed()),
+            stop: Arc::new(AtomicBool::new(false)),
+        },
     )?;
     finish(args, scene.shell.len(), &report, None::<&()>)
 }

@@ -18,7 +18,7 @@ use vps_device::{HandParams, HapticDevice, SimulatedHand};
 use vps_haptic::{sample_all, step, HapticParams, KernelPose, PartState};
 use vps_mesh::TriMesh;
 use vps_reference::{reference_contact, ExactScene};
-use vps_runtime::{run_loop, LoopConfig, StatsSummary};
+use vps_runtime::{run_loop, LoopConfig, SessionSetup, StatsSummary};
 use vps_voxelize::{point_shell, voxelize_tree};
 use vps_voxmap::{TreeConfig, VoxelTree, VoxelWidth};
 
@@ -317,18 +317,20 @@ fn measure(set: &Setting, map: &BuiltMap) -> Result<SweepRow> {
     let timed = run_loop(
         session.tree.clone(),
         classed(&session.shell),
-        params,
-        Box::new(SimulatedHand::new(script.clone(), HandParams::default())?),
-        initial,
-        LoopConfig {
-            frames: Some(frames),
-            threads: 1,
-            realtime: false,
-            free_running: true,
-            ..LoopConfig::default()
+        SessionSetup {
+            params,
+            device: Box::new(SimulatedHand::new(script.clone(), HandParams::default())?),
+            initial,
+            config: LoopConfig {
+                frames: Some(frames),
+                threads: 1,
+                realtime: false,
+                free_running: true,
+                ..LoopConfig::default()
+            },
+            feed: None,
+            stop: Arc::new(AtomicBool::new(false)),
         },
-        None,
-        Arc::new(AtomicBool::new(false)),
     )?;
     if let Some(err) = &timed.device_error {
         bail!("the simulated hand failed: {err}");

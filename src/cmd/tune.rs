@@ -13,7 +13,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use vps_device::{HandParams, SimulatedHand};
 use vps_haptic::PartState;
-use vps_runtime::{run_loop, LoopConfig, StatsSummary};
+use vps_runtime::{run_loop, LoopConfig, SessionSetup, StatsSummary};
 
 /// Candidate voxel sizes (mm), coarse to fine.
 const SIZES_MM: [f64; 5] = [10.0, 5.0, 2.5, 1.25, 0.625];
@@ -59,18 +59,20 @@ fn session_run(
     let report = run_loop(
         session.tree.clone(),
         classed(&session.shell),
-        params,
-        Box::new(SimulatedHand::new(script, HandParams::default())?),
-        PartState::at_rest(start, orientation),
-        LoopConfig {
-            frames: Some(frames),
-            threads: 1,
-            realtime: paced,
-            free_running: !paced,
-            ..LoopConfig::default()
+        SessionSetup {
+            params,
+            device: Box::new(SimulatedHand::new(script, HandParams::default())?),
+            initial: PartState::at_rest(start, orientation),
+            config: LoopConfig {
+                frames: Some(frames),
+                threads: 1,
+                realtime: paced,
+                free_running: !paced,
+                ..LoopConfig::default()
+            },
+            feed: None,
+            stop: Arc::new(AtomicBool::new(false)),
         },
-        None,
-        Arc::new(AtomicBool::new(false)),
     )?;
     if let Some(err) = &report.device_error {
         bail!("the simulated hand failed: {err}");

@@ -9,40 +9,21 @@ use std::ffi::OsString;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
-use vps_device::HapticDevice;
-use vps_haptic::{HapticParams, PartState};
-use vps_runtime::{spawn_loop_with, LoopConfig, LoopReport, StateFeedSender};
+use vps_runtime::{spawn_loop_with, LoopReport, SessionSetup};
 
 /// Runs a haptic session whose frames are gathered from `coordinator`'s workers (local fallback
 /// for every missing share), on the runtime's frame loop: same clock, watchdog, statistics and
 /// device handling as `vps_runtime::run_loop`. Replies are awaited until `config.watchdog / 2`
 /// into each frame; `config.threads` is unused (the local share uses `gather.local_threads`).
 /// Blocks until the session ends.
-#[allow(clippy::too_many_arguments)]
 pub fn run_coordinator_session(
     coordinator: &Coordinator,
     gather: GatherConfig,
-    params: HapticParams,
-    device: Box<dyn HapticDevice>,
-    initial: PartState,
-    config: LoopConfig,
-    feed: Option<StateFeedSender>,
-    stop: Arc<AtomicBool>,
+    setup: SessionSetup,
 ) -> Result<(LoopReport, ClusterReport), ClusterError> {
     let shares = coordinator.shares(gather)?;
     let slot = shares.report_slot();
-    let report = spawn_loop_with(
-        Box::new(shares),
-        params,
-        device,
-        initial,
-        config,
-        feed,
-        stop,
-    )?
-    .join()?;
+    let report = spawn_loop_with(Box::new(shares), setup)?.join()?;
     let cluster = slot
         .lock()
         .ok()

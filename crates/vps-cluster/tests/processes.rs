@@ -15,6 +15,7 @@ use vps_cluster::{
     run_coordinator_session, run_worker, GatherConfig, LocalWorkerArgs, WorkerConfig,
 };
 use vps_haptic::PartState;
+use vps_runtime::SessionSetup;
 
 const ENV_ADDR: &str = "VPS_CLUSTER_TEST_WORKER_ADDR";
 const ENV_CERT: &str = "VPS_CLUSTER_TEST_WORKER_CERT";
@@ -97,12 +98,14 @@ fn two_worker_processes_one_killed_mid_session_keep_every_write_bit_identical() 
             stale: vps_cluster::fallback::StalePolicy::NEVER,
             ..GatherConfig::default()
         },
-        params(),
-        device,
-        PartState::at_rest(START, DQuat::IDENTITY),
-        config(),
-        None,
-        Arc::new(AtomicBool::new(false)),
+        SessionSetup {
+            params: params(),
+            device,
+            initial: PartState::at_rest(START, DQuat::IDENTITY),
+            config: config(),
+            feed: None,
+            stop: Arc::new(AtomicBool::new(false)),
+        },
     )
     .unwrap();
     killer.join().unwrap();

@@ -10,6 +10,7 @@ use std::sync::Arc;
 use std::time::Duration;
 use vps_cluster::{run_coordinator_session, GatherConfig};
 use vps_haptic::{PartState, Wrench};
+use vps_runtime::SessionSetup;
 
 /// Runs a cluster session with two thread workers; worker 1 is stopped at frame `leave_at`
 /// (never when 0).
@@ -33,12 +34,14 @@ fn cluster_writes(leave_at: u64) -> (Vec<Wrench>, vps_cluster::ClusterReport) {
             stale: vps_cluster::fallback::StalePolicy::NEVER,
             ..GatherConfig::default()
         },
-        params(),
-        device,
-        PartState::at_rest(START, DQuat::IDENTITY),
-        config(),
-        None,
-        Arc::new(AtomicBool::new(false)),
+        SessionSetup {
+            params: params(),
+            device,
+            initial: PartState::at_rest(START, DQuat::IDENTITY),
+            config: config(),
+            feed: None,
+            stop: Arc::new(AtomicBool::new(false)),
+        },
     )
     .unwrap();
     assert_eq!(report.stats.frames, FRAMES);

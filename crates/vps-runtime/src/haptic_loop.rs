@@ -147,37 +147,51 @@ impl LoopHandle {
     }
 }
 
-/// Starts a session on a new thread named `vps-frame` and returns at once. Validates `params` and
-/// `config` and spawns the pool's workers first (errors are returned, nothing is left running).
-#[allow(clippy::too_many_arguments)]
+/// Everything a session runs with besides where its sums come from.
+pub struct SessionSetup {
+    /// Haptic parameters (validated when the session starts).
+    pub params: HapticParams,
+    /// The device read and written every frame.
+    pub device: Box<dyn HapticDevice>,
+    /// The part's state at the first frame.
+    pub initial: PartState,
+    /// Rate, length, threads, watchdog, real-time request (validated against `params`).
+    pub config: LoopConfig,
+    /// Where the loop publishes its state for viewers (never blocks the loop).
+    pub feed: Option<StateFeedSender>,
+    /// Set to end the session early (the device then gets zero).
+    pub stop: Arc<AtomicBool>,
+}
+
+/// Starts a session on a new thread named `vps-frame` and returns at once. Validates the
+/// parameters and configuration and spawns the pool's workers first (errors are returned,
+/// nothing is left running).
 pub fn spawn_loop<L: VoxelLookup + Send + Sync + 'static>(
     map: Arc<L>,
     shell: Arc<ClassedShell>,
-    params: HapticParams,
-    device: Box<dyn HapticDevice>,
-    initial: PartState,
-    config: LoopConfig,
-    feed: Option<StateFeedSender>,
-    stop: Arc<AtomicBool>,
+    setup: SessionSetup,
 ) -> Result<LoopHandle, RuntimeError> {
-    params.validate("haptic parameters")?;
-    config.validate(&params)?;
-    let pool = ClassPool::new(map, shell, config.threads)?;
-    spawn_loop_with(Box::new(pool), params, device, initial, config, feed, stop)
+    setup.params.validate("haptic parameters")?;
+    setup.config.validate(&setup.params)?;
+    let pool = ClassPool::new(map, shell, setup.config.threads)?;
+    spawn_loop_with(Box::new(pool), setup)
 }
 
 /// [`spawn_loop`] with the frame's sums taken from `sampler` instead of a local [`ClassPool`]
-/// (the cluster's extension point; `config.threads` is then unused). Validates `params` and
-/// `config` first.
+/// (the cluster's extension point; `config.threads` is then unused). Validates the parameters
+/// and configuration first.
 pub fn spawn_loop_with(
     sampler: Box<dyn FrameSampler>,
-    params: HapticParams,
-    device: Box<dyn HapticDevice>,
-    initial: PartState,
-    config: LoopConfig,
-    feed: Option<StateFeedSender>,
-    stop: Arc<AtomicBool>,
+    setup: SessionSetup,
 ) -> Result<LoopHandle, RuntimeError> {
+    let SessionSetup {
+        params,
+        device,
+        initial,
+        config,
+        feed,
+        stop,
+    } = setup;
     params.validate("haptic parameters")?;
     config.validate(&params)?;
     let session = Session {
@@ -198,18 +212,12 @@ pub fn spawn_loop_with(
 
 /// Runs a session on a dedicated `vps-frame` thread and blocks the caller until it ends (see
 /// [`spawn_loop`] to keep the caller free).
-#[allow(clippy::too_many_arguments)]
 pub fn run_loop<L: VoxelLookup + Send + Sync + 'static>(
     map: Arc<L>,
     shell: Arc<ClassedShell>,
-    params: HapticParams,
-    device: Box<dyn HapticDevice>,
-    initial: PartState,
-    config: LoopConfig,
-    feed: Option<StateFeedSender>,
-    stop: Arc<AtomicBool>,
+    setup: SessionSetup,
 ) -> Result<LoopReport, RuntimeError> {
-    spawn_loop(map, shell, params, device, initial, config, feed, stop)?.join()
+    spawn_loop(map, shell, setup)?.join()
 }
 
 struct Session {
@@ -450,12 +458,14 @@ mod tests {
         run_loop(
             map,
             shell,
-            params(),
-            device,
-            initial,
-            config,
-            feed,
-            Arc::new(AtomicBool::new(false)),
+            SessionSetup {
+                params: params(),
+                device,
+                initial,
+                config,
+                feed,
+                stop: Arc::new(AtomicBool::new(false)),
+            },
         )
         .unwrap()
     }
@@ -596,12 +606,14 @@ mod tests {
         let h = spawn_loop(
             Arc::new(wall()),
             shell,
-            params(),
-            hand(),
-            initial,
-            cfg,
-            Some(tx),
-            stop.clone(),
+            SessionSetup {
+                params: params(),
+                device: hand(),
+                initial,
+                config: cfg,
+                feed: Some(tx),
+                stop: stop.clone(),
+            },
         )
         .unwrap();
         while rx.latest().is_none_or(|f| f.frame < 50) {
@@ -637,12 +649,14 @@ mod tests {
             run_loop(
                 Arc::new(wall()),
                 shell,
-                params(),
-                hand(),
-                initial,
-                cfg,
-                None,
-                Arc::new(AtomicBool::new(false)),
+                SessionSetup {
+                    params: params(),
+                    device: hand(),
+                    initial,
+                    config: cfg,
+                    feed: None,
+                    stop: Arc::new(AtomicBool::new(false)),
+                },
             )
         };
         let e = run(LoopConfig {

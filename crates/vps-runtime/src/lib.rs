@@ -22,6 +22,7 @@ pub use clock::{schedule, FrameClock, Schedule, Tick};
 pub use feed::{state_feed, FeedFrame, RecentMax, StateFeedReceiver, StateFeedSender};
 pub use haptic_loop::{
     run_loop, spawn_loop, spawn_loop_with, LoopConfig, LoopHandle, LoopReport, SessionEnd,
+    SessionSetup,
 };
 pub use pool::{ClassPool, FrameSampler, PoolResult};
 pub use rt::{request_realtime, RtGrant};

@@ -13,7 +13,7 @@ use vps_device::{
     DeviceError, DeviceLimits, HandParams, HapticDevice, SimulatedHand, SurfaceContact,
 };
 use vps_haptic::{HandleSample, HapticParams, KernelPose, PartState, Wrench};
-use vps_runtime::{run_loop, LoopConfig};
+use vps_runtime::{run_loop, LoopConfig, SessionSetup};
 use vps_voxmap::{TreeConfig, VoxelTree};
 
 pub use vps_runtime::test_scene::{sphere_shell, VOXEL};
@@ -184,12 +184,14 @@ pub fn one_process_writes_for(frames: u64) -> Vec<Wrench> {
     let report = run_loop(
         scene.map.clone(),
         scene.shell.clone(),
-        params(),
-        device,
-        PartState::at_rest(START, DQuat::IDENTITY),
-        config_frames(frames),
-        None,
-        Arc::new(AtomicBool::new(false)),
+        SessionSetup {
+            params: params(),
+            device,
+            initial: PartState::at_rest(START, DQuat::IDENTITY),
+            config: config_frames(frames),
+            feed: None,
+            stop: Arc::new(AtomicBool::new(false)),
+        },
     )
     .unwrap();
     assert_eq!(report.stats.frames, frames);
