@@ -9,18 +9,13 @@
 mod fixtures;
 
 use fixtures::*;
-use glam::DQuat;
 use std::net::{IpAddr, SocketAddr};
 use std::process::{Child, Command, Stdio};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
-use vps_cluster::{
-    run_coordinator_session, ClusterReport, GatherConfig, LocalWorkerArgs, Relay, RelayConfig,
-    RelayStats,
-};
-use vps_haptic::{PartState, Wrench};
-use vps_runtime::SessionSetup;
+use vps_cluster::{ClusterReport, GatherConfig, LocalWorkerArgs, Relay, RelayConfig, RelayStats};
+use vps_haptic::Wrench;
 
 const WORKERS: usize = 2;
 
@@ -84,24 +79,15 @@ fn session_behind_relay(
         .wait_for_workers(WORKERS, Duration::from_secs(30))
         .unwrap();
     let (device, writes) = hand(0, Arc::new(AtomicBool::new(false)));
-    let (report, cluster) = run_coordinator_session(
+    let (report, cluster) = exact_cluster_session(
         &coordinator,
         GatherConfig {
             log_every: None,
-            // Exactness is the point: no stale stand-ins, whatever the timing.
-            stale: vps_cluster::fallback::StalePolicy::NEVER,
             ..GatherConfig::default()
         },
-        SessionSetup {
-            params: params(),
-            device,
-            initial: PartState::at_rest(START, DQuat::IDENTITY),
-            config: config(),
-            feed: None,
-            stop: Arc::new(AtomicBool::new(false)),
-        },
-    )
-    .unwrap();
+        device,
+        FRAMES,
+    );
     assert_eq!(report.stats.frames, FRAMES);
     assert_eq!(report.stats.watchdog_trips, 0);
     let relay_stats = relay.stop();

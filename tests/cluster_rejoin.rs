@@ -8,14 +8,10 @@
 mod fixtures;
 
 use fixtures::*;
-use glam::DQuat;
 use std::process::{Child, Command, Stdio};
-use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
-use vps_cluster::{run_coordinator_session, GatherConfig, LocalWorkerArgs};
-use vps_haptic::PartState;
-use vps_runtime::SessionSetup;
+use vps_cluster::{GatherConfig, LocalWorkerArgs};
 
 const SESSION_FRAMES: u64 = 600;
 const KILL_AT: u64 = 100;
@@ -95,25 +91,16 @@ fn a_killed_worker_rejoins_and_a_new_worker_joins_mid_session_without_changing_a
         })
     };
     let (device, writes) = hand_with_hook(hook);
-    let (report, cluster) = run_coordinator_session(
+    let (report, cluster) = exact_cluster_session(
         &coordinator,
         GatherConfig {
             bench_after: 2,
             log_every: None,
-            // Exactness is the point: no stale stand-ins, whatever the timing.
-            stale: vps_cluster::fallback::StalePolicy::NEVER,
             ..GatherConfig::default()
         },
-        SessionSetup {
-            params: params(),
-            device,
-            initial: PartState::at_rest(START, DQuat::IDENTITY),
-            config: config_frames(SESSION_FRAMES),
-            feed: None,
-            stop: Arc::new(AtomicBool::new(false)),
-        },
-    )
-    .unwrap();
+        device,
+        SESSION_FRAMES,
+    );
     assert_eq!(report.stats.frames, SESSION_FRAMES);
     assert_eq!(report.stats.watchdog_trips, 0);
     assert_same_writes(&writes.lock().unwrap(), &want);

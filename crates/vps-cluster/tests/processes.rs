@@ -6,16 +6,11 @@
 mod common;
 
 use common::*;
-use glam::DQuat;
 use std::process::{Child, Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
-use vps_cluster::{
-    run_coordinator_session, run_worker, GatherConfig, LocalWorkerArgs, WorkerConfig,
-};
-use vps_haptic::PartState;
-use vps_runtime::SessionSetup;
+use vps_cluster::{run_worker, GatherConfig, LocalWorkerArgs, WorkerConfig};
 
 const ENV_ADDR: &str = "VPS_CLUSTER_TEST_WORKER_ADDR";
 const ENV_CERT: &str = "VPS_CLUSTER_TEST_WORKER_CERT";
@@ -90,24 +85,15 @@ fn two_worker_processes_one_killed_mid_session_keep_every_write_bit_identical() 
         })
     };
     let (device, writes) = hand(FRAMES / 3, trip);
-    let (report, cluster) = run_coordinator_session(
+    let (report, cluster) = exact_cluster_session(
         &coordinator,
         GatherConfig {
             bench_after: 2,
-            // Exactness is the point: no stale stand-ins, whatever the timing.
-            stale: vps_cluster::fallback::StalePolicy::NEVER,
             ..GatherConfig::default()
         },
-        SessionSetup {
-            params: params(),
-            device,
-            initial: PartState::at_rest(START, DQuat::IDENTITY),
-            config: config(),
-            feed: None,
-            stop: Arc::new(AtomicBool::new(false)),
-        },
-    )
-    .unwrap();
+        device,
+        FRAMES,
+    );
     killer.join().unwrap();
     assert_eq!(report.stats.frames, FRAMES);
     assert_eq!(report.stats.watchdog_trips, 0);

@@ -4,13 +4,9 @@
 mod common;
 
 use common::*;
-use glam::DQuat;
-use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
 use std::time::Duration;
-use vps_cluster::{run_coordinator_session, GatherConfig};
-use vps_haptic::{PartState, Wrench};
-use vps_runtime::SessionSetup;
+use vps_cluster::GatherConfig;
+use vps_haptic::Wrench;
 
 /// Runs a cluster session with two thread workers; worker 1 is stopped at frame `leave_at`
 /// (never when 0).
@@ -27,23 +23,8 @@ fn cluster_writes(leave_at: u64) -> (Vec<Wrench>, vps_cluster::ClusterReport) {
         .unwrap();
     let leaving = workers.pop().unwrap();
     let (device, writes) = hand(leave_at, leaving.stop.clone());
-    let (report, cluster) = run_coordinator_session(
-        &coordinator,
-        // Exactness is the point: no stale stand-ins, whatever the timing.
-        GatherConfig {
-            stale: vps_cluster::fallback::StalePolicy::NEVER,
-            ..GatherConfig::default()
-        },
-        SessionSetup {
-            params: params(),
-            device,
-            initial: PartState::at_rest(START, DQuat::IDENTITY),
-            config: config(),
-            feed: None,
-            stop: Arc::new(AtomicBool::new(false)),
-        },
-    )
-    .unwrap();
+    let (report, cluster) =
+        exact_cluster_session(&coordinator, GatherConfig::default(), device, FRAMES);
     assert_eq!(report.stats.frames, FRAMES);
     assert_eq!(report.stats.watchdog_trips, 0);
     // The live snapshot, read after the session, is the final report.

@@ -7,13 +7,17 @@ use glam::{DQuat, DVec3};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
-use vps_cluster::{local_cluster_certs, ClusterScene, Coordinator, CoordinatorConfig, LocalCerts};
+use vps_cluster::fallback::StalePolicy;
+use vps_cluster::{
+    local_cluster_certs, run_coordinator_session, ClusterReport, ClusterScene, Coordinator,
+    CoordinatorConfig, GatherConfig, LocalCerts,
+};
 use vps_device::script::{approach_and_rest, Pace};
 use vps_device::{
     DeviceError, DeviceLimits, HandParams, HapticDevice, SimulatedHand, SurfaceContact,
 };
 use vps_haptic::{HandleSample, HapticParams, KernelPose, PartState, Wrench};
-use vps_runtime::{run_loop, LoopConfig, SessionSetup};
+use vps_runtime::{run_loop, LoopConfig, LoopReport, SessionSetup};
 use vps_voxmap::{TreeConfig, VoxelTree};
 
 pub use vps_runtime::test_scene::{sphere_shell, VOXEL};
@@ -169,6 +173,34 @@ pub fn config_frames(frames: u64) -> LoopConfig {
         watchdog: Duration::from_millis(200),
         ..LoopConfig::default()
     }
+}
+
+/// The standard test session over `coordinator`'s workers: [`params`], the part at rest at
+/// [`START`], [`config_frames`]`(frames)`, `device`, with `gather` made exact (no stale
+/// stand-ins, whatever the timing: these sessions are compared write by write with the
+/// one-process run). Panics on error.
+pub fn exact_cluster_session(
+    coordinator: &Coordinator,
+    gather: GatherConfig,
+    device: Box<dyn HapticDevice>,
+    frames: u64,
+) -> (LoopReport, ClusterReport) {
+    run_coordinator_session(
+        coordinator,
+        GatherConfig {
+            stale: StalePolicy::NEVER,
+            ..gather
+        },
+        SessionSetup {
+            params: params(),
+            device,
+            initial: PartState::at_rest(START, DQuat::IDENTITY),
+            config: config_frames(frames),
+            feed: None,
+            stop: Arc::new(AtomicBool::new(false)),
+        },
+    )
+    .expect("cluster session")
 }
 
 /// Every device write of the one-process run of [`FRAMES`] frames.
