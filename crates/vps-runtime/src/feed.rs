@@ -122,21 +122,20 @@ impl StateFeedReceiver {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use glam::{DQuat, DVec3};
-
-    fn frame(n: u64) -> FeedFrame {
+impl FeedFrame {
+    /// Frame `n` (at `n` ms) of a part and handle at rest at `position` (m), everything else zero:
+    /// a starting point for tests, which set the fields they need with struct-update syntax.
+    #[cfg(any(test, feature = "test-support"))]
+    pub fn at_rest(n: u64, position: glam::DVec3) -> FeedFrame {
         FeedFrame {
             frame: n,
             time: n as f64 * 1e-3,
-            part: PartState::at_rest(DVec3::ZERO, DQuat::IDENTITY),
+            part: PartState::at_rest(position, glam::DQuat::IDENTITY),
             handle: HandleSample {
-                position: DVec3::ZERO,
-                orientation: DQuat::IDENTITY,
-                linear_velocity: DVec3::ZERO,
-                angular_velocity: DVec3::ZERO,
+                position,
+                orientation: glam::DQuat::IDENTITY,
+                linear_velocity: glam::DVec3::ZERO,
+                angular_velocity: glam::DVec3::ZERO,
             },
             device_wrench: Wrench::ZERO,
             contacts: 0,
@@ -151,6 +150,16 @@ mod tests {
             period_error_ns: 0,
             recent_max_period_error_ns: 0,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec3;
+
+    fn frame(n: u64) -> FeedFrame {
+        FeedFrame::at_rest(n, DVec3::ZERO)
     }
 
     #[test]

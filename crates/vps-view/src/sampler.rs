@@ -108,34 +108,16 @@ pub(crate) fn run(
 mod tests {
     use super::*;
     use crate::scene::tests::{slab, square_shell};
-    use glam::{DQuat, DVec3};
-    use vps_haptic::{HandleSample, PartState, Wrench};
+    use glam::DVec3;
+
     use vps_runtime::{state_feed, FeedFrame};
 
     fn frame(n: u64, z: f64, touching: bool) -> FeedFrame {
-        let position = DVec3::new(0.2, 0.2, z);
         FeedFrame {
-            frame: n,
-            time: n as f64 * 1e-3,
-            part: PartState::at_rest(position, DQuat::IDENTITY),
-            handle: HandleSample {
-                position,
-                orientation: DQuat::IDENTITY,
-                linear_velocity: DVec3::ZERO,
-                angular_velocity: DVec3::ZERO,
-            },
-            device_wrench: Wrench::ZERO,
-            contacts: 0,
             touching,
-            penetrating: false,
-            missed_deadlines: 0,
-            watchdog_trips: 0,
-            penetrating_frames: 0,
-            touching_frames: 0,
             compute_ns: 42_000,
             recent_max_compute_ns: 90_000,
-            period_error_ns: 0,
-            recent_max_period_error_ns: 0,
+            ..FeedFrame::at_rest(n, DVec3::new(0.2, 0.2, z))
         }
     }
 

@@ -1,11 +1,11 @@
 //! The viewer's server over a real loopback socket: routes, the state stream, and clients that
 //! misbehave.
 
-use glam::{DQuat, DVec3, IVec3, Vec3};
+use glam::{DVec3, IVec3, Vec3};
 use std::io::ErrorKind;
 use std::sync::Arc;
 use std::time::Duration;
-use vps_haptic::{HandleSample, PartState, Wrench};
+use vps_haptic::Wrench;
 use vps_runtime::{state_feed, FeedFrame, StateFeedSender};
 use vps_view::client::{http_get, masked_frame, WsClient};
 use vps_view::{SceneLimits, ViewerHandle, ViewerScene, ViewerServer};
@@ -40,32 +40,16 @@ fn scene() -> ViewerScene {
 }
 
 fn frame(n: u64) -> FeedFrame {
-    let position = DVec3::new(0.1, 0.15, 0.15 + n as f64 * 1e-4);
     FeedFrame {
-        frame: n,
-        time: n as f64 * 1e-3,
-        part: PartState::at_rest(position, DQuat::IDENTITY),
-        handle: HandleSample {
-            position,
-            orientation: DQuat::IDENTITY,
-            linear_velocity: DVec3::ZERO,
-            angular_velocity: DVec3::ZERO,
-        },
         device_wrench: Wrench {
             force: DVec3::new(0.0, 0.0, 1.5),
             torque: DVec3::ZERO,
         },
-        contacts: 0,
-        touching: false,
-        penetrating: false,
-        missed_deadlines: 0,
-        watchdog_trips: 0,
-        penetrating_frames: 0,
-        touching_frames: 0,
         compute_ns: 30_000,
         recent_max_compute_ns: 60_000,
         period_error_ns: 2_000,
         recent_max_period_error_ns: 9_000,
+        ..FeedFrame::at_rest(n, DVec3::new(0.1, 0.15, 0.15 + n as f64 * 1e-4))
     }
 }
 
