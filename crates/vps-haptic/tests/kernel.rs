@@ -343,13 +343,17 @@ fn deeper_surface_layers_add_one_voxel_of_depth_each() {
 }
 
 /// A map reporting layer 0 everywhere (every 2-bit map) gives bit-identical sums to the kind-only
-/// lookup, on random scenes with every voxel kind; so does the 512-tree of the same grid.
+/// lookup, on random scenes with every voxel kind; so does the 512-tree of the same grid, looked
+/// up through its leaf directory (block lookups) or walked (no directory).
 #[test]
 fn layer_zero_maps_give_bit_identical_sums() {
     for seed in 0..4 {
         let (grid, shell) = random_scene(seed, 517);
         let tree = vps_voxmap::VoxelTree::from_dense(&grid, vps_voxmap::TreeConfig::default())
             .expect("valid grid");
+        assert!(tree.directory_bytes() > 0);
+        let walked = tree.clone().without_directory();
+        assert_eq!(walked.directory_bytes(), 0);
         let layered = LayeredGrid {
             grid: grid.clone(),
             surface_layer: 0,
@@ -362,6 +366,7 @@ fn layer_zero_maps_give_bit_identical_sums() {
             assert!(want.surface > 0 && want.approaching > 0);
             assert_eq!(sample_all(&layered, &classed, &pose), want);
             assert_eq!(sample_all(&tree, &classed, &pose), want);
+            assert_eq!(sample_all(&walked, &classed, &pose), want);
         }
     }
 }
@@ -383,6 +388,15 @@ fn runs_of_points_in_one_voxel_match_points_sampled_alone() {
         let pose = KernelPose::from_state(&state);
         let runs = sample_all(&map, &ClassedShell::new(&shell, 1), &pose);
         let alone = sample_all(&map, &ClassedShell::new(&shell, n as u32), &pose);
+        // The 512-tree, with its leaf directory and walked, gives the same bits.
+        let tree = vps_voxmap::VoxelTree::from_dense(&map, vps_voxmap::TreeConfig::default())
+            .expect("valid grid");
+        for tree in [tree.clone(), tree.without_directory()] {
+            assert_eq!(
+                sample_all(&tree, &ClassedShell::new(&shell, 1), &pose),
+                runs
+            );
+        }
         assert!(
             runs.surface > 100 && runs.interior > 10 && runs.approaching > 100,
             "{runs:?}"
