@@ -50,17 +50,24 @@ pub trait VoxelLookup: Sync {
     /// The voxels of a block of [`BLOCK_LANES`] cells (`cells[axis][lane]`), lane by lane as
     /// [`VoxelLookup::get_layered`]. The default makes one `get_layered` call per lane; the tree
     /// overrides it with a lookup whose index arithmetic vectorises. Does not allocate or block.
-    #[allow(clippy::needless_range_loop)] // lane loops: index form vectorises and reads as lanes
     #[inline(always)]
     fn get_block(&self, cells: &BlockCells) -> VoxelBlock {
-        let mut block = VoxelBlock::default();
-        for l in 0..BLOCK_LANES {
-            let v = self.get_layered(glam::IVec3::new(cells[0][l], cells[1][l], cells[2][l]));
-            block.kinds[l] = v.kind.bits();
-            block.layers[l] = v.layer;
-        }
-        block
+        block_by_lanes(self, cells)
     }
+}
+
+/// [`VoxelLookup::get_block`] as one [`VoxelLookup::get_layered`] call per lane: the trait's
+/// default, and the tree's path when it has no leaf directory.
+#[allow(clippy::needless_range_loop)] // lane loops: index form vectorises and reads as lanes
+#[inline(always)]
+pub(crate) fn block_by_lanes<L: VoxelLookup + ?Sized>(map: &L, cells: &BlockCells) -> VoxelBlock {
+    let mut block = VoxelBlock::default();
+    for l in 0..BLOCK_LANES {
+        let v = map.get_layered(glam::IVec3::new(cells[0][l], cells[1][l], cells[2][l]));
+        block.kinds[l] = v.kind.bits();
+        block.layers[l] = v.layer;
+    }
+    block
 }
 
 /// Cells per block lookup ([`VoxelLookup::get_block`]).

@@ -3,31 +3,12 @@
 
 mod common;
 
-use common::boxes;
+use common::{boxes, FnSource};
 use glam::{DVec3, IVec3, UVec3};
 use vps_voxmap::file::{read_voxmap, write_voxmap, VOXMAP_VERSION, VOXMAP_VERSION_2BIT};
 use vps_voxmap::{
-    CubeSource, FileError, GridSpec, LayeredVoxel, TreeConfig, TreeError, Voxel, VoxelTree,
-    VoxelWidth,
+    FileError, GridSpec, LayeredVoxel, TreeConfig, TreeError, Voxel, VoxelTree, VoxelWidth,
 };
-
-/// Codes from a function of the voxel index (0 outside the grid).
-struct FnSource<F: Fn(UVec3) -> u8 + Sync> {
-    dims: [u32; 3],
-    code: F,
-}
-
-impl<F: Fn(UVec3) -> u8 + Sync> CubeSource for FnSource<F> {
-    fn cube(&self, origin: UVec3, extent: u32, out: &mut [u8]) -> Option<u8> {
-        let e = extent as usize;
-        for (i, o) in out.iter_mut().enumerate() {
-            let p = origin + UVec3::new((i % e) as u32, (i / e % e) as u32, (i / (e * e)) as u32);
-            let inside = (0..3).all(|a| p[a] < self.dims[a]);
-            *o = if inside { (self.code)(p) } else { 0 };
-        }
-        None
-    }
-}
 
 fn spec(dims: [u32; 3]) -> GridSpec {
     GridSpec {

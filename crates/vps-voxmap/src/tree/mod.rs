@@ -176,13 +176,7 @@ impl VoxelTree {
     #[inline(always)]
     pub fn get_block(&self, cells: &BlockCells) -> VoxelBlock {
         let Some(directory) = &self.directory else {
-            let mut block = VoxelBlock::default();
-            for l in 0..BLOCK_LANES {
-                let v = self.get_layered(IVec3::new(cells[0][l], cells[1][l], cells[2][l]));
-                block.kinds[l] = v.kind.bits();
-                block.layers[l] = v.layer;
-            }
-            return block;
+            return crate::block_by_lanes(self, cells);
         };
         if self.paper_shape {
             // 2-bit codes are the kinds' bits.

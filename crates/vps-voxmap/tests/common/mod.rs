@@ -1,10 +1,10 @@
 //! Grid generators shared by the voxmap integration tests.
 #![allow(dead_code)]
 
-use glam::{DVec3, IVec3};
+use glam::{DVec3, IVec3, UVec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use vps_voxmap::{DenseGrid, GridSpec, Voxel};
+use vps_voxmap::{CubeSource, DenseGrid, GridSpec, Voxel};
 
 /// A seeded generator.
 pub fn rng(seed: u64) -> ChaCha8Rng {
@@ -64,5 +64,23 @@ pub fn fill_box(g: &mut DenseGrid, lo: IVec3, hi: IVec3, v: Voxel) {
                 g.set(IVec3::new(x, y, z), v);
             }
         }
+    }
+}
+
+/// Codes from a function of the voxel index (0 outside the grid).
+pub struct FnSource<F: Fn(UVec3) -> u8 + Sync> {
+    pub dims: [u32; 3],
+    pub code: F,
+}
+
+impl<F: Fn(UVec3) -> u8 + Sync> CubeSource for FnSource<F> {
+    fn cube(&self, origin: UVec3, extent: u32, out: &mut [u8]) -> Option<u8> {
+        let e = extent as usize;
+        for (i, o) in out.iter_mut().enumerate() {
+            let p = origin + UVec3::new((i % e) as u32, (i / e % e) as u32, (i / (e * e)) as u32);
+            let inside = (0..3).all(|a| p[a] < self.dims[a]);
+            *o = if inside { (self.code)(p) } else { 0 };
+        }
+        None
     }
 }

@@ -1,0 +1,96 @@
+//! The leaf directory (`crates/vps-voxmap/src/tree/directory.rs`): lookups through it equal the
+//! tree walk on every voxel, and block reads equal single reads, for every width and two tree
+//! shapes, inside, on the border of and far outside the grid.
+
+mod common;
+
+use common::FnSource;
+use glam::{DVec3, IVec3, UVec3};
+use vps_voxmap::{GridSpec, TreeConfig, VoxelTree, VoxelWidth, BLOCK_LANES};
+
+/// A tree of `width` over `dims` holding random-ish codes valid for the width in slabs (Free
+/// elsewhere), so that tiles, leaves and uniform internal nodes all occur.
+fn clustered_tree(dims: [u32; 3], width: VoxelWidth, config: TreeConfig, seed: u64) -> VoxelTree {
+    let codes: Vec<u8> = (0..=255u8).filter(|&c| width.decode(c).is_some()).collect();
+    let code = move |p: UVec3| {
+        let mixed = (p.x + p.y + p.z) % 37 < 9;
+        let i = u64::from(p.x + dims[0] * (p.y + dims[1] * p.z));
+        let hash = (i ^ seed)
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        if mixed {
+            codes[(hash >> 33) as usize % codes.len()]
+        } else {
+            0
+        }
+    };
+    let spec = GridSpec {
+        origin: DVec3::ZERO,
+        voxel_size: 0.01,
+        dims,
+    };
+    let tree = VoxelTree::from_source(spec, width, config, &FnSource { dims, code }).unwrap();
+    assert!(tree.directory_bytes() > 0, "{width:?} {config:?}");
+    tree
+}
+
+#[test]
+fn directory_and_walk_agree_on_every_voxel() {
+    for width in VoxelWidth::ALL {
+        for config in [TreeConfig::default(), TreeConfig::uniform(2)] {
+            let tree = clustered_tree([150, 70, 45], width, config, 7);
+            let walk = tree.clone().without_directory();
+            assert_eq!(walk.directory_bytes(), 0);
+            for z in -2..47 {
+                for y in -2..72 {
+                    for x in -2..152 {
+                        let ijk = IVec3::new(x, y, z);
+                        assert_eq!(tree.get_layered(ijk), walk.get_layered(ijk), "{ijk}");
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+#[allow(clippy::needless_range_loop)]
+fn block_reads_equal_single_reads_inside_outside_and_far_away() {
+    for width in VoxelWidth::ALL {
+        let tree = clustered_tree([130, 66, 40], width, TreeConfig::default(), 11);
+        let walk = tree.clone().without_directory();
+        let mut state = 3u64;
+        let mut next = |span: i64| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 20) as i64).rem_euclid(span) as i32
+        };
+        for round in 0..20_000 {
+            let mut cells = [[0i32; BLOCK_LANES]; 3];
+            for l in 0..BLOCK_LANES {
+                for (a, axis) in cells.iter_mut().enumerate() {
+                    axis[l] = match round % 4 {
+                        // Around the grid, borders included.
+                        0 | 1 => next([136, 72, 46][a]) - 3,
+                        // Anywhere in i32.
+                        2 => next(1 << 32) ^ i32::MIN,
+                        // Extremes.
+                        _ => [i32::MIN, i32::MAX, -1, 0][next(4) as usize],
+                    };
+                }
+            }
+            // Through the directory, and walked lane by lane without it.
+            for block in [tree.get_block(&cells), walk.get_block(&cells)] {
+                for l in 0..BLOCK_LANES {
+                    let ijk = IVec3::new(cells[0][l], cells[1][l], cells[2][l]);
+                    let one = tree.get_layered(ijk);
+                    assert_eq!(
+                        (block.kinds[l], block.layers[l]),
+                        (one.kind.bits(), one.layer)
+                    );
+                }
+            }
+        }
+    }
+}
