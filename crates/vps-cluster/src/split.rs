@@ -108,21 +108,12 @@ pub fn split_classes(class_count: u32, weights: &[f64]) -> Vec<u64> {
         let (ra, rb) = (exact[a] - exact[a].floor(), exact[b] - exact[b].floor());
         rb.total_cmp(&ra).then(a.cmp(&b))
     });
-    // The floors leave fewer than `parties` classes over (up to rounding of the shares, which
-    // the fix-up below absorbs: the quotas must add up to exactly `class_count`).
+    // The floors add up to at most `class_count` and leave fewer than `parties` classes over
+    // (cycling only guards against rounding): afterwards the quotas add up to `class_count`
+    // exactly, which the dealing below relies on.
     let left = class_count.saturating_sub(quota.iter().sum::<usize>());
-    for &p in order.iter().take(left) {
+    for &p in order.iter().cycle().take(left) {
         quota[p] += 1;
-    }
-    let sum: usize = quota.iter().sum();
-    if sum < class_count {
-        quota[0] += class_count - sum;
-    }
-    let mut excess = sum.saturating_sub(class_count);
-    for q in quota.iter_mut() {
-        let cut = excess.min(*q);
-        *q -= cut;
-        excess -= cut;
     }
     // Every worker at least one class, taken from the party with the largest quota.
     for p in 1..parties {
