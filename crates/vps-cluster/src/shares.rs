@@ -192,8 +192,6 @@ pub struct RemoteShares {
     slot: ReportSlot,
     request: [u8; REQUEST_LEN],
     adapt: Adapt,
-    /// This frame's deadline (set at the start of `compute`).
-    deadline: Instant,
     /// Local cost of one class, from the latest frame in which the coordinator had a share.
     per_class: Duration,
     /// Scratch for the fallback plan: (peer index, missing share).
@@ -254,7 +252,6 @@ impl RemoteShares {
             slot: Arc::new(Mutex::new(None)),
             request: [0; REQUEST_LEN],
             adapt: Adapt::default(),
-            deadline: Instant::now(),
             per_class: Duration::ZERO,
             missing: Vec::new(),
             weights: Vec::new(),
@@ -514,9 +511,9 @@ impl RemoteShares {
         }
     }
 
-    /// Books the frame's outcome per worker (benching, un-benching, share weight) and lists the
-    /// missing work shares in `self.missing`.
-    fn settle(&mut self) {
+    /// Books the frame's outcome per worker (benching, un-benching, share weight against the reply
+    /// `deadline`) and lists the missing work shares in `self.missing`.
+    fn settle(&mut self, deadline: Instant) {
         self.missing.clear();
         for (index, peer) in self.peers.iter_mut().enumerate() {
             if peer.asked == 0 {
@@ -539,7 +536,7 @@ impl RemoteShares {
             }
             if peer.merged {
                 peer.misses = 0;
-                let window = self.deadline.saturating_duration_since(peer.sent_at);
+                let window = deadline.saturating_duration_since(peer.sent_at);
                 let outcome = ShareOutcome::Merged {
                     rtt: peer.rtt,
                     window,
@@ -626,7 +623,6 @@ impl FrameSampler for RemoteShares {
     fn compute(&mut self, pose: &KernelPose, deadline: Instant) -> PoolResult {
         let entered = Instant::now();
         self.seq += 1;
-        self.deadline = deadline;
         self.update_membership();
         // Replies from earlier frames still queued: counted late, never merged.
         let mut unused = PartialSums::default();
@@ -641,7 +637,7 @@ impl FrameSampler for RemoteShares {
             self.per_class = started.elapsed() / local.count_ones();
         }
         self.gather(pending, deadline, &mut sums);
-        self.settle();
+        self.settle(deadline);
         // The write is due one reply window after the reply deadline (see `crate::fallback`).
         let write_due = deadline
             .checked_add(deadline.saturating_duration_since(entered))
