@@ -13,6 +13,7 @@ use super::output::print_json;
 use anyhow::Result;
 use serde::Serialize;
 use std::time::{Duration, Instant};
+use vps_cluster::transport_bench::{percentiles, TransportPercentiles};
 use vps_runtime::RtGrant;
 
 /// Gap thresholds reported (µs).
@@ -51,8 +52,8 @@ struct HostBench {
     /// time (the ticks after a stall start late while the thread catches up; they are one
     /// stall).
     stalls_over_1ms: u64,
-    /// Start lateness after the tick (µs): p99, p99.9, max.
-    lateness_us: [f64; 3],
+    /// Start lateness after the tick (ns), nearest-rank percentiles.
+    lateness: TransportPercentiles,
     /// Gaps inside the busy stretches, by threshold.
     gaps: Vec<GapCount>,
     max_gap_us: f64,
@@ -140,12 +141,6 @@ fn measure(length: Duration, busy_us: u64) -> HostBench {
             disturbed += 1;
         }
     }
-    lateness.sort_unstable();
-    let quantile = |q: f64| {
-        lateness
-            .get(((lateness.len() as f64 * q) as usize).min(lateness.len().saturating_sub(1)))
-            .map_or(0.0, |d| d.as_secs_f64() * 1e6)
-    };
     HostBench {
         method: "one thread with the frame thread's real-time request keeps the loop's rhythm \
                  (sleep, spin to the 1 ms tick, spin busy_us) reading the monotonic clock; a late \
@@ -156,7 +151,7 @@ fn measure(length: Duration, busy_us: u64) -> HostBench {
         ticks,
         disturbed_ticks: disturbed,
         stalls_over_1ms: stalls,
-        lateness_us: [quantile(0.99), quantile(0.999), quantile(1.0)],
+        lateness: percentiles(&lateness),
         gaps: THRESHOLDS_US
             .iter()
             .zip(counts.iter().zip(&totals))

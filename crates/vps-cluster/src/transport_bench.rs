@@ -6,7 +6,7 @@ use serde::Serialize;
 use std::net::UdpSocket;
 use std::time::{Duration, Instant};
 
-/// Percentiles of a set of round-trip times (ns).
+/// Nearest-rank percentiles of a set of durations (ns): round trips here, late starts in `vps bench host`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct TransportPercentiles {
     /// Median (ns).
