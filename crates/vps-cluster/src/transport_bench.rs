@@ -6,7 +6,8 @@ use serde::Serialize;
 use std::net::UdpSocket;
 use std::time::{Duration, Instant};
 
-/// Nearest-rank percentiles of a set of durations (ns): round trips here, late starts in `vps bench host`.
+/// Nearest-rank percentiles of a set of durations (ns): round trips here, late starts in
+/// `vps bench host`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct TransportPercentiles {
     /// Median (ns).
