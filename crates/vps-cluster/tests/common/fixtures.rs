@@ -175,6 +175,19 @@ pub fn config_frames(frames: u64) -> LoopConfig {
     }
 }
 
+/// The standard test session's setup: [`params`], the part at rest at [`START`],
+/// [`config_frames`]`(frames)`, `device`, no feed, never stopped.
+pub fn standard_setup(device: Box<dyn HapticDevice>, frames: u64) -> SessionSetup {
+    SessionSetup {
+        params: params(),
+        device,
+        initial: PartState::at_rest(START, DQuat::IDENTITY),
+        config: config_frames(frames),
+        feed: None,
+        stop: Arc::new(AtomicBool::new(false)),
+    }
+}
+
 /// The standard test session over `coordinator`'s workers: [`params`], the part at rest at
 /// [`START`], [`config_frames`]`(frames)`, `device`, with `gather` made exact (no stale
 /// stand-ins, whatever the timing: these sessions are compared write by write with the
@@ -191,14 +204,7 @@ pub fn exact_cluster_session(
             stale: StalePolicy::NEVER,
             ..gather
         },
-        SessionSetup {
-            params: params(),
-            device,
-            initial: PartState::at_rest(START, DQuat::IDENTITY),
-            config: config_frames(frames),
-            feed: None,
-            stop: Arc::new(AtomicBool::new(false)),
-        },
+        standard_setup(device, frames),
     )
     .expect("cluster session")
 }
@@ -216,14 +222,7 @@ pub fn one_process_writes_for(frames: u64) -> Vec<Wrench> {
     let report = run_loop(
         scene.map.clone(),
         scene.shell.clone(),
-        SessionSetup {
-            params: params(),
-            device,
-            initial: PartState::at_rest(START, DQuat::IDENTITY),
-            config: config_frames(frames),
-            feed: None,
-            stop: Arc::new(AtomicBool::new(false)),
-        },
+        standard_setup(device, frames),
     )
     .unwrap();
     assert_eq!(report.stats.frames, frames);
