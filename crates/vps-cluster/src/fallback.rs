@@ -26,16 +26,19 @@ impl StalePolicy {
     /// Never reuse: every missing share is recomputed, so the sums are exact whatever the timing.
     pub const NEVER: StalePolicy = StalePolicy {
         max_age_frames: 0,
+        ..StalePolicy::DEFAULT
+    };
+
+    /// The default: sums up to 3 frames old, 40 µs kept for the step and the write.
+    const DEFAULT: StalePolicy = StalePolicy {
+        max_age_frames: 3,
         write_margin: Duration::from_micros(40),
     };
 }
 
 impl Default for StalePolicy {
     fn default() -> Self {
-        StalePolicy {
-            max_age_frames: 3,
-            write_margin: Duration::from_micros(40),
-        }
+        StalePolicy::DEFAULT
     }
 }
 
@@ -82,8 +85,8 @@ pub fn plan_fallback(
         return actions;
     }
     let mut order: Vec<usize> = (0..missing.len()).collect();
-    // Largest first; ties in the callers' order.
-    order.sort_by(|&a, &b| missing[b].classes.cmp(&missing[a].classes).then(a.cmp(&b)));
+    // Largest first; the sort is stable, so ties stay in the callers' order.
+    order.sort_by_key(|&i| std::cmp::Reverse(missing[i].classes));
     for i in order {
         if to_recompute <= budget {
             break;
