@@ -230,13 +230,13 @@ pub struct GatherArgs {
     /// p50 61–93 → 46–47 µs on the project's 2-core VM, docs/cluster.md), but the frame thread's
     /// core then does nothing else; use it only where each worker and the coordinator's network
     /// thread have cores of their own (two local workers on two cores: p99.9 0.2 → 4.1 ms).
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = default_spin_us())]
     pub spin_us: u64,
     /// A missing worker share whose local recompute cannot finish before the device write is due
     /// may be stood in for by its sums from up to this many frames earlier (degraded accuracy,
     /// counted as `stale_shares`); 0 always recomputes, so the wrench stays bit-identical to a
     /// one-process session whatever the timing.
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = default_max_stale_frames())]
     pub max_stale_frames: u64,
 }
 
@@ -245,10 +245,20 @@ impl Default for GatherArgs {
     fn default() -> Self {
         GatherArgs {
             equal_shares: false,
-            spin_us: 100,
-            max_stale_frames: 3,
+            spin_us: default_spin_us(),
+            max_stale_frames: default_max_stale_frames(),
         }
     }
+}
+
+/// The gatherer's default spin margin ([`vps_cluster::GatherConfig`]), in µs.
+fn default_spin_us() -> u64 {
+    vps_cluster::GatherConfig::default().spin_margin.as_micros() as u64
+}
+
+/// The gatherer's default age limit for stale stand-ins ([`vps_cluster::fallback::StalePolicy`]).
+fn default_max_stale_frames() -> u64 {
+    vps_cluster::fallback::StalePolicy::default().max_age_frames
 }
 
 /// Arguments of `vps cluster`.
@@ -521,7 +531,7 @@ pub enum BenchKind {
         frames: u64,
         /// Spin instead of sleeping for the last this many µs before the reply deadline (see
         /// `vps coordinator --help`).
-        #[arg(long, default_value_t = 100)]
+        #[arg(long, default_value_t = default_spin_us())]
         spin_us: u64,
         /// Print JSON (always JSON; accepted for symmetry).
         #[arg(long)]
