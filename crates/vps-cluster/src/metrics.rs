@@ -229,6 +229,7 @@ impl Board {
             untracked_workers: load(&self.untracked),
             udp_datagrams: self.udp.datagrams(),
             udp_not_quic: self.udp.not_quic(),
+            udp_foreign: self.udp.foreign(),
             peers,
         }
     }

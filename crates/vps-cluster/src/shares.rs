@@ -145,8 +145,12 @@ pub struct ClusterReport {
     /// Datagrams the coordinator's UDP socket received.
     pub udp_datagrams: u64,
     /// Of those, datagrams that cannot be QUIC packets by their shape (garbage; see
-    /// [`crate::udp_count`]). Garbage shaped like QUIC is dropped by quinn uncounted.
+    /// [`crate::udp_count`]).
     pub udp_not_quic: u64,
+    /// Of those, datagrams shaped like QUIC that no connection of the coordinator can own (an
+    /// unknown version or connection ID: garbage, or a peer's stateless reset; see
+    /// [`crate::udp_count`]).
+    pub udp_foreign: u64,
     /// Every worker seen, by id (join order).
     pub peers: Vec<PeerReport>,
 }

@@ -74,6 +74,9 @@ pub struct WorkerReport {
     /// UDP datagrams on its socket that cannot be QUIC packets by their shape (raw garbage; see
     /// [`crate::udp_count`]).
     pub udp_not_quic: u64,
+    /// UDP datagrams on its socket shaped like QUIC that none of its connections can own (an
+    /// unknown version or connection ID; see [`crate::udp_count`]).
+    pub udp_foreign: u64,
 }
 
 /// Runs a worker until the coordinator closes the connection or goes silent (idle timeout).
@@ -179,6 +182,7 @@ async fn worker_main(
         superseded: answer.superseded,
         invalid_datagrams: invalid,
         udp_not_quic: udp.not_quic(),
+        udp_foreign: udp.foreign(),
     })
 }
 

@@ -162,13 +162,16 @@ fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
     } = coordinator_with_one_fake(&scene);
     // Raw UDP garbage at the coordinator's socket: counted (0xA5 lacks QUIC's fixed bit, and the
     // short ones are shorter than any QUIC packet), dropped by quinn, nothing panics. Garbage
-    // shaped like QUIC (fixed bit set) is dropped by quinn uncounted.
+    // shaped like QUIC (fixed bit set) names no connection of the coordinator: counted apart.
     let udp = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
     let garbage = [0usize, 1, 7, 100, 1200, 1500];
     for n in garbage {
         let _ = udp.send_to(&vec![0xA5; n], addr);
     }
-    let _ = udp.send_to(&[0x45; 100], addr);
+    let shaped = quic_shaped_garbage();
+    for datagram in &shaped {
+        let _ = udp.send_to(datagram, addr);
+    }
     let mut shares = coordinator.shares(GatherConfig::default()).unwrap();
     let frames = 8;
     let misbehave = {
@@ -233,7 +236,11 @@ fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
     assert!(peer.invalid >= 3, "{peer:?}");
     assert!(peer.benched_times >= 1, "{peer:?}");
     assert_eq!(report.udp_not_quic, garbage.len() as u64, "{report:?}");
-    assert!(report.udp_datagrams > report.udp_not_quic, "{report:?}");
+    assert_eq!(report.udp_foreign, shaped.len() as u64, "{report:?}");
+    assert!(
+        report.udp_datagrams > report.udp_not_quic + report.udp_foreign,
+        "{report:?}"
+    );
     drop(shares);
     drop(coordinator);
     misbehave.join().unwrap();

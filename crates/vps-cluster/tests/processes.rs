@@ -105,6 +105,13 @@ fn two_worker_processes_one_killed_mid_session_keep_every_write_bit_identical() 
     eprintln!("{cluster:#?}");
     assert_eq!(cluster.peers.len(), 2);
     assert!(cluster.peers.iter().any(|p| p.merged > 0), "{cluster:?}");
+    // Genuine traffic, a killed worker included, is never counted as garbage.
+    assert!(cluster.udp_datagrams > FRAMES, "{cluster:?}");
+    assert_eq!(
+        (cluster.udp_not_quic, cluster.udp_foreign),
+        (0, 0),
+        "{cluster:?}"
+    );
     drop(coordinator);
     for c in children.lock().unwrap().iter_mut() {
         let _ = c.kill();

@@ -153,13 +153,18 @@ fn a_worker_survives_garbage_counts_it_and_uses_its_scene_cache() {
                 write_frame(&mut send, scene.shell_file()).await.unwrap();
             }
             assert_eq!(read_join(&mut recv).await.unwrap(), JoinMessage::Ready);
-            // Raw UDP garbage at the worker's socket (counted by its shape, dropped by quinn);
-            // then QUIC-level garbage: every truncation of a valid request, then noise, then
-            // one valid request.
+            // Raw UDP garbage at the worker's socket (counted by its shape, dropped by quinn),
+            // garbage shaped like QUIC (a short header naming an ID the worker never issued, a
+            // long header of an unknown version and a Handshake packet naming a stranger: counted
+            // as foreign); then QUIC-level garbage: every truncation of a valid request, then
+            // noise, then one valid request.
             let udp = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
             let worker_addr = conn.remote_address();
             for n in [0usize, 3, 100] {
                 udp.send_to(&vec![0xA5; n], worker_addr).unwrap();
+            }
+            for shaped in quic_shaped_garbage() {
+                udp.send_to(&shaped, worker_addr).unwrap();
             }
             let mut buf = [0u8; REQUEST_LEN];
             FrameRequest {
@@ -193,6 +198,7 @@ fn a_worker_survives_garbage_counts_it_and_uses_its_scene_cache() {
         let report = worker.thread.join().unwrap().unwrap();
         assert_eq!(report.invalid_datagrams, 7, "{report:?}");
         assert_eq!(report.udp_not_quic, 3, "{report:?}");
+        assert_eq!(report.udp_foreign, 3, "{report:?}");
         assert_eq!(report.requests, 1);
         assert_eq!(report.scene_transferred, round == 0);
         assert_eq!(report.worker_id, 9);

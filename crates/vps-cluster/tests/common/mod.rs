@@ -154,3 +154,16 @@ impl FakeWorker {
         })
     }
 }
+
+/// Three datagrams shaped like QUIC that no vps endpoint can own: a short header naming a
+/// connection ID nobody issued, a long header of a version quinn does not speak, and a Handshake
+/// packet naming a stranger's ID. Each is counted as `udp_foreign` by the endpoint receiving it.
+pub fn quic_shaped_garbage() -> Vec<Vec<u8>> {
+    let mut short = vec![0x41];
+    short.extend([0x5A; 99]);
+    let mut unknown_version = vec![0xC3, 0x0a, 0x0a, 0x0a, 0x0a, 8];
+    unknown_version.resize(1200, 0x33);
+    let mut handshake = vec![0xE0, 0, 0, 0, 1, 8];
+    handshake.resize(200, 0x77);
+    vec![short, unknown_version, handshake]
+}
