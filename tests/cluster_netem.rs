@@ -1,8 +1,8 @@
 //! The cluster over an impaired network: `vps worker` processes reach the coordinator through the
 //! userspace impairment relay (`vps_cluster::relay`, what `vps netem-relay` runs) adding
-//! 100 µs ± 50 µs one-way delay and 1 % loss in each direction — on loopback, and from inside a
-//! network namespace over a veth pair when this runs as root with `ip netns` (skipped with a
-//! message otherwise). Lost requests and replies only move shares to the local fallback: no device
+//! 100 µs ± 50 µs one-way delay and 1 % loss in each direction — on loopback, and with each worker
+//! on its own simulated host (a network namespace joined by its own veth pair) when this runs as
+//! root with `ip netns` (skipped with a message otherwise). Lost requests and replies only move shares to the local fallback: no device
 //! write is missed and every write is bit-identical, frame by frame, to the one-process run.
 
 #[path = "../crates/vps-cluster/tests/common/fixtures.rs"]
@@ -30,16 +30,22 @@ impl Drop for Children {
     }
 }
 
-/// One session whose workers dial a relay bound to `relay_ip`; `launcher` prefixes the worker
-/// command line (e.g. `ip netns exec NS`).
-fn session_behind_relay(
+/// Where one worker runs: the relay address it dials, and the command prefix that starts it
+/// on its host (empty: this one; `ip netns exec NS`: a namespace).
+struct WorkerHost {
     relay_ip: IpAddr,
-    launcher: &[&str],
+    launcher: Vec<String>,
+}
+
+/// One session of one worker per host, each dialling the relay bound to `listen_ip`.
+fn session_behind_relay(
+    listen_ip: IpAddr,
+    hosts: &[WorkerHost],
 ) -> (Vec<Wrench>, ClusterReport, RelayStats) {
     let dir = tempfile::tempdir().unwrap();
     let (coordinator, certs) = loopback_coordinator(dir.path());
     let relay = Relay::start(RelayConfig {
-        listen: SocketAddr::new(relay_ip, 0),
+        listen: SocketAddr::new(listen_ip, 0),
         forward: coordinator.local_addr().unwrap(),
         delay: Duration::from_micros(100),
         jitter: Duration::from_micros(50),
@@ -47,26 +53,26 @@ fn session_behind_relay(
         seed: 2026,
     })
     .unwrap();
-    let args = LocalWorkerArgs {
-        coordinator: relay.local_addr(),
-        cert: certs.worker.cert.clone(),
-        key: certs.worker.key.clone(),
-        pins: vec![certs.coordinator.cert.clone()],
-        cache_dir: None,
-        threads: Some(1),
-    };
-    let (program, prefix) = match launcher {
-        [first, rest @ ..] => (*first, rest),
-        [] => (env!("CARGO_BIN_EXE_vps"), &[][..]),
-    };
     let _children = Children(
-        (0..WORKERS)
-            .map(|_| {
-                let mut cmd = Command::new(program);
-                cmd.args(prefix);
-                if !launcher.is_empty() {
-                    cmd.arg(env!("CARGO_BIN_EXE_vps"));
-                }
+        hosts
+            .iter()
+            .map(|host| {
+                let args = LocalWorkerArgs {
+                    coordinator: SocketAddr::new(host.relay_ip, relay.local_addr().port()),
+                    cert: certs.worker.cert.clone(),
+                    key: certs.worker.key.clone(),
+                    pins: vec![certs.coordinator.cert.clone()],
+                    cache_dir: None,
+                    threads: Some(1),
+                };
+                let mut cmd = match host.launcher.split_first() {
+                    Some((program, prefix)) => {
+                        let mut cmd = Command::new(program);
+                        cmd.args(prefix).arg(env!("CARGO_BIN_EXE_vps"));
+                        cmd
+                    }
+                    None => Command::new(env!("CARGO_BIN_EXE_vps")),
+                };
                 cmd.args(args.to_args())
                     .stdin(Stdio::null())
                     .stdout(Stdio::null())
@@ -76,7 +82,7 @@ fn session_behind_relay(
             .collect(),
     );
     coordinator
-        .wait_for_workers(WORKERS, Duration::from_secs(30))
+        .wait_for_workers(hosts.len(), Duration::from_secs(30))
         .unwrap();
     let (device, writes) = hand(0, Arc::new(AtomicBool::new(false)));
     let (report, cluster) = exact_cluster_session(
@@ -101,6 +107,7 @@ fn check(writes: &[Wrench], cluster: &ClusterReport, relay: &RelayStats) {
     assert_eq!(writes.len() as u64, FRAMES + 1, "no missed device write");
     assert_same_writes(writes, &one_process_writes());
     assert_eq!(cluster.peers.len(), WORKERS);
+    assert_eq!(relay.clients, WORKERS as u64, "{relay:?}");
     assert!(cluster.peers.iter().all(|p| p.merged > 0), "{cluster:?}");
     for d in [&relay.to_forward, &relay.to_clients] {
         assert!(d.sent > 0, "{relay:?}");
@@ -117,7 +124,14 @@ fn check(writes: &[Wrench], cluster: &ClusterReport, relay: &RelayStats) {
 
 #[test]
 fn workers_behind_a_lossy_jittery_relay_on_loopback_change_no_bit() {
-    let (writes, cluster, relay) = session_behind_relay([127, 0, 0, 1].into(), &[]);
+    let loopback: IpAddr = [127, 0, 0, 1].into();
+    let hosts: Vec<WorkerHost> = (0..WORKERS)
+        .map(|_| WorkerHost {
+            relay_ip: loopback,
+            launcher: Vec::new(),
+        })
+        .collect();
+    let (writes, cluster, relay) = session_behind_relay(loopback, &hosts);
     check(&writes, &cluster, &relay);
 }
 
@@ -128,18 +142,19 @@ struct Namespace {
 }
 
 impl Namespace {
-    /// The reason, where namespaces cannot be made: not root, no `ip`, no veth.
-    fn create() -> Result<Namespace, String> {
+    /// Namespace `index` of this test process (at most 9), on its own /30 subnet; the reason
+    /// where namespaces cannot be made: not root, no `ip`, no veth.
+    fn create(index: u32) -> Result<Namespace, String> {
         if effective_uid() != 0 {
             return Err("not running as root".into());
         }
         let id = std::process::id();
-        let name = format!("vpsnetem{id}");
+        let name = format!("vpsnetem{id}n{index}");
         let (outer, inner) = (
-            format!("vn{}a", id % 100_000),
-            format!("vn{}b", id % 100_000),
+            format!("vn{}{index}a", id % 100_000),
+            format!("vn{}{index}b", id % 100_000),
         );
-        let subnet = format!("10.199.{}", id % 250 + 1);
+        let subnet = format!("10.{}.{}", 190 + index, id % 250 + 1);
         let ns = Namespace {
             name: name.clone(),
             host_ip: format!("{subnet}.1").parse().unwrap(),
@@ -204,8 +219,10 @@ fn effective_uid() -> u32 {
 }
 
 #[test]
-fn workers_in_a_network_namespace_behind_the_relay_change_no_bit() {
-    let ns = match Namespace::create() {
+fn workers_on_separate_simulated_hosts_behind_the_relay_change_no_bit() {
+    let namespaces: Result<Vec<Namespace>, String> =
+        (0..WORKERS as u32).map(Namespace::create).collect();
+    let namespaces = match namespaces {
         Ok(ns) => ns,
         Err(why) => {
             eprintln!(
@@ -214,7 +231,14 @@ fn workers_in_a_network_namespace_behind_the_relay_change_no_bit() {
             return;
         }
     };
-    let (writes, cluster, relay) =
-        session_behind_relay(ns.host_ip, &["ip", "netns", "exec", &ns.name]);
+    // The relay listens on every address; each worker dials the host side of its own veth pair.
+    let hosts: Vec<WorkerHost> = namespaces
+        .iter()
+        .map(|ns| WorkerHost {
+            relay_ip: ns.host_ip,
+            launcher: ["ip", "netns", "exec", &ns.name].map(String::from).to_vec(),
+        })
+        .collect();
+    let (writes, cluster, relay) = session_behind_relay([0, 0, 0, 0].into(), &hosts);
     check(&writes, &cluster, &relay);
 }
