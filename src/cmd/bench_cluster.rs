@@ -49,6 +49,7 @@ struct ClusterBenchReport {
     local_threads: usize,
     frames_requested: u64,
     realtime_granted: bool,
+    host_idle: super::host_idle::HostIdle,
     stats: StatsSummary,
     cluster: ClusterReport,
 }
@@ -116,6 +117,7 @@ pub fn run(bench: ClusterBench) -> Result<()> {
         local_threads: bench.local_threads,
         frames_requested: bench.frames,
         realtime_granted: run.report.rt.fifo,
+        host_idle: super::host_idle::HostIdle::read(),
         stats: run.report.stats,
         cluster: run.cluster,
     })

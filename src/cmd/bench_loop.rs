@@ -26,6 +26,7 @@ struct LoopBench {
     threads: usize,
     frames_requested: u64,
     rt: RtGrant,
+    host_idle: super::host_idle::HostIdle,
     stats: StatsSummary,
 }
 
@@ -70,6 +71,7 @@ pub fn run(voxel_size: f64, points: usize, frames: u64, threads: usize) -> Resul
         threads,
         frames_requested: frames,
         rt: report.rt,
+        host_idle: super::host_idle::HostIdle::read(),
         stats: report.stats,
     })
 }

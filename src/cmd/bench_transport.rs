@@ -5,16 +5,37 @@
 //! coordinator's network task, as recorded per worker by `vps-cluster` for replies that arrive
 //! before the reply deadline. To measure the transport rather than this machine's deadline, the
 //! session runs frames back to back with a 10 ms watchdog (5 ms reply deadline), so every reply is
-//! waited for. Raw UDP: blocking sockets on 127.0.0.1, 200-byte payload, one echo thread.
+//! waited for. Raw UDP: blocking sockets on 127.0.0.1, 200-byte payload, one echo thread, run in
+//! three placements (unpinned, both threads on the last core, pinger on the first and echo on the
+//! last), because on a VM where the two threads run decides how fast they wake each other.
 
 use super::cluster::run_local_cluster;
 use super::output::print_json;
 use crate::cli::{GatherArgs, RunArgs};
-use anyhow::Result;
+use anyhow::{Context, Result};
 use serde::Serialize;
 use std::time::Duration;
-use vps_cluster::transport_bench::{percentiles, raw_udp_round_trips, TransportPercentiles};
+use vps_cluster::transport_bench::{
+    percentiles, raw_udp_round_trips, TransportPercentiles, UdpPlacement,
+};
 use vps_cluster::PeerReport;
+
+/// The raw UDP ping-pong in one placement.
+#[derive(Serialize)]
+struct RawUdpFigure {
+    placement: UdpPlacement,
+    round_trips: usize,
+    #[serde(flatten)]
+    percentiles: TransportPercentiles,
+}
+
+/// A gather's worst p99.9 divided by each raw UDP placement's p99.9.
+#[derive(Serialize)]
+struct Ratios {
+    unpinned: f64,
+    same_core: f64,
+    cross_core: f64,
+}
 
 #[derive(Serialize)]
 struct GatherFigure {
@@ -22,22 +43,45 @@ struct GatherFigure {
     frames: u64,
     peers: Vec<PeerReport>,
     worst_p999_ns: u64,
+    /// Against the unpinned ping-pong (the OS places both, as it places the gather's threads).
     worst_p999_over_raw_udp_p999: f64,
+    worst_p999_over_raw_udp_p999_by_placement: Ratios,
 }
 
 #[derive(Serialize)]
 struct TransportReport {
     /// The coordinator's spin margin (`--spin-us`).
     spin_us: u64,
+    host_idle: super::host_idle::HostIdle,
+    /// The unpinned ping-pong (the headline baseline).
     raw_udp: TransportPercentiles,
     raw_udp_round_trips: usize,
+    /// Unpinned, both threads on the last core, pinger on the first core and echo on the last.
+    raw_udp_placements: Vec<RawUdpFigure>,
     gather: Vec<GatherFigure>,
 }
 
 /// Runs the benchmark and prints JSON.
 pub fn run(frames: u64, spin_us: u64) -> Result<()> {
-    let raw = raw_udp_round_trips(frames as usize, 200)?;
-    let raw_udp = percentiles(&raw);
+    let cores = core_affinity::get_core_ids().unwrap_or_default();
+    let first = cores.first().map_or(0, |c| c.id);
+    let last = cores.last().map_or(0, |c| c.id);
+    let mut raw_udp_placements = Vec::new();
+    for placement in [
+        UdpPlacement::Unpinned,
+        UdpPlacement::SameCore(last),
+        UdpPlacement::CrossCore(first, last),
+    ] {
+        let times = raw_udp_round_trips(frames as usize, 200, placement)
+            .with_context(|| format!("raw UDP ping-pong, {placement:?}"))?;
+        raw_udp_placements.push(RawUdpFigure {
+            placement,
+            round_trips: times.len(),
+            percentiles: percentiles(&times),
+        });
+    }
+    let raw_udp = raw_udp_placements[0].percentiles;
+    let p999 = |i: usize| raw_udp_placements[i].percentiles.p999_ns.max(1) as f64;
     let mut gather = Vec::new();
     for workers in [1, 2] {
         let session = RunArgs {
@@ -66,14 +110,21 @@ pub fn run(frames: u64, spin_us: u64) -> Result<()> {
             workers,
             frames: run.report.stats.frames,
             worst_p999_ns: worst,
-            worst_p999_over_raw_udp_p999: worst as f64 / raw_udp.p999_ns.max(1) as f64,
+            worst_p999_over_raw_udp_p999: worst as f64 / p999(0),
+            worst_p999_over_raw_udp_p999_by_placement: Ratios {
+                unpinned: worst as f64 / p999(0),
+                same_core: worst as f64 / p999(1),
+                cross_core: worst as f64 / p999(2),
+            },
             peers: run.cluster.peers,
         });
     }
     print_json(&TransportReport {
         spin_us,
+        host_idle: super::host_idle::HostIdle::read(),
         raw_udp,
-        raw_udp_round_trips: raw.len(),
+        raw_udp_round_trips: raw_udp_placements[0].round_trips,
+        raw_udp_placements,
         gather,
     })
 }

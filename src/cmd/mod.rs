@@ -8,6 +8,7 @@ mod bench_transport;
 mod bench_viewer;
 mod bench_voxelize;
 mod cluster;
+mod host_idle;
 mod inspect;
 mod netem_relay;
 pub mod output;

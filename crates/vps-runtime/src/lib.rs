@@ -25,7 +25,7 @@ pub use haptic_loop::{
     SessionSetup,
 };
 pub use pool::{ClassPool, FrameSampler, PoolResult};
-pub use rt::{request_realtime, RtGrant};
+pub use rt::{pin_current_thread, request_realtime, RtGrant};
 pub use stats::{FrameRecord, FrameStats, Percentiles, StatsSummary};
 
 /// Why a session could not start or finish.

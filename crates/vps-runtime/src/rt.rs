@@ -29,7 +29,7 @@ pub fn request_realtime(core: Option<usize>) -> RtGrant {
         }
         Err(e) => grant.errors.push(format!("SCHED_FIFO refused: {e}")),
     }
-    match pin(core) {
+    match pin_current_thread(core) {
         Ok(id) => grant.pinned_core = Some(id),
         Err(e) => grant.errors.push(format!("core pinning refused: {e}")),
     }
@@ -60,7 +60,9 @@ fn set_fifo() -> Result<i32, String> {
     Err("only implemented on Linux".to_string())
 }
 
-fn pin(core: Option<usize>) -> Result<usize, String> {
+/// Pins the calling thread to `core` (or, when `None`, to the last core the process may use);
+/// returns the core's id, or why the OS refused.
+pub fn pin_current_thread(core: Option<usize>) -> Result<usize, String> {
     let cores = core_affinity::get_core_ids().ok_or("cannot list the cores")?;
     let chosen = match core {
         Some(want) => cores
