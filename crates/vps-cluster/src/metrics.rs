@@ -45,6 +45,7 @@ pub struct PeerMetrics {
     id: u32,
     scene_sent: bool,
     connected: AtomicBool,
+    disconnected_for_bad_replies: AtomicBool,
     benched: AtomicBool,
     pub(crate) requests: AtomicU64,
     pub(crate) merged: AtomicU64,
@@ -70,6 +71,7 @@ impl PeerMetrics {
             id,
             scene_sent,
             connected: AtomicBool::new(true),
+            disconnected_for_bad_replies: AtomicBool::new(false),
             benched: AtomicBool::new(false),
             requests: AtomicU64::new(0),
             merged: AtomicU64::new(0),
@@ -112,6 +114,13 @@ impl PeerMetrics {
         self.connected.store(false, Ordering::Relaxed);
     }
 
+    /// Marks the worker's connection closed by the coordinator for bad replies.
+    pub(crate) fn set_disconnected_for_bad_replies(&self) {
+        self.disconnected_for_bad_replies
+            .store(true, Ordering::Relaxed);
+        self.set_disconnected();
+    }
+
     /// A consistent-enough copy (see the module docs). Allocates nothing.
     pub fn report(&self) -> PeerReport {
         let load = |a: &AtomicU64| a.load(Ordering::Relaxed);
@@ -130,6 +139,7 @@ impl PeerMetrics {
             unbenched_times: load(&self.unbenched_times),
             benched: self.benched.load(Ordering::Relaxed),
             connected: self.connected.load(Ordering::Relaxed),
+            disconnected_for_bad_replies: self.disconnected_for_bad_replies.load(Ordering::Relaxed),
             scene_sent: self.scene_sent,
             rtt_samples: load(&self.rtt_samples),
             rtt_ns: Percentiles {

@@ -11,7 +11,9 @@
 //! worker whose share is not merged (no reply by the deadline, or
 //! an invalid reply) `bench_after` frames in a row is benched: it gets no work, only a one-class
 //! probe every `probe_every` frames whose result is checked but not used; `unbench_after` probes
-//! answered in time in a row give it work again.
+//! answered in time in a row give it work again. A worker that sends `disconnect_after` bad
+//! replies (undecodable, or implausible sums) with no valid one between them is disconnected
+//! (application close code [`CLOSE_BAD_REPLIES`]).
 //!
 //! Fallback (at the deadline): every missing share (no reply, or a rejected one) is recomputed on
 //! local threads; only when that cannot finish before the device write is due (one reply window
@@ -56,6 +58,12 @@ pub struct GatherConfig {
     pub probe_every: u64,
     /// Consecutive timely probe replies before a benched worker gets work again (≥ 1). Default 3.
     pub unbench_after: u32,
+    /// Bad replies in a row (datagrams that fail to decode, or replies with implausible sums or
+    /// the wrong classes), with no valid reply between them, after which the worker's
+    /// connection is closed (≥ 1; `u32::MAX`: never). Default 50: a benched worker still
+    /// answers a probe every `probe_every` frames, so a worker that only sends garbage is gone
+    /// within 50 of its datagrams, while any valid reply (work or probe) resets the count.
+    pub disconnect_after: u32,
     /// Period of the metrics thread's `info` summary per worker (`None`: no summary; transitions
     /// are still logged). Default 1 s.
     pub log_every: Option<Duration>,
@@ -76,6 +84,7 @@ impl Default for GatherConfig {
             bench_after: 5,
             probe_every: 10,
             unbench_after: 3,
+            disconnect_after: 50,
             log_every: Some(Duration::from_secs(1)),
             adaptive_shares: true,
             stale: StalePolicy::default(),
@@ -112,6 +121,8 @@ pub struct PeerReport {
     pub benched: bool,
     /// Still connected at the time of the report.
     pub connected: bool,
+    /// The coordinator closed its connection for bad replies ([`GatherConfig::disconnect_after`]).
+    pub disconnected_for_bad_replies: bool,
     /// The coordinator sent it the scene files at join (false: it had them in its cache).
     pub scene_sent: bool,
     /// Round-trip samples in `rtt_ns`.
@@ -172,6 +183,8 @@ struct Peer {
     held: Option<(u64, PartialSums, u64)>,
     misses: u32,
     probe_hits: u32,
+    /// Bad replies since the last merged one (see [`GatherConfig::disconnect_after`]).
+    bad_replies: u32,
     /// This frame: the classes asked for (0: nothing asked), whether it is a probe, the points
     /// in those classes, when it was sent, whether a reply settled it, whether it was merged.
     asked: u64,
@@ -207,6 +220,9 @@ pub struct RemoteShares {
     weights: Vec<f64>,
 }
 
+/// The QUIC application close code for a worker disconnected for bad replies.
+pub const CLOSE_BAD_REPLIES: u32 = 3;
+
 fn config_err(field: &'static str) -> ClusterError {
     ClusterError::Config {
         field,
@@ -233,6 +249,9 @@ impl RemoteShares {
         }
         if config.unbench_after == 0 {
             return Err(config_err("unbench_after"));
+        }
+        if config.disconnect_after == 0 {
+            return Err(config_err("disconnect_after"));
         }
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(config.local_threads)
@@ -310,6 +329,7 @@ impl RemoteShares {
                         held: None,
                         misses: 0,
                         probe_hits: 0,
+                        bad_replies: 0,
                         asked: 0,
                         probing: false,
                         points: 0,
@@ -422,6 +442,7 @@ impl RemoteShares {
             Ok(reply) => reply,
             Err(e) => {
                 peer.metrics.bump(|m| &m.malformed);
+                peer.bad_replies = peer.bad_replies.saturating_add(1);
                 tracing::debug!(worker = peer.metrics.id(), "malformed reply: {e}");
                 return false;
             }
@@ -446,6 +467,7 @@ impl RemoteShares {
                 .torque_within(self.scene.shell.max_radius(), max_depth);
         if !valid {
             peer.metrics.bump(|m| &m.invalid);
+            peer.bad_replies = peer.bad_replies.saturating_add(1);
             tracing::debug!(worker = peer.metrics.id(), "implausible reply dropped");
             return true;
         }
@@ -454,6 +476,7 @@ impl RemoteShares {
             &peer.metrics,
             rtt.as_nanos().min(u128::from(u64::MAX)) as u64,
         );
+        peer.bad_replies = 0;
         if peer.probing {
             peer.probe_hits += 1;
         } else {
@@ -515,6 +538,31 @@ impl RemoteShares {
         match self.peers.iter().find(|p| p.metrics.id() == datagram.id) {
             Some(peer) => peer.metrics.bump(|m| &m.late),
             None => self.board.bump(|b| &b.orphan_datagrams),
+        }
+    }
+
+    /// Closes the connection of every worker that sent [`GatherConfig::disconnect_after`] bad
+    /// replies in a row (this frame's shares are already settled); it leaves the session as a
+    /// worker that went away does, and may join again.
+    fn disconnect_misbehaving(&mut self) {
+        let limit = self.config.disconnect_after;
+        let mut i = 0;
+        while i < self.peers.len() {
+            if self.peers[i].bad_replies < limit {
+                i += 1;
+                continue;
+            }
+            let peer = self.peers.swap_remove(i);
+            if let Some(conn) = &peer.conn {
+                conn.close(CLOSE_BAD_REPLIES.into(), b"too many bad replies");
+            }
+            tracing::warn!(
+                worker = peer.metrics.id(),
+                bad_replies = peer.bad_replies,
+                "worker disconnected: bad replies in a row"
+            );
+            peer.metrics.set_disconnected_for_bad_replies();
+            self.retired.push(peer.metrics);
         }
     }
 
@@ -650,6 +698,7 @@ impl FrameSampler for RemoteShares {
             .checked_add(deadline.saturating_duration_since(entered))
             .unwrap_or(deadline);
         let fallback_shares = self.fall_back(pose, write_due, &mut sums);
+        self.disconnect_misbehaving();
         self.board.bump(|b| &b.frames);
         self.board
             .add(|b| &b.fallback_shares, u64::from(fallback_shares));

@@ -246,6 +246,77 @@ fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
     misbehave.join().unwrap();
 }
 
+#[test]
+fn a_worker_that_keeps_sending_implausible_sums_is_disconnected() {
+    let scene = scene();
+    let OneFake {
+        coordinator,
+        fake,
+        conn,
+        ..
+    } = coordinator_with_one_fake(&scene);
+    const LIMIT: u32 = 6;
+    let mut shares = coordinator
+        .shares(GatherConfig {
+            disconnect_after: LIMIT,
+            probe_every: 1,
+            ..GatherConfig::default()
+        })
+        .unwrap();
+    // Every reply, work or probe, claims one point more than it was asked for.
+    let liar = {
+        let (scene, conn) = (scene.clone(), conn.clone());
+        let rt = fake.runtime.handle().clone();
+        std::thread::spawn(move || {
+            rt.block_on(async move {
+                let mut buf = [0u8; REPLY_LEN];
+                let mut replies = 0u32;
+                loop {
+                    match conn.read_datagram().await {
+                        Ok(bytes) => {
+                            let req = FrameRequest::decode(&bytes).unwrap();
+                            let mut sums = scene.sample_mask(&req.pose, req.classes);
+                            sums.sampled += 1;
+                            FrameReply {
+                                seq: req.seq,
+                                classes: req.classes,
+                                sums,
+                            }
+                            .encode(&mut buf);
+                            conn.send_datagram(bytes::Bytes::copy_from_slice(&buf))
+                                .unwrap();
+                            replies += 1;
+                        }
+                        Err(e) => return (replies, e),
+                    }
+                }
+            })
+        })
+    };
+    for pose in poses(40).iter() {
+        let want = sample_all(&*scene.map, &scene.shell, pose);
+        let got = shares.compute(pose, Instant::now() + DEADLINE);
+        assert_eq!(got.sums, want, "every frame exact: bad shares are recomputed");
+    }
+    let report = shares.report();
+    let peer = &report.peers[0];
+    assert!(peer.disconnected_for_bad_replies, "{peer:?}");
+    assert!(!peer.connected, "{peer:?}");
+    assert_eq!(peer.invalid, u64::from(LIMIT), "{peer:?}");
+    // After the disconnect nothing more is asked of it.
+    assert_eq!(peer.requests, u64::from(LIMIT), "{peer:?}");
+    let (replies, closed) = liar.join().unwrap();
+    assert_eq!(replies, LIMIT);
+    match closed {
+        quinn::ConnectionError::ApplicationClosed(close) => {
+            assert_eq!(close.error_code, vps_cluster::shares::CLOSE_BAD_REPLIES.into());
+        }
+        other => panic!("closed by {other:?}"),
+    }
+    drop(shares);
+    drop(coordinator);
+}
+
 /// A worker that answers every request correctly after sleeping `per_class` for each class asked:
 /// its round trip grows with its share, as a real worker's does.
 fn answer_slowly(
@@ -445,4 +516,19 @@ fn with_stale_reuse_off_a_late_share_is_always_recomputed() {
         );
     }
     assert_eq!(report.stale_shares, 0);
+}
+
+#[test]
+fn a_zero_disconnect_limit_is_refused_by_name() {
+    let scene = scene();
+    let ids = identities();
+    let coordinator = start_coordinator(&ids, scene);
+    let err = coordinator
+        .shares(GatherConfig {
+            disconnect_after: 0,
+            ..GatherConfig::default()
+        })
+        .err()
+        .expect("refused");
+    assert!(err.to_string().contains("disconnect_after"), "{err}");
 }
