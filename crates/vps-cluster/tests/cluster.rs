@@ -296,7 +296,10 @@ fn a_worker_that_keeps_sending_implausible_sums_is_disconnected() {
     for pose in poses(40).iter() {
         let want = sample_all(&*scene.map, &scene.shell, pose);
         let got = shares.compute(pose, Instant::now() + DEADLINE);
-        assert_eq!(got.sums, want, "every frame exact: bad shares are recomputed");
+        assert_eq!(
+            got.sums, want,
+            "every frame exact: bad shares are recomputed"
+        );
     }
     let report = shares.report();
     let peer = &report.peers[0];
@@ -309,7 +312,10 @@ fn a_worker_that_keeps_sending_implausible_sums_is_disconnected() {
     assert_eq!(replies, LIMIT);
     match closed {
         quinn::ConnectionError::ApplicationClosed(close) => {
-            assert_eq!(close.error_code, vps_cluster::shares::CLOSE_BAD_REPLIES.into());
+            assert_eq!(
+                close.error_code,
+                vps_cluster::shares::CLOSE_BAD_REPLIES.into()
+            );
         }
         other => panic!("closed by {other:?}"),
     }
