@@ -41,6 +41,15 @@ pub struct StatsSummary {
     /// Ticks skipped because the loop fell a period or more behind (DESIGN §5: no coordinated
     /// omission).
     pub missed_deadlines: u64,
+    /// Of those, ticks skipped after a frame that lost more time before it started (late
+    /// start: the frame thread, asleep until its tick, did not run in time) than it took to
+    /// compute. With SCHED_FIFO granted only the machine (interrupts, higher-priority kernel
+    /// threads, a hypervisor descheduling the vCPU) delays that thread; the frame's work had
+    /// no part in it.
+    pub missed_after_late_start: u64,
+    /// The rest: ticks skipped after a frame whose compute time was the larger part of its
+    /// overshoot (work over budget, or the thread stalled while computing).
+    pub missed_after_long_frame: u64,
     /// Frames whose device output was forced to zero by the watchdog (compute over budget).
     pub watchdog_trips: u64,
     /// Class shares the pool computed on the frame thread because a worker missed its deadline.
@@ -91,6 +100,9 @@ pub struct FrameStats {
     compute: Histogram<u64>,
     period_error: Histogram<u64>,
     summary: StatsSummary,
+    /// The previous frame's start lateness and compute time (ns): ticks skipped before a frame
+    /// are the previous frame's overshoot.
+    previous: (u64, u64),
 }
 
 impl Default for FrameStats {
@@ -110,6 +122,7 @@ impl FrameStats {
             compute: histogram(),
             period_error: histogram(),
             summary: StatsSummary::default(),
+            previous: (0, 0),
         }
     }
 
@@ -122,6 +135,13 @@ impl FrameStats {
         let s = &mut self.summary;
         s.frames += 1;
         s.missed_deadlines += r.missed;
+        let (late, compute) = self.previous;
+        if late >= compute {
+            s.missed_after_late_start += r.missed;
+        } else {
+            s.missed_after_long_frame += r.missed;
+        }
+        self.previous = (r.period_error_ns.unwrap_or(0), r.compute_ns);
         s.watchdog_trips += r.watchdog_tripped as u64;
         s.fallback_shares += r.fallback_shares as u64;
         s.contact_frames += r.contact as u64;
@@ -184,6 +204,38 @@ mod tests {
         let json = serde_json::to_string(&s).unwrap();
         let back: StatsSummary = serde_json::from_str(&json).unwrap();
         assert_eq!(back, s);
+    }
+
+    #[test]
+    fn skipped_ticks_are_blamed_on_the_larger_part_of_the_previous_frames_overshoot() {
+        let mut st = FrameStats::new();
+        let frame = |late_us: u64, compute_us: u64, missed: u64| FrameRecord {
+            compute_ns: compute_us * 1000,
+            period_error_ns: Some(late_us * 1000),
+            missed,
+            ..FrameRecord::default()
+        };
+        st.record(&frame(5, 400, 0));
+        // Started 1.8 ms late, computed 0.4 ms: the 2 ticks skipped next are the late start's.
+        st.record(&frame(1_800, 400, 0));
+        st.record(&frame(3, 400, 2));
+        // Started on time, computed 2.5 ms: the long frame's.
+        st.record(&frame(2, 2_500, 0));
+        st.record(&frame(40, 400, 1));
+        let s = st.summary();
+        assert_eq!(s.missed_deadlines, 3);
+        assert_eq!((s.missed_after_late_start, s.missed_after_long_frame), (2, 1));
+        // Free-running frames have no lateness: a skip after one is the frame's.
+        let mut free = FrameStats::new();
+        free.record(&FrameRecord {
+            compute_ns: 10,
+            ..FrameRecord::default()
+        });
+        free.record(&FrameRecord {
+            missed: 4,
+            ..FrameRecord::default()
+        });
+        assert_eq!(free.summary().missed_after_long_frame, 4);
     }
 
     #[test]
