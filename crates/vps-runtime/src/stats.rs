@@ -224,7 +224,10 @@ mod tests {
         st.record(&frame(40, 400, 1));
         let s = st.summary();
         assert_eq!(s.missed_deadlines, 3);
-        assert_eq!((s.missed_after_late_start, s.missed_after_long_frame), (2, 1));
+        assert_eq!(
+            (s.missed_after_late_start, s.missed_after_long_frame),
+            (2, 1)
+        );
         // Free-running frames have no lateness: a skip after one is the frame's.
         let mut free = FrameStats::new();
         free.record(&FrameRecord {
