@@ -83,6 +83,12 @@ pub fn print_summary(label: &str, s: &StatsSummary, paper: Option<f64>) {
         "  frames {}, missed deadlines {}, watchdog trips {}, local fallbacks {}",
         s.frames, s.missed_deadlines, s.watchdog_trips, s.fallback_shares
     );
+    if s.missed_deadlines > 0 {
+        println!(
+            "  missed after a late start {} (the thread was not run in time), after a long frame {}",
+            s.missed_after_late_start, s.missed_after_long_frame
+        );
+    }
     println!(
         "  compute µs  p50 {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1}",
         us(s.compute_ns.p50),

@@ -53,8 +53,9 @@ pub struct GatherConfig {
     pub bench_after: u32,
     /// A benched worker is probed every this many frames (≥ 1). Default 10: a one-class request
     /// every 10 ms costs nothing, and a worker benched by a short host stall is back within 30
-    /// frames (with 100, a 100k-point session on the project's 2-core VM spent 6–17 % of its
-    /// frames without its worker, against 0.7–1.3 % with 10; docs/cluster.md).
+    /// frames (with 100, a 100k-point session on the project's 2-core VM spent 20–57 % of its
+    /// frames without its worker in three runs of 3·10^4 frames, against 0.7–1.3 % with 10;
+    /// docs/cluster.md).
     pub probe_every: u64,
     /// Consecutive timely probe replies before a benched worker gets work again (≥ 1). Default 3.
     pub unbench_after: u32,
@@ -183,7 +184,7 @@ struct Peer {
     held: Option<(u64, PartialSums, u64)>,
     misses: u32,
     probe_hits: u32,
-    /// Bad replies since the last merged one (see [`GatherConfig::disconnect_after`]).
+    /// Bad replies since the last valid one (see [`GatherConfig::disconnect_after`]).
     bad_replies: u32,
     /// This frame: the classes asked for (0: nothing asked), whether it is a probe, the points
     /// in those classes, when it was sent, whether a reply settled it, whether it was merged.
