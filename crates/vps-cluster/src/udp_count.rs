@@ -323,6 +323,24 @@ mod tests {
         assert_eq!(classify(&[0x41; 15], &ids), DatagramShape::NotQuic);
     }
 
+    proptest::proptest! {
+        /// Any bytes at all: no panic, and "not QUIC" exactly when the shape test fails.
+        #[test]
+        fn classifying_any_bytes_never_panics(
+            datagram in proptest::collection::vec(proptest::num::u8::ANY, 0..64),
+            first in proptest::num::u8::ANY,
+            server in proptest::bool::ANY,
+        ) {
+            let mut datagram = datagram;
+            if let Some(b) = datagram.first_mut() {
+                *b = first;
+            }
+            let ids = IssuedIds::new(7, server);
+            let shape = classify(&datagram, &ids);
+            proptest::prop_assert_eq!(shape == DatagramShape::NotQuic, !looks_like_quic(&datagram));
+        }
+    }
+
     #[test]
     fn random_garbage_is_always_counted() {
         use rand::{Rng, SeedableRng};
