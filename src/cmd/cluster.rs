@@ -1,13 +1,12 @@
 //! `vps cert`, `vps worker`, `vps coordinator` and `vps cluster`: the cluster modes over QUIC
 //! (DESIGN §4), thin shells over `vps-cluster`.
 
-use super::run::{finish, prepare, PreparedSession};
+use super::run::{finish, prepare, LiveSession, PreparedSession};
 use crate::cli::{ClusterArgs, CoordinatorArgs, GatherArgs, RunArgs, WorkerArgs};
 use crate::session::CLASS_COUNT;
 use anyhow::{Context, Result};
 use std::net::SocketAddr;
 use std::path::PathBuf;
-use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
 use vps_cluster::{
@@ -15,7 +14,7 @@ use vps_cluster::{
     ClusterReport, ClusterScene, Coordinator, CoordinatorConfig, GatherConfig, LocalWorkerArgs,
     WorkerConfig,
 };
-use vps_runtime::{LoopConfig, LoopReport, SessionSetup};
+use vps_runtime::{LoopConfig, LoopReport};
 
 /// How long the coordinator waits for its workers to join before it starts.
 const JOIN_TIMEOUT: Duration = Duration::from_secs(20);
@@ -89,14 +88,11 @@ fn coordinate_prepared(
     gather: GatherArgs,
     spawn: impl FnOnce(SocketAddr) -> Result<Option<vps_cluster::LocalWorkers>>,
 ) -> Result<CoordinatedRun> {
-    let PreparedSession {
+    let LiveSession {
         scene,
-        params,
-        device,
-        initial,
-        config,
-    } = prepared;
-    let viewer = super::view::attach(session.view, &scene)?;
+        viewer: _viewer,
+        setup,
+    } = prepared.go_live(session.view)?;
     let cluster_scene = Arc::new(ClusterScene::new(
         scene.tree.clone(),
         &scene.shell,
@@ -122,18 +118,7 @@ fn coordinate_prepared(
         },
         ..GatherConfig::default()
     };
-    let (report, cluster) = run_coordinator_session(
-        &coordinator,
-        gather,
-        SessionSetup {
-            params,
-            device,
-            initial,
-            config,
-            feed: viewer.as_ref().map(|v| v.feed()),
-            stop: Arc::new(AtomicBool::new(false)),
-        },
-    )?;
+    let (report, cluster) = run_coordinator_session(&coordinator, gather, setup)?;
     Ok(CoordinatedRun {
         report,
         cluster,

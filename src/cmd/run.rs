@@ -119,6 +119,45 @@ pub struct PreparedSession {
     pub config: LoopConfig,
 }
 
+/// A prepared session made ready to run: its scene, the live viewer when one was asked for (keep
+/// it alive for the session), and the loop's setup, publishing to that viewer.
+pub struct LiveSession {
+    /// Scene, voxmap and shell.
+    pub scene: SessionScene,
+    /// The viewer serving this session, if any.
+    pub viewer: Option<super::view::LiveViewer>,
+    /// What the frame loop runs.
+    pub setup: SessionSetup,
+}
+
+impl PreparedSession {
+    /// Attaches the viewer at `view` (when given) and builds the loop's setup, with a stop flag
+    /// nobody raises (the session ends by its frame count, or its device).
+    pub fn go_live(self, view: Option<std::net::SocketAddr>) -> Result<LiveSession> {
+        let PreparedSession {
+            scene,
+            params,
+            device,
+            initial,
+            config,
+        } = self;
+        let viewer = super::view::attach(view, &scene)?;
+        let setup = SessionSetup {
+            params,
+            device,
+            initial,
+            config,
+            feed: viewer.as_ref().map(|v| v.feed()),
+            stop: Arc::new(AtomicBool::new(false)),
+        };
+        Ok(LiveSession {
+            scene,
+            viewer,
+            setup,
+        })
+    }
+}
+
 /// Builds the scene, loads parameters and opens the device of `args`.
 pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
     let choice = parse_device(&args.device)?;
@@ -151,26 +190,12 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
 
 /// Runs one paced session; records the handle trace to `record` when given.
 pub fn run(args: &RunArgs) -> Result<()> {
-    let PreparedSession {
+    let LiveSession {
         scene,
-        params,
-        device,
-        initial,
-        config,
-    } = prepare(args)?;
-    let viewer = super::view::attach(args.view, &scene)?;
-    let report: LoopReport = run_loop(
-        scene.tree.clone(),
-        classed(&scene.shell),
-        SessionSetup {
-            params,
-            device,
-            initial,
-            config,
-            feed: viewer.as_ref().map(|v| v.feed()),
-            stop: Arc::new(AtomicBool::new(false)),
-        },
-    )?;
+        viewer: _viewer,
+        setup,
+    } = prepare(args)?.go_live(args.view)?;
+    let report: LoopReport = run_loop(scene.tree.clone(), classed(&scene.shell), setup)?;
     finish(args, scene.shell.len(), &report, None::<&()>)
 }
 
