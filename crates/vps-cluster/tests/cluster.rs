@@ -265,32 +265,11 @@ fn a_worker_that_keeps_sending_implausible_sums_is_disconnected() {
         .unwrap();
     // Every reply, work or probe, claims one point more than it was asked for.
     let liar = {
-        let (scene, conn) = (scene.clone(), conn.clone());
-        let rt = fake.runtime.handle().clone();
-        std::thread::spawn(move || {
-            rt.block_on(async move {
-                let mut buf = [0u8; REPLY_LEN];
-                let mut replies = 0u32;
-                loop {
-                    match conn.read_datagram().await {
-                        Ok(bytes) => {
-                            let req = FrameRequest::decode(&bytes).unwrap();
-                            let mut sums = scene.sample_mask(&req.pose, req.classes);
-                            sums.sampled += 1;
-                            FrameReply {
-                                seq: req.seq,
-                                classes: req.classes,
-                                sums,
-                            }
-                            .encode(&mut buf);
-                            conn.send_datagram(bytes::Bytes::copy_from_slice(&buf))
-                                .unwrap();
-                            replies += 1;
-                        }
-                        Err(e) => return (replies, e),
-                    }
-                }
-            })
+        let scene = scene.clone();
+        reply_with(&fake, conn.clone(), move |req| {
+            let mut sums = scene.sample_mask_serial(&req.pose, req.classes);
+            sums.sampled += 1;
+            Some(sums)
         })
     };
     for pose in poses(40).iter() {
@@ -330,7 +309,7 @@ fn answer_slowly(
     conn: quinn::Connection,
     scene: std::sync::Arc<vps_cluster::ClusterScene>,
     per_class: Duration,
-) -> std::thread::JoinHandle<()> {
+) -> std::thread::JoinHandle<(u32, quinn::ConnectionError)> {
     answer(fake, conn, scene, per_class, usize::MAX)
 }
 
@@ -342,26 +321,47 @@ fn answer(
     scene: std::sync::Arc<vps_cluster::ClusterScene>,
     per_class: Duration,
     count: usize,
-) -> std::thread::JoinHandle<()> {
+) -> std::thread::JoinHandle<(u32, quinn::ConnectionError)> {
+    let mut answered = 0;
+    reply_with(fake, conn, move |req| {
+        if answered == count {
+            return None;
+        }
+        answered += 1;
+        std::thread::sleep(per_class * req.classes.count_ones());
+        Some(scene.sample_mask_serial(&req.pose, req.classes))
+    })
+}
+
+/// A fake worker that answers each request with the sums `reply` gives (none: no answer) until
+/// its connection closes; returns how many replies it sent and why the connection closed.
+fn reply_with(
+    fake: &FakeWorker,
+    conn: quinn::Connection,
+    mut reply: impl FnMut(&FrameRequest) -> Option<vps_haptic::PartialSums> + Send + 'static,
+) -> std::thread::JoinHandle<(u32, quinn::ConnectionError)> {
     let rt = fake.runtime.handle().clone();
     std::thread::spawn(move || {
         rt.block_on(async move {
             let mut buf = [0u8; REPLY_LEN];
-            let mut answered = 0;
-            while let Ok(bytes) = conn.read_datagram().await {
-                if answered == count {
-                    continue;
-                }
-                answered += 1;
+            let mut replies = 0;
+            loop {
+                let bytes = match conn.read_datagram().await {
+                    Ok(bytes) => bytes,
+                    Err(closed) => return (replies, closed),
+                };
                 let req = FrameRequest::decode(&bytes).unwrap();
-                std::thread::sleep(per_class * req.classes.count_ones());
+                let Some(sums) = reply(&req) else {
+                    continue;
+                };
                 FrameReply {
                     seq: req.seq,
                     classes: req.classes,
-                    sums: scene.sample_mask_serial(&req.pose, req.classes),
+                    sums,
                 }
                 .encode(&mut buf);
                 let _ = conn.send_datagram(bytes::Bytes::copy_from_slice(&buf));
+                replies += 1;
             }
         })
     })
