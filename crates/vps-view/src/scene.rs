@@ -4,13 +4,16 @@
 //! millions of them (the aircraft bay at 5 mm: see `docs/viewer.md`), so they are decimated: the
 //! grid is coarsened by the smallest integer factor `k` for which the coarse cells holding at least
 //! one Surface voxel number at most [`SceneLimits::max_boxes`], and one box of edge `k · s` is drawn
-//! per such cell. The part's shell is thinned by a stride to at most
+//! per such cell. The cells are found from the tree's leaves and tiles, never from a dense grid:
+//! memory is bounded by `max_boxes` cells whatever the grid's volume (a 2¹⁴-per-axis grid costs no
+//! more than its Surface voxels' leaves). The part's shell is thinned by a stride to at most
 //! [`SceneLimits::max_shell_points`] for drawing; the full shell is kept for contact sampling.
 
 use glam::{DVec3, UVec3, Vec3};
 use serde::Serialize;
+use std::collections::HashSet;
 use std::sync::Arc;
-use vps_voxmap::{DenseGrid, PointShell, Voxel, VoxelTree};
+use vps_voxmap::{PointShell, Voxel, VoxelTree};
 
 /// Bounds on what is sent to the page.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -83,20 +86,19 @@ pub struct ViewerScene {
 }
 
 impl ViewerScene {
-    /// Builds the drawn scene from a voxmap and, optionally, the part's shell. Expands the tree to
-    /// a dense byte grid once (one byte per voxel, freed on return) to find the Surface voxels;
-    /// cost is linear in the grid's voxel count (tens of ms per 10⁷ voxels).
+    /// Builds the drawn scene from a voxmap and, optionally, the part's shell. Reads the tree's
+    /// leaves and tiles (never a dense grid): memory is bounded by [`SceneLimits::max_boxes`]
+    /// coarse cells, whatever the grid's volume; time is linear in the stored leaves and tiles per
+    /// coarsening factor tried (usually one or two).
     pub fn new(
         label: impl Into<String>,
         tree: Arc<VoxelTree>,
         shell: Option<Arc<PointShell>>,
         limits: SceneLimits,
     ) -> ViewerScene {
-        let dense = tree.to_dense();
-        let surface = surface_voxels(&dense);
-        drop(dense);
         let spec = *tree.spec();
-        let (cells, coarsening) = decimate(&surface, limits.max_boxes);
+        let surface_voxels = tree.counts()[Voxel::Surface as usize];
+        let (cells, coarsening) = decimate(&tree, surface_voxels, limits.max_boxes);
         let box_size = spec.voxel_size * coarsening as f64;
         let boxes: Vec<Vec3> = cells
             .iter()
@@ -111,7 +113,7 @@ impl ViewerScene {
             voxel_size_m: spec.voxel_size,
             box_size_m: box_size,
             coarsening,
-            surface_voxels: surface.len() as u64,
+            surface_voxels,
             boxes: boxes.len(),
             bounds_min_m: spec.origin.to_array(),
             bounds_max_m: spec.max_corner().to_array(),
@@ -128,49 +130,90 @@ impl ViewerScene {
     }
 }
 
-/// Indices of every Surface voxel of `grid`, x fastest.
-fn surface_voxels(grid: &DenseGrid) -> Vec<UVec3> {
-    let [nx, ny, _] = grid.spec.dims.map(|d| d as usize);
-    let mut out = Vec::new();
-    if nx == 0 || ny == 0 {
-        return out;
-    }
-    for (row_index, row) in grid.data.chunks_exact(nx).enumerate() {
-        let (y, z) = ((row_index % ny) as u32, (row_index / ny) as u32);
-        for (x, &v) in row.iter().enumerate() {
-            if Voxel::from_bits(v) == Voxel::Surface {
-                out.push(UVec3::new(x as u32, y, z));
-            }
-        }
-    }
-    out
-}
-
-/// The distinct coarse cells (indices in units of `k` voxels) holding the `voxels`, with the
-/// smallest `k` ≥ 1 giving at most `max_cells` of them. Surface counts fall about as `1/k²`, so the
-/// search starts near `sqrt(n / max_cells)`. Past [`MAX_COARSENING`] the cells are thinned by a
-/// stride. Returns the cells (sorted, z slowest) and `k`.
-fn decimate(voxels: &[UVec3], max_cells: usize) -> (Vec<UVec3>, u32) {
+/// The distinct coarse cells (indices in units of `k` voxels) holding a Surface voxel of `tree`,
+/// with the smallest `k` ≥ 1 giving at most `max_cells` of them. Surface counts fall about as
+/// `1/k²`, so the search starts near `sqrt(surface_voxels / max_cells)`. Past [`MAX_COARSENING`]
+/// the cells are thinned to at most `max_cells` by a spatial hash. Returns the cells (sorted, z
+/// slowest) and `k`. Never holds more than `max_cells + 1` cells.
+fn decimate(tree: &VoxelTree, surface_voxels: u64, max_cells: usize) -> (Vec<UVec3>, u32) {
     let max_cells = max_cells.max(1);
-    let estimate = (voxels.len() as f64 / max_cells as f64).sqrt().floor() as u32;
-    let mut k = estimate.clamp(1, MAX_COARSENING);
+    let estimate = (surface_voxels as f64 / max_cells as f64).sqrt().floor();
+    let mut k = (estimate.min(MAX_COARSENING as f64) as u32).max(1);
     loop {
-        let cells = coarse_cells(voxels, k);
-        if cells.len() <= max_cells {
-            return (cells, k);
+        if let Some(cells) = coarse_cells(tree, k, max_cells, 0) {
+            return (sorted(cells), k);
         }
         if k == MAX_COARSENING {
-            return (thin(&cells, max_cells), k);
+            break;
         }
         k += 1;
     }
+    // Still too many at the largest k: keep the cells whose hash falls in a shrinking share.
+    let mut keep_log2 = 1;
+    loop {
+        if let Some(cells) = coarse_cells(tree, k, max_cells, keep_log2) {
+            return (sorted(cells), k);
+        }
+        keep_log2 += 1;
+    }
 }
 
-/// The distinct cells `v / k` of `voxels`, sorted with z slowest.
-fn coarse_cells(voxels: &[UVec3], k: u32) -> Vec<UVec3> {
-    let mut cells: Vec<UVec3> = voxels.iter().map(|v| *v / k).collect();
+/// The distinct cells `v / k` of the Surface voxels `v` of `tree` whose [`cell_hash`] has its low
+/// `keep_log2` bits clear (all cells when 0), or `None` as soon as there are more than `max_cells`.
+fn coarse_cells(
+    tree: &VoxelTree,
+    k: u32,
+    max_cells: usize,
+    keep_log2: u32,
+) -> Option<HashSet<UVec3>> {
+    let keep_mask = (1u64 << keep_log2.min(63)) - 1;
+    let mut cells = HashSet::new();
+    let mut overflow = false;
+    // Leaves are visited voxel by voxel in order, so consecutive voxels often share a cell.
+    let mut last = None;
+    tree.for_each_region_of(Voxel::Surface, |lo, hi| {
+        if overflow {
+            return;
+        }
+        let (a, b) = (lo / k, (hi - UVec3::ONE) / k);
+        if a == b && last == Some(a) {
+            return;
+        }
+        last = Some(a);
+        let span = (b - a + UVec3::ONE).as_u64vec3();
+        if keep_log2 == 0 && span.x * span.y * span.z > max_cells as u64 {
+            overflow = true;
+            return;
+        }
+        for z in a.z..=b.z {
+            for y in a.y..=b.y {
+                for x in a.x..=b.x {
+                    let c = UVec3::new(x, y, z);
+                    if cell_hash(c) & keep_mask == 0 && cells.insert(c) && cells.len() > max_cells {
+                        overflow = true;
+                        return;
+                    }
+                }
+            }
+        }
+    });
+    (!overflow).then_some(cells)
+}
+
+/// A well-mixed hash of a cell index (splitmix64 of its packed coordinates): thinning by its low
+/// bits keeps an even spread of cells.
+fn cell_hash(c: UVec3) -> u64 {
+    let mut h = (c.x as u64) ^ ((c.y as u64) << 21) ^ ((c.z as u64) << 42) ^ ((c.z as u64) >> 22);
+    h = h.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    h = (h ^ (h >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    h = (h ^ (h >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    h ^ (h >> 31)
+}
+
+/// The cells sorted with z slowest.
+fn sorted(cells: HashSet<UVec3>) -> Vec<UVec3> {
+    let mut cells: Vec<UVec3> = cells.into_iter().collect();
     cells.sort_unstable_by_key(|c| (c.z, c.y, c.x));
-    cells.dedup();
     cells
 }
 
@@ -197,7 +240,7 @@ pub fn encode_points(points: &[Vec3]) -> Vec<u8> {
 pub(crate) mod tests {
     use super::*;
     use glam::IVec3;
-    use vps_voxmap::{GridSpec, MassProperties, TreeConfig};
+    use vps_voxmap::{DenseGrid, GridSpec, MassProperties, TreeConfig};
 
     /// A 40³ grid of 1 cm voxels at the origin with a Surface slab at z = 10 (Interior below).
     pub(crate) fn slab() -> Arc<VoxelTree> {
@@ -274,12 +317,99 @@ pub(crate) mod tests {
         assert!(scene.meta.shell_points <= 10 && scene.meta.shell_points_total == 25);
     }
 
+    /// The dense computation the viewer used before it read the tree: every Surface voxel of the
+    /// expanded grid, then the same search for `k`. The oracle for small trees.
+    fn dense_oracle(tree: &VoxelTree, max_cells: usize) -> (Vec<UVec3>, u32) {
+        let grid = tree.to_dense();
+        let [nx, ny, _] = grid.spec.dims.map(|d| d as usize);
+        let mut voxels = Vec::new();
+        for (row_index, row) in grid.data.chunks_exact(nx).enumerate() {
+            let (y, z) = ((row_index % ny) as u32, (row_index / ny) as u32);
+            for (x, &v) in row.iter().enumerate() {
+                if Voxel::from_bits(v) == Voxel::Surface {
+                    voxels.push(UVec3::new(x as u32, y, z));
+                }
+            }
+        }
+        let estimate = (voxels.len() as f64 / max_cells as f64).sqrt().floor() as u32;
+        let mut k = estimate.clamp(1, MAX_COARSENING);
+        loop {
+            let mut cells: Vec<UVec3> = voxels.iter().map(|v| *v / k).collect();
+            cells.sort_unstable_by_key(|c| (c.z, c.y, c.x));
+            cells.dedup();
+            if cells.len() <= max_cells {
+                return (cells, k);
+            }
+            assert!(
+                k < MAX_COARSENING,
+                "the oracle only covers k up to the largest"
+            );
+            k += 1;
+        }
+    }
+
+    /// A 70 × 45 × 33 grid with a solid Surface block (whole leaves and nodes: tiles) and scattered
+    /// Surface and Interior voxels (leaves).
+    fn mixed(config: TreeConfig) -> VoxelTree {
+        let spec = GridSpec {
+            origin: DVec3::new(-0.3, 0.1, 2.0),
+            voxel_size: 0.005,
+            dims: [70, 45, 33],
+        };
+        let mut grid = DenseGrid::new(spec);
+        for z in 0..33 {
+            for y in 0..45 {
+                for x in 0..70 {
+                    let h = (x * 73 + y * 151 + z * 29) % 17;
+                    let kind = if (8..24).contains(&x) && (16..32).contains(&y) && z < 16 {
+                        Voxel::Surface
+                    } else if h == 0 || h == 5 {
+                        Voxel::Surface
+                    } else if h == 3 {
+                        Voxel::Interior
+                    } else {
+                        Voxel::Free
+                    };
+                    grid.set(IVec3::new(x, y, z), kind);
+                }
+            }
+        }
+        VoxelTree::from_dense(&grid, config).unwrap()
+    }
+
+    #[test]
+    fn boxes_from_the_tree_equal_the_dense_computation() {
+        for tree in [
+            mixed(TreeConfig::default()),
+            mixed(TreeConfig::uniform(2)),
+            mixed(TreeConfig::uniform(1)),
+            Arc::try_unwrap(slab()).unwrap(),
+        ] {
+            let surface = tree.counts()[Voxel::Surface as usize];
+            for max_cells in [1_000_000, 5000, 1000, 300, 40, 3] {
+                let expected = dense_oracle(&tree, max_cells);
+                let got = decimate(&tree, surface, max_cells);
+                assert_eq!(got, expected, "max_cells {max_cells}, {:?}", tree.config());
+            }
+        }
+    }
+
     #[test]
     fn past_the_largest_coarsening_the_cells_are_thinned() {
-        let voxels: Vec<UVec3> = (0..1000).map(|i| UVec3::new(i * 64, 0, 0)).collect();
-        let (cells, k) = decimate(&voxels, 10);
+        // Surface voxels 64 apart along x in a long thin grid: 1000 cells at every k ≤ 64.
+        let spec = GridSpec {
+            origin: DVec3::ZERO,
+            voxel_size: 0.01,
+            dims: [64_000, 1, 1],
+        };
+        let mut grid = DenseGrid::new(spec);
+        for i in 0..1000 {
+            grid.set(IVec3::new(i * 64, 0, 0), Voxel::Surface);
+        }
+        let tree = VoxelTree::from_dense(&grid, TreeConfig::default()).unwrap();
+        let (cells, k) = decimate(&tree, 1000, 10);
         assert_eq!(k, MAX_COARSENING);
-        assert!(cells.len() <= 10 && !cells.is_empty());
+        assert!(cells.len() <= 10 && !cells.is_empty(), "{}", cells.len());
     }
 
     #[test]

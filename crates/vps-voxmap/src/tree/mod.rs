@@ -349,6 +349,14 @@ impl VoxelTree {
             .collect()
     }
 
+    /// Calls `f(min, max)` for every region of voxels of `kind` inside the dims, as half-open voxel
+    /// index boxes `[min, max)`: one box per uniform tile (clipped to the dims) and one unit box per
+    /// matching voxel of a leaf, in canonical order. Reads the tree without expanding it: no
+    /// allocation, time linear in the stored leaves and tiles (not in the grid's volume).
+    pub fn for_each_region_of(&self, kind: Voxel, f: impl FnMut(UVec3, UVec3)) {
+        walk::regions_of(self, kind, f)
+    }
+
     /// The dense grid with the same content (allocates `voxel_count` bytes; for tests and tools).
     pub fn to_dense(&self) -> DenseGrid {
         walk::to_dense(self)

@@ -118,3 +118,84 @@ pub(super) fn to_dense(tree: &VoxelTree) -> DenseGrid {
     });
     grid
 }
+
+/// See [`VoxelTree::for_each_region_of`].
+pub(super) fn regions_of(tree: &VoxelTree, kind: Voxel, mut f: impl FnMut(UVec3, UVec3)) {
+    let wpl = tree.leaf_shape.words_per_leaf();
+    let dims = tree.spec.dims;
+    for_each_block(tree, |block| match block {
+        Block::Tile {
+            origin,
+            shift,
+            value,
+        } => {
+            if tree.kind_of(value) == kind {
+                let [x, y, z] = clip(origin, shift, dims);
+                if !x.is_empty() && !y.is_empty() && !z.is_empty() {
+                    f(
+                        UVec3::new(x.start, y.start, z.start),
+                        UVec3::new(x.end, y.end, z.end),
+                    );
+                }
+            }
+        }
+        Block::Leaf { origin, first_word } => {
+            let leaf = &tree.leaf_words[first_word..first_word + wpl];
+            let inside = tree.leaf_shape.inside(origin, dims);
+            for z in 0..inside[2] {
+                for y in 0..inside[1] {
+                    for x in 0..inside[0] {
+                        let p = origin + UVec3::new(x, y, z);
+                        if tree.kind_of(tree.leaf_shape.read(leaf, 0, p)) == kind {
+                            f(p, p + UVec3::ONE);
+                        }
+                    }
+                }
+            }
+        }
+    });
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::{DenseGrid, GridSpec, TreeConfig, Voxel, VoxelTree};
+    use glam::{DVec3, IVec3};
+
+    #[test]
+    fn regions_cover_exactly_the_voxels_of_a_kind() {
+        let spec = GridSpec {
+            origin: DVec3::ZERO,
+            voxel_size: 0.01,
+            dims: [37, 21, 70],
+        };
+        let mut grid = DenseGrid::new(spec);
+        for z in 0..70 {
+            for y in 0..21 {
+                for x in 0..37 {
+                    // A solid block (tiles at the leaf level) and scattered voxels (leaves).
+                    let solid = z >= 16 && z < 64 && y < 16 && x < 32;
+                    if solid || (x * 7 + y * 3 + z) % 11 == 0 {
+                        grid.set(IVec3::new(x, y, z), Voxel::Surface);
+                    }
+                }
+            }
+        }
+        let tree = VoxelTree::from_dense(&grid, TreeConfig::uniform(2)).unwrap();
+        let mut seen = DenseGrid::new(spec);
+        let mut count = 0u64;
+        tree.for_each_region_of(Voxel::Surface, |lo, hi| {
+            for z in lo.z..hi.z {
+                for y in lo.y..hi.y {
+                    for x in lo.x..hi.x {
+                        let p = IVec3::new(x as i32, y as i32, z as i32);
+                        assert_eq!(seen.get(p), Voxel::Free, "{p} twice");
+                        seen.set(p, Voxel::Surface);
+                        count += 1;
+                    }
+                }
+            }
+        });
+        assert_eq!(seen.data, grid.data);
+        assert_eq!(count, tree.counts()[Voxel::Surface as usize]);
+    }
+}
