@@ -1,7 +1,9 @@
 // vps viewer: dependency-free WebGL2 (2D-canvas fallback). Served by crates/vps-view; no build step.
 //
 // Data: /scene (JSON metadata), /scene/boxes and /scene/shell (little-endian f32 xyz, metres),
-// /state (latest state, JSON) and /ws (the same states pushed at 30 Hz). World frame: z up, metres.
+// /scene/mesh and /scene/part_mesh (f32 triangle corners, 9 per triangle: the static meshes in
+// the world frame, the part's mesh in its body frame), /state (latest state, JSON) and /ws (the
+// same states pushed at 30 Hz). World frame: z up, metres.
 'use strict';
 (function () {
   const $ = (id) => document.getElementById(id);
@@ -18,6 +20,9 @@
   let scene = null; // metadata
   let boxes = new Float32Array(0); // world xyz of the scene's boxes
   let shell = new Float32Array(0); // body-frame xyz of the part's drawn points
+  let mesh = null; // static meshes: {pos, nrm, count} (world frame), null without
+  let partMesh = null; // the part's mesh (body frame), null without
+  let showVoxels = true; // the Surface voxel boxes (and the shell points): an overlay with meshes
   let state = null; // latest state message
   let renderer = null;
   let lastMessageAt = 0;
@@ -71,6 +76,8 @@
   }
 
   // ---- what to draw this frame, shared by both renderers ----
+  const OVERLAY_COLOR = [0.95, 0.6, 0.2]; // Surface voxel boxes over meshes
+  const PART_COLOR = [0.92, 0.9, 0.86];
   function depthColor(depth) {
     const t = Math.min(1, depth / (scene ? scene.voxel_size_m : 0.005));
     return [1, 0.88 * (1 - t), 0.25 * (1 - t)];
@@ -105,6 +112,17 @@
     const near = camera.follow ? camera.dist * 0.6 : Math.max(1e-4, camera.dist * 0.02);
     const far = camera.dist * 4 + diag * 2;
     return mul(perspective(FOV, width / Math.max(1, height), near, far), lookAt(eye, camera.target, [0, 0, 1]));
+  }
+
+  // Triangle soup (9 floats per triangle) with one normal per face, repeated at its 3 corners.
+  function withNormals(pos) {
+    const nrm = new Float32Array(pos.length);
+    for (let i = 0; i < pos.length; i += 9) {
+      const a = [pos[i], pos[i + 1], pos[i + 2]];
+      const n = norm(cross(sub([pos[i + 3], pos[i + 4], pos[i + 5]], a), sub([pos[i + 6], pos[i + 7], pos[i + 8]], a)));
+      for (let k = 0; k < 9; k += 3) nrm.set(n, i + k);
+    }
+    return { pos, nrm, count: pos.length / 3 };
   }
 
   // ---- level of detail: the scene's boxes sorted into cubic chunks; chunks near the eye are drawn
@@ -162,16 +180,38 @@
   const POINT_VS = `#version 300 es
   in vec3 a_offset;
   uniform mat4 u_viewProj; uniform float u_size; uniform float u_pixelScale; uniform vec3 u_heightLo; uniform float u_heightSpan;
+  uniform bool u_tint; uniform vec3 u_color;
   out vec3 v_color;
   void main() {
     gl_Position = u_viewProj * vec4(a_offset, 1.0);
     gl_PointSize = clamp(u_size * u_pixelScale / max(gl_Position.w, 1e-4), 1.0, 64.0);
     float t = clamp((a_offset.z - u_heightLo.z) / u_heightSpan, 0.0, 1.0);
-    v_color = vec3(0.35 + 0.25 * t, 0.45 + 0.2 * t, 0.55 - 0.15 * t) * 0.85;
+    v_color = (u_tint ? vec3(0.35 + 0.25 * t, 0.45 + 0.2 * t, 0.55 - 0.15 * t) : u_color) * 0.85;
   }`;
   const POINT_FS = `#version 300 es
   precision mediump float; in vec3 v_color; out vec4 o;
   void main() { vec2 d = abs(gl_PointCoord - 0.5); o = vec4(v_color * (max(d.x, d.y) > 0.42 ? 0.7 : 1.0), 1.0); }`;
+  // Meshes: per-face normals, lit two-sided (abs) by a headlight and a fixed sun.
+  const MESH_VS = `#version 300 es
+  in vec3 a_pos; in vec3 a_normal;
+  uniform mat4 u_viewProj; uniform mat4 u_model; uniform vec3 u_heightLo; uniform float u_heightSpan; uniform bool u_tint; uniform vec3 u_color;
+  out vec3 v_color; out vec3 v_normal; out vec3 v_world;
+  void main() {
+    vec4 w = u_model * vec4(a_pos, 1.0);
+    v_world = w.xyz; v_normal = mat3(u_model) * a_normal;
+    gl_Position = u_viewProj * w;
+    float t = clamp((w.z - u_heightLo.z) / u_heightSpan, 0.0, 1.0);
+    v_color = u_tint ? vec3(0.5 + 0.3 * t, 0.55 + 0.2 * t, 0.62 - 0.12 * t) : u_color;
+  }`;
+  const MESH_FS = `#version 300 es
+  precision mediump float; in vec3 v_color; in vec3 v_normal; in vec3 v_world;
+  uniform vec3 u_eye; uniform float u_alpha; out vec4 o;
+  void main() {
+    vec3 n = normalize(v_normal);
+    float head = abs(dot(n, normalize(u_eye - v_world)));
+    float sun = abs(dot(n, normalize(vec3(0.35, 0.25, 0.9))));
+    o = vec4(v_color * (0.18 + 0.62 * head + 0.3 * sun), u_alpha);
+  }`;
   const LINE_VS = `#version 300 es
   in vec3 a_pos; uniform mat4 u_viewProj; void main() { gl_Position = u_viewProj * vec4(a_pos, 1.0); }`;
   const LINE_FS = `#version 300 es
@@ -208,8 +248,11 @@
       if (!gl.getProgramParameter(p, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(p));
       return p;
     };
-    let boxProg, lineProg, pointProg;
-    try { boxProg = program(BOX_VS, BOX_FS); lineProg = program(LINE_VS, LINE_FS); pointProg = program(POINT_VS, POINT_FS); } catch (e) {
+    let boxProg, lineProg, pointProg, meshProg;
+    try {
+      boxProg = program(BOX_VS, BOX_FS); lineProg = program(LINE_VS, LINE_FS); pointProg = program(POINT_VS, POINT_FS);
+      meshProg = program(MESH_VS, MESH_FS);
+    } catch (e) {
       console.warn('WebGL2 shaders failed, using the 2D canvas:', e); return null;
     }
     const loc = (p, n) => gl.getUniformLocation(p, n);
@@ -218,6 +261,7 @@
     const buffer = (data, usage) => { const b = gl.createBuffer(); gl.bindBuffer(gl.ARRAY_BUFFER, b); gl.bufferData(gl.ARRAY_BUFFER, data, usage || gl.STATIC_DRAW); return b; };
     const cubePos = buffer(cube.pos), cubeNrm = buffer(cube.nrm);
     const sceneBuf = buffer(boxes), shellBuf = buffer(shell);
+    const meshBufs = {}; // name → {pos, nrm, count}
     const contactBuf = gl.createBuffer(), contactColorBuf = gl.createBuffer(), lineBuf = gl.createBuffer();
     const A = { corner: attr(boxProg, 'a_corner'), normal: attr(boxProg, 'a_normal'), offset: attr(boxProg, 'a_offset'), color: attr(boxProg, 'a_color') };
     const bind = (a, buf, size, divisor, first) => {
@@ -242,6 +286,22 @@
       gl.vertexAttribDivisor(A.offset, 0);
       if (opts.colors) gl.vertexAttribDivisor(A.color, 0);
     }
+    // A mesh uploaded by setScene, at `model`: height-tinted (`opts.tint`) or in `opts.color`.
+    function drawMesh(vp, name, model, opts) {
+      const m = meshBufs[name];
+      if (!m || !m.count) return;
+      gl.useProgram(meshProg);
+      bind(attr(meshProg, 'a_pos'), m.pos, 3, 0); bind(attr(meshProg, 'a_normal'), m.nrm, 3, 0);
+      gl.uniformMatrix4fv(loc(meshProg, 'u_viewProj'), false, vp);
+      gl.uniformMatrix4fv(loc(meshProg, 'u_model'), false, model);
+      gl.uniform3fv(loc(meshProg, 'u_eye'), cameraEye());
+      gl.uniform1i(loc(meshProg, 'u_tint'), opts.tint ? 1 : 0);
+      gl.uniform3fv(loc(meshProg, 'u_color'), opts.color || [1, 1, 1]);
+      gl.uniform1f(loc(meshProg, 'u_alpha'), opts.alpha || 1);
+      gl.uniform3fv(loc(meshProg, 'u_heightLo'), scene.bounds_min_m);
+      gl.uniform1f(loc(meshProg, 'u_heightSpan'), (scene.bounds_max_m[2] - scene.bounds_min_m[2]) || 1);
+      gl.drawArrays(gl.TRIANGLES, 0, m.count);
+    }
     // Boxes first..first+count of the scene as point sprites.
     function drawPoints(vp, first, count, pixelScale) {
       if (!count) return;
@@ -253,6 +313,8 @@
       gl.uniform1f(loc(pointProg, 'u_pixelScale'), pixelScale);
       gl.uniform3fv(loc(pointProg, 'u_heightLo'), scene.bounds_min_m);
       gl.uniform1f(loc(pointProg, 'u_heightSpan'), (scene.bounds_max_m[2] - scene.bounds_min_m[2]) || 1);
+      gl.uniform1i(loc(pointProg, 'u_tint'), mesh ? 0 : 1);
+      gl.uniform3fv(loc(pointProg, 'u_color'), OVERLAY_COLOR);
       gl.drawArrays(gl.POINTS, first, count);
     }
     function drawLines(vp, list) {
@@ -284,6 +346,9 @@
       setScene() {
         gl.bindBuffer(gl.ARRAY_BUFFER, sceneBuf); gl.bufferData(gl.ARRAY_BUFFER, boxes, gl.STATIC_DRAW);
         gl.bindBuffer(gl.ARRAY_BUFFER, shellBuf); gl.bufferData(gl.ARRAY_BUFFER, shell, gl.STATIC_DRAW);
+        for (const [name, m] of [['scene', mesh], ['part', partMesh]]) {
+          if (m) meshBufs[name] = { pos: buffer(m.pos), nrm: buffer(m.nrm), count: m.count };
+        }
       },
     };
     function drawGL() {
@@ -295,14 +360,20 @@
       const vp = viewProjection(w, h);
       gl.enable(gl.DEPTH_TEST); gl.disable(gl.BLEND); gl.depthMask(true);
       const eye = cameraEye();
-      for (const r of lodRanges(eye)) {
-        if (r.near) drawBoxes(vp, sceneBuf, r.count, scene.box_size_m * 0.92, IDENTITY, { tint: true }, r.first);
-        else drawPoints(vp, r.first, r.count, h / (2 * Math.tan(FOV / 2)));
+      drawMesh(vp, 'scene', IDENTITY, { tint: true });
+      if (showVoxels) {
+        const boxStyle = mesh ? { color: OVERLAY_COLOR } : { tint: true };
+        for (const r of lodRanges(eye)) {
+          if (r.near) drawBoxes(vp, sceneBuf, r.count, scene.box_size_m * 0.92, IDENTITY, boxStyle, r.first);
+          else drawPoints(vp, r.first, r.count, h / (2 * Math.tan(FOV / 2)));
+        }
       }
       const f = state && state.frame;
       if (!f) return;
       const pointSize = scene.shell_voxel_size_m * 0.8;
-      drawBoxes(vp, shellBuf, shell.length / 3, pointSize, poseMatrix(f.part.orientation_xyzw, f.part.position_m), { color: [0.91, 0.91, 0.91] });
+      const partPose = poseMatrix(f.part.orientation_xyzw, f.part.position_m);
+      drawMesh(vp, 'part', partPose, { color: PART_COLOR });
+      if (!partMesh || showVoxels) drawBoxes(vp, shellBuf, shell.length / 3, pointSize, partPose, { color: [0.91, 0.91, 0.91] });
       const contacts = contactArrays(f);
       if (contacts.count) {
         gl.bindBuffer(gl.ARRAY_BUFFER, contactBuf); gl.bufferData(gl.ARRAY_BUFFER, contacts.pos, gl.DYNAMIC_DRAW);
@@ -312,7 +383,9 @@
       gl.disable(gl.DEPTH_TEST);
       drawLines(vp, arrows(f));
       gl.enable(gl.DEPTH_TEST); gl.enable(gl.BLEND); gl.blendFunc(gl.SRC_ALPHA, gl.ONE_MINUS_SRC_ALPHA); gl.depthMask(false);
-      drawBoxes(vp, shellBuf, shell.length / 3, pointSize, poseMatrix(f.handle.orientation_xyzw, f.handle.position_m), { color: [0.35, 0.63, 1], alpha: 0.25 });
+      const handlePose = poseMatrix(f.handle.orientation_xyzw, f.handle.position_m);
+      if (partMesh) drawMesh(vp, 'part', handlePose, { color: [0.35, 0.63, 1], alpha: 0.25 });
+      else drawBoxes(vp, shellBuf, shell.length / 3, pointSize, handlePose, { color: [0.35, 0.63, 1], alpha: 0.25 });
       gl.depthMask(true); gl.disable(gl.BLEND);
     }
   }
@@ -335,7 +408,8 @@
     return { pos, col, count: n };
   }
 
-  // ---- 2D canvas fallback: projected squares, far to near by layer ----
+  // ---- 2D canvas fallback: mesh faces sorted far to near, projected squares for boxes and points ----
+  const MAX_2D_TRIANGLES = 20000;
   function make2D() {
     const ctx = canvas.getContext('2d');
     if (!ctx) return null;
@@ -355,15 +429,40 @@
           if (x < -s || y < -s || x > w + s || y > h + s) return;
           ctx.fillStyle = css(color, alpha); ctx.fillRect(x - s / 2, y - s / 2, s, s);
         };
-        const stride = Math.max(1, Math.ceil(boxes.length / 3 / 60000));
-        for (let i = 0; i < boxes.length; i += 3 * stride) {
-          const p = [boxes[i], boxes[i + 1], boxes[i + 2]];
-          square(p, scene.box_size_m, heightColor(p[2]));
-        }
         const f = state && state.frame;
+        // Meshes: up to MAX_2D_TRIANGLES faces, filled far to near, shaded by their normal.
+        const faces = [], eye = cameraEye();
+        const addFaces = (m, model, color, cap) => {
+          if (!m) return;
+          const n = m.count / 3, stride = Math.max(1, Math.ceil(n / cap));
+          for (let t = 0; t < n; t += stride) {
+            const c = [0, 1, 2].map((k) => transform(model, [m.pos[9 * t + 3 * k], m.pos[9 * t + 3 * k + 1], m.pos[9 * t + 3 * k + 2]]));
+            const q = c.map((p) => project(vp, p));
+            if (q.some((v) => v[2] <= 1e-4)) continue;
+            const normal = norm(cross(sub(c[1], c[0]), sub(c[2], c[0])));
+            const light = 0.2 + 0.8 * Math.abs(dot(normal, norm(sub(eye, c[0]))));
+            faces.push({ q, depth: q[0][2] + q[1][2] + q[2][2], color: scale(color || heightColor(c[0][2]), light) });
+          }
+        };
+        addFaces(mesh, IDENTITY, null, MAX_2D_TRIANGLES);
+        if (f) addFaces(partMesh, poseMatrix(f.part.orientation_xyzw, f.part.position_m), PART_COLOR, MAX_2D_TRIANGLES / 4);
+        faces.sort((a, b) => b.depth - a.depth);
+        for (const t of faces) {
+          ctx.fillStyle = css(t.color); ctx.beginPath();
+          t.q.forEach((v, k) => { const x = (v[0] / v[2] * 0.5 + 0.5) * w, y = (0.5 - v[1] / v[2] * 0.5) * h; if (k) ctx.lineTo(x, y); else ctx.moveTo(x, y); });
+          ctx.fill();
+        }
+        if (showVoxels) {
+          const stride = Math.max(1, Math.ceil(boxes.length / 3 / 60000));
+          for (let i = 0; i < boxes.length; i += 3 * stride) {
+            const p = [boxes[i], boxes[i + 1], boxes[i + 2]];
+            square(p, scene.box_size_m, mesh ? OVERLAY_COLOR : heightColor(p[2]));
+          }
+        }
         if (!f) return;
         const size = scene.shell_voxel_size_m;
-        for (const [pose, color, alpha] of [[f.handle, [0.35, 0.63, 1], 0.3], [f.part, [0.91, 0.91, 0.91], 1]]) {
+        const shellPoses = partMesh && !showVoxels ? [] : [[f.handle, [0.35, 0.63, 1], 0.3], [f.part, [0.91, 0.91, 0.91], 1]];
+        for (const [pose, color, alpha] of shellPoses) {
           const m = poseMatrix(pose.orientation_xyzw, pose.position_m);
           for (let i = 0; i < shell.length; i += 3) square(transform(m, [shell[i], shell[i + 1], shell[i + 2]]), size, color, alpha);
         }
@@ -506,7 +605,12 @@
     requestDraw();
   }
   $('follow').addEventListener('change', (e) => setFollow(e.target.checked));
-  window.addEventListener('keydown', (e) => { if (e.key === 'f') setFollow(!camera.follow); });
+  function setVoxels(on) { showVoxels = on; $('voxels').checked = on; requestDraw(); }
+  $('voxels').addEventListener('change', (e) => setVoxels(e.target.checked));
+  window.addEventListener('keydown', (e) => {
+    if (e.key === 'f') setFollow(!camera.follow);
+    if (e.key === 'v') setVoxels(!showVoxels);
+  });
   window.addEventListener('resize', requestDraw);
 
   // ---- start ----
@@ -521,11 +625,17 @@
       scene = await get('/scene', 'json');
       boxes = new Float32Array(await get('/scene/boxes', 'arrayBuffer'));
       shell = new Float32Array(await get('/scene/shell', 'arrayBuffer'));
+      if (scene.mesh_triangles) mesh = withNormals(new Float32Array(await get('/scene/mesh', 'arrayBuffer')));
+      if (scene.part_mesh_triangles) partMesh = withNormals(new Float32Array(await get('/scene/part_mesh', 'arrayBuffer')));
     } catch (e) {
       $('status').className = 'error'; $('status').textContent = `cannot load the scene: ${e.message}`; return;
     }
     $('scene-info').textContent = `${scene.label}: ${scene.surface_voxels} Surface voxels of ${(scene.voxel_size_m * 1000).toFixed(1)} mm, ` +
-      `${scene.boxes} boxes of ${(scene.box_size_m * 1000).toFixed(1)} mm; part ${scene.shell_points_total} points`;
+      `${scene.boxes} boxes of ${(scene.box_size_m * 1000).toFixed(1)} mm; part ${scene.shell_points_total} points` +
+      (mesh ? `; meshes ${scene.mesh_triangles} of ${scene.mesh_triangles_total} triangles` : '') +
+      (partMesh ? `; part mesh ${scene.part_mesh_triangles} of ${scene.part_mesh_triangles_total}` : '');
+    // The voxel boxes are the view when there is no mesh, an overlay (off at first) when there is.
+    setVoxels(!(mesh || partMesh));
     buildChunks();
     setFollow(!!(state && state.status !== 'offline' && scene.shell_points));
     resize();

@@ -19,6 +19,7 @@
 
 pub mod client;
 pub mod contacts;
+pub mod mesh;
 pub mod sampler;
 pub mod scene;
 pub mod server;

@@ -8,11 +8,17 @@
 //! memory is bounded by `max_boxes` cells whatever the grid's volume (a 2¹⁴-per-axis grid costs no
 //! more than its Surface voxels' leaves). The part's shell is thinned by a stride to at most
 //! [`SceneLimits::max_shell_points`] for drawing; the full shell is kept for contact sampling.
+//!
+//! With meshes ([`ViewerScene::with_meshes`]) the page draws the static meshes and the part's mesh
+//! shaded, decimated to [`SceneLimits::max_static_triangles`] and
+//! [`SceneLimits::max_part_triangles`] (see [`crate::mesh`]), and the boxes become an overlay.
 
+use crate::mesh::{decimate, decimate_all};
 use glam::{DVec3, UVec3, Vec3};
 use serde::Serialize;
 use std::collections::HashSet;
 use std::sync::Arc;
+use vps_mesh::TriMesh;
 use vps_voxmap::{PointShell, Voxel, VoxelTree};
 
 /// Bounds on what is sent to the page.
@@ -22,6 +28,11 @@ pub struct SceneLimits {
     pub max_boxes: usize,
     /// Most shell points drawn for the part and its ghost. Default 50,000.
     pub max_shell_points: usize,
+    /// Most triangles drawn for all static meshes together (36 bytes each on the wire).
+    /// Default 300,000 (10.8 MB).
+    pub max_static_triangles: usize,
+    /// Most triangles drawn for the part's mesh. Default 100,000.
+    pub max_part_triangles: usize,
 }
 
 impl Default for SceneLimits {
@@ -29,6 +40,8 @@ impl Default for SceneLimits {
         Self {
             max_boxes: 200_000,
             max_shell_points: 50_000,
+            max_static_triangles: 300_000,
+            max_part_triangles: 100_000,
         }
     }
 }
@@ -61,6 +74,20 @@ pub struct SceneMeta {
     pub shell_points_total: usize,
     /// Voxel size the shell was sampled at (m); 0 without a part.
     pub shell_voxel_size_m: f64,
+    /// Static mesh triangles drawn (the length of `/scene/mesh` is 36 bytes per triangle); 0
+    /// without meshes (the page then shows the Surface voxel boxes).
+    pub mesh_triangles: usize,
+    /// Triangles of the static meshes before decimation.
+    pub mesh_triangles_total: usize,
+    /// Vertex-clustering cell of the static meshes (m); 0 when they were not decimated.
+    pub mesh_cell_m: f64,
+    /// Part mesh triangles drawn (the length of `/scene/part_mesh` is 36 bytes per triangle, in
+    /// the shell's body frame); 0 without a part mesh.
+    pub part_mesh_triangles: usize,
+    /// Triangles of the part's mesh before decimation.
+    pub part_mesh_triangles_total: usize,
+    /// Vertex-clustering cell of the part's mesh (m); 0 when it was not decimated.
+    pub part_mesh_cell_m: f64,
 }
 
 /// The part as the contact sampler needs it: the static scene's voxmap and the full shell.
@@ -81,8 +108,14 @@ pub struct ViewerScene {
     pub boxes: Vec<Vec3>,
     /// Drawn shell points (m, body frame).
     pub shell: Vec<Vec3>,
+    /// Drawn static mesh triangles (m, world frame); empty without meshes.
+    pub mesh: Vec<[Vec3; 3]>,
+    /// Drawn part mesh triangles (m, the shell's body frame); empty without a part mesh.
+    pub part_mesh: Vec<[Vec3; 3]>,
     /// What contact sampling needs; `None` without a part.
     pub contact: Option<ContactModel>,
+    /// The bounds it was built with (the mesh budgets apply in [`ViewerScene::with_meshes`]).
+    limits: SceneLimits,
 }
 
 impl ViewerScene {
@@ -98,7 +131,7 @@ impl ViewerScene {
     ) -> ViewerScene {
         let spec = *tree.spec();
         let surface_voxels = tree.counts()[Voxel::Surface as usize];
-        let (cells, coarsening) = decimate(&tree, surface_voxels, limits.max_boxes);
+        let (cells, coarsening) = decimate_boxes(&tree, surface_voxels, limits.max_boxes);
         let box_size = spec.voxel_size * coarsening as f64;
         let boxes: Vec<Vec3> = cells
             .iter()
@@ -120,13 +153,47 @@ impl ViewerScene {
             shell_points: drawn_shell.len(),
             shell_points_total: shell.as_deref().map_or(0, PointShell::len),
             shell_voxel_size_m: shell.as_deref().map_or(0.0, |s| s.voxel_size),
+            mesh_triangles: 0,
+            mesh_triangles_total: 0,
+            mesh_cell_m: 0.0,
+            part_mesh_triangles: 0,
+            part_mesh_triangles_total: 0,
+            part_mesh_cell_m: 0.0,
         };
         ViewerScene {
             meta,
             boxes,
             shell: drawn_shell,
+            mesh: Vec::new(),
+            part_mesh: Vec::new(),
             contact: shell.map(|shell| ContactModel { tree, shell }),
+            limits,
         }
+    }
+
+    /// The same scene with meshes to draw: `statics` in scene (world) coordinates in metres,
+    /// merged and decimated to [`SceneLimits::max_static_triangles`] in total, and the part's mesh
+    /// in the frame of its point shell (the body frame the live pose places; decimated to
+    /// [`SceneLimits::max_part_triangles`]). The page then draws the meshes shaded and shows the
+    /// Surface voxel boxes only as an overlay the user turns on. Replaces meshes given before.
+    /// Allocates about the meshes' size again while decimating (see [`crate::mesh`]); a mesh over
+    /// its budget costs a dozen clustering passes (about a second for the 593k-triangle aircraft
+    /// bay in a release build).
+    pub fn with_meshes(mut self, statics: Vec<TriMesh>, part: Option<TriMesh>) -> ViewerScene {
+        let drawn = decimate_all(&statics, self.limits.max_static_triangles);
+        drop(statics);
+        self.meta.mesh_triangles = drawn.triangles.len();
+        self.meta.mesh_triangles_total = drawn.source_triangles;
+        self.meta.mesh_cell_m = drawn.cell_m;
+        self.mesh = drawn.triangles;
+        let drawn = part
+            .map(|p| decimate(&p, self.limits.max_part_triangles))
+            .unwrap_or_default();
+        self.meta.part_mesh_triangles = drawn.triangles.len();
+        self.meta.part_mesh_triangles_total = drawn.source_triangles;
+        self.meta.part_mesh_cell_m = drawn.cell_m;
+        self.part_mesh = drawn.triangles;
+        self
     }
 }
 
@@ -135,7 +202,7 @@ impl ViewerScene {
 /// `1/k²`, so the search starts near `sqrt(surface_voxels / max_cells)`. Past [`MAX_COARSENING`]
 /// the cells are thinned to at most `max_cells` by a spatial hash. Returns the cells (sorted, z
 /// slowest) and `k`. Never holds more than `max_cells + 1` cells.
-fn decimate(tree: &VoxelTree, surface_voxels: u64, max_cells: usize) -> (Vec<UVec3>, u32) {
+fn decimate_boxes(tree: &VoxelTree, surface_voxels: u64, max_cells: usize) -> (Vec<UVec3>, u32) {
     let max_cells = max_cells.max(1);
     let estimate = (surface_voxels as f64 / max_cells as f64).sqrt().floor();
     let mut k = (estimate.min(MAX_COARSENING as f64) as u32).max(1);
@@ -308,6 +375,7 @@ pub(crate) mod tests {
         let limits = SceneLimits {
             max_boxes: 500,
             max_shell_points: 10,
+            ..SceneLimits::default()
         };
         let scene = ViewerScene::new("slab", slab(), Some(square_shell()), limits);
         // 40 × 40 Surface voxels: k = 2 gives 400 cells of 2 cm.
@@ -388,7 +456,7 @@ pub(crate) mod tests {
             let surface = tree.counts()[Voxel::Surface as usize];
             for max_cells in [1_000_000, 5000, 1000, 300, 40, 3] {
                 let expected = dense_oracle(&tree, max_cells);
-                let got = decimate(&tree, surface, max_cells);
+                let got = decimate_boxes(&tree, surface, max_cells);
                 assert_eq!(got, expected, "max_cells {max_cells}, {:?}", tree.config());
             }
         }
@@ -407,7 +475,7 @@ pub(crate) mod tests {
             grid.set(IVec3::new(i * 64, 0, 0), Voxel::Surface);
         }
         let tree = VoxelTree::from_dense(&grid, TreeConfig::default()).unwrap();
-        let (cells, k) = decimate(&tree, 1000, 10);
+        let (cells, k) = decimate_boxes(&tree, 1000, 10);
         assert_eq!(k, MAX_COARSENING);
         assert!(cells.len() <= 10 && !cells.is_empty(), "{}", cells.len());
     }

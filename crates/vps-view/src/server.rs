@@ -3,11 +3,14 @@
 //! loop; both stop when the [`ViewerHandle`] is dropped.
 //!
 //! Routes: `/` (the page), `/app.js` (its script), `/scene` ([`crate::scene::SceneMeta`] as JSON),
-//! `/scene/boxes` and `/scene/shell` (f32 triples, see [`crate::scene::encode_points`]), `/state`
+//! `/scene/boxes` and `/scene/shell` (f32 triples, see [`crate::scene::encode_points`]),
+//! `/scene/mesh` and `/scene/part_mesh` (f32 triangle corners, see
+//! [`crate::mesh::encode_triangles`]), `/state`
 //! (the latest [`crate::ViewState`] as JSON), `/ws` (the same states pushed as text messages at
 //! [`crate::STATE_RATE_HZ`]; whatever a client sends is read and dropped, and a client message
 //! over [`MAX_CLIENT_MESSAGE`] bytes or a protocol error closes that connection only).
 
+use crate::mesh::encode_triangles;
 use crate::sampler::{self, FeedSampler, MAX_CONTACT_POINTS};
 use crate::scene::{encode_points, ViewerScene};
 use crate::{ViewError, STATE_RATE_HZ};
@@ -51,6 +54,8 @@ struct Shared {
     scene_json: Bytes,
     boxes: Bytes,
     shell: Bytes,
+    mesh: Bytes,
+    part_mesh: Bytes,
     states: watch::Receiver<Utf8Bytes>,
 }
 
@@ -84,6 +89,8 @@ impl ViewerServer {
             scene_json: Bytes::from(serde_json::to_vec(&scene.meta).unwrap_or_default()),
             boxes: Bytes::from(encode_points(&scene.boxes)),
             shell: Bytes::from(encode_points(&scene.shell)),
+            mesh: Bytes::from(encode_triangles(&scene.mesh)),
+            part_mesh: Bytes::from(encode_triangles(&scene.part_mesh)),
             states: state_rx,
         });
         let app = router(shared);
@@ -191,6 +198,18 @@ fn router(shared: Arc<Shared>) -> Router {
             "/scene/shell",
             get(|State(s): State<Arc<Shared>>| async move {
                 typed("application/octet-stream", s.shell.clone())
+            }),
+        )
+        .route(
+            "/scene/mesh",
+            get(|State(s): State<Arc<Shared>>| async move {
+                typed("application/octet-stream", s.mesh.clone())
+            }),
+        )
+        .route(
+            "/scene/part_mesh",
+            get(|State(s): State<Arc<Shared>>| async move {
+                typed("application/octet-stream", s.part_mesh.clone())
             }),
         )
         .route(

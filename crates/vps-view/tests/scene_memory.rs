@@ -117,6 +117,7 @@ fn a_huge_grid_full_of_surface_tiles_is_decimated_in_bounded_memory() {
     let limits = SceneLimits {
         max_boxes: 20_000,
         max_shell_points: 10,
+        ..SceneLimits::default()
     };
     let before = LIVE.load(Ordering::Relaxed);
     PEAK.store(before, Ordering::Relaxed);

@@ -235,3 +235,31 @@ fn a_taken_port_is_a_clear_error() {
     let err = ViewerServer::start(viewer.local_addr(), scene(), None).unwrap_err();
     assert!(err.to_string().contains("cannot listen on"), "{err}");
 }
+
+#[test]
+fn meshes_are_served_as_triangle_corners() {
+    let cube = vps_mesh::builtin::cuboid(DVec3::splat(0.05));
+    let part = vps_mesh::builtin::cuboid(DVec3::splat(0.01));
+    let meshed = scene().with_meshes(vec![cube.clone(), cube], Some(part));
+    let viewer = ViewerServer::start("127.0.0.1:0".parse().unwrap(), meshed, None).unwrap();
+    let meta = json(&viewer, "/scene");
+    assert_eq!(meta["mesh_triangles"], 24);
+    assert_eq!(meta["mesh_triangles_total"], 24);
+    assert_eq!(meta["part_mesh_triangles"], 12);
+    let addr = viewer.local_addr();
+    let mesh = http_get(addr, "/scene/mesh", TIMEOUT).unwrap().body;
+    assert_eq!(mesh.len(), 24 * 36);
+    let corners: Vec<f32> = mesh
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes(b.try_into().unwrap()))
+        .collect();
+    assert!(corners.iter().all(|c| c.abs() == 0.05), "{corners:?}");
+    let part = http_get(addr, "/scene/part_mesh", TIMEOUT).unwrap().body;
+    assert_eq!(part.len(), 12 * 36);
+    // Without meshes both routes are empty.
+    let bare = ViewerServer::start("127.0.0.1:0".parse().unwrap(), scene(), None).unwrap();
+    assert!(http_get(bare.local_addr(), "/scene/mesh", TIMEOUT)
+        .unwrap()
+        .body
+        .is_empty());
+}
