@@ -27,12 +27,52 @@ pub struct Response {
 
 /// `GET path` from `addr`; blocks up to `timeout` per read or write.
 pub fn http_get(addr: SocketAddr, path: &str, timeout: Duration) -> io::Result<Response> {
+    http_get_as(addr, path, &Headers::for_addr(addr), timeout)
+}
+
+/// The `Host` and `Origin` a request claims (to test the server's checks).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Headers {
+    /// The `Host` header's value.
+    pub host: String,
+    /// The `Origin` header's value; none is sent when `None`.
+    pub origin: Option<String>,
+}
+
+impl Headers {
+    /// `Host: ADDR` and no `Origin`, as a tool sends.
+    pub fn for_addr(addr: SocketAddr) -> Headers {
+        Headers {
+            host: addr.to_string(),
+            origin: None,
+        }
+    }
+
+    /// The request lines for these headers.
+    fn lines(&self) -> String {
+        let origin = self
+            .origin
+            .as_ref()
+            .map(|o| format!("Origin: {o}\r\n"))
+            .unwrap_or_default();
+        format!("Host: {}\r\n{origin}", self.host)
+    }
+}
+
+/// [`http_get`] with the `Host` and `Origin` given.
+pub fn http_get_as(
+    addr: SocketAddr,
+    path: &str,
+    headers: &Headers,
+    timeout: Duration,
+) -> io::Result<Response> {
     let mut stream = TcpStream::connect_timeout(&addr, timeout)?;
     stream.set_read_timeout(Some(timeout))?;
     stream.set_write_timeout(Some(timeout))?;
     write!(
         stream,
-        "GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"
+        "GET {path} HTTP/1.1\r\n{}Connection: close\r\n\r\n",
+        headers.lines()
     )?;
     let mut reader = BufReader::new(stream);
     let (status, headers) = read_head(&mut reader)?;
@@ -120,6 +160,17 @@ impl WsClient {
     /// Connects to `ws://addr{path}` and completes the handshake; blocks up to `timeout` per read
     /// or write from then on.
     pub fn connect(addr: SocketAddr, path: &str, timeout: Duration) -> io::Result<WsClient> {
+        Self::connect_as(addr, path, &Headers::for_addr(addr), timeout)
+    }
+
+    /// [`WsClient::connect`] with the `Host` and `Origin` given; a refused handshake is an error
+    /// naming the status.
+    pub fn connect_as(
+        addr: SocketAddr,
+        path: &str,
+        headers: &Headers,
+        timeout: Duration,
+    ) -> io::Result<WsClient> {
         let stream = TcpStream::connect_timeout(&addr, timeout)?;
         stream.set_read_timeout(Some(timeout))?;
         stream.set_write_timeout(Some(timeout))?;
@@ -128,8 +179,9 @@ impl WsClient {
         // The key is the RFC's example; the client does not check the accept hash.
         write!(
             writer,
-            "GET {path} HTTP/1.1\r\nHost: {addr}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n\
-             Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n"
+            "GET {path} HTTP/1.1\r\n{}Upgrade: websocket\r\nConnection: Upgrade\r\n\
+             Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n",
+            headers.lines()
         )?;
         let mut reader = BufReader::new(stream);
         let (status, _) = read_head(&mut reader)?;

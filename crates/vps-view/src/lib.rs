@@ -17,6 +17,7 @@
 //! thread), [`server`] (routes, WebSocket, start and shutdown), [`client`] (a minimal blocking
 //! HTTP/WebSocket client for tests, benchmarks and tools).
 
+pub mod access;
 pub mod client;
 pub mod contacts;
 pub mod mesh;
@@ -27,7 +28,7 @@ pub mod state;
 
 pub use contacts::{sample_contacts, ContactSample};
 pub use scene::{SceneLimits, ViewerScene};
-pub use server::{ViewerHandle, ViewerServer};
+pub use server::{ServerLimits, ViewerHandle, ViewerServer};
 pub use state::{FrameView, ViewState, ViewStatus};
 
 /// How often the viewer reads the feed and pushes a state to its clients (Hz).

@@ -9,7 +9,15 @@
 //! (the latest [`crate::ViewState`] as JSON), `/ws` (the same states pushed as text messages at
 //! [`crate::STATE_RATE_HZ`]; whatever a client sends is read and dropped, and a client message
 //! over [`MAX_CLIENT_MESSAGE`] bytes or a protocol error closes that connection only).
+//!
+//! Hardening ([`ServerLimits`]): every request's `Host` and `Origin` are checked (module
+//! [`crate::access`]; others get 403), at most [`ServerLimits::max_connections`] connections are
+//! open at once (WebSockets included; one more is answered 503 and closed), and a client that
+//! takes longer than [`ServerLimits::header_timeout`] to send a request's headers (a slow or
+//! idle connection, keep-alive included) is closed. Connections are served by hyper's HTTP/1.1
+//! server directly (axum's `serve` sets no header timeout).
 
+use crate::access::{self, AccessGuard, ConnectionAddr};
 use crate::mesh::encode_triangles;
 use crate::sampler::{self, FeedSampler, MAX_CONTACT_POINTS};
 use crate::scene::{encode_points, ViewerScene};
@@ -26,7 +34,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Duration;
-use tokio::sync::watch;
+use tokio::net::TcpStream;
+use tokio::sync::{watch, OwnedSemaphorePermit, Semaphore};
 use vps_runtime::StateFeedReceiver;
 
 /// Largest message or frame a WebSocket client may send (bytes); more closes its connection.
@@ -34,6 +43,31 @@ pub const MAX_CLIENT_MESSAGE: usize = 4096;
 
 const INDEX_HTML: &str = include_str!("../assets/index.html");
 const APP_JS: &str = include_str!("../assets/app.js");
+
+/// Bounds on the viewer's clients.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ServerLimits {
+    /// Most connections open at once, HTTP and WebSocket together; a connection beyond it is
+    /// answered `503 Service Unavailable` and closed. Default 64.
+    pub max_connections: usize,
+    /// Longest a client may take to send a request's headers, counted from the connection's
+    /// start or the end of its previous response (so an idle keep-alive connection is closed
+    /// too). Default 10 s.
+    pub header_timeout: Duration,
+}
+
+impl Default for ServerLimits {
+    fn default() -> Self {
+        Self {
+            max_connections: 64,
+            header_timeout: Duration::from_secs(10),
+        }
+    }
+}
+
+/// What a connection beyond [`ServerLimits::max_connections`] is sent before it is closed.
+const BUSY_RESPONSE: &[u8] =
+    b"HTTP/1.1 503 Service Unavailable\r\ncontent-length: 0\r\nconnection: close\r\n\r\n";
 
 /// Starts viewers.
 #[derive(Debug)]
@@ -60,14 +94,25 @@ struct Shared {
 }
 
 impl ViewerServer {
-    /// Binds `addr` (port 0 picks a free one), then starts the server thread and the sampler
-    /// thread reading `feed` (`None`: offline, the scene only). Returns once the socket is bound;
-    /// does not block on clients. Errors: the address cannot be bound, a thread or the runtime
-    /// cannot start.
+    /// Binds `addr` (port 0 picks a free one; bind to loopback unless other machines must see
+    /// the page), then starts the server thread and the sampler thread reading `feed` (`None`:
+    /// offline, the scene only), with the default [`ServerLimits`]. Returns once the socket is
+    /// bound; does not block on clients. Errors: the address cannot be bound, a thread or the
+    /// runtime cannot start.
     pub fn start(
         addr: SocketAddr,
         scene: ViewerScene,
         feed: Option<StateFeedReceiver>,
+    ) -> Result<ViewerHandle, ViewError> {
+        Self::start_with_limits(addr, scene, feed, ServerLimits::default())
+    }
+
+    /// [`ViewerServer::start`] with explicit client bounds.
+    pub fn start_with_limits(
+        addr: SocketAddr,
+        scene: ViewerScene,
+        feed: Option<StateFeedReceiver>,
+        limits: ServerLimits,
     ) -> Result<ViewerHandle, ViewError> {
         let listener =
             std::net::TcpListener::bind(addr).map_err(|source| ViewError::Bind { addr, source })?;
@@ -93,7 +138,7 @@ impl ViewerServer {
             part_mesh: Bytes::from(encode_triangles(&scene.part_mesh)),
             states: state_rx,
         });
-        let app = router(shared);
+        let app = router(shared, AccessGuard { listening: local });
 
         let stop = Arc::new(AtomicBool::new(false));
         let sampler_stop = stop.clone();
@@ -115,11 +160,7 @@ impl ViewerServer {
                         Err(e) => return tracing::error!("viewer: {e}"),
                     };
                     tokio::select! {
-                        result = axum::serve(listener, app) => {
-                            if let Err(e) = result {
-                                tracing::error!("viewer: {e}");
-                            }
-                        }
+                        _ = serve(listener, app, limits) => {}
                         _ = shutdown_rx.wait_for(|stop| *stop) => {}
                     }
                 });
@@ -152,13 +193,10 @@ impl ViewerHandle {
         self.addr
     }
 
-    /// The page's URL (`http://ADDR/`; an unspecified address is shown as 127.0.0.1).
+    /// The page's URL with the address really bound (`http://0.0.0.0:P/` when bound to every
+    /// interface: open it with this machine's name or address and port `P`).
     pub fn url(&self) -> String {
-        let mut addr = self.addr;
-        if addr.ip().is_unspecified() {
-            addr.set_ip(std::net::Ipv4Addr::LOCALHOST.into());
-        }
-        format!("http://{addr}/")
+        format!("http://{}/", self.addr)
     }
 }
 
@@ -172,7 +210,106 @@ impl Drop for ViewerHandle {
     }
 }
 
-fn router(shared: Arc<Shared>) -> Router {
+/// Accepts connections until dropped: each within the connection cap is served by hyper's HTTP/1.1
+/// server with the header timeout and upgrades (WebSocket) on; one beyond it gets
+/// [`BUSY_RESPONSE`] and is closed.
+async fn serve(listener: tokio::net::TcpListener, app: Router, limits: ServerLimits) {
+    use hyper::service::Service as _;
+    let permits = Arc::new(Semaphore::new(limits.max_connections));
+    loop {
+        let stream = match listener.accept().await {
+            Ok((stream, _)) => stream,
+            Err(e) => {
+                // Out of descriptors and the like: wait rather than spin.
+                tracing::warn!("viewer: accept: {e}");
+                tokio::time::sleep(Duration::from_millis(50)).await;
+                continue;
+            }
+        };
+        let Ok(permit) = permits.clone().try_acquire_owned() else {
+            let _ = stream.try_write(BUSY_RESPONSE);
+            continue;
+        };
+        let _ = stream.set_nodelay(true);
+        let local = stream.local_addr().ok();
+        let app = hyper_util::service::TowerToHyperService::new(app.clone());
+        let service = hyper::service::service_fn(move |mut request: hyper::Request<_>| {
+            if let Some(local) = local {
+                request.extensions_mut().insert(ConnectionAddr(local));
+            }
+            app.call(request)
+        });
+        let io = hyper_util::rt::TokioIo::new(Counted {
+            stream,
+            _permit: permit,
+        });
+        tokio::spawn(async move {
+            let connection = hyper::server::conn::http1::Builder::new()
+                .timer(hyper_util::rt::TokioTimer::new())
+                .header_read_timeout(limits.header_timeout)
+                .serve_connection(io, service)
+                .with_upgrades();
+            if let Err(e) = connection.await {
+                tracing::debug!("viewer: connection: {e}");
+            }
+        });
+    }
+}
+
+/// A connection holding one of the [`ServerLimits::max_connections`] permits until it is dropped
+/// (an upgraded WebSocket keeps it while open).
+struct Counted {
+    stream: TcpStream,
+    _permit: OwnedSemaphorePermit,
+}
+
+impl tokio::io::AsyncRead for Counted {
+    fn poll_read(
+        self: std::pin::Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+        buf: &mut tokio::io::ReadBuf<'_>,
+    ) -> std::task::Poll<std::io::Result<()>> {
+        std::pin::Pin::new(&mut self.get_mut().stream).poll_read(cx, buf)
+    }
+}
+
+impl tokio::io::AsyncWrite for Counted {
+    fn poll_write(
+        self: std::pin::Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+        buf: &[u8],
+    ) -> std::task::Poll<std::io::Result<usize>> {
+        std::pin::Pin::new(&mut self.get_mut().stream).poll_write(cx, buf)
+    }
+
+    fn poll_flush(
+        self: std::pin::Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+    ) -> std::task::Poll<std::io::Result<()>> {
+        std::pin::Pin::new(&mut self.get_mut().stream).poll_flush(cx)
+    }
+
+    fn poll_shutdown(
+        self: std::pin::Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+    ) -> std::task::Poll<std::io::Result<()>> {
+        std::pin::Pin::new(&mut self.get_mut().stream).poll_shutdown(cx)
+    }
+
+    fn poll_write_vectored(
+        self: std::pin::Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+        bufs: &[std::io::IoSlice<'_>],
+    ) -> std::task::Poll<std::io::Result<usize>> {
+        std::pin::Pin::new(&mut self.get_mut().stream).poll_write_vectored(cx, bufs)
+    }
+
+    fn is_write_vectored(&self) -> bool {
+        self.stream.is_write_vectored()
+    }
+}
+
+fn router(shared: Arc<Shared>, guard: AccessGuard) -> Router {
     Router::new()
         .route(
             "/",
@@ -221,6 +358,10 @@ fn router(shared: Arc<Shared>) -> Router {
         )
         .route("/ws", get(upgrade))
         .with_state(shared)
+        .layer(axum::middleware::from_fn_with_state(
+            Arc::new(guard),
+            access::guard,
+        ))
 }
 
 /// A response with `content_type` and no caching (the state changes; the scene may be rebuilt

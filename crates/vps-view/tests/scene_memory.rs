@@ -34,6 +34,9 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static ALLOCATOR: Counting = Counting;
 
+/// The counters are process-wide: the tests take turns.
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 /// Free everywhere except Surface voxels at a few scattered positions.
 struct FewVoxels(Vec<UVec3>);
 
@@ -55,6 +58,7 @@ impl CubeSource for FewVoxels {
 
 #[test]
 fn a_huge_nearly_empty_grid_builds_its_scene_in_small_memory() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     const N: u32 = 1 << 14;
     let spec = GridSpec {
         origin: DVec3::ZERO,
@@ -96,6 +100,7 @@ fn a_huge_nearly_empty_grid_builds_its_scene_in_small_memory() {
 
 #[test]
 fn a_huge_grid_full_of_surface_tiles_is_decimated_in_bounded_memory() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     // Every voxel Surface (one tile per root cell): 4.4 × 10¹² Surface voxels, never enumerated.
     struct AllSurface;
     impl CubeSource for AllSurface {
