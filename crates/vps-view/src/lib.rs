@@ -18,6 +18,7 @@
 //! HTTP/WebSocket client for tests, benchmarks and tools).
 
 pub mod access;
+pub mod browser;
 pub mod client;
 pub mod contacts;
 pub mod mesh;

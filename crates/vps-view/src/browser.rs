@@ -1,0 +1,222 @@
+//! Headless Chromium driven over its DevTools protocol (its own `--remote-debugging-port`, spoken
+//! with [`crate::client::WsClient`]; no other tool), for the viewer's browser tests and tools: open
+//! a page, evaluate JavaScript, take PNG screenshots and summarise what they show. Blocking;
+//! every wait is a poll with a deadline.
+
+use crate::client::WsClient;
+use std::net::SocketAddr;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Where Debian's `chromium` package installs the browser.
+pub const CHROMIUM: &str = "/usr/bin/chromium";
+
+/// A child process killed and reaped on drop.
+pub struct Running(pub std::process::Child);
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// Headless Chromium driven over the DevTools protocol (its own `--remote-debugging-port`, no
+/// other tool): one page, JavaScript evaluation, screenshots. Killed on drop.
+pub struct Browser {
+    _process: Running,
+    ws: WsClient,
+    session: String,
+    next_id: u64,
+}
+
+impl Browser {
+    /// Starts Chromium ([`CHROMIUM`], SwiftShader for WebGL) with a fresh profile in `profile` and
+    /// opens `url` in an 800 × 600 window. Panics when Chromium does not start or answer within
+    /// 60 s (for tests: check that [`CHROMIUM`] exists first).
+    pub fn open(profile: &Path, url: &str) -> Browser {
+        let process = Running(
+            Command::new(CHROMIUM)
+                .args([
+                    "--headless",
+                    "--no-sandbox",
+                    "--use-angle=swiftshader",
+                    "--enable-unsafe-swiftshader",
+                    "--disable-dev-shm-usage",
+                    "--disable-quic",
+                    "--no-first-run",
+                    "--disable-background-networking",
+                    "--disable-component-update",
+                    "--disable-sync",
+                    "--window-size=800,600",
+                    "--remote-debugging-port=0",
+                    &format!("--user-data-dir={}", profile.display()),
+                    "about:blank",
+                ])
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .expect("starting chromium"),
+        );
+        // Chromium writes its port and the browser's WebSocket path here once it listens.
+        let port_file = profile.join("DevToolsActivePort");
+        let text = wait_for("Chromium's DevTools port", Duration::from_secs(60), || {
+            std::fs::read_to_string(&port_file)
+                .ok()
+                .filter(|t| t.lines().count() >= 2)
+        });
+        let mut lines = text.lines();
+        let port: u16 = lines.next().unwrap().trim().parse().expect("a port");
+        let path = lines.next().unwrap().trim().to_string();
+        let ws = WsClient::connect(
+            SocketAddr::from(([127, 0, 0, 1], port)),
+            &path,
+            Duration::from_secs(60),
+        )
+        .expect("connecting to Chromium's DevTools");
+        let mut browser = Browser {
+            _process: process,
+            ws,
+            session: String::new(),
+            next_id: 0,
+        };
+        let target = browser.call("Target.createTarget", serde_json::json!({ "url": url }));
+        let target_id = target["targetId"].as_str().unwrap().to_string();
+        let attached = browser.call(
+            "Target.attachToTarget",
+            serde_json::json!({ "targetId": target_id, "flatten": true }),
+        );
+        browser.session = attached["sessionId"].as_str().unwrap().to_string();
+        browser
+    }
+
+    /// Sends one command (to the page once attached) and returns its result; events are skipped.
+    pub fn call(&mut self, method: &str, params: serde_json::Value) -> serde_json::Value {
+        self.next_id += 1;
+        let mut message =
+            serde_json::json!({ "id": self.next_id, "method": method, "params": params });
+        if !self.session.is_empty() {
+            message["sessionId"] = self.session.clone().into();
+        }
+        self.ws
+            .send_text(&message.to_string())
+            .expect("sending to Chromium");
+        loop {
+            let text = self
+                .ws
+                .read_text()
+                .expect("reading from Chromium")
+                .expect("Chromium closed the connection");
+            let reply: serde_json::Value = serde_json::from_str(&text).expect("DevTools JSON");
+            if reply["id"] == self.next_id {
+                assert!(reply["error"].is_null(), "{method}: {}", reply["error"]);
+                return reply["result"].clone();
+            }
+        }
+    }
+
+    /// The value of a JavaScript expression in the page.
+    pub fn eval(&mut self, expression: &str) -> serde_json::Value {
+        let r = self.call(
+            "Runtime.evaluate",
+            serde_json::json!({ "expression": expression, "returnByValue": true }),
+        );
+        r["result"]["value"].clone()
+    }
+
+    /// The text of the element with `id` ("" while it does not exist).
+    pub fn text(&mut self, id: &str) -> String {
+        let js = format!("(document.getElementById('{id}') || {{}}).textContent || ''");
+        self.eval(&js).as_str().unwrap_or_default().to_string()
+    }
+
+    /// A PNG screenshot of the window.
+    pub fn screenshot(&mut self) -> Vec<u8> {
+        let r = self.call(
+            "Page.captureScreenshot",
+            serde_json::json!({ "format": "png" }),
+        );
+        base64_decode(r["data"].as_str().expect("screenshot data"))
+    }
+}
+
+/// Polls `probe` every 100 ms until it returns a value; panics after `patience`.
+pub fn wait_for<T>(what: &str, patience: Duration, mut probe: impl FnMut() -> Option<T>) -> T {
+    let deadline = Instant::now() + patience;
+    loop {
+        if let Some(v) = probe() {
+            return v;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "{what}: not there after {patience:?}"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// Standard base64 (padding optional) to bytes.
+pub fn base64_decode(text: &str) -> Vec<u8> {
+    let value = |c: u8| match c {
+        b'A'..=b'Z' => c - b'A',
+        b'a'..=b'z' => c - b'a' + 26,
+        b'0'..=b'9' => c - b'0' + 52,
+        b'+' => 62,
+        b'/' => 63,
+        _ => panic!("not base64: {c}"),
+    };
+    let digits: Vec<u8> = text.bytes().filter(|&c| c != b'=').map(value).collect();
+    let mut out = Vec::with_capacity(digits.len() * 3 / 4);
+    for chunk in digits.chunks(4) {
+        let n = chunk
+            .iter()
+            .enumerate()
+            .fold(0u32, |n, (i, &d)| n | (d as u32) << (18 - 6 * i));
+        out.extend_from_slice(&n.to_be_bytes()[1..chunk.len()]);
+    }
+    out
+}
+
+/// Distinct colours and the share of pixels differing from the top-left pixel in the left `width`
+/// columns of an RGB(A) PNG. Panics on a malformed PNG (for tests).
+pub fn canvas_content(png_bytes: &[u8], width: u32) -> (usize, f64) {
+    let decoder = png::Decoder::new(std::io::Cursor::new(png_bytes));
+    let mut reader = decoder.read_info().expect("a PNG");
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).expect("PNG pixels");
+    let channels = info.color_type.samples();
+    assert!(
+        channels >= 3,
+        "colour screenshot expected, got {:?}",
+        info.color_type
+    );
+    let pixel = |x: u32, y: u32| {
+        let i = (y as usize * info.width as usize + x as usize) * channels;
+        [buf[i], buf[i + 1], buf[i + 2]]
+    };
+    let background = pixel(0, 0);
+    let mut colours = std::collections::HashSet::new();
+    let mut differing = 0usize;
+    let w = width.min(info.width);
+    for y in 0..info.height {
+        for x in 0..w {
+            let p = pixel(x, y);
+            colours.insert(p);
+            differing += (p != background) as usize;
+        }
+    }
+    (colours.len(), differing as f64 / (w * info.height) as f64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_decodes() {
+        assert_eq!(base64_decode("aGVsbG8="), b"hello");
+        assert_eq!(base64_decode("aGk"), b"hi");
+        assert_eq!(base64_decode("AAEC/w=="), [0, 1, 2, 255]);
+    }
+}
