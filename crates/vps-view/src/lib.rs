@@ -9,13 +9,23 @@
 //! states: nothing queues up.
 //!
 //! Routes (see [`server`]): `/` the page, `/app.js` its script, `/scene` scene metadata (JSON),
-//! `/scene/boxes` and `/scene/shell` (little-endian f32 xyz triples, m), `/state` the latest state
-//! (JSON), `/ws` the state stream (WebSocket, JSON text messages).
+//! `/scene/boxes` and `/scene/shell` (little-endian f32 xyz triples, m), `/scene/mesh` and
+//! `/scene/part_mesh` (little-endian f32 triangle corners, m), `/state` the latest state (JSON),
+//! `/ws` the state stream (WebSocket, JSON text messages). Every request's `Host` and `Origin` are
+//! checked ([`access`]), connections are capped and slow headers timed out ([`ServerLimits`]).
 //!
-//! Module map: [`scene`] (what is drawn: decimated Surface voxels, the shell), [`contacts`]
-//! (contact points at a pose), [`state`] (the JSON state message), [`sampler`] (the feed reader
-//! thread), [`server`] (routes, WebSocket, start and shutdown), [`client`] (a minimal blocking
-//! HTTP/WebSocket client for tests, benchmarks and tools).
+//! What is drawn: the static scene's Surface voxels as boxes, decimated from the voxmap tree's
+//! leaves and tiles with memory bounded by [`SceneLimits::max_boxes`] ([`scene`]); with
+//! [`ViewerScene::with_meshes`], the static meshes and the part's mesh shaded, decimated to
+//! [`SceneLimits::max_static_triangles`] and [`SceneLimits::max_part_triangles`] ([`mesh`]), the
+//! boxes then being an overlay the user turns on.
+//!
+//! Module map: [`scene`] (what is drawn: decimated Surface voxels, the shell, meshes), [`mesh`]
+//! (mesh decimation and encoding), [`contacts`] (contact points at a pose), [`state`] (the JSON
+//! state message), [`sampler`] (the feed reader thread), [`server`] (routes, WebSocket, limits,
+//! start and shutdown), [`access`] (Host and Origin checks), [`client`] (a minimal blocking
+//! HTTP/WebSocket client for tests, benchmarks and tools), [`browser`] (headless Chromium over
+//! DevTools, for browser tests).
 
 pub mod access;
 pub mod browser;

@@ -5,7 +5,7 @@
 //! of edge `c`; triangles whose corners fall in fewer than three cells vanish, and repeated
 //! triangles are kept once. Large flat faces (a wall of two triangles) keep their shape; fine
 //! detail (a pipe's tessellation) is merged down to about `c`. The cell edge is the smallest (to
-//! about 1 %) for which the result fits the budget, found by doubling then bisection; each try
+//! about 5 %) for which the result fits the budget, found by doubling then bisection; each try
 //! costs one pass over the mesh's vertices and triangles.
 
 use glam::{DVec3, IVec3, Vec3};
@@ -24,8 +24,8 @@ pub struct DrawnMesh {
 }
 
 /// Bisection steps (in log scale) once a factor-2 bracket is found: the cell edge ends within a
-/// factor `2^(1/2⁶)` ≈ 1.011 of the smallest fitting one (where the count falls as cells grow).
-const BISECTION_STEPS: u32 = 6;
+/// factor `2^(1/2⁴)` ≈ 1.044 of the smallest fitting one (where the count falls as cells grow).
+const BISECTION_STEPS: u32 = 4;
 
 /// Most doublings of the cell edge while bracketing (from a 1 µm-scale start to kilometres).
 const MAX_DOUBLINGS: u32 = 64;

@@ -429,9 +429,8 @@ pub(crate) mod tests {
             for y in 0..45 {
                 for x in 0..70 {
                     let h = (x * 73 + y * 151 + z * 29) % 17;
-                    let kind = if (8..24).contains(&x) && (16..32).contains(&y) && z < 16 {
-                        Voxel::Surface
-                    } else if h == 0 || h == 5 {
+                    let block = (8..24).contains(&x) && (16..32).contains(&y) && z < 16;
+                    let kind = if block || h == 0 || h == 5 {
                         Voxel::Surface
                     } else if h == 3 {
                         Voxel::Interior

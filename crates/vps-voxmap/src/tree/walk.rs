@@ -173,7 +173,7 @@ mod tests {
             for y in 0..21 {
                 for x in 0..37 {
                     // A solid block (tiles at the leaf level) and scattered voxels (leaves).
-                    let solid = z >= 16 && z < 64 && y < 16 && x < 32;
+                    let solid = (16..64).contains(&z) && y < 16 && x < 32;
                     if solid || (x * 7 + y * 3 + z) % 11 == 0 {
                         grid.set(IVec3::new(x, y, z), Voxel::Surface);
                     }
