@@ -124,11 +124,13 @@ pub struct SceneFigures {
 /// Smoothness of the force while a box slides along a plane at constant depth.
 ///
 /// The 30 mm cube, turned 17° about z, slides along x at 0.1 mm per frame (0.1 m/s at 1 kHz) with
-/// its bottom face one voxel above the plane (inside the force layer: exact depth from δ is 1.5 s,
-/// constant). Force: the contact force the part would feel, `K_ff Σ d N` with the paper's averaging,
-/// default gains for the voxel size (N).
+/// its bottom face `gap_voxels` voxels above the plane (exact depth from δ: `2.5 − gap_voxels`
+/// voxels, constant). Force: the contact force the part would feel, `K_ff Σ d N` with the paper's
+/// averaging, default gains for the voxel size (N).
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct SlideFigures {
+    /// Gap between the cube's bottom face and the plane (voxels).
+    pub gap_voxels: f64,
     /// Frames.
     pub frames: usize,
     /// Mean |F| over the frames (N).
@@ -157,8 +159,12 @@ pub struct SettingRow {
     pub all: SceneFigures,
     /// Per scene, in [`SceneKind::ALL`] order.
     pub scenes: Vec<SceneFigures>,
-    /// The sliding box.
-    pub slide: SlideFigures,
+    /// The sliding box, shallow: 2 voxels above the plane (exact depth ½ voxel: where resting
+    /// contact sits, in the outermost force layer).
+    pub slide_shallow: SlideFigures,
+    /// The sliding box, deep: 1 voxel above the plane (exact depth 1½ voxels: one voxel deeper
+    /// than the outermost force layer, Interior in a 2-bit map).
+    pub slide_deep: SlideFigures,
 }
 
 /// The benchmark's output.
@@ -314,7 +320,8 @@ fn measure_setting(
         pooled.extend(samples);
     }
     let all = figures_with_radii("all", &pooled, &pooled_radius);
-    let slide = slide(grid, s, width, method)?;
+    let slide_shallow = slide(grid, s, width, method, 2.0)?;
+    let slide_deep = slide(grid, s, width, method, 1.0)?;
     Ok(SettingRow {
         voxel_size_mm: s * 1e3,
         bits: width.bits(),
@@ -324,7 +331,8 @@ fn measure_setting(
         },
         all,
         scenes,
-        slide,
+        slide_shallow,
+        slide_deep,
     })
 }
 
@@ -380,6 +388,7 @@ fn slide(
     s: f64,
     width: VoxelWidth,
     method: ShellMethod,
+    gap_voxels: f64,
 ) -> Result<SlideFigures, FidelityError> {
     let scene = SceneKind::SpherePlane; // only its obstacle (the plane slab) is used
     let part = vps_mesh::builtin::cuboid(DVec3::splat(0.015));
@@ -397,7 +406,7 @@ fn slide(
     let forces: Vec<(DVec3, DVec3)> = (0..grid.slide_frames)
         .into_par_iter()
         .map(|k| {
-            let position = DVec3::new(start + step * k as f64, 0.3 * s, s - lowest);
+            let position = DVec3::new(start + step * k as f64, 0.3 * s, gap_voxels * s - lowest);
             let state = PartState::at_rest(position, orientation);
             let sums = sample_all(
                 &prepared.tree,
@@ -431,6 +440,7 @@ fn slide(
     let mean = forces.iter().map(|f| f.0.length()).sum::<f64>() / forces.len() as f64;
     let p99 = percentile(&mut jumps, 99.0);
     Ok(SlideFigures {
+        gap_voxels,
         frames: forces.len(),
         mean_force_n: mean,
         p99_jump_n: p99,
