@@ -99,7 +99,9 @@ fn reduced_grid_meets_the_documented_bounds() {
         }
         println!(
             "   shallow slide |F| {:.3} N p99 jump {:.3} N ({:.3})",
-            r.slide_shallow.mean_force_n, r.slide_shallow.p99_jump_n, r.slide_shallow.p99_jump_relative
+            r.slide_shallow.mean_force_n,
+            r.slide_shallow.p99_jump_n,
+            r.slide_shallow.p99_jump_relative
         );
     }
     for method in ["centres", "exact"] {
