@@ -4,6 +4,12 @@
 //! points (depth behind the force layer, whether the Interior voxel is exposed).
 //!
 //! `cargo run --release --example penetration_probe -- [--no-brake] [--quiet] [--exposed]`
+//!
+//! Environment: `WIDTH=4|8` voxelizes the bay at that width instead of 2 bits; `BRAKING_TORQUE=1`
+//! turns the braking torque on. The summary line also gives the frames with a point deeper than
+//! the 2-bit force layer (Interior, or Surface layer ≥ 1 of a wider map: the penetration figure
+//! that is comparable across widths), the p99 of the device force's frame-to-frame change over
+//! consecutive touching frames (N), and the part's mean and largest kinetic energy while touching (J).
 
 #[path = "../src/session.rs"]
 #[allow(dead_code)]
@@ -67,6 +73,26 @@ fn main() -> anyhow::Result<()> {
         scene.shell.points.retain(|_| *k.next().unwrap());
         println!("dropped handle: {} points left", scene.shell.len());
     }
+    let width = match std::env::var("WIDTH").ok().as_deref() {
+        Some("4") => vps_voxmap::VoxelWidth::Four,
+        Some("8") => vps_voxmap::VoxelWidth::Eight,
+        _ => vps_voxmap::VoxelWidth::Two,
+    };
+    if width != vps_voxmap::VoxelWidth::Two {
+        let opts = vps_voxelize::VoxelizeOptions {
+            voxel_size: s,
+            width,
+            ..vps_voxelize::VoxelizeOptions::default()
+        };
+        let bay = vps_mesh::builtin::aircraft_bay();
+        let (tree, _) = vps_voxelize::voxelize_tree(
+            std::slice::from_ref(&bay),
+            &opts,
+            vps_voxmap::TreeConfig::default(),
+        )?;
+        scene.tree = std::sync::Arc::new(tree);
+    }
+    let braking_torque = std::env::var("BRAKING_TORQUE").is_ok_and(|v| v == "1");
     let tree = &scene.tree;
     let spec = *tree.spec();
     if args.iter().any(|a| a == "--exposed") {
@@ -94,6 +120,7 @@ fn main() -> anyhow::Result<()> {
     let params = HapticParams {
         k_r: Some(base.gains().k_r * kr_scale),
         braking,
+        braking_torque,
         ..HapticParams::default()
     }
     .with_scene(s, scene.shell.max_radius())?;
@@ -140,6 +167,8 @@ fn main() -> anyhow::Result<()> {
     let mut in_episode = 0u64;
     let mut max_depth = 0;
     let mut exposed_hits = 0u64;
+    let (mut deep, mut jumps, mut last_force) = (0u64, Vec::<f64>::new(), None::<DVec3>);
+    let (mut ke_sum, mut ke_max) = (0.0f64, 0.0f64);
     for frame in 0..frames {
         let t = frame as f64 * params.dt;
         let handle = hand.read(t)?;
@@ -158,6 +187,24 @@ fn main() -> anyhow::Result<()> {
         }
         touching += out.touching as u64;
         penetrating += out.penetrating as u64;
+        if out.touching {
+            let g = params.gains();
+            let ke = 0.5 * params.mass * state.linear_velocity.length_squared()
+                + 0.5 * g.inertia * state.angular_velocity.length_squared();
+            ke_sum += ke;
+            ke_max = ke_max.max(ke);
+            if let Some(f) = last_force {
+                jumps.push((out.device_wrench.force - f).length());
+            }
+            last_force = Some(out.device_wrench.force);
+            let r = pose.rotation.as_dmat3();
+            deep += scene.shell.points.iter().any(|p| {
+                let v = tree.get_layered(spec.index_of(r * p.as_dvec3() + state.position));
+                v.kind == Voxel::Interior || (v.kind == Voxel::Surface && v.layer >= 1)
+            }) as u64;
+        } else {
+            last_force = None;
+        }
         if out.penetrating {
             in_episode += 1;
             if in_episode == 1 {
@@ -226,9 +273,19 @@ fn main() -> anyhow::Result<()> {
         hand.write(&out.device_wrench)?;
         state = out.next_state;
     }
+    jumps.sort_by(f64::total_cmp);
+    let p99 = jumps
+        .get((jumps.len() as f64 * 0.99).ceil() as usize)
+        .or(jumps.last())
+        .copied()
+        .unwrap_or(0.0);
     println!(
-        "braking {braking}: frames {frames}, touching {touching}, penetrating {penetrating}, PR {:.2e}, episodes {episodes}, max interior depth {max_depth}, exposed-voxel hits {exposed_hits}",
-        penetrating as f64 / touching.max(1) as f64
+        "braking {braking}, braking torque {braking_torque}, {}-bit: frames {frames}, touching {touching}, penetrating {penetrating}, PR {:.2e}, episodes {episodes}, max interior depth {max_depth}, exposed-voxel hits {exposed_hits}; beyond the 2-bit force layer {deep} ({:.2e}); p99 |dF| {p99:.4} N; KE mean {:.3e} J max {:.3e} J",
+        width.bits(),
+        penetrating as f64 / touching.max(1) as f64,
+        deep as f64 / touching.max(1) as f64,
+        ke_sum / touching.max(1) as f64,
+        ke_max
     );
     Ok(())
 }

@@ -524,6 +524,20 @@ pub enum BenchKind {
         #[arg(long)]
         json: bool,
     },
+    /// Analytic fidelity benchmark: voxel force and torque against the exact answer on five
+    /// scenes (sphere, tilted box, corner, peg in hole, wedge) over separations −s..3s, per voxel
+    /// size, bits per voxel and shell method, plus the sliding force's frame-to-frame jump.
+    Fidelity {
+        /// Voxel sizes.
+        #[arg(long, value_delimiter = ',', value_parser = parse_length, default_value = "10mm,5mm,2.5mm,1.25mm")]
+        voxel_sizes: Vec<f64>,
+        /// Poses per scene and separation.
+        #[arg(long, default_value_t = 8)]
+        poses: usize,
+        /// Print JSON (always JSON; accepted for symmetry).
+        #[arg(long)]
+        json: bool,
+    },
     /// Gather round trip to 1 and 2 local worker processes beside a raw UDP ping-pong.
     Transport {
         /// Frames (and raw UDP round trips) per measurement.

@@ -241,6 +241,39 @@ fn bench_host_counts_ticks_and_rejects_bad_arguments() {
     }
 }
 
+/// `vps bench fidelity` on one voxel size: one row per width and shell method, every scene, both
+/// slides; bad arguments are errors naming the flag.
+#[test]
+fn bench_fidelity_reports_every_setting_and_rejects_bad_arguments() {
+    let report = json(&vps(&[
+        "bench",
+        "fidelity",
+        "--voxel-sizes",
+        "5mm",
+        "--poses",
+        "1",
+        "--json",
+    ]));
+    let rows = report["rows"].as_array().expect("rows");
+    assert_eq!(rows.len(), 6, "2/4/8 bits × centres/exact");
+    for row in rows {
+        assert_eq!(row["voxel_size_mm"], 5.0);
+        assert_eq!(row["scenes"].as_array().unwrap().len(), 5);
+        assert_eq!(row["all"]["poses"], 5 * 9);
+        assert!(row["all"]["compared"].as_u64().unwrap() > 0);
+        assert!(row["slide_deep"]["mean_force_n"].as_f64().unwrap() > 0.0);
+    }
+    for (bad, field) in [
+        (["--poses", "0"], "--poses"),
+        (["--voxel-sizes", "50mm"], "--voxel-sizes"),
+    ] {
+        let out = vps(&["bench", "fidelity", bad[0], bad[1]]);
+        assert!(!out.status.success(), "{bad:?} accepted");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains(field), "{bad:?}: {stderr}");
+    }
+}
+
 #[test]
 fn the_lan_config_files_turn_into_flags_the_cli_accepts() {
     let dir = tempfile::tempdir().unwrap();

@@ -1,6 +1,7 @@
 //! One module per subcommand; [`dispatch`] routes the parsed command line.
 
 mod bench_cluster;
+mod bench_fidelity;
 mod bench_host;
 pub mod bench_kernel;
 mod bench_loop;
@@ -112,6 +113,9 @@ pub fn dispatch(cli: Cli) -> Result<()> {
             BenchKind::Kernel {
                 points, seconds, ..
             } => output::print_json(&bench_kernel::run(&points, seconds)?),
+            BenchKind::Fidelity {
+                voxel_sizes, poses, ..
+            } => bench_fidelity::run(voxel_sizes, poses),
         },
     }
 }
