@@ -461,6 +461,14 @@ impl VoxelTree {
         self
     }
 
+    /// The same tree with block lookups ([`VoxelTree::get_block`]) on the portable path, without
+    /// AVX2 gathers (the same voxels): for benchmarks of the gathers and tests of the portable
+    /// path on AVX2 hosts.
+    pub fn without_gathers(mut self) -> Self {
+        self.directory = self.directory.map(LeafDirectory::without_gathers);
+        self
+    }
+
     /// Heap bytes of the leaf directory, the lookup index derived from the tree (0 when the tree
     /// has none: see [`DIRECTORY_ALLOWANCE_BYTES`]); not counted in [`VoxelTree::memory_bytes`].
     pub fn directory_bytes(&self) -> usize {
