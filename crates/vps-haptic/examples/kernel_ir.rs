@@ -95,10 +95,8 @@ fn main() {
     let radius_vox = (n as f64 / (4.0 * std::f64::consts::PI)).sqrt().max(3.0) / per_voxel_edge;
     let dense = band_scene(radius_vox);
     let tree = VoxelTree::from_dense(&dense, TreeConfig::default()).expect("valid scene");
-    // A fourth argument `portable`: block lookups without AVX2 gathers; `previous`: the previous
-    // kernel (per-class f64 sums) with those lookups.
-    let variant = args.get(4).map_or("", String::as_str);
-    let tree = if variant == "portable" || variant == "previous" {
+    // A fourth argument `portable`: block lookups without AVX2 gathers.
+    let tree = if args.get(4).is_some_and(|a| a == "portable") {
         tree.without_gathers()
     } else {
         tree
@@ -119,11 +117,7 @@ fn main() {
         last = if mode == "dense" {
             sample_all(black_box(&dense), &shell, black_box(&pose))
         } else {
-            if variant == "previous" {
-                vps_haptic::kernel::previous::sample_all(black_box(&tree), &shell, black_box(&pose))
-            } else {
-                sample_all(black_box(&tree), &shell, black_box(&pose))
-            }
+            sample_all(black_box(&tree), &shell, black_box(&pose))
         };
     }
     let ns = start.elapsed().as_secs_f64() * 1e9 / (reps.max(1) * n) as f64;

@@ -8,14 +8,12 @@
 //! A block in free space therefore costs its transform and lookups only.
 
 use crate::classed::ClassedShell;
-use crate::lane_sums::{CanonicalF64Lanes, FixedLanes, LaneSums};
 use crate::lanes::{
-    add_cross_uniform, cross, differs_from_previous, dot, floor_i32, mat_vec, scale, scale_add,
-    F32s, Vec3s, LANES,
+    add3_f64, add_cross_uniform, add_f64, cross, differs_from_previous, dot, floor_i32, mat_vec,
+    reduce, scale, scale_add, F32s, F64s, Vec3s, LANES,
 };
-use crate::quanta::Quanta;
 use crate::state::KernelPose;
-use crate::sums::PartialSums;
+use crate::sums::{PartialSums, AREA_SCALE, LENGTH_SCALE};
 use glam::{IVec3, Mat3};
 use vps_voxmap::{LayeredVoxel, Voxel, VoxelLookup};
 
@@ -27,27 +25,13 @@ use vps_voxmap::{LayeredVoxel, Voxel, VoxelLookup};
 /// coordinates so that `C − P` is exact to f32 rounding of the point's own position; adds `d N` and
 /// `(P − x) × d N`. A 2-bit map reports ℓ = 0: the tangent-plane depth of DESIGN §3. Proximity
 /// (any layer) with `V·N < 0` (`V = v + w × (P − x)`): adds to the braking sums. Interior: counted.
-/// Each contact contribution is rounded to an integer multiple of its quantum as it is computed
-/// (see the `quanta` module) and the integers are summed, so the contact sums are the same bits for
-/// any split of the shell into classes, shares and threads, merged in any order; the braking sums
-/// are added in f64 in one canonical order per class and rounded once per class, the same bits for
-/// any grouping of a fixed class count (see the `lane_sums` module).
+/// Contributions are added in f64 in one canonical order per class and quantised to integers once
+/// per class (see [`crate::sums`] and [`accumulate`]).
 ///
 /// A class that does not exist gives the empty sum. A pose failing [`KernelPose::is_sane`] samples
 /// nothing: only `sampled` is set. Does not allocate or block; cost is linear in the class size.
 #[inline]
 pub fn sample_class<L: VoxelLookup>(
-    map: &L,
-    shell: &ClassedShell,
-    pose: &KernelPose,
-    class: u32,
-) -> PartialSums {
-    sample_class_with::<FixedLanes, L>(map, shell, pose, class)
-}
-
-/// [`sample_class`] with the lane sums `S`.
-#[inline]
-fn sample_class_with<S: LaneSums, L: VoxelLookup>(
     map: &L,
     shell: &ClassedShell,
     pose: &KernelPose,
@@ -68,8 +52,7 @@ fn sample_class_with<S: LaneSums, L: VoxelLookup>(
                 &shell.ny[range.clone()],
                 &shell.nz[range],
             ];
-            let quanta = Quanta::new(map.spec().voxel_size, shell.max_radius());
-            accumulate::<S, L>(map, &frame, &quanta, points, normals).finish_into(&mut sums);
+            accumulate(map, &frame, points, normals).quantise_into(&mut sums);
         }
     }
     sums
@@ -97,30 +80,6 @@ pub fn sample_all<L: VoxelLookup>(map: &L, shell: &ClassedShell, pose: &KernelPo
         sums.merge(&sample_class(map, shell, pose, class));
     }
     sums
-}
-
-/// The previous kernel, kept so that `vps bench kernel` can measure it beside the current one
-/// in the same run; not used at run time. Same blocks and lookups, but a class's contributions
-/// are summed in f64 lanes in one canonical order and rounded once per class, which makes the
-/// sums exact for any grouping of a fixed class count only (the current kernel: any split).
-pub mod previous {
-    use super::*;
-
-    /// The merged sums of every class of `shell`, as the previous kernel computed them. Does not
-    /// allocate or block.
-    pub fn sample_all<L: VoxelLookup>(
-        map: &L,
-        shell: &ClassedShell,
-        pose: &KernelPose,
-    ) -> PartialSums {
-        let mut sums = PartialSums::default();
-        for class in 0..shell.class_count() {
-            sums.merge(&sample_class_with::<CanonicalF64Lanes, L>(
-                map, shell, pose, class,
-            ));
-        }
-        sums
-    }
 }
 
 /// The pose expressed in grid coordinates (voxel units, origin at the grid's minimum corner).
@@ -153,10 +112,15 @@ impl GridFrame {
     }
 }
 
-/// Running sums of one class: the lane sums `S` and the counters.
-#[derive(Clone, Debug, PartialEq)]
-struct ClassAccumulator<S> {
-    lanes: S,
+/// Running sums of one class: per-lane f64 sums (lane `l` holds the points `l, l + 8, …` of the
+/// class, in ascending order) and counters.
+#[derive(Clone, Debug, Default, PartialEq)]
+struct ClassAccumulator {
+    depth_normal: [F64s; 3],
+    depth_torque: [F64s; 3],
+    brake_sq: F64s,
+    brake_force: [F64s; 3],
+    brake_torque: [F64s; 3],
     surface: u64,
     contacts: u64,
     approaching: u64,
@@ -164,29 +128,29 @@ struct ClassAccumulator<S> {
     non_free: u64,
 }
 
-impl<S: LaneSums> ClassAccumulator<S> {
-    #[inline(always)]
-    fn new(quanta: &Quanta) -> Self {
-        ClassAccumulator {
-            lanes: S::new(quanta),
-            surface: 0,
-            contacts: 0,
-            approaching: 0,
-            interior: 0,
-            non_free: 0,
-        }
-    }
-
-    /// Adds the counters and the class totals to `sums`. Lanes that no block wrote (the contact
-    /// lanes of a class without Surface points, the braking lanes of a class without Proximity
-    /// points) hold zeros, so they are skipped: exact, and cheaper for classes in free space.
-    fn finish_into(&self, sums: &mut PartialSums) {
+impl ClassAccumulator {
+    /// Adds the counters and the rounded class totals (lanes reduced in their fixed order) to
+    /// `sums`.
+    ///
+    /// A group of lanes that no block wrote (the contact lanes of a class without Surface points,
+    /// the braking lanes of a class without Proximity points) holds +0.0 everywhere and would
+    /// quantise to 0, so it is skipped: exact, and it saves the reductions and the thirteen
+    /// f64 → i128 conversions of every class in free space (most classes of most frames).
+    fn quantise_into(&self, sums: &mut PartialSums) {
+        let q3 = |acc: &mut [i128; 3], lanes: &[F64s; 3], scale: f64| {
+            for (a, l) in acc.iter_mut().zip(lanes) {
+                *a += quantise(reduce(l), scale);
+            }
+        };
         if self.surface > 0 {
-            self.lanes.contact_into(sums);
+            q3(&mut sums.depth_normal, &self.depth_normal, LENGTH_SCALE);
+            q3(&mut sums.depth_torque, &self.depth_torque, AREA_SCALE);
         }
         let proximity = self.non_free - self.surface - self.interior;
         if proximity > 0 {
-            self.lanes.brake_into(sums);
+            sums.brake_sq += quantise(reduce(&self.brake_sq), LENGTH_SCALE);
+            q3(&mut sums.brake_force, &self.brake_force, LENGTH_SCALE);
+            q3(&mut sums.brake_torque, &self.brake_torque, AREA_SCALE);
         }
         sums.surface += self.surface;
         sums.contacts += self.contacts;
@@ -201,24 +165,25 @@ type Soa<'a> = [&'a [f32]; 3];
 
 /// The hot loop over one class.
 ///
-/// Exactness: each point's contribution is computed with IEEE basic operations only (no fused
-/// multiply-add), so it is the same bits wherever and with whichever instruction set it is computed
-/// (the AVX2 and the baseline copy below agree bit for bit; a unit test checks it), and then added
-/// by `S` (see [`crate::lane_sums`]).
+/// Exactness (DESIGN §4): a class's f64 totals depend only on its points, in one canonical order
+/// (lane `l` adds points `l, l + 8, l + 16, …` in ascending order; [`reduce`] combines the eight
+/// lanes in a fixed tree), computed with IEEE basic operations only (no fused multiply-add), so they
+/// are the same bits wherever and with whichever instruction set they are computed (the AVX2 and
+/// the baseline copy below agree bit for bit; a unit test checks it). The totals are then quantised
+/// to integers once, and integers merge exactly, so any grouping of classes gives identical sums.
 #[inline]
-fn accumulate<S: LaneSums, L: VoxelLookup>(
+fn accumulate<L: VoxelLookup>(
     map: &L,
     frame: &GridFrame,
-    quanta: &Quanta,
     points: Soa,
     normals: Soa,
-) -> ClassAccumulator<S> {
+) -> ClassAccumulator {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2 (checked just above).
-        return unsafe { accumulate_avx2(map, frame, quanta, points, normals) };
+        return unsafe { accumulate_avx2(map, frame, points, normals) };
     }
-    accumulate_lanes(map, frame, quanta, points, normals)
+    accumulate_lanes(map, frame, points, normals)
 }
 
 /// [`accumulate_lanes`] compiled for AVX2 (one register per lane array instead of two). FMA is not
@@ -228,26 +193,24 @@ fn accumulate<S: LaneSums, L: VoxelLookup>(
 /// The CPU must support AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn accumulate_avx2<S: LaneSums, L: VoxelLookup>(
+unsafe fn accumulate_avx2<L: VoxelLookup>(
     map: &L,
     frame: &GridFrame,
-    quanta: &Quanta,
     points: Soa,
     normals: Soa,
-) -> ClassAccumulator<S> {
-    accumulate_lanes(map, frame, quanta, points, normals)
+) -> ClassAccumulator {
+    accumulate_lanes(map, frame, points, normals)
 }
 
 /// The block loop (see the module docs); full blocks, then one zero-padded tail block.
 #[inline(always)]
-fn accumulate_lanes<S: LaneSums, L: VoxelLookup>(
+fn accumulate_lanes<L: VoxelLookup>(
     map: &L,
     frame: &GridFrame,
-    quanta: &Quanta,
     points: Soa,
     normals: Soa,
-) -> ClassAccumulator<S> {
-    let mut acc = ClassAccumulator::new(quanta);
+) -> ClassAccumulator {
+    let mut acc = ClassAccumulator::default();
     let n = points[0].len().min(points[1].len()).min(points[2].len());
     let n = n
         .min(normals[0].len())
@@ -299,7 +262,7 @@ fn load(xs: Soa, start: usize, valid: usize) -> Vec3s {
 /// Free and contribute nothing.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn sample_block<S: LaneSums, L: VoxelLookup>(
+fn sample_block<L: VoxelLookup>(
     map: &L,
     frame: &GridFrame,
     points: Soa,
@@ -307,7 +270,7 @@ fn sample_block<S: LaneSums, L: VoxelLookup>(
     start: usize,
     valid: usize,
     last: &mut LastVoxel,
-    acc: &mut ClassAccumulator<S>,
+    acc: &mut ClassAccumulator,
 ) {
     // (P − x) in metres, then P in grid coordinates and its voxel.
     let lever = mat_vec(&frame.rotation, &load(points, start, valid));
@@ -428,7 +391,7 @@ fn voxel_of(kind: u8, layer: u8) -> LayeredVoxel {
 /// adds `d N` and `(P − x) × d N` and counts `d > 0`.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn surface_block<S: LaneSums>(
+fn surface_block(
     frame: &GridFrame,
     lever: &Vec3s,
     grid: &Vec3s,
@@ -436,7 +399,7 @@ fn surface_block<S: LaneSums>(
     normal: &Vec3s,
     is_surface: &[bool; LANES],
     layers: &[u8; LANES],
-    acc: &mut ClassAccumulator<S>,
+    acc: &mut ClassAccumulator,
 ) {
     // C − P in voxel units: the voxel centre (cell + 0.5) minus the grid position.
     let mut to_centre = [[0.0; LANES]; 3];
@@ -457,18 +420,19 @@ fn surface_block<S: LaneSums>(
     }
     acc.contacts += depth.iter().filter(|&&d| d > 0.0).count() as u64;
     let force_dir = scale(normal, &depth);
-    acc.lanes.add_contact(&force_dir, &cross(lever, &force_dir));
+    add3_f64(&mut acc.depth_normal, &force_dir);
+    add3_f64(&mut acc.depth_torque, &cross(lever, &force_dir));
 }
 
 /// Braking arithmetic of a block: `a = V·N` in approaching Proximity lanes (`V·N < 0`), 0
 /// elsewhere; adds `a²`, `a N` and `(P − x) × a N` and counts the approaching lanes.
 #[inline(always)]
-fn brake_block<S: LaneSums>(
+fn brake_block(
     frame: &GridFrame,
     lever: &Vec3s,
     normal: &Vec3s,
     is_proximity: &[bool; LANES],
-    acc: &mut ClassAccumulator<S>,
+    acc: &mut ClassAccumulator,
 ) {
     let velocity = add_cross_uniform(frame.linear_velocity, frame.angular_velocity, lever);
     let approach = dot(&velocity, normal);
@@ -483,9 +447,17 @@ fn brake_block<S: LaneSums>(
         a_sq[l] = a[l] * a[l];
     }
     acc.approaching += a.iter().filter(|&&x| x < 0.0).count() as u64;
+    add_f64(&mut acc.brake_sq, &a_sq);
     let brake_dir = scale(normal, &a);
-    acc.lanes
-        .add_brake(&a_sq, &brake_dir, &cross(lever, &brake_dir));
+    add3_f64(&mut acc.brake_force, &brake_dir);
+    add3_f64(&mut acc.brake_torque, &cross(lever, &brake_dir));
+}
+
+/// `value · scale` truncated toward zero, saturating (NaN → 0). `scale` is a power of two, so the
+/// product is exact unless it overflows.
+#[inline(always)]
+fn quantise(value: f64, scale: f64) -> i128 {
+    (value * scale) as i128
 }
 
 #[cfg(all(test, target_arch = "x86_64"))]
@@ -531,22 +503,26 @@ mod tests {
             angular_velocity: Vec3::new(-4.0, 2.5, 7.0),
         };
         let frame = GridFrame::new(&grid, &pose);
-        let quanta = Quanta::new(spec.voxel_size, 0.11);
         let points = [&soa[0][..], &soa[1][..], &soa[2][..]];
         let normals = [&soa[3][..], &soa[4][..], &soa[5][..]];
-        let base: ClassAccumulator<FixedLanes> =
-            accumulate_lanes(&grid, &frame, &quanta, points, normals);
+        let base = accumulate_lanes(&grid, &frame, points, normals);
         // SAFETY: AVX2 was detected above.
-        let avx2 = unsafe { accumulate_avx2(&grid, &frame, &quanta, points, normals) };
+        let avx2 = unsafe { accumulate_avx2(&grid, &frame, points, normals) };
         assert!(base.surface > 50 && base.approaching > 20 && base.contacts > 20);
-        assert_eq!(base, avx2);
-        // The previous kernel's f64 lanes too, compared by bits.
-        let base: ClassAccumulator<CanonicalF64Lanes> =
-            accumulate_lanes(&grid, &frame, &quanta, points, normals);
-        // SAFETY: AVX2 was detected above.
-        let avx2: ClassAccumulator<CanonicalF64Lanes> =
-            unsafe { accumulate_avx2(&grid, &frame, &quanta, points, normals) };
-        assert_eq!(format!("{base:?}"), format!("{avx2:?}"));
+        let bits = |a: &ClassAccumulator| {
+            let mut v: Vec<u64> = Vec::new();
+            for set in [
+                &a.depth_normal,
+                &a.depth_torque,
+                &a.brake_force,
+                &a.brake_torque,
+            ] {
+                v.extend(set.iter().flatten().map(|x| x.to_bits()));
+            }
+            v.extend(a.brake_sq.iter().map(|x| x.to_bits()));
+            v
+        };
+        assert_eq!(bits(&base), bits(&avx2));
         assert_eq!(base, avx2);
     }
 }

@@ -34,10 +34,10 @@ pub(crate) fn mat_vec(m: &Mat3, v: &Vec3s) -> Vec3s {
 /// `v · scale + offset` per lane.
 #[inline(always)]
 pub(crate) fn scale_add(v: &Vec3s, scale: f32, offset: [f32; 3]) -> Vec3s {
-    let mut out = [[0.0; LANES]; 3];
-    for (r, o) in out.iter_mut().enumerate() {
-        for l in 0..LANES {
-            o[l] = v[r][l] * scale + offset[r];
+    let mut out = *v;
+    for (o, off) in out.iter_mut().zip(offset) {
+        for x in o.iter_mut() {
+            *x = *x * scale + off;
         }
     }
     out
@@ -180,65 +180,6 @@ pub(crate) fn differs_from_previous(cell: &[[i32; LANES]; 3], first_prev: [i32; 
     mask
 }
 
-/// `round(v · scale)` per lane as an integer, `v · scale` first clamped to `±limit` (a NaN lane
-/// gives `limit`); rounding to nearest, ties to even. `scale` a power of two makes the product
-/// exact, so a lane's integer is the same on every instruction set.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-pub(crate) fn quantise_lanes(v: &F32s, scale: f32, limit: f32) -> [i32; LANES] {
-    use std::arch::x86_64::{
-        __m128i, _mm_cvtps_epi32, _mm_loadu_ps, _mm_max_ps, _mm_min_ps, _mm_mul_ps, _mm_set1_ps,
-        _mm_storeu_si128,
-    };
-    let mut out = [0i32; LANES];
-    for q in 0..LANES / 4 {
-        // SAFETY: SSE and SSE2 are part of the x86-64 baseline; `v[4q..4q + 4]` and
-        // `out[4q..4q + 4]` are 16 readable / writable bytes (q < LANES / 4), and the unaligned
-        // load and store have no alignment requirement.
-        unsafe {
-            let x = _mm_mul_ps(_mm_loadu_ps(v.as_ptr().add(4 * q)), _mm_set1_ps(scale));
-            // minps / maxps return the second operand when either is NaN.
-            let x = _mm_max_ps(_mm_min_ps(x, _mm_set1_ps(limit)), _mm_set1_ps(-limit));
-            // cvtps2dq rounds by MXCSR: to nearest, ties to even (Rust keeps the default mode).
-            let q32 = _mm_cvtps_epi32(x);
-            _mm_storeu_si128(out.as_mut_ptr().add(4 * q).cast::<__m128i>(), q32);
-        }
-    }
-    out
-}
-
-/// Portable form of the x86-64 [`quantise_lanes`]: the same results.
-#[cfg(not(target_arch = "x86_64"))]
-#[inline(always)]
-pub(crate) fn quantise_lanes(v: &F32s, scale: f32, limit: f32) -> [i32; LANES] {
-    std::array::from_fn(|l| {
-        let x = v[l] * scale;
-        let x = if x < limit { x } else { limit };
-        let x = if x > -limit { x } else { -limit };
-        x.round_ties_even() as i32
-    })
-}
-
-/// Per-lane i64 running sums of quantised values (exact, in any order).
-pub(crate) type I64s = [i64; LANES];
-
-/// `acc += round(v · scale)` per component and lane (see [`quantise_lanes`]).
-#[inline(always)]
-pub(crate) fn add3_quantised(acc: &mut [I64s; 3], v: &Vec3s, scale: f32, limit: f32) {
-    for (a, x) in acc.iter_mut().zip(v) {
-        let q = quantise_lanes(x, scale, limit);
-        for l in 0..LANES {
-            a[l] = a[l].wrapping_add(i64::from(q[l]));
-        }
-    }
-}
-
-/// The lanes' total (exact for totals within `i128`).
-#[inline]
-pub(crate) fn total_i128(acc: &I64s) -> i128 {
-    acc.iter().map(|&x| i128::from(x)).sum()
-}
-
 /// Per-lane f64 running sums, one canonical order: lane `l` adds the block values of lane `l` in
 /// block order; [`reduce`] combines the lanes in a fixed tree.
 pub(crate) type F64s = [f64; LANES];
@@ -328,13 +269,6 @@ mod tests {
         assert_eq!(differs_from_previous(&cell, [7; 3]), 0b1110_1000);
         assert_eq!(differs_from_previous(&cell, [7, 7, 6]), 0b1110_1001);
         assert_eq!(differs_from_previous(&cell, [i32::MIN; 3]) & 1, 1);
-    }
-
-    #[test]
-    fn quantise_rounds_to_nearest_even_and_clamps() {
-        let v = [0.5f32, 1.5, -2.5, 1.25, 3e9, -3e9, f32::NAN, -0.75];
-        let q = quantise_lanes(&v, 2.0, 1e6);
-        assert_eq!(q, [1, 3, -5, 2, 1_000_000, -1_000_000, 1_000_000, -2]);
     }
 
     #[test]

@@ -2,24 +2,12 @@
 //! contributes to a frame. Integer addition is associative and commutative, so sums merged in any
 //! grouping and any order are bit-identical.
 //!
-//! Quantisation of the contact sums (`depth_normal`, `depth_torque`): the kernel rounds each
-//! point's contribution to an integer multiple of a power-of-two quantum as it is computed (chosen
-//! from bounds on one point's contribution, never finer than the LSBs below; see the kernel's
-//! `quanta` module) and adds integers, so they are the same bits for any split of the points into
-//! classes, shares and threads; a total is expressed in the LSBs below by an exact left shift. A
-//! point's value is within half a quantum of its f32 value; the quantum is about 2^-30 of the
-//! largest value one point can contribute (`depth_normal` at 5 mm voxels: 2^-29 m ≈ 1.9 nm, 2^11
-//! LSBs). [`PartialSums::is_plausible`] and [`PartialSums::torque_within`] allow that rounding as a
-//! relative slack of [`ROUNDING_SLACK`].
-//!
-//! Quantisation of the braking sums: each class's contributions are added in f64 in one canonical
-//! order (eight lanes, lane `l` adding the class's points `l, l + 8, …` in ascending order, the
-//! lanes combined in a fixed pairwise tree; IEEE basic operations only, so a class total has the
-//! same bits wherever and with whichever instruction set it is computed), then multiplied by a
-//! power of two (exact) and truncated toward zero (saturating): the same bits for any grouping of
-//! a fixed class count, within one LSB of the f64 sum.
-//!
-//! The scales:
+//! Quantisation: the kernel adds each class's point contributions in f64 in one canonical order
+//! (eight lanes, lane `l` adding the class's points `l, l + 8, …` in ascending order, the lanes
+//! combined in a fixed pairwise tree; IEEE basic operations only, so a class total has the same bits
+//! wherever and with whichever instruction set it is computed), then
+//! multiplies the class total by a power of two (exact in floating point) and truncates toward zero
+//! to an integer (Rust's `as` saturates, so an absurd value cannot wrap). The scales:
 //!
 //! | sum | unit | LSB |
 //! |---|---|---|
@@ -29,10 +17,13 @@
 //! | `brake_force` = S_f = Σ (V_i·N_i) N_i | m/s | 2^-40 m/s |
 //! | `brake_torque` = S_t = Σ (P_i − x) × (V_i·N_i) N_i | m²/s | 2^-48 m²/s |
 //!
-//! Overflow bound: a point's contact integer is at most 2^30 quanta and a class's contact total at
-//! most 2^126 LSBs (see the kernel's `quanta` module); braking class totals saturate at 2^127;
-//! merging sums is wrapping integer addition, exact in any order. For scale: 10^7 points at the 5 mm voxel size put at most 10^7 · 4.4e-3 m · 2^40 ≈ 4.8e16
-//! (< 2^56) into `depth_normal`. Counters are `u64`.
+//! These LSBs are finer than the f32 rounding of the values they hold for any voxel size above
+//! 1 µm, so quantisation adds no visible error: each class total is within one LSB of its f64 sum.
+//!
+//! Overflow bound: accumulators are `i128` and each class total is at most 2^127 in magnitude
+//! after the saturating conversion; merging 2^64 saturated totals could in principle overflow, a
+//! physically impossible input. For scale: 10^7 points at the 5 mm voxel size put at most
+//! 10^7 · 4.4e-3 m · 2^40 ≈ 4.8e16 (< 2^56) into `depth_normal`. Counters are `u64`.
 
 use glam::DVec3;
 
@@ -40,11 +31,6 @@ use glam::DVec3;
 pub const LENGTH_SCALE: f64 = (1u64 << 40) as f64;
 /// Scale of area-like sums (`depth_torque`, `brake_torque`): 2^48 per SI unit.
 pub const AREA_SCALE: f64 = (1u64 << 48) as f64;
-
-/// Relative slack of the plausibility bounds for per-point rounding: a point's rounded value exceeds
-/// its bound by at most half a quantum, 2^-30 of the bound the quantum was chosen for, which is at
-/// most 2^8 times the checked bound (the kernel budgets 255 Surface layers; a 2-bit map has one).
-pub const ROUNDING_SLACK: f64 = 1.0 / (1u64 << 21) as f64;
 
 /// The sums a worker or a local thread returns for a set of classes. All-zero (`Default`) is the
 /// empty sum. Plain data: `Copy`, serde-serialisable, no allocation.
@@ -124,7 +110,7 @@ impl PartialSums {
             return false;
         }
         let slack = self.sampled as f64;
-        let depth_bound = self.contacts as f64 * max_depth * LENGTH_SCALE * (1.0 + ROUNDING_SLACK);
+        let depth_bound = self.contacts as f64 * max_depth * LENGTH_SCALE;
         let depth_ok = self
             .depth_normal
             .iter()
@@ -154,8 +140,7 @@ impl PartialSums {
         let slack = self.sampled as f64;
         let ratio = AREA_SCALE / LENGTH_SCALE;
         // |r × a|_c ≤ |r| |a| ≤ r_max · max_depth per contact, summed over contacts.
-        let depth_bound =
-            self.contacts as f64 * max_radius * max_depth * AREA_SCALE * (1.0 + ROUNDING_SLACK);
+        let depth_bound = self.contacts as f64 * max_radius * max_depth * AREA_SCALE;
         // |r × (V·N) N|_c ≤ r_max |V·N|, and Σ|V·N| ≤ √(n S_q).
         let brake_bound = max_radius
             * (self.approaching as f64 * (self.brake_sq as f64 + slack) * LENGTH_SCALE).sqrt()
