@@ -172,6 +172,8 @@ impl LeafDirectory {
     /// [`LeafDirectory::read_block`] in plain loops over lane arrays, so that the index
     /// arithmetic and the tile test vectorise where the caller is compiled for it, with eight
     /// independent slot loads and, only for lanes in a leaf, eight independent word loads.
+    #[allow(clippy::needless_range_loop)] // lane loops: index form vectorises and reads as lanes
+    #[inline(always)]
     pub(crate) fn read_block_portable(
         &self,
         leaf_words: &[u64],
