@@ -380,7 +380,7 @@ impl VoxelTree {
         lower_slots: Vec<u32>,
         leaf_words: Vec<u64>,
     ) -> Result<VoxelTree, TreeError> {
-        let tree = VoxelTree::assemble(
+        let mut tree = VoxelTree::assemble(
             spec,
             config,
             width,
@@ -389,6 +389,13 @@ impl VoxelTree {
             lower_slots,
             leaf_words,
         )?;
+        // Arenas read from a stream grow as bytes arrive (so that a corrupt count cannot allocate
+        // more than the stream holds) and end with growth slack: drop it, so that a loaded tree
+        // holds what its file says, as a built one does (`memory_bytes` equal).
+        tree.root.slots.shrink_to_fit();
+        tree.upper.slots.shrink_to_fit();
+        tree.lower.slots.shrink_to_fit();
+        tree.leaf_words.shrink_to_fit();
         validate::check_canonical(&tree)?;
         Ok(tree.with_directory())
     }
