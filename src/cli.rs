@@ -549,6 +549,29 @@ pub enum BenchKind {
         #[arg(long)]
         json: bool,
     },
+    /// Points per frame that fit the compute budget at p99.9, over 1..N local threads and 1..N
+    /// local worker processes, and the parallel efficiency (child `vps bench loop` and
+    /// `vps bench cluster` runs).
+    Scaling {
+        /// Largest thread and worker-process count (default: the machine's cores).
+        #[arg(long)]
+        max: Option<usize>,
+        /// Shell sizes each configuration runs at (at least two).
+        #[arg(long, value_delimiter = ',', default_value = "20000,100000")]
+        points: Vec<usize>,
+        /// Frames per run (1 ms each).
+        #[arg(long, default_value_t = 3000)]
+        frames: u64,
+        /// Compute budget per frame (µs) that p99.9 must meet.
+        #[arg(long, default_value_t = 1000.0)]
+        budget_us: f64,
+        /// Write an SVG plot here.
+        #[arg(long)]
+        plot: Option<PathBuf>,
+        /// Print JSON (always JSON; accepted for symmetry).
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 impl Default for RunArgs {

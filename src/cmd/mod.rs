@@ -4,6 +4,7 @@ mod bench_cluster;
 mod bench_host;
 pub mod bench_kernel;
 mod bench_loop;
+mod bench_scaling;
 mod bench_transport;
 mod bench_viewer;
 mod bench_voxelize;
@@ -112,6 +113,24 @@ pub fn dispatch(cli: Cli) -> Result<()> {
             BenchKind::Kernel {
                 points, seconds, ..
             } => output::print_json(&bench_kernel::run(&points, seconds)?),
+            BenchKind::Scaling {
+                max,
+                points,
+                frames,
+                budget_us,
+                plot,
+                ..
+            } => bench_scaling::run(
+                &bench_scaling::ScalingBench {
+                    max_units: max.unwrap_or_else(|| {
+                        std::thread::available_parallelism().map_or(1, |n| n.get())
+                    }),
+                    points,
+                    frames,
+                    budget_us,
+                },
+                plot.as_deref(),
+            ),
         },
     }
 }
