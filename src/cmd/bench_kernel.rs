@@ -24,8 +24,8 @@ use vps_voxmap::{TreeConfig, VoxelTree};
 /// Voxel size of the synthetic scene (m); only the counts matter to the kernel.
 const VOXEL_SIZE: f64 = 0.005;
 
-/// Batches per case and kernel (alternated: previous, current, previous, …).
-const BATCHES: usize = 5;
+/// Batches per case and kernel (alternated: previous, current, current, previous, …).
+const BATCHES: usize = 6;
 
 /// One kernel's figures for one shell size.
 #[derive(Serialize)]
@@ -93,8 +93,8 @@ pub fn run(point_counts: &[usize], batch_seconds: f64) -> Result<KernelReport> {
         figures.push(measure(n, batch_seconds)?);
     }
     Ok(KernelReport {
-        method: "single thread, class_count 1, sample_all over the whole shell repeated; per case, 5 \
-                 batches of the previous kernel and 5 of the current one alternated, medians and the \
+        method: "single thread, class_count 1, sample_all over the whole shell repeated; per case, 6 \
+                 batches of the previous kernel and 6 of the current one alternated (order swapped every round), medians and the \
                  median of per-round ratios; synthetic sphere shell and spherical Surface band (see \
                  src/cmd/bench_kernel.rs)",
         host: HostLoad {
@@ -243,10 +243,17 @@ fn alternated(
     secs: f64,
 ) -> (f64, f64, f64) {
     let reps = calibrate(previous, shell, pose, secs);
+    // Which kernel goes first alternates too, so that neither always runs on a cache the other
+    // warmed.
     let rounds: Vec<(f64, f64)> = (0..BATCHES)
-        .map(|_| {
-            let old = batch(previous, shell, pose, reps);
-            (old, batch(current, shell, pose, reps))
+        .map(|round| {
+            if round % 2 == 0 {
+                let old = batch(previous, shell, pose, reps);
+                (old, batch(current, shell, pose, reps))
+            } else {
+                let new = batch(current, shell, pose, reps);
+                (batch(previous, shell, pose, reps), new)
+            }
         })
         .collect();
     (
