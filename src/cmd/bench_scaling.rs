@@ -182,7 +182,7 @@ fn child_run(exe: &Path, head: &[&str], tail: &[&str]) -> Result<Run> {
         .with_context(|| format!("reading the JSON of {shown}"))?;
     let field = |path: &[&str]| -> Result<u64> {
         path.iter()
-            .fold(Some(&json), |v, k| v.and_then(|v| v.get(k)))
+            .try_fold(&json, |v, k| v.get(k))
             .and_then(serde_json::Value::as_u64)
             .with_context(|| format!("{shown}: no `{}` in its report", path.join(".")))
     };
@@ -232,12 +232,15 @@ fn fit(samples: &[(f64, f64)]) -> (f64, f64, f64) {
 fn points_at_budget(tail: &[(f64, f64)], median: &[(f64, f64)], budget: f64) -> Option<f64> {
     let (mx, my, tail_slope) = fit(tail);
     let slope = tail_slope.max(fit(median).2);
-    if !(slope > 0.0) {
+    if slope.is_nan() || slope <= 0.0 {
         return None;
     }
     let intercept = my - slope * mx;
     Some(((budget - intercept) / slope).max(0.0))
 }
+
+/// A plotted line: legend, colour, points.
+type Line = (&'static str, RGBColor, Vec<(f64, f64)>);
 
 /// Left: points at budget against compute units; right: parallel efficiency. One line for threads,
 /// one for worker processes.
@@ -260,7 +263,7 @@ fn plot_scaling(report: &ScalingReport, path: &Path) -> Result<()> {
         .max()
         .unwrap_or(1) as f64;
     for (panel, (label, value)) in panels.iter().zip(figures) {
-        let lines: [(&str, RGBColor, Vec<(f64, f64)>); 2] = [
+        let lines: [Line; 2] = [
             ("local threads", BLUE, series(&report.threads, value)),
             ("worker processes", RED, series(&report.processes, value)),
         ];
