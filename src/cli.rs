@@ -438,14 +438,11 @@ pub enum BenchKind {
         #[arg(long)]
         json: bool,
     },
-    /// Nanoseconds per point of the sampling kernel, free space and full contact, one core.
+    /// Nanoseconds per point of the sampling kernel, free space and full contact, one core: the
+    /// current and the previous kernel alternated, and their ratio.
     Kernel {
         /// Shell sizes to measure.
-        #[arg(
-            long,
-            value_delimiter = ',',
-            default_value = "400,10000,100000,1000000"
-        )]
+        #[arg(long, value_delimiter = ',', default_value = "10000,100000,1000000")]
         points: Vec<usize>,
         /// Seconds per timing batch (5 batches per case, the median is reported).
         #[arg(long, default_value_t = 0.2)]
@@ -563,6 +560,29 @@ pub enum BenchKind {
         #[arg(long)]
         plot: Option<PathBuf>,
         /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Points per frame that fit the compute budget at p99.9, over 1..N local threads and 1..N
+    /// local worker processes, and the parallel efficiency (child `vps bench loop` and
+    /// `vps bench cluster` runs).
+    Scaling {
+        /// Largest thread and worker-process count (default: the machine's cores).
+        #[arg(long)]
+        max: Option<usize>,
+        /// Shell sizes each configuration runs at (at least two).
+        #[arg(long, value_delimiter = ',', default_value = "20000,100000")]
+        points: Vec<usize>,
+        /// Frames per run (1 ms each).
+        #[arg(long, default_value_t = 3000)]
+        frames: u64,
+        /// Compute budget per frame (µs) that p99.9 must meet.
+        #[arg(long, default_value_t = 1000.0)]
+        budget_us: f64,
+        /// Write an SVG plot here.
+        #[arg(long)]
+        plot: Option<PathBuf>,
+        /// Print JSON (always JSON; accepted for symmetry).
         #[arg(long)]
         json: bool,
     },

@@ -1,5 +1,8 @@
 //! `vps bench kernel`: nanoseconds per point of the sampling kernel on one core, tree lookup
-//! included, for 400, 10k, 100k and 1M points, in free space and in full contact.
+//! included, for 10k, 100k and 1M points (by default), in free space and in full contact: the
+//! current kernel and the previous one (the same kernel with block lookups on the portable path,
+//! without AVX2 gathers: `VoxelTree::without_gathers`), alternated batch by batch in one run so
+//! that their ratio holds on a loaded machine.
 //!
 //! The synthetic case: a spherical point shell of radius R voxels (Fibonacci lattice, inward
 //! normals, ≈ one point per voxel of area, so R = √(n / 4π) voxels) and a voxmap holding, in one
@@ -21,23 +24,54 @@ use vps_voxmap::{TreeConfig, VoxelTree};
 /// Voxel size of the synthetic scene (m); only the counts matter to the kernel.
 const VOXEL_SIZE: f64 = 0.005;
 
+/// Batches per case and kernel (alternated: previous, current, current, previous, …).
+const BATCHES: usize = 6;
+
+/// One kernel's figures for one shell size.
+#[derive(Serialize)]
+pub struct KernelTimes {
+    /// ns per point, full contact, tree lookup (median of the batches).
+    pub contact_ns_per_point: f64,
+    /// ns per point, free space, tree lookup (median of the batches).
+    pub free_ns_per_point: f64,
+    /// Worst over best of the two cases.
+    pub worst_over_best: f64,
+}
+
 /// One measured configuration.
 #[derive(Serialize)]
 pub struct KernelFigure {
     /// Points in the shell.
     pub points: usize,
-    /// ns per point, full contact, tree lookup (median of the batches).
-    pub contact_ns_per_point: f64,
-    /// ns per point, free space, tree lookup.
-    pub free_ns_per_point: f64,
-    /// ns per point, full contact, dense-grid lookup (baseline).
+    /// The current kernel.
+    pub current: KernelTimes,
+    /// The previous kernel (block lookups without AVX2 gathers), measured alternately.
+    pub previous: KernelTimes,
+    /// Previous over current ns per point in contact (median of the per-round ratios; > 1: the
+    /// current kernel is faster).
+    pub contact_speedup: f64,
+    /// Previous over current ns per point in free space (median of the per-round ratios).
+    pub free_speedup: f64,
+    /// ns per point, full contact, dense-grid lookup (the current kernel with a trivial lookup).
     pub contact_dense_ns_per_point: f64,
-    /// Worst over best of the two tree cases.
-    pub worst_over_best: f64,
     /// Fraction of points that landed in Surface voxels in the contact pose (should be 1).
     pub contact_surface_fraction: f64,
     /// Tree memory of the synthetic scene (bytes).
     pub tree_bytes: usize,
+}
+
+/// The host while the benchmark ran: read the figures against its load.
+#[derive(Serialize)]
+pub struct HostLoad {
+    /// Logical CPUs available to this process.
+    pub cpus: usize,
+    /// 1-minute load average before the first measurement (Linux; null elsewhere).
+    pub load_before: Option<f64>,
+    /// 1-minute load average after the last measurement.
+    pub load_after: Option<f64>,
+    /// Whether the CPU has AVX2 (the current kernel's gathers need it; without it both kernels
+    /// run the same code).
+    pub avx2: bool,
 }
 
 /// The whole report.
@@ -45,21 +79,49 @@ pub struct KernelFigure {
 pub struct KernelReport {
     /// What was measured and how.
     pub method: &'static str,
+    /// The host's load while measuring.
+    pub host: HostLoad,
     /// One entry per shell size.
     pub figures: Vec<KernelFigure>,
 }
 
 /// Runs the benchmark for each point count and returns the report.
 pub fn run(point_counts: &[usize], batch_seconds: f64) -> Result<KernelReport> {
+    let load_before = load_average();
     let mut figures = Vec::new();
     for &n in point_counts {
         figures.push(measure(n, batch_seconds)?);
     }
     Ok(KernelReport {
-        method: "single thread, class_count 1, sample_all over the whole shell repeated; median of 5 \
-                 batches; synthetic sphere shell and spherical Surface band (see src/cmd/bench_kernel.rs)",
+        method: "single thread, class_count 1, sample_all over the whole shell repeated; per case, 6 \
+                 batches of the previous kernel and 6 of the current one alternated (order swapped every round), medians and the \
+                 median of per-round ratios; synthetic sphere shell and spherical Surface band (see \
+                 src/cmd/bench_kernel.rs)",
+        host: HostLoad {
+            cpus: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            load_before,
+            load_after: load_average(),
+            avx2: has_avx2(),
+        },
         figures,
     })
+}
+
+/// The 1-minute load average from `/proc/loadavg` (None where there is none).
+pub(crate) fn load_average() -> Option<f64> {
+    let text = std::fs::read_to_string("/proc/loadavg").ok()?;
+    text.split_whitespace().next()?.parse().ok()
+}
+
+fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
 }
 
 fn fibonacci_shell(n: usize, radius: f64) -> PointShell {
@@ -134,29 +196,71 @@ fn band_scene(radius_vox: f64) -> DenseGrid {
     grid
 }
 
+/// Repetitions of `sample_all` that take about `secs`.
+fn calibrate<L: VoxelLookup>(map: &L, shell: &ClassedShell, pose: &KernelPose, secs: f64) -> usize {
+    let start = Instant::now();
+    black_box(sample_all(map, shell, pose));
+    let once = start.elapsed().as_secs_f64().max(1e-7);
+    ((secs / once) as usize).clamp(1, 1_000_000)
+}
+
+/// ns per point of one batch of `reps` repetitions.
+fn batch<L: VoxelLookup>(map: &L, shell: &ClassedShell, pose: &KernelPose, reps: usize) -> f64 {
+    let t = Instant::now();
+    for _ in 0..reps {
+        black_box(sample_all(black_box(map), shell, black_box(pose)));
+    }
+    t.elapsed().as_secs_f64() * 1e9 / (reps * shell.len().max(1)) as f64
+}
+
+fn median(mut xs: Vec<f64>) -> f64 {
+    xs.sort_by(f64::total_cmp);
+    xs[xs.len() / 2]
+}
+
+/// ns per point of `map` alone (median of the batches).
 fn ns_per_point<L: VoxelLookup>(
     map: &L,
     shell: &ClassedShell,
     pose: &KernelPose,
     secs: f64,
 ) -> f64 {
-    let n = shell.len().max(1);
-    // Calibrate the repetitions of one batch.
-    let start = Instant::now();
-    black_box(sample_all(map, shell, pose));
-    let once = start.elapsed().as_secs_f64().max(1e-7);
-    let reps = ((secs / once) as usize).clamp(1, 1_000_000);
-    let mut batches: Vec<f64> = (0..5)
-        .map(|_| {
-            let t = Instant::now();
-            for _ in 0..reps {
-                black_box(sample_all(black_box(map), shell, black_box(pose)));
+    let reps = calibrate(map, shell, pose, secs);
+    median(
+        (0..BATCHES)
+            .map(|_| batch(map, shell, pose, reps))
+            .collect(),
+    )
+}
+
+/// Previous and current ns per point (medians) and the median of the per-round ratios
+/// previous / current, batches alternated with the same repetition count.
+fn alternated(
+    previous: &VoxelTree,
+    current: &VoxelTree,
+    shell: &ClassedShell,
+    pose: &KernelPose,
+    secs: f64,
+) -> (f64, f64, f64) {
+    let reps = calibrate(previous, shell, pose, secs);
+    // Which kernel goes first alternates too, so that neither always runs on a cache the other
+    // warmed.
+    let rounds: Vec<(f64, f64)> = (0..BATCHES)
+        .map(|round| {
+            if round % 2 == 0 {
+                let old = batch(previous, shell, pose, reps);
+                (old, batch(current, shell, pose, reps))
+            } else {
+                let new = batch(current, shell, pose, reps);
+                (batch(previous, shell, pose, reps), new)
             }
-            t.elapsed().as_secs_f64() * 1e9 / (reps * n) as f64
         })
         .collect();
-    batches.sort_by(f64::total_cmp);
-    batches[2]
+    (
+        median(rounds.iter().map(|r| r.0).collect()),
+        median(rounds.iter().map(|r| r.1).collect()),
+        median(rounds.iter().map(|r| r.0 / r.1).collect()),
+    )
 }
 
 fn pose_at(spec: &GridSpec, centre_vox: DVec3) -> KernelPose {
@@ -172,16 +276,30 @@ fn measure(n: usize, batch_seconds: f64) -> Result<KernelFigure> {
     let slot = dense.spec.dims[1] as f64;
     let contact = pose_at(&dense.spec, DVec3::splat(slot / 2.0));
     let free = pose_at(&dense.spec, DVec3::new(slot * 1.5, slot / 2.0, slot / 2.0));
+    let previous = tree.clone().without_gathers();
     let sums = sample_all(&tree, &shell, &contact);
-    let contact_ns = ns_per_point(&tree, &shell, &contact, batch_seconds);
-    let free_ns = ns_per_point(&tree, &shell, &free, batch_seconds);
+    // Same voxels, so the same bits.
+    anyhow::ensure!(
+        sample_all(&previous, &shell, &contact) == sums,
+        "the previous and current kernels disagree"
+    );
+    let (old_contact, new_contact, contact_speedup) =
+        alternated(&previous, &tree, &shell, &contact, batch_seconds);
+    let (old_free, new_free, free_speedup) =
+        alternated(&previous, &tree, &shell, &free, batch_seconds);
     let dense_ns = ns_per_point(&dense, &shell, &contact, batch_seconds);
+    let times = |contact: f64, free: f64| KernelTimes {
+        contact_ns_per_point: contact,
+        free_ns_per_point: free,
+        worst_over_best: contact.max(free) / contact.min(free),
+    };
     Ok(KernelFigure {
         points: n,
-        contact_ns_per_point: contact_ns,
-        free_ns_per_point: free_ns,
+        current: times(new_contact, new_free),
+        previous: times(old_contact, old_free),
+        contact_speedup,
+        free_speedup,
         contact_dense_ns_per_point: dense_ns,
-        worst_over_best: contact_ns.max(free_ns) / contact_ns.min(free_ns),
         contact_surface_fraction: sums.surface as f64 / n as f64,
         tree_bytes: tree.memory_bytes(),
     })

@@ -5,6 +5,7 @@ mod bench_fidelity;
 mod bench_host;
 pub mod bench_kernel;
 mod bench_loop;
+mod bench_scaling;
 mod bench_transport;
 mod bench_viewer;
 mod bench_voxelize;
@@ -116,6 +117,24 @@ pub fn dispatch(cli: Cli) -> Result<()> {
             BenchKind::Fidelity {
                 voxel_sizes, poses, ..
             } => bench_fidelity::run(voxel_sizes, poses),
+            BenchKind::Scaling {
+                max,
+                points,
+                frames,
+                budget_us,
+                plot,
+                ..
+            } => bench_scaling::run(
+                &bench_scaling::ScalingBench {
+                    max_units: max.unwrap_or_else(|| {
+                        std::thread::available_parallelism().map_or(1, |n| n.get())
+                    }),
+                    points,
+                    frames,
+                    budget_us,
+                },
+                plot.as_deref(),
+            ),
         },
     }
 }

@@ -95,6 +95,12 @@ fn main() {
     let radius_vox = (n as f64 / (4.0 * std::f64::consts::PI)).sqrt().max(3.0) / per_voxel_edge;
     let dense = band_scene(radius_vox);
     let tree = VoxelTree::from_dense(&dense, TreeConfig::default()).expect("valid scene");
+    // A fourth argument `portable`: block lookups without AVX2 gathers.
+    let tree = if args.get(4).is_some_and(|a| a == "portable") {
+        tree.without_gathers()
+    } else {
+        tree
+    };
     let sample = VOXEL_SIZE / per_voxel_edge;
     let shell = sphere_shell(n, radius_vox * VOXEL_SIZE, sample);
     let shell = ClassedShell::new(&shell, if fine { 64 } else { 1 });

@@ -59,6 +59,8 @@ fn block_reads_equal_single_reads_inside_outside_and_far_away() {
     for width in VoxelWidth::ALL {
         let tree = clustered_tree([130, 66, 40], width, TreeConfig::default(), 11);
         let walk = tree.clone().without_directory();
+        // Block reads on the portable path (no AVX2 gathers) on any host.
+        let portable = tree.clone().without_gathers();
         let mut state = 3u64;
         let mut next = |span: i64| {
             state = state
@@ -81,7 +83,11 @@ fn block_reads_equal_single_reads_inside_outside_and_far_away() {
                 }
             }
             // Through the directory, and walked lane by lane without it.
-            for block in [tree.get_block(&cells), walk.get_block(&cells)] {
+            for block in [
+                tree.get_block(&cells),
+                walk.get_block(&cells),
+                portable.get_block(&cells),
+            ] {
                 for l in 0..BLOCK_LANES {
                     let ijk = IVec3::new(cells[0][l], cells[1][l], cells[2][l]);
                     let one = tree.get_layered(ijk);

@@ -36,12 +36,36 @@ fn directory_allowed(directory_bytes: u64, tree_bytes: u64) -> bool {
 }
 
 /// One slot per leaf cube, x fastest.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug)]
 pub(crate) struct LeafDirectory {
     /// Leaf cubes per axis: `ceil(grid dims / leaf edge)`.
     dims: [u32; 3],
     /// Raw [`Slot`] words: a tile, or a child holding the leaf's index in the leaf arena.
     slots: Vec<u32>,
+    /// Block reads use AVX2 and a gather of the slots (see [`LeafDirectory::read_block`]): the CPU
+    /// has AVX2. Not part of the content.
+    gathers: bool,
+}
+
+/// Equal content: the dims and slots (whether block reads gather is a property of the host).
+impl PartialEq for LeafDirectory {
+    fn eq(&self, other: &Self) -> bool {
+        self.dims == other.dims && self.slots == other.slots
+    }
+}
+
+impl Eq for LeafDirectory {}
+
+/// Whether this CPU can run [`LeafDirectory::read_block`]'s AVX2 path.
+fn cpu_has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
 }
 
 impl LeafDirectory {
@@ -81,7 +105,19 @@ impl LeafDirectory {
                     };
                 }
             });
-        Some(LeafDirectory { dims, slots })
+        let gathers = cpu_has_avx2();
+        Some(LeafDirectory {
+            dims,
+            slots,
+            gathers,
+        })
+    }
+
+    /// The same directory with block reads on the portable path (no AVX2 gathers): for
+    /// benchmarks of the gathers and tests that both paths agree.
+    pub(crate) fn without_gathers(mut self) -> Self {
+        self.gathers = false;
+        self
     }
 
     /// Heap bytes held.
@@ -112,13 +148,32 @@ impl LeafDirectory {
 
     /// The codes at the cells of a block (`cells[axis][lane]`, any values; a cell outside
     /// `grid_dims` reads 0, Free). `grid_dims` must be the tree's dims, `leaf` its leaf shape and
-    /// `leaf_words` its leaf arena. Same result per lane as [`LeafDirectory::read`]; written as
-    /// loops over lane arrays so that the index arithmetic and the tile test vectorise (the caller
-    /// inlines it into its AVX2 copy), with eight independent slot loads and, only for lanes in a
-    /// leaf, eight independent word loads.
-    #[allow(clippy::needless_range_loop)] // lane loops: index form vectorises and reads as lanes
+    /// `leaf_words` its leaf arena. Same result per lane as [`LeafDirectory::read`]. With AVX2
+    /// (detected when the directory is built): one gather of the eight slots and, if some lane is
+    /// in a leaf, eight word loads ([`LeafDirectory::read_block_avx2`]); otherwise the
+    /// portable lane loops ([`LeafDirectory::read_block_portable`]).
     #[inline(always)]
     pub(crate) fn read_block(
+        &self,
+        leaf_words: &[u64],
+        leaf: LeafShape,
+        grid_dims: [u32; 3],
+        cells: &BlockCells,
+    ) -> [u8; BLOCK_LANES] {
+        #[cfg(target_arch = "x86_64")]
+        if self.gathers {
+            // SAFETY: `gathers` is set only when the CPU has AVX2 (`build`).
+            return unsafe { self.read_block_avx2(leaf_words, leaf, grid_dims, cells) };
+        }
+        self.read_block_portable(leaf_words, leaf, grid_dims, cells)
+    }
+
+    /// [`LeafDirectory::read_block`] in plain loops over lane arrays, so that the index
+    /// arithmetic and the tile test vectorise where the caller is compiled for it, with eight
+    /// independent slot loads and, only for lanes in a leaf, eight independent word loads.
+    #[allow(clippy::needless_range_loop)] // lane loops: index form vectorises and reads as lanes
+    #[inline(always)]
+    pub(crate) fn read_block_portable(
         &self,
         leaf_words: &[u64],
         leaf: LeafShape,
@@ -207,6 +262,140 @@ impl LeafDirectory {
         }
         codes
     }
+
+    /// [`LeafDirectory::read_block`] with AVX2: the in-grid masks and slot indices in one register
+    /// per quantity, one gather of the eight slots, and only when some lane is in a leaf, eight
+    /// independent word loads (two 64-bit gathers instead measured 4 % fewer instructions but no
+    /// faster on the AMD EPYC of this project's VM) and a per-lane variable shift. Same results as
+    /// [`LeafDirectory::read_block_portable`] (tested on random blocks).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn read_block_avx2(
+        &self,
+        leaf_words: &[u64],
+        leaf: LeafShape,
+        grid_dims: [u32; 3],
+        cells: &BlockCells,
+    ) -> [u8; BLOCK_LANES] {
+        use std::arch::x86_64::*;
+        // SAFETY: each load reads the 32 bytes of one `[i32; 8]` axis; no alignment needed.
+        let (x, y, z) = unsafe {
+            (
+                _mm256_loadu_si256(cells[0].as_ptr().cast()),
+                _mm256_loadu_si256(cells[1].as_ptr().cast()),
+                _mm256_loadu_si256(cells[2].as_ptr().cast()),
+            )
+        };
+        let zero = _mm256_setzero_si256();
+        // In the grid: 0 ≤ c < dim per axis; dims are at most i32::MAX (checked on assembly), so
+        // signed compares.
+        let dim = |d: u32| _mm256_set1_epi32(d as i32);
+        let in_x = _mm256_andnot_si256(
+            _mm256_cmpgt_epi32(zero, x),
+            _mm256_cmpgt_epi32(dim(grid_dims[0]), x),
+        );
+        let in_y = _mm256_andnot_si256(
+            _mm256_cmpgt_epi32(zero, y),
+            _mm256_cmpgt_epi32(dim(grid_dims[1]), y),
+        );
+        let in_z = _mm256_andnot_si256(
+            _mm256_cmpgt_epi32(zero, z),
+            _mm256_cmpgt_epi32(dim(grid_dims[2]), z),
+        );
+        let inside = _mm256_and_si256(_mm256_and_si256(in_x, in_y), in_z);
+        // The slot index of the lane's leaf cube (wrapping garbage outside the grid, masked to 0).
+        let cube_shift = _mm_cvtsi32_si128(leaf.log2 as i32);
+        let (cx, cy, cz) = (
+            _mm256_srl_epi32(x, cube_shift),
+            _mm256_srl_epi32(y, cube_shift),
+            _mm256_srl_epi32(z, cube_shift),
+        );
+        let row = _mm256_add_epi32(cy, _mm256_mullo_epi32(dim(self.dims[1]), cz));
+        let index = _mm256_add_epi32(cx, _mm256_mullo_epi32(dim(self.dims[0]), row));
+        let index = _mm256_and_si256(index, inside);
+        // SAFETY: an in-grid lane's index is below the slot count (see `read`); other lanes read
+        // slot 0, which exists (the grid has at least one voxel, so one cube).
+        let slot = unsafe { _mm256_i32gather_epi32::<4>(self.slots.as_ptr().cast(), index) };
+        // Out-of-grid lanes become Free tiles.
+        let tile_bit = _mm256_set1_epi32(Slot::TILE_BIT as i32);
+        let slot = _mm256_or_si256(
+            _mm256_and_si256(slot, inside),
+            _mm256_andnot_si256(inside, tile_bit),
+        );
+        let byte = _mm256_set1_epi32(0xff);
+        // Tile lanes have the top bit set; a tile's code is the slot's low byte.
+        if _mm256_movemask_ps(_mm256_castsi256_ps(slot)) == 0xff {
+            return narrow_bytes(_mm256_and_si256(slot, byte));
+        }
+        let is_leaf = _mm256_cmpgt_epi32(slot, _mm256_set1_epi32(-1));
+        // Lanes in a leaf: the word holding the voxel and the voxel's bit in it. Tile lanes read
+        // word 0 (the arena is not empty: some lane is in a leaf) and keep their tile code.
+        let edge_mask = _mm256_set1_epi32((leaf.edge() - 1) as i32);
+        let axis_shift = |n: u32| _mm_cvtsi32_si128(n as i32);
+        let local = _mm256_or_si256(
+            _mm256_or_si256(
+                _mm256_and_si256(x, edge_mask),
+                _mm256_sll_epi32(_mm256_and_si256(y, edge_mask), axis_shift(leaf.log2)),
+            ),
+            _mm256_sll_epi32(_mm256_and_si256(z, edge_mask), axis_shift(2 * leaf.log2)),
+        );
+        let bit = _mm256_sll_epi32(local, axis_shift(leaf.bits_log2));
+        // Below `leaf_words.len()` < 2^32 for leaf lanes (`build` checks the arena size).
+        let word = _mm256_and_si256(
+            _mm256_add_epi32(
+                _mm256_sll_epi32(slot, axis_shift(leaf.word_shift())),
+                _mm256_srli_epi32::<6>(bit),
+            ),
+            is_leaf,
+        );
+        let shift = _mm256_and_si256(bit, _mm256_set1_epi32(63));
+        // SAFETY: a leaf lane's slot holds a stored leaf's index (as in `read`), so its word is
+        // inside the arena; other lanes read word 0, which exists (see above). The stores and
+        // loads cover exactly the 32- and 64-byte lane arrays, unaligned.
+        let (words_lo, words_hi) = unsafe {
+            let mut index = [0u32; BLOCK_LANES];
+            _mm256_storeu_si256(index.as_mut_ptr().cast(), word);
+            let bits: [u64; BLOCK_LANES] =
+                std::array::from_fn(|l| *leaf_words.get_unchecked(index[l] as usize));
+            (
+                _mm256_loadu_si256(bits.as_ptr().cast()),
+                _mm256_loadu_si256(bits.as_ptr().add(4).cast()),
+            )
+        };
+        let codes_lo = _mm256_srlv_epi64(
+            words_lo,
+            _mm256_cvtepu32_epi64(_mm256_castsi256_si128(shift)),
+        );
+        let codes_hi = _mm256_srlv_epi64(
+            words_hi,
+            _mm256_cvtepu32_epi64(_mm256_extracti128_si256::<1>(shift)),
+        );
+        // The low 32 bits of each 64-bit lane, back in lane order:
+        // [lo0 lo1 hi0 hi1 | lo2 lo3 hi2 hi3] → [lo0 lo1 lo2 lo3 hi0 hi1 hi2 hi3].
+        let interleaved = _mm256_castps_si256(_mm256_shuffle_ps::<0b10_00_10_00>(
+            _mm256_castsi256_ps(codes_lo),
+            _mm256_castsi256_ps(codes_hi),
+        ));
+        let leaf_codes = _mm256_permute4x64_epi64::<0b11_01_10_00>(interleaved);
+        let code_mask = _mm256_set1_epi32(((1u32 << (1u32 << leaf.bits_log2)) - 1) as i32);
+        let codes = _mm256_blendv_epi8(slot, _mm256_and_si256(leaf_codes, code_mask), is_leaf);
+        narrow_bytes(_mm256_and_si256(codes, byte))
+    }
+}
+
+/// The eight 32-bit lanes of `v` (each 0..=255) as bytes, in lane order.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn narrow_bytes(v: std::arch::x86_64::__m256i) -> [u8; BLOCK_LANES] {
+    use std::arch::x86_64::*;
+    let words = _mm_packus_epi32(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
+    let bytes = _mm_packus_epi16(words, words);
+    (_mm_cvtsi128_si64(bytes) as u64).to_le_bytes()
 }
 
 #[cfg(test)]

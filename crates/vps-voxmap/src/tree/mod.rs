@@ -388,7 +388,7 @@ impl VoxelTree {
         lower_slots: Vec<u32>,
         leaf_words: Vec<u64>,
     ) -> Result<VoxelTree, TreeError> {
-        let tree = VoxelTree::assemble(
+        let mut tree = VoxelTree::assemble(
             spec,
             config,
             width,
@@ -397,6 +397,13 @@ impl VoxelTree {
             lower_slots,
             leaf_words,
         )?;
+        // Arenas read from a stream grow as bytes arrive (so that a corrupt count cannot allocate
+        // more than the stream holds) and end with growth slack: drop it, so that a loaded tree
+        // holds what its file says, as a built one does (`memory_bytes` equal).
+        tree.root.slots.shrink_to_fit();
+        tree.upper.slots.shrink_to_fit();
+        tree.lower.slots.shrink_to_fit();
+        tree.leaf_words.shrink_to_fit();
         validate::check_canonical(&tree)?;
         Ok(tree.with_directory())
     }
@@ -466,6 +473,14 @@ impl VoxelTree {
     /// the walking path.
     pub fn without_directory(mut self) -> Self {
         self.directory = None;
+        self
+    }
+
+    /// The same tree with block lookups ([`VoxelTree::get_block`]) on the portable path, without
+    /// AVX2 gathers (the same voxels): for benchmarks of the gathers and tests of the portable
+    /// path on AVX2 hosts.
+    pub fn without_gathers(mut self) -> Self {
+        self.directory = self.directory.map(LeafDirectory::without_gathers);
         self
     }
 
