@@ -1,6 +1,6 @@
 //! Command-line definitions (clap). Lengths accept SI metres or a unit suffix (`5mm`).
 
-use crate::units::parse_length;
+use crate::units::{parse_bytes, parse_length};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 
@@ -332,6 +332,10 @@ pub struct VoxelizeArgs {
     /// Voxelize only the region the part can reach: MINX,MINY,MINZ,MAXX,MAXY,MAXZ (m).
     #[arg(long)]
     pub workspace: Option<String>,
+    /// Working-memory budget: the voxelizer estimates its peak from the plan before working and
+    /// refuses above it (bytes, or 16GiB, 512MiB, 8GB; default half of physical memory).
+    #[arg(long, value_parser = parse_bytes, value_name = "SIZE")]
+    pub max_memory: Option<u64>,
     /// Output file.
     #[arg(short, long)]
     pub output: PathBuf,
@@ -360,6 +364,10 @@ pub struct ShellArgs {
     /// Point placement.
     #[arg(long, value_enum, default_value_t = ShellMethodArg::Centres)]
     pub method: ShellMethodArg,
+    /// Working-memory budget: the voxelizer estimates its peak from the plan before working and
+    /// refuses above it (bytes, or 16GiB, 512MiB, 8GB; default half of physical memory).
+    #[arg(long, value_parser = parse_bytes, value_name = "SIZE")]
+    pub max_memory: Option<u64>,
     /// Output file.
     #[arg(short, long)]
     pub output: PathBuf,

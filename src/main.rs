@@ -24,7 +24,11 @@ fn main() {
         .init();
     let cli = cli::Cli::parse();
     if let Err(err) = cmd::dispatch(cli) {
-        eprintln!("vps: error: {err:#}");
+        // stdout's reader went away (`vps inspect x | head -1`): end quietly, as SIGPIPE would.
+        if err.is::<cmd::output::BrokenStdout>() {
+            std::process::exit(cmd::output::BROKEN_PIPE_STATUS);
+        }
+        eprintln!("vps: error: {}", cmd::output::error_report(&err));
         std::process::exit(1);
     }
 }

@@ -1,5 +1,5 @@
-//! Parsing of lengths given on the command line: plain metres (`0.005`) or with a unit suffix
-//! (`5mm`, `0.5cm`, `0.005m`, `500um`).
+//! Parsing of quantities given on the command line: lengths, plain metres (`0.005`) or with a unit
+//! suffix (`5mm`, `0.5cm`, `0.005m`, `500um`); memory sizes in bytes or with a unit (`16GiB`).
 
 /// Parses a length in metres. Accepts a bare number (metres) or a number followed by `m`, `cm`, `mm`
 /// or `um`. The result is finite and strictly positive, or an error saying what was wrong.
@@ -19,9 +19,54 @@ pub fn parse_length(text: &str) -> Result<f64, String> {
     Ok(metres)
 }
 
+/// Parses a memory size in bytes: a bare integer (bytes) or a number followed by `KiB`, `MiB`,
+/// `GiB`, `TiB` (powers of 1024) or `kB`, `MB`, `GB`, `TB` (powers of 1000), case-insensitive.
+/// The result is at least one byte, or an error saying what was wrong.
+pub fn parse_bytes(text: &str) -> Result<u64, String> {
+    let t = text.trim();
+    let lower = t.to_ascii_lowercase();
+    let units: [(&str, f64); 9] = [
+        ("kib", 1024.0),
+        ("mib", 1024.0 * 1024.0),
+        ("gib", 1024.0 * 1024.0 * 1024.0),
+        ("tib", 1024.0 * 1024.0 * 1024.0 * 1024.0),
+        ("kb", 1e3),
+        ("mb", 1e6),
+        ("gb", 1e9),
+        ("tb", 1e12),
+        ("b", 1.0),
+    ];
+    let (number, scale) = units
+        .iter()
+        .find_map(|(suffix, scale)| lower.strip_suffix(suffix).map(|n| (n.trim(), *scale)))
+        .unwrap_or((lower.as_str(), 1.0));
+    let value: f64 = number
+        .parse()
+        .map_err(|_| format!("'{text}' is not a memory size (examples: 16GiB, 512MiB, 8GB)"))?;
+    let bytes = value * scale;
+    if !bytes.is_finite() || bytes < 1.0 || bytes >= u64::MAX as f64 {
+        return Err(format!(
+            "'{text}' must be a memory size from 1 byte to 16 EiB"
+        ));
+    }
+    Ok(bytes as u64)
+}
+
 #[cfg(test)]
 mod tests {
-    use super::parse_length;
+    use super::{parse_bytes, parse_length};
+
+    #[test]
+    fn memory_sizes() {
+        assert_eq!(parse_bytes("16GiB").unwrap(), 16 << 30);
+        assert_eq!(parse_bytes("512 MiB").unwrap(), 512 << 20);
+        assert_eq!(parse_bytes("8GB").unwrap(), 8_000_000_000);
+        assert_eq!(parse_bytes("1.5gib").unwrap(), 3 << 29);
+        assert_eq!(parse_bytes("4096").unwrap(), 4096);
+        for bad in ["", "GiB", "-1GiB", "0", "nan", "1e30TiB", "12 parsecs"] {
+            assert!(parse_bytes(bad).is_err(), "{bad} accepted");
+        }
+    }
 
     #[test]
     fn accepts_units() {

@@ -1,6 +1,6 @@
 //! `vps inspect`: statistics of a `.vmap` or `.vshell` file (chosen by the file's magic bytes).
 
-use super::output::{hex, mib, print_json};
+use super::output::{hex, mib, outln, print_json};
 use crate::cli::InspectArgs;
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
@@ -49,6 +49,7 @@ struct VoxmapInfo {
     origin_m: [f64; 3],
     max_corner_m: [f64; 3],
     dims: [u32; 3],
+    voxel_count: u64,
     tree_log2_dims: [u8; 3],
     width_bits: u32,
     counts: KindCounts,
@@ -61,6 +62,22 @@ struct VoxmapInfo {
     lower_nodes: usize,
     upper_nodes: usize,
     hash: String,
+    /// Present when a dense copy of the grid would not fit the memory budget (an absurd grid).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    note: Option<String>,
+}
+
+/// The note for a grid whose dense copy (`dense_bytes`) exceeds the default memory budget.
+fn dense_note(dense_bytes: u64) -> Option<String> {
+    let budget = vps_voxelize::default_memory_budget();
+    (dense_bytes > budget).then(|| {
+        format!(
+            "a dense copy of this grid ({}) would exceed the memory budget ({}, half of physical \
+             memory); vps reads such maps from the tree only",
+            mib(dense_bytes as f64),
+            mib(budget as f64)
+        )
+    })
 }
 
 /// Voxels of one kind and distance layer.
@@ -85,10 +102,21 @@ struct ShellInfo {
 
 /// Runs the command.
 pub fn run(args: &InspectArgs) -> Result<()> {
+    let name = args.file.display();
+    let mut file = std::fs::File::open(&args.file).with_context(|| format!("opening {name}"))?;
+    let len = file
+        .metadata()
+        .with_context(|| format!("reading {name}"))?
+        .len();
+    if len < 8 {
+        bail!(
+            "{name}: the file is {} ({len} bytes; a .vmap or .vshell starts with 8 magic bytes)",
+            if len == 0 { "empty" } else { "truncated" }
+        );
+    }
     let mut magic = [0u8; 8];
-    std::fs::File::open(&args.file)
-        .and_then(|mut f| f.read_exact(&mut magic))
-        .with_context(|| format!("reading {}", args.file.display()))?;
+    file.read_exact(&mut magic)
+        .with_context(|| format!("reading {name}"))?;
     match &magic {
         b"VPSVMAP\0" => inspect_voxmap(args),
         b"VPSSHEL\0" => inspect_shell(args),
@@ -110,6 +138,7 @@ fn inspect_voxmap(args: &InspectArgs) -> Result<()> {
         origin_m: spec.origin.to_array(),
         max_corner_m: spec.max_corner().to_array(),
         dims: spec.dims,
+        voxel_count: spec.voxel_count(),
         tree_log2_dims: tree.config().log2_dims,
         width_bits: tree.width().bits(),
         counts: tree.counts().into(),
@@ -129,17 +158,22 @@ fn inspect_voxmap(args: &InspectArgs) -> Result<()> {
         lower_nodes: nodes.lower,
         upper_nodes: nodes.upper,
         hash: hex(&tree.content_hash()),
+        note: dense_note(tree.dense_equivalent_bytes()),
     };
     if args.json {
         return print_json(&info);
     }
-    println!("{} (voxmap)", info.file);
-    println!(
-        "  voxel size {} m, dims {:?}, log2 dims {:?}, {}-bit voxels",
-        info.voxel_size_m, info.dims, info.tree_log2_dims, info.width_bits
-    );
-    println!("  bounds {:?} .. {:?} m", info.origin_m, info.max_corner_m);
-    println!("  {}", info.counts);
+    outln!("{} (voxmap)", info.file)?;
+    outln!(
+        "  voxel size {} m, dims {:?} ({} voxels), log2 dims {:?}, {}-bit voxels",
+        info.voxel_size_m,
+        info.dims,
+        info.voxel_count,
+        info.tree_log2_dims,
+        info.width_bits
+    )?;
+    outln!("  bounds {:?} .. {:?} m", info.origin_m, info.max_corner_m)?;
+    outln!("  {}", info.counts)?;
     if info.width_bits > 2 {
         let list: Vec<String> = info
             .layers
@@ -147,21 +181,24 @@ fn inspect_voxmap(args: &InspectArgs) -> Result<()> {
             .filter(|l| l.kind == "surface" || l.kind == "proximity")
             .map(|l| format!("{} {}: {}", l.kind, l.layer, l.voxels))
             .collect();
-        println!("  layers: {}", list.join(", "));
+        outln!("  layers: {}", list.join(", "))?;
     }
-    println!(
+    outln!(
         "  tree memory {} ({} leaves, {} lower, {} upper nodes); dense equivalent {}",
         mib(info.tree_bytes as f64),
         info.leaves,
         info.lower_nodes,
         info.upper_nodes,
         mib(info.dense_equivalent_bytes as f64)
-    );
-    println!(
+    )?;
+    outln!(
         "  lookup directory {} (built when loaded, not stored)",
         mib(info.directory_bytes as f64)
-    );
-    println!("  content hash {}", info.hash);
+    )?;
+    outln!("  content hash {}", info.hash)?;
+    if let Some(note) = &info.note {
+        outln!("  note: {note}")?;
+    }
     Ok(())
 }
 
@@ -180,9 +217,14 @@ fn inspect_shell(args: &InspectArgs) -> Result<()> {
     if args.json {
         return print_json(&info);
     }
-    println!(
+    outln!(
         "{} (point shell): {} points ({}), voxel size {} m, volume {:.3e} m³, max radius {:.4} m",
-        info.file, info.points, info.method, info.voxel_size_m, info.volume_m3, info.max_radius_m
-    );
+        info.file,
+        info.points,
+        info.method,
+        info.voxel_size_m,
+        info.volume_m3,
+        info.max_radius_m
+    )?;
     Ok(())
 }

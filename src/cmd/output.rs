@@ -1,12 +1,134 @@
-//! Shared output helpers.
+//! Shared output helpers: stdout through a writer that returns errors (a closed pipe or a full
+//! disk is an error, never a panic), output-path checks made before any work, atomic file writes,
+//! and the error report printed by `main`.
 
-use anyhow::Result;
+use anyhow::{bail, Context, Result};
 use serde::Serialize;
+use std::io::Write;
+use std::path::Path;
+
+/// The error of a write to stdout whose reader has gone (EPIPE, e.g. `vps inspect x | head -1`).
+/// `main` ends the program quietly with [`BROKEN_PIPE_STATUS`] when a command returns it.
+#[derive(Debug, thiserror::Error)]
+#[error("stdout was closed by its reader (broken pipe)")]
+pub struct BrokenStdout;
+
+/// Exit status when stdout's reader has gone: 141 = 128 + SIGPIPE, what a shell reports for a
+/// program killed by SIGPIPE (as `cat` is in `cat big | head -1`), so `set -o pipefail` scripts
+/// see that the output was cut short.
+pub const BROKEN_PIPE_STATUS: i32 = 141;
+
+/// Maps an error writing to stdout: EPIPE becomes [`BrokenStdout`], anything else (ENOSPC on
+/// `> /dev/full`) an error naming stdout.
+fn stdout_error(e: std::io::Error) -> anyhow::Error {
+    if e.kind() == std::io::ErrorKind::BrokenPipe {
+        anyhow::Error::new(BrokenStdout)
+    } else {
+        anyhow::Error::new(e).context("writing to stdout")
+    }
+}
+
+/// Writes `args` and a newline to stdout; errors as [`stdout_error`]. Use through [`outln!`].
+pub fn stdout_line(args: std::fmt::Arguments) -> Result<()> {
+    let mut out = std::io::stdout().lock();
+    out.write_fmt(args)
+        .and_then(|()| out.write_all(b"\n"))
+        .and_then(|()| out.flush())
+        .map_err(stdout_error)
+}
+
+/// `println!` that returns an error instead of panicking when stdout fails:
+/// `outln!("{x}")?`.
+macro_rules! outln {
+    ($($arg:tt)*) => {
+        $crate::cmd::output::stdout_line(format_args!($($arg)*))
+    };
+}
+pub(crate) use outln;
 
 /// Prints `value` as pretty JSON on stdout.
 pub fn print_json<T: Serialize>(value: &T) -> Result<()> {
-    println!("{}", serde_json::to_string_pretty(value)?);
+    let text = serde_json::to_string_pretty(value)?;
+    outln!("{text}")
+}
+
+/// The message `main` prints for `err`: its chain joined by ": ", skipping a cause whose text the
+/// message already holds (error types that print their source inside their own message would
+/// otherwise repeat it two or three times).
+pub fn error_report(err: &anyhow::Error) -> String {
+    let mut message = String::new();
+    for cause in err.chain() {
+        let text = cause.to_string();
+        if text.is_empty() || message.contains(&text) {
+            continue;
+        }
+        if !message.is_empty() {
+            message.push_str(": ");
+        }
+        message.push_str(&text);
+    }
+    message
+}
+
+/// Checks, before any work, that `output` can be written: not a directory, its directory exists
+/// and accepts a new file, and it is none of `inputs` (the same file, through links too). Errors
+/// name the path and what to change.
+pub fn check_output_path(output: &Path, inputs: &[&Path]) -> Result<()> {
+    let shown = output.display();
+    if output.is_dir() {
+        bail!("output {shown}: is a directory; give a file name");
+    }
+    let dir = match output.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        bail!(
+            "output {shown}: directory {} does not exist (create it first)",
+            dir.display()
+        );
+    }
+    tempfile::Builder::new()
+        .prefix(".vps-check-")
+        .tempfile_in(dir)
+        .with_context(|| format!("output {shown}: cannot create files in {}", dir.display()))?;
+    for input in inputs {
+        if same_file(output, input) {
+            bail!(
+                "output {shown} is the input {}; choose another output file",
+                input.display()
+            );
+        }
+    }
     Ok(())
+}
+
+/// True when both paths exist and name the same file.
+fn same_file(a: &Path, b: &Path) -> bool {
+    let (Ok(ma), Ok(mb)) = (std::fs::metadata(a), std::fs::metadata(b)) else {
+        return false;
+    };
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        ma.dev() == mb.dev() && ma.ino() == mb.ino()
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (ma, mb);
+        matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y)
+    }
+}
+
+/// Writes `bytes` to `path` atomically (a temporary file in the same directory, renamed into
+/// place): a failure leaves no truncated file. Errors name the path.
+pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+    vps_voxmap::atomic::write_atomically(
+        path,
+        |w| w.write_all(bytes),
+        |stage, e| std::io::Error::new(e.kind(), format!("{}: {e}", stage.name())),
+    )
+    .with_context(|| format!("writing {}", path.display()))
 }
 
 /// Lower-case hexadecimal of a hash.
@@ -17,4 +139,50 @@ pub fn hex(bytes: &[u8]) -> String {
 /// Bytes as a human-readable MiB figure.
 pub fn mib(bytes: f64) -> String {
     format!("{:.2} MiB", bytes / (1024.0 * 1024.0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("{path}: {source}")]
+    struct Outer {
+        path: String,
+        source: std::io::Error,
+    }
+
+    #[test]
+    fn the_report_names_each_cause_once() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "No such file");
+        let err = anyhow::Error::new(Outer {
+            path: "a.obj".into(),
+            source: io,
+        })
+        .context("loading the scene");
+        assert_eq!(error_report(&err), "loading the scene: a.obj: No such file");
+        assert_eq!(format!("{err:#}").matches("No such file").count(), 2);
+    }
+
+    #[test]
+    fn output_checks_refuse_bad_paths_and_inputs() {
+        let dir = tempfile::tempdir().unwrap();
+        let input = dir.path().join("in.obj");
+        std::fs::write(&input, b"v 0 0 0\n").unwrap();
+        let missing = dir.path().join("nope/out.vmap");
+        let err = check_output_path(&missing, &[&input])
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("does not exist"), "{err}");
+        let err = check_output_path(&input, &[&input])
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("is the input"), "{err}");
+        let link = dir.path().join("link.obj");
+        std::os::unix::fs::symlink(&input, &link).unwrap();
+        assert!(check_output_path(&link, &[&input]).is_err());
+        let err = check_output_path(dir.path(), &[]).unwrap_err().to_string();
+        assert!(err.contains("is a directory"), "{err}");
+        check_output_path(&dir.path().join("out.vmap"), &[&input]).unwrap();
+    }
 }

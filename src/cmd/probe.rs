@@ -1,6 +1,6 @@
 //! `vps probe`: the voxel kind at world points read from a CSV file.
 
-use super::output::print_json;
+use super::output::{outln, print_json};
 use crate::cli::ProbeArgs;
 use anyhow::{bail, Context, Result};
 use glam::DVec3;
@@ -65,10 +65,13 @@ pub fn run(args: &ProbeArgs) -> Result<()> {
         return print_json(&results);
     }
     for r in &results {
-        println!(
+        outln!(
             "{:.6},{:.6},{:.6},{}",
-            r.point_m[0], r.point_m[1], r.point_m[2], r.kind
-        );
+            r.point_m[0],
+            r.point_m[1],
+            r.point_m[2],
+            r.kind
+        )?;
     }
     Ok(())
 }

@@ -266,12 +266,12 @@ pub fn devices(json: bool) -> Result<()> {
         return print_json(&list);
     }
     if list.is_empty() {
-        println!(
+        super::output::outln!(
             "no HID devices found on this machine (none attached, or /dev/hidraw* not readable)"
-        );
+        )?;
     }
     for d in &list {
-        println!("{d}");
+        super::output::outln!("{d}")?;
     }
     Ok(())
 }

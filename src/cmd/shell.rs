@@ -1,11 +1,11 @@
 //! `vps shell`: mesh → `.vshell` point shell.
 
-use super::output::print_json;
+use super::output::{check_output_path, outln, print_json};
 use crate::cli::{ShellArgs, ShellMethodArg};
 use crate::scene;
 use anyhow::{Context, Result};
 use serde::Serialize;
-use vps_voxelize::{point_shell, ShellMethod};
+use vps_voxelize::{point_shell_within, ShellMethod};
 
 #[derive(Serialize)]
 struct ShellSummary {
@@ -29,8 +29,12 @@ pub fn method_of(arg: ShellMethodArg) -> ShellMethod {
 
 /// Runs the command.
 pub fn run(args: &ShellArgs) -> Result<()> {
+    check_output_path(&args.output, &super::voxelize::mesh_inputs(&args.mesh))?;
     let scene = scene::load(&args.mesh)?;
-    let shell = point_shell(&scene.mesh, args.voxel_size, method_of(args.method))
+    let budget = args
+        .max_memory
+        .unwrap_or_else(vps_voxelize::default_memory_budget);
+    let shell = point_shell_within(&scene.mesh, args.voxel_size, method_of(args.method), budget)
         .with_context(|| format!("building the point shell of {}", scene.source))?;
     vps_voxmap::file::save_shell(&shell, &args.output)?;
     let summary = ShellSummary {
@@ -49,7 +53,7 @@ pub fn run(args: &ShellArgs) -> Result<()> {
     if args.json {
         return print_json(&summary);
     }
-    println!(
+    outln!(
         "{}: {} points ({}) at {} m, volume {:.3e} m³, max radius {:.4} m, written to {}",
         summary.source,
         summary.points,
@@ -58,6 +62,6 @@ pub fn run(args: &ShellArgs) -> Result<()> {
         summary.volume_m3,
         summary.max_radius_m,
         summary.output
-    );
+    )?;
     Ok(())
 }

@@ -126,7 +126,9 @@ fn plot_one(
     } else {
         y0 - pad
     };
-    let root = SVGBackend::new(path, (720, 440)).into_drawing_area();
+    // Drawn into memory, then written atomically: a failed write leaves no truncated plot.
+    let mut svg = String::new();
+    let root = SVGBackend::with_string(&mut svg, (720, 440)).into_drawing_area();
     root.fill(&WHITE)?;
     let mut chart = ChartBuilder::on(&root)
         .caption(format!("{label} against voxel size"), ("sans-serif", 18))
@@ -172,5 +174,7 @@ fn plot_one(
         .border_style(BLACK)
         .draw()?;
     root.present()?;
-    Ok(())
+    drop(chart);
+    drop(root);
+    super::output::write_file(path, svg.as_bytes())
 }

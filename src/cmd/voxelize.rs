@@ -1,6 +1,6 @@
 //! `vps voxelize`: mesh → `.vmap`.
 
-use super::output::{hex, mib, print_json};
+use super::output::{check_output_path, hex, mib, outln, print_json};
 use crate::cli::VoxelizeArgs;
 use crate::scene;
 use anyhow::{bail, Context, Result};
@@ -31,6 +31,7 @@ struct VoxelizeSummary {
 
 /// Runs the command.
 pub fn run(args: &VoxelizeArgs) -> Result<()> {
+    check_output_path(&args.output, &mesh_inputs(&args.mesh))?;
     let scene = scene::load(&args.mesh)?;
     let Some(width) = VoxelWidth::from_bits(args.width) else {
         bail!("--width {}: must be 2, 4 or 8", args.width);
@@ -43,6 +44,10 @@ pub fn run(args: &VoxelizeArgs) -> Result<()> {
         width,
         workspace,
         ..VoxelizeOptions::default()
+    };
+    let opts = VoxelizeOptions {
+        max_memory_bytes: args.max_memory.unwrap_or(opts.max_memory_bytes),
+        ..opts
     };
     let (tree, stats) = voxelize_tree(
         std::slice::from_ref(&scene.mesh),
@@ -74,7 +79,7 @@ pub fn run(args: &VoxelizeArgs) -> Result<()> {
     if args.json {
         return print_json(&summary);
     }
-    println!(
+    outln!(
         "{}: {} triangles → {:?} {}-bit voxels of {} m in {:.0} ms (of which tree {:.0} ms)",
         summary.source,
         summary.triangles,
@@ -83,16 +88,25 @@ pub fn run(args: &VoxelizeArgs) -> Result<()> {
         summary.voxel_size_m,
         summary.voxelize_ms,
         summary.tree_ms
-    );
-    println!("{}", summary.counts);
-    println!(
+    )?;
+    outln!("{}", summary.counts)?;
+    outln!(
         "tree memory {}, voxelizer peak working memory {}, written to {}",
         mib(summary.tree_bytes as f64),
         mib(summary.peak_work_bytes as f64),
         summary.output
-    );
-    println!("content hash {}", summary.hash);
+    )?;
+    outln!("content hash {}", summary.hash)?;
     Ok(())
+}
+
+/// The files a mesh source reads (none for `builtin:NAME`), for the output-path check.
+pub fn mesh_inputs(source: &str) -> Vec<&std::path::Path> {
+    if source.starts_with("builtin:") {
+        Vec::new()
+    } else {
+        vec![std::path::Path::new(source)]
+    }
 }
 
 /// Parses `MINX,MINY,MINZ,MAXX,MAXY,MAXZ` (m) into a box.

@@ -10,7 +10,7 @@
 //! bit.
 
 use crate::device::{check_sample, DeviceError, DeviceLimits, HapticDevice};
-use std::io::{BufRead, BufReader, BufWriter, Write};
+use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use vps_haptic::{HandleSample, Wrench};
 
@@ -154,14 +154,27 @@ impl TraceRecorder {
     }
 }
 
-/// Writes `trace` to `path` in the JSON-lines format (creating or truncating the file).
+/// Writes `trace` to `path` in the JSON-lines format. The bytes go to a temporary file in the same
+/// directory, renamed over `path` only once complete, so a failed write (full disk, killed process)
+/// never leaves a truncated trace behind.
 pub fn save_trace(path: &Path, trace: &Trace) -> Result<(), TraceError> {
     let io = |source| TraceError::Io {
         path: path.to_path_buf(),
         source,
     };
-    let file = std::fs::File::create(path).map_err(io)?;
-    let mut out = BufWriter::new(file);
+    vps_voxmap::atomic::write_atomically(
+        path,
+        |out| write_trace(out, trace, path),
+        |_, source| io(source),
+    )
+}
+
+/// Writes `trace` in the JSON-lines format to `out`; `path` names the destination in errors.
+pub fn write_trace(out: &mut impl Write, trace: &Trace, path: &Path) -> Result<(), TraceError> {
+    let io = |source| TraceError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
     let header = Header {
         format: TRACE_FORMAT.to_string(),
         version: TRACE_VERSION,
@@ -174,10 +187,10 @@ pub fn save_trace(path: &Path, trace: &Trace) -> Result<(), TraceError> {
         line,
         message: format!("cannot encode: {e}"),
     };
-    serde_json::to_writer(&mut out, &header).map_err(|e| json(e, 1))?;
+    serde_json::to_writer(&mut *out, &header).map_err(|e| json(e, 1))?;
     out.write_all(b"\n").map_err(io)?;
     for (i, frame) in trace.frames.iter().enumerate() {
-        serde_json::to_writer(&mut out, frame).map_err(|e| json(e, i + 2))?;
+        serde_json::to_writer(&mut *out, frame).map_err(|e| json(e, i + 2))?;
         out.write_all(b"\n").map_err(io)?;
     }
     out.flush().map_err(io)
@@ -190,10 +203,16 @@ pub fn load_trace(path: &Path) -> Result<Trace, TraceError> {
         path: path.to_path_buf(),
         source,
     })?;
-    parse_trace(path, BufReader::new(file))
+    read_trace(BufReader::new(file), path)
 }
 
-fn parse_trace(path: &Path, reader: impl BufRead) -> Result<Trace, TraceError> {
+/// Frames reserved up front from a header's promise; more grow the vector as lines arrive, so a
+/// header promising billions of frames in a short file cannot ask for a huge allocation.
+const MAX_RESERVED_FRAMES: u64 = 4096;
+
+/// Reads a trace in the JSON-lines format from `reader`, checking every format rule; `path` names
+/// the source in errors (with the line). Memory grows with the lines actually read.
+pub fn read_trace(reader: impl BufRead, path: &Path) -> Result<Trace, TraceError> {
     let malformed = |line: usize, message: String| TraceError::Malformed {
         path: path.to_path_buf(),
         line,
@@ -229,7 +248,7 @@ fn parse_trace(path: &Path, reader: impl BufRead) -> Result<Trace, TraceError> {
     let mut recorder = TraceRecorder::with_capacity(
         &header.device,
         header.period,
-        header.frames.min(1 << 24) as usize,
+        header.frames.min(MAX_RESERVED_FRAMES) as usize,
     );
     while let Some((n, text)) = next_line("frame")? {
         let frame: TraceFrame =
@@ -410,7 +429,7 @@ mod tests {
     }
 
     fn load_text(text: &str) -> Result<Trace, TraceError> {
-        parse_trace(Path::new("mem.jsonl"), text.as_bytes())
+        read_trace(text.as_bytes(), Path::new("mem.jsonl"))
     }
 
     fn expect_malformed(text: &str, line: usize, needle: &str) {

@@ -35,6 +35,26 @@ pub enum VoxelizeError {
         /// The limit, [`MAX_VOXELS`].
         limit: u64,
     },
+    /// The plan's estimated working memory exceeds the budget
+    /// ([`crate::VoxelizeOptions::max_memory_bytes`]); checked before any voxel is computed.
+    #[error(
+        "voxel size {voxel_size} m: the grid of {dims:?} voxels needs an estimated {} of working \
+         memory, over the budget of {}; use a larger voxel size, a workspace, or raise the budget \
+         with --max-memory (e.g. --max-memory {})",
+        crate::memory::gib(*estimate_bytes),
+        crate::memory::gib(*budget_bytes),
+        suggested_budget(*estimate_bytes)
+    )]
+    OverMemoryBudget {
+        /// Voxel edge (m).
+        voxel_size: f64,
+        /// Grid dimensions (voxels).
+        dims: [u32; 3],
+        /// Estimated peak working memory (bytes).
+        estimate_bytes: u64,
+        /// The budget (bytes).
+        budget_bytes: u64,
+    },
     /// The grid specification is unusable (zero dimension or non-finite origin).
     #[error("invalid grid: {reason}")]
     InvalidGrid {
@@ -66,4 +86,9 @@ pub enum VoxelizeError {
         /// What is wrong.
         reason: String,
     },
+}
+
+/// A `--max-memory` value (whole GiB) that covers `estimate_bytes`.
+fn suggested_budget(estimate_bytes: u64) -> String {
+    format!("{}GiB", estimate_bytes.div_ceil(1 << 30))
 }

@@ -21,6 +21,7 @@ mod bitgrid;
 pub mod error;
 mod flood_fill;
 pub mod mass;
+pub mod memory;
 mod merge;
 mod offset;
 pub mod pipeline;
@@ -32,11 +33,12 @@ pub mod tri_box;
 
 pub use error::{VoxelizeError, MAX_SPARSE_VOXELS, MAX_VOXELS};
 pub use mass::{is_closed_and_oriented, mass_properties};
+pub use memory::{default_memory_budget, MemoryEstimate};
 pub use pipeline::{
     clip_to_workspace, grid_for, voxelize, voxelize_in, voxelize_in_with_stats, voxelize_tree,
     voxelize_tree_in, voxelize_with_stats, VoxelizeOptions, VoxelizeStats,
 };
-pub use shell::point_shell;
+pub use shell::{point_shell, point_shell_within};
 pub use tri_box::triangle_box_overlap;
 pub use vps_voxmap::shell::ShellMethod;
 pub use vps_voxmap::VoxelWidth;

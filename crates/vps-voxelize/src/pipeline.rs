@@ -51,6 +51,11 @@ pub struct VoxelizeOptions {
     /// it is filled from the cut and its interior there reads Free (as [`voxelize_in`] does).
     /// Default `None` (the whole scene).
     pub workspace: Option<Aabb>,
+    /// Working-memory budget (bytes). The voxelizer estimates its peak from the plan (grid,
+    /// surface area, chunk counts; [`crate::memory`]) before computing anything and refuses a plan
+    /// over the budget with [`VoxelizeError::OverMemoryBudget`]. Default
+    /// [`crate::memory::default_memory_budget`]: half of physical memory.
+    pub max_memory_bytes: u64,
 }
 
 impl Default for VoxelizeOptions {
@@ -62,6 +67,7 @@ impl Default for VoxelizeOptions {
             progress: false,
             width: VoxelWidth::Two,
             workspace: None,
+            max_memory_bytes: crate::memory::default_memory_budget(),
         }
     }
 }
@@ -433,6 +439,11 @@ pub fn voxelize_tree_in(
     let start = Instant::now();
     check_spec(&spec, MAX_SPARSE_VOXELS)?;
     check_objects(objects)?;
+    crate::memory::check_budget(
+        crate::memory::estimate_sparse(objects, &spec, opts.width),
+        &spec,
+        opts.max_memory_bytes,
+    )?;
     config
         .validate()
         .map_err(|e| VoxelizeError::InvalidOptions {
@@ -475,6 +486,11 @@ pub fn voxelize_in_with_stats(
     let start = Instant::now();
     check_spec(&spec, MAX_VOXELS)?;
     check_objects(objects)?;
+    crate::memory::check_budget(
+        crate::memory::estimate_dense(&spec),
+        &spec,
+        opts.max_memory_bytes,
+    )?;
     let mut stats = VoxelizeStats {
         peak_work_bytes: spec.voxel_count() * BYTES_PER_VOXEL_NUM / BYTES_PER_VOXEL_DEN,
         ..VoxelizeStats::default()

@@ -64,6 +64,22 @@ pub fn point_shell(
     voxel_size: f64,
     method: ShellMethod,
 ) -> Result<PointShell, VoxelizeError> {
+    point_shell_within(
+        mesh,
+        voxel_size,
+        method,
+        crate::memory::default_memory_budget(),
+    )
+}
+
+/// [`point_shell`] under a working-memory budget (bytes): the dense grid's estimate is checked
+/// against it before any voxel is computed ([`VoxelizeError::OverMemoryBudget`]).
+pub fn point_shell_within(
+    mesh: &TriMesh,
+    voxel_size: f64,
+    method: ShellMethod,
+    max_memory_bytes: u64,
+) -> Result<PointShell, VoxelizeError> {
     check_voxel_size(voxel_size)?;
     let objects = std::slice::from_ref(mesh);
     check_objects(objects)?;
@@ -74,6 +90,11 @@ pub fn point_shell(
         ..VoxelizeOptions::default()
     };
     let spec = grid_for(&mesh.bounds(), &opts)?;
+    crate::memory::check_budget(
+        crate::memory::estimate_dense(&spec),
+        &spec,
+        max_memory_bytes,
+    )?;
     let layers = voxelize_planes(objects, &spec, 0, false, &mut VoxelizeStats::default());
     let mass = if is_closed_and_oriented(mesh) {
         mass_properties(mesh)

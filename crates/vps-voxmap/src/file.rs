@@ -17,9 +17,13 @@
 //! 3×f64 centre of mass (m), f64 bounding radius (m), u64 point count `n`, `n`×3×f32 points (m),
 //! `n`×3×f32 normals, then the blake3 trailer.
 //!
-//! Readers never trust a length: arrays grow only as their bytes actually arrive, so a corrupt count
-//! cannot trigger a huge allocation. Any truncation, flipped byte or trailing data is an error.
+//! Readers never trust a length: when the stream's length is known (files), every count is checked
+//! against the bytes left before anything is allocated; otherwise arrays grow only as their bytes
+//! actually arrive. Either way a corrupt count cannot trigger an allocation larger than the input.
+//! Any truncation, flipped byte or trailing data is an error. Writers replace files atomically
+//! ([`crate::atomic`]): a failed save leaves no truncated file.
 
+use crate::atomic::{write_atomically, AtomicStage};
 use crate::shell::ShellMethod;
 use crate::tree::{TreeConfig, TreeError, VoxelTree};
 use crate::{GridSpec, MassProperties, PointShell, VoxelWidth};
@@ -54,6 +58,24 @@ pub enum FileError {
     Truncated {
         /// The field being read.
         field: &'static str,
+    },
+    /// The file holds no bytes at all.
+    #[error("the file is empty (0 bytes; expected a header starting with magic {})", expected.escape_ascii())]
+    Empty {
+        /// The format's magic.
+        expected: [u8; 8],
+    },
+    /// A count declares more data than the rest of the file holds (checked before allocating).
+    #[error("{field}: declares {count} elements ({bytes} bytes), but only {remaining} bytes remain in the file")]
+    CountExceedsFile {
+        /// The array whose count is at fault.
+        field: &'static str,
+        /// The declared element count.
+        count: u64,
+        /// The bytes that count needs.
+        bytes: u128,
+        /// Bytes left in the file after the count.
+        remaining: u64,
     },
     /// An I/O error other than end of file.
     #[error("{field}: {source}")]
@@ -131,9 +153,20 @@ pub fn write_voxmap(tree: &VoxelTree, w: impl Write) -> Result<(), FileError> {
     enc.finish()
 }
 
-/// Reads a `.vmap` stream, validating header, arena lengths, tree invariants and the hash.
+/// Reads a `.vmap` stream, validating header, arena lengths, tree invariants and the hash. Arrays
+/// grow as their bytes arrive; use [`read_voxmap_sized`] when the length is known.
 pub fn read_voxmap(r: impl Read) -> Result<VoxelTree, FileError> {
-    let mut dec = Decoder::new(r);
+    decode_voxmap(Decoder::new(r, None))
+}
+
+/// [`read_voxmap`] of a stream holding exactly `len` bytes: every arena count is checked against
+/// the bytes left before its array is allocated, so memory never exceeds the input's size plus the
+/// lookup directory (at most [`crate::tree::DIRECTORY_MAX_BYTES`]).
+pub fn read_voxmap_sized(r: impl Read, len: u64) -> Result<VoxelTree, FileError> {
+    decode_voxmap(Decoder::new(r, Some(len)))
+}
+
+fn decode_voxmap(mut dec: Decoder<impl Read>) -> Result<VoxelTree, FileError> {
     dec.magic(VOXMAP_MAGIC)?;
     let version = dec.version_in(VOXMAP_VERSION_2BIT..=VOXMAP_VERSION)?;
     let spec = read_spec(&mut dec)?;
@@ -184,7 +217,7 @@ pub fn save_voxmap(tree: &VoxelTree, path: impl AsRef<Path>) -> Result<(), FileE
 
 /// Reads the `.vmap` file at `path`; errors name the path.
 pub fn load_voxmap(path: impl AsRef<Path>) -> Result<VoxelTree, FileError> {
-    load(path.as_ref(), read_voxmap)
+    load(path.as_ref(), VOXMAP_MAGIC, read_voxmap_sized)
 }
 
 /// See [`VoxelTree::content_hash`].
@@ -257,7 +290,20 @@ fn read_spec<R: Read>(dec: &mut Decoder<R>) -> Result<GridSpec, FileError> {
         dims,
     };
     if spec.voxel_count() > MAX_VOXELS {
-        return Err(invalid("dims", format!("{dims:?} exceeds 2^40 voxels")));
+        return Err(invalid(
+            "dims",
+            format!(
+                "{dims:?} is {} voxels, over the limit of 2^40",
+                spec.voxel_count()
+            ),
+        ));
+    }
+    let corner = spec.max_corner();
+    if !corner.is_finite() {
+        return Err(invalid(
+            "dims",
+            format!("{dims:?} voxels of {voxel_size} m from origin {origin} reach a non-finite corner {corner}"),
+        ));
     }
     Ok(spec)
 }
@@ -294,9 +340,19 @@ pub fn write_shell(shell: &PointShell, w: impl Write) -> Result<(), FileError> {
     enc.finish()
 }
 
-/// Reads a `.vshell` stream, validating every field, every point and normal, and the hash.
+/// Reads a `.vshell` stream, validating every field, every point and normal, and the hash. Arrays
+/// grow as their bytes arrive; use [`read_shell_sized`] when the length is known.
 pub fn read_shell(r: impl Read) -> Result<PointShell, FileError> {
-    let mut dec = Decoder::new(r);
+    decode_shell(Decoder::new(r, None))
+}
+
+/// [`read_shell`] of a stream holding exactly `len` bytes: the point count is checked against the
+/// bytes left before the arrays are allocated.
+pub fn read_shell_sized(r: impl Read, len: u64) -> Result<PointShell, FileError> {
+    decode_shell(Decoder::new(r, Some(len)))
+}
+
+fn decode_shell(mut dec: Decoder<impl Read>) -> Result<PointShell, FileError> {
     dec.magic(SHELL_MAGIC)?;
     dec.version(SHELL_VERSION)?;
     let voxel_size = dec.f64("voxel_size")?;
@@ -334,6 +390,8 @@ pub fn read_shell(r: impl Read) -> Result<PointShell, FileError> {
         ));
     }
     let count = dec.u64("point count")?;
+    // Points and normals share the count: both arrays must fit in what is left.
+    dec.check_fits("point count", count, 24)?;
     let points = dec.array(count, "points", decode_vec3)?;
     let normals = dec.array(count, "normals", decode_vec3)?;
     dec.finish()?;
@@ -366,7 +424,7 @@ pub fn save_shell(shell: &PointShell, path: impl AsRef<Path>) -> Result<(), File
 
 /// Reads the `.vshell` file at `path`; errors name the path.
 pub fn load_shell(path: impl AsRef<Path>) -> Result<PointShell, FileError> {
-    load(path.as_ref(), read_shell)
+    load(path.as_ref(), SHELL_MAGIC, read_shell_sized)
 }
 
 fn encode_shell_body(shell: &PointShell, w: &mut impl Write) -> io::Result<()> {
@@ -407,43 +465,38 @@ fn decode_vec3(b: [u8; 12]) -> Vec3 {
 
 fn save(
     path: &Path,
-    write: impl FnOnce(&mut BufWriter<File>) -> Result<(), FileError>,
+    write: impl FnOnce(&mut BufWriter<&mut File>) -> Result<(), FileError>,
 ) -> Result<(), FileError> {
-    let at_path = |source| FileError::AtPath {
+    write_atomically(path, write, |stage, source| FileError::Io {
+        field: match stage {
+            AtomicStage::Create => "create",
+            AtomicStage::Write => "write",
+            AtomicStage::Rename => "rename",
+        },
+        source,
+    })
+    .map_err(|source| FileError::AtPath {
         path: path.to_path_buf(),
         source: Box::new(source),
-    };
-    let file = File::create(path).map_err(|source| {
-        at_path(FileError::Io {
-            field: "create",
-            source,
-        })
-    })?;
-    let mut w = BufWriter::new(file);
-    write(&mut w).map_err(at_path)?;
-    w.flush().map_err(|source| {
-        at_path(FileError::Io {
-            field: "write",
-            source,
-        })
     })
 }
 
 fn load<T>(
     path: &Path,
-    read: impl FnOnce(BufReader<File>) -> Result<T, FileError>,
+    magic: [u8; 8],
+    read: impl FnOnce(BufReader<File>, u64) -> Result<T, FileError>,
 ) -> Result<T, FileError> {
     let at_path = |source| FileError::AtPath {
         path: path.to_path_buf(),
         source: Box::new(source),
     };
-    let file = File::open(path).map_err(|source| {
-        at_path(FileError::Io {
-            field: "open",
-            source,
-        })
-    })?;
-    read(BufReader::new(file)).map_err(at_path)
+    let io = |field, source| at_path(FileError::Io { field, source });
+    let file = File::open(path).map_err(|source| io("open", source))?;
+    let len = file.metadata().map_err(|source| io("open", source))?.len();
+    if len == 0 {
+        return Err(at_path(FileError::Empty { expected: magic }));
+    }
+    read(BufReader::new(file), len).map_err(at_path)
 }
 
 /// Writes a u64 element count, then the elements.
@@ -515,19 +568,48 @@ impl<W: Write> Write for Encoder<W> {
 struct Decoder<R: Read> {
     inner: R,
     hasher: blake3::Hasher,
+    /// Bytes left in the stream, when its length is known.
+    remaining: Option<u64>,
 }
 
 impl<R: Read> Decoder<R> {
-    fn new(inner: R) -> Self {
+    fn new(inner: R, len: Option<u64>) -> Self {
         Self {
             inner,
             hasher: blake3::Hasher::new(),
+            remaining: len,
         }
     }
 
     fn fill(&mut self, buf: &mut [u8], field: &'static str) -> Result<(), FileError> {
         read_field(&mut self.inner, buf, field)?;
         self.hasher.update(buf);
+        if let Some(left) = &mut self.remaining {
+            *left = left.saturating_sub(buf.len() as u64);
+        }
+        Ok(())
+    }
+
+    /// Checks that `count` elements of `bytes_each` fit in the rest of a stream of known length
+    /// (the 32-byte hash trailer included), before anything is allocated for them.
+    fn check_fits(
+        &self,
+        field: &'static str,
+        count: u64,
+        bytes_each: u64,
+    ) -> Result<(), FileError> {
+        let Some(remaining) = self.remaining else {
+            return Ok(());
+        };
+        let bytes = u128::from(count) * u128::from(bytes_each);
+        if bytes + 32 > u128::from(remaining) {
+            return Err(FileError::CountExceedsFile {
+                field,
+                count,
+                bytes,
+                remaining,
+            });
+        }
         Ok(())
     }
 
@@ -589,6 +671,7 @@ impl<R: Read> Decoder<R> {
         field: &'static str,
         decode: impl Fn([u8; N]) -> T,
     ) -> Result<Vec<T>, FileError> {
+        self.check_fits(field, count, N as u64)?;
         let per_chunk = (CHUNK_BYTES / N) as u64;
         let mut out = Vec::with_capacity(count.min(per_chunk) as usize);
         let mut buf = vec![0u8; CHUNK_BYTES];

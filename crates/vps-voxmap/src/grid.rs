@@ -17,9 +17,11 @@ pub struct GridSpec {
 }
 
 impl GridSpec {
-    /// Total number of voxels.
+    /// Total number of voxels, saturating at `u64::MAX` (three dims near `u32::MAX` overflow u64).
     pub fn voxel_count(&self) -> u64 {
-        self.dims.iter().map(|&d| d as u64).product()
+        self.dims
+            .iter()
+            .fold(1u64, |n, &d| n.saturating_mul(u64::from(d)))
     }
 
     /// The index of the voxel containing world point `p` (may be outside `dims`).

@@ -9,6 +9,7 @@
 //! - [`shell`]: [`PointShell`], body-frame points with inward normals and mass properties.
 //! - [`file`]: the versioned `.vmap` and `.vshell` binary formats with content hashes.
 
+pub mod atomic;
 pub mod dense;
 pub mod file;
 pub mod grid;

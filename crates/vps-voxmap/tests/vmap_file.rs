@@ -158,3 +158,61 @@ fn header_errors_name_the_field() {
     let err = read_voxmap(bad_config.as_slice()).unwrap_err();
     assert!(err.to_string().contains("log2_dims[0]"), "{err}");
 }
+
+#[test]
+fn dims_whose_product_overflows_u64_are_refused() {
+    // (2^31 - 1)^3 overflows u64: found by the robustness suite (a multiply overflow panic in
+    // debug builds; a wrapped, possibly small voxel count in release).
+    let mut bytes = encode(&small_tree());
+    for axis in 0..3 {
+        bytes[DIMS_AT + 4 * axis..DIMS_AT + 4 * axis + 4]
+            .copy_from_slice(&(i32::MAX as u32).to_le_bytes());
+    }
+    let err = read_voxmap(bytes.as_slice()).unwrap_err().to_string();
+    assert!(err.starts_with("dims:") && err.contains("2^40"), "{err}");
+}
+
+#[test]
+fn a_grid_reaching_a_non_finite_corner_is_refused() {
+    let mut bytes = encode(&small_tree());
+    bytes[12..20].copy_from_slice(&1e308f64.to_le_bytes());
+    let err = read_voxmap(bytes.as_slice()).unwrap_err().to_string();
+    assert!(
+        err.starts_with("dims:") && err.contains("non-finite corner"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_count_beyond_the_file_is_refused_before_reading() {
+    use vps_voxmap::file::read_voxmap_sized;
+    let bytes = encode(&small_tree());
+    // The real root count, in a file cut just after it: the sized reader knows the slots cannot
+    // be there and says so, naming the count and the bytes left.
+    let cut = &bytes[..ROOT_LEN_AT + 8 + 4];
+    let err = read_voxmap_sized(cut, cut.len() as u64).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            FileError::CountExceedsFile {
+                field: "root slots",
+                remaining: 4,
+                ..
+            }
+        ),
+        "{err}"
+    );
+    assert!(err.to_string().contains("only 4 bytes remain"), "{err}");
+}
+
+#[test]
+fn loading_an_empty_file_says_it_is_empty() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("empty.vmap");
+    std::fs::write(&path, b"").unwrap();
+    let err = load_voxmap(&path).unwrap_err().to_string();
+    assert!(
+        err.contains("empty.vmap") && err.contains("file is empty"),
+        "{err}"
+    );
+}

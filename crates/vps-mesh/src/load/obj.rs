@@ -7,8 +7,56 @@ use tobj::LoadError;
 use super::{parse_error, points_from_f32};
 use crate::{MeshError, TriMesh};
 
+/// Checks the indices of face, line and point statements before tobj sees them, as tobj's index
+/// arithmetic overflows on them: a positive index must not exceed the file's length in bytes (it
+/// could not name a vertex of the file), and a negative (relative) one must not reach before the
+/// first `v`, `vt` or `vn` read so far. Errors name the line.
+fn check_element_indices(bytes: &[u8], file: &str) -> Result<(), MeshError> {
+    // Positions, texture coordinates and normals read so far.
+    let mut seen = [0u64; 3];
+    for (index, line) in bytes.split(|&b| b == b'\n').enumerate() {
+        let line = String::from_utf8_lossy(line);
+        let mut tokens = line.split_ascii_whitespace();
+        match tokens.next() {
+            Some("v") => seen[0] += 1,
+            Some("vt") => seen[1] += 1,
+            Some("vn") => seen[2] += 1,
+            Some("f" | "l" | "p") => {
+                for token in tokens {
+                    for (kind, reference) in token.split('/').enumerate().take(3) {
+                        let Ok(value) = reference.parse::<i64>() else {
+                            continue; // Empty or not a number: tobj handles it.
+                        };
+                        let in_range = if value < 0 {
+                            value.unsigned_abs() <= seen[kind]
+                        } else {
+                            value as u64 <= bytes.len() as u64
+                        };
+                        if !in_range {
+                            let what = ["vertex", "texture coordinate", "normal"][kind];
+                            return Err(parse_error(
+                                file,
+                                Some(index + 1),
+                                format!(
+                                    "{what} index {value} is out of range ({} {what}s read so \
+                                     far, {} bytes in the file)",
+                                    seen[kind],
+                                    bytes.len()
+                                ),
+                            ));
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
 /// Parses OBJ text. Material libraries are not opened (only geometry is needed).
 pub(super) fn parse(bytes: &[u8], file: &str) -> Result<TriMesh, MeshError> {
+    check_element_indices(bytes, file)?;
     let options = tobj::LoadOptions {
         triangulate: true,
         single_index: true,

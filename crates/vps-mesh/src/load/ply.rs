@@ -11,6 +11,7 @@ use crate::{MeshError, TriMesh};
 /// `face` with an integer list `vertex_indices` or `vertex_index`. Other elements and properties
 /// are ignored.
 pub(super) fn parse(bytes: &[u8], file: &str) -> Result<TriMesh, MeshError> {
+    check_header_numbers(bytes, file)?;
     let mut reader = bytes;
     let ply = Parser::<DefaultElement>::new()
         .read_ply(&mut reader)
@@ -60,6 +61,42 @@ pub(super) fn parse(bytes: &[u8], file: &str) -> Result<TriMesh, MeshError> {
         triangles.extend((1..polygon.len() - 1).map(|k| [polygon[0], polygon[k], polygon[k + 1]]));
     }
     Ok(TriMesh::new(vertices, triangles))
+}
+
+/// Checks the numbers of the header's `format` and `element` lines before ply-rs-bw sees them: it
+/// panics on a number that overflows u64, and an element count above the file's length in bytes
+/// (every element takes at least one byte) cannot be honest. Errors name the line.
+fn check_header_numbers(bytes: &[u8], file: &str) -> Result<(), MeshError> {
+    for (index, line) in bytes.split(|&b| b == b'\n').enumerate() {
+        let line = String::from_utf8_lossy(line);
+        let mut tokens = line.split_ascii_whitespace();
+        let keyword = tokens.next().unwrap_or("");
+        if keyword == "end_header" {
+            break;
+        }
+        if keyword != "format" && keyword != "element" {
+            continue;
+        }
+        for run in line
+            .split(|c: char| !c.is_ascii_digit())
+            .filter(|r| !r.is_empty())
+        {
+            let fits = run
+                .parse::<u64>()
+                .is_ok_and(|n| keyword == "format" || n <= bytes.len() as u64);
+            if !fits {
+                return Err(parse_error(
+                    file,
+                    Some(index + 1),
+                    format!(
+                        "{keyword} number {run} is out of range (the file holds {} bytes)",
+                        bytes.len()
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// ply-rs-bw reports ASCII errors as `Line N: message\n\tString: 'text'\n\tError: details` with a

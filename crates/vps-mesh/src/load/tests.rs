@@ -305,3 +305,51 @@ fn truncated_and_garbage_files_error_cleanly() {
         }
     }
 }
+
+/// Regression inputs found by the robustness suite (`vps-fuzz`): each made a parser crate panic
+/// (ply-rs-bw unwraps a u64 parse of header numbers; tobj's texture-index arithmetic overflows).
+/// They must be clean errors naming the line, not caught panics.
+#[test]
+fn numbers_that_broke_the_parser_crates_are_errors_naming_the_line() {
+    let cases: [(&[u8], MeshFormat, &str, usize); 5] = [
+        (
+            b"ply\nformat ascii 1.0\nelement vertex 99999999999999999999\nproperty float x\nend_header\n",
+            MeshFormat::Ply,
+            "t.ply",
+            3,
+        ),
+        (
+            b"ply\nformat ascii 18446744073709551616.0\nend_header\n",
+            MeshFormat::Ply,
+            "t.ply",
+            2,
+        ),
+        (
+            b"ply\nformat ascii 1.0\nelement face 4294967295\nproperty list uchar int vertex_indices\nend_header\n3 0 1 2\n",
+            MeshFormat::Ply,
+            "t.ply",
+            3,
+        ),
+        (
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/9223372036854775807 2/1 3/1\n",
+            MeshFormat::Obj,
+            "t.obj",
+            5,
+        ),
+        (
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nf 1/1 2/-12 3/3\n",
+            MeshFormat::Obj,
+            "t.obj",
+            7,
+        ),
+    ];
+    for (bytes, format, file, line) in cases {
+        let err = parse_mesh(bytes, format, file).unwrap_err().to_string();
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(
+            err.starts_with(&format!("{file}: line {line}: parse error"))
+                && err.contains("out of range"),
+            "{err}"
+        );
+    }
+}

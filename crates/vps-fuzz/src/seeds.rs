@@ -1,0 +1,328 @@
+//! Seed corpora: real, valid inputs of every format, produced by the project's own writers (or, for
+//! the mesh formats, by the small writers here), so mutations start from bytes the parsers accept.
+
+use glam::{DQuat, DVec3, Mat3, Vec3};
+use std::path::Path;
+use vps_cluster::protocol::{FrameReply, FrameRequest, JoinMessage, SceneIdentity};
+use vps_device::trace::{write_trace, TraceRecorder};
+use vps_haptic::{HandleSample, KernelPose, PartialSums, Wrench};
+use vps_input::bridge::protocol::{Datagram, Message, MAX_DATAGRAM};
+use vps_mesh::TriMesh;
+use vps_voxelize::{point_shell, voxelize_tree, ShellMethod, VoxelizeOptions};
+use vps_voxmap::{TreeConfig, VoxelWidth};
+
+/// The meshes the mesh seeds are written from: the built-in 0.1 m box (12 triangles) and a
+/// tetrahedron.
+pub fn seed_meshes() -> Vec<TriMesh> {
+    let cube = vps_mesh::builtin::by_name("box").expect("built-in box");
+    let tetra = TriMesh {
+        vertices: vec![
+            DVec3::ZERO,
+            DVec3::new(0.1, 0.0, 0.0),
+            DVec3::new(0.0, 0.1, 0.0),
+            DVec3::new(0.0, 0.0, 0.1),
+        ],
+        triangles: vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
+    };
+    vec![cube, tetra]
+}
+
+/// OBJ seeds: plain `v`/`f`, and a variant with normals, texture coordinates, `f a/b/c` references,
+/// negative (relative) indices, comments, groups and a quad.
+pub fn obj() -> Vec<Vec<u8>> {
+    let mut out: Vec<Vec<u8>> = seed_meshes()
+        .iter()
+        .map(|m| {
+            let mut s = String::from("# vps fuzz seed\no part\n");
+            for v in &m.vertices {
+                s += &format!("v {} {} {}\n", v.x, v.y, v.z);
+            }
+            for t in &m.triangles {
+                s += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+            }
+            s.into_bytes()
+        })
+        .collect();
+    out.push(
+        b"mtllib none.mtl\ng quad\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nvt 0 0\nvt 1 0\n\
+          vt 1 1\nvn 0 0 1\ns off\nf 1/1/1 2/2/1 3/3/1 4/1/1\nf -5//1 -4//1 -1//1\nusemtl x\n\
+          f 2/2 3/3 5/1\n"
+            .to_vec(),
+    );
+    out
+}
+
+/// STL seeds: ASCII and binary encodings of every seed mesh.
+pub fn stl() -> Vec<Vec<u8>> {
+    let mut out = Vec::new();
+    for m in seed_meshes() {
+        let mut s = String::from("solid part\n");
+        for i in 0..m.triangles.len() {
+            let [a, b, c] = m.triangle(i);
+            let n = (b - a).cross(c - a).normalize_or_zero();
+            s += &format!("  facet normal {} {} {}\n    outer loop\n", n.x, n.y, n.z);
+            for p in [a, b, c] {
+                s += &format!("      vertex {} {} {}\n", p.x, p.y, p.z);
+            }
+            s += "    endloop\n  endfacet\n";
+        }
+        s += "endsolid part\n";
+        out.push(s.into_bytes());
+
+        let mut bin = vec![0u8; 80];
+        bin[..14].copy_from_slice(b"vps fuzz seed ");
+        bin.extend_from_slice(&(m.triangles.len() as u32).to_le_bytes());
+        for i in 0..m.triangles.len() {
+            let [a, b, c] = m.triangle(i);
+            let n = (b - a).cross(c - a).normalize_or_zero();
+            for p in [n, a, b, c] {
+                for x in p.as_vec3().to_array() {
+                    bin.extend_from_slice(&x.to_le_bytes());
+                }
+            }
+            bin.extend_from_slice(&0u16.to_le_bytes());
+        }
+        out.push(bin);
+    }
+    out
+}
+
+/// PLY seeds: ASCII (`vertex_indices`, with a quad and an extra property) and binary
+/// little-endian (`vertex_index`, float and double coordinates).
+pub fn ply() -> Vec<Vec<u8>> {
+    let mut out = Vec::new();
+    for m in seed_meshes() {
+        let mut s = format!(
+            "ply\nformat ascii 1.0\ncomment vps fuzz seed\nelement vertex {}\nproperty float x\n\
+             property float y\nproperty float z\nproperty uchar red\nelement face {}\n\
+             property list uchar int vertex_indices\nend_header\n",
+            m.vertices.len(),
+            m.triangles.len()
+        );
+        for v in &m.vertices {
+            s += &format!("{} {} {} 7\n", v.x, v.y, v.z);
+        }
+        for t in &m.triangles {
+            s += &format!("3 {} {} {}\n", t[0], t[1], t[2]);
+        }
+        out.push(s.into_bytes());
+
+        let mut bin = format!(
+            "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty double x\n\
+             property double y\nproperty double z\nelement face {}\n\
+             property list uchar uint vertex_index\nend_header\n",
+            m.vertices.len(),
+            m.triangles.len()
+        )
+        .into_bytes();
+        for v in &m.vertices {
+            for x in v.to_array() {
+                bin.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+        for t in &m.triangles {
+            bin.push(3);
+            for i in t {
+                bin.extend_from_slice(&i.to_le_bytes());
+            }
+        }
+        out.push(bin);
+    }
+    out.push(
+        b"ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+          property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+          0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n"
+            .to_vec(),
+    );
+    out
+}
+
+/// `.vmap` seeds: the box voxelized at 2 cm as 2-, 4- and 8-bit trees (file versions 1 and 2),
+/// with the default tree shape and a small uniform one.
+pub fn vmap() -> Vec<Vec<u8>> {
+    let cube = vps_mesh::builtin::by_name("box").expect("built-in box");
+    let mut out = Vec::new();
+    for (width, config) in [
+        (VoxelWidth::Two, TreeConfig::default()),
+        (VoxelWidth::Two, TreeConfig::uniform(2)),
+        (VoxelWidth::Four, TreeConfig::uniform(2)),
+        (VoxelWidth::Eight, TreeConfig::uniform(2)),
+    ] {
+        let opts = VoxelizeOptions {
+            voxel_size: 0.02,
+            width,
+            ..VoxelizeOptions::default()
+        };
+        let (tree, _) = voxelize_tree(std::slice::from_ref(&cube), &opts, config)
+            .expect("voxelizing the seed box");
+        let mut bytes = Vec::new();
+        vps_voxmap::file::write_voxmap(&tree, &mut bytes).expect("encoding a seed voxmap");
+        out.push(bytes);
+    }
+    out.push(uniform_vmap([1024, 1024, 1024], 0.01, 1));
+    out
+}
+
+/// A valid `.vmap` (version 1, 2-bit, the default 512-tree) whose every root slot is a tile of
+/// `code` (0 Free, 1 Interior, 2 Surface, 3 Proximity; [`vps_voxmap::Voxel`]'s values): a map of
+/// `dims` voxels of `voxel_size` (m) in a few bytes per 512³ voxels, with a correct hash. Such a
+/// file is legal, and small however large its grid (8192³ voxels, 2^39, is a 16 KiB file).
+pub fn uniform_vmap(dims: [u32; 3], voxel_size: f64, code: u8) -> Vec<u8> {
+    const ROOT_EXTENT: u64 = 512;
+    let mut b = Vec::new();
+    b.extend_from_slice(&vps_voxmap::file::VOXMAP_MAGIC);
+    b.extend_from_slice(&vps_voxmap::file::VOXMAP_VERSION_2BIT.to_le_bytes());
+    b.extend_from_slice(&voxel_size.to_le_bytes());
+    for _ in 0..3 {
+        b.extend_from_slice(&0f64.to_le_bytes());
+    }
+    for d in dims {
+        b.extend_from_slice(&d.to_le_bytes());
+    }
+    b.extend_from_slice(&[3, 3, 3]);
+    let root_slots: u64 = dims
+        .iter()
+        .map(|&d| u64::from(d).div_ceil(ROOT_EXTENT))
+        .product();
+    b.extend_from_slice(&root_slots.to_le_bytes());
+    for _ in 0..root_slots {
+        b.extend_from_slice(&((1u32 << 31) | u32::from(code)).to_le_bytes());
+    }
+    // Empty upper, lower and leaf arenas.
+    for _ in 0..3 {
+        b.extend_from_slice(&0u64.to_le_bytes());
+    }
+    let hash = blake3::hash(&b);
+    b.extend_from_slice(hash.as_bytes());
+    b
+}
+
+/// `.vshell` seeds: the tetrahedron's point shells at 2 cm, by both methods.
+pub fn vshell() -> Vec<Vec<u8>> {
+    let tetra = seed_meshes().pop().expect("tetrahedron");
+    [ShellMethod::VoxelCentres, ShellMethod::ExactSurface]
+        .into_iter()
+        .map(|method| {
+            let shell = point_shell(&tetra, 0.02, method).expect("seed shell");
+            let mut bytes = Vec::new();
+            vps_voxmap::file::write_shell(&shell, &mut bytes).expect("encoding a seed shell");
+            bytes
+        })
+        .collect()
+}
+
+/// Haptic parameter seeds: the shipped `configs/haptic.toml`, the defaults as serialised, and a
+/// file setting the gains explicitly.
+pub fn haptic_toml() -> Vec<Vec<u8>> {
+    let defaults = toml::to_string(&vps_haptic::HapticParams::default()).expect("defaults");
+    vec![
+        include_bytes!("../../../configs/haptic.toml").to_vec(),
+        defaults.into_bytes(),
+        b"dt = 0.001\nmass = 0.012\ninertia = 2e-5\nvoxel_size = 0.005\nmax_radius = 0.05\n"
+            .to_vec(),
+    ]
+}
+
+fn sample(i: u32) -> HandleSample {
+    let t = f64::from(i) * 1e-3;
+    HandleSample {
+        position: DVec3::new(0.01 * t, -0.02, 0.3 + t),
+        orientation: DQuat::from_rotation_z(t),
+        linear_velocity: DVec3::new(0.01, 0.0, 1.0),
+        angular_velocity: DVec3::new(0.0, 0.0, 1.0),
+    }
+}
+
+/// Trace seeds: traces of 0, 1 and 6 frames, as `vps_device::trace::write_trace` writes them.
+pub fn trace() -> Vec<Vec<u8>> {
+    [0u32, 1, 6]
+        .into_iter()
+        .map(|frames| {
+            let mut rec = TraceRecorder::with_capacity("sim-hand", 0.001, frames as usize);
+            for i in 0..frames {
+                rec.record(u64::from(i), f64::from(i) * 1e-3, sample(i))
+                    .expect("seed frame");
+            }
+            let mut bytes = Vec::new();
+            write_trace(&mut bytes, &rec.finish(), Path::new("seed.trace")).expect("seed trace");
+            bytes
+        })
+        .collect()
+}
+
+/// Bridge seeds: a PoseIn and a WrenchOut datagram.
+pub fn bridge_datagram() -> Vec<Vec<u8>> {
+    let messages = [
+        Message::PoseIn(sample(3)),
+        Message::WrenchOut {
+            wrench: Wrench {
+                force: DVec3::new(0.5, -0.25, 1.0),
+                torque: DVec3::new(0.0, 0.01, 0.0),
+            },
+            frame: 42,
+        },
+    ];
+    messages
+        .into_iter()
+        .map(|message| {
+            let d = Datagram {
+                token: *b"0123456789abcdef",
+                sequence: 7,
+                message,
+            };
+            let mut buf = [0u8; MAX_DATAGRAM];
+            let n = d.encode(&mut buf);
+            buf[..n].to_vec()
+        })
+        .collect()
+}
+
+/// Cluster seeds: a frame request, a frame reply, and every join message.
+pub fn cluster_datagram() -> Vec<Vec<u8>> {
+    let pose = KernelPose {
+        rotation: Mat3::IDENTITY,
+        translation: Vec3::new(0.1, 0.2, 0.3),
+        linear_velocity: Vec3::ZERO,
+        angular_velocity: Vec3::new(0.0, 0.0, 1.0),
+    };
+    let mut request = [0u8; vps_cluster::protocol::REQUEST_LEN];
+    FrameRequest {
+        seq: 9,
+        classes: 0b1011,
+        pose,
+    }
+    .encode(&mut request);
+    let mut reply = [0u8; vps_cluster::protocol::REPLY_LEN];
+    FrameReply {
+        seq: 9,
+        classes: 0b1011,
+        sums: PartialSums::default(),
+    }
+    .encode(&mut reply);
+    let mut out = vec![request.to_vec(), reply.to_vec()];
+    let scene = SceneIdentity {
+        voxmap_hash: [1; 32],
+        shell_hash: [2; 32],
+        class_count: 8,
+        voxmap_len: 1 << 20,
+        shell_len: 1 << 16,
+    };
+    for m in [
+        JoinMessage::Hello { version: 1 },
+        JoinMessage::Welcome {
+            worker_id: 3,
+            scene,
+        },
+        JoinMessage::Reject {
+            reason: "scene mismatch".into(),
+        },
+        JoinMessage::Need {
+            voxmap: true,
+            shell: false,
+        },
+        JoinMessage::Ready,
+    ] {
+        out.push(m.encode());
+    }
+    out
+}

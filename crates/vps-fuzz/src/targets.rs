@@ -1,0 +1,185 @@
+//! The fuzz targets: every parser and decoder of untrusted bytes, with its seeds and the name its
+//! errors must carry.
+
+use crate::seeds;
+use std::path::Path;
+use vps_mesh::MeshFormat;
+
+/// One parser or decoder under test.
+#[derive(Clone, Copy)]
+pub struct Target {
+    /// Short name (`--target` on the command line).
+    pub name: &'static str,
+    /// Builds the seed corpus.
+    pub seeds: fn() -> Vec<Vec<u8>>,
+    /// Parses one input: `Ok` when accepted, `Err(message)` when rejected. A disagreement between
+    /// two entry points of the same format panics (and is reported as a finding).
+    pub run: fn(&[u8]) -> Result<(), String>,
+    /// A text every rejection's message must contain (the file name, or `": "` for errors that
+    /// must open with the field at fault), or `None` where the message need only be non-empty.
+    pub must_name: Option<&'static str>,
+    /// Cap on a mutated input's length (bytes).
+    pub max_len: usize,
+}
+
+/// The file name mesh, haptic and trace inputs are parsed under (their errors must name it).
+pub const MESH_OBJ: &str = "fuzz-input.obj";
+/// See [`MESH_OBJ`].
+pub const MESH_STL: &str = "fuzz-input.stl";
+/// See [`MESH_OBJ`].
+pub const MESH_PLY: &str = "fuzz-input.ply";
+/// See [`MESH_OBJ`].
+pub const HAPTIC_TOML: &str = "fuzz-haptic.toml";
+/// See [`MESH_OBJ`].
+pub const TRACE: &str = "fuzz-input.trace";
+
+fn mesh(bytes: &[u8], format: MeshFormat, file: &str) -> Result<(), String> {
+    let mesh = vps_mesh::parse_mesh(bytes, format, file).map_err(|e| e.to_string())?;
+    vps_mesh::validate(mesh, file)
+        .map(|_| ())
+        .map_err(|e| e.to_string())
+}
+
+fn vmap(bytes: &[u8]) -> Result<(), String> {
+    let sized = vps_voxmap::file::read_voxmap_sized(bytes, bytes.len() as u64);
+    let stream = vps_voxmap::file::read_voxmap(bytes);
+    match (sized, stream) {
+        (Ok(a), Ok(b)) => {
+            assert!(a.content_hash() == b.content_hash(), "vmap: readers differ");
+            Ok(())
+        }
+        (Err(e), Err(_)) => Err(e.to_string()),
+        (a, b) => panic!(
+            "vmap: sized reader {:?} but stream reader {:?}",
+            a.err().map(|e| e.to_string()),
+            b.err().map(|e| e.to_string())
+        ),
+    }
+}
+
+fn vshell(bytes: &[u8]) -> Result<(), String> {
+    let sized = vps_voxmap::file::read_shell_sized(bytes, bytes.len() as u64);
+    let stream = vps_voxmap::file::read_shell(bytes);
+    match (sized, stream) {
+        (Ok(a), Ok(b)) => {
+            assert!(a == b, "vshell: readers differ");
+            Ok(())
+        }
+        (Err(e), Err(_)) => Err(e.to_string()),
+        (a, b) => panic!(
+            "vshell: sized reader {:?} but stream reader {:?}",
+            a.err().map(|e| e.to_string()),
+            b.err().map(|e| e.to_string())
+        ),
+    }
+}
+
+fn haptic_toml(bytes: &[u8]) -> Result<(), String> {
+    let text = String::from_utf8_lossy(bytes);
+    vps_haptic::HapticParams::from_toml_str(&text, HAPTIC_TOML)
+        .map(|_| ())
+        .map_err(|e| e.to_string())
+}
+
+fn trace(bytes: &[u8]) -> Result<(), String> {
+    vps_device::trace::read_trace(bytes, Path::new(TRACE))
+        .map(|_| ())
+        .map_err(|e| e.to_string())
+}
+
+fn bridge_datagram(bytes: &[u8]) -> Result<(), String> {
+    vps_input::bridge::protocol::Datagram::decode(bytes)
+        .map(|_| ())
+        .map_err(|e| e.to_string())
+}
+
+/// Every cluster decoder on the same bytes: accepted when any accepts; rejected (with the frame
+/// request decoder's message) when all reject.
+fn cluster_datagram(bytes: &[u8]) -> Result<(), String> {
+    use vps_cluster::protocol::{FrameReply, FrameRequest, JoinMessage};
+    let request = FrameRequest::decode(bytes).map(|_| ());
+    let reply = FrameReply::decode(bytes).map(|_| ());
+    let join = JoinMessage::decode(bytes).map(|_| ());
+    let mut messages = Vec::new();
+    for r in [request, reply, join] {
+        match r {
+            Ok(()) => return Ok(()),
+            Err(e) => messages.push(e.to_string()),
+        }
+    }
+    // Empty when any decoder's message is empty, so the runner flags it.
+    if messages.iter().any(String::is_empty) {
+        return Err(String::new());
+    }
+    Err(messages.join("; "))
+}
+
+/// Every target, in a fixed order (the index is what [`crate::CountingAlloc`]'s refusal line names).
+pub fn all_targets() -> Vec<Target> {
+    const TEXT: usize = 64 * 1024;
+    vec![
+        Target {
+            name: "mesh-obj",
+            seeds: seeds::obj,
+            run: |b| mesh(b, MeshFormat::Obj, MESH_OBJ),
+            must_name: Some(MESH_OBJ),
+            max_len: TEXT,
+        },
+        Target {
+            name: "mesh-stl",
+            seeds: seeds::stl,
+            run: |b| mesh(b, MeshFormat::Stl, MESH_STL),
+            must_name: Some(MESH_STL),
+            max_len: TEXT,
+        },
+        Target {
+            name: "mesh-ply",
+            seeds: seeds::ply,
+            run: |b| mesh(b, MeshFormat::Ply, MESH_PLY),
+            must_name: Some(MESH_PLY),
+            max_len: TEXT,
+        },
+        Target {
+            name: "vmap",
+            seeds: seeds::vmap,
+            run: vmap,
+            must_name: Some(": "),
+            max_len: 256 * 1024,
+        },
+        Target {
+            name: "vshell",
+            seeds: seeds::vshell,
+            run: vshell,
+            must_name: Some(": "),
+            max_len: 256 * 1024,
+        },
+        Target {
+            name: "haptic-toml",
+            seeds: seeds::haptic_toml,
+            run: haptic_toml,
+            must_name: Some(HAPTIC_TOML),
+            max_len: TEXT,
+        },
+        Target {
+            name: "trace",
+            seeds: seeds::trace,
+            run: trace,
+            must_name: Some(TRACE),
+            max_len: TEXT,
+        },
+        Target {
+            name: "bridge-datagram",
+            seeds: seeds::bridge_datagram,
+            run: bridge_datagram,
+            must_name: None,
+            max_len: 2048,
+        },
+        Target {
+            name: "cluster-datagram",
+            seeds: seeds::cluster_datagram,
+            run: cluster_datagram,
+            must_name: None,
+            max_len: 2048,
+        },
+    ]
+}

@@ -1,0 +1,209 @@
+//! Issue 15 through the binary: a closed stdout ends `vps` quietly (status 141), a full one is an
+//! error naming stdout, output paths are checked before any work and never overwrite the input,
+//! memory is budgeted from the plan, and odd files get messages naming them.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+fn vps() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_vps"))
+}
+
+fn run(cmd: &mut Command) -> Output {
+    cmd.stdin(Stdio::null()).output().expect("spawning vps")
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// A small voxmap made by the binary.
+fn small_map(dir: &Path) -> PathBuf {
+    let path = dir.join("box.vmap");
+    let out = run(vps()
+        .args(["voxelize", "builtin:box", "--voxel-size", "1cm", "-o"])
+        .arg(&path));
+    assert!(out.status.success(), "{}", stderr(&out));
+    path
+}
+
+#[test]
+fn a_closed_stdout_ends_quietly_with_status_141() {
+    let dir = tempfile::tempdir().unwrap();
+    let map = small_map(dir.path());
+    let points = dir.path().join("points.csv");
+    std::fs::write(&points, "0,0,0\n".repeat(10_000)).unwrap();
+    let cases: [Vec<&std::ffi::OsStr>; 3] = [
+        vec!["inspect".as_ref(), map.as_os_str(), "--json".as_ref()],
+        vec!["inspect".as_ref(), map.as_os_str()],
+        vec![
+            "probe".as_ref(),
+            map.as_os_str(),
+            "--points".as_ref(),
+            points.as_os_str(),
+        ],
+    ];
+    for args in cases {
+        // The reader is closed before vps starts: its first write meets EPIPE.
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
+        let out = vps()
+            .args(&args)
+            .stdout(writer)
+            .stderr(Stdio::piped())
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(141), "{args:?}: {}", stderr(&out));
+        assert!(out.stderr.is_empty(), "{args:?}: {}", stderr(&out));
+    }
+}
+
+#[test]
+fn a_full_stdout_is_an_error_naming_stdout() {
+    let dir = tempfile::tempdir().unwrap();
+    let map = small_map(dir.path());
+    let full = std::fs::File::create("/dev/full").unwrap();
+    let out = vps()
+        .arg("inspect")
+        .arg(&map)
+        .arg("--json")
+        .stdout(full)
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("stdout") && err.contains("No space left"),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+#[test]
+fn output_equal_to_the_input_mesh_is_refused_and_the_mesh_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = dir.path().join("tetra.obj");
+    let text = "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+    std::fs::write(&mesh, text).unwrap();
+    for cmd in ["voxelize", "shell"] {
+        let out = run(vps()
+            .arg(cmd)
+            .arg(&mesh)
+            .args(["--voxel-size", "1cm", "-o"])
+            .arg(&mesh));
+        let err = stderr(&out);
+        assert!(
+            !out.status.success() && err.contains("is the input"),
+            "{cmd}: {err}"
+        );
+        assert_eq!(std::fs::read_to_string(&mesh).unwrap(), text, "{cmd}");
+    }
+}
+
+#[test]
+fn a_bad_output_directory_is_refused_before_voxelizing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_path = dir.path().join("missing/dir/cube.vmap");
+    let cube = dir.path().join("cube10m.obj");
+    write_cube(&cube, 10.0);
+    // At 1 mm this cube would be refused for memory; the path check must come first.
+    let out = run(vps()
+        .arg("voxelize")
+        .arg(&cube)
+        .args(["--voxel-size", "1mm", "-o"])
+        .arg(&out_path));
+    let err = stderr(&out);
+    assert!(!out.status.success(), "{err}");
+    assert!(
+        err.contains("does not exist") && err.contains("missing/dir"),
+        "{err}"
+    );
+    assert!(!err.contains("memory"), "{err}");
+}
+
+/// A 12-triangle cube of edge `size` (m) centred at the origin, as OBJ.
+fn write_cube(path: &Path, size: f64) {
+    let h = size / 2.0;
+    let mut text = String::new();
+    for i in 0..8 {
+        let c = |bit: i32| if i >> bit & 1 == 1 { h } else { -h };
+        text += &format!("v {} {} {}\n", c(0), c(1), c(2));
+    }
+    for f in [
+        [1, 3, 4, 2],
+        [5, 6, 8, 7],
+        [1, 2, 6, 5],
+        [3, 7, 8, 4],
+        [1, 5, 7, 3],
+        [2, 4, 8, 6],
+    ] {
+        text += &format!(
+            "f {} {} {}\nf {} {} {}\n",
+            f[0], f[1], f[2], f[0], f[2], f[3]
+        );
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+#[test]
+fn a_ten_metre_cube_at_one_millimetre_is_refused_naming_the_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let cube = dir.path().join("cube10m.obj");
+    write_cube(&cube, 10.0);
+    let out_path = dir.path().join("cube.vmap");
+    let out = run(vps()
+        .arg("voxelize")
+        .arg(&cube)
+        .args(["--voxel-size", "1mm", "--max-memory", "4GiB", "-o"])
+        .arg(&out_path));
+    let err = stderr(&out);
+    assert!(!out.status.success(), "{err}");
+    for needle in ["voxel size 0.001 m", "4.00 GiB", "--max-memory"] {
+        assert!(err.contains(needle), "{needle:?} missing: {err}");
+    }
+    assert!(!out_path.exists());
+}
+
+#[test]
+fn inspect_of_an_empty_or_short_file_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, bytes, word) in [
+        ("empty.vmap", &b""[..], "empty"),
+        ("short.vmap", b"VPS", "truncated"),
+    ] {
+        let path = dir.path().join(name);
+        std::fs::write(&path, bytes).unwrap();
+        let out = run(vps().arg("inspect").arg(&path));
+        let err = stderr(&out);
+        assert!(!out.status.success(), "{err}");
+        assert!(err.contains(name) && err.contains(word), "{err}");
+        assert!(!err.contains("failed to fill whole buffer"), "{err}");
+    }
+}
+
+#[test]
+fn a_missing_file_names_its_cause_once() {
+    let out = run(vps().args(["inspect", "/nonexistent/nope.vmap"]));
+    let err = stderr(&out);
+    assert!(err.contains("nope.vmap"), "{err}");
+    assert_eq!(err.matches("No such file or directory").count(), 1, "{err}");
+}
+
+#[test]
+fn a_crafted_map_of_2_pow_39_voxels_is_inspected_and_probed_from_its_tree() {
+    let dir = tempfile::tempdir().unwrap();
+    let map = dir.path().join("huge.vmap");
+    std::fs::write(&map, vps_fuzz::seeds::uniform_vmap([8192; 3], 0.001, 1)).unwrap();
+    let out = run(vps().arg("inspect").arg(&map).arg("--json"));
+    assert!(out.status.success(), "{}", stderr(&out));
+    let info: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(info["voxel_count"], 1u64 << 39);
+    assert_eq!(info["counts"]["interior"], 1u64 << 39);
+    assert!(info["note"].as_str().unwrap().contains("dense"), "{info}");
+    let points = dir.path().join("p.csv");
+    std::fs::write(&points, "1,1,1\n-1,0,0\n").unwrap();
+    let out = run(vps().arg("probe").arg(&map).arg("--points").arg(&points));
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("interior") && text.contains("free"), "{text}");
+}
