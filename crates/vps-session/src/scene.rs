@@ -588,6 +588,22 @@ impl Session {
         self.hand.script(&self.tree)
     }
 
+    /// A point shell of the part with about `points` points (a surface's point count scales as
+    /// 1/s², so the shell's voxel size is chosen from this session's shell), in the same grip
+    /// frame, and the voxel size it was sampled at (m). Lets benchmarks buy point count
+    /// independently of scene memory. Blocking, parallel, allocates.
+    pub fn shell_with_points(&self, points: usize, method: ShellMethod) -> Result<(PointShell, f64)> {
+        let coarse = self.shell.len().max(1) as f64;
+        let shell_voxel = self.voxel_size * (coarse / points.max(1) as f64).sqrt();
+        let mut shell = point_shell(&self.part_mesh, shell_voxel, method)
+            .with_context(|| format!("{}: resampling the part's point shell", self.label))?;
+        // `part_mesh` has its origin at the grip: points relative to its centre of mass move to
+        // the grip frame by that centre.
+        let shift: Vec3 = shell.mass.center_of_mass.as_vec3();
+        shell.points.iter_mut().for_each(|p| *p += shift);
+        Ok((shell, shell_voxel))
+    }
+
     /// The shell split into [`crate::CLASS_COUNT`] classes.
     pub fn classed_shell(&self) -> Arc<vps_haptic::ClassedShell> {
         crate::classed(&self.shell)
