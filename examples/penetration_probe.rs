@@ -6,9 +6,9 @@
 //! `cargo run --release --example penetration_probe -- [--no-brake] [--quiet] [--exposed]`
 
 use glam::{DVec3, IVec3};
-use vps_session::{classed, BuildOptions, Session, DEFAULT_SCENE};
 use vps_device::{HandParams, HapticDevice, SimulatedHand};
 use vps_haptic::{sample_all, step, HapticParams, KernelPose, PartState};
+use vps_session::{classed, BuildOptions, Session, DEFAULT_SCENE};
 use vps_voxelize::ShellMethod;
 use vps_voxmap::{Voxel, VoxelTree};
 

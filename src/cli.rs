@@ -1,8 +1,8 @@
 //! Command-line definitions (clap). Lengths accept SI metres or a unit suffix (`5mm`).
 
-use vps_session::length::parse_length;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
+use vps_session::length::parse_length;
 
 /// Voxel-sampling 6-DOF haptic rendering.
 #[derive(Parser, Debug)]

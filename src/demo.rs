@@ -54,7 +54,11 @@ pub fn run_session(
     };
     let mut plan = scene.plan(&DeviceChoice::Simulated, script, config)?;
     plan.params = params;
-    let report = run_loop(scene.tree.clone(), scene.classed_shell(), plan.into_setup(feed))?;
+    let report = run_loop(
+        scene.tree.clone(),
+        scene.classed_shell(),
+        plan.into_setup(feed),
+    )?;
     if let Some(err) = &report.device_error {
         anyhow::bail!("the device failed: {err}");
     }
@@ -104,7 +108,10 @@ pub fn print_summary(label: &str, s: &StatsSummary, paper: Option<f64>) {
 
 /// Runs the demo.
 pub fn run(args: &DemoArgs) -> Result<()> {
-    let scene = Session::open(&args.scene.scene, &args.scene.build_options(args.voxel_size))?;
+    let scene = Session::open(
+        &args.scene.scene,
+        &args.scene.build_options(args.voxel_size),
+    )?;
     // Braking on for the first run whatever the scene says: the demo compares on with off.
     let params = HapticParams {
         braking: true,

@@ -169,7 +169,7 @@ fn a_scene_of_mesh_files_runs_touching_without_penetrating() {
         "the hand presses the part on the floor and the wall: {report}"
     );
     assert_eq!(stats["penetrating_frames"], 0, "braking on: {report}");
-    assert_eq!(report["end"], "FrameCount", "{report}");
+    assert_eq!(report["end"], "FramesDone", "{report}");
 
     let check = json(&bay.vps(&["scene", "check", &scene, "--json"]));
     assert_eq!(check["objects"].as_array().unwrap().len(), 3);
@@ -180,7 +180,10 @@ fn a_scene_of_mesh_files_runs_touching_without_penetrating() {
         wall["bounds_min_m"][0].as_f64().unwrap(),
         wall["bounds_max_m"][0].as_f64().unwrap(),
     );
-    assert!((lo - 0.09).abs() < 1e-9 && (hi - 0.1).abs() < 1e-9, "{wall}");
+    assert!(
+        (lo - 0.09).abs() < 1e-9 && (hi - 0.1).abs() < 1e-9,
+        "{wall}"
+    );
     assert!(check["shell_points"].as_u64().unwrap() > 50, "{check}");
     assert!(check["voxmap_estimate"]["grid_voxels"].as_f64().unwrap() > 1e4);
     assert!(check["flags"].as_array().unwrap().is_empty(), "{check}");
@@ -212,7 +215,12 @@ fn two_local_workers_replay_the_scene_bit_identically() {
     assert_eq!(alone["stats"]["frames"], 2000);
     assert!(alone["stats"]["touching_frames"].as_u64().unwrap() > 0);
     assert_eq!(clustered["final_position_m"], alone["final_position_m"]);
-    for key in ["frames", "contact_frames", "touching_frames", "penetrating_frames"] {
+    for key in [
+        "frames",
+        "contact_frames",
+        "touching_frames",
+        "penetrating_frames",
+    ] {
         assert_eq!(clustered["stats"][key], alone["stats"][key], "{key}");
     }
     assert_eq!(clustered["cluster"]["peers"].as_array().unwrap().len(), 2);
@@ -232,7 +240,9 @@ fn the_voxmap_cache_is_used_and_rebuilt_when_an_input_changes() {
     assert!(again.contains("voxmap: loaded from cache"), "{again}");
     // One byte of a mesh file: the floor 1 mm thicker.
     let floor = bay.dir.path().join("floor.obj");
-    let text = std::fs::read_to_string(&floor).unwrap().replace("-10", "-11");
+    let text = std::fs::read_to_string(&floor)
+        .unwrap()
+        .replace("-10", "-11");
     std::fs::write(&floor, text).unwrap();
     assert!(start(&bay).contains("voxmap: built, cached at"));
     assert!(start(&bay).contains("voxmap: loaded from cache"));
@@ -254,7 +264,11 @@ fn the_voxmap_cache_is_used_and_rebuilt_when_an_input_changes() {
     );
     // --no-cache neither reads nor writes.
     let out = bay.vps(&["run", "--scene", &scene, "--seconds", "0.1", "--no-cache"]);
-    assert!(stderr(&out).contains("voxmap: built (cache off)"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("voxmap: built (cache off)"),
+        "{}",
+        stderr(&out)
+    );
 }
 
 #[test]
@@ -278,7 +292,10 @@ fn bad_scene_files_name_the_file_and_field_and_run_nothing() {
             "static[0].source",
         ),
         (
-            SCENE.replace("units = \"mm\"\nrotate_deg = [-90", "units = \"milimetres\"\nrotate_deg = [-90"),
+            SCENE.replace(
+                "units = \"mm\"\nrotate_deg = [-90",
+                "units = \"milimetres\"\nrotate_deg = [-90",
+            ),
             "part.units",
         ),
         (
@@ -294,7 +311,14 @@ fn bad_scene_files_name_the_file_and_field_and_run_nothing() {
     for (i, (text, field)) in cases.iter().enumerate() {
         let name = format!("bad{i}.toml");
         std::fs::write(bay.dir.path().join(&name), text).unwrap();
-        let out = bay.vps(&["run", "--scene", &bay.path(&name), "--seconds", "1", "--json"]);
+        let out = bay.vps(&[
+            "run",
+            "--scene",
+            &bay.path(&name),
+            "--seconds",
+            "1",
+            "--json",
+        ]);
         let err = stderr(&out);
         assert!(!out.status.success(), "{name} ran");
         assert!(out.stdout.is_empty(), "{name} printed a report");

@@ -56,8 +56,12 @@ struct ClusterBenchReport {
 
 /// Runs the benchmark and prints JSON.
 pub fn run(bench: ClusterBench) -> Result<()> {
-    let mut session = Session::open(&bench.scene.scene, &bench.scene.build_options(bench.voxel_size))?;
-    let (shell, shell_voxel) = session.shell_with_points(bench.points, ShellMethod::VoxelCentres)?;
+    let mut session = Session::open(
+        &bench.scene.scene,
+        &bench.scene.build_options(bench.voxel_size),
+    )?;
+    let (shell, shell_voxel) =
+        session.shell_with_points(bench.points, ShellMethod::VoxelCentres)?;
     session.shell = shell;
     session.params = session
         .params

@@ -52,7 +52,11 @@ pub fn run(
         ..LoopConfig::default()
     };
     let plan = session.plan(&DeviceChoice::Simulated, script, config)?;
-    let report = run_loop(session.tree.clone(), session.classed_shell(), plan.into_setup(None))?;
+    let report = run_loop(
+        session.tree.clone(),
+        session.classed_shell(),
+        plan.into_setup(None),
+    )?;
     print_json(&LoopBench {
         scene: session.label.clone(),
         scene_triangles: session.scene_triangles,

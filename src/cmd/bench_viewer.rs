@@ -7,12 +7,12 @@
 use super::output::print_json;
 use super::view::attach;
 use crate::demo::run_session;
-use vps_session::{BuildOptions, Session};
 use anyhow::{Context, Result};
 use serde::Serialize;
 use std::time::Duration;
 use vps_haptic::HapticParams;
 use vps_runtime::{Percentiles, StatsSummary};
+use vps_session::{BuildOptions, Session};
 use vps_view::client::WsClient;
 
 /// Voxel size of the benchmark's scene (m): the demo's.

@@ -3,7 +3,6 @@
 
 use super::run::{finish, prepare, LiveSession, PreparedSession};
 use crate::cli::{ClusterArgs, CoordinatorArgs, GatherArgs, RunArgs, WorkerArgs};
-use vps_session::CLASS_COUNT;
 use anyhow::{Context, Result};
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -15,6 +14,7 @@ use vps_cluster::{
     WorkerConfig,
 };
 use vps_runtime::{LoopConfig, LoopReport};
+use vps_session::CLASS_COUNT;
 
 /// How long the coordinator waits for its workers to join before it starts.
 const JOIN_TIMEOUT: Duration = Duration::from_secs(20);

@@ -68,11 +68,14 @@ pub fn device_choice(text: Option<&str>, session: &Session) -> Result<DeviceChoi
 
 /// Builds the scene, loads parameters and opens the device of `args`.
 pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
-    let mut session = Session::open(&args.scene.scene, &args.scene.build_options(args.voxel_size))?;
+    let mut session = Session::open(
+        &args.scene.scene,
+        &args.scene.build_options(args.voxel_size),
+    )?;
     let choice = device_choice(args.device.as_deref(), &session)?;
     if let Some(path) = &args.config {
-        session.params =
-            HapticParams::from_file(path)?.with_scene(session.voxel_size, session.shell.max_radius())?;
+        session.params = HapticParams::from_file(path)?
+            .with_scene(session.voxel_size, session.shell.max_radius())?;
     }
     let frames = choice.frames(args.seconds, session.params.dt)?;
     let config = LoopConfig {

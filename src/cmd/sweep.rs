@@ -286,7 +286,11 @@ pub fn run_sweep_session(
             ..LoopConfig::default()
         },
     };
-    let report = run_loop(session.tree.clone(), classed(&session.shell), plan.into_setup(None))?;
+    let report = run_loop(
+        session.tree.clone(),
+        classed(&session.shell),
+        plan.into_setup(None),
+    )?;
     if let Some(err) = &report.device_error {
         bail!("the simulated hand failed: {err}");
     }

@@ -63,7 +63,10 @@ pub fn run(args: &ViewArgs) -> Result<()> {
                 },
                 ..vps_session::BuildOptions::default()
             };
-            (viewer_scene(&Session::open(scene, &options)?), scene.clone())
+            (
+                viewer_scene(&Session::open(scene, &options)?),
+                scene.clone(),
+            )
         }
         (None, Some(voxmap)) => {
             let tree =

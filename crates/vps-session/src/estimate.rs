@@ -60,8 +60,8 @@ pub fn estimate(objects: &[TriMesh], opts: &VoxelizeOptions, tree: TreeConfig) -
     let leaf = f64::from(1u32 << tree.log2_dims[0]);
     // A surface crosses about 1.5 leaves per leaf-sized patch of its area (the mean of
     // |nx| + |ny| + |nz| over orientations), widened by the band's thickness.
-    let leaves = (area / (leaf * s).powi(2) * 1.5 * (1.0 + band / leaf))
-        .min(grid_voxels / leaf.powi(3));
+    let leaves =
+        (area / (leaf * s).powi(2) * 1.5 * (1.0 + band / leaf)).min(grid_voxels / leaf.powi(3));
     let leaf_bytes = leaf.powi(3) * f64::from(opts.width.bits()) / 8.0 + 16.0;
     VoxmapEstimate {
         grid_voxels,

@@ -447,7 +447,10 @@ impl SceneFile {
             }
             let inside = |p: &[f64; 3]| (0..3).all(|a| r.min[a] <= p[a] && p[a] <= r.max[a]);
             let ends: Vec<(String, [f64; 3])> = match (&self.corridor, &self.hand) {
-                (Some(c), _) => vec![("corridor.from".into(), c.from), ("corridor.to".into(), c.to)],
+                (Some(c), _) => vec![
+                    ("corridor.from".into(), c.from),
+                    ("corridor.to".into(), c.to),
+                ],
                 (None, Some(h)) => h
                     .waypoints
                     .iter()
@@ -459,7 +462,10 @@ impl SceneFile {
             if let Some((field, p)) = ends.iter().find(|(_, p)| !inside(p)) {
                 return bad(
                     field,
-                    format!("{p:?} lies outside the [workspace] region {:?}..{:?}", r.min, r.max),
+                    format!(
+                        "{p:?} lies outside the [workspace] region {:?}..{:?}",
+                        r.min, r.max
+                    ),
                 );
             }
         }
@@ -548,7 +554,10 @@ fn check_source(path: &str, field: &str, source: &str) -> Result<(), SceneError>
 }
 
 fn check_rotation(path: &str, field: &str, r: &[f64; 3]) -> Result<(), SceneError> {
-    if !r.iter().all(|a| a.is_finite() && a.abs() <= MAX_ROTATION_DEG) {
+    if !r
+        .iter()
+        .all(|a| a.is_finite() && a.abs() <= MAX_ROTATION_DEG)
+    {
         return Err(field_error(
             path,
             field,
@@ -706,8 +715,14 @@ max = [0.4, 0.1, 0.2]
                 ),
                 "grp",
             ),
-            (GOOD.replace("[corridor]", "[hand]\nwaypoints = []\n[corridor]"), "corridor"),
-            (format!("{GOOD}\n[device]\nkind = \"joystick\"\n"), "`device.kind`"),
+            (
+                GOOD.replace("[corridor]", "[hand]\nwaypoints = []\n[corridor]"),
+                "corridor",
+            ),
+            (
+                format!("{GOOD}\n[device]\nkind = \"joystick\"\n"),
+                "`device.kind`",
+            ),
         ];
         for (text, field) in cases {
             let err = parse(&text).unwrap_err().to_string();

@@ -32,7 +32,9 @@ pub(crate) fn length<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
         Text(String),
     }
     match Written::deserialize(d).map_err(|_| {
-        serde::de::Error::custom("expected a length: a number of metres or a string such as \"2mm\"")
+        serde::de::Error::custom(
+            "expected a length: a number of metres or a string such as \"2mm\"",
+        )
     })? {
         Written::Number(v) => Ok(v),
         Written::Integer(v) => Ok(v as f64),

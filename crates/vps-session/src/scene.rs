@@ -78,11 +78,18 @@ impl LoadedScene {
                 .with_context(|| {
                     format!(
                         "unknown built-in scene '{name}'; available: {}",
-                        BUILTIN_SCENES.map(|(n, _)| format!("builtin:{n}")).join(", ")
+                        BUILTIN_SCENES
+                            .map(|(n, _)| format!("builtin:{n}"))
+                            .join(", ")
                     )
                 })?;
             let file = SceneFile::from_toml_str(text, scene)?;
-            return Self::from_file(file, scene.to_string(), name.to_string(), PathBuf::from("."));
+            return Self::from_file(
+                file,
+                scene.to_string(),
+                name.to_string(),
+                PathBuf::from("."),
+            );
         }
         let path = Path::new(scene);
         let file = SceneFile::from_file(path)?;
@@ -275,7 +282,10 @@ impl LoadedScene {
                     VoxmapOrigin::Cache(path)
                 }
                 Err(err) => {
-                    eprintln!("voxmap: built; could not cache it at {}: {err}", path.display());
+                    eprintln!(
+                        "voxmap: built; could not cache it at {}: {err}",
+                        path.display()
+                    );
                     VoxmapOrigin::Built
                 }
             },
@@ -420,7 +430,11 @@ fn scene_params(file: &SceneFile, label: &str, base: &Path) -> Result<HapticPara
                         value,
                         reason,
                         ..
-                    } => field_error(label, &format!("haptic.{field}"), format!("{value}: {reason}")),
+                    } => field_error(
+                        label,
+                        &format!("haptic.{field}"),
+                        format!("{value}: {reason}"),
+                    ),
                     other => field_error(label, "haptic", other.to_string()),
                 })?
             }
@@ -592,7 +606,11 @@ impl Session {
     /// 1/s², so the shell's voxel size is chosen from this session's shell), in the same grip
     /// frame, and the voxel size it was sampled at (m). Lets benchmarks buy point count
     /// independently of scene memory. Blocking, parallel, allocates.
-    pub fn shell_with_points(&self, points: usize, method: ShellMethod) -> Result<(PointShell, f64)> {
+    pub fn shell_with_points(
+        &self,
+        points: usize,
+        method: ShellMethod,
+    ) -> Result<(PointShell, f64)> {
         let coarse = self.shell.len().max(1) as f64;
         let shell_voxel = self.voxel_size * (coarse / points.max(1) as f64).sqrt();
         let mut shell = point_shell(&self.part_mesh, shell_voxel, method)
