@@ -121,3 +121,57 @@ pub fn write_cached(path: &Path, tree: &VoxelTree) -> std::io::Result<()> {
     }
     written
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_key_follows_every_input() {
+        let mesh = vps_mesh::builtin::by_name("box").unwrap();
+        let opts = VoxelizeOptions::default();
+        let tree = TreeConfig::default();
+        let key = cache_key(std::slice::from_ref(&mesh), &opts, tree);
+        assert_eq!(key, cache_key(std::slice::from_ref(&mesh), &opts, tree));
+        let mut moved = mesh.clone();
+        moved.vertices[0].x += 1e-9;
+        assert_ne!(key, cache_key(&[moved], &opts, tree));
+        let finer = VoxelizeOptions {
+            voxel_size: 0.004,
+            ..opts
+        };
+        assert_ne!(key, cache_key(std::slice::from_ref(&mesh), &finer, tree));
+        let deeper = VoxelizeOptions {
+            offset_layers: 3,
+            ..opts
+        };
+        assert_ne!(key, cache_key(std::slice::from_ref(&mesh), &deeper, tree));
+        assert_ne!(
+            key,
+            cache_key(std::slice::from_ref(&mesh), &opts, TreeConfig::uniform(2))
+        );
+    }
+
+    #[test]
+    fn a_written_voxmap_reads_back_and_garbage_reads_as_absent() {
+        let dir = tempfile::tempdir().unwrap();
+        let mesh = vps_mesh::builtin::by_name("box").unwrap();
+        let opts = VoxelizeOptions {
+            voxel_size: 0.01,
+            ..VoxelizeOptions::default()
+        };
+        let (tree, _) = vps_voxelize::voxelize_tree(&[mesh], &opts, TreeConfig::default()).unwrap();
+        let path = cache_path(dir.path(), "k");
+        assert!(read_cached(&path).is_none());
+        write_cached(&path, &tree).unwrap();
+        let back = read_cached(&path).unwrap();
+        assert_eq!(back.memory_bytes(), tree.memory_bytes());
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            1,
+            "no temp file left"
+        );
+        std::fs::write(&path, b"garbage").unwrap();
+        assert!(read_cached(&path).is_none());
+    }
+}

@@ -69,3 +69,34 @@ pub fn estimate(objects: &[TriMesh], opts: &VoxelizeOptions, tree: TreeConfig) -
         tree_bytes: leaves * leaf_bytes,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The estimate is within a factor of three of the tree the voxelizer builds for a sphere, and
+    /// the grid count is near the padded bounds'.
+    #[test]
+    fn the_estimate_is_near_the_built_tree() {
+        let mesh = vps_mesh::builtin::by_name("sphere").unwrap();
+        let opts = VoxelizeOptions {
+            voxel_size: 0.002,
+            ..VoxelizeOptions::default()
+        };
+        let est = estimate(std::slice::from_ref(&mesh), &opts, TreeConfig::default());
+        let (tree, _) = vps_voxelize::voxelize_tree(&[mesh], &opts, TreeConfig::default()).unwrap();
+        let built = tree.memory_bytes() as f64;
+        assert!(
+            est.tree_bytes > built / 3.0 && est.tree_bytes < built * 3.0,
+            "estimate {} built {built}",
+            est.tree_bytes
+        );
+        let dims = tree.spec().dims.map(f64::from);
+        let grid = dims[0] * dims[1] * dims[2];
+        assert!(
+            (est.grid_voxels / grid - 1.0).abs() < 0.2,
+            "{} {grid}",
+            est.grid_voxels
+        );
+    }
+}
