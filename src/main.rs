@@ -7,10 +7,8 @@
 mod cli;
 mod cmd;
 mod demo;
+mod memory_size;
 mod scene;
-mod scene_config;
-mod session;
-mod units;
 
 use clap::Parser;
 

@@ -3,7 +3,6 @@
 
 use super::run::{finish, prepare, LiveSession, PreparedSession};
 use crate::cli::{ClusterArgs, CoordinatorArgs, GatherArgs, RunArgs, WorkerArgs};
-use crate::session::CLASS_COUNT;
 use anyhow::{Context, Result};
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -15,6 +14,7 @@ use vps_cluster::{
     WorkerConfig,
 };
 use vps_runtime::{LoopConfig, LoopReport};
+use vps_session::CLASS_COUNT;
 
 /// How long the coordinator waits for its workers to join before it starts.
 const JOIN_TIMEOUT: Duration = Duration::from_secs(20);
@@ -67,7 +67,7 @@ fn coordinate(
     tune: impl FnOnce(&mut LoopConfig),
 ) -> Result<CoordinatedRun> {
     let mut prepared = prepare(session)?;
-    tune(&mut prepared.config);
+    tune(&mut prepared.plan.config);
     coordinate_prepared(
         session, prepared, listen, cert, key, pins, workers, gather, spawn,
     )
@@ -89,7 +89,7 @@ fn coordinate_prepared(
     spawn: impl FnOnce(SocketAddr) -> Result<Option<vps_cluster::LocalWorkers>>,
 ) -> Result<CoordinatedRun> {
     let LiveSession {
-        scene,
+        session: scene,
         viewer: _viewer,
         setup,
     } = prepared.go_live(session.view)?;
@@ -174,7 +174,7 @@ pub fn run_local_cluster(
     tune: impl FnOnce(&mut LoopConfig),
 ) -> Result<CoordinatedRun> {
     let mut prepared = prepare(session)?;
-    tune(&mut prepared.config);
+    tune(&mut prepared.plan.config);
     run_local_cluster_prepared(session, prepared, workers, worker_threads, gather)
 }
 

@@ -1,0 +1,64 @@
+//! Lengths written as plain metres (`0.005`) or with a unit suffix (`5mm`, `0.5cm`, `500um`), on the
+//! command line and in scene files.
+
+use serde::{Deserialize, Deserializer};
+
+/// Parses a length in metres. Accepts a bare number (metres) or a number followed by `m`, `cm`, `mm`
+/// or `um`. The result is finite and strictly positive, or an error saying what was wrong.
+pub fn parse_length(text: &str) -> Result<f64, String> {
+    let t = text.trim();
+    let (number, scale) = [("mm", 1e-3), ("cm", 1e-2), ("um", 1e-6), ("m", 1.0)]
+        .iter()
+        .find_map(|(suffix, scale)| t.strip_suffix(suffix).map(|n| (n.trim(), *scale)))
+        .unwrap_or((t, 1.0));
+    let value: f64 = number
+        .parse()
+        .map_err(|_| format!("'{text}' is not a length (examples: 0.005, 5mm, 0.5cm)"))?;
+    let metres = value * scale;
+    if !metres.is_finite() || metres <= 0.0 {
+        return Err(format!("'{text}' must be a positive, finite length"));
+    }
+    Ok(metres)
+}
+
+/// Deserializes a length (m) written as a number or as a string with a unit (`"2mm"`). The range
+/// of a number is checked by the caller (a negative number is reported with its field there).
+pub(crate) fn length<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Written {
+        Number(f64),
+        Integer(i64),
+        Text(String),
+    }
+    match Written::deserialize(d).map_err(|_| {
+        serde::de::Error::custom(
+            "expected a length: a number of metres or a string such as \"2mm\"",
+        )
+    })? {
+        Written::Number(v) => Ok(v),
+        Written::Integer(v) => Ok(v as f64),
+        Written::Text(t) => parse_length(&t).map_err(serde::de::Error::custom),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_length;
+
+    #[test]
+    fn accepts_units() {
+        assert_eq!(parse_length("0.005").unwrap(), 0.005);
+        assert!((parse_length("5mm").unwrap() - 0.005).abs() < 1e-15);
+        assert!((parse_length("0.5cm").unwrap() - 0.005).abs() < 1e-15);
+        assert!((parse_length("500um").unwrap() - 0.0005).abs() < 1e-15);
+        assert_eq!(parse_length("2m").unwrap(), 2.0);
+    }
+
+    #[test]
+    fn rejects_nonsense() {
+        for bad in ["", "mm", "abc", "-5mm", "0", "inf", "NaN", "5 parsecs"] {
+            assert!(parse_length(bad).is_err(), "{bad} accepted");
+        }
+    }
+}
