@@ -1,22 +1,20 @@
 //! A seeded, deterministic byte mutator.
 
-/// SplitMix64: a tiny, well-mixed deterministic generator (not cryptographic).
+use vps_mesh::builtin::rng::SplitMix64;
+
+/// The deterministic generator of the mutator: `vps_mesh`'s SplitMix64 (not cryptographic).
 #[derive(Clone, Debug)]
-pub struct Rng(u64);
+pub struct Rng(SplitMix64);
 
 impl Rng {
     /// A generator seeded with `seed`.
     pub fn new(seed: u64) -> Self {
-        Rng(seed)
+        Rng(SplitMix64::new(seed))
     }
 
     /// The next 64 random bits.
     pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        self.0.next_u64()
     }
 
     /// A uniform integer in `0..n` (`n > 0`).

@@ -4,7 +4,7 @@
 mod aircraft_bay;
 mod bezier;
 mod primitives;
-mod rng;
+pub mod rng;
 mod sweep;
 mod teapot;
 
