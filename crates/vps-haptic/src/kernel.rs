@@ -24,7 +24,9 @@ use vps_voxmap::{LayeredVoxel, Voxel, VoxelLookup};
 /// `d = max(0, N·(C − P) + ℓ s)` with `N = R n` and `C` the voxel centre, computed in voxel
 /// coordinates so that `C − P` is exact to f32 rounding of the point's own position; adds `d N` and
 /// `(P − x) × d N`. A 2-bit map reports ℓ = 0: the tangent-plane depth of DESIGN §3. Proximity
-/// (any layer) with `V·N < 0` (`V = v + w × (P − x)`): adds to the braking sums. Interior: counted.
+/// (any layer) with `V·N < 0` (`V = v + w × (P − x)`): adds to the braking sums. Interior: counted, and pushes
+/// as Surface layer ℓ = 1 (one voxel behind the outermost force layer), so a point that slipped
+/// past a one-voxel force layer is still pushed out instead of feeling nothing.
 /// Contributions are added in f64 in one canonical order per class and quantised to integers once
 /// per class (see [`crate::sums`] and [`accumulate`]).
 ///
@@ -142,7 +144,7 @@ impl ClassAccumulator {
                 *a += quantise(reduce(l), scale);
             }
         };
-        if self.surface > 0 {
+        if self.surface + self.interior > 0 {
             q3(&mut sums.depth_normal, &self.depth_normal, LENGTH_SCALE);
             q3(&mut sums.depth_torque, &self.depth_torque, AREA_SCALE);
         }
@@ -288,23 +290,32 @@ fn sample_block<L: VoxelLookup>(
     }
     let (low, high) = (word & BYTE_ONES, (word >> 1) & BYTE_ONES);
     acc.non_free += count_bytes(low | high);
-    acc.interior += count_bytes(low & !high);
+    let interior = low & !high;
+    acc.interior += count_bytes(interior);
     let (surface, proximity) = (high & !low, high & low);
-    if surface | proximity == 0 {
+    if surface | proximity | interior == 0 {
         return;
     }
     let normal = mat_vec(&frame.rotation, &load(normals, start, valid));
-    if surface != 0 {
+    if surface | interior != 0 {
         acc.surface += count_bytes(surface);
-        let is_surface = kinds.map(|k| k == Voxel::Surface.bits());
+        // Interior points push as if one layer deeper than Surface layer 0 (the first Interior
+        // layer of a 2-bit map), instead of nothing.
+        let is_pushing = kinds.map(|k| k == Voxel::Surface.bits() || k == Voxel::Interior.bits());
+        let mut pushing_layers = layers;
+        for (l, k) in pushing_layers.iter_mut().zip(kinds) {
+            if k == Voxel::Interior.bits() {
+                *l = 1;
+            }
+        }
         surface_block(
             frame,
             &lever,
             &grid,
             &cell,
             &normal,
-            &is_surface,
-            &layers,
+            &is_pushing,
+            &pushing_layers,
             acc,
         );
     }

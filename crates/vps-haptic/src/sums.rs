@@ -42,7 +42,7 @@ pub struct PartialSums {
     pub depth_normal: [i128; 3],
     /// Σ (P_i − x) × d_i N_i over Surface points, LSB 2^-48 m² per component.
     pub depth_torque: [i128; 3],
-    /// Number of Surface points with d_i > 0 (the paper's N).
+    /// Number of pushing points (Surface, or Interior pushing as layer 1) with d_i > 0 (the paper's N).
     pub contacts: u64,
     /// S_q = Σ (V_i·N_i)² over approaching Proximity points, LSB 2^-40 m²/s².
     pub brake_sq: i128,
@@ -80,17 +80,18 @@ impl PartialSums {
         self.sampled = self.sampled.wrapping_add(other.sampled);
     }
 
-    /// The deepest tangent-plane depth one Surface point can report (m) in a voxmap of voxel size
+    /// The deepest tangent-plane depth one pushing point can report (m) in a voxmap of voxel size
     /// `voxel_size` (m) whose Surface codes hold `surface_layers` layers (1 for a 2-bit map): a
-    /// voxel's half diagonal plus one voxel per layer below the outermost,
-    /// `(√3/2 + surface_layers − 1) · s`. `surface_layers` of 0 is read as 1.
+    /// voxel's half diagonal plus one voxel per layer below the outermost Surface layer, and at
+    /// least one layer, because an Interior point pushes as layer 1 (see `crate::kernel`):
+    /// `(√3/2 + max(surface_layers − 1, 1)) · s`. `surface_layers` of 0 is read as 1.
     pub fn max_contact_depth(voxel_size: f64, surface_layers: u8) -> f64 {
-        (0.5 * 3f64.sqrt() + f64::from(surface_layers.max(1) - 1)) * voxel_size
+        (0.5 * 3f64.sqrt() + f64::from(surface_layers.max(2) - 1)) * voxel_size
     }
 
     /// Consistency checks for a reply that claims to cover `points_in_share` points, where no
     /// Surface point can be deeper than `max_depth` (m; see [`PartialSums::max_contact_depth`]). True when: `sampled == points_in_share`;
-    /// `contacts ≤ surface`; `surface + interior + approaching ≤ non_free ≤ sampled`; every
+    /// `contacts ≤ surface + interior` (Interior points push too); `surface + interior + approaching ≤ non_free ≤ sampled`; every
     /// component of Σ d N at most `contacts · max_depth`;
     /// depth sums zero without contacts; `S_q ≥ 0`; braking sums zero without approaching points and
     /// `|S_f component| ≤ √(approaching · S_q)` (Cauchy–Schwarz), each with one LSB per point of
@@ -98,7 +99,10 @@ impl PartialSums {
     /// Torque sums need the part's radius: see [`PartialSums::torque_within`].
     pub fn is_plausible(&self, points_in_share: u64, max_depth: f64) -> bool {
         let counts_ok = self.sampled == points_in_share
-            && self.contacts <= self.surface
+            && self
+                .surface
+                .checked_add(self.interior)
+                .is_some_and(|pushing| self.contacts <= pushing)
             && self
                 .surface
                 .checked_add(self.interior)

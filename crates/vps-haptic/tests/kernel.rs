@@ -246,7 +246,7 @@ fn implausible_sums_are_detected() {
     assert!(sums.is_plausible(400, depth));
     assert!(!sums.is_plausible(399, depth));
     let mut bad = sums;
-    bad.contacts = bad.surface + 1;
+    bad.contacts = bad.surface + bad.interior + 1;
     assert!(!bad.is_plausible(400, depth));
     let mut bad = sums;
     bad.depth_normal[0] = i128::from(i64::MAX);
