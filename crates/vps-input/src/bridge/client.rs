@@ -85,6 +85,28 @@ impl BridgeClient {
         self.send_raw(&out[..n])
     }
 
+    /// Sends `sample` as the next PoseInFlags (e.g. with [`FLAG_CLUTCH`](super::protocol::FLAG_CLUTCH)
+    /// while the clutch is held) and returns its sequence number.
+    pub fn send_pose_flags(
+        &mut self,
+        sample: &HandleSample,
+        flags: u32,
+    ) -> Result<u64, BridgeError> {
+        self.sequence += 1;
+        let datagram = Datagram {
+            token: self.token,
+            sequence: self.sequence,
+            message: Message::PoseInFlags {
+                sample: *sample,
+                flags,
+            },
+        };
+        let mut out = [0u8; MAX_DATAGRAM];
+        let n = datagram.encode(&mut out);
+        self.send_raw(&out[..n])?;
+        Ok(self.sequence)
+    }
+
     /// Sends arbitrary bytes to the device (for tests of its input handling).
     pub fn send_raw(&self, bytes: &[u8]) -> Result<(), BridgeError> {
         self.socket
@@ -136,7 +158,7 @@ impl BridgeClient {
         }
         match d.message {
             Message::WrenchOut { wrench, frame } => Some(WrenchReply { wrench, frame }),
-            Message::PoseIn(_) => None,
+            Message::PoseIn(_) | Message::PoseInFlags { .. } => None,
         }
     }
 }
