@@ -307,6 +307,64 @@ pub struct RunArgs {
     /// Serve the live viewer on this address (e.g. 127.0.0.1:8080; port 0 picks a free one).
     #[arg(long, value_name = "ADDR")]
     pub view: Option<std::net::SocketAddr>,
+    /// Bridge device settings (only with `--device bridge[:ADDR]`).
+    #[command(flatten)]
+    pub bridge: BridgeArgs,
+}
+
+/// Settings of the UDP device bridge (`--device bridge[:ADDR]`); see docs/devices.md.
+#[derive(Args, Debug, Clone, PartialEq)]
+pub struct BridgeArgs {
+    /// Scene metres per device metre (0.001 to 1000).
+    #[arg(long, default_value_t = 1.0)]
+    pub map_scale: f64,
+    /// Scene position of the device origin, X,Y,Z (m).
+    #[arg(long, value_parser = parse_triple, default_value = "0,0,0", value_name = "X,Y,Z")]
+    pub map_offset: [f64; 3],
+    /// Rotation from device axes to scene axes, degrees about X, Y, Z (X applied first).
+    #[arg(long, value_parser = parse_triple, default_value = "0,0,0", value_name = "RX,RY,RZ")]
+    pub map_rotate_deg: [f64; 3],
+    /// Device force per scene force (also scales torque), before the device's limits.
+    #[arg(long, default_value_t = 1.0)]
+    pub force_scale: f64,
+    /// A device silent this long is held with zero output, and re-anchored when it resumes (ms).
+    #[arg(long, default_value_t = 50.0)]
+    pub pose_timeout_ms: f64,
+    /// Write every wrench sent to the device to this file (one line per wrench: frame, then the
+    /// six f64 bit patterns in hex; format in docs/devices.md).
+    #[arg(long, value_name = "FILE")]
+    pub log_wrenches: Option<PathBuf>,
+}
+
+impl Default for BridgeArgs {
+    fn default() -> Self {
+        Self {
+            map_scale: 1.0,
+            map_offset: [0.0; 3],
+            map_rotate_deg: [0.0; 3],
+            force_scale: 1.0,
+            pose_timeout_ms: 50.0,
+            log_wrenches: None,
+        }
+    }
+}
+
+/// Parses `X,Y,Z` (three finite numbers).
+fn parse_triple(text: &str) -> Result<[f64; 3], String> {
+    let parts: Vec<&str> = text.split(',').collect();
+    let [x, y, z] = parts[..] else {
+        return Err(format!("`{text}`: expected three numbers X,Y,Z"));
+    };
+    let mut out = [0.0; 3];
+    for (o, p) in out.iter_mut().zip([x, y, z]) {
+        *o = p
+            .trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| format!("`{p}` in `{text}` is not a finite number"))?;
+    }
+    Ok(out)
 }
 
 /// Where a mesh comes from: a file path or `builtin:NAME`.
@@ -565,6 +623,7 @@ impl Default for RunArgs {
             record: None,
             json: false,
             view: None,
+            bridge: BridgeArgs::default(),
         }
     }
 }

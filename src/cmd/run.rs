@@ -3,18 +3,21 @@
 //! files.
 
 use super::output::print_json;
-use crate::cli::RunArgs;
+use crate::cli::{BridgeArgs, RunArgs};
 use crate::session::{builtin_scene, classed, standard_script, SessionScene};
 use anyhow::{bail, Context, Result};
 use glam::DQuat;
 use serde::Serialize;
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use vps_device::trace::{load_trace, save_trace, ReplayDevice};
 use vps_device::{DeviceLimits, HandParams, HapticDevice, SimulatedHand};
 use vps_haptic::{HapticParams, PartState};
-use vps_input::{BridgeConfig, BridgeDevice, SpaceMouse, SpaceMouseConfig};
+use vps_input::{
+    BridgeConfig, BridgeCounters, BridgeDevice, BridgeMonitor, SpaceMouse, SpaceMouseConfig,
+    WorkspaceMapping,
+};
 use vps_runtime::{run_loop, LoopConfig, LoopReport, SessionSetup, StatsSummary};
 use vps_voxelize::ShellMethod;
 
@@ -43,11 +46,48 @@ fn parse_device(text: &str) -> Result<DeviceChoice> {
     })
 }
 
-/// Opens the device; the start pose is where the session begins (m).
+/// The bridge device this process's session opened: its counters and wrench log, read by
+/// [`finish`] after the device itself has moved into the frame loop.
+static BRIDGE_MONITOR: Mutex<Option<BridgeMonitor>> = Mutex::new(None);
+
+/// The bridge's configuration from the command line; `frames` sizes the wrench log.
+fn bridge_config(
+    args: &BridgeArgs,
+    bind: std::net::SocketAddr,
+    start: glam::DVec3,
+    frames: u64,
+) -> BridgeConfig {
+    BridgeConfig {
+        bind,
+        initial_position: start,
+        pose_timeout: args.pose_timeout_ms / 1e3,
+        mapping: WorkspaceMapping {
+            scale: args.map_scale,
+            rotate_deg: args.map_rotate_deg,
+            offset: args.map_offset,
+            force_scale: args.force_scale,
+        },
+        // The loop writes one zero wrench after its last frame.
+        wrench_log_frames: if args.log_wrenches.is_some() {
+            usize::try_from(frames).unwrap_or(usize::MAX).saturating_add(1)
+        } else {
+            0
+        },
+        ..Default::default()
+    }
+}
+
+/// Opens the device; the start pose is where the session begins (m). `frames` is the session's
+/// length (sizes the bridge's wrench log).
 fn open_device(
     choice: &DeviceChoice,
     scene: &SessionScene,
+    bridge: &BridgeArgs,
+    frames: u64,
 ) -> Result<(Box<dyn HapticDevice>, PartState)> {
+    if !matches!(choice, DeviceChoice::Bridge(_)) && *bridge != BridgeArgs::default() {
+        bail!("--map-*, --force-scale, --pose-timeout-ms and --log-wrenches need --device bridge[:ADDR]");
+    }
     let script = standard_script(&scene.tree, &scene.corridor, 0.8)?;
     let (start, orientation) = script.sample(0.0);
     let at_start = PartState::at_rest(start, orientation);
@@ -68,14 +108,10 @@ fn open_device(
             (Box::new(device), at_start)
         }
         DeviceChoice::Bridge(addr) => {
-            let config = BridgeConfig {
-                bind: *addr,
-                initial_position: start,
-                ..Default::default()
-            };
-            let device = BridgeDevice::bind(config)
+            let device = BridgeDevice::bind(bridge_config(bridge, *addr, start, frames))
                 .with_context(|| format!("binding the device bridge on {addr}"))?;
             eprintln!("device bridge listening on {}", device.local_addr());
+            *BRIDGE_MONITOR.lock().unwrap_or_else(|e| e.into_inner()) = Some(device.monitor());
             (Box::new(device), at_start)
         }
         DeviceChoice::Replay(path) => {
@@ -103,6 +139,9 @@ struct RunReport {
     stats: StatsSummary,
     #[serde(skip_serializing_if = "Option::is_none")]
     cluster: Option<serde_json::Value>,
+    /// The bridge device's counters, when the device was the bridge.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    bridge: Option<BridgeCounters>,
 }
 
 /// Everything a session needs, opened from the command line.
@@ -167,11 +206,11 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
         None => HapticParams::default(),
     }
     .with_scene(args.voxel_size, scene.shell.max_radius())?;
-    let (device, initial) = open_device(&choice, &scene)?;
     let frames = match &choice {
         DeviceChoice::Replay(path) => load_trace(path)?.frames.len() as u64,
         _ => (args.seconds / params.dt).round().max(1.0) as u64,
     };
+    let (device, initial) = open_device(&choice, &scene, &args.bridge, frames)?;
     let config = LoopConfig {
         frames: Some(frames),
         threads: args.threads.max(1),
@@ -210,6 +249,16 @@ pub fn finish<C: Serialize>(
     if let Some(path) = &args.record {
         save_recording(report, path)?;
     }
+    let bridge = BRIDGE_MONITOR
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .take();
+    if let (Some(monitor), Some(path)) = (&bridge, &args.bridge.log_wrenches) {
+        let n = monitor
+            .save_wrench_log(path)
+            .with_context(|| format!("writing the wrench log {}", path.display()))?;
+        eprintln!("logged {n} wrenches sent to {}", path.display());
+    }
     let end = match &report.device_error {
         Some(err) => format!("device failed: {err}"),
         None => format!("{:?}", report.end),
@@ -222,6 +271,7 @@ pub fn finish<C: Serialize>(
         final_position_m: report.final_state.position.to_array(),
         stats: report.stats.clone(),
         cluster: cluster.map(serde_json::to_value).transpose()?,
+        bridge: bridge.map(|m| m.counters()),
     };
     if args.json {
         print_json(&out)?;
@@ -232,6 +282,21 @@ pub fn finish<C: Serialize>(
         );
         crate::demo::print_summary("session", &out.stats, None);
         println!("final part position (m): {:?}", out.final_position_m);
+        if let Some(c) = &out.bridge {
+            println!(
+                "bridge: poses received {}, bad datagrams {} (+{} wrong token, {} stale), \
+                 timeouts {}, clutch presses {}, zeroed frames {}, wrenches sent {} ({} failed)",
+                c.accepted,
+                c.garbage,
+                c.unauthorized,
+                c.stale,
+                c.timeouts,
+                c.clutch_presses,
+                c.zeroed_frames,
+                c.sent,
+                c.send_failed
+            );
+        }
         if let Some(cluster) = &out.cluster {
             println!("cluster: {}", serde_json::to_string_pretty(cluster)?);
         }
