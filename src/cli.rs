@@ -582,6 +582,16 @@ pub enum BenchKind {
         #[arg(long)]
         json: bool,
     },
+    /// Device bridge round trip (pose out, wrench back), immediate and at 1 kHz, beside a raw
+    /// UDP ping-pong.
+    Bridge {
+        /// Round trips per measurement (100 to 1000000).
+        #[arg(long, default_value_t = 5000)]
+        round_trips: u64,
+        /// Print JSON (always JSON; accepted for symmetry).
+        #[arg(long)]
+        json: bool,
+    },
     /// Gather round trip to 1 and 2 local worker processes beside a raw UDP ping-pong.
     Transport {
         /// Frames (and raw UDP round trips) per measurement.

@@ -115,7 +115,10 @@ fn check_bit_exact(who: &str, n: u64, dumped: &[String], sent: &HashMap<String, 
         let logged = sent
             .get(frame)
             .unwrap_or_else(|| panic!("{who}: frame {frame} was not logged by vps"));
-        assert_eq!(line, logged, "{who}: decoded wrench differs from the sent one");
+        assert_eq!(
+            line, logged,
+            "{who}: decoded wrench differs from the sent one"
+        );
         if !line.ends_with(&zero) {
             non_zero += 1;
         }
@@ -140,7 +143,15 @@ fn c_and_python_clients_decode_exactly_what_vps_sends() {
     let example = dir.path().join("example");
     if has_gcc {
         let status = Command::new("gcc")
-            .args(["-std=c99", "-O2", "-Wall", "-Wextra", "-pedantic", "-Werror", "-o"])
+            .args([
+                "-std=c99",
+                "-O2",
+                "-Wall",
+                "-Wextra",
+                "-pedantic",
+                "-Werror",
+                "-o",
+            ])
             .arg(&example)
             .arg(repo().join("clients/c/example.c"))
             .arg("-lm")

@@ -69,7 +69,9 @@ fn bridge_config(
         },
         // The loop writes one zero wrench after its last frame.
         wrench_log_frames: if args.log_wrenches.is_some() {
-            usize::try_from(frames).unwrap_or(usize::MAX).saturating_add(1)
+            usize::try_from(frames)
+                .unwrap_or(usize::MAX)
+                .saturating_add(1)
         } else {
             0
         },
