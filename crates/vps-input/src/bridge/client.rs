@@ -75,14 +75,7 @@ impl BridgeClient {
         sample: &HandleSample,
         sequence: u64,
     ) -> Result<(), BridgeError> {
-        let datagram = Datagram {
-            token: self.token,
-            sequence,
-            message: Message::PoseIn(*sample),
-        };
-        let mut out = [0u8; MAX_DATAGRAM];
-        let n = datagram.encode(&mut out);
-        self.send_raw(&out[..n])
+        self.send_message(sequence, Message::PoseIn(*sample))
     }
 
     /// Sends `sample` as the next PoseInFlags (e.g. with [`FLAG_CLUTCH`](super::protocol::FLAG_CLUTCH)
@@ -93,18 +86,23 @@ impl BridgeClient {
         flags: u32,
     ) -> Result<u64, BridgeError> {
         self.sequence += 1;
+        let message = Message::PoseInFlags {
+            sample: *sample,
+            flags,
+        };
+        self.send_message(self.sequence, message)?;
+        Ok(self.sequence)
+    }
+
+    fn send_message(&self, sequence: u64, message: Message) -> Result<(), BridgeError> {
         let datagram = Datagram {
             token: self.token,
-            sequence: self.sequence,
-            message: Message::PoseInFlags {
-                sample: *sample,
-                flags,
-            },
+            sequence,
+            message,
         };
         let mut out = [0u8; MAX_DATAGRAM];
         let n = datagram.encode(&mut out);
-        self.send_raw(&out[..n])?;
-        Ok(self.sequence)
+        self.send_raw(&out[..n])
     }
 
     /// Sends arbitrary bytes to the device (for tests of its input handling).

@@ -166,19 +166,11 @@ impl Datagram {
         match &self.message {
             Message::PoseIn(s) => {
                 w.out[5] = KIND_POSE_IN;
-                w.vec3(s.position);
-                let q = s.orientation;
-                w.f64s(&[q.x, q.y, q.z, q.w]);
-                w.vec3(s.linear_velocity);
-                w.vec3(s.angular_velocity);
+                w.sample(s);
             }
-            Message::PoseInFlags { sample: s, flags } => {
+            Message::PoseInFlags { sample, flags } => {
                 w.out[5] = KIND_POSE_IN_FLAGS;
-                w.vec3(s.position);
-                let q = s.orientation;
-                w.f64s(&[q.x, q.y, q.z, q.w]);
-                w.vec3(s.linear_velocity);
-                w.vec3(s.angular_velocity);
+                w.sample(sample);
                 w.bytes(&flags.to_le_bytes());
             }
             Message::WrenchOut { wrench, frame } => {
@@ -331,6 +323,13 @@ impl Writer<'_> {
     }
     fn vec3(&mut self, v: DVec3) {
         self.f64s(&v.to_array());
+    }
+    fn sample(&mut self, s: &HandleSample) {
+        self.vec3(s.position);
+        let q = s.orientation;
+        self.f64s(&[q.x, q.y, q.z, q.w]);
+        self.vec3(s.linear_velocity);
+        self.vec3(s.angular_velocity);
     }
 }
 
