@@ -23,8 +23,8 @@
 /* Written by the servo thread only. */
 static vps_bridge bridge;
 static vps_wrench last_wrench;
-static HDdouble last_wrench_time = -1.0; /* s, from hdGetSchedulerTimeStamp */
-static HDdouble servo_time = 0.0;
+static unsigned long servo_ticks = 0;      /* servo callbacks so far (1 kHz by default) */
+static unsigned long last_wrench_tick = 0; /* 0: no wrench yet */
 
 /* The 1 kHz servo callback: read the device, send the pose, apply the newest wrench. */
 HDCallbackCode HDCALLBACK vps_servo(void *unused) {
@@ -35,7 +35,7 @@ HDCallbackCode HDCALLBACK vps_servo(void *unused) {
     int i;
     (void)unused;
     hdBeginFrame(hdGetCurrentDevice());
-    servo_time += hdGetSchedulerTimeStamp(); /* s since the previous tick */
+    servo_ticks++;
 
     /* 1. Read: HD_CURRENT_TRANSFORM is column-major 4x4, translation in mm. */
     hdGetDoublev(HD_CURRENT_TRANSFORM, transform);
@@ -57,10 +57,11 @@ HDCallbackCode HDCALLBACK vps_servo(void *unused) {
     vps_bridge_send_pose(&bridge, &pose, (buttons & HD_DEVICE_BUTTON_2) ? VPS_FLAG_CLUTCH : 0);
 
     /* 3. Receive the newest wrench without blocking; keep the previous one otherwise. */
-    if (vps_bridge_recv_latest(&bridge, &last_wrench) > 0) last_wrench_time = servo_time;
+    if (vps_bridge_recv_latest(&bridge, &last_wrench) > 0) last_wrench_tick = servo_ticks;
 
-    /* 4. Apply it, or zero when vps has been silent for 20 ms (vps gone, network broken). */
-    if (last_wrench_time >= 0.0 && servo_time - last_wrench_time < 0.020)
+    /* 4. Apply it, or zero when vps has been silent for 20 ticks (20 ms at the default 1 kHz
+     *    scheduler rate: vps gone, network broken). */
+    if (last_wrench_tick != 0 && servo_ticks - last_wrench_tick < 20)
         for (i = 0; i < 3; i++) force[i] = last_wrench.force[i];
     hdSetDoublev(HD_CURRENT_FORCE, force);
     /* 6-DOF output Phantoms: HDdouble torque[3] = {1e3 * last_wrench.torque[0], ...} (mN.m);
