@@ -193,3 +193,34 @@ fn c_and_python_clients_decode_exactly_what_vps_sends() {
         check_bit_exact(who, *n, dumped, &sent);
     }
 }
+
+#[test]
+fn bridge_flags_are_checked_with_clear_messages() {
+    let run = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_vps"))
+            .args(["run", "--voxel-size", "10mm", "--seconds", "0.01"])
+            .args(args)
+            .output()
+            .expect("vps runs");
+        assert!(!out.status.success(), "{args:?} should fail");
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let e = run(&["--device", "bridge:127.0.0.1:0", "--map-offset", "1,2"]);
+    assert!(e.contains("expected three numbers"), "{e}");
+    let e = run(&[
+        "--device",
+        "bridge:127.0.0.1:0",
+        "--map-rotate-deg",
+        "0,nan,0",
+    ]);
+    assert!(e.contains("not a finite number"), "{e}");
+    let e = run(&["--device", "bridge:127.0.0.1:0", "--map-scale", "0"]);
+    assert!(
+        e.contains("mapping.scale") && e.contains("[0.001, 1000]"),
+        "{e}"
+    );
+    let e = run(&["--device", "bridge:127.0.0.1:0", "--pose-timeout-ms", "0"]);
+    assert!(e.contains("pose_timeout"), "{e}");
+    let e = run(&["--device", "sim", "--force-scale", "2"]);
+    assert!(e.contains("need --device bridge"), "{e}");
+}
