@@ -136,15 +136,21 @@ fn clutch_holds_the_target_and_release_does_not_jump() {
     let r = client.recv_wrench(DEADLINE).unwrap().expect("reply");
     assert!(close(r.wrench.force, DVec3::new(2.0, 0.0, 0.0)), "{r:?}");
 
+    // The session's closing zero reaches the device as exact +0.0 bits through the rotation.
+    dev.write(&Wrench::ZERO).unwrap();
+    let r = client.recv_wrench(DEADLINE).unwrap().expect("reply");
+    let bits = [r.wrench.force.to_array(), r.wrench.torque.to_array()].concat();
+    assert!(bits.iter().all(|v| v.to_bits() == 0), "{r:?}");
+
     let c = dev.counters();
     assert_eq!((c.clutch_presses, c.zeroed_frames, c.timeouts), (1, 1, 0));
     assert_eq!(dev.monitor().counters(), c);
     let log = dev.monitor().sent_wrenches();
-    assert_eq!(log.len(), 4);
+    assert_eq!(log.len(), 5);
     assert_eq!(log[2].wrench, Wrench::ZERO);
     assert_eq!(
         log.iter().map(|s| s.frame).collect::<Vec<_>>(),
-        [1, 2, 3, 4]
+        [1, 2, 3, 4, 5]
     );
 }
 

@@ -261,6 +261,9 @@ impl HapticDevice for BridgeDevice {
         self.last_wrench = if self.holding {
             self.counters.zeroed_frames += 1;
             Wrench::ZERO
+        } else if *wrench == Wrench::ZERO {
+            // The loop's safety zero stays an exact +0.0 through the mapping.
+            Wrench::ZERO
         } else {
             self.config.limits.saturate(&self.anchor.to_device(wrench))
         };
