@@ -5,14 +5,10 @@
 //!
 //! `cargo run --release --example penetration_probe -- [--no-brake] [--quiet] [--exposed]`
 
-#[path = "../src/session.rs"]
-#[allow(dead_code)]
-mod session;
-
 use glam::{DVec3, IVec3};
-use session::{builtin_scene, classed, standard_script};
 use vps_device::{HandParams, HapticDevice, SimulatedHand};
 use vps_haptic::{sample_all, step, HapticParams, KernelPose, PartState};
+use vps_session::{classed, BuildOptions, Session, DEFAULT_SCENE};
 use vps_voxelize::ShellMethod;
 use vps_voxmap::{Voxel, VoxelTree};
 
@@ -53,7 +49,14 @@ fn main() -> anyhow::Result<()> {
     let braking = !args.iter().any(|a| a == "--no-brake");
     let quiet = args.iter().any(|a| a == "--quiet");
     let s = 0.005;
-    let mut scene = builtin_scene(s, ShellMethod::VoxelCentres)?;
+    let mut scene = Session::open(
+        DEFAULT_SCENE,
+        &BuildOptions {
+            voxel_size: Some(s),
+            shell_method: Some(ShellMethod::VoxelCentres),
+            ..BuildOptions::default()
+        },
+    )?;
     if std::env::var("DROP_HANDLE").is_ok() {
         let keep: Vec<bool> = scene
             .shell
@@ -123,7 +126,7 @@ fn main() -> anyhow::Result<()> {
         "shell {} points, body bounds {lo:.4?} .. {hi:.4?}",
         scene.shell.len()
     );
-    let script = standard_script(tree, &scene.corridor, 0.8)?;
+    let script = scene.script()?;
     let frames = (script.duration() / params.dt).round() as u64;
     let shell = classed(&scene.shell);
     let (start, q0) = script.sample(0.0);

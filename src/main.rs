@@ -8,9 +8,6 @@ mod cli;
 mod cmd;
 mod demo;
 mod scene;
-mod scene_config;
-mod session;
-mod units;
 
 use clap::Parser;
 

@@ -3,7 +3,6 @@
 
 use super::run::{finish, prepare, LiveSession, PreparedSession};
 use crate::cli::{ClusterArgs, CoordinatorArgs, GatherArgs, RunArgs, WorkerArgs};
-use crate::session::CLASS_COUNT;
 use anyhow::{Context, Result};
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -15,6 +14,7 @@ use vps_cluster::{
     WorkerConfig,
 };
 use vps_runtime::{LoopConfig, LoopReport};
+use vps_session::CLASS_COUNT;
 
 /// How long the coordinator waits for its workers to join before it starts.
 const JOIN_TIMEOUT: Duration = Duration::from_secs(20);
@@ -50,6 +50,8 @@ pub struct CoordinatedRun {
     pub cluster: ClusterReport,
     /// Points in the shell.
     pub shell_points: usize,
+    /// The bridge's counters and wrench log, when the device was the UDP bridge.
+    pub bridge: Option<vps_input::BridgeMonitor>,
 }
 
 /// Runs one session on a started coordinator once `workers` have joined; `tune` may adjust the
@@ -67,7 +69,7 @@ fn coordinate(
     tune: impl FnOnce(&mut LoopConfig),
 ) -> Result<CoordinatedRun> {
     let mut prepared = prepare(session)?;
-    tune(&mut prepared.config);
+    tune(&mut prepared.plan.config);
     coordinate_prepared(
         session, prepared, listen, cert, key, pins, workers, gather, spawn,
     )
@@ -89,9 +91,10 @@ fn coordinate_prepared(
     spawn: impl FnOnce(SocketAddr) -> Result<Option<vps_cluster::LocalWorkers>>,
 ) -> Result<CoordinatedRun> {
     let LiveSession {
-        scene,
+        session: scene,
         viewer: _viewer,
         setup,
+        bridge,
     } = prepared.go_live(session.view)?;
     let cluster_scene = Arc::new(ClusterScene::new(
         scene.tree.clone(),
@@ -123,6 +126,7 @@ fn coordinate_prepared(
         report,
         cluster,
         shell_points: scene.shell.len(),
+        bridge,
     })
 }
 
@@ -143,6 +147,7 @@ pub fn coordinator(args: &CoordinatorArgs) -> Result<()> {
         &args.session,
         run.shell_points,
         &run.report,
+        run.bridge.as_ref(),
         Some(&run.cluster),
     )
 }
@@ -161,6 +166,7 @@ pub fn local_cluster(args: &ClusterArgs) -> Result<()> {
         &args.session,
         run.shell_points,
         &run.report,
+        run.bridge.as_ref(),
         Some(&run.cluster),
     )
 }
@@ -174,7 +180,7 @@ pub fn run_local_cluster(
     tune: impl FnOnce(&mut LoopConfig),
 ) -> Result<CoordinatedRun> {
     let mut prepared = prepare(session)?;
-    tune(&mut prepared.config);
+    tune(&mut prepared.plan.config);
     run_local_cluster_prepared(session, prepared, workers, worker_threads, gather)
 }
 

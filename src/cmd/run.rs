@@ -1,135 +1,17 @@
-//! `vps run`, `vps record`, `vps replay` and `vps devices`: one paced 1 kHz session on the
-//! built-in scene with a chosen device, parameters from a TOML file, and handle traces to and from
-//! files.
+//! `vps run`, `vps record`, `vps replay` and `vps devices`: one paced 1 kHz session on a scene
+//! (`--scene`, default the built-in bay) with a chosen device, parameters from a TOML file, and
+//! handle traces to and from files.
 
 use super::output::print_json;
 use crate::cli::{BridgeArgs, RunArgs};
-use crate::session::{builtin_scene, classed, standard_script, SessionScene};
-use anyhow::{bail, Context, Result};
-use glam::DQuat;
+use anyhow::{anyhow, bail, Context, Result};
 use serde::Serialize;
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
-use std::sync::{Arc, Mutex};
-use vps_device::trace::{load_trace, save_trace, ReplayDevice};
-use vps_device::{DeviceLimits, HandParams, HapticDevice, SimulatedHand};
-use vps_haptic::{HapticParams, PartState};
-use vps_input::{
-    BridgeConfig, BridgeCounters, BridgeDevice, BridgeMonitor, SpaceMouse, SpaceMouseConfig,
-    WorkspaceMapping,
-};
+use vps_device::trace::save_trace;
+use vps_haptic::HapticParams;
+use vps_input::{BridgeCounters, BridgeMonitor};
 use vps_runtime::{run_loop, LoopConfig, LoopReport, SessionSetup, StatsSummary};
-use vps_voxelize::ShellMethod;
-
-/// The device a session is driven by, parsed from `--device`.
-enum DeviceChoice {
-    /// The simulated hand on the standard script.
-    Simulated,
-    /// The first SpaceMouse-family HID device found (input only).
-    SpaceMouse,
-    /// The UDP device bridge, bound to the address (loopback unless a token is given).
-    Bridge(std::net::SocketAddr),
-    /// A recorded handle trace, played back exactly.
-    Replay(std::path::PathBuf),
-}
-
-fn parse_device(text: &str) -> Result<DeviceChoice> {
-    Ok(match text.split_once(':') {
-        None if text == "sim" => DeviceChoice::Simulated,
-        None if text == "spacemouse" => DeviceChoice::SpaceMouse,
-        None if text == "bridge" => DeviceChoice::Bridge("127.0.0.1:7700".parse()?),
-        Some(("bridge", addr)) => DeviceChoice::Bridge(addr.parse().with_context(|| {
-            format!("--device bridge:{addr}: not an address like 127.0.0.1:7700")
-        })?),
-        Some(("replay", path)) => DeviceChoice::Replay(path.into()),
-        _ => bail!("--device {text}: expected sim, spacemouse, bridge[:ADDR] or replay:FILE"),
-    })
-}
-
-/// The bridge device this process's session opened: its counters and wrench log, read by
-/// [`finish`] after the device itself has moved into the frame loop.
-static BRIDGE_MONITOR: Mutex<Option<BridgeMonitor>> = Mutex::new(None);
-
-/// The bridge's configuration from the command line; `frames` sizes the wrench log.
-fn bridge_config(
-    args: &BridgeArgs,
-    bind: std::net::SocketAddr,
-    start: glam::DVec3,
-    frames: u64,
-) -> BridgeConfig {
-    BridgeConfig {
-        bind,
-        initial_position: start,
-        pose_timeout: args.pose_timeout_ms / 1e3,
-        mapping: WorkspaceMapping {
-            scale: args.map_scale,
-            rotate_deg: args.map_rotate_deg,
-            offset: args.map_offset,
-            force_scale: args.force_scale,
-        },
-        // The loop writes one zero wrench after its last frame.
-        wrench_log_frames: if args.log_wrenches.is_some() {
-            usize::try_from(frames)
-                .unwrap_or(usize::MAX)
-                .saturating_add(1)
-        } else {
-            0
-        },
-        ..Default::default()
-    }
-}
-
-/// Opens the device; the start pose is where the session begins (m). `frames` is the session's
-/// length (sizes the bridge's wrench log).
-fn open_device(
-    choice: &DeviceChoice,
-    scene: &SessionScene,
-    bridge: &BridgeArgs,
-    frames: u64,
-) -> Result<(Box<dyn HapticDevice>, PartState)> {
-    if !matches!(choice, DeviceChoice::Bridge(_)) && *bridge != BridgeArgs::default() {
-        bail!("--map-*, --force-scale, --pose-timeout-ms and --log-wrenches need --device bridge[:ADDR]");
-    }
-    let script = standard_script(&scene.tree, &scene.corridor, 0.8)?;
-    let (start, orientation) = script.sample(0.0);
-    let at_start = PartState::at_rest(start, orientation);
-    Ok(match choice {
-        DeviceChoice::Simulated => (
-            Box::new(SimulatedHand::new(script, HandParams::default())?),
-            at_start,
-        ),
-        DeviceChoice::SpaceMouse => {
-            let config = SpaceMouseConfig {
-                start_position: start,
-                start_orientation: DQuat::IDENTITY,
-                ..Default::default()
-            };
-            let device = SpaceMouse::open_first(config).context(
-                "opening a SpaceMouse (`vps devices` lists what this machine sees; /dev/hidraw* must be readable)",
-            )?;
-            (Box::new(device), at_start)
-        }
-        DeviceChoice::Bridge(addr) => {
-            let device = BridgeDevice::bind(bridge_config(bridge, *addr, start, frames))
-                .with_context(|| format!("binding the device bridge on {addr}"))?;
-            eprintln!("device bridge listening on {}", device.local_addr());
-            *BRIDGE_MONITOR.lock().unwrap_or_else(|e| e.into_inner()) = Some(device.monitor());
-            (Box::new(device), at_start)
-        }
-        DeviceChoice::Replay(path) => {
-            let trace = load_trace(path)?;
-            let first = trace
-                .frames
-                .first()
-                .with_context(|| format!("{}: the trace has no frames", path.display()))?;
-            let state = PartState::at_rest(first.sample.position, first.sample.orientation);
-            (
-                Box::new(ReplayDevice::new(trace, DeviceLimits::PAPER)),
-                state,
-            )
-        }
-    })
-}
+use vps_session::{BridgeSettings, DeviceChoice, Session, SessionPlan};
 
 #[derive(Serialize)]
 struct RunReport {
@@ -148,71 +30,96 @@ struct RunReport {
 
 /// Everything a session needs, opened from the command line.
 pub struct PreparedSession {
-    /// Scene, voxmap and shell.
-    pub scene: SessionScene,
-    /// Validated haptic parameters.
-    pub params: HapticParams,
-    /// The opened device.
-    pub device: Box<dyn HapticDevice>,
-    /// The part's state at frame 0.
-    pub initial: PartState,
-    /// Frame loop settings.
-    pub config: LoopConfig,
+    /// Scene, voxmap, shell and meshes.
+    pub session: Session,
+    /// Parameters, opened device, initial state and loop settings.
+    pub plan: SessionPlan,
 }
 
 /// A prepared session made ready to run: its scene, the live viewer when one was asked for (keep
 /// it alive for the session), and the loop's setup, publishing to that viewer.
 pub struct LiveSession {
-    /// Scene, voxmap and shell.
-    pub scene: SessionScene,
+    /// Scene, voxmap, shell and meshes.
+    pub session: Session,
     /// The viewer serving this session, if any.
     pub viewer: Option<super::view::LiveViewer>,
     /// What the frame loop runs.
     pub setup: SessionSetup,
+    /// The bridge's counters and wrench log, when the device is the UDP bridge (for the report).
+    pub bridge: Option<BridgeMonitor>,
 }
 
 impl PreparedSession {
     /// Attaches the viewer at `view` (when given) and builds the loop's setup, with a stop flag
     /// nobody raises (the session ends by its frame count, or its device).
     pub fn go_live(self, view: Option<std::net::SocketAddr>) -> Result<LiveSession> {
-        let PreparedSession {
-            scene,
-            params,
-            device,
-            initial,
-            config,
-        } = self;
-        let viewer = super::view::attach(view, &scene)?;
-        let setup = SessionSetup {
-            params,
-            device,
-            initial,
-            config,
-            feed: viewer.as_ref().map(|v| v.feed()),
-            stop: Arc::new(AtomicBool::new(false)),
-        };
+        let PreparedSession { session, plan } = self;
+        let viewer = super::view::attach(view, &session)?;
+        let bridge = plan.bridge.clone();
+        let setup = plan.into_setup(viewer.as_ref().map(|v| v.feed()));
         Ok(LiveSession {
-            scene,
+            session,
             viewer,
             setup,
+            bridge,
         })
     }
 }
 
+/// The device of `--device`, else the scene's.
+pub fn device_choice(text: Option<&str>, session: &Session) -> Result<DeviceChoice> {
+    match text {
+        Some(t) => DeviceChoice::parse(t).map_err(|m| anyhow!("--device {m}")),
+        None => Ok(session.device.clone()),
+    }
+}
+
+/// The bridge settings of a session: the scene's (`[device]` `mapping`, `pose_timeout_ms`) with
+/// each flag of `flags` that was given in their place; the wrench log holds one wrench per frame
+/// plus the loop's final zero when `--log-wrenches` is given. The flags need the bridge device.
+fn bridge_settings(
+    flags: &BridgeArgs,
+    choice: &DeviceChoice,
+    scene: BridgeSettings,
+    frames: u64,
+) -> Result<BridgeSettings> {
+    if *flags == BridgeArgs::default() {
+        return Ok(scene);
+    }
+    if !matches!(choice, DeviceChoice::Bridge(_)) {
+        bail!("--map-*, --force-scale, --pose-timeout-ms and --log-wrenches need --device bridge[:ADDR]");
+    }
+    let mut settings = scene;
+    let m = &mut settings.mapping;
+    m.scale = flags.map_scale.unwrap_or(m.scale);
+    m.offset = flags.map_offset.unwrap_or(m.offset);
+    m.rotate_deg = flags.map_rotate_deg.unwrap_or(m.rotate_deg);
+    m.force_scale = flags.force_scale.unwrap_or(m.force_scale);
+    if let Some(ms) = flags.pose_timeout_ms {
+        settings.pose_timeout = ms / 1e3;
+    }
+    if flags.log_wrenches.is_some() {
+        // The loop writes one zero wrench after its last frame.
+        settings.wrench_log_frames = usize::try_from(frames)
+            .unwrap_or(usize::MAX)
+            .saturating_add(1);
+    }
+    Ok(settings)
+}
+
 /// Builds the scene, loads parameters and opens the device of `args`.
 pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
-    let choice = parse_device(&args.device)?;
-    let scene = builtin_scene(args.voxel_size, ShellMethod::VoxelCentres)?;
-    let params = match &args.config {
-        Some(path) => HapticParams::from_file(path)?,
-        None => HapticParams::default(),
+    let mut session = Session::open(
+        &args.scene.scene,
+        &args.scene.build_options(args.voxel_size),
+    )?;
+    let choice = device_choice(args.device.as_deref(), &session)?;
+    if let Some(path) = &args.config {
+        session.params = HapticParams::from_file(path)?
+            .with_scene(session.voxel_size, session.shell.max_radius())?;
     }
-    .with_scene(args.voxel_size, scene.shell.max_radius())?;
-    let frames = match &choice {
-        DeviceChoice::Replay(path) => load_trace(path)?.frames.len() as u64,
-        _ => (args.seconds / params.dt).round().max(1.0) as u64,
-    };
-    let (device, initial) = open_device(&choice, &scene, &args.bridge, frames)?;
+    let frames = choice.frames(args.seconds, session.params.dt)?;
+    session.bridge = bridge_settings(&args.bridge, &choice, session.bridge, frames)?;
     let config = LoopConfig {
         frames: Some(frames),
         threads: args.threads.max(1),
@@ -220,42 +127,42 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
         record_trace: args.record.is_some(),
         ..LoopConfig::default()
     };
-    Ok(PreparedSession {
-        scene,
-        params,
-        device,
-        initial,
-        config,
-    })
+    let plan = session.plan(&choice, session.script()?, config)?;
+    Ok(PreparedSession { session, plan })
 }
 
 /// Runs one paced session; records the handle trace to `record` when given.
 pub fn run(args: &RunArgs) -> Result<()> {
     let LiveSession {
-        scene,
+        session,
         viewer: _viewer,
         setup,
+        bridge,
     } = prepare(args)?.go_live(args.view)?;
-    let report: LoopReport = run_loop(scene.tree.clone(), classed(&scene.shell), setup)?;
-    finish(args, scene.shell.len(), &report, None::<&()>)
+    let report: LoopReport = run_loop(session.tree.clone(), session.classed_shell(), setup)?;
+    finish(
+        args,
+        session.shell.len(),
+        &report,
+        bridge.as_ref(),
+        None::<&()>,
+    )
 }
 
-/// Saves the recording, prints the session's figures (and `cluster`, when given, as JSON), and
+/// Saves the recording (and the bridge's wrench log when asked), prints the session's figures
+/// (with the bridge's counters when `bridge` is given, and `cluster`, when given, as JSON), and
 /// fails when the device failed.
 pub fn finish<C: Serialize>(
     args: &RunArgs,
     shell_points: usize,
     report: &LoopReport,
+    bridge: Option<&BridgeMonitor>,
     cluster: Option<&C>,
 ) -> Result<()> {
     if let Some(path) = &args.record {
         save_recording(report, path)?;
     }
-    let bridge = BRIDGE_MONITOR
-        .lock()
-        .unwrap_or_else(|e| e.into_inner())
-        .take();
-    if let (Some(monitor), Some(path)) = (&bridge, &args.bridge.log_wrenches) {
+    if let (Some(monitor), Some(path)) = (bridge, &args.bridge.log_wrenches) {
         let n = monitor
             .save_wrench_log(path)
             .with_context(|| format!("writing the wrench log {}", path.display()))?;

@@ -1,0 +1,166 @@
+//! The device a session is driven by: parsed from `--device` or a scene's `[device] kind`, and
+//! opened.
+
+use anyhow::{Context, Result};
+use glam::DQuat;
+use std::path::{Path, PathBuf};
+use vps_device::script::Script;
+use vps_device::trace::{load_trace, ReplayDevice};
+use vps_device::{DeviceLimits, HandParams, HapticDevice, SimulatedHand};
+use vps_haptic::PartState;
+use vps_input::{
+    BridgeConfig, BridgeDevice, BridgeMonitor, SpaceMouse, SpaceMouseConfig, WorkspaceMapping,
+};
+
+/// The default address of the UDP device bridge.
+pub const DEFAULT_BRIDGE_ADDR: &str = "127.0.0.1:7700";
+
+/// How the UDP device bridge is set up when it is the session's device: the scene file's
+/// `[device]` `mapping` and `pose_timeout_ms`, overridden by command-line flags. Ignored by the
+/// other devices.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BridgeSettings {
+    /// Device frame to scene frame, and scene wrench back to the device. Default: the identity.
+    pub mapping: WorkspaceMapping,
+    /// A device silent this long is held with zero output and re-anchored when it resumes
+    /// (s; finite, in [0.002, 10]). Default 0.05.
+    pub pose_timeout: f64,
+    /// Keep up to this many sent wrenches for the session's report (0: none; see
+    /// [`vps_input::bridge::config::MAX_WRENCH_LOG_FRAMES`]). Reserved when the bridge is bound. Default 0.
+    pub wrench_log_frames: usize,
+}
+
+impl Default for BridgeSettings {
+    fn default() -> Self {
+        let defaults = BridgeConfig::default();
+        Self {
+            mapping: defaults.mapping,
+            pose_timeout: defaults.pose_timeout,
+            wrench_log_frames: defaults.wrench_log_frames,
+        }
+    }
+}
+
+/// An opened device: what the frame loop drives, the part's state at frame 0, and, for the
+/// bridge, a handle onto its counters and wrench log that stays readable after the device has
+/// moved into the loop.
+pub struct OpenedDevice {
+    /// The device.
+    pub device: Box<dyn HapticDevice>,
+    /// The part's state at frame 0.
+    pub initial: PartState,
+    /// The bridge's counters and wrench log (`None` for every other device).
+    pub bridge: Option<BridgeMonitor>,
+}
+
+/// The device a session is driven by.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DeviceChoice {
+    /// The simulated hand on the scene's script.
+    Simulated,
+    /// The first SpaceMouse-family HID device found (input only).
+    SpaceMouse,
+    /// The UDP device bridge, bound to the address (loopback unless a token is given).
+    Bridge(std::net::SocketAddr),
+    /// A recorded handle trace, played back exactly.
+    Replay(PathBuf),
+}
+
+impl DeviceChoice {
+    /// Parses `sim`, `spacemouse`, `bridge[:ADDR]` or `replay:FILE`; the error says what is
+    /// allowed.
+    pub fn parse(text: &str) -> Result<DeviceChoice, String> {
+        Ok(match text.split_once(':') {
+            None if text == "sim" => DeviceChoice::Simulated,
+            None if text == "spacemouse" => DeviceChoice::SpaceMouse,
+            None if text == "bridge" => {
+                DeviceChoice::Bridge(DEFAULT_BRIDGE_ADDR.parse().expect("a valid address"))
+            }
+            Some(("bridge", addr)) => DeviceChoice::Bridge(addr.parse().map_err(|_| {
+                format!("bridge:{addr}: not an address like {DEFAULT_BRIDGE_ADDR}")
+            })?),
+            Some(("replay", path)) if !path.is_empty() => DeviceChoice::Replay(path.into()),
+            _ => {
+                return Err(format!(
+                    "'{text}': expected sim, spacemouse, bridge[:ADDR] or replay:FILE"
+                ))
+            }
+        })
+    }
+
+    /// A replay path taken relative to `base` (a scene file's directory) unless absolute.
+    pub fn relative_to(self, base: &Path) -> DeviceChoice {
+        match self {
+            DeviceChoice::Replay(p) if p.is_relative() => DeviceChoice::Replay(base.join(p)),
+            other => other,
+        }
+    }
+
+    /// Frames a session with this device runs: a replay's trace length, else `seconds / dt`.
+    /// Blocking for a replay (reads the trace).
+    pub fn frames(&self, seconds: f64, dt: f64) -> Result<u64> {
+        Ok(match self {
+            DeviceChoice::Replay(path) => load_trace(path)?.frames.len() as u64,
+            _ => (seconds / dt).round().max(1.0) as u64,
+        })
+    }
+
+    /// Opens the device; `script` drives the simulated hand and gives the others their start pose;
+    /// `bridge` sets up the UDP bridge (ignored by the other devices). Blocking (opens files,
+    /// sockets, HID).
+    pub fn open(&self, script: Script, bridge: &BridgeSettings) -> Result<OpenedDevice> {
+        let (start, orientation) = script.sample(0.0);
+        let at_start = PartState::at_rest(start, orientation);
+        let (device, initial, monitor): (Box<dyn HapticDevice>, _, _) = match self {
+            DeviceChoice::Simulated => (
+                Box::new(SimulatedHand::new(script, HandParams::default())?),
+                at_start,
+                None,
+            ),
+            DeviceChoice::SpaceMouse => {
+                let config = SpaceMouseConfig {
+                    start_position: start,
+                    start_orientation: DQuat::IDENTITY,
+                    ..Default::default()
+                };
+                let device = SpaceMouse::open_first(config).context(
+                    "opening a SpaceMouse (`vps devices` lists what this machine sees; /dev/hidraw* must be readable)",
+                )?;
+                (Box::new(device), at_start, None)
+            }
+            DeviceChoice::Bridge(addr) => {
+                let config = BridgeConfig {
+                    bind: *addr,
+                    initial_position: start,
+                    pose_timeout: bridge.pose_timeout,
+                    mapping: bridge.mapping,
+                    wrench_log_frames: bridge.wrench_log_frames,
+                    ..Default::default()
+                };
+                let device = BridgeDevice::bind(config)
+                    .with_context(|| format!("binding the device bridge on {addr}"))?;
+                eprintln!("device bridge listening on {}", device.local_addr());
+                let monitor = device.monitor();
+                (Box::new(device), at_start, Some(monitor))
+            }
+            DeviceChoice::Replay(path) => {
+                let trace = load_trace(path)?;
+                let first = trace
+                    .frames
+                    .first()
+                    .with_context(|| format!("{}: the trace has no frames", path.display()))?;
+                let state = PartState::at_rest(first.sample.position, first.sample.orientation);
+                (
+                    Box::new(ReplayDevice::new(trace, DeviceLimits::PAPER)),
+                    state,
+                    None,
+                )
+            }
+        };
+        Ok(OpenedDevice {
+            device,
+            initial,
+            bridge: monitor,
+        })
+    }
+}
