@@ -3,6 +3,9 @@
 //! and every wrench it decoded must equal, bit for bit, the one vps logged as sent
 //! (`--log-wrenches`, matched by frame number).
 //!
+//! Also: a scene file's `[device]` mapping places the device in the scene through a live session,
+//! and a command-line flag overrides one of its keys.
+//!
 //! gcc and python3 are required; when one is missing its half prints a SKIPPED line. Nothing here
 //! asserts on timing: N counts wrenches, and the examples pace to absolute deadlines.
 
@@ -36,23 +39,28 @@ fn available(tool: &str) -> bool {
 
 /// Starts the session; returns the child and the bridge's address (read from its stderr).
 fn start_vps(log: &Path) -> (Child, SocketAddr) {
+    start_vps_with(&[
+        "run",
+        "--device",
+        "bridge:127.0.0.1:0",
+        "--voxel-size",
+        "10mm",
+        "--seconds",
+        SESSION_SECONDS,
+        // The examples move 0.15 m; scaled ×6 the part reaches the bay's floor, so contact
+        // wrenches (not only zeros) are compared.
+        "--map-scale",
+        "6",
+        "--log-wrenches",
+        log.to_str().unwrap(),
+        "--json",
+    ])
+}
+
+/// Starts `vps ARGS` (a session on the bridge); returns the child and the bridge's address.
+fn start_vps_with(args: &[&str]) -> (Child, SocketAddr) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_vps"))
-        .args([
-            "run",
-            "--device",
-            "bridge:127.0.0.1:0",
-            "--voxel-size",
-            "10mm",
-            "--seconds",
-            SESSION_SECONDS,
-            // The examples move 0.15 m; scaled ×6 the part reaches the bay's floor, so contact
-            // wrenches (not only zeros) are compared.
-            "--map-scale",
-            "6",
-            "--log-wrenches",
-            log.to_str().unwrap(),
-            "--json",
-        ])
+        .args(args)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -223,4 +231,98 @@ fn bridge_flags_are_checked_with_clear_messages() {
     assert!(e.contains("pose_timeout"), "{e}");
     let e = run(&["--device", "sim", "--force-scale", "2"]);
     assert!(e.contains("need --device bridge"), "{e}");
+}
+
+/// A scene whose device is the bridge, mapped: device +X is scene +Y (rotated 90° about Z),
+/// scaled ×2, the device origin at the part's start (0, 0, 0.5), far above the floor.
+const MAPPED_SCENE: &str = r#"
+part = "builtin:sphere"
+[[static]]
+source = "builtin:box"
+scale = [10.0, 10.0, 1.0]
+[voxels]
+voxel_size = "10mm"
+[hand]
+waypoints = [[0.0, 0.0, 0.5], [0.0, 0.0, 0.6]]
+[device]
+kind = "bridge:127.0.0.1:0"
+pose_timeout_ms = 200
+[device.mapping]
+scale = 2.0
+rotate_deg = [0, 0, 90]
+offset = [0.0, 0.0, 0.5]
+"#;
+
+/// Runs a 2.5 s session on `scene` with `extra` flags while a client moves the device 0.02 m
+/// along +X and holds it there; returns where the part ended (m).
+fn drive_mapped_scene(scene: &Path, extra: &[&str]) -> [f64; 3] {
+    use vps_haptic::HandleSample;
+    let scene = scene.to_str().unwrap();
+    let mut args = vec![
+        "run",
+        "--scene",
+        scene,
+        "--no-cache",
+        "--seconds",
+        "2.5",
+        "--json",
+    ];
+    args.extend_from_slice(extra);
+    let (child, addr) = start_vps_with(&args);
+    let mut client = vps_input::BridgeClient::connect(addr, None).expect("client binds");
+    // 0.5 s ramp from the device origin to 0.02 m along +X, then held for 1 s; then silent, so
+    // the pose timeout holds the part where it is until the session ends.
+    let start = std::time::Instant::now();
+    let mut next = start;
+    loop {
+        let t = start.elapsed().as_secs_f64();
+        if t > 1.5 {
+            break;
+        }
+        let x = 0.02 * (t / 0.5).min(1.0);
+        let sample = HandleSample {
+            position: glam::DVec3::new(x, 0.0, 0.0),
+            orientation: glam::DQuat::IDENTITY,
+            linear_velocity: glam::DVec3::ZERO,
+            angular_velocity: glam::DVec3::ZERO,
+        };
+        client.send_pose(&sample).expect("pose sent");
+        while client
+            .recv_wrench(Duration::ZERO)
+            .expect("receive")
+            .is_some()
+        {}
+        next += Duration::from_millis(1);
+        if let Some(wait) = next.checked_duration_since(std::time::Instant::now()) {
+            std::thread::sleep(wait);
+        }
+    }
+    let out = child.wait_with_output().expect("vps ends");
+    assert!(out.status.success(), "vps failed");
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON report");
+    assert!(
+        report["bridge"]["accepted"].as_u64().unwrap() > 500,
+        "{}",
+        report["bridge"]
+    );
+    let p = &report["final_position_m"];
+    [0, 1, 2].map(|i| p[i].as_f64().unwrap())
+}
+
+#[test]
+fn a_scene_files_mapping_places_the_device_and_flags_override_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("mapped.toml");
+    std::fs::write(&scene, MAPPED_SCENE).unwrap();
+    let close = |p: [f64; 3], want: [f64; 3]| {
+        let d = (0..3).map(|i| (p[i] - want[i]).powi(2)).sum::<f64>().sqrt();
+        assert!(d < 0.005, "part at {p:?}, expected {want:?} (off by {d} m)");
+    };
+    // The scene's mapping: 0.02 m along device +X is 0.04 m along scene +Y.
+    close(drive_mapped_scene(&scene, &[]), [0.0, 0.04, 0.5]);
+    // --map-scale replaces the scene's scale; its rotation and offset stay.
+    close(
+        drive_mapped_scene(&scene, &["--map-scale", "5"]),
+        [0.0, 0.1, 0.5],
+    );
 }
