@@ -3,7 +3,9 @@
 //! voxel): the detour it belongs to, part and handle state, the force budget, and the Interior
 //! points (depth behind the force layer, whether the Interior voxel is exposed).
 //!
-//! `cargo run --release --example penetration_probe -- [--no-brake] [--quiet] [--exposed]`
+//! `cargo run --release --example penetration_probe -- [--no-brake] [--quiet] [--exposed] [--seconds S]`
+//!
+//! `--seconds S` stops after S seconds of the script (`vps demo` runs the first 60 s).
 
 use glam::{DVec3, IVec3};
 use vps_device::{HandParams, HapticDevice, SimulatedHand};
@@ -48,6 +50,13 @@ fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().collect();
     let braking = !args.iter().any(|a| a == "--no-brake");
     let quiet = args.iter().any(|a| a == "--quiet");
+    let seconds: f64 = match args.iter().position(|a| a == "--seconds") {
+        Some(i) => args
+            .get(i + 1)
+            .and_then(|v| v.parse().ok())
+            .ok_or_else(|| anyhow::anyhow!("--seconds needs a number"))?,
+        None => f64::INFINITY,
+    };
     let s = 0.005;
     let mut scene = Session::open(
         DEFAULT_SCENE,
@@ -127,7 +136,7 @@ fn main() -> anyhow::Result<()> {
         scene.shell.len()
     );
     let script = scene.script()?;
-    let frames = (script.duration() / params.dt).round() as u64;
+    let frames = (script.duration().min(seconds) / params.dt).round() as u64;
     let shell = classed(&scene.shell);
     let (start, q0) = script.sample(0.0);
     let trace: (u64, u64, u64) = std::env::var("TRACE")

@@ -60,15 +60,8 @@ pub fn run(bench: ClusterBench) -> Result<()> {
         &bench.scene.scene,
         &bench.scene.build_options(bench.voxel_size),
     )?;
-    let (shell, shell_voxel) =
-        session.shell_with_points(bench.points, ShellMethod::VoxelCentres)?;
-    session.shell = shell;
-    session.params = session
-        .params
-        .with_scene(session.voxel_size, session.shell.max_radius())?;
-    let script = session
-        .hand
-        .script_covering(&session.tree, bench.frames as f64 * session.params.dt)?;
+    let shell_voxel = session.resample_shell(bench.points, ShellMethod::VoxelCentres)?;
+    let script = session.script_for_frames(bench.frames)?;
     let config = LoopConfig {
         frames: Some(bench.frames),
         realtime: true,

@@ -37,14 +37,8 @@ pub fn run(
     threads: usize,
 ) -> Result<()> {
     let mut session = Session::open(&scene.scene, &scene.build_options(voxel_size))?;
-    let (shell, shell_voxel) = session.shell_with_points(points, ShellMethod::VoxelCentres)?;
-    session.shell = shell;
-    session.params = session
-        .params
-        .with_scene(session.voxel_size, session.shell.max_radius())?;
-    let script = session
-        .hand
-        .script_covering(&session.tree, frames as f64 * session.params.dt)?;
+    let shell_voxel = session.resample_shell(points, ShellMethod::VoxelCentres)?;
+    let script = session.script_for_frames(frames)?;
     let config = LoopConfig {
         frames: Some(frames),
         threads,

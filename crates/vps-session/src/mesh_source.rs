@@ -28,7 +28,7 @@ pub fn load_scaled(source: &str, metres_per_unit: f64) -> Result<SceneMesh> {
     if let Some(name) = source.strip_prefix("builtin:") {
         let mut mesh = vps_mesh::builtin::by_name(name).ok_or_else(|| {
             anyhow!(
-                "unknown built-in mesh '{name}'; available: {}",
+                "unknown built-in scene '{name}'; available: {}",
                 vps_mesh::builtin::BUILTIN_NAMES.join(", ")
             )
         })?;

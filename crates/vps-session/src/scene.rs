@@ -614,15 +614,12 @@ impl Session {
         self.hand.script(&self.tree)
     }
 
-    /// A point shell of the part with about `points` points (a surface's point count scales as
-    /// 1/s², so the shell's voxel size is chosen from this session's shell), in the same grip
-    /// frame, and the voxel size it was sampled at (m). Lets benchmarks buy point count
-    /// independently of scene memory. Blocking, parallel, allocates.
-    pub fn shell_with_points(
-        &self,
-        points: usize,
-        method: ShellMethod,
-    ) -> Result<(PointShell, f64)> {
+    /// Replaces the shell with one of about `points` points (a surface's point count scales as
+    /// 1/s², so the shell's voxel size is chosen from the current shell), in the same grip frame,
+    /// and the parameters with ones for its bounding radius; returns the voxel size it was sampled
+    /// at (m). Lets benchmarks buy point count independently of scene memory. Blocking, parallel,
+    /// allocates.
+    pub fn resample_shell(&mut self, points: usize, method: ShellMethod) -> Result<f64> {
         let coarse = self.shell.len().max(1) as f64;
         let shell_voxel = self.voxel_size * (coarse / points.max(1) as f64).sqrt();
         let mut shell = point_shell(&self.part_mesh, shell_voxel, method)
@@ -631,7 +628,17 @@ impl Session {
         // the grip frame by that centre.
         let shift: Vec3 = shell.mass.center_of_mass.as_vec3();
         shell.points.iter_mut().for_each(|p| *p += shift);
-        Ok((shell, shell_voxel))
+        self.params = self
+            .params
+            .with_scene(self.voxel_size, shell.max_radius())?;
+        self.shell = shell;
+        Ok(shell_voxel)
+    }
+
+    /// The scene's script for the simulated hand, its laps repeated to last `frames` frames.
+    pub fn script_for_frames(&self, frames: u64) -> Result<Script> {
+        self.hand
+            .script_covering(&self.tree, frames as f64 * self.params.dt)
     }
 
     /// The shell split into [`crate::CLASS_COUNT`] classes.
