@@ -1,5 +1,6 @@
 //! The device a session is driven by: parsed from `--device` or a scene's `[device] kind`, and
-//! opened.
+//! opened ([`DeviceChoice::open`]); the bridge with its [`BridgeSettings`] (mapping, pose timeout,
+//! wrench log), returning its [`BridgeMonitor`] beside the device in an [`OpenedDevice`].
 
 use anyhow::{Context, Result};
 use glam::DQuat;
