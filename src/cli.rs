@@ -393,6 +393,56 @@ pub struct RunArgs {
     /// Serve the live viewer on this address (e.g. 127.0.0.1:8080; port 0 picks a free one).
     #[arg(long, value_name = "ADDR")]
     pub view: Option<std::net::SocketAddr>,
+    /// Bridge device settings (only with `--device bridge[:ADDR]`).
+    #[command(flatten)]
+    pub bridge: BridgeArgs,
+}
+
+/// Settings of the UDP device bridge (`--device bridge[:ADDR]`); see docs/devices.md. Each flag
+/// given replaces the scene file's `[device]` value (`mapping.*`, `pose_timeout_ms`); an absent
+/// flag keeps the scene's, else the default.
+#[derive(Args, Debug, Clone, Default, PartialEq)]
+pub struct BridgeArgs {
+    /// Scene metres per device metre (0.001 to 1000). Default: the scene's, else 1.
+    #[arg(long)]
+    pub map_scale: Option<f64>,
+    /// Scene position of the device origin, X,Y,Z (m). Default: the scene's, else 0,0,0.
+    #[arg(long, value_parser = parse_triple, value_name = "X,Y,Z")]
+    pub map_offset: Option<[f64; 3]>,
+    /// Rotation from device axes to scene axes, degrees about X, Y, Z (X applied first).
+    /// Default: the scene's, else 0,0,0.
+    #[arg(long, value_parser = parse_triple, value_name = "RX,RY,RZ")]
+    pub map_rotate_deg: Option<[f64; 3]>,
+    /// Device force per scene force (also scales torque), before the device's limits.
+    /// Default: the scene's, else 1.
+    #[arg(long)]
+    pub force_scale: Option<f64>,
+    /// A device silent this long is held with zero output, and re-anchored when it resumes (ms,
+    /// 2 to 10000). Default: the scene's, else 50.
+    #[arg(long)]
+    pub pose_timeout_ms: Option<f64>,
+    /// Write every wrench sent to the device to this file (one line per wrench: frame, then the
+    /// six f64 bit patterns in hex; format in docs/devices.md).
+    #[arg(long, value_name = "FILE")]
+    pub log_wrenches: Option<PathBuf>,
+}
+
+/// Parses `X,Y,Z` (three finite numbers).
+fn parse_triple(text: &str) -> Result<[f64; 3], String> {
+    let parts: Vec<&str> = text.split(',').collect();
+    let [x, y, z] = parts[..] else {
+        return Err(format!("`{text}`: expected three numbers X,Y,Z"));
+    };
+    let mut out = [0.0; 3];
+    for (o, p) in out.iter_mut().zip([x, y, z]) {
+        *o = p
+            .trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| format!("`{p}` in `{text}` is not a finite number"))?;
+    }
+    Ok(out)
 }
 
 /// Where a mesh comes from: a file path or `builtin:NAME`.
@@ -638,6 +688,16 @@ pub enum BenchKind {
         #[arg(long)]
         json: bool,
     },
+    /// Device bridge round trip (pose out, wrench back), immediate and at 1 kHz, beside a raw
+    /// UDP ping-pong.
+    Bridge {
+        /// Round trips per measurement (100 to 1000000).
+        #[arg(long, default_value_t = 5000)]
+        round_trips: u64,
+        /// Print JSON (always JSON; accepted for symmetry).
+        #[arg(long)]
+        json: bool,
+    },
     /// Gather round trip to 1 and 2 local worker processes beside a raw UDP ping-pong.
     Transport {
         /// Frames (and raw UDP round trips) per measurement.
@@ -703,6 +763,7 @@ impl Default for RunArgs {
             record: None,
             json: false,
             view: None,
+            bridge: BridgeArgs::default(),
         }
     }
 }

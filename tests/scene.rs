@@ -307,6 +307,14 @@ fn bad_scene_files_name_the_file_and_field_and_run_nothing() {
             SCENE.replace("voxel_size = \"5mm\"", "voxel_size = \"1um\""),
             "voxels.voxel_size",
         ),
+        (
+            format!("{SCENE}[device]\nkind = \"bridge\"\n[device.mapping]\nscale = 0.0\n"),
+            "device.mapping.scale",
+        ),
+        (
+            format!("{SCENE}[device]\nkind = \"bridge\"\npose_timeout_ms = 1\n"),
+            "device.pose_timeout_ms",
+        ),
     ];
     for (i, (text, field)) in cases.iter().enumerate() {
         let name = format!("bad{i}.toml");

@@ -50,6 +50,8 @@ pub struct CoordinatedRun {
     pub cluster: ClusterReport,
     /// Points in the shell.
     pub shell_points: usize,
+    /// The bridge's counters and wrench log, when the device was the UDP bridge.
+    pub bridge: Option<vps_input::BridgeMonitor>,
 }
 
 /// Runs one session on a started coordinator once `workers` have joined; `tune` may adjust the
@@ -92,6 +94,7 @@ fn coordinate_prepared(
         session: scene,
         viewer: _viewer,
         setup,
+        bridge,
     } = prepared.go_live(session.view)?;
     let cluster_scene = Arc::new(ClusterScene::new(
         scene.tree.clone(),
@@ -123,6 +126,7 @@ fn coordinate_prepared(
         report,
         cluster,
         shell_points: scene.shell.len(),
+        bridge,
     })
 }
 
@@ -143,6 +147,7 @@ pub fn coordinator(args: &CoordinatorArgs) -> Result<()> {
         &args.session,
         run.shell_points,
         &run.report,
+        run.bridge.as_ref(),
         Some(&run.cluster),
     )
 }
@@ -161,6 +166,7 @@ pub fn local_cluster(args: &ClusterArgs) -> Result<()> {
         &args.session,
         run.shell_points,
         &run.report,
+        run.bridge.as_ref(),
         Some(&run.cluster),
     )
 }

@@ -1,5 +1,6 @@
 //! One module per subcommand; [`dispatch`] routes the parsed command line.
 
+mod bench_bridge;
 mod bench_cluster;
 mod bench_fidelity;
 mod bench_host;
@@ -99,6 +100,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
             BenchKind::Transport {
                 frames, spin_us, ..
             } => bench_transport::run(frames, spin_us),
+            BenchKind::Bridge { round_trips, .. } => bench_bridge::run(round_trips),
             BenchKind::Host {
                 seconds, busy_us, ..
             } => bench_host::run(seconds, busy_us),

@@ -3,14 +3,15 @@
 //! handle traces to and from files.
 
 use super::output::print_json;
-use crate::cli::RunArgs;
+use crate::cli::{BridgeArgs, RunArgs};
 use anyhow::{anyhow, bail, Context, Result};
 use serde::Serialize;
 use std::path::Path;
 use vps_device::trace::save_trace;
 use vps_haptic::HapticParams;
+use vps_input::{BridgeCounters, BridgeMonitor};
 use vps_runtime::{run_loop, LoopConfig, LoopReport, SessionSetup, StatsSummary};
-use vps_session::{DeviceChoice, Session, SessionPlan};
+use vps_session::{BridgeSettings, DeviceChoice, Session, SessionPlan};
 
 #[derive(Serialize)]
 struct RunReport {
@@ -22,6 +23,9 @@ struct RunReport {
     stats: StatsSummary,
     #[serde(skip_serializing_if = "Option::is_none")]
     cluster: Option<serde_json::Value>,
+    /// The bridge device's counters, when the device was the bridge.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    bridge: Option<BridgeCounters>,
 }
 
 /// Everything a session needs, opened from the command line.
@@ -41,6 +45,8 @@ pub struct LiveSession {
     pub viewer: Option<super::view::LiveViewer>,
     /// What the frame loop runs.
     pub setup: SessionSetup,
+    /// The bridge's counters and wrench log, when the device is the UDP bridge (for the report).
+    pub bridge: Option<BridgeMonitor>,
 }
 
 impl PreparedSession {
@@ -49,11 +55,13 @@ impl PreparedSession {
     pub fn go_live(self, view: Option<std::net::SocketAddr>) -> Result<LiveSession> {
         let PreparedSession { session, plan } = self;
         let viewer = super::view::attach(view, &session)?;
+        let bridge = plan.bridge.clone();
         let setup = plan.into_setup(viewer.as_ref().map(|v| v.feed()));
         Ok(LiveSession {
             session,
             viewer,
             setup,
+            bridge,
         })
     }
 }
@@ -64,6 +72,39 @@ pub fn device_choice(text: Option<&str>, session: &Session) -> Result<DeviceChoi
         Some(t) => DeviceChoice::parse(t).map_err(|m| anyhow!("--device {m}")),
         None => Ok(session.device.clone()),
     }
+}
+
+/// The bridge settings of a session: the scene's (`[device]` `mapping`, `pose_timeout_ms`) with
+/// each flag of `flags` that was given in their place; the wrench log holds one wrench per frame
+/// plus the loop's final zero when `--log-wrenches` is given. The flags need the bridge device.
+fn bridge_settings(
+    flags: &BridgeArgs,
+    choice: &DeviceChoice,
+    scene: BridgeSettings,
+    frames: u64,
+) -> Result<BridgeSettings> {
+    if *flags == BridgeArgs::default() {
+        return Ok(scene);
+    }
+    if !matches!(choice, DeviceChoice::Bridge(_)) {
+        bail!("--map-*, --force-scale, --pose-timeout-ms and --log-wrenches need --device bridge[:ADDR]");
+    }
+    let mut settings = scene;
+    let m = &mut settings.mapping;
+    m.scale = flags.map_scale.unwrap_or(m.scale);
+    m.offset = flags.map_offset.unwrap_or(m.offset);
+    m.rotate_deg = flags.map_rotate_deg.unwrap_or(m.rotate_deg);
+    m.force_scale = flags.force_scale.unwrap_or(m.force_scale);
+    if let Some(ms) = flags.pose_timeout_ms {
+        settings.pose_timeout = ms / 1e3;
+    }
+    if flags.log_wrenches.is_some() {
+        // The loop writes one zero wrench after its last frame.
+        settings.wrench_log_frames = usize::try_from(frames)
+            .unwrap_or(usize::MAX)
+            .saturating_add(1);
+    }
+    Ok(settings)
 }
 
 /// Builds the scene, loads parameters and opens the device of `args`.
@@ -78,6 +119,7 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
             .with_scene(session.voxel_size, session.shell.max_radius())?;
     }
     let frames = choice.frames(args.seconds, session.params.dt)?;
+    session.bridge = bridge_settings(&args.bridge, &choice, session.bridge, frames)?;
     let config = LoopConfig {
         frames: Some(frames),
         threads: args.threads.max(1),
@@ -95,21 +137,36 @@ pub fn run(args: &RunArgs) -> Result<()> {
         session,
         viewer: _viewer,
         setup,
+        bridge,
     } = prepare(args)?.go_live(args.view)?;
     let report: LoopReport = run_loop(session.tree.clone(), session.classed_shell(), setup)?;
-    finish(args, session.shell.len(), &report, None::<&()>)
+    finish(
+        args,
+        session.shell.len(),
+        &report,
+        bridge.as_ref(),
+        None::<&()>,
+    )
 }
 
-/// Saves the recording, prints the session's figures (and `cluster`, when given, as JSON), and
+/// Saves the recording (and the bridge's wrench log when asked), prints the session's figures
+/// (with the bridge's counters when `bridge` is given, and `cluster`, when given, as JSON), and
 /// fails when the device failed.
 pub fn finish<C: Serialize>(
     args: &RunArgs,
     shell_points: usize,
     report: &LoopReport,
+    bridge: Option<&BridgeMonitor>,
     cluster: Option<&C>,
 ) -> Result<()> {
     if let Some(path) = &args.record {
         save_recording(report, path)?;
+    }
+    if let (Some(monitor), Some(path)) = (bridge, &args.bridge.log_wrenches) {
+        let n = monitor
+            .save_wrench_log(path)
+            .with_context(|| format!("writing the wrench log {}", path.display()))?;
+        eprintln!("logged {n} wrenches sent to {}", path.display());
     }
     let end = match &report.device_error {
         Some(err) => format!("device failed: {err}"),
@@ -123,6 +180,7 @@ pub fn finish<C: Serialize>(
         final_position_m: report.final_state.position.to_array(),
         stats: report.stats.clone(),
         cluster: cluster.map(serde_json::to_value).transpose()?,
+        bridge: bridge.map(|m| m.counters()),
     };
     if args.json {
         print_json(&out)?;
@@ -133,6 +191,21 @@ pub fn finish<C: Serialize>(
         );
         crate::demo::print_summary("session", &out.stats, None);
         println!("final part position (m): {:?}", out.final_position_m);
+        if let Some(c) = &out.bridge {
+            println!(
+                "bridge: poses received {}, bad datagrams {} (+{} wrong token, {} stale), \
+                 timeouts {}, clutch presses {}, zeroed frames {}, wrenches sent {} ({} failed)",
+                c.accepted,
+                c.garbage,
+                c.unauthorized,
+                c.stale,
+                c.timeouts,
+                c.clutch_presses,
+                c.zeroed_frames,
+                c.sent,
+                c.send_failed
+            );
+        }
         if let Some(cluster) = &out.cluster {
             println!("cluster: {}", serde_json::to_string_pretty(cluster)?);
         }

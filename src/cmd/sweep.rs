@@ -273,19 +273,15 @@ pub fn run_sweep_session(
     frames: u64,
     paced: bool,
 ) -> Result<vps_runtime::LoopReport> {
-    let (device, initial) = DeviceChoice::Simulated.open(session.script.clone())?;
-    let plan = SessionPlan {
-        params: session.params,
-        device,
-        initial,
-        config: LoopConfig {
-            frames: Some(frames),
-            threads: 1,
-            realtime: paced,
-            free_running: !paced,
-            ..LoopConfig::default()
-        },
+    let device = DeviceChoice::Simulated.open(session.script.clone(), &Default::default())?;
+    let config = LoopConfig {
+        frames: Some(frames),
+        threads: 1,
+        realtime: paced,
+        free_running: !paced,
+        ..LoopConfig::default()
     };
+    let plan = SessionPlan::new(session.params, device, config);
     let report = run_loop(
         session.tree.clone(),
         classed(&session.shell),

@@ -13,6 +13,9 @@ pub mod bridge;
 mod error;
 pub mod spacemouse;
 
-pub use bridge::{BridgeClient, BridgeConfig, BridgeCounters, BridgeDevice, BridgeError};
+pub use bridge::{
+    BridgeClient, BridgeConfig, BridgeCounters, BridgeDevice, BridgeError, BridgeMonitor,
+    WorkspaceMapping,
+};
 pub use error::InputError;
 pub use spacemouse::{list_devices, HidDeviceInfo, SpaceMouse, SpaceMouseConfig};

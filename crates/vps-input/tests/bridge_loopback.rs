@@ -14,6 +14,15 @@ use vps_input::{BridgeClient, BridgeConfig, BridgeCounters, BridgeDevice};
 
 const DEADLINE: Duration = Duration::from_secs(5);
 
+/// The default configuration with the longest pose timeout, so a slow loopback delivery on a
+/// loaded machine (the tests advance device time 1 ms per poll) never makes the device hold.
+fn patient() -> BridgeConfig {
+    BridgeConfig {
+        pose_timeout: 10.0,
+        ..Default::default()
+    }
+}
+
 fn sample(x: f64) -> HandleSample {
     HandleSample {
         position: DVec3::new(x, 0.5, -0.25),
@@ -69,7 +78,7 @@ fn initial_pose_before_any_datagram() {
 
 #[test]
 fn poses_in_wrenches_out() {
-    let mut dev = BridgeDevice::bind(BridgeConfig::default()).unwrap();
+    let mut dev = BridgeDevice::bind(patient()).unwrap();
     let mut client = BridgeClient::connect(dev.local_addr(), None).unwrap();
     let mut t = 0.0;
     for k in 1..=5u64 {
@@ -99,7 +108,7 @@ fn poses_in_wrenches_out() {
 
 #[test]
 fn older_sequences_are_dropped_and_velocity_times_out() {
-    let mut dev = BridgeDevice::bind(BridgeConfig::default()).unwrap();
+    let mut dev = BridgeDevice::bind(patient()).unwrap();
     let client = BridgeClient::connect(dev.local_addr(), None).unwrap();
     let mut t = 0.0;
     client.send_pose_with_sequence(&sample(0.3), 10).unwrap();
@@ -119,7 +128,7 @@ fn older_sequences_are_dropped_and_velocity_times_out() {
 
 #[test]
 fn garbage_is_counted_and_ignored() {
-    let mut dev = BridgeDevice::bind(BridgeConfig::default()).unwrap();
+    let mut dev = BridgeDevice::bind(patient()).unwrap();
     let mut client = BridgeClient::connect(dev.local_addr(), None).unwrap();
     let mut t = 0.0;
     client.send_pose(&sample(0.05)).unwrap();
@@ -184,7 +193,7 @@ fn token_is_enforced_when_configured() {
     let token = [0x5a; 16];
     let cfg = BridgeConfig {
         token: Some(token),
-        ..Default::default()
+        ..patient()
     };
     let mut dev = BridgeDevice::bind(cfg).unwrap();
     let mut wrong = BridgeClient::connect(dev.local_addr(), Some([0x5b; 16])).unwrap();
@@ -207,7 +216,7 @@ fn token_is_enforced_when_configured() {
 
 #[test]
 fn non_finite_write_is_an_error_and_keeps_the_previous_wrench() {
-    let mut dev = BridgeDevice::bind(BridgeConfig::default()).unwrap();
+    let mut dev = BridgeDevice::bind(patient()).unwrap();
     let w = Wrench {
         force: DVec3::X,
         torque: DVec3::ZERO,
@@ -240,7 +249,7 @@ fn remote_bind_without_token_is_refused() {
 
 #[test]
 fn devices_are_usable_as_boxed_haptic_devices() {
-    let dev = BridgeDevice::bind(BridgeConfig::default()).unwrap();
+    let dev = BridgeDevice::bind(patient()).unwrap();
     let boxed: Box<dyn HapticDevice> = Box::new(dev);
     assert_eq!(boxed.name(), "udp bridge");
     fn assert_send<T: Send>() {}

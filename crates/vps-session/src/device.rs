@@ -1,5 +1,6 @@
 //! The device a session is driven by: parsed from `--device` or a scene's `[device] kind`, and
-//! opened.
+//! opened ([`DeviceChoice::open`]); the bridge with its [`BridgeSettings`] (mapping, pose timeout,
+//! wrench log), returning its [`BridgeMonitor`] beside the device in an [`OpenedDevice`].
 
 use anyhow::{Context, Result};
 use glam::DQuat;
@@ -8,10 +9,50 @@ use vps_device::script::Script;
 use vps_device::trace::{load_trace, ReplayDevice};
 use vps_device::{DeviceLimits, HandParams, HapticDevice, SimulatedHand};
 use vps_haptic::PartState;
-use vps_input::{BridgeConfig, BridgeDevice, SpaceMouse, SpaceMouseConfig};
+use vps_input::{
+    BridgeConfig, BridgeDevice, BridgeMonitor, SpaceMouse, SpaceMouseConfig, WorkspaceMapping,
+};
 
 /// The default address of the UDP device bridge.
 pub const DEFAULT_BRIDGE_ADDR: &str = "127.0.0.1:7700";
+
+/// How the UDP device bridge is set up when it is the session's device: the scene file's
+/// `[device]` `mapping` and `pose_timeout_ms`, overridden by command-line flags. Ignored by the
+/// other devices.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BridgeSettings {
+    /// Device frame to scene frame, and scene wrench back to the device. Default: the identity.
+    pub mapping: WorkspaceMapping,
+    /// A device silent this long is held with zero output and re-anchored when it resumes
+    /// (s; finite, in [0.002, 10]). Default 0.05.
+    pub pose_timeout: f64,
+    /// Keep up to this many sent wrenches for the session's report (0: none; see
+    /// [`vps_input::bridge::config::MAX_WRENCH_LOG_FRAMES`]). Reserved when the bridge is bound. Default 0.
+    pub wrench_log_frames: usize,
+}
+
+impl Default for BridgeSettings {
+    fn default() -> Self {
+        let defaults = BridgeConfig::default();
+        Self {
+            mapping: defaults.mapping,
+            pose_timeout: defaults.pose_timeout,
+            wrench_log_frames: defaults.wrench_log_frames,
+        }
+    }
+}
+
+/// An opened device: what the frame loop drives, the part's state at frame 0, and, for the
+/// bridge, a handle onto its counters and wrench log that stays readable after the device has
+/// moved into the loop.
+pub struct OpenedDevice {
+    /// The device.
+    pub device: Box<dyn HapticDevice>,
+    /// The part's state at frame 0.
+    pub initial: PartState,
+    /// The bridge's counters and wrench log (`None` for every other device).
+    pub bridge: Option<BridgeMonitor>,
+}
 
 /// The device a session is driven by.
 #[derive(Clone, Debug, PartialEq)]
@@ -65,15 +106,17 @@ impl DeviceChoice {
         })
     }
 
-    /// Opens the device; `script` drives the simulated hand and gives the others their start pose.
-    /// Returns the device and the part's state at frame 0. Blocking (opens files, sockets, HID).
-    pub fn open(&self, script: Script) -> Result<(Box<dyn HapticDevice>, PartState)> {
+    /// Opens the device; `script` drives the simulated hand and gives the others their start pose;
+    /// `bridge` sets up the UDP bridge (ignored by the other devices). Blocking (opens files,
+    /// sockets, HID).
+    pub fn open(&self, script: Script, bridge: &BridgeSettings) -> Result<OpenedDevice> {
         let (start, orientation) = script.sample(0.0);
         let at_start = PartState::at_rest(start, orientation);
-        Ok(match self {
+        let (device, initial, monitor): (Box<dyn HapticDevice>, _, _) = match self {
             DeviceChoice::Simulated => (
                 Box::new(SimulatedHand::new(script, HandParams::default())?),
                 at_start,
+                None,
             ),
             DeviceChoice::SpaceMouse => {
                 let config = SpaceMouseConfig {
@@ -84,18 +127,22 @@ impl DeviceChoice {
                 let device = SpaceMouse::open_first(config).context(
                     "opening a SpaceMouse (`vps devices` lists what this machine sees; /dev/hidraw* must be readable)",
                 )?;
-                (Box::new(device), at_start)
+                (Box::new(device), at_start, None)
             }
             DeviceChoice::Bridge(addr) => {
                 let config = BridgeConfig {
                     bind: *addr,
                     initial_position: start,
+                    pose_timeout: bridge.pose_timeout,
+                    mapping: bridge.mapping,
+                    wrench_log_frames: bridge.wrench_log_frames,
                     ..Default::default()
                 };
                 let device = BridgeDevice::bind(config)
                     .with_context(|| format!("binding the device bridge on {addr}"))?;
                 eprintln!("device bridge listening on {}", device.local_addr());
-                (Box::new(device), at_start)
+                let monitor = device.monitor();
+                (Box::new(device), at_start, Some(monitor))
             }
             DeviceChoice::Replay(path) => {
                 let trace = load_trace(path)?;
@@ -107,8 +154,14 @@ impl DeviceChoice {
                 (
                     Box::new(ReplayDevice::new(trace, DeviceLimits::PAPER)),
                     state,
+                    None,
                 )
             }
+        };
+        Ok(OpenedDevice {
+            device,
+            initial,
+            bridge: monitor,
         })
     }
 }

@@ -3,11 +3,13 @@
 //! default device. See `docs/scenes.md` for every key. Parsing rejects unknown keys; every error
 //! names the file and the dotted field.
 
+use crate::device::BridgeSettings;
 use crate::error::{field_error, SceneError};
 use crate::length::length;
 use glam::{DQuat, DVec3};
 use serde::{Deserialize, Deserializer};
 use std::path::Path;
+use vps_input::{BridgeError, WorkspaceMapping};
 use vps_mesh::Aabb;
 use vps_voxelize::ShellMethod;
 use vps_voxmap::VoxelWidth;
@@ -266,6 +268,41 @@ pub struct DeviceSection {
     /// Default `sim`.
     #[serde(default = "default_device")]
     pub kind: String,
+    /// How the bridge's device frame maps into the scene and forces back (`scale`, `rotate_deg`,
+    /// `offset`, `force_scale`; see [`WorkspaceMapping`]). Used when the device is the bridge.
+    /// Default: the identity.
+    pub mapping: Option<WorkspaceMapping>,
+    /// A bridge device silent this long is held with zero output and re-anchored when it resumes
+    /// (ms, in [2, 10000]). Used when the device is the bridge. Default 50.
+    pub pose_timeout_ms: Option<f64>,
+}
+
+impl DeviceSection {
+    /// The bridge settings of this section (defaults where absent); errors name `path` and the
+    /// field.
+    pub fn bridge_settings(&self, path: &str) -> Result<BridgeSettings, SceneError> {
+        let mut settings = BridgeSettings::default();
+        if let Some(mapping) = self.mapping {
+            mapping.validate().map_err(|e| match e {
+                BridgeError::Config { field, message } => {
+                    field_error(path, &format!("device.{field}"), message)
+                }
+                other => field_error(path, "device.mapping", other.to_string()),
+            })?;
+            settings.mapping = mapping;
+        }
+        if let Some(ms) = self.pose_timeout_ms {
+            if !(ms.is_finite() && (2.0..=10_000.0).contains(&ms)) {
+                return Err(field_error(
+                    path,
+                    "device.pose_timeout_ms",
+                    format!("{ms} must be finite and within [2, 10000] (ms)"),
+                ));
+            }
+            settings.pose_timeout = ms / 1e3;
+        }
+        Ok(settings)
+    }
 }
 
 fn unit_scale() -> [f64; 3] {
@@ -472,6 +509,7 @@ impl SceneFile {
         if let Some(d) = &self.device {
             crate::device::DeviceChoice::parse(&d.kind)
                 .map_err(|message| field_error(path, "device.kind", message))?;
+            d.bridge_settings(path)?;
         }
         Ok(())
     }
@@ -723,6 +761,26 @@ max = [0.4, 0.1, 0.2]
                 format!("{GOOD}\n[device]\nkind = \"joystick\"\n"),
                 "`device.kind`",
             ),
+            (
+                format!("{GOOD}\n[device]\nkind = \"bridge\"\npose_timeout_ms = 0\n"),
+                "`device.pose_timeout_ms`",
+            ),
+            (
+                format!("{GOOD}\n[device]\nkind = \"bridge\"\n[device.mapping]\nscale = 0.0\n"),
+                "`device.mapping.scale`",
+            ),
+            (
+                format!("{GOOD}\n[device]\n[device.mapping]\nforce_scale = -1.0\n"),
+                "`device.mapping.force_scale`",
+            ),
+            (
+                format!("{GOOD}\n[device]\n[device.mapping]\nscael = 2.0\n"),
+                "scael",
+            ),
+            (
+                format!("{GOOD}\n[device]\n[device.mapping]\noffset = [0.0, 1.0]\n"),
+                "`device.mapping.offset`",
+            ),
         ];
         for (text, field) in cases {
             let err = parse(&text).unwrap_err().to_string();
@@ -734,6 +792,34 @@ max = [0.4, 0.1, 0.2]
             err.to_string(),
             "sweep.toml: field `widths[1]`: 16 must be 2, 4 or 8 (bits)"
         );
+    }
+
+    #[test]
+    fn device_section_sets_up_the_bridge() {
+        let text = format!(
+            "{GOOD}\n[device]\nkind = \"bridge:127.0.0.1:7701\"\npose_timeout_ms = 200\n\
+             [device.mapping]\nscale = 4.0\nrotate_deg = [0, 0, 90]\noffset = [0.1, 0.0, 0.1]\n"
+        );
+        let file = parse(&text).unwrap();
+        let bridge = file
+            .device
+            .as_ref()
+            .unwrap()
+            .bridge_settings("scene.toml")
+            .unwrap();
+        assert_eq!(bridge.pose_timeout, 0.2);
+        assert_eq!(
+            bridge.mapping,
+            WorkspaceMapping {
+                scale: 4.0,
+                rotate_deg: [0.0, 0.0, 90.0],
+                offset: [0.1, 0.0, 0.1],
+                force_scale: 1.0,
+            }
+        );
+        let plain = parse(&format!("{GOOD}\n[device]\nkind = \"sim\"\n")).unwrap();
+        let defaults = plain.device.unwrap().bridge_settings("scene.toml").unwrap();
+        assert_eq!(defaults, BridgeSettings::default());
     }
 
     #[test]

@@ -18,7 +18,7 @@ pub mod scene;
 pub mod script;
 
 pub use cache::CachePolicy;
-pub use device::DeviceChoice;
+pub use device::{BridgeSettings, DeviceChoice, OpenedDevice};
 pub use error::SceneError;
 pub use file::SceneFile;
 pub use plan::SessionPlan;

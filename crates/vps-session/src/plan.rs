@@ -1,7 +1,7 @@
 //! The one way a session's [`SessionSetup`] for the runtime is made: a [`SessionPlan`] (parameters,
 //! opened device, initial state, loop settings) plus where the loop publishes and what stops it.
 
-use crate::device::DeviceChoice;
+use crate::device::{DeviceChoice, OpenedDevice};
 use crate::scene::Session;
 use anyhow::Result;
 use std::sync::atomic::AtomicBool;
@@ -9,6 +9,7 @@ use std::sync::Arc;
 use vps_device::script::Script;
 use vps_device::HapticDevice;
 use vps_haptic::{HapticParams, PartState};
+use vps_input::BridgeMonitor;
 use vps_runtime::{LoopConfig, SessionSetup, StateFeedSender};
 
 /// A session ready to run: everything the runtime's loop needs except the viewer feed and the
@@ -22,9 +23,23 @@ pub struct SessionPlan {
     pub initial: PartState,
     /// Frame loop settings.
     pub config: LoopConfig,
+    /// The bridge's counters and wrench log when the device is the UDP bridge: readable after the
+    /// device has moved into the loop (clone it before [`SessionPlan::into_setup`]).
+    pub bridge: Option<BridgeMonitor>,
 }
 
 impl SessionPlan {
+    /// A plan driving the opened `device` with `params` and `config`.
+    pub fn new(params: HapticParams, device: OpenedDevice, config: LoopConfig) -> SessionPlan {
+        SessionPlan {
+            params,
+            device: device.device,
+            initial: device.initial,
+            config,
+            bridge: device.bridge,
+        }
+    }
+
     /// The runtime's setup: publishing to `feed` when given, ended early when `stop` is raised.
     pub fn into_setup_with_stop(
         self,
@@ -49,20 +64,16 @@ impl SessionPlan {
 }
 
 impl Session {
-    /// Opens `device` (the simulated hand follows `script`; the others start at its first pose)
-    /// and plans a session with the scene's parameters and `config`. Blocking (opens the device).
+    /// Opens `device` (the simulated hand follows `script`; the others start at its first pose;
+    /// the bridge is set up by [`Session::bridge`]) and plans a session with the scene's
+    /// parameters and `config`. Blocking (opens the device).
     pub fn plan(
         &self,
         device: &DeviceChoice,
         script: Script,
         config: LoopConfig,
     ) -> Result<SessionPlan> {
-        let (device, initial) = device.open(script)?;
-        Ok(SessionPlan {
-            params: self.params,
-            device,
-            initial,
-            config,
-        })
+        let opened = device.open(script, &self.bridge)?;
+        Ok(SessionPlan::new(self.params, opened, config))
     }
 }

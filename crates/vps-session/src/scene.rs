@@ -3,7 +3,7 @@
 //! device, hand path, and the meshes for a viewer).
 
 use crate::cache::{cache_key, cache_path, read_cached, write_cached, CachePolicy};
-use crate::device::DeviceChoice;
+use crate::device::{BridgeSettings, DeviceChoice};
 use crate::error::{field_error, SceneError};
 use crate::estimate::{estimate, VoxmapEstimate, MAX_GRID_VOXELS, VOXMAP_MEMORY_BUDGET};
 use crate::file::{rotation, SceneFile};
@@ -63,6 +63,9 @@ pub struct LoadedScene {
     pub params: HapticParams,
     /// The scene's default device (`[device] kind`, else the simulated hand).
     pub device: DeviceChoice,
+    /// How the bridge is set up when it drives the session (`[device]` `mapping` and
+    /// `pose_timeout_ms`).
+    pub bridge: BridgeSettings,
     /// Things worth a look that do not stop the scene (implausible mesh sizes), with hints.
     pub warnings: Vec<String>,
 }
@@ -158,6 +161,10 @@ impl LoadedScene {
                 .relative_to(&base),
             None => DeviceChoice::Simulated,
         };
+        let bridge = match &file.device {
+            Some(d) => d.bridge_settings(&label)?,
+            None => BridgeSettings::default(),
+        };
         let name = file.name.clone().unwrap_or(stem);
         Ok(LoadedScene {
             label,
@@ -170,6 +177,7 @@ impl LoadedScene {
             part_source,
             params,
             device,
+            bridge,
             warnings,
         })
     }
@@ -376,6 +384,7 @@ impl LoadedScene {
             shell,
             params,
             device: self.device,
+            bridge: self.bridge,
             hand,
             scene_triangles,
             static_meshes: self.statics,
@@ -577,6 +586,9 @@ pub struct Session {
     pub params: HapticParams,
     /// The scene's default device.
     pub device: DeviceChoice,
+    /// How the bridge is set up when it drives the session: the scene's `[device]` settings,
+    /// which a caller may override (command-line flags) before [`Session::plan`].
+    pub bridge: BridgeSettings,
     /// How the simulated hand moves.
     pub hand: HandPlan,
     /// Triangles in the static scene.

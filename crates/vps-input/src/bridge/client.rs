@@ -75,10 +75,30 @@ impl BridgeClient {
         sample: &HandleSample,
         sequence: u64,
     ) -> Result<(), BridgeError> {
+        self.send_message(sequence, Message::PoseIn(*sample))
+    }
+
+    /// Sends `sample` as the next PoseInFlags (e.g. with [`FLAG_CLUTCH`](super::protocol::FLAG_CLUTCH)
+    /// while the clutch is held) and returns its sequence number.
+    pub fn send_pose_flags(
+        &mut self,
+        sample: &HandleSample,
+        flags: u32,
+    ) -> Result<u64, BridgeError> {
+        self.sequence += 1;
+        let message = Message::PoseInFlags {
+            sample: *sample,
+            flags,
+        };
+        self.send_message(self.sequence, message)?;
+        Ok(self.sequence)
+    }
+
+    fn send_message(&self, sequence: u64, message: Message) -> Result<(), BridgeError> {
         let datagram = Datagram {
             token: self.token,
             sequence,
-            message: Message::PoseIn(*sample),
+            message,
         };
         let mut out = [0u8; MAX_DATAGRAM];
         let n = datagram.encode(&mut out);
@@ -136,7 +156,7 @@ impl BridgeClient {
         }
         match d.message {
             Message::WrenchOut { wrench, frame } => Some(WrenchReply { wrench, frame }),
-            Message::PoseIn(_) => None,
+            Message::PoseIn(_) | Message::PoseInFlags { .. } => None,
         }
     }
 }

@@ -5,7 +5,11 @@ use std::net::{Ipv4Addr, SocketAddr};
 use glam::{DQuat, DVec3};
 use vps_device::DeviceLimits;
 
+use super::mapping::WorkspaceMapping;
 use super::protocol::Token;
+
+/// Longest accepted `wrench_log_frames`: one hour at 1 kHz (56 bytes each, about 200 MB).
+pub const MAX_WRENCH_LOG_FRAMES: usize = 3_600_000;
 
 /// Settings of a [`BridgeDevice`](super::BridgeDevice) (TOML/JSON loadable; defaults for all).
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -25,8 +29,18 @@ pub struct BridgeConfig {
     /// When the newest pose is older than this, its velocities are reported as zero (the pose is
     /// held) (s; finite, > 0). Default 0.1.
     pub velocity_timeout: f64,
-    /// Saturation limits applied to written wrenches. Default [`DeviceLimits::PAPER`].
+    /// When the newest pose is older than this, the device holds: the handle stays at its last
+    /// scene pose with zero velocities, zero wrenches are sent, and the next fresh pose re-anchors
+    /// the mapping so the part does not jump (s; finite, in [0.002, 10]). Default 0.05.
+    pub pose_timeout: f64,
+    /// Device frame → scene frame, and scene wrench → device wrench. Default: the identity.
+    pub mapping: WorkspaceMapping,
+    /// Saturation limits applied to written wrenches, in the device frame after the mapping's
+    /// force scale. Default [`DeviceLimits::PAPER`].
     pub limits: DeviceLimits,
+    /// Keep every wrench sent, up to this many, for [`BridgeMonitor`](super::BridgeMonitor)
+    /// (0: none; at most [`MAX_WRENCH_LOG_FRAMES`]; reserved when the device is bound).
+    pub wrench_log_frames: usize,
     /// Device name used in errors and reports. Default "udp bridge".
     pub name: String,
 }
@@ -40,7 +54,10 @@ impl Default for BridgeConfig {
             initial_position: DVec3::ZERO,
             initial_orientation: DQuat::IDENTITY,
             velocity_timeout: 0.1,
+            pose_timeout: 0.05,
+            mapping: WorkspaceMapping::default(),
             limits: DeviceLimits::PAPER,
+            wrench_log_frames: 0,
             name: "udp bridge".to_string(),
         }
     }
@@ -135,6 +152,25 @@ impl BridgeConfig {
             return Err(bad(
                 "velocity_timeout",
                 format!("{} s must be finite and > 0", self.velocity_timeout),
+            ));
+        }
+        if !(self.pose_timeout.is_finite() && (0.002..=10.0).contains(&self.pose_timeout)) {
+            return Err(bad(
+                "pose_timeout",
+                format!(
+                    "{} s must be finite and within [0.002, 10]",
+                    self.pose_timeout
+                ),
+            ));
+        }
+        self.mapping.validate()?;
+        if self.wrench_log_frames > MAX_WRENCH_LOG_FRAMES {
+            return Err(bad(
+                "wrench_log_frames",
+                format!(
+                    "{} exceeds the maximum {MAX_WRENCH_LOG_FRAMES}",
+                    self.wrench_log_frames
+                ),
             ));
         }
         let l = self.limits;
@@ -247,6 +283,27 @@ mod tests {
                 ..
             })
         ));
+        for (c, field) in [
+            (
+                BridgeConfig {
+                    pose_timeout: 0.0,
+                    ..Default::default()
+                },
+                "pose_timeout",
+            ),
+            (
+                BridgeConfig {
+                    wrench_log_frames: MAX_WRENCH_LOG_FRAMES + 1,
+                    ..Default::default()
+                },
+                "wrench_log_frames",
+            ),
+        ] {
+            match c.validate() {
+                Err(BridgeError::Config { field: f, .. }) => assert_eq!(f, field),
+                other => panic!("{field}: {other:?}"),
+            }
+        }
         let c = BridgeConfig {
             limits: DeviceLimits {
                 max_force: f64::INFINITY,

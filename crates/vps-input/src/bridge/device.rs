@@ -8,38 +8,34 @@ use vps_device::{DeviceError, DeviceLimits, HapticDevice};
 use vps_haptic::{HandleSample, Wrench};
 
 use super::config::{BridgeConfig, BridgeError};
-use super::protocol::{tokens_equal, Datagram, Message, Token, MAX_DATAGRAM};
+use super::mapping::Anchor;
+use super::monitor::{BridgeCounters, BridgeMonitor, SentWrench};
+use super::protocol::{tokens_equal, Datagram, Message, Token, FLAG_CLUTCH, MAX_DATAGRAM};
 
 /// At most this many datagrams are drained per `read`, so `read` stays bounded under a flood.
 const MAX_DATAGRAMS_PER_READ: usize = 1024;
-
-/// Counts of datagrams seen and sent by a [`BridgeDevice`] since it was bound.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct BridgeCounters {
-    /// Poses accepted (newer than the previous one from the same peer).
-    pub accepted: u64,
-    /// Valid poses dropped because their sequence was not newer.
-    pub stale: u64,
-    /// Datagrams that failed to decode (bad length, magic, version, kind, non-finite values), or
-    /// were a WrenchOut (wrong direction).
-    pub garbage: u64,
-    /// Well-formed datagrams carrying the wrong token.
-    pub unauthorized: u64,
-    /// Wrenches sent to the peer.
-    pub sent: u64,
-    /// Wrench sends that failed (full buffer, unreachable peer); not fatal.
-    pub send_failed: u64,
-}
 
 /// A haptic device whose handle is driven over UDP by a [`BridgeClient`](super::BridgeClient) or
 /// any process speaking [`protocol`](super::protocol).
 ///
 /// `read(t)` drains pending datagrams without blocking (at most 1024) and returns the newest
-/// accepted pose; before any, the configured initial pose with zero velocity. A pose older than
-/// `velocity_timeout` is held with zero velocities. Poses from one peer must carry increasing
-/// sequence numbers; a pose from a new peer address starts a new stream (the newest peer wins).
-/// `write` saturates the wrench and sends it to the peer of the newest pose (no peer yet: nothing
-/// is sent). Neither allocates except to build an error; neither blocks.
+/// accepted pose mapped into the scene by the configured [`WorkspaceMapping`]; before any pose,
+/// the configured initial pose with zero velocity. A pose older than `velocity_timeout` is
+/// reported with zero velocities. Poses from one peer must carry increasing sequence numbers; a
+/// pose from a new peer address starts a new stream (the newest peer wins).
+///
+/// Holding: while the newest pose carries the clutch flag, or is older than `pose_timeout`, the
+/// device holds: `read` returns the last scene pose it returned, with zero velocities (the
+/// handle moves without moving the part's target), and `write` sends the zero wrench (counted in
+/// `zeroed_frames`). When a fresh pose without the clutch arrives, the mapping is re-anchored so
+/// that pose maps exactly onto the held scene pose: the target does not jump.
+///
+/// `write` maps the scene wrench into the device frame (force scale, inverse rotation),
+/// saturates it to the device limits and sends it to the peer of the newest pose (no peer yet:
+/// nothing is sent). Neither allocates except to build an error; neither blocks beyond a
+/// [`BridgeMonitor`] reader's copy.
+///
+/// [`WorkspaceMapping`]: super::WorkspaceMapping
 pub struct BridgeDevice {
     socket: UdpSocket,
     config: BridgeConfig,
@@ -49,14 +45,23 @@ pub struct BridgeDevice {
     frame: u64,
     last_wrench: Wrench,
     counters: BridgeCounters,
+    monitor: BridgeMonitor,
+    anchor: Anchor,
+    /// The scene sample `read` returned last (what is held while holding).
+    output: HandleSample,
+    /// True while the clutch is held or the pose has timed out (after at least one pose).
+    holding: bool,
+    /// True from a timeout until the next fresh pose (so a silence counts once).
+    timed_out: bool,
     recv_buf: [u8; MAX_DATAGRAM + 1],
     send_buf: [u8; MAX_DATAGRAM],
 }
 
-/// The newest accepted pose and where it came from.
+/// The newest accepted pose (device frame) and where it came from.
 #[derive(Clone, Copy, Debug)]
 struct Latest {
     sample: HandleSample,
+    clutch: bool,
     sequence: u64,
     peer: SocketAddr,
     received_at: f64,
@@ -76,8 +81,19 @@ impl BridgeDevice {
         let local_addr = socket
             .local_addr()
             .map_err(|e| BridgeError::io("local address", e))?;
+        let output = HandleSample {
+            position: config.initial_position,
+            orientation: config.initial_orientation,
+            linear_velocity: DVec3::ZERO,
+            angular_velocity: DVec3::ZERO,
+        };
         Ok(Self {
             socket,
+            monitor: BridgeMonitor::with_capacity(config.wrench_log_frames),
+            anchor: Anchor::new(&config.mapping),
+            output,
+            holding: false,
+            timed_out: false,
             config,
             local_addr,
             latest: None,
@@ -95,12 +111,24 @@ impl BridgeDevice {
         self.local_addr
     }
 
-    /// Datagram counters since binding.
+    /// Counters since binding (up to date after every `read` and `write`).
     pub fn counters(&self) -> BridgeCounters {
         self.counters
     }
 
-    /// The last wrench written, after saturation (N, N·m, world frame).
+    /// A handle onto this device's counters (as of its last `write`) and the wrenches it sent,
+    /// still readable once the device has moved into the frame loop and been dropped.
+    pub fn monitor(&self) -> BridgeMonitor {
+        self.monitor.clone()
+    }
+
+    /// True while the device holds (clutch held or pose timed out): see [`BridgeDevice`].
+    pub fn holding(&self) -> bool {
+        self.holding
+    }
+
+    /// The last wrench sent or to be sent, in the device frame after force scaling and
+    /// saturation (N, N·m); zero while holding.
     pub fn last_wrench(&self) -> Wrench {
         self.last_wrench
     }
@@ -127,9 +155,13 @@ impl BridgeDevice {
             self.counters.unauthorized += 1;
             return;
         }
-        let Message::PoseIn(sample) = datagram.message else {
-            self.counters.garbage += 1;
-            return;
+        let (sample, clutch) = match datagram.message {
+            Message::PoseIn(sample) => (sample, false),
+            Message::PoseInFlags { sample, flags } => (sample, flags & FLAG_CLUTCH != 0),
+            Message::WrenchOut { .. } => {
+                self.counters.garbage += 1;
+                return;
+            }
         };
         if let Some(l) = &self.latest {
             if l.peer == from && datagram.sequence <= l.sequence {
@@ -137,13 +169,48 @@ impl BridgeDevice {
                 return;
             }
         }
+        if clutch && !self.latest.is_some_and(|l| l.clutch) {
+            self.counters.clutch_presses += 1;
+        }
         self.latest = Some(Latest {
             sample,
+            clutch,
             sequence: datagram.sequence,
             peer: from,
             received_at: t,
         });
         self.counters.accepted += 1;
+    }
+
+    /// Sets `output` (and the holding state) for a read at `t`, after draining datagrams.
+    fn update_output(&mut self, t: f64) {
+        let Some(l) = self.latest else {
+            return; // Still the initial pose.
+        };
+        let age = t - l.received_at;
+        let fresh = age <= self.config.pose_timeout;
+        if fresh {
+            self.timed_out = false;
+        } else if !self.timed_out {
+            self.timed_out = true;
+            self.counters.timeouts += 1;
+        }
+        if !fresh || l.clutch {
+            self.holding = true;
+            self.output.linear_velocity = DVec3::ZERO;
+            self.output.angular_velocity = DVec3::ZERO;
+            return;
+        }
+        if self.holding {
+            self.anchor
+                .reanchor(&l.sample, self.output.position, self.output.orientation);
+            self.holding = false;
+        }
+        self.output = self.anchor.to_scene(&l.sample);
+        if age > self.config.velocity_timeout {
+            self.output.linear_velocity = DVec3::ZERO;
+            self.output.angular_velocity = DVec3::ZERO;
+        }
     }
 
     fn hardware(&self, what: &str, e: std::io::Error) -> DeviceError {
@@ -180,20 +247,8 @@ impl HapticDevice for BridgeDevice {
                 Err(e) => return Err(self.hardware("receive", e)),
             }
         }
-        Ok(match &self.latest {
-            None => HandleSample {
-                position: self.config.initial_position,
-                orientation: self.config.initial_orientation,
-                linear_velocity: DVec3::ZERO,
-                angular_velocity: DVec3::ZERO,
-            },
-            Some(l) if t - l.received_at > self.config.velocity_timeout => HandleSample {
-                linear_velocity: DVec3::ZERO,
-                angular_velocity: DVec3::ZERO,
-                ..l.sample
-            },
-            Some(l) => l.sample,
-        })
+        self.update_output(t);
+        Ok(self.output)
     }
 
     fn write(&mut self, wrench: &Wrench) -> Result<(), DeviceError> {
@@ -203,9 +258,18 @@ impl HapticDevice for BridgeDevice {
                 what: "written wrench",
             });
         }
-        self.last_wrench = self.config.limits.saturate(wrench);
+        self.last_wrench = if self.holding {
+            self.counters.zeroed_frames += 1;
+            Wrench::ZERO
+        } else if *wrench == Wrench::ZERO {
+            // The loop's safety zero stays an exact +0.0 through the mapping.
+            Wrench::ZERO
+        } else {
+            self.config.limits.saturate(&self.anchor.to_device(wrench))
+        };
         self.frame += 1;
         let Some(peer) = self.latest.map(|l| l.peer) else {
+            self.monitor.publish(&mut self.counters, None);
             return Ok(());
         };
         let datagram = Datagram {
@@ -217,10 +281,20 @@ impl HapticDevice for BridgeDevice {
             },
         };
         let n = datagram.encode(&mut self.send_buf);
-        match self.socket.send_to(&self.send_buf[..n], peer) {
-            Ok(_) => self.counters.sent += 1,
-            Err(_) => self.counters.send_failed += 1,
-        }
+        let sent = match self.socket.send_to(&self.send_buf[..n], peer) {
+            Ok(_) => {
+                self.counters.sent += 1;
+                Some(SentWrench {
+                    frame: self.frame,
+                    wrench: self.last_wrench,
+                })
+            }
+            Err(_) => {
+                self.counters.send_failed += 1;
+                None
+            }
+        };
+        self.monitor.publish(&mut self.counters, sent);
         Ok(())
     }
 

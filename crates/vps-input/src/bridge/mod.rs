@@ -2,7 +2,10 @@
 //! commanded wrenches back, so any tracker, robot or script can drive the haptic loop.
 //!
 //! Module map: [`protocol`] (datagram format), [`config`] ([`BridgeConfig`], [`BridgeError`]),
-//! [`device`] ([`BridgeDevice`], the `HapticDevice`), [`client`] ([`BridgeClient`]).
+//! [`mapping`] ([`WorkspaceMapping`]: device workspace → scene, forces back, re-anchoring),
+//! [`device`] ([`BridgeDevice`], the `HapticDevice`: clutch and pose timeout), [`monitor`]
+//! ([`BridgeMonitor`]: counters and sent wrenches, readable after the device moved into the
+//! loop), [`client`] ([`BridgeClient`]).
 //!
 //! Security: by default the device binds a loopback address and accepts any local sender (the
 //! token field is ignored when no token is configured). Binding any other address (including
@@ -14,9 +17,13 @@
 pub mod client;
 pub mod config;
 pub mod device;
+pub mod mapping;
+pub mod monitor;
 pub mod protocol;
 
 pub use client::{BridgeClient, WrenchReply};
 pub use config::{parse_token_hex, BridgeConfig, BridgeError};
-pub use device::{BridgeCounters, BridgeDevice};
+pub use device::BridgeDevice;
+pub use mapping::{Anchor, WorkspaceMapping};
+pub use monitor::{BridgeCounters, BridgeMonitor, SentWrench};
 pub use protocol::{Datagram, Message, ProtocolError, Token};

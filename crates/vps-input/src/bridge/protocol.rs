@@ -1,18 +1,29 @@
-//! The bridge datagram format (version 1). All integers and floats are little-endian.
+//! The bridge datagram format (version 1). All integers and floats are little-endian
+//! (IEEE 754 binary64 for every f64).
 //!
 //! ```text
 //! offset  size  field
 //!      0     4  magic  b"VPSB"
 //!      4     1  version = 1
-//!      5     1  kind: 1 = PoseIn (client → device), 2 = WrenchOut (device → client)
+//!      5     1  kind: 1 = PoseIn, 3 = PoseInFlags (client → device), 2 = WrenchOut (device → client)
 //!      6    16  token  (shared secret; all zero when the device has none)
 //!     22     8  sequence u64 (per sender, strictly increasing; older ones are dropped)
 //!     30        payload
-//! PoseIn    payload: position xyz (m), orientation quaternion xyzw (unit), linear velocity xyz
-//!           (m/s), angular velocity xyz (rad/s, world frame): 13 × f64 → 134 bytes in all
-//! WrenchOut payload: force xyz (N), torque xyz (N·m, world frame), 6 × f64, then frame u64
-//!           (the device's write counter) → 86 bytes in all
+//! PoseIn      payload: position xyz (m), orientation quaternion xyzw (unit), linear velocity xyz
+//!             (m/s), angular velocity xyz (rad/s): 13 × f64 → 134 bytes in all
+//! PoseInFlags payload: the PoseIn payload, then flags u32 → 138 bytes in all.
+//!             Flag bit 0 ([`FLAG_CLUTCH`]): the clutch is held. Bits 1..31 are reserved and must
+//!             be zero (a datagram with any of them set is rejected).
+//! WrenchOut   payload: force xyz (N), torque xyz (N·m), 6 × f64, then frame u64 (the device's
+//!             write counter) → 86 bytes in all
 //! ```
+//!
+//! Poses and wrenches are in the device's own frame; the device side maps them to and from the
+//! scene (see [`crate::bridge::mapping`]).
+//!
+//! Kind 3 was added after the first release without a version bump: a device that predates it
+//! rejects it as an unknown kind, and the WrenchOut reply is unchanged, so version-1 clients that
+//! send kind 1 keep working against this device.
 //!
 //! Decoding checks the exact length for the kind, rejects NaN/infinite values and an orientation
 //! whose norm is off 1 by more than [`UNIT_TOLERANCE`] (a near-unit one is renormalised). Nothing
@@ -29,14 +40,22 @@ pub const VERSION: u8 = 1;
 pub const KIND_POSE_IN: u8 = 1;
 /// Kind byte of a [`Message::WrenchOut`].
 pub const KIND_WRENCH_OUT: u8 = 2;
+/// Kind byte of a [`Message::PoseInFlags`].
+pub const KIND_POSE_IN_FLAGS: u8 = 3;
+/// Flag bit of a [`Message::PoseInFlags`]: the clutch is held.
+pub const FLAG_CLUTCH: u32 = 1;
+/// Every flag bit this version defines.
+pub const KNOWN_FLAGS: u32 = FLAG_CLUTCH;
 /// Bytes before the payload.
 pub const HEADER_LEN: usize = 30;
 /// Total length of a PoseIn datagram (bytes).
 pub const POSE_IN_LEN: usize = HEADER_LEN + 13 * 8;
+/// Total length of a PoseInFlags datagram (bytes).
+pub const POSE_IN_FLAGS_LEN: usize = POSE_IN_LEN + 4;
 /// Total length of a WrenchOut datagram (bytes).
 pub const WRENCH_OUT_LEN: usize = HEADER_LEN + 6 * 8 + 8;
 /// The longest datagram of this version (bytes).
-pub const MAX_DATAGRAM: usize = POSE_IN_LEN;
+pub const MAX_DATAGRAM: usize = POSE_IN_FLAGS_LEN;
 /// Largest accepted deviation of the orientation's norm from 1.
 pub const UNIT_TOLERANCE: f64 = 1e-3;
 
@@ -48,6 +67,13 @@ pub type Token = [u8; 16];
 pub enum Message {
     /// A handle pose and velocities streamed into the device (world frame, SI units).
     PoseIn(HandleSample),
+    /// A handle pose with flags ([`FLAG_CLUTCH`]).
+    PoseInFlags {
+        /// Pose and velocities, as in [`Message::PoseIn`].
+        sample: HandleSample,
+        /// Flag bits; only [`KNOWN_FLAGS`] may be set.
+        flags: u32,
+    },
     /// The wrench the device was commanded, sent back to the client.
     WrenchOut {
         /// Force (N) and torque (N·m), world frame.
@@ -98,7 +124,7 @@ pub enum ProtocolError {
     /// The length does not match the kind.
     #[error("{kind} datagram of {len} bytes, expected exactly {expected}")]
     WrongLength {
-        /// "PoseIn" or "WrenchOut".
+        /// "PoseIn", "PoseInFlags" or "WrenchOut".
         kind: &'static str,
         /// Received length (bytes).
         len: usize,
@@ -111,6 +137,12 @@ pub enum ProtocolError {
         /// Which field ("position", "orientation", "force", ...).
         field: &'static str,
     },
+    /// A reserved flag bit is set.
+    #[error("reserved flag bits {flags:#010x} set (only {KNOWN_FLAGS:#x} is defined)")]
+    ReservedFlags {
+        /// The flags received.
+        flags: u32,
+    },
     /// The orientation quaternion is not unit length.
     #[error("orientation quaternion has norm {norm}, expected 1 ± {UNIT_TOLERANCE}")]
     NotUnitQuaternion {
@@ -120,8 +152,8 @@ pub enum ProtocolError {
 }
 
 impl Datagram {
-    /// Encodes into `out` and returns the number of bytes written ([`POSE_IN_LEN`] or
-    /// [`WRENCH_OUT_LEN`]). Does not validate values (the receiver does). Does not allocate.
+    /// Encodes into `out` and returns the number of bytes written ([`POSE_IN_LEN`],
+    /// [`POSE_IN_FLAGS_LEN`] or [`WRENCH_OUT_LEN`]). Does not validate values (the receiver does). Does not allocate.
     pub fn encode(&self, out: &mut [u8; MAX_DATAGRAM]) -> usize {
         out[..4].copy_from_slice(&MAGIC);
         out[4] = VERSION;
@@ -134,11 +166,12 @@ impl Datagram {
         match &self.message {
             Message::PoseIn(s) => {
                 w.out[5] = KIND_POSE_IN;
-                w.vec3(s.position);
-                let q = s.orientation;
-                w.f64s(&[q.x, q.y, q.z, q.w]);
-                w.vec3(s.linear_velocity);
-                w.vec3(s.angular_velocity);
+                w.sample(s);
+            }
+            Message::PoseInFlags { sample, flags } => {
+                w.out[5] = KIND_POSE_IN_FLAGS;
+                w.sample(sample);
+                w.bytes(&flags.to_le_bytes());
             }
             Message::WrenchOut { wrench, frame } => {
                 w.out[5] = KIND_WRENCH_OUT;
@@ -169,7 +202,18 @@ impl Datagram {
         let message = match header[5] {
             KIND_POSE_IN => {
                 expect_len("PoseIn", len, POSE_IN_LEN)?;
-                decode_pose(payload)?
+                Message::PoseIn(decode_pose(payload)?)
+            }
+            KIND_POSE_IN_FLAGS => {
+                expect_len("PoseInFlags", len, POSE_IN_FLAGS_LEN)?;
+                let flags = u32::from_le_bytes(array::<4>(&payload[13 * 8..]));
+                if flags & !KNOWN_FLAGS != 0 {
+                    return Err(ProtocolError::ReservedFlags { flags });
+                }
+                Message::PoseInFlags {
+                    sample: decode_pose(payload)?,
+                    flags,
+                }
             }
             KIND_WRENCH_OUT => {
                 expect_len("WrenchOut", len, WRENCH_OUT_LEN)?;
@@ -230,7 +274,7 @@ fn finite_vec3(v: [f64; 3], field: &'static str) -> Result<DVec3, ProtocolError>
     }
 }
 
-fn decode_pose(payload: &[u8]) -> Result<Message, ProtocolError> {
+fn decode_pose(payload: &[u8]) -> Result<HandleSample, ProtocolError> {
     let v = f64s::<13>(payload);
     let position = finite_vec3([v[0], v[1], v[2]], "position")?;
     let q = DQuat::from_xyzw(v[3], v[4], v[5], v[6]);
@@ -243,12 +287,12 @@ fn decode_pose(payload: &[u8]) -> Result<Message, ProtocolError> {
     if (norm - 1.0).abs() > UNIT_TOLERANCE {
         return Err(ProtocolError::NotUnitQuaternion { norm });
     }
-    Ok(Message::PoseIn(HandleSample {
+    Ok(HandleSample {
         position,
         orientation: q / norm,
         linear_velocity: finite_vec3([v[7], v[8], v[9]], "linear_velocity")?,
         angular_velocity: finite_vec3([v[10], v[11], v[12]], "angular_velocity")?,
-    }))
+    })
 }
 
 fn decode_wrench(payload: &[u8]) -> Result<Message, ProtocolError> {
@@ -279,6 +323,13 @@ impl Writer<'_> {
     }
     fn vec3(&mut self, v: DVec3) {
         self.f64s(&v.to_array());
+    }
+    fn sample(&mut self, s: &HandleSample) {
+        self.vec3(s.position);
+        let q = s.orientation;
+        self.f64s(&[q.x, q.y, q.z, q.w]);
+        self.vec3(s.linear_velocity);
+        self.vec3(s.angular_velocity);
     }
 }
 
@@ -439,6 +490,46 @@ mod tests {
                 }
                 let _ = Datagram::decode(&b);
             }
+        }
+    }
+
+    #[test]
+    fn pose_with_flags_round_trips_and_reserved_bits_are_rejected() {
+        let Message::PoseIn(sample) = pose().message else {
+            unreachable!()
+        };
+        let d = Datagram {
+            message: Message::PoseInFlags {
+                sample,
+                flags: FLAG_CLUTCH,
+            },
+            ..pose()
+        };
+        let bytes = encoded(&d);
+        assert_eq!(bytes.len(), 138);
+        assert_eq!(&bytes[..6], b"VPSB\x01\x03");
+        assert_eq!(&bytes[134..], &[1, 0, 0, 0]);
+        let back = Datagram::decode(&bytes).unwrap();
+        let Message::PoseInFlags { sample: s, flags } = back.message else {
+            panic!("{back:?}")
+        };
+        assert_eq!((flags, s.position), (FLAG_CLUTCH, sample.position));
+        let mut b = bytes.clone();
+        b[137] = 0x80;
+        assert_eq!(
+            Datagram::decode(&b),
+            Err(ProtocolError::ReservedFlags { flags: 0x8000_0001 })
+        );
+        for n in [134, 137, 139] {
+            let mut b = bytes.clone();
+            b.resize(n, 0);
+            assert!(matches!(
+                Datagram::decode(&b),
+                Err(ProtocolError::WrongLength {
+                    kind: "PoseInFlags",
+                    ..
+                })
+            ));
         }
     }
 
