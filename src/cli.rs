@@ -304,6 +304,10 @@ pub struct RunArgs {
     /// Print as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Also write the session report (JSON) to this file, however the session ends (a partial
+    /// report says why). Checked before the session starts.
+    #[arg(long, value_name = "FILE")]
+    pub report: Option<PathBuf>,
     /// Serve the live viewer on this address (e.g. 127.0.0.1:8080; port 0 picks a free one).
     #[arg(long, value_name = "ADDR")]
     pub view: Option<std::net::SocketAddr>,
@@ -564,6 +568,7 @@ impl Default for RunArgs {
             threads: 1,
             record: None,
             json: false,
+            report: None,
             view: None,
         }
     }

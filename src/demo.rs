@@ -3,6 +3,7 @@
 //! session again with pre-contact braking off, for the penetration ratio of both.
 
 use crate::cli::DemoArgs;
+use crate::cmd::exit::{outcome, SessionExit};
 use crate::cmd::output::print_json;
 use crate::session::{builtin_scene, classed, standard_script};
 use anyhow::Result;
@@ -11,7 +12,9 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use vps_device::{HandParams, SimulatedHand};
 use vps_haptic::{HapticParams, PartState};
-use vps_runtime::{run_loop, LoopConfig, LoopReport, SessionSetup, StateFeedSender, StatsSummary};
+use vps_runtime::{
+    run_loop, LoopConfig, LoopReport, SessionSetup, SignalStop, StateFeedSender, StatsSummary,
+};
 use vps_voxelize::ShellMethod;
 
 /// The paper's penetration ratios (Table 2): braking on and off.
@@ -46,6 +49,19 @@ pub fn run_session(
     paced: bool,
     feed: Option<StateFeedSender>,
 ) -> Result<LoopReport> {
+    run_session_until(scene, params, seconds, threads, paced, feed, None)
+}
+
+/// [`run_session`], ended early (the device written zero) once `stop` is set, when given.
+pub fn run_session_until(
+    scene: &crate::session::SessionScene,
+    params: HapticParams,
+    seconds: f64,
+    threads: usize,
+    paced: bool,
+    feed: Option<StateFeedSender>,
+    stop: Option<Arc<AtomicBool>>,
+) -> Result<LoopReport> {
     let script = standard_script(&scene.tree, &scene.corridor, 0.8)?;
     let frames = ((seconds.min(script.duration()) / params.dt).round() as u64).max(1);
     let (start, orientation) = script.sample(0.0);
@@ -66,7 +82,7 @@ pub fn run_session(
             initial: PartState::at_rest(start, orientation),
             config,
             feed,
-            stop: Arc::new(AtomicBool::new(false)),
+            stop: stop.unwrap_or_default(),
         },
     )?;
     if let Some(err) = &report.device_error {
@@ -139,12 +155,31 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     }
     let viewer = crate::cmd::view::attach(args.view, &scene)?;
     let feed = || viewer.as_ref().map(|v| v.feed());
-    let on = run_session(&scene, params, args.seconds, threads, true, feed())?;
+    let stop = Arc::new(AtomicBool::new(false));
+    let signals = SignalStop::install(&stop)?;
+    let session = |params: HapticParams, paced: bool| {
+        let report = run_session_until(
+            &scene,
+            params,
+            args.seconds,
+            threads,
+            paced,
+            feed(),
+            Some(stop.clone()),
+        )?;
+        let (reason, code) = outcome(&report.end, Some(&signals));
+        if code != 0 {
+            print_summary(&format!("partial session ({reason})"), &report.stats, None);
+            return Err(anyhow::Error::new(SessionExit { code, reason }));
+        }
+        Ok(report)
+    };
+    let on = session(params, true)?;
     let off_params = HapticParams {
         braking: false,
         ..params
     };
-    let off = run_session(&scene, off_params, args.seconds, threads, false, feed())?;
+    let off = session(off_params, false)?;
     if args.json {
         return print_json(&DemoReport {
             scene_triangles: scene.scene_triangles,

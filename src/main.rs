@@ -24,7 +24,14 @@ fn main() {
         .init();
     let cli = cli::Cli::parse();
     if let Err(err) = cmd::dispatch(cli) {
-        eprintln!("vps: error: {err:#}");
-        std::process::exit(1);
+        // A session that ended early has already written its report; its status says why
+        // (src/cmd/exit.rs: 1 error, 101 panic, 128 + N signal N).
+        let code = cmd::exit::exit_code(&err);
+        if code == 1 {
+            eprintln!("vps: error: {err:#}");
+        } else {
+            eprintln!("vps: {err:#}");
+        }
+        std::process::exit(code);
     }
 }

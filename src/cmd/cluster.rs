@@ -1,7 +1,7 @@
 //! `vps cert`, `vps worker`, `vps coordinator` and `vps cluster`: the cluster modes over QUIC
 //! (DESIGN §4), thin shells over `vps-cluster`.
 
-use super::run::{finish, prepare, LiveSession, PreparedSession};
+use super::run::{finish, prepare, LiveSession, PreparedSession, SessionOutputs};
 use crate::cli::{ClusterArgs, CoordinatorArgs, GatherArgs, RunArgs, WorkerArgs};
 use crate::session::CLASS_COUNT;
 use anyhow::{Context, Result};
@@ -14,7 +14,7 @@ use vps_cluster::{
     ClusterReport, ClusterScene, Coordinator, CoordinatorConfig, GatherConfig, LocalWorkerArgs,
     WorkerConfig,
 };
-use vps_runtime::{LoopConfig, LoopReport};
+use vps_runtime::{LoopConfig, LoopReport, SignalStop};
 
 /// How long the coordinator waits for its workers to join before it starts.
 const JOIN_TIMEOUT: Duration = Duration::from_secs(20);
@@ -50,6 +50,8 @@ pub struct CoordinatedRun {
     pub cluster: ClusterReport,
     /// Points in the shell.
     pub shell_points: usize,
+    /// The signal handlers that could stop the session (which one did, if any).
+    pub signals: SignalStop,
 }
 
 /// Runs one session on a started coordinator once `workers` have joined; `tune` may adjust the
@@ -92,6 +94,7 @@ fn coordinate_prepared(
         scene,
         viewer: _viewer,
         setup,
+        signals,
     } = prepared.go_live(session.view)?;
     let cluster_scene = Arc::new(ClusterScene::new(
         scene.tree.clone(),
@@ -106,7 +109,7 @@ fn coordinate_prepared(
     eprintln!("coordinator listening on {addr}, waiting for {workers} worker(s)");
     let _children = spawn(addr)?;
     coordinator
-        .wait_for_workers(workers, JOIN_TIMEOUT)
+        .wait_for_workers_until(workers, JOIN_TIMEOUT, &setup.stop)
         .with_context(|| format!("waiting {JOIN_TIMEOUT:?} for {workers} worker(s) to join"))?;
     let gather = GatherConfig {
         local_threads: session.threads.max(1),
@@ -119,15 +122,24 @@ fn coordinate_prepared(
         ..GatherConfig::default()
     };
     let (report, cluster) = run_coordinator_session(&coordinator, gather, setup)?;
+    if let Some(signal) = signals.received() {
+        // The device has been written zero; tell the workers this coordinator is going.
+        coordinator.close(
+            vps_cluster::close::CLOSE_COORDINATOR_STOPPING,
+            &format!("coordinator stopping ({})", signal.name()),
+        );
+    }
     Ok(CoordinatedRun {
         report,
         cluster,
         shell_points: scene.shell.len(),
+        signals,
     })
 }
 
 /// `vps coordinator`: owns the device loop; workers from the LAN join with pinned certificates.
 pub fn coordinator(args: &CoordinatorArgs) -> Result<()> {
+    let outputs = SessionOutputs::reserve(&args.session)?;
     let run = coordinate(
         &args.session,
         args.listen,
@@ -141,6 +153,8 @@ pub fn coordinator(args: &CoordinatorArgs) -> Result<()> {
     )?;
     finish(
         &args.session,
+        outputs,
+        &run.signals,
         run.shell_points,
         &run.report,
         Some(&run.cluster),
@@ -150,6 +164,7 @@ pub fn coordinator(args: &CoordinatorArgs) -> Result<()> {
 /// `vps cluster --local-workers N`: the coordinator plus N worker processes on loopback, with
 /// fresh certificates pinned both ways.
 pub fn local_cluster(args: &ClusterArgs) -> Result<()> {
+    let outputs = SessionOutputs::reserve(&args.session)?;
     let run = run_local_cluster(
         &args.session,
         args.local_workers,
@@ -159,6 +174,8 @@ pub fn local_cluster(args: &ClusterArgs) -> Result<()> {
     )?;
     finish(
         &args.session,
+        outputs,
+        &run.signals,
         run.shell_points,
         &run.report,
         Some(&run.cluster),

@@ -2,20 +2,21 @@
 //! built-in scene with a chosen device, parameters from a TOML file, and handle traces to and from
 //! files.
 
+use super::exit::{outcome, SessionExit};
 use super::output::print_json;
+use super::reserve::ReservedFile;
 use crate::cli::RunArgs;
 use crate::session::{builtin_scene, classed, standard_script, SessionScene};
 use anyhow::{bail, Context, Result};
 use glam::DQuat;
 use serde::Serialize;
-use std::path::Path;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use vps_device::trace::{load_trace, save_trace, ReplayDevice};
 use vps_device::{DeviceLimits, HandParams, HapticDevice, SimulatedHand};
 use vps_haptic::{HapticParams, PartState};
 use vps_input::{BridgeConfig, BridgeDevice, SpaceMouse, SpaceMouseConfig};
-use vps_runtime::{run_loop, LoopConfig, LoopReport, SessionSetup, StatsSummary};
+use vps_runtime::{run_loop, LoopConfig, LoopReport, SessionSetup, SignalStop, StatsSummary};
 use vps_voxelize::ShellMethod;
 
 /// The device a session is driven by, parsed from `--device`.
@@ -93,16 +94,54 @@ fn open_device(
     })
 }
 
+/// The session report (`--json`, `--report FILE`).
 #[derive(Serialize)]
 struct RunReport {
     device: String,
     shell_points: usize,
     realtime_granted: bool,
+    /// Why the session ended: "frames done", "stopped by SIGTERM", "device failed: ...",
+    /// "panic: ...".
     end: String,
+    /// False when the session did not run all its frames (the figures cover the frames run).
+    complete: bool,
+    /// The process's exit status (see `vps --help`, README "Exit status").
+    exit_code: i32,
     final_position_m: [f64; 3],
     stats: StatsSummary,
+    /// The device's own counters (e.g. the bridge's datagram counts), when it keeps any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    device_counters: Option<serde_json::Value>,
     #[serde(skip_serializing_if = "Option::is_none")]
     cluster: Option<serde_json::Value>,
+}
+
+/// The files a session writes at its end, created (empty, beside their destinations) before the
+/// session starts so that a bad path fails before any work.
+#[derive(Default)]
+pub struct SessionOutputs {
+    /// `--report FILE`.
+    report: Option<ReservedFile>,
+    /// `--record FILE`.
+    record: Option<ReservedFile>,
+}
+
+impl SessionOutputs {
+    /// Reserves `--report` and `--record` of `args`.
+    pub fn reserve(args: &RunArgs) -> Result<SessionOutputs> {
+        Ok(SessionOutputs {
+            report: args
+                .report
+                .as_deref()
+                .map(ReservedFile::reserve)
+                .transpose()?,
+            record: args
+                .record
+                .as_deref()
+                .map(ReservedFile::reserve)
+                .transpose()?,
+        })
+    }
 }
 
 /// Everything a session needs, opened from the command line.
@@ -120,7 +159,8 @@ pub struct PreparedSession {
 }
 
 /// A prepared session made ready to run: its scene, the live viewer when one was asked for (keep
-/// it alive for the session), and the loop's setup, publishing to that viewer.
+/// it alive for the session), the loop's setup, publishing to that viewer, and the signal
+/// handlers that stop it.
 pub struct LiveSession {
     /// Scene, voxmap and shell.
     pub scene: SessionScene,
@@ -128,11 +168,14 @@ pub struct LiveSession {
     pub viewer: Option<super::view::LiveViewer>,
     /// What the frame loop runs.
     pub setup: SessionSetup,
+    /// SIGINT, SIGTERM and SIGHUP set `setup.stop` (the device is then written zero and the
+    /// report says which signal came).
+    pub signals: SignalStop,
 }
 
 impl PreparedSession {
     /// Attaches the viewer at `view` (when given) and builds the loop's setup, with a stop flag
-    /// nobody raises (the session ends by its frame count, or its device).
+    /// set by SIGINT, SIGTERM and SIGHUP (installed here: the device is open from now on).
     pub fn go_live(self, view: Option<std::net::SocketAddr>) -> Result<LiveSession> {
         let PreparedSession {
             scene,
@@ -141,6 +184,8 @@ impl PreparedSession {
             initial,
             config,
         } = self;
+        let stop = Arc::new(AtomicBool::new(false));
+        let signals = SignalStop::install(&stop)?;
         let viewer = super::view::attach(view, &scene)?;
         let setup = SessionSetup {
             params,
@@ -148,12 +193,13 @@ impl PreparedSession {
             initial,
             config,
             feed: viewer.as_ref().map(|v| v.feed()),
-            stop: Arc::new(AtomicBool::new(false)),
+            stop,
         };
         Ok(LiveSession {
             scene,
             viewer,
             setup,
+            signals,
         })
     }
 }
@@ -190,45 +236,67 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
 
 /// Runs one paced session; records the handle trace to `record` when given.
 pub fn run(args: &RunArgs) -> Result<()> {
+    let outputs = SessionOutputs::reserve(args)?;
     let LiveSession {
         scene,
         viewer: _viewer,
         setup,
+        signals,
     } = prepare(args)?.go_live(args.view)?;
     let report: LoopReport = run_loop(scene.tree.clone(), classed(&scene.shell), setup)?;
-    finish(args, scene.shell.len(), &report, None::<&()>)
+    finish(
+        args,
+        outputs,
+        &signals,
+        scene.shell.len(),
+        &report,
+        None::<&()>,
+    )
 }
 
-/// Saves the recording, prints the session's figures (and `cluster`, when given, as JSON), and
-/// fails when the device failed.
+/// Once the device has been written zero: saves the recording, writes the report file, prints
+/// the session's figures (and `cluster`, when given, as JSON), and fails with a [`SessionExit`]
+/// (its exit status) when the session did not run to its end.
 pub fn finish<C: Serialize>(
     args: &RunArgs,
+    outputs: SessionOutputs,
+    signals: &SignalStop,
     shell_points: usize,
     report: &LoopReport,
     cluster: Option<&C>,
 ) -> Result<()> {
-    if let Some(path) = &args.record {
-        save_recording(report, path)?;
-    }
-    let end = match &report.device_error {
-        Some(err) => format!("device failed: {err}"),
-        None => format!("{:?}", report.end),
-    };
+    let (end, exit_code) = outcome(&report.end, Some(signals));
     let out = RunReport {
         device: report.device_name.clone(),
         shell_points,
         realtime_granted: report.rt.fifo,
         end,
+        complete: report.end.is_complete(),
+        exit_code,
         final_position_m: report.final_state.position.to_array(),
         stats: report.stats.clone(),
+        device_counters: report.device_counters.clone(),
         cluster: cluster.map(serde_json::to_value).transpose()?,
     };
+    if let Some(file) = outputs.report {
+        file.commit(|path| {
+            let text = serde_json::to_string_pretty(&out)?;
+            std::fs::write(path, text + "\n")?;
+            Ok(())
+        })?;
+    }
+    if let Some(file) = outputs.record {
+        save_recording(report, file)?;
+    }
     if args.json {
         print_json(&out)?;
     } else {
         println!(
-            "device: {}, {} shell points, session end: {}",
-            out.device, out.shell_points, out.end
+            "device: {}, {} shell points, session end: {}{}",
+            out.device,
+            out.shell_points,
+            out.end,
+            if out.complete { "" } else { " (partial)" }
         );
         crate::demo::print_summary("session", &out.stats, None);
         println!("final part position (m): {:?}", out.final_position_m);
@@ -236,13 +304,17 @@ pub fn finish<C: Serialize>(
             println!("cluster: {}", serde_json::to_string_pretty(cluster)?);
         }
     }
-    if report.device_error.is_some() {
-        bail!("the session stopped because the device failed (the device was sent zero force)");
+    if exit_code != 0 {
+        return Err(SessionExit {
+            code: exit_code,
+            reason: out.end,
+        }
+        .into());
     }
     Ok(())
 }
 
-fn save_recording(report: &LoopReport, path: &Path) -> Result<()> {
+fn save_recording(report: &LoopReport, file: ReservedFile) -> Result<()> {
     if let Some(why) = &report.trace_error {
         bail!("trace recording stopped early: {why}");
     }
@@ -250,12 +322,10 @@ fn save_recording(report: &LoopReport, path: &Path) -> Result<()> {
         .trace
         .as_ref()
         .context("the loop returned no trace")?;
-    save_trace(path, trace)?;
-    eprintln!(
-        "recorded {} frames to {}",
-        trace.frames.len(),
-        path.display()
-    );
+    let frames = trace.frames.len();
+    let path = file.path().to_path_buf();
+    file.commit(|temporary| Ok(save_trace(temporary, trace)?))?;
+    eprintln!("recorded {frames} frames to {}", path.display());
     Ok(())
 }
 

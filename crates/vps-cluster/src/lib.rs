@@ -19,6 +19,7 @@
 //! ([`RemoteShares`]: assignment, deadline gather, validation, benching, statistics), [`session`]
 //! ([`run_coordinator_session`], [`spawn_local_workers`]).
 
+pub mod close;
 pub mod coordinator;
 pub mod fallback;
 pub mod metrics;
