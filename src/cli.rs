@@ -190,6 +190,12 @@ pub struct WorkerArgs {
     /// Compute threads (default: one per core).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Exit (status 0) when the coordinator goes away instead of waiting for the next one.
+    /// Without it the worker is a long-lived service: it re-joins (waits from 100 ms doubling
+    /// to 5 s, with jitter) until SIGINT or SIGTERM; `vps cluster` passes it to its own
+    /// workers so that none outlives it.
+    #[arg(long)]
+    pub exit_with_coordinator: bool,
 }
 
 /// Arguments of `vps coordinator`.

@@ -170,7 +170,12 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         let (reason, code) = outcome(&report.end, Some(&signals));
         if code != 0 {
             print_summary(&format!("partial session ({reason})"), &report.stats, None);
-            return Err(anyhow::Error::new(SessionExit { code, reason }));
+            return Err(anyhow::Error::new(SessionExit {
+                code,
+                reason: format!(
+                    "the session ended early ({reason}); the device was sent zero force"
+                ),
+            }));
         }
         Ok(report)
     };

@@ -1,18 +1,20 @@
 //! `vps cert`, `vps worker`, `vps coordinator` and `vps cluster`: the cluster modes over QUIC
 //! (DESIGN §4), thin shells over `vps-cluster`.
 
+use super::exit::SessionExit;
 use super::run::{finish, prepare, LiveSession, PreparedSession, SessionOutputs};
 use crate::cli::{ClusterArgs, CoordinatorArgs, GatherArgs, RunArgs, WorkerArgs};
 use crate::session::CLASS_COUNT;
 use anyhow::{Context, Result};
 use std::net::SocketAddr;
 use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
 use vps_cluster::{
-    local_cluster_certs, make_cert, run_coordinator_session, run_worker, spawn_local_workers,
-    ClusterReport, ClusterScene, Coordinator, CoordinatorConfig, GatherConfig, LocalWorkerArgs,
-    WorkerConfig,
+    local_cluster_certs, make_cert, run_coordinator_session, run_worker_service,
+    spawn_local_workers, ClusterError, ClusterReport, ClusterScene, Coordinator, CoordinatorConfig,
+    GatherConfig, LocalWorkerArgs, Rejoin, WorkerConfig,
 };
 use vps_runtime::{LoopConfig, LoopReport, SignalStop};
 
@@ -30,16 +32,45 @@ pub fn cert(out: &std::path::Path, name: &str) -> Result<()> {
     Ok(())
 }
 
-/// `vps worker`: joins a coordinator and answers frame requests until the coordinator goes away.
+/// Exit status of a worker refused for good (a certificate not pinned on one side, an
+/// incompatible protocol): systemd units keep it from restarting (`RestartPreventExitStatus=`).
+const EXIT_REFUSED: i32 = 2;
+
+/// `vps worker`: joins a coordinator and answers frame requests; when the coordinator goes away,
+/// waits for the next one (unless `--exit-with-coordinator`), until SIGINT or SIGTERM (exit 0).
+/// A refusal for good exits with status 2 and says why.
 pub fn worker(args: &WorkerArgs) -> Result<()> {
     let mut config = WorkerConfig::from_files(args.coordinator, &args.cert, &args.key, &args.pin)?;
     config.cache_dir = args.cache.clone();
     if let Some(threads) = args.threads {
         config.threads = threads.max(1);
     }
-    let report = run_worker(config).context("worker")?;
-    eprintln!("worker finished: {report:?}");
-    Ok(())
+    let stop = Arc::new(AtomicBool::new(false));
+    let signals = SignalStop::install(&stop)?;
+    let rejoin = Rejoin {
+        exit_with_coordinator: args.exit_with_coordinator,
+        ..Rejoin::default()
+    };
+    match run_worker_service(config, stop, rejoin) {
+        Ok(service) => {
+            let why = signals
+                .received()
+                .map_or("its coordinator went away".into(), |s| {
+                    format!("{}", s.name())
+                });
+            eprintln!(
+                "worker stopped ({why}) after {} session(s)",
+                service.sessions.len()
+            );
+            Ok(())
+        }
+        Err(ClusterError::Refused(reason)) => Err(SessionExit {
+            code: EXIT_REFUSED,
+            reason: format!("worker refused for good: {reason}"),
+        }
+        .into()),
+        Err(e) => Err(anyhow::Error::new(e).context("worker")),
+    }
 }
 
 /// What one coordinated session produced.

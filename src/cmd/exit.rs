@@ -21,11 +21,7 @@ pub struct SessionExit {
 
 impl std::fmt::Display for SessionExit {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "the session ended early ({}); the device was sent zero force",
-            self.reason
-        )
+        f.write_str(&self.reason)
     }
 }
 

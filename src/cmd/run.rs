@@ -307,7 +307,10 @@ pub fn finish<C: Serialize>(
     if exit_code != 0 {
         return Err(SessionExit {
             code: exit_code,
-            reason: out.end,
+            reason: format!(
+                "the session ended early ({}); the device was sent zero force",
+                out.end
+            ),
         }
         .into());
     }
