@@ -37,7 +37,7 @@ pub enum Command {
         #[arg(long, default_value = "sim")]
         device: String,
         /// Session length (s).
-        #[arg(long, default_value_t = 30.0)]
+        #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 30.0)]
         seconds: f64,
     },
     /// Replay a recorded handle trace exactly, on the built-in scene.
@@ -188,7 +188,7 @@ pub struct WorkerArgs {
     #[arg(long)]
     pub cache: Option<PathBuf>,
     /// Compute threads (default: one per core).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::limits::parse_count)]
     pub threads: Option<usize>,
     /// Exit (status 0) when the coordinator goes away instead of waiting for the next one.
     /// Without it the worker is a long-lived service: it re-joins (waits from 100 ms doubling
@@ -271,10 +271,10 @@ fn default_max_stale_frames() -> u64 {
 #[derive(Args, Debug)]
 pub struct ClusterArgs {
     /// Worker processes to start on this host.
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 2)]
     pub local_workers: usize,
     /// Compute threads per worker process.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 1)]
     pub worker_threads: usize,
     /// How replies are gathered.
     #[command(flatten)]
@@ -299,10 +299,10 @@ pub struct RunArgs {
     #[arg(long, value_parser = parse_length, default_value = "5mm")]
     pub voxel_size: f64,
     /// Session length (s); a replay runs for the length of its trace.
-    #[arg(long, default_value_t = 30.0)]
+    #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 30.0)]
     pub seconds: f64,
     /// Compute threads, the frame thread included.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 1)]
     pub threads: usize,
     /// Record the handle trace to this file.
     #[arg(long)]
@@ -408,11 +408,11 @@ pub struct DemoArgs {
     #[arg(long, value_parser = parse_length, default_value = "5mm")]
     pub voxel_size: f64,
     /// Longest session time (s); the scripted session is about 40 s.
-    #[arg(long, default_value_t = 60.0)]
+    #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 60.0)]
     pub seconds: f64,
     /// Compute threads, the frame thread included. One is right for the teapot's few hundred
     /// points at 5 mm: handing a share to another thread costs more than computing it.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 1)]
     pub threads: usize,
     /// Print as JSON.
     #[arg(long)]
@@ -458,7 +458,7 @@ pub enum BenchKind {
         )]
         points: Vec<usize>,
         /// Seconds per timing batch (5 batches per case, the median is reported).
-        #[arg(long, default_value_t = 0.2)]
+        #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 0.2)]
         seconds: f64,
         /// Print JSON (always JSON; accepted for symmetry).
         #[arg(long)]
@@ -485,7 +485,7 @@ pub enum BenchKind {
     /// Frame compute of the paced demo session without and with a connected viewer.
     Viewer {
         /// Session length per run (s).
-        #[arg(long, default_value_t = 10.0)]
+        #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 10.0)]
         seconds: f64,
         /// Rounds of one run without and one with the viewer.
         #[arg(long, default_value_t = 3)]
@@ -525,7 +525,7 @@ pub enum BenchKind {
     /// doing `--busy-us` of work per 1 ms frame would miss with no haptics in it.
     Host {
         /// Length of the measurement (s).
-        #[arg(long, default_value_t = 100.0)]
+        #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 100.0)]
         seconds: f64,
         /// Work per frame, spun (µs).
         #[arg(long, default_value_t = 500)]

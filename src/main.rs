@@ -7,6 +7,7 @@
 mod cli;
 mod cmd;
 mod demo;
+mod limits;
 mod scene;
 mod scene_config;
 mod session;

@@ -27,16 +27,16 @@ impl Drop for Vps {
     }
 }
 
-/// Starts `vps run` on the bridge (port 0) and returns it with the bridge's address, read from
-/// its stderr.
-fn start_bridge_session(report: &std::path::Path) -> (Vps, SocketAddr) {
+/// Starts `vps run` on the bridge (port 0) for `seconds` and returns it with the bridge's
+/// address, read from its stderr.
+fn start_bridge_session(report: &std::path::Path, seconds: &str) -> (Vps, SocketAddr) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_vps"))
         .args([
             "run",
             "--device",
             "bridge:127.0.0.1:0",
             "--seconds",
-            "600",
+            seconds,
             "--report",
         ])
         .arg(report)
@@ -85,7 +85,7 @@ fn is_exact_zero(w: &Wrench) -> bool {
 fn press_then_signal(signal: &str) -> (Wrench, Option<i32>, serde_json::Value) {
     let dir = tempfile::tempdir().unwrap();
     let report_path = dir.path().join("report.json");
-    let (mut vps, addr) = start_bridge_session(&report_path);
+    let (mut vps, addr) = start_bridge_session(&report_path, "600");
     let start = vps_mesh::builtin::bay_corridor()[0];
     let pressed = handle_at(start - DVec3::new(0.0, 0.0, 1.0));
     let mut client = BridgeClient::connect(addr, None).unwrap();
@@ -160,4 +160,43 @@ fn sigterm_leaves_zero_force_on_the_device_and_a_partial_report() {
 #[test]
 fn sigint_leaves_zero_force_on_the_device_and_a_partial_report() {
     assert_stopped_safely("INT", 130);
+}
+
+/// A client whose every handle sample is absurd (10 km from the origin): the core rejects each, the
+/// device gets zero, and the report of the complete session counts those frames (finding 9: such
+/// a session ended as a clean `FramesDone` with no counts).
+#[test]
+fn rejected_handle_samples_are_counted_in_the_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let report_path = dir.path().join("report.json");
+    let (mut vps, addr) = start_bridge_session(&report_path, "2");
+    let absurd = handle_at(DVec3::new(1.0e4, 0.0, 0.0));
+    let mut client = BridgeClient::connect(addr, None).unwrap();
+    let until = Instant::now() + DEADLINE;
+    let mut wrenches = 0u64;
+    let exit = loop {
+        assert!(Instant::now() < until, "the 2 s session did not end");
+        let _ = client.send_pose(&absurd);
+        if let Ok(Some(reply)) = client.recv_wrench(Duration::from_millis(5)) {
+            assert!(is_exact_zero(&reply.wrench), "{:?}", reply.wrench);
+            wrenches += 1;
+        }
+        if let Some(status) = vps.0.try_wait().unwrap() {
+            break status;
+        }
+    };
+    assert!(wrenches > 0, "no WrenchOut received");
+    assert_eq!(exit.code(), Some(0));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report_path).unwrap()).unwrap();
+    assert_eq!(report["end"], "frames done", "{report}");
+    assert_eq!(report["complete"], true, "{report}");
+    let stats = &report["stats"];
+    let rejected = stats["rejected_input_frames"].as_u64().unwrap();
+    assert!(rejected > 0, "{report}");
+    assert!(
+        stats["zeroed_frames"].as_u64().unwrap() >= rejected,
+        "{report}"
+    );
+    assert_eq!(stats["frames"], 2000, "{report}");
 }

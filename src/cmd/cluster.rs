@@ -55,9 +55,7 @@ pub fn worker(args: &WorkerArgs) -> Result<()> {
         Ok(service) => {
             let why = signals
                 .received()
-                .map_or("its coordinator went away".into(), |s| {
-                    format!("{}", s.name())
-                });
+                .map_or("its coordinator went away", |s| s.name());
             eprintln!(
                 "worker stopped ({why}) after {} session(s)",
                 service.sessions.len()
@@ -195,6 +193,10 @@ pub fn coordinator(args: &CoordinatorArgs) -> Result<()> {
 /// `vps cluster --local-workers N`: the coordinator plus N worker processes on loopback, with
 /// fresh certificates pinned both ways.
 pub fn local_cluster(args: &ClusterArgs) -> Result<()> {
+    crate::limits::check_thread_total(
+        "--local-workers × --worker-threads",
+        args.local_workers * args.worker_threads,
+    )?;
     let outputs = SessionOutputs::reserve(&args.session)?;
     let run = run_local_cluster(
         &args.session,

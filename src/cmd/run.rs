@@ -105,7 +105,7 @@ struct RunReport {
     end: String,
     /// False when the session did not run all its frames (the figures cover the frames run).
     complete: bool,
-    /// The process's exit status (see `vps --help`, README "Exit status").
+    /// The process's exit status (src/cmd/exit.rs; README, "Units, limits and safety").
     exit_code: i32,
     final_position_m: [f64; 3],
     stats: StatsSummary,
@@ -207,12 +207,25 @@ impl PreparedSession {
 /// Builds the scene, loads parameters and opens the device of `args`.
 pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
     let choice = parse_device(&args.device)?;
-    let scene = builtin_scene(args.voxel_size, ShellMethod::VoxelCentres)?;
-    let params = match &args.config {
-        Some(path) => HapticParams::from_file(path)?,
+    let loaded = match &args.config {
+        Some(path) => {
+            let params = HapticParams::from_file(path)?;
+            let period = LoopConfig::default().period.as_secs_f64();
+            if (params.dt - period).abs() > 1e-12 {
+                bail!(
+                    "{}: haptic parameter `dt` = {} s: the session loop runs at {} Hz, so `dt` \
+                     must be {period} s (or left out)",
+                    path.display(),
+                    params.dt,
+                    1.0 / period
+                );
+            }
+            params
+        }
         None => HapticParams::default(),
-    }
-    .with_scene(args.voxel_size, scene.shell.max_radius())?;
+    };
+    let scene = builtin_scene(args.voxel_size, ShellMethod::VoxelCentres)?;
+    let params = loaded.with_scene(args.voxel_size, scene.shell.max_radius())?;
     let (device, initial) = open_device(&choice, &scene)?;
     let frames = match &choice {
         DeviceChoice::Replay(path) => load_trace(path)?.frames.len() as u64,

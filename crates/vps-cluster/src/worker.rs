@@ -98,17 +98,21 @@ pub fn run_worker_until(
     config: WorkerConfig,
     stop: Arc<AtomicBool>,
 ) -> Result<WorkerReport, ClusterError> {
+    worker_runtime(&config)?.block_on(worker_main(config, stop))
+}
+
+/// Checks `config` and builds the worker's current-thread runtime.
+fn worker_runtime(config: &WorkerConfig) -> Result<tokio::runtime::Runtime, ClusterError> {
     if config.threads == 0 {
         return Err(ClusterError::Config {
             field: "threads",
             message: "must be at least 1".into(),
         });
     }
-    let runtime = tokio::runtime::Builder::new_current_thread()
+    tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
-        .map_err(|e| ClusterError::Network(format!("cannot start the runtime: {e}")))?;
-    runtime.block_on(worker_main(config, stop))
+        .map_err(|e| ClusterError::Network(format!("cannot start the runtime: {e}")))
 }
 
 fn net_err(e: impl std::fmt::Display) -> ClusterError {
@@ -278,17 +282,7 @@ pub fn run_worker_service(
     stop: Arc<AtomicBool>,
     rejoin: Rejoin,
 ) -> Result<WorkerService, ClusterError> {
-    if config.threads == 0 {
-        return Err(ClusterError::Config {
-            field: "threads",
-            message: "must be at least 1".into(),
-        });
-    }
-    let runtime = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .map_err(|e| ClusterError::Network(format!("cannot start the runtime: {e}")))?;
-    runtime.block_on(async {
+    worker_runtime(&config)?.block_on(async {
         let mut service = WorkerService::default();
         let mut wait = rejoin.first;
         let mut rng = rand::thread_rng();

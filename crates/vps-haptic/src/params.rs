@@ -126,14 +126,14 @@ pub const ROTATIONAL_COUPLING_FACTOR: f64 = 2.0;
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct HapticParams {
-    /// Fixed time step (s). Default 0.001 (1 kHz). Range (0, 0.1].
+    /// Fixed time step (s). Default 0.001 (1 kHz). Range [1e-5, 0.1].
     pub dt: f64,
     /// Mass of the dynamic object, the reflected mass felt at the handle (kg). Default 0.012, the
     /// paper's 12 g: small reflected inertia; the stiffness the bound allows grows with it.
-    /// Range (0, 1e4].
+    /// Range [1e-6, 1e4].
     pub mass: f64,
     /// Isotropic moment of inertia (kg·m²). Default (None): a solid sphere of radius `max_radius`,
-    /// `0.4 m r_max²` (the paper's isotropic-inertia assumption).
+    /// `0.4 m r_max²` (the paper's isotropic-inertia assumption). Range [1e-15, 1e6].
     pub inertia: Option<f64>,
     /// Voxel size of the scene's voxmap (m). Default 0.005. Range (0, 10].
     pub voxel_size: f64,
@@ -141,16 +141,17 @@ pub struct HapticParams {
     /// part). Range (0, 1e3].
     pub max_radius: f64,
     /// Force-field stiffness per contact point, K_ff (N/m). Default: `k_T / κ` from the bound.
+    /// Range [1, 1e9].
     pub k_ff: Option<f64>,
     /// Coupling translational stiffness k_T (N/m). Default: `κ K_ff` when `k_ff` is given, else
-    /// `h² m / dt²` from the bound.
+    /// `h² m / dt²` from the bound. Range [1, 1e9].
     pub k_t: Option<f64>,
     /// Coupling rotational stiffness k_R (N·m/rad). Default: `2 k_T I / m` (twice the stiffness of
-    /// equal natural frequency; see [`ROTATIONAL_COUPLING_FACTOR`]).
+    /// equal natural frequency; see [`ROTATIONAL_COUPLING_FACTOR`]). Range [1e-9, 1e6].
     pub k_r: Option<f64>,
-    /// Coupling translational damping b_T (N·s/m). Default: critical, `2 √(k_T m)`.
+    /// Coupling translational damping b_T (N·s/m). Default: critical, `2 √(k_T m)`. Range (0, 1e9].
     pub b_t: Option<f64>,
-    /// Coupling rotational damping b_R (N·m·s/rad). Default: critical, `2 √(k_R I)`.
+    /// Coupling rotational damping b_R (N·m·s/rad). Default: critical, `2 √(k_R I)`. Range (0, 1e6].
     pub b_r: Option<f64>,
     /// Contact count from which forces are averaged (the paper's 10). Range [1, 1e6].
     pub contact_average_threshold: u32,
@@ -160,9 +161,10 @@ pub struct HapticParams {
     pub braking_torque: bool,
     /// Tunnelling guard: `|v| + |w| r_max ≤ f s / dt`. Default 0.25. Range (0, 1].
     pub velocity_guard_fraction: f64,
-    /// Largest force the device may be sent (N). Default 15 (the paper's device).
+    /// Largest force the device may be sent (N). Default 15 (the paper's device). Range (0, 1e4].
     pub device_max_force: f64,
-    /// Largest torque the device may be sent (N·m). Default 0.1 (the paper's device).
+    /// Largest torque the device may be sent (N·m). Default 0.1 (the paper's device). Range
+    /// (0, 1e3].
     pub device_max_torque: f64,
 }
 

@@ -735,7 +735,8 @@ mod tests {
         assert_eq!(writes[300], Wrench::ZERO);
     }
 
-    /// The wall, except that a lookup on the pool thread `vps-pool-1` panics once `armed`.
+    /// The wall, except that once `armed` a lookup on the pool thread `vps-pool-1` panics and one
+    /// on the frame thread is slowed down (so that the pool threads get classes to compute).
     struct PanicsOnPoolThread {
         wall: DenseGrid,
         armed: AtomicBool,
@@ -746,10 +747,12 @@ mod tests {
             self.wall.spec()
         }
         fn get(&self, ijk: glam::IVec3) -> vps_voxmap::Voxel {
-            if self.armed.load(Ordering::Relaxed)
-                && std::thread::current().name() == Some("vps-pool-1")
-            {
-                panic!("lookup failed on a pool thread");
+            if self.armed.load(Ordering::Relaxed) {
+                match std::thread::current().name() {
+                    Some("vps-pool-1") => panic!("lookup failed on a pool thread"),
+                    Some("vps-frame") => std::thread::sleep(Duration::from_micros(20)),
+                    _ => {}
+                }
             }
             self.wall.get(ijk)
         }
