@@ -1,7 +1,7 @@
 //! How a session command ends: the outcome of a session as an exit status, after its report.
 //!
-//! Exit statuses: 0 the session ran to its end; 1 an error (bad arguments, the device failed);
-//! 101 a panic on the frame path (caught; the device was sent zero first); `128 + N` stopped by
+//! Exit statuses: 0 the session ran to its end; 1 an error (a bad value or file, the device
+//! failed); 2 a command line clap refuses, or a worker refused for good; 101 a panic on the frame path (caught; the device was sent zero first); `128 + N` stopped by
 //! signal N (130 SIGINT, 143 SIGTERM, 129 SIGHUP), after the device was sent zero and the
 //! (partial) report was written.
 
