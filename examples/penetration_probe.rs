@@ -3,16 +3,14 @@
 //! voxel): the detour it belongs to, part and handle state, the force budget, and the Interior
 //! points (depth behind the force layer, whether the Interior voxel is exposed).
 //!
-//! `cargo run --release --example penetration_probe -- [--no-brake] [--quiet] [--exposed]`
-
-#[path = "../src/session.rs"]
-#[allow(dead_code)]
-mod session;
+//! `cargo run --release --example penetration_probe -- [--no-brake] [--quiet] [--exposed] [--seconds S]`
+//!
+//! `--seconds S` stops after S seconds of the script (`vps demo` runs the first 60 s).
 
 use glam::{DVec3, IVec3};
-use session::{builtin_scene, classed, standard_script};
 use vps_device::{HandParams, HapticDevice, SimulatedHand};
 use vps_haptic::{sample_all, step, HapticParams, KernelPose, PartState};
+use vps_session::{classed, BuildOptions, Session, DEFAULT_SCENE};
 use vps_voxelize::ShellMethod;
 use vps_voxmap::{Voxel, VoxelTree};
 
@@ -52,8 +50,22 @@ fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().collect();
     let braking = !args.iter().any(|a| a == "--no-brake");
     let quiet = args.iter().any(|a| a == "--quiet");
+    let seconds: f64 = match args.iter().position(|a| a == "--seconds") {
+        Some(i) => args
+            .get(i + 1)
+            .and_then(|v| v.parse().ok())
+            .ok_or_else(|| anyhow::anyhow!("--seconds needs a number"))?,
+        None => f64::INFINITY,
+    };
     let s = 0.005;
-    let mut scene = builtin_scene(s, ShellMethod::VoxelCentres)?;
+    let mut scene = Session::open(
+        DEFAULT_SCENE,
+        &BuildOptions {
+            voxel_size: Some(s),
+            shell_method: Some(ShellMethod::VoxelCentres),
+            ..BuildOptions::default()
+        },
+    )?;
     if std::env::var("DROP_HANDLE").is_ok() {
         let keep: Vec<bool> = scene
             .shell
@@ -123,8 +135,8 @@ fn main() -> anyhow::Result<()> {
         "shell {} points, body bounds {lo:.4?} .. {hi:.4?}",
         scene.shell.len()
     );
-    let script = standard_script(tree, &scene.corridor, 0.8)?;
-    let frames = (script.duration() / params.dt).round() as u64;
+    let script = scene.script()?;
+    let frames = (script.duration().min(seconds) / params.dt).round() as u64;
     let shell = classed(&scene.shell);
     let (start, q0) = script.sample(0.0);
     let trace: (u64, u64, u64) = std::env::var("TRACE")

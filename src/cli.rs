@@ -1,8 +1,8 @@
 //! Command-line definitions (clap). Lengths accept SI metres or a unit suffix (`5mm`).
 
-use crate::units::parse_length;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
+use vps_session::length::parse_length;
 
 /// Voxel-sampling 6-DOF haptic rendering.
 #[derive(Parser, Debug)]
@@ -24,23 +24,27 @@ pub enum Command {
     Inspect(InspectArgs),
     /// Look up the voxel kind at world points listed in a CSV file (x,y,z per line, metres).
     Probe(ProbeArgs),
-    /// The main job on the built-in scene: the teapot threading the aircraft bay with a simulated hand.
+    /// The main job: a scene's scripted session with braking on (paced) and off (built-in
+    /// scene bay-teapot: the teapot threading the aircraft bay with a simulated hand).
     Demo(DemoArgs),
-    /// One paced 1 kHz session on the built-in scene with a chosen device and parameters.
+    /// One paced 1 kHz session on a scene (default the built-in bay) with a chosen device.
     Run(RunArgs),
     /// Record the handle trace of a session to a file (JSON lines).
     Record {
         /// Output trace file.
         #[arg(short, long)]
         output: PathBuf,
-        /// The device: sim, spacemouse, bridge[:ADDR].
-        #[arg(long, default_value = "sim")]
-        device: String,
+        /// The device: sim, spacemouse, bridge[:ADDR] (default: the scene's `[device] kind`).
+        #[arg(long)]
+        device: Option<String>,
         /// Session length (s).
         #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 30.0)]
         seconds: f64,
+        /// The scene.
+        #[command(flatten)]
+        scene: SceneArgs,
     },
-    /// Replay a recorded handle trace exactly, on the built-in scene.
+    /// Replay a recorded handle trace exactly, on a scene (the one it was recorded on).
     Replay {
         /// The trace file written by `vps record` or `vps run --record`.
         trace: PathBuf,
@@ -50,7 +54,12 @@ pub enum Command {
         /// Print as JSON.
         #[arg(long)]
         json: bool,
+        /// The scene.
+        #[command(flatten)]
+        scene: SceneArgs,
     },
+    /// Scene files: check one without running it.
+    Scene(SceneCommandArgs),
     /// List the HID devices this machine sees and which vps can drive.
     Devices {
         /// Print as JSON.
@@ -84,6 +93,64 @@ pub enum Command {
     Tune(TuneArgs),
 }
 
+/// Which scene a session runs, and whether its voxmap may come from the cache.
+#[derive(Args, Debug, Clone)]
+pub struct SceneArgs {
+    /// The scene: a scene file (TOML; docs/scenes.md) or builtin:NAME (bay-teapot, rig-teapot).
+    #[arg(long, default_value = vps_session::DEFAULT_SCENE)]
+    pub scene: String,
+    /// Always voxelize: neither read nor write the voxmap cache ($VPS_CACHE_DIR, else
+    /// $XDG_CACHE_HOME/vps, else ~/.cache/vps).
+    #[arg(long)]
+    pub no_cache: bool,
+}
+
+impl Default for SceneArgs {
+    fn default() -> Self {
+        SceneArgs {
+            scene: vps_session::DEFAULT_SCENE.into(),
+            no_cache: false,
+        }
+    }
+}
+
+impl SceneArgs {
+    /// How to build the scene: `voxel_size` (m) instead of the scene's when given.
+    pub fn build_options(&self, voxel_size: Option<f64>) -> vps_session::BuildOptions {
+        vps_session::BuildOptions {
+            voxel_size,
+            cache: if self.no_cache {
+                vps_session::CachePolicy::Off
+            } else {
+                vps_session::CachePolicy::from_env()
+            },
+            ..vps_session::BuildOptions::default()
+        }
+    }
+}
+
+/// Arguments of `vps scene`.
+#[derive(Args, Debug)]
+pub struct SceneCommandArgs {
+    /// What to do with the scene.
+    #[command(subcommand)]
+    pub which: SceneCommand,
+}
+
+/// The `vps scene` subcommands.
+#[derive(Subcommand, Debug)]
+pub enum SceneCommand {
+    /// Validate a scene without running it: triangles and bounds of every object and the part,
+    /// estimated voxels and voxmap memory, shell points, and whether a frame fits the 1 ms period.
+    Check {
+        /// The scene file, or builtin:NAME.
+        scene: String,
+        /// Print as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
 /// Arguments of `vps sweep`.
 #[derive(Args, Debug)]
 pub struct SweepArgs {
@@ -102,14 +169,21 @@ pub struct SweepArgs {
     /// Test-sized run: the two coarsest sizes of at least 5 mm, sessions cut to 2 s.
     #[arg(long)]
     pub quick: bool,
+    /// Sweep this scene (file or builtin:NAME) instead of the sweep file's runs, over its sizes
+    /// and methods.
+    #[arg(long)]
+    pub scene: Option<String>,
 }
 
 /// Arguments of `vps tune`.
 #[derive(Args, Debug)]
 pub struct TuneArgs {
-    /// The scene file to tune for.
-    #[arg(long, default_value = "configs/scenes/rig-teapot.toml")]
-    pub scene: PathBuf,
+    /// The scene to tune for: a scene file or builtin:NAME.
+    #[arg(long, default_value = "builtin:rig-teapot")]
+    pub scene: String,
+    /// Always voxelize; never read or write the voxmap cache.
+    #[arg(long)]
+    pub no_cache: bool,
     /// Budget for frame compute p99.9, as a fraction of the 1 ms period.
     #[arg(long, default_value_t = 0.6)]
     pub budget_fraction: f64,
@@ -130,8 +204,15 @@ pub struct TuneArgs {
 /// Arguments of `vps view`.
 #[derive(Args, Debug)]
 pub struct ViewArgs {
-    /// The voxmap to show (.vmap).
-    pub voxmap: PathBuf,
+    /// The voxmap to show (.vmap); or give --scene.
+    #[arg(required_unless_present = "scene", conflicts_with = "scene")]
+    pub voxmap: Option<PathBuf>,
+    /// Show a scene (file or builtin:NAME): its voxmap (built or cached) and its part's shell.
+    #[arg(long)]
+    pub scene: Option<String>,
+    /// With --scene: always voxelize; never read or write the voxmap cache.
+    #[arg(long)]
+    pub no_cache: bool,
     /// A part's point shell (.vshell) to describe beside it.
     #[arg(long)]
     pub shell: Option<PathBuf>,
@@ -287,17 +368,21 @@ pub struct ClusterArgs {
 /// Arguments of `vps run`. `Default` matches the command-line defaults.
 #[derive(Args, Debug, Clone)]
 pub struct RunArgs {
-    /// The device: `sim` (simulated hand on the standard script), `spacemouse` (first SpaceMouse
+    /// The scene.
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// The device: `sim` (simulated hand on the scene's script), `spacemouse` (first SpaceMouse
     /// found; input only), `bridge[:ADDR]` (UDP device bridge, default 127.0.0.1:7700),
-    /// `replay:FILE` (a recorded trace).
-    #[arg(long, default_value = "sim")]
-    pub device: String,
-    /// Haptic parameters (TOML; see configs/haptic.toml). Defaults are derived when absent.
+    /// `replay:FILE` (a recorded trace). Default: the scene's `[device] kind`, else `sim`.
+    #[arg(long)]
+    pub device: Option<String>,
+    /// Haptic parameters (TOML; see configs/haptic.toml), instead of the scene's `[haptic]`.
+    /// Defaults are derived when absent.
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Voxel size of the scene.
-    #[arg(long, value_parser = parse_length, default_value = "5mm")]
-    pub voxel_size: f64,
+    /// Voxel size, instead of the scene's `voxels.voxel_size`.
+    #[arg(long, value_parser = parse_length)]
+    pub voxel_size: Option<f64>,
     /// Session length (s); a replay runs for the length of its trace.
     #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 30.0)]
     pub seconds: f64,
@@ -404,9 +489,12 @@ pub struct ProbeArgs {
 /// Arguments of `vps demo`.
 #[derive(Args, Debug)]
 pub struct DemoArgs {
-    /// Voxel edge length (m, or with unit).
-    #[arg(long, value_parser = parse_length, default_value = "5mm")]
-    pub voxel_size: f64,
+    /// The scene.
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Voxel edge length (m, or with unit), instead of the scene's.
+    #[arg(long, value_parser = parse_length)]
+    pub voxel_size: Option<f64>,
     /// Longest session time (s); the scripted session is about 40 s.
     #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 60.0)]
     pub seconds: f64,
@@ -466,9 +554,12 @@ pub enum BenchKind {
     },
     /// The 1 kHz loop end to end over many frames with a large shell: missed deadlines, percentiles.
     Loop {
-        /// Voxel size of the scene.
-        #[arg(long, value_parser = parse_length, default_value = "5mm")]
-        voxel_size: f64,
+        /// The scene.
+        #[command(flatten)]
+        scene: SceneArgs,
+        /// Voxel size, instead of the scene's.
+        #[arg(long, value_parser = parse_length)]
+        voxel_size: Option<f64>,
         /// Approximate number of shell points.
         #[arg(long, default_value_t = 100_000)]
         points: usize,
@@ -476,7 +567,7 @@ pub enum BenchKind {
         #[arg(long, default_value_t = 100_000)]
         frames: u64,
         /// Compute threads, the frame thread included.
-        #[arg(long, default_value_t = 2)]
+        #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 2)]
         threads: usize,
         /// Print JSON (always JSON; accepted for symmetry).
         #[arg(long)]
@@ -503,17 +594,20 @@ pub enum BenchKind {
         #[arg(long, default_value_t = 100_000)]
         frames: u64,
         /// Worker processes.
-        #[arg(long, default_value_t = 2)]
+        #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 2)]
         workers: usize,
         /// Compute threads per worker process.
-        #[arg(long, default_value_t = 1)]
+        #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 1)]
         worker_threads: usize,
         /// Compute threads of the coordinator.
-        #[arg(long, default_value_t = 1)]
+        #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 1)]
         threads: usize,
-        /// Voxel size of the scene.
-        #[arg(long, value_parser = parse_length, default_value = "5mm")]
-        voxel_size: f64,
+        /// The scene.
+        #[command(flatten)]
+        scene: SceneArgs,
+        /// Voxel size, instead of the scene's.
+        #[arg(long, value_parser = parse_length)]
+        voxel_size: Option<f64>,
         /// How replies are gathered.
         #[command(flatten)]
         gather: GatherArgs,
@@ -567,9 +661,10 @@ pub enum BenchKind {
 impl Default for RunArgs {
     fn default() -> Self {
         Self {
-            device: "sim".into(),
+            scene: SceneArgs::default(),
+            device: None,
             config: None,
-            voxel_size: 0.005,
+            voxel_size: None,
             seconds: 30.0,
             threads: 1,
             record: None,

@@ -1,21 +1,16 @@
-//! `vps demo`: the main job on the built-in scene. The teapot's point shell threads the aircraft bay
-//! (voxelized at 5 mm) in the hands of a simulated user, on the 1 kHz loop; then the same scripted
-//! session again with pre-contact braking off, for the penetration ratio of both.
+//! `vps demo`: the main job on a scene, by default the built-in scene file `bay-teapot`: the
+//! teapot's point shell threads the aircraft bay (voxelized at 5 mm) in the hands of a simulated
+//! user, on the 1 kHz loop; then the same scripted session again with pre-contact braking off, for
+//! the penetration ratio of both.
 
 use crate::cli::DemoArgs;
 use crate::cmd::exit::{outcome, SessionExit};
 use crate::cmd::output::print_json;
-use crate::session::{builtin_scene, classed, standard_script};
 use anyhow::Result;
 use serde::Serialize;
-use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
-use vps_device::{HandParams, SimulatedHand};
-use vps_haptic::{HapticParams, PartState};
-use vps_runtime::{
-    run_loop, LoopConfig, LoopReport, SessionSetup, SignalStop, StateFeedSender, StatsSummary,
-};
-use vps_voxelize::ShellMethod;
+use vps_haptic::HapticParams;
+use vps_runtime::{run_loop, LoopConfig, LoopReport, SignalStop, StateFeedSender, StatsSummary};
+use vps_session::{stop_on_signals, DeviceChoice, Session};
 
 /// The paper's penetration ratios (Table 2): braking on and off.
 const PAPER_PR_BRAKING: f64 = 6e-5;
@@ -42,7 +37,7 @@ struct DemoReport {
 /// (the physics is identical: the device is given the scheduled tick time either way). Every frame
 /// is published to `feed` when given (a viewer).
 pub fn run_session(
-    scene: &crate::session::SessionScene,
+    scene: &Session,
     params: HapticParams,
     seconds: f64,
     threads: usize,
@@ -52,20 +47,19 @@ pub fn run_session(
     run_session_until(scene, params, seconds, threads, paced, feed, None)
 }
 
-/// [`run_session`], ended early (the device written zero) once `stop` is set, when given.
+/// [`run_session`], ended early (the device written zero) once one of `signals` comes, when
+/// given.
 pub fn run_session_until(
-    scene: &crate::session::SessionScene,
+    scene: &Session,
     params: HapticParams,
     seconds: f64,
     threads: usize,
     paced: bool,
     feed: Option<StateFeedSender>,
-    stop: Option<Arc<AtomicBool>>,
+    signals: Option<&SignalStop>,
 ) -> Result<LoopReport> {
-    let script = standard_script(&scene.tree, &scene.corridor, 0.8)?;
+    let script = scene.script()?;
     let frames = ((seconds.min(script.duration()) / params.dt).round() as u64).max(1);
-    let (start, orientation) = script.sample(0.0);
-    let hand = SimulatedHand::new(script, HandParams::default())?;
     let config = LoopConfig {
         frames: Some(frames),
         threads,
@@ -73,16 +67,14 @@ pub fn run_session_until(
         free_running: !paced,
         ..LoopConfig::default()
     };
+    let mut plan = scene.plan(&DeviceChoice::Simulated, script, config)?;
+    plan.params = params;
     let report = run_loop(
         scene.tree.clone(),
-        classed(&scene.shell),
-        SessionSetup {
-            params,
-            device: Box::new(hand),
-            initial: PartState::at_rest(start, orientation),
-            config,
-            feed,
-            stop: stop.unwrap_or_default(),
+        scene.classed_shell(),
+        match signals {
+            Some(signals) => plan.into_stopped_setup(feed, signals),
+            None => plan.into_setup(feed),
         },
     )?;
     if let Some(err) = &report.device_error {
@@ -134,29 +126,38 @@ pub fn print_summary(label: &str, s: &StatsSummary, paper: Option<f64>) {
 
 /// Runs the demo.
 pub fn run(args: &DemoArgs) -> Result<()> {
-    let scene = builtin_scene(args.voxel_size, ShellMethod::VoxelCentres)?;
-    let params = HapticParams::default().with_scene(args.voxel_size, scene.shell.max_radius())?;
+    let scene = Session::open(
+        &args.scene.scene,
+        &args.scene.build_options(args.voxel_size),
+    )?;
+    // Braking on for the first run whatever the scene says: the demo compares on with off.
+    let params = HapticParams {
+        braking: true,
+        ..scene.params
+    };
     let threads = args.threads.max(1);
     if !args.json {
         println!(
-            "scene: aircraft bay, {} triangles, voxelized at {} m in {:.0} ms, tree {:.2} MiB \
+            "scene: {} ({}), {} triangles, voxelized at {} m in {:.0} ms, tree {:.2} MiB \
              (+ {:.2} MiB lookup directory)",
+            scene.name,
+            scene.label,
             scene.scene_triangles,
-            args.voxel_size,
+            scene.voxel_size,
             scene.voxelize_ms,
             scene.tree.memory_bytes() as f64 / 1048576.0,
             scene.tree.directory_bytes() as f64 / 1048576.0
         );
         println!(
-            "part: Utah teapot, {} shell points; {} thread(s)",
+            "part: {} shell points; {} thread(s)",
             scene.shell.len(),
             threads
         );
     }
     let viewer = crate::cmd::view::attach(args.view, &scene)?;
     let feed = || viewer.as_ref().map(|v| v.feed());
-    let stop = Arc::new(AtomicBool::new(false));
-    let signals = SignalStop::install(&stop)?;
+    // One set of handlers for both sessions: a signal during either ends the demo.
+    let signals = stop_on_signals()?;
     let session = |params: HapticParams, paced: bool| {
         let report = run_session_until(
             &scene,
@@ -165,7 +166,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             threads,
             paced,
             feed(),
-            Some(stop.clone()),
+            Some(&signals),
         )?;
         let (reason, code) = outcome(&report.end, Some(&signals));
         if code != 0 {
@@ -188,7 +189,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     if args.json {
         return print_json(&DemoReport {
             scene_triangles: scene.scene_triangles,
-            voxel_size_m: args.voxel_size,
+            voxel_size_m: scene.voxel_size,
             voxelize_ms: scene.voxelize_ms,
             tree_bytes: scene.tree.memory_bytes(),
             directory_bytes: scene.tree.directory_bytes(),

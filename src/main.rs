@@ -9,9 +9,6 @@ mod cmd;
 mod demo;
 mod limits;
 mod scene;
-mod scene_config;
-mod session;
-mod units;
 
 use clap::Parser;
 

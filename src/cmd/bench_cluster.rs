@@ -2,29 +2,29 @@
 //! `vps worker` processes on loopback, QUIC with pinned mutual TLS) with an N-point shell: missed
 //! deadlines, frame time percentiles, shares recomputed locally, per-worker metrics.
 //!
-//! Scene and motion as `vps bench loop` (the aircraft bay, the teapot's shell resampled to about
-//! `--points` points, the scripted laps along the corridor), so the two are comparable. The loop
+//! Scene and motion as `vps bench loop` (the scene, default the built-in bay, its part's shell
+//! resampled to about `--points` points, the scene's script repeated), so the two are comparable. The loop
 //! runs with its defaults: 1 ms period, 800 µs watchdog, replies awaited until 400 µs into the
 //! frame, real-time scheduling when granted.
 
 use super::cluster::run_local_cluster_prepared;
 use super::output::print_json;
 use super::run::PreparedSession;
-use crate::cli::{GatherArgs, RunArgs};
-use crate::session::{builtin_scene, laps_script};
+use crate::cli::{GatherArgs, RunArgs, SceneArgs};
 use anyhow::Result;
 use serde::Serialize;
 use vps_cluster::ClusterReport;
-use vps_device::{HandParams, SimulatedHand};
-use vps_haptic::{HapticParams, PartState};
 use vps_runtime::{LoopConfig, StatsSummary};
-use vps_voxelize::{point_shell, ShellMethod};
+use vps_session::{DeviceChoice, Session};
+use vps_voxelize::ShellMethod;
 
 /// What `vps bench cluster` measures.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct ClusterBench {
-    /// Voxel size of the scene (m).
-    pub voxel_size: f64,
+    /// The scene.
+    pub scene: SceneArgs,
+    /// Voxel size instead of the scene's (m).
+    pub voxel_size: Option<f64>,
     /// Approximate shell points.
     pub points: usize,
     /// Frames (1 ms each).
@@ -56,32 +56,27 @@ struct ClusterBenchReport {
 
 /// Runs the benchmark and prints JSON.
 pub fn run(bench: ClusterBench) -> Result<()> {
-    let mut scene = builtin_scene(bench.voxel_size, ShellMethod::VoxelCentres)?;
-    // Point count scales as 1/s² for a surface: the shell's voxel size for `points` (as bench loop).
-    let coarse = scene.shell.len().max(1) as f64;
-    let shell_voxel = bench.voxel_size * (coarse / bench.points.max(1) as f64).sqrt();
-    scene.shell = point_shell(
-        &vps_mesh::builtin::teapot(),
-        shell_voxel,
-        ShellMethod::VoxelCentres,
+    let mut session = Session::open(
+        &bench.scene.scene,
+        &bench.scene.build_options(bench.voxel_size),
     )?;
-    let params = HapticParams::default().with_scene(bench.voxel_size, scene.shell.max_radius())?;
-    let laps = 1 + (bench.frames as f64 * params.dt / 30.0).ceil() as usize;
-    let script = laps_script(&scene.tree, &scene.corridor, 0.8, laps)?;
-    let (start, orientation) = script.sample(0.0);
+    let (shell, shell_voxel) =
+        session.shell_with_points(bench.points, ShellMethod::VoxelCentres)?;
+    session.shell = shell;
+    session.params = session
+        .params
+        .with_scene(session.voxel_size, session.shell.max_radius())?;
+    let script = session
+        .hand
+        .script_covering(&session.tree, bench.frames as f64 * session.params.dt)?;
     let config = LoopConfig {
         frames: Some(bench.frames),
         realtime: true,
         ..LoopConfig::default()
     };
-    let shell_points = scene.shell.len();
-    let prepared = PreparedSession {
-        scene,
-        params,
-        device: Box::new(SimulatedHand::new(script, HandParams::default())?),
-        initial: PartState::at_rest(start, orientation),
-        config,
-    };
+    let shell_points = session.shell.len();
+    let plan = session.plan(&DeviceChoice::Simulated, script, config)?;
+    let prepared = PreparedSession { session, plan };
     let session = RunArgs {
         threads: bench.local_threads,
         ..RunArgs::default()
@@ -93,10 +88,12 @@ pub fn run(bench: ClusterBench) -> Result<()> {
         bench.worker_threads,
         bench.gather,
     )?;
+    super::exit::require_complete(&run.report.end, Some(&run.signals))?;
     print_json(&ClusterBenchReport {
         command: format!(
-            "vps bench cluster --points {} --frames {} --workers {} --worker-threads {} --threads {} \
+            "vps bench cluster --scene {} --points {} --frames {} --workers {} --worker-threads {} --threads {} \
              --spin-us {} --max-stale-frames {}{}",
+            bench.scene.scene,
             bench.points,
             bench.frames,
             bench.workers,

@@ -1,24 +1,22 @@
 //! `vps bench loop`: the end-to-end 1 kHz loop over many frames with a large point shell: missed
 //! deadlines and compute/period percentiles, recorded against the scheduled tick.
 //!
-//! Scene: the aircraft bay at `--voxel-size`. Part: the teapot's shell sampled at the voxel size
-//! that gives about `--points` points (the shell may be finer than the voxmap; the kernel does not
-//! care, and this is how a user buys point count independently of scene memory). Motion: the
-//! standard scripted session, back and forth along the corridor.
+//! Scene: `--scene` (default the built-in bay) at its voxel size or `--voxel-size`. Part: the
+//! scene's part's shell sampled at the voxel size that gives about `--points` points (the shell may
+//! be finer than the voxmap; the kernel does not care, and this is how a user buys point count
+//! independently of scene memory). Motion: the scene's script, its laps repeated to cover the run.
 
 use super::output::print_json;
-use crate::session::{builtin_scene, classed, laps_script};
+use crate::cli::SceneArgs;
 use anyhow::Result;
 use serde::Serialize;
-use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
-use vps_device::{HandParams, SimulatedHand};
-use vps_haptic::{HapticParams, PartState};
-use vps_runtime::{run_loop, LoopConfig, RtGrant, SessionSetup, StatsSummary};
-use vps_voxelize::{point_shell, ShellMethod};
+use vps_runtime::{run_loop, LoopConfig, RtGrant, StatsSummary};
+use vps_session::{DeviceChoice, Session};
+use vps_voxelize::ShellMethod;
 
 #[derive(Serialize)]
 struct LoopBench {
+    scene: String,
     scene_triangles: usize,
     voxel_size_m: f64,
     shell_voxel_size_m: f64,
@@ -31,43 +29,38 @@ struct LoopBench {
 }
 
 /// Runs the benchmark and prints JSON.
-pub fn run(voxel_size: f64, points: usize, frames: u64, threads: usize) -> Result<()> {
-    let mut scene = builtin_scene(voxel_size, ShellMethod::VoxelCentres)?;
-    // Point count scales as 1/s² for a surface: choose the shell's voxel size for `points`.
-    let coarse = scene.shell.len().max(1) as f64;
-    let shell_voxel = voxel_size * (coarse / points.max(1) as f64).sqrt();
-    scene.shell = point_shell(
-        &vps_mesh::builtin::teapot(),
-        shell_voxel,
-        ShellMethod::VoxelCentres,
-    )?;
-    let params = HapticParams::default().with_scene(voxel_size, scene.shell.max_radius())?;
-    let laps = 1 + (frames as f64 * params.dt / 30.0).ceil() as usize;
-    let script = laps_script(&scene.tree, &scene.corridor, 0.8, laps)?;
-    let (start, orientation) = script.sample(0.0);
+pub fn run(
+    scene: &SceneArgs,
+    voxel_size: Option<f64>,
+    points: usize,
+    frames: u64,
+    threads: usize,
+) -> Result<()> {
+    let mut session = Session::open(&scene.scene, &scene.build_options(voxel_size))?;
+    let (shell, shell_voxel) = session.shell_with_points(points, ShellMethod::VoxelCentres)?;
+    session.shell = shell;
+    session.params = session
+        .params
+        .with_scene(session.voxel_size, session.shell.max_radius())?;
+    let script = session
+        .hand
+        .script_covering(&session.tree, frames as f64 * session.params.dt)?;
     let config = LoopConfig {
         frames: Some(frames),
         threads,
         realtime: true,
         ..LoopConfig::default()
     };
-    let report = run_loop(
-        scene.tree.clone(),
-        classed(&scene.shell),
-        SessionSetup {
-            params,
-            device: Box::new(SimulatedHand::new(script, HandParams::default())?),
-            initial: PartState::at_rest(start, orientation),
-            config,
-            feed: None,
-            stop: Arc::new(AtomicBool::new(false)),
-        },
-    )?;
+    let plan = session.plan(&DeviceChoice::Simulated, script, config)?;
+    let (setup, signals) = plan.into_live_setup(None)?;
+    let report = run_loop(session.tree.clone(), session.classed_shell(), setup)?;
+    super::exit::require_complete(&report.end, Some(&signals))?;
     print_json(&LoopBench {
-        scene_triangles: scene.scene_triangles,
-        voxel_size_m: voxel_size,
+        scene: session.label.clone(),
+        scene_triangles: session.scene_triangles,
+        voxel_size_m: session.voxel_size,
         shell_voxel_size_m: shell_voxel,
-        shell_points: scene.shell.len(),
+        shell_points: session.shell.len(),
         threads,
         frames_requested: frames,
         rt: report.rt,

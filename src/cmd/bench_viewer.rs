@@ -7,14 +7,13 @@
 use super::output::print_json;
 use super::view::attach;
 use crate::demo::run_session;
-use crate::session::{builtin_scene, SessionScene};
 use anyhow::{Context, Result};
 use serde::Serialize;
 use std::time::Duration;
 use vps_haptic::HapticParams;
 use vps_runtime::{Percentiles, StatsSummary};
+use vps_session::{BuildOptions, Session};
 use vps_view::client::WsClient;
-use vps_voxelize::ShellMethod;
 
 /// Voxel size of the benchmark's scene (m): the demo's.
 const VOXEL_SIZE: f64 = 0.005;
@@ -80,8 +79,14 @@ impl Ratios {
 /// Runs `rounds` pairs of sessions of `seconds` each (without, then with a viewer) and prints
 /// JSON. Alternating spreads slow drifts of the machine's load over both kinds of run.
 pub fn run(seconds: f64, rounds: u32) -> Result<()> {
-    let scene = builtin_scene(VOXEL_SIZE, ShellMethod::VoxelCentres)?;
-    let params = HapticParams::default().with_scene(VOXEL_SIZE, scene.shell.max_radius())?;
+    let scene = Session::open(
+        vps_session::DEFAULT_SCENE,
+        &BuildOptions {
+            voxel_size: Some(VOXEL_SIZE),
+            ..BuildOptions::default()
+        },
+    )?;
+    let params = scene.params;
     let mut results = Vec::new();
     for _ in 0..rounds.max(1) {
         let without = run_session(&scene, params, seconds, 1, true, None)?;
@@ -98,7 +103,7 @@ pub fn run(seconds: f64, rounds: u32) -> Result<()> {
 
 /// The session with a viewer and one WebSocket client reading every message.
 fn round_with_viewer(
-    scene: &SessionScene,
+    scene: &Session,
     params: HapticParams,
     seconds: f64,
     without_viewer: StatsSummary,

@@ -4,7 +4,6 @@
 use super::exit::SessionExit;
 use super::run::{finish, prepare, LiveSession, PreparedSession, SessionOutputs};
 use crate::cli::{ClusterArgs, CoordinatorArgs, GatherArgs, RunArgs, WorkerArgs};
-use crate::session::CLASS_COUNT;
 use anyhow::{Context, Result};
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -17,6 +16,7 @@ use vps_cluster::{
     GatherConfig, LocalWorkerArgs, Rejoin, WorkerConfig,
 };
 use vps_runtime::{LoopConfig, LoopReport, SignalStop};
+use vps_session::CLASS_COUNT;
 
 /// How long the coordinator waits for its workers to join before it starts.
 const JOIN_TIMEOUT: Duration = Duration::from_secs(20);
@@ -98,7 +98,7 @@ fn coordinate(
     tune: impl FnOnce(&mut LoopConfig),
 ) -> Result<CoordinatedRun> {
     let mut prepared = prepare(session)?;
-    tune(&mut prepared.config);
+    tune(&mut prepared.plan.config);
     coordinate_prepared(
         session, prepared, listen, cert, key, pins, workers, gather, spawn,
     )
@@ -120,7 +120,7 @@ fn coordinate_prepared(
     spawn: impl FnOnce(SocketAddr) -> Result<Option<vps_cluster::LocalWorkers>>,
 ) -> Result<CoordinatedRun> {
     let LiveSession {
-        scene,
+        session: scene,
         viewer: _viewer,
         setup,
         signals,
@@ -224,7 +224,7 @@ pub fn run_local_cluster(
     tune: impl FnOnce(&mut LoopConfig),
 ) -> Result<CoordinatedRun> {
     let mut prepared = prepare(session)?;
-    tune(&mut prepared.config);
+    tune(&mut prepared.plan.config);
     run_local_cluster_prepared(session, prepared, workers, worker_threads, gather)
 }
 

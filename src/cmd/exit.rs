@@ -40,6 +40,20 @@ pub fn outcome(end: &SessionEnd, signals: Option<&SignalStop>) -> (String, i32) 
     }
 }
 
+/// Fails with a [`SessionExit`] (its exit status) unless the session ran to its end: for commands
+/// whose figures mean nothing for a partial session (the benchmarks).
+pub fn require_complete(end: &SessionEnd, signals: Option<&SignalStop>) -> anyhow::Result<()> {
+    let (reason, code) = outcome(end, signals);
+    if code == 0 {
+        return Ok(());
+    }
+    Err(SessionExit {
+        code,
+        reason: format!("the session ended early ({reason}); the device was sent zero force"),
+    }
+    .into())
+}
+
 /// The exit status for an error that ended the program.
 pub fn exit_code(err: &anyhow::Error) -> i32 {
     err.downcast_ref::<SessionExit>().map_or(1, |e| e.code)

@@ -16,6 +16,7 @@ pub mod output;
 mod probe;
 mod reserve;
 mod run;
+mod scene_check;
 mod shell;
 mod sweep;
 mod sweep_plots;
@@ -23,7 +24,7 @@ mod tune;
 pub(crate) mod view;
 mod voxelize;
 
-use crate::cli::{BenchKind, Cli, Command, RunArgs};
+use crate::cli::{BenchKind, Cli, Command, RunArgs, SceneCommand};
 use anyhow::Result;
 
 /// Runs the parsed command.
@@ -39,7 +40,9 @@ pub fn dispatch(cli: Cli) -> Result<()> {
             output,
             device,
             seconds,
+            scene,
         } => run::run(&RunArgs {
+            scene,
             device,
             seconds,
             record: Some(output),
@@ -49,12 +52,17 @@ pub fn dispatch(cli: Cli) -> Result<()> {
             trace,
             config,
             json,
+            scene,
         } => run::run(&RunArgs {
-            device: format!("replay:{}", trace.display()),
+            scene,
+            device: Some(format!("replay:{}", trace.display())),
             config,
             json,
             ..RunArgs::default()
         }),
+        Command::Scene(args) => match args.which {
+            SceneCommand::Check { scene, json } => scene_check::run(&scene, json),
+        },
         Command::Devices { json } => run::devices(json),
         Command::Cert { out, name } => cluster::cert(&out, &name),
         Command::Worker(args) => cluster::worker(&args),
@@ -78,12 +86,13 @@ pub fn dispatch(cli: Cli) -> Result<()> {
                 ..
             } => bench_voxelize::run_tree_memory(&mesh, voxel_size, plot.as_deref()),
             BenchKind::Loop {
+                scene,
                 voxel_size,
                 points,
                 frames,
                 threads,
                 ..
-            } => bench_loop::run(voxel_size, points, frames, threads),
+            } => bench_loop::run(&scene, voxel_size, points, frames, threads),
             BenchKind::Viewer {
                 seconds, rounds, ..
             } => bench_viewer::run(seconds, rounds),
@@ -99,10 +108,12 @@ pub fn dispatch(cli: Cli) -> Result<()> {
                 workers,
                 worker_threads,
                 threads,
+                scene,
                 voxel_size,
                 gather,
                 ..
             } => bench_cluster::run(bench_cluster::ClusterBench {
+                scene,
                 voxel_size,
                 points,
                 frames,

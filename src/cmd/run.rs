@@ -1,98 +1,17 @@
-//! `vps run`, `vps record`, `vps replay` and `vps devices`: one paced 1 kHz session on the
-//! built-in scene with a chosen device, parameters from a TOML file, and handle traces to and from
-//! files.
+//! `vps run`, `vps record`, `vps replay` and `vps devices`: one paced 1 kHz session on a scene
+//! (`--scene`, default the built-in bay) with a chosen device, parameters from a TOML file, and
+//! handle traces to and from files.
 
 use super::exit::{outcome, SessionExit};
 use super::output::print_json;
 use super::reserve::ReservedFile;
 use crate::cli::RunArgs;
-use crate::session::{builtin_scene, classed, standard_script, SessionScene};
-use anyhow::{bail, Context, Result};
-use glam::DQuat;
+use anyhow::{anyhow, bail, Context, Result};
 use serde::Serialize;
-use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
-use vps_device::trace::{load_trace, save_trace, ReplayDevice};
-use vps_device::{DeviceLimits, HandParams, HapticDevice, SimulatedHand};
-use vps_haptic::{HapticParams, PartState};
-use vps_input::{BridgeConfig, BridgeDevice, SpaceMouse, SpaceMouseConfig};
+use vps_device::trace::save_trace;
+use vps_haptic::HapticParams;
 use vps_runtime::{run_loop, LoopConfig, LoopReport, SessionSetup, SignalStop, StatsSummary};
-use vps_voxelize::ShellMethod;
-
-/// The device a session is driven by, parsed from `--device`.
-enum DeviceChoice {
-    /// The simulated hand on the standard script.
-    Simulated,
-    /// The first SpaceMouse-family HID device found (input only).
-    SpaceMouse,
-    /// The UDP device bridge, bound to the address (loopback unless a token is given).
-    Bridge(std::net::SocketAddr),
-    /// A recorded handle trace, played back exactly.
-    Replay(std::path::PathBuf),
-}
-
-fn parse_device(text: &str) -> Result<DeviceChoice> {
-    Ok(match text.split_once(':') {
-        None if text == "sim" => DeviceChoice::Simulated,
-        None if text == "spacemouse" => DeviceChoice::SpaceMouse,
-        None if text == "bridge" => DeviceChoice::Bridge("127.0.0.1:7700".parse()?),
-        Some(("bridge", addr)) => DeviceChoice::Bridge(addr.parse().with_context(|| {
-            format!("--device bridge:{addr}: not an address like 127.0.0.1:7700")
-        })?),
-        Some(("replay", path)) => DeviceChoice::Replay(path.into()),
-        _ => bail!("--device {text}: expected sim, spacemouse, bridge[:ADDR] or replay:FILE"),
-    })
-}
-
-/// Opens the device; the start pose is where the session begins (m).
-fn open_device(
-    choice: &DeviceChoice,
-    scene: &SessionScene,
-) -> Result<(Box<dyn HapticDevice>, PartState)> {
-    let script = standard_script(&scene.tree, &scene.corridor, 0.8)?;
-    let (start, orientation) = script.sample(0.0);
-    let at_start = PartState::at_rest(start, orientation);
-    Ok(match choice {
-        DeviceChoice::Simulated => (
-            Box::new(SimulatedHand::new(script, HandParams::default())?),
-            at_start,
-        ),
-        DeviceChoice::SpaceMouse => {
-            let config = SpaceMouseConfig {
-                start_position: start,
-                start_orientation: DQuat::IDENTITY,
-                ..Default::default()
-            };
-            let device = SpaceMouse::open_first(config).context(
-                "opening a SpaceMouse (`vps devices` lists what this machine sees; /dev/hidraw* must be readable)",
-            )?;
-            (Box::new(device), at_start)
-        }
-        DeviceChoice::Bridge(addr) => {
-            let config = BridgeConfig {
-                bind: *addr,
-                initial_position: start,
-                ..Default::default()
-            };
-            let device = BridgeDevice::bind(config)
-                .with_context(|| format!("binding the device bridge on {addr}"))?;
-            eprintln!("device bridge listening on {}", device.local_addr());
-            (Box::new(device), at_start)
-        }
-        DeviceChoice::Replay(path) => {
-            let trace = load_trace(path)?;
-            let first = trace
-                .frames
-                .first()
-                .with_context(|| format!("{}: the trace has no frames", path.display()))?;
-            let state = PartState::at_rest(first.sample.position, first.sample.orientation);
-            (
-                Box::new(ReplayDevice::new(trace, DeviceLimits::PAPER)),
-                state,
-            )
-        }
-    })
-}
+use vps_session::{DeviceChoice, Session, SessionPlan};
 
 /// The session report (`--json`, `--report FILE`).
 #[derive(Serialize)]
@@ -146,24 +65,18 @@ impl SessionOutputs {
 
 /// Everything a session needs, opened from the command line.
 pub struct PreparedSession {
-    /// Scene, voxmap and shell.
-    pub scene: SessionScene,
-    /// Validated haptic parameters.
-    pub params: HapticParams,
-    /// The opened device.
-    pub device: Box<dyn HapticDevice>,
-    /// The part's state at frame 0.
-    pub initial: PartState,
-    /// Frame loop settings.
-    pub config: LoopConfig,
+    /// Scene, voxmap, shell and meshes.
+    pub session: Session,
+    /// Parameters, opened device, initial state and loop settings.
+    pub plan: SessionPlan,
 }
 
 /// A prepared session made ready to run: its scene, the live viewer when one was asked for (keep
 /// it alive for the session), the loop's setup, publishing to that viewer, and the signal
 /// handlers that stop it.
 pub struct LiveSession {
-    /// Scene, voxmap and shell.
-    pub scene: SessionScene,
+    /// Scene, voxmap, shell and meshes.
+    pub session: Session,
     /// The viewer serving this session, if any.
     pub viewer: Option<super::view::LiveViewer>,
     /// What the frame loop runs.
@@ -177,26 +90,11 @@ impl PreparedSession {
     /// Attaches the viewer at `view` (when given) and builds the loop's setup, with a stop flag
     /// set by SIGINT, SIGTERM and SIGHUP (installed here: the device is open from now on).
     pub fn go_live(self, view: Option<std::net::SocketAddr>) -> Result<LiveSession> {
-        let PreparedSession {
-            scene,
-            params,
-            device,
-            initial,
-            config,
-        } = self;
-        let stop = Arc::new(AtomicBool::new(false));
-        let signals = SignalStop::install(&stop)?;
-        let viewer = super::view::attach(view, &scene)?;
-        let setup = SessionSetup {
-            params,
-            device,
-            initial,
-            config,
-            feed: viewer.as_ref().map(|v| v.feed()),
-            stop,
-        };
+        let PreparedSession { session, plan } = self;
+        let viewer = super::view::attach(view, &session)?;
+        let (setup, signals) = plan.into_live_setup(viewer.as_ref().map(|v| v.feed()))?;
         Ok(LiveSession {
-            scene,
+            session,
             viewer,
             setup,
             signals,
@@ -204,33 +102,31 @@ impl PreparedSession {
     }
 }
 
+/// The device of `--device`, else the scene's.
+pub fn device_choice(text: Option<&str>, session: &Session) -> Result<DeviceChoice> {
+    match text {
+        Some(t) => DeviceChoice::parse(t).map_err(|m| anyhow!("--device {m}")),
+        None => Ok(session.device.clone()),
+    }
+}
+
 /// Builds the scene, loads parameters and opens the device of `args`.
 pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
-    let choice = parse_device(&args.device)?;
-    let loaded = match &args.config {
-        Some(path) => {
-            let params = HapticParams::from_file(path)?;
-            let period = LoopConfig::default().period.as_secs_f64();
-            if (params.dt - period).abs() > 1e-12 {
-                bail!(
-                    "{}: haptic parameter `dt` = {} s: the session loop runs at {} Hz, so `dt` \
-                     must be {period} s (or left out)",
-                    path.display(),
-                    params.dt,
-                    1.0 / period
-                );
-            }
-            params
-        }
-        None => HapticParams::default(),
+    let mut session = Session::open(
+        &args.scene.scene,
+        &args.scene.build_options(args.voxel_size),
+    )?;
+    let choice = device_choice(args.device.as_deref(), &session)?;
+    if let Some(path) = &args.config {
+        session.params = HapticParams::from_file(path)?
+            .with_scene(session.voxel_size, session.shell.max_radius())?;
+    }
+    let source = match &args.config {
+        Some(path) => path.display().to_string(),
+        None => session.label.clone(),
     };
-    let scene = builtin_scene(args.voxel_size, ShellMethod::VoxelCentres)?;
-    let params = loaded.with_scene(args.voxel_size, scene.shell.max_radius())?;
-    let (device, initial) = open_device(&choice, &scene)?;
-    let frames = match &choice {
-        DeviceChoice::Replay(path) => load_trace(path)?.frames.len() as u64,
-        _ => (args.seconds / params.dt).round().max(1.0) as u64,
-    };
+    check_loop_period(&session.params, &source)?;
+    let frames = choice.frames(args.seconds, session.params.dt)?;
     let config = LoopConfig {
         frames: Some(frames),
         threads: args.threads.max(1),
@@ -238,30 +134,40 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
         record_trace: args.record.is_some(),
         ..LoopConfig::default()
     };
-    Ok(PreparedSession {
-        scene,
-        params,
-        device,
-        initial,
-        config,
-    })
+    let plan = session.plan(&choice, session.script()?, config)?;
+    Ok(PreparedSession { session, plan })
+}
+
+/// Fails unless the haptic time step `dt` (s) of `params`, read from `source`, is the session
+/// loop's period: the loop ticks at 1 kHz whatever the parameters say.
+fn check_loop_period(params: &HapticParams, source: &str) -> Result<()> {
+    let period = LoopConfig::default().period.as_secs_f64();
+    if (params.dt - period).abs() > 1e-12 {
+        bail!(
+            "{source}: haptic parameter `dt` = {} s: the session loop runs at {} Hz, so `dt` \
+             must be {period} s (or left out)",
+            params.dt,
+            1.0 / period
+        );
+    }
+    Ok(())
 }
 
 /// Runs one paced session; records the handle trace to `record` when given.
 pub fn run(args: &RunArgs) -> Result<()> {
     let outputs = SessionOutputs::reserve(args)?;
     let LiveSession {
-        scene,
+        session,
         viewer: _viewer,
         setup,
         signals,
     } = prepare(args)?.go_live(args.view)?;
-    let report: LoopReport = run_loop(scene.tree.clone(), classed(&scene.shell), setup)?;
+    let report: LoopReport = run_loop(session.tree.clone(), session.classed_shell(), setup)?;
     finish(
         args,
         outputs,
         &signals,
-        scene.shell.len(),
+        session.shell.len(),
         &report,
         None::<&()>,
     )

@@ -5,22 +5,21 @@
 //! direction and magnitude error, minimum exact separation. Writes JSON, CSV and SVG plots.
 
 use crate::cli::SweepArgs;
-use crate::scene_config::{width_from_bits, SceneConfig, ShellMethodName};
-use crate::session::{classed, laps_script, SessionScene};
 use anyhow::{bail, Context, Result};
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Instant;
+use vps_device::script::Script;
 use vps_device::{HandParams, HapticDevice, SimulatedHand};
 use vps_haptic::{sample_all, step, HapticParams, KernelPose, PartState};
-use vps_mesh::TriMesh;
 use vps_reference::{reference_contact, ExactScene};
-use vps_runtime::{run_loop, LoopConfig, SessionSetup, StatsSummary};
-use vps_voxelize::{point_shell, voxelize_tree};
-use vps_voxmap::{TreeConfig, VoxelTree, VoxelWidth};
+use vps_runtime::{run_loop, LoopConfig, StatsSummary};
+use vps_session::file::{width_from_bits, ShellMethodName};
+use vps_session::scene::BuiltVoxmap;
+use vps_session::{classed, CachePolicy, DeviceChoice, LoadedScene, SessionPlan};
+use vps_voxmap::{PointShell, VoxelTree, VoxelWidth};
 
 /// The sweep file (`configs/sweep.toml`).
 #[derive(Debug, Deserialize)]
@@ -121,19 +120,33 @@ pub fn run(args: &SweepArgs) -> Result<()> {
         );
     }
     let base = args.config.parent().unwrap_or(Path::new("."));
+    let mut runs = config.run.iter().collect::<Vec<_>>();
+    let only;
+    if let Some(scene) = &args.scene {
+        only = RunSpec {
+            scene: PathBuf::from(scene),
+            voxel_sizes_mm: None,
+            widths: None,
+            methods: None,
+            seconds: None,
+        };
+        runs = vec![&only];
+    }
     let mut rows = Vec::new();
-    for (i, spec) in config.run.iter().enumerate() {
-        let path = base.join(&spec.scene);
-        let scene = SceneConfig::from_file(&path)?;
+    for (i, spec) in runs.into_iter().enumerate() {
+        let path = if args.scene.is_some() {
+            spec.scene.display().to_string()
+        } else {
+            base.join(&spec.scene).display().to_string()
+        };
+        let scene = LoadedScene::load(&path)?;
         let widths = run_widths(&config, spec, &scene, &args.config, i)?;
         let methods = spec.methods.as_ref().unwrap_or(&config.methods);
         if methods.is_empty() {
             bail!("{}: run[{i}].methods is empty", args.config.display());
         }
-        let scene_dir = path.parent().unwrap_or(Path::new("."));
-        let (objects, part) = scene.load_meshes(scene_dir)?;
-        let exact = ExactScene::new(&objects)
-            .with_context(|| format!("{}: building the exact reference", path.display()))?;
+        let exact = ExactScene::new(&scene.statics)
+            .with_context(|| format!("{path}: building the exact reference"))?;
         let mut sizes = spec
             .voxel_sizes_mm
             .clone()
@@ -153,7 +166,8 @@ pub fn run(args: &SweepArgs) -> Result<()> {
             }
             for &width in &widths {
                 let voxel_size = size_mm * 1e-3;
-                let map = build_map(&scene, &objects, voxel_size, width)?;
+                // Sweeps time voxelization: never from the cache.
+                let map = scene.build_voxmap(voxel_size, width, &CachePolicy::Off, false)?;
                 for &method in methods {
                     eprintln!(
                         "sweep: {} {size_mm} mm {}-bit {method:?}",
@@ -162,7 +176,6 @@ pub fn run(args: &SweepArgs) -> Result<()> {
                     );
                     let setting = Setting {
                         scene: &scene,
-                        part: &part,
                         exact: &exact,
                         voxel_size,
                         method,
@@ -188,21 +201,22 @@ pub fn run(args: &SweepArgs) -> Result<()> {
 fn run_widths(
     config: &SweepConfig,
     spec: &RunSpec,
-    scene: &SceneConfig,
+    scene: &LoadedScene,
     sweep_path: &Path,
     index: usize,
 ) -> Result<Vec<VoxelWidth>> {
     let (bits, field) = match (&spec.widths, &config.widths) {
         (Some(w), _) => (w.clone(), format!("run[{index}].widths")),
         (None, Some(w)) => (w.clone(), "widths".to_string()),
-        (None, None) => return Ok(vec![scene.voxels.width(sweep_path)?]),
+        (None, None) => return Ok(vec![scene.width()?]),
     };
+    let sweep_label = sweep_path.display().to_string();
     if bits.is_empty() {
         bail!("{}: field `{field}` is empty", sweep_path.display());
     }
     bits.iter()
         .enumerate()
-        .map(|(j, &b)| Ok(width_from_bits(b, sweep_path, &format!("{field}[{j}]"))?))
+        .map(|(j, &b)| Ok(width_from_bits(b, &sweep_label, &format!("{field}[{j}]"))?))
         .collect()
 }
 
@@ -210,8 +224,7 @@ fn run_widths(
 const QUICK_SECONDS: f64 = 2.0;
 
 struct Setting<'a> {
-    scene: &'a SceneConfig,
-    part: &'a TriMesh,
+    scene: &'a LoadedScene,
     exact: &'a ExactScene,
     voxel_size: f64,
     method: ShellMethodName,
@@ -219,122 +232,85 @@ struct Setting<'a> {
     points_per_frame: usize,
 }
 
-/// A static scene's voxmap and what building it cost.
-pub struct BuiltMap {
+/// One setting's session: a voxmap, the part's shell on it, the parameters and the script.
+pub struct SweepSession {
     /// The voxmap.
     pub tree: Arc<VoxelTree>,
-    /// Wall time of voxelization and tree build (ms).
+    /// Voxelization wall time (ms).
     pub voxelize_ms: f64,
-    /// Triangles in the static scene.
-    pub scene_triangles: usize,
+    /// The part's shell.
+    pub shell: PointShell,
+    /// Parameters for this voxmap and shell.
+    pub params: HapticParams,
+    /// The scene's script on this voxmap, its laps repeated to last at least the session asked for.
+    pub script: Script,
 }
 
-/// Voxelizes the scene's static `objects` at `voxel_size` (m) into a tree of `width` with the
-/// sparse voxelizer ([`voxelize_tree`]); only the scene's workspace region when it declares one.
-/// Blocking, parallel, allocates the tree.
-pub fn build_map(
-    scene: &SceneConfig,
-    objects: &[TriMesh],
-    voxel_size: f64,
-    width: VoxelWidth,
-) -> Result<BuiltMap> {
-    let opts = scene.voxelize_options(voxel_size, width);
-    let t = Instant::now();
-    let (tree, _) = voxelize_tree(objects, &opts, TreeConfig::default()).with_context(|| {
-        format!(
-            "{}: voxelizing at {} mm, {}-bit",
-            scene.name,
-            voxel_size * 1e3,
-            width.bits()
-        )
-    })?;
-    Ok(BuiltMap {
-        tree: Arc::new(tree),
-        voxelize_ms: t.elapsed().as_secs_f64() * 1e3,
-        scene_triangles: objects.iter().map(TriMesh::triangle_count).sum(),
-    })
-}
-
-/// A session on an already built `map`: the part's shell of `method` at `voxel_size` (m).
+/// A session on an already built `map`: the part's shell of `method` at `voxel_size` (m), the
+/// scene's parameters and its script lasting at least `seconds` (s).
 pub fn session_on(
-    scene: &SceneConfig,
-    part: &TriMesh,
-    map: &BuiltMap,
+    scene: &LoadedScene,
+    map: &BuiltVoxmap,
     voxel_size: f64,
     method: ShellMethodName,
-) -> Result<SessionScene> {
-    let shell = point_shell(part, voxel_size, method.method())?;
-    Ok(SessionScene {
+    seconds: f64,
+) -> Result<SweepSession> {
+    let shell = scene.build_shell(voxel_size, method.method())?;
+    let params = scene.params_for(voxel_size, &shell)?;
+    let script = scene.hand().script_covering(&map.tree, seconds)?;
+    Ok(SweepSession {
         tree: map.tree.clone(),
-        shell,
-        corridor: scene.waypoints(),
-        scene_triangles: map.scene_triangles,
         voxelize_ms: map.voxelize_ms,
+        shell,
+        params,
+        script,
     })
 }
 
-/// Voxelizes the scene at its own width (its workspace region only, when it declares one) and
-/// builds the shell.
-pub fn build_session(
-    scene: &SceneConfig,
-    objects: &[TriMesh],
-    part: &TriMesh,
-    voxel_size: f64,
-    method: ShellMethodName,
-) -> Result<SessionScene> {
-    let width = scene.voxels.width(Path::new(&scene.name))?;
-    let map = build_map(scene, objects, voxel_size, width)?;
-    session_on(scene, part, &map, voxel_size, method)
-}
-
-/// The haptic parameters of a scene at a voxel size.
-pub fn session_params(
-    scene: &SceneConfig,
-    session: &SessionScene,
-    voxel_size: f64,
-) -> Result<HapticParams> {
-    Ok(HapticParams {
-        braking: scene.voxels.braking,
-        ..HapticParams::default()
-    }
-    .with_scene(voxel_size, session.shell.max_radius())?)
-}
-
-fn measure(set: &Setting, map: &BuiltMap) -> Result<SweepRow> {
-    let session = session_on(set.scene, set.part, map, set.voxel_size, set.method)?;
-    let params = session_params(set.scene, &session, set.voxel_size)?;
-    let script = laps_script(
-        &session.tree,
-        &session.corridor,
-        set.scene.corridor.reach,
-        set.scene.corridor.laps,
-    )?;
-    let seconds = set.seconds.unwrap_or(f64::INFINITY).min(script.duration());
-    let frames = ((seconds / params.dt).round() as u64).max(1);
-    let (start, orientation) = script.sample(0.0);
-    let initial = PartState::at_rest(start, orientation);
-    // Timing pass: the runtime's loop, free-running (frames back to back), one thread.
-    let timed = run_loop(
+/// Runs `frames` frames of `session` on the runtime's loop, one thread, free-running or paced.
+pub fn run_sweep_session(
+    session: &SweepSession,
+    frames: u64,
+    paced: bool,
+) -> Result<vps_runtime::LoopReport> {
+    let (device, initial) = DeviceChoice::Simulated.open(session.script.clone())?;
+    let plan = SessionPlan {
+        params: session.params,
+        device,
+        initial,
+        config: LoopConfig {
+            frames: Some(frames),
+            threads: 1,
+            realtime: paced,
+            free_running: !paced,
+            ..LoopConfig::default()
+        },
+    };
+    let report = run_loop(
         session.tree.clone(),
         classed(&session.shell),
-        SessionSetup {
-            params,
-            device: Box::new(SimulatedHand::new(script.clone(), HandParams::default())?),
-            initial,
-            config: LoopConfig {
-                frames: Some(frames),
-                threads: 1,
-                realtime: false,
-                free_running: true,
-                ..LoopConfig::default()
-            },
-            feed: None,
-            stop: Arc::new(AtomicBool::new(false)),
-        },
+        plan.into_setup(None),
     )?;
-    if let Some(err) = &timed.device_error {
+    if let Some(err) = &report.device_error {
         bail!("the simulated hand failed: {err}");
     }
+    Ok(report)
+}
+
+fn measure(set: &Setting, map: &BuiltVoxmap) -> Result<SweepRow> {
+    // Seconds 0: the script as the scene declares it (its own laps).
+    let session = session_on(set.scene, map, set.voxel_size, set.method, 0.0)?;
+    let seconds = set
+        .seconds
+        .unwrap_or(f64::INFINITY)
+        .min(session.script.duration());
+    let frames = ((seconds / session.params.dt).round() as u64).max(1);
+    let (start, orientation) = session.script.sample(0.0);
+    let initial = PartState::at_rest(start, orientation);
+    let params = session.params;
+    let script = session.script.clone();
+    // Timing pass: the runtime's loop, free-running (frames back to back), one thread.
+    let timed = run_sweep_session(&session, frames, false)?;
     let stride = session.shell.len().div_ceil(set.points_per_frame).max(1) as u64;
     let accuracy = accuracy_pass(
         set,
@@ -371,7 +347,7 @@ struct Accuracy {
 /// under `K_ff s / 2` per point; the reference is not computed there.
 fn accuracy_pass(
     set: &Setting,
-    session: &SessionScene,
+    session: &SweepSession,
     params: &HapticParams,
     mut hand: SimulatedHand,
     initial: PartState,
@@ -380,7 +356,7 @@ fn accuracy_pass(
 ) -> Result<Accuracy> {
     let shell = classed(&session.shell);
     let limits = hand.limits();
-    let offset = reference_offset(set.scene.voxels.offset_layers, set.voxel_size);
+    let offset = reference_offset(set.scene.file.voxels.offset_layers, set.voxel_size);
     let reach = offset + 2.0 * set.voxel_size;
     let mut state = initial;
     let mut acc = Accuracy::default();
@@ -453,14 +429,14 @@ fn quantile(values: &[f64], q: f64) -> Option<f64> {
     v.get(i).copied()
 }
 
-fn row(set: &Setting, session: &SessionScene, stats: &StatsSummary, acc: Accuracy) -> SweepRow {
+fn row(set: &Setting, session: &SweepSession, stats: &StatsSummary, acc: Accuracy) -> SweepRow {
     let errors: Vec<f64> = acc.ratios.iter().map(|r| (r - 1.0).abs()).collect();
     SweepRow {
         scene: set.scene.name.clone(),
         method: set.method,
         voxel_size_mm: set.voxel_size * 1e3,
         voxel_width: session.tree.width().bits(),
-        voxelized: if set.scene.workspace.is_some() {
+        voxelized: if set.scene.file.workspace.is_some() {
             "workspace"
         } else {
             "scene"
@@ -548,14 +524,13 @@ fn write_outputs(args: &SweepArgs, rows: &[SweepRow]) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use vps_voxelize::{grid_for, voxelize_in};
+    use vps_mesh::TriMesh;
+    use vps_voxelize::{grid_for, voxelize_in, voxelize_tree};
+    use vps_voxmap::TreeConfig;
     use vps_voxmap::{LayeredVoxel, Voxel, VoxelLookup};
 
-    fn rig() -> (SceneConfig, Vec<TriMesh>) {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/scenes/rig-teapot.toml");
-        let scene = SceneConfig::from_file(&path).unwrap();
-        let (objects, _) = scene.load_meshes(path.parent().unwrap()).unwrap();
-        (scene, objects)
+    fn rig() -> LoadedScene {
+        LoadedScene::load("builtin:rig-teapot").unwrap()
     }
 
     /// The outermost force-layer voxel centres of an axis-aligned wall lie `(k ± ½) s` from it,
@@ -614,14 +589,14 @@ mod tests {
     /// hold the same kinds at layer 0 with deeper layers inside.
     #[test]
     fn rig_map_matches_the_dense_pipeline_and_wide_maps_add_layers() {
-        let (scene, objects) = rig();
+        let scene = rig();
         let s = 0.01;
         let opts = scene.voxelize_options(s, VoxelWidth::Two);
-        let region = scene.workspace.unwrap().aabb();
-        let dense = voxelize_in(&objects, grid_for(&region, &opts).unwrap(), &opts).unwrap();
-        let maps: Vec<BuiltMap> = VoxelWidth::ALL
+        let region = scene.file.workspace.unwrap().aabb();
+        let dense = voxelize_in(&scene.statics, grid_for(&region, &opts).unwrap(), &opts).unwrap();
+        let maps: Vec<BuiltVoxmap> = VoxelWidth::ALL
             .iter()
-            .map(|&w| build_map(&scene, &objects, s, w).unwrap())
+            .map(|&w| scene.build_voxmap(s, w, &CachePolicy::Off, false).unwrap())
             .collect();
         let spec = *maps[0].tree.spec();
         let (mut deep, mut checked) = (0, 0);

@@ -2,18 +2,13 @@
 //! fine, proposes the finest size whose p99.9 stays under a budget, prints the accuracy the
 //! committed sweep measured at that size, and verifies the choice with a paced run.
 
-use super::sweep::{build_session, session_params};
+use super::sweep::{run_sweep_session, session_on, SweepSession};
 use crate::cli::TuneArgs;
-use crate::scene_config::SceneConfig;
-use crate::session::{classed, laps_script, SessionScene};
 use anyhow::{bail, Result};
 use serde::Serialize;
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
-use vps_device::{HandParams, SimulatedHand};
-use vps_haptic::PartState;
-use vps_runtime::{run_loop, LoopConfig, SessionSetup, StatsSummary};
+use vps_runtime::StatsSummary;
+use vps_session::{CachePolicy, LoadedScene};
 
 /// Candidate voxel sizes (mm), coarse to fine.
 const SIZES_MM: [f64; 5] = [10.0, 5.0, 2.5, 1.25, 0.625];
@@ -40,55 +35,16 @@ struct TuneReport {
     verify: StatsSummary,
 }
 
-/// Runs one session on `session`: free-running or paced, `frames` frames, one thread.
-fn session_run(
-    scene: &SceneConfig,
-    session: &SessionScene,
-    voxel_size: f64,
-    frames: u64,
-    paced: bool,
-) -> Result<vps_runtime::LoopReport> {
-    let params = session_params(scene, session, voxel_size)?;
-    let mut laps = scene.corridor.laps;
-    let mut script = laps_script(&session.tree, &session.corridor, scene.corridor.reach, laps)?;
-    while script.duration() < frames as f64 * params.dt && laps < 1000 {
-        laps *= 2;
-        script = laps_script(&session.tree, &session.corridor, scene.corridor.reach, laps)?;
-    }
-    let (start, orientation) = script.sample(0.0);
-    let report = run_loop(
-        session.tree.clone(),
-        classed(&session.shell),
-        SessionSetup {
-            params,
-            device: Box::new(SimulatedHand::new(script, HandParams::default())?),
-            initial: PartState::at_rest(start, orientation),
-            config: LoopConfig {
-                frames: Some(frames),
-                threads: 1,
-                realtime: paced,
-                free_running: !paced,
-                ..LoopConfig::default()
-            },
-            feed: None,
-            stop: Arc::new(AtomicBool::new(false)),
-        },
-    )?;
-    if let Some(err) = &report.device_error {
-        bail!("the simulated hand failed: {err}");
-    }
-    Ok(report)
-}
-
 /// The committed sweep's row for this scene, method, voxel width and size, if the file has one.
-fn sweep_row(path: &Path, scene: &SceneConfig, size_mm: f64) -> Option<serde_json::Value> {
+fn sweep_row(path: &Path, scene: &LoadedScene, size_mm: f64) -> Option<serde_json::Value> {
     let rows: Vec<serde_json::Value> =
         serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()?;
-    let method = serde_json::to_value(scene.voxels.shell_method).ok()?;
+    let voxels = &scene.file.voxels;
+    let method = serde_json::to_value(voxels.shell_method).ok()?;
     rows.into_iter().find(|r| {
         r["scene"] == scene.name.as_str()
             && r["method"] == method
-            && r["voxel_width"].as_u64() == Some(u64::from(scene.voxels.voxel_width))
+            && r["voxel_width"].as_u64() == Some(u64::from(voxels.voxel_width))
             && r["voxel_size_mm"]
                 .as_f64()
                 .is_some_and(|s| (s - size_mm).abs() < 1e-9)
@@ -103,16 +59,25 @@ pub fn run(args: &TuneArgs) -> Result<()> {
             args.budget_fraction
         );
     }
-    let scene = SceneConfig::from_file(&args.scene)?;
-    scene.voxels.check_supported(&args.scene)?;
-    let (objects, part) = scene.load_meshes(args.scene.parent().unwrap_or(Path::new(".")))?;
+    let scene = LoadedScene::load(&args.scene)?;
+    for w in &scene.warnings {
+        eprintln!("{}: warning: {w}", scene.label);
+    }
+    let width = scene.width()?;
+    let cache = if args.no_cache {
+        CachePolicy::Off
+    } else {
+        CachePolicy::from_env()
+    };
     let budget_us = 1000.0 * args.budget_fraction;
     let mut measured = Vec::new();
-    let mut chosen: Option<(f64, SessionScene)> = None;
+    let mut chosen: Option<(f64, SweepSession)> = None;
+    let longest = args.frames.max(args.verify_frames) as f64 * scene.params.dt;
     for size_mm in SIZES_MM {
         let s = size_mm * 1e-3;
-        let session = build_session(&scene, &objects, &part, s, scene.voxels.shell_method)?;
-        let stats = session_run(&scene, &session, s, args.frames, false)?.stats;
+        let map = scene.build_voxmap(s, width, &cache, true)?;
+        let session = session_on(&scene, &map, s, scene.file.voxels.shell_method, longest)?;
+        let stats = run_sweep_session(&session, args.frames, false)?.stats;
         let p999 = stats.compute_ns.p999 as f64 / 1e3;
         let within = p999 <= budget_us;
         if !args.json {
@@ -144,7 +109,7 @@ pub fn run(args: &TuneArgs) -> Result<()> {
         );
     };
     let predicted = sweep_row(&args.sweep, &scene, size_mm);
-    let verify = session_run(&scene, &session, size_mm * 1e-3, args.verify_frames, true)?;
+    let verify = run_sweep_session(&session, args.verify_frames, true)?;
     let report = TuneReport {
         scene: scene.name.clone(),
         budget_us,

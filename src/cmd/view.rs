@@ -1,12 +1,13 @@
 //! The live viewer on the command line: `--view ADDR` on `vps demo`, `vps run` and
-//! `vps coordinator` ([`attach`]), and `vps view FILE.vmap` for an offline voxmap ([`run`]).
+//! `vps coordinator` ([`attach`]), and `vps view FILE.vmap` or `vps view --scene FILE` offline
+//! ([`run`]).
 
 use crate::cli::ViewArgs;
-use crate::session::SessionScene;
 use anyhow::{Context, Result};
 use std::net::SocketAddr;
 use std::sync::Arc;
 use vps_runtime::{state_feed, StateFeedSender};
+use vps_session::{CachePolicy, Session};
 use vps_view::{SceneLimits, ViewerHandle, ViewerScene, ViewerServer};
 use vps_voxmap::file::{load_shell, load_voxmap};
 
@@ -28,40 +29,65 @@ impl LiveViewer {
     }
 }
 
-/// Starts a viewer of `scene` on `addr` when `--view` was given and prints its URL on stderr.
-pub fn attach(addr: Option<SocketAddr>, scene: &SessionScene) -> Result<Option<LiveViewer>> {
+/// What the viewer draws of a session: its voxmap and shell, labelled with the scene's name.
+fn viewer_scene(session: &Session) -> ViewerScene {
+    ViewerScene::new(
+        session.name.clone(),
+        session.tree.clone(),
+        Some(Arc::new(session.shell.clone())),
+        SceneLimits::default(),
+    )
+}
+
+/// Starts a viewer of `session` on `addr` when `--view` was given and prints its URL on stderr.
+pub fn attach(addr: Option<SocketAddr>, session: &Session) -> Result<Option<LiveViewer>> {
     let Some(addr) = addr else {
         return Ok(None);
     };
-    let drawn = ViewerScene::new(
-        "aircraft bay + Utah teapot",
-        scene.tree.clone(),
-        Some(Arc::new(scene.shell.clone())),
-        SceneLimits::default(),
-    );
     let (feed, receiver) = state_feed();
-    let server = ViewerServer::start(addr, drawn, Some(receiver))?;
+    let server = ViewerServer::start(addr, viewer_scene(session), Some(receiver))?;
     eprintln!("viewer: {}", server.url());
     Ok(Some(LiveViewer { server, feed }))
 }
 
-/// `vps view FILE.vmap [--shell FILE.vshell]`: serves the scene with no loop until interrupted.
+/// `vps view FILE.vmap [--shell FILE.vshell]` or `vps view --scene FILE`: serves the scene with
+/// no loop until interrupted.
 pub fn run(args: &ViewArgs) -> Result<()> {
-    let tree =
-        load_voxmap(&args.voxmap).with_context(|| format!("reading {}", args.voxmap.display()))?;
-    let shell = match &args.shell {
-        Some(path) => Some(Arc::new(
-            load_shell(path).with_context(|| format!("reading {}", path.display()))?,
-        )),
-        None => None,
+    let (scene, what) = match (&args.scene, &args.voxmap) {
+        (Some(scene), _) => {
+            let options = vps_session::BuildOptions {
+                cache: if args.no_cache {
+                    CachePolicy::Off
+                } else {
+                    CachePolicy::from_env()
+                },
+                ..vps_session::BuildOptions::default()
+            };
+            (
+                viewer_scene(&Session::open(scene, &options)?),
+                scene.clone(),
+            )
+        }
+        (None, Some(voxmap)) => {
+            let tree =
+                load_voxmap(voxmap).with_context(|| format!("reading {}", voxmap.display()))?;
+            let shell = match &args.shell {
+                Some(path) => Some(Arc::new(
+                    load_shell(path).with_context(|| format!("reading {}", path.display()))?,
+                )),
+                None => None,
+            };
+            let label = voxmap.file_name().map_or_else(
+                || voxmap.display().to_string(),
+                |n| n.to_string_lossy().into_owned(),
+            );
+            let scene = ViewerScene::new(label, Arc::new(tree), shell, SceneLimits::default());
+            (scene, voxmap.display().to_string())
+        }
+        (None, None) => anyhow::bail!("give a voxmap file or --scene FILE"),
     };
-    let label = args.voxmap.file_name().map_or_else(
-        || args.voxmap.display().to_string(),
-        |n| n.to_string_lossy().into_owned(),
-    );
-    let scene = ViewerScene::new(label, Arc::new(tree), shell, SceneLimits::default());
-    let server = ViewerServer::start(args.addr, scene, None)
-        .with_context(|| format!("serving {}", args.voxmap.display()))?;
+    let server =
+        ViewerServer::start(args.addr, scene, None).with_context(|| format!("serving {what}"))?;
     eprintln!("viewer: {} (Ctrl-C to stop)", server.url());
     loop {
         std::thread::park();

@@ -1,5 +1,7 @@
-//! Parsing of lengths given on the command line: plain metres (`0.005`) or with a unit suffix
-//! (`5mm`, `0.5cm`, `0.005m`, `500um`).
+//! Lengths written as plain metres (`0.005`) or with a unit suffix (`5mm`, `0.5cm`, `500um`), on the
+//! command line and in scene files.
+
+use serde::{Deserialize, Deserializer};
 
 /// Parses a length in metres. Accepts a bare number (metres) or a number followed by `m`, `cm`, `mm`
 /// or `um`. The result is finite and strictly positive, or an error saying what was wrong.
@@ -17,6 +19,27 @@ pub fn parse_length(text: &str) -> Result<f64, String> {
         return Err(format!("'{text}' must be a positive, finite length"));
     }
     Ok(metres)
+}
+
+/// Deserializes a length (m) written as a number or as a string with a unit (`"2mm"`). The range
+/// of a number is checked by the caller (a negative number is reported with its field there).
+pub(crate) fn length<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Written {
+        Number(f64),
+        Integer(i64),
+        Text(String),
+    }
+    match Written::deserialize(d).map_err(|_| {
+        serde::de::Error::custom(
+            "expected a length: a number of metres or a string such as \"2mm\"",
+        )
+    })? {
+        Written::Number(v) => Ok(v),
+        Written::Integer(v) => Ok(v as f64),
+        Written::Text(t) => parse_length(&t).map_err(serde::de::Error::custom),
+    }
 }
 
 #[cfg(test)]

@@ -1,0 +1,746 @@
+//! The scene file (TOML): one file describes a whole session: the static objects, the part, the
+//! voxel settings, the workspace region, the haptic parameters, the simulated hand's path and the
+//! default device. See `docs/scenes.md` for every key. Parsing rejects unknown keys; every error
+//! names the file and the dotted field.
+
+use crate::error::{field_error, SceneError};
+use crate::length::length;
+use glam::{DQuat, DVec3};
+use serde::{Deserialize, Deserializer};
+use std::path::Path;
+use vps_mesh::Aabb;
+use vps_voxelize::ShellMethod;
+use vps_voxmap::VoxelWidth;
+
+/// The most waypoints a path may have, after a corridor is expanded (count × laps).
+pub const MAX_WAYPOINTS: usize = 100_000;
+
+/// How far a corridor's detours look for a surface (m) unless the scene says otherwise.
+pub const DEFAULT_DETOUR_REACH: f64 = 0.8;
+
+/// One scene file, as written (parsed by [`SceneFile::from_toml_str`]).
+#[derive(Clone, Debug)]
+pub struct SceneFile {
+    /// Short name used in reports; default: the file's stem.
+    pub name: Option<String>,
+    /// The dynamic part (required): `part = "SOURCE"` or a `[part]` table.
+    pub part: PartSpec,
+    /// Static objects (at least one), merged into one voxmap.
+    pub objects: Vec<StaticObject>,
+    /// The simulated hand's path: grip positions visited in order.
+    pub hand: Option<HandPath>,
+    /// The standard scripted session along a corridor, with detours into contact.
+    pub corridor: Option<Corridor>,
+    /// Voxel settings.
+    pub voxels: VoxelSettings,
+    /// The region the part can reach (m); only this region is voxelized when given.
+    pub workspace: Option<Region>,
+    /// Haptic parameters: the keys of `configs/haptic.toml` inline, or `file = "haptic.toml"`.
+    pub haptic: Option<toml::Table>,
+    /// The scene's default device.
+    pub device: Option<DeviceSection>,
+}
+
+/// Length units of a mesh file.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+pub enum Units {
+    /// Metres (the default).
+    #[default]
+    #[serde(rename = "m")]
+    Metres,
+    /// Centimetres.
+    #[serde(rename = "cm")]
+    Centimetres,
+    /// Millimetres.
+    #[serde(rename = "mm")]
+    Millimetres,
+    /// Inches.
+    #[serde(rename = "in")]
+    Inches,
+}
+
+impl Units {
+    /// Metres per unit.
+    pub fn metres(self) -> f64 {
+        match self {
+            Units::Metres => 1.0,
+            Units::Centimetres => 0.01,
+            Units::Millimetres => 0.001,
+            Units::Inches => 0.0254,
+        }
+    }
+}
+
+/// The part: a mesh source and how it is placed in its own frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PartSpec {
+    /// `builtin:NAME` or a mesh file (relative to the scene file).
+    pub source: String,
+    /// Units of the mesh file. Default metres.
+    pub units: Units,
+    /// Rotation of the mesh (degrees): about X, then Y, then Z. Default none.
+    pub rotate_deg: [f64; 3],
+    /// Where the handle holds the part (m), in part coordinates after units and rotation.
+    /// Default: the centre of mass.
+    pub grip: Option<[f64; 3]>,
+}
+
+/// `part = "SOURCE"` (today's form) or a `[part]` table.
+fn part_spec<'de, D: Deserializer<'de>>(d: D) -> Result<PartSpec, D::Error> {
+    struct Visitor;
+    impl<'de> serde::de::Visitor<'de> for Visitor {
+        type Value = PartSpec;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("a mesh source string or a [part] table")
+        }
+        fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<PartSpec, E> {
+            Ok(PartSpec {
+                source: v.to_string(),
+                units: Units::Metres,
+                rotate_deg: [0.0; 3],
+                grip: None,
+            })
+        }
+        fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<PartSpec, A::Error> {
+            #[derive(Deserialize)]
+            #[serde(deny_unknown_fields)]
+            struct Table {
+                source: String,
+                #[serde(default)]
+                units: Units,
+                #[serde(default)]
+                rotate_deg: [f64; 3],
+                grip: Option<[f64; 3]>,
+            }
+            let t = Table::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
+            Ok(PartSpec {
+                source: t.source,
+                units: t.units,
+                rotate_deg: t.rotate_deg,
+                grip: t.grip,
+            })
+        }
+    }
+    d.deserialize_any(Visitor)
+}
+
+impl<'de> Deserialize<'de> for PartField {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        part_spec(d).map(PartField)
+    }
+}
+
+/// [`PartSpec`] in either of its two written forms.
+struct PartField(PartSpec);
+
+/// A static object: a mesh source in `units`, scaled per axis, rotated, then translated.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct StaticObject {
+    /// `builtin:NAME` or a mesh file (relative to the scene file).
+    pub source: String,
+    /// Units of the mesh file. Default metres.
+    #[serde(default)]
+    pub units: Units,
+    /// Scale factors per axis (dimensionless, positive), about the mesh's origin, after units.
+    /// Default `[1, 1, 1]`.
+    #[serde(default = "unit_scale")]
+    pub scale: [f64; 3],
+    /// Rotation (degrees): about X, then Y, then Z, after scaling. Default none.
+    #[serde(default)]
+    pub rotate_deg: [f64; 3],
+    /// Translation (m), applied last. Default zero.
+    #[serde(default)]
+    pub translate: [f64; 3],
+}
+
+/// The simulated hand's path: grip positions (m) visited in order at `speed`.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct HandPath {
+    /// Grip positions (m), at least one; the session starts at rest at the first.
+    pub waypoints: Vec<[f64; 3]>,
+    /// Speed along the path (m/s), in (0, 10]. Default 0.1.
+    #[serde(default = "default_speed")]
+    pub speed: f64,
+    /// Pause at every waypoint (s), in [0, 60]. Default 0.2.
+    #[serde(default = "default_hold")]
+    pub hold_s: f64,
+}
+
+/// The corridor: waypoints every `spacing` from `from` to `to`, walked `laps` times (there and
+/// back); the standard session's detours press whatever surface lies within `reach`.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Corridor {
+    /// First waypoint (m).
+    pub from: [f64; 3],
+    /// Last waypoint (m).
+    pub to: [f64; 3],
+    /// Distance between waypoints (m), positive.
+    #[serde(deserialize_with = "length")]
+    pub spacing: f64,
+    /// Walks along the corridor, 1..=100. Default 1.
+    #[serde(default = "one")]
+    pub laps: usize,
+    /// How far a detour looks for a surface (m), positive. Default 0.8.
+    #[serde(default = "default_reach", deserialize_with = "length")]
+    pub reach: f64,
+}
+
+/// Voxel settings a scene declares.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct VoxelSettings {
+    /// Voxel edge (m), a number or a string with a unit (`"2mm"`). Default 0.005.
+    #[serde(deserialize_with = "length")]
+    pub voxel_size: f64,
+    /// Bits per voxel: 2 (kinds only, the paper's format), 4 or 8 (kinds plus distance layers).
+    /// Default 2.
+    pub voxel_width: u8,
+    /// Force-layer offset in voxel layers (0..=16). Default 2.
+    pub offset_layers: u32,
+    /// Pre-contact braking; when absent the haptic parameters decide (default on).
+    pub braking: Option<bool>,
+    /// Shell point placement: `centres` or `exact`. Default `centres`.
+    pub shell_method: ShellMethodName,
+}
+
+impl Default for VoxelSettings {
+    fn default() -> Self {
+        Self {
+            voxel_size: 0.005,
+            voxel_width: 2,
+            offset_layers: 2,
+            braking: None,
+            shell_method: ShellMethodName::Centres,
+        }
+    }
+}
+
+/// Shell point placement as written in a scene file.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ShellMethodName {
+    /// Voxel centres (the paper).
+    Centres,
+    /// Exact surface points.
+    Exact,
+}
+
+impl ShellMethodName {
+    /// The voxelizer's method.
+    pub fn method(self) -> ShellMethod {
+        match self {
+            ShellMethodName::Centres => ShellMethod::VoxelCentres,
+            ShellMethodName::Exact => ShellMethod::ExactSurface,
+        }
+    }
+}
+
+/// An axis-aligned region (m).
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Region {
+    /// Minimum corner (m).
+    pub min: [f64; 3],
+    /// Maximum corner (m), above `min` on every axis.
+    pub max: [f64; 3],
+}
+
+impl Region {
+    /// As a box.
+    pub fn aabb(&self) -> Aabb {
+        Aabb {
+            min: DVec3::from_array(self.min),
+            max: DVec3::from_array(self.max),
+        }
+    }
+}
+
+/// The scene's default device.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DeviceSection {
+    /// `sim`, `spacemouse`, `bridge[:ADDR]` or `replay:FILE` (relative to the scene file).
+    /// Default `sim`.
+    #[serde(default = "default_device")]
+    pub kind: String,
+}
+
+fn unit_scale() -> [f64; 3] {
+    [1.0; 3]
+}
+fn one() -> usize {
+    1
+}
+fn default_reach() -> f64 {
+    DEFAULT_DETOUR_REACH
+}
+fn default_speed() -> f64 {
+    0.1
+}
+fn default_hold() -> f64 {
+    0.2
+}
+fn default_device() -> String {
+    "sim".into()
+}
+
+/// The voxmap width of `bits` (2, 4 or 8); errors name `path` and `field`.
+pub fn width_from_bits(bits: u8, path: &str, field: &str) -> Result<VoxelWidth, SceneError> {
+    VoxelWidth::from_bits(u32::from(bits))
+        .ok_or_else(|| field_error(path, field, format!("{bits} must be 2, 4 or 8 (bits)")))
+}
+
+/// The rotation of `rotate_deg`: about X first, then Y, then Z (degrees).
+pub fn rotation(rotate_deg: [f64; 3]) -> DQuat {
+    let [x, y, z] = rotate_deg.map(f64::to_radians);
+    DQuat::from_rotation_z(z) * DQuat::from_rotation_y(y) * DQuat::from_rotation_x(x)
+}
+
+fn finite3(v: &[f64; 3]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+
+/// Rotations beyond this many degrees are refused as a likely typo (radians for degrees are fine).
+const MAX_ROTATION_DEG: f64 = 3600.0;
+
+impl SceneFile {
+    /// Parses and validates `text`; `path` names the file in errors.
+    pub fn from_toml_str(text: &str, path: &str) -> Result<SceneFile, SceneError> {
+        let de = toml::Deserializer::parse(text).map_err(|e| SceneError::Syntax {
+            path: path.to_string(),
+            message: e.to_string().trim_end().to_string(),
+        })?;
+        let file: Wire = serde_path_to_error::deserialize(de).map_err(|e| {
+            let field = e.path().to_string();
+            let message = e.inner().message().trim_end().to_string();
+            if field == "." || field.is_empty() {
+                SceneError::Syntax {
+                    path: path.to_string(),
+                    message,
+                }
+            } else {
+                field_error(path, &field, message)
+            }
+        })?;
+        let file = file.into_scene();
+        file.validate(path)?;
+        Ok(file)
+    }
+
+    /// Reads, parses and validates a scene file.
+    pub fn from_file(path: &Path) -> Result<SceneFile, SceneError> {
+        let label = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
+            path: label.clone(),
+            source,
+        })?;
+        Self::from_toml_str(&text, &label)
+    }
+
+    /// The voxmap width of `voxels.voxel_width`.
+    pub fn width(&self, path: &str) -> Result<VoxelWidth, SceneError> {
+        width_from_bits(self.voxels.voxel_width, path, "voxels.voxel_width")
+    }
+
+    /// Checks every field's range; the error names the first field at fault.
+    pub fn validate(&self, path: &str) -> Result<(), SceneError> {
+        let bad = |field: &str, message: String| Err(field_error(path, field, message));
+        if let Some(name) = &self.name {
+            if name.trim().is_empty() || name.len() > 200 {
+                return bad("name", "must be 1..=200 characters".into());
+            }
+        }
+        check_source(path, "part.source", &self.part.source)?;
+        check_rotation(path, "part.rotate_deg", &self.part.rotate_deg)?;
+        if let Some(g) = &self.part.grip {
+            if !finite3(g) {
+                return bad("part.grip", format!("{g:?} must be finite (m)"));
+            }
+        }
+        if self.objects.is_empty() {
+            return bad("static", "at least one [[static]] object is needed".into());
+        }
+        if self.objects.len() > 10_000 {
+            return bad("static", "at most 10000 [[static]] objects".into());
+        }
+        for (i, o) in self.objects.iter().enumerate() {
+            check_source(path, &format!("static[{i}].source"), &o.source)?;
+            if !o.scale.iter().all(|s| s.is_finite() && *s > 0.0) {
+                return bad(
+                    &format!("static[{i}].scale"),
+                    format!("{:?} must be positive and finite", o.scale),
+                );
+            }
+            check_rotation(path, &format!("static[{i}].rotate_deg"), &o.rotate_deg)?;
+            if !finite3(&o.translate) {
+                return bad(
+                    &format!("static[{i}].translate"),
+                    format!("{:?} must be finite (m)", o.translate),
+                );
+            }
+        }
+        match (&self.hand, &self.corridor) {
+            (None, None) => {
+                return bad(
+                    "hand",
+                    "a [hand] path (waypoints, speed) or a [corridor] is needed".into(),
+                )
+            }
+            (Some(_), Some(_)) => {
+                return bad(
+                    "corridor",
+                    "give a [hand] path or a [corridor], not both".into(),
+                )
+            }
+            _ => {}
+        }
+        if let Some(h) = &self.hand {
+            if h.waypoints.is_empty() || h.waypoints.len() > MAX_WAYPOINTS {
+                return bad(
+                    "hand.waypoints",
+                    format!(
+                        "{} waypoints; 1..={MAX_WAYPOINTS} are allowed",
+                        h.waypoints.len()
+                    ),
+                );
+            }
+            if let Some(i) = h.waypoints.iter().position(|w| !finite3(w)) {
+                return bad(&format!("hand.waypoints[{i}]"), "must be finite (m)".into());
+            }
+            if !(h.speed.is_finite() && h.speed > 0.0 && h.speed <= 10.0) {
+                return bad("hand.speed", format!("{} must be in (0, 10] m/s", h.speed));
+            }
+            if !(h.hold_s.is_finite() && (0.0..=60.0).contains(&h.hold_s)) {
+                return bad("hand.hold_s", format!("{} must be in [0, 60] s", h.hold_s));
+            }
+        }
+        if let Some(c) = &self.corridor {
+            self.validate_corridor(path, c)?;
+        }
+        let v = &self.voxels;
+        if !(v.voxel_size.is_finite() && v.voxel_size > 0.0 && v.voxel_size <= 10.0) {
+            return bad(
+                "voxels.voxel_size",
+                format!("{} must be a positive length up to 10 m", v.voxel_size),
+            );
+        }
+        self.width(path)?;
+        if v.offset_layers > 16 {
+            return bad(
+                "voxels.offset_layers",
+                format!("{} must be 0..=16", v.offset_layers),
+            );
+        }
+        if let Some(r) = &self.workspace {
+            let ok = finite3(&r.min) && finite3(&r.max) && (0..3).all(|a| r.min[a] < r.max[a]);
+            if !ok {
+                return bad(
+                    "workspace",
+                    format!(
+                        "min {:?} must be finite and below max {:?} on every axis",
+                        r.min, r.max
+                    ),
+                );
+            }
+            let inside = |p: &[f64; 3]| (0..3).all(|a| r.min[a] <= p[a] && p[a] <= r.max[a]);
+            let ends: Vec<(String, [f64; 3])> = match (&self.corridor, &self.hand) {
+                (Some(c), _) => vec![
+                    ("corridor.from".into(), c.from),
+                    ("corridor.to".into(), c.to),
+                ],
+                (None, Some(h)) => h
+                    .waypoints
+                    .iter()
+                    .enumerate()
+                    .map(|(i, w)| (format!("hand.waypoints[{i}]"), *w))
+                    .collect(),
+                (None, None) => Vec::new(),
+            };
+            if let Some((field, p)) = ends.iter().find(|(_, p)| !inside(p)) {
+                return bad(
+                    field,
+                    format!(
+                        "{p:?} lies outside the [workspace] region {:?}..{:?}",
+                        r.min, r.max
+                    ),
+                );
+            }
+        }
+        if let Some(d) = &self.device {
+            crate::device::DeviceChoice::parse(&d.kind)
+                .map_err(|message| field_error(path, "device.kind", message))?;
+        }
+        Ok(())
+    }
+
+    fn validate_corridor(&self, path: &str, c: &Corridor) -> Result<(), SceneError> {
+        let bad = |field: &str, message: String| Err(field_error(path, field, message));
+        if !finite3(&c.from) {
+            return bad("corridor.from", "must be finite (m)".into());
+        }
+        if !finite3(&c.to) {
+            return bad("corridor.to", "must be finite (m)".into());
+        }
+        if !(c.spacing.is_finite() && c.spacing > 0.0) {
+            return bad(
+                "corridor.spacing",
+                format!("{} must be a positive length (m)", c.spacing),
+            );
+        }
+        let length = DVec3::from_array(c.from).distance(DVec3::from_array(c.to));
+        if length < c.spacing {
+            return bad(
+                "corridor.to",
+                format!("the corridor ({length} m) is shorter than one spacing"),
+            );
+        }
+        if c.laps == 0 || c.laps > 100 {
+            return bad("corridor.laps", format!("{} must be 1..=100", c.laps));
+        }
+        let count = (length / c.spacing).floor() + 2.0;
+        if count * c.laps as f64 > MAX_WAYPOINTS as f64 {
+            return bad(
+                "corridor.spacing",
+                format!(
+                    "{} m over {length:.3} m and {} lap(s) gives {count:.0} waypoints per lap; at \
+                     most {MAX_WAYPOINTS} in all are allowed (use a larger spacing)",
+                    c.spacing, c.laps
+                ),
+            );
+        }
+        if !(c.reach.is_finite() && c.reach > 0.0 && c.reach <= 1000.0) {
+            return bad(
+                "corridor.reach",
+                format!("{} must be a positive length up to 1000 m", c.reach),
+            );
+        }
+        Ok(())
+    }
+
+    /// The corridor's waypoints (m): `from + dir × spacing × i` for every whole spacing along the
+    /// corridor, then `to` unless the last step already reached it. Empty without a corridor.
+    /// Bounded by [`MAX_WAYPOINTS`] (checked by [`SceneFile::validate`]).
+    pub fn corridor_waypoints(&self) -> Vec<DVec3> {
+        let Some(c) = &self.corridor else {
+            return Vec::new();
+        };
+        let (a, b) = (DVec3::from_array(c.from), DVec3::from_array(c.to));
+        let length = a.distance(b);
+        let dir = (b - a) / length;
+        let n = ((length / c.spacing) + 1e-9).floor() as usize;
+        let mut points: Vec<DVec3> = (0..=n).map(|i| a + dir * (c.spacing * i as f64)).collect();
+        if points
+            .last()
+            .is_some_and(|last| last.distance(b) > c.spacing * 1e-6)
+        {
+            points.push(b);
+        }
+        points
+    }
+}
+
+fn check_source(path: &str, field: &str, source: &str) -> Result<(), SceneError> {
+    if source.trim().is_empty() {
+        return Err(field_error(
+            path,
+            field,
+            "must name a mesh file (.stl, .obj, .ply) or builtin:NAME",
+        ));
+    }
+    Ok(())
+}
+
+fn check_rotation(path: &str, field: &str, r: &[f64; 3]) -> Result<(), SceneError> {
+    if !r
+        .iter()
+        .all(|a| a.is_finite() && a.abs() <= MAX_ROTATION_DEG)
+    {
+        return Err(field_error(
+            path,
+            field,
+            format!("{r:?} must be finite angles within ±{MAX_ROTATION_DEG} degrees"),
+        ));
+    }
+    Ok(())
+}
+
+/// The file as parsed, before `part`'s two forms are unified.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Wire {
+    name: Option<String>,
+    part: PartField,
+    #[serde(rename = "static")]
+    objects: Vec<StaticObject>,
+    hand: Option<HandPath>,
+    corridor: Option<Corridor>,
+    #[serde(default)]
+    voxels: VoxelSettings,
+    workspace: Option<Region>,
+    haptic: Option<toml::Table>,
+    device: Option<DeviceSection>,
+}
+
+impl Wire {
+    fn into_scene(self) -> SceneFile {
+        SceneFile {
+            name: self.name,
+            part: self.part.0,
+            objects: self.objects,
+            hand: self.hand,
+            corridor: self.corridor,
+            voxels: self.voxels,
+            workspace: self.workspace,
+            haptic: self.haptic,
+            device: self.device,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = r#"
+name = "t"
+part = "builtin:teapot"
+[[static]]
+source = "builtin:box"
+scale = [4.0, 1.0, 0.5]
+[corridor]
+from = [0.0, 0.0, 0.1]
+to = [0.3, 0.0, 0.1]
+spacing = 0.05
+[voxels]
+voxel_size = 0.005
+voxel_width = 2
+offset_layers = 2
+braking = true
+shell_method = "exact"
+[workspace]
+min = [-0.1, -0.1, -0.1]
+max = [0.4, 0.1, 0.2]
+"#;
+
+    fn parse(text: &str) -> Result<SceneFile, SceneError> {
+        SceneFile::from_toml_str(text, "scene.toml")
+    }
+
+    #[test]
+    fn good_file_parses_in_both_part_forms() {
+        let c = parse(GOOD).unwrap();
+        assert_eq!(c.voxels.shell_method.method(), ShellMethod::ExactSurface);
+        assert_eq!(c.corridor_waypoints().len(), 7);
+        assert_eq!(c.width("x").unwrap(), VoxelWidth::Two);
+        assert_eq!(c.part.source, "builtin:teapot");
+        let table = GOOD.replace(
+            "part = \"builtin:teapot\"\n",
+            "[part]\nsource = \"builtin:teapot\"\nunits = \"mm\"\nrotate_deg = [-90, 0, 0]\ngrip = [0, 0, 0.01]\n",
+        );
+        let c = parse(&table).unwrap();
+        assert_eq!(c.part.units, Units::Millimetres);
+        assert_eq!(c.part.rotate_deg, [-90.0, 0.0, 0.0]);
+        assert_eq!(c.part.grip, Some([0.0, 0.0, 0.01]));
+        let mm = parse(&GOOD.replace("voxel_size = 0.005", "voxel_size = \"2mm\"")).unwrap();
+        assert!((mm.voxels.voxel_size - 0.002).abs() < 1e-15);
+    }
+
+    #[test]
+    fn corridor_waypoints_step_from_the_start() {
+        // The built-in bay's corridor: 0.05 + 0.1 i, bit for bit (the demo's figures depend on it).
+        let bay = SceneFile::from_toml_str(crate::scene::BUILTIN_SCENES[0].1, "bay").unwrap();
+        let points = bay.corridor_waypoints();
+        assert_eq!(points.len(), 30);
+        for (i, p) in points.iter().enumerate() {
+            assert_eq!(p.x, 0.05 + 0.1 * i as f64);
+            assert_eq!((p.y, p.z), (1.0, 0.75));
+        }
+    }
+
+    #[test]
+    fn errors_name_the_file_and_field() {
+        let cases = [
+            (
+                GOOD.replace("voxel_width = 2", "voxel_width = 3"),
+                "`voxels.voxel_width`",
+            ),
+            (
+                GOOD.replace("voxel_size = 0.005", "voxel_size = -1.0"),
+                "`voxels.voxel_size`",
+            ),
+            (
+                GOOD.replace("voxel_size = 0.005", "voxel_size = \"fast\""),
+                "`voxels.voxel_size`",
+            ),
+            (
+                GOOD.replace("spacing = 0.05", "spacing = 0.0"),
+                "`corridor.spacing`",
+            ),
+            (
+                GOOD.replace("spacing = 0.05", "spacing = 1e-9"),
+                "`corridor.spacing`",
+            ),
+            (
+                GOOD.replace("max = [0.4, 0.1, 0.2]", "max = [0.4, -0.2, 0.2]"),
+                "`workspace`",
+            ),
+            (
+                GOOD.replace("scale = [4.0, 1.0, 0.5]", "scale = [4.0, 0.0, 0.5]"),
+                "`static[0].scale`",
+            ),
+            (
+                GOOD.replace("scale = [4.0, 1.0, 0.5]", "units = \"mmm\""),
+                "`static[0].units`",
+            ),
+            (
+                GOOD.replace("braking = true", "braking = true\nbrake = 1"),
+                "brake",
+            ),
+            (
+                GOOD.replace("braking = true", "braking = 1"),
+                "`voxels.braking`",
+            ),
+            (
+                GOOD.replace("shell_method = \"exact\"", "shell_method = \"dots\""),
+                "dots",
+            ),
+            (GOOD.replace("part = \"builtin:teapot\"\n", ""), "part"),
+            (
+                GOOD.replace(
+                    "part = \"builtin:teapot\"\n",
+                    "[part]\nsource = \"x.stl\"\ngrp = [0, 0, 0]\n",
+                ),
+                "grp",
+            ),
+            (
+                GOOD.replace("[corridor]", "[hand]\nwaypoints = []\n[corridor]"),
+                "corridor",
+            ),
+            (
+                format!("{GOOD}\n[device]\nkind = \"joystick\"\n"),
+                "`device.kind`",
+            ),
+        ];
+        for (text, field) in cases {
+            let err = parse(&text).unwrap_err().to_string();
+            assert!(err.starts_with("scene.toml"), "{err}");
+            assert!(err.contains(field), "{field} not named in: {err}");
+        }
+        let err = width_from_bits(16, "sweep.toml", "widths[1]").unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "sweep.toml: field `widths[1]`: 16 must be 2, 4 or 8 (bits)"
+        );
+    }
+
+    #[test]
+    fn rotation_turns_x_then_y_then_z() {
+        let q = rotation([90.0, 90.0, 0.0]);
+        // X first: +Y goes to +Z; then Y: +Z goes to +X.
+        let v = q * DVec3::Y;
+        assert!((v - DVec3::X).length() < 1e-12, "{v}");
+    }
+}

@@ -1,0 +1,39 @@
+//! Sessions from scene files: one TOML file describes the static objects, the part, the voxel
+//! settings, the haptic parameters, the simulated hand's path and the default device
+//! ([`file::SceneFile`]); [`scene::LoadedScene`] loads and places its meshes; [`scene::Session`]
+//! holds the built voxmap (cached on disk, [`cache`]), point shell, parameters and script; and
+//! [`plan::SessionPlan`] is the one way the runtime's `SessionSetup` is made.
+//!
+//! Units: metres, kilograms, seconds throughout; mesh files may declare cm, mm or inches.
+
+pub mod cache;
+pub mod device;
+pub mod error;
+pub mod estimate;
+pub mod file;
+pub mod length;
+pub mod mesh_source;
+pub mod plan;
+pub mod scene;
+pub mod script;
+
+pub use cache::CachePolicy;
+pub use device::DeviceChoice;
+pub use error::SceneError;
+pub use file::SceneFile;
+pub use plan::{stop_on_signals, SessionPlan};
+pub use scene::{BuildOptions, HandPlan, LoadedScene, Session, DEFAULT_SCENE};
+
+use std::sync::Arc;
+use vps_haptic::ClassedShell;
+use vps_voxmap::PointShell;
+
+/// Classes the shell is split into. Fixed, independent of the thread count: a class is the unit
+/// of work and of exact summation, so the same class count gives a bit-identical wrench however
+/// the classes are spread over threads or worker processes.
+pub const CLASS_COUNT: u32 = 64;
+
+/// The shell split into [`CLASS_COUNT`] classes. Allocates; setup-time only.
+pub fn classed(shell: &PointShell) -> Arc<ClassedShell> {
+    Arc::new(ClassedShell::new(shell, CLASS_COUNT))
+}

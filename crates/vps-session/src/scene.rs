@@ -1,0 +1,629 @@
+//! A scene file resolved into what a session runs on: [`LoadedScene`] (parsed, meshes loaded and
+//! placed, parameters read, geometry checked) and [`Session`] (voxmap, point shell, parameters,
+//! device, hand path, and the meshes for a viewer).
+
+use crate::cache::{cache_key, cache_path, read_cached, write_cached, CachePolicy};
+use crate::device::DeviceChoice;
+use crate::error::{field_error, SceneError};
+use crate::estimate::{estimate, VoxmapEstimate, MAX_GRID_VOXELS, VOXMAP_MEMORY_BUDGET};
+use crate::file::{rotation, SceneFile};
+use crate::mesh_source::{load_scaled, resolve, Placement};
+use crate::script::{laps_script, path_script};
+use anyhow::{Context, Result};
+use glam::{DVec3, Vec3};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+use vps_device::script::Script;
+use vps_haptic::HapticParams;
+use vps_mesh::{Aabb, TriMesh};
+use vps_voxelize::{point_shell, voxelize_tree, ShellMethod, VoxelizeOptions};
+use vps_voxmap::{PointShell, TreeConfig, VoxelTree, VoxelWidth};
+
+/// The scene files built into the binary, by name (`builtin:NAME`).
+pub const BUILTIN_SCENES: [(&str, &str); 2] = [
+    (
+        "bay-teapot",
+        include_str!("../../../configs/scenes/bay-teapot.toml"),
+    ),
+    (
+        "rig-teapot",
+        include_str!("../../../configs/scenes/rig-teapot.toml"),
+    ),
+];
+
+/// The scene `vps demo` and every session command use when no `--scene` is given.
+pub const DEFAULT_SCENE: &str = "builtin:bay-teapot";
+
+/// Meshes larger than this after units (m) are flagged: likely a file in mm read as metres.
+pub const LARGEST_PLAUSIBLE_MESH_M: f64 = 1000.0;
+/// Meshes smaller than this after units (m) are flagged: likely a file in metres read as mm.
+pub const SMALLEST_PLAUSIBLE_MESH_M: f64 = 0.001;
+
+/// A scene file parsed and its meshes loaded and placed. Building it reads every mesh file.
+pub struct LoadedScene {
+    /// The file's path, or `builtin:NAME`.
+    pub label: String,
+    /// The scene's name (the file's `name`, else its stem).
+    pub name: String,
+    /// The file as parsed.
+    pub file: SceneFile,
+    /// Directory relative paths in the file are taken from.
+    pub base: PathBuf,
+    /// The static objects (m, scene coordinates), in file order.
+    pub statics: Vec<TriMesh>,
+    /// Where each static object came from (`builtin:NAME` or the resolved file path).
+    pub static_sources: Vec<String>,
+    /// The part (m, part coordinates: after units and rotation).
+    pub part: TriMesh,
+    /// Where the part came from.
+    pub part_source: String,
+    /// Haptic parameters of the scene (`[haptic]`, `voxels.braking`), before the voxel size and
+    /// the part's radius are set.
+    pub params: HapticParams,
+    /// The scene's default device (`[device] kind`, else the simulated hand).
+    pub device: DeviceChoice,
+    /// Things worth a look that do not stop the scene (implausible mesh sizes), with hints.
+    pub warnings: Vec<String>,
+}
+
+impl LoadedScene {
+    /// Loads `scene`: `builtin:NAME` (see [`BUILTIN_SCENES`]) or a scene file path. Blocking:
+    /// reads the scene and its mesh files. Errors name the file and the field.
+    pub fn load(scene: &str) -> Result<LoadedScene> {
+        if let Some(name) = scene.strip_prefix("builtin:") {
+            let (_, text) = BUILTIN_SCENES
+                .iter()
+                .find(|(n, _)| *n == name)
+                .with_context(|| {
+                    format!(
+                        "unknown built-in scene '{name}'; available: {}",
+                        BUILTIN_SCENES
+                            .map(|(n, _)| format!("builtin:{n}"))
+                            .join(", ")
+                    )
+                })?;
+            let file = SceneFile::from_toml_str(text, scene)?;
+            return Self::from_file(
+                file,
+                scene.to_string(),
+                name.to_string(),
+                PathBuf::from("."),
+            );
+        }
+        let path = Path::new(scene);
+        let file = SceneFile::from_file(path)?;
+        let stem = path
+            .file_stem()
+            .map_or_else(|| scene.to_string(), |s| s.to_string_lossy().into_owned());
+        let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+        Self::from_file(file, scene.to_string(), stem, base)
+    }
+
+    fn from_file(file: SceneFile, label: String, stem: String, base: PathBuf) -> Result<Self> {
+        let mut warnings = Vec::new();
+        let mut statics = Vec::with_capacity(file.objects.len());
+        let mut static_sources = Vec::with_capacity(file.objects.len());
+        for (i, o) in file.objects.iter().enumerate() {
+            let field = format!("static[{i}]");
+            let source = resolve(&o.source, &base);
+            let mut mesh = load_scaled(&source, o.units.metres())
+                .map_err(|e| field_error(&label, &format!("{field}.source"), format!("{e:#}")))?
+                .mesh;
+            Placement {
+                scale: DVec3::from_array(o.scale),
+                rotation: rotation(o.rotate_deg),
+                translate: DVec3::from_array(o.translate),
+            }
+            .apply(&mut mesh);
+            plausible_size(&mesh, &field, &mut warnings);
+            statics.push(mesh);
+            static_sources.push(source);
+        }
+        let source = resolve(&file.part.source, &base);
+        let mut mesh = load_scaled(&source, file.part.units.metres())
+            .map_err(|e| field_error(&label, "part.source", format!("{e:#}")))?
+            .mesh;
+        Placement {
+            scale: DVec3::ONE,
+            rotation: rotation(file.part.rotate_deg),
+            translate: DVec3::ZERO,
+        }
+        .apply(&mut mesh);
+        plausible_size(&mesh, "part", &mut warnings);
+        let (part, part_source) = (mesh, source);
+        let scene_bounds = statics
+            .iter()
+            .map(TriMesh::bounds)
+            .reduce(|a, b| a.union(&b))
+            .unwrap_or(Aabb::EMPTY);
+        let (part_size, scene_size) = (part.bounds().size(), scene_bounds.size());
+        if part_size.length() > scene_size.length() {
+            return Err(field_error(
+                &label,
+                "part",
+                format!(
+                    "the part ({}) is larger than the whole scene ({}); check `units` of the part \
+                     and of the [[static]] objects (m, cm, mm, in)",
+                    fmt_size(part_size),
+                    fmt_size(scene_size)
+                ),
+            )
+            .into());
+        }
+        let params = scene_params(&file, &label, &base)?;
+        let device = match &file.device {
+            Some(d) => DeviceChoice::parse(&d.kind)
+                .map_err(|m| field_error(&label, "device.kind", m))?
+                .relative_to(&base),
+            None => DeviceChoice::Simulated,
+        };
+        let name = file.name.clone().unwrap_or(stem);
+        Ok(LoadedScene {
+            label,
+            name,
+            file,
+            base,
+            statics,
+            static_sources,
+            part,
+            part_source,
+            params,
+            device,
+            warnings,
+        })
+    }
+
+    /// Triangles in the static objects.
+    pub fn scene_triangles(&self) -> usize {
+        self.statics.iter().map(TriMesh::triangle_count).sum()
+    }
+
+    /// The voxmap width the scene declares.
+    pub fn width(&self) -> Result<VoxelWidth, SceneError> {
+        self.file.width(&self.label)
+    }
+
+    /// The voxelizer's options at `voxel_size` (m) and `width`: the scene's offset layers and its
+    /// workspace region (only that region is voxelized) when it declares one.
+    pub fn voxelize_options(&self, voxel_size: f64, width: VoxelWidth) -> VoxelizeOptions {
+        VoxelizeOptions {
+            voxel_size,
+            offset_layers: self.file.voxels.offset_layers,
+            width,
+            workspace: self.file.workspace.as_ref().map(|r| r.aabb()),
+            ..VoxelizeOptions::default()
+        }
+    }
+
+    /// The estimated voxmap at `voxel_size` (m) and `width`; errors (naming `voxels.voxel_size`)
+    /// when it exceeds [`VOXMAP_MEMORY_BUDGET`] or the voxelizer's grid limit. Allocation-free.
+    pub fn plan_voxmap(
+        &self,
+        voxel_size: f64,
+        width: VoxelWidth,
+    ) -> Result<VoxmapEstimate, SceneError> {
+        let est = estimate(
+            &self.statics,
+            &self.voxelize_options(voxel_size, width),
+            TreeConfig::default(),
+        );
+        let gib = |b: f64| b / 1024f64.powi(3);
+        if est.tree_bytes > VOXMAP_MEMORY_BUDGET || est.grid_voxels > MAX_GRID_VOXELS {
+            let hint = if self.file.workspace.is_some() {
+                "use a larger voxel_size or a smaller [workspace]"
+            } else {
+                "use a larger voxel_size, or declare a [workspace] region (min, max in m) the part \
+                 can reach so only that region is voxelized"
+            };
+            return Err(field_error(
+                &self.label,
+                "voxels.voxel_size",
+                format!(
+                    "at {voxel_size} m the voxmap is estimated at {:.3e} grid voxels and {:.1} GiB \
+                     of tree; the limits are {MAX_GRID_VOXELS:.3e} voxels and {:.0} GiB: {hint}",
+                    est.grid_voxels,
+                    gib(est.tree_bytes),
+                    gib(VOXMAP_MEMORY_BUDGET)
+                ),
+            ));
+        }
+        Ok(est)
+    }
+
+    /// The static scene's voxmap at `voxel_size` (m) and `width`, from the cache when it holds
+    /// one for exactly these inputs, else voxelized (and stored in the cache). Says on stderr which
+    /// happened. Checks the plan against the budget first. Blocking, parallel, allocates the tree.
+    pub fn build_voxmap(
+        &self,
+        voxel_size: f64,
+        width: VoxelWidth,
+        cache: &CachePolicy,
+        progress: bool,
+    ) -> Result<BuiltVoxmap> {
+        self.plan_voxmap(voxel_size, width)?;
+        let opts = VoxelizeOptions {
+            progress,
+            ..self.voxelize_options(voxel_size, width)
+        };
+        let objects = &self.statics;
+        let t = Instant::now();
+        let cached_at = match cache {
+            CachePolicy::Dir(dir) => Some(cache_path(
+                dir,
+                &cache_key(objects, &opts, TreeConfig::default()),
+            )),
+            CachePolicy::Off => None,
+        };
+        if let Some(path) = &cached_at {
+            if let Some(tree) = read_cached(path) {
+                eprintln!("voxmap: loaded from cache {}", path.display());
+                return Ok(BuiltVoxmap {
+                    tree: Arc::new(tree),
+                    voxelize_ms: t.elapsed().as_secs_f64() * 1e3,
+                    origin: VoxmapOrigin::Cache(path.clone()),
+                });
+            }
+        }
+        let (tree, _) =
+            voxelize_tree(objects, &opts, TreeConfig::default()).with_context(|| {
+                format!(
+                    "{}: voxelizing at {} mm, {}-bit",
+                    self.label,
+                    voxel_size * 1e3,
+                    width.bits()
+                )
+            })?;
+        let voxelize_ms = t.elapsed().as_secs_f64() * 1e3;
+        let origin = match cached_at {
+            Some(path) => match write_cached(&path, &tree) {
+                Ok(()) => {
+                    eprintln!("voxmap: built, cached at {}", path.display());
+                    VoxmapOrigin::Cache(path)
+                }
+                Err(err) => {
+                    eprintln!(
+                        "voxmap: built; could not cache it at {}: {err}",
+                        path.display()
+                    );
+                    VoxmapOrigin::Built
+                }
+            },
+            None => {
+                eprintln!("voxmap: built (cache off)");
+                VoxmapOrigin::Built
+            }
+        };
+        Ok(BuiltVoxmap {
+            tree: Arc::new(tree),
+            voxelize_ms,
+            origin,
+        })
+    }
+
+    /// The grip (m, part coordinates): the scene's `part.grip`, else the centre of mass of
+    /// `shell`'s mesh.
+    pub fn grip(&self, shell: &PointShell) -> DVec3 {
+        self.file
+            .part
+            .grip
+            .map_or(shell.mass.center_of_mass, DVec3::from_array)
+    }
+
+    /// The part's point shell at `voxel_size` (m) with `method`, in the grip's frame: its origin is
+    /// the grip (the centre of mass unless the scene gives `part.grip`). Blocking, allocates.
+    pub fn build_shell(&self, voxel_size: f64, method: ShellMethod) -> Result<PointShell> {
+        let mut shell = point_shell(&self.part, voxel_size, method)
+            .with_context(|| format!("{}: building the part's point shell", self.label))?;
+        let grip = self.grip(&shell);
+        if grip != shell.mass.center_of_mass {
+            let shift: Vec3 = (shell.mass.center_of_mass - grip).as_vec3();
+            shell.points.iter_mut().for_each(|p| *p += shift);
+        }
+        Ok(shell)
+    }
+
+    /// The part's mesh in the frame of a shell built by [`LoadedScene::build_shell`] (m).
+    pub fn part_in_shell_frame(&self, shell: &PointShell) -> TriMesh {
+        let grip = self.grip(shell);
+        let mut mesh = self.part.clone();
+        mesh.vertices.iter_mut().for_each(|v| *v -= grip);
+        mesh
+    }
+
+    /// The hand's path as declared: a corridor (with detours) or a plain path.
+    pub fn hand(&self) -> HandPlan {
+        if let Some(h) = &self.file.hand {
+            return HandPlan::Path {
+                waypoints: h.waypoints.iter().map(|w| DVec3::from_array(*w)).collect(),
+                speed: h.speed,
+                hold: h.hold_s,
+            };
+        }
+        let c = self.file.corridor.as_ref();
+        HandPlan::Corridor {
+            waypoints: self.file.corridor_waypoints(),
+            reach: c.map_or(crate::file::DEFAULT_DETOUR_REACH, |c| c.reach),
+            laps: c.map_or(1, |c| c.laps),
+        }
+    }
+
+    /// Haptic parameters for a voxmap of `voxel_size` (m) and `shell`, validated.
+    pub fn params_for(&self, voxel_size: f64, shell: &PointShell) -> Result<HapticParams> {
+        Ok(self.params.with_scene(voxel_size, shell.max_radius())?)
+    }
+
+    /// Builds the session: voxmap (`options.voxel_size` or the scene's), shell, parameters, hand
+    /// and meshes. Blocking, parallel, allocates.
+    pub fn build(self, options: &BuildOptions) -> Result<Session> {
+        let voxel_size = options.voxel_size.unwrap_or(self.file.voxels.voxel_size);
+        let method = options
+            .shell_method
+            .unwrap_or(self.file.voxels.shell_method.method());
+        let map = self.build_voxmap(voxel_size, self.width()?, &options.cache, options.progress)?;
+        let shell = self.build_shell(voxel_size, method)?;
+        let params = self.params_for(voxel_size, &shell)?;
+        let part_mesh = self.part_in_shell_frame(&shell);
+        let hand = self.hand();
+        let scene_triangles = self.scene_triangles();
+        Ok(Session {
+            name: self.name,
+            label: self.label,
+            voxel_size,
+            tree: map.tree,
+            voxelize_ms: map.voxelize_ms,
+            voxmap_origin: map.origin,
+            shell,
+            params,
+            device: self.device,
+            hand,
+            scene_triangles,
+            static_meshes: self.statics,
+            part_mesh,
+        })
+    }
+}
+
+/// Flags a mesh whose size is implausible after units, with a hint.
+fn plausible_size(mesh: &TriMesh, field: &str, warnings: &mut Vec<String>) {
+    let size = mesh.bounds().size().max_element();
+    if size > LARGEST_PLAUSIBLE_MESH_M {
+        warnings.push(format!(
+            "{field}: the mesh is {size:.4e} m across (over 1 km): is the file in mm? set \
+             `units = \"mm\"` in {field}"
+        ));
+    } else if size < SMALLEST_PLAUSIBLE_MESH_M {
+        warnings.push(format!(
+            "{field}: the mesh is {size:.4e} m across (under 1 mm): is the file in metres with \
+             `units` set to mm, or in another unit? check `units` in {field}"
+        ));
+    }
+}
+
+fn fmt_size(v: DVec3) -> String {
+    format!("{:.4} × {:.4} × {:.4} m", v.x, v.y, v.z)
+}
+
+/// The scene's haptic parameters: `[haptic]` inline keys or `file = ...`, then `voxels.braking`.
+fn scene_params(file: &SceneFile, label: &str, base: &Path) -> Result<HapticParams> {
+    let mut params = match &file.haptic {
+        None => HapticParams::default(),
+        Some(table) => match table.get("file") {
+            Some(toml::Value::String(f)) if table.len() == 1 => {
+                let path = base.join(f);
+                HapticParams::from_file(&path)
+                    .map_err(|e| field_error(label, "haptic.file", e.to_string()))?
+            }
+            Some(_) => {
+                return Err(field_error(
+                    label,
+                    "haptic.file",
+                    "must be a file name (a string) and the only key of [haptic]",
+                )
+                .into())
+            }
+            None => {
+                let text = toml::to_string(table).context("re-encoding [haptic]")?;
+                HapticParams::from_toml_str(&text, "[haptic]").map_err(|e| match e {
+                    vps_haptic::ParamsError::Invalid {
+                        field,
+                        value,
+                        reason,
+                        ..
+                    } => field_error(
+                        label,
+                        &format!("haptic.{field}"),
+                        format!("{value}: {reason}"),
+                    ),
+                    other => field_error(label, "haptic", other.to_string()),
+                })?
+            }
+        },
+    };
+    if let Some(braking) = file.voxels.braking {
+        params.braking = braking;
+    }
+    Ok(params)
+}
+
+/// Where a session's voxmap came from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum VoxmapOrigin {
+    /// Voxelized now and not cached.
+    Built,
+    /// Loaded from, or voxelized and written to, this cache file.
+    Cache(PathBuf),
+}
+
+/// A static scene's voxmap and what building it cost.
+pub struct BuiltVoxmap {
+    /// The voxmap.
+    pub tree: Arc<VoxelTree>,
+    /// Wall time of voxelization and tree build, or of the cache read (ms).
+    pub voxelize_ms: f64,
+    /// Built or cached.
+    pub origin: VoxmapOrigin,
+}
+
+/// Settings of [`LoadedScene::build`] that are not in the scene file.
+#[derive(Clone, Debug)]
+pub struct BuildOptions {
+    /// Voxel size (m) instead of the scene's `voxels.voxel_size`.
+    pub voxel_size: Option<f64>,
+    /// Shell method instead of the scene's `voxels.shell_method`.
+    pub shell_method: Option<ShellMethod>,
+    /// Where cached voxmaps live.
+    pub cache: CachePolicy,
+    /// Show the voxelizer's progress bar (on a terminal).
+    pub progress: bool,
+}
+
+impl Default for BuildOptions {
+    /// The scene's own settings, the cache from the environment, a progress bar.
+    fn default() -> Self {
+        BuildOptions {
+            voxel_size: None,
+            shell_method: None,
+            cache: CachePolicy::from_env(),
+            progress: true,
+        }
+    }
+}
+
+/// How the simulated hand moves.
+#[derive(Clone, Debug, PartialEq)]
+pub enum HandPlan {
+    /// The standard session along corridor waypoints (m), detours within `reach` (m).
+    Corridor {
+        /// Waypoints (m).
+        waypoints: Vec<DVec3>,
+        /// How far a detour looks for a surface (m).
+        reach: f64,
+        /// Walks along the corridor.
+        laps: usize,
+    },
+    /// Grip positions (m) visited in order at `speed` (m/s), pausing `hold` (s) at each.
+    Path {
+        /// Waypoints (m).
+        waypoints: Vec<DVec3>,
+        /// Speed (m/s).
+        speed: f64,
+        /// Pause at each waypoint (s).
+        hold: f64,
+    },
+}
+
+impl HandPlan {
+    /// The script walked `laps` times (a corridor's detours are found in `tree`).
+    pub fn script_laps(&self, tree: &VoxelTree, laps: usize) -> Result<Script> {
+        match self {
+            HandPlan::Corridor {
+                waypoints, reach, ..
+            } => laps_script(tree, waypoints, *reach, laps),
+            HandPlan::Path {
+                waypoints,
+                speed,
+                hold,
+            } => path_script(waypoints, *speed, *hold, laps),
+        }
+    }
+
+    /// The script as the scene declares it (a corridor's `laps`, a path once).
+    pub fn script(&self, tree: &VoxelTree) -> Result<Script> {
+        let laps = match self {
+            HandPlan::Corridor { laps, .. } => *laps,
+            HandPlan::Path { .. } => 1,
+        };
+        self.script_laps(tree, laps)
+    }
+
+    /// The scene's script, its laps doubled until it lasts at least `seconds` (or the waypoint
+    /// limit is reached).
+    pub fn script_covering(&self, tree: &VoxelTree, seconds: f64) -> Result<Script> {
+        let (mut laps, count) = match self {
+            HandPlan::Corridor {
+                laps, waypoints, ..
+            } => (*laps, waypoints.len()),
+            HandPlan::Path { waypoints, .. } => (1, waypoints.len()),
+        };
+        let mut script = self.script_laps(tree, laps)?;
+        while script.duration() < seconds
+            && count.saturating_mul(laps * 2) <= crate::file::MAX_WAYPOINTS
+        {
+            laps *= 2;
+            script = self.script_laps(tree, laps)?;
+        }
+        Ok(script)
+    }
+}
+
+/// Everything a session needs, built once from a scene.
+pub struct Session {
+    /// The scene's name.
+    pub name: String,
+    /// The scene file's path, or `builtin:NAME`.
+    pub label: String,
+    /// Voxel size of the voxmap and the shell (m).
+    pub voxel_size: f64,
+    /// The static scene's voxmap.
+    pub tree: Arc<VoxelTree>,
+    /// Voxelization (or cache read) wall time (ms).
+    pub voxelize_ms: f64,
+    /// Where the voxmap came from.
+    pub voxmap_origin: VoxmapOrigin,
+    /// The part's point shell; its origin is the grip.
+    pub shell: PointShell,
+    /// Haptic parameters for this voxmap and shell, validated.
+    pub params: HapticParams,
+    /// The scene's default device.
+    pub device: DeviceChoice,
+    /// How the simulated hand moves.
+    pub hand: HandPlan,
+    /// Triangles in the static scene.
+    pub scene_triangles: usize,
+    /// The static meshes, placed (m, scene coordinates): for a viewer.
+    pub static_meshes: Vec<TriMesh>,
+    /// The part's mesh in the shell's frame (m; origin at the grip): for a viewer.
+    pub part_mesh: TriMesh,
+}
+
+impl Session {
+    /// Loads and builds `scene` (`builtin:NAME` or a file) with `options`.
+    pub fn open(scene: &str, options: &BuildOptions) -> Result<Session> {
+        let loaded = LoadedScene::load(scene)?;
+        for w in &loaded.warnings {
+            eprintln!("{}: warning: {w}", loaded.label);
+        }
+        loaded.build(options)
+    }
+
+    /// The scene's script for the simulated hand.
+    pub fn script(&self) -> Result<Script> {
+        self.hand.script(&self.tree)
+    }
+
+    /// A point shell of the part with about `points` points (a surface's point count scales as
+    /// 1/s², so the shell's voxel size is chosen from this session's shell), in the same grip
+    /// frame, and the voxel size it was sampled at (m). Lets benchmarks buy point count
+    /// independently of scene memory. Blocking, parallel, allocates.
+    pub fn shell_with_points(
+        &self,
+        points: usize,
+        method: ShellMethod,
+    ) -> Result<(PointShell, f64)> {
+        let coarse = self.shell.len().max(1) as f64;
+        let shell_voxel = self.voxel_size * (coarse / points.max(1) as f64).sqrt();
+        let mut shell = point_shell(&self.part_mesh, shell_voxel, method)
+            .with_context(|| format!("{}: resampling the part's point shell", self.label))?;
+        // `part_mesh` has its origin at the grip: points relative to its centre of mass move to
+        // the grip frame by that centre.
+        let shift: Vec3 = shell.mass.center_of_mass.as_vec3();
+        shell.points.iter_mut().for_each(|p| *p += shift);
+        Ok((shell, shell_voxel))
+    }
+
+    /// The shell split into [`crate::CLASS_COUNT`] classes.
+    pub fn classed_shell(&self) -> Arc<vps_haptic::ClassedShell> {
+        crate::classed(&self.shell)
+    }
+}

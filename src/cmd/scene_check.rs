@@ -1,0 +1,146 @@
+//! `vps scene check FILE`: validates a scene without running it and prints what it will build:
+//! triangles and bounds (m) of every object and the part, the voxmap's estimated voxels and
+//! memory, the shell's point count, and whether a frame fits the budget on this machine (from the
+//! sampling kernel's cost per point, measured briefly as `vps bench kernel` does).
+
+use super::output::print_json;
+use anyhow::Result;
+use serde::Serialize;
+use vps_mesh::TriMesh;
+use vps_session::estimate::VoxmapEstimate;
+use vps_session::LoadedScene;
+
+/// Share of the 1 ms period a frame's compute may take (as `vps tune`'s default budget).
+const FRAME_BUDGET_FRACTION: f64 = 0.6;
+/// Seconds per timing batch of the kernel measurement.
+const KERNEL_BATCH_SECONDS: f64 = 0.02;
+
+#[derive(Serialize)]
+struct ObjectReport {
+    field: String,
+    source: String,
+    triangles: usize,
+    bounds_min_m: [f64; 3],
+    bounds_max_m: [f64; 3],
+}
+
+#[derive(Serialize)]
+struct CheckReport {
+    scene: String,
+    name: String,
+    objects: Vec<ObjectReport>,
+    part: ObjectReport,
+    grip_m: [f64; 3],
+    voxel_size_m: f64,
+    voxel_width_bits: u32,
+    workspace: bool,
+    voxmap_estimate: VoxmapEstimate,
+    shell_points: usize,
+    kernel_contact_ns_per_point: f64,
+    frame_compute_estimate_us: f64,
+    frame_budget_us: f64,
+    fits_frame_budget: bool,
+    flags: Vec<String>,
+}
+
+fn object(field: String, source: &str, mesh: &TriMesh) -> ObjectReport {
+    let b = mesh.bounds();
+    ObjectReport {
+        field,
+        source: source.to_string(),
+        triangles: mesh.triangle_count(),
+        bounds_min_m: b.min.to_array(),
+        bounds_max_m: b.max.to_array(),
+    }
+}
+
+/// Runs `vps scene check`.
+pub fn run(scene: &str, json: bool) -> Result<()> {
+    let loaded = LoadedScene::load(scene)?;
+    let voxels = &loaded.file.voxels;
+    let width = loaded.width()?;
+    let estimate = loaded.plan_voxmap(voxels.voxel_size, width)?;
+    let shell = loaded.build_shell(voxels.voxel_size, voxels.shell_method.method())?;
+    let kernel = super::bench_kernel::run(&[shell.len().max(1)], KERNEL_BATCH_SECONDS)?;
+    let ns_per_point = kernel.figures[0].contact_ns_per_point;
+    let frame_us = ns_per_point * shell.len() as f64 / 1e3;
+    let budget_us = 1000.0 * FRAME_BUDGET_FRACTION;
+    let report = CheckReport {
+        scene: loaded.label.clone(),
+        name: loaded.name.clone(),
+        objects: loaded
+            .statics
+            .iter()
+            .zip(&loaded.static_sources)
+            .enumerate()
+            .map(|(i, (mesh, source))| object(format!("static[{i}]"), source, mesh))
+            .collect(),
+        part: object("part".into(), &loaded.part_source, &loaded.part),
+        grip_m: loaded.grip(&shell).to_array(),
+        voxel_size_m: voxels.voxel_size,
+        voxel_width_bits: width.bits(),
+        workspace: loaded.file.workspace.is_some(),
+        voxmap_estimate: estimate,
+        shell_points: shell.len(),
+        kernel_contact_ns_per_point: ns_per_point,
+        frame_compute_estimate_us: frame_us,
+        frame_budget_us: budget_us,
+        fits_frame_budget: frame_us <= budget_us,
+        flags: loaded.warnings.clone(),
+    };
+    if json {
+        return print_json(&report);
+    }
+    println!("scene {} ({}): ok", report.name, report.scene);
+    let line = |o: &ObjectReport| {
+        println!(
+            "  {:<10} {:>9} triangles  bounds (m) [{:.4}, {:.4}, {:.4}] .. [{:.4}, {:.4}, {:.4}]  {}",
+            o.field,
+            o.triangles,
+            o.bounds_min_m[0],
+            o.bounds_min_m[1],
+            o.bounds_min_m[2],
+            o.bounds_max_m[0],
+            o.bounds_max_m[1],
+            o.bounds_max_m[2],
+            o.source
+        )
+    };
+    report.objects.iter().for_each(line);
+    line(&report.part);
+    println!(
+        "  grip (part coordinates, m): [{:.4}, {:.4}, {:.4}]",
+        report.grip_m[0], report.grip_m[1], report.grip_m[2]
+    );
+    println!(
+        "voxmap: {} m, {}-bit{}: about {:.3e} voxels in the grid, {:.3e} in the surface band, \
+         {:.1} MiB of tree (estimate)",
+        report.voxel_size_m,
+        report.voxel_width_bits,
+        if report.workspace {
+            ", workspace region only"
+        } else {
+            ""
+        },
+        estimate.grid_voxels,
+        estimate.band_voxels,
+        estimate.tree_bytes / 1048576.0
+    );
+    println!(
+        "shell: {} points; kernel {:.1} ns/point in full contact on this machine: a frame about \
+         {:.0} µs of the {:.0} µs budget: {}",
+        report.shell_points,
+        ns_per_point,
+        frame_us,
+        budget_us,
+        if report.fits_frame_budget {
+            "fits"
+        } else {
+            "does NOT fit (use a larger voxel_size, or workers: vps cluster)"
+        }
+    );
+    for flag in &report.flags {
+        println!("flag: {flag}");
+    }
+    Ok(())
+}

@@ -1,0 +1,330 @@
+//! Scene files through the binary: a scene made only of mesh files (a binary STL and an OBJ in
+//! millimetres, one object rotated and translated) runs with the simulated hand, on one process
+//! and on two local workers; the voxmap cache; bad scene files.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// Corners of an axis-aligned box and its 12 triangles, wound outward.
+fn cuboid(min: [f64; 3], max: [f64; 3]) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
+    let vertices = (0..8)
+        .map(|i| {
+            [
+                if i & 1 == 0 { min[0] } else { max[0] },
+                if i & 2 == 0 { min[1] } else { max[1] },
+                if i & 4 == 0 { min[2] } else { max[2] },
+            ]
+        })
+        .collect();
+    let triangles = vec![
+        [0, 2, 3],
+        [0, 3, 1],
+        [4, 5, 7],
+        [4, 7, 6],
+        [0, 1, 5],
+        [0, 5, 4],
+        [2, 6, 7],
+        [2, 7, 3],
+        [0, 4, 6],
+        [0, 6, 2],
+        [1, 3, 7],
+        [1, 7, 5],
+    ];
+    (vertices, triangles)
+}
+
+/// A binary STL of a box (coordinates as given, e.g. millimetres).
+fn write_stl(path: &Path, min: [f64; 3], max: [f64; 3]) {
+    let (v, t) = cuboid(min, max);
+    let mut bytes = vec![0u8; 80];
+    bytes.extend_from_slice(&(t.len() as u32).to_le_bytes());
+    for tri in &t {
+        bytes.extend_from_slice(&[0u8; 12]); // normal: readers recompute it
+        for &i in tri {
+            for c in v[i] {
+                bytes.extend_from_slice(&(c as f32).to_le_bytes());
+            }
+        }
+        bytes.extend_from_slice(&[0u8; 2]);
+    }
+    std::fs::write(path, bytes).unwrap();
+}
+
+/// A Wavefront OBJ of a box.
+fn write_obj(path: &Path, min: [f64; 3], max: [f64; 3]) {
+    let (v, t) = cuboid(min, max);
+    let mut text = String::from("# a box, millimetres\n");
+    for p in &v {
+        text += &format!("v {} {} {}\n", p[0], p[1], p[2]);
+    }
+    for tri in &t {
+        text += &format!("f {} {} {}\n", tri[0] + 1, tri[1] + 1, tri[2] + 1);
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+/// A small bay in millimetres: a floor (OBJ, top at z = 0), a wall (STL) used twice: rotated 90°
+/// about Z and moved to x = 0.09..0.1 m, and moved unrotated to y = -0.1..-0.09 m; a 30 mm cube
+/// part (STL, given in "Y-up" and rotated back). The hand presses the part onto the floor,
+/// slides it, lifts it and presses it against the rotated wall.
+const SCENE: &str = r#"
+name = "mm-bay"
+
+[part]
+source = "part.stl"
+units = "mm"
+rotate_deg = [-90, 0, 0]
+
+[[static]]
+source = "floor.obj"
+units = "mm"
+
+[[static]]
+source = "wall.stl"
+units = "mm"
+rotate_deg = [0, 0, 90]
+translate = [0.1, -0.1, 0.0]
+
+[[static]]
+source = "wall.stl"
+units = "mm"
+translate = [-0.1, -0.1, 0.0]
+
+[voxels]
+voxel_size = "5mm"
+
+[hand]
+waypoints = [[0.0, 0.0, 0.05], [0.0, 0.0, 0.005], [0.03, 0.0, 0.005], [0.03, 0.0, 0.03], [0.09, 0.0, 0.03], [0.03, 0.0, 0.03]]
+speed = 0.08
+hold_s = 0.3
+"#;
+
+struct Bay {
+    dir: tempfile::TempDir,
+    cache: PathBuf,
+}
+
+impl Bay {
+    fn new() -> Bay {
+        let dir = tempfile::tempdir().unwrap();
+        write_obj(
+            &dir.path().join("floor.obj"),
+            [-100.0, -100.0, -10.0],
+            [100.0, 100.0, 0.0],
+        );
+        write_stl(
+            &dir.path().join("wall.stl"),
+            [0.0, 0.0, 0.0],
+            [200.0, 10.0, 60.0],
+        );
+        write_stl(
+            &dir.path().join("part.stl"),
+            [-15.0, -15.0, -15.0],
+            [15.0, 15.0, 15.0],
+        );
+        std::fs::write(dir.path().join("bay.toml"), SCENE).unwrap();
+        let cache = dir.path().join("cache");
+        Bay { dir, cache }
+    }
+
+    fn scene(&self) -> String {
+        self.path("bay.toml")
+    }
+
+    fn path(&self, name: &str) -> String {
+        self.dir.path().join(name).display().to_string()
+    }
+
+    fn vps(&self, args: &[&str]) -> Output {
+        Command::new(env!("CARGO_BIN_EXE_vps"))
+            .args(args)
+            .env("VPS_CACHE_DIR", &self.cache)
+            .output()
+            .expect("vps runs")
+    }
+}
+
+fn json(out: &Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "vps failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("valid JSON on stdout")
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+#[test]
+fn a_scene_of_mesh_files_runs_touching_without_penetrating() {
+    let bay = Bay::new();
+    let scene = bay.scene();
+    let report = json(&bay.vps(&["run", "--scene", &scene, "--seconds", "5", "--json"]));
+    let stats = &report["stats"];
+    assert_eq!(stats["frames"], 5000, "{report}");
+    assert!(
+        stats["touching_frames"].as_u64().unwrap() > 0,
+        "the hand presses the part on the floor and the wall: {report}"
+    );
+    assert_eq!(stats["penetrating_frames"], 0, "braking on: {report}");
+    assert_eq!(report["end"], "FramesDone", "{report}");
+
+    let check = json(&bay.vps(&["scene", "check", &scene, "--json"]));
+    assert_eq!(check["objects"].as_array().unwrap().len(), 3);
+    assert_eq!(check["objects"][0]["triangles"], 12);
+    // The rotated wall (x 0.09..0.1 m after rotation and translation), in metres.
+    let wall = &check["objects"][1];
+    let (lo, hi) = (
+        wall["bounds_min_m"][0].as_f64().unwrap(),
+        wall["bounds_max_m"][0].as_f64().unwrap(),
+    );
+    assert!(
+        (lo - 0.09).abs() < 1e-9 && (hi - 0.1).abs() < 1e-9,
+        "{wall}"
+    );
+    assert!(check["shell_points"].as_u64().unwrap() > 50, "{check}");
+    assert!(check["voxmap_estimate"]["grid_voxels"].as_f64().unwrap() > 1e4);
+    assert!(check["flags"].as_array().unwrap().is_empty(), "{check}");
+}
+
+/// The same scene over two local worker processes, replaying a trace recorded on it, writes the
+/// same wrenches as one process: the final state, which integrates every wrench, is bit-identical.
+#[test]
+fn two_local_workers_replay_the_scene_bit_identically() {
+    let bay = Bay::new();
+    let scene = bay.scene();
+    let trace = bay.path("trace.jsonl");
+    let recorded = bay.vps(&["record", "--scene", &scene, "-o", &trace, "--seconds", "2"]);
+    assert!(recorded.status.success(), "{}", stderr(&recorded));
+    let device = format!("replay:{trace}");
+    let alone = json(&bay.vps(&["run", "--scene", &scene, "--device", &device, "--json"]));
+    let clustered = json(&bay.vps(&[
+        "cluster",
+        "--local-workers",
+        "2",
+        "--max-stale-frames",
+        "0",
+        "--scene",
+        &scene,
+        "--device",
+        &device,
+        "--json",
+    ]));
+    assert_eq!(alone["stats"]["frames"], 2000);
+    assert!(alone["stats"]["touching_frames"].as_u64().unwrap() > 0);
+    assert_eq!(clustered["final_position_m"], alone["final_position_m"]);
+    for key in [
+        "frames",
+        "contact_frames",
+        "touching_frames",
+        "penetrating_frames",
+    ] {
+        assert_eq!(clustered["stats"][key], alone["stats"][key], "{key}");
+    }
+    assert_eq!(clustered["cluster"]["peers"].as_array().unwrap().len(), 2);
+}
+
+#[test]
+fn the_voxmap_cache_is_used_and_rebuilt_when_an_input_changes() {
+    let bay = Bay::new();
+    let scene = bay.scene();
+    let start = |bay: &Bay| {
+        let out = bay.vps(&["run", "--scene", &scene, "--seconds", "0.1", "--json"]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        stderr(&out)
+    };
+    assert!(start(&bay).contains("voxmap: built, cached at"));
+    let again = start(&bay);
+    assert!(again.contains("voxmap: loaded from cache"), "{again}");
+    // One byte of a mesh file: the floor 1 mm thicker.
+    let floor = bay.dir.path().join("floor.obj");
+    let text = std::fs::read_to_string(&floor)
+        .unwrap()
+        .replace("-10", "-11");
+    std::fs::write(&floor, text).unwrap();
+    assert!(start(&bay).contains("voxmap: built, cached at"));
+    assert!(start(&bay).contains("voxmap: loaded from cache"));
+    // A voxel setting.
+    std::fs::write(
+        bay.dir.path().join("bay.toml"),
+        SCENE.replace("[voxels]", "[voxels]\noffset_layers = 1"),
+    )
+    .unwrap();
+    assert!(start(&bay).contains("voxmap: built, cached at"));
+    // A corrupt cache file is rebuilt, not fatal.
+    for entry in std::fs::read_dir(&bay.cache).unwrap() {
+        std::fs::write(entry.unwrap().path(), b"not a voxmap").unwrap();
+    }
+    let rebuilt = start(&bay);
+    assert!(
+        rebuilt.contains("unreadable") && rebuilt.contains("voxmap: built, cached at"),
+        "{rebuilt}"
+    );
+    // --no-cache neither reads nor writes.
+    let out = bay.vps(&["run", "--scene", &scene, "--seconds", "0.1", "--no-cache"]);
+    assert!(
+        stderr(&out).contains("voxmap: built (cache off)"),
+        "{}",
+        stderr(&out)
+    );
+}
+
+#[test]
+fn bad_scene_files_name_the_file_and_field_and_run_nothing() {
+    let bay = Bay::new();
+    let cases = [
+        (
+            SCENE.replace("[voxels]", "[voxels]\nvoxel_sise = 0.005"),
+            "voxels.voxel_sise",
+        ),
+        (
+            SCENE.replace("speed = 0.08", "speed = \"fast\""),
+            "hand.speed",
+        ),
+        (
+            SCENE.replace("voxel_size = \"5mm\"", "voxel_size = -0.005"),
+            "voxels.voxel_size",
+        ),
+        (
+            SCENE.replace("source = \"floor.obj\"", "source = \"missing.obj\""),
+            "static[0].source",
+        ),
+        (
+            SCENE.replace(
+                "units = \"mm\"\nrotate_deg = [-90",
+                "units = \"milimetres\"\nrotate_deg = [-90",
+            ),
+            "part.units",
+        ),
+        (
+            // The part left in metres: 30 m across in a 0.2 m bay.
+            SCENE.replace("units = \"mm\"\nrotate_deg = [-90", "rotate_deg = [-90"),
+            "`part`",
+        ),
+        (
+            SCENE.replace("voxel_size = \"5mm\"", "voxel_size = \"1um\""),
+            "voxels.voxel_size",
+        ),
+    ];
+    for (i, (text, field)) in cases.iter().enumerate() {
+        let name = format!("bad{i}.toml");
+        std::fs::write(bay.dir.path().join(&name), text).unwrap();
+        let out = bay.vps(&[
+            "run",
+            "--scene",
+            &bay.path(&name),
+            "--seconds",
+            "1",
+            "--json",
+        ]);
+        let err = stderr(&out);
+        assert!(!out.status.success(), "{name} ran");
+        assert!(out.stdout.is_empty(), "{name} printed a report");
+        assert!(err.contains(&name), "{name}: the file is not named: {err}");
+        assert!(err.contains(field), "{name}: `{field}` is not named: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(!err.contains("voxmap: built"), "{name} voxelized: {err}");
+    }
+}
