@@ -136,6 +136,9 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         ..scene.params
     };
     let threads = args.threads.max(1);
+    // One set of handlers for both sessions, installed before the scene is announced: a signal
+    // from then on ends the demo (a session started after it stops at its first frame).
+    let signals = stop_on_signals()?;
     if !args.json {
         println!(
             "scene: {} ({}), {} triangles, voxelized at {} m in {:.0} ms, tree {:.2} MiB \
@@ -156,8 +159,6 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     }
     let viewer = crate::cmd::view::attach(args.view, &scene)?;
     let feed = || viewer.as_ref().map(|v| v.feed());
-    // One set of handlers for both sessions: a signal during either ends the demo.
-    let signals = stop_on_signals()?;
     let session = |params: HapticParams, paced: bool| {
         let report = run_session_until(
             &scene,

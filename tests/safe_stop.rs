@@ -162,6 +162,56 @@ fn sigint_leaves_zero_force_on_the_device_and_a_partial_report() {
     assert_stopped_safely("INT", 130);
 }
 
+/// `vps demo` (the simulated hand on the default scene file) stopped by SIGINT once it has
+/// announced its scene: the first session stops, its partial figures are printed and the status
+/// is 130 (the demo's handlers are installed before the announcement).
+#[test]
+fn a_demo_stopped_by_sigint_prints_its_partial_session_and_exits_130() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_vps"))
+        .args(["demo", "--seconds", "600"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start vps demo");
+    let mut stdout = BufReader::new(child.stdout.take().unwrap());
+    let mut vps = Vps(child);
+    let mut printed = String::new();
+    let mut line = String::new();
+    while !line.starts_with("part: ") {
+        line.clear();
+        assert!(
+            stdout.read_line(&mut line).unwrap() > 0,
+            "vps demo ended before announcing its part: {printed}"
+        );
+        printed.push_str(&line);
+    }
+    let status = Command::new("kill")
+        .args(["-INT", &vps.0.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    // Reading to the end returns once the process has exited (the deadline bounds a hang).
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        let mut rest = String::new();
+        let _ = std::io::Read::read_to_string(&mut stdout, &mut rest);
+        let _ = tx.send(rest);
+    });
+    let rest = rx
+        .recv_timeout(DEADLINE)
+        .expect("vps demo exited after SIGINT");
+    let exit = vps.0.wait().unwrap();
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(vps.0.stderr.as_mut().unwrap(), &mut stderr).unwrap();
+    assert_eq!(exit.code(), Some(130), "{printed}{rest}{stderr}");
+    assert!(
+        rest.contains("partial session (stopped by SIGINT)"),
+        "{printed}{rest}"
+    );
+    assert!(stderr.contains("stopped by SIGINT"), "{stderr}");
+}
+
 /// A client whose every handle sample is absurd (10 km from the origin): the core rejects each, the
 /// device gets zero, and the report of the complete session counts those frames (finding 9: such
 /// a session ended as a clean `FramesDone` with no counts).
