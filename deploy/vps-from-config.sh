@@ -26,7 +26,7 @@ case "$role" in
 coordinator)
     # key:flag pairs, in the order the flags are passed.
     keys=(listen:--listen cert:--cert key:--key pin:--pin workers:--workers device:--device
-        seconds:--seconds threads:--threads voxel_size:--voxel-size haptic_config:--config record:--record
+        seconds:--seconds threads:--threads voxel_size:--voxel-size haptic_config:--config record:--record report:--report
         equal_shares:--equal-shares spin_us:--spin-us max_stale_frames:--max-stale-frames)
     ;;
 worker)

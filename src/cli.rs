@@ -39,7 +39,7 @@ pub enum Command {
         #[arg(long)]
         device: Option<String>,
         /// Session length (s).
-        #[arg(long, default_value_t = 30.0)]
+        #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 30.0)]
         seconds: f64,
         /// The scene.
         #[command(flatten)]
@@ -270,8 +270,14 @@ pub struct WorkerArgs {
     #[arg(long)]
     pub cache: Option<PathBuf>,
     /// Compute threads (default: one per core).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::limits::parse_count)]
     pub threads: Option<usize>,
+    /// Exit (status 0) when the coordinator goes away instead of waiting for the next one.
+    /// Without it the worker is a long-lived service: it re-joins (waits from 100 ms doubling
+    /// to 5 s, with jitter) until SIGINT or SIGTERM; `vps cluster` passes it to its own
+    /// workers so that none outlives it.
+    #[arg(long)]
+    pub exit_with_coordinator: bool,
 }
 
 /// Arguments of `vps coordinator`.
@@ -347,10 +353,10 @@ fn default_max_stale_frames() -> u64 {
 #[derive(Args, Debug)]
 pub struct ClusterArgs {
     /// Worker processes to start on this host.
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 2)]
     pub local_workers: usize,
     /// Compute threads per worker process.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 1)]
     pub worker_threads: usize,
     /// How replies are gathered.
     #[command(flatten)]
@@ -379,10 +385,10 @@ pub struct RunArgs {
     #[arg(long, value_parser = parse_length)]
     pub voxel_size: Option<f64>,
     /// Session length (s); a replay runs for the length of its trace.
-    #[arg(long, default_value_t = 30.0)]
+    #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 30.0)]
     pub seconds: f64,
     /// Compute threads, the frame thread included.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 1)]
     pub threads: usize,
     /// Record the handle trace to this file.
     #[arg(long)]
@@ -390,6 +396,10 @@ pub struct RunArgs {
     /// Print as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Also write the session report (JSON) to this file, however the session ends (a partial
+    /// report says why). Checked before the session starts.
+    #[arg(long, value_name = "FILE")]
+    pub report: Option<PathBuf>,
     /// Serve the live viewer on this address (e.g. 127.0.0.1:8080; port 0 picks a free one).
     #[arg(long, value_name = "ADDR")]
     pub view: Option<std::net::SocketAddr>,
@@ -545,11 +555,11 @@ pub struct DemoArgs {
     #[arg(long, value_parser = parse_length)]
     pub voxel_size: Option<f64>,
     /// Longest session time (s); the scripted session is about 40 s.
-    #[arg(long, default_value_t = 60.0)]
+    #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 60.0)]
     pub seconds: f64,
     /// Compute threads, the frame thread included. One is right for the teapot's few hundred
     /// points at 5 mm: handing a share to another thread costs more than computing it.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 1)]
     pub threads: usize,
     /// Print as JSON.
     #[arg(long)]
@@ -592,7 +602,7 @@ pub enum BenchKind {
         #[arg(long, value_delimiter = ',', default_value = "10000,100000,1000000")]
         points: Vec<usize>,
         /// Seconds per timing batch (5 batches per case, the median is reported).
-        #[arg(long, default_value_t = 0.2)]
+        #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 0.2)]
         seconds: f64,
         /// Print JSON (always JSON; accepted for symmetry).
         #[arg(long)]
@@ -613,7 +623,7 @@ pub enum BenchKind {
         #[arg(long, default_value_t = 100_000)]
         frames: u64,
         /// Compute threads, the frame thread included.
-        #[arg(long, default_value_t = 2)]
+        #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 2)]
         threads: usize,
         /// Print JSON (always JSON; accepted for symmetry).
         #[arg(long)]
@@ -622,7 +632,7 @@ pub enum BenchKind {
     /// Frame compute of the paced demo session without and with a connected viewer.
     Viewer {
         /// Session length per run (s).
-        #[arg(long, default_value_t = 10.0)]
+        #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 10.0)]
         seconds: f64,
         /// Rounds of one run without and one with the viewer.
         #[arg(long, default_value_t = 3)]
@@ -640,13 +650,13 @@ pub enum BenchKind {
         #[arg(long, default_value_t = 100_000)]
         frames: u64,
         /// Worker processes.
-        #[arg(long, default_value_t = 2)]
+        #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 2)]
         workers: usize,
         /// Compute threads per worker process.
-        #[arg(long, default_value_t = 1)]
+        #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 1)]
         worker_threads: usize,
         /// Compute threads of the coordinator.
-        #[arg(long, default_value_t = 1)]
+        #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 1)]
         threads: usize,
         /// The scene.
         #[command(flatten)]
@@ -665,7 +675,7 @@ pub enum BenchKind {
     /// doing `--busy-us` of work per 1 ms frame would miss with no haptics in it.
     Host {
         /// Length of the measurement (s).
-        #[arg(long, default_value_t = 100.0)]
+        #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 100.0)]
         seconds: f64,
         /// Work per frame, spun (µs).
         #[arg(long, default_value_t = 500)]
@@ -762,6 +772,7 @@ impl Default for RunArgs {
             threads: 1,
             record: None,
             json: false,
+            report: None,
             view: None,
             bridge: BridgeArgs::default(),
         }

@@ -4,12 +4,13 @@
 //! the penetration ratio of both.
 
 use crate::cli::DemoArgs;
+use crate::cmd::exit::{outcome, SessionExit};
 use crate::cmd::output::print_json;
 use anyhow::Result;
 use serde::Serialize;
 use vps_haptic::HapticParams;
-use vps_runtime::{run_loop, LoopConfig, LoopReport, StateFeedSender, StatsSummary};
-use vps_session::{DeviceChoice, Session};
+use vps_runtime::{run_loop, LoopConfig, LoopReport, SignalStop, StateFeedSender, StatsSummary};
+use vps_session::{stop_on_signals, DeviceChoice, Session};
 
 /// The paper's penetration ratios (Table 2): braking on and off.
 const PAPER_PR_BRAKING: f64 = 6e-5;
@@ -43,6 +44,20 @@ pub fn run_session(
     paced: bool,
     feed: Option<StateFeedSender>,
 ) -> Result<LoopReport> {
+    run_session_until(scene, params, seconds, threads, paced, feed, None)
+}
+
+/// [`run_session`], ended early (the device written zero) once one of `signals` comes, when
+/// given.
+pub fn run_session_until(
+    scene: &Session,
+    params: HapticParams,
+    seconds: f64,
+    threads: usize,
+    paced: bool,
+    feed: Option<StateFeedSender>,
+    signals: Option<&SignalStop>,
+) -> Result<LoopReport> {
     let script = scene.script()?;
     let frames = ((seconds.min(script.duration()) / params.dt).round() as u64).max(1);
     let config = LoopConfig {
@@ -57,7 +72,10 @@ pub fn run_session(
     let report = run_loop(
         scene.tree.clone(),
         scene.classed_shell(),
-        plan.into_setup(feed),
+        match signals {
+            Some(signals) => plan.into_stopped_setup(feed, signals),
+            None => plan.into_setup(feed),
+        },
     )?;
     if let Some(err) = &report.device_error {
         anyhow::bail!("the device failed: {err}");
@@ -118,6 +136,9 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         ..scene.params
     };
     let threads = args.threads.max(1);
+    // One set of handlers for both sessions, installed before the scene is announced: a signal
+    // from then on ends the demo (a session started after it stops at its first frame).
+    let signals = stop_on_signals()?;
     if !args.json {
         println!(
             "scene: {} ({}), {} triangles, voxelized at {} m in {:.0} ms, tree {:.2} MiB \
@@ -138,12 +159,34 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     }
     let viewer = crate::cmd::view::attach(args.view, &scene)?;
     let feed = || viewer.as_ref().map(|v| v.feed());
-    let on = run_session(&scene, params, args.seconds, threads, true, feed())?;
+    let session = |params: HapticParams, paced: bool| {
+        let report = run_session_until(
+            &scene,
+            params,
+            args.seconds,
+            threads,
+            paced,
+            feed(),
+            Some(&signals),
+        )?;
+        let (reason, code) = outcome(&report.end, Some(&signals));
+        if code != 0 {
+            print_summary(&format!("partial session ({reason})"), &report.stats, None);
+            return Err(anyhow::Error::new(SessionExit {
+                code,
+                reason: format!(
+                    "the session ended early ({reason}); the device was sent zero force"
+                ),
+            }));
+        }
+        Ok(report)
+    };
+    let on = session(params, true)?;
     let off_params = HapticParams {
         braking: false,
         ..params
     };
-    let off = run_session(&scene, off_params, args.seconds, threads, false, feed())?;
+    let off = session(off_params, false)?;
     if args.json {
         return print_json(&DemoReport {
             scene_triangles: scene.scene_triangles,

@@ -7,6 +7,7 @@
 mod cli;
 mod cmd;
 mod demo;
+mod limits;
 mod memory_size;
 mod scene;
 
@@ -26,7 +27,15 @@ fn main() {
         if err.is::<cmd::output::BrokenStdout>() {
             std::process::exit(cmd::output::BROKEN_PIPE_STATUS);
         }
-        eprintln!("vps: error: {}", cmd::output::error_report(&err));
-        std::process::exit(1);
+        // A session that ended early has already written its report; its status says why
+        // (src/cmd/exit.rs: 1 error, 101 panic, 128 + N signal N).
+        let code = cmd::exit::exit_code(&err);
+        let message = cmd::output::error_report(&err);
+        if code == 1 {
+            eprintln!("vps: error: {message}");
+        } else {
+            eprintln!("vps: {message}");
+        }
+        std::process::exit(code);
     }
 }

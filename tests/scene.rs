@@ -169,7 +169,8 @@ fn a_scene_of_mesh_files_runs_touching_without_penetrating() {
         "the hand presses the part on the floor and the wall: {report}"
     );
     assert_eq!(stats["penetrating_frames"], 0, "braking on: {report}");
-    assert_eq!(report["end"], "FramesDone", "{report}");
+    assert_eq!(report["end"], "frames done", "{report}");
+    assert_eq!(report["complete"], true, "{report}");
 
     let check = json(&bay.vps(&["scene", "check", &scene, "--json"]));
     assert_eq!(check["objects"].as_array().unwrap().len(), 3);

@@ -81,6 +81,7 @@ pub fn run(bench: ClusterBench) -> Result<()> {
         bench.worker_threads,
         bench.gather,
     )?;
+    super::exit::require_complete(&run.report.end, Some(&run.signals))?;
     print_json(&ClusterBenchReport {
         command: format!(
             "vps bench cluster --scene {} --points {} --frames {} --workers {} --worker-threads {} --threads {} \

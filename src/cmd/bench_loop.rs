@@ -46,11 +46,9 @@ pub fn run(
         ..LoopConfig::default()
     };
     let plan = session.plan(&DeviceChoice::Simulated, script, config)?;
-    let report = run_loop(
-        session.tree.clone(),
-        session.classed_shell(),
-        plan.into_setup(None),
-    )?;
+    let (setup, signals) = plan.into_live_setup(None)?;
+    let report = run_loop(session.tree.clone(), session.classed_shell(), setup)?;
+    super::exit::require_complete(&report.end, Some(&signals))?;
     print_json(&LoopBench {
         scene: session.label.clone(),
         scene_triangles: session.scene_triangles,

@@ -99,6 +99,7 @@ pub fn run(frames: u64, spin_us: u64) -> Result<()> {
             config.realtime = false;
             config.watchdog = Duration::from_millis(10);
         })?;
+        super::exit::require_complete(&run.report.end, Some(&run.signals))?;
         let worst = run
             .cluster
             .peers

@@ -1,19 +1,21 @@
 //! `vps cert`, `vps worker`, `vps coordinator` and `vps cluster`: the cluster modes over QUIC
 //! (DESIGN §4), thin shells over `vps-cluster`.
 
-use super::run::{finish, prepare, LiveSession, PreparedSession};
+use super::exit::SessionExit;
+use super::run::{finish, prepare, LiveSession, PreparedSession, SessionOutputs};
 use crate::cli::{ClusterArgs, CoordinatorArgs, GatherArgs, RunArgs, WorkerArgs};
 use anyhow::{Context, Result};
 use std::net::SocketAddr;
 use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
 use vps_cluster::{
-    local_cluster_certs, make_cert, run_coordinator_session, run_worker, spawn_local_workers,
-    ClusterReport, ClusterScene, Coordinator, CoordinatorConfig, GatherConfig, LocalWorkerArgs,
-    WorkerConfig,
+    local_cluster_certs, make_cert, run_coordinator_session, run_worker_service,
+    spawn_local_workers, ClusterError, ClusterReport, ClusterScene, Coordinator, CoordinatorConfig,
+    GatherConfig, LocalWorkerArgs, Rejoin, WorkerConfig,
 };
-use vps_runtime::{LoopConfig, LoopReport};
+use vps_runtime::{LoopConfig, LoopReport, SignalStop};
 use vps_session::CLASS_COUNT;
 
 /// How long the coordinator waits for its workers to join before it starts.
@@ -30,16 +32,43 @@ pub fn cert(out: &std::path::Path, name: &str) -> Result<()> {
     Ok(())
 }
 
-/// `vps worker`: joins a coordinator and answers frame requests until the coordinator goes away.
+/// Exit status of a worker refused for good (a certificate not pinned on one side, an
+/// incompatible protocol): systemd units keep it from restarting (`RestartPreventExitStatus=`).
+const EXIT_REFUSED: i32 = 2;
+
+/// `vps worker`: joins a coordinator and answers frame requests; when the coordinator goes away,
+/// waits for the next one (unless `--exit-with-coordinator`), until SIGINT or SIGTERM (exit 0).
+/// A refusal for good exits with status 2 and says why.
 pub fn worker(args: &WorkerArgs) -> Result<()> {
     let mut config = WorkerConfig::from_files(args.coordinator, &args.cert, &args.key, &args.pin)?;
     config.cache_dir = args.cache.clone();
     if let Some(threads) = args.threads {
         config.threads = threads.max(1);
     }
-    let report = run_worker(config).context("worker")?;
-    eprintln!("worker finished: {report:?}");
-    Ok(())
+    let stop = Arc::new(AtomicBool::new(false));
+    let signals = SignalStop::install(&stop)?;
+    let rejoin = Rejoin {
+        exit_with_coordinator: args.exit_with_coordinator,
+        ..Rejoin::default()
+    };
+    match run_worker_service(config, stop, rejoin) {
+        Ok(service) => {
+            let why = signals
+                .received()
+                .map_or("its coordinator went away", |s| s.name());
+            eprintln!(
+                "worker stopped ({why}) after {} session(s)",
+                service.sessions.len()
+            );
+            Ok(())
+        }
+        Err(ClusterError::Refused(reason)) => Err(SessionExit {
+            code: EXIT_REFUSED,
+            reason: format!("worker refused for good: {reason}"),
+        }
+        .into()),
+        Err(e) => Err(anyhow::Error::new(e).context("worker")),
+    }
 }
 
 /// What one coordinated session produced.
@@ -52,6 +81,8 @@ pub struct CoordinatedRun {
     pub shell_points: usize,
     /// The bridge's counters and wrench log, when the device was the UDP bridge.
     pub bridge: Option<vps_input::BridgeMonitor>,
+    /// The signal handlers that could stop the session (which one did, if any).
+    pub signals: SignalStop,
 }
 
 /// Runs one session on a started coordinator once `workers` have joined; `tune` may adjust the
@@ -95,6 +126,7 @@ fn coordinate_prepared(
         viewer: _viewer,
         setup,
         bridge,
+        signals,
     } = prepared.go_live(session.view)?;
     let cluster_scene = Arc::new(ClusterScene::new(
         scene.tree.clone(),
@@ -109,7 +141,7 @@ fn coordinate_prepared(
     eprintln!("coordinator listening on {addr}, waiting for {workers} worker(s)");
     let _children = spawn(addr)?;
     coordinator
-        .wait_for_workers(workers, JOIN_TIMEOUT)
+        .wait_for_workers_until(workers, JOIN_TIMEOUT, &setup.stop)
         .with_context(|| format!("waiting {JOIN_TIMEOUT:?} for {workers} worker(s) to join"))?;
     let gather = GatherConfig {
         local_threads: session.threads.max(1),
@@ -122,16 +154,25 @@ fn coordinate_prepared(
         ..GatherConfig::default()
     };
     let (report, cluster) = run_coordinator_session(&coordinator, gather, setup)?;
+    if let Some(signal) = signals.received() {
+        // The device has been written zero; tell the workers this coordinator is going.
+        coordinator.close(
+            vps_cluster::close::CLOSE_COORDINATOR_STOPPING,
+            &format!("coordinator stopping ({})", signal.name()),
+        );
+    }
     Ok(CoordinatedRun {
         report,
         cluster,
         shell_points: scene.shell.len(),
         bridge,
+        signals,
     })
 }
 
 /// `vps coordinator`: owns the device loop; workers from the LAN join with pinned certificates.
 pub fn coordinator(args: &CoordinatorArgs) -> Result<()> {
+    let outputs = SessionOutputs::reserve(&args.session)?;
     let run = coordinate(
         &args.session,
         args.listen,
@@ -145,6 +186,8 @@ pub fn coordinator(args: &CoordinatorArgs) -> Result<()> {
     )?;
     finish(
         &args.session,
+        outputs,
+        &run.signals,
         run.shell_points,
         &run.report,
         run.bridge.as_ref(),
@@ -155,6 +198,11 @@ pub fn coordinator(args: &CoordinatorArgs) -> Result<()> {
 /// `vps cluster --local-workers N`: the coordinator plus N worker processes on loopback, with
 /// fresh certificates pinned both ways.
 pub fn local_cluster(args: &ClusterArgs) -> Result<()> {
+    crate::limits::check_thread_total(
+        "--local-workers × --worker-threads",
+        args.local_workers * args.worker_threads,
+    )?;
+    let outputs = SessionOutputs::reserve(&args.session)?;
     let run = run_local_cluster(
         &args.session,
         args.local_workers,
@@ -164,6 +212,8 @@ pub fn local_cluster(args: &ClusterArgs) -> Result<()> {
     )?;
     finish(
         &args.session,
+        outputs,
+        &run.signals,
         run.shell_points,
         &run.report,
         run.bridge.as_ref(),

@@ -2,30 +2,69 @@
 //! (`--scene`, default the built-in bay) with a chosen device, parameters from a TOML file, and
 //! handle traces to and from files.
 
+use super::exit::{outcome, SessionExit};
 use super::output::print_json;
+use super::reserve::ReservedFile;
 use crate::cli::{BridgeArgs, RunArgs};
 use anyhow::{anyhow, bail, Context, Result};
 use serde::Serialize;
-use std::path::Path;
 use vps_device::trace::save_trace;
 use vps_haptic::HapticParams;
 use vps_input::{BridgeCounters, BridgeMonitor};
-use vps_runtime::{run_loop, LoopConfig, LoopReport, SessionSetup, StatsSummary};
+use vps_runtime::{run_loop, LoopConfig, LoopReport, SessionSetup, SignalStop, StatsSummary};
 use vps_session::{BridgeSettings, DeviceChoice, Session, SessionPlan};
 
+/// The session report (`--json`, `--report FILE`).
 #[derive(Serialize)]
 struct RunReport {
     device: String,
     shell_points: usize,
     realtime_granted: bool,
+    /// Why the session ended: "frames done", "stopped by SIGTERM", "device failed: ...",
+    /// "panic: ...".
     end: String,
+    /// False when the session did not run all its frames (the figures cover the frames run).
+    complete: bool,
+    /// The process's exit status (src/cmd/exit.rs; README, "Units, limits and safety").
+    exit_code: i32,
     final_position_m: [f64; 3],
     stats: StatsSummary,
+    /// The device's own counters (e.g. the bridge's datagram counts), when it keeps any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    device_counters: Option<serde_json::Value>,
     #[serde(skip_serializing_if = "Option::is_none")]
     cluster: Option<serde_json::Value>,
     /// The bridge device's counters, when the device was the bridge.
     #[serde(skip_serializing_if = "Option::is_none")]
     bridge: Option<BridgeCounters>,
+}
+
+/// The files a session writes at its end, created (empty, beside their destinations) before the
+/// session starts so that a bad path fails before any work.
+#[derive(Default)]
+pub struct SessionOutputs {
+    /// `--report FILE`.
+    report: Option<ReservedFile>,
+    /// `--record FILE`.
+    record: Option<ReservedFile>,
+}
+
+impl SessionOutputs {
+    /// Reserves `--report` and `--record` of `args`.
+    pub fn reserve(args: &RunArgs) -> Result<SessionOutputs> {
+        Ok(SessionOutputs {
+            report: args
+                .report
+                .as_deref()
+                .map(ReservedFile::reserve)
+                .transpose()?,
+            record: args
+                .record
+                .as_deref()
+                .map(ReservedFile::reserve)
+                .transpose()?,
+        })
+    }
 }
 
 /// Everything a session needs, opened from the command line.
@@ -37,7 +76,8 @@ pub struct PreparedSession {
 }
 
 /// A prepared session made ready to run: its scene, the live viewer when one was asked for (keep
-/// it alive for the session), and the loop's setup, publishing to that viewer.
+/// it alive for the session), the loop's setup, publishing to that viewer, and the signal
+/// handlers that stop it.
 pub struct LiveSession {
     /// Scene, voxmap, shell and meshes.
     pub session: Session,
@@ -47,21 +87,25 @@ pub struct LiveSession {
     pub setup: SessionSetup,
     /// The bridge's counters and wrench log, when the device is the UDP bridge (for the report).
     pub bridge: Option<BridgeMonitor>,
+    /// SIGINT, SIGTERM and SIGHUP set `setup.stop` (the device is then written zero and the
+    /// report says which signal came).
+    pub signals: SignalStop,
 }
 
 impl PreparedSession {
     /// Attaches the viewer at `view` (when given) and builds the loop's setup, with a stop flag
-    /// nobody raises (the session ends by its frame count, or its device).
+    /// set by SIGINT, SIGTERM and SIGHUP (installed here: the device is open from now on).
     pub fn go_live(self, view: Option<std::net::SocketAddr>) -> Result<LiveSession> {
         let PreparedSession { session, plan } = self;
         let viewer = super::view::attach(view, &session)?;
         let bridge = plan.bridge.clone();
-        let setup = plan.into_setup(viewer.as_ref().map(|v| v.feed()));
+        let (setup, signals) = plan.into_live_setup(viewer.as_ref().map(|v| v.feed()))?;
         Ok(LiveSession {
             session,
             viewer,
             setup,
             bridge,
+            signals,
         })
     }
 }
@@ -118,6 +162,11 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
         session.params = HapticParams::from_file(path)?
             .with_scene(session.voxel_size, session.shell.max_radius())?;
     }
+    let source = match &args.config {
+        Some(path) => path.display().to_string(),
+        None => session.label.clone(),
+    };
+    check_loop_period(&session.params, &source)?;
     let frames = choice.frames(args.seconds, session.params.dt)?;
     session.bridge = bridge_settings(&args.bridge, &choice, session.bridge, frames)?;
     let config = LoopConfig {
@@ -131,17 +180,36 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
     Ok(PreparedSession { session, plan })
 }
 
+/// Fails unless the haptic time step `dt` (s) of `params`, read from `source`, is the session
+/// loop's period: the loop ticks at 1 kHz whatever the parameters say.
+fn check_loop_period(params: &HapticParams, source: &str) -> Result<()> {
+    let period = LoopConfig::default().period.as_secs_f64();
+    if (params.dt - period).abs() > 1e-12 {
+        bail!(
+            "{source}: haptic parameter `dt` = {} s: the session loop runs at {} Hz, so `dt` \
+             must be {period} s (or left out)",
+            params.dt,
+            1.0 / period
+        );
+    }
+    Ok(())
+}
+
 /// Runs one paced session; records the handle trace to `record` when given.
 pub fn run(args: &RunArgs) -> Result<()> {
+    let outputs = SessionOutputs::reserve(args)?;
     let LiveSession {
         session,
         viewer: _viewer,
         setup,
         bridge,
+        signals,
     } = prepare(args)?.go_live(args.view)?;
     let report: LoopReport = run_loop(session.tree.clone(), session.classed_shell(), setup)?;
     finish(
         args,
+        outputs,
+        &signals,
         session.shell.len(),
         &report,
         bridge.as_ref(),
@@ -149,45 +217,58 @@ pub fn run(args: &RunArgs) -> Result<()> {
     )
 }
 
-/// Saves the recording (and the bridge's wrench log when asked), prints the session's figures
-/// (with the bridge's counters when `bridge` is given, and `cluster`, when given, as JSON), and
-/// fails when the device failed.
+/// Once the device has been written zero: saves the recording (and the bridge's wrench log when
+/// asked), writes the report file, prints the session's figures (with the bridge's counters when
+/// `bridge` is given, and `cluster`, when given, as JSON), and fails with a [`SessionExit`] (its
+/// exit status) when the session did not run to its end.
 pub fn finish<C: Serialize>(
     args: &RunArgs,
+    outputs: SessionOutputs,
+    signals: &SignalStop,
     shell_points: usize,
     report: &LoopReport,
     bridge: Option<&BridgeMonitor>,
     cluster: Option<&C>,
 ) -> Result<()> {
-    if let Some(path) = &args.record {
-        save_recording(report, path)?;
-    }
     if let (Some(monitor), Some(path)) = (bridge, &args.bridge.log_wrenches) {
         let n = monitor
             .save_wrench_log(path)
             .with_context(|| format!("writing the wrench log {}", path.display()))?;
         eprintln!("logged {n} wrenches sent to {}", path.display());
     }
-    let end = match &report.device_error {
-        Some(err) => format!("device failed: {err}"),
-        None => format!("{:?}", report.end),
-    };
+    let (end, exit_code) = outcome(&report.end, Some(signals));
     let out = RunReport {
         device: report.device_name.clone(),
         shell_points,
         realtime_granted: report.rt.fifo,
         end,
+        complete: report.end.is_complete(),
+        exit_code,
         final_position_m: report.final_state.position.to_array(),
         stats: report.stats.clone(),
+        device_counters: report.device_counters.clone(),
         cluster: cluster.map(serde_json::to_value).transpose()?,
         bridge: bridge.map(|m| m.counters()),
     };
+    if let Some(file) = outputs.report {
+        file.commit(|path| {
+            let text = serde_json::to_string_pretty(&out)?;
+            std::fs::write(path, text + "\n")?;
+            Ok(())
+        })?;
+    }
+    if let Some(file) = outputs.record {
+        save_recording(report, file)?;
+    }
     if args.json {
         print_json(&out)?;
     } else {
         println!(
-            "device: {}, {} shell points, session end: {}",
-            out.device, out.shell_points, out.end
+            "device: {}, {} shell points, session end: {}{}",
+            out.device,
+            out.shell_points,
+            out.end,
+            if out.complete { "" } else { " (partial)" }
         );
         crate::demo::print_summary("session", &out.stats, None);
         println!("final part position (m): {:?}", out.final_position_m);
@@ -210,13 +291,20 @@ pub fn finish<C: Serialize>(
             println!("cluster: {}", serde_json::to_string_pretty(cluster)?);
         }
     }
-    if report.device_error.is_some() {
-        bail!("the session stopped because the device failed (the device was sent zero force)");
+    if exit_code != 0 {
+        return Err(SessionExit {
+            code: exit_code,
+            reason: format!(
+                "the session ended early ({}); the device was sent zero force",
+                out.end
+            ),
+        }
+        .into());
     }
     Ok(())
 }
 
-fn save_recording(report: &LoopReport, path: &Path) -> Result<()> {
+fn save_recording(report: &LoopReport, file: ReservedFile) -> Result<()> {
     if let Some(why) = &report.trace_error {
         bail!("trace recording stopped early: {why}");
     }
@@ -224,12 +312,10 @@ fn save_recording(report: &LoopReport, path: &Path) -> Result<()> {
         .trace
         .as_ref()
         .context("the loop returned no trace")?;
-    save_trace(path, trace)?;
-    eprintln!(
-        "recorded {} frames to {}",
-        trace.frames.len(),
-        path.display()
-    );
+    let frames = trace.frames.len();
+    let path = file.path().to_path_buf();
+    file.commit(|temporary| Ok(save_trace(temporary, trace)?))?;
+    eprintln!("recorded {frames} frames to {}", path.display());
     Ok(())
 }
 

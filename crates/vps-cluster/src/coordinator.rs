@@ -78,7 +78,7 @@ struct NetCounters {
     failed_joins: AtomicU64,
 }
 
-/// A running coordinator endpoint. Dropping it closes every connection (workers then exit).
+/// A running coordinator endpoint. Dropping it closes every connection (see [`crate::close`]).
 pub struct Coordinator {
     runtime: tokio::runtime::Runtime,
     endpoint: quinn::Endpoint,
@@ -193,8 +193,19 @@ impl Coordinator {
     /// Blocks (sleeping in 5 ms steps) until at least `n` workers have joined or `timeout` passes.
     /// Not for the frame path.
     pub fn wait_for_workers(&self, n: usize, timeout: Duration) -> Result<(), ClusterError> {
+        self.wait_for_workers_until(n, timeout, &AtomicBool::new(false))
+    }
+
+    /// [`Coordinator::wait_for_workers`], also returning `Ok` as soon as `stop` is set (the
+    /// session then starts stopped: its device is written zero and its report says why).
+    pub fn wait_for_workers_until(
+        &self,
+        n: usize,
+        timeout: Duration,
+        stop: &AtomicBool,
+    ) -> Result<(), ClusterError> {
         let until = Instant::now() + timeout;
-        while self.joined_workers() < n {
+        while self.joined_workers() < n && !stop.load(Ordering::SeqCst) {
             if Instant::now() >= until {
                 return Err(ClusterError::Network(format!(
                     "{} of {n} workers joined within {timeout:?}",
@@ -226,13 +237,23 @@ impl Coordinator {
     }
 }
 
-impl Drop for Coordinator {
-    fn drop(&mut self) {
-        self.endpoint.close(0u32.into(), b"coordinator done");
+impl Coordinator {
+    /// Closes every connection with `code` (see [`crate::close`]) and `reason`, and waits up to
+    /// 200 ms for the workers to acknowledge. Later calls (and the drop) change nothing.
+    pub fn close(&self, code: u32, reason: &str) {
+        self.endpoint
+            .close(crate::close::code(code), reason.as_bytes());
         let endpoint = self.endpoint.clone();
         let _ = self.runtime.block_on(async {
             tokio::time::timeout(Duration::from_millis(200), endpoint.wait_idle()).await
         });
+    }
+}
+
+impl Drop for Coordinator {
+    /// Closes with [`crate::close::CLOSE_SESSION_DONE`] unless [`Coordinator::close`] was called.
+    fn drop(&mut self) {
+        self.close(crate::close::CLOSE_SESSION_DONE, "coordinator done");
     }
 }
 
@@ -301,7 +322,10 @@ async fn serve(incoming: quinn::Incoming, links: Links) {
 fn fail_join(conn: &quinn::Connection, links: &Links, id: u32, remote: SocketAddr, why: &str) {
     tracing::warn!("worker {id} at {remote} failed to join: {why}");
     links.counters.failed_joins.fetch_add(1, Ordering::Relaxed);
-    conn.close(2u32.into(), b"join failed");
+    conn.close(
+        crate::close::code(crate::close::CLOSE_JOIN_FAILED),
+        format!("join failed: {why}").as_bytes(),
+    );
 }
 
 /// The coordinator's half of the join exchange (see [`JoinMessage`]); returns whether a scene file

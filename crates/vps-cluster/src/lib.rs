@@ -19,6 +19,7 @@
 //! ([`RemoteShares`]: assignment, deadline gather, validation, benching, statistics), [`session`]
 //! ([`run_coordinator_session`], [`spawn_local_workers`]).
 
+pub mod close;
 pub mod coordinator;
 pub mod fallback;
 pub mod metrics;
@@ -43,7 +44,10 @@ pub use session::{
 };
 pub use shares::{ClusterReport, GatherConfig, PeerReport, RemoteShares};
 pub use tls::{make_cert, CertFiles, TlsIdentity};
-pub use worker::{run_worker, run_worker_until, WorkerConfig, WorkerReport};
+pub use worker::{
+    run_worker, run_worker_service, run_worker_until, Rejoin, WorkerConfig, WorkerReport,
+    WorkerService,
+};
 
 use std::path::PathBuf;
 
@@ -67,6 +71,11 @@ pub enum ClusterError {
     /// The join exchange failed (version, scene, malformed message, refused).
     #[error("join: {0}")]
     Join(String),
+    /// The coordinator and this worker refuse each other for good (a certificate not pinned on
+    /// one side, a duplicate identity, an incompatible protocol): retrying cannot help until an
+    /// operator acts.
+    #[error("refused: {0}")]
+    Refused(String),
     /// The scene cannot be used by the cluster.
     #[error("scene: {0}")]
     Scene(String),

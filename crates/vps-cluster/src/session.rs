@@ -67,9 +67,14 @@ pub struct LocalWorkerArgs {
     pub threads: Option<usize>,
 }
 
+/// Local workers end with their coordinator instead of waiting for the next one
+/// (`vps worker --exit-with-coordinator`), so that none outlives its `vps cluster`.
+const EXIT_WITH_COORDINATOR: &str = "--exit-with-coordinator";
+
 impl LocalWorkerArgs {
-    /// The arguments after the program name:
-    /// `worker --coordinator ADDR --cert FILE --key FILE --pin FILE... [--cache DIR] [--threads N]`.
+    /// The arguments after the program name: `worker --coordinator ADDR --cert FILE --key FILE
+    /// --pin FILE... [--cache DIR] [--threads N] --exit-with-coordinator` (local workers do not
+    /// outlive their coordinator).
     pub fn to_args(&self) -> Vec<OsString> {
         let mut args: Vec<OsString> = vec![
             "worker".into(),
@@ -92,6 +97,7 @@ impl LocalWorkerArgs {
             args.push("--threads".into());
             args.push(n.to_string().into());
         }
+        args.push(EXIT_WITH_COORDINATOR.into());
         args
     }
 }

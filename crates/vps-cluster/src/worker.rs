@@ -6,6 +6,12 @@
 //! rayon pool of `threads` threads it waits for. It always answers the newest queued request and
 //! drops older ones (the coordinator has given up on them anyway). Malformed datagrams are counted
 //! and ignored.
+//!
+//! As a service ([`run_worker_service`]) a worker outlives its coordinators: when one goes away
+//! (closed, stopped by a signal, silent past the idle timeout, not there yet) it waits
+//! ([`Rejoin`]: 100 ms doubling to 5 s, with jitter) and joins the next one at the same address,
+//! until its stop flag is set. A refusal for good ([`ClusterError::Refused`]: a certificate not
+//! pinned on either side, an incompatible protocol) ends it with that error instead.
 
 use crate::protocol::{
     read_frame, read_join, write_join, FrameReply, FrameRequest, JoinMessage, PROTOCOL_VERSION,
@@ -13,7 +19,7 @@ use crate::protocol::{
 };
 use crate::scene::{ClusterScene, SceneCache, MAX_SCENE_FILE};
 use crate::tls::{client_config, load_pins, TlsIdentity, SERVER_NAME};
-use crate::ClusterError;
+use crate::{close, ClusterError};
 use rustls::pki_types::CertificateDer;
 use std::future::Future;
 use std::net::SocketAddr;
@@ -77,6 +83,8 @@ pub struct WorkerReport {
     /// UDP datagrams on its socket shaped like QUIC that none of its connections can own (an
     /// unknown version or connection ID; see [`crate::udp_count`]).
     pub udp_foreign: u64,
+    /// How the connection ended ("stopped", or the coordinator's close as quinn reports it).
+    pub ended: String,
 }
 
 /// Runs a worker until the coordinator closes the connection or goes silent (idle timeout).
@@ -90,17 +98,21 @@ pub fn run_worker_until(
     config: WorkerConfig,
     stop: Arc<AtomicBool>,
 ) -> Result<WorkerReport, ClusterError> {
+    worker_runtime(&config)?.block_on(worker_main(config, stop))
+}
+
+/// Checks `config` and builds the worker's current-thread runtime.
+fn worker_runtime(config: &WorkerConfig) -> Result<tokio::runtime::Runtime, ClusterError> {
     if config.threads == 0 {
         return Err(ClusterError::Config {
             field: "threads",
             message: "must be at least 1".into(),
         });
     }
-    let runtime = tokio::runtime::Builder::new_current_thread()
+    tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
-        .map_err(|e| ClusterError::Network(format!("cannot start the runtime: {e}")))?;
-    runtime.block_on(worker_main(config, stop))
+        .map_err(|e| ClusterError::Network(format!("cannot start the runtime: {e}")))
 }
 
 fn net_err(e: impl std::fmt::Display) -> ClusterError {
@@ -124,13 +136,29 @@ async fn worker_main(
         config.pins.clone(),
         Arc::new(AtomicU64::new(0)),
     )?);
-    let conn = endpoint
+    let conn = match endpoint
         .connect(config.coordinator, SERVER_NAME)
         .map_err(net_err)?
         .await
-        .map_err(|e| ClusterError::Network(format!("connect to {}: {e}", config.coordinator)))?;
+    {
+        Ok(conn) => conn,
+        Err(e) => {
+            return Err(refusal(config.coordinator, &e).unwrap_or_else(|| {
+                ClusterError::Network(format!("connect to {}: {e}", config.coordinator))
+            }))
+        }
+    };
     let cache = SceneCache::new(config.cache_dir.clone());
-    let (scene, worker_id, scene_transferred) = join(&conn, &cache).await?;
+    let (scene, worker_id, scene_transferred) = match join(&conn, &cache).await {
+        Ok(joined) => joined,
+        Err(e) => {
+            // A join that failed because the coordinator closed the connection: say why it did.
+            let why = conn.close_reason();
+            return Err(why
+                .and_then(|why| refusal(config.coordinator, &why))
+                .unwrap_or(e));
+        }
+    };
     tracing::info!(
         worker_id,
         scene_transferred,
@@ -140,7 +168,7 @@ async fn worker_main(
 
     let mut answer = Answerer::new(scene, config.threads)?;
     let mut invalid = 0u64;
-    loop {
+    let ended = loop {
         tokio::select! {
             datagram = conn.read_datagram() => match datagram {
                 Ok(bytes) => {
@@ -155,24 +183,26 @@ async fn worker_main(
                     }
                     if let Some(request) = newest {
                         if !answer.reply(&conn, &request) {
-                            break;
+                            break conn
+                                .close_reason()
+                                .map_or_else(|| "send failed".into(), |e| e.to_string());
                         }
                     }
                 }
                 Err(e) => {
                     tracing::info!("connection ended: {e}");
-                    break;
+                    break e.to_string();
                 }
             },
             _ = tokio::time::sleep(Duration::from_millis(20)) => {
                 if stop.load(Ordering::Relaxed) {
-                    conn.close(0u32.into(), b"worker stopped");
-                    break;
+                    conn.close(close::code(close::CLOSE_WORKER_STOPPED), b"worker stopped");
+                    break "stopped".into();
                 }
             }
         }
-    }
-    endpoint.close(0u32.into(), b"bye");
+    };
+    endpoint.close(close::code(close::CLOSE_WORKER_STOPPED), b"bye");
     let _ = tokio::time::timeout(Duration::from_millis(200), endpoint.wait_idle()).await;
     Ok(WorkerReport {
         worker_id,
@@ -183,6 +213,111 @@ async fn worker_main(
         invalid_datagrams: invalid,
         udp_not_quic: udp.not_quic(),
         udp_foreign: udp.foreign(),
+        ended,
+    })
+}
+
+/// The refusal for good that a connection error means, if it means one: a TLS failure (a
+/// certificate not pinned on one side) or a coordinator's close with a refusal code
+/// ([`close::is_refusal`]). `None` for anything retrying may cure (timeouts, a coordinator
+/// closing or stopping, a reset).
+fn refusal(coordinator: SocketAddr, e: &quinn::ConnectionError) -> Option<ClusterError> {
+    use quinn::ConnectionError as E;
+    let is_tls = |code: quinn::TransportErrorCode| (0x100..0x200).contains(&u64::from(code));
+    match e {
+        E::TransportError(t) if is_tls(t.code) => Some(ClusterError::Refused(format!(
+            "the coordinator at {coordinator} presented a certificate this worker does not accept (check --pin): {e}"
+        ))),
+        E::ConnectionClosed(c) if is_tls(c.error_code) => Some(ClusterError::Refused(format!(
+            "the coordinator at {coordinator} refused this worker's certificate (is it pinned there with --pin?): {e}"
+        ))),
+        E::ApplicationClosed(a) if close::is_refusal(a.error_code.into_inner()) => {
+            Some(ClusterError::Refused(format!(
+                "the coordinator at {coordinator} refused this worker: {}",
+                String::from_utf8_lossy(&a.reason)
+            )))
+        }
+        _ => None,
+    }
+}
+
+/// How a worker service waits between coordinators: `first`, doubling up to `max`, each wait
+/// drawn uniformly from its upper half (jitter, so that many workers do not re-join in step).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rejoin {
+    /// The first wait after a coordinator goes away (s). Default 100 ms.
+    pub first: Duration,
+    /// The longest wait. Default 5 s.
+    pub max: Duration,
+    /// End (`Ok`) when the first coordinator joined goes away instead of waiting for the next
+    /// one (the local cluster's child workers, which must not outlive it). Default false.
+    pub exit_with_coordinator: bool,
+}
+
+impl Default for Rejoin {
+    fn default() -> Self {
+        Rejoin {
+            first: Duration::from_millis(100),
+            max: Duration::from_secs(5),
+            exit_with_coordinator: false,
+        }
+    }
+}
+
+/// What a worker service did.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct WorkerService {
+    /// Coordinators joined (sessions served), one report each.
+    pub sessions: Vec<WorkerReport>,
+    /// Connection attempts that failed and were retried.
+    pub failed_attempts: u64,
+}
+
+/// Runs a worker as a long-lived service (see the module docs): joins the coordinator, serves
+/// it, and when it goes away waits ([`Rejoin`]) and joins the next one, until `stop` is set
+/// (then `Ok`, within about 20 ms, closing its connection). Errors: an invalid config, or
+/// [`ClusterError::Refused`] for a refusal for good. Blocking.
+pub fn run_worker_service(
+    config: WorkerConfig,
+    stop: Arc<AtomicBool>,
+    rejoin: Rejoin,
+) -> Result<WorkerService, ClusterError> {
+    worker_runtime(&config)?.block_on(async {
+        let mut service = WorkerService::default();
+        let mut wait = rejoin.first;
+        let mut rng = rand::thread_rng();
+        while !stop.load(Ordering::Relaxed) {
+            match worker_main(config.clone(), stop.clone()).await {
+                Ok(report) => {
+                    let stopped = report.ended == "stopped";
+                    if !stopped {
+                        tracing::warn!(
+                            "coordinator {} went away ({}); waiting for the next one",
+                            config.coordinator,
+                            report.ended
+                        );
+                    }
+                    service.sessions.push(report);
+                    if stopped || rejoin.exit_with_coordinator {
+                        break;
+                    }
+                    wait = rejoin.first;
+                }
+                Err(e @ ClusterError::Refused(_)) => return Err(e),
+                Err(e) if rejoin.exit_with_coordinator => return Err(e),
+                Err(e) => {
+                    service.failed_attempts += 1;
+                    tracing::warn!("cannot join {}: {e}; retrying", config.coordinator);
+                }
+            }
+            let jittered = wait.mul_f64(rand::Rng::gen_range(&mut rng, 0.5..=1.0));
+            let until = tokio::time::Instant::now() + jittered;
+            while tokio::time::Instant::now() < until && !stop.load(Ordering::Relaxed) {
+                tokio::time::sleep(Duration::from_millis(20)).await;
+            }
+            wait = (wait * 2).min(rejoin.max);
+        }
+        Ok(service)
     })
 }
 
@@ -288,7 +423,9 @@ async fn join(
     let (worker_id, identity) = match read_join(&mut recv).await? {
         JoinMessage::Welcome { worker_id, scene } => (worker_id, scene),
         JoinMessage::Reject { reason } => {
-            return Err(ClusterError::Join(format!("refused: {reason}")))
+            return Err(ClusterError::Refused(format!(
+                "the coordinator rejected the join: {reason}"
+            )))
         }
         other => return Err(ClusterError::Join(format!("unexpected {other:?}"))),
     };

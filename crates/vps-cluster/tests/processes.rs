@@ -137,6 +137,6 @@ fn local_worker_args_are_the_documented_command_line() {
     assert_eq!(
         got.join(" "),
         "worker --coordinator 127.0.0.1:4433 --cert w.crt --key w.key --pin c.crt --pin d.crt \
-         --cache cache --threads 2"
+         --cache cache --threads 2 --exit-with-coordinator"
     );
 }

@@ -116,6 +116,12 @@ pub trait HapticDevice: Send {
     fn limits(&self) -> DeviceLimits;
     /// A short human-readable name, used in errors and reports.
     fn name(&self) -> &str;
+    /// The device's own counters for the session report (for a network bridge: datagrams
+    /// accepted, stale, malformed, unauthorized, sent), as a JSON object; `None` (the default)
+    /// when it keeps none. Called once, after the session's last write; may allocate.
+    fn counters(&self) -> Option<serde_json::Value> {
+        None
+    }
 }
 
 /// Checks every component of a handle sample is finite.

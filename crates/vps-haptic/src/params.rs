@@ -35,10 +35,78 @@ pub enum ParamsError {
         field: &'static str,
         /// The offending value.
         value: f64,
-        /// The rule it breaks.
-        reason: &'static str,
+        /// The rule it breaks, with the allowed range and unit.
+        reason: String,
     },
 }
+
+/// The allowed range of one numeric haptic parameter: `lo < value ≤ hi` (`lo ≤ value ≤ hi` when
+/// `lo_included`), in `unit`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ParamRange {
+    /// The TOML key.
+    pub field: &'static str,
+    /// The lower bound.
+    pub lo: f64,
+    /// Whether `lo` itself is allowed.
+    pub lo_included: bool,
+    /// The upper bound (included).
+    pub hi: f64,
+    /// The SI unit, for messages.
+    pub unit: &'static str,
+}
+
+impl ParamRange {
+    /// True when `value` is finite and in the range.
+    pub fn admits(&self, value: f64) -> bool {
+        value.is_finite()
+            && value <= self.hi
+            && (value > self.lo || (self.lo_included && value == self.lo))
+    }
+}
+
+impl std::fmt::Display for ParamRange {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let open = if self.lo_included { '[' } else { '(' };
+        write!(f, "{open}{:e}, {:e}] {}", self.lo, self.hi, self.unit)
+    }
+}
+
+const fn range(
+    field: &'static str,
+    lo: f64,
+    lo_included: bool,
+    hi: f64,
+    unit: &'static str,
+) -> ParamRange {
+    ParamRange {
+        field,
+        lo,
+        lo_included,
+        hi,
+        unit,
+    }
+}
+
+/// The range of every numeric key (also listed in `configs/haptic.toml`). Stiffnesses have a
+/// floor: below 1 N/m (k_T, K_ff) the coupling's holding force `k_T s / 2` is under 2.5 mN at
+/// 5 mm and the part would not follow the handle.
+pub const PARAM_RANGES: [ParamRange; 14] = [
+    range("dt", 1e-5, true, 0.1, "s"),
+    range("mass", 1e-6, true, 1e4, "kg"),
+    range("inertia", 1e-15, true, 1e6, "kg·m²"),
+    range("voxel_size", 0.0, false, 10.0, "m"),
+    range("max_radius", 0.0, false, 1e3, "m"),
+    range("k_ff", 1.0, true, 1e9, "N/m"),
+    range("k_t", 1.0, true, 1e9, "N/m"),
+    range("k_r", 1e-9, true, 1e6, "N·m/rad"),
+    range("b_t", 0.0, false, 1e9, "N·s/m"),
+    range("b_r", 0.0, false, 1e6, "N·m·s/rad"),
+    range("contact_average_threshold", 1.0, true, 1e6, "contacts"),
+    range("velocity_guard_fraction", 0.0, false, 1.0, ""),
+    range("device_max_force", 0.0, false, 1e4, "N"),
+    range("device_max_torque", 0.0, false, 1e3, "N·m"),
+];
 
 /// Default k_R as a multiple of `k_T I / m` (the rotational stiffness with the translational natural
 /// frequency). At 1× the coupling torque clamp `k_R s / (2 r_max)` (1.4e-2 N·m for the teapot at
@@ -58,14 +126,14 @@ pub const ROTATIONAL_COUPLING_FACTOR: f64 = 2.0;
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct HapticParams {
-    /// Fixed time step (s). Default 0.001 (1 kHz). Range (0, 0.1].
+    /// Fixed time step (s). Default 0.001 (1 kHz). Range [1e-5, 0.1].
     pub dt: f64,
     /// Mass of the dynamic object, the reflected mass felt at the handle (kg). Default 0.012, the
     /// paper's 12 g: small reflected inertia; the stiffness the bound allows grows with it.
-    /// Range (0, 1e4].
+    /// Range [1e-6, 1e4].
     pub mass: f64,
     /// Isotropic moment of inertia (kg·m²). Default (None): a solid sphere of radius `max_radius`,
-    /// `0.4 m r_max²` (the paper's isotropic-inertia assumption).
+    /// `0.4 m r_max²` (the paper's isotropic-inertia assumption). Range [1e-15, 1e6].
     pub inertia: Option<f64>,
     /// Voxel size of the scene's voxmap (m). Default 0.005. Range (0, 10].
     pub voxel_size: f64,
@@ -73,16 +141,17 @@ pub struct HapticParams {
     /// part). Range (0, 1e3].
     pub max_radius: f64,
     /// Force-field stiffness per contact point, K_ff (N/m). Default: `k_T / κ` from the bound.
+    /// Range [1, 1e9].
     pub k_ff: Option<f64>,
     /// Coupling translational stiffness k_T (N/m). Default: `κ K_ff` when `k_ff` is given, else
-    /// `h² m / dt²` from the bound.
+    /// `h² m / dt²` from the bound. Range [1, 1e9].
     pub k_t: Option<f64>,
     /// Coupling rotational stiffness k_R (N·m/rad). Default: `2 k_T I / m` (twice the stiffness of
-    /// equal natural frequency; see [`ROTATIONAL_COUPLING_FACTOR`]).
+    /// equal natural frequency; see [`ROTATIONAL_COUPLING_FACTOR`]). Range [1e-9, 1e6].
     pub k_r: Option<f64>,
-    /// Coupling translational damping b_T (N·s/m). Default: critical, `2 √(k_T m)`.
+    /// Coupling translational damping b_T (N·s/m). Default: critical, `2 √(k_T m)`. Range (0, 1e9].
     pub b_t: Option<f64>,
-    /// Coupling rotational damping b_R (N·m·s/rad). Default: critical, `2 √(k_R I)`.
+    /// Coupling rotational damping b_R (N·m·s/rad). Default: critical, `2 √(k_R I)`. Range (0, 1e6].
     pub b_r: Option<f64>,
     /// Contact count from which forces are averaged (the paper's 10). Range [1, 1e6].
     pub contact_average_threshold: u32,
@@ -92,9 +161,10 @@ pub struct HapticParams {
     pub braking_torque: bool,
     /// Tunnelling guard: `|v| + |w| r_max ≤ f s / dt`. Default 0.25. Range (0, 1].
     pub velocity_guard_fraction: f64,
-    /// Largest force the device may be sent (N). Default 15 (the paper's device).
+    /// Largest force the device may be sent (N). Default 15 (the paper's device). Range (0, 1e4].
     pub device_max_force: f64,
-    /// Largest torque the device may be sent (N·m). Default 0.1 (the paper's device).
+    /// Largest torque the device may be sent (N·m). Default 0.1 (the paper's device). Range
+    /// (0, 1e3].
     pub device_max_torque: f64,
 }
 
@@ -185,57 +255,39 @@ impl HapticParams {
         Ok(self)
     }
 
-    /// Checks every field: finite, positive, in range; errors name the field and value.
+    /// Checks every field against its range ([`PARAM_RANGES`]); errors name the source, the
+    /// field, the value and the allowed range.
     pub fn validate(&self, source_name: &str) -> Result<(), ParamsError> {
-        let bad = |field, value, reason| ParamsError::Invalid {
-            source_name: source_name.to_owned(),
-            field,
-            value,
-            reason,
+        let value_of = |field: &str| -> Option<f64> {
+            Some(match field {
+                "dt" => self.dt,
+                "mass" => self.mass,
+                "inertia" => self.inertia?,
+                "voxel_size" => self.voxel_size,
+                "max_radius" => self.max_radius,
+                "k_ff" => self.k_ff?,
+                "k_t" => self.k_t?,
+                "k_r" => self.k_r?,
+                "b_t" => self.b_t?,
+                "b_r" => self.b_r?,
+                "contact_average_threshold" => f64::from(self.contact_average_threshold),
+                "velocity_guard_fraction" => self.velocity_guard_fraction,
+                "device_max_force" => self.device_max_force,
+                "device_max_torque" => self.device_max_torque,
+                _ => return None,
+            })
         };
-        let in_range = |field, value: f64, lo: f64, hi: f64| {
-            if value.is_finite() && value > lo && value <= hi {
-                Ok(())
-            } else {
-                Err(bad(
-                    field,
-                    value,
-                    "must be finite and in the documented range",
-                ))
+        for range in PARAM_RANGES {
+            if let Some(value) = value_of(range.field) {
+                if !range.admits(value) {
+                    return Err(ParamsError::Invalid {
+                        source_name: source_name.to_owned(),
+                        field: range.field,
+                        value,
+                        reason: format!("must be finite and in {range}"),
+                    });
+                }
             }
-        };
-        in_range("dt", self.dt, 0.0, 0.1)?;
-        in_range("mass", self.mass, 0.0, 1e4)?;
-        in_range("voxel_size", self.voxel_size, 0.0, 10.0)?;
-        in_range("max_radius", self.max_radius, 0.0, 1e3)?;
-        in_range(
-            "velocity_guard_fraction",
-            self.velocity_guard_fraction,
-            0.0,
-            1.0,
-        )?;
-        in_range("device_max_force", self.device_max_force, 0.0, 1e4)?;
-        in_range("device_max_torque", self.device_max_torque, 0.0, 1e3)?;
-        let optional = [
-            ("inertia", self.inertia, 1e6),
-            ("k_ff", self.k_ff, 1e9),
-            ("k_t", self.k_t, 1e9),
-            ("k_r", self.k_r, 1e9),
-            ("b_t", self.b_t, 1e9),
-            ("b_r", self.b_r, 1e9),
-        ];
-        for (field, value, hi) in optional {
-            if let Some(v) = value {
-                in_range(field, v, 0.0, hi)?;
-            }
-        }
-        let threshold = self.contact_average_threshold;
-        if !(1..=1_000_000).contains(&threshold) {
-            return Err(bad(
-                "contact_average_threshold",
-                threshold as f64,
-                "must be in 1..=1000000",
-            ));
         }
         Ok(())
     }

@@ -130,6 +130,36 @@ fn bad_values_name_the_field() {
 }
 
 #[test]
+fn absurdly_small_gains_are_refused_with_their_range() {
+    // k_ff = 1e-300 was accepted: the derived coupling could not move the part at all.
+    for (text, field, range) in [
+        ("k_ff = 1e-300", "k_ff", "[1e0, 1e9] N/m"),
+        ("k_t = 1e-3", "k_t", "[1e0, 1e9] N/m"),
+        ("k_r = 1e-12", "k_r", "[1e-9, 1e6] N·m/rad"),
+        ("mass = 1e-300", "mass", "[1e-6, 1e4] kg"),
+        ("dt = 1e-300", "dt", "[1e-5, 1e-1] s"),
+    ] {
+        let err = HapticParams::from_toml_str(text, "my.toml").unwrap_err();
+        let msg = err.to_string();
+        assert!(
+            matches!(err, ParamsError::Invalid { field: f, .. } if f == field),
+            "{text}: {msg}"
+        );
+        assert!(
+            msg.contains("my.toml") && msg.contains(field) && msg.contains(range),
+            "{text}: {msg}"
+        );
+    }
+    // Every range's own ends behave as documented.
+    for r in vps_haptic::params::PARAM_RANGES {
+        assert!(r.admits(r.hi), "{}", r.field);
+        assert!(!r.admits(r.hi * 1.0001), "{}", r.field);
+        assert_eq!(r.admits(r.lo), r.lo_included, "{}", r.field);
+        assert!(!r.admits(f64::NAN), "{}", r.field);
+    }
+}
+
+#[test]
 fn type_errors_and_missing_files_are_reported() {
     let err = HapticParams::from_toml_str("\n\ndt = \"fast\"\n", "cfg").unwrap_err();
     assert!(err.to_string().contains("line 3"), "{err}");

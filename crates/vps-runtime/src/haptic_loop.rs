@@ -9,17 +9,24 @@
 //! Watchdog: a frame whose compute time (device read to just before the write) reaches
 //! `LoopConfig::watchdog` sends the zero wrench instead (counted in `watchdog_trips`); the part's
 //! state still advances. A device read or write error writes the zero wrench and ends the session
-//! cleanly with the error in the [`LoopReport`]. Every session ends by writing the zero wrench.
+//! cleanly with the error in the [`LoopReport`].
+//!
+//! Stop path: every session ends by writing the exact zero wrench before the frame thread returns
+//! its report, whatever ended it: its frame count, the stop flag (set by another thread or by a
+//! signal handler, [`crate::stop::SignalStop`]; seen at the next tick), a device error, a panic
+//! in the frame's work (caught on the frame thread) or a panic on a pool thread
+//! ([`FrameSampler::failure`], checked after every gather, before the frame's write).
 //!
 //! The device is given the scheduled tick time (`tick · period`, s), never the wall clock, so a
 //! simulated device runs identically in real-time and free-running mode.
 
 use crate::clock::FrameClock;
 use crate::feed::{FeedFrame, RecentMax, StateFeedSender};
-use crate::pool::{ClassPool, FrameSampler};
+use crate::pool::{panic_message, ClassPool, FrameSampler};
 use crate::rt::{request_realtime, RtGrant};
 use crate::stats::{FrameRecord, FrameStats, StatsSummary};
 use crate::RuntimeError;
+use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
@@ -107,6 +114,17 @@ pub enum SessionEnd {
     Stopped,
     /// The device failed (message of the [`DeviceError`], also in [`LoopReport::device_error`]).
     DeviceFailed(String),
+    /// A panic on the frame thread or one of its pool threads (the message says which and
+    /// where). The frame path is written not to panic: this is a bug, caught so that the device
+    /// is still written zero.
+    Panicked(String),
+}
+
+impl SessionEnd {
+    /// True when the session ran all its frames (a complete report); false for a partial one.
+    pub fn is_complete(&self) -> bool {
+        matches!(self, SessionEnd::FramesDone)
+    }
 }
 
 /// What a session did.
@@ -128,6 +146,8 @@ pub struct LoopReport {
     pub trace: Option<Trace>,
     /// Why trace recording stopped early, if it did (e.g. a non-finite handle sample).
     pub trace_error: Option<String>,
+    /// The device's own counters ([`HapticDevice::counters`]), read after the last write.
+    pub device_counters: Option<serde_json::Value>,
 }
 
 /// A running session. Dropping it detaches the frame thread (set the stop flag first).
@@ -233,6 +253,27 @@ struct Session {
 /// Largest number of frames a trace recorder reserves up front.
 const MAX_TRACE_RESERVE: u64 = 1 << 22;
 
+/// What one frame decided.
+enum FrameFlow {
+    /// Run the next frame.
+    Next,
+    /// End the session (the device is written zero next).
+    End(SessionEnd),
+}
+
+/// The mutable state of a running session besides the [`Session`] itself.
+struct FrameContext {
+    clock: FrameClock,
+    period_s: f64,
+    limits: vps_device::DeviceLimits,
+    recorder: Option<TraceRecorder>,
+    trace_error: Option<String>,
+    stats: FrameStats,
+    recent_compute: RecentMax,
+    recent_lateness: RecentMax,
+    frame: u64,
+}
+
 impl Session {
     fn run(mut self) -> LoopReport {
         let rt = if self.config.realtime {
@@ -241,109 +282,136 @@ impl Session {
             RtGrant::default()
         };
         let period_s = self.config.period.as_secs_f64();
-        let mut recorder = self.config.record_trace.then(|| {
+        let recorder = self.config.record_trace.then(|| {
             let reserve = self.config.frames.unwrap_or(0).min(MAX_TRACE_RESERVE) as usize;
             TraceRecorder::with_capacity(self.device.name(), period_s, reserve)
         });
-        let mut trace_error = None;
-        let mut stats = FrameStats::new();
-        let limits = self.device.limits();
-        let mut clock =
-            FrameClock::new(Instant::now(), self.config.period, self.config.spin_margin);
-        let mut frame = 0u64;
-        let (mut recent_compute, mut recent_lateness) =
-            (RecentMax::default(), RecentMax::default());
+        let mut cx = FrameContext {
+            clock: FrameClock::new(Instant::now(), self.config.period, self.config.spin_margin),
+            period_s,
+            limits: self.device.limits(),
+            recorder,
+            trace_error: None,
+            stats: FrameStats::new(),
+            recent_compute: RecentMax::default(),
+            recent_lateness: RecentMax::default(),
+            frame: 0,
+        };
+        let mut device_error = None;
         let end = loop {
-            if self.config.frames.is_some_and(|n| frame >= n) {
-                break Ok(SessionEnd::FramesDone);
+            if self.config.frames.is_some_and(|n| cx.frame >= n) {
+                break SessionEnd::FramesDone;
             }
-            if self.stop.load(Ordering::Relaxed) {
-                break Ok(SessionEnd::Stopped);
+            if self.stop.load(Ordering::SeqCst) {
+                break SessionEnd::Stopped;
             }
-            let tick = if self.config.free_running {
-                clock.next_immediate()
-            } else {
-                clock.wait_next()
-            };
-            let time = tick.index as f64 * period_s;
-            let handle = match self.device.read(time) {
-                Ok(h) => h,
-                Err(e) => break Err(e),
-            };
-            if let Some(rec) = recorder.as_mut() {
-                if let Err(e) = rec.record(frame, time, handle) {
-                    trace_error = Some(e.to_string());
-                    recorder = None;
+            // A panic anywhere in the frame's work (device, sampler, core) ends the session here,
+            // and the device is written zero below like for any other end.
+            match catch_unwind(AssertUnwindSafe(|| self.frame(&mut cx))) {
+                Ok(Ok(FrameFlow::Next)) => cx.frame += 1,
+                Ok(Ok(FrameFlow::End(end))) => break end,
+                Ok(Err(e)) => {
+                    let end = SessionEnd::DeviceFailed(e.to_string());
+                    device_error = Some(e);
+                    break end;
+                }
+                Err(payload) => {
+                    break SessionEnd::Panicked(format!(
+                        "the frame thread panicked at frame {}: {}",
+                        cx.frame,
+                        panic_message(&*payload)
+                    ))
                 }
             }
-            let pose = KernelPose::from_state(&self.state);
-            let gathered = self
-                .pool
-                .compute(&pose, tick.started + self.config.watchdog / 2);
-            let out = step(&self.params, &self.state, &handle, &gathered.sums);
-            let mut wrench = limits.saturate(&out.device_wrench);
-            let clamped = out.clamped || wrench != out.device_wrench;
-            let watchdog_tripped = tick.started.elapsed() >= self.config.watchdog;
-            if watchdog_tripped {
-                wrench = Wrench::ZERO;
-            }
-            if let Err(e) = self.device.write(&wrench) {
-                break Err(e);
-            }
-            self.state = out.next_state;
-            let compute_ns = u64::try_from(tick.started.elapsed().as_nanos()).unwrap_or(u64::MAX);
-            let period_error_ns = (!self.config.free_running).then(|| tick.lateness_ns());
-            stats.record(&FrameRecord {
-                compute_ns,
-                period_error_ns,
-                missed: tick.missed,
-                watchdog_tripped,
-                fallback_shares: gathered.fallback_shares,
-                contact: out.contacts > 0,
-                touching: out.touching,
-                penetrating: out.penetrating,
-                clamped,
-            });
-            if let Some(feed) = &self.feed {
-                let c = stats.counters();
-                feed.publish(FeedFrame {
-                    frame,
-                    time,
-                    part: self.state,
-                    handle,
-                    device_wrench: wrench,
-                    contacts: out.contacts,
-                    touching: out.touching,
-                    penetrating: out.penetrating,
-                    missed_deadlines: c.missed_deadlines,
-                    watchdog_trips: c.watchdog_trips,
-                    penetrating_frames: c.penetrating_frames,
-                    touching_frames: c.touching_frames,
-                    compute_ns,
-                    recent_max_compute_ns: recent_compute.record(compute_ns),
-                    period_error_ns: period_error_ns.unwrap_or(0),
-                    recent_max_period_error_ns: recent_lateness
-                        .record(period_error_ns.unwrap_or(0)),
-                });
-            }
-            frame += 1;
         };
-        // Release the hand whatever happened; a failure here cannot be reported any better.
-        let _ = self.device.write(&Wrench::ZERO);
-        let (end, device_error) = match end {
-            Ok(end) => (end, None),
-            Err(e) => (SessionEnd::DeviceFailed(e.to_string()), Some(e)),
-        };
+        // Release the hand whatever happened, first; a failure (or a panic) here cannot be
+        // reported any better.
+        let _ = catch_unwind(AssertUnwindSafe(|| self.device.write(&Wrench::ZERO)));
+        let device_counters = catch_unwind(AssertUnwindSafe(|| self.device.counters()))
+            .ok()
+            .flatten();
         LoopReport {
             end,
             device_error,
-            stats: stats.summary(),
+            stats: cx.stats.summary(),
             rt,
             final_state: self.state,
             device_name: self.device.name().to_string(),
-            trace: recorder.map(TraceRecorder::finish),
-            trace_error,
+            trace: cx.recorder.map(TraceRecorder::finish),
+            trace_error: cx.trace_error,
+            device_counters,
         }
+    }
+
+    /// One frame: tick, read, sample, step, watchdog, write, statistics, feed. A device error is
+    /// returned; the caller writes the zero wrench.
+    fn frame(&mut self, cx: &mut FrameContext) -> Result<FrameFlow, DeviceError> {
+        let tick = if self.config.free_running {
+            cx.clock.next_immediate()
+        } else {
+            cx.clock.wait_next()
+        };
+        let time = tick.index as f64 * cx.period_s;
+        let handle = self.device.read(time)?;
+        if let Some(rec) = cx.recorder.as_mut() {
+            if let Err(e) = rec.record(cx.frame, time, handle) {
+                cx.trace_error = Some(e.to_string());
+                cx.recorder = None;
+            }
+        }
+        let pose = KernelPose::from_state(&self.state);
+        let gathered = self
+            .pool
+            .compute(&pose, tick.started + self.config.watchdog / 2);
+        if let Some(failure) = self.pool.failure() {
+            return Ok(FrameFlow::End(SessionEnd::Panicked(failure)));
+        }
+        let out = step(&self.params, &self.state, &handle, &gathered.sums);
+        let mut wrench = cx.limits.saturate(&out.device_wrench);
+        let clamped = out.clamped || wrench != out.device_wrench;
+        let watchdog_tripped = tick.started.elapsed() >= self.config.watchdog;
+        if watchdog_tripped {
+            wrench = Wrench::ZERO;
+        }
+        self.device.write(&wrench)?;
+        self.state = out.next_state;
+        let compute_ns = u64::try_from(tick.started.elapsed().as_nanos()).unwrap_or(u64::MAX);
+        let period_error_ns = (!self.config.free_running).then(|| tick.lateness_ns());
+        cx.stats.record(&FrameRecord {
+            compute_ns,
+            period_error_ns,
+            missed: tick.missed,
+            watchdog_tripped,
+            rejected_input: out.rejected_input,
+            non_finite: out.non_finite,
+            fallback_shares: gathered.fallback_shares,
+            contact: out.contacts > 0,
+            touching: out.touching,
+            penetrating: out.penetrating,
+            clamped,
+        });
+        if let Some(feed) = &self.feed {
+            let c = cx.stats.counters();
+            feed.publish(FeedFrame {
+                frame: cx.frame,
+                time,
+                part: self.state,
+                handle,
+                device_wrench: wrench,
+                contacts: out.contacts,
+                touching: out.touching,
+                penetrating: out.penetrating,
+                missed_deadlines: c.missed_deadlines,
+                watchdog_trips: c.watchdog_trips,
+                penetrating_frames: c.penetrating_frames,
+                touching_frames: c.touching_frames,
+                compute_ns,
+                recent_max_compute_ns: cx.recent_compute.record(compute_ns),
+                period_error_ns: period_error_ns.unwrap_or(0),
+                recent_max_period_error_ns: cx.recent_lateness.record(period_error_ns.unwrap_or(0)),
+            });
+        }
+        Ok(FrameFlow::Next)
     }
 }
 
@@ -367,12 +435,16 @@ mod tests {
         writes: Writes,
         fail_read_at: Option<u64>,
         fail_write_at: Option<u64>,
+        panic_read_at: Option<u64>,
         reads: u64,
     }
 
     impl HapticDevice for Probe {
         fn read(&mut self, t: f64) -> Result<HandleSample, DeviceError> {
             self.reads += 1;
+            if self.panic_read_at == Some(self.reads - 1) {
+                panic!("probe: a bug in the driver");
+            }
             if self.fail_read_at == Some(self.reads - 1) {
                 return Err(DeviceError::Hardware {
                     device: "probe".into(),
@@ -424,6 +496,7 @@ mod tests {
             writes: writes.clone(),
             fail_read_at: None,
             fail_write_at: None,
+            panic_read_at: None,
             reads: 0,
         };
         (p, writes)
@@ -639,6 +712,148 @@ mod tests {
             r.stats.period_error_ns.max > 0,
             "period errors are recorded when paced"
         );
+    }
+
+    #[test]
+    fn a_panic_in_the_frame_ends_the_session_after_a_zero_wrench() {
+        let (mut device, writes) = probe(hand());
+        device.panic_read_at = Some(300);
+        let r = session(Box::new(device), config(600, 2), 4, None);
+        assert!(
+            matches!(r.end, SessionEnd::Panicked(ref m) if m.contains("a bug in the driver") && m.contains("frame 300")),
+            "{:?}",
+            r.end
+        );
+        assert!(!r.end.is_complete());
+        assert_eq!(r.stats.frames, 300);
+        let writes = writes.lock().unwrap();
+        assert_eq!(writes.len(), 301, "300 frames and the release");
+        assert!(
+            writes[..300].iter().any(|w| *w != Wrench::ZERO),
+            "the hand was pressing the wall before the panic"
+        );
+        assert_eq!(writes[300], Wrench::ZERO);
+    }
+
+    /// The wall, except that once `armed` a lookup on the pool thread `vps-pool-1` panics and one
+    /// on the frame thread is slowed down (so that the pool threads get classes to compute).
+    struct PanicsOnPoolThread {
+        wall: DenseGrid,
+        armed: AtomicBool,
+    }
+
+    impl VoxelLookup for PanicsOnPoolThread {
+        fn spec(&self) -> &vps_voxmap::GridSpec {
+            self.wall.spec()
+        }
+        fn get(&self, ijk: glam::IVec3) -> vps_voxmap::Voxel {
+            if self.armed.load(Ordering::Relaxed) {
+                match std::thread::current().name() {
+                    Some("vps-pool-1") => panic!("lookup failed on a pool thread"),
+                    Some("vps-frame") => std::thread::sleep(Duration::from_micros(20)),
+                    _ => {}
+                }
+            }
+            self.wall.get(ijk)
+        }
+    }
+
+    #[test]
+    fn a_panic_on_a_pool_thread_ends_the_session_after_a_zero_wrench() {
+        let map = Arc::new(PanicsOnPoolThread {
+            wall: wall(),
+            armed: AtomicBool::new(false),
+        });
+        let (device, writes) = probe(hand());
+        let stop = Arc::new(AtomicBool::new(false));
+        let (tx, mut rx) = state_feed();
+        let cfg = LoopConfig {
+            frames: None,
+            ..config(0, 3)
+        };
+        let h = spawn_loop(
+            map.clone(),
+            Arc::new(ClassedShell::new(&sphere_shell(400), 64)),
+            SessionSetup {
+                params: params(),
+                device: Box::new(device),
+                initial: PartState::at_rest(START, DQuat::IDENTITY),
+                config: cfg,
+                feed: Some(tx),
+                stop: stop.clone(),
+            },
+        )
+        .unwrap();
+        while rx.latest().is_none_or(|f| f.frame < 20) {
+            std::thread::yield_now();
+        }
+        map.armed.store(true, Ordering::Relaxed);
+        // The pool thread takes a class within a few frames; the session must end by itself. The
+        // stop flag is a backstop so that a failing test does not hang.
+        let backstop = std::time::Instant::now() + Duration::from_secs(60);
+        while !h.is_finished() && std::time::Instant::now() < backstop {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        stop.store(true, Ordering::Relaxed);
+        let r = h.join().unwrap();
+        assert!(
+            matches!(r.end, SessionEnd::Panicked(ref m) if m.contains("vps-pool-1") && m.contains("lookup failed")),
+            "{:?}",
+            r.end
+        );
+        assert_eq!(writes.lock().unwrap().last(), Some(&Wrench::ZERO));
+    }
+
+    #[test]
+    fn the_stop_flag_ends_the_session_with_a_zero_wrench_last() {
+        let (device, writes) = probe(hand());
+        let stop = Arc::new(AtomicBool::new(true));
+        let r = run_loop(
+            Arc::new(wall()),
+            Arc::new(ClassedShell::new(&sphere_shell(100), 4)),
+            SessionSetup {
+                params: params(),
+                device: Box::new(device),
+                initial: PartState::at_rest(START, DQuat::IDENTITY),
+                config: config(100, 1),
+                feed: None,
+                stop,
+            },
+        )
+        .unwrap();
+        assert_eq!(r.end, SessionEnd::Stopped);
+        assert_eq!(r.stats.frames, 0);
+        assert_eq!(*writes.lock().unwrap(), vec![Wrench::ZERO]);
+    }
+
+    #[test]
+    fn rejected_handle_samples_are_counted_as_zeroed_frames() {
+        /// A hand whose samples are absurd (10 km away) from frame 100 to 249.
+        struct Absurd(Box<dyn HapticDevice>, u64);
+        impl HapticDevice for Absurd {
+            fn read(&mut self, t: f64) -> Result<HandleSample, DeviceError> {
+                let mut s = self.0.read(t)?;
+                self.1 += 1;
+                if (101..=250).contains(&self.1) {
+                    s.position.x = 1.0e4;
+                }
+                Ok(s)
+            }
+            fn write(&mut self, w: &Wrench) -> Result<(), DeviceError> {
+                self.0.write(w)
+            }
+            fn limits(&self) -> DeviceLimits {
+                self.0.limits()
+            }
+            fn name(&self) -> &str {
+                "absurd"
+            }
+        }
+        let r = session(Box::new(Absurd(hand(), 0)), config(400, 1), 4, None);
+        assert_eq!(r.end, SessionEnd::FramesDone);
+        assert_eq!(r.stats.rejected_input_frames, 150);
+        assert_eq!(r.stats.zeroed_frames, 150);
+        assert_eq!(r.stats.non_finite_frames, 0);
     }
 
     #[test]

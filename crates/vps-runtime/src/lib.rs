@@ -8,6 +8,7 @@
 //! - [`rt`]: [`request_realtime`] (SCHED_FIFO, core pinning), [`RtGrant`].
 //! - [`stats`]: [`FrameStats`], [`StatsSummary`] (HDR histograms, penetration ratio).
 //! - [`feed`]: [`state_feed`], a lock-free latest-value slot for viewers.
+//! - [`stop`]: [`SignalStop`] (SIGINT, SIGTERM, SIGHUP set a session's stop flag), exit codes.
 
 pub mod clock;
 pub mod feed;
@@ -15,6 +16,7 @@ pub mod haptic_loop;
 pub mod pool;
 pub mod rt;
 pub mod stats;
+pub mod stop;
 #[cfg(any(test, feature = "test-support"))]
 pub mod test_scene;
 
@@ -27,6 +29,7 @@ pub use haptic_loop::{
 pub use pool::{ClassPool, FrameSampler, PoolResult};
 pub use rt::{pin_current_thread, request_realtime, RtGrant};
 pub use stats::{FrameRecord, FrameStats, Percentiles, StatsSummary};
+pub use stop::{SignalStop, StopSignal};
 
 /// Why a session could not start or finish.
 #[derive(Debug, thiserror::Error)]
@@ -45,7 +48,17 @@ pub enum RuntimeError {
     /// A thread could not be spawned.
     #[error("cannot spawn a thread: {0}")]
     Spawn(std::io::Error),
-    /// The frame thread panicked (a bug: the frame path is written not to panic).
+    /// The frame thread panicked outside a frame's work (a bug: the frame path is written not
+    /// to panic, and a panic within a frame is caught and ends the session as
+    /// [`SessionEnd::Panicked`]).
     #[error("the frame thread panicked")]
     FramePanicked,
+    /// A signal handler could not be installed.
+    #[error("cannot install the {signal} handler: {message}")]
+    Signal {
+        /// The signal's name.
+        signal: &'static str,
+        /// The system's message.
+        message: String,
+    },
 }

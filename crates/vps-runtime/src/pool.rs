@@ -12,8 +12,9 @@
 
 use crate::RuntimeError;
 use crossbeam::channel::{bounded, Receiver, RecvTimeoutError, Sender};
+use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 use std::thread::JoinHandle;
 use std::time::Instant;
 use vps_haptic::{sample_class, ClassedShell, KernelPose, PartialSums};
@@ -88,6 +89,17 @@ pub struct ClassPool<L: VoxelLookup + Send + Sync + 'static> {
     /// Per class: its sums are merged into this frame's total.
     done: Vec<bool>,
     seq: u32,
+    /// The first worker panic (which thread, the message); set once by that worker.
+    failure: Arc<OnceLock<String>>,
+}
+
+/// The text of a caught panic's payload.
+pub(crate) fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "a panic without a message".into())
 }
 
 /// The classes of share `share` out of `threads`: `c mod threads == share` (the cyclic split of
@@ -119,22 +131,39 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
         // finishes at most one old class after the frame moves on): a reply never waits for room.
         let (reply_tx, replies) = bounded(classes as usize + 2 * threads);
         let mut workers = Vec::with_capacity(threads - 1);
+        let failure = Arc::new(OnceLock::new());
         for index in 1..threads {
             let (job_tx, job_rx) = bounded::<Job>(1);
-            let (map, shell, cursor, reply_tx) =
-                (map.clone(), shell.clone(), cursor.clone(), reply_tx.clone());
+            let (map, shell, cursor, reply_tx, failure) = (
+                map.clone(),
+                shell.clone(),
+                cursor.clone(),
+                reply_tx.clone(),
+                failure.clone(),
+            );
             let thread = std::thread::Builder::new()
                 .name(format!("vps-pool-{index}"))
                 .spawn(move || {
                     for job in job_rx.iter() {
-                        while let Some(class) = cursor.claim(job.seq, classes) {
-                            let sums = sample_class(&*map, &shell, &job.pose, class);
-                            // Full only if the frame thread stopped reading: drop the reply.
-                            let _ = reply_tx.try_send(Reply {
-                                seq: job.seq,
-                                class,
-                                sums,
-                            });
+                        let work = catch_unwind(AssertUnwindSafe(|| {
+                            while let Some(class) = cursor.claim(job.seq, classes) {
+                                let sums = sample_class(&*map, &shell, &job.pose, class);
+                                // Full only if the frame thread stopped reading: drop the reply.
+                                let _ = reply_tx.try_send(Reply {
+                                    seq: job.seq,
+                                    class,
+                                    sums,
+                                });
+                            }
+                        }));
+                        if let Err(payload) = work {
+                            let _ = failure.set(format!(
+                                "pool thread vps-pool-{index} panicked: {}",
+                                panic_message(&*payload)
+                            ));
+                            // Its claimed class is recomputed by the frame thread, which ends
+                            // the session at this frame (see `FrameSampler::failure`).
+                            return;
                         }
                     }
                 })
@@ -152,6 +181,7 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
             replies,
             done: vec![false; classes as usize],
             seq: 0,
+            failure,
         })
     }
 
@@ -231,11 +261,23 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
 pub trait FrameSampler: Send {
     /// The merged sums of every class at `pose`; shares not in by `deadline` are computed locally.
     fn compute(&mut self, pose: &KernelPose, deadline: Instant) -> PoolResult;
+
+    /// A failure of one of the sampler's own threads (a caught panic: which thread, the message)
+    /// that must end the session; the frame loop checks it after every `compute`, before the
+    /// frame's device write. `None` (the default) while all is well. Does not block or allocate.
+    fn failure(&self) -> Option<String> {
+        None
+    }
 }
 
 impl<L: VoxelLookup + Send + Sync + 'static> FrameSampler for ClassPool<L> {
     fn compute(&mut self, pose: &KernelPose, deadline: Instant) -> PoolResult {
         ClassPool::compute(self, pose, deadline)
+    }
+
+    /// Allocates the message (only when a worker has panicked).
+    fn failure(&self) -> Option<String> {
+        self.failure.get().cloned()
     }
 }
 

@@ -52,6 +52,14 @@ pub struct StatsSummary {
     pub missed_after_long_frame: u64,
     /// Frames whose device output was forced to zero by the watchdog (compute over budget).
     pub watchdog_trips: u64,
+    /// Frames whose handle sample was rejected (non-finite or absurd: the core's
+    /// `rejected_input`); the device got zero and the part held still.
+    pub rejected_input_frames: u64,
+    /// Frames whose state or result was non-finite (the core's `non_finite`); the device got zero.
+    pub non_finite_frames: u64,
+    /// Frames whose device output was forced to zero for any of the three reasons above (each
+    /// frame counted once). Zero output in free space is not counted: it is the right output.
+    pub zeroed_frames: u64,
     /// Class shares the pool computed on the frame thread because a worker missed its deadline.
     pub fallback_shares: u64,
     /// Per-frame compute time, device read to device write (ns).
@@ -81,6 +89,10 @@ pub struct FrameRecord {
     pub missed: u64,
     /// The watchdog zeroed the output.
     pub watchdog_tripped: bool,
+    /// The core rejected the handle sample (zero output).
+    pub rejected_input: bool,
+    /// The core's state or result was non-finite (zero output).
+    pub non_finite: bool,
     /// Shares the frame thread computed as fallback.
     pub fallback_shares: u32,
     /// Contact count N > 0.
@@ -143,6 +155,9 @@ impl FrameStats {
         }
         self.previous = (r.period_error_ns.unwrap_or(0), r.compute_ns);
         s.watchdog_trips += r.watchdog_tripped as u64;
+        s.rejected_input_frames += r.rejected_input as u64;
+        s.non_finite_frames += r.non_finite as u64;
+        s.zeroed_frames += (r.watchdog_tripped || r.rejected_input || r.non_finite) as u64;
         s.fallback_shares += r.fallback_shares as u64;
         s.contact_frames += r.contact as u64;
         s.touching_frames += r.touching as u64;

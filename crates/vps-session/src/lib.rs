@@ -21,7 +21,7 @@ pub use cache::CachePolicy;
 pub use device::{BridgeSettings, DeviceChoice, OpenedDevice};
 pub use error::SceneError;
 pub use file::SceneFile;
-pub use plan::SessionPlan;
+pub use plan::{stop_on_signals, SessionPlan};
 pub use scene::{BuildOptions, HandPlan, LoadedScene, Session, DEFAULT_SCENE};
 
 use std::sync::Arc;

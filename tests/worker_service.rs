@@ -1,0 +1,188 @@
+//! Workers are long-lived services, with real processes on loopback: a `vps worker` outlives its
+//! coordinator's SIGTERM (the coordinator tells it so with its close code) and joins a second
+//! coordinator started afterwards on the same port; SIGTERM then ends the worker with status 0.
+//! A worker whose certificate the coordinator does not pin is told why and exits with status 2
+//! instead of retrying.
+//!
+//! Nothing here depends on timing: every wait is bounded by a generous deadline only.
+
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use vps_cluster::make_cert;
+
+const DEADLINE: Duration = Duration::from_secs(240);
+
+/// A child `vps` process whose stderr lines are collected; killed and reaped on drop.
+struct Proc {
+    child: Child,
+    lines: Arc<Mutex<Vec<String>>>,
+}
+
+impl Proc {
+    fn start(label: &'static str, args: &[&str]) -> Proc {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_vps"))
+            .args(args)
+            .env("RUST_LOG", "vps_cluster=info")
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("start vps");
+        let stderr = child.stderr.take().unwrap();
+        let lines = Arc::new(Mutex::new(Vec::new()));
+        let sink = lines.clone();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+                eprintln!("[{label}] {line}");
+                sink.lock().unwrap().push(line);
+            }
+        });
+        Proc { child, lines }
+    }
+
+    /// Waits until `count` stderr lines contain `text`.
+    fn wait_for(&self, text: &str, count: usize) {
+        let until = Instant::now() + DEADLINE;
+        while self.count(text) < count {
+            assert!(Instant::now() < until, "no {count}× {text:?} on stderr");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    fn count(&self, text: &str) -> usize {
+        self.lines
+            .lock()
+            .unwrap()
+            .iter()
+            .filter(|l| l.contains(text))
+            .count()
+    }
+
+    fn signal(&self, name: &str) {
+        let ok = Command::new("kill")
+            .args([format!("-{name}"), self.child.id().to_string()])
+            .status()
+            .unwrap()
+            .success();
+        assert!(ok);
+    }
+
+    fn wait_exit(&mut self) -> ExitStatus {
+        let until = Instant::now() + DEADLINE;
+        loop {
+            if let Some(status) = self.child.try_wait().unwrap() {
+                return status;
+            }
+            assert!(Instant::now() < until, "the process did not exit");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// A UDP port free on loopback just now.
+fn free_port() -> u16 {
+    std::net::UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+fn coordinator(dir: &Path, port: u16, seconds: &str, report: &str) -> Proc {
+    let p = |name: &str| dir.join(name).to_string_lossy().into_owned();
+    Proc::start(
+        "coordinator",
+        &[
+            "coordinator",
+            "--listen",
+            &format!("127.0.0.1:{port}"),
+            "--cert",
+            &p("coordinator.crt"),
+            "--key",
+            &p("coordinator.key"),
+            "--pin",
+            &p("worker.crt"),
+            "--workers",
+            "1",
+            "--seconds",
+            seconds,
+            "--report",
+            &p(report),
+        ],
+    )
+}
+
+fn worker(dir: &Path, port: u16, name: &str) -> Proc {
+    let p = |file: String| dir.join(file).to_string_lossy().into_owned();
+    Proc::start(
+        "worker",
+        &[
+            "worker",
+            "--coordinator",
+            &format!("127.0.0.1:{port}"),
+            "--cert",
+            &p(format!("{name}.crt")),
+            "--key",
+            &p(format!("{name}.key")),
+            "--pin",
+            &p("coordinator.crt".into()),
+            "--threads",
+            "1",
+        ],
+    )
+}
+
+fn report(dir: &Path, name: &str) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join(name)).unwrap()).unwrap()
+}
+
+#[test]
+fn a_worker_outlives_its_coordinators_sigterm_and_joins_the_next_one() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["coordinator", "worker", "stranger"] {
+        make_cert(dir.path(), name).unwrap();
+    }
+    let port = free_port();
+    let mut first = coordinator(dir.path(), port, "600", "first.json");
+    first.wait_for("waiting for 1 worker", 1);
+
+    // Not pinned by the coordinator: told why, and no retrying.
+    let mut stranger = worker(dir.path(), port, "stranger");
+    let status = stranger.wait_exit();
+    assert_eq!(status.code(), Some(2), "a refused worker exits 2");
+    assert_eq!(stranger.count("refused this worker's certificate"), 1);
+
+    let mut w = worker(dir.path(), port, "worker");
+    w.wait_for("joined", 1);
+    first.signal("TERM");
+    assert_eq!(first.wait_exit().code(), Some(143));
+    let r = report(dir.path(), "first.json");
+    assert_eq!(r["end"], "stopped by SIGTERM", "{r}");
+    assert_eq!(r["complete"], false, "{r}");
+
+    // The worker heard why and waits for the next coordinator.
+    w.wait_for("coordinator stopping (SIGTERM)", 1);
+    assert!(w.child.try_wait().unwrap().is_none(), "the worker exited");
+
+    let mut second = coordinator(dir.path(), port, "1", "second.json");
+    w.wait_for("joined", 2);
+    assert_eq!(second.wait_exit().code(), Some(0));
+    let r = report(dir.path(), "second.json");
+    assert_eq!(r["end"], "frames done", "{r}");
+    assert_eq!(r["complete"], true, "{r}");
+
+    // Told to stop: closes cleanly and exits 0.
+    w.signal("TERM");
+    assert_eq!(w.wait_exit().code(), Some(0));
+    assert_eq!(w.count("worker stopped (SIGTERM)"), 1);
+}
