@@ -1,5 +1,5 @@
 //! `vps cert`, `vps worker`, `vps coordinator` and `vps cluster`: the cluster modes over QUIC
-//! (DESIGN §4), thin shells over `vps-cluster`.
+//! (docs/architecture.md#exact-sums-and-the-cluster), thin shells over `vps-cluster`.
 
 use super::exit::SessionExit;
 use super::run::{finish, prepare, LiveSession, PreparedSession, SessionOutputs};

@@ -1,4 +1,4 @@
-//! The vps cluster (DESIGN §4): a coordinator that owns the device and the 1 kHz frame loop, and
+//! The vps cluster (docs/architecture.md#exact-sums-and-the-cluster): a coordinator that owns the device and the 1 kHz frame loop, and
 //! workers that hold a copy of the scene and compute the class shares they are sent, over QUIC
 //! (quinn) with operator-pinned mutual TLS.
 //!

@@ -1,4 +1,4 @@
-//! Mutual TLS with operator-pinned certificates (DESIGN §4: only pinned certificates may join).
+//! Mutual TLS with operator-pinned certificates (docs/architecture.md#exact-sums-and-the-cluster: only pinned certificates may join).
 //!
 //! Every node has a self-signed certificate and key ([`make_cert`], PEM files). The operator lists
 //! the certificates each side accepts (`--pin FILE`, repeatable). Both verifiers accept a peer only

@@ -378,7 +378,7 @@ pub struct CornerContact {
 
 /// Slide in a corner: start `standoff` (m) out of the corner along the bisector, press
 /// `pace.press_depth` into each wall, dwell, slide `length` (m) along the edge (`normal_a ×
-/// normal_b`), dwell, and back out. Two contact sets at once: the averaging of DESIGN §3 and the
+/// normal_b`), dwell, and back out. Two contact sets at once: the averaging of docs/architecture.md#the-haptic-frame and the
 /// torque balance are exercised.
 pub fn slide_in_corner(
     corner: &CornerContact,

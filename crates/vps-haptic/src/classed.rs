@@ -1,4 +1,4 @@
-//! The point shell split cyclically into classes (DESIGN §4): point `i` belongs to class
+//! The point shell split cyclically into classes (docs/architecture.md#exact-sums-and-the-cluster): point `i` belongs to class
 //! `i mod C`. Each class is stored contiguously as structure-of-arrays f32, so sampling a class is
 //! one linear scan over six arrays.
 

@@ -1,4 +1,4 @@
-//! The force model of DESIGN §3 applied to merged sums: contact (force field with averaging) and
+//! The force model of docs/architecture.md#the-haptic-frame applied to merged sums: contact (force field with averaging) and
 //! pre-contact braking. Pure functions; no allocation.
 
 use crate::params::{Gains, HapticParams};

@@ -1,4 +1,4 @@
-//! The 6-DOF virtual coupling (DESIGN §3): a spring-damper between the handle and the part.
+//! The 6-DOF virtual coupling (docs/architecture.md#the-haptic-frame): a spring-damper between the handle and the part.
 
 use crate::contact::clamp_length;
 use crate::params::{Gains, HapticParams};

@@ -1,4 +1,4 @@
-//! One haptic frame (DESIGN §3): merged sums + handle + state → device wrench and next state.
+//! One haptic frame (docs/architecture.md#the-haptic-frame): merged sums + handle + state → device wrench and next state.
 
 use crate::contact::{brake_wrench, clamp_length, contact_wrench};
 use crate::coupling::coupling_wrench;

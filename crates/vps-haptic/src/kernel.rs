@@ -1,4 +1,4 @@
-//! The sampling kernel (DESIGN §3): transform each point of a class by the part's pose, look up its
+//! The sampling kernel (docs/architecture.md#the-haptic-frame): transform each point of a class by the part's pose, look up its
 //! voxel and add its contribution to [`PartialSums`]. No allocation, no locks, no I/O.
 //!
 //! Points go through in blocks of [`LANES`] (see [`crate::lanes`]): (1) transform, floor and look
@@ -23,7 +23,7 @@ use vps_voxmap::{LayeredVoxel, Voxel, VoxelLookup};
 /// as Free through [`VoxelLookup::get_layered`]). Surface of layer ℓ: depth
 /// `d = max(0, N·(C − P) + ℓ s)` with `N = R n` and `C` the voxel centre, computed in voxel
 /// coordinates so that `C − P` is exact to f32 rounding of the point's own position; adds `d N` and
-/// `(P − x) × d N`. A 2-bit map reports ℓ = 0: the tangent-plane depth of DESIGN §3. Proximity
+/// `(P − x) × d N`. A 2-bit map reports ℓ = 0: the tangent-plane depth of docs/architecture.md#the-haptic-frame. Proximity
 /// (any layer) with `V·N < 0` (`V = v + w × (P − x)`): adds to the braking sums. Interior: counted, and pushes
 /// as Surface layer ℓ = 1 (one voxel behind the outermost force layer), so a point that slipped
 /// past a one-voxel force layer is still pushed out instead of feeling nothing.
@@ -167,7 +167,7 @@ type Soa<'a> = [&'a [f32]; 3];
 
 /// The hot loop over one class.
 ///
-/// Exactness (DESIGN §4): a class's f64 totals depend only on its points, in one canonical order
+/// Exactness (docs/architecture.md#exact-sums-and-the-cluster): a class's f64 totals depend only on its points, in one canonical order
 /// (lane `l` adds points `l, l + 8, l + 16, …` in ascending order; [`reduce`] combines the eight
 /// lanes in a fixed tree), computed with IEEE basic operations only (no fused multiply-add), so they
 /// are the same bits wherever and with whichever instruction set they are computed (the AVX2 and

@@ -1,4 +1,4 @@
-//! The sans-IO haptic core of vps (DESIGN §3): no threads, clocks, sockets or allocation on the frame
+//! The sans-IO haptic core of vps (docs/architecture.md#the-haptic-frame): no threads, clocks, sockets or allocation on the frame
 //! path. Everything here is a pure function of its arguments, so a frame can be tested without a
 //! process, a port or a sleep, and every mode (local threads, child processes, LAN workers) calls the
 //! same code.

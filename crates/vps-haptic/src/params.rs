@@ -117,7 +117,7 @@ pub const PARAM_RANGES: [ParamRange; 14] = [
 /// so a working choice, not a proven optimum). 10× let the part get stuck in a wall.
 pub const ROTATIONAL_COUPLING_FACTOR: f64 = 2.0;
 
-/// Parameters of one haptic frame (DESIGN §3). SI units. Gains left `None` are derived
+/// Parameters of one haptic frame (docs/architecture.md#the-haptic-frame). SI units. Gains left `None` are derived
 /// ([`HapticParams::gains`]) from `dt`, `mass`, the inertia and the stability bound; see
 /// [`crate::stability`] for the derivation. `voxel_size` and `max_radius` describe the scene and the
 /// part; set them from the loaded data with [`HapticParams::with_scene`].

@@ -1,4 +1,4 @@
-//! Integer fixed-point partial sums (DESIGN §4): what one class, one share or the whole shell
+//! Integer fixed-point partial sums (docs/architecture.md#exact-sums-and-the-cluster): what one class, one share or the whole shell
 //! contributes to a frame. Integer addition is associative and commutative, so sums merged in any
 //! grouping and any order are bit-identical.
 //!

@@ -174,7 +174,7 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
 
     /// For a fixed class count C, the merged sums and the step's output are bit-identical for any
-    /// grouping of the classes into shares, merged in any order (DESIGN §4: classes are the unit of
+    /// grouping of the classes into shares, merged in any order (docs/architecture.md#exact-sums-and-the-cluster: classes are the unit of
     /// work). Across different class counts the rounding of the class totals differs, so sums
     /// agree to within a few LSB per class, not bit for bit.
     #[test]

@@ -103,7 +103,7 @@ pub(crate) fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
 }
 
 /// The classes of share `share` out of `threads`: `c mod threads == share` (the cyclic split of
-/// DESIGN §4, used where class sets are fixed per worker).
+/// docs/architecture.md#exact-sums-and-the-cluster, used where class sets are fixed per worker).
 pub fn share_classes(class_count: u32, threads: usize, share: usize) -> Vec<u32> {
     (0..class_count)
         .filter(|&c| c as usize % threads == share)

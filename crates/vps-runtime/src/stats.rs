@@ -38,7 +38,7 @@ impl Percentiles {
 pub struct StatsSummary {
     /// Frames run.
     pub frames: u64,
-    /// Ticks skipped because the loop fell a period or more behind (DESIGN §5: no coordinated
+    /// Ticks skipped because the loop fell a period or more behind (docs/architecture.md#timing: no coordinated
     /// omission).
     pub missed_deadlines: u64,
     /// Of those, ticks skipped after a frame that lost more time before it started (late

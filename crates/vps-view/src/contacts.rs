@@ -2,7 +2,7 @@
 //! their depth, as the sampling kernel defines it) and in Interior voxels.
 //!
 //! This is the viewer's own re-sampling, on the viewer's thread at the state rate, never the frame
-//! loop's: the loop publishes only the pose. Depth per point (DESIGN §3, `vps_haptic::kernel`):
+//! loop's: the loop publishes only the pose. Depth per point (docs/architecture.md#the-haptic-frame, `vps_haptic::kernel`):
 //! `d = max(0, N·(C − P) + ℓ s)` with `P = R p + x` the world point, `N = R n` its inward normal,
 //! `C` the centre of its voxel and `ℓ` the voxel's distance layer (0 in a 2-bit map); here in f64,
 //! so it may differ from the kernel's f32 figure in the last bits.

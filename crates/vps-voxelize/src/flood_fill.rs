@@ -1,4 +1,4 @@
-//! Step 2 of DESIGN §2: flood-fill free space inward from the six walls of the box, 6-connected,
+//! Step 2 of docs/architecture.md#voxmaps-and-point-shells: flood-fill free space inward from the six walls of the box, 6-connected,
 //! stopping at Surface; what is not reached and not Surface is Interior.
 //!
 //! A scanline (span) fill on bit planes with an explicit stack: a popped seed grows to its whole run

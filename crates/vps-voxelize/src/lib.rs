@@ -1,4 +1,4 @@
-//! Voxelization of static scenes and point shells of dynamic objects (DESIGN §2).
+//! Voxelization of static scenes and point shells of dynamic objects (docs/architecture.md#voxmaps-and-point-shells).
 //!
 //! Pipeline, one module per step:
 //! - [`tri_box`]: exact triangle / box overlap (13-axis separating axis test).

@@ -1,4 +1,4 @@
-//! Mass properties of the dynamic object from its mesh (DESIGN §2): volume, centre of mass and the
+//! Mass properties of the dynamic object from its mesh (docs/architecture.md#voxmaps-and-point-shells): volume, centre of mass and the
 //! bounding radius about the centre of mass.
 
 use crate::bitgrid::BitGrid;

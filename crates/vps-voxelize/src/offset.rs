@@ -1,4 +1,4 @@
-//! Step 4 of DESIGN §2: offset the force layer outward by `k` layers. Each step promotes Proximity to
+//! Step 4 of docs/architecture.md#voxmaps-and-point-shells: offset the force layer outward by `k` layers. Each step promotes Proximity to
 //! Surface and demotes the old Surface to Interior; Proximity is then recomputed. After `k` steps
 //! every point of the exact static surface lies behind `k` layers of Interior, and thin wires and
 //! spikes have grown into closed 26-connected layers.

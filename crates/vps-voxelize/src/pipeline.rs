@@ -1,4 +1,4 @@
-//! The whole voxelization of a static scene (DESIGN §2): per object scan conversion and flood fill
+//! The whole voxelization of a static scene (docs/architecture.md#voxmaps-and-point-shells): per object scan conversion and flood fill
 //! in a window of the shared grid, merge by precedence, then Proximity and the force-layer offset
 //! once on the merged result, written to a [`DenseGrid`].
 
@@ -30,7 +30,7 @@ const BYTES_PER_VOXEL_DEN: u64 = 8;
 pub struct VoxelizeOptions {
     /// Edge length of one voxel (m); positive and finite. Default 5 mm.
     pub voxel_size: f64,
-    /// Force-layer offset `k` in voxel layers (DESIGN §2 step 4); 0 keeps the scan-converted layer.
+    /// Force-layer offset `k` in voxel layers (docs/architecture.md#voxmaps-and-point-shells step 4); 0 keeps the scan-converted layer.
     /// Default 2.
     pub offset_layers: u32,
     /// Free voxels added around the scene's bounds by [`grid_for`]. The grid always gets at least
@@ -389,7 +389,7 @@ pub(crate) fn voxelize_planes(
 ///
 /// Every mesh must already be in its final world pose (metres): the voxelizer does not transform,
 /// and a rotated object voxelizes to a different shape. Meshes may be open or inconsistently
-/// oriented; cracks narrower than a voxel do not leak, larger holes do (DESIGN §2). Each object is
+/// oriented; cracks narrower than a voxel do not leak, larger holes do (docs/architecture.md#voxmaps-and-point-shells). Each object is
 /// scan-converted and flood-filled on its own, the objects are combined with the precedence of
 /// [`vps_voxmap::Voxel::merge`], then Proximity and the `opts.offset_layers` force-layer offset are
 /// computed once on the merged result. Blocking, parallel (rayon), allocates about 1.9 bytes per

@@ -1,4 +1,4 @@
-//! Step 3 of DESIGN §2: Proximity = Free voxels that share a face, edge or corner with a Surface
+//! Step 3 of docs/architecture.md#voxmaps-and-point-shells: Proximity = Free voxels that share a face, edge or corner with a Surface
 //! voxel.
 //!
 //! Computed as a 3×3×3 dilation of the Surface plane, separated into an x pass (word shifts), a y pass

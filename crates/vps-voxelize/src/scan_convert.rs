@@ -1,4 +1,4 @@
-//! Step 1 of DESIGN §2: scan conversion. Every voxel whose closed cube overlaps a triangle (exact
+//! Step 1 of docs/architecture.md#voxmaps-and-point-shells: scan conversion. Every voxel whose closed cube overlaps a triangle (exact
 //! separating-axis test, [`crate::tri_box`]) is marked. Work is parallel over triangles (rayon). Each
 //! triangle visits only the grid columns (along its dominant normal axis) under its shadow, strip by
 //! strip, and in each column only the few voxels its plane can cross, so the cost follows the

@@ -1,4 +1,4 @@
-//! The point shell of the dynamic object (DESIGN §2): one point per Surface voxel of the object's own
+//! The point shell of the dynamic object (docs/architecture.md#voxmaps-and-point-shells): one point per Surface voxel of the object's own
 //! voxelization (offset 0), with an inward unit normal from the mesh, in the body frame (origin at
 //! the centre of mass), Morton ordered.
 

@@ -1,4 +1,4 @@
-//! Open meshes (DESIGN §2): cracks narrower than a voxel do not leak, because scan conversion marks
+//! Open meshes (docs/architecture.md#voxmaps-and-point-shells): cracks narrower than a voxel do not leak, because scan conversion marks
 //! every voxel touching either side of the crack and the 6-connected flood fill cannot pass; a hole
 //! wider than a voxel does leak, and the inside of a genuinely open box is Free.
 

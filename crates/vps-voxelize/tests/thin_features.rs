@@ -1,4 +1,4 @@
-//! Wires and spikes thinner than a voxel (DESIGN §2): the 26-connected offset grows them into closed
+//! Wires and spikes thinner than a voxel (docs/architecture.md#voxmaps-and-point-shells): the 26-connected offset grows them into closed
 //! layers. Checked criterion: Interior runs along the whole feature, and no Free or Proximity voxel
 //! shares a face, edge or corner with an Interior voxel (so a shell point cannot slip from free space
 //! into the interior without crossing Surface).

@@ -1,4 +1,4 @@
-//! The point shell of the dynamic object (DESIGN §2): surface points with inward unit normals in the
+//! The point shell of the dynamic object (docs/architecture.md#voxmaps-and-point-shells): surface points with inward unit normals in the
 //! body frame, whose origin is the object's centre of mass.
 
 use glam::{DVec3, Vec3};

@@ -1,4 +1,4 @@
-//! The four 2-bit voxel kinds (DESIGN §2).
+//! The four 2-bit voxel kinds (docs/architecture.md#voxmaps-and-point-shells).
 
 /// A voxel's kind; the discriminant is the 2-bit stored value.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -40,7 +40,7 @@ impl Voxel {
         self as u8
     }
 
-    /// Merge precedence of DESIGN §2: Interior > Surface > Proximity > Free.
+    /// Merge precedence of docs/architecture.md#voxmaps-and-point-shells: Interior > Surface > Proximity > Free.
     pub fn precedence(self) -> u8 {
         match self {
             Voxel::Free => 0,

@@ -87,7 +87,7 @@ pub fn wall() -> DenseGrid {
 }
 
 /// A thin plate (2 mm thick, voxelized at 5 mm into one Surface layer, then offset by two layers
-/// as DESIGN §2 describes): Proximity, Surface, Interior ×3, Surface, Proximity for k = 16..=22.
+/// as docs/architecture.md#voxmaps-and-point-shells describes): Proximity, Surface, Interior ×3, Surface, Proximity for k = 16..=22.
 /// The plate's mid-plane is the centre of voxel k = 19, z = −0.0025; the layers span
 /// z ∈ [−0.02, 0.015).
 pub const PLATE_MID_Z: f64 = -0.0025;

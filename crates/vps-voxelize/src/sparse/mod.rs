@@ -1,4 +1,4 @@
-//! The sparse voxelizer: the same result as the dense pipeline (DESIGN §2), computed chunk by chunk
+//! The sparse voxelizer: the same result as the dense pipeline (docs/architecture.md#voxmaps-and-point-shells), computed chunk by chunk
 //! (64³-voxel cubes, the default tree's lower node) so that working memory and the voxmap follow the
 //! scene's surface, not its bounding volume.
 //!

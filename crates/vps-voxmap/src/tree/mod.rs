@@ -1,4 +1,4 @@
-//! The fixed-depth `2^(3N)` voxel tree (DESIGN §2, McNeely et al. 1999 §4.3), in OpenVDB's shape:
+//! The fixed-depth `2^(3N)` voxel tree (docs/architecture.md#voxmaps-and-point-shells, McNeely et al. 1999 §4.3), in OpenVDB's shape:
 //! a dense [`root`] array of upper [`internal`] nodes, lower internal nodes, and bit-packed [`leaf`]
 //! nodes; a region that is uniform at any level is one tile value in its parent's slot.
 //!
