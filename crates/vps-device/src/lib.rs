@@ -10,6 +10,8 @@
 //!
 //! No clock is read anywhere in this crate: time is always passed in by the caller, so every device
 //! here is deterministic and testable without sleeping.
+//!
+//! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
 pub mod device;
 mod rotation;

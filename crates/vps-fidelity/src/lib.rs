@@ -12,6 +12,8 @@
 //! `K_ff Σ e_i n_i`, with exact signed distances to the meshes, so its direction and torque are the
 //! geometry's (checked against the analytic direction of each scene by this crate's tests).
 //! Everything here is offline (blocking, allocating, parallel with rayon).
+//!
+//! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
 pub mod measure;
 pub mod scenes;

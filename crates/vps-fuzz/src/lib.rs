@@ -15,6 +15,8 @@
 //!
 //! The `vps-fuzz` binary runs long campaigns (`--inputs 1000000`); the `robustness` test runs 5·10^4
 //! inputs per target in CI.
+//!
+//! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
 pub mod alloc;
 pub mod mutate;

@@ -8,6 +8,8 @@
 //!
 //! SI units throughout (m, s, rad, N, N·m). Parsers and protocol codecs are pure functions that
 //! never panic on any input; device `read`/`write` never block.
+//!
+//! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
 pub mod bridge;
 mod error;

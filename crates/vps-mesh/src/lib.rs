@@ -11,6 +11,8 @@
 //! - [`builtin`]: deterministic built-in scenes (teapot, aircraft bay) and primitives.
 //! - [`weld`]: merging coincident vertices.
 //! - [`closest_point`](mod@closest_point): the point of a triangle nearest to a point.
+//!
+//! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
 pub mod builtin;
 pub mod closest_point;

@@ -20,6 +20,8 @@
 //! the distance to the union's boundary. A component that is open or inconsistently oriented (a
 //! sheet, the tessellated Bezier teapot) has no inside: its distance is unsigned (never negative)
 //! and [`ExactScene::unsigned_components`] counts such components. All lengths are metres.
+//!
+//! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
 pub mod bvh;
 pub mod components;

@@ -9,6 +9,8 @@
 //! - [`stats`]: [`FrameStats`], [`StatsSummary`] (HDR histograms, penetration ratio).
 //! - [`feed`]: [`state_feed`], a lock-free latest-value slot for viewers.
 //! - [`stop`]: [`SignalStop`] (SIGINT, SIGTERM, SIGHUP set a session's stop flag), exit codes.
+//!
+//! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
 pub mod clock;
 pub mod feed;

@@ -5,6 +5,8 @@
 //! [`plan::SessionPlan`] is the one way the runtime's `SessionSetup` is made.
 //!
 //! Units: metres, kilograms, seconds throughout; mesh files may declare cm, mm or inches.
+//!
+//! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
 pub mod cache;
 pub mod device;

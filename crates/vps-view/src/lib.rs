@@ -26,6 +26,8 @@
 //! start and shutdown), [`access`] (Host and Origin checks), [`client`] (a minimal blocking
 //! HTTP/WebSocket client for tests, benchmarks and tools), [`browser`] (headless Chromium over
 //! DevTools, for browser tests).
+//!
+//! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
 pub mod access;
 pub mod browser;

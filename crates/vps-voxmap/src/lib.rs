@@ -8,6 +8,8 @@
 //! - `tree` (mask, leaf, internal, root, accessor): the fixed-depth tree, constant-cost `get`.
 //! - [`shell`]: [`PointShell`], body-frame points with inward normals and mass properties.
 //! - [`file`]: the versioned `.vmap` and `.vshell` binary formats with content hashes.
+//!
+//! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
 pub mod atomic;
 pub mod dense;
