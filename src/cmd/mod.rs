@@ -17,7 +17,6 @@ mod inspect;
 mod netem_relay;
 pub mod output;
 mod probe;
-mod reserve;
 mod run;
 mod scene_check;
 mod shell;

@@ -3,11 +3,11 @@
 //! handle traces to and from files.
 
 use super::exit::{outcome, SessionExit};
-use super::output::print_json;
-use super::reserve::ReservedFile;
+use super::output::{check_output_path, print_json, write_file};
 use crate::cli::{BridgeArgs, RunArgs};
 use anyhow::{anyhow, bail, Context, Result};
 use serde::Serialize;
+use std::path::{Path, PathBuf};
 use vps_device::trace::save_trace;
 use vps_haptic::HapticParams;
 use vps_input::{BridgeCounters, BridgeMonitor};
@@ -39,30 +39,29 @@ struct RunReport {
     bridge: Option<BridgeCounters>,
 }
 
-/// The files a session writes at its end, created (empty, beside their destinations) before the
-/// session starts so that a bad path fails before any work.
+/// The files a session writes at its end, checked ([`check_output_path`]: the directory exists
+/// and takes new files) before the session starts so that a bad path fails before any work;
+/// written atomically at the end.
 #[derive(Default)]
 pub struct SessionOutputs {
     /// `--report FILE`.
-    report: Option<ReservedFile>,
+    report: Option<PathBuf>,
     /// `--record FILE`.
-    record: Option<ReservedFile>,
+    record: Option<PathBuf>,
 }
 
 impl SessionOutputs {
-    /// Reserves `--report` and `--record` of `args`.
+    /// Checks `--report` and `--record` of `args`.
     pub fn reserve(args: &RunArgs) -> Result<SessionOutputs> {
+        let checked = |path: &Option<PathBuf>| -> Result<Option<PathBuf>> {
+            if let Some(path) = path {
+                check_output_path(path, &[])?;
+            }
+            Ok(path.clone())
+        };
         Ok(SessionOutputs {
-            report: args
-                .report
-                .as_deref()
-                .map(ReservedFile::reserve)
-                .transpose()?,
-            record: args
-                .record
-                .as_deref()
-                .map(ReservedFile::reserve)
-                .transpose()?,
+            report: checked(&args.report)?,
+            record: checked(&args.record)?,
         })
     }
 }
@@ -250,15 +249,12 @@ pub fn finish<C: Serialize>(
         cluster: cluster.map(serde_json::to_value).transpose()?,
         bridge: bridge.map(|m| m.counters()),
     };
-    if let Some(file) = outputs.report {
-        file.commit(|path| {
-            let text = serde_json::to_string_pretty(&out)?;
-            std::fs::write(path, text + "\n")?;
-            Ok(())
-        })?;
+    if let Some(path) = &outputs.report {
+        let text = serde_json::to_string_pretty(&out)? + "\n";
+        write_file(path, text.as_bytes())?;
     }
-    if let Some(file) = outputs.record {
-        save_recording(report, file)?;
+    if let Some(path) = &outputs.record {
+        save_recording(report, path)?;
     }
     if args.json {
         print_json(&out)?;
@@ -304,7 +300,7 @@ pub fn finish<C: Serialize>(
     Ok(())
 }
 
-fn save_recording(report: &LoopReport, file: ReservedFile) -> Result<()> {
+fn save_recording(report: &LoopReport, path: &Path) -> Result<()> {
     if let Some(why) = &report.trace_error {
         bail!("trace recording stopped early: {why}");
     }
@@ -313,8 +309,7 @@ fn save_recording(report: &LoopReport, file: ReservedFile) -> Result<()> {
         .as_ref()
         .context("the loop returned no trace")?;
     let frames = trace.frames.len();
-    let path = file.path().to_path_buf();
-    file.commit(|temporary| Ok(save_trace(temporary, trace)?))?;
+    save_trace(path, trace)?;
     eprintln!("recorded {frames} frames to {}", path.display());
     Ok(())
 }
