@@ -35,6 +35,11 @@ struct Args {
     /// to reproduce a finding.
     #[arg(long, value_name = "INDEX")]
     dump: Option<u64>,
+    /// Instead of fuzzing, write the crafted map of the viewer finding to PATH: a valid 16 KiB
+    /// `.vmap` of 8192³ (2^39) 1 mm voxels, every one Interior, with a correct hash (a dense copy
+    /// would be 549 GB).
+    #[arg(long, value_name = "PATH")]
+    write_huge_vmap: Option<PathBuf>,
 }
 
 fn main() {
@@ -52,6 +57,14 @@ fn main() {
             names.join(", ")
         );
         std::process::exit(2);
+    }
+    if let Some(path) = &args.write_huge_vmap {
+        let bytes = vps_fuzz::seeds::uniform_vmap([8192; 3], 0.001, 1);
+        if let Err(e) = std::fs::write(path, bytes) {
+            eprintln!("vps-fuzz: {}: {e}", path.display());
+            std::process::exit(2);
+        }
+        return;
     }
     if let Some(index) = args.dump {
         let Some(target) = targets.iter().find(|t| t.name == args.target) else {

@@ -223,6 +223,57 @@ pub fn haptic_toml() -> Vec<Vec<u8>> {
     ]
 }
 
+/// Scene file seeds: the committed scene files (`configs/scenes/*.toml`, the worked example in
+/// `assets/scenes/`), and one using every optional section (`[hand]`, `[workspace]`, inline
+/// `[haptic]`, a bridge `[device]` with its mapping and timeout, lengths as strings).
+pub fn scene_toml() -> Vec<Vec<u8>> {
+    vec![
+        include_bytes!("../../../configs/scenes/bay-teapot.toml").to_vec(),
+        include_bytes!("../../../configs/scenes/rig-teapot.toml").to_vec(),
+        include_bytes!("../../../assets/scenes/bracket-in-bay.toml").to_vec(),
+        br#"name = "every-section"
+[part]
+source = "builtin:teapot"
+units = "cm"
+rotate_deg = [90, 0, 45]
+grip = [0.0, 0.0, 0.01]
+[[static]]
+source = "builtin:box"
+scale = [2.0, 2.0, 0.5]
+translate = [0.0, 0.0, -0.1]
+[[static]]
+source = "builtin:sphere"
+units = "mm"
+[hand]
+waypoints = [[0.0, 0.0, 0.1], [0.05, 0.0, 0.02], [0.1, 0.0, 0.1]]
+speed = 0.08
+hold_s = 0.4
+[voxels]
+voxel_size = "4mm"
+voxel_width = 4
+offset_layers = 3
+shell_method = "exact"
+braking = true
+[workspace]
+min = [-0.2, -0.2, -0.2]
+max = [0.2, 0.2, 0.2]
+[haptic]
+mass = 0.5
+k_ff = 2000.0
+device_max_force = 4.0
+[device]
+kind = "bridge:127.0.0.1:7700"
+pose_timeout_ms = 100
+[device.mapping]
+scale = 5.0
+rotate_deg = [90, 0, 0]
+offset = [0.05, 0.0, 0.0]
+force_scale = 0.5
+"#
+        .to_vec(),
+    ]
+}
+
 fn sample(i: u32) -> HandleSample {
     let t = f64::from(i) * 1e-3;
     HandleSample {

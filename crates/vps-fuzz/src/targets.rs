@@ -32,6 +32,8 @@ pub const MESH_PLY: &str = "fuzz-input.ply";
 pub const HAPTIC_TOML: &str = "fuzz-haptic.toml";
 /// See [`MESH_OBJ`].
 pub const TRACE: &str = "fuzz-input.trace";
+/// See [`MESH_OBJ`].
+pub const SCENE_TOML: &str = "fuzz-scene.toml";
 
 fn mesh(bytes: &[u8], format: MeshFormat, file: &str) -> Result<(), String> {
     let mesh = vps_mesh::parse_mesh(bytes, format, file).map_err(|e| e.to_string())?;
@@ -79,6 +81,41 @@ fn haptic_toml(bytes: &[u8]) -> Result<(), String> {
     vps_haptic::HapticParams::from_toml_str(&text, HAPTIC_TOML)
         .map(|_| ())
         .map_err(|e| e.to_string())
+}
+
+/// A scene file as `vps_session::SceneFile::from_toml_str` reads it, then what a session derives
+/// from an accepted file before loading any mesh: the corridor's waypoints (asserted within
+/// `MAX_WAYPOINTS`, so a corridor cannot size an allocation), the voxel width, the bridge
+/// settings, and inline `[haptic]` keys through `HapticParams::from_toml_str` as the scene loader
+/// passes them (its errors are named `[haptic]` inside the scene file).
+fn scene_toml(bytes: &[u8]) -> Result<(), String> {
+    use vps_session::file::MAX_WAYPOINTS;
+    let text = String::from_utf8_lossy(bytes);
+    let file =
+        vps_session::SceneFile::from_toml_str(&text, SCENE_TOML).map_err(|e| e.to_string())?;
+    let waypoints = file.corridor_waypoints();
+    let laps = file.corridor.as_ref().map_or(1, |c| c.laps);
+    assert!(
+        waypoints.len() * laps <= MAX_WAYPOINTS,
+        "scene: {} corridor waypoints × {laps} laps accepted",
+        waypoints.len()
+    );
+    assert!(
+        waypoints.iter().all(|w| w.is_finite()),
+        "scene: a waypoint is not finite"
+    );
+    file.width(SCENE_TOML).map_err(|e| e.to_string())?;
+    if let Some(device) = &file.device {
+        device
+            .bridge_settings(SCENE_TOML)
+            .map_err(|e| e.to_string())?;
+    }
+    if let Some(table) = file.haptic.as_ref().filter(|t| !t.contains_key("file")) {
+        let inline = toml::to_string(table).map_err(|e| format!("{SCENE_TOML}: [haptic]: {e}"))?;
+        vps_haptic::HapticParams::from_toml_str(&inline, "[haptic]")
+            .map_err(|e| format!("{SCENE_TOML}: {e}"))?;
+    }
+    Ok(())
 }
 
 fn trace(bytes: &[u8]) -> Result<(), String> {
@@ -158,6 +195,13 @@ pub fn all_targets() -> Vec<Target> {
             seeds: seeds::haptic_toml,
             run: haptic_toml,
             must_name: Some(HAPTIC_TOML),
+            max_len: TEXT,
+        },
+        Target {
+            name: "scene-toml",
+            seeds: seeds::scene_toml,
+            run: scene_toml,
+            must_name: Some(SCENE_TOML),
             max_len: TEXT,
         },
         Target {
