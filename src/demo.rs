@@ -35,20 +35,8 @@ struct DemoReport {
 
 /// Runs one session; `paced` runs at 1 kHz on the wall clock, otherwise frames run back to back
 /// (the physics is identical: the device is given the scheduled tick time either way). Every frame
-/// is published to `feed` when given (a viewer).
-pub fn run_session(
-    scene: &Session,
-    params: HapticParams,
-    seconds: f64,
-    threads: usize,
-    paced: bool,
-    feed: Option<StateFeedSender>,
-) -> Result<LoopReport> {
-    run_session_until(scene, params, seconds, threads, paced, feed, None)
-}
-
-/// [`run_session`], ended early (the device written zero) once one of `signals` comes, when
-/// given.
+/// is published to `feed` when given (a viewer). Ended early (the device written zero) once one of
+/// `signals` comes, when given.
 pub fn run_session_until(
     scene: &Session,
     params: HapticParams,

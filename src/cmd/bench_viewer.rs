@@ -2,17 +2,20 @@
 //! one compute thread) runs in rounds on the same scene: without a viewer, then with a viewer and
 //! one WebSocket client in this process reading every state message. Prints every run's frame
 //! figures and the with/without ratios of the compute percentiles, per round and their medians
-//! (JSON).
+//! (JSON). SIGINT, SIGTERM or SIGHUP stop the running session (the simulated device is written
+//! zero first); nothing is printed and the status is 128 + N, as for every benchmark.
 
 use super::output::print_json;
 use super::view::attach;
-use crate::demo::run_session;
+use super::exit::require_complete;
+use crate::demo::run_session_until;
 use anyhow::{Context, Result};
 use serde::Serialize;
 use std::time::Duration;
 use vps_haptic::HapticParams;
 use vps_runtime::{Percentiles, StatsSummary};
-use vps_session::{BuildOptions, Session};
+use vps_runtime::SignalStop;
+use vps_session::{stop_on_signals, BuildOptions, Session};
 use vps_view::client::WsClient;
 
 /// Voxel size of the benchmark's scene (m): the demo's.
@@ -79,6 +82,9 @@ impl Ratios {
 /// Runs `rounds` pairs of sessions of `seconds` each (without, then with a viewer) and prints
 /// JSON. Alternating spreads slow drifts of the machine's load over both kinds of run.
 pub fn run(seconds: f64, rounds: u32) -> Result<()> {
+    // Installed before the scene is built: a signal during the build stops the first session at
+    // its first frame.
+    let signals = stop_on_signals()?;
     let scene = Session::open(
         vps_session::DEFAULT_SCENE,
         &BuildOptions {
@@ -89,8 +95,15 @@ pub fn run(seconds: f64, rounds: u32) -> Result<()> {
     let params = scene.params;
     let mut results = Vec::new();
     for _ in 0..rounds.max(1) {
-        let without = run_session(&scene, params, seconds, 1, true, None)?;
-        results.push(round_with_viewer(&scene, params, seconds, without.stats)?);
+        let without = run_session_until(&scene, params, seconds, 1, true, None, Some(&signals))?;
+        require_complete(&without.end, Some(&signals))?;
+        results.push(round_with_viewer(
+            &scene,
+            params,
+            seconds,
+            without.stats,
+            &signals,
+        )?);
     }
     let ratios: Vec<Ratios> = results.iter().map(|r| r.compute_ratio).collect();
     print_json(&ViewerBench {
@@ -107,6 +120,7 @@ fn round_with_viewer(
     params: HapticParams,
     seconds: f64,
     without_viewer: StatsSummary,
+    signals: &SignalStop,
 ) -> Result<Round> {
     let viewer = attach(Some("127.0.0.1:0".parse()?), scene)?.context("the viewer")?;
     let mut client = WsClient::connect(viewer.local_addr(), "/ws", Duration::from_secs(5))
@@ -120,12 +134,21 @@ fn round_with_viewer(
         (messages, bytes)
     });
     let cpu_before = viewer_threads_cpu_s();
-    let with = run_session(scene, params, seconds, 1, true, Some(viewer.feed()))?;
+    let with = run_session_until(
+        scene,
+        params,
+        seconds,
+        1,
+        true,
+        Some(viewer.feed()),
+        Some(signals),
+    )?;
     let viewer_cpu_s = cpu_before.zip(viewer_threads_cpu_s()).map(|(a, b)| b - a);
     drop(viewer);
     let (messages_read, message_bytes) = reader
         .join()
         .map_err(|_| anyhow::anyhow!("the WebSocket reader panicked"))?;
+    require_complete(&with.end, Some(signals))?;
     Ok(Round {
         compute_ratio: Ratios::of(&with.stats.compute_ns, &without_viewer.compute_ns),
         without_viewer,
