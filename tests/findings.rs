@@ -106,9 +106,14 @@ fn addr_of(url: &str) -> SocketAddr {
 fn status_of(addr: SocketAddr, path: &str, host: &str, extra: &str) -> u16 {
     let mut c = TcpStream::connect(addr).unwrap();
     c.set_read_timeout(Some(Duration::from_secs(30))).unwrap();
+    let close = if extra.contains("Connection:") {
+        ""
+    } else {
+        "Connection: close\r\n"
+    };
     write!(
         c,
-        "GET {path} HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n{extra}\r\n"
+        "GET {path} HTTP/1.1\r\nHost: {host}\r\n{close}{extra}\r\n"
     )
     .unwrap();
     let mut head = [0u8; 12];

@@ -296,7 +296,9 @@ def http_get(host, port, path, host_header, origin=None, upgrade=False):
     """The status code of one request, or None when the connection failed."""
     try:
         with socket.create_connection((host, port), timeout=10) as c:
-            req = "GET %s HTTP/1.1\r\nHost: %s\r\nConnection: close\r\n" % (path, host_header)
+            req = "GET %s HTTP/1.1\r\nHost: %s\r\n" % (path, host_header)
+            if not upgrade:
+                req += "Connection: close\r\n"
             if origin:
                 req += "Origin: %s\r\n" % origin
             if upgrade:
@@ -348,8 +350,10 @@ def outcome(r):
         return "killed by %s" % r["signal"]
     if r["exit"] == 0:
         return "exit 0"
-    last = [l for l in r["stderr_tail"].splitlines() if l.strip()]
-    return "exit %s: %s" % (r["exit"], last[-1][:240] if last else "")
+    lines = [l for l in r["stderr_tail"].splitlines() if l.strip()]
+    errors = [l for l in lines if "error" in l]
+    line = (errors or lines or [""])[0]
+    return "exit %s: %s" % (r["exit"], line[:240])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -428,7 +432,8 @@ def finding5(vps, cwd, env):
     with open(mesh, "w") as f:
         f.write(text)
     r = run(vps, ["voxelize", mesh, "--voxel-size", "1cm", "-o", mesh], cwd, env)
-    kept = open(mesh).read() == text
+    with open(mesh, "rb") as f:
+        kept = f.read() == text.encode()
     r["input_kept"] = kept
     r["reproduces"] = not (kept and failed_cleanly(r))
     r["outcome"] = outcome(r) + ("; mesh kept" if kept else "; mesh overwritten")
@@ -518,9 +523,11 @@ def finding7(vps, cwd, env):
     time.sleep(12)
     still_open = 0
     for c in slow:
+        # Closed: EOF (after whatever the server sent, e.g. a 408) or a reset. Open: no EOF yet.
         c.settimeout(0.2)
         try:
-            still_open += c.recv(1) == b"" and 0 or 1
+            while c.recv(4096):
+                pass
         except socket.timeout:
             still_open += 1
         except OSError:

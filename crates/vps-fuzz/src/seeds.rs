@@ -351,6 +351,14 @@ pub fn cluster_datagram() -> Vec<Vec<u8>> {
     }
     .encode(&mut reply);
     let mut out = vec![request.to_vec(), reply.to_vec()];
+    out.extend(join_messages().iter().map(JoinMessage::encode));
+    out
+}
+
+/// Every join message kind, with its fields at their edges: versions 0, 1 and `u16::MAX`; a
+/// welcome to the first and the last worker id; an empty, a short and a long reason; every
+/// combination of the two needs.
+fn join_messages() -> Vec<JoinMessage> {
     let scene = SceneIdentity {
         voxmap_hash: [1; 32],
         shell_hash: [2; 32],
@@ -358,22 +366,21 @@ pub fn cluster_datagram() -> Vec<Vec<u8>> {
         voxmap_len: 1 << 20,
         shell_len: 1 << 16,
     };
-    for m in [
-        JoinMessage::Hello { version: 1 },
-        JoinMessage::Welcome {
-            worker_id: 3,
-            scene,
-        },
-        JoinMessage::Reject {
-            reason: "scene mismatch".into(),
-        },
-        JoinMessage::Need {
-            voxmap: true,
-            shell: false,
-        },
-        JoinMessage::Ready,
-    ] {
-        out.push(m.encode());
+    let mut all: Vec<JoinMessage> = [0, 1, u16::MAX]
+        .map(|version| JoinMessage::Hello { version })
+        .into();
+    all.extend([0, u32::MAX].map(|worker_id| JoinMessage::Welcome { worker_id, scene }));
+    all.extend(
+        ["", "scene mismatch", &"x".repeat(200)].map(|reason| JoinMessage::Reject {
+            reason: reason.to_string(),
+        }),
+    );
+    for bits in 0..4u8 {
+        all.push(JoinMessage::Need {
+            voxmap: bits & 1 != 0,
+            shell: bits & 2 != 0,
+        });
     }
-    out
+    all.push(JoinMessage::Ready);
+    all
 }
