@@ -35,7 +35,10 @@ fn refused(out: &Output, wants: &[&str]) {
     for want in wants {
         assert!(err.contains(want), "{want:?} not in: {err}");
     }
-    assert!(!err.contains("panicked") && !err.contains("memory allocation"), "{err}");
+    assert!(
+        !err.contains("panicked") && !err.contains("memory allocation"),
+        "{err}"
+    );
 }
 
 /// A child killed when dropped.
@@ -91,7 +94,9 @@ fn start_view(args: &[&std::ffi::OsStr]) -> (Running, String) {
         }
     });
     let running = Running(child);
-    let url = rx.recv_timeout(DEADLINE).expect("the viewer's URL on stderr");
+    let url = rx
+        .recv_timeout(DEADLINE)
+        .expect("the viewer's URL on stderr");
     (running, url)
 }
 
@@ -159,8 +164,14 @@ fn a_corridor_sizing_an_absurd_allocation_is_refused_by_tune_and_sweep() {
     let text = std::fs::read_to_string(rig).unwrap();
     let without_workspace = text.split("[workspace]").next().unwrap().to_string();
     let cases = [
-        ("tiny.toml", text.replace("spacing = 0.025", "spacing = 1e-300")),
-        ("small.toml", text.replace("spacing = 0.025", "spacing = 1e-12")),
+        (
+            "tiny.toml",
+            text.replace("spacing = 0.025", "spacing = 1e-300"),
+        ),
+        (
+            "small.toml",
+            text.replace("spacing = 0.025", "spacing = 1e-12"),
+        ),
         (
             "far.toml",
             without_workspace.replace("to = [0.35, 0.0, 0.0]", "to = [1e6, 0.0, 0.0]"),
@@ -172,7 +183,14 @@ fn a_corridor_sizing_an_absurd_allocation_is_refused_by_tune_and_sweep() {
         std::fs::write(&scene, body).unwrap();
         let started = Instant::now();
         let out = vps()
-            .args(["tune", "--frames", "100", "--verify-frames", "100", "--scene"])
+            .args([
+                "tune",
+                "--frames",
+                "100",
+                "--verify-frames",
+                "100",
+                "--scene",
+            ])
             .arg(&scene)
             .output()
             .unwrap();
@@ -217,7 +235,10 @@ fn a_session_report_to_a_full_stdout_is_an_error_naming_stdout() {
         .unwrap();
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(1), "{err}");
-    assert!(err.contains("stdout") && err.contains("No space left"), "{err}");
+    assert!(
+        err.contains("stdout") && err.contains("No space left"),
+        "{err}"
+    );
     assert!(!err.contains("panicked"), "{err}");
 }
 
@@ -294,8 +315,7 @@ fn view_prints_the_address_it_really_bound() {
 fn view_refuses_a_foreign_origin_and_host() {
     let dir = tempfile::tempdir().unwrap();
     let map = small_map(dir.path());
-    let (mut view, url) =
-        start_view(&[map.as_os_str(), "--addr".as_ref(), "127.0.0.1:0".as_ref()]);
+    let (mut view, url) = start_view(&[map.as_os_str(), "--addr".as_ref(), "127.0.0.1:0".as_ref()]);
     let addr = addr_of(&url);
     let here = addr.to_string();
     let upgrade = "Upgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Version: 13\r\n\
@@ -336,7 +356,8 @@ fn bench_viewer_stops_on(signal: &str, code: i32) {
     });
     let mut bench = Running(child);
     // The scene is built (or read from the cache) before the first session starts.
-    rx.recv_timeout(DEADLINE).expect("the voxmap line on stderr");
+    rx.recv_timeout(DEADLINE)
+        .expect("the voxmap line on stderr");
     std::thread::sleep(Duration::from_millis(500));
     bench.signal(signal);
     let status = bench.wait_exit();

@@ -5,16 +5,16 @@
 //! (JSON). SIGINT, SIGTERM or SIGHUP stop the running session (the simulated device is written
 //! zero first); nothing is printed and the status is 128 + N, as for every benchmark.
 
+use super::exit::require_complete;
 use super::output::print_json;
 use super::view::attach;
-use super::exit::require_complete;
 use crate::demo::run_session_until;
 use anyhow::{Context, Result};
 use serde::Serialize;
 use std::time::Duration;
 use vps_haptic::HapticParams;
-use vps_runtime::{Percentiles, StatsSummary};
 use vps_runtime::SignalStop;
+use vps_runtime::{Percentiles, StatsSummary};
 use vps_session::{stop_on_signals, BuildOptions, Session};
 use vps_view::client::WsClient;
 
