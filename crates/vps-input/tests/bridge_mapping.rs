@@ -144,6 +144,7 @@ fn clutch_holds_the_target_and_release_does_not_jump() {
 
     let c = dev.counters();
     assert_eq!((c.clutch_presses, c.zeroed_frames, c.timeouts), (1, 1, 0));
+    assert_eq!((c.zeroed_by_clutch, c.zeroed_by_timeout), (1, 0));
     assert_eq!(dev.monitor().counters(), c);
     let log = dev.monitor().sent_wrenches();
     assert_eq!(log.len(), 5);
@@ -151,6 +152,22 @@ fn clutch_holds_the_target_and_release_does_not_jump() {
     assert_eq!(
         log.iter().map(|s| s.frame).collect::<Vec<_>>(),
         [1, 2, 3, 4, 5]
+    );
+}
+
+/// A session whose client has not come yet: every frame is counted as one before the first
+/// pose (the report then shows a session that never had a device), nothing is sent.
+#[test]
+fn frames_before_the_first_pose_are_counted() {
+    let (mut dev, _client) = device();
+    for i in 0..3 {
+        dev.read(f64::from(i) * 1e-3).unwrap();
+        dev.write(&PUSH).unwrap();
+    }
+    let c = dev.counters();
+    assert_eq!(
+        (c.frames_before_first_pose, c.sent, c.zeroed_frames),
+        (3, 0, 0)
     );
 }
 
@@ -184,6 +201,13 @@ fn silent_device_is_zeroed_held_and_reanchored_on_resume() {
     }
     assert_eq!(dev.counters().timeouts, 1);
     assert_eq!(dev.counters().zeroed_frames, 3);
+    assert_eq!(
+        (
+            dev.counters().zeroed_by_timeout,
+            dev.counters().zeroed_by_clutch
+        ),
+        (3, 0)
+    );
 
     // The user moved the handle meanwhile; poses resume: no jump, then normal following.
     let p1 = p0 + DVec3::new(0.05, 0.0, -0.02);

@@ -51,7 +51,8 @@ pub struct BridgeDevice {
     output: HandleSample,
     /// True while the clutch is held or the pose has timed out (after at least one pose).
     holding: bool,
-    /// True from a timeout until the next fresh pose (so a silence counts once).
+    /// True from a timeout until the next fresh pose (so a silence counts once); while
+    /// `holding`, a timed-out pose is the reason (else the clutch is).
     timed_out: bool,
     recv_buf: [u8; MAX_DATAGRAM + 1],
     send_buf: [u8; MAX_DATAGRAM],
@@ -260,6 +261,11 @@ impl HapticDevice for BridgeDevice {
         }
         self.last_wrench = if self.holding {
             self.counters.zeroed_frames += 1;
+            if self.timed_out {
+                self.counters.zeroed_by_timeout += 1;
+            } else {
+                self.counters.zeroed_by_clutch += 1;
+            }
             Wrench::ZERO
         } else if *wrench == Wrench::ZERO {
             // The loop's safety zero stays an exact +0.0 through the mapping.
@@ -269,6 +275,7 @@ impl HapticDevice for BridgeDevice {
         };
         self.frame += 1;
         let Some(peer) = self.latest.map(|l| l.peer) else {
+            self.counters.frames_before_first_pose += 1;
             self.monitor.publish(&mut self.counters, None);
             return Ok(());
         };

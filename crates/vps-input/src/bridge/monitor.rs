@@ -33,8 +33,15 @@ pub struct BridgeCounters {
     /// Clutch presses (a pose with the clutch flag after one without, or as the first pose).
     pub clutch_presses: u64,
     /// Frames whose wrench was replaced by zero because the device was holding (clutch held or
-    /// pose timed out).
+    /// pose timed out): `zeroed_by_timeout + zeroed_by_clutch`.
     pub zeroed_frames: u64,
+    /// Of `zeroed_frames`, those while the newest pose was older than the pose timeout.
+    pub zeroed_by_timeout: u64,
+    /// Of `zeroed_frames`, those while the clutch was held (and the pose fresh).
+    pub zeroed_by_clutch: u64,
+    /// Frames written before any pose arrived: no peer to send to, the handle held at the
+    /// start (a session whose client never came shows all its frames here).
+    pub frames_before_first_pose: u64,
     /// Wrenches sent but not logged because the wrench log was full.
     pub unlogged: u64,
 }
