@@ -39,8 +39,9 @@ pub struct BridgeCounters {
     pub zeroed_by_timeout: u64,
     /// Of `zeroed_frames`, those while the clutch was held (and the pose fresh).
     pub zeroed_by_clutch: u64,
-    /// Frames written before any pose arrived: no peer to send to, the handle held at the
-    /// start (a session whose client never came shows all its frames here).
+    /// Writes before any pose arrived (one per frame, plus the session's closing zero): no peer
+    /// to send to, the handle held at the start. A session whose client never came shows all its
+    /// frames here.
     pub frames_before_first_pose: u64,
     /// Wrenches sent but not logged because the wrench log was full.
     pub unlogged: u64,
