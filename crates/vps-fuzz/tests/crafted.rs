@@ -1,4 +1,4 @@
-//! Crafted files from issue 15: a valid 16 KiB map of 2^39 voxels loads in bounded memory, and a
+//! Crafted files from the robustness audit (docs/robustness.md): a valid 16 KiB map of 2^39 voxels loads in bounded memory, and a
 //! header lying about an arena's length is refused before its array is allocated.
 
 use vps_fuzz::seeds::uniform_vmap;
