@@ -1,5 +1,6 @@
-//! Crafted files from the robustness audit (docs/robustness.md): a valid 16 KiB map of 2^39 voxels loads in bounded memory, and a
-//! header lying about an arena's length is refused before its array is allocated.
+//! Crafted files from the robustness audit (docs/robustness.md): a valid 16 KiB map of 2^39
+//! voxels loads in bounded memory, and a header lying about an arena's length is refused before
+//! its array is allocated.
 
 use vps_fuzz::seeds::uniform_vmap;
 use vps_fuzz::CountingAlloc;
