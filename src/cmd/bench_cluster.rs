@@ -7,10 +7,10 @@
 //! runs with its defaults: 1 ms period, 800 µs watchdog, replies awaited until 400 µs into the
 //! frame, real-time scheduling when granted.
 
-use super::cluster::run_local_cluster_prepared;
-use super::output::print_json;
-use super::run::PreparedSession;
 use crate::cli::{GatherArgs, RunArgs, SceneArgs};
+use crate::cluster_session::run_local_cluster_prepared;
+use crate::output::print_json;
+use crate::session_io::PreparedSession;
 use anyhow::Result;
 use serde::Serialize;
 use vps_cluster::ClusterReport;
@@ -49,7 +49,7 @@ struct ClusterBenchReport {
     local_threads: usize,
     frames_requested: u64,
     realtime_granted: bool,
-    host_idle: super::host_idle::HostIdle,
+    host_idle: crate::host::HostIdle,
     stats: StatsSummary,
     cluster: ClusterReport,
 }
@@ -81,7 +81,7 @@ pub fn run(bench: ClusterBench) -> Result<()> {
         bench.worker_threads,
         bench.gather,
     )?;
-    super::exit::require_complete(&run.report.end, Some(&run.signals))?;
+    crate::exit::require_complete(&run.report.end, Some(&run.signals))?;
     print_json(&ClusterBenchReport {
         command: format!(
             "vps bench cluster --scene {} --points {} --frames {} --workers {} --worker-threads {} --threads {} \
@@ -107,7 +107,7 @@ pub fn run(bench: ClusterBench) -> Result<()> {
         local_threads: bench.local_threads,
         frames_requested: bench.frames,
         realtime_granted: run.report.rt.fifo,
-        host_idle: super::host_idle::HostIdle::read(),
+        host_idle: crate::host::HostIdle::read(),
         stats: run.report.stats,
         cluster: run.cluster,
     })

@@ -6,8 +6,8 @@
 //! be finer than the voxmap; the kernel does not care, and this is how a user buys point count
 //! independently of scene memory). Motion: the scene's script, its laps repeated to cover the run.
 
-use super::output::print_json;
 use crate::cli::SceneArgs;
+use crate::output::print_json;
 use anyhow::Result;
 use serde::Serialize;
 use vps_runtime::{run_loop, LoopConfig, RtGrant, StatsSummary};
@@ -24,7 +24,7 @@ struct LoopBench {
     threads: usize,
     frames_requested: u64,
     rt: RtGrant,
-    host_idle: super::host_idle::HostIdle,
+    host_idle: crate::host::HostIdle,
     stats: StatsSummary,
 }
 
@@ -48,7 +48,7 @@ pub fn run(
     let plan = session.plan(&DeviceChoice::Simulated, script, config)?;
     let (setup, signals) = plan.into_live_setup(None)?;
     let report = run_loop(session.tree.clone(), session.classed_shell(), setup)?;
-    super::exit::require_complete(&report.end, Some(&signals))?;
+    crate::exit::require_complete(&report.end, Some(&signals))?;
     print_json(&LoopBench {
         scene: session.label.clone(),
         scene_triangles: session.scene_triangles,
@@ -58,7 +58,7 @@ pub fn run(
         threads,
         frames_requested: frames,
         rt: report.rt,
-        host_idle: super::host_idle::HostIdle::read(),
+        host_idle: crate::host::HostIdle::read(),
         stats: report.stats,
     })
 }

@@ -4,9 +4,8 @@
 //! figures and the with/without ratios of the compute percentiles, per round and their medians
 //! (JSON).
 
-use super::output::print_json;
-use super::view::attach;
-use crate::demo::run_session;
+use crate::output::print_json;
+use crate::session_io::{attach_viewer, run_session};
 use anyhow::{Context, Result};
 use serde::Serialize;
 use std::time::Duration;
@@ -108,7 +107,7 @@ fn round_with_viewer(
     seconds: f64,
     without_viewer: StatsSummary,
 ) -> Result<Round> {
-    let viewer = attach(Some("127.0.0.1:0".parse()?), scene)?.context("the viewer")?;
+    let viewer = attach_viewer(Some("127.0.0.1:0".parse()?), scene)?.context("the viewer")?;
     let mut client = WsClient::connect(viewer.local_addr(), "/ws", Duration::from_secs(5))
         .context("connecting to the viewer's WebSocket")?;
     let reader = std::thread::spawn(move || {

@@ -1,7 +1,7 @@
 //! `vps bench voxelize` and `vps bench tree-memory`: voxelization time, peak memory, voxmap memory,
 //! tree lookup cost against the dense grid, and the paper's Figure 6 (memory against N).
 
-use super::output::print_json;
+use crate::output::print_json;
 use crate::scene;
 use anyhow::{Context, Result};
 use glam::IVec3;

@@ -1,45 +1,11 @@
 //! `vps inspect`: statistics of a `.vmap` or `.vshell` file (chosen by the file's magic bytes).
 
-use super::output::{hex, mib, outln, print_json};
 use crate::cli::InspectArgs;
+use crate::output::{hex, mib, outln, print_json, KindCounts};
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use std::io::Read;
-use vps_voxmap::{Voxel, VoxelTree};
-
-/// Voxel counts by kind.
-#[derive(Serialize, Clone, Copy)]
-pub struct KindCounts {
-    /// Free voxels.
-    pub free: u64,
-    /// Interior voxels.
-    pub interior: u64,
-    /// Surface (force layer) voxels.
-    pub surface: u64,
-    /// Proximity voxels.
-    pub proximity: u64,
-}
-
-impl From<[u64; 4]> for KindCounts {
-    fn from(c: [u64; 4]) -> Self {
-        Self {
-            free: c[Voxel::Free as usize],
-            interior: c[Voxel::Interior as usize],
-            surface: c[Voxel::Surface as usize],
-            proximity: c[Voxel::Proximity as usize],
-        }
-    }
-}
-
-impl std::fmt::Display for KindCounts {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "voxels: free {}, interior {}, surface {}, proximity {}",
-            self.free, self.interior, self.surface, self.proximity
-        )
-    }
-}
+use vps_voxmap::VoxelTree;
 
 #[derive(Serialize)]
 struct VoxmapInfo {

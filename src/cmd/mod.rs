@@ -4,18 +4,16 @@ mod bench_bridge;
 mod bench_cluster;
 mod bench_fidelity;
 mod bench_host;
-pub mod bench_kernel;
+mod bench_kernel;
 mod bench_loop;
 mod bench_scaling;
 mod bench_transport;
 mod bench_viewer;
 mod bench_voxelize;
 mod cluster;
-pub mod exit;
-mod host_idle;
+mod demo;
 mod inspect;
 mod netem_relay;
-pub mod output;
 mod probe;
 mod run;
 mod scene_check;
@@ -23,7 +21,7 @@ mod shell;
 mod sweep;
 mod sweep_plots;
 mod tune;
-pub(crate) mod view;
+mod view;
 mod voxelize;
 
 use crate::cli::{BenchKind, Cli, Command, RunArgs, SceneCommand};
@@ -36,7 +34,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Shell(args) => shell::run(&args),
         Command::Inspect(args) => inspect::run(&args),
         Command::Probe(args) => probe::run(&args),
-        Command::Demo(args) => crate::demo::run(&args),
+        Command::Demo(args) => demo::run(&args),
         Command::Run(args) => run::run(&args),
         Command::Record {
             output,
@@ -127,7 +125,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
             }),
             BenchKind::Kernel {
                 points, seconds, ..
-            } => output::print_json(&bench_kernel::run(&points, seconds)?),
+            } => crate::output::print_json(&bench_kernel::run(&points, seconds)?),
             BenchKind::Fidelity {
                 voxel_sizes, poses, ..
             } => bench_fidelity::run(voxel_sizes, poses),

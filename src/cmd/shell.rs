@@ -1,7 +1,7 @@
 //! `vps shell`: mesh → `.vshell` point shell.
 
-use super::output::{check_output_path, outln, print_json};
 use crate::cli::{ShellArgs, ShellMethodArg};
+use crate::output::{check_output_path, outln, print_json};
 use crate::scene;
 use anyhow::{Context, Result};
 use serde::Serialize;
@@ -29,7 +29,7 @@ pub fn method_of(arg: ShellMethodArg) -> ShellMethod {
 
 /// Runs the command.
 pub fn run(args: &ShellArgs) -> Result<()> {
-    check_output_path(&args.output, &super::voxelize::mesh_inputs(&args.mesh))?;
+    check_output_path(&args.output, &crate::output::mesh_inputs(&args.mesh))?;
     let scene = scene::load(&args.mesh)?;
     let budget = args
         .max_memory
