@@ -24,7 +24,7 @@ mod tune;
 mod view;
 mod voxelize;
 
-use crate::cli::{BenchKind, Cli, Command, RunArgs, SceneCommand};
+use crate::cli::{BenchKind, Cli, Command, SceneCommand};
 use anyhow::Result;
 
 /// Runs the parsed command.
@@ -36,30 +36,8 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Probe(args) => probe::run(&args),
         Command::Demo(args) => demo::run(&args),
         Command::Run(args) => run::run(&args),
-        Command::Record {
-            output,
-            device,
-            seconds,
-            scene,
-        } => run::run(&RunArgs {
-            scene,
-            device,
-            seconds,
-            record: Some(output),
-            ..RunArgs::default()
-        }),
-        Command::Replay {
-            trace,
-            config,
-            json,
-            scene,
-        } => run::run(&RunArgs {
-            scene,
-            device: Some(format!("replay:{}", trace.display())),
-            config,
-            json,
-            ..RunArgs::default()
-        }),
+        Command::Record(args) => run::record(&args),
+        Command::Replay(args) => run::replay(&args),
         Command::Scene(args) => match args.which {
             SceneCommand::Check { scene, json } => scene_check::run(&scene, json),
         },
