@@ -230,17 +230,22 @@ pub struct NetemRelayArgs {
 /// Arguments of `vps worker`.
 #[derive(Args, Debug)]
 pub struct WorkerArgs {
-    /// The coordinator's address (host:port).
+    /// Read these settings from a TOML file (keys as the flags: configs/worker.toml); a flag
+    /// given here overrides the file.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// The coordinator's address (IP:port). Required, here or in the config file.
     #[arg(long)]
-    pub coordinator: std::net::SocketAddr,
-    /// This worker's certificate (PEM).
+    pub coordinator: Option<std::net::SocketAddr>,
+    /// This worker's certificate (PEM). Required, here or in the config file.
     #[arg(long)]
-    pub cert: PathBuf,
-    /// This worker's private key (PEM).
+    pub cert: Option<PathBuf>,
+    /// This worker's private key (PEM). Required, here or in the config file.
     #[arg(long)]
-    pub key: PathBuf,
-    /// A coordinator certificate to accept (repeatable); any other is refused.
-    #[arg(long, required = true)]
+    pub key: Option<PathBuf>,
+    /// A coordinator certificate to accept, or a directory of them (*.crt); repeatable; any
+    /// other is refused. At least one, here or in the config file (`pins`).
+    #[arg(long)]
     pub pin: Vec<PathBuf>,
     /// Directory to cache scenes in, by content hash.
     #[arg(long)]
@@ -259,17 +264,22 @@ pub struct WorkerArgs {
 /// Arguments of `vps coordinator`.
 #[derive(Args, Debug)]
 pub struct CoordinatorArgs {
+    /// Read these settings from a TOML file (keys as the flags: configs/coordinator.toml); a
+    /// flag given here overrides the file.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
     /// Address to listen on (UDP, QUIC).
     #[arg(long, default_value = "0.0.0.0:7800")]
     pub listen: std::net::SocketAddr,
-    /// The coordinator's certificate (PEM).
+    /// The coordinator's certificate (PEM). Required, here or in the config file.
     #[arg(long)]
-    pub cert: PathBuf,
-    /// The coordinator's private key (PEM).
+    pub cert: Option<PathBuf>,
+    /// The coordinator's private key (PEM). Required, here or in the config file.
     #[arg(long)]
-    pub key: PathBuf,
-    /// A worker certificate to admit (repeatable); any other is refused and logged.
-    #[arg(long, required = true)]
+    pub key: Option<PathBuf>,
+    /// A worker certificate to admit, or a directory of them (*.crt); repeatable; any other is
+    /// refused and logged. At least one, here or in the config file (`pins`).
+    #[arg(long)]
     pub pin: Vec<PathBuf>,
     /// Workers to wait for before the session starts.
     #[arg(long, default_value_t = 1)]
@@ -377,8 +387,8 @@ pub struct RunArgs {
     pub device: Option<String>,
     /// Haptic parameters (TOML; see configs/haptic.toml), instead of the scene's `[haptic]`.
     /// Defaults are derived when absent.
-    #[arg(long)]
-    pub config: Option<PathBuf>,
+    #[arg(long, value_name = "FILE")]
+    pub haptic: Option<PathBuf>,
     /// Voxel size, instead of the scene's `voxels.voxel_size`.
     #[arg(long, value_parser = parse_length)]
     pub voxel_size: Option<f64>,
@@ -731,7 +741,7 @@ impl Default for RunArgs {
         Self {
             scene: SceneArgs::default(),
             device: None,
-            config: None,
+            haptic: None,
             voxel_size: None,
             seconds: 30.0,
             threads: 1,

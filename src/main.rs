@@ -7,7 +7,8 @@
 //! Layout: [`cli`] (the command line), `cmd/` (one module per subcommand; none imports another),
 //! and the support modules they share, which import no subcommand: [`session_io`] (sessions
 //! opened from the command line, their viewer, files and figures), [`cluster_session`]
-//! (coordinated sessions), [`output`] (stdout, JSON, output files), [`exit`] (exit statuses),
+//! (coordinated sessions), [`service_config`] (`--config` files of the cluster services),
+//! [`output`] (stdout, JSON, output files), [`exit`] (exit statuses),
 //! [`host`] (the machine's state beside benchmark figures), [`limits`] and [`memory_size`]
 //! (value parsers).
 
@@ -20,9 +21,10 @@ mod limits;
 mod memory_size;
 mod output;
 mod scene;
+mod service_config;
 mod session_io;
 
-use clap::Parser;
+use clap::{CommandFactory, FromArgMatches};
 
 fn main() {
     tracing_subscriber::fmt()
@@ -32,8 +34,9 @@ fn main() {
         )
         .with_writer(std::io::stderr)
         .init();
-    let cli = cli::Cli::parse();
-    if let Err(err) = cmd::dispatch(cli) {
+    let matches = cli::Cli::command().get_matches();
+    let cli = cli::Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    if let Err(err) = cmd::dispatch(cli, &matches) {
         // stdout's reader went away (`vps inspect x | head -1`): end quietly, as SIGPIPE would.
         if err.is::<output::BrokenStdout>() {
             std::process::exit(output::BROKEN_PIPE_STATUS);

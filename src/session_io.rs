@@ -164,11 +164,11 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
         &args.scene.build_options(args.voxel_size),
     )?;
     let choice = device_choice(args.device.as_deref(), &session)?;
-    if let Some(path) = &args.config {
+    if let Some(path) = &args.haptic {
         session.params = HapticParams::from_file(path)?
             .with_scene(session.voxel_size, session.shell.max_radius())?;
     }
-    let source = match &args.config {
+    let source = match &args.haptic {
         Some(path) => path.display().to_string(),
         None => session.label.clone(),
     };

@@ -4,8 +4,10 @@
 use crate::cli::{ClusterArgs, CoordinatorArgs, WorkerArgs};
 use crate::cluster_session::{coordinate, run_local_cluster};
 use crate::exit::SessionExit;
+use crate::service_config::{expand_pins, resolve_coordinator, resolve_worker};
 use crate::session_io::{finish, SessionOutputs};
-use anyhow::Result;
+use anyhow::{bail, Result};
+use clap::ArgMatches;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use vps_cluster::{make_cert, run_worker_service, ClusterError, Rejoin, WorkerConfig};
@@ -28,9 +30,16 @@ const EXIT_REFUSED: i32 = 2;
 
 /// `vps worker`: joins a coordinator and answers frame requests; when the coordinator goes away,
 /// waits for the next one (unless `--exit-with-coordinator`), until SIGINT or SIGTERM (exit 0).
-/// A refusal for good exits with status 2 and says why.
-pub fn worker(args: &WorkerArgs) -> Result<()> {
-    let mut config = WorkerConfig::from_files(args.coordinator, &args.cert, &args.key, &args.pin)?;
+/// A refusal for good exits with status 2 and says why. `matches` (the subcommand's) tell which
+/// flags override the `--config` file's settings.
+pub fn worker(mut args: WorkerArgs, matches: &ArgMatches) -> Result<()> {
+    resolve_worker(&mut args, matches)?;
+    let (Some(coordinator), Some(cert), Some(key)) = (args.coordinator, &args.cert, &args.key)
+    else {
+        bail!("vps worker: --coordinator, --cert and --key are required");
+    };
+    let pins = expand_pins(&args.pin)?;
+    let mut config = WorkerConfig::from_files(coordinator, cert, key, &pins)?;
     config.cache_dir = args.cache.clone();
     if let Some(threads) = args.threads {
         config.threads = threads.max(1);
@@ -62,14 +71,20 @@ pub fn worker(args: &WorkerArgs) -> Result<()> {
 }
 
 /// `vps coordinator`: owns the device loop; workers from the LAN join with pinned certificates.
-pub fn coordinator(args: &CoordinatorArgs) -> Result<()> {
+/// `matches` (the subcommand's) tell which flags override the `--config` file's settings.
+pub fn coordinator(mut args: CoordinatorArgs, matches: &ArgMatches) -> Result<()> {
+    resolve_coordinator(&mut args, matches)?;
+    let (Some(cert), Some(key)) = (&args.cert, &args.key) else {
+        bail!("vps coordinator: --cert and --key are required");
+    };
+    let pins = expand_pins(&args.pin)?;
     let outputs = SessionOutputs::reserve(&args.session)?;
     let run = coordinate(
         &args.session,
         args.listen,
-        &args.cert,
-        &args.key,
-        &args.pin,
+        cert,
+        key,
+        &pins,
         args.workers,
         args.gather,
         |_| Ok(None),

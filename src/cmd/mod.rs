@@ -26,9 +26,17 @@ mod voxelize;
 
 use crate::cli::{BenchKind, Cli, Command, SceneCommand};
 use anyhow::Result;
+use clap::ArgMatches;
 
-/// Runs the parsed command.
-pub fn dispatch(cli: Cli) -> Result<()> {
+/// Runs the parsed command; `matches` are what it was parsed from (the service commands merge
+/// their `--config` file under the flags given on the command line).
+pub fn dispatch(cli: Cli, matches: &ArgMatches) -> Result<()> {
+    let sub = |name: &str| {
+        matches
+            .subcommand_matches(name)
+            .cloned()
+            .unwrap_or_default()
+    };
     match cli.command {
         Command::Voxelize(args) => voxelize::run(&args),
         Command::Shell(args) => shell::run(&args),
@@ -43,8 +51,8 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         },
         Command::Devices { json } => run::devices(json),
         Command::Cert { out, name } => cluster::cert(&out, &name),
-        Command::Worker(args) => cluster::worker(&args),
-        Command::Coordinator(args) => cluster::coordinator(&args),
+        Command::Worker(args) => cluster::worker(args, &sub("worker")),
+        Command::Coordinator(args) => cluster::coordinator(args, &sub("coordinator")),
         Command::Cluster(args) => cluster::local_cluster(&args),
         Command::NetemRelay(args) => netem_relay::run(&args),
         Command::View(args) => view::run(&args),
