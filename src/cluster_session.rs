@@ -4,7 +4,7 @@
 //! workers on the LAN ([`coordinate`]) or spawned on this host ([`run_local_cluster`]).
 
 use crate::cli::{GatherArgs, RunArgs};
-use crate::session_io::{prepare, LiveSession, PreparedSession};
+use crate::session_io::{finish, LiveSession, PreparedSession, SessionOutputs};
 use anyhow::{Context, Result};
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -14,7 +14,7 @@ use vps_cluster::{
     local_cluster_certs, run_coordinator_session, spawn_local_workers, ClusterReport, ClusterScene,
     Coordinator, CoordinatorConfig, GatherConfig, LocalWorkerArgs,
 };
-use vps_runtime::{LoopConfig, LoopReport, SignalStop};
+use vps_runtime::{LoopReport, SignalStop};
 use vps_session::CLASS_COUNT;
 
 /// How long the coordinator waits for its workers to join before it starts.
@@ -34,32 +34,28 @@ pub struct CoordinatedRun {
     pub signals: SignalStop,
 }
 
-/// Runs one session on a started coordinator once `workers` have joined; `tune` may adjust the
-/// loop settings (benchmarks run frames back to back with a longer reply deadline).
-#[allow(clippy::too_many_arguments)]
-pub fn coordinate(
-    session: &RunArgs,
-    listen: SocketAddr,
-    cert: &std::path::Path,
-    key: &std::path::Path,
-    pins: &[PathBuf],
-    workers: usize,
-    gather: GatherArgs,
-    spawn: impl FnOnce(SocketAddr) -> Result<Option<vps_cluster::LocalWorkers>>,
-    tune: impl FnOnce(&mut LoopConfig),
-) -> Result<CoordinatedRun> {
-    let mut prepared = prepare(session)?;
-    tune(&mut prepared.plan.config);
-    coordinate_prepared(
-        session, prepared, listen, cert, key, pins, workers, gather, spawn,
-    )
+impl CoordinatedRun {
+    /// [`finish`] for a coordinated session: its report carries the per-worker figures.
+    pub fn finish(self, args: &RunArgs, outputs: SessionOutputs) -> Result<()> {
+        finish(
+            args,
+            outputs,
+            &self.signals,
+            self.shell_points,
+            &self.report,
+            self.bridge.as_ref(),
+            Some(&self.cluster),
+        )
+    }
 }
 
-/// [`coordinate`] for a session already prepared (benchmarks bring their own scene and device);
-/// `session` gives the local threads and the viewer address; `gather` the share adaptation
-/// ([`GatherConfig::adaptive_shares`]) and the spin margin ([`GatherConfig::spin_margin`]).
+/// Runs `prepared` on a coordinator started on `listen` (identity `cert`, `key`; admitting the
+/// workers whose certificates are `pins`) once `workers` have joined; `spawn` starts local workers
+/// when asked, given the coordinator's address. `session` gives the local threads and the viewer
+/// address; `gather` the share adaptation ([`GatherConfig::adaptive_shares`]) and the spin margin
+/// ([`GatherConfig::spin_margin`]).
 #[allow(clippy::too_many_arguments)]
-fn coordinate_prepared(
+pub fn coordinate(
     session: &RunArgs,
     prepared: PreparedSession,
     listen: SocketAddr,
@@ -71,15 +67,15 @@ fn coordinate_prepared(
     spawn: impl FnOnce(SocketAddr) -> Result<Option<vps_cluster::LocalWorkers>>,
 ) -> Result<CoordinatedRun> {
     let LiveSession {
-        session: scene,
+        assets,
         viewer: _viewer,
         setup,
         bridge,
         signals,
     } = prepared.go_live(session.view)?;
     let cluster_scene = Arc::new(ClusterScene::new(
-        scene.tree.clone(),
-        &scene.shell,
+        assets.tree.clone(),
+        &assets.shell,
         CLASS_COUNT,
     )?);
     let coordinator = Coordinator::start(
@@ -113,27 +109,15 @@ fn coordinate_prepared(
     Ok(CoordinatedRun {
         report,
         cluster,
-        shell_points: scene.shell.len(),
+        shell_points: assets.shell.len(),
         bridge,
         signals,
     })
 }
 
-/// A session with `workers` local worker processes of `worker_threads` threads each.
+/// Runs `prepared` with `workers` local worker processes of `worker_threads` threads each, on
+/// loopback with fresh certificates pinned both ways (`session`: local threads, viewer).
 pub fn run_local_cluster(
-    session: &RunArgs,
-    workers: usize,
-    worker_threads: usize,
-    gather: GatherArgs,
-    tune: impl FnOnce(&mut LoopConfig),
-) -> Result<CoordinatedRun> {
-    let mut prepared = prepare(session)?;
-    tune(&mut prepared.plan.config);
-    run_local_cluster_prepared(session, prepared, workers, worker_threads, gather)
-}
-
-/// [`run_local_cluster`] for a session already prepared (`session`: local threads, viewer).
-pub fn run_local_cluster_prepared(
     session: &RunArgs,
     prepared: PreparedSession,
     workers: usize,
@@ -144,7 +128,7 @@ pub fn run_local_cluster_prepared(
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let certs = local_cluster_certs(&dir)?;
     let exe = std::env::current_exe().context("locating the vps executable")?;
-    let result = coordinate_prepared(
+    let result = coordinate(
         session,
         prepared,
         "127.0.0.1:0".parse()?,

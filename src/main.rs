@@ -20,7 +20,6 @@ mod host;
 mod limits;
 mod memory_size;
 mod output;
-mod scene;
 mod service_config;
 mod session_io;
 

@@ -184,6 +184,45 @@ pub fn mesh_inputs(source: &str) -> Vec<&std::path::Path> {
     }
 }
 
+/// A point shell's figures, as `vps shell` and `vps inspect` print them.
+#[derive(Serialize, Clone, Copy)]
+pub struct ShellFigures {
+    /// Points in the shell.
+    pub points: usize,
+    /// Voxel size it was built at (m).
+    pub voxel_size_m: f64,
+    /// The part's volume (m³).
+    pub volume_m3: f64,
+    /// The part's centre of mass (m, shell frame).
+    pub center_of_mass_m: [f64; 3],
+    /// The largest point distance from the origin (m).
+    pub max_radius_m: f64,
+}
+
+impl ShellFigures {
+    /// The figures of `shell`.
+    pub fn of(shell: &vps_voxmap::PointShell) -> ShellFigures {
+        ShellFigures {
+            points: shell.len(),
+            voxel_size_m: shell.voxel_size,
+            volume_m3: shell.mass.volume,
+            center_of_mass_m: shell.mass.center_of_mass.to_array(),
+            max_radius_m: shell.max_radius(),
+        }
+    }
+}
+
+impl std::fmt::Display for ShellFigures {
+    /// "N points at S m, volume V m³, max radius R m".
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} points at {} m, volume {:.3e} m³, max radius {:.4} m",
+            self.points, self.voxel_size_m, self.volume_m3, self.max_radius_m
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

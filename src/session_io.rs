@@ -1,8 +1,16 @@
 //! Sessions on the command line, shared by `vps run`, `record`, `replay`, `demo`, `coordinator`,
 //! `cluster` and the benchmarks that run sessions: opening one from the command line
 //! ([`prepare`]), attaching the viewer and the signal handlers ([`PreparedSession::go_live`]),
-//! writing its files and figures at its end ([`finish`]), and the demo's scripted simulated session
-//! ([`run_session`]).
+//! writing its files and figures at its end ([`finish`]), and the scripted simulated session of
+//! `vps demo` and `vps bench viewer` ([`run_scripted`]).
+//!
+//! Words (one meaning each): a *session* is one run of the 1 kHz loop, start to stop.
+//! [`SessionAssets`] (vps-session) is what is built once from a scene file and sessions run with.
+//! A [`PreparedSession`] is those assets plus the session's plan (parameters, the opened device,
+//! loop settings), made by [`prepare`] from the command line. A [`LiveSession`] is a prepared
+//! session with its viewer, loop setup and signal handlers, ready for `run_loop` (made by
+//! [`PreparedSession::go_live`]). [`finish`] reports a session that has run. A *coordinated*
+//! session runs with workers (`crate::cluster_session`).
 
 use crate::cli::{BridgeArgs, RunArgs};
 use crate::exit::{outcome, SessionExit};
@@ -18,7 +26,7 @@ use vps_input::{BridgeCounters, BridgeMonitor};
 use vps_runtime::{
     run_loop, LoopConfig, LoopReport, SessionSetup, SignalStop, StateFeedSender, StatsSummary,
 };
-use vps_session::{BridgeSettings, DeviceChoice, Session, SessionPlan};
+use vps_session::{BridgeSettings, DeviceChoice, SessionAssets, SessionPlan};
 use vps_view::{LiveViewer, SceneLimits, ViewerScene};
 
 /// The session report (`--json`, `--report FILE`).
@@ -75,8 +83,8 @@ impl SessionOutputs {
 
 /// Everything a session needs, opened from the command line.
 pub struct PreparedSession {
-    /// Scene, voxmap, shell and meshes.
-    pub session: Session,
+    /// What was built once from the scene file: voxmap, shell, parameters, meshes.
+    pub assets: SessionAssets,
     /// Parameters, opened device, initial state and loop settings.
     pub plan: SessionPlan,
 }
@@ -85,8 +93,8 @@ pub struct PreparedSession {
 /// it alive for the session), the loop's setup, publishing to that viewer, and the signal
 /// handlers that stop it.
 pub struct LiveSession {
-    /// Scene, voxmap, shell and meshes.
-    pub session: Session,
+    /// What was built once from the scene file: voxmap, shell, parameters, meshes.
+    pub assets: SessionAssets,
     /// The viewer serving this session, if any.
     pub viewer: Option<LiveViewer>,
     /// What the frame loop runs.
@@ -102,12 +110,12 @@ impl PreparedSession {
     /// Attaches the viewer at `view` (when given) and builds the loop's setup, with a stop flag
     /// set by SIGINT, SIGTERM and SIGHUP (installed here: the device is open from now on).
     pub fn go_live(self, view: Option<std::net::SocketAddr>) -> Result<LiveSession> {
-        let PreparedSession { session, plan } = self;
-        let viewer = attach_viewer(view, &session)?;
+        let PreparedSession { assets, plan } = self;
+        let viewer = attach_viewer(view, &assets)?;
         let bridge = plan.bridge.clone();
         let (setup, signals) = plan.into_live_setup(viewer.as_ref().map(|v| v.feed()))?;
         Ok(LiveSession {
-            session,
+            assets,
             viewer,
             setup,
             bridge,
@@ -116,11 +124,11 @@ impl PreparedSession {
     }
 }
 
-/// The device of `--device`, else the scene's.
-pub fn device_choice(text: Option<&str>, session: &Session) -> Result<DeviceChoice> {
+/// The device of `--device`, else the scene file's.
+pub fn device_choice(text: Option<&str>, assets: &SessionAssets) -> Result<DeviceChoice> {
     match text {
         Some(t) => DeviceChoice::parse(t).map_err(|m| anyhow!("--device {m}")),
-        None => Ok(session.device.clone()),
+        None => Ok(assets.device.clone()),
     }
 }
 
@@ -159,22 +167,22 @@ fn bridge_settings(
 
 /// Builds the scene, loads parameters and opens the device of `args`.
 pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
-    let mut session = Session::open(
+    let mut assets = SessionAssets::open(
         &args.scene.scene,
         &args.scene.build_options(args.voxel_size),
     )?;
-    let choice = device_choice(args.device.as_deref(), &session)?;
+    let choice = device_choice(args.device.as_deref(), &assets)?;
     if let Some(path) = &args.haptic {
-        session.params = HapticParams::from_file(path)?
-            .with_scene(session.voxel_size, session.shell.max_radius())?;
+        assets.params = HapticParams::from_file(path)?
+            .with_scene(assets.voxel_size, assets.shell.max_radius())?;
     }
     let source = match &args.haptic {
         Some(path) => path.display().to_string(),
-        None => session.label.clone(),
+        None => assets.label.clone(),
     };
-    check_loop_period(&session.params, &source)?;
-    let frames = choice.frames(args.seconds, session.params.dt)?;
-    session.bridge = bridge_settings(&args.bridge, &choice, session.bridge, frames)?;
+    check_loop_period(&assets.params, &source)?;
+    let frames = choice.frames(args.seconds, assets.params.dt)?;
+    assets.bridge = bridge_settings(&args.bridge, &choice, assets.bridge, frames)?;
     let config = LoopConfig {
         frames: Some(frames),
         threads: args.threads.max(1),
@@ -182,8 +190,8 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
         record_trace: args.record.is_some(),
         ..LoopConfig::default()
     };
-    let plan = session.plan(&choice, session.script()?, config)?;
-    Ok(PreparedSession { session, plan })
+    let plan = assets.plan(&choice, assets.script()?, config)?;
+    Ok(PreparedSession { assets, plan })
 }
 
 /// Fails unless the haptic time step `dt` (s) of `params`, read from `source`, is the session
@@ -192,7 +200,7 @@ fn check_loop_period(params: &HapticParams, source: &str) -> Result<()> {
     let period = LoopConfig::default().period.as_secs_f64();
     if (params.dt - period).abs() > 1e-12 {
         bail!(
-            "{source}: haptic parameter `dt` = {} s: the session loop runs at {} Hz, so `dt` \
+            "{source}: haptic parameter `dt` = {} s: the assets loop runs at {} Hz, so `dt` \
              must be {period} s (or left out)",
             params.dt,
             1.0 / period
@@ -245,13 +253,13 @@ pub fn finish<C: Serialize>(
         print_json(&out)?;
     } else {
         println!(
-            "device: {}, {} shell points, session end: {}{}",
+            "device: {}, {} shell points, assets end: {}{}",
             out.device,
             out.shell_points,
             out.end,
             if out.complete { "" } else { " (partial)" }
         );
-        print_summary("session", &out.stats, None);
+        print_summary("assets", &out.stats, None);
         println!("final part position (m): {:?}", out.final_position_m);
         if let Some(c) = &out.bridge {
             println!(
@@ -276,7 +284,7 @@ pub fn finish<C: Serialize>(
         return Err(SessionExit {
             code: exit_code,
             reason: format!(
-                "the session ended early ({}); the device was sent zero force",
+                "the assets ended early ({}); the device was sent zero force",
                 out.end
             ),
         }
@@ -299,48 +307,37 @@ fn save_recording(report: &LoopReport, path: &Path) -> Result<()> {
     Ok(())
 }
 
-/// What the viewer draws of a session: its voxmap and shell, labelled with the scene's name.
-pub fn viewer_scene(session: &Session) -> ViewerScene {
+/// What the viewer draws of a session: its voxmap, shell and meshes, labelled with the scene's name.
+pub fn viewer_scene(assets: &SessionAssets) -> ViewerScene {
     ViewerScene::new(
-        session.name.clone(),
-        session.tree.clone(),
-        Some(Arc::new(session.shell.clone())),
+        assets.name.clone(),
+        assets.tree.clone(),
+        Some(Arc::new(assets.shell.clone())),
         SceneLimits::default(),
     )
-    .with_meshes(
-        session.static_meshes.clone(),
-        Some(session.part_mesh.clone()),
-    )
+    .with_meshes(assets.static_meshes.clone(), Some(assets.part_mesh.clone()))
 }
 
-/// Starts a viewer of `session` on `addr` when `--view` was given and prints its URL on stderr.
-pub fn attach_viewer(addr: Option<SocketAddr>, session: &Session) -> Result<Option<LiveViewer>> {
+/// Starts a viewer of `assets` on `addr` when `--view` was given and prints its URL on stderr.
+pub fn attach_viewer(
+    addr: Option<SocketAddr>,
+    assets: &SessionAssets,
+) -> Result<Option<LiveViewer>> {
     let Some(addr) = addr else {
         return Ok(None);
     };
-    let viewer = LiveViewer::start(addr, viewer_scene(session))?;
+    let viewer = LiveViewer::start(addr, viewer_scene(assets))?;
     eprintln!("viewer: {}", viewer.url());
     Ok(Some(viewer))
 }
 
-/// Runs one session; `paced` runs at 1 kHz on the wall clock, otherwise frames run back to back
-/// (the physics is identical: the device is given the scheduled tick time either way). Every frame
-/// is published to `feed` when given (a viewer).
-pub fn run_session(
-    scene: &Session,
-    params: HapticParams,
-    seconds: f64,
-    threads: usize,
-    paced: bool,
-    feed: Option<StateFeedSender>,
-) -> Result<LoopReport> {
-    run_session_until(scene, params, seconds, threads, paced, feed, None)
-}
-
-/// [`run_session`], ended early (the device written zero) once one of `signals` comes, when
-/// given.
-pub fn run_session_until(
-    scene: &Session,
+/// Runs one session of the scene's simulated hand (its script) on `assets` with `params`, for
+/// at most `seconds` (the script's length at most); `paced` runs at 1 kHz on the wall clock,
+/// otherwise frames run back to back (the physics is identical: the device is given the scheduled
+/// tick time either way). Every frame is published to `feed` when given (a viewer). When `signals`
+/// are given, one of them ends the session early (the device written zero first).
+pub fn run_scripted(
+    assets: &SessionAssets,
     params: HapticParams,
     seconds: f64,
     threads: usize,
@@ -348,7 +345,7 @@ pub fn run_session_until(
     feed: Option<StateFeedSender>,
     signals: Option<&SignalStop>,
 ) -> Result<LoopReport> {
-    let script = scene.script()?;
+    let script = assets.script()?;
     let frames = ((seconds.min(script.duration()) / params.dt).round() as u64).max(1);
     let config = LoopConfig {
         frames: Some(frames),
@@ -357,11 +354,11 @@ pub fn run_session_until(
         free_running: !paced,
         ..LoopConfig::default()
     };
-    let mut plan = scene.plan(&DeviceChoice::Simulated, script, config)?;
+    let mut plan = assets.plan(&DeviceChoice::Simulated, script, config)?;
     plan.params = params;
     let report = run_loop(
-        scene.tree.clone(),
-        scene.classed_shell(),
+        assets.tree.clone(),
+        assets.classed_shell(),
         match signals {
             Some(signals) => plan.into_stopped_setup(feed, signals),
             None => plan.into_setup(feed),

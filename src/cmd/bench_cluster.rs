@@ -8,14 +8,14 @@
 //! frame, real-time scheduling when granted.
 
 use crate::cli::{GatherArgs, RunArgs, SceneArgs};
-use crate::cluster_session::run_local_cluster_prepared;
+use crate::cluster_session::run_local_cluster;
 use crate::output::print_json;
 use crate::session_io::PreparedSession;
 use anyhow::Result;
 use serde::Serialize;
 use vps_cluster::ClusterReport;
 use vps_runtime::{LoopConfig, StatsSummary};
-use vps_session::{DeviceChoice, Session};
+use vps_session::{DeviceChoice, SessionAssets};
 use vps_voxelize::ShellMethod;
 
 /// What `vps bench cluster` measures.
@@ -56,25 +56,25 @@ struct ClusterBenchReport {
 
 /// Runs the benchmark and prints JSON.
 pub fn run(bench: ClusterBench) -> Result<()> {
-    let mut session = Session::open(
+    let mut assets = SessionAssets::open(
         &bench.scene.scene,
         &bench.scene.build_options(bench.voxel_size),
     )?;
-    let shell_voxel = session.resample_shell(bench.points, ShellMethod::VoxelCentres)?;
-    let script = session.script_for_frames(bench.frames)?;
+    let shell_voxel = assets.resample_shell(bench.points, ShellMethod::VoxelCentres)?;
+    let script = assets.script_for_frames(bench.frames)?;
     let config = LoopConfig {
         frames: Some(bench.frames),
         realtime: true,
         ..LoopConfig::default()
     };
-    let shell_points = session.shell.len();
-    let plan = session.plan(&DeviceChoice::Simulated, script, config)?;
-    let prepared = PreparedSession { session, plan };
+    let shell_points = assets.shell.len();
+    let plan = assets.plan(&DeviceChoice::Simulated, script, config)?;
+    let prepared = PreparedSession { assets, plan };
     let session = RunArgs {
         threads: bench.local_threads,
         ..RunArgs::default()
     };
-    let run = run_local_cluster_prepared(
+    let run = run_local_cluster(
         &session,
         prepared,
         bench.workers,

@@ -12,6 +12,7 @@
 use crate::cli::{GatherArgs, RunArgs};
 use crate::cluster_session::run_local_cluster;
 use crate::output::print_json;
+use crate::session_io::prepare;
 use anyhow::{Context, Result};
 use serde::Serialize;
 use std::time::Duration;
@@ -94,11 +95,12 @@ pub fn run(frames: u64, spin_us: u64) -> Result<()> {
             spin_us,
             ..GatherArgs::default()
         };
-        let run = run_local_cluster(&session, workers, 1, choice, |config| {
-            config.free_running = true;
-            config.realtime = false;
-            config.watchdog = Duration::from_millis(10);
-        })?;
+        let mut prepared = prepare(&session)?;
+        let config = &mut prepared.plan.config;
+        config.free_running = true;
+        config.realtime = false;
+        config.watchdog = Duration::from_millis(10);
+        let run = run_local_cluster(&session, prepared, workers, 1, choice)?;
         crate::exit::require_complete(&run.report.end, Some(&run.signals))?;
         let worst = run
             .cluster

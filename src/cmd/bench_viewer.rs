@@ -5,13 +5,13 @@
 //! (JSON).
 
 use crate::output::print_json;
-use crate::session_io::{attach_viewer, run_session};
+use crate::session_io::{attach_viewer, run_scripted};
 use anyhow::{Context, Result};
 use serde::Serialize;
 use std::time::Duration;
 use vps_haptic::HapticParams;
 use vps_runtime::{Percentiles, StatsSummary};
-use vps_session::{BuildOptions, Session};
+use vps_session::{BuildOptions, SessionAssets};
 use vps_view::client::WsClient;
 
 /// Voxel size of the benchmark's scene (m): the demo's.
@@ -78,7 +78,7 @@ impl Ratios {
 /// Runs `rounds` pairs of sessions of `seconds` each (without, then with a viewer) and prints
 /// JSON. Alternating spreads slow drifts of the machine's load over both kinds of run.
 pub fn run(seconds: f64, rounds: u32) -> Result<()> {
-    let scene = Session::open(
+    let scene = SessionAssets::open(
         vps_session::DEFAULT_SCENE,
         &BuildOptions {
             voxel_size: Some(VOXEL_SIZE),
@@ -88,7 +88,7 @@ pub fn run(seconds: f64, rounds: u32) -> Result<()> {
     let params = scene.params;
     let mut results = Vec::new();
     for _ in 0..rounds.max(1) {
-        let without = run_session(&scene, params, seconds, 1, true, None)?;
+        let without = run_scripted(&scene, params, seconds, 1, true, None, None)?;
         results.push(round_with_viewer(&scene, params, seconds, without.stats)?);
     }
     let ratios: Vec<Ratios> = results.iter().map(|r| r.compute_ratio).collect();
@@ -102,7 +102,7 @@ pub fn run(seconds: f64, rounds: u32) -> Result<()> {
 
 /// The session with a viewer and one WebSocket client reading every message.
 fn round_with_viewer(
-    scene: &Session,
+    scene: &SessionAssets,
     params: HapticParams,
     seconds: f64,
     without_viewer: StatsSummary,
@@ -119,7 +119,7 @@ fn round_with_viewer(
         (messages, bytes)
     });
     let cpu_before = viewer_threads_cpu_s();
-    let with = run_session(scene, params, seconds, 1, true, Some(viewer.feed()))?;
+    let with = run_scripted(scene, params, seconds, 1, true, Some(viewer.feed()), None)?;
     let viewer_cpu_s = cpu_before.zip(viewer_threads_cpu_s()).map(|(a, b)| b - a);
     drop(viewer);
     let (messages_read, message_bytes) = reader

@@ -5,7 +5,7 @@ use crate::cli::{ClusterArgs, CoordinatorArgs, WorkerArgs};
 use crate::cluster_session::{coordinate, run_local_cluster};
 use crate::exit::SessionExit;
 use crate::service_config::{expand_pins, resolve_coordinator, resolve_worker};
-use crate::session_io::{finish, SessionOutputs};
+use crate::session_io::{prepare, SessionOutputs};
 use anyhow::{bail, Result};
 use clap::ArgMatches;
 use std::sync::atomic::AtomicBool;
@@ -79,8 +79,9 @@ pub fn coordinator(mut args: CoordinatorArgs, matches: &ArgMatches) -> Result<()
     };
     let pins = expand_pins(&args.pin)?;
     let outputs = SessionOutputs::reserve(&args.session)?;
-    let run = coordinate(
+    coordinate(
         &args.session,
+        prepare(&args.session)?,
         args.listen,
         cert,
         key,
@@ -88,17 +89,8 @@ pub fn coordinator(mut args: CoordinatorArgs, matches: &ArgMatches) -> Result<()
         args.workers,
         args.gather,
         |_| Ok(None),
-        |_| {},
-    )?;
-    finish(
-        &args.session,
-        outputs,
-        &run.signals,
-        run.shell_points,
-        &run.report,
-        run.bridge.as_ref(),
-        Some(&run.cluster),
-    )
+    )?
+    .finish(&args.session, outputs)
 }
 
 /// `vps cluster --local-workers N`: the coordinator plus N worker processes on loopback, with
@@ -109,20 +101,12 @@ pub fn local_cluster(args: &ClusterArgs) -> Result<()> {
         args.local_workers * args.worker_threads,
     )?;
     let outputs = SessionOutputs::reserve(&args.session)?;
-    let run = run_local_cluster(
+    run_local_cluster(
         &args.session,
+        prepare(&args.session)?,
         args.local_workers,
         args.worker_threads,
         args.gather,
-        |_| {},
-    )?;
-    finish(
-        &args.session,
-        outputs,
-        &run.signals,
-        run.shell_points,
-        &run.report,
-        run.bridge.as_ref(),
-        Some(&run.cluster),
-    )
+    )?
+    .finish(&args.session, outputs)
 }

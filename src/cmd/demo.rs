@@ -6,12 +6,12 @@
 use crate::cli::DemoArgs;
 use crate::exit::{outcome, SessionExit};
 use crate::output::print_json;
-use crate::session_io::{print_summary, run_session_until};
+use crate::session_io::{print_summary, run_scripted};
 use anyhow::Result;
 use serde::Serialize;
 use vps_haptic::HapticParams;
 use vps_runtime::StatsSummary;
-use vps_session::{stop_on_signals, Session};
+use vps_session::{stop_on_signals, SessionAssets};
 
 /// The paper's penetration ratios (Table 2): braking on and off.
 const PAPER_PR_BRAKING: f64 = 6e-5;
@@ -36,7 +36,7 @@ struct DemoReport {
 
 /// Runs the demo.
 pub fn run(args: &DemoArgs) -> Result<()> {
-    let scene = Session::open(
+    let scene = SessionAssets::open(
         &args.scene.scene,
         &args.scene.build_options(args.voxel_size),
     )?;
@@ -70,7 +70,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let viewer = crate::session_io::attach_viewer(args.view, &scene)?;
     let feed = || viewer.as_ref().map(|v| v.feed());
     let session = |params: HapticParams, paced: bool| {
-        let report = run_session_until(
+        let report = run_scripted(
             &scene,
             params,
             args.seconds,

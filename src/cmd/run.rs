@@ -12,18 +12,18 @@ use vps_runtime::{run_loop, LoopReport};
 pub fn run(args: &RunArgs) -> Result<()> {
     let outputs = SessionOutputs::reserve(args)?;
     let LiveSession {
-        session,
+        assets,
         viewer: _viewer,
         setup,
         bridge,
         signals,
     } = prepare(args)?.go_live(args.view)?;
-    let report: LoopReport = run_loop(session.tree.clone(), session.classed_shell(), setup)?;
+    let report: LoopReport = run_loop(assets.tree.clone(), assets.classed_shell(), setup)?;
     finish(
         args,
         outputs,
         &signals,
-        session.shell.len(),
+        assets.shell.len(),
         &report,
         bridge.as_ref(),
         None::<&()>,

@@ -5,7 +5,7 @@ use crate::cli::ViewArgs;
 use crate::session_io::viewer_scene;
 use anyhow::{Context, Result};
 use std::sync::Arc;
-use vps_session::{CachePolicy, Session};
+use vps_session::{CachePolicy, SessionAssets};
 use vps_view::{SceneLimits, ViewerScene, ViewerServer};
 use vps_voxmap::file::{load_shell, load_voxmap};
 
@@ -23,7 +23,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
                 ..vps_session::BuildOptions::default()
             };
             (
-                viewer_scene(&Session::open(scene, &options)?),
+                viewer_scene(&SessionAssets::open(scene, &options)?),
                 scene.clone(),
             )
         }

@@ -2,11 +2,11 @@
 
 use crate::cli::VoxelizeArgs;
 use crate::output::{check_output_path, hex, mib, outln, print_json};
-use crate::scene;
 use anyhow::{bail, Context, Result};
 use glam::DVec3;
 use serde::Serialize;
 use vps_mesh::Aabb;
+use vps_session::mesh_source;
 use vps_voxelize::{voxelize_tree, VoxelizeOptions};
 use vps_voxmap::{TreeConfig, VoxelWidth};
 
@@ -32,7 +32,7 @@ struct VoxelizeSummary {
 /// Runs the command.
 pub fn run(args: &VoxelizeArgs) -> Result<()> {
     check_output_path(&args.output, &crate::output::mesh_inputs(&args.mesh))?;
-    let scene = scene::load(&args.mesh)?;
+    let scene = mesh_source::load(&args.mesh)?;
     let Some(width) = VoxelWidth::from_bits(args.width) else {
         bail!("--width {}: must be 2, 4 or 8", args.width);
     };
