@@ -252,7 +252,6 @@ fn bench_fidelity_reports_every_setting_and_rejects_bad_arguments() {
         "5mm",
         "--poses",
         "1",
-        "--json",
     ]));
     let rows = report["rows"].as_array().expect("rows");
     assert_eq!(rows.len(), 6, "2/4/8 bits × centres/exact");
