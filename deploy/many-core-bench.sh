@@ -57,15 +57,15 @@ run() {
 }
 
 machine before >"$out/machine.txt"
-run kernel bench kernel --json
-run scaling bench scaling --max "$max" --frames "$frames" --plot "$out/scaling.svg" --json
+run kernel bench kernel
+run scaling bench scaling --max "$max" --frames "$frames" --plot "$out/scaling.svg"
 for w in 1 2 4 8; do
     if ((w + 1 <= $(nproc))); then
-        run "cluster-w$w" bench cluster --points 100000 --frames "$frames" --workers "$w" --json
+        run "cluster-w$w" bench cluster --points 100000 --frames "$frames" --workers "$w"
     else
         echo "skipping --workers $w: $(nproc) cores" >&2
     fi
 done
-run host bench host --seconds "$host_s" --json
+run host bench host --seconds "$host_s"
 machine after >>"$out/machine.txt"
 echo "done: $out" >&2

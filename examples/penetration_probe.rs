@@ -16,7 +16,7 @@
 use glam::{DVec3, IVec3};
 use vps_device::{HandParams, HapticDevice, SimulatedHand};
 use vps_haptic::{sample_all, step, HapticParams, KernelPose, PartState};
-use vps_session::{classed, BuildOptions, Session, DEFAULT_SCENE};
+use vps_session::{classed, BuildOptions, SessionAssets, DEFAULT_SCENE};
 use vps_voxelize::ShellMethod;
 use vps_voxmap::{Voxel, VoxelTree};
 
@@ -64,7 +64,7 @@ fn main() -> anyhow::Result<()> {
         None => f64::INFINITY,
     };
     let s = 0.005;
-    let mut scene = Session::open(
+    let mut scene = SessionAssets::open(
         DEFAULT_SCENE,
         &BuildOptions {
             voxel_size: Some(s),

@@ -30,35 +30,11 @@ pub enum Command {
     Demo(DemoArgs),
     /// One paced 1 kHz session on a scene (default the built-in bay) with a chosen device.
     Run(RunArgs),
-    /// Record the handle trace of a session to a file (JSON lines).
-    Record {
-        /// Output trace file.
-        #[arg(short, long)]
-        output: PathBuf,
-        /// The device: sim, spacemouse, bridge[:ADDR] (default: the scene's `[device] kind`).
-        #[arg(long)]
-        device: Option<String>,
-        /// Session length (s).
-        #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 30.0)]
-        seconds: f64,
-        /// The scene.
-        #[command(flatten)]
-        scene: SceneArgs,
-    },
-    /// Replay a recorded handle trace exactly, on a scene (the one it was recorded on).
-    Replay {
-        /// The trace file written by `vps record` or `vps run --record`.
-        trace: PathBuf,
-        /// Parameters (TOML, see configs/haptic.toml).
-        #[arg(long)]
-        config: Option<PathBuf>,
-        /// Print as JSON.
-        #[arg(long)]
-        json: bool,
-        /// The scene.
-        #[command(flatten)]
-        scene: SceneArgs,
-    },
+    /// Record the handle trace of a session to a file (JSON lines): `vps run --record FILE`.
+    Record(RecordArgs),
+    /// Replay a recorded handle trace exactly, on a scene (the one it was recorded on):
+    /// `vps run --device replay:TRACE`.
+    Replay(ReplayArgs),
     /// Scene files: check one without running it.
     Scene(SceneCommandArgs),
     /// List the HID devices this machine sees and which vps can drive.
@@ -254,17 +230,22 @@ pub struct NetemRelayArgs {
 /// Arguments of `vps worker`.
 #[derive(Args, Debug)]
 pub struct WorkerArgs {
-    /// The coordinator's address (host:port).
+    /// Read these settings from a TOML file (keys as the flags: configs/worker.toml); a flag
+    /// given here overrides the file.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// The coordinator's address (IP:port). Required, here or in the config file.
     #[arg(long)]
-    pub coordinator: std::net::SocketAddr,
-    /// This worker's certificate (PEM).
+    pub coordinator: Option<std::net::SocketAddr>,
+    /// This worker's certificate (PEM). Required, here or in the config file.
     #[arg(long)]
-    pub cert: PathBuf,
-    /// This worker's private key (PEM).
+    pub cert: Option<PathBuf>,
+    /// This worker's private key (PEM). Required, here or in the config file.
     #[arg(long)]
-    pub key: PathBuf,
-    /// A coordinator certificate to accept (repeatable); any other is refused.
-    #[arg(long, required = true)]
+    pub key: Option<PathBuf>,
+    /// A coordinator certificate to accept, or a directory of them (*.crt); repeatable; any
+    /// other is refused. At least one, here or in the config file (`pins`).
+    #[arg(long)]
     pub pin: Vec<PathBuf>,
     /// Directory to cache scenes in, by content hash.
     #[arg(long)]
@@ -283,17 +264,22 @@ pub struct WorkerArgs {
 /// Arguments of `vps coordinator`.
 #[derive(Args, Debug)]
 pub struct CoordinatorArgs {
+    /// Read these settings from a TOML file (keys as the flags: configs/coordinator.toml); a
+    /// flag given here overrides the file.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
     /// Address to listen on (UDP, QUIC).
     #[arg(long, default_value = "0.0.0.0:7800")]
     pub listen: std::net::SocketAddr,
-    /// The coordinator's certificate (PEM).
+    /// The coordinator's certificate (PEM). Required, here or in the config file.
     #[arg(long)]
-    pub cert: PathBuf,
-    /// The coordinator's private key (PEM).
+    pub cert: Option<PathBuf>,
+    /// The coordinator's private key (PEM). Required, here or in the config file.
     #[arg(long)]
-    pub key: PathBuf,
-    /// A worker certificate to admit (repeatable); any other is refused and logged.
-    #[arg(long, required = true)]
+    pub key: Option<PathBuf>,
+    /// A worker certificate to admit, or a directory of them (*.crt); repeatable; any other is
+    /// refused and logged. At least one, here or in the config file (`pins`).
+    #[arg(long)]
     pub pin: Vec<PathBuf>,
     /// Workers to wait for before the session starts.
     #[arg(long, default_value_t = 1)]
@@ -366,6 +352,28 @@ pub struct ClusterArgs {
     pub session: RunArgs,
 }
 
+/// Arguments of `vps record`: those of `vps run`, the trace file given as `-o` instead of
+/// `--record`.
+#[derive(Args, Debug)]
+pub struct RecordArgs {
+    /// Output trace file.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// The session.
+    #[command(flatten)]
+    pub session: RunArgs,
+}
+
+/// Arguments of `vps replay`: those of `vps run`, the device being the trace.
+#[derive(Args, Debug)]
+pub struct ReplayArgs {
+    /// The trace file written by `vps record` or `vps run --record`.
+    pub trace: PathBuf,
+    /// The session.
+    #[command(flatten)]
+    pub session: RunArgs,
+}
+
 /// Arguments of `vps run`. `Default` matches the command-line defaults.
 #[derive(Args, Debug, Clone)]
 pub struct RunArgs {
@@ -379,8 +387,8 @@ pub struct RunArgs {
     pub device: Option<String>,
     /// Haptic parameters (TOML; see configs/haptic.toml), instead of the scene's `[haptic]`.
     /// Defaults are derived when absent.
-    #[arg(long)]
-    pub config: Option<PathBuf>,
+    #[arg(long, value_name = "FILE")]
+    pub haptic: Option<PathBuf>,
     /// Voxel size, instead of the scene's `voxels.voxel_size`.
     #[arg(long, value_parser = parse_length)]
     pub voxel_size: Option<f64>,
@@ -591,9 +599,6 @@ pub enum BenchKind {
         /// Repetitions (the median is reported).
         #[arg(long, default_value_t = 3)]
         repeat: u32,
-        /// Print JSON (the default output is JSON too; kept for symmetry with other commands).
-        #[arg(long)]
-        json: bool,
     },
     /// Nanoseconds per point of the sampling kernel, free space and full contact, one core: the
     /// current and the previous kernel alternated, and their ratio.
@@ -604,9 +609,6 @@ pub enum BenchKind {
         /// Seconds per timing batch (5 batches per case, the median is reported).
         #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 0.2)]
         seconds: f64,
-        /// Print JSON (always JSON; accepted for symmetry).
-        #[arg(long)]
-        json: bool,
     },
     /// The 1 kHz loop end to end over many frames with a large shell: missed deadlines, percentiles.
     Loop {
@@ -625,9 +627,6 @@ pub enum BenchKind {
         /// Compute threads, the frame thread included.
         #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 2)]
         threads: usize,
-        /// Print JSON (always JSON; accepted for symmetry).
-        #[arg(long)]
-        json: bool,
     },
     /// Frame compute of the paced demo session without and with a connected viewer.
     Viewer {
@@ -637,9 +636,6 @@ pub enum BenchKind {
         /// Rounds of one run without and one with the viewer.
         #[arg(long, default_value_t = 3)]
         rounds: u32,
-        /// Print JSON (always JSON; accepted for symmetry).
-        #[arg(long)]
-        json: bool,
     },
     /// A paced session over W local worker processes with an N-point shell: deadlines, frame times, per-worker metrics.
     Cluster {
@@ -667,9 +663,6 @@ pub enum BenchKind {
         /// How replies are gathered.
         #[command(flatten)]
         gather: GatherArgs,
-        /// Print JSON (always JSON; accepted for symmetry).
-        #[arg(long)]
-        json: bool,
     },
     /// How often this machine takes the frame thread's core away (cyclictest-like): ticks a loop
     /// doing `--busy-us` of work per 1 ms frame would miss with no haptics in it.
@@ -680,9 +673,6 @@ pub enum BenchKind {
         /// Work per frame, spun (µs).
         #[arg(long, default_value_t = 500)]
         busy_us: u64,
-        /// Print JSON (always JSON; accepted for symmetry).
-        #[arg(long)]
-        json: bool,
     },
     /// Analytic fidelity benchmark: voxel force and torque against the exact answer on five
     /// scenes (sphere, tilted box, corner, peg in hole, wedge) over separations −s..3s, per voxel
@@ -694,9 +684,6 @@ pub enum BenchKind {
         /// Poses per scene and separation.
         #[arg(long, default_value_t = 8)]
         poses: usize,
-        /// Print JSON (always JSON; accepted for symmetry).
-        #[arg(long)]
-        json: bool,
     },
     /// Device bridge round trip (pose out, wrench back), immediate and at 1 kHz, beside a raw
     /// UDP ping-pong.
@@ -704,9 +691,6 @@ pub enum BenchKind {
         /// Round trips per measurement (100 to 1000000).
         #[arg(long, default_value_t = 5000)]
         round_trips: u64,
-        /// Print JSON (always JSON; accepted for symmetry).
-        #[arg(long)]
-        json: bool,
     },
     /// Gather round trip to 1 and 2 local worker processes beside a raw UDP ping-pong.
     Transport {
@@ -717,9 +701,6 @@ pub enum BenchKind {
         /// `vps coordinator --help`).
         #[arg(long, default_value_t = default_spin_us())]
         spin_us: u64,
-        /// Print JSON (always JSON; accepted for symmetry).
-        #[arg(long)]
-        json: bool,
     },
     /// Total tree memory against N = 1..5 (the paper's Figure 6).
     TreeMemory {
@@ -732,9 +713,6 @@ pub enum BenchKind {
         /// Write an SVG plot here.
         #[arg(long)]
         plot: Option<PathBuf>,
-        /// Print JSON.
-        #[arg(long)]
-        json: bool,
     },
     /// Points per frame that fit the compute budget at p99.9, over 1..N local threads and 1..N
     /// local worker processes, and the parallel efficiency (child `vps bench loop` and
@@ -755,9 +733,6 @@ pub enum BenchKind {
         /// Write an SVG plot here.
         #[arg(long)]
         plot: Option<PathBuf>,
-        /// Print JSON (always JSON; accepted for symmetry).
-        #[arg(long)]
-        json: bool,
     },
 }
 
@@ -766,7 +741,7 @@ impl Default for RunArgs {
         Self {
             scene: SceneArgs::default(),
             device: None,
-            config: None,
+            haptic: None,
             voxel_size: None,
             seconds: 30.0,
             threads: 1,

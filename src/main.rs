@@ -3,15 +3,27 @@
 //! Every subcommand is a thin shell over the library crates: `vps-mesh` (input), `vps-voxelize`
 //! (voxmaps and point shells), `vps-voxmap` (tree and files), `vps-haptic` (the frame),
 //! `vps-device` and `vps-runtime` (the 1 kHz loop).
+//!
+//! Layout: [`cli`] (the command line), `cmd/` (one module per subcommand; none imports another),
+//! and the support modules they share, which import no subcommand: [`session_io`] (sessions
+//! opened from the command line, their viewer, files and figures), [`cluster_session`]
+//! (coordinated sessions), [`service_config`] (`--config` files of the cluster services),
+//! [`output`] (stdout, JSON, output files), [`exit`] (exit statuses),
+//! [`host`] (the machine's state beside benchmark figures), [`limits`] and [`memory_size`]
+//! (value parsers).
 
 mod cli;
+mod cluster_session;
 mod cmd;
-mod demo;
+mod exit;
+mod host;
 mod limits;
 mod memory_size;
-mod scene;
+mod output;
+mod service_config;
+mod session_io;
 
-use clap::Parser;
+use clap::{CommandFactory, FromArgMatches};
 
 fn main() {
     tracing_subscriber::fmt()
@@ -21,16 +33,17 @@ fn main() {
         )
         .with_writer(std::io::stderr)
         .init();
-    let cli = cli::Cli::parse();
-    if let Err(err) = cmd::dispatch(cli) {
+    let matches = cli::Cli::command().get_matches();
+    let cli = cli::Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    if let Err(err) = cmd::dispatch(cli, &matches) {
         // stdout's reader went away (`vps inspect x | head -1`): end quietly, as SIGPIPE would.
-        if err.is::<cmd::output::BrokenStdout>() {
-            std::process::exit(cmd::output::BROKEN_PIPE_STATUS);
+        if err.is::<output::BrokenStdout>() {
+            std::process::exit(output::BROKEN_PIPE_STATUS);
         }
         // A session that ended early has already written its report; its status says why
-        // (src/cmd/exit.rs: 1 error, 101 panic, 128 + N signal N).
-        let code = cmd::exit::exit_code(&err);
-        let message = cmd::output::error_report(&err);
+        // (src/exit.rs: 1 error, 101 panic, 128 + N signal N).
+        let code = exit::exit_code(&err);
+        let message = output::error_report(&err);
         if code == 1 {
             eprintln!("vps: error: {message}");
         } else {

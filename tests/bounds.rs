@@ -75,7 +75,7 @@ fn haptic_files_name_the_file_the_key_and_the_range() {
     std::fs::write(&file, "k_ff = 1e-300\n").unwrap();
     let path = file.to_str().unwrap();
     refused(
-        &["run", "--config", path],
+        &["run", "--haptic", path],
         &[path, "k_ff", "[1e0, 1e9] N/m"],
     );
 
@@ -83,7 +83,7 @@ fn haptic_files_name_the_file_the_key_and_the_range() {
     std::fs::write(&file, "dt = 0.002\n").unwrap();
     let path = file.to_str().unwrap();
     refused(
-        &["run", "--config", path],
+        &["run", "--haptic", path],
         &[path, "`dt` = 0.002", "must be 0.001 s"],
     );
 }

@@ -252,7 +252,6 @@ fn bench_fidelity_reports_every_setting_and_rejects_bad_arguments() {
         "5mm",
         "--poses",
         "1",
-        "--json",
     ]));
     let rows = report["rows"].as_array().expect("rows");
     assert_eq!(rows.len(), 6, "2/4/8 bits × centres/exact");
@@ -275,46 +274,35 @@ fn bench_fidelity_reports_every_setting_and_rejects_bad_arguments() {
 }
 
 #[test]
-fn the_lan_config_files_turn_into_flags_the_cli_accepts() {
+fn the_service_config_files_are_read_checked_and_overridden_by_flags() {
     let dir = tempfile::tempdir().unwrap();
-    let pins = dir.path().join("pins");
-    std::fs::create_dir(&pins).unwrap();
-    std::fs::write(pins.join("worker-a.crt"), "").unwrap();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    for role in ["coordinator", "worker"] {
-        let text = std::fs::read_to_string(root.join(format!("configs/{role}.toml"))).unwrap();
-        let config = dir.path().join(format!("{role}.toml"));
-        std::fs::write(
-            &config,
-            text.replace("/etc/vps/pins", pins.to_str().unwrap()),
-        )
-        .unwrap();
-        // Every flag the script passes must parse: `--help` at the end prints the help only if
-        // all flags before it are known to the CLI.
-        let out = Command::new("bash")
-            .arg(root.join("deploy/vps-from-config.sh"))
-            .args([role, config.to_str().unwrap(), "--help"])
-            .env("VPS_BIN", env!("CARGO_BIN_EXE_vps"))
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success() && String::from_utf8_lossy(&out.stdout).contains("Usage"),
-            "{role}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-    }
-    // A bad switch value is refused, naming the file and the key.
-    let config = dir.path().join("bad.toml");
-    std::fs::write(&config, "equal_shares = \"yes\"\n").unwrap();
-    let out = Command::new("bash")
-        .arg(root.join("deploy/vps-from-config.sh"))
-        .args(["coordinator", config.to_str().unwrap()])
-        .env("VPS_DRY_RUN", "1")
-        .output()
-        .unwrap();
+    // The committed worker file loads; --cert given on the command line replaces the file's, so
+    // the worker fails reading that certificate (before any network).
+    let missing = dir.path().join("flag.crt");
+    let out = vps(&[
+        "worker",
+        "--config",
+        root.join("configs/worker.toml").to_str().unwrap(),
+        "--cert",
+        missing.to_str().unwrap(),
+    ]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
-        !out.status.success() && stderr.contains("bad.toml") && stderr.contains("equal_shares"),
+        !out.status.success() && stderr.contains("flag.crt") && !stderr.contains("panicked"),
         "{stderr}"
     );
+    // An unknown key is refused, naming the file and the key.
+    for role in ["coordinator", "worker"] {
+        let config = dir.path().join(format!("bad-{role}.toml"));
+        std::fs::write(&config, "threads = 1\nspin_usec = 100\n").unwrap();
+        let out = vps(&[role, "--config", config.to_str().unwrap()]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success()
+                && stderr.contains(&format!("bad-{role}.toml"))
+                && stderr.contains("spin_usec"),
+            "{role}: {stderr}"
+        );
+    }
 }

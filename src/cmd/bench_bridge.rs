@@ -17,7 +17,7 @@
 //! Raw UDP: blocking sockets on 127.0.0.1, one echo thread, unpinned, pose-sized payload (138
 //! bytes), as in `vps bench transport`.
 
-use super::output::print_json;
+use crate::output::print_json;
 use anyhow::{bail, Context, Result};
 use glam::{DQuat, DVec3};
 use serde::Serialize;
@@ -48,7 +48,7 @@ struct BridgeFigure {
 
 #[derive(Serialize)]
 struct BridgeReport {
-    host_idle: super::host_idle::HostIdle,
+    host_idle: crate::host::HostIdle,
     raw_udp: BridgeFigure,
     bridge_immediate: BridgeFigure,
     bridge_paced_1khz: BridgeFigure,
@@ -225,7 +225,7 @@ pub fn run(round_trips: u64) -> Result<()> {
     let bridge_paced_1khz = paced(n).context("bridge round trips, 1 kHz frames")?;
     let ratio = |a: u64, b: u64| a as f64 / b.max(1) as f64;
     print_json(&BridgeReport {
-        host_idle: super::host_idle::HostIdle::read(),
+        host_idle: crate::host::HostIdle::read(),
         immediate_p50_over_raw_udp_p50: ratio(
             bridge_immediate.percentiles.p50_ns,
             raw_udp.percentiles.p50_ns,

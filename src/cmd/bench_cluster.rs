@@ -7,15 +7,15 @@
 //! runs with its defaults: 1 ms period, 800 µs watchdog, replies awaited until 400 µs into the
 //! frame, real-time scheduling when granted.
 
-use super::cluster::run_local_cluster_prepared;
-use super::output::print_json;
-use super::run::PreparedSession;
 use crate::cli::{GatherArgs, RunArgs, SceneArgs};
+use crate::cluster_session::run_local_cluster;
+use crate::output::print_json;
+use crate::session_io::PreparedSession;
 use anyhow::Result;
 use serde::Serialize;
 use vps_cluster::ClusterReport;
 use vps_runtime::{LoopConfig, StatsSummary};
-use vps_session::{DeviceChoice, Session};
+use vps_session::{DeviceChoice, SessionAssets};
 use vps_voxelize::ShellMethod;
 
 /// What `vps bench cluster` measures.
@@ -49,39 +49,39 @@ struct ClusterBenchReport {
     local_threads: usize,
     frames_requested: u64,
     realtime_granted: bool,
-    host_idle: super::host_idle::HostIdle,
+    host_idle: crate::host::HostIdle,
     stats: StatsSummary,
     cluster: ClusterReport,
 }
 
 /// Runs the benchmark and prints JSON.
 pub fn run(bench: ClusterBench) -> Result<()> {
-    let mut session = Session::open(
+    let mut assets = SessionAssets::open(
         &bench.scene.scene,
         &bench.scene.build_options(bench.voxel_size),
     )?;
-    let shell_voxel = session.resample_shell(bench.points, ShellMethod::VoxelCentres)?;
-    let script = session.script_for_frames(bench.frames)?;
+    let shell_voxel = assets.resample_shell(bench.points, ShellMethod::VoxelCentres)?;
+    let script = assets.script_for_frames(bench.frames)?;
     let config = LoopConfig {
         frames: Some(bench.frames),
         realtime: true,
         ..LoopConfig::default()
     };
-    let shell_points = session.shell.len();
-    let plan = session.plan(&DeviceChoice::Simulated, script, config)?;
-    let prepared = PreparedSession { session, plan };
+    let shell_points = assets.shell.len();
+    let plan = assets.plan(&DeviceChoice::Simulated, script, config)?;
+    let prepared = PreparedSession { assets, plan };
     let session = RunArgs {
         threads: bench.local_threads,
         ..RunArgs::default()
     };
-    let run = run_local_cluster_prepared(
+    let run = run_local_cluster(
         &session,
         prepared,
         bench.workers,
         bench.worker_threads,
         bench.gather,
     )?;
-    super::exit::require_complete(&run.report.end, Some(&run.signals))?;
+    crate::exit::require_complete(&run.report.end, Some(&run.signals))?;
     print_json(&ClusterBenchReport {
         command: format!(
             "vps bench cluster --scene {} --points {} --frames {} --workers {} --worker-threads {} --threads {} \
@@ -107,7 +107,7 @@ pub fn run(bench: ClusterBench) -> Result<()> {
         local_threads: bench.local_threads,
         frames_requested: bench.frames,
         realtime_granted: run.report.rt.fifo,
-        host_idle: super::host_idle::HostIdle::read(),
+        host_idle: crate::host::HostIdle::read(),
         stats: run.report.stats,
         cluster: run.cluster,
     })

@@ -1,6 +1,6 @@
 //! `vps bench fidelity`: the analytic benchmark of `vps-fidelity` over the documented grid, as JSON.
 
-use super::output::print_json;
+use crate::output::print_json;
 use anyhow::{bail, Result};
 use vps_fidelity::measure::FidelityGrid;
 

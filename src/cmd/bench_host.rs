@@ -9,7 +9,7 @@
 //! cannot avoid either: run it beside `vps bench loop` to tell the machine's misses from the
 //! loop's. (The duty cycle stays below the kernel's real-time throttling limit, 95 % by default.)
 
-use super::output::print_json;
+use crate::output::print_json;
 use anyhow::Result;
 use serde::Serialize;
 use std::time::{Duration, Instant};
@@ -43,7 +43,7 @@ struct HostBench {
     seconds: f64,
     busy_us: u64,
     rt: RtGrant,
-    host_idle: super::host_idle::HostIdle,
+    host_idle: crate::host::HostIdle,
     ticks: u64,
     /// Ticks whose start was a whole period late or more, or whose frame (start to the end of
     /// the busy stretch) lasted a period or more: the ticks a loop doing `busy_us` of work per
@@ -148,7 +148,7 @@ fn measure(length: Duration, busy_us: u64) -> HostBench {
                  start or a gap between two reads is time it did not run",
         seconds: (Instant::now() - start).as_secs_f64(),
         busy_us,
-        host_idle: super::host_idle::HostIdle::read(),
+        host_idle: crate::host::HostIdle::read(),
         rt,
         ticks,
         disturbed_ticks: disturbed,

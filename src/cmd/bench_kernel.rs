@@ -11,6 +11,7 @@
 //! every point in a Surface voxel of a mixed (non-tile) leaf. Free space: the same shell centred in
 //! the empty slot, every point in Free tiles. Both poses read the same tree in the same run.
 
+use crate::host::load_average;
 use anyhow::Result;
 use glam::{DQuat, DVec3, Vec3};
 use rayon::prelude::*;
@@ -105,12 +106,6 @@ pub fn run(point_counts: &[usize], batch_seconds: f64) -> Result<KernelReport> {
         },
         figures,
     })
-}
-
-/// The 1-minute load average from `/proc/loadavg` (None where there is none).
-pub(crate) fn load_average() -> Option<f64> {
-    let text = std::fs::read_to_string("/proc/loadavg").ok()?;
-    text.split_whitespace().next()?.parse().ok()
 }
 
 fn has_avx2() -> bool {

@@ -6,12 +6,12 @@
 //! be finer than the voxmap; the kernel does not care, and this is how a user buys point count
 //! independently of scene memory). Motion: the scene's script, its laps repeated to cover the run.
 
-use super::output::print_json;
 use crate::cli::SceneArgs;
+use crate::output::print_json;
 use anyhow::Result;
 use serde::Serialize;
 use vps_runtime::{run_loop, LoopConfig, RtGrant, StatsSummary};
-use vps_session::{DeviceChoice, Session};
+use vps_session::{DeviceChoice, SessionAssets};
 use vps_voxelize::ShellMethod;
 
 #[derive(Serialize)]
@@ -24,7 +24,7 @@ struct LoopBench {
     threads: usize,
     frames_requested: u64,
     rt: RtGrant,
-    host_idle: super::host_idle::HostIdle,
+    host_idle: crate::host::HostIdle,
     stats: StatsSummary,
 }
 
@@ -36,29 +36,29 @@ pub fn run(
     frames: u64,
     threads: usize,
 ) -> Result<()> {
-    let mut session = Session::open(&scene.scene, &scene.build_options(voxel_size))?;
-    let shell_voxel = session.resample_shell(points, ShellMethod::VoxelCentres)?;
-    let script = session.script_for_frames(frames)?;
+    let mut assets = SessionAssets::open(&scene.scene, &scene.build_options(voxel_size))?;
+    let shell_voxel = assets.resample_shell(points, ShellMethod::VoxelCentres)?;
+    let script = assets.script_for_frames(frames)?;
     let config = LoopConfig {
         frames: Some(frames),
         threads,
         realtime: true,
         ..LoopConfig::default()
     };
-    let plan = session.plan(&DeviceChoice::Simulated, script, config)?;
+    let plan = assets.plan(&DeviceChoice::Simulated, script, config)?;
     let (setup, signals) = plan.into_live_setup(None)?;
-    let report = run_loop(session.tree.clone(), session.classed_shell(), setup)?;
-    super::exit::require_complete(&report.end, Some(&signals))?;
+    let report = run_loop(assets.tree.clone(), assets.classed_shell(), setup)?;
+    crate::exit::require_complete(&report.end, Some(&signals))?;
     print_json(&LoopBench {
-        scene: session.label.clone(),
-        scene_triangles: session.scene_triangles,
-        voxel_size_m: session.voxel_size,
+        scene: assets.label.clone(),
+        scene_triangles: assets.scene_triangles,
+        voxel_size_m: assets.voxel_size,
         shell_voxel_size_m: shell_voxel,
-        shell_points: session.shell.len(),
+        shell_points: assets.shell.len(),
         threads,
         frames_requested: frames,
         rt: report.rt,
-        host_idle: super::host_idle::HostIdle::read(),
+        host_idle: crate::host::HostIdle::read(),
         stats: report.stats,
     })
 }

@@ -12,8 +12,8 @@
 //! over `units × ` the one-thread figure, with `units` the compute threads (threads: k; processes:
 //! w workers + the coordinator's thread). One JSON report and, with `--plot`, one SVG of both.
 
-use super::bench_kernel::load_average;
-use super::output::print_json;
+use crate::host::load_average;
+use crate::output::print_json;
 use anyhow::{bail, Context, Result};
 use plotters::prelude::*;
 use serde::Serialize;

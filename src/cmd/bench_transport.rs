@@ -9,9 +9,10 @@
 //! three placements (unpinned, both threads on the last core, pinger on the first and echo on the
 //! last), because on a VM where the two threads run decides how fast they wake each other.
 
-use super::cluster::run_local_cluster;
-use super::output::print_json;
 use crate::cli::{GatherArgs, RunArgs};
+use crate::cluster_session::run_local_cluster;
+use crate::output::print_json;
+use crate::session_io::prepare;
 use anyhow::{Context, Result};
 use serde::Serialize;
 use std::time::Duration;
@@ -52,7 +53,7 @@ struct GatherFigure {
 struct TransportReport {
     /// The coordinator's spin margin (`--spin-us`).
     spin_us: u64,
-    host_idle: super::host_idle::HostIdle,
+    host_idle: crate::host::HostIdle,
     /// The unpinned ping-pong (the headline baseline).
     raw_udp: TransportPercentiles,
     raw_udp_round_trips: usize,
@@ -94,12 +95,13 @@ pub fn run(frames: u64, spin_us: u64) -> Result<()> {
             spin_us,
             ..GatherArgs::default()
         };
-        let run = run_local_cluster(&session, workers, 1, choice, |config| {
-            config.free_running = true;
-            config.realtime = false;
-            config.watchdog = Duration::from_millis(10);
-        })?;
-        super::exit::require_complete(&run.report.end, Some(&run.signals))?;
+        let mut prepared = prepare(&session)?;
+        let config = &mut prepared.plan.config;
+        config.free_running = true;
+        config.realtime = false;
+        config.watchdog = Duration::from_millis(10);
+        let run = run_local_cluster(&session, prepared, workers, 1, choice)?;
+        crate::exit::require_complete(&run.report.end, Some(&run.signals))?;
         let worst = run
             .cluster
             .peers
@@ -122,7 +124,7 @@ pub fn run(frames: u64, spin_us: u64) -> Result<()> {
     }
     print_json(&TransportReport {
         spin_us,
-        host_idle: super::host_idle::HostIdle::read(),
+        host_idle: crate::host::HostIdle::read(),
         raw_udp,
         raw_udp_round_trips: raw_udp_placements[0].round_trips,
         raw_udp_placements,

@@ -5,17 +5,16 @@
 //! (JSON). SIGINT, SIGTERM or SIGHUP stop the running session (the simulated device is written
 //! zero first); nothing is printed and the status is 128 + N, as for every benchmark.
 
-use super::exit::require_complete;
-use super::output::print_json;
-use super::view::attach;
-use crate::demo::run_session_until;
+use crate::exit::require_complete;
+use crate::output::print_json;
+use crate::session_io::{attach_viewer, run_scripted};
 use anyhow::{Context, Result};
 use serde::Serialize;
 use std::time::Duration;
 use vps_haptic::HapticParams;
 use vps_runtime::SignalStop;
 use vps_runtime::{Percentiles, StatsSummary};
-use vps_session::{stop_on_signals, BuildOptions, Session};
+use vps_session::{stop_on_signals, BuildOptions, SessionAssets};
 use vps_view::client::WsClient;
 
 /// Voxel size of the benchmark's scene (m): the demo's.
@@ -85,7 +84,7 @@ pub fn run(seconds: f64, rounds: u32) -> Result<()> {
     // Installed before the scene is built: a signal during the build stops the first session at
     // its first frame.
     let signals = stop_on_signals()?;
-    let scene = Session::open(
+    let scene = SessionAssets::open(
         vps_session::DEFAULT_SCENE,
         &BuildOptions {
             voxel_size: Some(VOXEL_SIZE),
@@ -95,7 +94,7 @@ pub fn run(seconds: f64, rounds: u32) -> Result<()> {
     let params = scene.params;
     let mut results = Vec::new();
     for _ in 0..rounds.max(1) {
-        let without = run_session_until(&scene, params, seconds, 1, true, None, Some(&signals))?;
+        let without = run_scripted(&scene, params, seconds, 1, true, None, Some(&signals))?;
         require_complete(&without.end, Some(&signals))?;
         results.push(round_with_viewer(
             &scene,
@@ -116,13 +115,13 @@ pub fn run(seconds: f64, rounds: u32) -> Result<()> {
 
 /// The session with a viewer and one WebSocket client reading every message.
 fn round_with_viewer(
-    scene: &Session,
+    scene: &SessionAssets,
     params: HapticParams,
     seconds: f64,
     without_viewer: StatsSummary,
     signals: &SignalStop,
 ) -> Result<Round> {
-    let viewer = attach(Some("127.0.0.1:0".parse()?), scene)?.context("the viewer")?;
+    let viewer = attach_viewer(Some("127.0.0.1:0".parse()?), scene)?.context("the viewer")?;
     let mut client = WsClient::connect(viewer.local_addr(), "/ws", Duration::from_secs(5))
         .context("connecting to the viewer's WebSocket")?;
     let reader = std::thread::spawn(move || {
@@ -134,7 +133,7 @@ fn round_with_viewer(
         (messages, bytes)
     });
     let cpu_before = viewer_threads_cpu_s();
-    let with = run_session_until(
+    let with = run_scripted(
         scene,
         params,
         seconds,

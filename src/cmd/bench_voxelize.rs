@@ -1,8 +1,7 @@
 //! `vps bench voxelize` and `vps bench tree-memory`: voxelization time, peak memory, voxmap memory,
 //! tree lookup cost against the dense grid, and the paper's Figure 6 (memory against N).
 
-use super::output::print_json;
-use crate::scene;
+use crate::output::print_json;
 use anyhow::{Context, Result};
 use glam::IVec3;
 use rand::{Rng, SeedableRng};
@@ -10,6 +9,7 @@ use serde::Serialize;
 use std::hint::black_box;
 use std::path::Path;
 use std::time::Instant;
+use vps_session::mesh_source;
 use vps_voxelize::{voxelize_tree, voxelize_with_stats, VoxelizeOptions, VoxelizeStats};
 use vps_voxmap::{DenseGrid, TreeConfig, VoxelLookup, VoxelTree, VoxelWidth};
 
@@ -181,7 +181,7 @@ fn sparse_once(
 /// `vps bench voxelize`: prints JSON. The sparse pipeline runs first, so the peak RSS read after it
 /// is its own; then the dense reference pipeline (with the lookup benchmark).
 pub fn run_voxelize(source: &str, voxel_size: f64, repeat: u32) -> Result<()> {
-    let scene = scene::load(source)?;
+    let scene = mesh_source::load(source)?;
     let mut sparse_times = Vec::new();
     let mut sparse_last = None;
     for _ in 0..repeat.max(1) {
@@ -280,7 +280,7 @@ struct TreeMemoryReport {
 
 /// `vps bench tree-memory`: the paper's Figure 6 study; prints JSON, optionally plots SVG.
 pub fn run_tree_memory(source: &str, voxel_size: f64, plot: Option<&Path>) -> Result<()> {
-    let scene = scene::load(source)?;
+    let scene = mesh_source::load(source)?;
     let (dense, stats) = voxelize_once(&scene.mesh, voxel_size)?;
     let mut rows = Vec::new();
     let mut dense_two_bit_bytes = 0;

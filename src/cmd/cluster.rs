@@ -1,25 +1,17 @@
 //! `vps cert`, `vps worker`, `vps coordinator` and `vps cluster`: the cluster modes over QUIC
 //! (docs/architecture.md#exact-sums-and-the-cluster), thin shells over `vps-cluster`.
 
-use super::exit::SessionExit;
-use super::run::{finish, prepare, LiveSession, PreparedSession, SessionOutputs};
-use crate::cli::{ClusterArgs, CoordinatorArgs, GatherArgs, RunArgs, WorkerArgs};
-use anyhow::{Context, Result};
-use std::net::SocketAddr;
-use std::path::PathBuf;
+use crate::cli::{ClusterArgs, CoordinatorArgs, WorkerArgs};
+use crate::cluster_session::{coordinate, run_local_cluster};
+use crate::exit::SessionExit;
+use crate::service_config::{expand_pins, resolve_coordinator, resolve_worker};
+use crate::session_io::{prepare, SessionOutputs};
+use anyhow::{bail, Result};
+use clap::ArgMatches;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
-use std::time::Duration;
-use vps_cluster::{
-    local_cluster_certs, make_cert, run_coordinator_session, run_worker_service,
-    spawn_local_workers, ClusterError, ClusterReport, ClusterScene, Coordinator, CoordinatorConfig,
-    GatherConfig, LocalWorkerArgs, Rejoin, WorkerConfig,
-};
-use vps_runtime::{LoopConfig, LoopReport, SignalStop};
-use vps_session::CLASS_COUNT;
-
-/// How long the coordinator waits for its workers to join before it starts.
-const JOIN_TIMEOUT: Duration = Duration::from_secs(20);
+use vps_cluster::{make_cert, run_worker_service, ClusterError, Rejoin, WorkerConfig};
+use vps_runtime::SignalStop;
 
 /// `vps cert`: a new self-signed certificate and key for a coordinator or worker.
 pub fn cert(out: &std::path::Path, name: &str) -> Result<()> {
@@ -38,9 +30,16 @@ const EXIT_REFUSED: i32 = 2;
 
 /// `vps worker`: joins a coordinator and answers frame requests; when the coordinator goes away,
 /// waits for the next one (unless `--exit-with-coordinator`), until SIGINT or SIGTERM (exit 0).
-/// A refusal for good exits with status 2 and says why.
-pub fn worker(args: &WorkerArgs) -> Result<()> {
-    let mut config = WorkerConfig::from_files(args.coordinator, &args.cert, &args.key, &args.pin)?;
+/// A refusal for good exits with status 2 and says why. `matches` (the subcommand's) tell which
+/// flags override the `--config` file's settings.
+pub fn worker(mut args: WorkerArgs, matches: &ArgMatches) -> Result<()> {
+    resolve_worker(&mut args, matches)?;
+    let (Some(coordinator), Some(cert), Some(key)) = (args.coordinator, &args.cert, &args.key)
+    else {
+        bail!("vps worker: --coordinator, --cert and --key are required");
+    };
+    let pins = expand_pins(&args.pin)?;
+    let mut config = WorkerConfig::from_files(coordinator, cert, key, &pins)?;
     config.cache_dir = args.cache.clone();
     if let Some(threads) = args.threads {
         config.threads = threads.max(1);
@@ -71,128 +70,27 @@ pub fn worker(args: &WorkerArgs) -> Result<()> {
     }
 }
 
-/// What one coordinated session produced.
-pub struct CoordinatedRun {
-    /// The frame loop's report.
-    pub report: LoopReport,
-    /// Per-worker figures.
-    pub cluster: ClusterReport,
-    /// Points in the shell.
-    pub shell_points: usize,
-    /// The bridge's counters and wrench log, when the device was the UDP bridge.
-    pub bridge: Option<vps_input::BridgeMonitor>,
-    /// The signal handlers that could stop the session (which one did, if any).
-    pub signals: SignalStop,
-}
-
-/// Runs one session on a started coordinator once `workers` have joined; `tune` may adjust the
-/// loop settings (benchmarks run frames back to back with a longer reply deadline).
-#[allow(clippy::too_many_arguments)]
-fn coordinate(
-    session: &RunArgs,
-    listen: SocketAddr,
-    cert: &std::path::Path,
-    key: &std::path::Path,
-    pins: &[PathBuf],
-    workers: usize,
-    gather: GatherArgs,
-    spawn: impl FnOnce(SocketAddr) -> Result<Option<vps_cluster::LocalWorkers>>,
-    tune: impl FnOnce(&mut LoopConfig),
-) -> Result<CoordinatedRun> {
-    let mut prepared = prepare(session)?;
-    tune(&mut prepared.plan.config);
-    coordinate_prepared(
-        session, prepared, listen, cert, key, pins, workers, gather, spawn,
-    )
-}
-
-/// [`coordinate`] for a session already prepared (benchmarks bring their own scene and device);
-/// `session` gives the local threads and the viewer address; `gather` the share adaptation
-/// ([`GatherConfig::adaptive_shares`]) and the spin margin ([`GatherConfig::spin_margin`]).
-#[allow(clippy::too_many_arguments)]
-fn coordinate_prepared(
-    session: &RunArgs,
-    prepared: PreparedSession,
-    listen: SocketAddr,
-    cert: &std::path::Path,
-    key: &std::path::Path,
-    pins: &[PathBuf],
-    workers: usize,
-    gather: GatherArgs,
-    spawn: impl FnOnce(SocketAddr) -> Result<Option<vps_cluster::LocalWorkers>>,
-) -> Result<CoordinatedRun> {
-    let LiveSession {
-        session: scene,
-        viewer: _viewer,
-        setup,
-        bridge,
-        signals,
-    } = prepared.go_live(session.view)?;
-    let cluster_scene = Arc::new(ClusterScene::new(
-        scene.tree.clone(),
-        &scene.shell,
-        CLASS_COUNT,
-    )?);
-    let coordinator = Coordinator::start(
-        CoordinatorConfig::from_files(listen, cert, key, pins)?,
-        cluster_scene,
-    )?;
-    let addr = coordinator.local_addr()?;
-    eprintln!("coordinator listening on {addr}, waiting for {workers} worker(s)");
-    let _children = spawn(addr)?;
-    coordinator
-        .wait_for_workers_until(workers, JOIN_TIMEOUT, &setup.stop)
-        .with_context(|| format!("waiting {JOIN_TIMEOUT:?} for {workers} worker(s) to join"))?;
-    let gather = GatherConfig {
-        local_threads: session.threads.max(1),
-        adaptive_shares: !gather.equal_shares,
-        spin_margin: Duration::from_micros(gather.spin_us),
-        stale: vps_cluster::fallback::StalePolicy {
-            max_age_frames: gather.max_stale_frames,
-            ..Default::default()
-        },
-        ..GatherConfig::default()
-    };
-    let (report, cluster) = run_coordinator_session(&coordinator, gather, setup)?;
-    if let Some(signal) = signals.received() {
-        // The device has been written zero; tell the workers this coordinator is going.
-        coordinator.close(
-            vps_cluster::close::CLOSE_COORDINATOR_STOPPING,
-            &format!("coordinator stopping ({})", signal.name()),
-        );
-    }
-    Ok(CoordinatedRun {
-        report,
-        cluster,
-        shell_points: scene.shell.len(),
-        bridge,
-        signals,
-    })
-}
-
 /// `vps coordinator`: owns the device loop; workers from the LAN join with pinned certificates.
-pub fn coordinator(args: &CoordinatorArgs) -> Result<()> {
+/// `matches` (the subcommand's) tell which flags override the `--config` file's settings.
+pub fn coordinator(mut args: CoordinatorArgs, matches: &ArgMatches) -> Result<()> {
+    resolve_coordinator(&mut args, matches)?;
+    let (Some(cert), Some(key)) = (&args.cert, &args.key) else {
+        bail!("vps coordinator: --cert and --key are required");
+    };
+    let pins = expand_pins(&args.pin)?;
     let outputs = SessionOutputs::reserve(&args.session)?;
-    let run = coordinate(
+    coordinate(
         &args.session,
+        prepare(&args.session)?,
         args.listen,
-        &args.cert,
-        &args.key,
-        &args.pin,
+        cert,
+        key,
+        &pins,
         args.workers,
         args.gather,
         |_| Ok(None),
-        |_| {},
-    )?;
-    finish(
-        &args.session,
-        outputs,
-        &run.signals,
-        run.shell_points,
-        &run.report,
-        run.bridge.as_ref(),
-        Some(&run.cluster),
-    )
+    )?
+    .finish(&args.session, outputs)
 }
 
 /// `vps cluster --local-workers N`: the coordinator plus N worker processes on loopback, with
@@ -203,70 +101,12 @@ pub fn local_cluster(args: &ClusterArgs) -> Result<()> {
         args.local_workers * args.worker_threads,
     )?;
     let outputs = SessionOutputs::reserve(&args.session)?;
-    let run = run_local_cluster(
+    run_local_cluster(
         &args.session,
+        prepare(&args.session)?,
         args.local_workers,
         args.worker_threads,
         args.gather,
-        |_| {},
-    )?;
-    finish(
-        &args.session,
-        outputs,
-        &run.signals,
-        run.shell_points,
-        &run.report,
-        run.bridge.as_ref(),
-        Some(&run.cluster),
-    )
-}
-
-/// A session with `workers` local worker processes of `worker_threads` threads each.
-pub fn run_local_cluster(
-    session: &RunArgs,
-    workers: usize,
-    worker_threads: usize,
-    gather: GatherArgs,
-    tune: impl FnOnce(&mut LoopConfig),
-) -> Result<CoordinatedRun> {
-    let mut prepared = prepare(session)?;
-    tune(&mut prepared.plan.config);
-    run_local_cluster_prepared(session, prepared, workers, worker_threads, gather)
-}
-
-/// [`run_local_cluster`] for a session already prepared (`session`: local threads, viewer).
-pub fn run_local_cluster_prepared(
-    session: &RunArgs,
-    prepared: PreparedSession,
-    workers: usize,
-    worker_threads: usize,
-    gather: GatherArgs,
-) -> Result<CoordinatedRun> {
-    let dir = std::env::temp_dir().join(format!("vps-cluster-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    let certs = local_cluster_certs(&dir)?;
-    let exe = std::env::current_exe().context("locating the vps executable")?;
-    let result = coordinate_prepared(
-        session,
-        prepared,
-        "127.0.0.1:0".parse()?,
-        &certs.coordinator.cert,
-        &certs.coordinator.key,
-        std::slice::from_ref(&certs.worker.cert),
-        workers,
-        gather,
-        |addr| {
-            let spawn_args = LocalWorkerArgs {
-                coordinator: addr,
-                cert: certs.worker.cert.clone(),
-                key: certs.worker.key.clone(),
-                pins: vec![certs.coordinator.cert.clone()],
-                cache_dir: None,
-                threads: Some(worker_threads),
-            };
-            Ok(Some(spawn_local_workers(workers, &exe, &spawn_args)?))
-        },
-    );
-    let _ = std::fs::remove_dir_all(&dir);
-    result
+    )?
+    .finish(&args.session, outputs)
 }

@@ -1,45 +1,11 @@
 //! `vps inspect`: statistics of a `.vmap` or `.vshell` file (chosen by the file's magic bytes).
 
-use super::output::{hex, mib, outln, print_json};
 use crate::cli::InspectArgs;
+use crate::output::{hex, mib, outln, print_json, KindCounts, ShellFigures};
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use std::io::Read;
-use vps_voxmap::{Voxel, VoxelTree};
-
-/// Voxel counts by kind.
-#[derive(Serialize, Clone, Copy)]
-pub struct KindCounts {
-    /// Free voxels.
-    pub free: u64,
-    /// Interior voxels.
-    pub interior: u64,
-    /// Surface (force layer) voxels.
-    pub surface: u64,
-    /// Proximity voxels.
-    pub proximity: u64,
-}
-
-impl From<[u64; 4]> for KindCounts {
-    fn from(c: [u64; 4]) -> Self {
-        Self {
-            free: c[Voxel::Free as usize],
-            interior: c[Voxel::Interior as usize],
-            surface: c[Voxel::Surface as usize],
-            proximity: c[Voxel::Proximity as usize],
-        }
-    }
-}
-
-impl std::fmt::Display for KindCounts {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "voxels: free {}, interior {}, surface {}, proximity {}",
-            self.free, self.interior, self.surface, self.proximity
-        )
-    }
-}
+use vps_voxmap::VoxelTree;
 
 #[derive(Serialize)]
 struct VoxmapInfo {
@@ -92,12 +58,9 @@ struct LayerCount {
 struct ShellInfo {
     file: String,
     kind: &'static str,
-    points: usize,
-    voxel_size_m: f64,
     method: String,
-    volume_m3: f64,
-    center_of_mass_m: [f64; 3],
-    max_radius_m: f64,
+    #[serde(flatten)]
+    figures: ShellFigures,
 }
 
 /// Runs the command.
@@ -207,24 +170,17 @@ fn inspect_shell(args: &InspectArgs) -> Result<()> {
     let info = ShellInfo {
         file: args.file.display().to_string(),
         kind: "point-shell",
-        points: shell.len(),
-        voxel_size_m: shell.voxel_size,
         method: format!("{:?}", shell.method),
-        volume_m3: shell.mass.volume,
-        center_of_mass_m: shell.mass.center_of_mass.to_array(),
-        max_radius_m: shell.max_radius(),
+        figures: ShellFigures::of(&shell),
     };
     if args.json {
         return print_json(&info);
     }
     outln!(
-        "{} (point shell): {} points ({}), voxel size {} m, volume {:.3e} m³, max radius {:.4} m",
+        "{} (point shell, {}): {}",
         info.file,
-        info.points,
         info.method,
-        info.voxel_size_m,
-        info.volume_m3,
-        info.max_radius_m
+        info.figures
     )?;
     Ok(())
 }

@@ -4,18 +4,16 @@ mod bench_bridge;
 mod bench_cluster;
 mod bench_fidelity;
 mod bench_host;
-pub mod bench_kernel;
+mod bench_kernel;
 mod bench_loop;
 mod bench_scaling;
 mod bench_transport;
 mod bench_viewer;
 mod bench_voxelize;
 mod cluster;
-pub mod exit;
-mod host_idle;
+mod demo;
 mod inspect;
 mod netem_relay;
-pub mod output;
 mod probe;
 mod run;
 mod scene_check;
@@ -23,52 +21,38 @@ mod shell;
 mod sweep;
 mod sweep_plots;
 mod tune;
-pub(crate) mod view;
+mod view;
 mod voxelize;
 
-use crate::cli::{BenchKind, Cli, Command, RunArgs, SceneCommand};
+use crate::cli::{BenchKind, Cli, Command, SceneCommand};
 use anyhow::Result;
+use clap::ArgMatches;
 
-/// Runs the parsed command.
-pub fn dispatch(cli: Cli) -> Result<()> {
+/// Runs the parsed command; `matches` are what it was parsed from (the service commands merge
+/// their `--config` file under the flags given on the command line).
+pub fn dispatch(cli: Cli, matches: &ArgMatches) -> Result<()> {
+    let sub = |name: &str| {
+        matches
+            .subcommand_matches(name)
+            .cloned()
+            .unwrap_or_default()
+    };
     match cli.command {
         Command::Voxelize(args) => voxelize::run(&args),
         Command::Shell(args) => shell::run(&args),
         Command::Inspect(args) => inspect::run(&args),
         Command::Probe(args) => probe::run(&args),
-        Command::Demo(args) => crate::demo::run(&args),
+        Command::Demo(args) => demo::run(&args),
         Command::Run(args) => run::run(&args),
-        Command::Record {
-            output,
-            device,
-            seconds,
-            scene,
-        } => run::run(&RunArgs {
-            scene,
-            device,
-            seconds,
-            record: Some(output),
-            ..RunArgs::default()
-        }),
-        Command::Replay {
-            trace,
-            config,
-            json,
-            scene,
-        } => run::run(&RunArgs {
-            scene,
-            device: Some(format!("replay:{}", trace.display())),
-            config,
-            json,
-            ..RunArgs::default()
-        }),
+        Command::Record(args) => run::record(&args),
+        Command::Replay(args) => run::replay(&args),
         Command::Scene(args) => match args.which {
             SceneCommand::Check { scene, json } => scene_check::run(&scene, json),
         },
         Command::Devices { json } => run::devices(json),
         Command::Cert { out, name } => cluster::cert(&out, &name),
-        Command::Worker(args) => cluster::worker(&args),
-        Command::Coordinator(args) => cluster::coordinator(&args),
+        Command::Worker(args) => cluster::worker(args, &sub("worker")),
+        Command::Coordinator(args) => cluster::coordinator(args, &sub("coordinator")),
         Command::Cluster(args) => cluster::local_cluster(&args),
         Command::NetemRelay(args) => netem_relay::run(&args),
         Command::View(args) => view::run(&args),
@@ -127,7 +111,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
             }),
             BenchKind::Kernel {
                 points, seconds, ..
-            } => output::print_json(&bench_kernel::run(&points, seconds)?),
+            } => crate::output::print_json(&bench_kernel::run(&points, seconds)?),
             BenchKind::Fidelity {
                 voxel_sizes, poses, ..
             } => bench_fidelity::run(voxel_sizes, poses),

@@ -2,8 +2,8 @@
 //! coordinator, for kernels without the `netem` qdisc. Workers dial the relay's address instead
 //! of the coordinator's.
 
-use super::output::print_json;
 use crate::cli::NetemRelayArgs;
+use crate::output::print_json;
 use anyhow::Result;
 use std::time::{Duration, Instant};
 use vps_cluster::{Relay, RelayConfig, RelayStats};

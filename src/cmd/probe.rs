@@ -1,7 +1,7 @@
 //! `vps probe`: the voxel kind at world points read from a CSV file.
 
-use super::output::{outln, print_json};
 use crate::cli::ProbeArgs;
+use crate::output::{outln, print_json};
 use anyhow::{bail, Context, Result};
 use glam::DVec3;
 use serde::Serialize;

@@ -2,316 +2,54 @@
 //! (`--scene`, default the built-in bay) with a chosen device, parameters from a TOML file, and
 //! handle traces to and from files.
 
-use super::exit::{outcome, SessionExit};
-use super::output::{check_output_path, print_json, write_file};
-use crate::cli::{BridgeArgs, RunArgs};
-use anyhow::{anyhow, bail, Context, Result};
-use serde::Serialize;
-use std::path::{Path, PathBuf};
-use vps_device::trace::save_trace;
-use vps_haptic::HapticParams;
-use vps_input::{BridgeCounters, BridgeMonitor};
-use vps_runtime::{run_loop, LoopConfig, LoopReport, SessionSetup, SignalStop, StatsSummary};
-use vps_session::{BridgeSettings, DeviceChoice, Session, SessionPlan};
-
-/// The session report (`--json`, `--report FILE`).
-#[derive(Serialize)]
-struct RunReport {
-    device: String,
-    shell_points: usize,
-    realtime_granted: bool,
-    /// Why the session ended: "frames done", "stopped by SIGTERM", "device failed: ...",
-    /// "panic: ...".
-    end: String,
-    /// False when the session did not run all its frames (the figures cover the frames run).
-    complete: bool,
-    /// The process's exit status (src/cmd/exit.rs; README, "Units, limits and safety").
-    exit_code: i32,
-    final_position_m: [f64; 3],
-    stats: StatsSummary,
-    /// The device's own counters (e.g. the bridge's datagram counts), when it keeps any.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    device_counters: Option<serde_json::Value>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    cluster: Option<serde_json::Value>,
-    /// The bridge device's counters, when the device was the bridge.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    bridge: Option<BridgeCounters>,
-}
-
-/// The files a session writes at its end, checked ([`check_output_path`]: the directory exists
-/// and takes new files) before the session starts so that a bad path fails before any work;
-/// written atomically at the end.
-#[derive(Default)]
-pub struct SessionOutputs {
-    /// `--report FILE`.
-    report: Option<PathBuf>,
-    /// `--record FILE`.
-    record: Option<PathBuf>,
-}
-
-impl SessionOutputs {
-    /// Checks `--report` and `--record` of `args`.
-    pub fn reserve(args: &RunArgs) -> Result<SessionOutputs> {
-        let checked = |path: &Option<PathBuf>| -> Result<Option<PathBuf>> {
-            if let Some(path) = path {
-                check_output_path(path, &[])?;
-            }
-            Ok(path.clone())
-        };
-        Ok(SessionOutputs {
-            report: checked(&args.report)?,
-            record: checked(&args.record)?,
-        })
-    }
-}
-
-/// Everything a session needs, opened from the command line.
-pub struct PreparedSession {
-    /// Scene, voxmap, shell and meshes.
-    pub session: Session,
-    /// Parameters, opened device, initial state and loop settings.
-    pub plan: SessionPlan,
-}
-
-/// A prepared session made ready to run: its scene, the live viewer when one was asked for (keep
-/// it alive for the session), the loop's setup, publishing to that viewer, and the signal
-/// handlers that stop it.
-pub struct LiveSession {
-    /// Scene, voxmap, shell and meshes.
-    pub session: Session,
-    /// The viewer serving this session, if any.
-    pub viewer: Option<super::view::LiveViewer>,
-    /// What the frame loop runs.
-    pub setup: SessionSetup,
-    /// The bridge's counters and wrench log, when the device is the UDP bridge (for the report).
-    pub bridge: Option<BridgeMonitor>,
-    /// SIGINT, SIGTERM and SIGHUP set `setup.stop` (the device is then written zero and the
-    /// report says which signal came).
-    pub signals: SignalStop,
-}
-
-impl PreparedSession {
-    /// Attaches the viewer at `view` (when given) and builds the loop's setup, with a stop flag
-    /// set by SIGINT, SIGTERM and SIGHUP (installed here: the device is open from now on).
-    pub fn go_live(self, view: Option<std::net::SocketAddr>) -> Result<LiveSession> {
-        let PreparedSession { session, plan } = self;
-        let viewer = super::view::attach(view, &session)?;
-        let bridge = plan.bridge.clone();
-        let (setup, signals) = plan.into_live_setup(viewer.as_ref().map(|v| v.feed()))?;
-        Ok(LiveSession {
-            session,
-            viewer,
-            setup,
-            bridge,
-            signals,
-        })
-    }
-}
-
-/// The device of `--device`, else the scene's.
-pub fn device_choice(text: Option<&str>, session: &Session) -> Result<DeviceChoice> {
-    match text {
-        Some(t) => DeviceChoice::parse(t).map_err(|m| anyhow!("--device {m}")),
-        None => Ok(session.device.clone()),
-    }
-}
-
-/// The bridge settings of a session: the scene's (`[device]` `mapping`, `pose_timeout_ms`) with
-/// each flag of `flags` that was given in their place; the wrench log holds one wrench per frame
-/// plus the loop's final zero when `--log-wrenches` is given. The flags need the bridge device.
-fn bridge_settings(
-    flags: &BridgeArgs,
-    choice: &DeviceChoice,
-    scene: BridgeSettings,
-    frames: u64,
-) -> Result<BridgeSettings> {
-    if *flags == BridgeArgs::default() {
-        return Ok(scene);
-    }
-    if !matches!(choice, DeviceChoice::Bridge(_)) {
-        bail!("--map-*, --force-scale, --pose-timeout-ms and --log-wrenches need --device bridge[:ADDR]");
-    }
-    let mut settings = scene;
-    let m = &mut settings.mapping;
-    m.scale = flags.map_scale.unwrap_or(m.scale);
-    m.offset = flags.map_offset.unwrap_or(m.offset);
-    m.rotate_deg = flags.map_rotate_deg.unwrap_or(m.rotate_deg);
-    m.force_scale = flags.force_scale.unwrap_or(m.force_scale);
-    if let Some(ms) = flags.pose_timeout_ms {
-        settings.pose_timeout = ms / 1e3;
-    }
-    if flags.log_wrenches.is_some() {
-        // The loop writes one zero wrench after its last frame.
-        settings.wrench_log_frames = usize::try_from(frames)
-            .unwrap_or(usize::MAX)
-            .saturating_add(1);
-    }
-    Ok(settings)
-}
-
-/// Builds the scene, loads parameters and opens the device of `args`.
-pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
-    let mut session = Session::open(
-        &args.scene.scene,
-        &args.scene.build_options(args.voxel_size),
-    )?;
-    let choice = device_choice(args.device.as_deref(), &session)?;
-    if let Some(path) = &args.config {
-        session.params = HapticParams::from_file(path)?
-            .with_scene(session.voxel_size, session.shell.max_radius())?;
-    }
-    let source = match &args.config {
-        Some(path) => path.display().to_string(),
-        None => session.label.clone(),
-    };
-    check_loop_period(&session.params, &source)?;
-    let frames = choice.frames(args.seconds, session.params.dt)?;
-    session.bridge = bridge_settings(&args.bridge, &choice, session.bridge, frames)?;
-    let config = LoopConfig {
-        frames: Some(frames),
-        threads: args.threads.max(1),
-        realtime: true,
-        record_trace: args.record.is_some(),
-        ..LoopConfig::default()
-    };
-    let plan = session.plan(&choice, session.script()?, config)?;
-    Ok(PreparedSession { session, plan })
-}
-
-/// Fails unless the haptic time step `dt` (s) of `params`, read from `source`, is the session
-/// loop's period: the loop ticks at 1 kHz whatever the parameters say.
-fn check_loop_period(params: &HapticParams, source: &str) -> Result<()> {
-    let period = LoopConfig::default().period.as_secs_f64();
-    if (params.dt - period).abs() > 1e-12 {
-        bail!(
-            "{source}: haptic parameter `dt` = {} s: the session loop runs at {} Hz, so `dt` \
-             must be {period} s (or left out)",
-            params.dt,
-            1.0 / period
-        );
-    }
-    Ok(())
-}
+use crate::cli::{RecordArgs, ReplayArgs, RunArgs};
+use crate::output::print_json;
+use crate::session_io::{finish, prepare, LiveSession, SessionOutputs};
+use anyhow::{bail, Result};
+use vps_runtime::{run_loop, LoopReport};
 
 /// Runs one paced session; records the handle trace to `record` when given.
 pub fn run(args: &RunArgs) -> Result<()> {
     let outputs = SessionOutputs::reserve(args)?;
     let LiveSession {
-        session,
+        assets,
         viewer: _viewer,
         setup,
         bridge,
         signals,
     } = prepare(args)?.go_live(args.view)?;
-    let report: LoopReport = run_loop(session.tree.clone(), session.classed_shell(), setup)?;
+    let report: LoopReport = run_loop(assets.tree.clone(), assets.classed_shell(), setup)?;
     finish(
         args,
         outputs,
         &signals,
-        session.shell.len(),
+        assets.shell.len(),
         &report,
         bridge.as_ref(),
         None::<&()>,
     )
 }
 
-/// Once the device has been written zero: saves the recording (and the bridge's wrench log when
-/// asked), writes the report file, prints the session's figures (with the bridge's counters when
-/// `bridge` is given, and `cluster`, when given, as JSON), and fails with a [`SessionExit`] (its
-/// exit status) when the session did not run to its end.
-pub fn finish<C: Serialize>(
-    args: &RunArgs,
-    outputs: SessionOutputs,
-    signals: &SignalStop,
-    shell_points: usize,
-    report: &LoopReport,
-    bridge: Option<&BridgeMonitor>,
-    cluster: Option<&C>,
-) -> Result<()> {
-    if let (Some(monitor), Some(path)) = (bridge, &args.bridge.log_wrenches) {
-        let n = monitor
-            .save_wrench_log(path)
-            .with_context(|| format!("writing the wrench log {}", path.display()))?;
-        eprintln!("logged {n} wrenches sent to {}", path.display());
+/// `vps record -o FILE ...`: [`run`] with `--record FILE`.
+pub fn record(args: &RecordArgs) -> Result<()> {
+    if args.session.record.is_some() {
+        bail!("vps record: give the trace file once, as -o FILE (or use vps run --record FILE)");
     }
-    let (end, exit_code) = outcome(&report.end, Some(signals));
-    let out = RunReport {
-        device: report.device_name.clone(),
-        shell_points,
-        realtime_granted: report.rt.fifo,
-        end,
-        complete: report.end.is_complete(),
-        exit_code,
-        final_position_m: report.final_state.position.to_array(),
-        stats: report.stats.clone(),
-        device_counters: report.device_counters.clone(),
-        cluster: cluster.map(serde_json::to_value).transpose()?,
-        bridge: bridge.map(|m| m.counters()),
-    };
-    if let Some(path) = &outputs.report {
-        let text = serde_json::to_string_pretty(&out)? + "\n";
-        write_file(path, text.as_bytes())?;
-    }
-    if let Some(path) = &outputs.record {
-        save_recording(report, path)?;
-    }
-    if args.json {
-        print_json(&out)?;
-    } else {
-        println!(
-            "device: {}, {} shell points, session end: {}{}",
-            out.device,
-            out.shell_points,
-            out.end,
-            if out.complete { "" } else { " (partial)" }
-        );
-        crate::demo::print_summary("session", &out.stats, None);
-        println!("final part position (m): {:?}", out.final_position_m);
-        if let Some(c) = &out.bridge {
-            println!(
-                "bridge: poses received {}, bad datagrams {} (+{} wrong token, {} stale), \
-                 timeouts {}, clutch presses {}, zeroed frames {}, wrenches sent {} ({} failed)",
-                c.accepted,
-                c.garbage,
-                c.unauthorized,
-                c.stale,
-                c.timeouts,
-                c.clutch_presses,
-                c.zeroed_frames,
-                c.sent,
-                c.send_failed
-            );
-        }
-        if let Some(cluster) = &out.cluster {
-            println!("cluster: {}", serde_json::to_string_pretty(cluster)?);
-        }
-    }
-    if exit_code != 0 {
-        return Err(SessionExit {
-            code: exit_code,
-            reason: format!(
-                "the session ended early ({}); the device was sent zero force",
-                out.end
-            ),
-        }
-        .into());
-    }
-    Ok(())
+    run(&RunArgs {
+        record: Some(args.output.clone()),
+        ..args.session.clone()
+    })
 }
 
-fn save_recording(report: &LoopReport, path: &Path) -> Result<()> {
-    if let Some(why) = &report.trace_error {
-        bail!("trace recording stopped early: {why}");
+/// `vps replay TRACE ...`: [`run`] with `--device replay:TRACE`.
+pub fn replay(args: &ReplayArgs) -> Result<()> {
+    if args.session.device.is_some() {
+        bail!("vps replay: the device is the trace; --device cannot be given");
     }
-    let trace = report
-        .trace
-        .as_ref()
-        .context("the loop returned no trace")?;
-    let frames = trace.frames.len();
-    save_trace(path, trace)?;
-    eprintln!("recorded {frames} frames to {}", path.display());
-    Ok(())
+    run(&RunArgs {
+        device: Some(format!("replay:{}", args.trace.display())),
+        ..args.session.clone()
+    })
 }
 
 /// `vps devices`: the HID devices this machine sees and which of them vps can drive.
@@ -321,12 +59,12 @@ pub fn devices(json: bool) -> Result<()> {
         return print_json(&list);
     }
     if list.is_empty() {
-        super::output::outln!(
+        crate::output::outln!(
             "no HID devices found on this machine (none attached, or /dev/hidraw* not readable)"
         )?;
     }
     for d in &list {
-        super::output::outln!("{d}")?;
+        crate::output::outln!("{d}")?;
     }
     Ok(())
 }

@@ -3,7 +3,7 @@
 //! memory, the shell's point count, and whether a frame fits the budget on this machine (from the
 //! sampling kernel's cost per point, measured briefly as `vps bench kernel` does).
 
-use super::output::print_json;
+use crate::output::print_json;
 use anyhow::Result;
 use serde::Serialize;
 use vps_mesh::TriMesh;

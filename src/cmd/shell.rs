@@ -1,22 +1,19 @@
 //! `vps shell`: mesh → `.vshell` point shell.
 
-use super::output::{check_output_path, outln, print_json};
 use crate::cli::{ShellArgs, ShellMethodArg};
-use crate::scene;
+use crate::output::{check_output_path, outln, print_json, ShellFigures};
 use anyhow::{Context, Result};
 use serde::Serialize;
+use vps_session::mesh_source;
 use vps_voxelize::{point_shell_within, ShellMethod};
 
 #[derive(Serialize)]
 struct ShellSummary {
     source: String,
     output: String,
-    points: usize,
-    voxel_size_m: f64,
     method: &'static str,
-    volume_m3: f64,
-    center_of_mass_m: [f64; 3],
-    max_radius_m: f64,
+    #[serde(flatten)]
+    figures: ShellFigures,
 }
 
 /// Maps the command-line choice to the library's.
@@ -29,8 +26,8 @@ pub fn method_of(arg: ShellMethodArg) -> ShellMethod {
 
 /// Runs the command.
 pub fn run(args: &ShellArgs) -> Result<()> {
-    check_output_path(&args.output, &super::voxelize::mesh_inputs(&args.mesh))?;
-    let scene = scene::load(&args.mesh)?;
+    check_output_path(&args.output, &crate::output::mesh_inputs(&args.mesh))?;
+    let scene = mesh_source::load(&args.mesh)?;
     let budget = args
         .max_memory
         .unwrap_or_else(vps_voxelize::default_memory_budget);
@@ -40,27 +37,20 @@ pub fn run(args: &ShellArgs) -> Result<()> {
     let summary = ShellSummary {
         source: scene.source,
         output: args.output.display().to_string(),
-        points: shell.len(),
-        voxel_size_m: shell.voxel_size,
         method: match shell.method {
             ShellMethod::VoxelCentres => "voxel-centres",
             ShellMethod::ExactSurface => "exact-surface",
         },
-        volume_m3: shell.mass.volume,
-        center_of_mass_m: shell.mass.center_of_mass.to_array(),
-        max_radius_m: shell.max_radius(),
+        figures: ShellFigures::of(&shell),
     };
     if args.json {
         return print_json(&summary);
     }
     outln!(
-        "{}: {} points ({}) at {} m, volume {:.3e} m³, max radius {:.4} m, written to {}",
+        "{} ({}): {}, written to {}",
         summary.source,
-        summary.points,
         summary.method,
-        summary.voxel_size_m,
-        summary.volume_m3,
-        summary.max_radius_m,
+        summary.figures,
         summary.output
     )?;
     Ok(())

@@ -176,5 +176,5 @@ fn plot_one(
     root.present()?;
     drop(chart);
     drop(root);
-    super::output::write_file(path, svg.as_bytes())
+    crate::output::write_file(path, svg.as_bytes())
 }

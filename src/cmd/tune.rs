@@ -121,7 +121,7 @@ pub fn run(args: &TuneArgs) -> Result<()> {
         verify: verify.stats,
     };
     if args.json {
-        return super::output::print_json(&report);
+        return crate::output::print_json(&report);
     }
     println!("budget: frame compute p99.9 ≤ {budget_us:.0} µs; chosen voxel size {size_mm} mm");
     match &report.predicted_accuracy {
@@ -135,7 +135,7 @@ pub fn run(args: &TuneArgs) -> Result<()> {
         ),
         None => println!("accuracy: {} has no row for {} at {size_mm} mm (run vps sweep)", args.sweep.display(), scene.name),
     }
-    crate::demo::print_summary(
+    crate::session_io::print_summary(
         &format!(
             "verification: {} paced frames at {size_mm} mm",
             args.verify_frames

@@ -1,58 +1,13 @@
-//! The live viewer on the command line: `--view ADDR` on `vps demo`, `vps run` and
-//! `vps coordinator` ([`attach`]), and `vps view FILE.vmap` or `vps view --scene FILE` offline
-//! ([`run`]).
+//! `vps view FILE.vmap` or `vps view --scene FILE`: the viewer offline, with no loop. (`--view
+//! ADDR` on the session commands attaches it to a session: `crate::session_io::attach_viewer`.)
 
 use crate::cli::ViewArgs;
+use crate::session_io::viewer_scene;
 use anyhow::{Context, Result};
-use std::net::SocketAddr;
 use std::sync::Arc;
-use vps_runtime::{state_feed, StateFeedSender};
-use vps_session::{CachePolicy, Session};
-use vps_view::{SceneLimits, ViewerHandle, ViewerScene, ViewerServer};
+use vps_session::{CachePolicy, SessionAssets};
+use vps_view::{SceneLimits, ViewerScene, ViewerServer};
 use vps_voxmap::file::{load_shell, load_voxmap};
-
-/// A viewer serving a session's state feed. Dropping it stops the server.
-pub struct LiveViewer {
-    server: ViewerHandle,
-    feed: StateFeedSender,
-}
-
-impl LiveViewer {
-    /// The loop's end of the viewer's feed (pass it to the session; cloning is cheap).
-    pub fn feed(&self) -> StateFeedSender {
-        self.feed.clone()
-    }
-
-    /// The address the viewer listens on.
-    pub fn local_addr(&self) -> SocketAddr {
-        self.server.local_addr()
-    }
-}
-
-/// What the viewer draws of a session: its voxmap and shell, labelled with the scene's name.
-fn viewer_scene(session: &Session) -> ViewerScene {
-    ViewerScene::new(
-        session.name.clone(),
-        session.tree.clone(),
-        Some(Arc::new(session.shell.clone())),
-        SceneLimits::default(),
-    )
-    .with_meshes(
-        session.static_meshes.clone(),
-        Some(session.part_mesh.clone()),
-    )
-}
-
-/// Starts a viewer of `session` on `addr` when `--view` was given and prints its URL on stderr.
-pub fn attach(addr: Option<SocketAddr>, session: &Session) -> Result<Option<LiveViewer>> {
-    let Some(addr) = addr else {
-        return Ok(None);
-    };
-    let (feed, receiver) = state_feed();
-    let server = ViewerServer::start(addr, viewer_scene(session), Some(receiver))?;
-    eprintln!("viewer: {}", server.url());
-    Ok(Some(LiveViewer { server, feed }))
-}
 
 /// `vps view FILE.vmap [--shell FILE.vshell]` or `vps view --scene FILE`: serves the scene with
 /// no loop until interrupted.
@@ -68,7 +23,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
                 ..vps_session::BuildOptions::default()
             };
             (
-                viewer_scene(&Session::open(scene, &options)?),
+                viewer_scene(&SessionAssets::open(scene, &options)?),
                 scene.clone(),
             )
         }

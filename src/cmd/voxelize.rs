@@ -1,12 +1,12 @@
 //! `vps voxelize`: mesh → `.vmap`.
 
-use super::output::{check_output_path, hex, mib, outln, print_json};
 use crate::cli::VoxelizeArgs;
-use crate::scene;
+use crate::output::{check_output_path, hex, mib, outln, print_json};
 use anyhow::{bail, Context, Result};
 use glam::DVec3;
 use serde::Serialize;
 use vps_mesh::Aabb;
+use vps_session::mesh_source;
 use vps_voxelize::{voxelize_tree, VoxelizeOptions};
 use vps_voxmap::{TreeConfig, VoxelWidth};
 
@@ -25,14 +25,14 @@ struct VoxelizeSummary {
     tree_ms: f64,
     tree_bytes: usize,
     peak_work_bytes: u64,
-    counts: super::inspect::KindCounts,
+    counts: crate::output::KindCounts,
     hash: String,
 }
 
 /// Runs the command.
 pub fn run(args: &VoxelizeArgs) -> Result<()> {
-    check_output_path(&args.output, &mesh_inputs(&args.mesh))?;
-    let scene = scene::load(&args.mesh)?;
+    check_output_path(&args.output, &crate::output::mesh_inputs(&args.mesh))?;
+    let scene = mesh_source::load(&args.mesh)?;
     let Some(width) = VoxelWidth::from_bits(args.width) else {
         bail!("--width {}: must be 2, 4 or 8", args.width);
     };
@@ -73,7 +73,7 @@ pub fn run(args: &VoxelizeArgs) -> Result<()> {
         tree_ms,
         tree_bytes: tree.memory_bytes(),
         peak_work_bytes: stats.peak_work_bytes,
-        counts: super::inspect::KindCounts::from(tree.counts()),
+        counts: crate::output::KindCounts::from(tree.counts()),
         hash: hex(&tree.content_hash()),
     };
     if args.json {
@@ -98,15 +98,6 @@ pub fn run(args: &VoxelizeArgs) -> Result<()> {
     )?;
     outln!("content hash {}", summary.hash)?;
     Ok(())
-}
-
-/// The files a mesh source reads (none for `builtin:NAME`), for the output-path check.
-pub fn mesh_inputs(source: &str) -> Vec<&std::path::Path> {
-    if source.starts_with("builtin:") {
-        Vec::new()
-    } else {
-        vec![std::path::Path::new(source)]
-    }
 }
 
 /// Parses `MINX,MINY,MINZ,MAXX,MAXY,MAXZ` (m) into a box.

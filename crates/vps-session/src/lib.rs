@@ -1,6 +1,6 @@
 //! Sessions from scene files: one TOML file describes the static objects, the part, the voxel
 //! settings, the haptic parameters, the simulated hand's path and the default device
-//! ([`file::SceneFile`]); [`scene::LoadedScene`] loads and places its meshes; [`scene::Session`]
+//! ([`file::SceneFile`]); [`scene::LoadedScene`] loads and places its meshes; [`scene::SessionAssets`]
 //! holds the built voxmap (cached on disk, [`cache`]), point shell, parameters and script; and
 //! [`plan::SessionPlan`] is the one way the runtime's `SessionSetup` is made.
 //!
@@ -24,7 +24,7 @@ pub use device::{BridgeSettings, DeviceChoice, OpenedDevice};
 pub use error::SceneError;
 pub use file::SceneFile;
 pub use plan::{stop_on_signals, SessionPlan};
-pub use scene::{BuildOptions, HandPlan, LoadedScene, Session, DEFAULT_SCENE};
+pub use scene::{BuildOptions, HandPlan, LoadedScene, SessionAssets, DEFAULT_SCENE};
 
 use std::sync::Arc;
 use vps_haptic::ClassedShell;

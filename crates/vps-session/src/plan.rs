@@ -4,7 +4,7 @@
 //! handlers.
 
 use crate::device::{DeviceChoice, OpenedDevice};
-use crate::scene::Session;
+use crate::scene::SessionAssets;
 use anyhow::Result;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
@@ -95,9 +95,9 @@ pub fn stop_on_signals() -> Result<SignalStop> {
     Ok(SignalStop::install(&stop)?)
 }
 
-impl Session {
+impl SessionAssets {
     /// Opens `device` (the simulated hand follows `script`; the others start at its first pose;
-    /// the bridge is set up by [`Session::bridge`]) and plans a session with the scene's
+    /// the bridge is set up by [`SessionAssets::bridge`]) and plans a session with the scene's
     /// parameters and `config`. Blocking (opens the device).
     pub fn plan(
         &self,

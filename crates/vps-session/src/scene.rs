@@ -1,5 +1,5 @@
 //! A scene file resolved into what a session runs on: [`LoadedScene`] (parsed, meshes loaded and
-//! placed, parameters read, geometry checked) and [`Session`] (voxmap, point shell, parameters,
+//! placed, parameters read, geometry checked) and [`SessionAssets`] (voxmap, point shell, parameters,
 //! device, hand path, and the meshes for a viewer).
 
 use crate::cache::{cache_key, cache_path, read_cached, write_cached, CachePolicy};
@@ -363,7 +363,7 @@ impl LoadedScene {
 
     /// Builds the session: voxmap (`options.voxel_size` or the scene's), shell, parameters, hand
     /// and meshes. Blocking, parallel, allocates.
-    pub fn build(self, options: &BuildOptions) -> Result<Session> {
+    pub fn build(self, options: &BuildOptions) -> Result<SessionAssets> {
         let voxel_size = options.voxel_size.unwrap_or(self.file.voxels.voxel_size);
         let method = options
             .shell_method
@@ -374,7 +374,7 @@ impl LoadedScene {
         let part_mesh = self.part_in_shell_frame(&shell);
         let hand = self.hand();
         let scene_triangles = self.scene_triangles();
-        Ok(Session {
+        Ok(SessionAssets {
             name: self.name,
             label: self.label,
             voxel_size,
@@ -566,8 +566,10 @@ impl HandPlan {
     }
 }
 
-/// Everything a session needs, built once from a scene.
-pub struct Session {
+/// Everything built once from a scene file that sessions run with: the voxmap, the part's point
+/// shell, the haptic parameters, the device choice and the hand's motion (plus the meshes, for a
+/// viewer). Many sessions may run on one `SessionAssets`; [`SessionAssets::plan`] plans one.
+pub struct SessionAssets {
     /// The scene's name.
     pub name: String,
     /// The scene file's path, or `builtin:NAME`.
@@ -587,7 +589,7 @@ pub struct Session {
     /// The scene's default device.
     pub device: DeviceChoice,
     /// How the bridge is set up when it drives the session: the scene's `[device]` settings,
-    /// which a caller may override (command-line flags) before [`Session::plan`].
+    /// which a caller may override (command-line flags) before [`SessionAssets::plan`].
     pub bridge: BridgeSettings,
     /// How the simulated hand moves.
     pub hand: HandPlan,
@@ -599,9 +601,9 @@ pub struct Session {
     pub part_mesh: TriMesh,
 }
 
-impl Session {
+impl SessionAssets {
     /// Loads and builds `scene` (`builtin:NAME` or a file) with `options`.
-    pub fn open(scene: &str, options: &BuildOptions) -> Result<Session> {
+    pub fn open(scene: &str, options: &BuildOptions) -> Result<SessionAssets> {
         let loaded = LoadedScene::load(scene)?;
         for w in &loaded.warnings {
             eprintln!("{}: warning: {w}", loaded.label);

@@ -21,7 +21,7 @@
 //! boxes then being an overlay the user turns on.
 //!
 //! Module map: [`scene`] (what is drawn: decimated Surface voxels, the shell, meshes), [`mesh`]
-//! (mesh decimation and encoding), [`contacts`] (contact points at a pose), [`state`] (the JSON
+//! (mesh decimation and encoding), [`contacts`] (contact points at a pose), [`live`] (a viewer attached to a session's feed), [`state`] (the JSON
 //! state message), [`sampler`] (the feed reader thread), [`server`] (routes, WebSocket, limits,
 //! start and shutdown), [`access`] (Host and Origin checks), [`client`] (a minimal blocking
 //! HTTP/WebSocket client for tests, benchmarks and tools), [`browser`] (headless Chromium over
@@ -33,6 +33,7 @@ pub mod access;
 pub mod browser;
 pub mod client;
 pub mod contacts;
+pub mod live;
 pub mod mesh;
 pub mod sampler;
 pub mod scene;
@@ -40,6 +41,7 @@ pub mod server;
 pub mod state;
 
 pub use contacts::{sample_contacts, ContactSample};
+pub use live::LiveViewer;
 pub use scene::{SceneLimits, ViewerScene};
 pub use server::{ServerLimits, ViewerHandle, ViewerServer};
 pub use state::{FrameView, ViewState, ViewStatus};

@@ -41,7 +41,7 @@ pub fn stdout_line(args: std::fmt::Arguments) -> Result<()> {
 /// `outln!("{x}")?`.
 macro_rules! outln {
     ($($arg:tt)*) => {
-        $crate::cmd::output::stdout_line(format_args!($($arg)*))
+        $crate::output::stdout_line(format_args!($($arg)*))
     };
 }
 pub(crate) use outln;
@@ -139,6 +139,88 @@ pub fn hex(bytes: &[u8]) -> String {
 /// Bytes as a human-readable MiB figure.
 pub fn mib(bytes: f64) -> String {
     format!("{:.2} MiB", bytes / (1024.0 * 1024.0))
+}
+
+/// Voxel counts by kind.
+#[derive(Serialize, Clone, Copy)]
+pub struct KindCounts {
+    /// Free voxels.
+    pub free: u64,
+    /// Interior voxels.
+    pub interior: u64,
+    /// Surface (force layer) voxels.
+    pub surface: u64,
+    /// Proximity voxels.
+    pub proximity: u64,
+}
+
+impl From<[u64; 4]> for KindCounts {
+    fn from(c: [u64; 4]) -> Self {
+        Self {
+            free: c[vps_voxmap::Voxel::Free as usize],
+            interior: c[vps_voxmap::Voxel::Interior as usize],
+            surface: c[vps_voxmap::Voxel::Surface as usize],
+            proximity: c[vps_voxmap::Voxel::Proximity as usize],
+        }
+    }
+}
+
+impl std::fmt::Display for KindCounts {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "voxels: free {}, interior {}, surface {}, proximity {}",
+            self.free, self.interior, self.surface, self.proximity
+        )
+    }
+}
+
+/// The files a mesh source reads (none for `builtin:NAME`), for the output-path check.
+pub fn mesh_inputs(source: &str) -> Vec<&std::path::Path> {
+    if source.starts_with("builtin:") {
+        Vec::new()
+    } else {
+        vec![std::path::Path::new(source)]
+    }
+}
+
+/// A point shell's figures, as `vps shell` and `vps inspect` print them.
+#[derive(Serialize, Clone, Copy)]
+pub struct ShellFigures {
+    /// Points in the shell.
+    pub points: usize,
+    /// Voxel size it was built at (m).
+    pub voxel_size_m: f64,
+    /// The part's volume (m³).
+    pub volume_m3: f64,
+    /// The part's centre of mass (m, shell frame).
+    pub center_of_mass_m: [f64; 3],
+    /// The largest point distance from the origin (m).
+    pub max_radius_m: f64,
+}
+
+impl ShellFigures {
+    /// The figures of `shell`.
+    pub fn of(shell: &vps_voxmap::PointShell) -> ShellFigures {
+        ShellFigures {
+            points: shell.len(),
+            voxel_size_m: shell.voxel_size,
+            volume_m3: shell.mass.volume,
+            center_of_mass_m: shell.mass.center_of_mass.to_array(),
+            max_radius_m: shell.max_radius(),
+        }
+    }
+}
+
+impl std::fmt::Display for ShellFigures {
+    /// "N points at S m, volume V m³, max radius R m".
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} points at {} m, volume {:.3e} m³, max radius {:.4} m",
+            self.points, self.voxel_size_m, self.volume_m3, self.max_radius_m
+        )
+    }
 }
 
 #[cfg(test)]

@@ -4,13 +4,14 @@
 //! the penetration ratio of both.
 
 use crate::cli::DemoArgs;
-use crate::cmd::exit::{outcome, SessionExit};
-use crate::cmd::output::print_json;
+use crate::exit::{outcome, SessionExit};
+use crate::output::print_json;
+use crate::session_io::{print_summary, run_scripted};
 use anyhow::Result;
 use serde::Serialize;
 use vps_haptic::HapticParams;
-use vps_runtime::{run_loop, LoopConfig, LoopReport, SignalStop, StateFeedSender, StatsSummary};
-use vps_session::{stop_on_signals, DeviceChoice, Session};
+use vps_runtime::StatsSummary;
+use vps_session::{stop_on_signals, SessionAssets};
 
 /// The paper's penetration ratios (Table 2): braking on and off.
 const PAPER_PR_BRAKING: f64 = 6e-5;
@@ -33,88 +34,9 @@ struct DemoReport {
     braking_off: StatsSummary,
 }
 
-/// Runs one session; `paced` runs at 1 kHz on the wall clock, otherwise frames run back to back
-/// (the physics is identical: the device is given the scheduled tick time either way). Every frame
-/// is published to `feed` when given (a viewer). Ended early (the device written zero) once one of
-/// `signals` comes, when given.
-pub fn run_session_until(
-    scene: &Session,
-    params: HapticParams,
-    seconds: f64,
-    threads: usize,
-    paced: bool,
-    feed: Option<StateFeedSender>,
-    signals: Option<&SignalStop>,
-) -> Result<LoopReport> {
-    let script = scene.script()?;
-    let frames = ((seconds.min(script.duration()) / params.dt).round() as u64).max(1);
-    let config = LoopConfig {
-        frames: Some(frames),
-        threads,
-        realtime: paced,
-        free_running: !paced,
-        ..LoopConfig::default()
-    };
-    let mut plan = scene.plan(&DeviceChoice::Simulated, script, config)?;
-    plan.params = params;
-    let report = run_loop(
-        scene.tree.clone(),
-        scene.classed_shell(),
-        match signals {
-            Some(signals) => plan.into_stopped_setup(feed, signals),
-            None => plan.into_setup(feed),
-        },
-    )?;
-    if let Some(err) = &report.device_error {
-        anyhow::bail!("the device failed: {err}");
-    }
-    Ok(report)
-}
-
-/// Prints a session's frame figures; `paper` is the paper's penetration ratio to show beside ours.
-pub fn print_summary(label: &str, s: &StatsSummary, paper: Option<f64>) {
-    let us = |ns: u64| ns as f64 / 1e3;
-    println!("{label}:");
-    println!(
-        "  frames {}, missed deadlines {}, watchdog trips {}, local fallbacks {}",
-        s.frames, s.missed_deadlines, s.watchdog_trips, s.fallback_shares
-    );
-    if s.missed_deadlines > 0 {
-        println!(
-            "  missed after a late start {} (the thread was not run in time), after a long frame {}",
-            s.missed_after_late_start, s.missed_after_long_frame
-        );
-    }
-    println!(
-        "  compute µs  p50 {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1}",
-        us(s.compute_ns.p50),
-        us(s.compute_ns.p99),
-        us(s.compute_ns.p999),
-        us(s.compute_ns.max)
-    );
-    if s.period_error_ns.max > 0 || s.missed_deadlines > 0 {
-        println!(
-            "  period error µs  p50 {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1}",
-            us(s.period_error_ns.p50),
-            us(s.period_error_ns.p99),
-            us(s.period_error_ns.p999),
-            us(s.period_error_ns.max)
-        );
-    }
-    println!(
-        "  contact frames {}, touching {}, penetrating {}, penetration ratio {}{}",
-        s.contact_frames,
-        s.touching_frames,
-        s.penetrating_frames,
-        s.penetration_ratio
-            .map_or("n/a (no contact)".into(), |r| format!("{r:.2e}")),
-        paper.map_or(String::new(), |p| format!(" (paper: {p:.1e})"))
-    );
-}
-
 /// Runs the demo.
 pub fn run(args: &DemoArgs) -> Result<()> {
-    let scene = Session::open(
+    let scene = SessionAssets::open(
         &args.scene.scene,
         &args.scene.build_options(args.voxel_size),
     )?;
@@ -145,10 +67,10 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             threads
         );
     }
-    let viewer = crate::cmd::view::attach(args.view, &scene)?;
+    let viewer = crate::session_io::attach_viewer(args.view, &scene)?;
     let feed = || viewer.as_ref().map(|v| v.feed());
     let session = |params: HapticParams, paced: bool| {
-        let report = run_session_until(
+        let report = run_scripted(
             &scene,
             params,
             args.seconds,

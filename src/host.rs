@@ -1,4 +1,5 @@
-//! How this machine's idle CPUs wait, recorded beside every timing benchmark: on a VM, waking a
+//! This machine's state recorded beside every timing benchmark: its load ([`load_average`]) and
+//! how its idle CPUs wait ([`HostIdle`]): recorded beside every timing benchmark: on a VM, waking a
 //! thread on another vCPU that has halted waits for the hypervisor to run that vCPU again (about
 //! 70 µs on the project's Firecracker VM), and guest halt polling (`cpuidle-haltpoll`'s
 //! `guest_halt_poll_ns`) is what avoids it. Read from sysfs; a file that does not exist is `None`.
@@ -40,6 +41,12 @@ impl HostIdle {
             guest_halt_poll_ns: text(haltpoll).and_then(|s| s.parse().ok()),
         }
     }
+}
+
+/// The 1-minute load average from `/proc/loadavg` (None where there is none).
+pub fn load_average() -> Option<f64> {
+    let text = std::fs::read_to_string("/proc/loadavg").ok()?;
+    text.split_whitespace().next()?.parse().ok()
 }
 
 #[cfg(test)]

@@ -1,0 +1,154 @@
+//! Coordinated sessions, shared by `vps coordinator`, `vps cluster` and the cluster benchmarks:
+//! a session whose frames are computed by workers over QUIC
+//! (docs/architecture.md#exact-sums-and-the-cluster), on a coordinator started here, with the
+//! workers on the LAN ([`coordinate`]) or spawned on this host ([`run_local_cluster`]).
+
+use crate::cli::{GatherArgs, RunArgs};
+use crate::session_io::{finish, LiveSession, PreparedSession, SessionOutputs};
+use anyhow::{Context, Result};
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+use vps_cluster::{
+    local_cluster_certs, run_coordinator_session, spawn_local_workers, ClusterReport, ClusterScene,
+    Coordinator, CoordinatorConfig, GatherConfig, LocalWorkerArgs,
+};
+use vps_runtime::{LoopReport, SignalStop};
+use vps_session::CLASS_COUNT;
+
+/// How long the coordinator waits for its workers to join before it starts.
+const JOIN_TIMEOUT: Duration = Duration::from_secs(20);
+
+/// What one coordinated session produced.
+pub struct CoordinatedRun {
+    /// The frame loop's report.
+    pub report: LoopReport,
+    /// Per-worker figures.
+    pub cluster: ClusterReport,
+    /// Points in the shell.
+    pub shell_points: usize,
+    /// The bridge's counters and wrench log, when the device was the UDP bridge.
+    pub bridge: Option<vps_input::BridgeMonitor>,
+    /// The signal handlers that could stop the session (which one did, if any).
+    pub signals: SignalStop,
+}
+
+impl CoordinatedRun {
+    /// [`finish`] for a coordinated session: its report carries the per-worker figures.
+    pub fn finish(self, args: &RunArgs, outputs: SessionOutputs) -> Result<()> {
+        finish(
+            args,
+            outputs,
+            &self.signals,
+            self.shell_points,
+            &self.report,
+            self.bridge.as_ref(),
+            Some(&self.cluster),
+        )
+    }
+}
+
+/// Runs `prepared` on a coordinator started on `listen` (identity `cert`, `key`; admitting the
+/// workers whose certificates are `pins`) once `workers` have joined; `spawn` starts local workers
+/// when asked, given the coordinator's address. `session` gives the local threads and the viewer
+/// address; `gather` the share adaptation ([`GatherConfig::adaptive_shares`]) and the spin margin
+/// ([`GatherConfig::spin_margin`]).
+#[allow(clippy::too_many_arguments)]
+pub fn coordinate(
+    session: &RunArgs,
+    prepared: PreparedSession,
+    listen: SocketAddr,
+    cert: &std::path::Path,
+    key: &std::path::Path,
+    pins: &[PathBuf],
+    workers: usize,
+    gather: GatherArgs,
+    spawn: impl FnOnce(SocketAddr) -> Result<Option<vps_cluster::LocalWorkers>>,
+) -> Result<CoordinatedRun> {
+    let LiveSession {
+        assets,
+        viewer: _viewer,
+        setup,
+        bridge,
+        signals,
+    } = prepared.go_live(session.view)?;
+    let cluster_scene = Arc::new(ClusterScene::new(
+        assets.tree.clone(),
+        &assets.shell,
+        CLASS_COUNT,
+    )?);
+    let coordinator = Coordinator::start(
+        CoordinatorConfig::from_files(listen, cert, key, pins)?,
+        cluster_scene,
+    )?;
+    let addr = coordinator.local_addr()?;
+    eprintln!("coordinator listening on {addr}, waiting for {workers} worker(s)");
+    let _children = spawn(addr)?;
+    coordinator
+        .wait_for_workers_until(workers, JOIN_TIMEOUT, &setup.stop)
+        .with_context(|| format!("waiting {JOIN_TIMEOUT:?} for {workers} worker(s) to join"))?;
+    let gather = GatherConfig {
+        local_threads: session.threads.max(1),
+        adaptive_shares: !gather.equal_shares,
+        spin_margin: Duration::from_micros(gather.spin_us),
+        stale: vps_cluster::fallback::StalePolicy {
+            max_age_frames: gather.max_stale_frames,
+            ..Default::default()
+        },
+        ..GatherConfig::default()
+    };
+    let (report, cluster) = run_coordinator_session(&coordinator, gather, setup)?;
+    if let Some(signal) = signals.received() {
+        // The device has been written zero; tell the workers this coordinator is going.
+        coordinator.close(
+            vps_cluster::close::CLOSE_COORDINATOR_STOPPING,
+            &format!("coordinator stopping ({})", signal.name()),
+        );
+    }
+    Ok(CoordinatedRun {
+        report,
+        cluster,
+        shell_points: assets.shell.len(),
+        bridge,
+        signals,
+    })
+}
+
+/// Runs `prepared` with `workers` local worker processes of `worker_threads` threads each, on
+/// loopback with fresh certificates pinned both ways (`session`: local threads, viewer).
+pub fn run_local_cluster(
+    session: &RunArgs,
+    prepared: PreparedSession,
+    workers: usize,
+    worker_threads: usize,
+    gather: GatherArgs,
+) -> Result<CoordinatedRun> {
+    let dir = std::env::temp_dir().join(format!("vps-cluster-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let certs = local_cluster_certs(&dir)?;
+    let exe = std::env::current_exe().context("locating the vps executable")?;
+    let result = coordinate(
+        session,
+        prepared,
+        "127.0.0.1:0".parse()?,
+        &certs.coordinator.cert,
+        &certs.coordinator.key,
+        std::slice::from_ref(&certs.worker.cert),
+        workers,
+        gather,
+        |addr| {
+            let spawn_args = LocalWorkerArgs {
+                coordinator: addr,
+                cert: certs.worker.cert.clone(),
+                key: certs.worker.key.clone(),
+                pins: vec![certs.coordinator.cert.clone()],
+                cache_dir: None,
+                threads: Some(worker_threads),
+            };
+            Ok(Some(spawn_local_workers(workers, &exe, &spawn_args)?))
+        },
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+    result
+}

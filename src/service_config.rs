@@ -1,0 +1,425 @@
+//! `vps coordinator --config FILE` and `vps worker --config FILE`: the settings of a long-lived
+//! cluster service read from a TOML file (the documented examples: configs/coordinator.toml and
+//! configs/worker.toml; deploy/systemd runs both this way).
+//!
+//! Every key is the name of a command-line flag (`voxel_size` for `--voxel-size`, `pins` for the
+//! repeated `--pin`), an unknown key is refused naming the file and the key, and a flag given on
+//! the command line overrides the file's value. A `pins` entry (and a `--pin`) may name a directory:
+//! every `*.crt` in it is pinned.
+
+use crate::cli::{CoordinatorArgs, WorkerArgs};
+use anyhow::{anyhow, bail, Context, Result};
+use clap::parser::ValueSource;
+use clap::ArgMatches;
+use serde::Deserialize;
+use std::io::Read;
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+
+/// Largest config file read (bytes): a few hundred are typical.
+const MAX_FILE_BYTES: u64 = 1 << 20;
+
+/// The keys of a worker's config file (all optional; see configs/worker.toml).
+#[derive(Deserialize, Debug, Default, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct WorkerFile {
+    /// `--coordinator`.
+    pub coordinator: Option<SocketAddr>,
+    /// `--cert`.
+    pub cert: Option<PathBuf>,
+    /// `--key`.
+    pub key: Option<PathBuf>,
+    /// `--pin`, repeated.
+    pub pins: Option<Vec<PathBuf>>,
+    /// `--cache`.
+    pub cache: Option<PathBuf>,
+    /// `--threads`.
+    pub threads: Option<usize>,
+    /// `--exit-with-coordinator`.
+    pub exit_with_coordinator: Option<bool>,
+}
+
+/// The keys of a coordinator's config file (all optional; see configs/coordinator.toml).
+#[derive(Deserialize, Debug, Default, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CoordinatorFile {
+    /// `--listen`.
+    pub listen: Option<SocketAddr>,
+    /// `--cert`.
+    pub cert: Option<PathBuf>,
+    /// `--key`.
+    pub key: Option<PathBuf>,
+    /// `--pin`, repeated.
+    pub pins: Option<Vec<PathBuf>>,
+    /// `--workers`.
+    pub workers: Option<usize>,
+    /// `--scene`.
+    pub scene: Option<String>,
+    /// `--no-cache`.
+    pub no_cache: Option<bool>,
+    /// `--device`.
+    pub device: Option<String>,
+    /// `--haptic`.
+    pub haptic: Option<PathBuf>,
+    /// `--voxel-size`: metres, or a string with a unit ("5mm").
+    pub voxel_size: Option<toml::Value>,
+    /// `--seconds`.
+    pub seconds: Option<f64>,
+    /// `--threads`.
+    pub threads: Option<usize>,
+    /// `--record`.
+    pub record: Option<PathBuf>,
+    /// `--report`.
+    pub report: Option<PathBuf>,
+    /// `--json`.
+    pub json: Option<bool>,
+    /// `--view`.
+    pub view: Option<SocketAddr>,
+    /// `--equal-shares`.
+    pub equal_shares: Option<bool>,
+    /// `--spin-us`.
+    pub spin_us: Option<u64>,
+    /// `--max-stale-frames`.
+    pub max_stale_frames: Option<u64>,
+}
+
+/// Reads and parses `path` (at most [`MAX_FILE_BYTES`]); errors name the file, and for a bad or
+/// unknown key, the key and its line.
+fn load<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
+    let file = std::fs::File::open(path).with_context(|| format!("reading {}", path.display()))?;
+    let mut text = String::new();
+    file.take(MAX_FILE_BYTES + 1)
+        .read_to_string(&mut text)
+        .with_context(|| format!("reading {}", path.display()))?;
+    if text.len() as u64 > MAX_FILE_BYTES {
+        bail!(
+            "{}: larger than {MAX_FILE_BYTES} bytes; not a config file",
+            path.display()
+        );
+    }
+    toml::from_str(&text).map_err(|e| anyhow!("{}: {e}", path.display()))
+}
+
+/// Reads a worker's config file.
+pub fn load_worker(path: &Path) -> Result<WorkerFile> {
+    load(path)
+}
+
+/// Reads a coordinator's config file.
+pub fn load_coordinator(path: &Path) -> Result<CoordinatorFile> {
+    load(path)
+}
+
+/// Whether the argument `id` (the field's name) was given on the command line.
+fn given(matches: &ArgMatches, id: &str) -> bool {
+    matches.value_source(id) == Some(ValueSource::CommandLine)
+}
+
+/// Sets `target` to the file's `value` unless the flag `id` was given on the command line.
+fn take<T>(matches: &ArgMatches, id: &str, target: &mut T, value: Option<T>) {
+    if let Some(v) = value {
+        if !given(matches, id) {
+            *target = v;
+        }
+    }
+}
+
+/// Checks a file value with the flag's own parser (same range and message), naming file and key.
+fn checked<T>(
+    path: &Path,
+    key: &str,
+    value: Option<impl ToString>,
+    parse: fn(&str) -> Result<T, String>,
+) -> Result<Option<T>> {
+    value
+        .map(|v| parse(&v.to_string()).map_err(|e| anyhow!("{}: `{key}`: {e}", path.display())))
+        .transpose()
+}
+
+/// `vps worker`: merges `--config FILE` (when given) under the command-line flags of `matches`
+/// (the worker subcommand's), then checks that the required settings are there.
+pub fn resolve_worker(args: &mut WorkerArgs, matches: &ArgMatches) -> Result<()> {
+    if let Some(path) = args.config.clone() {
+        let f = load_worker(&path)?;
+        let threads = checked(&path, "threads", f.threads, crate::limits::parse_count)?;
+        take(
+            matches,
+            "coordinator",
+            &mut args.coordinator,
+            f.coordinator.map(Some),
+        );
+        take(matches, "cert", &mut args.cert, f.cert.map(Some));
+        take(matches, "key", &mut args.key, f.key.map(Some));
+        take(matches, "pin", &mut args.pin, f.pins);
+        take(matches, "cache", &mut args.cache, f.cache.map(Some));
+        take(matches, "threads", &mut args.threads, threads.map(Some));
+        take(
+            matches,
+            "exit_with_coordinator",
+            &mut args.exit_with_coordinator,
+            f.exit_with_coordinator,
+        );
+    }
+    let from = |flag: &str, key: &str| needed("vps worker", flag, key);
+    if args.coordinator.is_none() {
+        bail!(from("--coordinator ADDR", "coordinator"));
+    }
+    check_identity(args.cert.is_some(), args.key.is_some(), &args.pin, from)
+}
+
+/// `vps coordinator`: merges `--config FILE` (when given) under the command-line flags of
+/// `matches` (the coordinator subcommand's), then checks that the required settings are there.
+pub fn resolve_coordinator(args: &mut CoordinatorArgs, matches: &ArgMatches) -> Result<()> {
+    if let Some(path) = args.config.clone() {
+        let f = load_coordinator(&path)?;
+        let seconds = checked(&path, "seconds", f.seconds, crate::limits::parse_seconds)?;
+        let threads = checked(&path, "threads", f.threads, crate::limits::parse_count)?;
+        let voxel_size = match f.voxel_size {
+            None => None,
+            Some(toml::Value::String(s)) => Some(s),
+            Some(toml::Value::Float(v)) => Some(v.to_string()),
+            Some(toml::Value::Integer(v)) => Some(v.to_string()),
+            Some(other) => bail!(
+                "{}: `voxel_size` = {other}: expected metres or a length with a unit (\"5mm\")",
+                path.display()
+            ),
+        };
+        let voxel_size = checked(
+            &path,
+            "voxel_size",
+            voxel_size,
+            vps_session::length::parse_length,
+        )?;
+        let s = &mut args.session;
+        take(matches, "listen", &mut args.listen, f.listen);
+        take(matches, "cert", &mut args.cert, f.cert.map(Some));
+        take(matches, "key", &mut args.key, f.key.map(Some));
+        take(matches, "pin", &mut args.pin, f.pins);
+        take(matches, "workers", &mut args.workers, f.workers);
+        take(matches, "scene", &mut s.scene.scene, f.scene);
+        take(matches, "no_cache", &mut s.scene.no_cache, f.no_cache);
+        take(matches, "device", &mut s.device, f.device.map(Some));
+        take(matches, "haptic", &mut s.haptic, f.haptic.map(Some));
+        take(
+            matches,
+            "voxel_size",
+            &mut s.voxel_size,
+            voxel_size.map(Some),
+        );
+        take(matches, "seconds", &mut s.seconds, seconds);
+        take(matches, "threads", &mut s.threads, threads);
+        take(matches, "record", &mut s.record, f.record.map(Some));
+        take(matches, "report", &mut s.report, f.report.map(Some));
+        take(matches, "json", &mut s.json, f.json);
+        take(matches, "view", &mut s.view, f.view.map(Some));
+        let g = &mut args.gather;
+        take(matches, "equal_shares", &mut g.equal_shares, f.equal_shares);
+        take(matches, "spin_us", &mut g.spin_us, f.spin_us);
+        take(
+            matches,
+            "max_stale_frames",
+            &mut g.max_stale_frames,
+            f.max_stale_frames,
+        );
+    }
+    let from = |flag: &str, key: &str| needed("vps coordinator", flag, key);
+    check_identity(args.cert.is_some(), args.key.is_some(), &args.pin, from)
+}
+
+/// The error for a required setting given neither as a flag nor in the config file.
+fn needed(command: &str, flag: &str, key: &str) -> String {
+    format!("{command}: give {flag}, or `{key}` in the --config file")
+}
+
+/// A service needs its certificate, its key and at least one pinned certificate.
+fn check_identity(
+    cert: bool,
+    key: bool,
+    pins: &[PathBuf],
+    from: impl Fn(&str, &str) -> String,
+) -> Result<()> {
+    if !cert {
+        bail!(from("--cert FILE", "cert"));
+    }
+    if !key {
+        bail!(from("--key FILE", "key"));
+    }
+    if pins.is_empty() {
+        bail!(from("--pin FILE (repeatable)", "pins"));
+    }
+    Ok(())
+}
+
+/// The certificates to pin: each path itself, or for a directory every `*.crt` in it (sorted);
+/// a directory holding none is an error.
+pub fn expand_pins(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for path in paths {
+        if !path.is_dir() {
+            out.push(path.clone());
+            continue;
+        }
+        let mut found: Vec<PathBuf> = std::fs::read_dir(path)
+            .with_context(|| format!("reading the pin directory {}", path.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x == "crt"))
+            .collect();
+        if found.is_empty() {
+            bail!("pin directory {} holds no .crt files", path.display());
+        }
+        found.sort();
+        out.extend(found);
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cli::{Cli, Command};
+    use clap::{CommandFactory, FromArgMatches};
+
+    fn repo(path: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
+    }
+
+    /// Parses a command line the way `main` does and resolves its config file.
+    fn parsed(argv: &[&str]) -> Result<Command> {
+        let matches = Cli::command().try_get_matches_from(argv)?;
+        let mut cli = Cli::from_arg_matches(&matches)?;
+        let (name, sub) = matches.subcommand().context("a subcommand")?;
+        match (&mut cli.command, name) {
+            (Command::Coordinator(args), "coordinator") => resolve_coordinator(args, sub)?,
+            (Command::Worker(args), "worker") => resolve_worker(args, sub)?,
+            _ => bail!("not a service command"),
+        }
+        Ok(cli.command)
+    }
+
+    #[test]
+    fn the_committed_configs_load() {
+        let c = load_coordinator(&repo("configs/coordinator.toml")).unwrap();
+        assert_eq!(c.listen, Some("0.0.0.0:7800".parse().unwrap()));
+        assert_eq!(c.workers, Some(2));
+        assert_eq!(c.pins, Some(vec![PathBuf::from("/etc/vps/pins")]));
+        let w = load_worker(&repo("configs/worker.toml")).unwrap();
+        assert_eq!(w.coordinator, Some("10.77.0.1:7800".parse().unwrap()));
+        assert_eq!(w.cache, Some(PathBuf::from("/var/cache/vps")));
+
+        let path = repo("configs/coordinator.toml");
+        let Command::Coordinator(args) =
+            parsed(&["vps", "coordinator", "--config", path.to_str().unwrap()]).unwrap()
+        else {
+            panic!("not a coordinator")
+        };
+        assert_eq!(args.workers, 2);
+        assert_eq!(args.session.voxel_size, Some(0.005));
+        assert_eq!(args.gather.spin_us, 100);
+        assert_eq!(args.cert, Some(PathBuf::from("/etc/vps/coordinator.crt")));
+        let path = repo("configs/worker.toml");
+        let Command::Worker(args) =
+            parsed(&["vps", "worker", "--config", path.to_str().unwrap()]).unwrap()
+        else {
+            panic!("not a worker")
+        };
+        assert_eq!(args.key, Some(PathBuf::from("/etc/vps/worker.key")));
+    }
+
+    #[test]
+    fn an_unknown_key_names_the_file_and_the_key() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("coordinator.toml");
+        std::fs::write(&path, "workers = 2\nspin_usec = 100\n").unwrap();
+        let err = load_coordinator(&path).unwrap_err().to_string();
+        assert!(
+            err.contains(&path.display().to_string()) && err.contains("spin_usec"),
+            "{err}"
+        );
+        std::fs::write(&path, "coordinator = \"10.0.0.1:7800\"\nthreadz = 2\n").unwrap();
+        let err = load_worker(&path).unwrap_err().to_string();
+        assert!(
+            err.contains(&path.display().to_string()) && err.contains("threadz"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn a_bad_value_names_the_file_and_the_key() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("c.toml");
+        std::fs::write(
+            &path,
+            "cert = \"c\"\nkey = \"k\"\npins = [\"p\"]\nseconds = -1\n",
+        )
+        .unwrap();
+        let err = parsed(&["vps", "coordinator", "--config", path.to_str().unwrap()])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains(&path.display().to_string()) && err.contains("seconds"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn a_flag_overrides_the_file() {
+        let path = repo("configs/coordinator.toml");
+        let Command::Coordinator(args) = parsed(&[
+            "vps",
+            "coordinator",
+            "--config",
+            path.to_str().unwrap(),
+            "--workers",
+            "5",
+            "--spin-us",
+            "7",
+            "--pin",
+            "/tmp/a.crt",
+        ])
+        .unwrap() else {
+            panic!("not a coordinator")
+        };
+        assert_eq!(args.workers, 5);
+        assert_eq!(args.gather.spin_us, 7);
+        assert_eq!(args.pin, vec![PathBuf::from("/tmp/a.crt")]);
+        // Keys not overridden still come from the file.
+        assert_eq!(args.gather.max_stale_frames, 3);
+        let path = repo("configs/worker.toml");
+        let Command::Worker(args) = parsed(&[
+            "vps",
+            "worker",
+            "--config",
+            path.to_str().unwrap(),
+            "--coordinator",
+            "127.0.0.1:9",
+        ])
+        .unwrap() else {
+            panic!("not a worker")
+        };
+        assert_eq!(args.coordinator, Some("127.0.0.1:9".parse().unwrap()));
+        assert_eq!(args.cache, Some(PathBuf::from("/var/cache/vps")));
+    }
+
+    #[test]
+    fn without_a_file_the_identity_flags_are_required() {
+        let err = parsed(&["vps", "worker", "--coordinator", "127.0.0.1:9"])
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("--cert") && err.contains("`cert`"), "{err}");
+    }
+
+    #[test]
+    fn a_pin_directory_pins_its_certificates() {
+        let dir = tempfile::tempdir().unwrap();
+        for name in ["b.crt", "a.crt", "notes.txt"] {
+            std::fs::write(dir.path().join(name), "").unwrap();
+        }
+        let pins = expand_pins(&[dir.path().to_path_buf()]).unwrap();
+        assert_eq!(
+            pins,
+            vec![dir.path().join("a.crt"), dir.path().join("b.crt")]
+        );
+        let empty = tempfile::tempdir().unwrap();
+        assert!(expand_pins(&[empty.path().to_path_buf()]).is_err());
+    }
+}

@@ -1,0 +1,412 @@
+//! Sessions on the command line, shared by `vps run`, `record`, `replay`, `demo`, `coordinator`,
+//! `cluster` and the benchmarks that run sessions: opening one from the command line
+//! ([`prepare`]), attaching the viewer and the signal handlers ([`PreparedSession::go_live`]),
+//! writing its files and figures at its end ([`finish`]), and the scripted simulated session of
+//! `vps demo` and `vps bench viewer` ([`run_scripted`]).
+//!
+//! Words (one meaning each): a *session* is one run of the 1 kHz loop, start to stop.
+//! [`SessionAssets`] (vps-session) is what is built once from a scene file and sessions run with.
+//! A [`PreparedSession`] is those assets plus the session's plan (parameters, the opened device,
+//! loop settings), made by [`prepare`] from the command line. A [`LiveSession`] is a prepared
+//! session with its viewer, loop setup and signal handlers, ready for `run_loop` (made by
+//! [`PreparedSession::go_live`]). [`finish`] reports a session that has run. A *coordinated*
+//! session runs with workers (`crate::cluster_session`).
+
+use crate::cli::{BridgeArgs, RunArgs};
+use crate::exit::{outcome, SessionExit};
+use crate::output::{check_output_path, print_json, write_file};
+use anyhow::{anyhow, bail, Context, Result};
+use serde::Serialize;
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use vps_device::trace::save_trace;
+use vps_haptic::HapticParams;
+use vps_input::{BridgeCounters, BridgeMonitor};
+use vps_runtime::{
+    run_loop, LoopConfig, LoopReport, SessionSetup, SignalStop, StateFeedSender, StatsSummary,
+};
+use vps_session::{BridgeSettings, DeviceChoice, SessionAssets, SessionPlan};
+use vps_view::{LiveViewer, SceneLimits, ViewerScene};
+
+/// The session report (`--json`, `--report FILE`).
+#[derive(Serialize)]
+struct RunReport {
+    device: String,
+    shell_points: usize,
+    realtime_granted: bool,
+    /// Why the session ended: "frames done", "stopped by SIGTERM", "device failed: ...",
+    /// "panic: ...".
+    end: String,
+    /// False when the session did not run all its frames (the figures cover the frames run).
+    complete: bool,
+    /// The process's exit status (src/exit.rs; README, "Units, limits and safety").
+    exit_code: i32,
+    final_position_m: [f64; 3],
+    stats: StatsSummary,
+    /// The device's own counters (e.g. the bridge's datagram counts), when it keeps any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    device_counters: Option<serde_json::Value>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    cluster: Option<serde_json::Value>,
+    /// The bridge device's counters, when the device was the bridge.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    bridge: Option<BridgeCounters>,
+}
+
+/// The files a session writes at its end, checked ([`check_output_path`]: the directory exists
+/// and takes new files) before the session starts so that a bad path fails before any work;
+/// written atomically at the end.
+#[derive(Default)]
+pub struct SessionOutputs {
+    /// `--report FILE`.
+    report: Option<PathBuf>,
+    /// `--record FILE`.
+    record: Option<PathBuf>,
+}
+
+impl SessionOutputs {
+    /// Checks `--report` and `--record` of `args`.
+    pub fn reserve(args: &RunArgs) -> Result<SessionOutputs> {
+        let checked = |path: &Option<PathBuf>| -> Result<Option<PathBuf>> {
+            if let Some(path) = path {
+                check_output_path(path, &[])?;
+            }
+            Ok(path.clone())
+        };
+        Ok(SessionOutputs {
+            report: checked(&args.report)?,
+            record: checked(&args.record)?,
+        })
+    }
+}
+
+/// Everything a session needs, opened from the command line.
+pub struct PreparedSession {
+    /// What was built once from the scene file: voxmap, shell, parameters, meshes.
+    pub assets: SessionAssets,
+    /// Parameters, opened device, initial state and loop settings.
+    pub plan: SessionPlan,
+}
+
+/// A prepared session made ready to run: its scene, the live viewer when one was asked for (keep
+/// it alive for the session), the loop's setup, publishing to that viewer, and the signal
+/// handlers that stop it.
+pub struct LiveSession {
+    /// What was built once from the scene file: voxmap, shell, parameters, meshes.
+    pub assets: SessionAssets,
+    /// The viewer serving this session, if any.
+    pub viewer: Option<LiveViewer>,
+    /// What the frame loop runs.
+    pub setup: SessionSetup,
+    /// The bridge's counters and wrench log, when the device is the UDP bridge (for the report).
+    pub bridge: Option<BridgeMonitor>,
+    /// SIGINT, SIGTERM and SIGHUP set `setup.stop` (the device is then written zero and the
+    /// report says which signal came).
+    pub signals: SignalStop,
+}
+
+impl PreparedSession {
+    /// Attaches the viewer at `view` (when given) and builds the loop's setup, with a stop flag
+    /// set by SIGINT, SIGTERM and SIGHUP (installed here: the device is open from now on).
+    pub fn go_live(self, view: Option<std::net::SocketAddr>) -> Result<LiveSession> {
+        let PreparedSession { assets, plan } = self;
+        let viewer = attach_viewer(view, &assets)?;
+        let bridge = plan.bridge.clone();
+        let (setup, signals) = plan.into_live_setup(viewer.as_ref().map(|v| v.feed()))?;
+        Ok(LiveSession {
+            assets,
+            viewer,
+            setup,
+            bridge,
+            signals,
+        })
+    }
+}
+
+/// The device of `--device`, else the scene file's.
+pub fn device_choice(text: Option<&str>, assets: &SessionAssets) -> Result<DeviceChoice> {
+    match text {
+        Some(t) => DeviceChoice::parse(t).map_err(|m| anyhow!("--device {m}")),
+        None => Ok(assets.device.clone()),
+    }
+}
+
+/// The bridge settings of a session: the scene's (`[device]` `mapping`, `pose_timeout_ms`) with
+/// each flag of `flags` that was given in their place; the wrench log holds one wrench per frame
+/// plus the loop's final zero when `--log-wrenches` is given. The flags need the bridge device.
+fn bridge_settings(
+    flags: &BridgeArgs,
+    choice: &DeviceChoice,
+    scene: BridgeSettings,
+    frames: u64,
+) -> Result<BridgeSettings> {
+    if *flags == BridgeArgs::default() {
+        return Ok(scene);
+    }
+    if !matches!(choice, DeviceChoice::Bridge(_)) {
+        bail!("--map-*, --force-scale, --pose-timeout-ms and --log-wrenches need --device bridge[:ADDR]");
+    }
+    let mut settings = scene;
+    let m = &mut settings.mapping;
+    m.scale = flags.map_scale.unwrap_or(m.scale);
+    m.offset = flags.map_offset.unwrap_or(m.offset);
+    m.rotate_deg = flags.map_rotate_deg.unwrap_or(m.rotate_deg);
+    m.force_scale = flags.force_scale.unwrap_or(m.force_scale);
+    if let Some(ms) = flags.pose_timeout_ms {
+        settings.pose_timeout = ms / 1e3;
+    }
+    if flags.log_wrenches.is_some() {
+        // The loop writes one zero wrench after its last frame.
+        settings.wrench_log_frames = usize::try_from(frames)
+            .unwrap_or(usize::MAX)
+            .saturating_add(1);
+    }
+    Ok(settings)
+}
+
+/// Builds the scene, loads parameters and opens the device of `args`.
+pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
+    let mut assets = SessionAssets::open(
+        &args.scene.scene,
+        &args.scene.build_options(args.voxel_size),
+    )?;
+    let choice = device_choice(args.device.as_deref(), &assets)?;
+    if let Some(path) = &args.haptic {
+        assets.params = HapticParams::from_file(path)?
+            .with_scene(assets.voxel_size, assets.shell.max_radius())?;
+    }
+    let source = match &args.haptic {
+        Some(path) => path.display().to_string(),
+        None => assets.label.clone(),
+    };
+    check_loop_period(&assets.params, &source)?;
+    let frames = choice.frames(args.seconds, assets.params.dt)?;
+    assets.bridge = bridge_settings(&args.bridge, &choice, assets.bridge, frames)?;
+    let config = LoopConfig {
+        frames: Some(frames),
+        threads: args.threads.max(1),
+        realtime: true,
+        record_trace: args.record.is_some(),
+        ..LoopConfig::default()
+    };
+    let plan = assets.plan(&choice, assets.script()?, config)?;
+    Ok(PreparedSession { assets, plan })
+}
+
+/// Fails unless the haptic time step `dt` (s) of `params`, read from `source`, is the session
+/// loop's period: the loop ticks at 1 kHz whatever the parameters say.
+fn check_loop_period(params: &HapticParams, source: &str) -> Result<()> {
+    let period = LoopConfig::default().period.as_secs_f64();
+    if (params.dt - period).abs() > 1e-12 {
+        bail!(
+            "{source}: haptic parameter `dt` = {} s: the assets loop runs at {} Hz, so `dt` \
+             must be {period} s (or left out)",
+            params.dt,
+            1.0 / period
+        );
+    }
+    Ok(())
+}
+
+/// Once the device has been written zero: saves the recording (and the bridge's wrench log when
+/// asked), writes the report file, prints the session's figures (with the bridge's counters when
+/// `bridge` is given, and `cluster`, when given, as JSON), and fails with a [`SessionExit`] (its
+/// exit status) when the session did not run to its end.
+pub fn finish<C: Serialize>(
+    args: &RunArgs,
+    outputs: SessionOutputs,
+    signals: &SignalStop,
+    shell_points: usize,
+    report: &LoopReport,
+    bridge: Option<&BridgeMonitor>,
+    cluster: Option<&C>,
+) -> Result<()> {
+    if let (Some(monitor), Some(path)) = (bridge, &args.bridge.log_wrenches) {
+        let n = monitor
+            .save_wrench_log(path)
+            .with_context(|| format!("writing the wrench log {}", path.display()))?;
+        eprintln!("logged {n} wrenches sent to {}", path.display());
+    }
+    let (end, exit_code) = outcome(&report.end, Some(signals));
+    let out = RunReport {
+        device: report.device_name.clone(),
+        shell_points,
+        realtime_granted: report.rt.fifo,
+        end,
+        complete: report.end.is_complete(),
+        exit_code,
+        final_position_m: report.final_state.position.to_array(),
+        stats: report.stats.clone(),
+        device_counters: report.device_counters.clone(),
+        cluster: cluster.map(serde_json::to_value).transpose()?,
+        bridge: bridge.map(|m| m.counters()),
+    };
+    if let Some(path) = &outputs.report {
+        let text = serde_json::to_string_pretty(&out)? + "\n";
+        write_file(path, text.as_bytes())?;
+    }
+    if let Some(path) = &outputs.record {
+        save_recording(report, path)?;
+    }
+    if args.json {
+        print_json(&out)?;
+    } else {
+        println!(
+            "device: {}, {} shell points, assets end: {}{}",
+            out.device,
+            out.shell_points,
+            out.end,
+            if out.complete { "" } else { " (partial)" }
+        );
+        print_summary("assets", &out.stats, None);
+        println!("final part position (m): {:?}", out.final_position_m);
+        if let Some(c) = &out.bridge {
+            println!(
+                "bridge: poses received {}, bad datagrams {} (+{} wrong token, {} stale), \
+                 timeouts {}, clutch presses {}, zeroed frames {}, wrenches sent {} ({} failed)",
+                c.accepted,
+                c.garbage,
+                c.unauthorized,
+                c.stale,
+                c.timeouts,
+                c.clutch_presses,
+                c.zeroed_frames,
+                c.sent,
+                c.send_failed
+            );
+        }
+        if let Some(cluster) = &out.cluster {
+            println!("cluster: {}", serde_json::to_string_pretty(cluster)?);
+        }
+    }
+    if exit_code != 0 {
+        return Err(SessionExit {
+            code: exit_code,
+            reason: format!(
+                "the assets ended early ({}); the device was sent zero force",
+                out.end
+            ),
+        }
+        .into());
+    }
+    Ok(())
+}
+
+fn save_recording(report: &LoopReport, path: &Path) -> Result<()> {
+    if let Some(why) = &report.trace_error {
+        bail!("trace recording stopped early: {why}");
+    }
+    let trace = report
+        .trace
+        .as_ref()
+        .context("the loop returned no trace")?;
+    let frames = trace.frames.len();
+    save_trace(path, trace)?;
+    eprintln!("recorded {frames} frames to {}", path.display());
+    Ok(())
+}
+
+/// What the viewer draws of a session: its voxmap, shell and meshes, labelled with the scene's name.
+pub fn viewer_scene(assets: &SessionAssets) -> ViewerScene {
+    ViewerScene::new(
+        assets.name.clone(),
+        assets.tree.clone(),
+        Some(Arc::new(assets.shell.clone())),
+        SceneLimits::default(),
+    )
+    .with_meshes(assets.static_meshes.clone(), Some(assets.part_mesh.clone()))
+}
+
+/// Starts a viewer of `assets` on `addr` when `--view` was given and prints its URL on stderr.
+pub fn attach_viewer(
+    addr: Option<SocketAddr>,
+    assets: &SessionAssets,
+) -> Result<Option<LiveViewer>> {
+    let Some(addr) = addr else {
+        return Ok(None);
+    };
+    let viewer = LiveViewer::start(addr, viewer_scene(assets))?;
+    eprintln!("viewer: {}", viewer.url());
+    Ok(Some(viewer))
+}
+
+/// Runs one session of the scene's simulated hand (its script) on `assets` with `params`, for
+/// at most `seconds` (the script's length at most); `paced` runs at 1 kHz on the wall clock,
+/// otherwise frames run back to back (the physics is identical: the device is given the scheduled
+/// tick time either way). Every frame is published to `feed` when given (a viewer). When `signals`
+/// are given, one of them ends the session early (the device written zero first).
+pub fn run_scripted(
+    assets: &SessionAssets,
+    params: HapticParams,
+    seconds: f64,
+    threads: usize,
+    paced: bool,
+    feed: Option<StateFeedSender>,
+    signals: Option<&SignalStop>,
+) -> Result<LoopReport> {
+    let script = assets.script()?;
+    let frames = ((seconds.min(script.duration()) / params.dt).round() as u64).max(1);
+    let config = LoopConfig {
+        frames: Some(frames),
+        threads,
+        realtime: paced,
+        free_running: !paced,
+        ..LoopConfig::default()
+    };
+    let mut plan = assets.plan(&DeviceChoice::Simulated, script, config)?;
+    plan.params = params;
+    let report = run_loop(
+        assets.tree.clone(),
+        assets.classed_shell(),
+        match signals {
+            Some(signals) => plan.into_stopped_setup(feed, signals),
+            None => plan.into_setup(feed),
+        },
+    )?;
+    if let Some(err) = &report.device_error {
+        anyhow::bail!("the device failed: {err}");
+    }
+    Ok(report)
+}
+
+/// Prints a session's frame figures; `paper` is the paper's penetration ratio to show beside ours.
+pub fn print_summary(label: &str, s: &StatsSummary, paper: Option<f64>) {
+    let us = |ns: u64| ns as f64 / 1e3;
+    println!("{label}:");
+    println!(
+        "  frames {}, missed deadlines {}, watchdog trips {}, local fallbacks {}",
+        s.frames, s.missed_deadlines, s.watchdog_trips, s.fallback_shares
+    );
+    if s.missed_deadlines > 0 {
+        println!(
+            "  missed after a late start {} (the thread was not run in time), after a long frame {}",
+            s.missed_after_late_start, s.missed_after_long_frame
+        );
+    }
+    println!(
+        "  compute µs  p50 {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1}",
+        us(s.compute_ns.p50),
+        us(s.compute_ns.p99),
+        us(s.compute_ns.p999),
+        us(s.compute_ns.max)
+    );
+    if s.period_error_ns.max > 0 || s.missed_deadlines > 0 {
+        println!(
+            "  period error µs  p50 {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1}",
+            us(s.period_error_ns.p50),
+            us(s.period_error_ns.p99),
+            us(s.period_error_ns.p999),
+            us(s.period_error_ns.max)
+        );
+    }
+    println!(
+        "  contact frames {}, touching {}, penetrating {}, penetration ratio {}{}",
+        s.contact_frames,
+        s.touching_frames,
+        s.penetrating_frames,
+        s.penetration_ratio
+            .map_or("n/a (no contact)".into(), |r| format!("{r:.2e}")),
+        paper.map_or(String::new(), |p| format!(" (paper: {p:.1e})"))
+    );
+}
