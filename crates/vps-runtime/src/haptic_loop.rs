@@ -368,7 +368,7 @@ impl Session {
         }
         let out = step(&self.params, &self.state, &handle, &gathered.sums);
         let mut wrench = cx.limits.saturate(&out.device_wrench);
-        let clamped = out.clamped || wrench != out.device_wrench;
+        let clamped = wrench != out.device_wrench;
         let watchdog_tripped = tick.started.elapsed() >= self.config.watchdog;
         if watchdog_tripped {
             wrench = Wrench::ZERO;
