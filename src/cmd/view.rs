@@ -8,7 +8,7 @@ use std::net::SocketAddr;
 use std::sync::Arc;
 use vps_runtime::{state_feed, StateFeedSender};
 use vps_session::{CachePolicy, Session};
-use vps_view::{SceneLimits, ViewerHandle, ViewerScene, ViewerServer};
+use vps_view::{SceneLimits, ViewerHandle, ViewerContent, ViewerServer};
 use vps_voxmap::file::{load_shell, load_voxmap};
 
 /// A viewer serving a session's state feed. Dropping it stops the server.
@@ -30,8 +30,8 @@ impl LiveViewer {
 }
 
 /// What the viewer draws of a session: its voxmap and shell, labelled with the scene's name.
-fn viewer_scene(session: &Session) -> ViewerScene {
-    ViewerScene::new(
+fn viewer_scene(session: &Session) -> ViewerContent {
+    ViewerContent::new(
         session.name.clone(),
         session.tree.clone(),
         Some(Arc::new(session.shell.clone())),
@@ -85,7 +85,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
                 || voxmap.display().to_string(),
                 |n| n.to_string_lossy().into_owned(),
             );
-            let scene = ViewerScene::new(label, Arc::new(tree), shell, SceneLimits::default());
+            let scene = ViewerContent::new(label, Arc::new(tree), shell, SceneLimits::default());
             (scene, voxmap.display().to_string())
         }
         (None, None) => anyhow::bail!("give a voxmap file or --scene FILE"),

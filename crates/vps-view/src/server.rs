@@ -2,8 +2,8 @@
 //! (`vps-view-http`), beside the feed sampler thread (`vps-view-state`). Neither touches the frame
 //! loop; both stop when the [`ViewerHandle`] is dropped.
 //!
-//! Routes: `/` (the page), `/app.js` (its script), `/scene` ([`crate::scene::SceneMeta`] as JSON),
-//! `/scene/boxes` and `/scene/shell` (f32 triples, see [`crate::scene::encode_points`]),
+//! Routes: `/` (the page), `/app.js` (its script), `/scene` ([`crate::content::SceneMeta`] as JSON),
+//! `/scene/boxes` and `/scene/shell` (f32 triples, see [`crate::content::encode_points`]),
 //! `/scene/mesh` and `/scene/part_mesh` (f32 triangle corners, see
 //! [`crate::mesh::encode_triangles`]), `/state`
 //! (the latest [`crate::ViewState`] as JSON), `/ws` (the same states pushed as text messages at
@@ -20,7 +20,7 @@
 use crate::access::{self, AccessGuard, ConnectionAddr};
 use crate::mesh::encode_triangles;
 use crate::sampler::{self, FeedSampler, MAX_CONTACT_POINTS};
-use crate::scene::{encode_points, ViewerScene};
+use crate::content::{encode_points, ViewerContent};
 use crate::{ViewError, STATE_RATE_HZ};
 use axum::body::Bytes;
 use axum::extract::ws::{Message, Utf8Bytes, WebSocket, WebSocketUpgrade};
@@ -101,7 +101,7 @@ impl ViewerServer {
     /// runtime cannot start.
     pub fn start(
         addr: SocketAddr,
-        scene: ViewerScene,
+        scene: ViewerContent,
         feed: Option<StateFeedReceiver>,
     ) -> Result<ViewerHandle, ViewError> {
         Self::start_with_limits(addr, scene, feed, ServerLimits::default())
@@ -110,7 +110,7 @@ impl ViewerServer {
     /// [`ViewerServer::start`] with explicit client bounds.
     pub fn start_with_limits(
         addr: SocketAddr,
-        scene: ViewerScene,
+        scene: ViewerContent,
         feed: Option<StateFeedReceiver>,
         limits: ServerLimits,
     ) -> Result<ViewerHandle, ViewError> {
