@@ -101,7 +101,11 @@ fn link_targets(line: &str) -> Vec<String> {
     while let Some(i) = rest.find("](") {
         let after = &rest[i + 2..];
         let Some(end) = after.find(')') else { break };
-        let target = after[..end].split_whitespace().next().unwrap_or("").to_string();
+        let target = after[..end]
+            .split_whitespace()
+            .next()
+            .unwrap_or("")
+            .to_string();
         out.push(target);
         rest = &after[end..];
     }
@@ -155,7 +159,9 @@ fn broken_links(ws: &Path) -> Vec<String> {
                     if file.extension().is_some_and(|x| x == "md") {
                         let t = fs::read_to_string(&file).unwrap_or_default();
                         if !anchors(&t).contains(a) {
-                            bad.push(format!("{rel}:{line}: {target} (no heading with anchor #{a})"));
+                            bad.push(format!(
+                                "{rel}:{line}: {target} (no heading with anchor #{a})"
+                            ));
                         }
                     }
                 }
@@ -197,10 +203,51 @@ fn every_result_file_is_cited_by_a_page() {
     );
 }
 
+/// Every `results/NAME` a page names (outside links too, e.g. in a command) exists, unless it is a
+/// pattern (`<...>`, `*`, `{a,b}`) standing for files the reader makes.
+#[test]
+fn every_cited_result_file_exists() {
+    let ws = workspace();
+    let mut missing = Vec::new();
+    for page in pages(&ws) {
+        let text = fs::read_to_string(&page).unwrap();
+        let rel = page
+            .strip_prefix(&ws)
+            .unwrap_or(&page)
+            .display()
+            .to_string();
+        for (i, line) in text.lines().enumerate() {
+            let mut rest = line;
+            while let Some(at) = rest.find("results/") {
+                let tail = &rest[at + "results/".len()..];
+                let name: String = tail
+                    .chars()
+                    .take_while(|c| c.is_alphanumeric() || "._-<>*{},".contains(*c))
+                    .collect();
+                rest = &tail[name.len()..];
+                let name = name.trim_end_matches(['.', ',']);
+                if name.is_empty() || name.contains(['<', '*', '{']) || !name.contains('.') {
+                    continue;
+                }
+                if !ws.join("docs/results").join(name).exists() {
+                    missing.push(format!("{rel}:{}: results/{name}", i + 1));
+                }
+            }
+        }
+    }
+    assert!(
+        missing.is_empty(),
+        "cited result files that do not exist:\n{}",
+        missing.join("\n")
+    );
+}
+
 #[test]
 fn the_checks_can_fail() {
     // Anchors follow GitHub's rules.
-    let a = anchors("# Cluster\n## The end: p99.9 (µs)\n## Words\n## Words\n```\n# not a heading\n```\n");
+    let a = anchors(
+        "# Cluster\n## The end: p99.9 (µs)\n## Words\n## Words\n```\n# not a heading\n```\n",
+    );
     for expected in ["cluster", "the-end-p999-µs", "words", "words-1"] {
         assert!(a.contains(expected), "{expected} missing from {a:?}");
     }
@@ -209,5 +256,8 @@ fn the_checks_can_fail() {
     let lines = prose_lines("see [a](a.md#x) and `[b](b.md)`\n```\n[c](c.md)\n```\n");
     let targets: Vec<String> = lines.iter().flat_map(|(_, l)| link_targets(l)).collect();
     assert_eq!(targets, vec!["a.md#x".to_string()]);
-    assert_eq!(normalise(Path::new("docs/../README.md")), PathBuf::from("README.md"));
+    assert_eq!(
+        normalise(Path::new("docs/../README.md")),
+        PathBuf::from("README.md")
+    );
 }
