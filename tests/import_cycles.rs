@@ -103,9 +103,7 @@ fn strip_comments_and_strings(src: &str) -> String {
                         .count()
                         == hashes
                 {
-                    for _ in 0..=hashes {
-                        out.push(b' ');
-                    }
+                    out.resize(out.len() + 1 + hashes, b' ');
                     i += 1 + hashes;
                     break;
                 }
@@ -143,9 +141,7 @@ fn strip_comments_and_strings(src: &str) -> String {
                 // A multi-byte char literal or a lifetime: keep as is (no quotes to confuse).
                 let len = src[i + 1..].chars().next().map_or(1, char::len_utf8);
                 if b.get(i + 1 + len) == Some(&b'\'') {
-                    for _ in 0..len + 2 {
-                        out.push(b' ');
-                    }
+                    out.resize(out.len() + len + 2, b' ');
                     i += len + 2;
                 } else {
                     out.push(c);
@@ -338,7 +334,7 @@ struct Scan {
     mod_decls: Vec<(Vec<String>, String)>,
     uses: HashMap<Vec<String>, Vec<UseBinding>>,
     /// (inline module path, full path as written, line).
-    paths: Vec<(Vec<String>, Vec<String>, usize)>,
+    paths: Vec<PathUse>,
     inline_mods: BTreeSet<Vec<String>>,
 }
 
@@ -429,11 +425,14 @@ fn scan(code: &str) -> Scan {
 // ---------------------------------------------------------------------------------------------
 // The crate graph.
 
+/// A `crate::`/`super::` path in a file: (inline module it sits in, the path as written, line).
+type PathUse = (Vec<String>, Vec<String>, usize);
+
 /// One crate's files by module path, plus the module paths that exist as inline modules.
 struct CrateTree {
     files: BTreeMap<Vec<String>, PathBuf>,
     mods: HashMap<PathBuf, ModFile>,
-    paths: HashMap<PathBuf, Vec<(Vec<String>, Vec<String>, usize)>>,
+    paths: HashMap<PathBuf, Vec<PathUse>>,
 }
 
 /// Reads a crate from its root file by following `mod x;` declarations; `read` returns a file's

@@ -27,7 +27,7 @@ use axum::extract::ws::{Message, Utf8Bytes, WebSocket, WebSocketUpgrade};
 use axum::extract::State;
 use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE};
 use axum::response::{IntoResponse, Response};
-use axum::routing::get;
+use axum::routing::{get, MethodRouter};
 use axum::Router;
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -325,30 +325,10 @@ fn router(shared: Arc<Shared>, guard: AccessGuard) -> Router {
                 typed("application/json", s.scene_json.clone())
             }),
         )
-        .route(
-            "/scene/boxes",
-            get(|State(s): State<Arc<Shared>>| async move {
-                typed("application/octet-stream", s.boxes.clone())
-            }),
-        )
-        .route(
-            "/scene/shell",
-            get(|State(s): State<Arc<Shared>>| async move {
-                typed("application/octet-stream", s.shell.clone())
-            }),
-        )
-        .route(
-            "/scene/mesh",
-            get(|State(s): State<Arc<Shared>>| async move {
-                typed("application/octet-stream", s.mesh.clone())
-            }),
-        )
-        .route(
-            "/scene/part_mesh",
-            get(|State(s): State<Arc<Shared>>| async move {
-                typed("application/octet-stream", s.part_mesh.clone())
-            }),
-        )
+        .route("/scene/boxes", octets(|s| &s.boxes))
+        .route("/scene/shell", octets(|s| &s.shell))
+        .route("/scene/mesh", octets(|s| &s.mesh))
+        .route("/scene/part_mesh", octets(|s| &s.part_mesh))
         .route(
             "/state",
             get(|State(s): State<Arc<Shared>>| async move {
@@ -366,6 +346,14 @@ fn router(shared: Arc<Shared>, guard: AccessGuard) -> Router {
 
 /// A response with `content_type` and no caching (the state changes; the scene may be rebuilt
 /// between runs on the same port).
+/// A GET route serving one of the content's byte buffers (f32 triples or triangle corners) as
+/// `application/octet-stream`. The buffer is shared, not copied, per request.
+fn octets(pick: fn(&Shared) -> &Bytes) -> MethodRouter<Arc<Shared>> {
+    get(move |State(s): State<Arc<Shared>>| async move {
+        typed("application/octet-stream", pick(&s).clone())
+    })
+}
+
 fn typed(content_type: &'static str, body: impl IntoResponse) -> Response {
     (
         [(CONTENT_TYPE, content_type), (CACHE_CONTROL, "no-store")],
