@@ -203,6 +203,33 @@ fn every_result_file_is_cited_by_a_page() {
     );
 }
 
+/// README.md links every top-level page under docs/ (the manual's table of contents).
+#[test]
+fn the_readme_links_every_docs_page() {
+    let ws = workspace();
+    let readme = fs::read_to_string(ws.join("README.md")).unwrap();
+    let linked: BTreeSet<String> = prose_lines(&readme)
+        .iter()
+        .flat_map(|(_, l)| link_targets(l))
+        .collect();
+    let mut missing = Vec::new();
+    for e in fs::read_dir(ws.join("docs")).unwrap().flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        if name.ends_with(".md")
+            && !linked
+                .iter()
+                .any(|t| t.split('#').next() == Some(&format!("docs/{name}")))
+        {
+            missing.push(name);
+        }
+    }
+    missing.sort();
+    assert!(
+        missing.is_empty(),
+        "docs pages the README does not link: {missing:?}"
+    );
+}
+
 /// Every `results/NAME` a page names (outside links too, e.g. in a command) exists, unless it is a
 /// pattern (`<...>`, `*`, `{a,b}`) standing for files the reader makes.
 #[test]
