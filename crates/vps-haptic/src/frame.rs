@@ -87,9 +87,9 @@ pub fn handle_is_valid(handle: &HandleSample) -> bool {
 /// One frame: the force model on the merged `sums` (sampled at `state`), the coupling to `handle`,
 /// one integration step, and the device wrench.
 ///
-/// Net force on the part = coupling + contact + braking. The device gets `−F_s, −T_s` limited to
-/// the device maxima, or exactly zero when no point is in a non-Free voxel (the paper's free-space
-/// rule). A rejected handle sample or a non-finite state or result gives a zero device wrench and
+/// Net force on the part = coupling + contact + braking. The device wrench is `−F_s, −T_s`, not
+/// limited here (the device layer saturates it to its `DeviceLimits` before every write), or
+/// exactly zero when no point is in a non-Free voxel (the paper's free-space rule). A rejected handle sample or a non-finite state or result gives a zero device wrench and
 /// keeps `state`. `params` should have passed [`HapticParams::validate`]; invalid parameters
 /// produce non-finite results and therefore the same safe output. Pure; does not allocate or block.
 pub fn step(
