@@ -8,7 +8,7 @@ use std::net::SocketAddr;
 use std::sync::Arc;
 use vps_runtime::{state_feed, StateFeedSender};
 use vps_session::{CachePolicy, Session};
-use vps_view::{SceneLimits, ViewerHandle, ViewerContent, ViewerServer};
+use vps_view::{SceneLimits, ViewerContent, ViewerHandle, ViewerServer};
 use vps_voxmap::file::{load_shell, load_voxmap};
 
 /// A viewer serving a session's state feed. Dropping it stops the server.

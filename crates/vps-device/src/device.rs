@@ -207,9 +207,27 @@ mod tests {
     fn validate_names_the_key_and_range() {
         assert_eq!(DeviceLimits::PAPER.validate(), Ok(()));
         for (limits, key) in [
-            (DeviceLimits { max_force: 0.0, max_torque: 0.1 }, "max_force"),
-            (DeviceLimits { max_force: f64::NAN, max_torque: 0.1 }, "max_force"),
-            (DeviceLimits { max_force: 15.0, max_torque: 2e3 }, "max_torque"),
+            (
+                DeviceLimits {
+                    max_force: 0.0,
+                    max_torque: 0.1,
+                },
+                "max_force",
+            ),
+            (
+                DeviceLimits {
+                    max_force: f64::NAN,
+                    max_torque: 0.1,
+                },
+                "max_force",
+            ),
+            (
+                DeviceLimits {
+                    max_force: 15.0,
+                    max_torque: 2e3,
+                },
+                "max_torque",
+            ),
         ] {
             let err = limits.validate().unwrap_err();
             assert!(err.contains(key) && err.contains("(0, "), "{err}");

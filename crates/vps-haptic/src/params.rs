@@ -39,7 +39,9 @@ pub enum ParamsError {
         reason: String,
     },
     /// A key that is no longer a haptic parameter (see [`MOVED_KEYS`]).
-    #[error("{source_name}: `{key}` is no longer a haptic parameter; the device limit is set in {new}")]
+    #[error(
+        "{source_name}: `{key}` is no longer a haptic parameter; the device limit is set in {new}"
+    )]
     Moved {
         /// Where the parameters came from.
         source_name: String,

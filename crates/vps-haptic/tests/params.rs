@@ -181,11 +181,22 @@ fn with_scene_sets_and_validates() {
 #[test]
 fn the_old_device_limit_keys_name_their_new_place() {
     for (text, old, new) in [
-        ("mass = 0.012\ndevice_max_force = 15.0", "device_max_force", "`max_force`"),
-        ("device_max_torque = 0.1", "device_max_torque", "`max_torque`"),
+        (
+            "mass = 0.012\ndevice_max_force = 15.0",
+            "device_max_force",
+            "`max_force`",
+        ),
+        (
+            "device_max_torque = 0.1",
+            "device_max_torque",
+            "`max_torque`",
+        ),
     ] {
         let err = HapticParams::from_toml_str(text, "old.toml").unwrap_err();
-        assert!(matches!(err, ParamsError::Moved { key, .. } if key == old), "{err:?}");
+        assert!(
+            matches!(err, ParamsError::Moved { key, .. } if key == old),
+            "{err:?}"
+        );
         let msg = err.to_string();
         for needle in ["old.toml", old, new, "[device]"] {
             assert!(msg.contains(needle), "{needle:?} missing from {msg}");

@@ -846,8 +846,14 @@ max = [0.4, 0.1, 0.2]
 
     #[test]
     fn device_section_sets_the_wrench_limits_for_every_device() {
-        let text = format!("{GOOD}\n[device]\nkind = \"sim\"\nmax_force = 8.0\nmax_torque = 0.05\n");
-        let settings = parse(&text).unwrap().device.unwrap().bridge_settings("scene.toml").unwrap();
+        let text =
+            format!("{GOOD}\n[device]\nkind = \"sim\"\nmax_force = 8.0\nmax_torque = 0.05\n");
+        let settings = parse(&text)
+            .unwrap()
+            .device
+            .unwrap()
+            .bridge_settings("scene.toml")
+            .unwrap();
         assert_eq!(
             settings.limits,
             DeviceLimits {

@@ -359,7 +359,8 @@ pub(crate) mod tests {
 
     #[test]
     fn a_small_scene_is_drawn_voxel_for_voxel() {
-        let scene = ViewerContent::new("slab", slab(), Some(square_shell()), SceneLimits::default());
+        let scene =
+            ViewerContent::new("slab", slab(), Some(square_shell()), SceneLimits::default());
         assert_eq!(scene.meta.surface_voxels, 1600);
         assert_eq!((scene.meta.coarsening, scene.boxes.len()), (1, 1600));
         assert!(scene

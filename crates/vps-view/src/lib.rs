@@ -33,9 +33,9 @@ pub mod access;
 pub mod browser;
 pub mod client;
 pub mod contacts;
+pub mod content;
 pub mod mesh;
 pub mod sampler;
-pub mod content;
 pub mod server;
 pub mod state;
 

@@ -18,9 +18,9 @@
 //! server directly (axum's `serve` sets no header timeout).
 
 use crate::access::{self, AccessGuard, ConnectionAddr};
+use crate::content::{encode_points, ViewerContent};
 use crate::mesh::encode_triangles;
 use crate::sampler::{self, FeedSampler, MAX_CONTACT_POINTS};
-use crate::content::{encode_points, ViewerContent};
 use crate::{ViewError, STATE_RATE_HZ};
 use axum::body::Bytes;
 use axum::extract::ws::{Message, Utf8Bytes, WebSocket, WebSocketUpgrade};

@@ -9,7 +9,7 @@ use std::net::{SocketAddr, TcpStream};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use vps_view::client::{http_get, http_get_as, Headers, WsClient};
-use vps_view::{SceneLimits, ServerLimits, ViewerHandle, ViewerContent, ViewerServer};
+use vps_view::{SceneLimits, ServerLimits, ViewerContent, ViewerHandle, ViewerServer};
 use vps_voxmap::{DenseGrid, GridSpec, TreeConfig, VoxelTree};
 
 const TIMEOUT: Duration = Duration::from_secs(5);

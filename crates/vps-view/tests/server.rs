@@ -8,7 +8,7 @@ use std::time::Duration;
 use vps_haptic::Wrench;
 use vps_runtime::{state_feed, FeedFrame, StateFeedSender};
 use vps_view::client::{http_get, masked_frame, WsClient};
-use vps_view::{SceneLimits, ViewerHandle, ViewerContent, ViewerServer};
+use vps_view::{SceneLimits, ViewerContent, ViewerHandle, ViewerServer};
 use vps_voxmap::{DenseGrid, GridSpec, MassProperties, PointShell, TreeConfig, Voxel, VoxelTree};
 
 const TIMEOUT: Duration = Duration::from_secs(5);
