@@ -120,8 +120,6 @@ pub(crate) fn check_budget(
     })
 }
 
-/// Bytes as GiB with two decimals, for messages.
-
 #[cfg(test)]
 mod tests {
     use super::*;
