@@ -27,7 +27,7 @@ use vps_runtime::{
     run_loop, LoopConfig, LoopReport, SessionSetup, SignalStop, StateFeedSender, StatsSummary,
 };
 use vps_session::{BridgeSettings, DeviceChoice, SessionAssets, SessionPlan};
-use vps_view::{LiveViewer, SceneLimits, ViewerScene};
+use vps_view::{LiveViewer, SceneLimits, ViewerContent};
 
 /// The session report (`--json`, `--report FILE`).
 #[derive(Serialize)]
@@ -308,8 +308,8 @@ fn save_recording(report: &LoopReport, path: &Path) -> Result<()> {
 }
 
 /// What the viewer draws of a session: its voxmap, shell and meshes, labelled with the scene's name.
-pub fn viewer_scene(assets: &SessionAssets) -> ViewerScene {
-    ViewerScene::new(
+pub fn viewer_content(assets: &SessionAssets) -> ViewerContent {
+    ViewerContent::new(
         assets.name.clone(),
         assets.tree.clone(),
         Some(Arc::new(assets.shell.clone())),
@@ -326,7 +326,7 @@ pub fn attach_viewer(
     let Some(addr) = addr else {
         return Ok(None);
     };
-    let viewer = LiveViewer::start(addr, viewer_scene(assets))?;
+    let viewer = LiveViewer::start(addr, viewer_content(assets))?;
     eprintln!("viewer: {}", viewer.url());
     Ok(Some(viewer))
 }

@@ -316,6 +316,15 @@ fn bad_scene_files_name_the_file_and_field_and_run_nothing() {
             format!("{SCENE}[device]\nkind = \"bridge\"\npose_timeout_ms = 1\n"),
             "device.pose_timeout_ms",
         ),
+        (
+            format!("{SCENE}[device]\nmax_force = 0.0\n"),
+            "device.max_force",
+        ),
+        (
+            // The old haptic key of the device limit names where the limit lives now.
+            format!("{SCENE}[haptic]\ndevice_max_force = 15.0\n"),
+            "`[device]` key `max_force`",
+        ),
     ];
     for (i, (text, field)) in cases.iter().enumerate() {
         let name = format!("bad{i}.toml");

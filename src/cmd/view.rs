@@ -2,11 +2,11 @@
 //! ADDR` on the session commands attaches it to a session: `crate::session_io::attach_viewer`.)
 
 use crate::cli::ViewArgs;
-use crate::session_io::viewer_scene;
+use crate::session_io::viewer_content;
 use anyhow::{Context, Result};
 use std::sync::Arc;
 use vps_session::{CachePolicy, SessionAssets};
-use vps_view::{SceneLimits, ViewerScene, ViewerServer};
+use vps_view::{SceneLimits, ViewerContent, ViewerServer};
 use vps_voxmap::file::{load_shell, load_voxmap};
 
 /// `vps view FILE.vmap [--shell FILE.vshell]` or `vps view --scene FILE`: serves the scene with
@@ -23,7 +23,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
                 ..vps_session::BuildOptions::default()
             };
             (
-                viewer_scene(&SessionAssets::open(scene, &options)?),
+                viewer_content(&SessionAssets::open(scene, &options)?),
                 scene.clone(),
             )
         }
@@ -40,7 +40,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
                 || voxmap.display().to_string(),
                 |n| n.to_string_lossy().into_owned(),
             );
-            let scene = ViewerScene::new(label, Arc::new(tree), shell, SceneLimits::default());
+            let scene = ViewerContent::new(label, Arc::new(tree), shell, SceneLimits::default());
             (scene, voxmap.display().to_string())
         }
         (None, None) => anyhow::bail!("give a voxmap file or --scene FILE"),

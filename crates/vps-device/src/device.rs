@@ -2,7 +2,15 @@
 
 use vps_haptic::{HandleSample, Wrench};
 
-/// The largest wrench a device can render. Invariant: both maxima finite and > 0.
+/// The largest wrench a device can render: the one wrench limit of vps.
+///
+/// The device layer is the safety boundary. Who clamps: the haptic loop (`vps-runtime`) saturates
+/// every frame's wrench to [`HapticDevice::limits`] before writing it, and every device saturates
+/// again on write; the haptic frame itself (`vps-haptic`) does not limit the wrench. Set from a
+/// scene file's `[device]` `max_force` (N) and `max_torque` (N·m); default [`DeviceLimits::PAPER`].
+///
+/// Invariant: both maxima finite and > 0 ([`DeviceLimits::validate`]; at most
+/// [`DeviceLimits::MAX_FORCE`] N and [`DeviceLimits::MAX_TORQUE`] N·m).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct DeviceLimits {
     /// Largest force magnitude (N).
@@ -17,6 +25,28 @@ impl DeviceLimits {
         max_force: 15.0,
         max_torque: 0.1,
     };
+
+    /// The largest `max_force` accepted (N).
+    pub const MAX_FORCE: f64 = 1e4;
+    /// The largest `max_torque` accepted (N·m).
+    pub const MAX_TORQUE: f64 = 1e3;
+
+    /// Checks both maxima: finite, > 0 and at most [`DeviceLimits::MAX_FORCE`] N /
+    /// [`DeviceLimits::MAX_TORQUE`] N·m. The error names the key (`max_force` or `max_torque`),
+    /// the value and the allowed range.
+    pub fn validate(&self) -> Result<(), String> {
+        for (key, value, hi, unit) in [
+            ("max_force", self.max_force, Self::MAX_FORCE, "N"),
+            ("max_torque", self.max_torque, Self::MAX_TORQUE, "N·m"),
+        ] {
+            if !(value.is_finite() && value > 0.0 && value <= hi) {
+                return Err(format!(
+                    "`{key}` = {value} must be finite and in (0, {hi}] ({unit})"
+                ));
+            }
+        }
+        Ok(())
+    }
 
     /// `wrench` with force and torque each scaled down (direction kept) to fit the limits.
     /// A non-finite component yields the zero wrench. Does not allocate or block.
@@ -171,5 +201,36 @@ mod tests {
         };
         assert_eq!(DeviceLimits::PAPER.saturate(&w), Wrench::ZERO);
         assert!(!DeviceLimits::PAPER.admits(&w));
+    }
+
+    #[test]
+    fn validate_names_the_key_and_range() {
+        assert_eq!(DeviceLimits::PAPER.validate(), Ok(()));
+        for (limits, key) in [
+            (
+                DeviceLimits {
+                    max_force: 0.0,
+                    max_torque: 0.1,
+                },
+                "max_force",
+            ),
+            (
+                DeviceLimits {
+                    max_force: f64::NAN,
+                    max_torque: 0.1,
+                },
+                "max_force",
+            ),
+            (
+                DeviceLimits {
+                    max_force: 15.0,
+                    max_torque: 2e3,
+                },
+                "max_torque",
+            ),
+        ] {
+            let err = limits.validate().unwrap_err();
+            assert!(err.contains(key) && err.contains("(0, "), "{err}");
+        }
     }
 }

@@ -1,6 +1,6 @@
 //! One haptic frame (docs/architecture.md#the-haptic-frame): merged sums + handle + state → device wrench and next state.
 
-use crate::contact::{brake_wrench, clamp_length, contact_wrench};
+use crate::contact::{brake_wrench, contact_wrench};
 use crate::coupling::coupling_wrench;
 use crate::dynamics::integrate;
 use crate::params::HapticParams;
@@ -20,12 +20,12 @@ pub const HANDLE_QUATERNION_TOLERANCE: f64 = 1.0e-2;
 
 /// Everything one frame produces.
 ///
-/// Invariant: `device_wrench` is always finite, `|force| ≤ device_max_force` and
-/// `|torque| ≤ device_max_torque`.
+/// Invariant: `device_wrench` is always finite. It is not limited here: the device layer owns the
+/// limit (`vps_device::DeviceLimits`, applied by the loop before every write).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FrameOutput {
-    /// What to send to the device: `−F_s`, `−T_s` limited to the device maxima; exactly zero when
-    /// every point is in a Free voxel, when the input was rejected or when a result was non-finite.
+    /// What to send to the device before its limits: `−F_s`, `−T_s`; exactly zero when every point
+    /// is in a Free voxel, when the input was rejected or when a result was non-finite.
     pub device_wrench: Wrench,
     /// The part's state for the next frame (the input state when rejected or non-finite).
     pub next_state: PartState,
@@ -41,8 +41,6 @@ pub struct FrameOutput {
     pub touching: bool,
     /// At least one point in an Interior voxel (a potential exact-surface penetration).
     pub penetrating: bool,
-    /// The device wrench was limited to the device maxima.
-    pub clamped: bool,
     /// The coupling force or torque hit its half-voxel clamp.
     pub coupling_clamped: bool,
     /// The tunnelling guard scaled the velocities down.
@@ -65,7 +63,6 @@ impl FrameOutput {
             contacts: u32::try_from(sums.contacts).unwrap_or(u32::MAX),
             touching: sums.surface + sums.interior > 0,
             penetrating: sums.interior > 0,
-            clamped: false,
             coupling_clamped: false,
             velocity_limited: false,
             rejected_input: false,
@@ -90,9 +87,9 @@ pub fn handle_is_valid(handle: &HandleSample) -> bool {
 /// One frame: the force model on the merged `sums` (sampled at `state`), the coupling to `handle`,
 /// one integration step, and the device wrench.
 ///
-/// Net force on the part = coupling + contact + braking. The device gets `−F_s, −T_s` limited to
-/// the device maxima, or exactly zero when no point is in a non-Free voxel (the paper's free-space
-/// rule). A rejected handle sample or a non-finite state or result gives a zero device wrench and
+/// Net force on the part = coupling + contact + braking. The device wrench is `−F_s, −T_s`, not
+/// limited here (the device layer saturates it to its `DeviceLimits` before every write), or
+/// exactly zero when no point is in a non-Free voxel (the paper's free-space rule). A rejected handle sample or a non-finite state or result gives a zero device wrench and
 /// keeps `state`. `params` should have passed [`HapticParams::validate`]; invalid parameters
 /// produce non-finite results and therefore the same safe output. Pure; does not allocate or block.
 pub fn step(
@@ -127,10 +124,13 @@ pub fn step(
         out.non_finite = true;
         return out;
     }
-    let (device_wrench, clamped) = if sums.non_free == 0 {
-        (Wrench::ZERO, false)
+    let device_wrench = if sums.non_free == 0 {
+        Wrench::ZERO
     } else {
-        device_limits(params, &coupling)
+        Wrench {
+            force: -coupling.force,
+            torque: -coupling.torque,
+        }
     };
     FrameOutput {
         device_wrench,
@@ -138,25 +138,8 @@ pub fn step(
         contact_wrench: contact,
         coupling_wrench: coupling,
         brake_wrench: brake,
-        clamped,
         coupling_clamped,
         velocity_limited,
         ..out
-    }
-}
-
-/// `−coupling` limited to the device maxima; zero if that is not finite and within the limits
-/// (e.g. for non-finite limits).
-fn device_limits(params: &HapticParams, coupling: &Wrench) -> (Wrench, bool) {
-    let (force, f_clamped) = clamp_length(-coupling.force, params.device_max_force);
-    let (torque, t_clamped) = clamp_length(-coupling.torque, params.device_max_torque);
-    let within = force.is_finite()
-        && torque.is_finite()
-        && force.length() <= params.device_max_force
-        && torque.length() <= params.device_max_torque;
-    if within {
-        (Wrench { force, torque }, f_clamped || t_clamped)
-    } else {
-        (Wrench::ZERO, true)
     }
 }

@@ -38,6 +38,18 @@ pub enum ParamsError {
         /// The rule it breaks, with the allowed range and unit.
         reason: String,
     },
+    /// A key that is no longer a haptic parameter (see [`MOVED_KEYS`]).
+    #[error(
+        "{source_name}: `{key}` is no longer a haptic parameter; the device limit is set in {new}"
+    )]
+    Moved {
+        /// Where the parameters came from.
+        source_name: String,
+        /// The old key.
+        key: &'static str,
+        /// Where the setting lives now.
+        new: &'static str,
+    },
 }
 
 /// The allowed range of one numeric haptic parameter: `lo < value ≤ hi` (`lo ≤ value ≤ hi` when
@@ -91,7 +103,7 @@ const fn range(
 /// The range of every numeric key (also listed in `configs/haptic.toml`). Stiffnesses have a
 /// floor: below 1 N/m (k_T, K_ff) the coupling's holding force `k_T s / 2` is under 2.5 mN at
 /// 5 mm and the part would not follow the handle.
-pub const PARAM_RANGES: [ParamRange; 14] = [
+pub const PARAM_RANGES: [ParamRange; 12] = [
     range("dt", 1e-5, true, 0.1, "s"),
     range("mass", 1e-6, true, 1e4, "kg"),
     range("inertia", 1e-15, true, 1e6, "kg·m²"),
@@ -104,8 +116,6 @@ pub const PARAM_RANGES: [ParamRange; 14] = [
     range("b_r", 0.0, false, 1e6, "N·m·s/rad"),
     range("contact_average_threshold", 1.0, true, 1e6, "contacts"),
     range("velocity_guard_fraction", 0.0, false, 1.0, ""),
-    range("device_max_force", 0.0, false, 1e4, "N"),
-    range("device_max_torque", 0.0, false, 1e3, "N·m"),
 ];
 
 /// Default k_R as a multiple of `k_T I / m` (the rotational stiffness with the translational natural
@@ -161,12 +171,21 @@ pub struct HapticParams {
     pub braking_torque: bool,
     /// Tunnelling guard: `|v| + |w| r_max ≤ f s / dt`. Default 0.25. Range (0, 1].
     pub velocity_guard_fraction: f64,
-    /// Largest force the device may be sent (N). Default 15 (the paper's device). Range (0, 1e4].
-    pub device_max_force: f64,
-    /// Largest torque the device may be sent (N·m). Default 0.1 (the paper's device). Range
-    /// (0, 1e3].
-    pub device_max_torque: f64,
 }
+
+/// Keys that left the haptic parameters, with where they live now: the device layer owns the wrench
+/// limit (`vps_device::DeviceLimits`), so a parameter file that still sets one is refused with a
+/// message naming the new key rather than silently ignored.
+pub const MOVED_KEYS: [(&str, &str); 2] = [
+    (
+        "device_max_force",
+        "the scene file's `[device]` key `max_force` (N)",
+    ),
+    (
+        "device_max_torque",
+        "the scene file's `[device]` key `max_torque` (N·m)",
+    ),
+];
 
 impl Default for HapticParams {
     fn default() -> Self {
@@ -185,8 +204,6 @@ impl Default for HapticParams {
             braking: true,
             braking_torque: false,
             velocity_guard_fraction: 0.25,
-            device_max_force: 15.0,
-            device_max_torque: 0.1,
         }
     }
 }
@@ -229,6 +246,15 @@ impl StabilityIndices {
 impl HapticParams {
     /// Parses and validates TOML text; `source_name` (a file name or label) prefixes every error.
     pub fn from_toml_str(s: &str, source_name: &str) -> Result<Self, ParamsError> {
+        if let Ok(table) = s.parse::<toml::Table>() {
+            if let Some((key, new)) = MOVED_KEYS.iter().find(|(k, _)| table.contains_key(*k)) {
+                return Err(ParamsError::Moved {
+                    source_name: source_name.to_owned(),
+                    key,
+                    new,
+                });
+            }
+        }
         let params: HapticParams = toml::from_str(s).map_err(|e| ParamsError::Toml {
             source_name: source_name.to_owned(),
             message: e.to_string(),
@@ -272,8 +298,6 @@ impl HapticParams {
                 "b_r" => self.b_r?,
                 "contact_average_threshold" => f64::from(self.contact_average_threshold),
                 "velocity_guard_fraction" => self.velocity_guard_fraction,
-                "device_max_force" => self.device_max_force,
-                "device_max_torque" => self.device_max_torque,
                 _ => return None,
             })
         };

@@ -282,8 +282,9 @@ proptest! {
         let out = step(&params, &state, &handle, &sums);
         let d = out.device_wrench;
         prop_assert!(d.force.is_finite() && d.torque.is_finite());
-        prop_assert!(d.force.length() <= params.device_max_force);
-        prop_assert!(d.torque.length() <= params.device_max_torque);
+        // Not limited here (the device layer limits it), but never more than the coupling's.
+        prop_assert!(d.force.length() <= out.coupling_wrench.force.length());
+        prop_assert!(d.torque.length() <= out.coupling_wrench.torque.length());
         if state.is_finite() {
             prop_assert!(out.next_state.is_finite());
         }

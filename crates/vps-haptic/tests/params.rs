@@ -110,8 +110,6 @@ fn bad_values_name_the_field() {
         ("inertia = 1e9", "inertia"),
         ("velocity_guard_fraction = 1.5", "velocity_guard_fraction"),
         ("contact_average_threshold = 0", "contact_average_threshold"),
-        ("device_max_force = 0.0", "device_max_force"),
-        ("device_max_torque = -0.1", "device_max_torque"),
         ("max_radius = 0.0", "max_radius"),
     ];
     for (text, field) in cases {
@@ -176,4 +174,32 @@ fn with_scene_sets_and_validates() {
     assert_eq!((p.voxel_size, p.max_radius), (0.001, 0.2));
     assert!(HapticParams::default().with_scene(-1.0, 0.2).is_err());
     assert!(HapticParams::default().with_scene(0.001, f64::NAN).is_err());
+}
+
+/// The device limit left the haptic parameters: an old file that still sets it is refused with a
+/// message naming the new key, not silently ignored.
+#[test]
+fn the_old_device_limit_keys_name_their_new_place() {
+    for (text, old, new) in [
+        (
+            "mass = 0.012\ndevice_max_force = 15.0",
+            "device_max_force",
+            "`max_force`",
+        ),
+        (
+            "device_max_torque = 0.1",
+            "device_max_torque",
+            "`max_torque`",
+        ),
+    ] {
+        let err = HapticParams::from_toml_str(text, "old.toml").unwrap_err();
+        assert!(
+            matches!(err, ParamsError::Moved { key, .. } if key == old),
+            "{err:?}"
+        );
+        let msg = err.to_string();
+        for needle in ["old.toml", old, new, "[device]"] {
+            assert!(msg.contains(needle), "{needle:?} missing from {msg}");
+        }
+    }
 }

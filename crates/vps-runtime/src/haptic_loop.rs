@@ -214,7 +214,7 @@ pub fn spawn_loop_with(
     } = setup;
     params.validate("haptic parameters")?;
     config.validate(&params)?;
-    let session = Session {
+    let running = RunningLoop {
         pool: sampler,
         params,
         device,
@@ -225,7 +225,7 @@ pub fn spawn_loop_with(
     };
     let thread = std::thread::Builder::new()
         .name("vps-frame".into())
-        .spawn(move || session.run())
+        .spawn(move || running.run())
         .map_err(RuntimeError::Spawn)?;
     Ok(LoopHandle { thread })
 }
@@ -240,7 +240,9 @@ pub fn run_loop<L: VoxelLookup + Send + Sync + 'static>(
     spawn_loop(map, shell, setup)?.join()
 }
 
-struct Session {
+/// A session's loop while it runs on the `vps-frame` thread: the sampler, parameters, device and the
+/// part's state, owned by that thread until the session ends.
+struct RunningLoop {
     pool: Box<dyn FrameSampler>,
     params: HapticParams,
     device: Box<dyn HapticDevice>,
@@ -261,7 +263,7 @@ enum FrameFlow {
     End(SessionEnd),
 }
 
-/// The mutable state of a running session besides the [`Session`] itself.
+/// The mutable state of a running session besides the [`RunningLoop`] itself.
 struct FrameContext {
     clock: FrameClock,
     period_s: f64,
@@ -274,7 +276,7 @@ struct FrameContext {
     frame: u64,
 }
 
-impl Session {
+impl RunningLoop {
     fn run(mut self) -> LoopReport {
         let rt = if self.config.realtime {
             request_realtime(self.config.core)
@@ -368,7 +370,7 @@ impl Session {
         }
         let out = step(&self.params, &self.state, &handle, &gathered.sums);
         let mut wrench = cx.limits.saturate(&out.device_wrench);
-        let clamped = out.clamped || wrench != out.device_wrench;
+        let clamped = wrench != out.device_wrench;
         let watchdog_tripped = tick.started.elapsed() >= self.config.watchdog;
         if watchdog_tripped {
             wrench = Wrench::ZERO;

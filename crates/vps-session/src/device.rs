@@ -29,6 +29,9 @@ pub struct BridgeSettings {
     /// Keep up to this many sent wrenches for the session's report (0: none; see
     /// [`vps_input::bridge::config::MAX_WRENCH_LOG_FRAMES`]). Reserved when the bridge is bound. Default 0.
     pub wrench_log_frames: usize,
+    /// The device's wrench limits (N, N·m), used by every device, not only the bridge: the scene
+    /// file's `[device]` `max_force` and `max_torque`. Default [`DeviceLimits::PAPER`].
+    pub limits: DeviceLimits,
 }
 
 impl Default for BridgeSettings {
@@ -38,6 +41,7 @@ impl Default for BridgeSettings {
             mapping: defaults.mapping,
             pose_timeout: defaults.pose_timeout,
             wrench_log_frames: defaults.wrench_log_frames,
+            limits: DeviceLimits::PAPER,
         }
     }
 }
@@ -107,14 +111,20 @@ impl DeviceChoice {
     }
 
     /// Opens the device; `script` drives the simulated hand and gives the others their start pose;
-    /// `bridge` sets up the UDP bridge (ignored by the other devices). Blocking (opens files,
-    /// sockets, HID).
+    /// `bridge` sets up the UDP bridge (its `limits` apply to every device). Blocking (opens
+    /// files, sockets, HID).
     pub fn open(&self, script: Script, bridge: &BridgeSettings) -> Result<OpenedDevice> {
         let (start, orientation) = script.sample(0.0);
         let at_start = PartState::at_rest(start, orientation);
         let (device, initial, monitor): (Box<dyn HapticDevice>, _, _) = match self {
             DeviceChoice::Simulated => (
-                Box::new(SimulatedHand::new(script, HandParams::default())?),
+                Box::new(SimulatedHand::new(
+                    script,
+                    HandParams {
+                        limits: bridge.limits,
+                        ..HandParams::default()
+                    },
+                )?),
                 at_start,
                 None,
             ),
@@ -124,9 +134,11 @@ impl DeviceChoice {
                     start_orientation: DQuat::IDENTITY,
                     ..Default::default()
                 };
-                let device = SpaceMouse::open_first(config).context(
-                    "opening a SpaceMouse (`vps devices` lists what this machine sees; /dev/hidraw* must be readable)",
-                )?;
+                let device = SpaceMouse::open_first(config)
+                    .context(
+                        "opening a SpaceMouse (`vps devices` lists what this machine sees; /dev/hidraw* must be readable)",
+                    )?
+                    .with_limits(bridge.limits);
                 (Box::new(device), at_start, None)
             }
             DeviceChoice::Bridge(addr) => {
@@ -136,6 +148,7 @@ impl DeviceChoice {
                     pose_timeout: bridge.pose_timeout,
                     mapping: bridge.mapping,
                     wrench_log_frames: bridge.wrench_log_frames,
+                    limits: bridge.limits,
                     ..Default::default()
                 };
                 let device = BridgeDevice::bind(config)
@@ -152,7 +165,7 @@ impl DeviceChoice {
                     .with_context(|| format!("{}: the trace has no frames", path.display()))?;
                 let state = PartState::at_rest(first.sample.position, first.sample.orientation);
                 (
-                    Box::new(ReplayDevice::new(trace, DeviceLimits::PAPER)),
+                    Box::new(ReplayDevice::new(trace, bridge.limits)),
                     state,
                     None,
                 )

@@ -9,6 +9,7 @@ use crate::length::length;
 use glam::{DQuat, DVec3};
 use serde::{Deserialize, Deserializer};
 use std::path::Path;
+use vps_device::DeviceLimits;
 use vps_input::{BridgeError, WorkspaceMapping};
 use vps_mesh::Aabb;
 use vps_voxelize::ShellMethod;
@@ -275,6 +276,13 @@ pub struct DeviceSection {
     /// A bridge device silent this long is held with zero output and re-anchored when it resumes
     /// (ms, in [2, 10000]). Used when the device is the bridge. Default 50.
     pub pose_timeout_ms: Option<f64>,
+    /// The largest force ever sent to the device (N, in (0, 1e4]), whatever the device. Default 15
+    /// (the paper's device). The device layer owns this limit: the loop saturates every wrench to
+    /// it before writing (replaces the haptic parameter `device_max_force`).
+    pub max_force: Option<f64>,
+    /// The largest torque ever sent to the device (N·m, in (0, 1e3]). Default 0.1 (replaces the
+    /// haptic parameter `device_max_torque`).
+    pub max_torque: Option<f64>,
 }
 
 impl DeviceSection {
@@ -301,6 +309,19 @@ impl DeviceSection {
             }
             settings.pose_timeout = ms / 1e3;
         }
+        let limits = DeviceLimits {
+            max_force: self.max_force.unwrap_or(DeviceLimits::PAPER.max_force),
+            max_torque: self.max_torque.unwrap_or(DeviceLimits::PAPER.max_torque),
+        };
+        limits.validate().map_err(|message| {
+            let key = if message.contains("max_force") {
+                "device.max_force"
+            } else {
+                "device.max_torque"
+            };
+            field_error(path, key, message)
+        })?;
+        settings.limits = limits;
         Ok(settings)
     }
 }
@@ -820,6 +841,38 @@ max = [0.4, 0.1, 0.2]
         let plain = parse(&format!("{GOOD}\n[device]\nkind = \"sim\"\n")).unwrap();
         let defaults = plain.device.unwrap().bridge_settings("scene.toml").unwrap();
         assert_eq!(defaults, BridgeSettings::default());
+        assert_eq!(defaults.limits, DeviceLimits::PAPER);
+    }
+
+    #[test]
+    fn device_section_sets_the_wrench_limits_for_every_device() {
+        let text =
+            format!("{GOOD}\n[device]\nkind = \"sim\"\nmax_force = 8.0\nmax_torque = 0.05\n");
+        let settings = parse(&text)
+            .unwrap()
+            .device
+            .unwrap()
+            .bridge_settings("scene.toml")
+            .unwrap();
+        assert_eq!(
+            settings.limits,
+            DeviceLimits {
+                max_force: 8.0,
+                max_torque: 0.05
+            }
+        );
+        for (line, key) in [
+            ("max_force = 0.0", "device.max_force"),
+            ("max_force = 2e4", "device.max_force"),
+            ("max_torque = -1.0", "device.max_torque"),
+        ] {
+            let text = format!("{GOOD}\n[device]\n{line}\n");
+            let err = parse(&text)
+                .and_then(|f| f.device.unwrap().bridge_settings("scene.toml"))
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(key) && err.contains("(0, "), "{line}: {err}");
+        }
     }
 
     #[test]

@@ -78,7 +78,7 @@ pub fn sample_contacts(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::tests::{slab, square_shell};
+    use crate::content::tests::{slab, square_shell};
 
     /// The slab's Surface layer spans z ∈ [0.10, 0.11) m (centre 0.105); Interior below.
     fn at_height(z: f64, max_points: usize) -> Vec<ContactSample> {

@@ -15,13 +15,14 @@
 //! checked ([`access`]), connections are capped and slow headers timed out ([`ServerLimits`]).
 //!
 //! What is drawn: the static scene's Surface voxels as boxes, decimated from the voxmap tree's
-//! leaves and tiles with memory bounded by [`SceneLimits::max_boxes`] ([`scene`]); with
-//! [`ViewerScene::with_meshes`], the static meshes and the part's mesh shaded, decimated to
+//! leaves and tiles with memory bounded by [`SceneLimits::max_boxes`] ([`content`]); with
+//! [`ViewerContent::with_meshes`], the static meshes and the part's mesh shaded, decimated to
 //! [`SceneLimits::max_static_triangles`] and [`SceneLimits::max_part_triangles`] ([`mesh`]), the
 //! boxes then being an overlay the user turns on.
 //!
-//! Module map: [`scene`] (what is drawn: decimated Surface voxels, the shell, meshes), [`mesh`]
-//! (mesh decimation and encoding), [`contacts`] (contact points at a pose), [`live`] (a viewer attached to a session's feed), [`state`] (the JSON
+//! Module map: [`content`] (what is drawn: decimated Surface voxels, the shell, meshes), [`mesh`]
+//! (mesh decimation and encoding), [`contacts`] (contact points at a pose), [`live`] (a viewer
+//! attached to a session's feed), [`state`] (the JSON
 //! state message), [`sampler`] (the feed reader thread), [`server`] (routes, WebSocket, limits,
 //! start and shutdown), [`access`] (Host and Origin checks), [`client`] (a minimal blocking
 //! HTTP/WebSocket client for tests, benchmarks and tools), [`browser`] (headless Chromium over
@@ -33,16 +34,16 @@ pub mod access;
 pub mod browser;
 pub mod client;
 pub mod contacts;
+pub mod content;
 pub mod live;
 pub mod mesh;
 pub mod sampler;
-pub mod scene;
 pub mod server;
 pub mod state;
 
 pub use contacts::{sample_contacts, ContactSample};
+pub use content::{SceneLimits, ViewerContent};
 pub use live::LiveViewer;
-pub use scene::{SceneLimits, ViewerScene};
 pub use server::{ServerLimits, ViewerHandle, ViewerServer};
 pub use state::{FrameView, ViewState, ViewStatus};
 

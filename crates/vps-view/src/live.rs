@@ -1,6 +1,6 @@
 //! A viewer attached to a running session: the server plus the loop's end of its state feed.
 
-use crate::{ViewError, ViewerHandle, ViewerScene, ViewerServer};
+use crate::{ViewError, ViewerHandle, ViewerContent, ViewerServer};
 use std::net::SocketAddr;
 use vps_runtime::{state_feed, StateFeedSender};
 
@@ -15,7 +15,7 @@ pub struct LiveViewer {
 impl LiveViewer {
     /// Starts a viewer of `scene` on `addr` (port 0 picks a free one) fed by a new state feed,
     /// whose sending end [`LiveViewer::feed`] hands to the loop. Errors as [`ViewerServer::start`].
-    pub fn start(addr: SocketAddr, scene: ViewerScene) -> Result<LiveViewer, ViewError> {
+    pub fn start(addr: SocketAddr, scene: ViewerContent) -> Result<LiveViewer, ViewError> {
         let (feed, receiver) = state_feed();
         let server = ViewerServer::start(addr, scene, Some(receiver))?;
         Ok(LiveViewer { server, feed })

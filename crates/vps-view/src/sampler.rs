@@ -3,7 +3,7 @@
 //! published pose when the part touches something, and hands the JSON state to the server.
 
 use crate::contacts::{sample_contacts, ContactSample};
-use crate::scene::ContactModel;
+use crate::content::ContactModel;
 use crate::state::{FrameView, ViewState, ViewStatus, STALE_AFTER_S};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -107,7 +107,7 @@ pub(crate) fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::tests::{slab, square_shell};
+    use crate::content::tests::{slab, square_shell};
     use glam::DVec3;
 
     use vps_runtime::{state_feed, FeedFrame};

@@ -2,8 +2,8 @@
 //! (`vps-view-http`), beside the feed sampler thread (`vps-view-state`). Neither touches the frame
 //! loop; both stop when the [`ViewerHandle`] is dropped.
 //!
-//! Routes: `/` (the page), `/app.js` (its script), `/scene` ([`crate::scene::SceneMeta`] as JSON),
-//! `/scene/boxes` and `/scene/shell` (f32 triples, see [`crate::scene::encode_points`]),
+//! Routes: `/` (the page), `/app.js` (its script), `/scene` ([`crate::content::SceneMeta`] as JSON),
+//! `/scene/boxes` and `/scene/shell` (f32 triples, see [`crate::content::encode_points`]),
 //! `/scene/mesh` and `/scene/part_mesh` (f32 triangle corners, see
 //! [`crate::mesh::encode_triangles`]), `/state`
 //! (the latest [`crate::ViewState`] as JSON), `/ws` (the same states pushed as text messages at
@@ -18,16 +18,16 @@
 //! server directly (axum's `serve` sets no header timeout).
 
 use crate::access::{self, AccessGuard, ConnectionAddr};
+use crate::content::{encode_points, ViewerContent};
 use crate::mesh::encode_triangles;
 use crate::sampler::{self, FeedSampler, MAX_CONTACT_POINTS};
-use crate::scene::{encode_points, ViewerScene};
 use crate::{ViewError, STATE_RATE_HZ};
 use axum::body::Bytes;
 use axum::extract::ws::{Message, Utf8Bytes, WebSocket, WebSocketUpgrade};
 use axum::extract::State;
 use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE};
 use axum::response::{IntoResponse, Response};
-use axum::routing::get;
+use axum::routing::{get, MethodRouter};
 use axum::Router;
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -101,7 +101,7 @@ impl ViewerServer {
     /// runtime cannot start.
     pub fn start(
         addr: SocketAddr,
-        scene: ViewerScene,
+        scene: ViewerContent,
         feed: Option<StateFeedReceiver>,
     ) -> Result<ViewerHandle, ViewError> {
         Self::start_with_limits(addr, scene, feed, ServerLimits::default())
@@ -110,7 +110,7 @@ impl ViewerServer {
     /// [`ViewerServer::start`] with explicit client bounds.
     pub fn start_with_limits(
         addr: SocketAddr,
-        scene: ViewerScene,
+        scene: ViewerContent,
         feed: Option<StateFeedReceiver>,
         limits: ServerLimits,
     ) -> Result<ViewerHandle, ViewError> {
@@ -325,30 +325,10 @@ fn router(shared: Arc<Shared>, guard: AccessGuard) -> Router {
                 typed("application/json", s.scene_json.clone())
             }),
         )
-        .route(
-            "/scene/boxes",
-            get(|State(s): State<Arc<Shared>>| async move {
-                typed("application/octet-stream", s.boxes.clone())
-            }),
-        )
-        .route(
-            "/scene/shell",
-            get(|State(s): State<Arc<Shared>>| async move {
-                typed("application/octet-stream", s.shell.clone())
-            }),
-        )
-        .route(
-            "/scene/mesh",
-            get(|State(s): State<Arc<Shared>>| async move {
-                typed("application/octet-stream", s.mesh.clone())
-            }),
-        )
-        .route(
-            "/scene/part_mesh",
-            get(|State(s): State<Arc<Shared>>| async move {
-                typed("application/octet-stream", s.part_mesh.clone())
-            }),
-        )
+        .route("/scene/boxes", octets(|s| &s.boxes))
+        .route("/scene/shell", octets(|s| &s.shell))
+        .route("/scene/mesh", octets(|s| &s.mesh))
+        .route("/scene/part_mesh", octets(|s| &s.part_mesh))
         .route(
             "/state",
             get(|State(s): State<Arc<Shared>>| async move {
@@ -366,6 +346,14 @@ fn router(shared: Arc<Shared>, guard: AccessGuard) -> Router {
 
 /// A response with `content_type` and no caching (the state changes; the scene may be rebuilt
 /// between runs on the same port).
+/// A GET route serving one of the content's byte buffers (f32 triples or triangle corners) as
+/// `application/octet-stream`. The buffer is shared, not copied, per request.
+fn octets(pick: fn(&Shared) -> &Bytes) -> MethodRouter<Arc<Shared>> {
+    get(move |State(s): State<Arc<Shared>>| async move {
+        typed("application/octet-stream", pick(&s).clone())
+    })
+}
+
 fn typed(content_type: &'static str, body: impl IntoResponse) -> Response {
     (
         [(CONTENT_TYPE, content_type), (CACHE_CONTROL, "no-store")],

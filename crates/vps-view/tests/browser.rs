@@ -3,7 +3,7 @@
 //!
 //! The static scene (a floor plate, two beams and three pipes) is written as a binary STL and the
 //! part (a sphere) as an OBJ in a temporary directory, loaded back with `vps_mesh::load_mesh`,
-//! voxelized with `vps_voxelize` and served with [`ViewerScene::with_meshes`] and a live feed
+//! voxelized with `vps_voxelize` and served with [`ViewerContent::with_meshes`] and a live feed
 //! holding the part at one pose. The page must draw the meshes shaded: the voxel overlay is off,
 //! the view has many colours off the background, and turning the overlay on adds the overlay's
 //! orange where there was almost none. The 2D-canvas fallback must draw a non-blank view too.
@@ -19,7 +19,7 @@ use vps_mesh::builtin::{cuboid, cylinder, uv_sphere};
 use vps_mesh::{load_mesh, TriMesh};
 use vps_runtime::{state_feed, FeedFrame};
 use vps_view::browser::{canvas_content, wait_for, Browser, CHROMIUM};
-use vps_view::{SceneLimits, ViewerScene, ViewerServer};
+use vps_view::{SceneLimits, ViewerContent, ViewerServer};
 use vps_voxelize::{point_shell, voxelize_tree, ShellMethod, VoxelizeOptions};
 use vps_voxmap::TreeConfig;
 
@@ -127,7 +127,7 @@ fn a_mesh_file_scene_is_drawn_shaded_in_headless_chromium() {
     let shell = point_shell(&part, 0.01, ShellMethod::VoxelCentres).unwrap();
     // The shell's frame has its origin at the part's centre of mass.
     let part_in_shell_frame = part.transformed(1.0, DQuat::IDENTITY, -shell.mass.center_of_mass);
-    let scene = ViewerScene::new(
+    let scene = ViewerContent::new(
         "bay.stl + part.obj",
         Arc::new(tree),
         Some(Arc::new(shell)),

@@ -9,12 +9,12 @@ use std::net::{SocketAddr, TcpStream};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use vps_view::client::{http_get, http_get_as, Headers, WsClient};
-use vps_view::{SceneLimits, ServerLimits, ViewerHandle, ViewerScene, ViewerServer};
+use vps_view::{SceneLimits, ServerLimits, ViewerContent, ViewerHandle, ViewerServer};
 use vps_voxmap::{DenseGrid, GridSpec, TreeConfig, VoxelTree};
 
 const TIMEOUT: Duration = Duration::from_secs(5);
 
-fn scene() -> ViewerScene {
+fn scene() -> ViewerContent {
     let spec = GridSpec {
         origin: DVec3::ZERO,
         voxel_size: 0.01,
@@ -22,7 +22,7 @@ fn scene() -> ViewerScene {
     };
     let tree =
         Arc::new(VoxelTree::from_dense(&DenseGrid::new(spec), TreeConfig::default()).unwrap());
-    ViewerScene::new("empty", tree, None, SceneLimits::default())
+    ViewerContent::new("empty", tree, None, SceneLimits::default())
 }
 
 fn start(limits: ServerLimits) -> ViewerHandle {

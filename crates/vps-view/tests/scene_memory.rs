@@ -7,7 +7,7 @@ use glam::{DVec3, UVec3};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
-use vps_view::{SceneLimits, ViewerScene};
+use vps_view::{SceneLimits, ViewerContent};
 use vps_voxmap::{CubeSource, GridSpec, TreeConfig, Voxel, VoxelTree, VoxelWidth};
 
 /// The system allocator, counting live and peak bytes.
@@ -81,7 +81,7 @@ fn a_huge_nearly_empty_grid_builds_its_scene_in_small_memory() {
 
     let before = LIVE.load(Ordering::Relaxed);
     PEAK.store(before, Ordering::Relaxed);
-    let scene = ViewerScene::new("huge", tree.clone(), None, SceneLimits::default());
+    let scene = ViewerContent::new("huge", tree.clone(), None, SceneLimits::default());
     let peak = PEAK.load(Ordering::Relaxed) - before;
 
     assert_eq!(scene.meta.surface_voxels, 4);
@@ -126,7 +126,7 @@ fn a_huge_grid_full_of_surface_tiles_is_decimated_in_bounded_memory() {
     };
     let before = LIVE.load(Ordering::Relaxed);
     PEAK.store(before, Ordering::Relaxed);
-    let scene = ViewerScene::new("full", tree, None, limits);
+    let scene = ViewerContent::new("full", tree, None, limits);
     let peak = PEAK.load(Ordering::Relaxed) - before;
     assert_eq!(scene.meta.surface_voxels, (N as u64).pow(3));
     assert!(!scene.boxes.is_empty() && scene.boxes.len() <= 20_000);

@@ -8,13 +8,13 @@ use std::time::Duration;
 use vps_haptic::Wrench;
 use vps_runtime::{state_feed, FeedFrame, StateFeedSender};
 use vps_view::client::{http_get, masked_frame, WsClient};
-use vps_view::{SceneLimits, ViewerHandle, ViewerScene, ViewerServer};
+use vps_view::{SceneLimits, ViewerContent, ViewerHandle, ViewerServer};
 use vps_voxmap::{DenseGrid, GridSpec, MassProperties, PointShell, TreeConfig, Voxel, VoxelTree};
 
 const TIMEOUT: Duration = Duration::from_secs(5);
 
 /// A 20³ grid of 1 cm voxels with one Surface voxel row, and a three-point shell.
-fn scene() -> ViewerScene {
+fn scene() -> ViewerContent {
     let spec = GridSpec {
         origin: DVec3::ZERO,
         voxel_size: 0.01,
@@ -36,7 +36,7 @@ fn scene() -> ViewerScene {
             bounding_radius: 0.01,
         },
     });
-    ViewerScene::new("row", tree, Some(shell), SceneLimits::default())
+    ViewerContent::new("row", tree, Some(shell), SceneLimits::default())
 }
 
 fn frame(n: u64) -> FeedFrame {

@@ -41,8 +41,8 @@ pub enum VoxelizeError {
         "voxel size {voxel_size} m: the grid of {dims:?} voxels needs an estimated {} of working \
          memory, over the budget of {}; use a larger voxel size, a workspace, or raise the budget \
          with --max-memory (e.g. --max-memory {})",
-        crate::memory::gib(*estimate_bytes),
-        crate::memory::gib(*budget_bytes),
+        gib(*estimate_bytes),
+        gib(*budget_bytes),
         suggested_budget(*estimate_bytes)
     )]
     OverMemoryBudget {
@@ -91,4 +91,9 @@ pub enum VoxelizeError {
 /// A `--max-memory` value (whole GiB) that covers `estimate_bytes`.
 fn suggested_budget(estimate_bytes: u64) -> String {
     format!("{}GiB", estimate_bytes.div_ceil(1 << 30))
+}
+
+/// `bytes` as GiB with two decimals, for messages.
+pub(crate) fn gib(bytes: u64) -> String {
+    format!("{:.2} GiB", bytes as f64 / (1u64 << 30) as f64)
 }

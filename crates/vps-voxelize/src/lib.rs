@@ -29,6 +29,7 @@ mod proximity;
 mod scan_convert;
 pub mod shell;
 pub mod sparse;
+pub mod stats;
 pub mod tri_box;
 
 pub use error::{VoxelizeError, MAX_SPARSE_VOXELS, MAX_VOXELS};
@@ -36,9 +37,10 @@ pub use mass::{is_closed_and_oriented, mass_properties};
 pub use memory::{default_memory_budget, MemoryEstimate};
 pub use pipeline::{
     clip_to_workspace, grid_for, voxelize, voxelize_in, voxelize_in_with_stats, voxelize_tree,
-    voxelize_tree_in, voxelize_with_stats, VoxelizeOptions, VoxelizeStats,
+    voxelize_tree_in, voxelize_with_stats, VoxelizeOptions,
 };
 pub use shell::{point_shell, point_shell_within};
+pub use stats::VoxelizeStats;
 pub use tri_box::triangle_box_overlap;
 pub use vps_voxmap::shell::ShellMethod;
 pub use vps_voxmap::VoxelWidth;

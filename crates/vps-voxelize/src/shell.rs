@@ -5,9 +5,9 @@
 use crate::mass::{is_closed_and_oriented, mass_properties, voxel_mass_properties};
 use crate::pipeline::{
     check_objects, check_voxel_size, grid_for, plane_at, voxelize_planes, VoxelizeOptions,
-    VoxelizeStats,
 };
 use crate::scan_convert::{overlap_pairs, Window};
+use crate::stats::VoxelizeStats;
 use crate::VoxelizeError;
 use glam::{DVec3, IVec3, Vec3};
 use rayon::prelude::*;

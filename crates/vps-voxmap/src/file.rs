@@ -220,12 +220,17 @@ pub fn load_voxmap(path: impl AsRef<Path>) -> Result<VoxelTree, FileError> {
     load(path.as_ref(), VOXMAP_MAGIC, read_voxmap_sized)
 }
 
-/// See [`VoxelTree::content_hash`].
-pub(crate) fn voxmap_content_hash(tree: &VoxelTree) -> [u8; 32] {
-    let mut hasher = blake3::Hasher::new();
-    // blake3::Hasher's `Write` impl never fails.
-    let _ = encode_voxmap_body(tree, &mut hasher);
-    hasher.finalize().into()
+// Defined here, next to the encoding it hashes, so the tree module does not import the file module.
+impl VoxelTree {
+    /// blake3 of the canonical encoding (spec, config, arenas): equal to the `.vmap` file's trailer.
+    /// Because the arenas are canonical, equal spec, config and voxel content give equal hashes.
+    /// Allocates nothing; time linear in the stored arenas.
+    pub fn content_hash(&self) -> [u8; 32] {
+        let mut hasher = blake3::Hasher::new();
+        // blake3::Hasher's `Write` impl never fails.
+        let _ = encode_voxmap_body(self, &mut hasher);
+        hasher.finalize().into()
+    }
 }
 
 fn encode_voxmap_body(tree: &VoxelTree, w: &mut impl Write) -> io::Result<()> {

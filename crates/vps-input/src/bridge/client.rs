@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use vps_haptic::{HandleSample, Wrench};
 
-use super::config::BridgeError;
+use super::error::BridgeError;
 use super::protocol::{tokens_equal, Datagram, Message, Token, MAX_DATAGRAM};
 
 /// A wrench received from a [`BridgeDevice`](super::BridgeDevice).

@@ -5,6 +5,7 @@ use std::net::{Ipv4Addr, SocketAddr};
 use glam::{DQuat, DVec3};
 use vps_device::DeviceLimits;
 
+use super::error::BridgeError;
 use super::mapping::WorkspaceMapping;
 use super::protocol::Token;
 
@@ -59,44 +60,6 @@ impl Default for BridgeConfig {
             limits: DeviceLimits::PAPER,
             wrench_log_frames: 0,
             name: "udp bridge".to_string(),
-        }
-    }
-}
-
-/// Why a bridge could not be set up or used.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum BridgeError {
-    /// An invalid configuration field.
-    #[error("bridge config field `{field}`: {message}")]
-    Config {
-        /// The field name.
-        field: &'static str,
-        /// What is wrong with it.
-        message: String,
-    },
-    /// The socket could not be bound.
-    #[error("cannot bind UDP socket to {addr}: {message}")]
-    Bind {
-        /// The address.
-        addr: SocketAddr,
-        /// The OS message.
-        message: String,
-    },
-    /// A socket operation failed.
-    #[error("bridge socket {what} failed: {message}")]
-    Io {
-        /// Which operation ("send", "receive", "set non-blocking", ...).
-        what: &'static str,
-        /// The OS message.
-        message: String,
-    },
-}
-
-impl BridgeError {
-    pub(crate) fn io(what: &'static str, e: std::io::Error) -> Self {
-        Self::Io {
-            what,
-            message: e.to_string(),
         }
     }
 }

@@ -7,7 +7,8 @@ use glam::DVec3;
 use vps_device::{DeviceError, DeviceLimits, HapticDevice};
 use vps_haptic::{HandleSample, Wrench};
 
-use super::config::{BridgeConfig, BridgeError};
+use super::config::BridgeConfig;
+use super::error::BridgeError;
 use super::mapping::Anchor;
 use super::monitor::{BridgeCounters, BridgeMonitor, SentWrench};
 use super::protocol::{tokens_equal, Datagram, Message, Token, FLAG_CLUTCH, MAX_DATAGRAM};

@@ -20,7 +20,7 @@
 use glam::{DQuat, DVec3};
 use vps_haptic::{HandleSample, Wrench};
 
-use super::config::BridgeError;
+use super::error::BridgeError;
 
 /// How device coordinates map into the scene (TOML/JSON loadable, e.g. from a scene file's
 /// `[device]` section; every field has a default, and the default is the identity).

@@ -1,7 +1,7 @@
 //! A network device bridge: a separate process streams handle poses in over UDP and receives the
 //! commanded wrenches back, so any tracker, robot or script can drive the haptic loop.
 //!
-//! Module map: [`protocol`] (datagram format), [`config`] ([`BridgeConfig`], [`BridgeError`]),
+//! Module map: [`protocol`] (datagram format), [`config`] ([`BridgeConfig`]), [`error`] ([`BridgeError`]),
 //! [`mapping`] ([`WorkspaceMapping`]: device workspace → scene, forces back, re-anchoring),
 //! [`device`] ([`BridgeDevice`], the `HapticDevice`: clutch and pose timeout), [`monitor`]
 //! ([`BridgeMonitor`]: counters and sent wrenches, readable after the device moved into the
@@ -17,13 +17,15 @@
 pub mod client;
 pub mod config;
 pub mod device;
+pub mod error;
 pub mod mapping;
 pub mod monitor;
 pub mod protocol;
 
 pub use client::{BridgeClient, WrenchReply};
-pub use config::{parse_token_hex, BridgeConfig, BridgeError};
+pub use config::{parse_token_hex, BridgeConfig};
 pub use device::BridgeDevice;
+pub use error::BridgeError;
 pub use mapping::{Anchor, WorkspaceMapping};
 pub use monitor::{BridgeCounters, BridgeMonitor, SentWrench};
 pub use protocol::{Datagram, Message, ProtocolError, Token};

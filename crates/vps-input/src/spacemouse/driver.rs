@@ -123,6 +123,14 @@ impl SpaceMouse<hidapi::HidDevice> {
 }
 
 impl<S: ReportSource> SpaceMouse<S> {
+    /// This device with other wrench limits (N, N·m; default [`DeviceLimits::PAPER`]). The
+    /// SpaceMouse renders no force; written wrenches are saturated to these limits and kept for
+    /// inspection. `limits` must satisfy [`DeviceLimits::validate`] (checked by the caller).
+    pub fn with_limits(mut self, limits: DeviceLimits) -> Self {
+        self.limits = limits;
+        self
+    }
+
     /// A SpaceMouse over any report source (used by tests and by other transports).
     pub fn from_source(
         source: S,

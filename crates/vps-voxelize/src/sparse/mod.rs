@@ -17,7 +17,7 @@ mod object;
 mod source;
 
 use crate::error::VoxelizeError;
-use crate::pipeline::VoxelizeStats;
+use crate::stats::VoxelizeStats;
 use chunk::{ChunkGrid, CHUNK};
 use finish::{finish_chunk, Final, Merged, Plan};
 use object::{voxelize_object, ObjectChunk};

@@ -362,12 +362,6 @@ impl VoxelTree {
         walk::to_dense(self)
     }
 
-    /// blake3 of the canonical encoding (spec, config, arenas): equal to the `.vmap` file's trailer.
-    /// Because the arenas are canonical, equal spec, config and voxel content give equal hashes.
-    pub fn content_hash(&self) -> [u8; 32] {
-        crate::file::voxmap_content_hash(self)
-    }
-
     /// Parts in file order, for the `.vmap` writer: root slots, upper slots, lower slots, leaf words.
     pub(crate) fn arenas(&self) -> (&[u32], &[u32], &[u32], &[u64]) {
         (

@@ -1,4 +1,4 @@
-//! What the page draws of the static scene and the part, built once when the viewer starts.
+//! [`ViewerContent`]: what the page draws of the static scene and the part, built once when the viewer starts.
 //!
 //! The static scene is drawn as boxes at the Surface voxels of its voxmap. A large scene has
 //! millions of them (the aircraft bay at 5 mm: see `docs/viewer.md`), so they are decimated: the
@@ -9,7 +9,7 @@
 //! more than its Surface voxels' leaves). The part's shell is thinned by a stride to at most
 //! [`SceneLimits::max_shell_points`] for drawing; the full shell is kept for contact sampling.
 //!
-//! With meshes ([`ViewerScene::with_meshes`]) the page draws the static meshes and the part's mesh
+//! With meshes ([`ViewerContent::with_meshes`]) the page draws the static meshes and the part's mesh
 //! shaded, decimated to [`SceneLimits::max_static_triangles`] and
 //! [`SceneLimits::max_part_triangles`] (see [`crate::mesh`]), and the boxes become an overlay.
 
@@ -101,7 +101,7 @@ pub struct ContactModel {
 
 /// Everything the viewer serves about the scene. Built once; immutable.
 #[derive(Clone, Debug)]
-pub struct ViewerScene {
+pub struct ViewerContent {
     /// The description served at `/scene`.
     pub meta: SceneMeta,
     /// Centres of the drawn boxes (m, world frame).
@@ -114,11 +114,11 @@ pub struct ViewerScene {
     pub part_mesh: Vec<[Vec3; 3]>,
     /// What contact sampling needs; `None` without a part.
     pub contact: Option<ContactModel>,
-    /// The bounds it was built with (the mesh budgets apply in [`ViewerScene::with_meshes`]).
+    /// The bounds it was built with (the mesh budgets apply in [`ViewerContent::with_meshes`]).
     limits: SceneLimits,
 }
 
-impl ViewerScene {
+impl ViewerContent {
     /// Builds the drawn scene from a voxmap and, optionally, the part's shell. Reads the tree's
     /// leaves and tiles (never a dense grid): memory is bounded by [`SceneLimits::max_boxes`]
     /// coarse cells, whatever the grid's volume; time is linear in the stored leaves and tiles per
@@ -128,7 +128,7 @@ impl ViewerScene {
         tree: Arc<VoxelTree>,
         shell: Option<Arc<PointShell>>,
         limits: SceneLimits,
-    ) -> ViewerScene {
+    ) -> ViewerContent {
         let spec = *tree.spec();
         let surface_voxels = tree.counts()[Voxel::Surface as usize];
         let (cells, coarsening) = decimate_boxes(&tree, surface_voxels, limits.max_boxes);
@@ -160,7 +160,7 @@ impl ViewerScene {
             part_mesh_triangles_total: 0,
             part_mesh_cell_m: 0.0,
         };
-        ViewerScene {
+        ViewerContent {
             meta,
             boxes,
             shell: drawn_shell,
@@ -179,7 +179,7 @@ impl ViewerScene {
     /// Allocates about the meshes' size again while decimating (see [`crate::mesh`]); a mesh over
     /// its budget costs a dozen clustering passes (about a second for the 593k-triangle aircraft
     /// bay in a release build).
-    pub fn with_meshes(mut self, statics: Vec<TriMesh>, part: Option<TriMesh>) -> ViewerScene {
+    pub fn with_meshes(mut self, statics: Vec<TriMesh>, part: Option<TriMesh>) -> ViewerContent {
         let drawn = decimate_all(&statics, self.limits.max_static_triangles);
         drop(statics);
         self.meta.mesh_triangles = drawn.triangles.len();
@@ -359,7 +359,8 @@ pub(crate) mod tests {
 
     #[test]
     fn a_small_scene_is_drawn_voxel_for_voxel() {
-        let scene = ViewerScene::new("slab", slab(), Some(square_shell()), SceneLimits::default());
+        let scene =
+            ViewerContent::new("slab", slab(), Some(square_shell()), SceneLimits::default());
         assert_eq!(scene.meta.surface_voxels, 1600);
         assert_eq!((scene.meta.coarsening, scene.boxes.len()), (1, 1600));
         assert!(scene
@@ -377,7 +378,7 @@ pub(crate) mod tests {
             max_shell_points: 10,
             ..SceneLimits::default()
         };
-        let scene = ViewerScene::new("slab", slab(), Some(square_shell()), limits);
+        let scene = ViewerContent::new("slab", slab(), Some(square_shell()), limits);
         // 40 × 40 Surface voxels: k = 2 gives 400 cells of 2 cm.
         assert_eq!(scene.meta.coarsening, 2);
         assert_eq!(scene.boxes.len(), 400);
