@@ -7,9 +7,12 @@
 mod cli;
 mod cmd;
 mod demo;
+mod kernel_timing;
 mod limits;
 mod memory_size;
 mod scene;
+mod svg;
+mod sweep_session;
 
 use clap::Parser;
 
