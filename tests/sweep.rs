@@ -68,7 +68,7 @@ fn quick_sweep_writes_json_csv_and_plots() {
         assert_eq!(r["frames"], 1000);
         assert!(r["shell_points"].as_u64().unwrap() > 50);
         // The default rows are the scene file's own width and method.
-        let own = r["voxel_width"] == 4 && r["method"] == "centres";
+        let own = r["voxel_width"] == 4 && r["method"] == "exact";
         assert_eq!(r["default"], own, "{r}");
     }
     let widths: Vec<u64> = rows
@@ -77,7 +77,12 @@ fn quick_sweep_writes_json_csv_and_plots() {
         .collect();
     assert_eq!(widths, [2, 2, 4, 4, 2, 2, 4, 4]);
     assert!(
-        body[2].starts_with("rig-teapot,centres,10.0,4,true,false,workspace,"),
+        body[2].starts_with("rig-teapot,centres,10.0,4,false,false,workspace,"),
+        "{csv}"
+    );
+    // The scene's own setting: 5 mm, 4-bit, exact.
+    assert!(
+        body[7].starts_with("rig-teapot,exact,5.0,4,true,true,workspace,"),
         "{csv}"
     );
     // Halving the voxel size gives more shell points and a larger voxmap.
