@@ -59,7 +59,7 @@ fn quick_sweep_writes_json_csv_and_plots() {
     assert_eq!(table["complete"], true, "{table}");
     let rows = table["rows"].as_array().unwrap();
     assert_eq!(rows.len(), 8);
-    for r in &rows {
+    for r in rows {
         for c in COLUMNS.split(',') {
             assert!(r.get(c).is_some(), "column {c} missing from {r}");
         }
