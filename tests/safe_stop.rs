@@ -80,8 +80,8 @@ fn is_exact_zero(w: &Wrench) -> bool {
 
 /// Presses the handle 1 m below the session's start point (the part comes to rest on the bay's
 /// surface below it, held there by the coupling) until 3000 WrenchOuts in a row carry force (the
-/// saturated coupling pulls from the first frame; the part, braked near the surface, reaches
-/// it after about 1.5 s of frames with the bay's 4-bit exact-surface shell), signals the process,
+/// saturated coupling pulls from the first frame; with the bay's 4-bit exact-surface shell the
+/// braked part had not reached the surface after 1385 frames), signals the process,
 /// keeps holding the handle until it exits, and returns the last WrenchOut, the exit status and
 /// the report.
 fn press_then_signal(signal: &str) -> (Wrench, Option<i32>, serde_json::Value) {
