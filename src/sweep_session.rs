@@ -123,7 +123,8 @@ pub struct SweepRow {
     pub compute_p50_us: f64,
     /// Frame compute p99.9 (µs).
     pub compute_p999_us: f64,
-    /// Frames with a point in Interior over frames with a point in Surface or Interior.
+    /// Frames with a point in Interior over frames with a point in Surface or Interior, over the
+    /// deterministic replay of the session (the accuracy pass).
     pub penetration_ratio: Option<f64>,
     /// Touching frames where the reference was computed.
     pub compared_frames: u64,
