@@ -9,7 +9,9 @@
 //! opened from the command line, their viewer, files and figures), [`cluster_session`]
 //! (coordinated sessions), [`service_config`] (`--config` files of the cluster services),
 //! [`output`] (stdout, JSON, output files), [`exit`] (exit statuses),
-//! [`host`] (the machine's state beside benchmark figures), [`limits`] and [`memory_size`]
+//! [`host`] (the machine's state beside benchmark figures), [`sweep_session`] (sessions of the
+//! sweep and tune), [`svg`] (plots), [`kernel_timing`] (the kernel timed for `scene check`),
+//! [`limits`] and [`memory_size`]
 //! (value parsers).
 
 mod cli;
@@ -17,11 +19,14 @@ mod cluster_session;
 mod cmd;
 mod exit;
 mod host;
+mod kernel_timing;
 mod limits;
 mod memory_size;
 mod output;
 mod service_config;
 mod session_io;
+mod svg;
+mod sweep_session;
 
 use clap::{CommandFactory, FromArgMatches};
 

@@ -1,11 +1,13 @@
 //! `vps sweep --quick` through the binary: JSON and CSV with the expected columns, one row per size ×
-//! width × method (2- and 4-bit voxmaps), plots written; scene-file and sweep-file errors name the
-//! field.
+//! width × method (2- and 4-bit voxmaps), the scene's own settings marked `default`, plots written;
+//! scene-file and sweep-file errors name the field; SIGTERM ends it with the rows done written as
+//! a partial table and exit status 143.
 
+use std::io::{BufRead, BufReader};
 use std::path::Path;
-use std::process::Command;
+use std::process::{Command, Stdio};
 
-const COLUMNS: &str = "scene,method,voxel_size_mm,voxel_width,voxelized,shell_points,voxmap_bytes,voxelize_ms,frames,compute_p50_us,compute_p999_us,penetration_ratio,compared_frames,both_force_frames,voxel_only_frames,reference_only_frames,direction_error_deg_p50,direction_error_deg_p95,magnitude_error_p50,magnitude_ratio_p50,min_separation_mm";
+const COLUMNS: &str = "scene,method,voxel_size_mm,voxel_width,default,default_size,voxelized,shell_points,voxmap_bytes,voxelize_ms,frames,compute_p50_us,compute_p999_us,penetration_ratio,compared_frames,both_force_frames,voxel_only_frames,reference_only_frames,direction_error_deg_p50,direction_error_deg_p95,magnitude_error_p50,magnitude_ratio_p50,min_separation_mm";
 
 fn vps() -> Command {
     Command::new(env!("CARGO_BIN_EXE_vps"))
@@ -52,10 +54,12 @@ fn quick_sweep_writes_json_csv_and_plots() {
     // in the order size, width, method.
     let body: Vec<&str> = lines.collect();
     assert_eq!(body.len(), 8, "{csv}");
-    let rows: Vec<serde_json::Value> =
+    let table: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(table["complete"], true, "{table}");
+    let rows = table["rows"].as_array().unwrap();
     assert_eq!(rows.len(), 8);
-    for r in &rows {
+    for r in rows {
         for c in COLUMNS.split(',') {
             assert!(r.get(c).is_some(), "column {c} missing from {r}");
         }
@@ -63,6 +67,9 @@ fn quick_sweep_writes_json_csv_and_plots() {
         assert_eq!(r["voxelized"], "workspace");
         assert_eq!(r["frames"], 1000);
         assert!(r["shell_points"].as_u64().unwrap() > 50);
+        // The default rows are the scene file's own width and method.
+        let own = r["voxel_width"] == 4 && r["method"] == "exact";
+        assert_eq!(r["default"], own, "{r}");
     }
     let widths: Vec<u64> = rows
         .iter()
@@ -70,7 +77,12 @@ fn quick_sweep_writes_json_csv_and_plots() {
         .collect();
     assert_eq!(widths, [2, 2, 4, 4, 2, 2, 4, 4]);
     assert!(
-        body[2].starts_with("rig-teapot,centres,10.0,4,workspace,"),
+        body[2].starts_with("rig-teapot,centres,10.0,4,false,false,workspace,"),
+        "{csv}"
+    );
+    // The scene's own setting: 5 mm, 4-bit, exact.
+    assert!(
+        body[7].starts_with("rig-teapot,exact,5.0,4,true,true,workspace,"),
         "{csv}"
     );
     // Halving the voxel size gives more shell points and a larger voxmap.
@@ -146,5 +158,67 @@ fn bad_width_in_the_sweep_file_names_the_field() {
     assert!(
         err.contains("sweep.toml") && err.contains("run[0].widths[1]") && err.contains("2, 4 or 8"),
         "{err}"
+    );
+}
+
+/// SIGTERM while the second row runs: the first row is written as a partial table (JSON
+/// `complete: false` with the reason, CSV ending in a `# partial:` line) and the status is 143.
+#[test]
+fn sigterm_writes_the_rows_done_as_a_partial_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/scenes/rig-teapot.toml");
+    let config = dir.path().join("sweep.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "voxel_sizes_mm = [10.0, 2.5]\nmethods = [\"centres\"]\nwidths = [2]\n[[run]]\nscene = {:?}\n",
+            rig.display().to_string()
+        ),
+    )
+    .unwrap();
+    let (json, csv) = (dir.path().join("s.json"), dir.path().join("s.csv"));
+    let mut child = vps()
+        .args(["sweep", "--config"])
+        .arg(&config)
+        .arg("--json")
+        .arg(&json)
+        .arg("--csv")
+        .arg(&csv)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(child.stderr.take().unwrap()).lines();
+    // The first row is done and the second (a whole 2.5 mm session, seconds) has begun.
+    for line in lines.by_ref() {
+        if line.unwrap().starts_with("sweep: row done") {
+            break;
+        }
+    }
+    let killed = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let rest: Vec<String> = lines.map_while(Result::ok).collect();
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(143), "{rest:?}");
+    let table: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(table["complete"], false, "{table}");
+    let end = table["end"].as_str().unwrap();
+    assert!(
+        end.starts_with("stopped by SIGTERM during rig-teapot 2.5 mm"),
+        "{end}"
+    );
+    assert_eq!(table["rows"].as_array().unwrap().len(), 1);
+    let csv = std::fs::read_to_string(&csv).unwrap();
+    assert_eq!(csv.lines().count(), 3, "{csv}");
+    assert!(
+        csv.lines()
+            .last()
+            .unwrap()
+            .starts_with("# partial: stopped by SIGTERM"),
+        "{csv}"
     );
 }

@@ -14,6 +14,7 @@
 
 use crate::host::load_average;
 use crate::output::print_json;
+use crate::svg::write_svg;
 use anyhow::{bail, Context, Result};
 use plotters::prelude::*;
 use serde::Serialize;
@@ -245,61 +246,60 @@ type Line = (&'static str, RGBColor, Vec<(f64, f64)>);
 /// Left: points at budget against compute units; right: parallel efficiency. One line for threads,
 /// one for worker processes.
 fn plot_scaling(report: &ScalingReport, path: &Path) -> Result<()> {
-    let root = SVGBackend::new(path, (960, 420)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let panels = root.split_evenly((1, 2));
-    type Value = fn(&Configuration) -> Option<f64>;
-    let figures: [(&str, Value); 2] = [
-        ("points per frame at the budget (p99.9)", |c| {
-            c.points_at_budget
-        }),
-        ("parallel efficiency", |c| c.parallel_efficiency),
-    ];
-    let max_units = report
-        .threads
-        .iter()
-        .chain(&report.processes)
-        .map(|c| c.compute_units)
-        .max()
-        .unwrap_or(1) as f64;
-    for (panel, (label, value)) in panels.iter().zip(figures) {
-        let lines: [Line; 2] = [
-            ("local threads", BLUE, series(&report.threads, value)),
-            ("worker processes", RED, series(&report.processes, value)),
+    write_svg(path, (960, 420), |root| {
+        let panels = root.split_evenly((1, 2));
+        type Value = fn(&Configuration) -> Option<f64>;
+        let figures: [(&str, Value); 2] = [
+            ("points per frame at the budget (p99.9)", |c| {
+                c.points_at_budget
+            }),
+            ("parallel efficiency", |c| c.parallel_efficiency),
         ];
-        let y1 = lines
+        let max_units = report
+            .threads
             .iter()
-            .flat_map(|l| l.2.iter().map(|p| p.1))
-            .fold(0.0f64, f64::max)
-            .max(1e-9)
-            * 1.15;
-        let mut chart = ChartBuilder::on(panel)
-            .caption(label, ("sans-serif", 16))
-            .margin(12)
-            .x_label_area_size(36)
-            .y_label_area_size(70)
-            .build_cartesian_2d(0.5..(max_units + 0.5), 0.0..y1)?;
-        chart
-            .configure_mesh()
-            .x_desc("compute threads (processes: workers + coordinator)")
-            .y_desc(label)
-            .draw()?;
-        for (name, colour, pts) in lines {
-            let style = ShapeStyle::from(colour).stroke_width(2);
+            .chain(&report.processes)
+            .map(|c| c.compute_units)
+            .max()
+            .unwrap_or(1) as f64;
+        for (panel, (label, value)) in panels.iter().zip(figures) {
+            let lines: [Line; 2] = [
+                ("local threads", BLUE, series(&report.threads, value)),
+                ("worker processes", RED, series(&report.processes, value)),
+            ];
+            let y1 = lines
+                .iter()
+                .flat_map(|l| l.2.iter().map(|p| p.1))
+                .fold(0.0f64, f64::max)
+                .max(1e-9)
+                * 1.15;
+            let mut chart = ChartBuilder::on(panel)
+                .caption(label, ("sans-serif", 16))
+                .margin(12)
+                .x_label_area_size(36)
+                .y_label_area_size(70)
+                .build_cartesian_2d(0.5..(max_units + 0.5), 0.0..y1)?;
             chart
-                .draw_series(LineSeries::new(pts.iter().copied(), style))?
-                .label(name)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
-            chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
+                .configure_mesh()
+                .x_desc("compute threads (processes: workers + coordinator)")
+                .y_desc(label)
+                .draw()?;
+            for (name, colour, pts) in lines {
+                let style = ShapeStyle::from(colour).stroke_width(2);
+                chart
+                    .draw_series(LineSeries::new(pts.iter().copied(), style))?
+                    .label(name)
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
+                chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
+            }
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK)
+                .draw()?;
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()?;
-    }
-    root.present()?;
-    Ok(())
+        Ok(())
+    })
 }
 
 fn series(configs: &[Configuration], value: fn(&Configuration) -> Option<f64>) -> Vec<(f64, f64)> {

@@ -1,13 +1,16 @@
 //! `vps scene check FILE`: validates a scene without running it and prints what it will build:
 //! triangles and bounds (m) of every object and the part, the voxmap's estimated voxels and
 //! memory, the shell's point count, and whether a frame fits the budget on this machine (from the
-//! sampling kernel's cost per point, measured briefly as `vps bench kernel` does).
+//! current sampling kernel's cost per point, measured briefly: [`crate::kernel_timing`]); and the
+//! effective voxel settings, where each came from (the scene file or the built-in default) and
+//! why.
 
 use crate::output::print_json;
 use anyhow::Result;
 use serde::Serialize;
 use vps_mesh::TriMesh;
 use vps_session::estimate::VoxmapEstimate;
+use vps_session::file::{ShellMethodName, BUILTIN_VOXELS_REASON};
 use vps_session::LoadedScene;
 
 /// Share of the 1 ms period a frame's compute may take (as `vps tune`'s default budget).
@@ -24,6 +27,37 @@ struct ObjectReport {
     bounds_max_m: [f64; 3],
 }
 
+/// One effective voxel setting and where it came from: `"scene file"` or `"built-in default"`.
+#[derive(Serialize)]
+struct Setting<T> {
+    value: T,
+    from: &'static str,
+}
+
+fn setting<T>(value: T, in_file: bool) -> Setting<T> {
+    Setting {
+        value,
+        from: if in_file {
+            "scene file"
+        } else {
+            "built-in default"
+        },
+    }
+}
+
+/// The voxel settings a session on the scene runs with.
+#[derive(Serialize)]
+struct VoxelsReport {
+    voxel_size_m: Setting<f64>,
+    voxel_width_bits: Setting<u8>,
+    shell_method: Setting<ShellMethodName>,
+    offset_layers: Setting<u32>,
+    /// The scene file's `voxels.reason`.
+    reason: Option<String>,
+    /// Why the built-in defaults are what they are, when any setting is one.
+    builtin_reason: Option<&'static str>,
+}
+
 #[derive(Serialize)]
 struct CheckReport {
     scene: String,
@@ -33,6 +67,7 @@ struct CheckReport {
     grip_m: [f64; 3],
     voxel_size_m: f64,
     voxel_width_bits: u32,
+    voxels: VoxelsReport,
     workspace: bool,
     voxmap_estimate: VoxmapEstimate,
     shell_points: usize,
@@ -61,8 +96,21 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
     let width = loaded.width()?;
     let estimate = loaded.plan_voxmap(voxels.voxel_size, width)?;
     let shell = loaded.build_shell(voxels.voxel_size, voxels.shell_method.method())?;
-    let kernel = super::bench_kernel::run(&[shell.len().max(1)], KERNEL_BATCH_SECONDS)?;
-    let ns_per_point = kernel.figures[0].current.contact_ns_per_point;
+    let ns_per_point =
+        crate::kernel_timing::contact_ns_per_point(shell.len().max(1), KERNEL_BATCH_SECONDS)?;
+    let set = voxels.set_in_file;
+    let voxels_report = VoxelsReport {
+        voxel_size_m: setting(voxels.voxel_size, set.voxel_size),
+        voxel_width_bits: setting(voxels.voxel_width, set.voxel_width),
+        shell_method: setting(voxels.shell_method, set.shell_method),
+        offset_layers: setting(voxels.offset_layers, set.offset_layers),
+        reason: voxels.reason.clone(),
+        builtin_reason: (!(set.voxel_size
+            && set.voxel_width
+            && set.shell_method
+            && set.offset_layers))
+            .then_some(BUILTIN_VOXELS_REASON),
+    };
     let frame_us = ns_per_point * shell.len() as f64 / 1e3;
     let budget_us = 1000.0 * FRAME_BUDGET_FRACTION;
     let report = CheckReport {
@@ -79,6 +127,7 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
         grip_m: loaded.grip(&shell).to_array(),
         voxel_size_m: voxels.voxel_size,
         voxel_width_bits: width.bits(),
+        voxels: voxels_report,
         workspace: loaded.file.workspace.is_some(),
         voxmap_estimate: estimate,
         shell_points: shell.len(),
@@ -112,6 +161,27 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
         "  grip (part coordinates, m): [{:.4}, {:.4}, {:.4}]",
         report.grip_m[0], report.grip_m[1], report.grip_m[2]
     );
+    let v = &report.voxels;
+    println!(
+        "voxels: size {} mm ({}), width {} bits ({}), shell {} ({}), offset {} layers ({})",
+        v.voxel_size_m.value * 1e3,
+        v.voxel_size_m.from,
+        v.voxel_width_bits.value,
+        v.voxel_width_bits.from,
+        match v.shell_method.value {
+            ShellMethodName::Centres => "centres",
+            ShellMethodName::Exact => "exact",
+        },
+        v.shell_method.from,
+        v.offset_layers.value,
+        v.offset_layers.from
+    );
+    if let Some(reason) = &v.reason {
+        println!("  why (scene file): {reason}");
+    }
+    if let Some(reason) = v.builtin_reason {
+        println!("  why (built-in defaults): {reason}");
+    }
     println!(
         "voxmap: {} m, {}-bit{}: about {:.3e} voxels in the grid, {:.3e} in the surface band, \
          {:.1} MiB of tree (estimate)",

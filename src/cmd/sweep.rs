@@ -2,24 +2,29 @@
 //! methods on standard scenes (scene files) and their scripted sessions. Per setting: point count, voxmap memory,
 //! voxelization time, frame compute p50/p99.9 (free-running 1 kHz loop), penetration ratio, and at
 //! sampled touching frames the voxel contact force against the exact reference (vps-reference):
-//! direction and magnitude error, minimum exact separation. Writes JSON, CSV and SVG plots.
+//! direction and magnitude error, minimum exact separation. Writes JSON (a [`SweepTable`]), CSV
+//! and SVG plots; rows whose width and method are the scene file's own are marked `default`.
+//! SIGINT, SIGTERM and SIGHUP stop it: the running session's device is written zero and the rows
+//! done are written as a partial table (exit status 128 + N). See docs/sweep.md.
 
+use crate::exit::SessionExit;
+use crate::output::{check_output_path, write_file};
 use crate::cli::SweepArgs;
+use crate::sweep_session::{run_sweep_session, session_on, SweepRow, SweepSession, SweepTable};
 use anyhow::{bail, Context, Result};
 use glam::DVec3;
-use serde::{Deserialize, Serialize};
+use serde::Deserialize;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::sync::atomic::Ordering;
 use std::time::Instant;
-use vps_device::script::Script;
 use vps_device::{HandParams, HapticDevice, SimulatedHand};
-use vps_haptic::{sample_all, step, HapticParams, KernelPose, PartState};
+use vps_haptic::{sample_all, step, HapticParams, KernelPose, PartState, Wrench};
 use vps_reference::{reference_contact, ExactScene};
-use vps_runtime::{run_loop, LoopConfig, StatsSummary};
+use vps_runtime::{SessionEnd, SignalStop, StatsSummary};
 use vps_session::file::{width_from_bits, ShellMethodName};
 use vps_session::scene::BuiltVoxmap;
-use vps_session::{classed, CachePolicy, DeviceChoice, LoadedScene, SessionPlan};
-use vps_voxmap::{PointShell, VoxelTree, VoxelWidth};
+use vps_session::{classed, stop_on_signals, CachePolicy, LoadedScene};
+use vps_voxmap::VoxelWidth;
 
 /// The sweep file (`configs/sweep.toml`).
 #[derive(Debug, Deserialize)]
@@ -59,55 +64,9 @@ fn default_points_per_frame() -> usize {
     500
 }
 
-/// One row of the table: one scene × voxel size × voxel width × shell method.
-#[derive(Clone, Debug, Serialize)]
-pub struct SweepRow {
-    /// Scene name.
-    pub scene: String,
-    /// Shell method.
-    pub method: ShellMethodName,
-    /// Voxel edge (mm).
-    pub voxel_size_mm: f64,
-    /// Bits per voxel of the voxmap: 2 (kinds only), 4 or 8 (kinds plus distance layers).
-    pub voxel_width: u32,
-    /// What was voxelized: `scene` or `workspace`.
-    pub voxelized: String,
-    /// Shell points.
-    pub shell_points: usize,
-    /// Voxmap (tree) memory (bytes).
-    pub voxmap_bytes: usize,
-    /// Voxelization and tree build (ms).
-    pub voxelize_ms: f64,
-    /// Frames in the session.
-    pub frames: u64,
-    /// Frame compute p50 (µs), free-running loop, one thread.
-    pub compute_p50_us: f64,
-    /// Frame compute p99.9 (µs).
-    pub compute_p999_us: f64,
-    /// Frames with a point in Interior over frames with a point in Surface or Interior.
-    pub penetration_ratio: Option<f64>,
-    /// Touching frames where the reference was computed.
-    pub compared_frames: u64,
-    /// Compared frames where both the voxel force and the reference force are non-zero.
-    pub both_force_frames: u64,
-    /// Compared frames with a voxel force but no reference force.
-    pub voxel_only_frames: u64,
-    /// Compared frames with a reference force but no voxel force.
-    pub reference_only_frames: u64,
-    /// Angle between voxel and reference force (degrees): median over `both_force_frames`.
-    pub direction_error_deg_p50: Option<f64>,
-    /// The same, 95th percentile.
-    pub direction_error_deg_p95: Option<f64>,
-    /// |(|F_vox| − |F_ref|) / |F_ref||, median over `both_force_frames`.
-    pub magnitude_error_p50: Option<f64>,
-    /// |F_vox| / |F_ref|, median (below 1: the voxel field is softer than the reference).
-    pub magnitude_ratio_p50: Option<f64>,
-    /// Smallest exact signed distance of any shell point over the compared frames (mm; negative =
-    /// the exact surface was penetrated).
-    pub min_separation_mm: Option<f64>,
-}
-
-/// Runs the sweep.
+/// Runs the sweep. SIGINT, SIGTERM and SIGHUP stop it: the running session's device is written
+/// zero, the rows done so far are written (marked partial, with the reason) and the command fails
+/// with exit status `128 + N`.
 pub fn run(args: &SweepArgs) -> Result<()> {
     let text = std::fs::read_to_string(&args.config)
         .with_context(|| format!("reading {}", args.config.display()))?;
@@ -118,6 +77,9 @@ pub fn run(args: &SweepArgs) -> Result<()> {
             "{}: needs at least one [[run]] and one method",
             args.config.display()
         );
+    }
+    for path in [&args.json, &args.csv].into_iter().flatten() {
+        check_output_path(path, &[&args.config])?;
     }
     let base = args.config.parent().unwrap_or(Path::new("."));
     let mut runs = config.run.iter().collect::<Vec<_>>();
@@ -132,6 +94,7 @@ pub fn run(args: &SweepArgs) -> Result<()> {
         };
         runs = vec![&only];
     }
+    let signals = stop_on_signals()?;
     let mut rows = Vec::new();
     for (i, spec) in runs.into_iter().enumerate() {
         let path = if args.scene.is_some() {
@@ -169,11 +132,12 @@ pub fn run(args: &SweepArgs) -> Result<()> {
                 // Sweeps time voxelization: never from the cache.
                 let map = scene.build_voxmap(voxel_size, width, &CachePolicy::Off, false)?;
                 for &method in methods {
-                    eprintln!(
-                        "sweep: {} {size_mm} mm {}-bit {method:?}",
+                    let what = format!(
+                        "{} {size_mm} mm {}-bit {method:?}",
                         scene.name,
                         width.bits()
                     );
+                    eprintln!("sweep: {what}");
                     let setting = Setting {
                         scene: &scene,
                         exact: &exact,
@@ -181,9 +145,18 @@ pub fn run(args: &SweepArgs) -> Result<()> {
                         method,
                         seconds,
                         points_per_frame: config.reference_points_per_frame.max(1),
+                        signals: &signals,
                     };
                     let t = Instant::now();
-                    rows.push(measure(&setting, &map)?);
+                    let measured = if signals.flag().load(Ordering::SeqCst) {
+                        None
+                    } else {
+                        measure(&setting, &map)?
+                    };
+                    let Some(row) = measured else {
+                        return stopped(args, &rows, &signals, &what);
+                    };
+                    rows.push(row);
                     eprintln!(
                         "sweep: row done in {:.1} s (voxelization {:.1} s)",
                         t.elapsed().as_secs_f64(),
@@ -193,7 +166,33 @@ pub fn run(args: &SweepArgs) -> Result<()> {
             }
         }
     }
-    write_outputs(args, &rows)
+    let table = SweepTable {
+        complete: true,
+        end: "all rows done".into(),
+        rows,
+    };
+    write_outputs(args, &table)
+}
+
+/// The sweep was stopped by a signal during `what` (its device already written zero): writes
+/// the rows done, marked partial with the reason, and fails with exit status `128 + N`.
+fn stopped(args: &SweepArgs, rows: &[SweepRow], signals: &SignalStop, what: &str) -> Result<()> {
+    let (end, code) = crate::exit::outcome(&SessionEnd::Stopped, Some(signals));
+    let end = format!(
+        "{end} during {what} (that row is left out; {} rows done)",
+        rows.len()
+    );
+    let table = SweepTable {
+        complete: false,
+        end: end.clone(),
+        rows: rows.to_vec(),
+    };
+    write_outputs(args, &table)?;
+    Err(SessionExit {
+        code,
+        reason: format!("the sweep ended early: {end}; the partial table was written"),
+    }
+    .into())
 }
 
 /// The widths of run `index`: its own list, else the sweep's, else the scene's own width; every
@@ -230,70 +229,12 @@ struct Setting<'a> {
     method: ShellMethodName,
     seconds: Option<f64>,
     points_per_frame: usize,
+    /// The command's stop handlers: a set flag ends the running session (device written zero).
+    signals: &'a SignalStop,
 }
 
-/// One setting's session: a voxmap, the part's shell on it, the parameters and the script.
-pub struct SweepSession {
-    /// The voxmap.
-    pub tree: Arc<VoxelTree>,
-    /// Voxelization wall time (ms).
-    pub voxelize_ms: f64,
-    /// The part's shell.
-    pub shell: PointShell,
-    /// Parameters for this voxmap and shell.
-    pub params: HapticParams,
-    /// The scene's script on this voxmap, its laps repeated to last at least the session asked for.
-    pub script: Script,
-}
-
-/// A session on an already built `map`: the part's shell of `method` at `voxel_size` (m), the
-/// scene's parameters and its script lasting at least `seconds` (s).
-pub fn session_on(
-    scene: &LoadedScene,
-    map: &BuiltVoxmap,
-    voxel_size: f64,
-    method: ShellMethodName,
-    seconds: f64,
-) -> Result<SweepSession> {
-    let shell = scene.build_shell(voxel_size, method.method())?;
-    let params = scene.params_for(voxel_size, &shell)?;
-    let script = scene.hand().script_covering(&map.tree, seconds)?;
-    Ok(SweepSession {
-        tree: map.tree.clone(),
-        voxelize_ms: map.voxelize_ms,
-        shell,
-        params,
-        script,
-    })
-}
-
-/// Runs `frames` frames of `session` on the runtime's loop, one thread, free-running or paced.
-pub fn run_sweep_session(
-    session: &SweepSession,
-    frames: u64,
-    paced: bool,
-) -> Result<vps_runtime::LoopReport> {
-    let device = DeviceChoice::Simulated.open(session.script.clone(), &Default::default())?;
-    let config = LoopConfig {
-        frames: Some(frames),
-        threads: 1,
-        realtime: paced,
-        free_running: !paced,
-        ..LoopConfig::default()
-    };
-    let plan = SessionPlan::new(session.params, device, config);
-    let report = run_loop(
-        session.tree.clone(),
-        classed(&session.shell),
-        plan.into_setup(None),
-    )?;
-    if let Some(err) = &report.device_error {
-        bail!("the simulated hand failed: {err}");
-    }
-    Ok(report)
-}
-
-fn measure(set: &Setting, map: &BuiltVoxmap) -> Result<SweepRow> {
+/// One row, or `None` when a signal stopped the sweep during it (the device was written zero).
+fn measure(set: &Setting, map: &BuiltVoxmap) -> Result<Option<SweepRow>> {
     // Seconds 0: the script as the scene declares it (its own laps).
     let session = session_on(set.scene, map, set.voxel_size, set.method, 0.0)?;
     let seconds = set
@@ -306,7 +247,10 @@ fn measure(set: &Setting, map: &BuiltVoxmap) -> Result<SweepRow> {
     let params = session.params;
     let script = session.script.clone();
     // Timing pass: the runtime's loop, free-running (frames back to back), one thread.
-    let timed = run_sweep_session(&session, frames, false)?;
+    let timed = run_sweep_session(&session, frames, false, set.signals)?;
+    if !timed.end.is_complete() {
+        return Ok(None);
+    }
     let stride = session.shell.len().div_ceil(set.points_per_frame).max(1) as u64;
     let accuracy = accuracy_pass(
         set,
@@ -317,7 +261,7 @@ fn measure(set: &Setting, map: &BuiltVoxmap) -> Result<SweepRow> {
         frames,
         stride,
     )?;
-    Ok(row(set, &session, &timed.stats, accuracy))
+    Ok(accuracy.map(|a| row(set, &session, &timed.stats, a)))
 }
 
 /// Per compared frame: (direction error deg, magnitude ratio) when both forces exist.
@@ -329,11 +273,16 @@ struct Accuracy {
     angles_deg: Vec<f64>,
     ratios: Vec<f64>,
     min_separation_m: Option<f64>,
+    /// Frames with a point in Surface or Interior, over the whole replay.
+    touching: u64,
+    /// Frames with a point in Interior, over the whole replay.
+    penetrating: u64,
 }
 
 /// Replays the session deterministically through the sans-IO core (the same physics as the
 /// runtime's loop: read, sample, step, saturate, write) and at every `stride`-th touching frame
-/// compares the voxel force with the exact reference at the same pose.
+/// compares the voxel force with the exact reference at the same pose. Ends with the exact zero
+/// wrench written to the hand; `None` when the command's stop flag was set (checked every frame).
 ///
 /// Voxel force `K_ff Σ d_i N_i` (before the N ≥ 10 averaging, which scales both alike); reference
 /// `K_ff Σ e_i n_i` with exact depths `e_i = max(0, δ − φ_i)` from the surface offset by
@@ -349,7 +298,7 @@ fn accuracy_pass(
     initial: PartState,
     frames: u64,
     stride: u64,
-) -> Result<Accuracy> {
+) -> Result<Option<Accuracy>> {
     let shell = classed(&session.shell);
     let limits = hand.limits();
     let offset = reference_offset(set.scene.file.voxels.offset_layers, set.voxel_size);
@@ -357,11 +306,20 @@ fn accuracy_pass(
     let mut state = initial;
     let mut acc = Accuracy::default();
     let mut touching = 0u64;
+    let stop = set.signals.flag();
     for frame in 0..frames {
+        if stop.load(Ordering::Relaxed) {
+            hand.write(&Wrench::ZERO)?;
+            return Ok(None);
+        }
         let handle = hand.read(frame as f64 * params.dt)?;
         let sums = sample_all(&*session.tree, &shell, &KernelPose::from_state(&state));
         if sums.surface + sums.interior > 0 {
             touching += 1;
+            acc.touching += 1;
+            if sums.interior > 0 {
+                acc.penetrating += 1;
+            }
             if touching.is_multiple_of(stride) {
                 let reference = reference_contact(
                     set.exact,
@@ -378,7 +336,8 @@ fn accuracy_pass(
         hand.write(&limits.saturate(&out.device_wrench))?;
         state = out.next_state;
     }
-    Ok(acc)
+    hand.write(&Wrench::ZERO)?;
+    Ok(Some(acc))
 }
 
 /// The offset `δ` (m) the reference measures depths from: `(offset_layers + ½) × s`, the outer
@@ -427,11 +386,15 @@ fn quantile(values: &[f64], q: f64) -> Option<f64> {
 
 fn row(set: &Setting, session: &SweepSession, stats: &StatsSummary, acc: Accuracy) -> SweepRow {
     let errors: Vec<f64> = acc.ratios.iter().map(|r| (r - 1.0).abs()).collect();
+    let own = &set.scene.file.voxels;
+    let bits = session.tree.width().bits();
     SweepRow {
         scene: set.scene.name.clone(),
         method: set.method,
         voxel_size_mm: set.voxel_size * 1e3,
-        voxel_width: session.tree.width().bits(),
+        voxel_width: bits,
+        default: bits == u32::from(own.voxel_width) && set.method == own.shell_method,
+        default_size: (set.voxel_size - own.voxel_size).abs() <= 1e-9 * own.voxel_size,
         voxelized: if set.scene.file.workspace.is_some() {
             "workspace"
         } else {
@@ -444,7 +407,10 @@ fn row(set: &Setting, session: &SweepSession, stats: &StatsSummary, acc: Accurac
         frames: stats.frames,
         compute_p50_us: stats.compute_ns.p50 as f64 / 1e3,
         compute_p999_us: stats.compute_ns.p999 as f64 / 1e3,
-        penetration_ratio: stats.penetration_ratio,
+        // From the deterministic replay, not the timed run: under load the runtime's watchdog
+        // zeroes the wrench of frames that overran, which moves the simulated hand differently
+        // from run to run.
+        penetration_ratio: (acc.touching > 0).then(|| acc.penetrating as f64 / acc.touching as f64),
         compared_frames: acc.compared,
         both_force_frames: acc.angles_deg.len() as u64,
         voxel_only_frames: acc.voxel_only,
@@ -463,6 +429,8 @@ pub const CSV_COLUMNS: &[&str] = &[
     "method",
     "voxel_size_mm",
     "voxel_width",
+    "default",
+    "default_size",
     "voxelized",
     "shell_points",
     "voxmap_bytes",
@@ -482,9 +450,11 @@ pub const CSV_COLUMNS: &[&str] = &[
     "min_separation_mm",
 ];
 
-fn csv(rows: &[SweepRow]) -> Result<String> {
+/// The table as CSV: the header of [`CSV_COLUMNS`], one line per row; a partial table ends with
+/// a `# partial: REASON` line.
+fn csv(table: &SweepTable) -> Result<String> {
     let mut out = CSV_COLUMNS.join(",") + "\n";
-    for r in rows {
+    for r in &table.rows {
         let value = serde_json::to_value(r)?;
         let cells: Vec<String> = CSV_COLUMNS
             .iter()
@@ -496,23 +466,25 @@ fn csv(rows: &[SweepRow]) -> Result<String> {
             .collect();
         out += &(cells.join(",") + "\n");
     }
+    if !table.complete {
+        out += &format!("# partial: {}\n", table.end);
+    }
     Ok(out)
 }
 
-fn write_outputs(args: &SweepArgs, rows: &[SweepRow]) -> Result<()> {
-    let json = serde_json::to_string_pretty(rows)?;
+/// Writes the JSON (or prints it), the CSV and the plots; files are written atomically.
+fn write_outputs(args: &SweepArgs, table: &SweepTable) -> Result<()> {
+    let json = serde_json::to_string_pretty(table)? + "\n";
     match &args.json {
-        Some(path) => {
-            std::fs::write(path, &json).with_context(|| format!("writing {}", path.display()))?
-        }
-        None => println!("{json}"),
+        Some(path) => write_file(path, json.as_bytes())?,
+        None => crate::output::outln!("{}", json.trim_end())?,
     }
     if let Some(path) = &args.csv {
-        std::fs::write(path, csv(rows)?).with_context(|| format!("writing {}", path.display()))?;
+        write_file(path, csv(table)?.as_bytes())?;
     }
     if let Some(dir) = &args.plots {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        super::sweep_plots::plot_all(rows, dir)?;
+        super::sweep_plots::plot_all(&table.rows, dir)?;
     }
     Ok(())
 }

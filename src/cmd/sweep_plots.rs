@@ -1,8 +1,10 @@
 //! SVG plots of `vps sweep`: one figure per column against voxel size (log2 axis), one line per
 //! scene, shell method and voxel width: the colour names the scene and method, the line the width
-//! (solid 2-bit, dashed 4-bit, dotted 8-bit) and the marker too (circle, triangle, cross).
+//! (solid 2-bit, dashed 4-bit, dotted 8-bit) and the marker too (circle, triangle, cross); the
+//! scene's own width and method (`default` rows) are drawn thicker.
 
-use super::sweep::SweepRow;
+use crate::svg::write_svg;
+use crate::sweep_session::SweepRow;
 use anyhow::{Context, Result};
 use plotters::prelude::*;
 use std::path::Path;
@@ -51,6 +53,8 @@ struct Series<'a> {
     label: String,
     colour: RGBColor,
     width_bits: u32,
+    /// The scene's own width and method (drawn thicker, "(default)" in the legend).
+    default: bool,
     rows: Vec<&'a SweepRow>,
 }
 
@@ -61,7 +65,11 @@ fn series_of(rows: &[SweepRow]) -> Vec<Series<'_>> {
     let mut series: Vec<Series> = Vec::new();
     for r in rows {
         let group = format!("{} / {:?}", r.scene, r.method).to_lowercase();
-        let label = format!("{group} / {}-bit", r.voxel_width);
+        let label = format!(
+            "{group} / {}-bit{}",
+            r.voxel_width,
+            if r.default { " (default)" } else { "" }
+        );
         if let Some(s) = series.iter_mut().find(|s| s.label == label) {
             s.rows.push(r);
             continue;
@@ -77,6 +85,7 @@ fn series_of(rows: &[SweepRow]) -> Vec<Series<'_>> {
             label,
             colour: COLOURS[g % COLOURS.len()],
             width_bits: r.voxel_width,
+            default: r.default,
             rows: vec![r],
         });
     }
@@ -126,55 +135,52 @@ fn plot_one(
     } else {
         y0 - pad
     };
-    // Drawn into memory, then written atomically: a failed write leaves no truncated plot.
-    let mut svg = String::new();
-    let root = SVGBackend::with_string(&mut svg, (720, 440)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(format!("{label} against voxel size"), ("sans-serif", 18))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(70)
-        .build_cartesian_2d((x0 - 0.3)..(x1 + 0.3), y0..(y1 + pad))?;
-    chart
-        .configure_mesh()
-        .x_desc("voxel size (mm, log scale)")
-        .y_desc(label)
-        .x_label_formatter(&|v| format!("{}", (2f64.powf(*v) * 1000.0).round() / 1000.0))
-        .draw()?;
-    for (i, pts) in &points {
-        let s = &series[*i];
-        let (colour, bits) = (s.colour, s.width_bits);
-        let style = ShapeStyle::from(colour).stroke_width(1);
-        let line = pts.iter().copied();
-        let drawn = match bits {
-            2 => chart.draw_series(LineSeries::new(line, style))?,
-            4 => chart.draw_series(DashedLineSeries::new(line, 8, 5, style))?,
-            _ => chart.draw_series(DashedLineSeries::new(line, 2, 4, style))?,
-        };
-        drawn
-            .label(s.label.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
-        let fill = colour.filled();
-        match bits {
-            2 => {
-                chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, fill)))?;
-            }
-            4 => {
-                chart.draw_series(pts.iter().map(|&p| TriangleMarker::new(p, 4, fill)))?;
-            }
-            _ => {
-                chart.draw_series(pts.iter().map(|&p| Cross::new(p, 4, style.stroke_width(2))))?;
+    write_svg(path, (720, 440), |root| {
+        let mut chart = ChartBuilder::on(root)
+            .caption(format!("{label} against voxel size"), ("sans-serif", 18))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d((x0 - 0.3)..(x1 + 0.3), y0..(y1 + pad))?;
+        chart
+            .configure_mesh()
+            .x_desc("voxel size (mm, log scale)")
+            .y_desc(label)
+            .x_label_formatter(&|v| format!("{}", (2f64.powf(*v) * 1000.0).round() / 1000.0))
+            .draw()?;
+        for (i, pts) in &points {
+            let s = &series[*i];
+            let (colour, bits) = (s.colour, s.width_bits);
+            let style = ShapeStyle::from(colour).stroke_width(if s.default { 3 } else { 1 });
+            let line = pts.iter().copied();
+            let drawn = match bits {
+                2 => chart.draw_series(LineSeries::new(line, style))?,
+                4 => chart.draw_series(DashedLineSeries::new(line, 8, 5, style))?,
+                _ => chart.draw_series(DashedLineSeries::new(line, 2, 4, style))?,
+            };
+            drawn
+                .label(s.label.clone())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
+            let fill = colour.filled();
+            match bits {
+                2 => {
+                    chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, fill)))?;
+                }
+                4 => {
+                    chart.draw_series(pts.iter().map(|&p| TriangleMarker::new(p, 4, fill)))?;
+                }
+                _ => {
+                    chart.draw_series(
+                        pts.iter().map(|&p| Cross::new(p, 4, style.stroke_width(2))),
+                    )?;
+                }
             }
         }
-    }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()?;
-    root.present()?;
-    drop(chart);
-    drop(root);
-    crate::output::write_file(path, svg.as_bytes())
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()?;
+        Ok(())
+    })
 }

@@ -1,14 +1,17 @@
 //! `vps tune`: measures this machine's frame compute time on a scene at voxel sizes from coarse to
 //! fine, proposes the finest size whose p99.9 stays under a budget, prints the accuracy the
 //! committed sweep measured at that size, and verifies the choice with a paced run.
+//! SIGINT, SIGTERM and SIGHUP stop it: the running session's device is written zero, the report
+//! so far is printed (`complete: false`, `end` says why) and the exit status is `128 + N`.
 
-use super::sweep::{run_sweep_session, session_on, SweepSession};
+use crate::exit::{outcome, SessionExit};
 use crate::cli::TuneArgs;
+use crate::sweep_session::{run_sweep_session, session_on, SweepRow, SweepSession, SweepTable};
 use anyhow::{bail, Result};
 use serde::Serialize;
 use std::path::Path;
-use vps_runtime::StatsSummary;
-use vps_session::{CachePolicy, LoadedScene};
+use vps_runtime::{SessionEnd, SignalStop, StatsSummary};
+use vps_session::{stop_on_signals, CachePolicy, LoadedScene};
 
 /// Candidate voxel sizes (mm), coarse to fine.
 const SIZES_MM: [f64; 5] = [10.0, 5.0, 2.5, 1.25, 0.625];
@@ -26,29 +29,54 @@ struct Measured {
 #[derive(Serialize)]
 struct TuneReport {
     scene: String,
+    /// False when a signal stopped tune (the figures cover what ran).
+    complete: bool,
+    /// Why tune ended: "done", or "stopped by SIGINT while ...".
+    end: String,
     budget_us: f64,
     measured: Vec<Measured>,
-    chosen_voxel_size_mm: f64,
-    predicted_accuracy: Option<serde_json::Value>,
+    chosen_voxel_size_mm: Option<f64>,
+    predicted_accuracy: Option<SweepRow>,
     verify_frames: u64,
-    verify_realtime_granted: bool,
-    verify: StatsSummary,
+    verify_realtime_granted: Option<bool>,
+    verify: Option<StatsSummary>,
 }
 
 /// The committed sweep's row for this scene, method, voxel width and size, if the file has one.
-fn sweep_row(path: &Path, scene: &LoadedScene, size_mm: f64) -> Option<serde_json::Value> {
-    let rows: Vec<serde_json::Value> =
-        serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()?;
+fn sweep_row(path: &Path, scene: &LoadedScene, size_mm: f64) -> Option<SweepRow> {
+    let table: SweepTable = serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()?;
     let voxels = &scene.file.voxels;
-    let method = serde_json::to_value(voxels.shell_method).ok()?;
-    rows.into_iter().find(|r| {
-        r["scene"] == scene.name.as_str()
-            && r["method"] == method
-            && r["voxel_width"].as_u64() == Some(u64::from(voxels.voxel_width))
-            && r["voxel_size_mm"]
-                .as_f64()
-                .is_some_and(|s| (s - size_mm).abs() < 1e-9)
+    table.rows.into_iter().find(|r| {
+        r.scene == scene.name
+            && r.method == voxels.shell_method
+            && r.voxel_width == u32::from(voxels.voxel_width)
+            && (r.voxel_size_mm - size_mm).abs() < 1e-9
     })
+}
+
+/// Prints `report` (stopped by a signal while `what`) and fails with exit status `128 + N`.
+fn stopped(
+    args: &TuneArgs,
+    mut report: TuneReport,
+    signals: &SignalStop,
+    what: &str,
+) -> Result<()> {
+    let (end, code) = outcome(&SessionEnd::Stopped, Some(signals));
+    report.complete = false;
+    report.end = format!("{end} while {what}");
+    if args.json {
+        crate::output::print_json(&report)?;
+    } else {
+        println!(
+            "tune: {} (partial; the device was sent zero force)",
+            report.end
+        );
+    }
+    Err(SessionExit {
+        code,
+        reason: format!("tune ended early: {}", report.end),
+    }
+    .into())
 }
 
 /// Runs `vps tune`.
@@ -70,14 +98,30 @@ pub fn run(args: &TuneArgs) -> Result<()> {
         CachePolicy::from_env()
     };
     let budget_us = 1000.0 * args.budget_fraction;
-    let mut measured = Vec::new();
+    let mut report = TuneReport {
+        scene: scene.name.clone(),
+        complete: true,
+        end: "done".into(),
+        budget_us,
+        measured: Vec::new(),
+        chosen_voxel_size_mm: None,
+        predicted_accuracy: None,
+        verify_frames: args.verify_frames,
+        verify_realtime_granted: None,
+        verify: None,
+    };
+    let signals = stop_on_signals()?;
     let mut chosen: Option<(f64, SweepSession)> = None;
     let longest = args.frames.max(args.verify_frames) as f64 * scene.params.dt;
     for size_mm in SIZES_MM {
         let s = size_mm * 1e-3;
         let map = scene.build_voxmap(s, width, &cache, true)?;
         let session = session_on(&scene, &map, s, scene.file.voxels.shell_method, longest)?;
-        let stats = run_sweep_session(&session, args.frames, false)?.stats;
+        let run = run_sweep_session(&session, args.frames, false, &signals)?;
+        if !run.end.is_complete() {
+            return stopped(args, report, &signals, &format!("measuring {size_mm} mm"));
+        }
+        let stats = run.stats;
         let p999 = stats.compute_ns.p999 as f64 / 1e3;
         let within = p999 <= budget_us;
         if !args.json {
@@ -89,7 +133,7 @@ pub fn run(args: &TuneArgs) -> Result<()> {
                 if within { "" } else { "  (over budget)" }
             );
         }
-        measured.push(Measured {
+        report.measured.push(Measured {
             voxel_size_mm: size_mm,
             shell_points: session.shell.len(),
             frames: stats.frames,
@@ -108,18 +152,14 @@ pub fn run(args: &TuneArgs) -> Result<()> {
             SIZES_MM[0]
         );
     };
-    let predicted = sweep_row(&args.sweep, &scene, size_mm);
-    let verify = run_sweep_session(&session, args.verify_frames, true)?;
-    let report = TuneReport {
-        scene: scene.name.clone(),
-        budget_us,
-        measured,
-        chosen_voxel_size_mm: size_mm,
-        predicted_accuracy: predicted,
-        verify_frames: args.verify_frames,
-        verify_realtime_granted: verify.rt.fifo,
-        verify: verify.stats,
-    };
+    report.chosen_voxel_size_mm = Some(size_mm);
+    report.predicted_accuracy = sweep_row(&args.sweep, &scene, size_mm);
+    let verify = run_sweep_session(&session, args.verify_frames, true, &signals)?;
+    if !verify.end.is_complete() {
+        return stopped(args, report, &signals, &format!("verifying {size_mm} mm"));
+    }
+    report.verify_realtime_granted = Some(verify.rt.fifo);
+    let verify = report.verify.insert(verify.stats).clone();
     if args.json {
         return crate::output::print_json(&report);
     }
@@ -128,10 +168,10 @@ pub fn run(args: &TuneArgs) -> Result<()> {
         Some(r) => println!(
             "accuracy at {size_mm} mm from {}: force direction error p50 {} deg, magnitude error p50 {}, penetration ratio {}, min exact separation {} mm",
             args.sweep.display(),
-            r["direction_error_deg_p50"],
-            r["magnitude_error_p50"],
-            r["penetration_ratio"],
-            r["min_separation_mm"]
+            shown(r.direction_error_deg_p50),
+            shown(r.magnitude_error_p50),
+            shown(r.penetration_ratio),
+            shown(r.min_separation_mm)
         ),
         None => println!("accuracy: {} has no row for {} at {size_mm} mm (run vps sweep)", args.sweep.display(), scene.name),
     }
@@ -140,8 +180,13 @@ pub fn run(args: &TuneArgs) -> Result<()> {
             "verification: {} paced frames at {size_mm} mm",
             args.verify_frames
         ),
-        &report.verify,
+        &verify,
         None,
     );
     Ok(())
+}
+
+/// A figure of the sweep table, `-` when the table has none.
+fn shown(value: Option<f64>) -> String {
+    value.map_or("-".into(), |v| format!("{v:.3}"))
 }

@@ -191,12 +191,11 @@ pub struct Corridor {
     pub reach: f64,
 }
 
-/// Voxel settings a scene declares.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
+/// Voxel settings a scene declares, with the built-in defaults ([`VoxelSettings::default`]) for
+/// the keys it leaves out.
+#[derive(Clone, Debug, PartialEq)]
 pub struct VoxelSettings {
     /// Voxel edge (m), a number or a string with a unit (`"2mm"`). Default 0.005.
-    #[serde(deserialize_with = "length")]
     pub voxel_size: f64,
     /// Bits per voxel: 2 (kinds only, the paper's format), 4 or 8 (kinds plus distance layers).
     /// Default 2.
@@ -207,7 +206,31 @@ pub struct VoxelSettings {
     pub braking: Option<bool>,
     /// Shell point placement: `centres` or `exact`. Default `centres`.
     pub shell_method: ShellMethodName,
+    /// Why the scene file chose its voxel settings (`voxels.reason`, 1..=500 characters), shown by
+    /// `vps scene check`; `None` when the file gives none.
+    pub reason: Option<String>,
+    /// Which keys the scene file set; the others hold the built-in defaults.
+    pub set_in_file: VoxelKeysSet,
 }
+
+/// Which `[voxels]` keys a scene file set (false: the built-in default,
+/// [`BUILTIN_VOXELS_REASON`] says why it is what it is).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct VoxelKeysSet {
+    /// `voxels.voxel_size`.
+    pub voxel_size: bool,
+    /// `voxels.voxel_width`.
+    pub voxel_width: bool,
+    /// `voxels.offset_layers`.
+    pub offset_layers: bool,
+    /// `voxels.shell_method`.
+    pub shell_method: bool,
+}
+
+/// Why the built-in voxel defaults (5 mm, 2-bit, offset 2, voxel centres) are what they are, for
+/// a scene file that leaves the keys out. The standard scenes set their own (4-bit, exact surface,
+/// chosen by the sweep in docs/sweep.md).
+pub const BUILTIN_VOXELS_REASON: &str = "the paper's format (2-bit voxel centres, 2 offset layers) at 5 mm, kept as the fallback for scene files that state nothing; the sweep (docs/sweep.md) found 4-bit exact-surface shells better on both standard scenes (penetration ratio 0 at every size, direction error p50 falling as the voxels shrink), so set voxels.voxel_width = 4 and voxels.shell_method = \"exact\"";
 
 impl Default for VoxelSettings {
     fn default() -> Self {
@@ -217,6 +240,45 @@ impl Default for VoxelSettings {
             offset_layers: 2,
             braking: None,
             shell_method: ShellMethodName::Centres,
+            reason: None,
+            set_in_file: VoxelKeysSet::default(),
+        }
+    }
+}
+
+/// `[voxels]` as written: every key optional (see [`VoxelSettings`]).
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct VoxelsWire {
+    #[serde(default, deserialize_with = "optional_length")]
+    voxel_size: Option<f64>,
+    voxel_width: Option<u8>,
+    offset_layers: Option<u32>,
+    braking: Option<bool>,
+    shell_method: Option<ShellMethodName>,
+    reason: Option<String>,
+}
+
+fn optional_length<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+    length(d).map(Some)
+}
+
+impl VoxelsWire {
+    fn into_settings(self) -> VoxelSettings {
+        let d = VoxelSettings::default();
+        VoxelSettings {
+            set_in_file: VoxelKeysSet {
+                voxel_size: self.voxel_size.is_some(),
+                voxel_width: self.voxel_width.is_some(),
+                offset_layers: self.offset_layers.is_some(),
+                shell_method: self.shell_method.is_some(),
+            },
+            voxel_size: self.voxel_size.unwrap_or(d.voxel_size),
+            voxel_width: self.voxel_width.unwrap_or(d.voxel_width),
+            offset_layers: self.offset_layers.unwrap_or(d.offset_layers),
+            braking: self.braking,
+            shell_method: self.shell_method.unwrap_or(d.shell_method),
+            reason: self.reason,
         }
     }
 }
@@ -492,6 +554,15 @@ impl SceneFile {
                 format!("{} must be 0..=16", v.offset_layers),
             );
         }
+        if let Some(reason) = &v.reason {
+            let n = reason.chars().count();
+            if reason.trim().is_empty() || n > 500 {
+                return bad(
+                    "voxels.reason",
+                    format!("{n} characters; 1..=500 (not blank) are allowed"),
+                );
+            }
+        }
         if let Some(r) = &self.workspace {
             let ok = finite3(&r.min) && finite3(&r.max) && (0..3).all(|a| r.min[a] < r.max[a]);
             if !ok {
@@ -637,7 +708,7 @@ struct Wire {
     hand: Option<HandPath>,
     corridor: Option<Corridor>,
     #[serde(default)]
-    voxels: VoxelSettings,
+    voxels: VoxelsWire,
     workspace: Option<Region>,
     haptic: Option<toml::Table>,
     device: Option<DeviceSection>,
@@ -651,7 +722,7 @@ impl Wire {
             objects: self.objects,
             hand: self.hand,
             corridor: self.corridor,
-            voxels: self.voxels,
+            voxels: self.voxels.into_settings(),
             workspace: self.workspace,
             haptic: self.haptic,
             device: self.device,
@@ -705,6 +776,38 @@ max = [0.4, 0.1, 0.2]
         assert_eq!(c.part.grip, Some([0.0, 0.0, 0.01]));
         let mm = parse(&GOOD.replace("voxel_size = 0.005", "voxel_size = \"2mm\"")).unwrap();
         assert!((mm.voxels.voxel_size - 0.002).abs() < 1e-15);
+    }
+
+    /// The keys a file sets are told apart from the built-in defaults, and its reason is kept.
+    #[test]
+    fn voxel_keys_left_out_take_the_builtin_defaults() {
+        let c = parse(GOOD).unwrap();
+        let set = c.voxels.set_in_file;
+        assert!(set.voxel_size && set.voxel_width && set.offset_layers && set.shell_method);
+        assert_eq!(c.voxels.reason, None);
+        let sparse = GOOD
+            .replace("voxel_width = 2\n", "")
+            .replace("shell_method = \"exact\"\n", "reason = \"measured\"\n");
+        let c = parse(&sparse).unwrap();
+        let set = c.voxels.set_in_file;
+        assert!(set.voxel_size && !set.voxel_width && set.offset_layers && !set.shell_method);
+        let builtin = VoxelSettings::default();
+        assert_eq!(c.voxels.voxel_width, builtin.voxel_width);
+        assert_eq!(c.voxels.shell_method, builtin.shell_method);
+        assert_eq!(c.voxels.reason.as_deref(), Some("measured"));
+        let blank = GOOD.replace("shell_method = \"exact\"\n", "reason = \" \"\n");
+        let err = parse(&blank).unwrap_err().to_string();
+        assert!(err.contains("`voxels.reason`"), "{err}");
+        // Every built-in scene file states all its voxel settings and why.
+        for (name, text) in crate::scene::BUILTIN_SCENES {
+            let v = SceneFile::from_toml_str(text, name).unwrap().voxels;
+            let set = v.set_in_file;
+            assert!(
+                set.voxel_size && set.voxel_width && set.offset_layers && set.shell_method,
+                "{name}"
+            );
+            assert!(v.reason.is_some(), "{name}");
+        }
     }
 
     #[test]

@@ -1,0 +1,128 @@
+//! A short timing of the current sampling kernel on this machine, for estimates such as
+//! `vps scene check`'s "does a frame fit the budget": nanoseconds per point in full contact, tree
+//! lookup included, one core. The synthetic case is `vps bench kernel`'s (which also times the
+//! previous kernel against this one): a spherical point shell of radius R voxels (Fibonacci
+//! lattice, inward normals, Morton order) centred in a spherical Surface band of 3 voxels around
+//! radius R, so every point reads a Surface voxel of a mixed leaf. Not a subcommand.
+
+use anyhow::Result;
+use glam::{DQuat, DVec3, Vec3};
+use std::hint::black_box;
+use std::time::Instant;
+use vps_haptic::{sample_all, ClassedShell, KernelPose, PartState};
+use vps_voxmap::{DenseGrid, GridSpec, MassProperties, PointShell, TreeConfig, Voxel, VoxelTree};
+
+/// Voxel size of the synthetic scene (m); only the counts matter to the kernel.
+const VOXEL_SIZE: f64 = 0.005;
+
+/// Timed batches; the figure is their median.
+const BATCHES: usize = 5;
+
+/// The most points timed: the synthetic voxmap grows as the shell's area, so larger shells are
+/// timed at this size (the cost per point is flat beyond a few thousand points).
+pub const MAX_TIMED_POINTS: usize = 200_000;
+
+/// Nanoseconds per point of the current kernel in full contact with `points` points (clamped to
+/// 1..=[`MAX_TIMED_POINTS`]), the median of [`BATCHES`] batches of about `batch_seconds` (s)
+/// each. Allocates the synthetic scene (about 8 bytes per point of voxmap); blocks for about
+/// `(BATCHES + 1) × batch_seconds`.
+pub fn contact_ns_per_point(points: usize, batch_seconds: f64) -> Result<f64> {
+    let n = points.clamp(1, MAX_TIMED_POINTS);
+    let radius_vox = (n as f64 / (4.0 * std::f64::consts::PI)).sqrt().max(3.0);
+    let dense = band(radius_vox);
+    let tree = VoxelTree::from_dense(&dense, TreeConfig::default())?;
+    let shell = ClassedShell::new(&sphere_shell(n, radius_vox * VOXEL_SIZE), 1);
+    let centre = dense.spec.origin + DVec3::splat(dense.spec.dims[0] as f64 / 2.0) * VOXEL_SIZE;
+    let pose = KernelPose::from_state(&PartState::at_rest(centre, DQuat::IDENTITY));
+    let start = Instant::now();
+    black_box(sample_all(&tree, &shell, &pose));
+    let once = start.elapsed().as_secs_f64().max(1e-7);
+    let reps = ((batch_seconds / once) as usize).clamp(1, 1_000_000);
+    let mut batches: Vec<f64> = (0..BATCHES)
+        .map(|_| {
+            let t = Instant::now();
+            for _ in 0..reps {
+                black_box(sample_all(black_box(&tree), &shell, black_box(&pose)));
+            }
+            t.elapsed().as_secs_f64() * 1e9 / (reps * shell.len().max(1)) as f64
+        })
+        .collect();
+    batches.sort_by(f64::total_cmp);
+    Ok(batches[BATCHES / 2])
+}
+
+/// `n` points on a sphere of `radius` (m), inward normals, in Morton order by voxel.
+fn sphere_shell(n: usize, radius: f64) -> PointShell {
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let mut pairs: Vec<(Vec3, Vec3)> = (0..n)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+            let r = (1.0 - z * z).sqrt();
+            let a = golden * i as f64;
+            let dir = DVec3::new(r * a.cos(), r * a.sin(), z);
+            ((dir * radius).as_vec3(), (-dir).as_vec3())
+        })
+        .collect();
+    pairs.sort_by_key(|(p, _)| {
+        let v = (*p / VOXEL_SIZE as f32 + Vec3::splat(1e6)).as_uvec3();
+        vps_voxelize::shell::morton_key([v.x, v.y, v.z])
+    });
+    PointShell {
+        points: pairs.iter().map(|p| p.0).collect(),
+        normals: pairs.iter().map(|p| p.1).collect(),
+        voxel_size: VOXEL_SIZE,
+        method: vps_voxmap::shell::ShellMethod::VoxelCentres,
+        mass: MassProperties {
+            volume: 0.0,
+            center_of_mass: DVec3::ZERO,
+            bounding_radius: radius,
+        },
+    }
+}
+
+/// A cube of voxels holding a spherical Surface band of 3 voxels around `radius_vox` voxels from
+/// its centre, Interior inside, Proximity one voxel outside, Free beyond.
+fn band(radius_vox: f64) -> DenseGrid {
+    let side = (2.0 * (radius_vox + 4.0)).ceil() as u32;
+    let spec = GridSpec {
+        origin: DVec3::ZERO,
+        voxel_size: VOXEL_SIZE,
+        dims: [side; 3],
+    };
+    let centre = DVec3::splat(side as f64 / 2.0);
+    let mut grid = DenseGrid::new(spec);
+    let s = side as usize;
+    for (i, v) in grid.data.iter_mut().enumerate() {
+        let p = DVec3::new((i % s) as f64, ((i / s) % s) as f64, (i / (s * s)) as f64);
+        let d = (p + DVec3::splat(0.5) - centre).length() - radius_vox;
+        *v = if d < -1.5 {
+            Voxel::Interior
+        } else if d <= 1.5 {
+            Voxel::Surface
+        } else if d <= 2.5 {
+            Voxel::Proximity
+        } else {
+            Voxel::Free
+        } as u8;
+    }
+    grid
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The synthetic pose puts every point in a Surface voxel (the figure is full contact).
+    #[test]
+    fn every_point_is_in_surface() {
+        let n = 2000;
+        let radius_vox = (n as f64 / (4.0 * std::f64::consts::PI)).sqrt();
+        let dense = band(radius_vox);
+        let tree = VoxelTree::from_dense(&dense, TreeConfig::default()).unwrap();
+        let shell = ClassedShell::new(&sphere_shell(n, radius_vox * VOXEL_SIZE), 1);
+        let centre = DVec3::splat(dense.spec.dims[0] as f64 / 2.0) * VOXEL_SIZE;
+        let pose = KernelPose::from_state(&PartState::at_rest(centre, DQuat::IDENTITY));
+        assert_eq!(sample_all(&tree, &shell, &pose).surface, n as u64);
+        assert!(contact_ns_per_point(n, 0.001).unwrap() > 0.0);
+    }
+}
