@@ -293,11 +293,12 @@ fn accumulate<L: VoxelLookup>(
         // SAFETY: the CPU supports AVX2 (checked just above).
         return unsafe { accumulate_avx2(map, frame, points, normals, sums) };
     }
-    accumulate_any(map, frame, points, normals, sums)
+    accumulate_any::<L, false>(map, frame, points, normals, sums)
 }
 
-/// [`accumulate_any`] compiled for AVX2 (one register per lane array instead of two). FMA is not
-/// enabled, so the arithmetic is the baseline copy's, bit for bit.
+/// [`accumulate_any`] compiled for AVX2, full blocks written with AVX2 intrinsics ([`avx2`]): the
+/// same operations in the same order as the portable lane loops (no fused multiply-add), so the
+/// same bits.
 ///
 /// # Safety
 /// The CPU must support AVX2.
@@ -310,12 +311,13 @@ unsafe fn accumulate_avx2<L: VoxelLookup>(
     normals: Soa,
     sums: &mut PartialSums,
 ) {
-    accumulate_any(map, frame, points, normals, sums)
+    accumulate_any::<L, true>(map, frame, points, normals, sums)
 }
 
 /// Picks the clamping or the plain copy of the block loop (the same bits; see the module docs).
+/// `AVX2`: full blocks through [`avx2::sample_block`] (only where the CPU has AVX2).
 #[inline(always)]
-fn accumulate_any<L: VoxelLookup>(
+fn accumulate_any<L: VoxelLookup, const AVX2: bool>(
     map: &L,
     frame: &GridFrame,
     points: Soa,
@@ -323,16 +325,16 @@ fn accumulate_any<L: VoxelLookup>(
     sums: &mut PartialSums,
 ) {
     if frame.needs_clamp {
-        accumulate_lanes::<L, true>(map, frame, points, normals, sums)
+        accumulate_lanes::<L, true, AVX2>(map, frame, points, normals, sums)
     } else {
-        accumulate_lanes::<L, false>(map, frame, points, normals, sums)
+        accumulate_lanes::<L, false, AVX2>(map, frame, points, normals, sums)
     }
 }
 
 /// The block loop (see the module docs); full blocks, then one zero-padded tail block; the lanes
 /// flushed every [`CHUNK_BLOCKS`] blocks.
 #[inline(always)]
-fn accumulate_lanes<L: VoxelLookup, const CLAMP: bool>(
+fn accumulate_lanes<L: VoxelLookup, const CLAMP: bool, const AVX2: bool>(
     map: &L,
     frame: &GridFrame,
     points: Soa,
@@ -352,6 +354,17 @@ fn accumulate_lanes<L: VoxelLookup, const CLAMP: bool>(
     while begin < full {
         let end = (begin + chunk).min(full);
         for start in (begin..end).step_by(LANES) {
+            #[cfg(target_arch = "x86_64")]
+            if AVX2 {
+                // SAFETY: AVX2 is only requested from `accumulate_avx2`, which runs only where
+                // the CPU has it.
+                unsafe {
+                    avx2::sample_block::<L, CLAMP>(
+                        map, frame, points, normals, start, &mut last, &mut acc,
+                    )
+                };
+                continue;
+            }
             sample_block::<L, CLAMP>(
                 map, frame, points, normals, start, LANES, &mut last, &mut acc,
             );
@@ -492,10 +505,22 @@ fn look_up<L: VoxelLookup>(
     valid: usize,
     last: &mut LastVoxel,
 ) -> ([u8; LANES], [u8; LANES]) {
-    /// At most this many fresh lanes are looked up one by one.
-    const FEW: u32 = 2;
     // Bit l: lane l is in another voxel than lane l − 1.
     let fresh = differs_from_previous(cell, last.cell) & ((1u32 << valid) - 1);
+    look_up_fresh(map, cell, valid, fresh, last)
+}
+
+/// [`look_up`] with the lanes that start a new voxel given (bit `l` of `fresh`).
+#[inline(always)]
+fn look_up_fresh<L: VoxelLookup>(
+    map: &L,
+    cell: &[[i32; LANES]; 3],
+    valid: usize,
+    fresh: u32,
+    last: &mut LastVoxel,
+) -> ([u8; LANES], [u8; LANES]) {
+    /// At most this many fresh lanes are looked up one by one.
+    const FEW: u32 = 2;
     let (kinds, layers) = if fresh.count_ones() > FEW {
         let mut cells = *cell;
         for axis in &mut cells {
@@ -606,6 +631,266 @@ fn brake_block<const CLAMP: bool>(
     acc.brake_blocks += 1;
 }
 
+/// The full-block path of the AVX2 copy, written with AVX2 intrinsics: the portable lane loops
+/// leave much of the block arithmetic in 128-bit halves even when compiled for AVX2. Every
+/// operation is the portable one (same operands, same order, no fused multiply-add), so a block
+/// gives the same bits either way (a unit test checks it).
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::{
+        count_bytes, look_up_fresh, ClassAccumulator, GridFrame, I64s, LastVoxel, Soa, BYTE_ONES,
+        LANES, LENGTH_Q, ROUNDER, Y_MAX,
+    };
+    use glam::Mat3;
+    use std::arch::x86_64::*;
+    use vps_voxmap::{Voxel, VoxelLookup};
+
+    type V3 = [__m256; 3];
+
+    /// Lanes `start..start + LANES` of the three arrays.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn load(xs: Soa, start: usize) -> V3 {
+        let mut out = [_mm256_setzero_ps(); 3];
+        for r in 0..3 {
+            let lanes = &xs[r][start..start + LANES];
+            // SAFETY: `lanes` holds LANES f32 (32 bytes); unaligned load.
+            out[r] = unsafe { _mm256_loadu_ps(lanes.as_ptr()) };
+        }
+        out
+    }
+
+    /// `m · v`: `(c0 v.x + c1 v.y) + c2 v.z`, as `lanes::mat_vec`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn mat_vec(m: &Mat3, v: &V3) -> V3 {
+        let c = [m.x_axis, m.y_axis, m.z_axis];
+        let mut out = [_mm256_setzero_ps(); 3];
+        for r in 0..3 {
+            let a = _mm256_mul_ps(_mm256_set1_ps(c[0][r]), v[0]);
+            let b = _mm256_mul_ps(_mm256_set1_ps(c[1][r]), v[1]);
+            let z = _mm256_mul_ps(_mm256_set1_ps(c[2][r]), v[2]);
+            out[r] = _mm256_add_ps(_mm256_add_ps(a, b), z);
+        }
+        out
+    }
+
+    /// `(a.x b.x + a.y b.y) + a.z b.z`, as `lanes::dot`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn dot(a: &V3, b: &V3) -> __m256 {
+        let xy = _mm256_add_ps(_mm256_mul_ps(a[0], b[0]), _mm256_mul_ps(a[1], b[1]));
+        _mm256_add_ps(xy, _mm256_mul_ps(a[2], b[2]))
+    }
+
+    /// `a × b` with glam's formula, as `lanes::cross`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn cross(a: &V3, b: &V3) -> V3 {
+        let mut out = [_mm256_setzero_ps(); 3];
+        for r in 0..3 {
+            let (i, j) = ((r + 1) % 3, (r + 2) % 3);
+            out[r] = _mm256_sub_ps(_mm256_mul_ps(a[i], b[j]), _mm256_mul_ps(b[i], a[j]));
+        }
+        out
+    }
+
+    /// `v · s` per lane, as `lanes::scale`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn scale(v: &V3, s: __m256) -> V3 {
+        [
+            _mm256_mul_ps(v[0], s),
+            _mm256_mul_ps(v[1], s),
+            _mm256_mul_ps(v[2], s),
+        ]
+    }
+
+    /// Number of lanes with `x > 0` (`GT`) or `x < 0`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn count_positive(x: __m256) -> u64 {
+        let m = _mm256_cmp_ps::<_CMP_GT_OQ>(x, _mm256_setzero_ps());
+        u64::from(_mm256_movemask_ps(m).count_ones())
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn count_negative(x: __m256) -> u64 {
+        let m = _mm256_cmp_ps::<_CMP_LT_OQ>(x, _mm256_setzero_ps());
+        u64::from(_mm256_movemask_ps(m).count_ones())
+    }
+
+    /// `super::add_fixed`: `acc += bits(f64(y) + 1.5 · 2^52)` per lane, `y` clamped first with
+    /// `CLAMP` (`max` then `min`: NaN gives `-Y_MAX` as `f32::max` does).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn add_fixed<const CLAMP: bool>(acc: &mut I64s, y: __m256) {
+        let y = if CLAMP {
+            _mm256_min_ps(
+                _mm256_max_ps(y, _mm256_set1_ps(-Y_MAX)),
+                _mm256_set1_ps(Y_MAX),
+            )
+        } else {
+            y
+        };
+        let rounder = _mm256_set1_pd(ROUNDER);
+        let lo = _mm256_add_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(y)), rounder);
+        let hi = _mm256_add_pd(_mm256_cvtps_pd(_mm256_extractf128_ps::<1>(y)), rounder);
+        let p = acc.as_mut_ptr().cast::<__m256i>();
+        // SAFETY: `acc` is 8 i64 (64 bytes): two unaligned 32-byte halves.
+        unsafe {
+            _mm256_storeu_si256(
+                p,
+                _mm256_add_epi64(_mm256_loadu_si256(p), _mm256_castpd_si256(lo)),
+            );
+            _mm256_storeu_si256(
+                p.add(1),
+                _mm256_add_epi64(_mm256_loadu_si256(p.add(1)), _mm256_castpd_si256(hi)),
+            );
+        }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn add3_fixed<const CLAMP: bool>(acc: &mut [I64s; 3], y: &V3) {
+        for (a, v) in acc.iter_mut().zip(y) {
+            unsafe { add_fixed::<CLAMP>(a, *v) };
+        }
+    }
+
+    /// Lanes of `kinds` equal to `kind`, as 32-bit masks.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn kind_is(kinds: __m256i, kind: Voxel) -> __m256i {
+        _mm256_cmpeq_epi32(kinds, _mm256_set1_epi32(i32::from(kind.bits())))
+    }
+
+    /// `super::sample_block` for a full block at `start` (`start + LANES` within every array).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn sample_block<L: VoxelLookup, const CLAMP: bool>(
+        map: &L,
+        frame: &GridFrame,
+        points: Soa,
+        normals: Soa,
+        start: usize,
+        last: &mut LastVoxel,
+        acc: &mut ClassAccumulator,
+    ) {
+        unsafe {
+            let lever = mat_vec(&frame.rotation_lever, &load(points, start));
+            let inv = _mm256_set1_ps(frame.inv_voxel_lever);
+            let mut grid: V3 = [_mm256_setzero_ps(); 3];
+            // floor, as `lanes::floor_i32`: truncate, then −1 where truncation rounded up.
+            let mut cell = [_mm256_setzero_si256(); 3];
+            for r in 0..3 {
+                grid[r] = _mm256_add_ps(
+                    _mm256_mul_ps(lever[r], inv),
+                    _mm256_set1_ps(frame.translation_grid[r]),
+                );
+                let t = _mm256_cvttps_epi32(grid[r]);
+                let up = _mm256_cmp_ps::<_CMP_LT_OQ>(grid[r], _mm256_cvtepi32_ps(t));
+                cell[r] = _mm256_add_epi32(t, _mm256_castps_si256(up));
+            }
+            // Lanes whose cell differs from the previous lane's (lane 0: the last voxel's).
+            let shift = _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6);
+            let mut same = _mm256_set1_epi32(-1);
+            for r in 0..3 {
+                let prev = _mm256_blend_epi32::<1>(
+                    _mm256_permutevar8x32_epi32(cell[r], shift),
+                    _mm256_set1_epi32(last.cell[r]),
+                );
+                same = _mm256_and_si256(same, _mm256_cmpeq_epi32(cell[r], prev));
+            }
+            let fresh = !(_mm256_movemask_ps(_mm256_castsi256_ps(same)) as u32) & 0xff;
+            let mut cells = [[0i32; LANES]; 3];
+            for r in 0..3 {
+                _mm256_storeu_si256(cells[r].as_mut_ptr().cast(), cell[r]);
+            }
+            let (kinds, layers) = look_up_fresh(map, &cells, LANES, fresh, last);
+            // Kinds as bit planes, one byte per lane: Free 00, Interior 01, Surface 10,
+            // Proximity 11.
+            let word = u64::from_le_bytes(kinds);
+            if word == 0 {
+                return;
+            }
+            let (low, high) = (word & BYTE_ONES, (word >> 1) & BYTE_ONES);
+            acc.non_free += count_bytes(low | high);
+            let interior = low & !high;
+            acc.interior += count_bytes(interior);
+            let (surface, proximity) = (high & !low, high & low);
+            if surface | proximity | interior == 0 {
+                return;
+            }
+            let normal = mat_vec(&frame.rotation, &load(normals, start));
+            let kind = _mm256_cvtepu8_epi32(_mm_loadl_epi64(kinds.as_ptr().cast()));
+            if surface | interior != 0 {
+                acc.surface += count_bytes(surface);
+                let is_interior = kind_is(kind, Voxel::Interior);
+                let pushing = _mm256_or_si256(is_interior, kind_is(kind, Voxel::Surface));
+                // Interior points push as layer 1.
+                let layer = _mm256_blendv_epi8(
+                    _mm256_cvtepu8_epi32(_mm_loadl_epi64(layers.as_ptr().cast())),
+                    _mm256_set1_epi32(1),
+                    is_interior,
+                );
+                let half = _mm256_set1_ps(0.5);
+                let mut to_centre: V3 = [_mm256_setzero_ps(); 3];
+                for r in 0..3 {
+                    to_centre[r] =
+                        _mm256_sub_ps(_mm256_add_ps(_mm256_cvtepi32_ps(cell[r]), half), grid[r]);
+                }
+                let d = _mm256_add_ps(dot(&normal, &to_centre), _mm256_cvtepi32_ps(layer));
+                let keep = _mm256_and_ps(
+                    _mm256_castsi256_ps(pushing),
+                    _mm256_cmp_ps::<_CMP_GT_OQ>(d, _mm256_setzero_ps()),
+                );
+                let depth = _mm256_and_ps(keep, _mm256_mul_ps(d, _mm256_set1_ps(frame.voxel_q)));
+                acc.contacts += count_positive(depth);
+                let force_dir = scale(&normal, depth);
+                add3_fixed::<CLAMP>(&mut acc.depth_normal, &force_dir);
+                add3_fixed::<CLAMP>(&mut acc.depth_torque, &cross(&lever, &force_dir));
+                acc.depth_blocks += 1;
+            }
+            if proximity != 0 {
+                let w = frame.angular_velocity_lever;
+                let u = frame.linear_velocity;
+                // u + w × lever, as `lanes::add_cross_uniform`.
+                let mut velocity: V3 = [_mm256_setzero_ps(); 3];
+                for r in 0..3 {
+                    let (i, j) = ((r + 1) % 3, (r + 2) % 3);
+                    velocity[r] = _mm256_add_ps(
+                        _mm256_set1_ps(u[r]),
+                        _mm256_sub_ps(
+                            _mm256_mul_ps(_mm256_set1_ps(w[i]), lever[j]),
+                            _mm256_mul_ps(lever[i], _mm256_set1_ps(w[j])),
+                        ),
+                    );
+                }
+                let approach = dot(&velocity, &normal);
+                let approaching = _mm256_and_ps(
+                    _mm256_castsi256_ps(kind_is(kind, Voxel::Proximity)),
+                    _mm256_cmp_ps::<_CMP_LT_OQ>(approach, _mm256_setzero_ps()),
+                );
+                let x = _mm256_and_ps(approaching, approach);
+                let a = _mm256_mul_ps(x, _mm256_set1_ps(LENGTH_Q));
+                let a_sq = _mm256_mul_ps(x, a);
+                acc.approaching += count_negative(a);
+                add_fixed::<CLAMP>(&mut acc.brake_sq, a_sq);
+                let brake_dir = scale(&normal, a);
+                add3_fixed::<CLAMP>(&mut acc.brake_force, &brake_dir);
+                add3_fixed::<CLAMP>(&mut acc.brake_torque, &cross(&lever, &brake_dir));
+                acc.brake_blocks += 1;
+            }
+        }
+    }
+}
+
 #[cfg(all(test, target_arch = "x86_64"))]
 mod tests {
     use super::*;
@@ -666,12 +951,16 @@ mod tests {
             },
             1,
         );
-        let frame = GridFrame::new(&grid, &pose, &shell);
-        assert!(!frame.needs_clamp);
+        // The frame's bound is loose (Frobenius norm, normals up to √3 long here) and asks for
+        // clamping; the actual values are far below Y_MAX, so both copies must agree.
+        let frame = GridFrame {
+            needs_clamp: false,
+            ..GridFrame::new(&grid, &pose, &shell)
+        };
         let points = [&soa[0][..], &soa[1][..], &soa[2][..]];
         let normals = [&soa[3][..], &soa[4][..], &soa[5][..]];
         let mut base = PartialSums::default();
-        accumulate_any(&grid, &frame, points, normals, &mut base);
+        accumulate_any::<DenseGrid, false>(&grid, &frame, points, normals, &mut base);
         let mut avx2 = PartialSums::default();
         // SAFETY: AVX2 was detected above.
         unsafe { accumulate_avx2(&grid, &frame, points, normals, &mut avx2) };
@@ -683,15 +972,18 @@ mod tests {
             ..frame
         };
         let mut clamped = PartialSums::default();
-        accumulate_any(&grid, &clamping, points, normals, &mut clamped);
+        accumulate_any::<DenseGrid, false>(&grid, &clamping, points, normals, &mut clamped);
+        assert_eq!(clamped, base);
+        let mut clamped = PartialSums::default();
+        // SAFETY: AVX2 was detected above.
+        unsafe { accumulate_avx2(&grid, &clamping, points, normals, &mut clamped) };
         assert_eq!(clamped, base);
         // Each point on its own, in reverse order: the same bits (per-point rounding).
         let mut alone = PartialSums::default();
         for i in (0..n).rev() {
-            let one = |a: &[f32]| &a[i..=i];
-            let pts = [one(&soa[0]), one(&soa[1]), one(&soa[2])];
-            let nrm = [one(&soa[3]), one(&soa[4]), one(&soa[5])];
-            accumulate_any(&grid, &frame, pts, nrm, &mut alone);
+            let pts = [&soa[0][i..=i], &soa[1][i..=i], &soa[2][i..=i]];
+            let nrm = [&soa[3][i..=i], &soa[4][i..=i], &soa[5][i..=i]];
+            accumulate_any::<DenseGrid, false>(&grid, &frame, pts, nrm, &mut alone);
         }
         assert_eq!(alone, base);
     }
