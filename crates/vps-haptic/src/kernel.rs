@@ -163,11 +163,17 @@ impl GridFrame {
     /// False when no point of `shell` at `pose` can contribute more than `Y_MAX / 2` LSB to any
     /// sum (a factor 2 covers f32 rounding): `|N| ≤ ‖R‖ n_max`, `|P − x| ≤ ‖R‖ r_max`,
     /// `d ≤ (|N| + 256) s` (half a diagonal, at most 255 layers), `|V| ≤ |v| + |ω| |P − x|`, with
-    /// `‖R‖` the Frobenius norm. True for absurd sizes or speeds (for a 5 mm voxel, a 10 cm part
-    /// and unit normals, from about 20 m/s approach speed).
+    /// `‖R‖² ≤` the largest absolute row sum of `RᵀR` (Gershgorin; ≈ 1 for a rotation). True for
+    /// absurd sizes or speeds: for a 5 mm voxel, a 10 cm part and unit normals, from about 20 m/s.
     fn needs_clamp(pose: &KernelPose, voxel: f64, shell: &ClassedShell) -> bool {
-        let r_norm = f64::from(pose.rotation.to_cols_array().iter().map(|c| c * c).sum::<f32>())
-            .sqrt();
+        let r = pose.rotation.as_dmat3();
+        let gram = r.transpose() * r;
+        let rows = [gram.row(0), gram.row(1), gram.row(2)];
+        let largest_row = rows
+            .iter()
+            .map(|row| row.abs().element_sum())
+            .fold(0.0, f64::max);
+        let r_norm = largest_row.sqrt() * (1.0 + 1e-6);
         let normal = r_norm * shell.max_normal();
         let lever = r_norm * shell.max_radius();
         let depth = (normal + 256.0) * voxel;
@@ -951,7 +957,7 @@ mod tests {
             },
             1,
         );
-        // The frame's bound is loose (Frobenius norm, normals up to √3 long here) and asks for
+        // The frame's bound is loose (normals up to √3 long here, fast spin) and asks for
         // clamping; the actual values are far below Y_MAX, so both copies must agree.
         let frame = GridFrame {
             needs_clamp: false,
