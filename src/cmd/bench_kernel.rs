@@ -299,8 +299,10 @@ fn measure(n: usize, batch_seconds: f64) -> Result<KernelFigure> {
     let slack = n as i128;
     anyhow::ensure!(
         (old.surface, old.contacts, old.non_free) == (sums.surface, sums.contacts, sums.non_free)
-            && (0..3).all(|k| (old.depth_normal[k] - sums.depth_normal[k]).abs() <= slack
-                && (old.depth_torque[k] - sums.depth_torque[k]).abs() <= slack),
+            && (0..3).all(
+                |k| (old.depth_normal[k] - sums.depth_normal[k]).abs() <= slack
+                    && (old.depth_torque[k] - sums.depth_torque[k]).abs() <= slack
+            ),
         "the previous and current kernels disagree"
     );
     let (old_contact, new_contact, contact_speedup) =

@@ -220,7 +220,11 @@ type I64s = [i64; LANES];
 #[inline(always)]
 fn add_fixed<const CLAMP: bool>(acc: &mut I64s, y: &F32s) {
     for l in 0..LANES {
-        let v = if CLAMP { y[l].max(-Y_MAX).min(Y_MAX) } else { y[l] };
+        let v = if CLAMP {
+            y[l].max(-Y_MAX).min(Y_MAX)
+        } else {
+            y[l]
+        };
         acc[l] = acc[l].wrapping_add((f64::from(v) + ROUNDER).to_bits() as i64);
     }
 }
