@@ -220,6 +220,8 @@ type I64s = [i64; LANES];
 #[inline(always)]
 fn add_fixed<const CLAMP: bool>(acc: &mut I64s, y: &F32s) {
     for l in 0..LANES {
+        // `max` then `min`, not `clamp`: NaN goes to `-Y_MAX`, as in the AVX2 copy.
+        #[allow(clippy::manual_clamp)]
         let v = if CLAMP {
             y[l].max(-Y_MAX).min(Y_MAX)
         } else {
@@ -698,9 +700,9 @@ mod avx2 {
     #[target_feature(enable = "avx2")]
     unsafe fn cross(a: &V3, b: &V3) -> V3 {
         let mut out = [_mm256_setzero_ps(); 3];
-        for r in 0..3 {
+        for (r, o) in out.iter_mut().enumerate() {
             let (i, j) = ((r + 1) % 3, (r + 2) % 3);
-            out[r] = _mm256_sub_ps(_mm256_mul_ps(a[i], b[j]), _mm256_mul_ps(b[i], a[j]));
+            *o = _mm256_sub_ps(_mm256_mul_ps(a[i], b[j]), _mm256_mul_ps(b[i], a[j]));
         }
         out
     }
@@ -810,12 +812,12 @@ mod avx2 {
             // Lanes whose cell differs from the previous lane's (lane 0: the last voxel's).
             let shift = _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6);
             let mut same = _mm256_set1_epi32(-1);
-            for r in 0..3 {
+            for (c, previous) in cell.iter().zip(last.cell) {
                 let prev = _mm256_blend_epi32::<1>(
-                    _mm256_permutevar8x32_epi32(cell[r], shift),
-                    _mm256_set1_epi32(last.cell[r]),
+                    _mm256_permutevar8x32_epi32(*c, shift),
+                    _mm256_set1_epi32(previous),
                 );
-                same = _mm256_and_si256(same, _mm256_cmpeq_epi32(cell[r], prev));
+                same = _mm256_and_si256(same, _mm256_cmpeq_epi32(*c, prev));
             }
             let fresh = !(_mm256_movemask_ps(_mm256_castsi256_ps(same)) as u32) & 0xff;
             let mut cells = [[0i32; LANES]; 3];
