@@ -7,6 +7,11 @@
 //! point is in a Proximity voxel, each for all lanes at once with the other lanes masked to zero.
 //! A block in free space therefore costs its transform and lookups only.
 //!
+//! Two copies of a block, the same bits: the portable lane loops of [`crate::lanes`] (baseline
+//! x86-64 and other targets, and the zero-padded tail block of each class), and, where the CPU has
+//! AVX2, full blocks written with AVX2 intrinsics (`avx2::sample_block`): the same IEEE operations
+//! in the same order, no fused multiply-add.
+//!
 //! Exactness (docs/architecture.md#exact-sums-and-the-cluster): each point's contribution is
 //! computed in f32 (IEEE basic operations only, no fused multiply-add, so the same bits on every
 //! instruction set), rounded to an integer multiple of the sums' LSB (2^-40 m, 2^-48 m², see
