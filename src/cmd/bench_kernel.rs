@@ -1,8 +1,8 @@
 //! `vps bench kernel`: nanoseconds per point of the sampling kernel on one core, tree lookup
 //! included, for 10k, 100k and 1M points (by default), in free space and in full contact: the
-//! current kernel and the previous one (the same kernel with block lookups on the portable path,
-//! without AVX2 gathers: `VoxelTree::without_gathers`), alternated batch by batch in one run so
-//! that their ratio holds on a loaded machine.
+//! current kernel (per-point fixed point, AVX2 blocks) and the previous one (per-class f64 sums,
+//! `vps_haptic::previous`), alternated batch by batch in one run so that their ratio holds on a
+//! loaded machine.
 //!
 //! The synthetic case: a spherical point shell of radius R voxels (Fibonacci lattice, inward
 //! normals, ≈ one point per voxel of area, so R = √(n / 4π) voxels) and a voxmap holding, in one
@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use std::hint::black_box;
 use std::time::Instant;
-use vps_haptic::{sample_all, ClassedShell, KernelPose, PartState};
+use vps_haptic::{sample_all, ClassedShell, KernelPose, PartState, PartialSums};
 use vps_voxmap::{DenseGrid, GridSpec, MassProperties, PointShell, Voxel, VoxelLookup};
 use vps_voxmap::{TreeConfig, VoxelTree};
 
@@ -46,7 +46,7 @@ pub struct KernelFigure {
     pub points: usize,
     /// The current kernel.
     pub current: KernelTimes,
-    /// The previous kernel (block lookups without AVX2 gathers), measured alternately.
+    /// The previous kernel (per-class f64 sums, `vps_haptic::previous`), measured alternately.
     pub previous: KernelTimes,
     /// Previous over current ns per point in contact (median of the per-round ratios; > 1: the
     /// current kernel is faster).
@@ -70,8 +70,8 @@ pub struct HostLoad {
     pub load_before: Option<f64>,
     /// 1-minute load average after the last measurement.
     pub load_after: Option<f64>,
-    /// Whether the CPU has AVX2 (the current kernel's gathers need it; without it both kernels
-    /// run the same code).
+    /// Whether the CPU has AVX2 (both kernels have an AVX2 copy; without it both run their
+    /// baseline copies).
     pub avx2: bool,
 }
 
@@ -191,19 +191,34 @@ fn band_scene(radius_vox: f64) -> DenseGrid {
     grid
 }
 
-/// Repetitions of `sample_all` that take about `secs`.
-fn calibrate<L: VoxelLookup>(map: &L, shell: &ClassedShell, pose: &KernelPose, secs: f64) -> usize {
+/// A whole-shell kernel: `vps_haptic::sample_all` or `vps_haptic::previous::sample_all`.
+type Kernel<L> = fn(&L, &ClassedShell, &KernelPose) -> PartialSums;
+
+/// Repetitions of `kernel` that take about `secs`.
+fn calibrate<L: VoxelLookup>(
+    kernel: Kernel<L>,
+    map: &L,
+    shell: &ClassedShell,
+    pose: &KernelPose,
+    secs: f64,
+) -> usize {
     let start = Instant::now();
-    black_box(sample_all(map, shell, pose));
+    black_box(kernel(map, shell, pose));
     let once = start.elapsed().as_secs_f64().max(1e-7);
     ((secs / once) as usize).clamp(1, 1_000_000)
 }
 
 /// ns per point of one batch of `reps` repetitions.
-fn batch<L: VoxelLookup>(map: &L, shell: &ClassedShell, pose: &KernelPose, reps: usize) -> f64 {
+fn batch<L: VoxelLookup>(
+    kernel: Kernel<L>,
+    map: &L,
+    shell: &ClassedShell,
+    pose: &KernelPose,
+    reps: usize,
+) -> f64 {
     let t = Instant::now();
     for _ in 0..reps {
-        black_box(sample_all(black_box(map), shell, black_box(pose)));
+        black_box(kernel(black_box(map), shell, black_box(pose)));
     }
     t.elapsed().as_secs_f64() * 1e9 / (reps * shell.len().max(1)) as f64
 }
@@ -220,10 +235,10 @@ fn ns_per_point<L: VoxelLookup>(
     pose: &KernelPose,
     secs: f64,
 ) -> f64 {
-    let reps = calibrate(map, shell, pose, secs);
+    let reps = calibrate(sample_all, map, shell, pose, secs);
     median(
         (0..BATCHES)
-            .map(|_| batch(map, shell, pose, reps))
+            .map(|_| batch(sample_all, map, shell, pose, reps))
             .collect(),
     )
 }
@@ -231,23 +246,24 @@ fn ns_per_point<L: VoxelLookup>(
 /// Previous and current ns per point (medians) and the median of the per-round ratios
 /// previous / current, batches alternated with the same repetition count.
 fn alternated(
-    previous: &VoxelTree,
-    current: &VoxelTree,
+    tree: &VoxelTree,
     shell: &ClassedShell,
     pose: &KernelPose,
     secs: f64,
 ) -> (f64, f64, f64) {
-    let reps = calibrate(previous, shell, pose, secs);
+    let previous: Kernel<VoxelTree> = vps_haptic::previous::sample_all;
+    let current: Kernel<VoxelTree> = sample_all;
+    let reps = calibrate(previous, tree, shell, pose, secs);
     // Which kernel goes first alternates too, so that neither always runs on a cache the other
     // warmed.
     let rounds: Vec<(f64, f64)> = (0..BATCHES)
         .map(|round| {
             if round % 2 == 0 {
-                let old = batch(previous, shell, pose, reps);
-                (old, batch(current, shell, pose, reps))
+                let old = batch(previous, tree, shell, pose, reps);
+                (old, batch(current, tree, shell, pose, reps))
             } else {
-                let new = batch(current, shell, pose, reps);
-                (batch(previous, shell, pose, reps), new)
+                let new = batch(current, tree, shell, pose, reps);
+                (batch(previous, tree, shell, pose, reps), new)
             }
         })
         .collect();
@@ -271,17 +287,22 @@ fn measure(n: usize, batch_seconds: f64) -> Result<KernelFigure> {
     let slot = dense.spec.dims[1] as f64;
     let contact = pose_at(&dense.spec, DVec3::splat(slot / 2.0));
     let free = pose_at(&dense.spec, DVec3::new(slot * 1.5, slot / 2.0, slot / 2.0));
-    let previous = tree.clone().without_gathers();
     let sums = sample_all(&tree, &shell, &contact);
-    // Same voxels, so the same bits.
+    // The same voxels and contributions, rounded per point instead of per class: the counts agree
+    // exactly and the sums to within one LSB per point.
+    let old = vps_haptic::previous::sample_all(&tree, &shell, &contact);
+    let slack = n as i128;
     anyhow::ensure!(
-        sample_all(&previous, &shell, &contact) == sums,
+        (old.surface, old.contacts, old.non_free) == (sums.surface, sums.contacts, sums.non_free)
+            && (0..3).all(
+                |k| (old.depth_normal[k] - sums.depth_normal[k]).abs() <= slack
+                    && (old.depth_torque[k] - sums.depth_torque[k]).abs() <= slack
+            ),
         "the previous and current kernels disagree"
     );
     let (old_contact, new_contact, contact_speedup) =
-        alternated(&previous, &tree, &shell, &contact, batch_seconds);
-    let (old_free, new_free, free_speedup) =
-        alternated(&previous, &tree, &shell, &free, batch_seconds);
+        alternated(&tree, &shell, &contact, batch_seconds);
+    let (old_free, new_free, free_speedup) = alternated(&tree, &shell, &free, batch_seconds);
     let dense_ns = ns_per_point(&dense, &shell, &contact, batch_seconds);
     let times = |contact: f64, free: f64| KernelTimes {
         contact_ns_per_point: contact,

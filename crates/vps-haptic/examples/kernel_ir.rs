@@ -11,8 +11,10 @@
 //!
 //! ```sh
 //! cargo build --release -p vps-haptic --example kernel_ir
-//! valgrind --tool=callgrind --toggle-collect='*sample_all*' \
-//!     target/release/examples/kernel_ir 10000 contact 20
+//! valgrind --tool=callgrind --toggle-collect='*accumulate*' \
+//!     target/release/examples/kernel_ir 10000 contact 20            # current kernel
+//! valgrind --tool=callgrind --toggle-collect='*accumulate*' \
+//!     target/release/examples/kernel_ir 10000 contact 20 previous   # previous kernel
 //! ```
 //! Instructions per point = the collected `Ir` / (`reps` · `n`).
 
@@ -95,11 +97,11 @@ fn main() {
     let radius_vox = (n as f64 / (4.0 * std::f64::consts::PI)).sqrt().max(3.0) / per_voxel_edge;
     let dense = band_scene(radius_vox);
     let tree = VoxelTree::from_dense(&dense, TreeConfig::default()).expect("valid scene");
-    // A fourth argument `portable`: block lookups without AVX2 gathers.
-    let tree = if args.get(4).is_some_and(|a| a == "portable") {
-        tree.without_gathers()
+    // A fourth argument `previous`: the previous kernel (per-class f64 sums).
+    let kernel = if args.get(4).is_some_and(|a| a == "previous") {
+        vps_haptic::previous::sample_all::<VoxelTree>
     } else {
-        tree
+        sample_all::<VoxelTree>
     };
     let sample = VOXEL_SIZE / per_voxel_edge;
     let shell = sphere_shell(n, radius_vox * VOXEL_SIZE, sample);
@@ -117,7 +119,7 @@ fn main() {
         last = if mode == "dense" {
             sample_all(black_box(&dense), &shell, black_box(&pose))
         } else {
-            sample_all(black_box(&tree), &shell, black_box(&pose))
+            kernel(black_box(&tree), &shell, black_box(&pose))
         };
     }
     let ns = start.elapsed().as_secs_f64() * 1e9 / (reps.max(1) * n) as f64;

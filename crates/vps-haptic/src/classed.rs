@@ -19,6 +19,7 @@ pub struct ClassedShell {
     pub(crate) nz: Vec<f32>,
     offsets: Vec<usize>,
     max_radius: f64,
+    max_normal: f64,
 }
 
 impl ClassedShell {
@@ -36,6 +37,11 @@ impl ClassedShell {
             nz: Vec::with_capacity(n),
             offsets: Vec::with_capacity(classes + 1),
             max_radius: shell.max_radius(),
+            max_normal: shell
+                .normals
+                .iter()
+                .map(|n| f64::from(n.length()))
+                .fold(0.0, f64::max),
         };
         out.offsets.push(0);
         for class in 0..classes {
@@ -76,6 +82,12 @@ impl ClassedShell {
     /// Largest distance of a point from the body origin (m): `r_max` of the tunnelling guard.
     pub fn max_radius(&self) -> f64 {
         self.max_radius
+    }
+
+    /// Largest length of a body-frame normal (1 for unit normals; bounds the kernel's
+    /// contributions, see `crate::kernel`).
+    pub fn max_normal(&self) -> f64 {
+        self.max_normal
     }
 
     /// The index range of class `class` in the SoA arrays, `None` if it does not exist.

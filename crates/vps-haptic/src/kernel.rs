@@ -6,11 +6,31 @@
 //! contact arithmetic only if some point is in a Surface voxel, the braking arithmetic only if some
 //! point is in a Proximity voxel, each for all lanes at once with the other lanes masked to zero.
 //! A block in free space therefore costs its transform and lookups only.
+//!
+//! Two copies of a block, the same bits: the portable lane loops of [`crate::lanes`] (baseline
+//! x86-64 and other targets, and the zero-padded tail block of each class), and, where the CPU has
+//! AVX2, full blocks written with AVX2 intrinsics (`avx2::sample_block`): the same IEEE operations
+//! in the same order, no fused multiply-add.
+//!
+//! Exactness (docs/architecture.md#exact-sums-and-the-cluster): each point's contribution is
+//! computed in f32 (IEEE basic operations only, no fused multiply-add, so the same bits on every
+//! instruction set), rounded to an integer multiple of the sums' LSB (2^-40 m, 2^-48 m², see
+//! [`crate::sums`]) as soon as it is computed, and added in integers. Integer addition is exact in
+//! any order, so any split of the shell, in any grouping, gives the same sums bit for bit.
+//!
+//! Fixed point per point: the f32 value `y` (already scaled to LSB units, a power-of-two scaling
+//! folded into the arithmetic, hence exact) is widened to f64 and rounded to the nearest integer
+//! by adding `1.5 · 2^52`; the sum's bits minus those of `1.5 · 2^52` are the integer. This is
+//! exact for `|y| < 2^51`; every point is kept within `|y| ≤ 2^50` ([`Y_MAX`]): when the frame's
+//! bounds ([`GridFrame::needs_clamp`]) cannot rule out a larger value, each value is clamped
+//! first, which changes nothing for a value already in range, so both paths give the same bits.
+//! Lanes are `i64`; a lane adds at most [`CHUNK_BLOCKS`] values (≤ 2^11 · 2^50 = 2^61 < 2^63)
+//! before it is flushed into the class's `i128` totals.
 
 use crate::classed::ClassedShell;
 use crate::lanes::{
-    add3_f64, add_cross_uniform, add_f64, cross, differs_from_previous, dot, floor_i32, mat_vec,
-    reduce, scale, scale_add, F32s, F64s, Vec3s, LANES,
+    add_cross_uniform, cross, differs_from_previous, dot, floor_i32, mat_vec, scale, scale_add,
+    F32s, Vec3s, LANES,
 };
 use crate::state::KernelPose;
 use crate::sums::{PartialSums, AREA_SCALE, LENGTH_SCALE};
@@ -27,8 +47,8 @@ use vps_voxmap::{LayeredVoxel, Voxel, VoxelLookup};
 /// (any layer) with `V·N < 0` (`V = v + w × (P − x)`): adds to the braking sums. Interior: counted, and pushes
 /// as Surface layer ℓ = 1 (one voxel behind the outermost force layer), so a point that slipped
 /// past a one-voxel force layer is still pushed out instead of feeling nothing.
-/// Contributions are added in f64 in one canonical order per class and quantised to integers once
-/// per class (see [`crate::sums`] and [`accumulate`]).
+/// Each contribution is rounded to the sums' LSB as it is computed and added in integers (see the
+/// module docs and [`crate::sums`]).
 ///
 /// A class that does not exist gives the empty sum. A pose failing [`KernelPose::is_sane`] samples
 /// nothing: only `sampled` is set. Does not allocate or block; cost is linear in the class size.
@@ -43,7 +63,7 @@ pub fn sample_class<L: VoxelLookup>(
     if let Some(range) = shell.class_range(class) {
         sums.sampled = range.len() as u64;
         if pose.is_sane() {
-            let frame = GridFrame::new(map, pose);
+            let frame = GridFrame::new(map, pose, shell);
             let points = [
                 &shell.px[range.clone()],
                 &shell.py[range.clone()],
@@ -54,7 +74,7 @@ pub fn sample_class<L: VoxelLookup>(
                 &shell.ny[range.clone()],
                 &shell.nz[range],
             ];
-            accumulate(map, &frame, points, normals).quantise_into(&mut sums);
+            accumulate(map, &frame, points, normals, &mut sums);
         }
     }
     sums
@@ -84,45 +104,112 @@ pub fn sample_all<L: VoxelLookup>(map: &L, shell: &ClassedShell, pose: &KernelPo
     sums
 }
 
-/// The pose expressed in grid coordinates (voxel units, origin at the grid's minimum corner).
+/// Largest magnitude of a point's contribution in LSB units: `round` via `1.5 · 2^52` is exact
+/// below 2^51, and [`CHUNK_BLOCKS`] such values fit an `i64` lane.
+const Y_MAX: f32 = (1u64 << 50) as f32;
+
+/// Blocks a lane adds before it is flushed into `i128`: `2^11 · 2^50 = 2^61 < 2^63`.
+const CHUNK_BLOCKS: usize = 1 << 11;
+
+/// `1.5 · 2^52`: adding it to an f64 of magnitude below 2^51 rounds it to an integer (nearest,
+/// ties to even) held in the low mantissa bits.
+const ROUNDER: f64 = 6_755_399_441_055_744.0;
+
+/// The bits of [`ROUNDER`] as an integer: each value added to a lane brings this along.
+const ROUNDER_BITS: i64 = ROUNDER.to_bits() as i64;
+
+/// `2^40`: the length-like sums' LSB is 2^-40 (m, m/s, m²/s²).
+const LENGTH_Q: f32 = LENGTH_SCALE as f32;
+
+/// `2^8`: levers are carried in units of 2^-8 m so that `lever × (2^-40 units)` lands in the area
+/// sums' 2^-48 units.
+const LEVER_Q: f32 = (AREA_SCALE / LENGTH_SCALE) as f32;
+
+/// The pose expressed in grid coordinates (voxel units, origin at the grid's minimum corner), with
+/// the power-of-two scalings of the fixed point folded in (exact).
 #[derive(Clone, Copy)]
 struct GridFrame {
+    /// `R · 2^8`: gives the lever `P − x` in units of 2^-8 m.
+    rotation_lever: Mat3,
+    /// `R`, for the normals.
     rotation: Mat3,
     /// `(x − origin) / s`.
     translation_grid: [f32; 3],
-    inv_voxel: f32,
-    voxel: f32,
+    /// `2^-8 / s`: lever units to voxel units.
+    inv_voxel_lever: f32,
+    /// `s · 2^40`: voxel units to length LSBs.
+    voxel_q: f32,
     linear_velocity: [f32; 3],
-    angular_velocity: [f32; 3],
+    /// `ω · 2^-8`, against levers in 2^-8 m.
+    angular_velocity_lever: [f32; 3],
+    /// Some point's contribution could exceed [`Y_MAX`] (absurd speeds or sizes): clamp each.
+    needs_clamp: bool,
 }
 
 impl GridFrame {
     #[inline]
-    fn new<L: VoxelLookup>(map: &L, pose: &KernelPose) -> Self {
+    fn new<L: VoxelLookup>(map: &L, pose: &KernelPose, shell: &ClassedShell) -> Self {
         let spec = map.spec();
         let inv = 1.0 / spec.voxel_size;
         Self {
+            rotation_lever: pose.rotation * LEVER_Q,
             rotation: pose.rotation,
             translation_grid: ((pose.translation.as_dvec3() - spec.origin) * inv)
                 .as_vec3()
                 .to_array(),
-            inv_voxel: inv as f32,
-            voxel: spec.voxel_size as f32,
+            inv_voxel_lever: inv as f32 / LEVER_Q,
+            voxel_q: spec.voxel_size as f32 * LENGTH_Q,
             linear_velocity: pose.linear_velocity.to_array(),
-            angular_velocity: pose.angular_velocity.to_array(),
+            angular_velocity_lever: (pose.angular_velocity / LEVER_Q).to_array(),
+            needs_clamp: Self::needs_clamp(pose, spec.voxel_size, shell),
         }
+    }
+
+    /// False when no point of `shell` at `pose` can contribute more than `Y_MAX / 2` LSB to any
+    /// sum (a factor 2 covers f32 rounding): `|N| ≤ ‖R‖ n_max`, `|P − x| ≤ ‖R‖ r_max`,
+    /// `d ≤ (|N| + 256) s` (half a diagonal, at most 255 layers), `|V| ≤ |v| + |ω| |P − x|`, with
+    /// `‖R‖² ≤` the largest absolute row sum of `RᵀR` (Gershgorin; ≈ 1 for a rotation). True for
+    /// absurd sizes or speeds: for a 5 mm voxel, a 10 cm part and unit normals, from about 20 m/s.
+    fn needs_clamp(pose: &KernelPose, voxel: f64, shell: &ClassedShell) -> bool {
+        let r = pose.rotation.as_dmat3();
+        let gram = r.transpose() * r;
+        let rows = [gram.row(0), gram.row(1), gram.row(2)];
+        let largest_row = rows
+            .iter()
+            .map(|row| row.abs().element_sum())
+            .fold(0.0, f64::max);
+        let r_norm = largest_row.sqrt() * (1.0 + 1e-6);
+        let normal = r_norm * shell.max_normal();
+        let lever = r_norm * shell.max_radius();
+        let depth = (normal + 256.0) * voxel;
+        let speed = f64::from(pose.linear_velocity.length())
+            + f64::from(pose.angular_velocity.length()) * lever;
+        let approach = speed * normal;
+        let (l, a) = (LENGTH_SCALE, AREA_SCALE);
+        let worst = [
+            depth * normal * l,
+            lever * depth * normal * a,
+            approach * approach * l,
+            approach * normal * l,
+            lever * approach * normal * a,
+        ];
+        !worst.iter().all(|w| *w <= f64::from(Y_MAX) / 2.0)
     }
 }
 
-/// Running sums of one class: per-lane f64 sums (lane `l` holds the points `l, l + 8, …` of the
-/// class, in ascending order) and counters.
+/// Per-lane integer sums of one chunk of a class (lane `l` holds points `l, l + 8, …`), each value
+/// carrying [`ROUNDER_BITS`] along (subtracted at the flush), and the class's counters.
 #[derive(Clone, Debug, Default, PartialEq)]
 struct ClassAccumulator {
-    depth_normal: [F64s; 3],
-    depth_torque: [F64s; 3],
-    brake_sq: F64s,
-    brake_force: [F64s; 3],
-    brake_torque: [F64s; 3],
+    depth_normal: [I64s; 3],
+    depth_torque: [I64s; 3],
+    brake_sq: I64s,
+    brake_force: [I64s; 3],
+    brake_torque: [I64s; 3],
+    /// Blocks that added to the depth lanes since the last flush.
+    depth_blocks: i64,
+    /// Blocks that added to the braking lanes since the last flush.
+    brake_blocks: i64,
     surface: u64,
     contacts: u64,
     approaching: u64,
@@ -130,30 +217,74 @@ struct ClassAccumulator {
     non_free: u64,
 }
 
-impl ClassAccumulator {
-    /// Adds the counters and the rounded class totals (lanes reduced in their fixed order) to
-    /// `sums`.
-    ///
-    /// A group of lanes that no block wrote (the contact lanes of a class without Surface points,
-    /// the braking lanes of a class without Proximity points) holds +0.0 everywhere and would
-    /// quantise to 0, so it is skipped: exact, and it saves the reductions and the thirteen
-    /// f64 → i128 conversions of every class in free space (most classes of most frames).
-    fn quantise_into(&self, sums: &mut PartialSums) {
-        let q3 = |acc: &mut [i128; 3], lanes: &[F64s; 3], scale: f64| {
-            for (a, l) in acc.iter_mut().zip(lanes) {
-                *a += quantise(reduce(l), scale);
-            }
+/// One `i64` per lane.
+type I64s = [i64; LANES];
+
+/// `acc += round(y)` per lane, in the carried form `acc += bits(y + 1.5 · 2^52)`; with `CLAMP`, `y`
+/// is first clamped to `±Y_MAX` (NaN to `-Y_MAX`).
+#[inline(always)]
+fn add_fixed<const CLAMP: bool>(acc: &mut I64s, y: &F32s) {
+    for l in 0..LANES {
+        // `max` then `min`, not `clamp`: NaN goes to `-Y_MAX`, as in the AVX2 copy.
+        #[allow(clippy::manual_clamp)]
+        let v = if CLAMP {
+            y[l].max(-Y_MAX).min(Y_MAX)
+        } else {
+            y[l]
         };
-        if self.surface + self.interior > 0 {
-            q3(&mut sums.depth_normal, &self.depth_normal, LENGTH_SCALE);
-            q3(&mut sums.depth_torque, &self.depth_torque, AREA_SCALE);
+        acc[l] = acc[l].wrapping_add((f64::from(v) + ROUNDER).to_bits() as i64);
+    }
+}
+
+/// `acc += round(y)` per component and lane.
+#[inline(always)]
+fn add3_fixed<const CLAMP: bool>(acc: &mut [I64s; 3], y: &Vec3s) {
+    for (a, v) in acc.iter_mut().zip(y) {
+        add_fixed::<CLAMP>(a, v);
+    }
+}
+
+/// The exact total of lanes that each added `blocks` carried values, as `i128`.
+#[inline]
+fn lanes_total(lanes: &I64s, blocks: i64) -> i128 {
+    let carried = blocks.wrapping_mul(ROUNDER_BITS);
+    lanes
+        .iter()
+        .map(|&x| i128::from(x.wrapping_sub(carried)))
+        .sum()
+}
+
+impl ClassAccumulator {
+    /// Adds the lanes' exact totals to `sums` and clears them (counters stay). Lanes no block
+    /// wrote are skipped (they hold 0).
+    fn flush(&mut self, sums: &mut PartialSums) {
+        if self.depth_blocks > 0 {
+            let b = self.depth_blocks;
+            for k in 0..3 {
+                sums.depth_normal[k] += lanes_total(&self.depth_normal[k], b);
+                sums.depth_torque[k] += lanes_total(&self.depth_torque[k], b);
+            }
+            self.depth_normal = Default::default();
+            self.depth_torque = Default::default();
+            self.depth_blocks = 0;
         }
-        let proximity = self.non_free - self.surface - self.interior;
-        if proximity > 0 {
-            sums.brake_sq += quantise(reduce(&self.brake_sq), LENGTH_SCALE);
-            q3(&mut sums.brake_force, &self.brake_force, LENGTH_SCALE);
-            q3(&mut sums.brake_torque, &self.brake_torque, AREA_SCALE);
+        if self.brake_blocks > 0 {
+            let b = self.brake_blocks;
+            sums.brake_sq += lanes_total(&self.brake_sq, b);
+            for k in 0..3 {
+                sums.brake_force[k] += lanes_total(&self.brake_force[k], b);
+                sums.brake_torque[k] += lanes_total(&self.brake_torque[k], b);
+            }
+            self.brake_sq = Default::default();
+            self.brake_force = Default::default();
+            self.brake_torque = Default::default();
+            self.brake_blocks = 0;
         }
+    }
+
+    /// Flushes the lanes and adds the counters to `sums`.
+    fn finish_into(mut self, sums: &mut PartialSums) {
+        self.flush(sums);
         sums.surface += self.surface;
         sums.contacts += self.contacts;
         sums.approaching += self.approaching;
@@ -165,31 +296,26 @@ impl ClassAccumulator {
 /// Body-frame point coordinates (`px, py, pz`) or normals of one class.
 type Soa<'a> = [&'a [f32]; 3];
 
-/// The hot loop over one class.
-///
-/// Exactness (docs/architecture.md#exact-sums-and-the-cluster): a class's f64 totals depend only on its points, in one canonical order
-/// (lane `l` adds points `l, l + 8, l + 16, …` in ascending order; [`reduce`] combines the eight
-/// lanes in a fixed tree), computed with IEEE basic operations only (no fused multiply-add), so they
-/// are the same bits wherever and with whichever instruction set they are computed (the AVX2 and
-/// the baseline copy below agree bit for bit; a unit test checks it). The totals are then quantised
-/// to integers once, and integers merge exactly, so any grouping of classes gives identical sums.
+/// The hot loop over one class: adds the class's sums to `sums`.
 #[inline]
 fn accumulate<L: VoxelLookup>(
     map: &L,
     frame: &GridFrame,
     points: Soa,
     normals: Soa,
-) -> ClassAccumulator {
+    sums: &mut PartialSums,
+) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2 (checked just above).
-        return unsafe { accumulate_avx2(map, frame, points, normals) };
+        return unsafe { accumulate_avx2(map, frame, points, normals, sums) };
     }
-    accumulate_lanes(map, frame, points, normals)
+    accumulate_any::<L, false>(map, frame, points, normals, sums)
 }
 
-/// [`accumulate_lanes`] compiled for AVX2 (one register per lane array instead of two). FMA is not
-/// enabled, so the arithmetic is the baseline copy's, bit for bit.
+/// [`accumulate_any`] compiled for AVX2, full blocks written with AVX2 intrinsics ([`avx2`]): the
+/// same operations in the same order as the portable lane loops (no fused multiply-add), so the
+/// same bits.
 ///
 /// # Safety
 /// The CPU must support AVX2.
@@ -200,18 +326,38 @@ unsafe fn accumulate_avx2<L: VoxelLookup>(
     frame: &GridFrame,
     points: Soa,
     normals: Soa,
-) -> ClassAccumulator {
-    accumulate_lanes(map, frame, points, normals)
+    sums: &mut PartialSums,
+) {
+    accumulate_any::<L, true>(map, frame, points, normals, sums)
 }
 
-/// The block loop (see the module docs); full blocks, then one zero-padded tail block.
+/// Picks the clamping or the plain copy of the block loop (the same bits; see the module docs).
+/// `AVX2`: full blocks through [`avx2::sample_block`] (only where the CPU has AVX2).
 #[inline(always)]
-fn accumulate_lanes<L: VoxelLookup>(
+fn accumulate_any<L: VoxelLookup, const AVX2: bool>(
     map: &L,
     frame: &GridFrame,
     points: Soa,
     normals: Soa,
-) -> ClassAccumulator {
+    sums: &mut PartialSums,
+) {
+    if frame.needs_clamp {
+        accumulate_lanes::<L, true, AVX2>(map, frame, points, normals, sums)
+    } else {
+        accumulate_lanes::<L, false, AVX2>(map, frame, points, normals, sums)
+    }
+}
+
+/// The block loop (see the module docs); full blocks, then one zero-padded tail block; the lanes
+/// flushed every [`CHUNK_BLOCKS`] blocks.
+#[inline(always)]
+fn accumulate_lanes<L: VoxelLookup, const CLAMP: bool, const AVX2: bool>(
+    map: &L,
+    frame: &GridFrame,
+    points: Soa,
+    normals: Soa,
+    sums: &mut PartialSums,
+) {
     let mut acc = ClassAccumulator::default();
     let n = points[0].len().min(points[1].len()).min(points[2].len());
     let n = n
@@ -220,13 +366,31 @@ fn accumulate_lanes<L: VoxelLookup>(
         .min(normals[2].len());
     let full = n - n % LANES;
     let mut last = LastVoxel::NONE;
-    for start in (0..full).step_by(LANES) {
-        sample_block(
-            map, frame, points, normals, start, LANES, &mut last, &mut acc,
-        );
+    let chunk = CHUNK_BLOCKS * LANES;
+    let mut begin = 0;
+    while begin < full {
+        let end = (begin + chunk).min(full);
+        for start in (begin..end).step_by(LANES) {
+            #[cfg(target_arch = "x86_64")]
+            if AVX2 {
+                // SAFETY: AVX2 is only requested from `accumulate_avx2`, which runs only where
+                // the CPU has it.
+                unsafe {
+                    avx2::sample_block::<L, CLAMP>(
+                        map, frame, points, normals, start, &mut last, &mut acc,
+                    )
+                };
+                continue;
+            }
+            sample_block::<L, CLAMP>(
+                map, frame, points, normals, start, LANES, &mut last, &mut acc,
+            );
+        }
+        acc.flush(sums);
+        begin = end;
     }
     if full < n {
-        sample_block(
+        sample_block::<L, CLAMP>(
             map,
             frame,
             points,
@@ -237,7 +401,7 @@ fn accumulate_lanes<L: VoxelLookup>(
             &mut acc,
         );
     }
-    acc
+    acc.finish_into(sums);
 }
 
 /// `0x01` in every byte.
@@ -264,7 +428,7 @@ fn load(xs: Soa, start: usize, valid: usize) -> Vec3s {
 /// Free and contribute nothing.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn sample_block<L: VoxelLookup>(
+fn sample_block<L: VoxelLookup, const CLAMP: bool>(
     map: &L,
     frame: &GridFrame,
     points: Soa,
@@ -274,9 +438,10 @@ fn sample_block<L: VoxelLookup>(
     last: &mut LastVoxel,
     acc: &mut ClassAccumulator,
 ) {
-    // (P − x) in metres, then P in grid coordinates and its voxel.
-    let lever = mat_vec(&frame.rotation, &load(points, start, valid));
-    let grid = scale_add(&lever, frame.inv_voxel, frame.translation_grid);
+    // (P − x) in 2^-8 m, then P in grid coordinates (the same bits as from metres: the scalings
+    // are powers of two) and its voxel.
+    let lever = mat_vec(&frame.rotation_lever, &load(points, start, valid));
+    let grid = scale_add(&lever, frame.inv_voxel_lever, frame.translation_grid);
     let cell = [
         floor_i32(&grid[0]),
         floor_i32(&grid[1]),
@@ -308,7 +473,7 @@ fn sample_block<L: VoxelLookup>(
                 *l = 1;
             }
         }
-        surface_block(
+        surface_block::<CLAMP>(
             frame,
             &lever,
             &grid,
@@ -321,7 +486,7 @@ fn sample_block<L: VoxelLookup>(
     }
     if proximity != 0 {
         let is_proximity = kinds.map(|k| k == Voxel::Proximity.bits());
-        brake_block(frame, &lever, &normal, &is_proximity, acc);
+        brake_block::<CLAMP>(frame, &lever, &normal, &is_proximity, acc);
     }
 }
 
@@ -357,10 +522,22 @@ fn look_up<L: VoxelLookup>(
     valid: usize,
     last: &mut LastVoxel,
 ) -> ([u8; LANES], [u8; LANES]) {
-    /// At most this many fresh lanes are looked up one by one.
-    const FEW: u32 = 2;
     // Bit l: lane l is in another voxel than lane l − 1.
     let fresh = differs_from_previous(cell, last.cell) & ((1u32 << valid) - 1);
+    look_up_fresh(map, cell, valid, fresh, last)
+}
+
+/// [`look_up`] with the lanes that start a new voxel given (bit `l` of `fresh`).
+#[inline(always)]
+fn look_up_fresh<L: VoxelLookup>(
+    map: &L,
+    cell: &[[i32; LANES]; 3],
+    valid: usize,
+    fresh: u32,
+    last: &mut LastVoxel,
+) -> ([u8; LANES], [u8; LANES]) {
+    /// At most this many fresh lanes are looked up one by one.
+    const FEW: u32 = 2;
     let (kinds, layers) = if fresh.count_ones() > FEW {
         let mut cells = *cell;
         for axis in &mut cells {
@@ -399,10 +576,11 @@ fn voxel_of(kind: u8, layer: u8) -> LayeredVoxel {
 }
 
 /// Contact arithmetic of a block: `d = max(0, N·(C − P) + ℓ) s` in Surface lanes, 0 elsewhere;
-/// adds `d N` and `(P − x) × d N` and counts `d > 0`.
+/// adds `d N` (2^-40 m) and `(P − x) × d N` (2^-48 m²), each rounded per point, and counts
+/// `d > 0`. `lever` is `P − x` in 2^-8 m.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn surface_block(
+fn surface_block<const CLAMP: bool>(
     frame: &GridFrame,
     lever: &Vec3s,
     grid: &Vec3s,
@@ -420,55 +598,314 @@ fn surface_block(
         }
     }
     let plane = dot(normal, &to_centre);
+    // Depth in 2^-40 m.
     let mut depth: F32s = [0.0; LANES];
     for l in 0..LANES {
         let d = plane[l] + f32::from(layers[l]);
         depth[l] = if is_surface[l] && d > 0.0 {
-            d * frame.voxel
+            d * frame.voxel_q
         } else {
             0.0
         };
     }
     acc.contacts += depth.iter().filter(|&&d| d > 0.0).count() as u64;
     let force_dir = scale(normal, &depth);
-    add3_f64(&mut acc.depth_normal, &force_dir);
-    add3_f64(&mut acc.depth_torque, &cross(lever, &force_dir));
+    add3_fixed::<CLAMP>(&mut acc.depth_normal, &force_dir);
+    add3_fixed::<CLAMP>(&mut acc.depth_torque, &cross(lever, &force_dir));
+    acc.depth_blocks += 1;
 }
 
 /// Braking arithmetic of a block: `a = V·N` in approaching Proximity lanes (`V·N < 0`), 0
-/// elsewhere; adds `a²`, `a N` and `(P − x) × a N` and counts the approaching lanes.
+/// elsewhere; adds `a²`, `a N` (2^-40 units) and `(P − x) × a N` (2^-48 units), each rounded per
+/// point, and counts the approaching lanes. `lever` is `P − x` in 2^-8 m.
 #[inline(always)]
-fn brake_block(
+fn brake_block<const CLAMP: bool>(
     frame: &GridFrame,
     lever: &Vec3s,
     normal: &Vec3s,
     is_proximity: &[bool; LANES],
     acc: &mut ClassAccumulator,
 ) {
-    let velocity = add_cross_uniform(frame.linear_velocity, frame.angular_velocity, lever);
+    let velocity = add_cross_uniform(frame.linear_velocity, frame.angular_velocity_lever, lever);
     let approach = dot(&velocity, normal);
+    // a · 2^40 and a² · 2^40.
     let mut a: F32s = [0.0; LANES];
     let mut a_sq: F32s = [0.0; LANES];
     for l in 0..LANES {
-        a[l] = if is_proximity[l] && approach[l] < 0.0 {
+        let x = if is_proximity[l] && approach[l] < 0.0 {
             approach[l]
         } else {
             0.0
         };
-        a_sq[l] = a[l] * a[l];
+        a[l] = x * LENGTH_Q;
+        a_sq[l] = x * a[l];
     }
     acc.approaching += a.iter().filter(|&&x| x < 0.0).count() as u64;
-    add_f64(&mut acc.brake_sq, &a_sq);
+    add_fixed::<CLAMP>(&mut acc.brake_sq, &a_sq);
     let brake_dir = scale(normal, &a);
-    add3_f64(&mut acc.brake_force, &brake_dir);
-    add3_f64(&mut acc.brake_torque, &cross(lever, &brake_dir));
+    add3_fixed::<CLAMP>(&mut acc.brake_force, &brake_dir);
+    add3_fixed::<CLAMP>(&mut acc.brake_torque, &cross(lever, &brake_dir));
+    acc.brake_blocks += 1;
 }
 
-/// `value · scale` truncated toward zero, saturating (NaN → 0). `scale` is a power of two, so the
-/// product is exact unless it overflows.
-#[inline(always)]
-fn quantise(value: f64, scale: f64) -> i128 {
-    (value * scale) as i128
+/// The full-block path of the AVX2 copy, written with AVX2 intrinsics: the portable lane loops
+/// leave much of the block arithmetic in 128-bit halves even when compiled for AVX2. Every
+/// operation is the portable one (same operands, same order, no fused multiply-add), so a block
+/// gives the same bits either way (a unit test checks it).
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::{
+        count_bytes, look_up_fresh, ClassAccumulator, GridFrame, I64s, LastVoxel, Soa, BYTE_ONES,
+        LANES, LENGTH_Q, ROUNDER, Y_MAX,
+    };
+    use glam::Mat3;
+    use std::arch::x86_64::*;
+    use vps_voxmap::{Voxel, VoxelLookup};
+
+    type V3 = [__m256; 3];
+
+    /// Lanes `start..start + LANES` of the three arrays.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn load(xs: Soa, start: usize) -> V3 {
+        let mut out = [_mm256_setzero_ps(); 3];
+        for r in 0..3 {
+            let lanes = &xs[r][start..start + LANES];
+            // SAFETY: `lanes` holds LANES f32 (32 bytes); unaligned load.
+            out[r] = unsafe { _mm256_loadu_ps(lanes.as_ptr()) };
+        }
+        out
+    }
+
+    /// `m · v`: `(c0 v.x + c1 v.y) + c2 v.z`, as `lanes::mat_vec`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn mat_vec(m: &Mat3, v: &V3) -> V3 {
+        let c = [m.x_axis, m.y_axis, m.z_axis];
+        let mut out = [_mm256_setzero_ps(); 3];
+        for r in 0..3 {
+            let a = _mm256_mul_ps(_mm256_set1_ps(c[0][r]), v[0]);
+            let b = _mm256_mul_ps(_mm256_set1_ps(c[1][r]), v[1]);
+            let z = _mm256_mul_ps(_mm256_set1_ps(c[2][r]), v[2]);
+            out[r] = _mm256_add_ps(_mm256_add_ps(a, b), z);
+        }
+        out
+    }
+
+    /// `(a.x b.x + a.y b.y) + a.z b.z`, as `lanes::dot`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn dot(a: &V3, b: &V3) -> __m256 {
+        let xy = _mm256_add_ps(_mm256_mul_ps(a[0], b[0]), _mm256_mul_ps(a[1], b[1]));
+        _mm256_add_ps(xy, _mm256_mul_ps(a[2], b[2]))
+    }
+
+    /// `a × b` with glam's formula, as `lanes::cross`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn cross(a: &V3, b: &V3) -> V3 {
+        let mut out = [_mm256_setzero_ps(); 3];
+        for (r, o) in out.iter_mut().enumerate() {
+            let (i, j) = ((r + 1) % 3, (r + 2) % 3);
+            *o = _mm256_sub_ps(_mm256_mul_ps(a[i], b[j]), _mm256_mul_ps(b[i], a[j]));
+        }
+        out
+    }
+
+    /// `v · s` per lane, as `lanes::scale`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn scale(v: &V3, s: __m256) -> V3 {
+        [
+            _mm256_mul_ps(v[0], s),
+            _mm256_mul_ps(v[1], s),
+            _mm256_mul_ps(v[2], s),
+        ]
+    }
+
+    /// Number of lanes with `x > 0` (`GT`) or `x < 0`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn count_positive(x: __m256) -> u64 {
+        let m = _mm256_cmp_ps::<_CMP_GT_OQ>(x, _mm256_setzero_ps());
+        u64::from(_mm256_movemask_ps(m).count_ones())
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn count_negative(x: __m256) -> u64 {
+        let m = _mm256_cmp_ps::<_CMP_LT_OQ>(x, _mm256_setzero_ps());
+        u64::from(_mm256_movemask_ps(m).count_ones())
+    }
+
+    /// `super::add_fixed`: `acc += bits(f64(y) + 1.5 · 2^52)` per lane, `y` clamped first with
+    /// `CLAMP` (`max` then `min`: NaN gives `-Y_MAX` as `f32::max` does).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn add_fixed<const CLAMP: bool>(acc: &mut I64s, y: __m256) {
+        let y = if CLAMP {
+            _mm256_min_ps(
+                _mm256_max_ps(y, _mm256_set1_ps(-Y_MAX)),
+                _mm256_set1_ps(Y_MAX),
+            )
+        } else {
+            y
+        };
+        let rounder = _mm256_set1_pd(ROUNDER);
+        let lo = _mm256_add_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(y)), rounder);
+        let hi = _mm256_add_pd(_mm256_cvtps_pd(_mm256_extractf128_ps::<1>(y)), rounder);
+        let p = acc.as_mut_ptr().cast::<__m256i>();
+        // SAFETY: `acc` is 8 i64 (64 bytes): two unaligned 32-byte halves.
+        unsafe {
+            _mm256_storeu_si256(
+                p,
+                _mm256_add_epi64(_mm256_loadu_si256(p), _mm256_castpd_si256(lo)),
+            );
+            _mm256_storeu_si256(
+                p.add(1),
+                _mm256_add_epi64(_mm256_loadu_si256(p.add(1)), _mm256_castpd_si256(hi)),
+            );
+        }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn add3_fixed<const CLAMP: bool>(acc: &mut [I64s; 3], y: &V3) {
+        for (a, v) in acc.iter_mut().zip(y) {
+            unsafe { add_fixed::<CLAMP>(a, *v) };
+        }
+    }
+
+    /// Lanes of `kinds` equal to `kind`, as 32-bit masks.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn kind_is(kinds: __m256i, kind: Voxel) -> __m256i {
+        _mm256_cmpeq_epi32(kinds, _mm256_set1_epi32(i32::from(kind.bits())))
+    }
+
+    /// `super::sample_block` for a full block at `start` (`start + LANES` within every array).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn sample_block<L: VoxelLookup, const CLAMP: bool>(
+        map: &L,
+        frame: &GridFrame,
+        points: Soa,
+        normals: Soa,
+        start: usize,
+        last: &mut LastVoxel,
+        acc: &mut ClassAccumulator,
+    ) {
+        unsafe {
+            let lever = mat_vec(&frame.rotation_lever, &load(points, start));
+            let inv = _mm256_set1_ps(frame.inv_voxel_lever);
+            let mut grid: V3 = [_mm256_setzero_ps(); 3];
+            // floor, as `lanes::floor_i32`: truncate, then −1 where truncation rounded up.
+            let mut cell = [_mm256_setzero_si256(); 3];
+            for r in 0..3 {
+                grid[r] = _mm256_add_ps(
+                    _mm256_mul_ps(lever[r], inv),
+                    _mm256_set1_ps(frame.translation_grid[r]),
+                );
+                let t = _mm256_cvttps_epi32(grid[r]);
+                let up = _mm256_cmp_ps::<_CMP_LT_OQ>(grid[r], _mm256_cvtepi32_ps(t));
+                cell[r] = _mm256_add_epi32(t, _mm256_castps_si256(up));
+            }
+            // Lanes whose cell differs from the previous lane's (lane 0: the last voxel's).
+            let shift = _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6);
+            let mut same = _mm256_set1_epi32(-1);
+            for (c, previous) in cell.iter().zip(last.cell) {
+                let prev = _mm256_blend_epi32::<1>(
+                    _mm256_permutevar8x32_epi32(*c, shift),
+                    _mm256_set1_epi32(previous),
+                );
+                same = _mm256_and_si256(same, _mm256_cmpeq_epi32(*c, prev));
+            }
+            let fresh = !(_mm256_movemask_ps(_mm256_castsi256_ps(same)) as u32) & 0xff;
+            let mut cells = [[0i32; LANES]; 3];
+            for r in 0..3 {
+                _mm256_storeu_si256(cells[r].as_mut_ptr().cast(), cell[r]);
+            }
+            let (kinds, layers) = look_up_fresh(map, &cells, LANES, fresh, last);
+            // Kinds as bit planes, one byte per lane: Free 00, Interior 01, Surface 10,
+            // Proximity 11.
+            let word = u64::from_le_bytes(kinds);
+            if word == 0 {
+                return;
+            }
+            let (low, high) = (word & BYTE_ONES, (word >> 1) & BYTE_ONES);
+            acc.non_free += count_bytes(low | high);
+            let interior = low & !high;
+            acc.interior += count_bytes(interior);
+            let (surface, proximity) = (high & !low, high & low);
+            if surface | proximity | interior == 0 {
+                return;
+            }
+            let normal = mat_vec(&frame.rotation, &load(normals, start));
+            let kind = _mm256_cvtepu8_epi32(_mm_loadl_epi64(kinds.as_ptr().cast()));
+            if surface | interior != 0 {
+                acc.surface += count_bytes(surface);
+                let is_interior = kind_is(kind, Voxel::Interior);
+                let pushing = _mm256_or_si256(is_interior, kind_is(kind, Voxel::Surface));
+                // Interior points push as layer 1.
+                let layer = _mm256_blendv_epi8(
+                    _mm256_cvtepu8_epi32(_mm_loadl_epi64(layers.as_ptr().cast())),
+                    _mm256_set1_epi32(1),
+                    is_interior,
+                );
+                let half = _mm256_set1_ps(0.5);
+                let mut to_centre: V3 = [_mm256_setzero_ps(); 3];
+                for r in 0..3 {
+                    to_centre[r] =
+                        _mm256_sub_ps(_mm256_add_ps(_mm256_cvtepi32_ps(cell[r]), half), grid[r]);
+                }
+                let d = _mm256_add_ps(dot(&normal, &to_centre), _mm256_cvtepi32_ps(layer));
+                let keep = _mm256_and_ps(
+                    _mm256_castsi256_ps(pushing),
+                    _mm256_cmp_ps::<_CMP_GT_OQ>(d, _mm256_setzero_ps()),
+                );
+                let depth = _mm256_and_ps(keep, _mm256_mul_ps(d, _mm256_set1_ps(frame.voxel_q)));
+                acc.contacts += count_positive(depth);
+                let force_dir = scale(&normal, depth);
+                add3_fixed::<CLAMP>(&mut acc.depth_normal, &force_dir);
+                add3_fixed::<CLAMP>(&mut acc.depth_torque, &cross(&lever, &force_dir));
+                acc.depth_blocks += 1;
+            }
+            if proximity != 0 {
+                let w = frame.angular_velocity_lever;
+                let u = frame.linear_velocity;
+                // u + w × lever, as `lanes::add_cross_uniform`.
+                let mut velocity: V3 = [_mm256_setzero_ps(); 3];
+                for r in 0..3 {
+                    let (i, j) = ((r + 1) % 3, (r + 2) % 3);
+                    velocity[r] = _mm256_add_ps(
+                        _mm256_set1_ps(u[r]),
+                        _mm256_sub_ps(
+                            _mm256_mul_ps(_mm256_set1_ps(w[i]), lever[j]),
+                            _mm256_mul_ps(lever[i], _mm256_set1_ps(w[j])),
+                        ),
+                    );
+                }
+                let approach = dot(&velocity, &normal);
+                let approaching = _mm256_and_ps(
+                    _mm256_castsi256_ps(kind_is(kind, Voxel::Proximity)),
+                    _mm256_cmp_ps::<_CMP_LT_OQ>(approach, _mm256_setzero_ps()),
+                );
+                let x = _mm256_and_ps(approaching, approach);
+                let a = _mm256_mul_ps(x, _mm256_set1_ps(LENGTH_Q));
+                let a_sq = _mm256_mul_ps(x, a);
+                acc.approaching += count_negative(a);
+                add_fixed::<CLAMP>(&mut acc.brake_sq, a_sq);
+                let brake_dir = scale(&normal, a);
+                add3_fixed::<CLAMP>(&mut acc.brake_force, &brake_dir);
+                add3_fixed::<CLAMP>(&mut acc.brake_torque, &cross(&lever, &brake_dir));
+                acc.brake_blocks += 1;
+            }
+        }
+    }
 }
 
 #[cfg(all(test, target_arch = "x86_64"))]
@@ -513,27 +950,96 @@ mod tests {
             linear_velocity: Vec3::new(0.3, -0.7, 0.2),
             angular_velocity: Vec3::new(-4.0, 2.5, 7.0),
         };
-        let frame = GridFrame::new(&grid, &pose);
+        let shell = ClassedShell::new(
+            &vps_voxmap::PointShell {
+                points: (0..n)
+                    .map(|i| Vec3::new(soa[0][i], soa[1][i], soa[2][i]))
+                    .collect(),
+                normals: (0..n)
+                    .map(|i| Vec3::new(soa[3][i], soa[4][i], soa[5][i]))
+                    .collect(),
+                voxel_size: spec.voxel_size,
+                method: vps_voxmap::shell::ShellMethod::VoxelCentres,
+                mass: vps_voxmap::MassProperties {
+                    volume: 0.0,
+                    center_of_mass: DVec3::ZERO,
+                    bounding_radius: 0.1,
+                },
+            },
+            1,
+        );
+        // The frame's bound is loose (normals up to √3 long here, fast spin) and asks for
+        // clamping; the actual values are far below Y_MAX, so both copies must agree.
+        let frame = GridFrame {
+            needs_clamp: false,
+            ..GridFrame::new(&grid, &pose, &shell)
+        };
         let points = [&soa[0][..], &soa[1][..], &soa[2][..]];
         let normals = [&soa[3][..], &soa[4][..], &soa[5][..]];
-        let base = accumulate_lanes(&grid, &frame, points, normals);
+        let mut base = PartialSums::default();
+        accumulate_any::<DenseGrid, false>(&grid, &frame, points, normals, &mut base);
+        let mut avx2 = PartialSums::default();
         // SAFETY: AVX2 was detected above.
-        let avx2 = unsafe { accumulate_avx2(&grid, &frame, points, normals) };
+        unsafe { accumulate_avx2(&grid, &frame, points, normals, &mut avx2) };
         assert!(base.surface > 50 && base.approaching > 20 && base.contacts > 20);
-        let bits = |a: &ClassAccumulator| {
-            let mut v: Vec<u64> = Vec::new();
-            for set in [
-                &a.depth_normal,
-                &a.depth_torque,
-                &a.brake_force,
-                &a.brake_torque,
-            ] {
-                v.extend(set.iter().flatten().map(|x| x.to_bits()));
-            }
-            v.extend(a.brake_sq.iter().map(|x| x.to_bits()));
-            v
-        };
-        assert_eq!(bits(&base), bits(&avx2));
         assert_eq!(base, avx2);
+        // The clamping copy gives the same bits when nothing needs clamping.
+        let clamping = GridFrame {
+            needs_clamp: true,
+            ..frame
+        };
+        let mut clamped = PartialSums::default();
+        accumulate_any::<DenseGrid, false>(&grid, &clamping, points, normals, &mut clamped);
+        assert_eq!(clamped, base);
+        let mut clamped = PartialSums::default();
+        // SAFETY: AVX2 was detected above.
+        unsafe { accumulate_avx2(&grid, &clamping, points, normals, &mut clamped) };
+        assert_eq!(clamped, base);
+        // Each point on its own, in reverse order: the same bits (per-point rounding).
+        let mut alone = PartialSums::default();
+        for i in (0..n).rev() {
+            let pts = [&soa[0][i..=i], &soa[1][i..=i], &soa[2][i..=i]];
+            let nrm = [&soa[3][i..=i], &soa[4][i..=i], &soa[5][i..=i]];
+            accumulate_any::<DenseGrid, false>(&grid, &frame, pts, nrm, &mut alone);
+        }
+        assert_eq!(alone, base);
+    }
+
+    /// Absurd speeds clamp each contribution instead of wrapping: the braking sums stay within
+    /// `Y_MAX` per point and keep their sign.
+    #[test]
+    fn absurd_speeds_clamp_per_point() {
+        let spec = GridSpec {
+            origin: DVec3::splat(-0.1),
+            voxel_size: 0.005,
+            dims: [40, 40, 40],
+        };
+        let mut grid = DenseGrid::new(spec);
+        grid.data.fill(Voxel::Proximity.bits());
+        let shell = ClassedShell::new(
+            &vps_voxmap::PointShell {
+                points: vec![Vec3::ZERO; 3],
+                normals: vec![Vec3::Z; 3],
+                voxel_size: spec.voxel_size,
+                method: vps_voxmap::shell::ShellMethod::VoxelCentres,
+                mass: vps_voxmap::MassProperties {
+                    volume: 0.0,
+                    center_of_mass: DVec3::ZERO,
+                    bounding_radius: 0.0,
+                },
+            },
+            1,
+        );
+        let pose = KernelPose {
+            rotation: Mat3::IDENTITY,
+            translation: Vec3::ZERO,
+            linear_velocity: Vec3::new(0.0, 0.0, -1.0e5),
+            angular_velocity: Vec3::ZERO,
+        };
+        let sums = sample_all(&grid, &shell, &pose);
+        assert_eq!(sums.approaching, 3);
+        let cap = 3 * (1i128 << 50);
+        assert_eq!(sums.brake_sq, cap);
+        assert_eq!(sums.brake_force, [0, 0, -cap]);
     }
 }

@@ -9,7 +9,7 @@
 
 use glam::Mat3;
 
-/// Points per block, and the number of per-class f64 accumulator lanes.
+/// Points per block, and the number of accumulator lanes.
 pub(crate) const LANES: usize = vps_voxmap::BLOCK_LANES;
 
 /// One f32 value per lane.
@@ -180,8 +180,9 @@ pub(crate) fn differs_from_previous(cell: &[[i32; LANES]; 3], first_prev: [i32; 
     mask
 }
 
-/// Per-lane f64 running sums, one canonical order: lane `l` adds the block values of lane `l` in
-/// block order; [`reduce`] combines the lanes in a fixed tree.
+/// Per-lane f64 running sums of the previous kernel (`crate::previous`), one canonical order:
+/// lane `l` adds the block values of lane `l` in block order; [`reduce`] combines the lanes in a
+/// fixed tree.
 pub(crate) type F64s = [f64; LANES];
 
 /// `acc += v` per lane, `v` widened to f64 (exact).

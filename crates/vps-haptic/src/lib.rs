@@ -26,6 +26,8 @@ pub mod frame;
 pub mod kernel;
 mod lanes;
 pub mod params;
+#[doc(hidden)]
+pub mod previous;
 pub mod stability;
 pub mod state;
 pub mod sums;

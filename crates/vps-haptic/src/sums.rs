@@ -2,12 +2,11 @@
 //! contributes to a frame. Integer addition is associative and commutative, so sums merged in any
 //! grouping and any order are bit-identical.
 //!
-//! Quantisation: the kernel adds each class's point contributions in f64 in one canonical order
-//! (eight lanes, lane `l` adding the class's points `l, l + 8, …` in ascending order, the lanes
-//! combined in a fixed pairwise tree; IEEE basic operations only, so a class total has the same bits
-//! wherever and with whichever instruction set it is computed), then
-//! multiplies the class total by a power of two (exact in floating point) and truncates toward zero
-//! to an integer (Rust's `as` saturates, so an absurd value cannot wrap). The scales:
+//! Quantisation: the kernel computes each point's contribution in f32 (IEEE basic operations only,
+//! so the same bits on every machine and instruction set) and rounds it at once to the nearest
+//! integer multiple of the sum's LSB (ties to even); the integers are added. Every point is
+//! rounded on its own, so the sums do not depend on how the shell is split, grouped or ordered.
+//! The scales:
 //!
 //! | sum | unit | LSB |
 //! |---|---|---|
@@ -17,13 +16,20 @@
 //! | `brake_force` = S_f = Σ (V_i·N_i) N_i | m/s | 2^-40 m/s |
 //! | `brake_torque` = S_t = Σ (P_i − x) × (V_i·N_i) N_i | m²/s | 2^-48 m²/s |
 //!
-//! These LSBs are finer than the f32 rounding of the values they hold for any voxel size above
-//! 1 µm, so quantisation adds no visible error: each class total is within one LSB of its f64 sum.
+//! These LSBs are finer than the f32 rounding of the values they hold (a 5 mm depth is an f32 with
+//! a 3e-10 m step; the LSB is 9.1e-13 m), so rounding adds no visible error: a sum is within half
+//! an LSB per point of the exact sum of the f32 contributions. In force: one LSB of Σ d N is
+//! `K_ff · 2^-40 m` before averaging (9.1e-10 N at K_ff = 1000 N/m), and the averaging
+//! (`threshold / N` for N ≥ 10 contacts) keeps the whole rounding error of the contact force
+//! below `5 · K_ff · 2^-40 m`, whatever the point count.
 //!
-//! Overflow bound: accumulators are `i128` and each class total is at most 2^127 in magnitude
-//! after the saturating conversion; merging 2^64 saturated totals could in principle overflow, a
-//! physically impossible input. For scale: 10^7 points at the 5 mm voxel size put at most
-//! 10^7 · 4.4e-3 m · 2^40 ≈ 4.8e16 (< 2^56) into `depth_normal`. Counters are `u64`.
+//! Overflow bound: each point's rounded contribution is at most 2^50 LSB in magnitude (the kernel
+//! clamps it there, `|d N| ≤ 1024 m`, `|(P − x) × d N| ≤ 4 m²`, `(V·N)² ≤ 1024 m²/s²`,
+//! `|(P − x) × (V·N) N| ≤ 4 m²/s`, in frames whose speeds or sizes could exceed that; see
+//! `crate::kernel`). The
+//! kernel's `i64` lanes add at most 2^11 such values (< 2^61) before they move into these `i128`
+//! totals, so a frame's sums cannot overflow below 2^77 points, far beyond any shell that fits in
+//! memory. Counters are `u64`.
 
 use glam::DVec3;
 
