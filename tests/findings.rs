@@ -264,7 +264,6 @@ fn a_bad_record_path_is_refused_before_the_session() {
 /// Finding 6: a sweep with `voxel_sizes_mm = []` exited 0 having measured nothing, and a run with
 /// `seconds = -1` ran one frame and exited 0. Both must be refused naming the sweep file and field.
 #[test]
-#[ignore = "open: src/cmd/sweep.rs (the sweep helper's file) does not yet check these fields"]
 fn a_sweep_with_no_sizes_or_negative_seconds_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/scenes/rig-teapot.toml");

@@ -7,9 +7,9 @@
 //! SIGINT, SIGTERM and SIGHUP stop it: the running session's device is written zero and the rows
 //! done are written as a partial table (exit status 128 + N). See docs/sweep.md.
 
+use crate::cli::SweepArgs;
 use crate::exit::SessionExit;
 use crate::output::{check_output_path, write_file};
-use crate::cli::SweepArgs;
 use crate::sweep_session::{run_sweep_session, session_on, SweepRow, SweepSession, SweepTable};
 use anyhow::{bail, Context, Result};
 use glam::DVec3;
@@ -60,6 +60,39 @@ struct RunSpec {
     seconds: Option<f64>,
 }
 
+impl SweepConfig {
+    /// Refuses, before any work, voxel size lists that are empty or hold a size that is not a
+    /// positive length (mm), and run lengths outside (0, 1e7] s, naming the file and the field.
+    fn check_ranges(&self, file: &Path) -> Result<()> {
+        let file = file.display();
+        let check_sizes = |sizes: &[f64], field: &str| -> Result<()> {
+            if sizes.is_empty() {
+                bail!("{file}: {field} is empty: list at least one voxel size (mm, > 0)");
+            }
+            if let Some(bad) = sizes.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+                bail!("{file}: {field} holds {bad}: voxel sizes are lengths in mm, > 0");
+            }
+            Ok(())
+        };
+        check_sizes(&self.voxel_sizes_mm, "voxel_sizes_mm")?;
+        for (i, run) in self.run.iter().enumerate() {
+            if let Some(sizes) = &run.voxel_sizes_mm {
+                check_sizes(sizes, &format!("run[{i}].voxel_sizes_mm"))?;
+            }
+            if let Some(seconds) = run.seconds {
+                if !(seconds > 0.0 && seconds <= crate::limits::MAX_SESSION_SECONDS) {
+                    bail!(
+                        "{file}: run[{i}].seconds = {seconds}: a run lasts more than 0 s and at \
+                         most {:e} s",
+                        crate::limits::MAX_SESSION_SECONDS
+                    );
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
 fn default_points_per_frame() -> usize {
     500
 }
@@ -78,6 +111,7 @@ pub fn run(args: &SweepArgs) -> Result<()> {
             args.config.display()
         );
     }
+    config.check_ranges(&args.config)?;
     for path in [&args.json, &args.csv].into_iter().flatten() {
         check_output_path(path, &[&args.config])?;
     }

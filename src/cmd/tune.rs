@@ -4,8 +4,8 @@
 //! SIGINT, SIGTERM and SIGHUP stop it: the running session's device is written zero, the report
 //! so far is printed (`complete: false`, `end` says why) and the exit status is `128 + N`.
 
-use crate::exit::{outcome, SessionExit};
 use crate::cli::TuneArgs;
+use crate::exit::{outcome, SessionExit};
 use crate::sweep_session::{run_sweep_session, session_on, SweepRow, SweepSession, SweepTable};
 use anyhow::{bail, Result};
 use serde::Serialize;

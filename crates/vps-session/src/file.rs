@@ -697,6 +697,18 @@ fn check_rotation(path: &str, field: &str, r: &[f64; 3]) -> Result<(), SceneErro
     Ok(())
 }
 
+/// The scene files built into the binary, by name (`builtin:NAME`).
+pub const BUILTIN_SCENES: [(&str, &str); 2] = [
+    (
+        "bay-teapot",
+        include_str!("../../../configs/scenes/bay-teapot.toml"),
+    ),
+    (
+        "rig-teapot",
+        include_str!("../../../configs/scenes/rig-teapot.toml"),
+    ),
+];
+
 /// The file as parsed, before `part`'s two forms are unified.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -799,7 +811,7 @@ max = [0.4, 0.1, 0.2]
         let err = parse(&blank).unwrap_err().to_string();
         assert!(err.contains("`voxels.reason`"), "{err}");
         // Every built-in scene file states all its voxel settings and why.
-        for (name, text) in crate::scene::BUILTIN_SCENES {
+        for (name, text) in BUILTIN_SCENES {
             let v = SceneFile::from_toml_str(text, name).unwrap().voxels;
             let set = v.set_in_file;
             assert!(
@@ -813,7 +825,7 @@ max = [0.4, 0.1, 0.2]
     #[test]
     fn corridor_waypoints_step_from_the_start() {
         // The built-in bay's corridor: 0.05 + 0.1 i, bit for bit (the demo's figures depend on it).
-        let bay = SceneFile::from_toml_str(crate::scene::BUILTIN_SCENES[0].1, "bay").unwrap();
+        let bay = SceneFile::from_toml_str(BUILTIN_SCENES[0].1, "bay").unwrap();
         let points = bay.corridor_waypoints();
         assert_eq!(points.len(), 30);
         for (i, p) in points.iter().enumerate() {

@@ -20,18 +20,6 @@ use vps_mesh::{Aabb, TriMesh};
 use vps_voxelize::{point_shell, voxelize_tree, ShellMethod, VoxelizeOptions};
 use vps_voxmap::{PointShell, TreeConfig, VoxelTree, VoxelWidth};
 
-/// The scene files built into the binary, by name (`builtin:NAME`).
-pub const BUILTIN_SCENES: [(&str, &str); 2] = [
-    (
-        "bay-teapot",
-        include_str!("../../../configs/scenes/bay-teapot.toml"),
-    ),
-    (
-        "rig-teapot",
-        include_str!("../../../configs/scenes/rig-teapot.toml"),
-    ),
-];
-
 /// The scene `vps demo` and every session command use when no `--scene` is given.
 pub const DEFAULT_SCENE: &str = "builtin:bay-teapot";
 
@@ -71,17 +59,17 @@ pub struct LoadedScene {
 }
 
 impl LoadedScene {
-    /// Loads `scene`: `builtin:NAME` (see [`BUILTIN_SCENES`]) or a scene file path. Blocking:
+    /// Loads `scene`: `builtin:NAME` (see [`BUILTIN_SCENES`](crate::file::BUILTIN_SCENES)) or a scene file path. Blocking:
     /// reads the scene and its mesh files. Errors name the file and the field.
     pub fn load(scene: &str) -> Result<LoadedScene> {
         if let Some(name) = scene.strip_prefix("builtin:") {
-            let (_, text) = BUILTIN_SCENES
+            let (_, text) = crate::file::BUILTIN_SCENES
                 .iter()
                 .find(|(n, _)| *n == name)
                 .with_context(|| {
                     format!(
                         "unknown built-in scene '{name}'; available: {}",
-                        BUILTIN_SCENES
+                        crate::file::BUILTIN_SCENES
                             .map(|(n, _)| format!("builtin:{n}"))
                             .join(", ")
                     )

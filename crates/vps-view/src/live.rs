@@ -1,6 +1,6 @@
 //! A viewer attached to a running session: the server plus the loop's end of its state feed.
 
-use crate::{ViewError, ViewerHandle, ViewerContent, ViewerServer};
+use crate::{ViewError, ViewerContent, ViewerHandle, ViewerServer};
 use std::net::SocketAddr;
 use vps_runtime::{state_feed, StateFeedSender};
 
