@@ -232,10 +232,10 @@ pub struct NetemRelayArgs {
     #[arg(long)]
     pub forward: std::net::SocketAddr,
     /// Mean one-way delay per datagram (e.g. 100us, 1ms).
-    #[arg(long, value_parser = vps_cluster::relay::parse_duration, default_value = "100us")]
+    #[arg(long, value_parser = vps_netem::relay::parse_duration, default_value = "100us")]
     pub delay: std::time::Duration,
     /// Half-width of the uniform jitter around the delay.
-    #[arg(long, value_parser = vps_cluster::relay::parse_duration, default_value = "50us")]
+    #[arg(long, value_parser = vps_netem::relay::parse_duration, default_value = "50us")]
     pub jitter: std::time::Duration,
     /// Probability of dropping a datagram, per direction (0..1).
     #[arg(long, default_value_t = 0.01)]

@@ -12,8 +12,8 @@ use std::sync::Arc;
 use std::time::Duration;
 use vps_cluster::{
     local_cluster_certs, make_cert, run_coordinator_session, run_worker_service,
-    spawn_local_workers, ClusterError, ClusterReport, ClusterScene, Coordinator, CoordinatorConfig,
-    GatherConfig, LocalWorkerArgs, Rejoin, WorkerConfig,
+    spawn_local_workers, ClusterAssets, ClusterError, ClusterReport, Coordinator,
+    CoordinatorConfig, GatherConfig, LocalWorkerArgs, Rejoin, WorkerConfig,
 };
 use vps_runtime::{LoopConfig, LoopReport, SignalStop};
 use vps_session::CLASS_COUNT;
@@ -128,7 +128,7 @@ fn coordinate_prepared(
         bridge,
         signals,
     } = prepared.go_live(session.view)?;
-    let cluster_scene = Arc::new(ClusterScene::new(
+    let cluster_scene = Arc::new(ClusterAssets::new(
         scene.tree.clone(),
         &scene.shell,
         CLASS_COUNT,
@@ -244,7 +244,7 @@ pub fn run_local_cluster_prepared(
 ) -> Result<CoordinatedRun> {
     let dir = std::env::temp_dir().join(format!("vps-cluster-{}", std::process::id()));
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    let certs = local_cluster_certs(&dir)?;
+    let certs = local_cluster_certs(&dir, workers)?;
     let exe = std::env::current_exe().context("locating the vps executable")?;
     let result = coordinate_prepared(
         session,
@@ -252,19 +252,16 @@ pub fn run_local_cluster_prepared(
         "127.0.0.1:0".parse()?,
         &certs.coordinator.cert,
         &certs.coordinator.key,
-        std::slice::from_ref(&certs.worker.cert),
+        &certs.worker_pins(),
         workers,
         gather,
         |addr| {
-            let spawn_args = LocalWorkerArgs {
-                coordinator: addr,
-                cert: certs.worker.cert.clone(),
-                key: certs.worker.key.clone(),
-                pins: vec![certs.coordinator.cert.clone()],
-                cache_dir: None,
-                threads: Some(worker_threads),
-            };
-            Ok(Some(spawn_local_workers(workers, &exe, &spawn_args)?))
+            // Each worker its own certificate: the coordinator admits one live connection per
+            // certificate.
+            let spawn_args: Vec<LocalWorkerArgs> = (0..workers)
+                .filter_map(|k| certs.worker_args(k, addr, Some(worker_threads)))
+                .collect();
+            Ok(Some(spawn_local_workers(&exe, &spawn_args)?))
         },
     );
     let _ = std::fs::remove_dir_all(&dir);

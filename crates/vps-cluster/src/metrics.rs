@@ -12,7 +12,7 @@
 //! other, so a snapshot taken mid-frame may mix adjacent frames (e.g. `requests` one ahead of
 //! `merged`). Final reports are taken after the frame loop and the reporter have stopped.
 
-use crate::shares::{ClusterReport, PeerReport};
+use crate::report::{ClusterReport, PeerReport};
 use crossbeam::queue::ArrayQueue;
 use hdrhistogram::Histogram;
 use std::collections::HashMap;
