@@ -2,6 +2,12 @@
 //! pinned workers (join exchange, scene transfer) and turns each worker's datagrams into events on
 //! crossbeam channels, which the frame thread polls through [`RemoteShares`]. Nothing here is on
 //! the frame path.
+//!
+//! One live connection per pinned certificate: a worker presenting the certificate of a worker
+//! still connected is closed with [`crate::close::CLOSE_DUPLICATE_IDENTITY`] and the reason
+//! [`crate::close::DUPLICATE_IDENTITY_REASON`] before its join, logged and counted
+//! ([`Coordinator::refused_duplicates`]); once the first connection has ended (closed, or silent
+//! past the idle timeout) the certificate may join again.
 
 use crate::assets::ClusterAssets;
 use crate::events::{Control, Datagram};

@@ -49,6 +49,52 @@ pub struct Policy {
     pub adaptive_shares: bool,
     /// When a missing share may be stood in for by earlier sums.
     pub stale: StalePolicy,
+    /// Keep the whole frame local when the predicted split is no faster than computing every
+    /// class on the coordinator (see [`SplitDecision`]).
+    pub predict: bool,
+}
+
+/// How a frame's work was split, and why ([`Policy::predict`]).
+///
+/// The prediction: the coordinator's cost per class `c` (measured on its own share, passed in
+/// with [`GatherCore::set_local_cost`]) and, per worker, a smoothed fixed round-trip cost `b`
+/// (the merged reply's round trip less `c` per class it computed: network and wake-ups; the
+/// worker is taken to compute as fast as the coordinator). With `k₀` classes local and `kᵢ` at
+/// worker `i`, the split frame is predicted to take `max(k₀·c, maxᵢ(bᵢ + kᵢ·c))`. Starting from
+/// the worker predicted slowest, a share is kept on the coordinator while that does not make the
+/// predicted frame slower; when every share is kept, the frame is local (`C·c` for all `C`
+/// classes). So a worker whose round trip costs more than it saves is not waited for, and adding
+/// workers cannot make a frame slower than the coordinator alone by more than the prediction's
+/// error. A worker with no estimate yet, and every `probe_every`-th frame, is given its share
+/// anyway, so the estimates follow the network.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SplitDecision {
+    /// Prediction off, or no worker to split with: the plain split (or everything local).
+    Plain,
+    /// The split is predicted faster than local: shares go to the workers.
+    Split,
+    /// The split is predicted no faster: every class stays local this frame.
+    KeptLocal,
+    /// Split to measure (a worker without an estimate, or a periodic refresh).
+    Measure,
+}
+
+/// Frames per [`SplitDecision`] and the latest prediction (ns), for the cluster report.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SplitStats {
+    /// Frames split because the prediction favoured it.
+    pub split: u64,
+    /// Frames kept local because the prediction did not favour splitting.
+    pub kept_local: u64,
+    /// Frames split to measure the workers' round trips.
+    pub measured: u64,
+    /// Worker shares kept on the coordinator, summed over frames (all of a kept-local frame's
+    /// shares included).
+    pub shares_kept_local: u64,
+    /// The latest predicted time of the split frame (ns).
+    pub predicted_split_ns: u64,
+    /// The latest predicted time of the all-local frame (ns).
+    pub predicted_local_ns: u64,
 }
 
 /// What the core needs to know of the shell and the voxmap to check replies.
@@ -104,6 +150,9 @@ pub struct PeerState {
     pub merged: bool,
     /// This frame: the round trip of the merged reply.
     pub rtt: Duration,
+    /// Smoothed fixed cost of a round trip (its round trip less the compute of its classes at
+    /// the coordinator's cost per class); `None` before its first merged reply.
+    pub base_rtt: Option<Duration>,
 }
 
 impl PeerState {
@@ -123,6 +172,7 @@ impl PeerState {
             settled: false,
             merged: false,
             rtt: Duration::ZERO,
+            base_rtt: None,
         }
     }
 }
@@ -207,6 +257,10 @@ pub struct GatherCore {
     /// Scratch: this frame's transitions.
     transitions: Vec<(u32, Transition)>,
     fallback: Fallback,
+    /// The coordinator's cost of one class (latest measurement).
+    per_class: Duration,
+    decision: SplitDecision,
+    split_stats: SplitStats,
 }
 
 impl GatherCore {
@@ -242,6 +296,9 @@ impl GatherCore {
             missing: Vec::new(),
             transitions: Vec::new(),
             fallback: Fallback::default(),
+            per_class: Duration::ZERO,
+            decision: SplitDecision::Plain,
+            split_stats: SplitStats::default(),
         })
     }
 
@@ -267,6 +324,22 @@ impl GatherCore {
     /// Workers given work this frame (joined, not benched), as of the latest [`GatherCore::assign`].
     pub fn active_workers(&self) -> usize {
         self.active.len()
+    }
+
+    /// The coordinator's measured cost of one class (its own share's time over its classes), for
+    /// the prediction and the fallback plan.
+    pub fn set_local_cost(&mut self, per_class: Duration) {
+        self.per_class = per_class;
+    }
+
+    /// This frame's split decision (as of the latest [`GatherCore::assign`]).
+    pub fn decision(&self) -> SplitDecision {
+        self.decision
+    }
+
+    /// Frames per decision and the latest prediction.
+    pub fn split_stats(&self) -> SplitStats {
+        self.split_stats
     }
 
     /// Starts the next frame: a new sequence number. Call before membership changes and the
@@ -327,7 +400,11 @@ impl GatherCore {
                 1.0
             });
         }
-        let masks = split_classes(class_count, &self.weights);
+        let mut masks = split_classes(class_count, &self.weights);
+        self.decision = self.decide(&mut masks);
+        if self.decision == SplitDecision::KeptLocal {
+            self.active.clear();
+        }
         for (&i, &mask) in self.active.iter().zip(&masks[1..]) {
             self.peers[i].asked = mask;
         }
@@ -337,6 +414,60 @@ impl GatherCore {
                 .sum();
         }
         masks[0]
+    }
+
+    /// Decides which shares of the split `masks` (party 0 the coordinator, then the active
+    /// workers) are worth sending ([`SplitDecision`]): starting from the worker predicted
+    /// slowest, a share moves to the coordinator while that does not make the predicted frame
+    /// slower. Moves the kept shares into `masks[0]`; books the decision.
+    fn decide(&mut self, masks: &mut [u64]) -> SplitDecision {
+        if !self.policy.predict || self.active.is_empty() {
+            return SplitDecision::Plain;
+        }
+        let c = self.per_class;
+        let cost = |mask: u64| c.saturating_mul(mask.count_ones());
+        // (party, predicted remote time), slowest first.
+        let mut remote: Vec<(usize, Duration)> = Vec::with_capacity(self.active.len());
+        let mut unknown = false;
+        for (party, &i) in self.active.iter().enumerate() {
+            match self.peers[i].base_rtt {
+                Some(base) => remote.push((party + 1, base.saturating_add(cost(masks[party + 1])))),
+                None => unknown = true,
+            }
+        }
+        let local_all = c.saturating_mul(self.shape.class_points.len() as u32);
+        if c.is_zero() || unknown || self.seq.is_multiple_of(self.policy.probe_every) {
+            self.split_stats.measured += 1;
+            return SplitDecision::Measure;
+        }
+        remote.sort_by(|a, b| b.1.cmp(&a.1));
+        let mut local = masks[0];
+        let mut kept = 0;
+        for (k, &(party, time)) in remote.iter().enumerate() {
+            let rest = remote.get(k + 1).map_or(Duration::ZERO, |r| r.1);
+            let now = cost(local).max(time);
+            let if_kept = cost(local | masks[party]).max(rest);
+            if if_kept > now {
+                break;
+            }
+            local |= masks[party];
+            kept += 1;
+        }
+        for &(party, _) in &remote[..kept] {
+            masks[party] = 0;
+        }
+        masks[0] = local;
+        let slowest = remote.get(kept).map_or(Duration::ZERO, |r| r.1);
+        self.split_stats.predicted_split_ns = nanos(cost(local).max(slowest));
+        self.split_stats.predicted_local_ns = nanos(local_all);
+        self.split_stats.shares_kept_local += kept as u64;
+        if kept == remote.len() {
+            self.split_stats.kept_local += 1;
+            SplitDecision::KeptLocal
+        } else {
+            self.split_stats.split += 1;
+            SplitDecision::Split
+        }
     }
 
     /// This frame's requests: (worker id, class mask, is a probe), in join order.
@@ -446,6 +577,13 @@ impl GatherCore {
             }
             if peer.merged {
                 peer.misses = 0;
+                // The round trip's fixed part, smoothed by 1/8 as TCP smooths its RTT.
+                let compute = self.per_class.saturating_mul(peer.asked.count_ones());
+                let base = peer.rtt.saturating_sub(compute);
+                peer.base_rtt = Some(match peer.base_rtt {
+                    Some(old) => old.saturating_mul(7).saturating_add(base) / 8,
+                    None => base,
+                });
                 let window = peer
                     .sent_at
                     .map_or(Duration::ZERO, |s| deadline.saturating_duration_since(s));
@@ -527,4 +665,8 @@ impl GatherCore {
             keep
         });
     }
+}
+
+fn nanos(d: Duration) -> u64 {
+    d.as_nanos().min(u128::from(u64::MAX)) as u64
 }

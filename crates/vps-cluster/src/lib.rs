@@ -14,10 +14,14 @@
 //! bit-identical to a one-process run whoever computed each share.
 //!
 //! Module map: [`protocol`] (wire formats), [`tls`] (certificates, pinning verifiers, QUIC
-//! configs), [`scene`] (scene files, identity, worker cache), [`worker`] ([`run_worker`]),
-//! [`coordinator`] ([`Coordinator`]: endpoint, joins, network events), [`shares`]
-//! ([`RemoteShares`]: assignment, deadline gather, validation, benching, statistics), [`session`]
-//! ([`run_coordinator_session`], [`spawn_local_workers`]).
+//! configs), [`assets`] ([`ClusterAssets`]: voxmap, classed shell, identity, worker cache),
+//! [`worker`] ([`run_worker`]), [`coordinator`] ([`Coordinator`]: endpoint, joins, one live
+//! connection per certificate), [`gather`] (the pure gather state machine: assignment, reply
+//! acceptance, benching, fallback plan, predicted split; no clock, socket or thread), [`shares`]
+//! ([`RemoteShares`]: the I/O driver around it), [`split`] and [`fallback`] (its pure arithmetic),
+//! [`metrics`] and [`report`] (live figures and the final report), [`close`] (close codes),
+//! [`session`] ([`run_coordinator_session`], [`spawn_local_workers`]). The loopback impairment
+//! relay and the raw UDP baseline are in the `vps-netem` crate.
 
 pub mod assets;
 pub mod close;
@@ -38,7 +42,7 @@ pub mod worker;
 pub use assets::ClusterAssets;
 pub use coordinator::{Coordinator, CoordinatorConfig};
 pub use metrics::ClusterMetrics;
-pub use report::{ClusterReport, PeerReport};
+pub use report::{ClusterReport, PeerReport, SplitReport};
 pub use session::{
     local_cluster_certs, run_coordinator_session, spawn_local_workers, LocalCerts, LocalWorkerArgs,
     LocalWorkers,

@@ -78,6 +78,31 @@ pub struct ClusterReport {
     /// unknown version or connection ID: garbage, or a peer's stateless reset; see
     /// [`crate::udp_count`]).
     pub udp_foreign: u64,
+    /// How the work was split and why ([`GatherConfig::predict`](crate::GatherConfig::predict)).
+    #[serde(default)]
+    pub split: SplitReport,
     /// Every worker seen, by id (join order).
     pub peers: Vec<PeerReport>,
+}
+
+/// How the coordinator split its frames ([`crate::gather::SplitDecision`]); all zero with the
+/// prediction off.
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct SplitReport {
+    /// Frames whose classes were split (some shares possibly kept local) because that was
+    /// predicted faster.
+    pub split_frames: u64,
+    /// Frames kept wholly local because the split was predicted no faster.
+    pub kept_local_frames: u64,
+    /// Frames split to measure the workers' round trips (a new worker, or every
+    /// `probe_every`-th frame).
+    pub measured_frames: u64,
+    /// The latest predicted time of the split frame (ns): the slowest of the coordinator's own
+    /// share and each worker's fixed round-trip cost plus its share's compute.
+    pub predicted_split_ns: u64,
+    /// The latest predicted time of the frame computed wholly on the coordinator (ns).
+    pub predicted_local_ns: u64,
+    /// Worker shares kept on the coordinator because their round trip would have cost more than
+    /// it saved, summed over frames.
+    pub shares_kept_local: u64,
 }

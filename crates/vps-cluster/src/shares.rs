@@ -81,6 +81,9 @@ pub struct GatherConfig {
     /// being recomputed ([`crate::fallback`]); `max_age_frames: 0` always recomputes (exact).
     /// Default: up to 3 frames old, only when the recompute cannot finish before the write.
     pub stale: StalePolicy,
+    /// Keep a frame's classes local when the split is predicted no faster than computing them
+    /// all on the coordinator ([`crate::gather::SplitDecision`]). Default off.
+    pub predict: bool,
 }
 
 impl Default for GatherConfig {
@@ -95,6 +98,7 @@ impl Default for GatherConfig {
             log_every: Some(Duration::from_secs(1)),
             adaptive_shares: true,
             stale: StalePolicy::default(),
+            predict: false,
         }
     }
 }
@@ -143,6 +147,7 @@ impl GatherConfig {
             disconnect_after: self.disconnect_after,
             adaptive_shares: self.adaptive_shares,
             stale: self.stale,
+            predict: self.predict,
         }
     }
 }
@@ -488,11 +493,13 @@ impl FrameSampler for RemoteShares {
         }
         let local = self.core.assign();
         self.publish_classes();
+        self.board.set_split(self.core.split_stats());
         let pending = self.send_requests(pose);
         let started = Instant::now();
         let mut sums = self.sample(pose, local);
         if local != 0 {
             self.per_class = started.elapsed() / local.count_ones();
+            self.core.set_local_cost(self.per_class);
         }
         self.gather(pending, deadline, &mut sums);
         self.settle(deadline);

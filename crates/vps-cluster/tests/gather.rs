@@ -3,7 +3,7 @@
 
 use std::time::{Duration, Instant};
 use vps_cluster::fallback::StalePolicy;
-use vps_cluster::gather::{Acceptance, GatherCore, Policy, Shape, Transition};
+use vps_cluster::gather::{Acceptance, GatherCore, Policy, Shape, SplitDecision, Transition};
 use vps_cluster::protocol::FrameReply;
 use vps_haptic::PartialSums;
 
@@ -18,6 +18,7 @@ fn policy() -> Policy {
         disconnect_after: 3,
         adaptive_shares: false,
         stale: StalePolicy::default(),
+        predict: false,
     }
 }
 
@@ -376,4 +377,118 @@ fn a_zero_count_in_the_policy_is_refused() {
         ..shape
     };
     assert!(GatherCore::new(policy(), none).is_err());
+}
+
+/// A predicting core whose workers have answered one measuring frame with round trips of
+/// `base[i]` plus their classes' compute at `per_class`.
+fn predicting(per_class: Duration, base: &[Duration]) -> (GatherCore, Instant) {
+    let ids: Vec<u32> = (0..base.len() as u32).collect();
+    let mut core = core_with(
+        Policy {
+            predict: true,
+            probe_every: 1000,
+            ..policy()
+        },
+        &ids,
+    );
+    core.set_local_cost(per_class);
+    let t0 = Instant::now();
+    frame(&mut core, t0);
+    assert_eq!(core.decision(), SplitDecision::Measure, "no estimate yet");
+    for (id, mask, _) in core.requests().collect::<Vec<_>>() {
+        let rtt = base[id as usize] + per_class * mask.count_ones();
+        let got = core.accept(id, &reply(1, mask, 0), t0 + rtt);
+        assert!(matches!(got, Acceptance::Merged { .. }));
+    }
+    core.settle(t0 + Duration::from_secs(1));
+    for &id in &ids {
+        assert_eq!(core.peer(id).unwrap().base_rtt, Some(base[id as usize]));
+    }
+    (core, t0 + Duration::from_millis(10))
+}
+
+#[test]
+fn a_small_shell_stays_local_when_the_round_trip_costs_more_than_it_saves() {
+    // 16 classes at 1 µs: 16 µs locally, against a 200 µs round trip.
+    let (mut core, t) = predicting(US, &[200 * US]);
+    let local = frame(&mut core, t);
+    assert_eq!(core.decision(), SplitDecision::KeptLocal);
+    assert_eq!(local, (1u64 << CLASSES) - 1, "every class local");
+    assert_eq!(core.requests().count(), 0, "nothing sent");
+    let stats = core.split_stats();
+    assert_eq!((stats.kept_local, stats.split, stats.measured), (1, 0, 1));
+    assert_eq!(stats.predicted_local_ns, 16_000);
+    // Nothing asked is nothing missing: no fallback, no miss, no bench.
+    assert!(core.settle(t + 100 * US).is_empty());
+    assert_eq!(core.plan_fallback(Duration::ZERO, US).recompute, 0);
+}
+
+#[test]
+fn a_costly_shell_is_split_when_the_round_trip_is_cheap() {
+    // 16 classes at 100 µs: 1.6 ms locally; half of them at a worker with a 50 µs round trip.
+    let (mut core, t) = predicting(100 * US, &[50 * US]);
+    let local = frame(&mut core, t);
+    assert_eq!(core.decision(), SplitDecision::Split);
+    let asked = asked(&core, 0);
+    assert_eq!(local | asked, (1u64 << CLASSES) - 1);
+    assert_eq!((local.count_ones(), asked.count_ones()), (8, 8));
+    let stats = core.split_stats();
+    assert_eq!(stats.predicted_split_ns, 850_000);
+    assert_eq!(stats.predicted_local_ns, 1_600_000);
+    assert!(stats.predicted_split_ns < stats.predicted_local_ns);
+}
+
+#[test]
+fn a_slow_workers_share_is_kept_local_while_a_fast_one_still_gets_work() {
+    // 16 classes at 100 µs, three parties: ~5 classes each. Worker 0's round trip costs 50 µs,
+    // worker 1's 5 ms (more than computing everything locally).
+    let (mut core, t) = predicting(100 * US, &[50 * US, 5000 * US]);
+    let local = frame(&mut core, t);
+    assert_eq!(core.decision(), SplitDecision::Split);
+    assert_ne!(asked(&core, 0), 0, "the fast worker keeps its share");
+    assert_eq!(
+        asked(&core, 1),
+        0,
+        "the slow worker's share is computed locally"
+    );
+    assert_eq!(local | asked(&core, 0), (1u64 << CLASSES) - 1);
+    let stats = core.split_stats();
+    assert_eq!(stats.shares_kept_local, 1);
+    // Predicted no slower than the coordinator alone: adding the slow worker costs nothing.
+    assert!(stats.predicted_split_ns <= stats.predicted_local_ns);
+}
+
+#[test]
+fn every_probe_every_frames_the_split_is_measured_again() {
+    let mut core = core_with(
+        Policy {
+            predict: true,
+            probe_every: 4,
+            ..policy()
+        },
+        &[0],
+    );
+    core.set_local_cost(US);
+    let t0 = Instant::now();
+    let mut decisions = Vec::new();
+    for f in 0..8u64 {
+        let t = t0 + Duration::from_millis(f);
+        frame(&mut core, t);
+        decisions.push(core.decision());
+        for (id, mask, probing) in core.requests().collect::<Vec<_>>() {
+            assert!(!probing);
+            core.accept(id, &reply(core.seq(), mask, 0), t + 200 * US);
+        }
+        core.settle(t + 500 * US);
+    }
+    use SplitDecision::*;
+    assert_eq!(
+        decisions,
+        [Measure, KeptLocal, KeptLocal, Measure, KeptLocal, KeptLocal, KeptLocal, Measure]
+    );
+    // With the prediction off the plain split is sent every frame.
+    let mut plain = core_with(policy(), &[0]);
+    frame(&mut plain, t0);
+    assert_eq!(plain.decision(), Plain);
+    assert_ne!(asked(&plain, 0), 0);
 }
