@@ -440,7 +440,7 @@ impl GatherCore {
             self.split_stats.measured += 1;
             return SplitDecision::Measure;
         }
-        remote.sort_by(|a, b| b.1.cmp(&a.1));
+        remote.sort_by_key(|r| std::cmp::Reverse(r.1));
         let mut local = masks[0];
         let mut kept = 0;
         for (k, &(party, time)) in remote.iter().enumerate() {
