@@ -326,6 +326,11 @@ pub struct GatherArgs {
     /// one-process session whatever the timing.
     #[arg(long, default_value_t = default_max_stale_frames())]
     pub max_stale_frames: u64,
+    /// Keep a worker's share on the coordinator when its predicted round trip plus compute would
+    /// not shorten the frame (a small shell then stays local); the report's `cluster.split` says
+    /// how often and why (`vps_cluster::GatherConfig::predict`).
+    #[arg(long)]
+    pub predict_split: bool,
 }
 
 impl Default for GatherArgs {
@@ -335,6 +340,7 @@ impl Default for GatherArgs {
             equal_shares: false,
             spin_us: default_spin_us(),
             max_stale_frames: default_max_stale_frames(),
+            predict_split: false,
         }
     }
 }

@@ -146,6 +146,7 @@ fn coordinate_prepared(
     let gather = GatherConfig {
         local_threads: session.threads.max(1),
         adaptive_shares: !gather.equal_shares,
+        predict: gather.predict_split,
         spin_margin: Duration::from_micros(gather.spin_us),
         stale: vps_cluster::fallback::StalePolicy {
             max_age_frames: gather.max_stale_frames,
