@@ -23,9 +23,9 @@
 //!    stood in for by held sums from an earlier frame ([`crate::fallback`]).
 //! 8. [`GatherCore::take_misbehaving`]: workers to disconnect for bad replies in a row.
 //!
-//! Allocation: membership changes allocate; a frame allocates the split's masks (one small `Vec`)
-//! and the fallback plan when shares are missing; everything else reuses scratch buffers. Nothing
-//! blocks.
+//! Allocation: membership changes allocate; a frame allocates the split's masks (one small `Vec`),
+//! with [`Policy::predict`] the list of predicted round trips (one small `Vec`), and the fallback
+//! plan when shares are missing; everything else reuses scratch buffers. Nothing blocks.
 
 use crate::fallback::{plan_fallback, FallbackAction, MissingShare, StalePolicy};
 use crate::protocol::{mask_classes, FrameReply};
