@@ -208,10 +208,10 @@ pub struct NetemRelayArgs {
     #[arg(long)]
     pub forward: std::net::SocketAddr,
     /// Mean one-way delay per datagram (e.g. 100us, 1ms).
-    #[arg(long, value_parser = vps_cluster::relay::parse_duration, default_value = "100us")]
+    #[arg(long, value_parser = vps_netem::relay::parse_duration, default_value = "100us")]
     pub delay: std::time::Duration,
     /// Half-width of the uniform jitter around the delay.
-    #[arg(long, value_parser = vps_cluster::relay::parse_duration, default_value = "50us")]
+    #[arg(long, value_parser = vps_netem::relay::parse_duration, default_value = "50us")]
     pub jitter: std::time::Duration,
     /// Probability of dropping a datagram, per direction (0..1).
     #[arg(long, default_value_t = 0.01)]
@@ -312,6 +312,11 @@ pub struct GatherArgs {
     /// one-process session whatever the timing.
     #[arg(long, default_value_t = default_max_stale_frames())]
     pub max_stale_frames: u64,
+    /// Keep a worker's share on the coordinator when its predicted round trip plus compute would
+    /// not shorten the frame (a small shell then stays local); the report's `cluster.split` says
+    /// how often and why (`vps_cluster::GatherConfig::predict`).
+    #[arg(long)]
+    pub predict_split: bool,
 }
 
 impl Default for GatherArgs {
@@ -321,6 +326,7 @@ impl Default for GatherArgs {
             equal_shares: false,
             spin_us: default_spin_us(),
             max_stale_frames: default_max_stale_frames(),
+            predict_split: false,
         }
     }
 }

@@ -11,7 +11,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 use vps_cluster::{
-    local_cluster_certs, run_coordinator_session, spawn_local_workers, ClusterReport, ClusterScene,
+    local_cluster_certs, run_coordinator_session, spawn_local_workers, ClusterReport, ClusterAssets,
     Coordinator, CoordinatorConfig, GatherConfig, LocalWorkerArgs,
 };
 use vps_runtime::{LoopReport, SignalStop};
@@ -73,14 +73,14 @@ pub fn coordinate(
         bridge,
         signals,
     } = prepared.go_live(session.view)?;
-    let cluster_scene = Arc::new(ClusterScene::new(
+    let cluster_assets = Arc::new(ClusterAssets::new(
         assets.tree.clone(),
         &assets.shell,
         CLASS_COUNT,
     )?);
     let coordinator = Coordinator::start(
         CoordinatorConfig::from_files(listen, cert, key, pins)?,
-        cluster_scene,
+        cluster_assets,
     )?;
     let addr = coordinator.local_addr()?;
     eprintln!("coordinator listening on {addr}, waiting for {workers} worker(s)");
@@ -91,6 +91,7 @@ pub fn coordinate(
     let gather = GatherConfig {
         local_threads: session.threads.max(1),
         adaptive_shares: !gather.equal_shares,
+        predict: gather.predict_split,
         spin_margin: Duration::from_micros(gather.spin_us),
         stale: vps_cluster::fallback::StalePolicy {
             max_age_frames: gather.max_stale_frames,
@@ -126,7 +127,7 @@ pub fn run_local_cluster(
 ) -> Result<CoordinatedRun> {
     let dir = std::env::temp_dir().join(format!("vps-cluster-{}", std::process::id()));
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    let certs = local_cluster_certs(&dir)?;
+    let certs = local_cluster_certs(&dir, workers)?;
     let exe = std::env::current_exe().context("locating the vps executable")?;
     let result = coordinate(
         session,
@@ -134,19 +135,16 @@ pub fn run_local_cluster(
         "127.0.0.1:0".parse()?,
         &certs.coordinator.cert,
         &certs.coordinator.key,
-        std::slice::from_ref(&certs.worker.cert),
+        &certs.worker_pins(),
         workers,
         gather,
         |addr| {
-            let spawn_args = LocalWorkerArgs {
-                coordinator: addr,
-                cert: certs.worker.cert.clone(),
-                key: certs.worker.key.clone(),
-                pins: vec![certs.coordinator.cert.clone()],
-                cache_dir: None,
-                threads: Some(worker_threads),
-            };
-            Ok(Some(spawn_local_workers(workers, &exe, &spawn_args)?))
+            // Each worker its own certificate: the coordinator admits one live connection per
+            // certificate.
+            let spawn_args: Vec<LocalWorkerArgs> = (0..workers)
+                .filter_map(|k| certs.worker_args(k, addr, Some(worker_threads)))
+                .collect();
+            Ok(Some(spawn_local_workers(&exe, &spawn_args)?))
         },
     );
     let _ = std::fs::remove_dir_all(&dir);

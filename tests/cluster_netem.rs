@@ -1,5 +1,5 @@
 //! The cluster over an impaired network: `vps worker` processes reach the coordinator through the
-//! userspace impairment relay (`vps_cluster::relay`, what `vps netem-relay` runs) adding
+//! userspace impairment relay (`vps_netem::relay`, what `vps netem-relay` runs) adding
 //! 100 µs ± 50 µs one-way delay and 1 % loss in each direction — on loopback, and with each worker
 //! on its own simulated host (a network namespace joined by its own veth pair) when this runs as
 //! root with `ip netns` (skipped with a message otherwise). Lost requests and replies only move shares to the local fallback: no device
@@ -14,8 +14,9 @@ use std::process::{Child, Command, Stdio};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
-use vps_cluster::{ClusterReport, GatherConfig, LocalWorkerArgs, Relay, RelayConfig, RelayStats};
+use vps_cluster::{ClusterReport, GatherConfig, LocalWorkerArgs};
 use vps_haptic::Wrench;
+use vps_netem::{Relay, RelayConfig, RelayStats};
 
 const WORKERS: usize = 2;
 
@@ -56,11 +57,12 @@ fn session_behind_relay(
     let _children = Children(
         hosts
             .iter()
-            .map(|host| {
+            .enumerate()
+            .map(|(k, host)| {
                 let args = LocalWorkerArgs {
                     coordinator: SocketAddr::new(host.relay_ip, relay.local_addr().port()),
-                    cert: certs.worker.cert.clone(),
-                    key: certs.worker.key.clone(),
+                    cert: certs.workers[k].cert.clone(),
+                    key: certs.workers[k].key.clone(),
                     pins: vec![certs.coordinator.cert.clone()],
                     cache_dir: None,
                     threads: Some(1),

@@ -57,15 +57,15 @@ fn a_killed_worker_rejoins_and_a_new_worker_joins_mid_session_without_changing_a
     let dir = tempfile::tempdir().unwrap();
     let (coordinator, certs) = loopback_coordinator(dir.path());
     let coordinator = Arc::new(coordinator);
-    let args = |cache: &str| LocalWorkerArgs {
+    let args = |k: usize, cache: &str| LocalWorkerArgs {
         coordinator: coordinator.local_addr().unwrap(),
-        cert: certs.worker.cert.clone(),
-        key: certs.worker.key.clone(),
+        cert: certs.workers[k].cert.clone(),
+        key: certs.workers[k].key.clone(),
         pins: vec![certs.coordinator.cert.clone()],
         cache_dir: Some(dir.path().join(cache)),
         threads: Some(1),
     };
-    let (args_a, args_b, args_c) = (args("cache-a"), args("cache-b"), args("cache-c"));
+    let (args_a, args_b, args_c) = (args(0, "cache-a"), args(1, "cache-b"), args(2, "cache-c"));
     let workers = Arc::new(Mutex::new(Workers::default()));
     // Worker ids follow join order: A is 0, B is 1.
     let a = workers.lock().unwrap().spawn(&args_a);
@@ -80,6 +80,12 @@ fn a_killed_worker_rejoins_and_a_new_worker_joins_mid_session_without_changing_a
         Box::new(move |write: u64| match write {
             KILL_AT => workers.lock().unwrap().kill(a),
             RESTART_AT => {
+                // A's certificate may join again once the coordinator saw A's connection end
+                // (its idle timeout): one live connection per certificate.
+                let until = std::time::Instant::now() + JOIN_WAIT;
+                while coordinator.joined_workers() > 1 && std::time::Instant::now() < until {
+                    std::thread::sleep(Duration::from_millis(10));
+                }
                 workers.lock().unwrap().spawn(&args_a);
                 coordinator.wait_for_admitted(3, JOIN_WAIT).unwrap();
             }

@@ -24,13 +24,13 @@ use serde::Serialize;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-use vps_cluster::transport_bench::{
-    percentiles, raw_udp_round_trips, TransportPercentiles, UdpPlacement,
-};
 use vps_device::HapticDevice;
 use vps_haptic::{HandleSample, Wrench};
 use vps_input::bridge::protocol::POSE_IN_FLAGS_LEN;
 use vps_input::{BridgeClient, BridgeConfig, BridgeDevice};
+use vps_netem::transport_bench::{
+    percentiles, raw_udp_round_trips, TransportPercentiles, UdpPlacement,
+};
 
 /// How long the client waits for one reply before counting the round trip as lost.
 const REPLY_TIMEOUT: Duration = Duration::from_millis(100);

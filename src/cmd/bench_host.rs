@@ -13,7 +13,7 @@ use crate::output::print_json;
 use anyhow::Result;
 use serde::Serialize;
 use std::time::{Duration, Instant};
-use vps_cluster::transport_bench::{percentiles, TransportPercentiles};
+use vps_netem::transport_bench::{percentiles, TransportPercentiles};
 use vps_runtime::RtGrant;
 
 /// Gap thresholds reported (µs).

@@ -16,10 +16,10 @@ use crate::session_io::prepare;
 use anyhow::{Context, Result};
 use serde::Serialize;
 use std::time::Duration;
-use vps_cluster::transport_bench::{
+use vps_cluster::PeerReport;
+use vps_netem::transport_bench::{
     percentiles, raw_udp_round_trips, TransportPercentiles, UdpPlacement,
 };
-use vps_cluster::PeerReport;
 
 /// The raw UDP ping-pong in one placement.
 #[derive(Serialize)]

@@ -1,4 +1,4 @@
-//! `vps netem-relay`: the userspace impairment relay (`vps_cluster::relay`) between workers and a
+//! `vps netem-relay`: the userspace impairment relay (`vps_netem::relay`) between workers and a
 //! coordinator, for kernels without the `netem` qdisc. Workers dial the relay's address instead
 //! of the coordinator's.
 
@@ -6,7 +6,7 @@ use crate::cli::NetemRelayArgs;
 use crate::output::print_json;
 use anyhow::Result;
 use std::time::{Duration, Instant};
-use vps_cluster::{Relay, RelayConfig, RelayStats};
+use vps_netem::{Relay, RelayConfig, RelayStats};
 
 /// How often a running relay prints its figures to stderr.
 const PRINT_EVERY: Duration = Duration::from_secs(5);
@@ -52,7 +52,7 @@ pub fn run(args: &NetemRelayArgs) -> Result<()> {
 
 /// One line per direction: counts, achieved loss and delay percentiles (µs).
 fn summary(s: &RelayStats) -> String {
-    let line = |name: &str, d: &vps_cluster::relay::DirectionStats| {
+    let line = |name: &str, d: &vps_netem::relay::DirectionStats| {
         format!(
             "{name}: {} received, {} dropped ({:.2} %), {} sent; delay µs p50 {:.1} p99 {:.1} max {:.1} (min {:.1})",
             d.received,

@@ -11,8 +11,14 @@ pub const CLOSE_SESSION_DONE: u32 = 0;
 pub const CLOSE_COORDINATOR_STOPPING: u32 = 1;
 /// The join exchange failed (timeout, malformed message, protocol version).
 pub const CLOSE_JOIN_FAILED: u32 = 2;
-/// Another live connection already presents this worker's certificate.
+/// Another live connection already presents this worker's certificate (the coordinator admits one
+/// live connection per pinned certificate; once the first is gone, the certificate may join again).
 pub const CLOSE_DUPLICATE_IDENTITY: u32 = 3;
+/// The coordinator disconnected the worker for bad replies in a row
+/// (`GatherConfig::disconnect_after`); it may join again.
+pub const CLOSE_BAD_REPLIES: u32 = 4;
+/// The close reason sent with [`CLOSE_DUPLICATE_IDENTITY`].
+pub const DUPLICATE_IDENTITY_REASON: &str = "another worker with this certificate is connected";
 /// The worker is stopping (SIGINT, SIGTERM).
 pub const CLOSE_WORKER_STOPPED: u32 = 0;
 

@@ -2,20 +2,27 @@
 //! pinned workers (join exchange, scene transfer) and turns each worker's datagrams into events on
 //! crossbeam channels, which the frame thread polls through [`RemoteShares`]. Nothing here is on
 //! the frame path.
+//!
+//! One live connection per pinned certificate: a worker presenting the certificate of a worker
+//! still connected is closed with [`crate::close::CLOSE_DUPLICATE_IDENTITY`] and the reason
+//! [`crate::close::DUPLICATE_IDENTITY_REASON`] before its join, logged and counted
+//! ([`Coordinator::refused_duplicates`]); once the first connection has ended (closed, or silent
+//! past the idle timeout) the certificate may join again.
 
+use crate::assets::ClusterAssets;
+use crate::events::{Control, Datagram};
 use crate::metrics::{Board, ClusterMetrics};
 use crate::protocol::{read_join, write_frame, write_join, JoinMessage, PROTOCOL_VERSION};
-use crate::scene::ClusterScene;
 use crate::shares::{GatherConfig, RemoteShares};
 use crate::tls::{load_pins, server_config, TlsIdentity};
 use crate::ClusterError;
-use bytes::Bytes;
 use crossbeam::channel::{bounded, unbounded, Receiver, Sender};
 use rustls::pki_types::CertificateDer;
+use std::collections::HashSet;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, AtomicUsize, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// How long a worker may take to join, scene transfer included.
@@ -50,31 +57,13 @@ impl CoordinatorConfig {
     }
 }
 
-/// Connection-level events for the frame thread.
-pub(crate) enum Control {
-    /// A worker finished joining and can be given work; `scene_sent`: it was sent the scene.
-    Joined {
-        id: u32,
-        conn: quinn::Connection,
-        scene_sent: bool,
-    },
-    /// A worker's connection ended.
-    Closed { id: u32 },
-}
-
-/// One datagram from worker `id`, stamped on arrival.
-pub(crate) struct Datagram {
-    pub id: u32,
-    pub bytes: Bytes,
-    pub at: Instant,
-}
-
 /// Counters shared between the network tasks and the owner.
 #[derive(Default)]
 struct NetCounters {
     joined: AtomicUsize,
     admitted: AtomicU64,
     refused: Arc<AtomicU64>,
+    refused_duplicates: AtomicU64,
     failed_joins: AtomicU64,
 }
 
@@ -82,7 +71,7 @@ struct NetCounters {
 pub struct Coordinator {
     runtime: tokio::runtime::Runtime,
     endpoint: quinn::Endpoint,
-    scene: Arc<ClusterScene>,
+    assets: Arc<ClusterAssets>,
     control: Receiver<Control>,
     datagrams: Receiver<Datagram>,
     counters: Arc<NetCounters>,
@@ -94,7 +83,7 @@ impl Coordinator {
     /// Binds the endpoint and starts admitting workers in the background. Allocates and spawns.
     pub fn start(
         config: CoordinatorConfig,
-        scene: Arc<ClusterScene>,
+        assets: Arc<ClusterAssets>,
     ) -> Result<Coordinator, ClusterError> {
         // One network thread: a datagram's connection driver and its reader task then run on the
         // same thread, with no hand-off between them.
@@ -115,18 +104,19 @@ impl Coordinator {
         let (control_tx, control) = unbounded();
         let (datagram_tx, datagrams) = bounded(DATAGRAM_QUEUE);
         let links = Links {
-            scene: scene.clone(),
+            assets: assets.clone(),
             control: control_tx,
             datagrams: datagram_tx,
             counters: counters.clone(),
             board: board.clone(),
             next_id: Arc::new(AtomicU32::new(0)),
+            live: LiveIdentities::default(),
         };
         runtime.spawn(accept_loop(endpoint.clone(), links));
         Ok(Coordinator {
             runtime,
             endpoint,
-            scene,
+            assets,
             control,
             datagrams,
             counters,
@@ -150,17 +140,12 @@ impl Coordinator {
     /// Blocks (sleeping in 2 ms steps) until [`Coordinator::admitted_workers`] reaches `n` or
     /// `timeout` passes. Not for the frame path.
     pub fn wait_for_admitted(&self, n: u64, timeout: Duration) -> Result<(), ClusterError> {
-        let until = Instant::now() + timeout;
-        while self.admitted_workers() < n {
-            if Instant::now() >= until {
-                return Err(ClusterError::Network(format!(
-                    "{} of {n} joins within {timeout:?}",
-                    self.admitted_workers()
-                )));
-            }
-            std::thread::sleep(Duration::from_millis(2));
-        }
-        Ok(())
+        poll_until(timeout, Duration::from_millis(2), || {
+            let admitted = self.admitted_workers();
+            (admitted >= n)
+                .then_some(())
+                .ok_or_else(|| format!("{admitted} of {n} joins"))
+        })
     }
 
     /// The address the endpoint listens on.
@@ -170,9 +155,9 @@ impl Coordinator {
             .map_err(|e| ClusterError::Network(e.to_string()))
     }
 
-    /// The scene the workers are given.
-    pub fn scene(&self) -> &Arc<ClusterScene> {
-        &self.scene
+    /// The assets (voxmap, classed shell, identity) the workers are given.
+    pub fn assets(&self) -> &Arc<ClusterAssets> {
+        &self.assets
     }
 
     /// Workers currently joined and connected.
@@ -183,6 +168,12 @@ impl Coordinator {
     /// Connections refused because their certificate was not pinned.
     pub fn refused_unpinned(&self) -> u64 {
         self.counters.refused.load(Ordering::Relaxed)
+    }
+
+    /// Connections refused because another live connection presented the same certificate
+    /// (closed with [`crate::close::CLOSE_DUPLICATE_IDENTITY`]).
+    pub fn refused_duplicates(&self) -> u64 {
+        self.counters.refused_duplicates.load(Ordering::Relaxed)
     }
 
     /// Joins that failed after the TLS handshake (version, timeout, malformed message).
@@ -204,17 +195,12 @@ impl Coordinator {
         timeout: Duration,
         stop: &AtomicBool,
     ) -> Result<(), ClusterError> {
-        let until = Instant::now() + timeout;
-        while self.joined_workers() < n && !stop.load(Ordering::SeqCst) {
-            if Instant::now() >= until {
-                return Err(ClusterError::Network(format!(
-                    "{} of {n} workers joined within {timeout:?}",
-                    self.joined_workers()
-                )));
-            }
-            std::thread::sleep(Duration::from_millis(5));
-        }
-        Ok(())
+        poll_until(timeout, Duration::from_millis(5), || {
+            let joined = self.joined_workers();
+            (joined >= n || stop.load(Ordering::SeqCst))
+                .then_some(())
+                .ok_or_else(|| format!("{joined} of {n} workers joined"))
+        })
     }
 
     /// The frame-path gatherer fed by this coordinator's workers. One per coordinator (a second
@@ -228,7 +214,7 @@ impl Coordinator {
             });
         }
         RemoteShares::new(
-            self.scene.clone(),
+            self.assets.clone(),
             self.control.clone(),
             self.datagrams.clone(),
             self.board.clone(),
@@ -257,14 +243,35 @@ impl Drop for Coordinator {
     }
 }
 
+/// Calls `check` every `step` (sleeping between) until it returns `Ok`, or fails with its last
+/// message and `timeout`. Not for the frame path.
+fn poll_until(
+    timeout: Duration,
+    step: Duration,
+    mut check: impl FnMut() -> Result<(), String>,
+) -> Result<(), ClusterError> {
+    let until = Instant::now() + timeout;
+    loop {
+        let last = match check() {
+            Ok(()) => return Ok(()),
+            Err(last) => last,
+        };
+        if Instant::now() >= until {
+            return Err(ClusterError::Network(format!("{last} within {timeout:?}")));
+        }
+        std::thread::sleep(step);
+    }
+}
+
 #[derive(Clone)]
 struct Links {
-    scene: Arc<ClusterScene>,
+    assets: Arc<ClusterAssets>,
     control: Sender<Control>,
     datagrams: Sender<Datagram>,
     counters: Arc<NetCounters>,
     board: Arc<Board>,
     next_id: Arc<AtomicU32>,
+    live: LiveIdentities,
 }
 
 async fn accept_loop(endpoint: quinn::Endpoint, links: Links) {
@@ -283,7 +290,23 @@ async fn serve(incoming: quinn::Incoming, links: Links) {
         }
     };
     let id = links.next_id.fetch_add(1, Ordering::Relaxed);
-    let scene_sent = match tokio::time::timeout(JOIN_TIMEOUT, admit(&conn, id, &links.scene)).await
+    // One live connection per pinned certificate: held until this task ends (the connection is
+    // gone or was refused), then the certificate may join again.
+    let Some(_live) = links.live.claim(&conn) else {
+        tracing::warn!(
+            "refused worker {id} at {remote}: another worker with this certificate is connected"
+        );
+        links
+            .counters
+            .refused_duplicates
+            .fetch_add(1, Ordering::Relaxed);
+        conn.close(
+            crate::close::code(crate::close::CLOSE_DUPLICATE_IDENTITY),
+            crate::close::DUPLICATE_IDENTITY_REASON.as_bytes(),
+        );
+        return;
+    };
+    let scene_sent = match tokio::time::timeout(JOIN_TIMEOUT, admit(&conn, id, &links.assets)).await
     {
         Ok(Ok(sent)) => sent,
         Ok(Err(e)) => return fail_join(&conn, &links, id, remote, &e.to_string()),
@@ -319,6 +342,45 @@ async fn serve(incoming: quinn::Incoming, links: Links) {
     let _ = links.control.send(Control::Closed { id });
 }
 
+/// The certificates of the live worker connections (by BLAKE3 of the end-entity certificate).
+#[derive(Clone, Default)]
+struct LiveIdentities(Arc<Mutex<HashSet<[u8; 32]>>>);
+
+/// A claimed certificate; released on drop.
+struct LiveClaim {
+    set: LiveIdentities,
+    key: [u8; 32],
+}
+
+impl LiveIdentities {
+    /// Claims `conn`'s peer certificate; `None` when another live connection holds it. A
+    /// connection without a certificate (impossible: the server requires one) claims nothing and
+    /// is let through to the join, which the pinning already gated.
+    fn claim(&self, conn: &quinn::Connection) -> Option<Option<LiveClaim>> {
+        let certs = conn
+            .peer_identity()
+            .and_then(|any| any.downcast::<Vec<CertificateDer<'static>>>().ok());
+        let Some(cert) = certs.as_ref().and_then(|c| c.first()) else {
+            return Some(None);
+        };
+        let key = *blake3::hash(cert.as_ref()).as_bytes();
+        let mut set = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        set.insert(key).then(|| {
+            Some(LiveClaim {
+                set: self.clone(),
+                key,
+            })
+        })
+    }
+}
+
+impl Drop for LiveClaim {
+    fn drop(&mut self) {
+        let mut set = self.set.0.lock().unwrap_or_else(|e| e.into_inner());
+        set.remove(&self.key);
+    }
+}
+
 fn fail_join(conn: &quinn::Connection, links: &Links, id: u32, remote: SocketAddr, why: &str) {
     tracing::warn!("worker {id} at {remote} failed to join: {why}");
     links.counters.failed_joins.fetch_add(1, Ordering::Relaxed);
@@ -333,7 +395,7 @@ fn fail_join(conn: &quinn::Connection, links: &Links, id: u32, remote: SocketAdd
 async fn admit(
     conn: &quinn::Connection,
     id: u32,
-    scene: &ClusterScene,
+    scene: &ClusterAssets,
 ) -> Result<bool, ClusterError> {
     let (mut send, mut recv) = conn
         .accept_bi()

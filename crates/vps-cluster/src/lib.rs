@@ -14,35 +14,40 @@
 //! bit-identical to a one-process run whoever computed each share.
 //!
 //! Module map: [`protocol`] (wire formats), [`tls`] (certificates, pinning verifiers, QUIC
-//! configs), [`scene`] (scene files, identity, worker cache), [`worker`] ([`run_worker`]),
-//! [`coordinator`] ([`Coordinator`]: endpoint, joins, network events), [`shares`]
-//! ([`RemoteShares`]: assignment, deadline gather, validation, benching, statistics), [`session`]
-//! ([`run_coordinator_session`], [`spawn_local_workers`]).
+//! configs), [`assets`] ([`ClusterAssets`]: voxmap, classed shell, identity, worker cache),
+//! [`worker`] ([`run_worker`]), [`coordinator`] ([`Coordinator`]: endpoint, joins, one live
+//! connection per certificate), [`gather`] (the pure gather state machine: assignment, reply
+//! acceptance, benching, fallback plan, predicted split; no clock, socket or thread), [`shares`]
+//! ([`RemoteShares`]: the I/O driver around it), [`split`] and [`fallback`] (its pure arithmetic),
+//! [`metrics`] and [`report`] (live figures and the final report), [`close`] (close codes),
+//! [`session`] ([`run_coordinator_session`], [`spawn_local_workers`]). The loopback impairment
+//! relay and the raw UDP baseline are in the `vps-netem` crate.
 
+pub mod assets;
 pub mod close;
 pub mod coordinator;
+mod events;
 pub mod fallback;
+pub mod gather;
 pub mod metrics;
 pub mod protocol;
-pub mod relay;
-pub mod scene;
+pub mod report;
 pub mod session;
 pub mod shares;
 pub mod split;
 pub mod tls;
-pub mod transport_bench;
 pub mod udp_count;
 pub mod worker;
 
+pub use assets::ClusterAssets;
 pub use coordinator::{Coordinator, CoordinatorConfig};
 pub use metrics::ClusterMetrics;
-pub use relay::{Relay, RelayConfig, RelayStats};
-pub use scene::ClusterScene;
+pub use report::{ClusterReport, PeerReport, SplitReport};
 pub use session::{
     local_cluster_certs, run_coordinator_session, spawn_local_workers, LocalCerts, LocalWorkerArgs,
     LocalWorkers,
 };
-pub use shares::{ClusterReport, GatherConfig, PeerReport, RemoteShares};
+pub use shares::{GatherConfig, RemoteShares};
 pub use tls::{make_cert, CertFiles, TlsIdentity};
 pub use worker::{
     run_worker, run_worker_service, run_worker_until, Rejoin, WorkerConfig, WorkerReport,
@@ -74,7 +79,8 @@ pub enum ClusterError {
     /// The coordinator and this worker refuse each other for good (a certificate not pinned on
     /// one side, a duplicate identity, an incompatible protocol): retrying cannot help until an
     /// operator acts.
-    #[error("refused: {0}")]
+    /// The message says who refused and why.
+    #[error("{0}")]
     Refused(String),
     /// The scene cannot be used by the cluster.
     #[error("scene: {0}")]

@@ -12,7 +12,7 @@
 //! other, so a snapshot taken mid-frame may mix adjacent frames (e.g. `requests` one ahead of
 //! `merged`). Final reports are taken after the frame loop and the reporter have stopped.
 
-use crate::shares::{ClusterReport, PeerReport};
+use crate::report::{ClusterReport, PeerReport, SplitReport};
 use crossbeam::queue::ArrayQueue;
 use hdrhistogram::Histogram;
 use std::collections::HashMap;
@@ -169,6 +169,9 @@ pub(crate) struct Board {
     rtt_queue: ArrayQueue<(Arc<PeerMetrics>, u64)>,
     /// What the coordinator's UDP socket received (written by its socket wrapper).
     pub(crate) udp: Arc<crate::udp_count::UdpCounts>,
+    /// The split decisions ([`crate::gather::SplitStats`]): split, kept local, measured,
+    /// predicted split and local frame times (ns), shares kept local.
+    split: [AtomicU64; 6],
 }
 
 impl Board {
@@ -186,7 +189,23 @@ impl Board {
             slots: (0..MAX_TRACKED_WORKERS).map(|_| OnceLock::new()).collect(),
             udp: Arc::default(),
             rtt_queue: ArrayQueue::new(RTT_QUEUE),
+            split: Default::default(),
         })
+    }
+
+    /// Publishes the split decisions so far. Frame thread only; never blocks or allocates.
+    pub(crate) fn set_split(&self, stats: crate::gather::SplitStats) {
+        let values = [
+            stats.split,
+            stats.kept_local,
+            stats.measured,
+            stats.predicted_split_ns,
+            stats.predicted_local_ns,
+            stats.shares_kept_local,
+        ];
+        for (a, v) in self.split.iter().zip(values) {
+            a.store(v, Ordering::Relaxed);
+        }
     }
 
     /// Adds one to a session counter written only by the frame thread.
@@ -240,6 +259,14 @@ impl Board {
             udp_datagrams: self.udp.datagrams(),
             udp_not_quic: self.udp.not_quic(),
             udp_foreign: self.udp.foreign(),
+            split: SplitReport {
+                split_frames: load(&self.split[0]),
+                kept_local_frames: load(&self.split[1]),
+                measured_frames: load(&self.split[2]),
+                predicted_split_ns: load(&self.split[3]),
+                predicted_local_ns: load(&self.split[4]),
+                shares_kept_local: load(&self.split[5]),
+            },
             peers,
         }
     }

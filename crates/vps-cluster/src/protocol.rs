@@ -274,7 +274,7 @@ pub enum JoinMessage {
         /// The id the coordinator gave this worker (logs and statistics).
         worker_id: u32,
         /// The scene's identity.
-        scene: SceneIdentity,
+        scene: AssetsIdentity,
     },
     /// The coordinator refuses the worker.
     Reject {
@@ -292,10 +292,10 @@ pub enum JoinMessage {
     Ready,
 }
 
-/// What a scene is, by content: workers with these hashes hold the same voxmap and shell and split
-/// the shell into the same classes.
+/// What [`ClusterAssets`](crate::ClusterAssets) are, by content: nodes with these hashes hold the
+/// same voxmap and shell and split the shell into the same classes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct SceneIdentity {
+pub struct AssetsIdentity {
     /// `VoxelTree::content_hash` of the voxmap.
     pub voxmap_hash: [u8; 32],
     /// BLAKE3 of the point shell file bytes (`vps_voxmap::file::write_shell`).
@@ -385,7 +385,7 @@ impl JoinMessage {
                 }
                 Ok(JoinMessage::Welcome {
                     worker_id,
-                    scene: SceneIdentity {
+                    scene: AssetsIdentity {
                         voxmap_hash,
                         shell_hash,
                         class_count,
@@ -588,7 +588,7 @@ mod tests {
 
     #[test]
     fn join_messages_round_trip_and_reject_bad_fields() {
-        let scene = SceneIdentity {
+        let scene = AssetsIdentity {
             voxmap_hash: [7; 32],
             shell_hash: [9; 32],
             class_count: 64,
@@ -618,7 +618,7 @@ mod tests {
         }
         let mut welcome = JoinMessage::Welcome {
             worker_id: 1,
-            scene: SceneIdentity {
+            scene: AssetsIdentity {
                 class_count: 65,
                 ..scene
             },

@@ -2,7 +2,8 @@
 //! processes for `vps cluster --local-workers N`.
 
 use crate::coordinator::Coordinator;
-use crate::shares::{ClusterReport, GatherConfig};
+use crate::report::ClusterReport;
+use crate::shares::GatherConfig;
 use crate::tls::{make_cert, CertFiles};
 use crate::ClusterError;
 use std::ffi::OsString;
@@ -32,21 +33,51 @@ pub fn run_coordinator_session(
     Ok((report, cluster))
 }
 
-/// The certificates of a local cluster: one for the coordinator, one shared by its workers.
+/// The certificates of a local cluster: one for the coordinator, one per worker (the coordinator
+/// admits one live connection per certificate, see [`crate::coordinator`]).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct LocalCerts {
     /// `DIR/coordinator.crt`, `DIR/coordinator.key`.
     pub coordinator: CertFiles,
-    /// `DIR/worker.crt`, `DIR/worker.key`.
-    pub worker: CertFiles,
+    /// `DIR/worker-K.crt`, `DIR/worker-K.key` for K in `0..n`.
+    pub workers: Vec<CertFiles>,
 }
 
-/// Writes fresh coordinator and worker certificates into `dir` (which should be a new private
-/// temporary directory) for `vps cluster --local-workers N`.
-pub fn local_cluster_certs(dir: &Path) -> Result<LocalCerts, ClusterError> {
+impl LocalCerts {
+    /// The workers' certificate files, for the coordinator's `--pin`.
+    pub fn worker_pins(&self) -> Vec<PathBuf> {
+        self.workers.iter().map(|w| w.cert.clone()).collect()
+    }
+
+    /// The command line of local worker `k` dialling `coordinator`: its own certificate, the
+    /// coordinator's pinned, no cache, `threads` compute threads. `None` when `k` has no
+    /// certificate here.
+    pub fn worker_args(
+        &self,
+        k: usize,
+        coordinator: SocketAddr,
+        threads: Option<usize>,
+    ) -> Option<LocalWorkerArgs> {
+        let files = self.workers.get(k)?;
+        Some(LocalWorkerArgs {
+            coordinator,
+            cert: files.cert.clone(),
+            key: files.key.clone(),
+            pins: vec![self.coordinator.cert.clone()],
+            cache_dir: None,
+            threads,
+        })
+    }
+}
+
+/// Writes fresh certificates for a coordinator and `workers` workers into `dir` (which should be
+/// a new private temporary directory) for `vps cluster --local-workers N`.
+pub fn local_cluster_certs(dir: &Path, workers: usize) -> Result<LocalCerts, ClusterError> {
     Ok(LocalCerts {
         coordinator: make_cert(dir, "coordinator")?,
-        worker: make_cert(dir, "worker")?,
+        workers: (0..workers)
+            .map(|k| make_cert(dir, &format!("worker-{k}")))
+            .collect::<Result<_, _>>()?,
     })
 }
 
@@ -130,18 +161,18 @@ impl Drop for LocalWorkers {
     }
 }
 
-/// Starts `n` worker processes: `exe` (normally `std::env::current_exe()`) with
-/// [`LocalWorkerArgs::to_args`]. stdin is closed, stdout/stderr are inherited. If one fails to
-/// start, those already started are killed.
+/// Starts one worker process per entry of `args`: `exe` (normally `std::env::current_exe()`)
+/// with [`LocalWorkerArgs::to_args`] (each worker its own certificate: the coordinator refuses a
+/// second live connection with the same one). stdin is closed, stdout/stderr are inherited. If
+/// one fails to start, those already started are killed.
 pub fn spawn_local_workers(
-    n: usize,
     exe: &Path,
-    args: &LocalWorkerArgs,
+    args: &[LocalWorkerArgs],
 ) -> Result<LocalWorkers, ClusterError> {
     let mut workers = LocalWorkers {
-        children: Vec::with_capacity(n),
+        children: Vec::with_capacity(args.len()),
     };
-    for _ in 0..n {
+    for args in args {
         let child = Command::new(exe)
             .args(args.to_args())
             .stdin(Stdio::null())

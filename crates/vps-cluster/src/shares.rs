@@ -3,6 +3,11 @@
 //! every missing or rejected share locally. It implements [`FrameSampler`], so the runtime's frame
 //! loop ([`vps_runtime::spawn_loop_with`]) drives it.
 //!
+//! It is the I/O driver around the pure [`GatherCore`] ([`crate::gather`]), which makes every
+//! decision below: this module only sends the requests on the workers' `quinn::Connection`s,
+//! waits on the reply channel, reads the clock, computes on the local rayon pool and keeps the
+//! metrics board.
+//!
 //! Assignment (between frames): [`split_classes`] deals the classes between the coordinator
 //! (weight 1) and the active workers in proportion to their weights, which adapt to each
 //! worker's replies ([`Adapt`]: additive increase while it answers with room to spare, halved on
@@ -27,19 +32,20 @@
 //! [`PartialSums::is_plausible`] and [`PartialSums::torque_within`] for the share's point count,
 //! the voxel size and the shell's radius.
 
-use crate::coordinator::{Control, Datagram};
-use crate::fallback::{plan_fallback, FallbackAction, MissingShare, StalePolicy};
+use crate::assets::ClusterAssets;
+use crate::events::{Control, Datagram};
+use crate::fallback::StalePolicy;
+use crate::gather::{Acceptance, GatherCore, Policy, Shape, Transition};
 use crate::metrics::{Board, PeerMetrics, Reporter};
 use crate::protocol::{FrameReply, FrameRequest, REQUEST_LEN};
-use crate::scene::ClusterScene;
-use crate::split::{split_classes, Adapt, ShareOutcome};
+use crate::report::{ClusterReport, PeerReport};
 use crate::ClusterError;
 use bytes::Bytes;
 use crossbeam::channel::{Receiver, RecvTimeoutError, TryRecvError};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use vps_haptic::{KernelPose, PartialSums};
-use vps_runtime::{FrameSampler, Percentiles, PoolResult};
+use vps_runtime::{FrameSampler, PoolResult};
 
 /// How the gatherer runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -75,6 +81,9 @@ pub struct GatherConfig {
     /// being recomputed ([`crate::fallback`]); `max_age_frames: 0` always recomputes (exact).
     /// Default: up to 3 frames old, only when the recompute cannot finish before the write.
     pub stale: StalePolicy,
+    /// Keep a frame's classes local when the split is predicted no faster than computing them
+    /// all on the coordinator ([`crate::gather::SplitDecision`]). Default off.
+    pub predict: bool,
 }
 
 impl Default for GatherConfig {
@@ -89,171 +98,85 @@ impl Default for GatherConfig {
             log_every: Some(Duration::from_secs(1)),
             adaptive_shares: true,
             stale: StalePolicy::default(),
+            predict: false,
         }
     }
-}
-
-/// One worker's figures (a [`ClusterMetrics`](crate::ClusterMetrics) snapshot or the final report).
-#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct PeerReport {
-    /// The worker id given at join (a restarted worker gets a new id).
-    pub id: u32,
-    /// Requests sent (work and probes).
-    pub requests: u64,
-    /// Shares merged from this worker's replies.
-    pub merged: u64,
-    /// Replies that arrived after their frame's deadline (dropped by sequence number).
-    pub late: u64,
-    /// Work shares with no reply by the deadline.
-    pub lost: u64,
-    /// Datagrams on this worker's authenticated connection that failed to decode (garbage,
-    /// truncated, wrong kind or version).
-    pub malformed: u64,
-    /// Replies that decoded but were rejected: wrong class mask, duplicate, unrequested or
-    /// implausible sums.
-    pub invalid: u64,
-    /// Work shares recomputed locally (lost, invalid or unsendable).
-    pub recomputed: u64,
-    /// Times the worker was benched.
-    pub benched_times: u64,
-    /// Times a benched worker was given work again.
-    pub unbenched_times: u64,
-    /// Benched at the time of the report.
-    pub benched: bool,
-    /// Still connected at the time of the report.
-    pub connected: bool,
-    /// The coordinator closed its connection for bad replies ([`GatherConfig::disconnect_after`]).
-    pub disconnected_for_bad_replies: bool,
-    /// The coordinator sent it the scene files at join (false: it had them in its cache).
-    pub scene_sent: bool,
-    /// Round-trip samples in `rtt_ns`.
-    pub rtt_samples: u64,
-    /// Request-to-reply time of timely, valid replies (ns), from an HDR histogram (1 % resolution).
-    pub rtt_ns: Percentiles,
-    /// Classes asked of it in the latest frame (its adapted share; 0 while benched).
-    pub classes: u64,
-    /// Its missing shares stood in for by an earlier frame's sums ([`crate::fallback`]).
-    pub stale: u64,
-}
-
-/// The cluster's figures for a session.
-#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct ClusterReport {
-    /// Frames gathered.
-    pub frames: u64,
-    /// Worker shares computed locally, summed over frames.
-    pub fallback_shares: u64,
-    /// Missing worker shares stood in for by an earlier frame's sums (degraded accuracy, when
-    /// recomputing them could not finish before the device write), summed over frames.
-    pub stale_shares: u64,
-    /// Frames in which no worker had work (everything local).
-    pub local_only_frames: u64,
-    /// Datagrams from workers that are no longer known.
-    pub orphan_datagrams: u64,
-    /// Datagrams dropped because the frame thread's queue was full.
-    pub queue_full_datagrams: u64,
-    /// Round-trip samples the metrics thread could not take (its queue was full).
-    pub rtt_samples_dropped: u64,
-    /// Workers beyond [`MAX_TRACKED_WORKERS`](crate::metrics::MAX_TRACKED_WORKERS) joins, missing
-    /// from live snapshots (the final report lists them).
-    pub untracked_workers: u64,
-    /// Datagrams the coordinator's UDP socket received.
-    pub udp_datagrams: u64,
-    /// Of those, datagrams that cannot be QUIC packets by their shape (garbage; see
-    /// [`crate::udp_count`]).
-    pub udp_not_quic: u64,
-    /// Of those, datagrams shaped like QUIC that no connection of the coordinator can own (an
-    /// unknown version or connection ID: garbage, or a peer's stateless reset; see
-    /// [`crate::udp_count`]).
-    pub udp_foreign: u64,
-    /// Every worker seen, by id (join order).
-    pub peers: Vec<PeerReport>,
 }
 
 /// Where the gatherer leaves its [`ClusterReport`] when it is dropped (at the end of a session).
 pub type ReportSlot = Arc<Mutex<Option<ClusterReport>>>;
 
-struct Peer {
-    conn: Option<quinn::Connection>,
-    benched: bool,
-    /// Share weight relative to the coordinator's 1 (see [`crate::split`]).
-    weight: f64,
-    /// Round trip of this frame's merged reply.
-    rtt: Duration,
-    /// The latest merged work reply: its class mask, sums and frame sequence number.
-    held: Option<(u64, PartialSums, u64)>,
-    misses: u32,
-    probe_hits: u32,
-    /// Bad replies since the last valid one (see [`GatherConfig::disconnect_after`]).
-    bad_replies: u32,
-    /// This frame: the classes asked for (0: nothing asked), whether it is a probe, the points
-    /// in those classes, when it was sent, whether a reply settled it, whether it was merged.
-    asked: u64,
-    probing: bool,
-    points: u64,
-    sent_at: Instant,
-    settled: bool,
-    merged: bool,
+/// A joined worker's connection and live figures (the core tracks its standing by the same id).
+struct Link {
+    id: u32,
+    conn: quinn::Connection,
     metrics: Arc<PeerMetrics>,
 }
 
-/// The frame thread's view of the cluster. See the module docs.
+/// The frame thread's view of the cluster: the I/O driver around [`GatherCore`]. See the
+/// module docs.
 pub struct RemoteShares {
-    scene: Arc<ClusterScene>,
+    assets: Arc<ClusterAssets>,
     control: Receiver<Control>,
     datagrams: Receiver<Datagram>,
     config: GatherConfig,
     pool: rayon::ThreadPool,
-    peers: Vec<Peer>,
+    core: GatherCore,
+    /// Joined workers, in join order.
+    links: Vec<Link>,
     retired: Vec<Arc<PeerMetrics>>,
-    active: Vec<usize>,
-    seq: u64,
     board: Arc<Board>,
     reporter: Reporter,
     slot: ReportSlot,
     request: [u8; REQUEST_LEN],
-    adapt: Adapt,
     /// Local cost of one class, from the latest frame in which the coordinator had a share.
     per_class: Duration,
-    /// Scratch for the fallback plan: (peer index, missing share).
-    missing: Vec<(usize, MissingShare)>,
-    /// Scratch for the assignment: the parties' weights.
-    weights: Vec<f64>,
+    /// Scratch: workers to disconnect for bad replies (id, bad replies in a row).
+    misbehaving: Vec<(u32, u32)>,
 }
 
-/// The QUIC application close code for a worker disconnected for bad replies.
-pub const CLOSE_BAD_REPLIES: u32 = 3;
+pub use crate::close::CLOSE_BAD_REPLIES;
 
-fn config_err(field: &'static str) -> ClusterError {
-    ClusterError::Config {
-        field,
-        message: "must be at least 1".into(),
+impl GatherConfig {
+    /// The rules the pure core applies ([`crate::gather::Policy`]).
+    pub fn policy(&self) -> Policy {
+        Policy {
+            bench_after: self.bench_after,
+            probe_every: self.probe_every,
+            unbench_after: self.unbench_after,
+            disconnect_after: self.disconnect_after,
+            adaptive_shares: self.adaptive_shares,
+            stale: self.stale,
+            predict: self.predict,
+        }
     }
 }
 
 impl RemoteShares {
     pub(crate) fn new(
-        scene: Arc<ClusterScene>,
+        assets: Arc<ClusterAssets>,
         control: Receiver<Control>,
         datagrams: Receiver<Datagram>,
         board: Arc<Board>,
         config: GatherConfig,
     ) -> Result<RemoteShares, ClusterError> {
         if config.local_threads == 0 {
-            return Err(config_err("local_threads"));
+            return Err(ClusterError::Config {
+                field: "local_threads",
+                message: "must be at least 1".into(),
+            });
         }
-        if config.bench_after == 0 {
-            return Err(config_err("bench_after"));
-        }
-        if config.probe_every == 0 {
-            return Err(config_err("probe_every"));
-        }
-        if config.unbench_after == 0 {
-            return Err(config_err("unbench_after"));
-        }
-        if config.disconnect_after == 0 {
-            return Err(config_err("disconnect_after"));
-        }
+        let shape = Shape {
+            class_points: (0..assets.shell.class_count())
+                .map(|c| assets.shell.class_len(c) as u64)
+                .collect(),
+            max_depth: PartialSums::max_contact_depth(
+                assets.map.spec().voxel_size,
+                assets.map.width().surface_layers(),
+            ),
+            max_radius: assets.shell.max_radius(),
+        };
+        let core = GatherCore::new(config.policy(), shape)?;
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(config.local_threads)
             .thread_name(|i| format!("vps-local-{i}"))
@@ -265,23 +188,20 @@ impl RemoteShares {
         let reporter = Reporter::start(board.clone(), config.log_every)
             .map_err(|e| ClusterError::Network(format!("cannot start the metrics thread: {e}")))?;
         Ok(RemoteShares {
-            scene,
+            assets,
             control,
             datagrams,
             config,
             pool,
-            peers: Vec::new(),
+            core,
+            links: Vec::new(),
             retired: Vec::new(),
-            active: Vec::new(),
-            seq: 0,
             board,
             reporter,
             slot: Arc::new(Mutex::new(None)),
             request: [0; REQUEST_LEN],
-            adapt: Adapt::default(),
             per_class: Duration::ZERO,
-            missing: Vec::new(),
-            weights: Vec::new(),
+            misbehaving: Vec::new(),
         })
     }
 
@@ -296,7 +216,7 @@ impl RemoteShares {
         let mut peers: Vec<PeerReport> = self
             .retired
             .iter()
-            .chain(self.peers.iter().map(|p| &p.metrics))
+            .chain(self.links.iter().map(|l| &l.metrics))
             .map(|m| m.report())
             .collect();
         peers.sort_by_key(|p| p.id);
@@ -305,10 +225,19 @@ impl RemoteShares {
 
     /// Workers currently given work (joined, connected, not benched).
     pub fn active_workers(&self) -> usize {
-        self.peers
-            .iter()
-            .filter(|p| p.conn.is_some() && !p.benched)
-            .count()
+        self.core.peers().iter().filter(|p| !p.benched).count()
+    }
+
+    fn link(&self, id: u32) -> Option<&Link> {
+        self.links.iter().find(|l| l.id == id)
+    }
+
+    /// Retires worker `id`'s link (its connection ended or was closed); returns it.
+    fn retire(&mut self, id: u32) -> Option<Link> {
+        let i = self.links.iter().position(|l| l.id == id)?;
+        let link = self.links.remove(i);
+        self.retired.push(link.metrics.clone());
+        Some(link)
     }
 
     /// Admits joined workers and retires closed ones. Allocates only when membership changes.
@@ -322,172 +251,98 @@ impl RemoteShares {
                 } => {
                     let metrics = PeerMetrics::new(id, scene_sent);
                     self.board.track(&metrics);
-                    self.peers.push(Peer {
-                        conn: Some(conn),
-                        benched: false,
-                        weight: 1.0,
-                        rtt: Duration::ZERO,
-                        held: None,
-                        misses: 0,
-                        probe_hits: 0,
-                        bad_replies: 0,
-                        asked: 0,
-                        probing: false,
-                        points: 0,
-                        sent_at: Instant::now(),
-                        settled: false,
-                        merged: false,
-                        metrics,
-                    });
+                    self.core.join(id);
+                    let at = self.links.partition_point(|l| l.id < id);
+                    self.links.insert(at, Link { id, conn, metrics });
                 }
                 Control::Closed { id } => {
-                    if let Some(i) = self.peers.iter().position(|p| p.metrics.id() == id) {
-                        let peer = self.peers.swap_remove(i);
-                        peer.metrics.set_disconnected();
-                        self.retired.push(peer.metrics);
+                    self.core.leave(id);
+                    if let Some(link) = self.retire(id) {
+                        link.metrics.set_disconnected();
                     }
                 }
             }
         }
-        // Peers are looked up by id; keep them in join order so the assignment is reproducible.
-        self.peers.sort_by_key(|p| p.metrics.id());
     }
 
-    /// Decides this frame's shares; returns the coordinator's own class mask.
-    fn assign(&mut self) -> u64 {
-        self.active.clear();
-        let class_count = self.scene.shell.class_count();
-        for (i, peer) in self.peers.iter_mut().enumerate() {
-            peer.asked = 0;
-            peer.probing = false;
-            peer.settled = false;
-            peer.merged = false;
-            if peer.conn.is_some() && !peer.benched {
-                self.active.push(i);
-            } else if peer.conn.is_some() && self.seq.is_multiple_of(self.config.probe_every) {
-                let class = (self.seq / self.config.probe_every) % u64::from(class_count);
-                peer.asked = 1 << class;
-                peer.probing = true;
-            }
-        }
-        self.weights.clear();
-        self.weights.push(1.0);
-        for &i in &self.active {
-            let weight = self.peers[i].weight;
-            self.weights.push(if self.config.adaptive_shares {
-                weight
-            } else {
-                1.0
-            });
-        }
-        let masks = split_classes(class_count, &self.weights);
-        for (&i, &mask) in self.active.iter().zip(&masks[1..]) {
-            self.peers[i].asked = mask;
-        }
-        for peer in &self.peers {
+    /// Publishes each worker's share size of this frame (0 while probing or benched).
+    fn publish_classes(&self) {
+        for (link, peer) in self.links.iter().zip(self.core.peers()) {
             let classes = if peer.probing {
                 0
             } else {
                 peer.asked.count_ones()
             };
-            peer.metrics
+            link.metrics
                 .classes
                 .store(u64::from(classes), std::sync::atomic::Ordering::Relaxed);
         }
-        masks[0]
     }
 
     /// Sends every request; returns how many are awaited. One small allocation per request
     /// (the datagram buffer); never blocks.
     fn send_requests(&mut self, pose: &KernelPose) -> usize {
         let mut pending = 0;
-        for peer in &mut self.peers {
-            let Some(conn) = &peer.conn else { continue };
-            if peer.asked == 0 {
+        for i in 0..self.links.len() {
+            let (id, asked) = {
+                let peer = &self.core.peers()[i];
+                (peer.id, peer.asked)
+            };
+            if asked == 0 {
                 continue;
             }
-            peer.points = crate::protocol::mask_classes(peer.asked)
-                .map(|c| self.scene.shell.class_len(c) as u64)
-                .sum();
+            let link = &self.links[i];
+            debug_assert_eq!(link.id, id, "links and core peers are in the same order");
             FrameRequest {
-                seq: self.seq,
-                classes: peer.asked,
+                seq: self.core.seq(),
+                classes: asked,
                 pose: *pose,
             }
             .encode(&mut self.request);
-            peer.metrics.bump(|m| &m.requests);
-            peer.sent_at = Instant::now();
-            if conn
+            link.metrics.bump(|m| &m.requests);
+            let at = Instant::now();
+            let sent = link
+                .conn
                 .send_datagram(Bytes::copy_from_slice(&self.request))
-                .is_ok()
-            {
-                pending += 1;
-            } else {
-                peer.settled = true;
-            }
+                .is_ok();
+            self.core.sent(id, at, sent);
+            pending += usize::from(sent);
         }
         pending
     }
 
     /// Handles one datagram; returns true when it settled a share awaited this frame.
     fn accept(&mut self, datagram: Datagram, sums: &mut PartialSums) -> bool {
-        let Some(peer) = self
-            .peers
-            .iter_mut()
-            .find(|p| p.metrics.id() == datagram.id)
-        else {
+        let Some(metrics) = self.link(datagram.id).map(|l| l.metrics.clone()) else {
             self.board.bump(|b| &b.orphan_datagrams);
             return false;
         };
         let reply = match FrameReply::decode(&datagram.bytes) {
             Ok(reply) => reply,
             Err(e) => {
-                peer.metrics.bump(|m| &m.malformed);
-                peer.bad_replies = peer.bad_replies.saturating_add(1);
-                tracing::debug!(worker = peer.metrics.id(), "malformed reply: {e}");
+                metrics.bump(|m| &m.malformed);
+                self.core.malformed(datagram.id);
+                tracing::debug!(worker = datagram.id, "malformed reply: {e}");
                 return false;
             }
         };
-        if reply.seq != self.seq {
-            peer.metrics.bump(|m| &m.late);
-            return false;
+        let acceptance = self.core.accept(datagram.id, &reply, datagram.at);
+        match acceptance {
+            Acceptance::Unknown => self.board.bump(|b| &b.orphan_datagrams),
+            Acceptance::Late => metrics.bump(|m| &m.late),
+            Acceptance::Unrequested => metrics.bump(|m| &m.invalid),
+            Acceptance::Rejected => {
+                metrics.bump(|m| &m.invalid);
+                tracing::debug!(worker = datagram.id, "implausible reply dropped");
+            }
+            Acceptance::Probe { rtt } => self.board.record_rtt(&metrics, nanos(rtt)),
+            Acceptance::Merged { rtt } => {
+                self.board.record_rtt(&metrics, nanos(rtt));
+                sums.merge(&reply.sums);
+                metrics.bump(|m| &m.merged);
+            }
         }
-        if peer.asked == 0 || peer.settled {
-            peer.metrics.bump(|m| &m.invalid);
-            return false;
-        }
-        peer.settled = true;
-        let max_depth = PartialSums::max_contact_depth(
-            self.scene.map.spec().voxel_size,
-            self.scene.map.width().surface_layers(),
-        );
-        let valid = reply.classes == peer.asked
-            && reply.sums.is_plausible(peer.points, max_depth)
-            && reply
-                .sums
-                .torque_within(self.scene.shell.max_radius(), max_depth);
-        if !valid {
-            peer.metrics.bump(|m| &m.invalid);
-            peer.bad_replies = peer.bad_replies.saturating_add(1);
-            tracing::debug!(worker = peer.metrics.id(), "implausible reply dropped");
-            return true;
-        }
-        let rtt = datagram.at.saturating_duration_since(peer.sent_at);
-        self.board.record_rtt(
-            &peer.metrics,
-            rtt.as_nanos().min(u128::from(u64::MAX)) as u64,
-        );
-        peer.bad_replies = 0;
-        if peer.probing {
-            peer.probe_hits += 1;
-        } else {
-            sums.merge(&reply.sums);
-            peer.merged = true;
-            peer.rtt = rtt;
-            peer.held = Some((peer.asked, reply.sums, self.seq));
-            peer.metrics.bump(|m| &m.merged);
-        }
-        true
+        acceptance.settles()
     }
 
     /// Waits for `pending` replies until `deadline`: sleeps on the channel until `spin_margin`
@@ -501,9 +356,7 @@ impl RemoteShares {
                 while pending > 0 {
                     match self.datagrams.try_recv() {
                         Ok(d) if d.at <= deadline => pending -= usize::from(self.accept(d, sums)),
-                        Ok(d) => {
-                            self.accept_late(d);
-                        }
+                        Ok(d) => self.accept_late(d),
                         Err(_) => break,
                     }
                 }
@@ -536,9 +389,9 @@ impl RemoteShares {
 
     /// A reply that arrived after this frame's deadline: counted late, never merged.
     fn accept_late(&mut self, datagram: Datagram) {
-        match self.peers.iter().find(|p| p.metrics.id() == datagram.id) {
-            Some(peer) => peer.metrics.bump(|m| &m.late),
-            None => self.board.bump(|b| &b.orphan_datagrams),
+        match self.link(datagram.id) {
+            Some(link) if self.core.late(datagram.id) => link.metrics.bump(|m| &m.late),
+            _ => self.board.bump(|b| &b.orphan_datagrams),
         }
     }
 
@@ -546,80 +399,37 @@ impl RemoteShares {
     /// replies in a row (this frame's shares are already settled); it leaves the session as a
     /// worker that went away does, and may join again.
     fn disconnect_misbehaving(&mut self) {
-        let limit = self.config.disconnect_after;
-        let mut i = 0;
-        while i < self.peers.len() {
-            if self.peers[i].bad_replies < limit {
-                i += 1;
+        let mut gone = std::mem::take(&mut self.misbehaving);
+        gone.clear();
+        self.core.take_misbehaving(&mut gone);
+        for &(id, bad_replies) in &gone {
+            let Some(link) = self.retire(id) else {
                 continue;
-            }
-            let peer = self.peers.swap_remove(i);
-            if let Some(conn) = &peer.conn {
-                conn.close(CLOSE_BAD_REPLIES.into(), b"too many bad replies");
-            }
+            };
+            link.conn
+                .close(CLOSE_BAD_REPLIES.into(), b"too many bad replies");
             tracing::warn!(
-                worker = peer.metrics.id(),
-                bad_replies = peer.bad_replies,
+                worker = id,
+                bad_replies,
                 "worker disconnected: bad replies in a row"
             );
-            peer.metrics.set_disconnected_for_bad_replies();
-            self.retired.push(peer.metrics);
+            link.metrics.set_disconnected_for_bad_replies();
         }
+        self.misbehaving = gone;
     }
 
-    /// Books the frame's outcome per worker (benching, un-benching, share weight against the reply
-    /// `deadline`) and lists the missing work shares in `self.missing`.
+    /// Books the frame's outcome per worker in the core and mirrors its transitions to the
+    /// metrics.
     fn settle(&mut self, deadline: Instant) {
-        self.missing.clear();
-        for (index, peer) in self.peers.iter_mut().enumerate() {
-            if peer.asked == 0 {
+        let transitions = self.core.settle(deadline);
+        for &(id, transition) in transitions {
+            let Some(link) = self.links.iter().find(|l| l.id == id) else {
                 continue;
-            }
-            if peer.probing {
-                let answered = peer.settled && peer.probe_hits > 0;
-                if !answered {
-                    peer.probe_hits = 0;
-                }
-                if peer.probe_hits >= self.config.unbench_after {
-                    peer.benched = false;
-                    // Back with a cautious share; it grows while the worker keeps up.
-                    peer.weight = self.adapt.min_weight.max(0.5);
-                    peer.misses = 0;
-                    peer.probe_hits = 0;
-                    peer.metrics.set_benched(false);
-                }
-                continue;
-            }
-            if peer.merged {
-                peer.misses = 0;
-                let window = deadline.saturating_duration_since(peer.sent_at);
-                let outcome = ShareOutcome::Merged {
-                    rtt: peer.rtt,
-                    window,
-                };
-                peer.weight = self.adapt.next_weight(peer.weight, outcome);
-                continue;
-            }
-            peer.weight = self.adapt.next_weight(peer.weight, ShareOutcome::Missed);
-            if !peer.settled {
-                peer.metrics.bump(|m| &m.lost);
-            }
-            let stale_age = match peer.held {
-                Some((classes, _, seq)) if classes == peer.asked => Some(self.seq - seq),
-                _ => None,
             };
-            self.missing.push((
-                index,
-                MissingShare {
-                    classes: peer.asked.count_ones(),
-                    stale_age,
-                },
-            ));
-            peer.misses += 1;
-            if peer.misses >= self.config.bench_after && !peer.benched {
-                peer.benched = true;
-                peer.probe_hits = 0;
-                peer.metrics.set_benched(true);
+            match transition {
+                Transition::Lost => link.metrics.bump(|m| &m.lost),
+                Transition::Benched => link.metrics.set_benched(true),
+                Transition::Unbenched => link.metrics.set_benched(false),
             }
         }
     }
@@ -628,29 +438,21 @@ impl RemoteShares {
     /// or, where that cannot finish `write_margin` before the write is due (`write_due`), merges
     /// their sums from an earlier frame. Returns how many shares were recomputed.
     fn fall_back(&mut self, pose: &KernelPose, write_due: Instant, sums: &mut PartialSums) -> u32 {
-        if self.missing.is_empty() {
-            return 0;
-        }
-        let shares: Vec<MissingShare> = self.missing.iter().map(|m| m.1).collect();
         let left = write_due.saturating_duration_since(Instant::now());
-        let plan = plan_fallback(&shares, left, self.per_class, self.config.stale);
-        let mut recompute = 0u64;
-        let mut recomputed = 0;
-        for (&(index, _), action) in self.missing.iter().zip(plan) {
-            let peer = &self.peers[index];
-            match (action, peer.held) {
-                (FallbackAction::ReuseStale, Some((_, held, _))) => {
-                    sums.merge(&held);
-                    peer.metrics.bump(|m| &m.stale);
-                    self.board.bump(|b| &b.stale_shares);
-                }
-                _ => {
-                    recompute |= peer.asked;
-                    recomputed += 1;
-                    peer.metrics.bump(|m| &m.recomputed);
-                }
+        let plan = self.core.plan_fallback(left, self.per_class);
+        for (id, held) in &plan.stale {
+            sums.merge(held);
+            if let Some(link) = self.links.iter().find(|l| l.id == *id) {
+                link.metrics.bump(|m| &m.stale);
+            }
+            self.board.bump(|b| &b.stale_shares);
+        }
+        for id in &plan.recomputed {
+            if let Some(link) = self.links.iter().find(|l| l.id == *id) {
+                link.metrics.bump(|m| &m.recomputed);
             }
         }
+        let (recompute, recomputed) = (plan.recompute, plan.recomputed.len() as u32);
         if recompute != 0 {
             sums.merge(&self.sample(pose, recompute));
         }
@@ -658,14 +460,18 @@ impl RemoteShares {
     }
 }
 
+fn nanos(d: Duration) -> u64 {
+    d.as_nanos().min(u128::from(u64::MAX)) as u64
+}
+
 impl RemoteShares {
     /// The sums of the classes in `mask`: on the frame thread itself with one local thread (no
     /// hand-off), else on the local pool. Blocks until done; does not allocate.
     fn sample(&self, pose: &KernelPose, mask: u64) -> PartialSums {
         if self.config.local_threads == 1 {
-            self.scene.sample_mask_serial(pose, mask)
+            self.assets.sample_mask_serial(pose, mask)
         } else {
-            self.pool.install(|| self.scene.sample_mask(pose, mask))
+            self.pool.install(|| self.assets.sample_mask(pose, mask))
         }
     }
 }
@@ -678,19 +484,22 @@ impl FrameSampler for RemoteShares {
     /// compute.
     fn compute(&mut self, pose: &KernelPose, deadline: Instant) -> PoolResult {
         let entered = Instant::now();
-        self.seq += 1;
+        self.core.begin_frame();
         self.update_membership();
         // Replies from earlier frames still queued: counted late, never merged.
         let mut unused = PartialSums::default();
         while let Ok(stale) = self.datagrams.try_recv() {
             self.accept(stale, &mut unused);
         }
-        let local = self.assign();
+        let local = self.core.assign();
+        self.publish_classes();
+        self.board.set_split(self.core.split_stats());
         let pending = self.send_requests(pose);
         let started = Instant::now();
         let mut sums = self.sample(pose, local);
         if local != 0 {
             self.per_class = started.elapsed() / local.count_ones();
+            self.core.set_local_cost(self.per_class);
         }
         self.gather(pending, deadline, &mut sums);
         self.settle(deadline);
@@ -703,7 +512,7 @@ impl FrameSampler for RemoteShares {
         self.board.bump(|b| &b.frames);
         self.board
             .add(|b| &b.fallback_shares, u64::from(fallback_shares));
-        if self.active.is_empty() {
+        if self.core.active_workers() == 0 {
             self.board.bump(|b| &b.local_only_frames);
         }
         PoolResult {

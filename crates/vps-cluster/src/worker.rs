@@ -13,11 +13,11 @@
 //! until its stop flag is set. A refusal for good ([`ClusterError::Refused`]: a certificate not
 //! pinned on either side, an incompatible protocol) ends it with that error instead.
 
+use crate::assets::{AssetsCache, ClusterAssets, MAX_SCENE_FILE};
 use crate::protocol::{
     read_frame, read_join, write_join, FrameReply, FrameRequest, JoinMessage, PROTOCOL_VERSION,
     REPLY_LEN,
 };
-use crate::scene::{ClusterScene, SceneCache, MAX_SCENE_FILE};
 use crate::tls::{client_config, load_pins, TlsIdentity, SERVER_NAME};
 use crate::{close, ClusterError};
 use rustls::pki_types::CertificateDer;
@@ -148,7 +148,7 @@ async fn worker_main(
             }))
         }
     };
-    let cache = SceneCache::new(config.cache_dir.clone());
+    let cache = AssetsCache::new(config.cache_dir.clone());
     let (scene, worker_id, scene_transferred) = match join(&conn, &cache).await {
         Ok(joined) => joined,
         Err(e) => {
@@ -229,11 +229,11 @@ fn refusal(coordinator: SocketAddr, e: &quinn::ConnectionError) -> Option<Cluste
             "the coordinator at {coordinator} presented a certificate this worker does not accept (check --pin): {e}"
         ))),
         E::ConnectionClosed(c) if is_tls(c.error_code) => Some(ClusterError::Refused(format!(
-            "the coordinator at {coordinator} refused this worker's certificate (is it pinned there with --pin?): {e}"
+            "the coordinator at {coordinator} refused this worker's certificate: certificate not pinned there (pin this worker's .crt on the coordinator with --pin) ({e})"
         ))),
         E::ApplicationClosed(a) if close::is_refusal(a.error_code.into_inner()) => {
             Some(ClusterError::Refused(format!(
-                "the coordinator at {coordinator} refused this worker: {}",
+                "refused by the coordinator: {} (coordinator at {coordinator})",
                 String::from_utf8_lossy(&a.reason)
             )))
         }
@@ -337,7 +337,7 @@ fn try_read_datagram(
 /// sampled right there (no thread hand-off between a request's arrival and its reply); with more,
 /// on a rayon pool the network thread waits for.
 struct Answerer {
-    scene: ClusterScene,
+    scene: ClusterAssets,
     pool: Option<rayon::ThreadPool>,
     buf: [u8; REPLY_LEN],
     requests: u64,
@@ -346,7 +346,7 @@ struct Answerer {
 }
 
 impl Answerer {
-    fn new(scene: ClusterScene, threads: usize) -> Result<Answerer, ClusterError> {
+    fn new(scene: ClusterAssets, threads: usize) -> Result<Answerer, ClusterError> {
         let pool = (threads > 1)
             .then(|| {
                 rayon::ThreadPoolBuilder::new()
@@ -410,8 +410,8 @@ impl Answerer {
 /// was transferred.
 async fn join(
     conn: &quinn::Connection,
-    cache: &SceneCache,
-) -> Result<(ClusterScene, u32, bool), ClusterError> {
+    cache: &AssetsCache,
+) -> Result<(ClusterAssets, u32, bool), ClusterError> {
     let (mut send, mut recv) = conn.open_bi().await.map_err(net_err)?;
     write_join(
         &mut send,
@@ -438,7 +438,7 @@ async fn join(
                 cache.voxmap(&identity.voxmap_hash),
                 cache.shell(&identity.shell_hash),
             ) {
-                (Some(v), Some(s)) => ClusterScene::from_files(&identity, v, s).ok(),
+                (Some(v), Some(s)) => ClusterAssets::from_files(&identity, v, s).ok(),
                 _ => None,
             }
         })
@@ -461,7 +461,7 @@ async fn join(
             let cache = cache.clone();
             blocking(move || {
                 cache.store(&identity, &voxmap, &shell);
-                ClusterScene::from_files(&identity, voxmap, shell)
+                ClusterAssets::from_files(&identity, voxmap, shell)
             })
             .await??
         }

@@ -17,7 +17,7 @@ fn two_workers_give_sums_bit_identical_to_one_process() {
     let coordinator = start_coordinator(&ids, scene.clone());
     let addr = coordinator.local_addr().unwrap();
     let workers: Vec<_> = (0..2)
-        .map(|_| ThreadWorker::spawn(worker_config(&ids, addr)))
+        .map(|k| ThreadWorker::spawn(worker_config_k(&ids, addr, k)))
         .collect();
     coordinator
         .wait_for_workers(2, Duration::from_secs(8))
@@ -58,7 +58,7 @@ fn a_worker_leaving_mid_run_changes_nothing_in_the_sums() {
     let coordinator = start_coordinator(&ids, scene.clone());
     let addr = coordinator.local_addr().unwrap();
     let mut workers: Vec<_> = (0..2)
-        .map(|_| ThreadWorker::spawn(worker_config(&ids, addr)))
+        .map(|k| ThreadWorker::spawn(worker_config_k(&ids, addr, k)))
         .collect();
     coordinator
         .wait_for_workers(2, Duration::from_secs(8))
@@ -90,7 +90,7 @@ struct OneFake {
     conn: quinn::Connection,
 }
 
-fn coordinator_with_one_fake(scene: &std::sync::Arc<vps_cluster::ClusterScene>) -> OneFake {
+fn coordinator_with_one_fake(scene: &std::sync::Arc<vps_cluster::ClusterAssets>) -> OneFake {
     let ids = identities();
     let coordinator = start_coordinator(&ids, scene.clone());
     let addr = coordinator.local_addr().unwrap();
@@ -307,7 +307,7 @@ fn a_worker_that_keeps_sending_implausible_sums_is_disconnected() {
 fn answer_slowly(
     fake: &FakeWorker,
     conn: quinn::Connection,
-    scene: std::sync::Arc<vps_cluster::ClusterScene>,
+    scene: std::sync::Arc<vps_cluster::ClusterAssets>,
     per_class: Duration,
 ) -> std::thread::JoinHandle<(u32, quinn::ConnectionError)> {
     answer(fake, conn, scene, per_class, usize::MAX)
@@ -318,7 +318,7 @@ fn answer_slowly(
 fn answer(
     fake: &FakeWorker,
     conn: quinn::Connection,
-    scene: std::sync::Arc<vps_cluster::ClusterScene>,
+    scene: std::sync::Arc<vps_cluster::ClusterAssets>,
     per_class: Duration,
     count: usize,
 ) -> std::thread::JoinHandle<(u32, quinn::ConnectionError)> {
@@ -435,7 +435,7 @@ fn equal_shares_keep_a_slow_worker_at_half_the_classes() {
 /// (answered and merged), every later frame with a deadline already past (no time to recompute).
 /// Returns each frame's result and the final report.
 fn frames_after_the_worker_falls_silent(
-    scene: &std::sync::Arc<vps_cluster::ClusterScene>,
+    scene: &std::sync::Arc<vps_cluster::ClusterAssets>,
     stale: vps_cluster::fallback::StalePolicy,
     poses: &[vps_haptic::KernelPose],
 ) -> (Vec<vps_runtime::PoolResult>, vps_cluster::ClusterReport) {

@@ -58,16 +58,12 @@ fn two_worker_processes_one_killed_mid_session_keep_every_write_bit_identical() 
     let want = one_process_writes();
     let dir = tempfile::tempdir().unwrap();
     let (coordinator, certs) = loopback_coordinator(dir.path());
-    let args = LocalWorkerArgs {
-        coordinator: coordinator.local_addr().unwrap(),
-        cert: certs.worker.cert.clone(),
-        key: certs.worker.key.clone(),
-        pins: vec![certs.coordinator.cert.clone()],
-        cache_dir: None,
-        threads: None,
-    };
-    let children: Arc<Mutex<Vec<Child>>> =
-        Arc::new(Mutex::new((0..2).map(|_| spawn_child(&args)).collect()));
+    let addr = coordinator.local_addr().unwrap();
+    let children: Arc<Mutex<Vec<Child>>> = Arc::new(Mutex::new(
+        (0..2)
+            .map(|k| spawn_child(&certs.worker_args(k, addr, None).unwrap()))
+            .collect(),
+    ));
     coordinator
         .wait_for_workers(2, Duration::from_secs(8))
         .unwrap();

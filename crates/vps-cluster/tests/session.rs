@@ -16,7 +16,7 @@ fn cluster_writes(leave_at: u64) -> (Vec<Wrench>, vps_cluster::ClusterReport) {
     let coordinator = start_coordinator(&ids, scene);
     let addr = coordinator.local_addr().unwrap();
     let mut workers: Vec<_> = (0..2)
-        .map(|_| ThreadWorker::spawn(worker_config(&ids, addr)))
+        .map(|k| ThreadWorker::spawn(worker_config_k(&ids, addr, k)))
         .collect();
     coordinator
         .wait_for_workers(2, Duration::from_secs(8))

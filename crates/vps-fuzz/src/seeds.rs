@@ -3,7 +3,7 @@
 
 use glam::{DQuat, DVec3, Mat3, Vec3};
 use std::path::Path;
-use vps_cluster::protocol::{FrameReply, FrameRequest, JoinMessage, SceneIdentity};
+use vps_cluster::protocol::{AssetsIdentity, FrameReply, FrameRequest, JoinMessage};
 use vps_device::trace::{write_trace, TraceRecorder};
 use vps_haptic::{HandleSample, KernelPose, PartialSums, Wrench};
 use vps_input::bridge::protocol::{Datagram, Message, MAX_DATAGRAM};
@@ -359,7 +359,7 @@ pub fn cluster_datagram() -> Vec<Vec<u8>> {
 /// welcome to the first and the last worker id; an empty, a short and a long reason; every
 /// combination of the two needs.
 fn join_messages() -> Vec<JoinMessage> {
-    let scene = SceneIdentity {
+    let scene = AssetsIdentity {
         voxmap_hash: [1; 32],
         shell_hash: [2; 32],
         class_count: 8,

@@ -9,7 +9,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use vps_cluster::fallback::StalePolicy;
 use vps_cluster::{
-    local_cluster_certs, run_coordinator_session, ClusterReport, ClusterScene, Coordinator,
+    local_cluster_certs, run_coordinator_session, ClusterAssets, ClusterReport, Coordinator,
     CoordinatorConfig, GatherConfig, LocalCerts,
 };
 use vps_device::script::{approach_and_rest, Pace};
@@ -33,16 +33,20 @@ pub fn wall() -> VoxelTree {
         .expect("valid tree config")
 }
 
+/// Workers [`loopback_coordinator`] makes certificates for.
+pub const LOOPBACK_WORKERS: usize = 4;
+
 /// A coordinator on loopback serving [`scene`], with fresh certificates written to `dir` and
-/// pinned both ways (the worker's is the only one admitted).
+/// pinned both ways (the [`LOOPBACK_WORKERS`] workers' are the only ones admitted, one live
+/// connection each).
 pub fn loopback_coordinator(dir: &std::path::Path) -> (Coordinator, LocalCerts) {
-    let certs = local_cluster_certs(dir).expect("certificates");
+    let certs = local_cluster_certs(dir, LOOPBACK_WORKERS).expect("certificates");
     let coordinator = Coordinator::start(
         CoordinatorConfig::from_files(
             "127.0.0.1:0".parse().expect("addr"),
             &certs.coordinator.cert,
             &certs.coordinator.key,
-            std::slice::from_ref(&certs.worker.cert),
+            &certs.worker_pins(),
         )
         .expect("coordinator config"),
         scene(),
@@ -51,8 +55,8 @@ pub fn loopback_coordinator(dir: &std::path::Path) -> (Coordinator, LocalCerts) 
     (coordinator, certs)
 }
 
-pub fn scene() -> Arc<ClusterScene> {
-    Arc::new(ClusterScene::new(Arc::new(wall()), &sphere_shell(600), CLASSES).expect("scene"))
+pub fn scene() -> Arc<ClusterAssets> {
+    Arc::new(ClusterAssets::new(Arc::new(wall()), &sphere_shell(600), CLASSES).expect("scene"))
 }
 
 /// Poses descending onto the wall, turning, with velocities (contacts and braking both occur).

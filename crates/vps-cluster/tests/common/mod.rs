@@ -11,28 +11,48 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Duration;
 use vps_cluster::{
-    run_worker_until, ClusterError, ClusterScene, Coordinator, CoordinatorConfig, TlsIdentity,
+    run_worker_until, ClusterAssets, ClusterError, Coordinator, CoordinatorConfig, TlsIdentity,
     WorkerConfig, WorkerReport,
 };
 
 pub struct Identities {
     pub coordinator: TlsIdentity,
+    /// Worker 0's identity.
     pub worker: TlsIdentity,
+    /// Workers 1, 2, …: the coordinator admits one live connection per certificate.
+    pub others: Vec<TlsIdentity>,
 }
 
 pub fn identities() -> Identities {
     Identities {
         coordinator: TlsIdentity::generate("coordinator").expect("cert"),
         worker: TlsIdentity::generate("worker").expect("cert"),
+        others: (1..3)
+            .map(|k| TlsIdentity::generate(&format!("worker-{k}")).expect("cert"))
+            .collect(),
     }
 }
 
-pub fn start_coordinator(ids: &Identities, scene: Arc<ClusterScene>) -> Coordinator {
+impl Identities {
+    /// Worker `k`'s identity (0: [`Identities::worker`]).
+    pub fn worker_k(&self, k: usize) -> &TlsIdentity {
+        if k == 0 {
+            &self.worker
+        } else {
+            &self.others[k - 1]
+        }
+    }
+}
+
+pub fn start_coordinator(ids: &Identities, scene: Arc<ClusterAssets>) -> Coordinator {
     Coordinator::start(
         CoordinatorConfig {
             listen: "127.0.0.1:0".parse().expect("addr"),
             identity: ids.coordinator.clone(),
-            pins: vec![ids.worker.cert.clone()],
+            pins: std::iter::once(&ids.worker)
+                .chain(&ids.others)
+                .map(|w| w.cert.clone())
+                .collect(),
         },
         scene,
     )
@@ -40,9 +60,14 @@ pub fn start_coordinator(ids: &Identities, scene: Arc<ClusterScene>) -> Coordina
 }
 
 pub fn worker_config(ids: &Identities, addr: SocketAddr) -> WorkerConfig {
+    worker_config_k(ids, addr, 0)
+}
+
+/// Worker `k`'s config (its own certificate).
+pub fn worker_config_k(ids: &Identities, addr: SocketAddr, k: usize) -> WorkerConfig {
     WorkerConfig {
         coordinator: addr,
-        identity: ids.worker.clone(),
+        identity: ids.worker_k(k).clone(),
         pins: vec![ids.coordinator.cert.clone()],
         cache_dir: None,
         threads: 1,

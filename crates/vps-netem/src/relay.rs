@@ -20,7 +20,7 @@
 //! Threads: one receiver per socket (read timeout 20 ms, to notice [`Relay::stop`]) and one
 //! scheduler that owns the timing heap and sends. Not for the frame path.
 
-use crate::ClusterError;
+use crate::NetemError;
 use crossbeam::channel::{unbounded, Receiver, RecvTimeoutError, Sender};
 use hdrhistogram::Histogram;
 use rand::{Rng, SeedableRng};
@@ -58,15 +58,15 @@ pub struct RelayConfig {
 
 impl RelayConfig {
     /// Checks `loss` (a probability) and that `delay + jitter` is below 10 s.
-    pub fn validate(&self) -> Result<(), ClusterError> {
+    pub fn validate(&self) -> Result<(), NetemError> {
         if !(0.0..=1.0).contains(&self.loss) {
-            return Err(ClusterError::Config {
+            return Err(NetemError::Config {
                 field: "loss",
                 message: format!("{} is not a probability in 0..=1", self.loss),
             });
         }
         if self.delay + self.jitter > Duration::from_secs(10) {
-            return Err(ClusterError::Config {
+            return Err(NetemError::Config {
                 field: "delay",
                 message: "delay + jitter must stay below 10 s".into(),
             });
@@ -188,13 +188,13 @@ pub struct Relay {
     clients: Arc<Mutex<Vec<JoinHandle<()>>>>,
 }
 
-fn net(what: &str, e: std::io::Error) -> ClusterError {
-    ClusterError::Network(format!("relay: {what}: {e}"))
+fn net(what: &str, e: std::io::Error) -> NetemError {
+    NetemError::Network(format!("relay: {what}: {e}"))
 }
 
 impl Relay {
     /// Binds `config.listen` and starts relaying. Spawns threads.
-    pub fn start(config: RelayConfig) -> Result<Relay, ClusterError> {
+    pub fn start(config: RelayConfig) -> Result<Relay, NetemError> {
         config.validate()?;
         let listen = Arc::new(
             UdpSocket::bind(config.listen)
@@ -341,7 +341,7 @@ fn open_upstream(
     client: SocketAddr,
     events: &Sender<Event>,
     shared: &Arc<Shared>,
-) -> Result<(Arc<UdpSocket>, JoinHandle<()>), ClusterError> {
+) -> Result<(Arc<UdpSocket>, JoinHandle<()>), NetemError> {
     let bind: SocketAddr = if config.forward.is_ipv4() {
         ([0, 0, 0, 0], 0).into()
     } else {

@@ -1,8 +1,9 @@
-//! The scene as the cluster ships it: the voxmap and point shell files, their content hashes
-//! ([`SceneIdentity`]) and the classed shell every node samples. A worker keeps received scene
-//! files in a cache directory named by hash, so it rejoins without a transfer.
+//! What every node of the cluster samples, and how it is shipped: [`ClusterAssets`] holds the
+//! scene's voxmap, the part's point shell split into classes, their file bytes and content hashes
+//! ([`AssetsIdentity`]). A worker keeps received files in a cache directory named by hash
+//! ([`AssetsCache`]), so it rejoins without a transfer.
 
-use crate::protocol::{SceneIdentity, MAX_CLASSES};
+use crate::protocol::{AssetsIdentity, MAX_CLASSES};
 use crate::ClusterError;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -14,26 +15,29 @@ use vps_voxmap::{PointShell, VoxelTree};
 /// Largest scene file a worker accepts (bytes).
 pub const MAX_SCENE_FILE: u64 = 1 << 32;
 
-/// A scene ready for the cluster. Immutable; shared with `Arc`.
-pub struct ClusterScene {
+/// Everything a cluster node needs to compute class shares: the scene's voxmap, the part's point
+/// shell split into classes, and the identity (content hashes and sizes) by which the coordinator
+/// and its workers agree they hold the same. Also keeps the serialised voxmap and shell files that
+/// are sent to a worker lacking them. Immutable; shared with `Arc`.
+pub struct ClusterAssets {
     /// The voxmap.
     pub map: Arc<VoxelTree>,
     /// The point shell split into `identity.class_count` classes.
     pub shell: Arc<ClassedShell>,
     /// Content hashes and sizes.
-    pub identity: SceneIdentity,
+    pub identity: AssetsIdentity,
     voxmap_file: Vec<u8>,
     shell_file: Vec<u8>,
 }
 
-impl ClusterScene {
-    /// Builds the scene from a voxmap (shared, not copied) and a point shell split into `class_count` classes
+impl ClusterAssets {
+    /// Builds the assets from a voxmap (shared, not copied) and a point shell split into `class_count` classes
     /// (1..=64: one datagram bit per class). Serialises both files once (allocates).
     pub fn new(
         map: Arc<VoxelTree>,
         shell: &PointShell,
         class_count: u32,
-    ) -> Result<ClusterScene, ClusterError> {
+    ) -> Result<ClusterAssets, ClusterError> {
         if !(1..=MAX_CLASSES).contains(&class_count) {
             return Err(ClusterError::Config {
                 field: "class_count",
@@ -46,14 +50,14 @@ impl ClusterScene {
         let mut shell_file = Vec::new();
         write_shell(shell, &mut shell_file)
             .map_err(|e| ClusterError::Scene(format!("cannot encode the shell: {e}")))?;
-        let identity = SceneIdentity {
+        let identity = AssetsIdentity {
             voxmap_hash: map.content_hash(),
             shell_hash: *blake3::hash(&shell_file).as_bytes(),
             class_count,
             voxmap_len: voxmap_file.len() as u64,
             shell_len: shell_file.len() as u64,
         };
-        Ok(ClusterScene {
+        Ok(ClusterAssets {
             map,
             shell: Arc::new(ClassedShell::new(shell, class_count)),
             identity,
@@ -62,13 +66,13 @@ impl ClusterScene {
         })
     }
 
-    /// Rebuilds a scene from received (or cached) file bytes and checks it against `identity`:
+    /// Rebuilds the assets from received (or cached) file bytes and checks it against `identity`:
     /// the voxmap's content hash and the shell file's BLAKE3 must match.
     pub fn from_files(
-        identity: &SceneIdentity,
+        identity: &AssetsIdentity,
         voxmap_file: Vec<u8>,
         shell_file: Vec<u8>,
-    ) -> Result<ClusterScene, ClusterError> {
+    ) -> Result<ClusterAssets, ClusterError> {
         let map = read_voxmap(voxmap_file.as_slice())
             .map_err(|e| ClusterError::Scene(format!("received voxmap: {e}")))?;
         if map.content_hash() != identity.voxmap_hash {
@@ -83,7 +87,7 @@ impl ClusterScene {
         }
         let shell = read_shell(shell_file.as_slice())
             .map_err(|e| ClusterError::Scene(format!("received shell: {e}")))?;
-        let scene = ClusterScene::new(Arc::new(map), &shell, identity.class_count)?;
+        let scene = ClusterAssets::new(Arc::new(map), &shell, identity.class_count)?;
         Ok(scene)
     }
 
@@ -101,7 +105,7 @@ impl ClusterScene {
             })
     }
 
-    /// [`ClusterScene::sample_mask`] on the calling thread alone: the same bits, no rayon
+    /// [`ClusterAssets::sample_mask`] on the calling thread alone: the same bits, no rayon
     /// hand-off (for one compute thread). Does not allocate; blocks until done.
     pub fn sample_mask_serial(&self, pose: &KernelPose, mask: u64) -> PartialSums {
         let mut sums = PartialSums::default();
@@ -127,16 +131,16 @@ pub fn hex(hash: &[u8; 32]) -> String {
     hash.iter().map(|b| format!("{b:02x}")).collect()
 }
 
-/// Where a worker keeps scene files: `DIR/<hash>.voxmap` and `DIR/<hash>.shell`.
+/// Where a worker keeps received voxmap and shell files: `DIR/<hash>.voxmap` and `DIR/<hash>.shell`.
 #[derive(Clone, Debug)]
-pub struct SceneCache {
+pub struct AssetsCache {
     dir: Option<PathBuf>,
 }
 
-impl SceneCache {
+impl AssetsCache {
     /// A cache in `dir`; `None` caches nothing (every join transfers the scene).
-    pub fn new(dir: Option<PathBuf>) -> SceneCache {
-        SceneCache { dir }
+    pub fn new(dir: Option<PathBuf>) -> AssetsCache {
+        AssetsCache { dir }
     }
 
     fn path(&self, hash: &[u8; 32], ext: &str) -> Option<PathBuf> {
@@ -160,7 +164,7 @@ impl SceneCache {
     }
 
     /// Stores both files (best effort: a failure is logged, the worker goes on without a cache).
-    pub fn store(&self, identity: &SceneIdentity, voxmap: &[u8], shell: &[u8]) {
+    pub fn store(&self, identity: &AssetsIdentity, voxmap: &[u8], shell: &[u8]) {
         let Some(dir) = &self.dir else { return };
         let result = std::fs::create_dir_all(dir).and_then(|()| {
             for (bytes, path) in [
