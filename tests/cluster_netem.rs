@@ -5,12 +5,10 @@
 //! root with `ip netns` (skipped with a message otherwise). Lost requests and replies only move shares to the local fallback: no device
 //! write is missed and every write is bit-identical, frame by frame, to the one-process run.
 
-#[path = "../crates/vps-cluster/tests/common/fixtures.rs"]
-mod fixtures;
-
-use fixtures::*;
+use vps_testkit::cluster::*;
+use vps_testkit::process::Children;
 use std::net::{IpAddr, SocketAddr};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
@@ -18,17 +16,6 @@ use vps_cluster::{ClusterReport, GatherConfig, LocalWorkerArgs, Relay, RelayConf
 use vps_haptic::Wrench;
 
 const WORKERS: usize = 2;
-
-struct Children(Vec<Child>);
-
-impl Drop for Children {
-    fn drop(&mut self) {
-        for child in &mut self.0 {
-            let _ = child.kill();
-            let _ = child.wait();
-        }
-    }
-}
 
 /// Where one worker runs: the relay address it dials, and the command prefix that starts it
 /// on its host (empty: this one; `ip netns exec NS`: a namespace).

@@ -4,11 +4,8 @@
 //! the one-process run. The coordinator runs in this test process (the same library code as
 //! `vps coordinator`) so that every write can be logged.
 
-#[path = "../crates/vps-cluster/tests/common/fixtures.rs"]
-mod fixtures;
-
-use fixtures::*;
-use std::process::{Child, Command, Stdio};
+use vps_testkit::cluster::*;
+use vps_testkit::process::Children;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use vps_cluster::{GatherConfig, LocalWorkerArgs};
@@ -19,37 +16,7 @@ const RESTART_AT: u64 = 200;
 const NEW_WORKER_AT: u64 = 300;
 const JOIN_WAIT: Duration = Duration::from_secs(20);
 
-/// `vps worker` processes; killed and reaped on drop.
-#[derive(Default)]
-struct Workers(Vec<Child>);
-
-impl Workers {
-    fn spawn(&mut self, args: &LocalWorkerArgs) -> usize {
-        let child = Command::new(env!("CARGO_BIN_EXE_vps"))
-            .args(args.to_args())
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .spawn()
-            .expect("start vps worker");
-        self.0.push(child);
-        self.0.len() - 1
-    }
-
-    fn kill(&mut self, index: usize) {
-        let child = &mut self.0[index];
-        child.kill().expect("SIGKILL the worker");
-        child.wait().expect("reap the worker");
-    }
-}
-
-impl Drop for Workers {
-    fn drop(&mut self) {
-        for child in &mut self.0 {
-            let _ = child.kill();
-            let _ = child.wait();
-        }
-    }
-}
+const VPS: &str = env!("CARGO_BIN_EXE_vps");
 
 #[test]
 fn a_killed_worker_rejoins_and_a_new_worker_joins_mid_session_without_changing_a_bit() {
@@ -66,11 +33,11 @@ fn a_killed_worker_rejoins_and_a_new_worker_joins_mid_session_without_changing_a
         threads: Some(1),
     };
     let (args_a, args_b, args_c) = (args("cache-a"), args("cache-b"), args("cache-c"));
-    let workers = Arc::new(Mutex::new(Workers::default()));
+    let workers = Arc::new(Mutex::new(Children::default()));
     // Worker ids follow join order: A is 0, B is 1.
-    let a = workers.lock().unwrap().spawn(&args_a);
+    let a = workers.lock().unwrap().push(spawn_worker(VPS, &args_a));
     coordinator.wait_for_admitted(1, JOIN_WAIT).unwrap();
-    workers.lock().unwrap().spawn(&args_b);
+    workers.lock().unwrap().push(spawn_worker(VPS, &args_b));
     coordinator.wait_for_admitted(2, JOIN_WAIT).unwrap();
 
     // Membership changes run after a device write, before the next frame starts: blocking here
@@ -80,11 +47,11 @@ fn a_killed_worker_rejoins_and_a_new_worker_joins_mid_session_without_changing_a
         Box::new(move |write: u64| match write {
             KILL_AT => workers.lock().unwrap().kill(a),
             RESTART_AT => {
-                workers.lock().unwrap().spawn(&args_a);
+                workers.lock().unwrap().push(spawn_worker(VPS, &args_a));
                 coordinator.wait_for_admitted(3, JOIN_WAIT).unwrap();
             }
             NEW_WORKER_AT => {
-                workers.lock().unwrap().spawn(&args_c);
+                workers.lock().unwrap().push(spawn_worker(VPS, &args_c));
                 coordinator.wait_for_admitted(4, JOIN_WAIT).unwrap();
             }
             _ => {}

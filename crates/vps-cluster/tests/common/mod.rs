@@ -1,9 +1,8 @@
 //! Shared fixtures: TLS identities, in-process workers on threads, a hand-driven fake worker;
-//! the network-free fixtures are in `fixtures.rs`.
+//! the scene, the standard session and the one-process run are `vps_testkit::cluster`'s.
 #![allow(dead_code)]
 
-mod fixtures;
-pub use fixtures::*;
+pub use vps_testkit::cluster::*;
 
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
