@@ -1,33 +1,19 @@
 //! End-to-end tests of the `vps` binary: real files, real processes.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Command;
+use vps_testkit::process::{json, Vps};
 
-fn vps(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vps"))
-        .args(args)
-        .output()
-        .expect("vps runs")
-}
-
-fn json(out: &Output) -> serde_json::Value {
-    assert!(
-        out.status.success(),
-        "vps failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("valid JSON on stdout")
-}
-
-fn path(dir: &Path, name: &str) -> String {
-    dir.join(name).display().to_string()
+/// The binary with a temporary directory and a private cache (`VPS_CACHE_DIR`).
+fn sandbox() -> Vps {
+    Vps::new(env!("CARGO_BIN_EXE_vps"))
 }
 
 #[test]
 fn voxelize_inspect_probe_round_trip_on_builtin_sphere() {
-    let dir = tempfile::tempdir().unwrap();
-    let vmap = path(dir.path(), "sphere.vmap");
-    let made = json(&vps(&[
+    let vps = sandbox();
+    let vmap = vps.path("sphere.vmap");
+    let made = json(&vps.run(&[
         "voxelize",
         "builtin:sphere",
         "--voxel-size",
@@ -36,7 +22,7 @@ fn voxelize_inspect_probe_round_trip_on_builtin_sphere() {
         &vmap,
         "--json",
     ]));
-    let info = json(&vps(&["inspect", &vmap, "--json"]));
+    let info = json(&vps.run(&["inspect", &vmap, "--json"]));
     assert_eq!(
         made["hash"], info["hash"],
         "hash survives the file round trip"
@@ -46,9 +32,9 @@ fn voxelize_inspect_probe_round_trip_on_builtin_sphere() {
     assert!(info["counts"]["surface"].as_u64().unwrap() > 0);
 
     // The built-in sphere has radius 0.05 m and is centred at the origin.
-    let csv = path(dir.path(), "points.csv");
+    let csv = vps.path("points.csv");
     std::fs::write(&csv, "# x,y,z\n0,0,0\n1,1,1\n0.2,0,0\n").unwrap();
-    let kinds = json(&vps(&["probe", &vmap, "--points", &csv, "--json"]));
+    let kinds = json(&vps.run(&["probe", &vmap, "--points", &csv, "--json"]));
     let kinds: Vec<&str> = kinds
         .as_array()
         .unwrap()
@@ -60,9 +46,9 @@ fn voxelize_inspect_probe_round_trip_on_builtin_sphere() {
 
 #[test]
 fn corrupted_voxmap_is_a_clear_error_not_a_panic() {
-    let dir = tempfile::tempdir().unwrap();
-    let vmap = path(dir.path(), "box.vmap");
-    assert!(vps(&[
+    let vps = sandbox();
+    let vmap = vps.path("box.vmap");
+    assert!(vps.run(&[
         "voxelize",
         "builtin:box",
         "--voxel-size",
@@ -76,21 +62,22 @@ fn corrupted_voxmap_is_a_clear_error_not_a_panic() {
     let mid = bytes.len() / 2;
     bytes[mid] ^= 0x5a;
     std::fs::write(&vmap, &bytes).unwrap();
-    let out = vps(&["inspect", &vmap]);
+    let out = vps.run(&["inspect", &vmap]);
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("box.vmap"), "error names the file: {err}");
     assert!(!err.contains("panicked"), "{err}");
 
     std::fs::write(&vmap, &bytes[..20]).unwrap();
-    let out = vps(&["inspect", &vmap]);
+    let out = vps.run(&["inspect", &vmap]);
     assert_eq!(out.status.code(), Some(1));
     assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"));
 }
 
 #[test]
 fn bad_arguments_are_rejected_with_a_message() {
-    let out = vps(&[
+    let vps = sandbox();
+    let out = vps.run(&[
         "voxelize",
         "builtin:box",
         "--voxel-size=-5mm",
@@ -99,19 +86,19 @@ fn bad_arguments_are_rejected_with_a_message() {
     ]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("positive"));
-    let out = vps(&["voxelize", "builtin:nope", "-o", "/tmp/x.vmap"]);
+    let out = vps.run(&["voxelize", "builtin:nope", "-o", "/tmp/x.vmap"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("unknown built-in scene"));
-    let out = vps(&["voxelize", "/nonexistent/part.obj", "-o", "/tmp/x.vmap"]);
+    let out = vps.run(&["voxelize", "/nonexistent/part.obj", "-o", "/tmp/x.vmap"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/part.obj"));
 }
 
 #[test]
 fn shell_file_round_trip() {
-    let dir = tempfile::tempdir().unwrap();
-    let shell = path(dir.path(), "teapot.vshell");
-    let made = json(&vps(&[
+    let vps = sandbox();
+    let shell = vps.path("teapot.vshell");
+    let made = json(&vps.run(&[
         "shell",
         "builtin:teapot",
         "--voxel-size",
@@ -120,18 +107,18 @@ fn shell_file_round_trip() {
         &shell,
         "--json",
     ]));
-    let info = json(&vps(&["inspect", &shell, "--json"]));
+    let info = json(&vps.run(&["inspect", &shell, "--json"]));
     assert_eq!(made["points"], info["points"]);
     assert!(info["points"].as_u64().unwrap() > 100);
 }
 
 #[test]
 fn record_then_replay_reproduces_the_session_exactly() {
-    let dir = tempfile::tempdir().unwrap();
-    let trace = path(dir.path(), "session.jsonl");
+    let vps = sandbox();
+    let trace = vps.path("session.jsonl");
     // The recorded session itself: a paced run may skip ticks on a loaded machine, so compare the
     // replay with this very run, not with another paced run.
-    let recorded = json(&vps(&[
+    let recorded = json(&vps.run(&[
         "run",
         "--seconds",
         "1",
@@ -139,13 +126,13 @@ fn record_then_replay_reproduces_the_session_exactly() {
         &trace,
         "--json",
     ]));
-    let replayed = json(&vps(&["replay", &trace, "--json"]));
+    let replayed = json(&vps.run(&["replay", &trace, "--json"]));
     assert_eq!(replayed["stats"]["frames"], 1000);
     assert_eq!(
         replayed["final_position_m"], recorded["final_position_m"],
         "replay is bit-exact"
     );
-    let out = vps(&["record", "-o", &trace, "--seconds", "1"]);
+    let out = vps.run(&["record", "-o", &trace, "--seconds", "1"]);
     assert!(
         out.status.success(),
         "{}",
@@ -153,7 +140,7 @@ fn record_then_replay_reproduces_the_session_exactly() {
     );
 
     std::fs::write(&trace, "{\"not\": \"a trace\"}\n").unwrap();
-    let out = vps(&["replay", &trace]);
+    let out = vps.run(&["replay", &trace]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -164,7 +151,8 @@ fn record_then_replay_reproduces_the_session_exactly() {
 
 #[test]
 fn devices_lists_or_says_there_are_none() {
-    let out = vps(&["devices"]);
+    let vps = sandbox();
+    let out = vps.run(&["devices"]);
     assert!(
         out.status.success(),
         "{}",
@@ -183,15 +171,15 @@ fn devices_lists_or_says_there_are_none() {
 /// they are on a loaded machine.
 #[test]
 fn two_local_worker_processes_reproduce_the_one_process_session() {
-    let dir = tempfile::tempdir().unwrap();
-    let trace = path(dir.path(), "session.jsonl");
-    assert!(vps(&["record", "-o", &trace, "--seconds", "1"])
+    let vps = sandbox();
+    let trace = vps.path("session.jsonl");
+    assert!(vps.run(&["record", "-o", &trace, "--seconds", "1"])
         .status
         .success());
-    let alone = json(&vps(&["replay", &trace, "--json"]));
+    let alone = json(&vps.run(&["replay", &trace, "--json"]));
     let device = format!("replay:{trace}");
     // No stale stand-ins: the wrench must not depend on how late a worker is on this machine.
-    let clustered = json(&vps(&[
+    let clustered = json(&vps.run(&[
         "cluster",
         "--local-workers",
         "2",
@@ -211,7 +199,8 @@ fn two_local_worker_processes_reproduce_the_one_process_session() {
 
 #[test]
 fn bench_host_counts_ticks_and_rejects_bad_arguments() {
-    let report = json(&vps(&[
+    let vps = sandbox();
+    let report = json(&vps.run(&[
         "bench",
         "host",
         "--seconds",
@@ -234,7 +223,7 @@ fn bench_host_counts_ticks_and_rejects_bad_arguments() {
         ("--seconds=NaN", "--seconds"),
         ("--busy-us=1000", "--busy-us"),
     ] {
-        let out = vps(&["bench", "host", bad]);
+        let out = vps.run(&["bench", "host", bad]);
         assert!(!out.status.success(), "{bad} accepted");
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert!(stderr.contains(field), "{bad}: {stderr}");
@@ -245,7 +234,8 @@ fn bench_host_counts_ticks_and_rejects_bad_arguments() {
 /// slides; bad arguments are errors naming the flag.
 #[test]
 fn bench_fidelity_reports_every_setting_and_rejects_bad_arguments() {
-    let report = json(&vps(&[
+    let vps = sandbox();
+    let report = json(&vps.run(&[
         "bench",
         "fidelity",
         "--voxel-sizes",
@@ -267,7 +257,7 @@ fn bench_fidelity_reports_every_setting_and_rejects_bad_arguments() {
         (["--poses", "0"], "--poses"),
         (["--voxel-sizes", "50mm"], "--voxel-sizes"),
     ] {
-        let out = vps(&["bench", "fidelity", bad[0], bad[1]]);
+        let out = vps.run(&["bench", "fidelity", bad[0], bad[1]]);
         assert!(!out.status.success(), "{bad:?} accepted");
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert!(stderr.contains(field), "{bad:?}: {stderr}");
@@ -276,14 +266,14 @@ fn bench_fidelity_reports_every_setting_and_rejects_bad_arguments() {
 
 #[test]
 fn the_lan_config_files_turn_into_flags_the_cli_accepts() {
-    let dir = tempfile::tempdir().unwrap();
-    let pins = dir.path().join("pins");
+    let vps = sandbox();
+    let pins = vps.dir().join("pins");
     std::fs::create_dir(&pins).unwrap();
     std::fs::write(pins.join("worker-a.crt"), "").unwrap();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     for role in ["coordinator", "worker"] {
         let text = std::fs::read_to_string(root.join(format!("configs/{role}.toml"))).unwrap();
-        let config = dir.path().join(format!("{role}.toml"));
+        let config = vps.dir().join(format!("{role}.toml"));
         std::fs::write(
             &config,
             text.replace("/etc/vps/pins", pins.to_str().unwrap()),
@@ -295,6 +285,7 @@ fn the_lan_config_files_turn_into_flags_the_cli_accepts() {
             .arg(root.join("deploy/vps-from-config.sh"))
             .args([role, config.to_str().unwrap(), "--help"])
             .env("VPS_BIN", env!("CARGO_BIN_EXE_vps"))
+            .env("VPS_CACHE_DIR", vps.cache())
             .output()
             .unwrap();
         assert!(
@@ -304,7 +295,7 @@ fn the_lan_config_files_turn_into_flags_the_cli_accepts() {
         );
     }
     // A bad switch value is refused, naming the file and the key.
-    let config = dir.path().join("bad.toml");
+    let config = vps.dir().join("bad.toml");
     std::fs::write(&config, "equal_shares = \"yes\"\n").unwrap();
     let out = Command::new("bash")
         .arg(root.join("deploy/vps-from-config.sh"))

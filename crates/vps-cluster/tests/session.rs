@@ -12,15 +12,7 @@ use vps_haptic::Wrench;
 /// (never when 0).
 fn cluster_writes(leave_at: u64) -> (Vec<Wrench>, vps_cluster::ClusterReport) {
     let ids = identities();
-    let scene = scene();
-    let coordinator = start_coordinator(&ids, scene);
-    let addr = coordinator.local_addr().unwrap();
-    let mut workers: Vec<_> = (0..2)
-        .map(|_| ThreadWorker::spawn(worker_config(&ids, addr)))
-        .collect();
-    coordinator
-        .wait_for_workers(2, Duration::from_secs(8))
-        .unwrap();
+    let (coordinator, mut workers) = coordinator_with_thread_workers(&ids, scene(), 2);
     let leaving = workers.pop().unwrap();
     let (device, writes) = hand(leave_at, leaving.stop.clone());
     let (report, cluster) =

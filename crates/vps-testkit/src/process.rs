@@ -5,8 +5,11 @@
 //! `VPS_CACHE_DIR` set to a directory inside the test's own temporary directory, so a test never
 //! writes into the user's cache (`~/.cache/vps`).
 
+use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output};
+use std::process::{Child, Command, Output, Stdio};
+use std::sync::mpsc;
+use std::time::Duration;
 use tempfile::TempDir;
 
 /// The `vps` binary with a temporary working directory and a private voxmap cache inside it
@@ -97,6 +100,41 @@ impl Drop for Children {
         for child in &mut self.0 {
             let _ = child.kill();
             let _ = child.wait();
+        }
+    }
+}
+
+/// Spawns `cmd` with stderr piped and waits up to `patience` for a stderr line holding `marker`;
+/// returns the child and the rest of that line after the marker, trimmed. A thread echoes every
+/// stderr line to the test's stderr as `[label] LINE` until the child closes it. Panics (after
+/// killing the child) when no such line comes in time.
+pub fn spawn_until_line(
+    mut cmd: Command,
+    label: &str,
+    marker: &str,
+    patience: Duration,
+) -> (Child, String) {
+    let mut child = cmd.stderr(Stdio::piped()).spawn().expect("the child starts");
+    let stderr = child.stderr.take().expect("piped stderr");
+    let (tx, rx) = mpsc::channel();
+    let (label, marker) = (label.to_string(), marker.to_string());
+    std::thread::spawn(move || {
+        let mut tx = Some(tx);
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            if let Some(rest) = line.split(&marker).nth(1) {
+                if let Some(tx) = tx.take() {
+                    let _ = tx.send(rest.trim().to_string());
+                }
+            }
+            eprintln!("[{label}] {line}");
+        }
+    });
+    match rx.recv_timeout(patience) {
+        Ok(rest) => (child, rest),
+        Err(_) => {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{cmd:?} printed no {marker:?} line within {patience:?}");
         }
     }
 }

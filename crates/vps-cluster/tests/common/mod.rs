@@ -4,12 +4,14 @@
 
 pub use vps_testkit::cluster::*;
 
+use vps_haptic::{sample_all, KernelPose};
+
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
-use std::time::Duration;
-use vps_cluster::{
+use std::time::{Duration, Instant};
+use vps_cluster::{RemoteShares,
     run_worker_until, ClusterError, ClusterScene, Coordinator, CoordinatorConfig, TlsIdentity,
     WorkerConfig, WorkerReport,
 };
@@ -45,6 +47,38 @@ pub fn worker_config(ids: &Identities, addr: SocketAddr) -> WorkerConfig {
         pins: vec![ids.coordinator.cert.clone()],
         cache_dir: None,
         threads: 1,
+    }
+}
+
+/// A coordinator on `scene` and `n` in-process workers on threads, all joined.
+pub fn coordinator_with_thread_workers(
+    ids: &Identities,
+    scene: Arc<ClusterScene>,
+    n: usize,
+) -> (Coordinator, Vec<ThreadWorker>) {
+    let coordinator = start_coordinator(ids, scene);
+    let addr = coordinator.local_addr().unwrap();
+    let workers: Vec<_> = (0..n)
+        .map(|_| ThreadWorker::spawn(worker_config(ids, addr)))
+        .collect();
+    coordinator
+        .wait_for_workers(n, Duration::from_secs(8))
+        .unwrap();
+    (coordinator, workers)
+}
+
+/// Computes every pose of `poses` through `shares` (replies awaited until `deadline` after the
+/// request) and asserts that each frame's sums equal the one-process sums, to the bit.
+pub fn assert_exact_frames(
+    shares: &mut RemoteShares,
+    scene: &ClusterScene,
+    poses: &[KernelPose],
+    deadline: Duration,
+) {
+    for (i, pose) in poses.iter().enumerate() {
+        let want = sample_all(&*scene.map, &scene.shell, pose);
+        let got = shares.compute(pose, Instant::now() + deadline);
+        assert_eq!(got.sums, want, "frame {i}: bad shares are recomputed");
     }
 }
 
