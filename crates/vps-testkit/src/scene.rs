@@ -32,6 +32,15 @@ pub fn wall_tree() -> VoxelTree {
     VoxelTree::from_dense(&wall(), TreeConfig::uniform(2)).expect("valid tree config")
 }
 
+/// An all-Free `n × n × n` grid of 1 cm voxels with its origin at 0.
+pub fn empty_cm_grid(n: u32) -> DenseGrid {
+    DenseGrid::new(GridSpec {
+        origin: DVec3::ZERO,
+        voxel_size: 0.01,
+        dims: [n; 3],
+    })
+}
+
 /// Sets every voxel whose z index is `k` to `kind`.
 pub fn fill_layer(grid: &mut DenseGrid, k: i32, kind: Voxel) {
     let d = grid.spec.dims;
