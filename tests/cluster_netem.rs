@@ -12,7 +12,7 @@ use std::process::{Command, Stdio};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
-use vps_cluster::{ClusterReport, GatherConfig, LocalWorkerArgs, Relay, RelayConfig, RelayStats};
+use vps_cluster::{ClusterReport, GatherConfig, Relay, RelayConfig, RelayStats};
 use vps_haptic::Wrench;
 
 const WORKERS: usize = 2;
@@ -44,14 +44,8 @@ fn session_behind_relay(
         hosts
             .iter()
             .map(|host| {
-                let args = LocalWorkerArgs {
-                    coordinator: SocketAddr::new(host.relay_ip, relay.local_addr().port()),
-                    cert: certs.worker.cert.clone(),
-                    key: certs.worker.key.clone(),
-                    pins: vec![certs.coordinator.cert.clone()],
-                    cache_dir: None,
-                    threads: Some(1),
-                };
+                let relay_addr = SocketAddr::new(host.relay_ip, relay.local_addr().port());
+                let args = worker_args(relay_addr, &certs, None);
                 let mut cmd = match host.launcher.split_first() {
                     Some((program, prefix)) => {
                         let mut cmd = Command::new(program);

@@ -6,7 +6,7 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
-use vps_cluster::{GatherConfig, LocalWorkerArgs};
+use vps_cluster::GatherConfig;
 use vps_testkit::cluster::*;
 use vps_testkit::process::Children;
 
@@ -15,14 +15,7 @@ fn two_worker_processes_one_killed_mid_session_keep_every_write_bit_identical() 
     let want = one_process_writes();
     let dir = tempfile::tempdir().unwrap();
     let (coordinator, certs) = loopback_coordinator(dir.path());
-    let args = LocalWorkerArgs {
-        coordinator: coordinator.local_addr().unwrap(),
-        cert: certs.worker.cert.clone(),
-        key: certs.worker.key.clone(),
-        pins: vec![certs.coordinator.cert.clone()],
-        cache_dir: None,
-        threads: Some(1),
-    };
+    let args = worker_args(coordinator.local_addr().unwrap(), &certs, None);
     let children = Arc::new(Mutex::new(Children::default()));
     for _ in 0..2 {
         let worker = spawn_worker(env!("CARGO_BIN_EXE_vps"), &args);

@@ -8,7 +8,7 @@ use vps_testkit::cluster::*;
 use vps_testkit::process::Children;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
-use vps_cluster::{GatherConfig, LocalWorkerArgs};
+use vps_cluster::GatherConfig;
 
 const SESSION_FRAMES: u64 = 600;
 const KILL_AT: u64 = 100;
@@ -24,14 +24,8 @@ fn a_killed_worker_rejoins_and_a_new_worker_joins_mid_session_without_changing_a
     let dir = tempfile::tempdir().unwrap();
     let (coordinator, certs) = loopback_coordinator(dir.path());
     let coordinator = Arc::new(coordinator);
-    let args = |cache: &str| LocalWorkerArgs {
-        coordinator: coordinator.local_addr().unwrap(),
-        cert: certs.worker.cert.clone(),
-        key: certs.worker.key.clone(),
-        pins: vec![certs.coordinator.cert.clone()],
-        cache_dir: Some(dir.path().join(cache)),
-        threads: Some(1),
-    };
+    let addr = coordinator.local_addr().unwrap();
+    let args = |cache: &str| worker_args(addr, &certs, Some(dir.path().join(cache)));
     let (args_a, args_b, args_c) = (args("cache-a"), args("cache-b"), args("cache-c"));
     let workers = Arc::new(Mutex::new(Children::default()));
     // Worker ids follow join order: A is 0, B is 1.

@@ -3,6 +3,8 @@
 //! a loopback coordinator, for the cluster tests of `vps-cluster` and of the root package.
 
 use glam::{DQuat, DVec3};
+use std::net::SocketAddr;
+use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
@@ -163,6 +165,23 @@ pub fn one_process_writes_for(frames: u64) -> Vec<Wrench> {
     );
     let w = writes.lock().unwrap().clone();
     w
+}
+
+/// The command line of a one-thread `vps worker` dialling `coordinator` with the worker
+/// certificate of `certs`, pinning its coordinator certificate, caching scenes in `cache_dir`.
+pub fn worker_args(
+    coordinator: SocketAddr,
+    certs: &LocalCerts,
+    cache_dir: Option<PathBuf>,
+) -> LocalWorkerArgs {
+    LocalWorkerArgs {
+        coordinator,
+        cert: certs.worker.cert.clone(),
+        key: certs.worker.key.clone(),
+        pins: vec![certs.coordinator.cert.clone()],
+        cache_dir,
+        threads: Some(1),
+    }
 }
 
 /// Starts the `vps` binary at `bin` (`env!("CARGO_BIN_EXE_vps")`) as `vps worker` with `args`,
