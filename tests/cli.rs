@@ -77,21 +77,13 @@ fn corrupted_voxmap_is_a_clear_error_not_a_panic() {
 #[test]
 fn bad_arguments_are_rejected_with_a_message() {
     let vps = sandbox();
-    let out = vps.run(&[
-        "voxelize",
-        "builtin:box",
-        "--voxel-size=-5mm",
-        "-o",
-        "/tmp/x.vmap",
-    ]);
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("positive"));
-    let out = vps.run(&["voxelize", "builtin:nope", "-o", "/tmp/x.vmap"]);
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("unknown built-in scene"));
-    let out = vps.run(&["voxelize", "/nonexistent/part.obj", "-o", "/tmp/x.vmap"]);
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/part.obj"));
+    let out = vps.path("x.vmap");
+    let err = vps.fails(&["voxelize", "builtin:box", "--voxel-size=-5mm", "-o", &out]);
+    assert!(err.contains("positive"), "{err}");
+    let err = vps.fails(&["voxelize", "builtin:nope", "-o", &out]);
+    assert!(err.contains("unknown built-in scene"), "{err}");
+    let err = vps.fails(&["voxelize", "/nonexistent/part.obj", "-o", &out]);
+    assert!(err.contains("/nonexistent/part.obj"), "{err}");
 }
 
 #[test]
@@ -223,9 +215,7 @@ fn bench_host_counts_ticks_and_rejects_bad_arguments() {
         ("--seconds=NaN", "--seconds"),
         ("--busy-us=1000", "--busy-us"),
     ] {
-        let out = vps.run(&["bench", "host", bad]);
-        assert!(!out.status.success(), "{bad} accepted");
-        let stderr = String::from_utf8_lossy(&out.stderr);
+        let stderr = vps.fails(&["bench", "host", bad]);
         assert!(stderr.contains(field), "{bad}: {stderr}");
     }
 }
@@ -257,9 +247,7 @@ fn bench_fidelity_reports_every_setting_and_rejects_bad_arguments() {
         (["--poses", "0"], "--poses"),
         (["--voxel-sizes", "50mm"], "--voxel-sizes"),
     ] {
-        let out = vps.run(&["bench", "fidelity", bad[0], bad[1]]);
-        assert!(!out.status.success(), "{bad:?} accepted");
-        let stderr = String::from_utf8_lossy(&out.stderr);
+        let stderr = vps.fails(&["bench", "fidelity", bad[0], bad[1]]);
         assert!(stderr.contains(field), "{bad:?}: {stderr}");
     }
 }

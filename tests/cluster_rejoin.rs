@@ -52,7 +52,7 @@ fn a_killed_worker_rejoins_and_a_new_worker_joins_mid_session_without_changing_a
         })
     };
     let (device, writes) = hand_with_hook(hook);
-    let (report, cluster) = exact_cluster_session(
+    let (_, cluster) = exact_cluster_session(
         &coordinator,
         GatherConfig {
             bench_after: 2,
@@ -62,8 +62,6 @@ fn a_killed_worker_rejoins_and_a_new_worker_joins_mid_session_without_changing_a
         device,
         SESSION_FRAMES,
     );
-    assert_eq!(report.stats.frames, SESSION_FRAMES);
-    assert_eq!(report.stats.watchdog_trips, 0);
     assert_same_writes(&writes.lock().unwrap(), &want);
 
     eprintln!("{cluster:#?}");

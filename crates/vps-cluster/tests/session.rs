@@ -15,10 +15,8 @@ fn cluster_writes(leave_at: u64) -> (Vec<Wrench>, vps_cluster::ClusterReport) {
     let (coordinator, mut workers) = coordinator_with_thread_workers(&ids, scene(), 2);
     let leaving = workers.pop().unwrap();
     let (device, writes) = hand(leave_at, leaving.stop.clone());
-    let (report, cluster) =
+    let (_, cluster) =
         exact_cluster_session(&coordinator, GatherConfig::default(), device, FRAMES);
-    assert_eq!(report.stats.frames, FRAMES);
-    assert_eq!(report.stats.watchdog_trips, 0);
     // The live snapshot, read after the session, is the final report.
     assert_eq!(coordinator.metrics().snapshot(), cluster);
     leaving.stop().unwrap();

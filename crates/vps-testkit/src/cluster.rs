@@ -124,14 +124,15 @@ pub fn standard_setup(device: Box<dyn HapticDevice>, frames: u64) -> SessionSetu
 /// The standard test session over `coordinator`'s workers: [`params`], the part at rest at
 /// [`START`], [`config_frames`]`(frames)`, `device`, with `gather` made exact (no stale
 /// stand-ins, whatever the timing: these sessions are compared write by write with the
-/// one-process run). Panics on error.
+/// one-process run). Asserts that all `frames` frames ran and the watchdog never tripped; panics
+/// on error.
 pub fn exact_cluster_session(
     coordinator: &Coordinator,
     gather: GatherConfig,
     device: Box<dyn HapticDevice>,
     frames: u64,
 ) -> (LoopReport, ClusterReport) {
-    run_coordinator_session(
+    let (report, cluster) = run_coordinator_session(
         coordinator,
         GatherConfig {
             stale: StalePolicy::NEVER,
@@ -139,7 +140,10 @@ pub fn exact_cluster_session(
         },
         standard_setup(device, frames),
     )
-    .expect("cluster session")
+    .expect("cluster session");
+    assert_eq!(report.stats.frames, frames);
+    assert_eq!(report.stats.watchdog_trips, 0);
+    (report, cluster)
 }
 
 /// Every device write of the one-process run of [`FRAMES`] frames.

@@ -58,6 +58,13 @@ impl Vps {
     pub fn run(&self, args: &[&str]) -> Output {
         self.cmd().args(args).output().expect("vps runs")
     }
+
+    /// Runs `vps ARGS`, asserts that it failed, and returns its stderr.
+    pub fn fails(&self, args: &[&str]) -> String {
+        let out = self.run(args);
+        assert!(!out.status.success(), "vps {args:?} succeeded");
+        stderr(&out)
+    }
 }
 
 /// The JSON document on a successful command's stdout; panics with its stderr if it failed.
