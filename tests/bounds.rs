@@ -72,7 +72,11 @@ fn haptic_files_name_the_file_the_key_and_the_range() {
     let vps = sandbox();
     for (name, text, wants) in [
         ("weak.toml", "k_ff = 1e-300\n", ["k_ff", "[1e0, 1e9] N/m"]),
-        ("slow.toml", "dt = 0.002\n", ["`dt` = 0.002", "must be 0.001 s"]),
+        (
+            "slow.toml",
+            "dt = 0.002\n",
+            ["`dt` = 0.002", "must be 0.001 s"],
+        ),
     ] {
         let path = vps.path(name);
         std::fs::write(&path, text).unwrap();

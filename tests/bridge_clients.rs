@@ -67,12 +67,8 @@ fn start_vps_with(args: &[&str]) -> (Child, SocketAddr) {
     cmd.args(args)
         .env("VPS_CACHE_DIR", cache_dir())
         .stdout(Stdio::piped());
-    let (child, addr) = spawn_until_line(
-        cmd,
-        "vps",
-        "device bridge listening on ",
-        STARTUP_DEADLINE,
-    );
+    let (child, addr) =
+        spawn_until_line(cmd, "vps", "device bridge listening on ", STARTUP_DEADLINE);
     (child, addr.parse().expect("a socket address"))
 }
 

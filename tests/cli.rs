@@ -48,16 +48,17 @@ fn voxelize_inspect_probe_round_trip_on_builtin_sphere() {
 fn corrupted_voxmap_is_a_clear_error_not_a_panic() {
     let vps = sandbox();
     let vmap = vps.path("box.vmap");
-    assert!(vps.run(&[
-        "voxelize",
-        "builtin:box",
-        "--voxel-size",
-        "10mm",
-        "-o",
-        &vmap
-    ])
-    .status
-    .success());
+    assert!(vps
+        .run(&[
+            "voxelize",
+            "builtin:box",
+            "--voxel-size",
+            "10mm",
+            "-o",
+            &vmap
+        ])
+        .status
+        .success());
     let mut bytes = std::fs::read(&vmap).unwrap();
     let mid = bytes.len() / 2;
     bytes[mid] ^= 0x5a;
@@ -110,14 +111,7 @@ fn record_then_replay_reproduces_the_session_exactly() {
     let trace = vps.path("session.jsonl");
     // The recorded session itself: a paced run may skip ticks on a loaded machine, so compare the
     // replay with this very run, not with another paced run.
-    let recorded = json(&vps.run(&[
-        "run",
-        "--seconds",
-        "1",
-        "--record",
-        &trace,
-        "--json",
-    ]));
+    let recorded = json(&vps.run(&["run", "--seconds", "1", "--record", &trace, "--json"]));
     let replayed = json(&vps.run(&["replay", &trace, "--json"]));
     assert_eq!(replayed["stats"]["frames"], 1000);
     assert_eq!(
@@ -165,7 +159,8 @@ fn devices_lists_or_says_there_are_none() {
 fn two_local_worker_processes_reproduce_the_one_process_session() {
     let vps = sandbox();
     let trace = vps.path("session.jsonl");
-    assert!(vps.run(&["record", "-o", &trace, "--seconds", "1"])
+    assert!(vps
+        .run(&["record", "-o", &trace, "--seconds", "1"])
         .status
         .success());
     let alone = json(&vps.run(&["replay", &trace, "--json"]));
@@ -192,14 +187,7 @@ fn two_local_worker_processes_reproduce_the_one_process_session() {
 #[test]
 fn bench_host_counts_ticks_and_rejects_bad_arguments() {
     let vps = sandbox();
-    let report = json(&vps.run(&[
-        "bench",
-        "host",
-        "--seconds",
-        "0.2",
-        "--busy-us",
-        "100",
-    ]));
+    let report = json(&vps.run(&["bench", "host", "--seconds", "0.2", "--busy-us", "100"]));
     // 200 ticks of 1 ms; a stalled machine may start the last one after the end and skip it.
     let ticks = report["ticks"].as_u64().unwrap();
     assert!((190..=200).contains(&ticks), "{ticks} ticks");

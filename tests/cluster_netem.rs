@@ -5,8 +5,6 @@
 //! root with `ip netns` (skipped with a message otherwise). Lost requests and replies only move shares to the local fallback: no device
 //! write is missed and every write is bit-identical, frame by frame, to the one-process run.
 
-use vps_testkit::cluster::*;
-use vps_testkit::process::Children;
 use std::net::{IpAddr, SocketAddr};
 use std::process::{Command, Stdio};
 use std::sync::atomic::AtomicBool;
@@ -14,6 +12,8 @@ use std::sync::Arc;
 use std::time::Duration;
 use vps_cluster::{ClusterReport, GatherConfig, Relay, RelayConfig, RelayStats};
 use vps_haptic::Wrench;
+use vps_testkit::cluster::*;
+use vps_testkit::process::Children;
 
 const WORKERS: usize = 2;
 

@@ -4,11 +4,11 @@
 //! the one-process run. The coordinator runs in this test process (the same library code as
 //! `vps coordinator`) so that every write can be logged.
 
-use vps_testkit::cluster::*;
-use vps_testkit::process::Children;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use vps_cluster::GatherConfig;
+use vps_testkit::cluster::*;
+use vps_testkit::process::Children;
 
 const SESSION_FRAMES: u64 = 600;
 const KILL_AT: u64 = 100;

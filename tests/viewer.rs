@@ -14,8 +14,8 @@ use std::net::SocketAddr;
 use std::path::Path;
 use std::process::Stdio;
 use std::time::Duration;
-use vps_view::browser::{canvas_content, wait_for, Browser, Running, CHROMIUM};
 use vps_testkit::process::{spawn_until_line, stderr, Vps};
+use vps_view::browser::{canvas_content, wait_for, Browser, Running, CHROMIUM};
 use vps_view::client::http_get;
 const HTTP_TIMEOUT: Duration = Duration::from_secs(5);
 

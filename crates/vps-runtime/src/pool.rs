@@ -298,11 +298,11 @@ impl<L: VoxelLookup + Send + Sync + 'static> Drop for ClassPool<L> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use vps_testkit::scene::wall;
-    use vps_testkit::shell::sphere_shell;
     use glam::{DQuat, DVec3};
     use std::time::Duration;
     use vps_haptic::{sample_all, PartState};
+    use vps_testkit::scene::wall;
+    use vps_testkit::shell::sphere_shell;
 
     #[test]
     fn shares_partition_the_classes_cyclically() {

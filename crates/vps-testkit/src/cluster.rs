@@ -33,9 +33,7 @@ pub const FRAMES: u64 = 400;
 
 /// The wall as a tree and a 600-point sphere shell in [`CLASSES`] classes.
 pub fn scene() -> Arc<ClusterScene> {
-    Arc::new(
-        ClusterScene::new(Arc::new(wall_tree()), &sphere_shell(600), CLASSES).expect("scene"),
-    )
+    Arc::new(ClusterScene::new(Arc::new(wall_tree()), &sphere_shell(600), CLASSES).expect("scene"))
 }
 
 /// A coordinator on loopback serving [`scene`], with fresh certificates written to `dir` and

@@ -121,7 +121,10 @@ pub fn spawn_until_line(
     marker: &str,
     patience: Duration,
 ) -> (Child, String) {
-    let mut child = cmd.stderr(Stdio::piped()).spawn().expect("the child starts");
+    let mut child = cmd
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the child starts");
     let stderr = child.stderr.take().expect("piped stderr");
     let (tx, rx) = mpsc::channel();
     let (label, marker) = (label.to_string(), marker.to_string());

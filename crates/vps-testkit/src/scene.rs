@@ -1,7 +1,7 @@
 //! Hand-made voxmaps.
 
 use glam::{DVec3, IVec3};
-use vps_voxmap::{DenseGrid, GridSpec, TreeConfig, VoxelTree, Voxel};
+use vps_voxmap::{DenseGrid, GridSpec, TreeConfig, Voxel, VoxelTree};
 
 /// Voxel size of the test wall (m).
 pub const VOXEL: f64 = 0.005;

@@ -7,9 +7,9 @@ use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
+use vps_testkit::scene::empty_cm_grid;
 use vps_view::client::{http_get, http_get_as, Headers, WsClient};
 use vps_view::{SceneLimits, ServerLimits, ViewerHandle, ViewerScene, ViewerServer};
-use vps_testkit::scene::empty_cm_grid;
 use vps_voxmap::{TreeConfig, VoxelTree};
 
 const TIMEOUT: Duration = Duration::from_secs(5);

@@ -7,9 +7,9 @@ use std::sync::Arc;
 use std::time::Duration;
 use vps_haptic::Wrench;
 use vps_runtime::{state_feed, FeedFrame, StateFeedSender};
+use vps_testkit::scene::empty_cm_grid;
 use vps_view::client::{http_get, masked_frame, WsClient};
 use vps_view::{SceneLimits, ViewerHandle, ViewerScene, ViewerServer};
-use vps_testkit::scene::empty_cm_grid;
 use vps_voxmap::{MassProperties, PointShell, TreeConfig, Voxel, VoxelTree};
 
 const TIMEOUT: Duration = Duration::from_secs(5);

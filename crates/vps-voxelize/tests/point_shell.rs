@@ -3,11 +3,11 @@
 use glam::{DQuat, DVec3};
 use vps_mesh::builtin::{cuboid, uv_sphere};
 use vps_mesh::TriMesh;
-use vps_voxmap::PointShell;
 use vps_voxelize::shell::morton_key;
 use vps_voxelize::{
     grid_for, is_closed_and_oriented, mass_properties, point_shell, ShellMethod, VoxelizeOptions,
 };
+use vps_voxmap::PointShell;
 
 const S: f64 = 0.005;
 

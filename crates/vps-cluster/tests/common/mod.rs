@@ -11,9 +11,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
-use vps_cluster::{RemoteShares,
-    run_worker_until, ClusterError, ClusterScene, Coordinator, CoordinatorConfig, TlsIdentity,
-    WorkerConfig, WorkerReport,
+use vps_cluster::{
+    run_worker_until, ClusterError, ClusterScene, Coordinator, CoordinatorConfig, RemoteShares,
+    TlsIdentity, WorkerConfig, WorkerReport,
 };
 
 pub struct Identities {
