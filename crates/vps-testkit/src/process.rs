@@ -127,11 +127,11 @@ pub fn spawn_until_line(
         .expect("the child starts");
     let stderr = child.stderr.take().expect("piped stderr");
     let (tx, rx) = mpsc::channel();
-    let (label, marker) = (label.to_string(), marker.to_string());
+    let (label, wanted) = (label.to_string(), marker.to_string());
     std::thread::spawn(move || {
         let mut tx = Some(tx);
         for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-            if let Some(rest) = line.split(&marker).nth(1) {
+            if let Some(rest) = line.split(&wanted).nth(1) {
                 if let Some(tx) = tx.take() {
                     let _ = tx.send(rest.trim().to_string());
                 }
