@@ -4,7 +4,6 @@
 mod common;
 
 use common::*;
-use std::time::Duration;
 use vps_cluster::GatherConfig;
 use vps_haptic::Wrench;
 

@@ -5,6 +5,7 @@
 pub use vps_testkit::cluster::*;
 
 use vps_haptic::{sample_all, KernelPose};
+use vps_runtime::FrameSampler;
 
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
