@@ -14,6 +14,7 @@ use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
+use vps_testkit::process::spawn_until_line;
 
 /// The session is long enough for both examples (3 s each) plus their start-up on a loaded
 /// machine; the examples run back to back after the bridge is listening.

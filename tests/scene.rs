@@ -193,7 +193,7 @@ fn two_local_workers_replay_the_scene_bit_identically() {
 fn the_voxmap_cache_is_used_and_rebuilt_when_an_input_changes() {
     let bay = bay();
     let scene = bay.path("bay.toml");
-    let start = |bay: &Bay| {
+    let start = |bay: &Vps| {
         let out = bay.run(&["run", "--scene", &scene, "--seconds", "0.1", "--json"]);
         assert!(out.status.success(), "{}", stderr(&out));
         stderr(&out)
