@@ -51,17 +51,6 @@ pub fn fill_layer(grid: &mut DenseGrid, k: i32, kind: Voxel) {
     }
 }
 
-/// Sets every voxel in `[lo, hi)` (clipped to the grid) to `kind`.
-pub fn fill_box(grid: &mut DenseGrid, lo: IVec3, hi: IVec3, kind: Voxel) {
-    for z in lo.z..hi.z {
-        for y in lo.y..hi.y {
-            for x in lo.x..hi.x {
-                grid.set(IVec3::new(x, y, z), kind);
-            }
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
