@@ -11,8 +11,8 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 use vps_cluster::{
-    local_cluster_certs, run_coordinator_session, spawn_local_workers, ClusterReport, ClusterAssets,
-    Coordinator, CoordinatorConfig, GatherConfig, LocalWorkerArgs,
+    local_cluster_certs, run_coordinator_session, spawn_local_workers, ClusterAssets,
+    ClusterReport, Coordinator, CoordinatorConfig, GatherConfig, LocalWorkerArgs,
 };
 use vps_runtime::{LoopReport, SignalStop};
 use vps_session::CLASS_COUNT;

@@ -1,18 +1,17 @@
 //! Resources and parameters a user names are bounded, with errors that name the flag or the file
 //! and key, and the allowed range (issue 15, finding 6).
 
-use std::process::{Command, Output};
+use vps_testkit::process::{stderr, Vps};
 
-fn vps(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vps"))
-        .args(args)
-        .output()
-        .expect("run vps")
+fn sandbox() -> Vps {
+    Vps::new(env!("CARGO_BIN_EXE_vps"))
 }
 
+/// Runs `vps ARGS` in a fresh sandbox; asserts that it fails, without a panic, naming each of
+/// `wants` on stderr.
 fn refused(args: &[&str], wants: &[&str]) {
-    let out = vps(args);
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let out = sandbox().run(args);
+    let stderr = stderr(&out);
     assert!(
         matches!(out.status.code(), Some(c) if c != 0),
         "{args:?} accepted: {stderr}"
@@ -70,20 +69,17 @@ fn session_lengths_must_be_finite_and_positive() {
 
 #[test]
 fn haptic_files_name_the_file_the_key_and_the_range() {
-    let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("weak.toml");
-    std::fs::write(&file, "k_ff = 1e-300\n").unwrap();
-    let path = file.to_str().unwrap();
-    refused(
-        &["run", "--haptic", path],
-        &[path, "k_ff", "[1e0, 1e9] N/m"],
-    );
-
-    let file = dir.path().join("slow.toml");
-    std::fs::write(&file, "dt = 0.002\n").unwrap();
-    let path = file.to_str().unwrap();
-    refused(
-        &["run", "--haptic", path],
-        &[path, "`dt` = 0.002", "must be 0.001 s"],
-    );
+    let vps = sandbox();
+    for (name, text, wants) in [
+        ("weak.toml", "k_ff = 1e-300\n", ["k_ff", "[1e0, 1e9] N/m"]),
+        (
+            "slow.toml",
+            "dt = 0.002\n",
+            ["`dt` = 0.002", "must be 0.001 s"],
+        ),
+    ] {
+        let path = vps.path(name);
+        std::fs::write(&path, text).unwrap();
+        refused(&["run", "--haptic", &path], &[&path, wants[0], wants[1]]);
+    }
 }

@@ -10,12 +10,11 @@
 //! asserts on timing: N counts wrenches, and the examples pace to absolute deadlines.
 
 use std::collections::HashMap;
-use std::io::{BufRead, BufReader};
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::sync::mpsc;
 use std::time::Duration;
+use vps_testkit::process::spawn_until_line;
 
 /// The session is long enough for both examples (3 s each) plus their start-up on a loaded
 /// machine; the examples run back to back after the bridge is listening.
@@ -26,6 +25,12 @@ const MIN_WRENCHES: u64 = 2500;
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The voxmap cache of the sessions started here: inside the build's target directory, never the
+/// user's cache.
+fn cache_dir() -> PathBuf {
+    Path::new(env!("CARGO_TARGET_TMPDIR")).join("vps-cache")
 }
 
 fn available(tool: &str) -> bool {
@@ -59,28 +64,12 @@ fn start_vps(log: &Path) -> (Child, SocketAddr) {
 
 /// Starts `vps ARGS` (a session on the bridge); returns the child and the bridge's address.
 fn start_vps_with(args: &[&str]) -> (Child, SocketAddr) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_vps"))
-        .args(args)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("vps starts");
-    let stderr = child.stderr.take().unwrap();
-    let (tx, rx) = mpsc::channel();
-    std::thread::spawn(move || {
-        let mut tx = Some(tx);
-        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-            if let Some(addr) = line.strip_prefix("device bridge listening on ") {
-                if let Some(tx) = tx.take() {
-                    let _ = tx.send(addr.trim().to_string());
-                }
-            }
-            eprintln!("vps: {line}");
-        }
-    });
-    let addr = rx
-        .recv_timeout(STARTUP_DEADLINE)
-        .expect("vps printed the bridge address");
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_vps"));
+    cmd.args(args)
+        .env("VPS_CACHE_DIR", cache_dir())
+        .stdout(Stdio::piped());
+    let (child, addr) =
+        spawn_until_line(cmd, "vps", "device bridge listening on ", STARTUP_DEADLINE);
     (child, addr.parse().expect("a socket address"))
 }
 
@@ -206,6 +195,7 @@ fn c_and_python_clients_decode_exactly_what_vps_sends() {
 fn bridge_flags_are_checked_with_clear_messages() {
     let run = |args: &[&str]| {
         let out = Command::new(env!("CARGO_BIN_EXE_vps"))
+            .env("VPS_CACHE_DIR", cache_dir())
             .args(["run", "--voxel-size", "10mm", "--seconds", "0.01"])
             .args(args)
             .output()

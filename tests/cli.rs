@@ -1,33 +1,18 @@
 //! End-to-end tests of the `vps` binary: real files, real processes.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use vps_testkit::process::{json, Vps};
 
-fn vps(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vps"))
-        .args(args)
-        .output()
-        .expect("vps runs")
-}
-
-fn json(out: &Output) -> serde_json::Value {
-    assert!(
-        out.status.success(),
-        "vps failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("valid JSON on stdout")
-}
-
-fn path(dir: &Path, name: &str) -> String {
-    dir.join(name).display().to_string()
+/// The binary with a temporary directory and a private cache (`VPS_CACHE_DIR`).
+fn sandbox() -> Vps {
+    Vps::new(env!("CARGO_BIN_EXE_vps"))
 }
 
 #[test]
 fn voxelize_inspect_probe_round_trip_on_builtin_sphere() {
-    let dir = tempfile::tempdir().unwrap();
-    let vmap = path(dir.path(), "sphere.vmap");
-    let made = json(&vps(&[
+    let vps = sandbox();
+    let vmap = vps.path("sphere.vmap");
+    let made = json(&vps.run(&[
         "voxelize",
         "builtin:sphere",
         "--voxel-size",
@@ -36,7 +21,7 @@ fn voxelize_inspect_probe_round_trip_on_builtin_sphere() {
         &vmap,
         "--json",
     ]));
-    let info = json(&vps(&["inspect", &vmap, "--json"]));
+    let info = json(&vps.run(&["inspect", &vmap, "--json"]));
     assert_eq!(
         made["hash"], info["hash"],
         "hash survives the file round trip"
@@ -46,9 +31,9 @@ fn voxelize_inspect_probe_round_trip_on_builtin_sphere() {
     assert!(info["counts"]["surface"].as_u64().unwrap() > 0);
 
     // The built-in sphere has radius 0.05 m and is centred at the origin.
-    let csv = path(dir.path(), "points.csv");
+    let csv = vps.path("points.csv");
     std::fs::write(&csv, "# x,y,z\n0,0,0\n1,1,1\n0.2,0,0\n").unwrap();
-    let kinds = json(&vps(&["probe", &vmap, "--points", &csv, "--json"]));
+    let kinds = json(&vps.run(&["probe", &vmap, "--points", &csv, "--json"]));
     let kinds: Vec<&str> = kinds
         .as_array()
         .unwrap()
@@ -60,58 +45,52 @@ fn voxelize_inspect_probe_round_trip_on_builtin_sphere() {
 
 #[test]
 fn corrupted_voxmap_is_a_clear_error_not_a_panic() {
-    let dir = tempfile::tempdir().unwrap();
-    let vmap = path(dir.path(), "box.vmap");
-    assert!(vps(&[
-        "voxelize",
-        "builtin:box",
-        "--voxel-size",
-        "10mm",
-        "-o",
-        &vmap
-    ])
-    .status
-    .success());
+    let vps = sandbox();
+    let vmap = vps.path("box.vmap");
+    assert!(vps
+        .run(&[
+            "voxelize",
+            "builtin:box",
+            "--voxel-size",
+            "10mm",
+            "-o",
+            &vmap
+        ])
+        .status
+        .success());
     let mut bytes = std::fs::read(&vmap).unwrap();
     let mid = bytes.len() / 2;
     bytes[mid] ^= 0x5a;
     std::fs::write(&vmap, &bytes).unwrap();
-    let out = vps(&["inspect", &vmap]);
+    let out = vps.run(&["inspect", &vmap]);
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("box.vmap"), "error names the file: {err}");
     assert!(!err.contains("panicked"), "{err}");
 
     std::fs::write(&vmap, &bytes[..20]).unwrap();
-    let out = vps(&["inspect", &vmap]);
+    let out = vps.run(&["inspect", &vmap]);
     assert_eq!(out.status.code(), Some(1));
     assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"));
 }
 
 #[test]
 fn bad_arguments_are_rejected_with_a_message() {
-    let out = vps(&[
-        "voxelize",
-        "builtin:box",
-        "--voxel-size=-5mm",
-        "-o",
-        "/tmp/x.vmap",
-    ]);
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("positive"));
-    let out = vps(&["voxelize", "builtin:nope", "-o", "/tmp/x.vmap"]);
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("unknown built-in scene"));
-    let out = vps(&["voxelize", "/nonexistent/part.obj", "-o", "/tmp/x.vmap"]);
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/part.obj"));
+    let vps = sandbox();
+    let out = vps.path("x.vmap");
+    let err = vps.fails(&["voxelize", "builtin:box", "--voxel-size=-5mm", "-o", &out]);
+    assert!(err.contains("positive"), "{err}");
+    let err = vps.fails(&["voxelize", "builtin:nope", "-o", &out]);
+    assert!(err.contains("unknown built-in scene"), "{err}");
+    let err = vps.fails(&["voxelize", "/nonexistent/part.obj", "-o", &out]);
+    assert!(err.contains("/nonexistent/part.obj"), "{err}");
 }
 
 #[test]
 fn shell_file_round_trip() {
-    let dir = tempfile::tempdir().unwrap();
-    let shell = path(dir.path(), "teapot.vshell");
-    let made = json(&vps(&[
+    let vps = sandbox();
+    let shell = vps.path("teapot.vshell");
+    let made = json(&vps.run(&[
         "shell",
         "builtin:teapot",
         "--voxel-size",
@@ -120,32 +99,25 @@ fn shell_file_round_trip() {
         &shell,
         "--json",
     ]));
-    let info = json(&vps(&["inspect", &shell, "--json"]));
+    let info = json(&vps.run(&["inspect", &shell, "--json"]));
     assert_eq!(made["points"], info["points"]);
     assert!(info["points"].as_u64().unwrap() > 100);
 }
 
 #[test]
 fn record_then_replay_reproduces_the_session_exactly() {
-    let dir = tempfile::tempdir().unwrap();
-    let trace = path(dir.path(), "session.jsonl");
+    let vps = sandbox();
+    let trace = vps.path("session.jsonl");
     // The recorded session itself: a paced run may skip ticks on a loaded machine, so compare the
     // replay with this very run, not with another paced run.
-    let recorded = json(&vps(&[
-        "run",
-        "--seconds",
-        "1",
-        "--record",
-        &trace,
-        "--json",
-    ]));
-    let replayed = json(&vps(&["replay", &trace, "--json"]));
+    let recorded = json(&vps.run(&["run", "--seconds", "1", "--record", &trace, "--json"]));
+    let replayed = json(&vps.run(&["replay", &trace, "--json"]));
     assert_eq!(replayed["stats"]["frames"], 1000);
     assert_eq!(
         replayed["final_position_m"], recorded["final_position_m"],
         "replay is bit-exact"
     );
-    let out = vps(&["record", "-o", &trace, "--seconds", "1"]);
+    let out = vps.run(&["record", "-o", &trace, "--seconds", "1"]);
     assert!(
         out.status.success(),
         "{}",
@@ -153,7 +125,7 @@ fn record_then_replay_reproduces_the_session_exactly() {
     );
 
     std::fs::write(&trace, "{\"not\": \"a trace\"}\n").unwrap();
-    let out = vps(&["replay", &trace]);
+    let out = vps.run(&["replay", &trace]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -164,7 +136,8 @@ fn record_then_replay_reproduces_the_session_exactly() {
 
 #[test]
 fn devices_lists_or_says_there_are_none() {
-    let out = vps(&["devices"]);
+    let vps = sandbox();
+    let out = vps.run(&["devices"]);
     assert!(
         out.status.success(),
         "{}",
@@ -183,15 +156,16 @@ fn devices_lists_or_says_there_are_none() {
 /// they are on a loaded machine.
 #[test]
 fn two_local_worker_processes_reproduce_the_one_process_session() {
-    let dir = tempfile::tempdir().unwrap();
-    let trace = path(dir.path(), "session.jsonl");
-    assert!(vps(&["record", "-o", &trace, "--seconds", "1"])
+    let vps = sandbox();
+    let trace = vps.path("session.jsonl");
+    assert!(vps
+        .run(&["record", "-o", &trace, "--seconds", "1"])
         .status
         .success());
-    let alone = json(&vps(&["replay", &trace, "--json"]));
+    let alone = json(&vps.run(&["replay", &trace, "--json"]));
     let device = format!("replay:{trace}");
     // No stale stand-ins: the wrench must not depend on how late a worker is on this machine.
-    let clustered = json(&vps(&[
+    let clustered = json(&vps.run(&[
         "cluster",
         "--local-workers",
         "2",
@@ -211,14 +185,8 @@ fn two_local_worker_processes_reproduce_the_one_process_session() {
 
 #[test]
 fn bench_host_counts_ticks_and_rejects_bad_arguments() {
-    let report = json(&vps(&[
-        "bench",
-        "host",
-        "--seconds",
-        "0.2",
-        "--busy-us",
-        "100",
-    ]));
+    let vps = sandbox();
+    let report = json(&vps.run(&["bench", "host", "--seconds", "0.2", "--busy-us", "100"]));
     // 200 ticks of 1 ms; a stalled machine may start the last one after the end and skip it.
     let ticks = report["ticks"].as_u64().unwrap();
     assert!((190..=200).contains(&ticks), "{ticks} ticks");
@@ -234,9 +202,7 @@ fn bench_host_counts_ticks_and_rejects_bad_arguments() {
         ("--seconds=NaN", "--seconds"),
         ("--busy-us=1000", "--busy-us"),
     ] {
-        let out = vps(&["bench", "host", bad]);
-        assert!(!out.status.success(), "{bad} accepted");
-        let stderr = String::from_utf8_lossy(&out.stderr);
+        let stderr = vps.fails(&["bench", "host", bad]);
         assert!(stderr.contains(field), "{bad}: {stderr}");
     }
 }
@@ -245,14 +211,8 @@ fn bench_host_counts_ticks_and_rejects_bad_arguments() {
 /// slides; bad arguments are errors naming the flag.
 #[test]
 fn bench_fidelity_reports_every_setting_and_rejects_bad_arguments() {
-    let report = json(&vps(&[
-        "bench",
-        "fidelity",
-        "--voxel-sizes",
-        "5mm",
-        "--poses",
-        "1",
-    ]));
+    let vps = sandbox();
+    let report = json(&vps.run(&["bench", "fidelity", "--voxel-sizes", "5mm", "--poses", "1"]));
     let rows = report["rows"].as_array().expect("rows");
     assert_eq!(rows.len(), 6, "2/4/8 bits × centres/exact");
     for row in rows {
@@ -266,42 +226,33 @@ fn bench_fidelity_reports_every_setting_and_rejects_bad_arguments() {
         (["--poses", "0"], "--poses"),
         (["--voxel-sizes", "50mm"], "--voxel-sizes"),
     ] {
-        let out = vps(&["bench", "fidelity", bad[0], bad[1]]);
-        assert!(!out.status.success(), "{bad:?} accepted");
-        let stderr = String::from_utf8_lossy(&out.stderr);
+        let stderr = vps.fails(&["bench", "fidelity", bad[0], bad[1]]);
         assert!(stderr.contains(field), "{bad:?}: {stderr}");
     }
 }
 
 #[test]
 fn the_service_config_files_are_read_checked_and_overridden_by_flags() {
-    let dir = tempfile::tempdir().unwrap();
+    let vps = sandbox();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     // The committed worker file loads; --cert given on the command line replaces the file's, so
     // the worker fails reading that certificate (before any network).
-    let missing = dir.path().join("flag.crt");
-    let out = vps(&[
+    let missing = vps.dir().join("flag.crt");
+    let stderr = vps.fails(&[
         "worker",
         "--config",
         root.join("configs/worker.toml").to_str().unwrap(),
         "--cert",
         missing.to_str().unwrap(),
     ]);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        !out.status.success() && stderr.contains("flag.crt") && !stderr.contains("panicked"),
-        "{stderr}"
-    );
+    assert!(stderr.contains("flag.crt"), "{stderr}");
     // An unknown key is refused, naming the file and the key.
     for role in ["coordinator", "worker"] {
-        let config = dir.path().join(format!("bad-{role}.toml"));
+        let config = vps.dir().join(format!("bad-{role}.toml"));
         std::fs::write(&config, "threads = 1\nspin_usec = 100\n").unwrap();
-        let out = vps(&[role, "--config", config.to_str().unwrap()]);
-        let stderr = String::from_utf8_lossy(&out.stderr);
+        let stderr = vps.fails(&[role, "--config", config.to_str().unwrap()]);
         assert!(
-            !out.status.success()
-                && stderr.contains(&format!("bad-{role}.toml"))
-                && stderr.contains("spin_usec"),
+            stderr.contains(&format!("bad-{role}.toml")) && stderr.contains("spin_usec"),
             "{role}: {stderr}"
         );
     }

@@ -5,31 +5,18 @@
 //! root with `ip netns` (skipped with a message otherwise). Lost requests and replies only move shares to the local fallback: no device
 //! write is missed and every write is bit-identical, frame by frame, to the one-process run.
 
-#[path = "../crates/vps-cluster/tests/common/fixtures.rs"]
-mod fixtures;
-
-use fixtures::*;
 use std::net::{IpAddr, SocketAddr};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
-use vps_cluster::{ClusterReport, GatherConfig, LocalWorkerArgs};
+use vps_cluster::{ClusterReport, GatherConfig};
 use vps_haptic::Wrench;
 use vps_netem::{Relay, RelayConfig, RelayStats};
+use vps_testkit::cluster::*;
+use vps_testkit::process::Children;
 
 const WORKERS: usize = 2;
-
-struct Children(Vec<Child>);
-
-impl Drop for Children {
-    fn drop(&mut self) {
-        for child in &mut self.0 {
-            let _ = child.kill();
-            let _ = child.wait();
-        }
-    }
-}
 
 /// Where one worker runs: the relay address it dials, and the command prefix that starts it
 /// on its host (empty: this one; `ip netns exec NS`: a namespace).
@@ -59,14 +46,8 @@ fn session_behind_relay(
             .iter()
             .enumerate()
             .map(|(k, host)| {
-                let args = LocalWorkerArgs {
-                    coordinator: SocketAddr::new(host.relay_ip, relay.local_addr().port()),
-                    cert: certs.workers[k].cert.clone(),
-                    key: certs.workers[k].key.clone(),
-                    pins: vec![certs.coordinator.cert.clone()],
-                    cache_dir: None,
-                    threads: Some(1),
-                };
+                let relay_addr = SocketAddr::new(host.relay_ip, relay.local_addr().port());
+                let args = worker_args(relay_addr, &certs, k, None);
                 let mut cmd = match host.launcher.split_first() {
                     Some((program, prefix)) => {
                         let mut cmd = Command::new(program);
@@ -87,7 +68,7 @@ fn session_behind_relay(
         .wait_for_workers(hosts.len(), Duration::from_secs(30))
         .unwrap();
     let (device, writes) = hand(0, Arc::new(AtomicBool::new(false)));
-    let (report, cluster) = exact_cluster_session(
+    let (_, cluster) = exact_cluster_session(
         &coordinator,
         GatherConfig {
             log_every: None,
@@ -96,8 +77,6 @@ fn session_behind_relay(
         device,
         FRAMES,
     );
-    assert_eq!(report.stats.frames, FRAMES);
-    assert_eq!(report.stats.watchdog_trips, 0);
     let relay_stats = relay.stop();
     let writes = writes.lock().unwrap().clone();
     (writes, cluster, relay_stats)

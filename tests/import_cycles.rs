@@ -738,11 +738,8 @@ fn workspace_edges(ws: &Path) -> (Vec<Edge>, usize) {
     (edges, files)
 }
 
-// Ignored on this branch only: the cluster crate's and the CLI's circles are being removed on other
-// branches in parallel; the merge un-ignores this test. Run it with
-// `cargo test --test import_cycles -- --include-ignored`.
+/// No file of the workspace imports itself through others: the test fails listing each circle.
 #[test]
-#[ignore = "cluster and CLI circles are removed on other branches; the merge un-ignores this"]
 fn no_file_imports_itself_through_others() {
     let ws = Path::new(env!("CARGO_MANIFEST_DIR"));
     let (edges, files) = workspace_edges(ws);

@@ -13,6 +13,7 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 use vps_haptic::{HandleSample, Wrench};
 use vps_input::BridgeClient;
+use vps_testkit::process::spawn_until_line;
 
 /// Bounds every wait (scene build, contact, exit); never reached when all is well.
 const DEADLINE: Duration = Duration::from_secs(240);
@@ -27,38 +28,33 @@ impl Drop for Vps {
     }
 }
 
+/// `vps` with its voxmap cache inside the build's target directory, never the user's cache.
+fn vps() -> Command {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_vps"));
+    cmd.env(
+        "VPS_CACHE_DIR",
+        std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("vps-cache"),
+    );
+    cmd
+}
+
 /// Starts `vps run` on the bridge (port 0) for `seconds` and returns it with the bridge's
 /// address, read from its stderr.
 fn start_bridge_session(report: &std::path::Path, seconds: &str) -> (Vps, SocketAddr) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_vps"))
-        .args([
-            "run",
-            "--device",
-            "bridge:127.0.0.1:0",
-            "--seconds",
-            seconds,
-            "--report",
-        ])
-        .arg(report)
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start vps run");
-    let stderr = child.stderr.take().unwrap();
-    let (tx, rx) = mpsc::channel();
-    std::thread::spawn(move || {
-        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-            if let Some(addr) = line.strip_prefix("device bridge listening on ") {
-                let _ = tx.send(addr.trim().parse::<SocketAddr>().unwrap());
-            }
-            eprintln!("[vps] {line}");
-        }
-    });
-    let addr = rx
-        .recv_timeout(DEADLINE)
-        .expect("the bridge address on stderr");
-    (Vps(child), addr)
+    let mut cmd = vps();
+    cmd.args([
+        "run",
+        "--device",
+        "bridge:127.0.0.1:0",
+        "--seconds",
+        seconds,
+        "--report",
+    ])
+    .arg(report)
+    .stdin(Stdio::null())
+    .stdout(Stdio::null());
+    let (child, addr) = spawn_until_line(cmd, "vps", "device bridge listening on ", DEADLINE);
+    (Vps(child), addr.parse().expect("a socket address"))
 }
 
 fn handle_at(position: DVec3) -> HandleSample {
@@ -169,7 +165,7 @@ fn sigint_leaves_zero_force_on_the_device_and_a_partial_report() {
 /// is 130 (the demo's handlers are installed before the announcement).
 #[test]
 fn a_demo_stopped_by_sigint_prints_its_partial_session_and_exits_130() {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_vps"))
+    let mut child = vps()
         .args(["demo", "--seconds", "600"])
         .stdin(Stdio::null())
         .stdout(Stdio::piped())

@@ -2,8 +2,8 @@
 //! millimetres, one object rotated and translated) runs with the simulated hand, on one process
 //! and on two local workers; the voxmap cache; bad scene files.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use vps_testkit::process::{json, stderr, Vps};
 
 /// Corners of an axis-aligned box and its 12 triangles, wound outward.
 fn cuboid(min: [f64; 3], max: [f64; 3]) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
@@ -99,69 +99,31 @@ speed = 0.08
 hold_s = 0.3
 "#;
 
-struct Bay {
-    dir: tempfile::TempDir,
-    cache: PathBuf,
-}
-
-impl Bay {
-    fn new() -> Bay {
-        let dir = tempfile::tempdir().unwrap();
-        write_obj(
-            &dir.path().join("floor.obj"),
-            [-100.0, -100.0, -10.0],
-            [100.0, 100.0, 0.0],
-        );
-        write_stl(
-            &dir.path().join("wall.stl"),
-            [0.0, 0.0, 0.0],
-            [200.0, 10.0, 60.0],
-        );
-        write_stl(
-            &dir.path().join("part.stl"),
-            [-15.0, -15.0, -15.0],
-            [15.0, 15.0, 15.0],
-        );
-        std::fs::write(dir.path().join("bay.toml"), SCENE).unwrap();
-        let cache = dir.path().join("cache");
-        Bay { dir, cache }
-    }
-
-    fn scene(&self) -> String {
-        self.path("bay.toml")
-    }
-
-    fn path(&self, name: &str) -> String {
-        self.dir.path().join(name).display().to_string()
-    }
-
-    fn vps(&self, args: &[&str]) -> Output {
-        Command::new(env!("CARGO_BIN_EXE_vps"))
-            .args(args)
-            .env("VPS_CACHE_DIR", &self.cache)
-            .output()
-            .expect("vps runs")
-    }
-}
-
-fn json(out: &Output) -> serde_json::Value {
-    assert!(
-        out.status.success(),
-        "vps failed: {}",
-        String::from_utf8_lossy(&out.stderr)
+/// A sandbox holding the bay: `floor.obj`, `wall.stl` and `part.stl` (in millimetres) and the
+/// scene file `bay.toml` that uses them.
+fn bay() -> Vps {
+    let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
+    let dir = vps.dir();
+    write_obj(
+        &dir.join("floor.obj"),
+        [-100.0, -100.0, -10.0],
+        [100.0, 100.0, 0.0],
     );
-    serde_json::from_slice(&out.stdout).expect("valid JSON on stdout")
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
+    write_stl(&dir.join("wall.stl"), [0.0, 0.0, 0.0], [200.0, 10.0, 60.0]);
+    write_stl(
+        &dir.join("part.stl"),
+        [-15.0, -15.0, -15.0],
+        [15.0, 15.0, 15.0],
+    );
+    std::fs::write(dir.join("bay.toml"), SCENE).unwrap();
+    vps
 }
 
 #[test]
 fn a_scene_of_mesh_files_runs_touching_without_penetrating() {
-    let bay = Bay::new();
-    let scene = bay.scene();
-    let report = json(&bay.vps(&["run", "--scene", &scene, "--seconds", "5", "--json"]));
+    let bay = bay();
+    let scene = bay.path("bay.toml");
+    let report = json(&bay.run(&["run", "--scene", &scene, "--seconds", "5", "--json"]));
     let stats = &report["stats"];
     assert_eq!(stats["frames"], 5000, "{report}");
     assert!(
@@ -172,7 +134,7 @@ fn a_scene_of_mesh_files_runs_touching_without_penetrating() {
     assert_eq!(report["end"], "frames done", "{report}");
     assert_eq!(report["complete"], true, "{report}");
 
-    let check = json(&bay.vps(&["scene", "check", &scene, "--json"]));
+    let check = json(&bay.run(&["scene", "check", &scene, "--json"]));
     assert_eq!(check["objects"].as_array().unwrap().len(), 3);
     assert_eq!(check["objects"][0]["triangles"], 12);
     // The rotated wall (x 0.09..0.1 m after rotation and translation), in metres.
@@ -194,14 +156,14 @@ fn a_scene_of_mesh_files_runs_touching_without_penetrating() {
 /// same wrenches as one process: the final state, which integrates every wrench, is bit-identical.
 #[test]
 fn two_local_workers_replay_the_scene_bit_identically() {
-    let bay = Bay::new();
-    let scene = bay.scene();
+    let bay = bay();
+    let scene = bay.path("bay.toml");
     let trace = bay.path("trace.jsonl");
-    let recorded = bay.vps(&["record", "--scene", &scene, "-o", &trace, "--seconds", "2"]);
+    let recorded = bay.run(&["record", "--scene", &scene, "-o", &trace, "--seconds", "2"]);
     assert!(recorded.status.success(), "{}", stderr(&recorded));
     let device = format!("replay:{trace}");
-    let alone = json(&bay.vps(&["run", "--scene", &scene, "--device", &device, "--json"]));
-    let clustered = json(&bay.vps(&[
+    let alone = json(&bay.run(&["run", "--scene", &scene, "--device", &device, "--json"]));
+    let clustered = json(&bay.run(&[
         "cluster",
         "--local-workers",
         "2",
@@ -229,10 +191,10 @@ fn two_local_workers_replay_the_scene_bit_identically() {
 
 #[test]
 fn the_voxmap_cache_is_used_and_rebuilt_when_an_input_changes() {
-    let bay = Bay::new();
-    let scene = bay.scene();
-    let start = |bay: &Bay| {
-        let out = bay.vps(&["run", "--scene", &scene, "--seconds", "0.1", "--json"]);
+    let bay = bay();
+    let scene = bay.path("bay.toml");
+    let start = |bay: &Vps| {
+        let out = bay.run(&["run", "--scene", &scene, "--seconds", "0.1", "--json"]);
         assert!(out.status.success(), "{}", stderr(&out));
         stderr(&out)
     };
@@ -240,7 +202,7 @@ fn the_voxmap_cache_is_used_and_rebuilt_when_an_input_changes() {
     let again = start(&bay);
     assert!(again.contains("voxmap: loaded from cache"), "{again}");
     // One byte of a mesh file: the floor 1 mm thicker.
-    let floor = bay.dir.path().join("floor.obj");
+    let floor = bay.dir().join("floor.obj");
     let text = std::fs::read_to_string(&floor)
         .unwrap()
         .replace("-10", "-11");
@@ -249,13 +211,13 @@ fn the_voxmap_cache_is_used_and_rebuilt_when_an_input_changes() {
     assert!(start(&bay).contains("voxmap: loaded from cache"));
     // A voxel setting.
     std::fs::write(
-        bay.dir.path().join("bay.toml"),
+        bay.dir().join("bay.toml"),
         SCENE.replace("[voxels]", "[voxels]\noffset_layers = 1"),
     )
     .unwrap();
     assert!(start(&bay).contains("voxmap: built, cached at"));
     // A corrupt cache file is rebuilt, not fatal.
-    for entry in std::fs::read_dir(&bay.cache).unwrap() {
+    for entry in std::fs::read_dir(bay.cache()).unwrap() {
         std::fs::write(entry.unwrap().path(), b"not a voxmap").unwrap();
     }
     let rebuilt = start(&bay);
@@ -264,7 +226,7 @@ fn the_voxmap_cache_is_used_and_rebuilt_when_an_input_changes() {
         "{rebuilt}"
     );
     // --no-cache neither reads nor writes.
-    let out = bay.vps(&["run", "--scene", &scene, "--seconds", "0.1", "--no-cache"]);
+    let out = bay.run(&["run", "--scene", &scene, "--seconds", "0.1", "--no-cache"]);
     assert!(
         stderr(&out).contains("voxmap: built (cache off)"),
         "{}",
@@ -274,7 +236,7 @@ fn the_voxmap_cache_is_used_and_rebuilt_when_an_input_changes() {
 
 #[test]
 fn bad_scene_files_name_the_file_and_field_and_run_nothing() {
-    let bay = Bay::new();
+    let bay = bay();
     let cases = [
         (
             SCENE.replace("[voxels]", "[voxels]\nvoxel_sise = 0.005"),
@@ -328,8 +290,8 @@ fn bad_scene_files_name_the_file_and_field_and_run_nothing() {
     ];
     for (i, (text, field)) in cases.iter().enumerate() {
         let name = format!("bad{i}.toml");
-        std::fs::write(bay.dir.path().join(&name), text).unwrap();
-        let out = bay.vps(&[
+        std::fs::write(bay.dir().join(&name), text).unwrap();
+        let out = bay.run(&[
             "run",
             "--scene",
             &bay.path(&name),

@@ -4,34 +4,51 @@
 //! a partial table and exit status 143.
 
 use std::io::{BufRead, BufReader};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
+use vps_testkit::process::{stderr, Vps};
 
 const COLUMNS: &str = "scene,method,voxel_size_mm,voxel_width,default,default_size,voxelized,shell_points,voxmap_bytes,voxelize_ms,frames,compute_p50_us,compute_p999_us,penetration_ratio,compared_frames,both_force_frames,voxel_only_frames,reference_only_frames,direction_error_deg_p50,direction_error_deg_p95,magnitude_error_p50,magnitude_ratio_p50,min_separation_mm";
 
-fn vps() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_vps"))
+/// The rig-teapot scene file of the repository, as a TOML string (quoted, escaped).
+fn rig() -> String {
+    let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/scenes/rig-teapot.toml");
+    format!("{:?}", rig.display().to_string())
+}
+
+/// A sandbox holding `sweep.toml` with `text`, and that file's path.
+fn with_sweep_file(text: &str) -> (Vps, PathBuf) {
+    let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
+    let config = vps.dir().join("sweep.toml");
+    std::fs::write(&config, text).unwrap();
+    (vps, config)
+}
+
+/// Runs `vps sweep --quick --config CONFIG`, which must fail; returns its stderr.
+fn failed_sweep(vps: &Vps, config: &Path) -> String {
+    let out = vps
+        .cmd()
+        .args(["sweep", "--quick", "--config"])
+        .arg(config)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    stderr(&out)
 }
 
 #[test]
 fn quick_sweep_writes_json_csv_and_plots() {
-    let dir = tempfile::tempdir().unwrap();
-    let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/scenes/rig-teapot.toml");
-    let config = dir.path().join("sweep.toml");
-    std::fs::write(
-        &config,
-        format!(
-            "voxel_sizes_mm = [10.0, 5.0, 2.5]\nmethods = [\"centres\", \"exact\"]\nwidths = [2, 4]\n[[run]]\nscene = {:?}\nseconds = 1.0\n",
-            rig.display().to_string()
-        ),
-    )
-    .unwrap();
+    let (vps, config) = with_sweep_file(&format!(
+        "voxel_sizes_mm = [10.0, 5.0, 2.5]\nmethods = [\"centres\", \"exact\"]\nwidths = [2, 4]\n[[run]]\nscene = {}\nseconds = 1.0\n",
+        rig()
+    ));
     let (json, csv, plots) = (
-        dir.path().join("s.json"),
-        dir.path().join("s.csv"),
-        dir.path().join("plots"),
+        vps.dir().join("s.json"),
+        vps.dir().join("s.csv"),
+        vps.dir().join("plots"),
     );
-    let out = vps()
+    let out = vps
+        .cmd()
         .args(["sweep", "--quick", "--config"])
         .arg(&config)
         .arg("--json")
@@ -42,11 +59,7 @@ fn quick_sweep_writes_json_csv_and_plots() {
         .arg(&plots)
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(out.status.success(), "{}", stderr(&out));
     let csv = std::fs::read_to_string(&csv).unwrap();
     let mut lines = csv.lines();
     assert_eq!(lines.next().unwrap(), COLUMNS);
@@ -109,26 +122,15 @@ fn quick_sweep_writes_json_csv_and_plots() {
 
 #[test]
 fn bad_scene_file_names_the_field() {
-    let dir = tempfile::tempdir().unwrap();
+    let (vps, config) = with_sweep_file(
+        "voxel_sizes_mm = [10.0]\nmethods = [\"centres\"]\n[[run]]\nscene = \"bad.toml\"\n",
+    );
     let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/scenes/rig-teapot.toml");
-    let scene = dir.path().join("bad.toml");
     let text = std::fs::read_to_string(rig)
         .unwrap()
         .replace("offset_layers = 2", "offset_layers = 40");
-    std::fs::write(&scene, text).unwrap();
-    let config = dir.path().join("sweep.toml");
-    std::fs::write(
-        &config,
-        "voxel_sizes_mm = [10.0]\nmethods = [\"centres\"]\n[[run]]\nscene = \"bad.toml\"\n",
-    )
-    .unwrap();
-    let out = vps()
-        .args(["sweep", "--quick", "--config"])
-        .arg(&config)
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    std::fs::write(vps.dir().join("bad.toml"), text).unwrap();
+    let err = failed_sweep(&vps, &config);
     assert!(
         err.contains("bad.toml") && err.contains("voxels.offset_layers"),
         "{err}"
@@ -137,24 +139,11 @@ fn bad_scene_file_names_the_field() {
 
 #[test]
 fn bad_width_in_the_sweep_file_names_the_field() {
-    let dir = tempfile::tempdir().unwrap();
-    let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/scenes/rig-teapot.toml");
-    let config = dir.path().join("sweep.toml");
-    std::fs::write(
-        &config,
-        format!(
-            "voxel_sizes_mm = [10.0]\nmethods = [\"centres\"]\n[[run]]\nscene = {:?}\nwidths = [2, 3]\n",
-            rig.display().to_string()
-        ),
-    )
-    .unwrap();
-    let out = vps()
-        .args(["sweep", "--quick", "--config"])
-        .arg(&config)
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    let (vps, config) = with_sweep_file(&format!(
+        "voxel_sizes_mm = [10.0]\nmethods = [\"centres\"]\n[[run]]\nscene = {}\nwidths = [2, 3]\n",
+        rig()
+    ));
+    let err = failed_sweep(&vps, &config);
     assert!(
         err.contains("sweep.toml") && err.contains("run[0].widths[1]") && err.contains("2, 4 or 8"),
         "{err}"
@@ -165,19 +154,13 @@ fn bad_width_in_the_sweep_file_names_the_field() {
 /// `complete: false` with the reason, CSV ending in a `# partial:` line) and the status is 143.
 #[test]
 fn sigterm_writes_the_rows_done_as_a_partial_table() {
-    let dir = tempfile::tempdir().unwrap();
-    let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/scenes/rig-teapot.toml");
-    let config = dir.path().join("sweep.toml");
-    std::fs::write(
-        &config,
-        format!(
-            "voxel_sizes_mm = [10.0, 2.5]\nmethods = [\"centres\"]\nwidths = [2]\n[[run]]\nscene = {:?}\n",
-            rig.display().to_string()
-        ),
-    )
-    .unwrap();
-    let (json, csv) = (dir.path().join("s.json"), dir.path().join("s.csv"));
-    let mut child = vps()
+    let (vps, config) = with_sweep_file(&format!(
+        "voxel_sizes_mm = [10.0, 2.5]\nmethods = [\"centres\"]\nwidths = [2]\n[[run]]\nscene = {}\n",
+        rig()
+    ));
+    let (json, csv) = (vps.dir().join("s.json"), vps.dir().join("s.csv"));
+    let mut child = vps
+        .cmd()
         .args(["sweep", "--config"])
         .arg(&config)
         .arg("--json")

@@ -10,41 +10,23 @@
 //! then loads the page again with the 2D-canvas fallback forced and checks that view too.
 //! Every wait polls with a generous deadline, so a loaded machine makes it slower, not flaky.
 
-use std::io::{BufRead, BufReader};
 use std::net::SocketAddr;
 use std::path::Path;
-use std::process::{Command, Stdio};
-use std::sync::mpsc;
+use std::process::Stdio;
 use std::time::Duration;
+use vps_testkit::process::{spawn_until_line, stderr, Vps};
 use vps_view::browser::{canvas_content, wait_for, Browser, Running, CHROMIUM};
 use vps_view::client::http_get;
 const HTTP_TIMEOUT: Duration = Duration::from_secs(5);
 
-/// Starts `vps ARGS` and waits (up to `patience`) for the `viewer: http://ADDR/` line on stderr;
-/// the rest of stderr keeps being drained.
-fn start_with_viewer(args: &[&str], patience: Duration) -> (Running, SocketAddr) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_vps"))
-        .args(args)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("starting vps");
-    let stderr = child.stderr.take().unwrap();
-    let running = Running(child);
-    let (tx, rx) = mpsc::channel();
-    std::thread::spawn(move || {
-        for line in BufReader::new(stderr).split(b'\n').map_while(Result::ok) {
-            let line = String::from_utf8_lossy(&line).into_owned();
-            if let Some(rest) = line.split("viewer: http://").nth(1) {
-                let addr = rest.split('/').next().unwrap_or_default().to_string();
-                let _ = tx.send(addr);
-            }
-        }
-    });
-    let addr = rx
-        .recv_timeout(patience)
-        .unwrap_or_else(|_| panic!("vps {args:?} printed no viewer URL within {patience:?}"));
-    (running, addr.parse().expect("a socket address"))
+/// Starts `vps ARGS` (in `vps`'s sandbox) and waits (up to `patience`) for the
+/// `viewer: http://ADDR/` line on stderr; the rest of stderr keeps being drained.
+fn start_with_viewer(vps: &Vps, args: &[&str], patience: Duration) -> (Running, SocketAddr) {
+    let mut cmd = vps.cmd();
+    cmd.args(args).stdout(Stdio::null());
+    let (child, rest) = spawn_until_line(cmd, "vps", "viewer: http://", patience);
+    let addr = rest.split('/').next().unwrap_or_default();
+    (Running(child), addr.parse().expect("a socket address"))
 }
 
 fn state(addr: SocketAddr) -> serde_json::Value {
@@ -64,7 +46,9 @@ fn the_demo_is_watched_in_headless_chromium() {
     }
     // The session outlasts both browser phases on a loaded machine (with 60 s, a load average of
     // 16 on 2 cores ended it before the 2D phase); the demo is killed when the test ends.
+    let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
     let (_demo, addr) = start_with_viewer(
+        &vps,
         &["demo", "--seconds", "300", "--view", "127.0.0.1:0"],
         Duration::from_secs(300),
     );
@@ -133,9 +117,10 @@ fn the_demo_is_watched_in_headless_chromium() {
 
 #[test]
 fn a_voxmap_file_is_served_offline() {
-    let dir = tempfile::tempdir().unwrap();
-    let vmap = dir.path().join("box.vmap");
-    let status = Command::new(env!("CARGO_BIN_EXE_vps"))
+    let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
+    let vmap = vps.dir().join("box.vmap");
+    let status = vps
+        .cmd()
         .args(["voxelize", "builtin:box", "--voxel-size", "10mm", "-o"])
         .arg(&vmap)
         .stdout(Stdio::null())
@@ -145,6 +130,7 @@ fn a_voxmap_file_is_served_offline() {
     assert!(status.success());
     let vmap_arg = vmap.to_str().unwrap();
     let (_view, addr) = start_with_viewer(
+        &vps,
         &["view", vmap_arg, "--addr", "127.0.0.1:0"],
         Duration::from_secs(30),
     );
@@ -157,11 +143,8 @@ fn a_voxmap_file_is_served_offline() {
     let bytes = http_get(addr, "/scene/boxes", HTTP_TIMEOUT).unwrap().body;
     assert_eq!(bytes.len() as u64, boxes * 12);
 
-    let missing = Command::new(env!("CARGO_BIN_EXE_vps"))
-        .args(["view", "/nonexistent/scene.vmap"])
-        .output()
-        .unwrap();
+    let missing = vps.run(&["view", "/nonexistent/scene.vmap"]);
     assert!(!missing.status.success());
-    let err = String::from_utf8_lossy(&missing.stderr);
+    let err = stderr(&missing);
     assert!(err.contains("/nonexistent/scene.vmap"), "{err}");
 }

@@ -22,9 +22,11 @@ struct Proc {
 }
 
 impl Proc {
-    fn start(label: &'static str, args: &[&str]) -> Proc {
+    /// Starts `vps ARGS` with its voxmap cache in `dir`.
+    fn start(label: &'static str, dir: &Path, args: &[&str]) -> Proc {
         let mut child = Command::new(env!("CARGO_BIN_EXE_vps"))
             .args(args)
+            .env("VPS_CACHE_DIR", dir.join("cache"))
             .env("RUST_LOG", "vps_cluster=info")
             .stdin(Stdio::null())
             .stdout(Stdio::null())
@@ -102,6 +104,7 @@ fn coordinator(dir: &Path, port: u16, seconds: &str, report: &str) -> Proc {
     let p = |name: &str| dir.join(name).to_string_lossy().into_owned();
     Proc::start(
         "coordinator",
+        dir,
         &[
             "coordinator",
             "--listen",
@@ -126,6 +129,7 @@ fn worker(dir: &Path, port: u16, name: &str) -> Proc {
     let p = |file: String| dir.join(file).to_string_lossy().into_owned();
     Proc::start(
         "worker",
+        dir,
         &[
             "worker",
             "--coordinator",

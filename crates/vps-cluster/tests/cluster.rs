@@ -14,14 +14,7 @@ use vps_runtime::FrameSampler;
 fn two_workers_give_sums_bit_identical_to_one_process() {
     let ids = identities();
     let scene = scene();
-    let coordinator = start_coordinator(&ids, scene.clone());
-    let addr = coordinator.local_addr().unwrap();
-    let workers: Vec<_> = (0..2)
-        .map(|k| ThreadWorker::spawn(worker_config_k(&ids, addr, k)))
-        .collect();
-    coordinator
-        .wait_for_workers(2, Duration::from_secs(8))
-        .unwrap();
+    let (coordinator, workers) = coordinator_with_thread_workers(&ids, scene.clone(), 2);
     let mut shares = coordinator.shares(GatherConfig::default()).unwrap();
     let poses = poses(40);
     let mut touched = false;
@@ -55,14 +48,7 @@ fn two_workers_give_sums_bit_identical_to_one_process() {
 fn a_worker_leaving_mid_run_changes_nothing_in_the_sums() {
     let ids = identities();
     let scene = scene();
-    let coordinator = start_coordinator(&ids, scene.clone());
-    let addr = coordinator.local_addr().unwrap();
-    let mut workers: Vec<_> = (0..2)
-        .map(|k| ThreadWorker::spawn(worker_config_k(&ids, addr, k)))
-        .collect();
-    coordinator
-        .wait_for_workers(2, Duration::from_secs(8))
-        .unwrap();
+    let (coordinator, mut workers) = coordinator_with_thread_workers(&ids, scene.clone(), 2);
     let mut shares = coordinator.shares(GatherConfig::default()).unwrap();
     let poses = poses(60);
     for (i, pose) in poses.iter().enumerate() {
@@ -127,19 +113,11 @@ fn a_silent_worker_is_benched_and_a_recovered_one_gets_work_again() {
     let mut shares = coordinator.shares(config).unwrap();
     let poses = poses(30);
     // Silent for 6 frames (short deadline: nobody answers anyway).
-    for pose in &poses[..6] {
-        let want = sample_all(&*scene.map, &scene.shell, pose);
-        let got = shares.compute(pose, Instant::now() + Duration::from_millis(2));
-        assert_eq!(got.sums, want);
-    }
+    assert_exact_frames(&mut shares, &scene, &poses[..6], Duration::from_millis(2));
     assert_eq!(shares.active_workers(), 0, "benched after 3 misses");
     // Now answer every request correctly from a thread.
     let answering = answer_slowly(&fake, conn.clone(), scene.clone(), Duration::ZERO);
-    for pose in &poses[6..] {
-        let want = sample_all(&*scene.map, &scene.shell, pose);
-        let got = shares.compute(pose, Instant::now() + DEADLINE);
-        assert_eq!(got.sums, want);
-    }
+    assert_exact_frames(&mut shares, &scene, &poses[6..], DEADLINE);
     let report = shares.report();
     let peer = &report.peers[0];
     assert!(peer.benched_times >= 1, "{peer:?}");
@@ -219,11 +197,7 @@ fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
             })
         })
     };
-    for pose in poses(frames).iter() {
-        let want = sample_all(&*scene.map, &scene.shell, pose);
-        let got = shares.compute(pose, Instant::now() + DEADLINE);
-        assert_eq!(got.sums, want);
-    }
+    assert_exact_frames(&mut shares, &scene, &poses(frames), DEADLINE);
     let report = shares.report();
     let peer = &report.peers[0];
     assert_eq!(peer.merged, 0, "{peer:?}");
@@ -272,14 +246,8 @@ fn a_worker_that_keeps_sending_implausible_sums_is_disconnected() {
             Some(sums)
         })
     };
-    for pose in poses(40).iter() {
-        let want = sample_all(&*scene.map, &scene.shell, pose);
-        let got = shares.compute(pose, Instant::now() + DEADLINE);
-        assert_eq!(
-            got.sums, want,
-            "every frame exact: bad shares are recomputed"
-        );
-    }
+    // Every frame exact: bad shares are recomputed.
+    assert_exact_frames(&mut shares, &scene, &poses(40), DEADLINE);
     let report = shares.report();
     let peer = &report.peers[0];
     assert!(peer.disconnected_for_bad_replies, "{peer:?}");

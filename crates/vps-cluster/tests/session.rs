@@ -4,7 +4,6 @@
 mod common;
 
 use common::*;
-use std::time::Duration;
 use vps_cluster::GatherConfig;
 use vps_haptic::Wrench;
 
@@ -12,21 +11,10 @@ use vps_haptic::Wrench;
 /// (never when 0).
 fn cluster_writes(leave_at: u64) -> (Vec<Wrench>, vps_cluster::ClusterReport) {
     let ids = identities();
-    let scene = scene();
-    let coordinator = start_coordinator(&ids, scene);
-    let addr = coordinator.local_addr().unwrap();
-    let mut workers: Vec<_> = (0..2)
-        .map(|k| ThreadWorker::spawn(worker_config_k(&ids, addr, k)))
-        .collect();
-    coordinator
-        .wait_for_workers(2, Duration::from_secs(8))
-        .unwrap();
+    let (coordinator, mut workers) = coordinator_with_thread_workers(&ids, scene(), 2);
     let leaving = workers.pop().unwrap();
     let (device, writes) = hand(leave_at, leaving.stop.clone());
-    let (report, cluster) =
-        exact_cluster_session(&coordinator, GatherConfig::default(), device, FRAMES);
-    assert_eq!(report.stats.frames, FRAMES);
-    assert_eq!(report.stats.watchdog_trips, 0);
+    let (_, cluster) = exact_cluster_session(&coordinator, GatherConfig::default(), device, FRAMES);
     // The live snapshot, read after the session, is the final report.
     assert_eq!(coordinator.metrics().snapshot(), cluster);
     leaving.stop().unwrap();

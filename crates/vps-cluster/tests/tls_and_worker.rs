@@ -14,17 +14,25 @@ use vps_cluster::tls::server_config;
 use vps_cluster::{make_cert, run_worker, ClusterError, TlsIdentity, WorkerConfig};
 use vps_haptic::sample_all;
 
-#[test]
-fn a_worker_with_an_unpinned_certificate_is_refused_and_counted() {
+/// A coordinator on [`scene`] and the error of one worker joining it with the standard worker
+/// configuration changed by `change`.
+fn refused_worker(
+    change: impl FnOnce(WorkerConfig) -> WorkerConfig,
+) -> (vps_cluster::Coordinator, ClusterError) {
     let ids = identities();
     let coordinator = start_coordinator(&ids, scene());
     let addr = coordinator.local_addr().unwrap();
+    let err = run_worker(change(worker_config(&ids, addr))).unwrap_err();
+    (coordinator, err)
+}
+
+#[test]
+fn a_worker_with_an_unpinned_certificate_is_refused_and_counted() {
     let stranger = TlsIdentity::generate("stranger").unwrap();
-    let err = run_worker(WorkerConfig {
+    let (coordinator, err) = refused_worker(|config| WorkerConfig {
         identity: stranger,
-        ..worker_config(&ids, addr)
-    })
-    .unwrap_err();
+        ..config
+    });
     // A refusal for good, saying why (not "join: read: connection lost").
     assert!(
         matches!(err, ClusterError::Refused(ref m) if m.contains("refused this worker's certificate")),
@@ -43,15 +51,11 @@ fn a_worker_with_an_unpinned_certificate_is_refused_and_counted() {
 
 #[test]
 fn a_worker_refuses_a_coordinator_it_did_not_pin() {
-    let ids = identities();
-    let coordinator = start_coordinator(&ids, scene());
-    let addr = coordinator.local_addr().unwrap();
     let other = TlsIdentity::generate("other").unwrap();
-    let err = run_worker(WorkerConfig {
+    let (coordinator, err) = refused_worker(|config| WorkerConfig {
         pins: vec![other.cert.clone()],
-        ..worker_config(&ids, addr)
-    })
-    .unwrap_err();
+        ..config
+    });
     assert!(
         matches!(err, ClusterError::Refused(ref m) if m.contains("does not accept")),
         "{err}"

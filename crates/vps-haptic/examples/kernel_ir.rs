@@ -32,15 +32,9 @@ fn spread(v: u32) -> u64 {
 }
 
 fn sphere_shell(n: usize, radius: f64, sample: f64) -> PointShell {
-    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    let mut pairs: Vec<(Vec3, Vec3)> = (0..n)
-        .map(|i| {
-            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
-            let r = (1.0 - z * z).sqrt();
-            let a = golden * i as f64;
-            let dir = DVec3::new(r * a.cos(), r * a.sin(), z);
-            ((dir * radius).as_vec3(), (-dir).as_vec3())
-        })
+    let mut pairs: Vec<(Vec3, Vec3)> = vps_testkit::shell::fibonacci_directions(n)
+        .into_iter()
+        .map(|dir| ((dir * radius).as_vec3(), (-dir).as_vec3()))
         .collect();
     // Morton order of the sampling voxels, as real shells are.
     pairs.sort_by_key(|(p, _)| {

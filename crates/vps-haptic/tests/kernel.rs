@@ -15,16 +15,21 @@ use vps_haptic::{
 };
 use vps_voxmap::{DenseGrid, Voxel};
 
-/// One point in one Surface voxel: the sums are d N and (P − x) × d N with
-/// d = max(0, N·(C − P)), computed here independently in f64.
-#[test]
-fn single_point_matches_the_tangent_plane_formula() {
+/// A grid of [`spec`] with one Surface voxel, the voxel's centre (m) and an oblique unit normal.
+fn one_surface_voxel() -> (DenseGrid, DVec3, Vec3) {
     let mut grid = DenseGrid::new(spec());
     let ijk = IVec3::new(21, 22, 23);
     grid.set(ijk, Voxel::Surface);
     let centre = grid.spec.center_of(ijk);
+    (grid, centre, Vec3::new(0.3, -0.5, 0.8).normalize())
+}
+
+/// One point in one Surface voxel: the sums are d N and (P − x) × d N with
+/// d = max(0, N·(C − P)), computed here independently in f64.
+#[test]
+fn single_point_matches_the_tangent_plane_formula() {
+    let (grid, centre, body_normal) = one_surface_voxel();
     let body_point = Vec3::new(0.004, -0.002, 0.003);
-    let body_normal = Vec3::new(0.3, -0.5, 0.8).normalize();
     let shell = ClassedShell::new(&shell_from(&[body_point], &[body_normal]), 1);
     let orientation = DQuat::from_euler(glam::EulerRot::XYZ, 0.3, -0.2, 0.7);
     let lever = orientation * body_point.as_dvec3();
@@ -312,11 +317,7 @@ impl vps_voxmap::VoxelLookup for LayeredGrid {
 /// by `K_ff ℓ s` per layer, also for a point on the outer half of its voxel (negative plane depth).
 #[test]
 fn deeper_surface_layers_add_one_voxel_of_depth_each() {
-    let mut grid = DenseGrid::new(spec());
-    let ijk = IVec3::new(21, 22, 23);
-    grid.set(ijk, Voxel::Surface);
-    let centre = grid.spec.center_of(ijk);
-    let body_normal = Vec3::new(0.3, -0.5, 0.8).normalize();
+    let (grid, centre, body_normal) = one_surface_voxel();
     let shell = ClassedShell::new(&shell_from(&[Vec3::ZERO], &[body_normal]), 1);
     let normal = body_normal.as_dvec3();
     // 1.3 mm on the outer side of the centre: plane depth −1.3 mm.

@@ -4,15 +4,16 @@
 //! `read` until a datagram count is reached (bounded by a generous deadline); nothing asserts on
 //! timing.
 
-use std::time::{Duration, Instant};
+mod common;
+
+use common::{poll_until, DEADLINE};
+use std::time::Duration;
 
 use glam::{DQuat, DVec3};
 use vps_device::{DeviceError, HapticDevice};
 use vps_haptic::{HandleSample, Wrench};
 use vps_input::bridge::protocol::{Datagram, Message, MAX_DATAGRAM};
 use vps_input::{BridgeClient, BridgeConfig, BridgeCounters, BridgeDevice};
-
-const DEADLINE: Duration = Duration::from_secs(5);
 
 /// The default configuration with the longest pose timeout, so a slow loopback delivery on a
 /// loaded machine (the tests advance device time 1 ms per poll) never makes the device hold.
@@ -38,20 +39,7 @@ fn read_until(
     t: &mut f64,
     done: impl Fn(&BridgeCounters) -> bool,
 ) -> HandleSample {
-    let start = Instant::now();
-    loop {
-        let s = dev.read(*t).expect("read");
-        if done(&dev.counters()) {
-            return s;
-        }
-        assert!(
-            start.elapsed() < DEADLINE,
-            "datagrams not delivered: {:?}",
-            dev.counters()
-        );
-        *t += 1e-3;
-        std::thread::sleep(Duration::from_micros(200));
-    }
+    poll_until(dev, t, 1e-3, done)
 }
 
 fn seen(c: &BridgeCounters) -> u64 {

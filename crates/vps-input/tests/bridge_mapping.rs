@@ -4,7 +4,9 @@
 //! datagram count is reached, so how long loopback delivery takes never changes what the device
 //! sees as the pose's age.
 
-use std::time::{Duration, Instant};
+mod common;
+
+use common::{poll_until, DEADLINE};
 
 use glam::{DQuat, DVec3};
 use vps_device::HapticDevice;
@@ -12,7 +14,6 @@ use vps_haptic::{HandleSample, Wrench};
 use vps_input::bridge::protocol::FLAG_CLUTCH;
 use vps_input::{BridgeClient, BridgeConfig, BridgeCounters, BridgeDevice, WorkspaceMapping};
 
-const DEADLINE: Duration = Duration::from_secs(5);
 /// The voxel size of the default `vps run` scene (m): the bound on a release jump.
 const VOXEL: f64 = 0.005;
 
@@ -27,19 +28,13 @@ fn at(p: DVec3) -> HandleSample {
 
 /// Polls `read(t)` at the fixed time `t` until `done(counters)`; returns the last sample.
 fn read_at(dev: &mut BridgeDevice, t: f64, done: impl Fn(&BridgeCounters) -> bool) -> HandleSample {
-    let start = Instant::now();
-    loop {
-        let s = dev.read(t).expect("read");
-        if done(&dev.counters()) {
-            return s;
-        }
-        assert!(
-            start.elapsed() < DEADLINE,
-            "not delivered: {:?}",
-            dev.counters()
-        );
-        std::thread::sleep(Duration::from_micros(200));
-    }
+    poll_until(dev, &mut { t }, 0.0, done)
+}
+
+/// Writes [`PUSH`] to the device and returns the reply the client receives.
+fn push(dev: &mut BridgeDevice, client: &mut BridgeClient) -> vps_input::bridge::WrenchReply {
+    dev.write(&PUSH).unwrap();
+    client.recv_wrench(DEADLINE).unwrap().expect("reply")
 }
 
 fn mapping() -> WorkspaceMapping {
@@ -85,8 +80,7 @@ fn clutch_holds_the_target_and_release_does_not_jump() {
     assert!(close(s0.linear_velocity, DVec3::new(0.0, 1.5, 0.0)));
 
     // Forces go back rotated and scaled: scene +Y 4 N → device +X 2 N.
-    dev.write(&PUSH).unwrap();
-    let r = client.recv_wrench(DEADLINE).unwrap().expect("reply");
+    let r = push(&mut dev, &mut client);
     assert!(close(r.wrench.force, DVec3::new(2.0, 0.0, 0.0)), "{r:?}");
     // And within the device's limits (15 N) whatever the scene asks.
     dev.write(&Wrench {
@@ -107,8 +101,7 @@ fn clutch_holds_the_target_and_release_does_not_jump() {
     assert_eq!(held.position, s0.position);
     assert_eq!(held.linear_velocity, DVec3::ZERO);
     assert_eq!(held.angular_velocity, DVec3::ZERO);
-    dev.write(&PUSH).unwrap();
-    let r = client.recv_wrench(DEADLINE).unwrap().expect("reply");
+    let r = push(&mut dev, &mut client);
     assert_eq!(r.wrench, Wrench::ZERO, "no force while clutched");
 
     // Release at p1: the commanded target moves by less than one voxel across the release frame.
@@ -132,8 +125,7 @@ fn clutch_holds_the_target_and_release_does_not_jump() {
         moved.position - released.position,
         DVec3::new(0.0, 0.05, 0.0)
     ));
-    dev.write(&PUSH).unwrap();
-    let r = client.recv_wrench(DEADLINE).unwrap().expect("reply");
+    let r = push(&mut dev, &mut client);
     assert!(close(r.wrench.force, DVec3::new(2.0, 0.0, 0.0)), "{r:?}");
 
     // The session's closing zero reaches the device as exact +0.0 bits through the rotation.
@@ -181,8 +173,7 @@ fn silent_device_is_zeroed_held_and_reanchored_on_resume() {
     // Within the timeout (0.05 s) the pose is live and forces flow.
     let s = dev.read(0.049).unwrap();
     assert_eq!(s, s0);
-    dev.write(&PUSH).unwrap();
-    let r = client.recv_wrench(DEADLINE).unwrap().expect("reply");
+    let r = push(&mut dev, &mut client);
     assert_ne!(r.wrench, Wrench::ZERO);
 
     // Past it: zero output, the target holds still, one timeout however long the silence.
@@ -195,8 +186,7 @@ fn silent_device_is_zeroed_held_and_reanchored_on_resume() {
             (s.linear_velocity, s.angular_velocity),
             (DVec3::ZERO, DVec3::ZERO)
         );
-        dev.write(&PUSH).unwrap();
-        let r = client.recv_wrench(DEADLINE).unwrap().expect("reply");
+        let r = push(&mut dev, &mut client);
         assert_eq!(r.wrench, Wrench::ZERO, "t = {t}");
     }
     assert_eq!(dev.counters().timeouts, 1);
@@ -223,8 +213,7 @@ fn silent_device_is_zeroed_held_and_reanchored_on_resume() {
         moved.position - resumed.position,
         DVec3::new(0.0, 0.0, 0.05)
     ));
-    dev.write(&PUSH).unwrap();
-    let r = client.recv_wrench(DEADLINE).unwrap().expect("reply");
+    let r = push(&mut dev, &mut client);
     assert!(close(r.wrench.force, DVec3::new(2.0, 0.0, 0.0)));
     assert_eq!(dev.counters().timeouts, 1);
 }

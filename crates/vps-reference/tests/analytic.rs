@@ -4,19 +4,7 @@ use glam::{DQuat, DVec3, Vec3};
 use vps_mesh::builtin::{cuboid, cylinder, teapot, uv_sphere};
 use vps_mesh::TriMesh;
 use vps_reference::{reference_contact, ExactScene, ReferenceError};
-
-/// Deterministic directions spread over the sphere (Fibonacci lattice).
-fn directions(n: usize) -> Vec<DVec3> {
-    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    (0..n)
-        .map(|i| {
-            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
-            let r = (1.0 - z * z).sqrt();
-            let a = golden * i as f64;
-            DVec3::new(r * a.cos(), r * a.sin(), z)
-        })
-        .collect()
-}
+use vps_testkit::shell::fibonacci_directions;
 
 fn scene(mesh: TriMesh) -> ExactScene {
     ExactScene::new(&[mesh]).expect("valid mesh")
@@ -75,7 +63,7 @@ fn sphere_matches_radius_within_tessellation() {
     let s = scene(uv_sphere(radius, 48, 24));
     // Largest gap between the tessellation and the sphere: the sagitta of a 7.5° latitude band.
     let tolerance = radius * (1.0 - (7.5f64.to_radians() / 2.0).cos()) * 2.0;
-    for (i, dir) in directions(200).into_iter().enumerate() {
+    for (i, dir) in fibonacci_directions(200).into_iter().enumerate() {
         let r = [0.01, 0.03, 0.049, 0.051, 0.07, 0.2][i % 6];
         let got = s.signed_distance(dir * r);
         let exact = r - radius;
@@ -104,7 +92,7 @@ fn cylinder_sides_caps_rims() {
             (dr.max(0.0).powi(2) + dz.max(0.0).powi(2)).sqrt()
         }
     };
-    for (i, dir) in directions(60).into_iter().enumerate() {
+    for (i, dir) in fibonacci_directions(60).into_iter().enumerate() {
         let flat = DVec3::new(dir.x, dir.y, 0.0).normalize_or(DVec3::X);
         for rho in [0.0, 0.01, 0.02, 0.03, 0.06] {
             for z in [-0.08, -0.049, 0.0, 0.02, 0.05, 0.07] {
@@ -125,7 +113,7 @@ fn open_mesh_is_unsigned_and_matches_brute_force() {
     let pot = teapot();
     let s = scene(pot.clone());
     assert!(s.unsigned_components() > 0);
-    for (i, dir) in directions(40).into_iter().enumerate() {
+    for (i, dir) in fibonacci_directions(40).into_iter().enumerate() {
         let p = dir * (0.005 + 0.003 * i as f64);
         let brute = (0..pot.triangle_count())
             .map(|t| {

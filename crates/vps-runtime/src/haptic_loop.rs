@@ -421,87 +421,21 @@ impl RunningLoop {
 mod tests {
     use super::*;
     use crate::feed::state_feed;
-    use crate::test_scene::{sphere_shell, wall, SPHERE_RADIUS, VOXEL, WALL_TOP};
-    use glam::{DQuat, DVec3};
-    use std::sync::Mutex;
-    use vps_device::script::{approach_and_rest, Pace};
-    use vps_device::{DeviceLimits, HandParams, ReplayDevice, SimulatedHand, SurfaceContact};
+    use glam::DQuat;
+    use vps_device::{DeviceLimits, ReplayDevice};
     use vps_haptic::HandleSample;
+    use vps_testkit::device::{LoggingDevice, Writes};
+    use vps_testkit::hand::{approach_and_rest_on_wall, START};
+    use vps_testkit::scene::{wall, VOXEL, WALL_TOP};
+    use vps_testkit::shell::{sphere_shell, SPHERE_RADIUS};
     use vps_voxmap::DenseGrid;
 
-    type Writes = Arc<Mutex<Vec<Wrench>>>;
-
-    /// Wraps a device: logs every write, optionally fails a given read or write.
-    struct Probe {
-        inner: Box<dyn HapticDevice>,
-        writes: Writes,
-        fail_read_at: Option<u64>,
-        fail_write_at: Option<u64>,
-        panic_read_at: Option<u64>,
-        reads: u64,
-    }
-
-    impl HapticDevice for Probe {
-        fn read(&mut self, t: f64) -> Result<HandleSample, DeviceError> {
-            self.reads += 1;
-            if self.panic_read_at == Some(self.reads - 1) {
-                panic!("probe: a bug in the driver");
-            }
-            if self.fail_read_at == Some(self.reads - 1) {
-                return Err(DeviceError::Hardware {
-                    device: "probe".into(),
-                    message: "unplugged".into(),
-                });
-            }
-            self.inner.read(t)
-        }
-        fn write(&mut self, w: &Wrench) -> Result<(), DeviceError> {
-            self.writes.lock().unwrap().push(*w);
-            if self.fail_write_at == Some(self.reads - 1) {
-                return Err(DeviceError::Hardware {
-                    device: "probe".into(),
-                    message: "bus error".into(),
-                });
-            }
-            self.inner.write(w)
-        }
-        fn limits(&self) -> DeviceLimits {
-            self.inner.limits()
-        }
-        fn name(&self) -> &str {
-            self.inner.name()
-        }
-    }
-
-    const START: DVec3 = DVec3::new(0.05, 0.05, 0.09);
-
     fn hand() -> Box<dyn HapticDevice> {
-        let contact = SurfaceContact {
-            point: DVec3::new(0.05, 0.05, WALL_TOP + SPHERE_RADIUS),
-            normal: DVec3::Z,
-            orientation: DQuat::IDENTITY,
-        };
-        // The field starts half a voxel inside the Surface layer: press past that.
-        let pace = Pace {
-            speed: 0.1,
-            press_depth: 0.005,
-            dwell: 0.1,
-        };
-        let script = approach_and_rest(START, &contact, &pace).unwrap();
-        Box::new(SimulatedHand::new(script, HandParams::default()).unwrap())
+        approach_and_rest_on_wall()
     }
 
-    fn probe(inner: Box<dyn HapticDevice>) -> (Probe, Writes) {
-        let writes = Writes::default();
-        let p = Probe {
-            inner,
-            writes: writes.clone(),
-            fail_read_at: None,
-            fail_write_at: None,
-            panic_read_at: None,
-            reads: 0,
-        };
-        (p, writes)
+    fn probe(inner: Box<dyn HapticDevice>) -> (LoggingDevice, Writes) {
+        LoggingDevice::new(inner)
     }
 
     fn params() -> HapticParams {

@@ -19,8 +19,6 @@ pub mod pool;
 pub mod rt;
 pub mod stats;
 pub mod stop;
-#[cfg(any(test, feature = "test-support"))]
-pub mod test_scene;
 
 pub use clock::{schedule, FrameClock, Schedule, Tick};
 pub use feed::{state_feed, FeedFrame, RecentMax, StateFeedReceiver, StateFeedSender};

@@ -298,10 +298,11 @@ impl<L: VoxelLookup + Send + Sync + 'static> Drop for ClassPool<L> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_scene::{sphere_shell, wall};
     use glam::{DQuat, DVec3};
     use std::time::Duration;
     use vps_haptic::{sample_all, PartState};
+    use vps_testkit::scene::wall;
+    use vps_testkit::shell::sphere_shell;
 
     #[test]
     fn shares_partition_the_classes_cyclically() {

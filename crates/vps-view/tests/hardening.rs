@@ -3,25 +3,19 @@
 //! and slow or idle request headers are timed out, while a normal client keeps being served.
 //! Waits are bounded polls with generous deadlines; nothing asserts a duration.
 
-use glam::DVec3;
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
+use vps_testkit::scene::empty_cm_grid;
 use vps_view::client::{http_get, http_get_as, Headers, WsClient};
 use vps_view::{SceneLimits, ServerLimits, ViewerContent, ViewerHandle, ViewerServer};
-use vps_voxmap::{DenseGrid, GridSpec, TreeConfig, VoxelTree};
+use vps_voxmap::{TreeConfig, VoxelTree};
 
 const TIMEOUT: Duration = Duration::from_secs(5);
 
 fn scene() -> ViewerContent {
-    let spec = GridSpec {
-        origin: DVec3::ZERO,
-        voxel_size: 0.01,
-        dims: [8, 8, 8],
-    };
-    let tree =
-        Arc::new(VoxelTree::from_dense(&DenseGrid::new(spec), TreeConfig::default()).unwrap());
+    let tree = Arc::new(VoxelTree::from_dense(&empty_cm_grid(8), TreeConfig::default()).unwrap());
     ViewerContent::new("empty", tree, None, SceneLimits::default())
 }
 

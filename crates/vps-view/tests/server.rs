@@ -7,20 +7,16 @@ use std::sync::Arc;
 use std::time::Duration;
 use vps_haptic::Wrench;
 use vps_runtime::{state_feed, FeedFrame, StateFeedSender};
+use vps_testkit::scene::empty_cm_grid;
 use vps_view::client::{http_get, masked_frame, WsClient};
 use vps_view::{SceneLimits, ViewerContent, ViewerHandle, ViewerServer};
-use vps_voxmap::{DenseGrid, GridSpec, MassProperties, PointShell, TreeConfig, Voxel, VoxelTree};
+use vps_voxmap::{MassProperties, PointShell, TreeConfig, Voxel, VoxelTree};
 
 const TIMEOUT: Duration = Duration::from_secs(5);
 
 /// A 20³ grid of 1 cm voxels with one Surface voxel row, and a three-point shell.
 fn scene() -> ViewerContent {
-    let spec = GridSpec {
-        origin: DVec3::ZERO,
-        voxel_size: 0.01,
-        dims: [20, 20, 20],
-    };
-    let mut grid = DenseGrid::new(spec);
+    let mut grid = empty_cm_grid(20);
     for x in 0..20 {
         grid.set(IVec3::new(x, 5, 5), Voxel::Surface);
     }

@@ -260,40 +260,4 @@ mod tests {
         // Undecidable: the winding decides.
         assert_eq!(triangle_inward_normal(tri, 0.1, |_| -1), DVec3::X);
     }
-
-    #[test]
-    fn shell_of_tetrahedron_is_morton_ordered_and_inward() {
-        let m = TriMesh::new(
-            vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z],
-            vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
-        );
-        let shell = point_shell(&m, 0.05, ShellMethod::VoxelCentres).unwrap();
-        let spec = grid_for(
-            &m.bounds(),
-            &VoxelizeOptions {
-                voxel_size: 0.05,
-                offset_layers: 0,
-                padding_voxels: 0,
-                ..VoxelizeOptions::default()
-            },
-        )
-        .unwrap();
-        let keys: Vec<u64> = shell
-            .points
-            .iter()
-            .map(|p| {
-                let ijk = spec.index_of(p.as_dvec3() + shell.mass.center_of_mass);
-                morton_key([ijk.x as u32, ijk.y as u32, ijk.z as u32])
-            })
-            .collect();
-        assert!(keys.windows(2).all(|w| w[0] < w[1]), "strict Morton order");
-        // Normals point into the tetrahedron: from any point, a small step along the normal lands
-        // nearer the centroid than a step against it.
-        for (p, n) in shell.points.iter().zip(&shell.normals) {
-            assert!((n.length() - 1.0).abs() < 1e-5);
-            let p = p.as_dvec3();
-            let n = n.as_dvec3();
-            assert!((p + 0.01 * n).length() < (p - 0.01 * n).length(), "{p} {n}");
-        }
-    }
 }

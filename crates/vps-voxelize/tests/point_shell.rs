@@ -2,12 +2,34 @@
 
 use glam::{DQuat, DVec3};
 use vps_mesh::builtin::{cuboid, uv_sphere};
+use vps_mesh::TriMesh;
 use vps_voxelize::shell::morton_key;
 use vps_voxelize::{
     grid_for, is_closed_and_oriented, mass_properties, point_shell, ShellMethod, VoxelizeOptions,
 };
+use vps_voxmap::PointShell;
 
 const S: f64 = 0.005;
+
+/// The Morton key of the voxel (of `voxel_size`, on the unpadded grid of `mesh`) holding each
+/// point of `shell`, in shell order.
+fn voxel_keys(mesh: &TriMesh, shell: &PointShell, voxel_size: f64) -> Vec<u64> {
+    let opts = VoxelizeOptions {
+        voxel_size,
+        offset_layers: 0,
+        padding_voxels: 0,
+        ..VoxelizeOptions::default()
+    };
+    let spec = grid_for(&mesh.bounds(), &opts).unwrap();
+    shell
+        .points
+        .iter()
+        .map(|p| {
+            let ijk = spec.index_of(p.as_dvec3() + shell.mass.center_of_mass);
+            morton_key([ijk.x as u32, ijk.y as u32, ijk.z as u32])
+        })
+        .collect()
+}
 
 #[test]
 fn sphere_shell_normals_point_to_the_centre() {
@@ -81,22 +103,27 @@ fn cube_shell_count_and_offset_com() {
 fn shell_is_morton_ordered() {
     let sphere = uv_sphere(0.03, 32, 16);
     let shell = point_shell(&sphere, S, ShellMethod::VoxelCentres).unwrap();
-    let opts = VoxelizeOptions {
-        voxel_size: S,
-        offset_layers: 0,
-        padding_voxels: 0,
-        ..VoxelizeOptions::default()
-    };
-    let spec = grid_for(&sphere.bounds(), &opts).unwrap();
-    let keys: Vec<u64> = shell
-        .points
-        .iter()
-        .map(|p| {
-            let ijk = spec.index_of(p.as_dvec3() + shell.mass.center_of_mass);
-            morton_key([ijk.x as u32, ijk.y as u32, ijk.z as u32])
-        })
-        .collect();
+    let keys = voxel_keys(&sphere, &shell, S);
     assert!(keys.windows(2).all(|w| w[0] < w[1]));
+}
+
+#[test]
+fn shell_of_tetrahedron_is_morton_ordered_and_inward() {
+    let m = TriMesh::new(
+        vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z],
+        vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
+    );
+    let shell = point_shell(&m, 0.05, ShellMethod::VoxelCentres).unwrap();
+    let keys = voxel_keys(&m, &shell, 0.05);
+    assert!(keys.windows(2).all(|w| w[0] < w[1]), "strict Morton order");
+    // Normals point into the tetrahedron: from any point, a small step along the normal lands
+    // nearer the centroid than a step against it.
+    for (p, n) in shell.points.iter().zip(&shell.normals) {
+        assert!((n.length() - 1.0).abs() < 1e-5);
+        let p = p.as_dvec3();
+        let n = n.as_dvec3();
+        assert!((p + 0.01 * n).length() < (p - 0.01 * n).length(), "{p} {n}");
+    }
 }
 
 #[test]

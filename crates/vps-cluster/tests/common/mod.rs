@@ -1,18 +1,20 @@
 //! Shared fixtures: TLS identities, in-process workers on threads, a hand-driven fake worker;
-//! the network-free fixtures are in `fixtures.rs`.
+//! the scene, the standard session and the one-process run are `vps_testkit::cluster`'s.
 #![allow(dead_code)]
 
-mod fixtures;
-pub use fixtures::*;
+pub use vps_testkit::cluster::*;
+
+use vps_haptic::{sample_all, KernelPose};
+use vps_runtime::FrameSampler;
 
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 use vps_cluster::{
-    run_worker_until, ClusterAssets, ClusterError, Coordinator, CoordinatorConfig, TlsIdentity,
-    WorkerConfig, WorkerReport,
+    run_worker_until, ClusterAssets, ClusterError, Coordinator, CoordinatorConfig, RemoteShares,
+    TlsIdentity, WorkerConfig, WorkerReport,
 };
 
 pub struct Identities {
@@ -71,6 +73,38 @@ pub fn worker_config_k(ids: &Identities, addr: SocketAddr, k: usize) -> WorkerCo
         pins: vec![ids.coordinator.cert.clone()],
         cache_dir: None,
         threads: 1,
+    }
+}
+
+/// A coordinator on `scene` and `n` in-process workers on threads, all joined.
+pub fn coordinator_with_thread_workers(
+    ids: &Identities,
+    scene: Arc<ClusterAssets>,
+    n: usize,
+) -> (Coordinator, Vec<ThreadWorker>) {
+    let coordinator = start_coordinator(ids, scene);
+    let addr = coordinator.local_addr().unwrap();
+    let workers: Vec<_> = (0..n)
+        .map(|k| ThreadWorker::spawn(worker_config_k(ids, addr, k)))
+        .collect();
+    coordinator
+        .wait_for_workers(n, Duration::from_secs(8))
+        .unwrap();
+    (coordinator, workers)
+}
+
+/// Computes every pose of `poses` through `shares` (replies awaited until `deadline` after the
+/// request) and asserts that each frame's sums equal the one-process sums, to the bit.
+pub fn assert_exact_frames(
+    shares: &mut RemoteShares,
+    scene: &ClusterAssets,
+    poses: &[KernelPose],
+    deadline: Duration,
+) {
+    for (i, pose) in poses.iter().enumerate() {
+        let want = sample_all(&*scene.map, &scene.shell, pose);
+        let got = shares.compute(pose, Instant::now() + deadline);
+        assert_eq!(got.sums, want, "frame {i}: bad shares are recomputed");
     }
 }
 

@@ -1,10 +1,11 @@
 //! Shared fixtures for the integration tests: hand-made voxmaps, point shells and a frame loop.
 #![allow(dead_code)]
 
-use glam::{DQuat, DVec3, IVec3, Vec3};
+use glam::{DQuat, DVec3, Vec3};
 use vps_haptic::{
     sample_all, step, ClassedShell, FrameOutput, HandleSample, HapticParams, KernelPose, PartState,
 };
+pub use vps_testkit::scene::fill_layer;
 use vps_voxmap::shell::ShellMethod;
 use vps_voxmap::{DenseGrid, GridSpec, MassProperties, PointShell, Voxel};
 
@@ -60,16 +61,6 @@ pub fn spec() -> GridSpec {
         origin: DVec3::splat(-0.1),
         voxel_size: S,
         dims: [40, 40, 40],
-    }
-}
-
-/// Fills every voxel whose z index is `k` with `kind`.
-pub fn fill_layer(grid: &mut DenseGrid, k: i32, kind: Voxel) {
-    let d = grid.spec.dims;
-    for j in 0..d[1] as i32 {
-        for i in 0..d[0] as i32 {
-            grid.set(IVec3::new(i, j, k), kind);
-        }
     }
 }
 

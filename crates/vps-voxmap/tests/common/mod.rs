@@ -84,3 +84,17 @@ impl<F: Fn(UVec3) -> u8 + Sync> CubeSource for FnSource<F> {
         None
     }
 }
+
+/// Asserts that `read` rejects every copy of `bytes` with one byte flipped by 0x01, 0x80 or 0xFF.
+pub fn assert_every_flipped_byte_rejected<T, E>(
+    bytes: &[u8],
+    read: impl Fn(&[u8]) -> Result<T, E>,
+) {
+    for i in 0..bytes.len() {
+        for flip in [0x01u8, 0x80, 0xFF] {
+            let mut damaged = bytes.to_vec();
+            damaged[i] ^= flip;
+            assert!(read(&damaged).is_err(), "byte {i} ^ {flip:#x} accepted");
+        }
+    }
+}

@@ -1,36 +1,39 @@
-//! Fixtures that need no network crate (shared with the root package's `tests/cluster_*.rs`
-//! through `#[path]`): a wall voxmap, a sphere shell, poses, a logging simulated hand, the
-//! one-process reference run.
-#![allow(dead_code)]
+//! The standard test session (the sphere shell of [`crate::shell`] lowered onto the wall of
+//! [`crate::scene`] by [`crate::hand`], logged by [`crate::device`]), run on one process and over
+//! a loopback coordinator, for the cluster tests of `vps-cluster` and of the root package.
 
 use glam::{DQuat, DVec3};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 use std::time::Duration;
 use vps_cluster::fallback::StalePolicy;
 use vps_cluster::{
     local_cluster_certs, run_coordinator_session, ClusterAssets, ClusterReport, Coordinator,
-    CoordinatorConfig, GatherConfig, LocalCerts,
+    CoordinatorConfig, GatherConfig, LocalCerts, LocalWorkerArgs,
 };
-use vps_device::script::{approach_and_rest, Pace};
-use vps_device::{
-    DeviceError, DeviceLimits, HandParams, HapticDevice, SimulatedHand, SurfaceContact,
-};
-use vps_haptic::{HandleSample, HapticParams, KernelPose, PartState, Wrench};
+use vps_device::HapticDevice;
+use vps_haptic::{HapticParams, KernelPose, PartState, Wrench};
 use vps_runtime::{run_loop, LoopConfig, LoopReport, SessionSetup};
-use vps_voxmap::{TreeConfig, VoxelTree};
 
-pub use vps_runtime::test_scene::{sphere_shell, VOXEL};
+pub use crate::device::{assert_same_writes, WriteHook, Writes};
 
-/// Radius of the test sphere shell (m).
-pub const RADIUS: f64 = vps_runtime::test_scene::SPHERE_RADIUS;
+use crate::device::LoggingDevice;
+use crate::hand::{approach_and_rest_on_wall, START};
+use crate::scene::{wall_tree, VOXEL};
+use crate::shell::{sphere_shell, SPHERE_RADIUS};
+
+/// Classes of the cluster scene's shell.
 pub const CLASSES: u32 = 64;
 
-/// The runtime's test wall (5 mm voxels: Interior below z index 8, Surface at 8–9, Proximity at 10,
-/// face at z = 0.05 m) as a tree.
-pub fn wall() -> VoxelTree {
-    VoxelTree::from_dense(&vps_runtime::test_scene::wall(), TreeConfig::uniform(2))
-        .expect("valid tree config")
+/// Frames of the standard session.
+pub const FRAMES: u64 = 400;
+
+/// The wall as a tree and a 600-point sphere shell in [`CLASSES`] classes.
+pub fn scene() -> Arc<ClusterAssets> {
+    Arc::new(ClusterAssets::new(Arc::new(wall_tree()), &sphere_shell(600), CLASSES).expect("scene"))
 }
 
 /// Workers [`loopback_coordinator`] makes certificates for.
@@ -55,10 +58,6 @@ pub fn loopback_coordinator(dir: &std::path::Path) -> (Coordinator, LocalCerts) 
     (coordinator, certs)
 }
 
-pub fn scene() -> Arc<ClusterAssets> {
-    Arc::new(ClusterAssets::new(Arc::new(wall()), &sphere_shell(600), CLASSES).expect("scene"))
-}
-
 /// Poses descending onto the wall, turning, with velocities (contacts and braking both occur).
 pub fn poses(n: usize) -> Vec<KernelPose> {
     (0..n)
@@ -75,92 +74,24 @@ pub fn poses(n: usize) -> Vec<KernelPose> {
         .collect()
 }
 
-pub const START: DVec3 = DVec3::new(0.05, 0.05, 0.09);
-pub const FRAMES: u64 = 400;
-
-pub type Writes = Arc<Mutex<Vec<Wrench>>>;
-/// Called after write number `n` (1-based) was logged, on the frame thread, before the next
-/// frame starts (so blocking in it delays the session but never a frame's deadline).
-pub type WriteHook = Box<dyn FnMut(u64) + Send>;
-
-/// A simulated hand that logs every write, raises `trip` at read number `trip_at` and runs
-/// `hook` after every write.
-struct Logged {
-    inner: SimulatedHand,
-    writes: Writes,
-    reads: u64,
-    trip_at: u64,
-    trip: Arc<AtomicBool>,
-    hook: Option<WriteHook>,
-}
-
-impl HapticDevice for Logged {
-    fn read(&mut self, t: f64) -> Result<HandleSample, DeviceError> {
-        self.reads += 1;
-        if self.reads == self.trip_at {
-            self.trip.store(true, Ordering::Relaxed);
-        }
-        self.inner.read(t)
-    }
-    fn write(&mut self, w: &Wrench) -> Result<(), DeviceError> {
-        let n = {
-            let mut writes = self.writes.lock().unwrap();
-            writes.push(*w);
-            writes.len() as u64
-        };
-        if let Some(hook) = &mut self.hook {
-            hook(n);
-        }
-        self.inner.write(w)
-    }
-    fn limits(&self) -> DeviceLimits {
-        self.inner.limits()
-    }
-    fn name(&self) -> &str {
-        self.inner.name()
-    }
-}
-
-fn logged(
-    trip_at: u64,
-    trip: Arc<AtomicBool>,
-    hook: Option<WriteHook>,
-) -> (Box<dyn HapticDevice>, Writes) {
-    let contact = SurfaceContact {
-        point: DVec3::new(0.05, 0.05, 0.05 + RADIUS),
-        normal: DVec3::Z,
-        orientation: DQuat::IDENTITY,
-    };
-    let pace = Pace {
-        speed: 0.1,
-        press_depth: 0.005,
-        dwell: 0.1,
-    };
-    let script = approach_and_rest(START, &contact, &pace).unwrap();
-    let writes = Writes::default();
-    let device = Logged {
-        inner: SimulatedHand::new(script, HandParams::default()).unwrap(),
-        writes: writes.clone(),
-        reads: 0,
-        trip_at,
-        trip,
-        hook,
-    };
-    (Box::new(device), writes)
-}
-
-/// The logging hand, raising `trip` at read number `trip_at` (never when 0).
+/// The logging hand ([`approach_and_rest_on_wall`]), raising `trip` at read number `trip_at`
+/// (1-based; never when 0).
 pub fn hand(trip_at: u64, trip: Arc<AtomicBool>) -> (Box<dyn HapticDevice>, Writes) {
-    logged(trip_at, trip, None)
+    let (device, writes) = LoggingDevice::new(approach_and_rest_on_wall());
+    (Box::new(device.trip_at(trip_at, trip)), writes)
 }
 
 /// The logging hand, running `hook` after every write.
 pub fn hand_with_hook(hook: WriteHook) -> (Box<dyn HapticDevice>, Writes) {
-    logged(0, Arc::new(AtomicBool::new(false)), Some(hook))
+    let (device, writes) = LoggingDevice::new(approach_and_rest_on_wall());
+    (Box::new(device.with_hook(hook)), writes)
 }
 
+/// Default haptic parameters for [`VOXEL`] voxels and the sphere's radius.
 pub fn params() -> HapticParams {
-    HapticParams::default().with_scene(VOXEL, RADIUS).unwrap()
+    HapticParams::default()
+        .with_scene(VOXEL, SPHERE_RADIUS)
+        .expect("valid parameters")
 }
 
 /// Free-running, [`FRAMES`] frames; the watchdog is far above any frame's compute so that no
@@ -195,14 +126,15 @@ pub fn standard_setup(device: Box<dyn HapticDevice>, frames: u64) -> SessionSetu
 /// The standard test session over `coordinator`'s workers: [`params`], the part at rest at
 /// [`START`], [`config_frames`]`(frames)`, `device`, with `gather` made exact (no stale
 /// stand-ins, whatever the timing: these sessions are compared write by write with the
-/// one-process run). Panics on error.
+/// one-process run). Asserts that all `frames` frames ran and the watchdog never tripped; panics
+/// on error.
 pub fn exact_cluster_session(
     coordinator: &Coordinator,
     gather: GatherConfig,
     device: Box<dyn HapticDevice>,
     frames: u64,
 ) -> (LoopReport, ClusterReport) {
-    run_coordinator_session(
+    let (report, cluster) = run_coordinator_session(
         coordinator,
         GatherConfig {
             stale: StalePolicy::NEVER,
@@ -210,7 +142,10 @@ pub fn exact_cluster_session(
         },
         standard_setup(device, frames),
     )
-    .expect("cluster session")
+    .expect("cluster session");
+    assert_eq!(report.stats.frames, frames);
+    assert_eq!(report.stats.watchdog_trips, 0);
+    (report, cluster)
 }
 
 /// Every device write of the one-process run of [`FRAMES`] frames.
@@ -228,7 +163,7 @@ pub fn one_process_writes_for(frames: u64) -> Vec<Wrench> {
         scene.shell.clone(),
         standard_setup(device, frames),
     )
-    .unwrap();
+    .expect("one-process session");
     assert_eq!(report.stats.frames, frames);
     assert!(
         report.stats.contact_frames > 0,
@@ -238,12 +173,30 @@ pub fn one_process_writes_for(frames: u64) -> Vec<Wrench> {
     w
 }
 
-/// Asserts that two write traces are the same, frame by frame, to the bit.
-pub fn assert_same_writes(got: &[Wrench], want: &[Wrench]) {
-    assert_eq!(got.len(), want.len(), "device write count");
-    for (i, (g, w)) in got.iter().zip(want).enumerate() {
-        let bits =
-            |w: &Wrench| [w.force.to_array(), w.torque.to_array()].map(|v| v.map(f64::to_bits));
-        assert_eq!(bits(g), bits(w), "frame {i}: {g:?} != {w:?}");
-    }
+/// The command line of a one-thread `vps worker` dialling `coordinator` as local worker `k` of
+/// `certs` (its own certificate: the coordinator admits one live connection per certificate),
+/// pinning the coordinator's certificate, caching scenes in `cache_dir`. Panics when `certs` has
+/// no worker `k`.
+pub fn worker_args(
+    coordinator: SocketAddr,
+    certs: &LocalCerts,
+    k: usize,
+    cache_dir: Option<PathBuf>,
+) -> LocalWorkerArgs {
+    let mut args = certs
+        .worker_args(k, coordinator, Some(1))
+        .expect("a certificate for worker k");
+    args.cache_dir = cache_dir;
+    args
+}
+
+/// Starts the `vps` binary at `bin` (`env!("CARGO_BIN_EXE_vps")`) as `vps worker` with `args`,
+/// stdin and stdout closed, stderr inherited.
+pub fn spawn_worker(bin: &str, args: &LocalWorkerArgs) -> Child {
+    Command::new(bin)
+        .args(args.to_args())
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("start vps worker")
 }

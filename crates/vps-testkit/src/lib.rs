@@ -1,0 +1,22 @@
+//! Shared fixtures for the tests of the vps workspace (`publish = false`, used only as a
+//! dev-dependency).
+//!
+//! - [`scene`]: hand-made voxmaps (the flat test wall, small grids).
+//! - [`shell`]: point shells (the Fibonacci sphere shell and its directions).
+//! - [`device`]: a device wrapper that logs every write and fails or trips on demand.
+//! - [`hand`]: the scripted simulated hand that approaches the wall and rests on it.
+//! - [`process`]: running the `vps` binary from the root package's tests with a private cache
+//!   directory (`VPS_CACHE_DIR`), so that tests never write into the user's cache.
+//! - `cluster` (feature `cluster`): the standard one-process session and a loopback coordinator,
+//!   for the cluster tests of `vps-cluster` and of the root package.
+//!
+//! None of this is on a frame path; everything may allocate and panic on failure (these are
+//! test fixtures).
+
+#[cfg(feature = "cluster")]
+pub mod cluster;
+pub mod device;
+pub mod hand;
+pub mod process;
+pub mod scene;
+pub mod shell;

@@ -1,0 +1,150 @@
+//! Running the `vps` binary from the root package's tests.
+//!
+//! The binary's path is only known to the root package's tests (`env!("CARGO_BIN_EXE_vps")`), so
+//! it is passed in: `let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));`. Every command made here has
+//! `VPS_CACHE_DIR` set to a directory inside the test's own temporary directory, so a test never
+//! writes into the user's cache (`~/.cache/vps`).
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::sync::mpsc;
+use std::time::Duration;
+use tempfile::TempDir;
+
+/// The `vps` binary with a temporary working directory and a private voxmap cache inside it
+/// (both removed on drop).
+pub struct Vps {
+    bin: PathBuf,
+    dir: TempDir,
+    cache: PathBuf,
+}
+
+impl Vps {
+    /// `bin` is `env!("CARGO_BIN_EXE_vps")`.
+    pub fn new(bin: &str) -> Vps {
+        let dir = tempfile::tempdir().expect("a temporary directory");
+        let cache = dir.path().join("cache");
+        Vps {
+            bin: bin.into(),
+            dir,
+            cache,
+        }
+    }
+
+    /// The temporary directory (removed on drop).
+    pub fn dir(&self) -> &Path {
+        self.dir.path()
+    }
+
+    /// `name` inside [`Vps::dir`], as a string for a command line.
+    pub fn path(&self, name: &str) -> String {
+        self.dir.path().join(name).display().to_string()
+    }
+
+    /// The private cache directory every command gets as `VPS_CACHE_DIR`.
+    pub fn cache(&self) -> &Path {
+        &self.cache
+    }
+
+    /// `vps` with `VPS_CACHE_DIR` set and no arguments yet.
+    pub fn cmd(&self) -> Command {
+        let mut cmd = Command::new(&self.bin);
+        cmd.env("VPS_CACHE_DIR", &self.cache);
+        cmd
+    }
+
+    /// Runs `vps ARGS` to completion, capturing stdout and stderr.
+    pub fn run(&self, args: &[&str]) -> Output {
+        self.cmd().args(args).output().expect("vps runs")
+    }
+
+    /// Runs `vps ARGS`, asserts that it failed, and returns its stderr.
+    pub fn fails(&self, args: &[&str]) -> String {
+        let out = self.run(args);
+        assert!(!out.status.success(), "vps {args:?} succeeded");
+        stderr(&out)
+    }
+}
+
+/// The JSON document on a successful command's stdout; panics with its stderr if it failed.
+pub fn json(out: &Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "vps failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("valid JSON on stdout")
+}
+
+/// A command's stderr as text.
+pub fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// Child processes that are killed (SIGKILL) and reaped on drop, so a failing test leaves none
+/// behind.
+#[derive(Default)]
+pub struct Children(pub Vec<Child>);
+
+impl Children {
+    /// Adds `child`; returns its index.
+    pub fn push(&mut self, child: Child) -> usize {
+        self.0.push(child);
+        self.0.len() - 1
+    }
+
+    /// SIGKILLs child `index` and reaps it.
+    pub fn kill(&mut self, index: usize) {
+        let child = &mut self.0[index];
+        child.kill().expect("SIGKILL the child");
+        child.wait().expect("reap the child");
+    }
+}
+
+impl Drop for Children {
+    fn drop(&mut self) {
+        for child in &mut self.0 {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+    }
+}
+
+/// Spawns `cmd` with stderr piped and waits up to `patience` for a stderr line holding `marker`;
+/// returns the child and the rest of that line after the marker, trimmed. A thread echoes every
+/// stderr line to the test's stderr as `[label] LINE` until the child closes it. Panics (after
+/// killing the child) when no such line comes in time.
+pub fn spawn_until_line(
+    mut cmd: Command,
+    label: &str,
+    marker: &str,
+    patience: Duration,
+) -> (Child, String) {
+    let mut child = cmd
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the child starts");
+    let stderr = child.stderr.take().expect("piped stderr");
+    let (tx, rx) = mpsc::channel();
+    let (label, wanted) = (label.to_string(), marker.to_string());
+    std::thread::spawn(move || {
+        let mut tx = Some(tx);
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            if let Some(rest) = line.split(&wanted).nth(1) {
+                if let Some(tx) = tx.take() {
+                    let _ = tx.send(rest.trim().to_string());
+                }
+            }
+            eprintln!("[{label}] {line}");
+        }
+    });
+    match rx.recv_timeout(patience) {
+        Ok(rest) => (child, rest),
+        Err(_) => {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{cmd:?} printed no {marker:?} line within {patience:?}");
+        }
+    }
+}

@@ -1,0 +1,70 @@
+//! Hand-made voxmaps.
+
+use glam::{DVec3, IVec3};
+use vps_voxmap::{DenseGrid, GridSpec, TreeConfig, Voxel, VoxelTree};
+
+/// Voxel size of the test wall (m).
+pub const VOXEL: f64 = 0.005;
+
+/// Height of the wall's outer face (m): Interior below z index 8, Surface at 8 and 9, Proximity at
+/// 10, Free above.
+pub const WALL_TOP: f64 = 0.05;
+
+/// A 20 × 20 × 20 grid of 5 mm voxels (origin at 0) holding a horizontal wall whose face is at
+/// [`WALL_TOP`].
+pub fn wall() -> DenseGrid {
+    let mut g = DenseGrid::new(GridSpec {
+        origin: DVec3::ZERO,
+        voxel_size: VOXEL,
+        dims: [20, 20, 20],
+    });
+    for z in 0..8 {
+        fill_layer(&mut g, z, Voxel::Interior);
+    }
+    fill_layer(&mut g, 8, Voxel::Surface);
+    fill_layer(&mut g, 9, Voxel::Surface);
+    fill_layer(&mut g, 10, Voxel::Proximity);
+    g
+}
+
+/// [`wall`] as a voxel tree (uniform branching 2).
+pub fn wall_tree() -> VoxelTree {
+    VoxelTree::from_dense(&wall(), TreeConfig::uniform(2)).expect("valid tree config")
+}
+
+/// An all-Free `n × n × n` grid of 1 cm voxels with its origin at 0.
+pub fn empty_cm_grid(n: u32) -> DenseGrid {
+    DenseGrid::new(GridSpec {
+        origin: DVec3::ZERO,
+        voxel_size: 0.01,
+        dims: [n; 3],
+    })
+}
+
+/// Sets every voxel whose z index is `k` to `kind`.
+pub fn fill_layer(grid: &mut DenseGrid, k: i32, kind: Voxel) {
+    let d = grid.spec.dims;
+    for j in 0..d[1] as i32 {
+        for i in 0..d[0] as i32 {
+            grid.set(IVec3::new(i, j, k), kind);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_wall_has_its_documented_layers() {
+        let g = wall();
+        let at = |z| g.get(IVec3::new(3, 17, z));
+        assert_eq!(at(0), Voxel::Interior);
+        assert_eq!(at(7), Voxel::Interior);
+        assert_eq!((at(8), at(9)), (Voxel::Surface, Voxel::Surface));
+        assert_eq!(at(10), Voxel::Proximity);
+        assert_eq!(at(11), Voxel::Free);
+        // Free, Interior, Surface, Proximity.
+        assert_eq!(g.counts(), [400 * 9, 400 * 8, 400 * 2, 400]);
+    }
+}
