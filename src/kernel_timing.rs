@@ -1,19 +1,21 @@
-//! A short timing of the current sampling kernel on this machine, for estimates such as
-//! `vps scene check`'s "does a frame fit the budget": nanoseconds per point in full contact, tree
-//! lookup included, one core. The synthetic case is `vps bench kernel`'s (which also times the
-//! previous kernel against this one): a spherical point shell of radius R voxels (Fibonacci
-//! lattice, inward normals, Morton order) centred in a spherical Surface band of 3 voxels around
-//! radius R, so every point reads a Surface voxel of a mixed leaf. Not a subcommand.
+//! The synthetic kernel case and a short timing of the current sampling kernel on it, for
+//! estimates such as `vps scene check`'s "does a frame fit the budget": nanoseconds per point in
+//! full contact, tree lookup included, one core. The case, shared with `vps bench kernel` (which
+//! also times the previous kernel and free space on it): a spherical point shell of radius R
+//! voxels ([`sphere_shell`]: Fibonacci lattice, inward normals, Morton order) centred in a
+//! spherical Surface band of 3 voxels around radius R ([`band_scene`]), so every point reads a
+//! Surface voxel of a mixed leaf. Not a subcommand.
 
 use anyhow::Result;
 use glam::{DQuat, DVec3, Vec3};
+use rayon::prelude::*;
 use std::hint::black_box;
 use std::time::Instant;
 use vps_haptic::{sample_all, ClassedShell, KernelPose, PartState};
 use vps_voxmap::{DenseGrid, GridSpec, MassProperties, PointShell, TreeConfig, Voxel, VoxelTree};
 
 /// Voxel size of the synthetic scene (m); only the counts matter to the kernel.
-const VOXEL_SIZE: f64 = 0.005;
+pub const VOXEL_SIZE: f64 = 0.005;
 
 /// Timed batches; the figure is their median.
 const BATCHES: usize = 5;
@@ -28,8 +30,8 @@ pub const MAX_TIMED_POINTS: usize = 200_000;
 /// `(BATCHES + 1) × batch_seconds`.
 pub fn contact_ns_per_point(points: usize, batch_seconds: f64) -> Result<f64> {
     let n = points.clamp(1, MAX_TIMED_POINTS);
-    let radius_vox = (n as f64 / (4.0 * std::f64::consts::PI)).sqrt().max(3.0);
-    let dense = band(radius_vox);
+    let radius_vox = shell_radius_vox(n);
+    let dense = band_scene(radius_vox, false);
     let tree = VoxelTree::from_dense(&dense, TreeConfig::default())?;
     let shell = ClassedShell::new(&sphere_shell(n, radius_vox * VOXEL_SIZE), 1);
     let centre = dense.spec.origin + DVec3::splat(dense.spec.dims[0] as f64 / 2.0) * VOXEL_SIZE;
@@ -51,8 +53,15 @@ pub fn contact_ns_per_point(points: usize, batch_seconds: f64) -> Result<f64> {
     Ok(batches[BATCHES / 2])
 }
 
-/// `n` points on a sphere of `radius` (m), inward normals, in Morton order by voxel.
-fn sphere_shell(n: usize, radius: f64) -> PointShell {
+/// Radius (voxels) of the synthetic shell of `n` points: about one point per voxel of its area,
+/// at least 3 voxels.
+pub fn shell_radius_vox(n: usize) -> f64 {
+    (n as f64 / (4.0 * std::f64::consts::PI)).sqrt().max(3.0)
+}
+
+/// `n` points on a sphere of `radius` (m) centred at the origin (Fibonacci lattice), inward
+/// normals, in Morton order by [`VOXEL_SIZE`] voxel. Allocates.
+pub fn sphere_shell(n: usize, radius: f64) -> PointShell {
     let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
     let mut pairs: Vec<(Vec3, Vec3)> = (0..n)
         .map(|i| {
@@ -80,31 +89,42 @@ fn sphere_shell(n: usize, radius: f64) -> PointShell {
     }
 }
 
-/// A cube of voxels holding a spherical Surface band of 3 voxels around `radius_vox` voxels from
-/// its centre, Interior inside, Proximity one voxel outside, Free beyond.
-fn band(radius_vox: f64) -> DenseGrid {
-    let side = (2.0 * (radius_vox + 4.0)).ceil() as u32;
+/// The synthetic scene at origin 0: a cube of side S = ceil(2 (`radius_vox` + 4)) voxels holding
+/// a spherical Surface band of 3 voxels around `radius_vox` voxels from its centre (S/2 in each
+/// axis), Interior inside, Proximity one voxel outside, Free beyond; with `free_slot`, a second,
+/// all-Free cube of the same size beside it along x (the grid is 2S × S × S; its centre is the
+/// free pose). Allocates S³ (or 2S³) bytes; parallel over z slices.
+pub fn band_scene(radius_vox: f64, free_slot: bool) -> DenseGrid {
+    let slot = (2.0 * (radius_vox + 4.0)).ceil() as u32;
     let spec = GridSpec {
         origin: DVec3::ZERO,
         voxel_size: VOXEL_SIZE,
-        dims: [side; 3],
+        dims: [if free_slot { 2 * slot } else { slot }, slot, slot],
     };
-    let centre = DVec3::splat(side as f64 / 2.0);
+    let centre = DVec3::splat(slot as f64 / 2.0);
     let mut grid = DenseGrid::new(spec);
-    let s = side as usize;
-    for (i, v) in grid.data.iter_mut().enumerate() {
-        let p = DVec3::new((i % s) as f64, ((i / s) % s) as f64, (i / (s * s)) as f64);
-        let d = (p + DVec3::splat(0.5) - centre).length() - radius_vox;
-        *v = if d < -1.5 {
-            Voxel::Interior
-        } else if d <= 1.5 {
-            Voxel::Surface
-        } else if d <= 2.5 {
-            Voxel::Proximity
-        } else {
-            Voxel::Free
-        } as u8;
-    }
+    let plane = (spec.dims[0] * spec.dims[1]) as usize;
+    grid.data
+        .par_chunks_mut(plane)
+        .enumerate()
+        .for_each(|(z, slice)| {
+            for y in 0..spec.dims[1] as usize {
+                for x in 0..slot as usize {
+                    let p = DVec3::new(x as f64 + 0.5, y as f64 + 0.5, z as f64 + 0.5);
+                    let d = (p - centre).length() - radius_vox;
+                    let v = if d < -1.5 {
+                        Voxel::Interior
+                    } else if d <= 1.5 {
+                        Voxel::Surface
+                    } else if d <= 2.5 {
+                        Voxel::Proximity
+                    } else {
+                        Voxel::Free
+                    };
+                    slice[x + y * spec.dims[0] as usize] = v as u8;
+                }
+            }
+        });
     grid
 }
 
@@ -117,7 +137,7 @@ mod tests {
     fn every_point_is_in_surface() {
         let n = 2000;
         let radius_vox = (n as f64 / (4.0 * std::f64::consts::PI)).sqrt();
-        let dense = band(radius_vox);
+        let dense = band_scene(radius_vox, false);
         let tree = VoxelTree::from_dense(&dense, TreeConfig::default()).unwrap();
         let shell = ClassedShell::new(&sphere_shell(n, radius_vox * VOXEL_SIZE), 1);
         let centre = DVec3::splat(dense.spec.dims[0] as f64 / 2.0) * VOXEL_SIZE;

@@ -9,21 +9,19 @@
 //! slot, a spherical Surface band of 3 voxels around radius R (Interior inside, Proximity outside)
 //! and, in a second slot of the same size, nothing. Full contact: the shell centred in the band slot,
 //! every point in a Surface voxel of a mixed (non-tile) leaf. Free space: the same shell centred in
-//! the empty slot, every point in Free tiles. Both poses read the same tree in the same run.
+//! the empty slot, every point in Free tiles. Both poses read the same tree in the same run. The
+//! case is built by `crate::kernel_timing` (`vps scene check` times the same contact case).
 
 use crate::host::load_average;
+use crate::kernel_timing::{band_scene, shell_radius_vox, sphere_shell, VOXEL_SIZE};
 use anyhow::Result;
-use glam::{DQuat, DVec3, Vec3};
-use rayon::prelude::*;
+use glam::{DQuat, DVec3};
 use serde::Serialize;
 use std::hint::black_box;
 use std::time::Instant;
 use vps_haptic::{sample_all, ClassedShell, KernelPose, PartState, PartialSums};
-use vps_voxmap::{DenseGrid, GridSpec, MassProperties, PointShell, Voxel, VoxelLookup};
+use vps_voxmap::{GridSpec, VoxelLookup};
 use vps_voxmap::{TreeConfig, VoxelTree};
-
-/// Voxel size of the synthetic scene (m); only the counts matter to the kernel.
-const VOXEL_SIZE: f64 = 0.005;
 
 /// Batches per case and kernel (alternated: previous, current, current, previous, …).
 const BATCHES: usize = 6;
@@ -119,78 +117,6 @@ fn has_avx2() -> bool {
     }
 }
 
-fn fibonacci_shell(n: usize, radius: f64) -> PointShell {
-    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    let mut points = Vec::with_capacity(n);
-    let mut normals = Vec::with_capacity(n);
-    for i in 0..n {
-        let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
-        let r = (1.0 - z * z).sqrt();
-        let dir = DVec3::new(
-            r * (golden * i as f64).cos(),
-            r * (golden * i as f64).sin(),
-            z,
-        );
-        points.push((dir * radius).as_vec3());
-        normals.push((-dir).as_vec3());
-    }
-    // Morton order by voxel, as real shells are (the Fibonacci index order jumps across the sphere).
-    let key = |p: &Vec3| {
-        let v = (*p / VOXEL_SIZE as f32 + Vec3::splat(1e6)).as_uvec3();
-        vps_voxelize::shell::morton_key([v.x, v.y, v.z])
-    };
-    let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by_key(|&i| key(&points[i]));
-    let points: Vec<Vec3> = order.iter().map(|&i| points[i]).collect();
-    let normals: Vec<Vec3> = order.iter().map(|&i| normals[i]).collect();
-    PointShell {
-        points,
-        normals,
-        voxel_size: VOXEL_SIZE,
-        method: vps_voxmap::shell::ShellMethod::VoxelCentres,
-        mass: MassProperties {
-            volume: 0.0,
-            center_of_mass: DVec3::ZERO,
-            bounding_radius: radius,
-        },
-    }
-}
-
-fn band_scene(radius_vox: f64) -> DenseGrid {
-    let margin = 4.0;
-    let slot = (2.0 * (radius_vox + margin)).ceil() as u32;
-    let spec = GridSpec {
-        origin: DVec3::ZERO,
-        voxel_size: VOXEL_SIZE,
-        dims: [2 * slot, slot, slot],
-    };
-    let centre = DVec3::splat(slot as f64 / 2.0);
-    let mut grid = DenseGrid::new(spec);
-    let plane = (spec.dims[0] * spec.dims[1]) as usize;
-    grid.data
-        .par_chunks_mut(plane)
-        .enumerate()
-        .for_each(|(z, slice)| {
-            for y in 0..spec.dims[1] as usize {
-                for x in 0..slot as usize {
-                    let p = DVec3::new(x as f64 + 0.5, y as f64 + 0.5, z as f64 + 0.5);
-                    let d = (p - centre).length() - radius_vox;
-                    let v = if d < -1.5 {
-                        Voxel::Interior
-                    } else if d <= 1.5 {
-                        Voxel::Surface
-                    } else if d <= 2.5 {
-                        Voxel::Proximity
-                    } else {
-                        Voxel::Free
-                    };
-                    slice[x + y * spec.dims[0] as usize] = v as u8;
-                }
-            }
-        });
-    grid
-}
-
 /// A whole-shell kernel: `vps_haptic::sample_all` or `vps_haptic::previous::sample_all`.
 type Kernel<L> = fn(&L, &ClassedShell, &KernelPose) -> PartialSums;
 
@@ -280,10 +206,10 @@ fn pose_at(spec: &GridSpec, centre_vox: DVec3) -> KernelPose {
 }
 
 fn measure(n: usize, batch_seconds: f64) -> Result<KernelFigure> {
-    let radius_vox = (n as f64 / (4.0 * std::f64::consts::PI)).sqrt().max(3.0);
-    let dense = band_scene(radius_vox);
+    let radius_vox = shell_radius_vox(n);
+    let dense = band_scene(radius_vox, true);
     let tree = VoxelTree::from_dense(&dense, TreeConfig::default())?;
-    let shell = ClassedShell::new(&fibonacci_shell(n, radius_vox * VOXEL_SIZE), 1);
+    let shell = ClassedShell::new(&sphere_shell(n, radius_vox * VOXEL_SIZE), 1);
     let slot = dense.spec.dims[1] as f64;
     let contact = pose_at(&dense.spec, DVec3::splat(slot / 2.0));
     let free = pose_at(&dense.spec, DVec3::new(slot * 1.5, slot / 2.0, slot / 2.0));
@@ -328,9 +254,9 @@ mod tests {
     #[test]
     fn contact_pose_puts_every_point_in_surface_and_free_pose_in_free() {
         let n = 400;
-        let radius_vox = (n as f64 / (4.0 * std::f64::consts::PI)).sqrt().max(3.0);
-        let dense = band_scene(radius_vox);
-        let shell = ClassedShell::new(&fibonacci_shell(n, radius_vox * VOXEL_SIZE), 1);
+        let radius_vox = shell_radius_vox(n);
+        let dense = band_scene(radius_vox, true);
+        let shell = ClassedShell::new(&sphere_shell(n, radius_vox * VOXEL_SIZE), 1);
         let slot = dense.spec.dims[1] as f64;
         let contact = pose_at(&dense.spec, DVec3::splat(slot / 2.0));
         let free = pose_at(&dense.spec, DVec3::new(slot * 1.5, slot / 2.0, slot / 2.0));
