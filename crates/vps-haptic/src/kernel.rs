@@ -413,6 +413,41 @@ fn count_bytes(x: u64) -> u64 {
     x.wrapping_mul(BYTE_ONES) >> 56
 }
 
+/// A block's Surface, Proximity and Interior lanes as byte masks: `0x01` in the byte of each lane
+/// of that kind, `0` elsewhere.
+struct KindMasks {
+    surface: u64,
+    proximity: u64,
+    interior: u64,
+}
+
+impl ClassAccumulator {
+    /// Adds a block's non-Free and Interior lanes to the counters and returns its kinds as masks,
+    /// or `None` when no lane is Surface, Proximity or Interior (the block adds nothing more).
+    /// `kinds`: one [`Voxel::bits`] per lane. Frame path: no allocation.
+    #[inline(always)]
+    fn count_kinds(&mut self, kinds: [u8; LANES]) -> Option<KindMasks> {
+        // Kinds as bit planes, one byte per lane: Free 00, Interior 01, Surface 10, Proximity 11.
+        let word = u64::from_le_bytes(kinds);
+        if word == 0 {
+            return None;
+        }
+        let (low, high) = (word & BYTE_ONES, (word >> 1) & BYTE_ONES);
+        self.non_free += count_bytes(low | high);
+        let interior = low & !high;
+        self.interior += count_bytes(interior);
+        let (surface, proximity) = (high & !low, high & low);
+        if surface | proximity | interior == 0 {
+            return None;
+        }
+        Some(KindMasks {
+            surface,
+            proximity,
+            interior,
+        })
+    }
+}
+
 /// Lanes `start..start + valid` of `xs` (`valid ≤ LANES`), zero-padded.
 #[inline(always)]
 fn load(xs: Soa, start: usize, valid: usize) -> Vec3s {
@@ -448,19 +483,14 @@ fn sample_block<L: VoxelLookup, const CLAMP: bool>(
         floor_i32(&grid[2]),
     ];
     let (kinds, layers) = look_up(map, &cell, valid, last);
-    // Kinds as bit planes, one byte per lane: Free 00, Interior 01, Surface 10, Proximity 11.
-    let word = u64::from_le_bytes(kinds);
-    if word == 0 {
+    let Some(KindMasks {
+        surface,
+        proximity,
+        interior,
+    }) = acc.count_kinds(kinds)
+    else {
         return;
-    }
-    let (low, high) = (word & BYTE_ONES, (word >> 1) & BYTE_ONES);
-    acc.non_free += count_bytes(low | high);
-    let interior = low & !high;
-    acc.interior += count_bytes(interior);
-    let (surface, proximity) = (high & !low, high & low);
-    if surface | proximity | interior == 0 {
-        return;
-    }
+    };
     let normal = mat_vec(&frame.rotation, &load(normals, start, valid));
     if surface | interior != 0 {
         acc.surface += count_bytes(surface);
@@ -655,7 +685,7 @@ fn brake_block<const CLAMP: bool>(
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use super::{
-        count_bytes, look_up_fresh, ClassAccumulator, GridFrame, I64s, LastVoxel, Soa, BYTE_ONES,
+        count_bytes, look_up_fresh, ClassAccumulator, GridFrame, I64s, KindMasks, LastVoxel, Soa,
         LANES, LENGTH_Q, ROUNDER, Y_MAX,
     };
     use glam::Mat3;
@@ -830,20 +860,14 @@ mod avx2 {
                 _mm256_storeu_si256(cells[r].as_mut_ptr().cast(), cell[r]);
             }
             let (kinds, layers) = look_up_fresh(map, &cells, LANES, fresh, last);
-            // Kinds as bit planes, one byte per lane: Free 00, Interior 01, Surface 10,
-            // Proximity 11.
-            let word = u64::from_le_bytes(kinds);
-            if word == 0 {
+            let Some(KindMasks {
+                surface,
+                proximity,
+                interior,
+            }) = acc.count_kinds(kinds)
+            else {
                 return;
-            }
-            let (low, high) = (word & BYTE_ONES, (word >> 1) & BYTE_ONES);
-            acc.non_free += count_bytes(low | high);
-            let interior = low & !high;
-            acc.interior += count_bytes(interior);
-            let (surface, proximity) = (high & !low, high & low);
-            if surface | proximity | interior == 0 {
-                return;
-            }
+            };
             let normal = mat_vec(&frame.rotation, &load(normals, start));
             let kind = _mm256_cvtepu8_epi32(_mm_loadl_epi64(kinds.as_ptr().cast()));
             if surface | interior != 0 {
