@@ -25,7 +25,7 @@
 
 use crate::atomic::{write_atomically, AtomicStage};
 use crate::shell::ShellMethod;
-use crate::tree::{TreeConfig, TreeError, VoxelTree};
+use crate::tree::{Arenas, TreeConfig, TreeError, VoxelTree};
 use crate::{GridSpec, MassProperties, PointShell, VoxelWidth};
 use glam::{DVec3, Vec3};
 use std::fs::File;
@@ -145,12 +145,7 @@ fn invalid(field: impl Into<String>, reason: impl Into<String>) -> FileError {
 /// Writes `tree` as a `.vmap` stream (unbuffered writes go straight to `w`; wrap it in a
 /// `BufWriter` for files).
 pub fn write_voxmap(tree: &VoxelTree, w: impl Write) -> Result<(), FileError> {
-    let mut enc = Encoder::new(w);
-    encode_voxmap_body(tree, &mut enc).map_err(|source| FileError::Io {
-        field: "write",
-        source,
-    })?;
-    enc.finish()
+    Encoder::write_hashed(w, |enc| encode_voxmap_body(tree, enc))
 }
 
 /// Reads a `.vmap` stream, validating header, arena lengths, tree invariants and the hash. Arrays
@@ -205,9 +200,13 @@ fn decode_voxmap(mut dec: Decoder<impl Read>) -> Result<VoxelTree, FileError> {
     let words_per_leaf = ((width.bits() as u64) << (3 * config.log2_dims[0])).div_ceil(64);
     let leaves = dec.counted_u64s("leaf words", count_children(&lower) * words_per_leaf)?;
     dec.finish()?;
-    Ok(VoxelTree::from_parts(
-        spec, config, width, root, upper, lower, leaves,
-    )?)
+    let arenas = Arenas {
+        root,
+        upper,
+        lower,
+        leaves,
+    };
+    Ok(VoxelTree::from_parts(spec, config, width, arenas)?)
 }
 
 /// Writes `tree` to `path` (created or truncated); errors name the path.
@@ -337,12 +336,7 @@ pub fn write_shell(shell: &PointShell, w: impl Write) -> Result<(), FileError> {
             ),
         ));
     }
-    let mut enc = Encoder::new(w);
-    encode_shell_body(shell, &mut enc).map_err(|source| FileError::Io {
-        field: "write",
-        source,
-    })?;
-    enc.finish()
+    Encoder::write_hashed(w, |enc| encode_shell_body(shell, enc))
 }
 
 /// Reads a `.vshell` stream, validating every field, every point and normal, and the hash. Arrays
@@ -543,6 +537,19 @@ impl<W: Write> Encoder<W> {
             inner,
             hasher: blake3::Hasher::new(),
         }
+    }
+
+    /// Writes what `body` writes to `inner`, then the blake3 of those bytes (the trailer).
+    fn write_hashed(
+        inner: W,
+        body: impl FnOnce(&mut Self) -> io::Result<()>,
+    ) -> Result<(), FileError> {
+        let mut enc = Self::new(inner);
+        body(&mut enc).map_err(|source| FileError::Io {
+            field: "write",
+            source,
+        })?;
+        enc.finish()
     }
 
     fn finish(mut self) -> Result<(), FileError> {

@@ -7,7 +7,7 @@
 
 use super::internal::{assemble_node, Slot};
 use super::leaf::ByteBox;
-use super::{TreeConfig, TreeError, VoxelTree};
+use super::{Arenas, TreeConfig, TreeError, VoxelTree};
 use crate::{DenseGrid, GridSpec, VoxelWidth};
 use glam::UVec3;
 use rayon::prelude::*;
@@ -71,7 +71,7 @@ fn build(
     config: TreeConfig,
     input: Input<'_>,
 ) -> Result<VoxelTree, TreeError> {
-    let mut tree = VoxelTree::assemble(spec, config, width, vec![], vec![], vec![], vec![])?;
+    let mut tree = VoxelTree::assemble(spec, config, width, Arenas::default())?;
     let root_cells = super::root::RootGrid::cell_count(tree.root.dims) as usize;
     let cubes = root_cells * tree.upper.shape.slots_per_node();
     let chunk_len = cubes.div_ceil(32 * rayon::current_num_threads()).max(1);

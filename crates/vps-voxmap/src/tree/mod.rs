@@ -58,6 +58,16 @@ pub struct VoxelTree {
     directory: Option<LeafDirectory>,
 }
 
+/// A tree's stored parts in file order, for [`VoxelTree::from_parts`]: root slots, upper slots,
+/// lower slots (`u32` slots: a tile or a child index) and the bit-packed leaf words.
+#[derive(Default)]
+pub(crate) struct Arenas {
+    pub(crate) root: Vec<u32>,
+    pub(crate) upper: Vec<u32>,
+    pub(crate) lower: Vec<u32>,
+    pub(crate) leaves: Vec<u64>,
+}
+
 /// Number of stored nodes per level (tiles are not nodes).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct NodeCounts {
@@ -377,20 +387,9 @@ impl VoxelTree {
         spec: GridSpec,
         config: TreeConfig,
         width: VoxelWidth,
-        root_slots: Vec<u32>,
-        upper_slots: Vec<u32>,
-        lower_slots: Vec<u32>,
-        leaf_words: Vec<u64>,
+        arenas: Arenas,
     ) -> Result<VoxelTree, TreeError> {
-        let mut tree = VoxelTree::assemble(
-            spec,
-            config,
-            width,
-            root_slots,
-            upper_slots,
-            lower_slots,
-            leaf_words,
-        )?;
+        let mut tree = VoxelTree::assemble(spec, config, width, arenas)?;
         // Arenas read from a stream grow as bytes arrive (so that a corrupt count cannot allocate
         // more than the stream holds) and end with growth slack: drop it, so that a loaded tree
         // holds what its file says, as a built one does (`memory_bytes` equal).
@@ -407,10 +406,7 @@ impl VoxelTree {
         spec: GridSpec,
         config: TreeConfig,
         width: VoxelWidth,
-        root_slots: Vec<u32>,
-        upper_slots: Vec<u32>,
-        lower_slots: Vec<u32>,
-        leaf_words: Vec<u64>,
+        arenas: Arenas,
     ) -> Result<VoxelTree, TreeError> {
         config.validate()?;
         validate::check_spec(&spec)?;
@@ -430,27 +426,27 @@ impl VoxelTree {
             root: RootGrid {
                 dims: RootGrid::dims_for(spec.dims, root_shift),
                 shift: root_shift,
-                slots: root_slots,
+                slots: arenas.root,
             },
             upper: InternalLevel {
                 shape: internal::InternalShape {
                     log2: n2,
                     child_shift: n0 + n1,
                 },
-                slots: upper_slots,
+                slots: arenas.upper,
             },
             lower: InternalLevel {
                 shape: internal::InternalShape {
                     log2: n1,
                     child_shift: n0,
                 },
-                slots: lower_slots,
+                slots: arenas.lower,
             },
             leaf_shape: LeafShape {
                 log2: n0,
                 bits_log2: width.bits_log2(),
             },
-            leaf_words,
+            leaf_words: arenas.leaves,
             directory: None,
         })
     }

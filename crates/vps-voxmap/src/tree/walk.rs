@@ -5,43 +5,48 @@ use super::VoxelTree;
 use crate::{DenseGrid, Voxel};
 use glam::UVec3;
 
+use std::ops::Range;
+
 /// A maximal stored region: a tile at some level or a leaf.
-enum Block {
-    /// A uniform cube of `2^shift` voxels per axis at `origin` (may extend past the dims).
+enum Block<'a> {
+    /// A uniform tile, clipped to the dims: a half-open range per axis (any may be empty).
     Tile {
-        origin: UVec3,
-        shift: u32,
+        range: [Range<u32>; 3],
         /// The tile's code.
         value: u8,
     },
-    /// A leaf at `origin` whose words start at `first_word` in the leaf arena.
-    Leaf { origin: UVec3, first_word: usize },
+    /// A leaf at `origin` (may extend past the dims) and its words in the leaf arena.
+    Leaf { origin: UVec3, words: &'a [u64] },
 }
 
 /// Calls `f` on every tile and leaf, in canonical order.
-fn for_each_block(tree: &VoxelTree, mut f: impl FnMut(Block)) {
+fn for_each_block<'a>(tree: &'a VoxelTree, mut f: impl FnMut(Block<'a>)) {
     for (cell, &raw) in tree.root.slots.iter().enumerate() {
         visit(tree, Slot(raw), 2, tree.root.cell_origin(cell), &mut f);
     }
 }
 
 /// Visits `slot`, which points at (or tiles) a node of `level` (2 = upper, 1 = lower, 0 = leaf).
-fn visit(tree: &VoxelTree, slot: Slot, level: usize, origin: UVec3, f: &mut impl FnMut(Block)) {
+fn visit<'a>(
+    tree: &'a VoxelTree,
+    slot: Slot,
+    level: usize,
+    origin: UVec3,
+    f: &mut impl FnMut(Block<'a>),
+) {
     if slot.is_tile() {
-        let shift = tree.config.shift(level);
-        f(Block::Tile {
-            origin,
-            shift,
-            value: slot.tile_value(),
-        });
-        return;
+        let range = clip(origin, tree.config.shift(level), tree.spec.dims);
+        let value = slot.tile_value();
+        return f(Block::Tile { range, value });
     }
     let node = match level {
         2 => &tree.upper,
         1 => &tree.lower,
         _ => {
-            let first_word = slot.child_index() * tree.leaf_shape.words_per_leaf();
-            return f(Block::Leaf { origin, first_word });
+            let wpl = tree.leaf_shape.words_per_leaf();
+            let first = slot.child_index() * wpl;
+            let words = &tree.leaf_words[first..first + wpl];
+            return f(Block::Leaf { origin, words });
         }
     };
     for (local, &raw) in node.node(slot.child_index()).iter().enumerate() {
@@ -51,7 +56,7 @@ fn visit(tree: &VoxelTree, slot: Slot, level: usize, origin: UVec3, f: &mut impl
 }
 
 /// The part of the cube `[origin, origin + 2^shift)` inside `dims`, as a half-open range per axis.
-fn clip(origin: UVec3, shift: u32, dims: [u32; 3]) -> [std::ops::Range<u32>; 3] {
+fn clip(origin: UVec3, shift: u32, dims: [u32; 3]) -> [Range<u32>; 3] {
     let o = origin.to_array();
     std::array::from_fn(|a| {
         let end = (o[a] as u64 + (1u64 << shift)).min(dims[a] as u64) as u32;
@@ -62,23 +67,16 @@ fn clip(origin: UVec3, shift: u32, dims: [u32; 3]) -> [std::ops::Range<u32>; 3] 
 /// Voxels inside the dims holding each code (see [`VoxelTree::layer_counts`]).
 pub(super) fn code_counts(tree: &VoxelTree) -> [u64; 256] {
     let mut c = [0u64; 256];
-    let wpl = tree.leaf_shape.words_per_leaf();
-    let dims = tree.spec.dims;
     for_each_block(tree, |block| match block {
-        Block::Tile {
-            origin,
-            shift,
-            value,
-        } => {
+        Block::Tile { range, value } => {
             if value != 0 {
-                let [x, y, z] = clip(origin, shift, dims);
+                let [x, y, z] = range;
                 c[value as usize] += x.len() as u64 * y.len() as u64 * z.len() as u64;
             }
         }
-        Block::Leaf { first_word, .. } => {
-            let leaf = &tree.leaf_words[first_word..first_word + wpl];
+        Block::Leaf { words, .. } => {
             let mut hist = [0u64; 256];
-            tree.leaf_shape.histogram(leaf, &mut hist);
+            tree.leaf_shape.histogram(words, &mut hist);
             for (total, n) in c.iter_mut().zip(hist).skip(1) {
                 *total += n;
             }
@@ -91,17 +89,11 @@ pub(super) fn code_counts(tree: &VoxelTree) -> [u64; 256] {
 /// See [`VoxelTree::to_dense`].
 pub(super) fn to_dense(tree: &VoxelTree) -> DenseGrid {
     let mut grid = DenseGrid::new(tree.spec);
-    let wpl = tree.leaf_shape.words_per_leaf();
-    let dims = tree.spec.dims;
     for_each_block(tree, |block| match block {
-        Block::Tile {
-            origin,
-            shift,
-            value,
-        } => {
+        Block::Tile { range, value } => {
             let kind = tree.kind_of(value);
             if kind != Voxel::Free {
-                let [x, y, z] = clip(origin, shift, dims);
+                let [x, y, z] = range;
                 for k in z {
                     for j in y.clone() {
                         let row = grid.spec.linear(UVec3::new(x.start, j, k).as_ivec3());
@@ -110,10 +102,9 @@ pub(super) fn to_dense(tree: &VoxelTree) -> DenseGrid {
                 }
             }
         }
-        Block::Leaf { origin, first_word } => {
-            let leaf = &tree.leaf_words[first_word..first_word + wpl];
+        Block::Leaf { origin, words } => {
             tree.leaf_shape
-                .unpack(leaf, origin, &mut grid, |code| tree.kind_of(code));
+                .unpack(words, origin, &mut grid, |code| tree.kind_of(code));
         }
     });
     grid
@@ -121,32 +112,24 @@ pub(super) fn to_dense(tree: &VoxelTree) -> DenseGrid {
 
 /// See [`VoxelTree::for_each_region_of`].
 pub(super) fn regions_of(tree: &VoxelTree, kind: Voxel, mut f: impl FnMut(UVec3, UVec3)) {
-    let wpl = tree.leaf_shape.words_per_leaf();
     let dims = tree.spec.dims;
     for_each_block(tree, |block| match block {
-        Block::Tile {
-            origin,
-            shift,
-            value,
-        } => {
-            if tree.kind_of(value) == kind {
-                let [x, y, z] = clip(origin, shift, dims);
-                if !x.is_empty() && !y.is_empty() && !z.is_empty() {
-                    f(
-                        UVec3::new(x.start, y.start, z.start),
-                        UVec3::new(x.end, y.end, z.end),
-                    );
-                }
+        Block::Tile { range, value } => {
+            let [x, y, z] = range;
+            if tree.kind_of(value) == kind && !x.is_empty() && !y.is_empty() && !z.is_empty() {
+                f(
+                    UVec3::new(x.start, y.start, z.start),
+                    UVec3::new(x.end, y.end, z.end),
+                );
             }
         }
-        Block::Leaf { origin, first_word } => {
-            let leaf = &tree.leaf_words[first_word..first_word + wpl];
+        Block::Leaf { origin, words } => {
             let inside = tree.leaf_shape.inside(origin, dims);
             for z in 0..inside[2] {
                 for y in 0..inside[1] {
                     for x in 0..inside[0] {
                         let p = origin + UVec3::new(x, y, z);
-                        if tree.kind_of(tree.leaf_shape.read(leaf, 0, p)) == kind {
+                        if tree.kind_of(tree.leaf_shape.read(words, 0, p)) == kind {
                             f(p, p + UVec3::ONE);
                         }
                     }
