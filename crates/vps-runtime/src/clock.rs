@@ -157,41 +157,27 @@ mod tests {
 
     const MS: Duration = Duration::from_millis(1);
 
+    /// Each `(elapsed µs, next tick, tick run, ticks missed)` holds for [`schedule`] at 1 ms.
+    fn assert_schedules(cases: &[(u64, u64, u64, u64)]) {
+        for &(elapsed_us, next, tick, missed) in cases {
+            assert_eq!(
+                schedule(Duration::from_micros(elapsed_us), next, MS),
+                Schedule { tick, missed },
+                "{elapsed_us} us with tick {next} next"
+            );
+        }
+    }
+
     #[test]
     fn early_or_slightly_late_runs_the_due_tick() {
-        assert_eq!(
-            schedule(Duration::ZERO, 0, MS),
-            Schedule { tick: 0, missed: 0 }
-        );
-        assert_eq!(
-            schedule(Duration::from_micros(4_200), 5, MS),
-            Schedule { tick: 5, missed: 0 }
-        );
-        // 0.9 ms late: still run tick 5, recorded against its schedule.
-        assert_eq!(
-            schedule(Duration::from_micros(5_900), 5, MS),
-            Schedule { tick: 5, missed: 0 }
-        );
+        // 0.9 ms late (5.9 ms, tick 5): still run tick 5, recorded against its schedule.
+        assert_schedules(&[(0, 0, 0, 0), (4_200, 5, 5, 0), (5_900, 5, 5, 0)]);
     }
 
     #[test]
     fn a_period_or_more_late_skips_to_the_next_future_tick() {
-        // Exactly one period late: tick 5 and 6 are due or past; run 7.
-        assert_eq!(
-            schedule(Duration::from_micros(6_000), 5, MS),
-            Schedule { tick: 7, missed: 2 }
-        );
-        assert_eq!(
-            schedule(Duration::from_micros(6_500), 5, MS),
-            Schedule { tick: 7, missed: 2 }
-        );
-        assert_eq!(
-            schedule(Duration::from_micros(105_100), 5, MS),
-            Schedule {
-                tick: 106,
-                missed: 101
-            }
-        );
+        // Exactly one period late (6 ms, tick 5): tick 5 and 6 are due or past; run 7.
+        assert_schedules(&[(6_000, 5, 7, 2), (6_500, 5, 7, 2), (105_100, 5, 106, 101)]);
     }
 
     #[test]

@@ -455,6 +455,23 @@ mod tests {
         }
     }
 
+    /// A session's setup with the test parameters and the part at rest at [`START`].
+    fn setup(
+        device: Box<dyn HapticDevice>,
+        config: LoopConfig,
+        feed: Option<StateFeedSender>,
+        stop: Arc<AtomicBool>,
+    ) -> SessionSetup {
+        SessionSetup {
+            params: params(),
+            device,
+            initial: PartState::at_rest(START, DQuat::IDENTITY),
+            config,
+            feed,
+            stop,
+        }
+    }
+
     fn session(
         device: Box<dyn HapticDevice>,
         config: LoopConfig,
@@ -463,20 +480,8 @@ mod tests {
     ) -> LoopReport {
         let map: Arc<DenseGrid> = Arc::new(wall());
         let shell = Arc::new(ClassedShell::new(&sphere_shell(400), classes));
-        let initial = PartState::at_rest(START, DQuat::IDENTITY);
-        run_loop(
-            map,
-            shell,
-            SessionSetup {
-                params: params(),
-                device,
-                initial,
-                config,
-                feed,
-                stop: Arc::new(AtomicBool::new(false)),
-            },
-        )
-        .unwrap()
+        let stop = Arc::new(AtomicBool::new(false));
+        run_loop(map, shell, setup(device, config, feed, stop)).unwrap()
     }
 
     #[test]
@@ -610,19 +615,11 @@ mod tests {
             frames: None,
             ..config(0, 2)
         };
-        let initial = PartState::at_rest(START, DQuat::IDENTITY);
         let shell = Arc::new(ClassedShell::new(&sphere_shell(100), 4));
         let h = spawn_loop(
             Arc::new(wall()),
             shell,
-            SessionSetup {
-                params: params(),
-                device: hand(),
-                initial,
-                config: cfg,
-                feed: Some(tx),
-                stop: stop.clone(),
-            },
+            setup(hand(), cfg, Some(tx), stop.clone()),
         )
         .unwrap();
         while rx.latest().is_none_or(|f| f.frame < 50) {
@@ -710,14 +707,7 @@ mod tests {
         let h = spawn_loop(
             map.clone(),
             Arc::new(ClassedShell::new(&sphere_shell(400), 64)),
-            SessionSetup {
-                params: params(),
-                device: Box::new(device),
-                initial: PartState::at_rest(START, DQuat::IDENTITY),
-                config: cfg,
-                feed: Some(tx),
-                stop: stop.clone(),
-            },
+            setup(Box::new(device), cfg, Some(tx), stop.clone()),
         )
         .unwrap();
         while rx.latest().is_none_or(|f| f.frame < 20) {
@@ -747,14 +737,7 @@ mod tests {
         let r = run_loop(
             Arc::new(wall()),
             Arc::new(ClassedShell::new(&sphere_shell(100), 4)),
-            SessionSetup {
-                params: params(),
-                device: Box::new(device),
-                initial: PartState::at_rest(START, DQuat::IDENTITY),
-                config: config(100, 1),
-                feed: None,
-                stop,
-            },
+            setup(Box::new(device), config(100, 1), None, stop),
         )
         .unwrap();
         assert_eq!(r.end, SessionEnd::Stopped);
@@ -796,49 +779,26 @@ mod tests {
     fn bad_configs_are_refused_before_starting() {
         let run = |cfg: LoopConfig| {
             let shell = Arc::new(ClassedShell::new(&sphere_shell(10), 1));
-            let initial = PartState::at_rest(START, DQuat::IDENTITY);
             run_loop(
                 Arc::new(wall()),
                 shell,
-                SessionSetup {
-                    params: params(),
-                    device: hand(),
-                    initial,
-                    config: cfg,
-                    feed: None,
-                    stop: Arc::new(AtomicBool::new(false)),
-                },
+                setup(hand(), cfg, None, Arc::new(AtomicBool::new(false))),
             )
         };
-        let e = run(LoopConfig {
+        let period = LoopConfig {
             period: Duration::from_micros(500),
             ..LoopConfig::default()
-        })
-        .unwrap_err();
-        assert!(
-            matches!(
-                e,
-                RuntimeError::Config {
-                    field: "period",
-                    ..
-                }
-            ),
-            "{e}"
-        );
-        let e = run(LoopConfig {
+        };
+        let threads = LoopConfig {
             threads: 0,
             ..LoopConfig::default()
-        })
-        .unwrap_err();
-        assert!(
-            matches!(
-                e,
-                RuntimeError::Config {
-                    field: "threads",
-                    ..
-                }
-            ),
-            "{e}"
-        );
+        };
+        for (cfg, named) in [(period, "period"), (threads, "threads")] {
+            let e = run(cfg).unwrap_err();
+            assert!(
+                matches!(e, RuntimeError::Config { field, .. } if field == named),
+                "{e}"
+            );
+        }
     }
 }
