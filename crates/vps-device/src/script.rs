@@ -276,6 +276,15 @@ pub struct SurfaceContact {
     pub orientation: DQuat,
 }
 
+impl SurfaceContact {
+    /// The handle position `pace.press_depth` (m) past the touching position, along −normal.
+    /// Errors name `normal` (zero or non-finite) or `press_depth` (negative or non-finite).
+    fn pressed(&self, pace: &Pace) -> Result<DVec3, ScriptError> {
+        let n = unit(self.normal, "normal")?;
+        Ok(self.point - non_negative(pace.press_depth, "press_depth")? * n)
+    }
+}
+
 /// How a built-in motion moves.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Pace {
@@ -327,8 +336,7 @@ pub fn approach_and_rest(
     contact: &SurfaceContact,
     pace: &Pace,
 ) -> Result<Script, ScriptError> {
-    let n = unit(contact.normal, "normal")?;
-    let pressed = contact.point - non_negative(pace.press_depth, "press_depth")? * n;
+    let pressed = contact.pressed(pace)?;
     ScriptBuilder::start(start, contact.orientation)
         .move_to(pressed, pace.speed)
         .hold(pace.dwell)
@@ -412,8 +420,7 @@ pub fn high_speed_collision(
     contact: &SurfaceContact,
     pace: &Pace,
 ) -> Result<Script, ScriptError> {
-    let n = unit(contact.normal, "normal")?;
-    let target = contact.point - non_negative(pace.press_depth, "press_depth")? * n;
+    let target = contact.pressed(pace)?;
     ScriptBuilder::start(start, contact.orientation)
         .move_to(target, pace.speed)
         .move_to(start, pace.speed)

@@ -21,3 +21,21 @@ pub use bridge::{
 };
 pub use error::InputError;
 pub use spacemouse::{list_devices, HidDeviceInfo, SpaceMouse, SpaceMouseConfig};
+
+/// Checks a configured start pose: the position (m) must be finite and the orientation a finite
+/// unit quaternion (length within 1e-6). The error names the first bad one of `fields`
+/// (position's, orientation's) with the reason.
+fn check_start_pose(
+    position: glam::DVec3,
+    orientation: glam::DQuat,
+    fields: [&'static str; 2],
+) -> Result<(), (&'static str, String)> {
+    if !position.is_finite() {
+        return Err((fields[0], "must be finite".into()));
+    }
+    let q = orientation;
+    if !q.is_finite() || (q.length() - 1.0).abs() > 1e-6 {
+        return Err((fields[1], format!("{q:?} must be a finite unit quaternion")));
+    }
+    Ok(())
+}

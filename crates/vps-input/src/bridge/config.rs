@@ -101,16 +101,12 @@ impl BridgeConfig {
                 Some(_) => {}
             }
         }
-        if !self.initial_position.is_finite() {
-            return Err(bad("initial_position", "must be finite"));
-        }
-        let q = self.initial_orientation;
-        if !q.is_finite() || (q.length() - 1.0).abs() > 1e-6 {
-            return Err(bad(
-                "initial_orientation",
-                format!("{q:?} must be a finite unit quaternion"),
-            ));
-        }
+        crate::check_start_pose(
+            self.initial_position,
+            self.initial_orientation,
+            ["initial_position", "initial_orientation"],
+        )
+        .map_err(|(field, message)| bad(field, message))?;
         if !(self.velocity_timeout.is_finite() && self.velocity_timeout > 0.0) {
             return Err(bad(
                 "velocity_timeout",
@@ -224,29 +220,21 @@ mod tests {
 
     #[test]
     fn other_fields_are_named() {
-        let c = BridgeConfig {
-            velocity_timeout: 0.0,
-            ..Default::default()
-        };
-        assert!(matches!(
-            c.validate(),
-            Err(BridgeError::Config {
-                field: "velocity_timeout",
-                ..
-            })
-        ));
-        let c = BridgeConfig {
-            initial_orientation: DQuat::from_xyzw(0.0, 0.0, 0.0, 0.0),
-            ..Default::default()
-        };
-        assert!(matches!(
-            c.validate(),
-            Err(BridgeError::Config {
-                field: "initial_orientation",
-                ..
-            })
-        ));
         for (c, field) in [
+            (
+                BridgeConfig {
+                    velocity_timeout: 0.0,
+                    ..Default::default()
+                },
+                "velocity_timeout",
+            ),
+            (
+                BridgeConfig {
+                    initial_orientation: DQuat::from_xyzw(0.0, 0.0, 0.0, 0.0),
+                    ..Default::default()
+                },
+                "initial_orientation",
+            ),
             (
                 BridgeConfig {
                     pose_timeout: 0.0,
@@ -261,26 +249,22 @@ mod tests {
                 },
                 "wrench_log_frames",
             ),
+            (
+                BridgeConfig {
+                    limits: DeviceLimits {
+                        max_force: f64::INFINITY,
+                        max_torque: 0.1,
+                    },
+                    ..Default::default()
+                },
+                "limits",
+            ),
         ] {
             match c.validate() {
                 Err(BridgeError::Config { field: f, .. }) => assert_eq!(f, field),
                 other => panic!("{field}: {other:?}"),
             }
         }
-        let c = BridgeConfig {
-            limits: DeviceLimits {
-                max_force: f64::INFINITY,
-                max_torque: 0.1,
-            },
-            ..Default::default()
-        };
-        assert!(matches!(
-            c.validate(),
-            Err(BridgeError::Config {
-                field: "limits",
-                ..
-            })
-        ));
     }
 
     #[test]

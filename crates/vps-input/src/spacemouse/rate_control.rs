@@ -157,17 +157,12 @@ impl SpaceMouseConfig {
                 format!("{} s must be finite and > 0", self.stale_after),
             ));
         }
-        if !self.start_position.is_finite() {
-            return Err(bad("start_position", "must be finite"));
-        }
-        let q = self.start_orientation;
-        if !q.is_finite() || (q.length() - 1.0).abs() > 1e-6 {
-            return Err(bad(
-                "start_orientation",
-                format!("{q:?} must be a finite unit quaternion"),
-            ));
-        }
-        Ok(())
+        crate::check_start_pose(
+            self.start_position,
+            self.start_orientation,
+            ["start_position", "start_orientation"],
+        )
+        .map_err(|(field, message)| bad(field, message))
     }
 }
 
