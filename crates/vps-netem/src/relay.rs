@@ -316,21 +316,42 @@ fn receive_from_clients(
                 }
             },
         };
-        let _ = events.send(Event::Received(Direction::ToForward));
-        let event = match impair.draw() {
-            None => Event::Dropped(Direction::ToForward),
-            Some(delay) => Event::Hold(
-                Direction::ToForward,
-                Held {
-                    received,
-                    due: received + delay,
-                    target: Target::Upstream(upstream),
-                    bytes: buf[..len].to_vec(),
-                },
-            ),
-        };
-        let _ = events.send(event);
+        let target = Target::Upstream(upstream);
+        impair_datagram(
+            &mut impair,
+            events,
+            Direction::ToForward,
+            received,
+            target,
+            &buf[..len],
+        );
     }
+}
+
+/// Reports a datagram received at `received` going `direction`, and what `impair` makes of it:
+/// dropped, or held (a copy of `bytes`) until its delay has passed, then sent to `target`.
+fn impair_datagram(
+    impair: &mut Impairment,
+    events: &Sender<Event>,
+    direction: Direction,
+    received: Instant,
+    target: Target,
+    bytes: &[u8],
+) {
+    let _ = events.send(Event::Received(direction));
+    let event = match impair.draw() {
+        None => Event::Dropped(direction),
+        Some(delay) => Event::Hold(
+            direction,
+            Held {
+                received,
+                due: received + delay,
+                target,
+                bytes: bytes.to_vec(),
+            },
+        ),
+    };
+    let _ = events.send(event);
 }
 
 /// A socket connected to `forward` for client number `index`, and the thread that impairs what
@@ -364,20 +385,16 @@ fn open_upstream(
             while !shared.stop.load(Ordering::Relaxed) {
                 let Ok(len) = rx.recv(&mut buf) else { continue };
                 let received = Instant::now();
-                let _ = events.send(Event::Received(Direction::ToClients));
-                let event = match impair.draw() {
-                    None => Event::Dropped(Direction::ToClients),
-                    Some(delay) => Event::Hold(
-                        Direction::ToClients,
-                        Held {
-                            received,
-                            due: received + delay,
-                            target: Target::Client(client),
-                            bytes: buf[..len].to_vec(),
-                        },
-                    ),
-                };
-                let _ = events.send(event);
+                let target = Target::Client(client);
+                let bytes = &buf[..len];
+                impair_datagram(
+                    &mut impair,
+                    &events,
+                    Direction::ToClients,
+                    received,
+                    target,
+                    bytes,
+                );
             }
         })
         .map_err(|e| net("spawn a thread", e))?;
