@@ -16,9 +16,9 @@ use crate::FidelityError;
 use glam::{DQuat, DVec3, Vec3};
 use rayon::prelude::*;
 use vps_haptic::contact::contact_wrench;
-use vps_haptic::{sample_all, ClassedShell, HapticParams, KernelPose, PartState};
+use vps_haptic::{sample_all, ClassedShell, HapticParams, KernelPose, PartState, PartialSums};
 use vps_mesh::TriMesh;
-use vps_reference::{reference_contact, ExactScene};
+use vps_reference::{reference_contact, ExactScene, ReferenceContact};
 use vps_voxelize::{point_shell, voxelize_tree, ShellMethod, VoxelWidth, VoxelizeOptions};
 use vps_voxmap::{TreeConfig, VoxelTree};
 
@@ -259,7 +259,15 @@ fn prepare(
 }
 
 impl Prepared {
-    fn sample(&self, s: f64, position: DVec3, orientation: DQuat) -> PoseSample {
+    /// The voxel sums of the part at rest at `position`, `orientation` over voxels of `s` (m),
+    /// and the exact contact of its shell points, counted from the voxmap's offset layers plus
+    /// half a voxel, over one voxel.
+    fn sums_and_reference(
+        &self,
+        s: f64,
+        position: DVec3,
+        orientation: DQuat,
+    ) -> (PartialSums, ReferenceContact) {
         let state = PartState::at_rest(position, orientation);
         let sums = sample_all(&self.tree, &self.classed, &KernelPose::from_state(&state));
         let offset = (f64::from(OFFSET_LAYERS) + 0.5) * s;
@@ -271,6 +279,11 @@ impl Prepared {
             offset,
             offset + s,
         );
+        (sums, reference)
+    }
+
+    fn sample(&self, s: f64, position: DVec3, orientation: DQuat) -> PoseSample {
+        let (sums, reference) = self.sums_and_reference(s, position, orientation);
         PoseSample {
             voxel_force: sums.depth_normal_si(),
             voxel_torque: sums.depth_torque_si(),
@@ -407,22 +420,8 @@ fn slide(
         .into_par_iter()
         .map(|k| {
             let position = DVec3::new(start + step * k as f64, 0.3 * s, gap_voxels * s - lowest);
-            let state = PartState::at_rest(position, orientation);
-            let sums = sample_all(
-                &prepared.tree,
-                &prepared.classed,
-                &KernelPose::from_state(&state),
-            );
+            let (sums, r) = prepared.sums_and_reference(s, position, orientation);
             let voxel = contact_wrench(&params, &gains, &sums).force;
-            let offset = (f64::from(OFFSET_LAYERS) + 0.5) * s;
-            let r = reference_contact(
-                &prepared.exact,
-                &prepared.shell_points,
-                position,
-                orientation,
-                offset,
-                offset + s,
-            );
             let n = r.contact_points as f64;
             let threshold = f64::from(params.contact_average_threshold);
             let scale = if n >= threshold { threshold / n } else { 1.0 };
