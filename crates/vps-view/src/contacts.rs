@@ -82,6 +82,12 @@ mod tests {
 
     /// The slab's Surface layer spans z ∈ [0.10, 0.11) m (centre 0.105); Interior below.
     fn at_height(z: f64, max_points: usize) -> Vec<ContactSample> {
+        tilted(z, 0.0, max_points)
+    }
+
+    /// The square's contacts at height `z` (m), tilted by `angle` (rad) about x, keeping at most
+    /// `max_points` (sampled into a non-empty vector: it must be cleared first).
+    fn tilted(z: f64, angle: f64, max_points: usize) -> Vec<ContactSample> {
         let mut out = vec![ContactSample {
             position: Vec3::ZERO,
             depth: 9.0,
@@ -91,7 +97,7 @@ mod tests {
             &slab(),
             &square_shell(),
             DVec3::new(0.2, 0.2, z),
-            DQuat::IDENTITY,
+            DQuat::from_rotation_x(angle),
             max_points,
             &mut out,
         );
@@ -121,20 +127,9 @@ mod tests {
         let c = at_height(0.05, 100);
         assert_eq!(c.len(), 25);
         assert!(c.iter().all(|s| s.interior));
-        let rotated = {
-            // Tilt the square about x: one edge dips into the Interior, the rest stays in the
-            // force layer at various depths.
-            let mut out = Vec::new();
-            sample_contacts(
-                &slab(),
-                &square_shell(),
-                DVec3::new(0.2, 0.2, 0.1035),
-                DQuat::from_rotation_x(0.2),
-                6,
-                &mut out,
-            );
-            out
-        };
+        // Tilt the square about x: one edge dips into the Interior, the rest stays in the force
+        // layer at various depths.
+        let rotated = tilted(0.1035, 0.2, 6);
         assert_eq!(rotated.len(), 6);
         assert!(rotated.iter().any(|s| s.interior));
         let kept_min = rotated
@@ -142,15 +137,7 @@ mod tests {
             .filter(|s| !s.interior)
             .map(|s| s.depth)
             .fold(f32::INFINITY, f32::min);
-        let mut all = Vec::new();
-        sample_contacts(
-            &slab(),
-            &square_shell(),
-            DVec3::new(0.2, 0.2, 0.1035),
-            DQuat::from_rotation_x(0.2),
-            usize::MAX,
-            &mut all,
-        );
+        let all = tilted(0.1035, 0.2, usize::MAX);
         assert!(all.len() > 6);
         let dropped_max = all
             .iter()
