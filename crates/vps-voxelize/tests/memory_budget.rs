@@ -7,6 +7,15 @@ use vps_voxelize::{
 };
 use vps_voxmap::TreeConfig;
 
+/// The default options at `voxel_size` (m) within `max_memory_bytes`.
+fn budgeted(voxel_size: f64, max_memory_bytes: u64) -> VoxelizeOptions {
+    VoxelizeOptions {
+        voxel_size,
+        max_memory_bytes,
+        ..VoxelizeOptions::default()
+    }
+}
+
 fn ten_metre_cube() -> vps_mesh::TriMesh {
     vps_mesh::builtin::by_name("box")
         .unwrap()
@@ -17,11 +26,7 @@ fn ten_metre_cube() -> vps_mesh::TriMesh {
 /// it is refused from the plan, before any voxel is computed.
 #[test]
 fn a_ten_metre_cube_at_one_millimetre_is_refused_from_the_plan() {
-    let opts = VoxelizeOptions {
-        voxel_size: 0.001,
-        max_memory_bytes: 8 << 30,
-        ..VoxelizeOptions::default()
-    };
+    let opts = budgeted(0.001, 8 << 30);
     let err = voxelize_tree(&[ten_metre_cube()], &opts, TreeConfig::default()).unwrap_err();
     let VoxelizeError::OverMemoryBudget {
         estimate_bytes,
@@ -41,11 +46,7 @@ fn a_ten_metre_cube_at_one_millimetre_is_refused_from_the_plan() {
 
 #[test]
 fn a_plan_within_the_budget_runs() {
-    let opts = VoxelizeOptions {
-        voxel_size: 0.01,
-        max_memory_bytes: 64 << 20,
-        ..VoxelizeOptions::default()
-    };
+    let opts = budgeted(0.01, 64 << 20);
     let cube = vps_mesh::builtin::by_name("box").unwrap();
     let (_, stats) = voxelize_tree(&[cube], &opts, TreeConfig::default()).unwrap();
     assert!(stats.peak_work_bytes < 64 << 20);
