@@ -277,11 +277,13 @@ pub struct SurfaceContact {
 }
 
 impl SurfaceContact {
-    /// The handle position `pace.press_depth` (m) past the touching position, along −normal.
-    /// Errors name `normal` (zero or non-finite) or `press_depth` (negative or non-finite).
-    fn pressed(&self, pace: &Pace) -> Result<DVec3, ScriptError> {
+    /// A script that starts at `start` and moves at `pace.speed` to `pace.press_depth` (m) past
+    /// the touching position, along −normal. Errors name `normal` (zero or non-finite) or
+    /// `press_depth` (negative or non-finite).
+    fn press_from(&self, start: DVec3, pace: &Pace) -> Result<ScriptBuilder, ScriptError> {
         let n = unit(self.normal, "normal")?;
-        Ok(self.point - non_negative(pace.press_depth, "press_depth")? * n)
+        let pressed = self.point - non_negative(pace.press_depth, "press_depth")? * n;
+        Ok(ScriptBuilder::start(start, self.orientation).move_to(pressed, pace.speed))
     }
 }
 
@@ -336,11 +338,7 @@ pub fn approach_and_rest(
     contact: &SurfaceContact,
     pace: &Pace,
 ) -> Result<Script, ScriptError> {
-    let pressed = contact.pressed(pace)?;
-    ScriptBuilder::start(start, contact.orientation)
-        .move_to(pressed, pace.speed)
-        .hold(pace.dwell)
-        .build()
+    contact.press_from(start, pace)?.hold(pace.dwell).build()
 }
 
 /// Slide along a surface: start `standoff` (m) above the touching position, descend and press by
@@ -420,9 +418,8 @@ pub fn high_speed_collision(
     contact: &SurfaceContact,
     pace: &Pace,
 ) -> Result<Script, ScriptError> {
-    let target = contact.pressed(pace)?;
-    ScriptBuilder::start(start, contact.orientation)
-        .move_to(target, pace.speed)
+    contact
+        .press_from(start, pace)?
         .move_to(start, pace.speed)
         .hold(pace.dwell)
         .build()
