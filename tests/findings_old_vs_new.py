@@ -81,14 +81,18 @@ class Proc:
             time.sleep(0.02)
         return None
 
-    def wait(self, timeout):
+    def wait_or_kill(self, timeout):
+        """Waits up to `timeout` s for the process; kills its group past that. True if killed."""
         try:
             self.p.wait(timeout)
-            timed_out = False
+            return False
         except subprocess.TimeoutExpired:
             os.killpg(self.p.pid, signal.SIGKILL)
             self.p.wait()
-            timed_out = True
+            return True
+
+    def wait(self, timeout):
+        timed_out = self.wait_or_kill(timeout)
         self.t.join(2)
         return result(self, timed_out)
 
@@ -121,13 +125,7 @@ def run(vps, args, cwd, env, timeout=60, mem=4 * GIB, stdout=subprocess.PIPE):
     if stdout == subprocess.PIPE:
         reader = threading.Thread(target=lambda: chunks.append(proc.p.stdout.read()), daemon=True)
         reader.start()
-    try:
-        proc.p.wait(timeout)
-        timed_out = False
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.p.pid, signal.SIGKILL)
-        proc.p.wait()
-        timed_out = True
+    timed_out = proc.wait_or_kill(timeout)
     if reader:
         reader.join(5)
     proc.t.join(5)
