@@ -6,8 +6,9 @@
 /// (`--threads 10000` started 10,003 threads and missed 4,031 of 1,000 deadlines).
 pub const PER_CORE: usize = 4;
 
-/// The longest session (s): 1e7 s, about 116 days; a longer one is a typo or an overflow.
-pub const MAX_SESSION_SECONDS: f64 = 1e7;
+/// The longest session (s): 1e7 s, about 116 days; a longer one is a typo or an overflow. One
+/// bound for the command line and the sweep file.
+pub use vps_session::sweep_file::MAX_SESSION_SECONDS;
 
 /// This machine's cores as the OS reports them (1 when it cannot tell).
 fn cores() -> usize {

@@ -52,6 +52,16 @@ pub fn print_json<T: Serialize>(value: &T) -> Result<()> {
     outln!("{text}")
 }
 
+/// Prints a command's summary on stdout: pretty JSON with `--json` (`json`), else its text (its
+/// `Display`, one or more lines).
+pub fn print_summary<T: Serialize + std::fmt::Display>(value: &T, json: bool) -> Result<()> {
+    if json {
+        print_json(value)
+    } else {
+        outln!("{value}")
+    }
+}
+
 /// The message `main` prints for `err`: its chain joined by ": ", skipping a cause whose text the
 /// message already holds (error types that print their source inside their own message would
 /// otherwise repeat it two or three times).

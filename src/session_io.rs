@@ -24,7 +24,8 @@ use vps_device::trace::save_trace;
 use vps_haptic::HapticParams;
 use vps_input::{BridgeCounters, BridgeMonitor};
 use vps_runtime::{
-    run_loop, LoopConfig, LoopReport, SessionSetup, SignalStop, StateFeedSender, StatsSummary,
+    run_loop, LoopConfig, LoopReport, Percentiles, SessionSetup, SignalStop, StateFeedSender,
+    StatsSummary,
 };
 use vps_session::{BridgeSettings, DeviceChoice, SessionAssets, SessionPlan};
 use vps_view::{LiveViewer, SceneLimits, ViewerContent};
@@ -372,7 +373,17 @@ pub fn run_scripted(
 
 /// Prints a session's frame figures; `paper` is the paper's penetration ratio to show beside ours.
 pub fn print_summary(label: &str, s: &StatsSummary, paper: Option<f64>) {
-    let us = |ns: u64| ns as f64 / 1e3;
+    // "  NAME µs  p50 ..  p99 ..  p99.9 ..  max .." from nanoseconds.
+    let line_us = |name: &str, p: &Percentiles| {
+        let us = |ns: u64| ns as f64 / 1e3;
+        println!(
+            "  {name} µs  p50 {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1}",
+            us(p.p50),
+            us(p.p99),
+            us(p.p999),
+            us(p.max)
+        );
+    };
     println!("{label}:");
     println!(
         "  frames {}, missed deadlines {}, watchdog trips {}, local fallbacks {}",
@@ -384,21 +395,9 @@ pub fn print_summary(label: &str, s: &StatsSummary, paper: Option<f64>) {
             s.missed_after_late_start, s.missed_after_long_frame
         );
     }
-    println!(
-        "  compute µs  p50 {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1}",
-        us(s.compute_ns.p50),
-        us(s.compute_ns.p99),
-        us(s.compute_ns.p999),
-        us(s.compute_ns.max)
-    );
+    line_us("compute", &s.compute_ns);
     if s.period_error_ns.max > 0 || s.missed_deadlines > 0 {
-        println!(
-            "  period error µs  p50 {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1}",
-            us(s.period_error_ns.p50),
-            us(s.period_error_ns.p99),
-            us(s.period_error_ns.p999),
-            us(s.period_error_ns.max)
-        );
+        line_us("period error", &s.period_error_ns);
     }
     println!(
         "  contact frames {}, touching {}, penetrating {}, penetration ratio {}{}",

@@ -22,3 +22,15 @@ where
     }
     crate::output::write_file(path, svg.as_bytes())
 }
+
+/// Draws the series' legend as the plots share it: a white box, 80 % opaque, with a black border.
+pub fn draw_legend<'a, X: Ranged, Y: Ranged>(
+    chart: &mut ChartContext<'a, SVGBackend<'a>, Cartesian2d<X, Y>>,
+) -> Result<()> {
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()?;
+    Ok(())
+}

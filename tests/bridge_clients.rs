@@ -4,7 +4,8 @@
 //! (`--log-wrenches`, matched by frame number).
 //!
 //! Also: a scene file's `[device]` mapping places the device in the scene through a live session,
-//! and a command-line flag overrides one of its keys.
+//! and a command-line flag overrides one of its keys; and the device SDK skeletons
+//! (clients/c/*_skeleton.c) compile cleanly as stubs without their SDKs.
 //!
 //! gcc and python3 are required; when one is missing its half prints a SKIPPED line. Nothing here
 //! asserts on timing: N counts wrenches, and the examples pace to absolute deadlines.
@@ -155,6 +156,24 @@ fn c_and_python_clients_decode_exactly_what_vps_sends() {
             .status()
             .expect("gcc runs");
         assert!(status.success(), "the C example compiles cleanly");
+        // The SDK skeletons build (without their SDKs) as stubs that say what they need.
+        for (skeleton, sdk) in [
+            ("openhaptics_skeleton.c", "VPS_WITH_OPENHAPTICS"),
+            ("dhd_skeleton.c", "VPS_WITH_DHD"),
+        ] {
+            let stub = dir.path().join(skeleton.trim_end_matches(".c"));
+            let status = Command::new("gcc")
+                .args(["-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-o"])
+                .arg(&stub)
+                .arg(repo().join("clients/c").join(skeleton))
+                .status()
+                .expect("gcc runs");
+            assert!(status.success(), "{skeleton} compiles cleanly");
+            let out = Command::new(&stub).output().expect("the stub runs");
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(1), "{skeleton}: {err}");
+            assert!(err.contains(sdk), "{skeleton}: {err}");
+        }
     }
     let log = dir.path().join("sent.log");
     let (child, addr) = start_vps(&log);

@@ -8,6 +8,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
+use vps_testkit::full_stdout::assert_full_stdout_is_an_error;
+use vps_testkit::process::spawn_until_line;
 
 /// Generous: the machine running the tests may be loaded.
 const DEADLINE: Duration = Duration::from_secs(240);
@@ -75,29 +77,14 @@ impl Running {
 
 /// Starts `vps view ARGS` and returns it with the URL it printed (`http://ADDR/`).
 fn start_view(args: &[&std::ffi::OsStr]) -> (Running, String) {
-    let mut child = vps()
-        .arg("view")
+    let mut cmd = vps();
+    cmd.arg("view")
         .args(args)
         .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start vps view");
-    let err = child.stderr.take().unwrap();
-    let (tx, rx) = mpsc::channel();
-    std::thread::spawn(move || {
-        for line in BufReader::new(err).lines().map_while(Result::ok) {
-            if let Some(rest) = line.split("viewer: ").nth(1) {
-                let _ = tx.send(rest.split_whitespace().next().unwrap_or("").to_string());
-            }
-            eprintln!("[vps view] {line}");
-        }
-    });
-    let running = Running(child);
-    let url = rx
-        .recv_timeout(DEADLINE)
-        .expect("the viewer's URL on stderr");
-    (running, url)
+        .stdout(Stdio::null());
+    let (child, rest) = spawn_until_line(cmd, "vps view", "viewer: ", DEADLINE);
+    let url = rest.split_whitespace().next().unwrap_or("").to_string();
+    (Running(child), url)
 }
 
 fn addr_of(url: &str) -> SocketAddr {
@@ -227,19 +214,7 @@ fn devices_into_a_closed_pipe_ends_quietly_with_141() {
 /// report; it is now an error naming stdout, status 1.
 #[test]
 fn a_session_report_to_a_full_stdout_is_an_error_naming_stdout() {
-    let full = std::fs::File::create("/dev/full").unwrap();
-    let out = vps()
-        .args(["run", "--seconds", "0.2", "--json"])
-        .stdout(full)
-        .output()
-        .unwrap();
-    let err = stderr(&out);
-    assert_eq!(out.status.code(), Some(1), "{err}");
-    assert!(
-        err.contains("stdout") && err.contains("No space left"),
-        "{err}"
-    );
-    assert!(!err.contains("panicked"), "{err}");
+    assert_full_stdout_is_an_error(vps().args(["run", "--seconds", "0.2", "--json"]));
 }
 
 /// Finding 5: `--record` into a missing directory was found out only after the session; it is now

@@ -81,14 +81,18 @@ class Proc:
             time.sleep(0.02)
         return None
 
-    def wait(self, timeout):
+    def wait_or_kill(self, timeout):
+        """Waits up to `timeout` s for the process; kills its group past that. True if killed."""
         try:
             self.p.wait(timeout)
-            timed_out = False
+            return False
         except subprocess.TimeoutExpired:
             os.killpg(self.p.pid, signal.SIGKILL)
             self.p.wait()
-            timed_out = True
+            return True
+
+    def wait(self, timeout):
+        timed_out = self.wait_or_kill(timeout)
         self.t.join(2)
         return result(self, timed_out)
 
@@ -121,13 +125,7 @@ def run(vps, args, cwd, env, timeout=60, mem=4 * GIB, stdout=subprocess.PIPE):
     if stdout == subprocess.PIPE:
         reader = threading.Thread(target=lambda: chunks.append(proc.p.stdout.read()), daemon=True)
         reader.start()
-    try:
-        proc.p.wait(timeout)
-        timed_out = False
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.p.pid, signal.SIGKILL)
-        proc.p.wait()
-        timed_out = True
+    timed_out = proc.wait_or_kill(timeout)
     if reader:
         reader.join(5)
     proc.t.join(5)
@@ -163,6 +161,35 @@ def wrench(data):
     return rest[:6]
 
 
+def bridge_socket(addr):
+    """A non-blocking UDP socket connected to the session's bridge address."""
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.connect(addr)
+    s.setblocking(False)
+    return s
+
+
+def send_pose(s, seq, position):
+    """Sends pose datagram `seq` at `position` (a refused send is ignored), then waits 1 ms."""
+    try:
+        s.send(pose(seq, position))
+    except OSError:
+        pass
+    time.sleep(0.001)
+
+
+def received_wrenches(s):
+    """Every wrench datagram waiting on the non-blocking socket `s`, oldest first."""
+    out = []
+    while True:
+        try:
+            w = wrench(s.recv(128))
+        except OSError:
+            return out
+        if w:
+            out.append(w)
+
+
 def bridge_session(vps, cwd, env, seconds, report):
     args = ["run", "--device", "bridge:127.0.0.1:0", "--seconds", str(seconds)]
     if report:
@@ -182,9 +209,7 @@ def press_then_signal(vps, cwd, env, sig, report_flag):
         r = proc.wait(5)
         r["outcome"] = "no bridge address on stderr"
         return r
-    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    s.connect(addr)
-    s.setblocking(False)
+    s = bridge_socket(addr)
     pressed = (BAY_START[0], BAY_START[1], BAY_START[2] - 1.0)
     seq = 0
     in_contact = 0
@@ -192,44 +217,19 @@ def press_then_signal(vps, cwd, env, sig, report_flag):
     until = time.monotonic() + 120
     while in_contact < 200 and time.monotonic() < until:
         seq += 1
-        try:
-            s.send(pose(seq, pressed))
-        except OSError:
-            pass
-        time.sleep(0.001)
-        while True:
-            try:
-                w = wrench(s.recv(128))
-            except OSError:
-                break
-            if w:
-                last = w
-                in_contact = in_contact + 1 if math.sqrt(sum(f * f for f in w[:3])) > 0.1 else 0
+        send_pose(s, seq, pressed)
+        for w in received_wrenches(s):
+            last = w
+            in_contact = in_contact + 1 if math.sqrt(sum(f * f for f in w[:3])) > 0.1 else 0
     pressed_force = last
     os.kill(proc.p.pid, getattr(signal, "SIG" + sig))
     killed_at = time.monotonic()
     while proc.p.poll() is None and time.monotonic() < killed_at + 60:
         seq += 1
-        try:
-            s.send(pose(seq, pressed))
-        except OSError:
-            pass
-        time.sleep(0.001)
-        while True:
-            try:
-                w = wrench(s.recv(128))
-            except OSError:
-                break
-            if w:
-                last = w
+        send_pose(s, seq, pressed)
+        last = (received_wrenches(s) or [last])[-1]
     time.sleep(0.3)
-    while True:
-        try:
-            w = wrench(s.recv(128))
-        except OSError:
-            break
-        if w:
-            last = w
+    last = (received_wrenches(s) or [last])[-1]
     r = proc.wait(5)
     r["exit_after_signal_s"] = round(time.monotonic() - killed_at, 3)
     r["argv"] = [os.path.basename(vps)] + args
@@ -610,18 +610,12 @@ def finding9(vps, cwd, env, root):
     proc, addr, args = bridge_session(vps, cwd, env, 2, report if report_flag else None)
     args = args + ["--json"]
     if addr is not None:
-        s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        s.connect(addr)
-        s.setblocking(False)
+        s = bridge_socket(addr)
         seq = 0
         until = time.monotonic() + 60
         while proc.p.poll() is None and time.monotonic() < until:
             seq += 1
-            try:
-                s.send(pose(seq, (1.0e4, 0.0, 0.0)))  # 10 km away: rejected by the core
-            except OSError:
-                pass
-            time.sleep(0.001)
+            send_pose(s, seq, (1.0e4, 0.0, 0.0))  # 10 km away: rejected by the core
     r = proc.wait(30)
     stats = {}
     if os.path.exists(report):

@@ -4,6 +4,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
+use vps_testkit::full_stdout::assert_full_stdout_is_an_error;
 
 fn vps() -> Command {
     Command::new(env!("CARGO_BIN_EXE_vps"))
@@ -62,21 +63,7 @@ fn a_closed_stdout_ends_quietly_with_status_141() {
 fn a_full_stdout_is_an_error_naming_stdout() {
     let dir = tempfile::tempdir().unwrap();
     let map = small_map(dir.path());
-    let full = std::fs::File::create("/dev/full").unwrap();
-    let out = vps()
-        .arg("inspect")
-        .arg(&map)
-        .arg("--json")
-        .stdout(full)
-        .output()
-        .unwrap();
-    let err = stderr(&out);
-    assert_eq!(out.status.code(), Some(1), "{err}");
-    assert!(
-        err.contains("stdout") && err.contains("No space left"),
-        "{err}"
-    );
-    assert!(!err.contains("panicked"), "{err}");
+    assert_full_stdout_is_an_error(vps().arg("inspect").arg(&map).arg("--json"));
 }
 
 #[test]

@@ -13,7 +13,7 @@
  * Units: DHD already speaks SI (m, m/s, rad/s, N, N.m), as vps does.
  */
 #define _POSIX_C_SOURCE 200809L
-#include "vps_bridge.h"
+#include "vps_skeleton.h"
 
 #ifdef VPS_WITH_DHD
 #include <dhdc.h>
@@ -24,15 +24,8 @@ int main(int argc, char **argv) {
     double last_wrench_time = -1.0, next_tick, now;
     double matrix[3][3];
     vps_pose pose;
-    int i;
-    if (argc != 2) {
-        fprintf(stderr, "usage: %s HOST:PORT\n", argv[0]);
-        return 2;
-    }
-    if (vps_bridge_open(&bridge, argv[1], NULL) != 0) {
-        perror("vps_bridge_open");
-        return 1;
-    }
+    int i, status;
+    if ((status = vps_skeleton_open(&bridge, argc, argv)) != 0) return status;
     if (dhdOpen() < 0) {
         fprintf(stderr, "dhdOpen: %s\n", dhdErrorGetLastStr());
         return 1;
@@ -78,7 +71,6 @@ int main(int argc, char **argv) {
 
 #else /* !VPS_WITH_DHD */
 int main(void) {
-    fprintf(stderr, "built without the Force Dimension SDK: define VPS_WITH_DHD and link -ldhd\n");
-    return 1;
+    return vps_skeleton_without_sdk("the Force Dimension SDK", "VPS_WITH_DHD", "-ldhd");
 }
 #endif

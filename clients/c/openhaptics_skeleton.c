@@ -14,7 +14,7 @@
  * renders force only (3-DOF output): drop the torque there.
  */
 #define _POSIX_C_SOURCE 200809L
-#include "vps_bridge.h"
+#include "vps_skeleton.h"
 
 #ifdef VPS_WITH_OPENHAPTICS
 #include <HD/hd.h>
@@ -75,14 +75,8 @@ int main(int argc, char **argv) {
     HHD device;
     HDErrorInfo error;
     HDSchedulerHandle servo;
-    if (argc != 2) {
-        fprintf(stderr, "usage: %s HOST:PORT\n", argv[0]);
-        return 2;
-    }
-    if (vps_bridge_open(&bridge, argv[1], NULL) != 0) {
-        perror("vps_bridge_open");
-        return 1;
-    }
+    int status;
+    if ((status = vps_skeleton_open(&bridge, argc, argv)) != 0) return status;
     device = hdInitDevice(HD_DEFAULT_DEVICE);
     if (HD_DEVICE_ERROR(error = hdGetError())) {
         fprintf(stderr, "hdInitDevice failed\n");
@@ -103,7 +97,6 @@ int main(int argc, char **argv) {
 
 #else /* !VPS_WITH_OPENHAPTICS */
 int main(void) {
-    fprintf(stderr, "built without OpenHaptics: define VPS_WITH_OPENHAPTICS and link -lHD -lHDU\n");
-    return 1;
+    return vps_skeleton_without_sdk("OpenHaptics", "VPS_WITH_OPENHAPTICS", "-lHD -lHDU");
 }
 #endif

@@ -14,7 +14,7 @@
 
 use crate::host::load_average;
 use crate::output::print_json;
-use crate::svg::write_svg;
+use crate::svg::{draw_legend, write_svg};
 use anyhow::{bail, Context, Result};
 use plotters::prelude::*;
 use serde::Serialize;
@@ -89,41 +89,33 @@ pub fn run(bench: &ScalingBench, plot: Option<&Path>) -> Result<()> {
     let load_before = load_average();
     let exe = std::env::current_exe().context("locating the vps binary")?;
     let frames = bench.frames.to_string();
+    // `vps bench BENCH --points P TAIL...` at every size.
+    let at_every_size = |bench: &str, tail: &[&str]| -> Result<Vec<Run>> {
+        sizes
+            .iter()
+            .map(|p| child_run(&exe, &["bench", bench, "--points", &p.to_string()], tail))
+            .collect()
+    };
     let mut threads = Vec::new();
     for k in 1..=bench.max_units {
-        let runs = sizes
-            .iter()
-            .map(|p| {
-                child_run(
-                    &exe,
-                    &["bench", "loop", "--points", &p.to_string()],
-                    &["--frames", &frames, "--threads", &k.to_string()],
-                )
-            })
-            .collect::<Result<Vec<_>>>()?;
+        let k_text = k.to_string();
+        let runs = at_every_size("loop", &["--frames", &frames, "--threads", &k_text])?;
         threads.push(configuration(k, k, runs, bench.budget_us));
     }
     let mut processes = Vec::new();
     for w in 1..=bench.max_units {
-        let runs = sizes
-            .iter()
-            .map(|p| {
-                child_run(
-                    &exe,
-                    &["bench", "cluster", "--points", &p.to_string()],
-                    &[
-                        "--frames",
-                        &frames,
-                        "--workers",
-                        &w.to_string(),
-                        "--worker-threads",
-                        "1",
-                        "--threads",
-                        "1",
-                    ],
-                )
-            })
-            .collect::<Result<Vec<_>>>()?;
+        let w_text = w.to_string();
+        let tail = [
+            "--frames",
+            &frames,
+            "--workers",
+            &w_text,
+            "--worker-threads",
+            "1",
+            "--threads",
+            "1",
+        ];
+        let runs = at_every_size("cluster", &tail)?;
         processes.push(configuration(w, w + 1, runs, bench.budget_us));
     }
     let one = threads.first().and_then(|c| c.points_at_budget);
@@ -292,11 +284,7 @@ fn plot_scaling(report: &ScalingReport, path: &Path) -> Result<()> {
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
                 chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
             }
-            chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.8))
-                .border_style(BLACK)
-                .draw()?;
+            draw_legend(&mut chart)?;
         }
         Ok(())
     })

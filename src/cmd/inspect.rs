@@ -1,7 +1,7 @@
 //! `vps inspect`: statistics of a `.vmap` or `.vshell` file (chosen by the file's magic bytes).
 
 use crate::cli::InspectArgs;
-use crate::output::{hex, mib, outln, print_json, KindCounts, ShellFigures};
+use crate::output::{hex, mib, print_summary, KindCounts, ShellFigures};
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use std::io::Read;
@@ -123,46 +123,53 @@ fn inspect_voxmap(args: &InspectArgs) -> Result<()> {
         hash: hex(&tree.content_hash()),
         note: dense_note(tree.dense_equivalent_bytes()),
     };
-    if args.json {
-        return print_json(&info);
+    print_summary(&info, args.json)
+}
+
+impl std::fmt::Display for VoxmapInfo {
+    /// The file's figures, one topic per line (no final newline).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "{} (voxmap)", self.file)?;
+        writeln!(
+            f,
+            "  voxel size {} m, dims {:?} ({} voxels), log2 dims {:?}, {}-bit voxels",
+            self.voxel_size_m, self.dims, self.voxel_count, self.tree_log2_dims, self.width_bits
+        )?;
+        writeln!(
+            f,
+            "  bounds {:?} .. {:?} m",
+            self.origin_m, self.max_corner_m
+        )?;
+        writeln!(f, "  {}", self.counts)?;
+        if self.width_bits > 2 {
+            let list: Vec<String> = self
+                .layers
+                .iter()
+                .filter(|l| l.kind == "surface" || l.kind == "proximity")
+                .map(|l| format!("{} {}: {}", l.kind, l.layer, l.voxels))
+                .collect();
+            writeln!(f, "  layers: {}", list.join(", "))?;
+        }
+        writeln!(
+            f,
+            "  tree memory {} ({} leaves, {} lower, {} upper nodes); dense equivalent {}",
+            mib(self.tree_bytes as f64),
+            self.leaves,
+            self.lower_nodes,
+            self.upper_nodes,
+            mib(self.dense_equivalent_bytes as f64)
+        )?;
+        writeln!(
+            f,
+            "  lookup directory {} (built when loaded, not stored)",
+            mib(self.directory_bytes as f64)
+        )?;
+        write!(f, "  content hash {}", self.hash)?;
+        if let Some(note) = &self.note {
+            write!(f, "\n  note: {note}")?;
+        }
+        Ok(())
     }
-    outln!("{} (voxmap)", info.file)?;
-    outln!(
-        "  voxel size {} m, dims {:?} ({} voxels), log2 dims {:?}, {}-bit voxels",
-        info.voxel_size_m,
-        info.dims,
-        info.voxel_count,
-        info.tree_log2_dims,
-        info.width_bits
-    )?;
-    outln!("  bounds {:?} .. {:?} m", info.origin_m, info.max_corner_m)?;
-    outln!("  {}", info.counts)?;
-    if info.width_bits > 2 {
-        let list: Vec<String> = info
-            .layers
-            .iter()
-            .filter(|l| l.kind == "surface" || l.kind == "proximity")
-            .map(|l| format!("{} {}: {}", l.kind, l.layer, l.voxels))
-            .collect();
-        outln!("  layers: {}", list.join(", "))?;
-    }
-    outln!(
-        "  tree memory {} ({} leaves, {} lower, {} upper nodes); dense equivalent {}",
-        mib(info.tree_bytes as f64),
-        info.leaves,
-        info.lower_nodes,
-        info.upper_nodes,
-        mib(info.dense_equivalent_bytes as f64)
-    )?;
-    outln!(
-        "  lookup directory {} (built when loaded, not stored)",
-        mib(info.directory_bytes as f64)
-    )?;
-    outln!("  content hash {}", info.hash)?;
-    if let Some(note) = &info.note {
-        outln!("  note: {note}")?;
-    }
-    Ok(())
 }
 
 fn inspect_shell(args: &InspectArgs) -> Result<()> {
@@ -173,14 +180,16 @@ fn inspect_shell(args: &InspectArgs) -> Result<()> {
         method: format!("{:?}", shell.method),
         figures: ShellFigures::of(&shell),
     };
-    if args.json {
-        return print_json(&info);
+    print_summary(&info, args.json)
+}
+
+impl std::fmt::Display for ShellInfo {
+    /// "FILE (point shell, METHOD): FIGURES".
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} (point shell, {}): {}",
+            self.file, self.method, self.figures
+        )
     }
-    outln!(
-        "{} (point shell, {}): {}",
-        info.file,
-        info.method,
-        info.figures
-    )?;
-    Ok(())
 }

@@ -1,7 +1,7 @@
 //! `vps shell`: mesh → `.vshell` point shell.
 
 use crate::cli::{ShellArgs, ShellMethodArg};
-use crate::output::{check_output_path, outln, print_json, ShellFigures};
+use crate::output::{check_output_path, print_summary, ShellFigures};
 use anyhow::{Context, Result};
 use serde::Serialize;
 use vps_session::mesh_source;
@@ -14,6 +14,17 @@ struct ShellSummary {
     method: &'static str,
     #[serde(flatten)]
     figures: ShellFigures,
+}
+
+impl std::fmt::Display for ShellSummary {
+    /// "SOURCE (METHOD): FIGURES, written to OUTPUT".
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} ({}): {}, written to {}",
+            self.source, self.method, self.figures, self.output
+        )
+    }
 }
 
 /// Maps the command-line choice to the library's.
@@ -43,15 +54,5 @@ pub fn run(args: &ShellArgs) -> Result<()> {
         },
         figures: ShellFigures::of(&shell),
     };
-    if args.json {
-        return print_json(&summary);
-    }
-    outln!(
-        "{} ({}): {}, written to {}",
-        summary.source,
-        summary.method,
-        summary.figures,
-        summary.output
-    )?;
-    Ok(())
+    print_summary(&summary, args.json)
 }

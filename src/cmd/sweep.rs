@@ -11,9 +11,8 @@ use crate::cli::SweepArgs;
 use crate::exit::SessionExit;
 use crate::output::{check_output_path, write_file};
 use crate::sweep_session::{run_sweep_session, session_on, SweepRow, SweepSession, SweepTable};
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use glam::DVec3;
-use serde::Deserialize;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 use std::time::Instant;
@@ -21,81 +20,10 @@ use vps_device::{HandParams, HapticDevice, SimulatedHand};
 use vps_haptic::{sample_all, step, HapticParams, KernelPose, PartState, Wrench};
 use vps_reference::{reference_contact, ExactScene};
 use vps_runtime::{SessionEnd, SignalStop, StatsSummary};
-use vps_session::file::{width_from_bits, ShellMethodName};
+use vps_session::file::ShellMethodName;
 use vps_session::scene::BuiltVoxmap;
+use vps_session::sweep_file::{SweepFile, SweepRun};
 use vps_session::{classed, stop_on_signals, CachePolicy, LoadedScene};
-use vps_voxmap::VoxelWidth;
-
-/// The sweep file (`configs/sweep.toml`).
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct SweepConfig {
-    /// Voxel sizes (mm) for every run that does not list its own.
-    voxel_sizes_mm: Vec<f64>,
-    /// Shell methods for every run that does not list its own.
-    methods: Vec<ShellMethodName>,
-    /// Voxel widths (bits: 2, 4, 8) for every run that does not list its own; default: each
-    /// scene's own `voxels.voxel_width`.
-    widths: Option<Vec<u8>>,
-    /// Reference cost budget: the exact reference is computed at every Nth touching frame with
-    /// N = ceil(shell points / this).
-    #[serde(default = "default_points_per_frame")]
-    reference_points_per_frame: usize,
-    /// The runs.
-    run: Vec<RunSpec>,
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RunSpec {
-    /// Scene file, relative to the sweep file.
-    scene: PathBuf,
-    /// Voxel sizes (mm) for this run.
-    voxel_sizes_mm: Option<Vec<f64>>,
-    /// Voxel widths (bits) for this run.
-    widths: Option<Vec<u8>>,
-    /// Shell methods for this run.
-    methods: Option<Vec<ShellMethodName>>,
-    /// Longest session (s); default the whole script.
-    seconds: Option<f64>,
-}
-
-impl SweepConfig {
-    /// Refuses, before any work, voxel size lists that are empty or hold a size that is not a
-    /// positive length (mm), and run lengths outside (0, 1e7] s, naming the file and the field.
-    fn check_ranges(&self, file: &Path) -> Result<()> {
-        let file = file.display();
-        let check_sizes = |sizes: &[f64], field: &str| -> Result<()> {
-            if sizes.is_empty() {
-                bail!("{file}: {field} is empty: list at least one voxel size (mm, > 0)");
-            }
-            if let Some(bad) = sizes.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
-                bail!("{file}: {field} holds {bad}: voxel sizes are lengths in mm, > 0");
-            }
-            Ok(())
-        };
-        check_sizes(&self.voxel_sizes_mm, "voxel_sizes_mm")?;
-        for (i, run) in self.run.iter().enumerate() {
-            if let Some(sizes) = &run.voxel_sizes_mm {
-                check_sizes(sizes, &format!("run[{i}].voxel_sizes_mm"))?;
-            }
-            if let Some(seconds) = run.seconds {
-                if !(seconds > 0.0 && seconds <= crate::limits::MAX_SESSION_SECONDS) {
-                    bail!(
-                        "{file}: run[{i}].seconds = {seconds}: a run lasts more than 0 s and at \
-                         most {:e} s",
-                        crate::limits::MAX_SESSION_SECONDS
-                    );
-                }
-            }
-        }
-        Ok(())
-    }
-}
-
-fn default_points_per_frame() -> usize {
-    500
-}
 
 /// Runs the sweep. SIGINT, SIGTERM and SIGHUP stop it: the running session's device is written
 /// zero, the rows done so far are written (marked partial, with the reason) and the command fails
@@ -103,15 +31,7 @@ fn default_points_per_frame() -> usize {
 pub fn run(args: &SweepArgs) -> Result<()> {
     let text = std::fs::read_to_string(&args.config)
         .with_context(|| format!("reading {}", args.config.display()))?;
-    let config: SweepConfig =
-        toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", args.config.display()))?;
-    if config.run.is_empty() || config.methods.is_empty() {
-        bail!(
-            "{}: needs at least one [[run]] and one method",
-            args.config.display()
-        );
-    }
-    config.check_ranges(&args.config)?;
+    let config = SweepFile::from_toml_str(&text, &args.config.display().to_string())?;
     for path in [&args.json, &args.csv].into_iter().flatten() {
         check_output_path(path, &[&args.config])?;
     }
@@ -119,35 +39,26 @@ pub fn run(args: &SweepArgs) -> Result<()> {
     let mut runs = config.run.iter().collect::<Vec<_>>();
     let only;
     if let Some(scene) = &args.scene {
-        only = RunSpec {
-            scene: PathBuf::from(scene),
-            voxel_sizes_mm: None,
-            widths: None,
-            methods: None,
-            seconds: None,
-        };
+        only = SweepRun::of_scene(PathBuf::from(scene));
         runs = vec![&only];
     }
     let signals = stop_on_signals()?;
     let mut rows = Vec::new();
-    for (i, spec) in runs.into_iter().enumerate() {
+    for spec in runs {
         let path = if args.scene.is_some() {
             spec.scene.display().to_string()
         } else {
             base.join(&spec.scene).display().to_string()
         };
         let scene = LoadedScene::load(&path)?;
-        let widths = run_widths(&config, spec, &scene, &args.config, i)?;
-        let methods = spec.methods.as_ref().unwrap_or(&config.methods);
-        if methods.is_empty() {
-            bail!("{}: run[{i}].methods is empty", args.config.display());
-        }
+        let widths = match config.widths_of(spec) {
+            Some(widths) => widths.to_vec(),
+            None => vec![scene.width()?],
+        };
+        let methods = config.methods_of(spec);
         let exact = ExactScene::new(&scene.statics)
             .with_context(|| format!("{path}: building the exact reference"))?;
-        let mut sizes = spec
-            .voxel_sizes_mm
-            .clone()
-            .unwrap_or(config.voxel_sizes_mm.clone());
+        let mut sizes = config.sizes_mm(spec).to_vec();
         let mut seconds = spec.seconds;
         if args.quick {
             sizes.retain(|&s| s >= 5.0);
@@ -155,12 +66,6 @@ pub fn run(args: &SweepArgs) -> Result<()> {
             seconds = Some(seconds.unwrap_or(f64::INFINITY).min(QUICK_SECONDS));
         }
         for &size_mm in &sizes {
-            if !(size_mm.is_finite() && size_mm > 0.0) {
-                bail!(
-                    "{}: voxel size {size_mm} mm is not a positive length",
-                    args.config.display()
-                );
-            }
             for &width in &widths {
                 let voxel_size = size_mm * 1e-3;
                 // Sweeps time voxelization: never from the cache.
@@ -227,30 +132,6 @@ fn stopped(args: &SweepArgs, rows: &[SweepRow], signals: &SignalStop, what: &str
         reason: format!("the sweep ended early: {end}; the partial table was written"),
     }
     .into())
-}
-
-/// The widths of run `index`: its own list, else the sweep's, else the scene's own width; every
-/// entry must be 2, 4 or 8 (the error names the sweep file and the field).
-fn run_widths(
-    config: &SweepConfig,
-    spec: &RunSpec,
-    scene: &LoadedScene,
-    sweep_path: &Path,
-    index: usize,
-) -> Result<Vec<VoxelWidth>> {
-    let (bits, field) = match (&spec.widths, &config.widths) {
-        (Some(w), _) => (w.clone(), format!("run[{index}].widths")),
-        (None, Some(w)) => (w.clone(), "widths".to_string()),
-        (None, None) => return Ok(vec![scene.width()?]),
-    };
-    let sweep_label = sweep_path.display().to_string();
-    if bits.is_empty() {
-        bail!("{}: field `{field}` is empty", sweep_path.display());
-    }
-    bits.iter()
-        .enumerate()
-        .map(|(j, &b)| Ok(width_from_bits(b, &sweep_label, &format!("{field}[{j}]"))?))
-        .collect()
 }
 
 /// Sessions in `--quick` mode are cut to this length (s).
@@ -529,6 +410,7 @@ mod tests {
     use vps_mesh::TriMesh;
     use vps_voxelize::{grid_for, voxelize_in, voxelize_tree};
     use vps_voxmap::TreeConfig;
+    use vps_voxmap::VoxelWidth;
     use vps_voxmap::{LayeredVoxel, Voxel, VoxelLookup};
 
     fn rig() -> LoadedScene {

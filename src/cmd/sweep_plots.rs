@@ -3,7 +3,7 @@
 //! (solid 2-bit, dashed 4-bit, dotted 8-bit) and the marker too (circle, triangle, cross); the
 //! scene's own width and method (`default` rows) are drawn thicker.
 
-use crate::svg::write_svg;
+use crate::svg::{draw_legend, write_svg};
 use crate::sweep_session::SweepRow;
 use anyhow::{Context, Result};
 use plotters::prelude::*;
@@ -176,11 +176,7 @@ fn plot_one(
                 }
             }
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()?;
+        draw_legend(&mut chart)?;
         Ok(())
     })
 }

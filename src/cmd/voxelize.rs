@@ -1,7 +1,7 @@
 //! `vps voxelize`: mesh → `.vmap`.
 
 use crate::cli::VoxelizeArgs;
-use crate::output::{check_output_path, hex, mib, outln, print_json};
+use crate::output::{check_output_path, hex, mib, print_summary};
 use anyhow::{bail, Context, Result};
 use glam::DVec3;
 use serde::Serialize;
@@ -76,28 +76,33 @@ pub fn run(args: &VoxelizeArgs) -> Result<()> {
         counts: crate::output::KindCounts::from(tree.counts()),
         hash: hex(&tree.content_hash()),
     };
-    if args.json {
-        return print_json(&summary);
+    print_summary(&summary, args.json)
+}
+
+impl std::fmt::Display for VoxelizeSummary {
+    /// What was voxelized, the counts, the memory and the hash, on four lines (no final newline).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "{}: {} triangles → {:?} {}-bit voxels of {} m in {:.0} ms (of which tree {:.0} ms)",
+            self.source,
+            self.triangles,
+            self.dims,
+            self.width_bits,
+            self.voxel_size_m,
+            self.voxelize_ms,
+            self.tree_ms
+        )?;
+        writeln!(f, "{}", self.counts)?;
+        writeln!(
+            f,
+            "tree memory {}, voxelizer peak working memory {}, written to {}",
+            mib(self.tree_bytes as f64),
+            mib(self.peak_work_bytes as f64),
+            self.output
+        )?;
+        write!(f, "content hash {}", self.hash)
     }
-    outln!(
-        "{}: {} triangles → {:?} {}-bit voxels of {} m in {:.0} ms (of which tree {:.0} ms)",
-        summary.source,
-        summary.triangles,
-        summary.dims,
-        summary.width_bits,
-        summary.voxel_size_m,
-        summary.voxelize_ms,
-        summary.tree_ms
-    )?;
-    outln!("{}", summary.counts)?;
-    outln!(
-        "tree memory {}, voxelizer peak working memory {}, written to {}",
-        mib(summary.tree_bytes as f64),
-        mib(summary.peak_work_bytes as f64),
-        summary.output
-    )?;
-    outln!("content hash {}", summary.hash)?;
-    Ok(())
 }
 
 /// Parses `MINX,MINY,MINZ,MAXX,MAXY,MAXZ` (m) into a box.

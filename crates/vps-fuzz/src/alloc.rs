@@ -96,29 +96,30 @@ impl Default for CountingAlloc {
     }
 }
 
+impl CountingAlloc {
+    /// A new block of `size` bytes from `make` (`System`'s alloc or alloc_zeroed): null when the
+    /// request is refused or `make` fails; counted as live when made. Never allocates itself.
+    fn counted(&self, size: usize, make: impl FnOnce() -> *mut u8) -> *mut u8 {
+        if !self.admit(size) {
+            return std::ptr::null_mut();
+        }
+        let p = make();
+        if !p.is_null() {
+            self.added(size);
+        }
+        p
+    }
+}
+
 // SAFETY: every call is forwarded to `System` with the caller's layout; the counters are atomics
 // and never allocate.
 unsafe impl GlobalAlloc for CountingAlloc {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        if !self.admit(layout.size()) {
-            return std::ptr::null_mut();
-        }
-        let p = System.alloc(layout);
-        if !p.is_null() {
-            self.added(layout.size());
-        }
-        p
+        self.counted(layout.size(), || System.alloc(layout))
     }
 
     unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        if !self.admit(layout.size()) {
-            return std::ptr::null_mut();
-        }
-        let p = System.alloc_zeroed(layout);
-        if !p.is_null() {
-            self.added(layout.size());
-        }
-        p
+        self.counted(layout.size(), || System.alloc_zeroed(layout))
     }
 
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {

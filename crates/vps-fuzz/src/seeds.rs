@@ -223,6 +223,28 @@ pub fn haptic_toml() -> Vec<Vec<u8>> {
     ]
 }
 
+/// Sweep file seeds: the committed `configs/sweep.toml`, and one using every key (each run's own
+/// sizes, widths, methods and length, and the reference budget).
+pub fn sweep_toml() -> Vec<Vec<u8>> {
+    vec![
+        include_bytes!("../../../configs/sweep.toml").to_vec(),
+        br#"voxel_sizes_mm = [10.0, 2.5]
+methods = ["centres"]
+widths = [2]
+reference_points_per_frame = 64
+[[run]]
+scene = "scenes/bay-teapot.toml"
+voxel_sizes_mm = [5.0, 1.25]
+widths = [4, 8]
+methods = ["exact", "centres"]
+seconds = 2.5
+[[run]]
+scene = "scenes/rig-teapot.toml"
+"#
+        .to_vec(),
+    ]
+}
+
 /// Scene file seeds: the committed scene files (`configs/scenes/*.toml`, the worked example in
 /// `assets/scenes/`), and one using every optional section (`[hand]`, `[workspace]`, inline
 /// `[haptic]`, a bridge `[device]` with its mapping and timeout, lengths as strings).

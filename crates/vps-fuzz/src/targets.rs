@@ -34,6 +34,8 @@ pub const HAPTIC_TOML: &str = "fuzz-haptic.toml";
 pub const TRACE: &str = "fuzz-input.trace";
 /// See [`MESH_OBJ`].
 pub const SCENE_TOML: &str = "fuzz-scene.toml";
+/// See [`MESH_OBJ`].
+pub const SWEEP_TOML: &str = "fuzz-sweep.toml";
 
 fn mesh(bytes: &[u8], format: MeshFormat, file: &str) -> Result<(), String> {
     let mesh = vps_mesh::parse_mesh(bytes, format, file).map_err(|e| e.to_string())?;
@@ -42,38 +44,44 @@ fn mesh(bytes: &[u8], format: MeshFormat, file: &str) -> Result<(), String> {
         .map_err(|e| e.to_string())
 }
 
-fn vmap(bytes: &[u8]) -> Result<(), String> {
-    let sized = vps_voxmap::file::read_voxmap_sized(bytes, bytes.len() as u64);
-    let stream = vps_voxmap::file::read_voxmap(bytes);
+/// The two readers of one file format (`name`) on the same bytes: both accept what they read
+/// alike (`same`), or both reject (with the sized reader's message); anything else panics.
+fn readers_agree<T, E: std::fmt::Display>(
+    name: &str,
+    sized: Result<T, E>,
+    stream: Result<T, E>,
+    same: impl FnOnce(&T, &T) -> bool,
+) -> Result<(), String> {
     match (sized, stream) {
         (Ok(a), Ok(b)) => {
-            assert!(a.content_hash() == b.content_hash(), "vmap: readers differ");
+            assert!(same(&a, &b), "{name}: readers differ");
             Ok(())
         }
         (Err(e), Err(_)) => Err(e.to_string()),
         (a, b) => panic!(
-            "vmap: sized reader {:?} but stream reader {:?}",
+            "{name}: sized reader {:?} but stream reader {:?}",
             a.err().map(|e| e.to_string()),
             b.err().map(|e| e.to_string())
         ),
     }
 }
 
+fn vmap(bytes: &[u8]) -> Result<(), String> {
+    readers_agree(
+        "vmap",
+        vps_voxmap::file::read_voxmap_sized(bytes, bytes.len() as u64),
+        vps_voxmap::file::read_voxmap(bytes),
+        |a, b| a.content_hash() == b.content_hash(),
+    )
+}
+
 fn vshell(bytes: &[u8]) -> Result<(), String> {
-    let sized = vps_voxmap::file::read_shell_sized(bytes, bytes.len() as u64);
-    let stream = vps_voxmap::file::read_shell(bytes);
-    match (sized, stream) {
-        (Ok(a), Ok(b)) => {
-            assert!(a == b, "vshell: readers differ");
-            Ok(())
-        }
-        (Err(e), Err(_)) => Err(e.to_string()),
-        (a, b) => panic!(
-            "vshell: sized reader {:?} but stream reader {:?}",
-            a.err().map(|e| e.to_string()),
-            b.err().map(|e| e.to_string())
-        ),
-    }
+    readers_agree(
+        "vshell",
+        vps_voxmap::file::read_shell_sized(bytes, bytes.len() as u64),
+        vps_voxmap::file::read_shell(bytes),
+        |a, b| a == b,
+    )
 }
 
 fn haptic_toml(bytes: &[u8]) -> Result<(), String> {
@@ -114,6 +122,39 @@ fn scene_toml(bytes: &[u8]) -> Result<(), String> {
         let inline = toml::to_string(table).map_err(|e| format!("{SCENE_TOML}: [haptic]: {e}"))?;
         vps_haptic::HapticParams::from_toml_str(&inline, "[haptic]")
             .map_err(|e| format!("{SCENE_TOML}: {e}"))?;
+    }
+    Ok(())
+}
+
+/// A sweep file as `vps_session::sweep_file::SweepFile::from_toml_str` reads it; an accepted
+/// file must hold what `vps sweep` relies on without checking again: every run has at least one
+/// voxel size (finite, > 0) and one method, a width list (when any) is not empty, and a run's
+/// length is in `(0, MAX_SESSION_SECONDS]`.
+fn sweep_toml(bytes: &[u8]) -> Result<(), String> {
+    use vps_session::sweep_file::{SweepFile, MAX_SESSION_SECONDS};
+    let text = String::from_utf8_lossy(bytes);
+    let file = SweepFile::from_toml_str(&text, SWEEP_TOML).map_err(|e| e.to_string())?;
+    assert!(!file.run.is_empty(), "sweep: no run accepted");
+    for run in &file.run {
+        let sizes = file.sizes_mm(run);
+        assert!(
+            !sizes.is_empty() && sizes.iter().all(|s| s.is_finite() && *s > 0.0),
+            "sweep: voxel sizes {sizes:?} accepted"
+        );
+        assert!(
+            !file.methods_of(run).is_empty(),
+            "sweep: no method accepted"
+        );
+        assert!(
+            file.widths_of(run).is_none_or(|w| !w.is_empty()),
+            "sweep: an empty width list accepted"
+        );
+        assert!(
+            run.seconds
+                .is_none_or(|s| s > 0.0 && s <= MAX_SESSION_SECONDS),
+            "sweep: run length {:?} s accepted",
+            run.seconds
+        );
     }
     Ok(())
 }
@@ -224,6 +265,13 @@ pub fn all_targets() -> Vec<Target> {
             run: cluster_datagram,
             must_name: None,
             max_len: 2048,
+        },
+        Target {
+            name: "sweep-toml",
+            seeds: seeds::sweep_toml,
+            run: sweep_toml,
+            must_name: Some(SWEEP_TOML),
+            max_len: TEXT,
         },
     ]
 }

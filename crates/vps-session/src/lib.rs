@@ -18,6 +18,7 @@ pub mod mesh_source;
 pub mod plan;
 pub mod scene;
 pub mod script;
+pub mod sweep_file;
 
 pub use cache::CachePolicy;
 pub use device::{BridgeSettings, DeviceChoice, OpenedDevice};

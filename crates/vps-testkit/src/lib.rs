@@ -4,6 +4,7 @@
 //! - [`scene`]: hand-made voxmaps (the flat test wall, small grids).
 //! - [`shell`]: point shells (the Fibonacci sphere shell and its directions).
 //! - [`device`]: a device wrapper that logs every write and fails or trips on demand.
+//! - [`full_stdout`]: the check that a command writing to a full stdout fails cleanly.
 //! - [`hand`]: the scripted simulated hand that approaches the wall and rests on it.
 //! - [`process`]: running the `vps` binary from the root package's tests with a private cache
 //!   directory (`VPS_CACHE_DIR`), so that tests never write into the user's cache.
@@ -16,6 +17,7 @@
 #[cfg(feature = "cluster")]
 pub mod cluster;
 pub mod device;
+pub mod full_stdout;
 pub mod hand;
 pub mod process;
 pub mod scene;
