@@ -169,9 +169,8 @@ pub(crate) struct Board {
     rtt_queue: ArrayQueue<(Arc<PeerMetrics>, u64)>,
     /// What the coordinator's UDP socket received (written by its socket wrapper).
     pub(crate) udp: Arc<crate::udp_count::UdpCounts>,
-    /// The split decisions ([`crate::gather::SplitStats`]): split, kept local, measured,
-    /// predicted split and local frame times (ns), shares kept local.
-    split: [AtomicU64; 6],
+    /// The split decisions ([`crate::gather::SplitStats`]), in [`split_values`]' order.
+    split: [AtomicU64; 10],
 }
 
 impl Board {
@@ -195,15 +194,7 @@ impl Board {
 
     /// Publishes the split decisions so far. Frame thread only; never blocks or allocates.
     pub(crate) fn set_split(&self, stats: crate::gather::SplitStats) {
-        let values = [
-            stats.split,
-            stats.kept_local,
-            stats.measured,
-            stats.predicted_split_ns,
-            stats.predicted_local_ns,
-            stats.shares_kept_local,
-        ];
-        for (a, v) in self.split.iter().zip(values) {
+        for (a, v) in self.split.iter().zip(split_values(&stats)) {
             a.store(v, Ordering::Relaxed);
         }
     }
@@ -262,14 +253,34 @@ impl Board {
             split: SplitReport {
                 split_frames: load(&self.split[0]),
                 kept_local_frames: load(&self.split[1]),
-                measured_frames: load(&self.split[2]),
-                predicted_split_ns: load(&self.split[3]),
-                predicted_local_ns: load(&self.split[4]),
-                shares_kept_local: load(&self.split[5]),
+                shares_kept_local: load(&self.split[2]),
+                probes: load(&self.split[3]),
+                probe_replies: load(&self.split[4]),
+                probes_failed: load(&self.split[5]),
+                per_class_ns: load(&self.split[6]),
+                worker_base_ns: load(&self.split[7]),
+                predicted_split_ns: load(&self.split[8]),
+                predicted_local_ns: load(&self.split[9]),
             },
             peers,
         }
     }
+}
+
+/// The [`crate::gather::SplitStats`] fields in the board's order (as [`SplitReport`] lists them).
+fn split_values(stats: &crate::gather::SplitStats) -> [u64; 10] {
+    [
+        stats.split,
+        stats.kept_local,
+        stats.shares_kept_local,
+        stats.probes,
+        stats.probe_replies,
+        stats.probes_failed,
+        stats.per_class_ns,
+        stats.worker_base_ns,
+        stats.predicted_split_ns,
+        stats.predicted_local_ns,
+    ]
 }
 
 /// A cheap, cloneable, read-only view of a coordinator's live figures, for any thread (a viewer,

@@ -81,8 +81,9 @@ pub struct GatherConfig {
     /// being recomputed ([`crate::fallback`]); `max_age_frames: 0` always recomputes (exact).
     /// Default: up to 3 frames old, only when the recompute cannot finish before the write.
     pub stale: StalePolicy,
-    /// Keep a frame's classes local when the split is predicted no faster than computing them
-    /// all on the coordinator ([`crate::gather::SplitDecision`]). Default off.
+    /// Send a worker its share only when that is predicted to shorten the frame, measuring the
+    /// workers with probes no frame waits for ([`crate::gather::SplitDecision`]); off: the plain
+    /// split every frame, benched workers probed with awaited probes. Default on.
     pub predict: bool,
 }
 
@@ -98,7 +99,7 @@ impl Default for GatherConfig {
             log_every: Some(Duration::from_secs(1)),
             adaptive_shares: true,
             stale: StalePolicy::default(),
-            predict: false,
+            predict: true,
         }
     }
 }
@@ -305,8 +306,7 @@ impl RemoteShares {
                 .conn
                 .send_datagram(Bytes::copy_from_slice(&self.request))
                 .is_ok();
-            self.core.sent(id, at, sent);
-            pending += usize::from(sent);
+            pending += usize::from(self.core.sent(id, at, sent));
         }
         pending
     }
@@ -335,7 +335,14 @@ impl RemoteShares {
                 metrics.bump(|m| &m.invalid);
                 tracing::debug!(worker = datagram.id, "implausible reply dropped");
             }
-            Acceptance::Probe { rtt } => self.board.record_rtt(&metrics, nanos(rtt)),
+            Acceptance::Probe { rtt }
+            | Acceptance::Probed {
+                rtt: Some(rtt), ..
+            } => self.board.record_rtt(&metrics, nanos(rtt)),
+            Acceptance::Probed { rtt: None } => {
+                metrics.bump(|m| &m.invalid);
+                tracing::debug!(worker = datagram.id, "wrong probe reply");
+            }
             Acceptance::Merged { rtt } => {
                 self.board.record_rtt(&metrics, nanos(rtt));
                 sums.merge(&reply.sums);
@@ -387,8 +394,15 @@ impl RemoteShares {
         }
     }
 
-    /// A reply that arrived after this frame's deadline: counted late, never merged.
+    /// A reply that arrived after this frame's deadline: counted late, never merged; the answer
+    /// to an unawaited probe is taken whenever it comes.
     fn accept_late(&mut self, datagram: Datagram) {
+        if FrameReply::decode(&datagram.bytes)
+            .is_ok_and(|r| self.core.answers_probe(datagram.id, r.seq))
+        {
+            self.accept(datagram, &mut PartialSums::default());
+            return;
+        }
         match self.link(datagram.id) {
             Some(link) if self.core.late(datagram.id) => link.metrics.bump(|m| &m.late),
             _ => self.board.bump(|b| &b.orphan_datagrams),
@@ -496,7 +510,14 @@ impl FrameSampler for RemoteShares {
         self.board.set_split(self.core.split_stats());
         let pending = self.send_requests(pose);
         let started = Instant::now();
-        let mut sums = self.sample(pose, local);
+        // An unawaited probe's class is computed on its own: the probe reply must equal it.
+        let probe = self.core.probe_classes();
+        let mut sums = self.sample(pose, local & !probe);
+        if probe != 0 {
+            let own = self.sample(pose, probe);
+            self.core.set_probe_result(&own);
+            sums.merge(&own);
+        }
         if local != 0 {
             self.per_class = started.elapsed() / local.count_ones();
             self.core.set_local_cost(self.per_class);
