@@ -91,7 +91,7 @@ pub fn coordinate(
     let gather = GatherConfig {
         local_threads: session.threads.max(1),
         adaptive_shares: !gather.equal_shares,
-        predict: gather.predict_split,
+        predict: gather.split == crate::cli::SplitMode::Predict,
         spin_margin: Duration::from_micros(gather.spin_us),
         stale: vps_cluster::fallback::StalePolicy {
             max_age_frames: gather.max_stale_frames,

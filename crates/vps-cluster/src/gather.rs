@@ -34,6 +34,7 @@
 
 use crate::fallback::{plan_fallback, FallbackAction, MissingShare, StalePolicy};
 use crate::protocol::{mask_classes, FrameReply};
+use crate::report::SplitReport;
 use crate::split::{split_classes, Adapt, ShareOutcome};
 use crate::ClusterError;
 use std::time::{Duration, Instant};
@@ -88,34 +89,6 @@ pub enum SplitDecision {
     /// The split is predicted no faster (or a worker is not yet measured): every class stays
     /// local this frame.
     KeptLocal,
-}
-
-/// Frames per [`SplitDecision`], the probes, and the latest prediction (ns), for the cluster
-/// report.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct SplitStats {
-    /// Frames split because the prediction favoured it.
-    pub split: u64,
-    /// Frames kept local because the prediction did not favour splitting.
-    pub kept_local: u64,
-    /// Worker shares kept on the coordinator, summed over frames (all of a kept-local frame's
-    /// shares included).
-    pub shares_kept_local: u64,
-    /// Unawaited probes sent.
-    pub probes: u64,
-    /// Unawaited probes answered correctly (booked as round-trip samples).
-    pub probe_replies: u64,
-    /// Unawaited probes unanswered after `probe_every` frames, or answered wrongly.
-    pub probes_failed: u64,
-    /// The coordinator's latest cost of one class (ns).
-    pub per_class_ns: u64,
-    /// The latest smallest predicted fixed round-trip cost `b` among the measured workers (ns;
-    /// 0 when none is measured).
-    pub worker_base_ns: u64,
-    /// The latest predicted time of the split frame (ns; the local time when kept local).
-    pub predicted_split_ns: u64,
-    /// The latest predicted time of the all-local frame (ns).
-    pub predicted_local_ns: u64,
 }
 
 /// An unawaited probe of [`Policy::predict`], outstanding until booked at a settle.
@@ -336,7 +309,7 @@ pub struct GatherCore {
     /// The coordinator's cost of one class (latest measurement).
     per_class: Duration,
     decision: SplitDecision,
-    split_stats: SplitStats,
+    split_stats: SplitReport,
     /// This frame's unawaited probe class (0: none).
     probe_class: u64,
 }
@@ -376,7 +349,7 @@ impl GatherCore {
             fallback: Fallback::default(),
             per_class: Duration::ZERO,
             decision: SplitDecision::Plain,
-            split_stats: SplitStats::default(),
+            split_stats: SplitReport::default(),
             probe_class: 0,
         })
     }
@@ -435,8 +408,8 @@ impl GatherCore {
     }
 
     /// Frames per decision and the latest prediction.
-    pub fn split_stats(&self) -> SplitStats {
-        self.split_stats
+    pub fn split_stats(&self) -> &SplitReport {
+        &self.split_stats
     }
 
     /// Starts the next frame: a new sequence number. Call before membership changes and the
@@ -566,10 +539,10 @@ impl GatherCore {
             nanos(c.saturating_mul(self.shape.class_points.len() as u32));
         self.split_stats.shares_kept_local += (kept + moved) as u64;
         if moved == remote.len() {
-            self.split_stats.kept_local += 1;
+            self.split_stats.kept_local_frames += 1;
             SplitDecision::KeptLocal
         } else {
-            self.split_stats.split += 1;
+            self.split_stats.split_frames += 1;
             SplitDecision::Split
         }
     }

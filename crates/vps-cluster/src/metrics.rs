@@ -17,7 +17,7 @@ use crossbeam::queue::ArrayQueue;
 use hdrhistogram::Histogram;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
-use std::sync::{Arc, OnceLock};
+use std::sync::{Arc, Mutex, OnceLock};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 use vps_runtime::Percentiles;
@@ -169,8 +169,8 @@ pub(crate) struct Board {
     rtt_queue: ArrayQueue<(Arc<PeerMetrics>, u64)>,
     /// What the coordinator's UDP socket received (written by its socket wrapper).
     pub(crate) udp: Arc<crate::udp_count::UdpCounts>,
-    /// The split decisions ([`crate::gather::SplitStats`]), in [`split_values`]' order.
-    split: [AtomicU64; 10],
+    /// The split decisions so far (the frame thread publishes them when the lock is free).
+    split: Mutex<SplitReport>,
 }
 
 impl Board {
@@ -188,14 +188,15 @@ impl Board {
             slots: (0..MAX_TRACKED_WORKERS).map(|_| OnceLock::new()).collect(),
             udp: Arc::default(),
             rtt_queue: ArrayQueue::new(RTT_QUEUE),
-            split: Default::default(),
+            split: Mutex::default(),
         })
     }
 
-    /// Publishes the split decisions so far. Frame thread only; never blocks or allocates.
-    pub(crate) fn set_split(&self, stats: crate::gather::SplitStats) {
-        for (a, v) in self.split.iter().zip(split_values(&stats)) {
-            a.store(v, Ordering::Relaxed);
+    /// Publishes the split decisions so far. Frame thread only; never blocks (when a reader
+    /// holds the lock this frame's figures are skipped, the next frame's follow) or allocates.
+    pub(crate) fn set_split(&self, stats: &SplitReport) {
+        if let Ok(mut split) = self.split.try_lock() {
+            split.clone_from(stats);
         }
     }
 
@@ -250,37 +251,10 @@ impl Board {
             udp_datagrams: self.udp.datagrams(),
             udp_not_quic: self.udp.not_quic(),
             udp_foreign: self.udp.foreign(),
-            split: SplitReport {
-                split_frames: load(&self.split[0]),
-                kept_local_frames: load(&self.split[1]),
-                shares_kept_local: load(&self.split[2]),
-                probes: load(&self.split[3]),
-                probe_replies: load(&self.split[4]),
-                probes_failed: load(&self.split[5]),
-                per_class_ns: load(&self.split[6]),
-                worker_base_ns: load(&self.split[7]),
-                predicted_split_ns: load(&self.split[8]),
-                predicted_local_ns: load(&self.split[9]),
-            },
+            split: self.split.lock().map(|s| s.clone()).unwrap_or_default(),
             peers,
         }
     }
-}
-
-/// The [`crate::gather::SplitStats`] fields in the board's order (as [`SplitReport`] lists them).
-fn split_values(stats: &crate::gather::SplitStats) -> [u64; 10] {
-    [
-        stats.split,
-        stats.kept_local,
-        stats.shares_kept_local,
-        stats.probes,
-        stats.probe_replies,
-        stats.probes_failed,
-        stats.per_class_ns,
-        stats.worker_base_ns,
-        stats.predicted_split_ns,
-        stats.predicted_local_ns,
-    ]
 }
 
 /// A cheap, cloneable, read-only view of a coordinator's live figures, for any thread (a viewer,

@@ -207,6 +207,32 @@ impl PinnedVerifier {
     }
 }
 
+/// The signature checks both verifier traits ask for, delegated to the provider's algorithms
+/// ([`PinnedVerifier::tls12`], [`PinnedVerifier::tls13`], [`PinnedVerifier::schemes`]).
+macro_rules! pinned_signatures {
+    () => {
+        fn verify_tls12_signature(
+            &self,
+            message: &[u8],
+            cert: &CertificateDer<'_>,
+            dss: &DigitallySignedStruct,
+        ) -> Result<HandshakeSignatureValid, rustls::Error> {
+            self.tls12(message, cert, dss)
+        }
+        fn verify_tls13_signature(
+            &self,
+            message: &[u8],
+            cert: &CertificateDer<'_>,
+            dss: &DigitallySignedStruct,
+        ) -> Result<HandshakeSignatureValid, rustls::Error> {
+            self.tls13(message, cert, dss)
+        }
+        fn supported_verify_schemes(&self) -> Vec<SignatureScheme> {
+            self.schemes()
+        }
+    };
+}
+
 impl ServerCertVerifier for PinnedVerifier {
     fn verify_server_cert(
         &self,
@@ -219,25 +245,7 @@ impl ServerCertVerifier for PinnedVerifier {
         self.check(end_entity)
             .map(|()| ServerCertVerified::assertion())
     }
-    fn verify_tls12_signature(
-        &self,
-        message: &[u8],
-        cert: &CertificateDer<'_>,
-        dss: &DigitallySignedStruct,
-    ) -> Result<HandshakeSignatureValid, rustls::Error> {
-        self.tls12(message, cert, dss)
-    }
-    fn verify_tls13_signature(
-        &self,
-        message: &[u8],
-        cert: &CertificateDer<'_>,
-        dss: &DigitallySignedStruct,
-    ) -> Result<HandshakeSignatureValid, rustls::Error> {
-        self.tls13(message, cert, dss)
-    }
-    fn supported_verify_schemes(&self) -> Vec<SignatureScheme> {
-        self.schemes()
-    }
+    pinned_signatures!();
 }
 
 impl ClientCertVerifier for PinnedVerifier {
@@ -253,25 +261,24 @@ impl ClientCertVerifier for PinnedVerifier {
         self.check(end_entity)
             .map(|()| ClientCertVerified::assertion())
     }
-    fn verify_tls12_signature(
-        &self,
-        message: &[u8],
-        cert: &CertificateDer<'_>,
-        dss: &DigitallySignedStruct,
-    ) -> Result<HandshakeSignatureValid, rustls::Error> {
-        self.tls12(message, cert, dss)
-    }
-    fn verify_tls13_signature(
-        &self,
-        message: &[u8],
-        cert: &CertificateDer<'_>,
-        dss: &DigitallySignedStruct,
-    ) -> Result<HandshakeSignatureValid, rustls::Error> {
-        self.tls13(message, cert, dss)
-    }
-    fn supported_verify_schemes(&self) -> Vec<SignatureScheme> {
-        self.schemes()
-    }
+    pinned_signatures!();
+}
+
+/// The crypto provider and a verifier admitting only `pins` (peers of `role`; refusals counted
+/// in `refused`).
+fn pinned(
+    pins: Vec<CertificateDer<'static>>,
+    refused: Arc<AtomicU64>,
+    role: &'static str,
+) -> (Arc<CryptoProvider>, Arc<PinnedVerifier>) {
+    let provider = provider();
+    let verifier = Arc::new(PinnedVerifier {
+        pins,
+        provider: provider.clone(),
+        refused,
+        role,
+    });
+    (provider, verifier)
 }
 
 fn provider() -> Arc<CryptoProvider> {
@@ -300,13 +307,7 @@ pub fn server_config(
     pins: Vec<CertificateDer<'static>>,
     refused: Arc<AtomicU64>,
 ) -> Result<quinn::ServerConfig, ClusterError> {
-    let provider = provider();
-    let verifier = Arc::new(PinnedVerifier {
-        pins,
-        provider: provider.clone(),
-        refused,
-        role: "worker",
-    });
+    let (provider, verifier) = pinned(pins, refused, "worker");
     let mut tls = rustls::ServerConfig::builder_with_provider(provider)
         .with_protocol_versions(&[&rustls::version::TLS13])
         .map_err(tls_err)?
@@ -327,13 +328,7 @@ pub fn client_config(
     pins: Vec<CertificateDer<'static>>,
     refused: Arc<AtomicU64>,
 ) -> Result<quinn::ClientConfig, ClusterError> {
-    let provider = provider();
-    let verifier = Arc::new(PinnedVerifier {
-        pins,
-        provider: provider.clone(),
-        refused,
-        role: "coordinator",
-    });
+    let (provider, verifier) = pinned(pins, refused, "coordinator");
     let mut tls = rustls::ClientConfig::builder_with_provider(provider)
         .with_protocol_versions(&[&rustls::version::TLS13])
         .map_err(tls_err)?

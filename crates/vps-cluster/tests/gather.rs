@@ -454,7 +454,7 @@ fn a_small_shell_stays_local_when_the_round_trip_costs_more_than_it_saves() {
         core.requests().collect::<Vec<_>>()
     );
     let stats = core.split_stats();
-    assert_eq!((stats.kept_local, stats.split), (3, 0));
+    assert_eq!((stats.kept_local_frames, stats.split_frames), (3, 0));
     assert_eq!(stats.predicted_local_ns, 16_000);
     assert_eq!(stats.worker_base_ns, 600_000);
     // Nothing asked is nothing missing: no fallback, no miss, no bench.
@@ -644,5 +644,5 @@ fn a_benched_worker_is_unbenched_by_timely_unawaited_probes() {
         "{transitions:?}"
     );
     assert_eq!(transitions[3], Transition::Unbenched, "{transitions:?}");
-    assert!(core.split_stats().split >= 2);
+    assert!(core.split_stats().split_frames >= 2);
 }
