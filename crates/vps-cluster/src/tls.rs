@@ -87,6 +87,16 @@ pub fn load_pins(paths: &[PathBuf]) -> Result<Vec<CertificateDer<'static>>, Clus
     paths.iter().map(|p| load_cert(p)).collect()
 }
 
+/// An identity (`cert`, `key`) and the certificates it admits (`pins`), from PEM files
+/// ([`TlsIdentity::load`], [`load_pins`]).
+pub fn load_identity_and_pins(
+    cert: &Path,
+    key: &Path,
+    pins: &[PathBuf],
+) -> Result<(TlsIdentity, Vec<CertificateDer<'static>>), ClusterError> {
+    Ok((TlsIdentity::load(cert, key)?, load_pins(pins)?))
+}
+
 /// The paths [`make_cert`] wrote.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct CertFiles {
