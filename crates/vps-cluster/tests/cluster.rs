@@ -68,6 +68,18 @@ fn a_worker_leaving_mid_run_changes_nothing_in_the_sums() {
     workers.pop().unwrap().stop().unwrap();
 }
 
+/// Ends a session with a hand-driven worker: the gatherer and the coordinator go first (the
+/// connection closes, so the worker's thread ends), then that thread is joined.
+fn end_with_fake<T>(
+    shares: vps_cluster::RemoteShares,
+    coordinator: vps_cluster::Coordinator,
+    worker: std::thread::JoinHandle<T>,
+) {
+    drop(shares);
+    drop(coordinator);
+    worker.join().unwrap();
+}
+
 /// A coordinator on `scene` with one hand-driven worker joined over real QUIC.
 struct OneFake {
     coordinator: vps_cluster::Coordinator,
@@ -124,9 +136,7 @@ fn a_silent_worker_is_benched_and_a_recovered_one_gets_work_again() {
     assert!(!peer.benched, "recovered: {peer:?}");
     assert!(peer.merged > 0, "{peer:?}");
     assert!(peer.lost >= 3, "{peer:?}");
-    drop(shares);
-    drop(coordinator);
-    answering.join().unwrap();
+    end_with_fake(shares, coordinator, answering);
 }
 
 #[test]
@@ -215,9 +225,7 @@ fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
         report.udp_datagrams > report.udp_not_quic + report.udp_foreign,
         "{report:?}"
     );
-    drop(shares);
-    drop(coordinator);
-    misbehave.join().unwrap();
+    end_with_fake(shares, coordinator, misbehave);
 }
 
 #[test]
@@ -367,9 +375,7 @@ fn run_with_one_slow_worker(
         std::thread::sleep(Duration::from_millis(15));
     }
     let peer = shares.report().peers[0].clone();
-    drop(shares);
-    drop(coordinator);
-    slow.join().unwrap();
+    end_with_fake(shares, coordinator, slow);
     (recomputed, peer)
 }
 
@@ -434,9 +440,7 @@ fn frames_after_the_worker_falls_silent(
         })
         .collect();
     let report = shares.report();
-    drop(shares);
-    drop(coordinator);
-    worker.join().unwrap();
+    end_with_fake(shares, coordinator, worker);
     (results, report)
 }
 
