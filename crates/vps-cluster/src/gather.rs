@@ -64,9 +64,11 @@ pub struct Policy {
 ///
 /// The prediction: the coordinator's cost per class `c` (measured on its own share, passed in
 /// with [`GatherCore::set_local_cost`]) and, per worker, a pessimistic fixed round-trip cost
-/// `bᵢ = srttᵢ + 4·rttvarᵢ` (smoothed as TCP smooths its round trip, RFC 6298) of the samples
-/// "round trip less `c` per class computed" (network and wake-ups; the worker is taken to
-/// compute as fast as the coordinator). With `k₀` classes local and `kᵢ` at worker `i`, the split
+/// `bᵢ = min(srttᵢ + 4·rttvarᵢ, W)` (smoothed as TCP smooths its round trip, RFC 6298) of the
+/// samples "round trip less `c` per class computed" (network and wake-ups; the worker is taken
+/// to compute as fast as the coordinator). `W` is the reply window
+/// ([`GatherCore::set_reply_window`]): no frame waits longer for a reply, a share missing then
+/// is recomputed locally, so a worker never costs a frame more than `W` plus its share's compute. With `k₀` classes local and `kᵢ` at worker `i`, the split
 /// frame is predicted to take `max(k₀·c, maxᵢ(bᵢ + kᵢ·c))`. Starting from the worker predicted
 /// slowest, a share is kept on the coordinator while that does not make the predicted frame
 /// slower (a tie keeps it); a worker with no estimate yet keeps none. When every share is kept,
@@ -79,7 +81,7 @@ pub struct Policy {
 /// and the reply must equal its sums exactly (they are integers); it is never merged, and its
 /// round trip, timed when the datagram arrived, is booked at the first [`GatherCore::settle`]
 /// after it. A probe unanswered for `probe_every` frames is booked as a round trip as long as
-/// it has waited. So a frame waits for a worker only when the prediction says that shortens it.
+/// it has waited, at most its frame's reply window. So a frame waits for a worker only when the prediction says that shortens it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SplitDecision {
     /// Prediction off, or no worker to split with: the plain split (or everything local).
@@ -312,6 +314,8 @@ pub struct GatherCore {
     split_stats: SplitReport,
     /// This frame's unawaited probe class (0: none).
     probe_class: u64,
+    /// The reply window (request to deadline) of the latest frame.
+    window: Duration,
 }
 
 impl GatherCore {
@@ -351,6 +355,7 @@ impl GatherCore {
             decision: SplitDecision::Plain,
             split_stats: SplitReport::default(),
             probe_class: 0,
+            window: Duration::MAX,
         })
     }
 
@@ -383,6 +388,13 @@ impl GatherCore {
     pub fn set_local_cost(&mut self, per_class: Duration) {
         self.per_class = per_class;
         self.split_stats.per_class_ns = nanos(per_class);
+    }
+
+    /// The time this frame's replies are awaited, from the requests to the deadline: the most a
+    /// worker's round trip can cost a frame before its share is recomputed locally (the
+    /// prediction's cap). Unset: no cap.
+    pub fn set_reply_window(&mut self, window: Duration) {
+        self.window = window;
     }
 
     /// This frame's unawaited probe class (a class of the coordinator's own mask; 0: no probe).
@@ -503,7 +515,8 @@ impl GatherCore {
         let mut local = masks[0];
         let mut kept = 0;
         for (party, &i) in self.active.iter().enumerate() {
-            match self.peers[i].predicted_base().filter(|_| !c.is_zero()) {
+            let base = self.peers[i].predicted_base().map(|b| b.min(self.window));
+            match base.filter(|_| !c.is_zero()) {
                 Some(base) => remote.push((party + 1, base.saturating_add(cost(masks[party + 1])))),
                 None => {
                     local |= std::mem::take(&mut masks[party + 1]);
@@ -516,6 +529,7 @@ impl GatherCore {
             .iter()
             .filter_map(|&i| self.peers[i].predicted_base())
             .min()
+            .map(|b| b.min(self.window))
             .map_or(0, nanos);
         remote.sort_by_key(|r| std::cmp::Reverse(r.1));
         let mut moved = 0;
@@ -851,7 +865,7 @@ fn unbench(peer: &mut PeerState, adapt: &Adapt) {
 /// `deadline`), if it is answered, or unanswered for `probe_every` frames. A correct answer is a
 /// round-trip sample (less `per_class` for its one class) and, within the reply window its
 /// frame had, a timely probe towards un-benching; a wrong or missing one resets the streak, and
-/// a missing one books the time it has waited as a sample. Returns whether it was answered
+/// a missing one books the time it has waited, at most that window, as a sample. Returns whether it was answered
 /// correctly, `None` while it stays outstanding.
 fn book_probe(
     peer: &mut PeerState,
@@ -876,7 +890,7 @@ fn book_probe(
             false
         }
         None if seq.saturating_sub(probe.seq) >= policy.probe_every => {
-            peer.book_base(waited);
+            peer.book_base(waited.min(probe.window.unwrap_or(waited)));
             peer.probe_hits = 0;
             false
         }

@@ -107,8 +107,9 @@ pub struct SplitReport {
     pub probes_failed: u64,
     /// The coordinator's latest cost of one class (ns).
     pub per_class_ns: u64,
-    /// The latest smallest pessimistic fixed round-trip cost of a measured worker, smoothed
-    /// round trip less its compute plus 4 mean deviations (ns; 0: none measured).
+    /// The latest smallest pessimistic fixed round-trip cost of a measured worker: smoothed
+    /// round trip less its compute plus 4 mean deviations, at most the reply window (ns; 0:
+    /// none measured).
     pub worker_base_ns: u64,
     /// The latest predicted time of the split frame (ns): the slowest of the coordinator's own
     /// share and each worker's fixed round-trip cost plus its share's compute.

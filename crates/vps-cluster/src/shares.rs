@@ -505,6 +505,8 @@ impl FrameSampler for RemoteShares {
         while let Ok(stale) = self.datagrams.try_recv() {
             self.accept(stale, &mut unused);
         }
+        self.core
+            .set_reply_window(deadline.saturating_duration_since(Instant::now()));
         let local = self.core.assign();
         self.publish_classes();
         self.board.set_split(self.core.split_stats());

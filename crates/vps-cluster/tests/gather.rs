@@ -592,7 +592,7 @@ fn a_wrong_probe_reply_is_a_bad_reply_and_books_nothing() {
 }
 
 #[test]
-fn an_unanswered_probe_is_booked_as_long_as_it_waited_after_probe_every_frames() {
+fn an_unanswered_probe_is_booked_as_its_frames_reply_window_after_probe_every_frames() {
     let mut core = predictor(3, &[5]);
     core.set_local_cost(US);
     let t0 = Instant::now();
@@ -603,12 +603,13 @@ fn an_unanswered_probe_is_booked_as_long_as_it_waited_after_probe_every_frames()
         core.settle(t + 400 * US);
         assert_eq!(core.peer(5).unwrap().base_rtt, None);
     }
-    // Frame 4's settle: 3 frames without an answer. The probe left at t0.
+    // Frame 4's settle: 3 frames without an answer. The probe left at t0 and waited 3.4 ms,
+    // but no frame waits longer than its 400 µs window: that is what it costs.
     let t = t0 + Duration::from_millis(3);
     core.begin_frame();
     core.assign();
     core.settle(t + 400 * US);
-    assert_eq!(core.peer(5).unwrap().base_rtt, Some(3400 * US));
+    assert_eq!(core.peer(5).unwrap().base_rtt, Some(400 * US));
     assert_eq!(core.split_stats().probes_failed, 1);
     assert!(core.peer(5).unwrap().probe.is_none());
 }
@@ -645,4 +646,23 @@ fn a_benched_worker_is_unbenched_by_timely_unawaited_probes() {
     );
     assert_eq!(transitions[3], Transition::Unbenched, "{transitions:?}");
     assert!(core.split_stats().split_frames >= 2);
+}
+
+#[test]
+fn a_worker_costs_at_most_the_reply_window_in_the_prediction() {
+    // 16 classes at 100 µs (1.6 ms locally), one worker measured at 5 ms: uncapped, the split
+    // would be predicted at 15.8 ms; but no frame waits more than its 400 µs window for it, and
+    // its share is then recomputed, so the split is predicted at 400 + 800 µs.
+    let (mut core, t) = predicting(100 * US, &[5000 * US]);
+    core.set_reply_window(400 * US);
+    frame(&mut core, t);
+    assert_eq!(core.decision(), SplitDecision::Split);
+    let stats = core.split_stats();
+    assert_eq!(stats.worker_base_ns, 400_000);
+    assert_eq!(stats.predicted_split_ns, 1_200_000);
+    // On a small shell (1 µs a class) the same worker is never worth its window.
+    let (mut small, t) = predicting(US, &[5000 * US]);
+    small.set_reply_window(400 * US);
+    frame(&mut small, t);
+    assert_eq!(small.decision(), SplitDecision::KeptLocal);
 }
