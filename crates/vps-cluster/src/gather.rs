@@ -77,7 +77,9 @@ pub struct Policy {
 /// The samples come from merged work shares and from probes that no frame waits for: a worker
 /// given no share this frame (kept, benched, or not yet measured) is sent one class of the
 /// coordinator's own share at most every [`Policy::probe_every`] frames (at once when it has no
-/// estimate), with one probe outstanding per worker. The coordinator computes that class too
+/// estimate), with one probe outstanding per worker. While its predicted fixed cost alone is no
+/// less than computing every class locally (`bᵢ ≥ C·c`: no share of it can shorten a frame), it
+/// is probed [`FAR_PROBE_FACTOR`] times less often. The coordinator computes that class too
 /// and the reply must equal its sums exactly (they are integers); it is never merged, and its
 /// round trip, timed when the datagram arrived, is booked at the first [`GatherCore::settle`]
 /// after it. A probe unanswered for `probe_every` frames is booked as a round trip as long as
@@ -109,6 +111,10 @@ pub struct OpenProbe {
     /// The reply: its round trip, or `None` for a wrong reply. `None` while unanswered.
     pub answer: Option<Option<Duration>>,
 }
+
+/// How many times less often a worker is probed while no share of it can shorten a frame
+/// (see [`SplitDecision`]): every 100 ms with the default `probe_every` of 10 frames.
+pub const FAR_PROBE_FACTOR: u64 = 10;
 
 /// What the core needs to know of the shell and the voxmap to check replies.
 #[derive(Clone, Debug, PartialEq)]
@@ -563,7 +569,7 @@ impl GatherCore {
 
     /// Opens an unawaited probe ([`Policy::predict`]) for each worker given no share this frame
     /// and none outstanding, when it has no estimate yet or its last probe is `probe_every`
-    /// frames old: one class of the coordinator's own mask `local`, rotating with the frame.
+    /// frames old (times [`FAR_PROBE_FACTOR`] while no share of it can shorten a frame): one class of the coordinator's own mask `local`, rotating with the frame.
     fn open_probes(&mut self, local: u64) {
         self.probe_class = 0;
         if !self.policy.predict || local == 0 {
@@ -574,7 +580,20 @@ impl GatherCore {
         let Some(class) = mask_classes(local).nth(nth) else {
             return;
         };
+        let local_all = self
+            .per_class
+            .saturating_mul(self.shape.class_points.len() as u32);
+        let window = self.window;
         for peer in &mut self.peers {
+            let far = !local_all.is_zero()
+                && peer
+                    .predicted_base()
+                    .is_some_and(|b| b.min(window) >= local_all);
+            let every = if far {
+                every.saturating_mul(FAR_PROBE_FACTOR)
+            } else {
+                every
+            };
             let due = peer.base_rtt.is_none() || seq >= peer.probed_seq.saturating_add(every);
             if peer.asked != 0 || peer.probe.is_some() || !due {
                 continue;

@@ -3,7 +3,9 @@
 
 use std::time::{Duration, Instant};
 use vps_cluster::fallback::StalePolicy;
-use vps_cluster::gather::{Acceptance, GatherCore, Policy, Shape, SplitDecision, Transition};
+use vps_cluster::gather::{
+    Acceptance, GatherCore, Policy, Shape, SplitDecision, Transition, FAR_PROBE_FACTOR,
+};
 use vps_cluster::protocol::FrameReply;
 use vps_haptic::PartialSums;
 
@@ -525,16 +527,18 @@ fn the_predicted_split_is_never_slower_than_the_coordinator_alone() {
 
 #[test]
 fn unawaited_probes_go_every_probe_every_frames_one_at_a_time_and_never_make_a_frame_wait() {
+    // 16 classes at 10 µs (160 µs locally); the worker's round trip costs 40 µs more than its
+    // one class: close enough to be worth measuring, not yet worth a share (8 classes).
     let mut core = predictor(4, &[0]);
-    core.set_local_cost(US);
+    core.set_local_cost(10 * US);
     let t0 = Instant::now();
     let mut probed = Vec::new();
     for f in 1..=12u64 {
         let t = t0 + Duration::from_millis(f);
-        // The previous frame's probe, answered 150 µs after it left, taken at this frame's start.
+        // The previous frame's probe, answered 50 µs after it left, taken at this frame's start.
         core.begin_frame();
         if let Some(probe) = core.peer(0).unwrap().probe {
-            let got = core.accept(0, &reply(probe.seq, probe.classes, 0), t - 850 * US);
+            let got = core.accept(0, &reply(probe.seq, probe.classes, 0), t - 950 * US);
             assert!(matches!(got, Acceptance::Probed { rtt: Some(_) }), "{got:?}");
         }
         core.assign();
@@ -553,7 +557,28 @@ fn unawaited_probes_go_every_probe_every_frames_one_at_a_time_and_never_make_a_f
     assert_eq!(probed, [1, 5, 9]);
     let stats = core.split_stats();
     assert_eq!((stats.probes, stats.probe_replies, stats.probes_failed), (3, 3, 0));
-    assert_eq!(core.peer(0).unwrap().base_rtt, Some(149 * US));
+    assert_eq!(core.peer(0).unwrap().base_rtt, Some(40 * US));
+    assert!(core.peer(0).unwrap().predicted_base().unwrap() < 160 * US);
+    // At 1 µs a class (16 µs locally) the same worker can never shorten a frame: probed
+    // FAR_PROBE_FACTOR times less often.
+    let mut far = predictor(4, &[0]);
+    far.set_local_cost(US);
+    let mut probed = Vec::new();
+    for f in 1..=60u64 {
+        let t = t0 + Duration::from_millis(f);
+        far.begin_frame();
+        if let Some(probe) = far.peer(0).unwrap().probe {
+            far.accept(0, &reply(probe.seq, probe.classes, 0), t - 950 * US);
+        }
+        far.assign();
+        for (id, mask, _) in far.requests().collect::<Vec<_>>() {
+            far.set_probe_result(&own_sums(&far, mask));
+            far.sent(id, t, true);
+            probed.push(f);
+        }
+        far.settle(t + 400 * US);
+    }
+    assert_eq!(probed, [1, 1 + 4 * FAR_PROBE_FACTOR]);
     // With the prediction off the plain split is sent every frame.
     let mut plain = core_with(policy(), &[0]);
     frame(&mut plain, t0);
