@@ -210,7 +210,11 @@ impl PeerState {
     fn book_base(&mut self, sample: Duration) {
         match self.base_rtt {
             Some(old) => {
-                let gap = if old > sample { old - sample } else { sample - old };
+                let gap = if old > sample {
+                    old - sample
+                } else {
+                    sample - old
+                };
                 self.base_dev = (self.base_dev.saturating_mul(3).saturating_add(gap)) / 4;
                 self.base_rtt = Some(old.saturating_mul(7).saturating_add(sample) / 8);
             }

@@ -522,7 +522,10 @@ mod tests {
 
     #[test]
     fn datagrams_round_trip_bit_exactly() {
-        for (seq, classes) in [(0x0123_4567_89ab_cdef, 0xf0f0_0000_0000_0001), (42, u64::MAX)] {
+        for (seq, classes) in [
+            (0x0123_4567_89ab_cdef, 0xf0f0_0000_0000_0001),
+            (42, u64::MAX),
+        ] {
             let (req, req_buf, reply, reply_buf) = encoded(seq, classes);
             assert_eq!(FrameRequest::decode(&req_buf), Ok(req));
             assert_eq!(FrameReply::decode(&reply_buf), Ok(reply));

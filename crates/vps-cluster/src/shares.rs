@@ -335,10 +335,9 @@ impl RemoteShares {
                 metrics.bump(|m| &m.invalid);
                 tracing::debug!(worker = datagram.id, "implausible reply dropped");
             }
-            Acceptance::Probe { rtt }
-            | Acceptance::Probed {
-                rtt: Some(rtt), ..
-            } => self.board.record_rtt(&metrics, nanos(rtt)),
+            Acceptance::Probe { rtt } | Acceptance::Probed { rtt: Some(rtt), .. } => {
+                self.board.record_rtt(&metrics, nanos(rtt))
+            }
             Acceptance::Probed { rtt: None } => {
                 metrics.bump(|m| &m.invalid);
                 tracing::debug!(worker = datagram.id, "wrong probe reply");

@@ -410,7 +410,11 @@ fn predicting(per_class: Duration, base: &[Duration]) -> (GatherCore, Instant) {
     assert_eq!(local, (1u64 << CLASSES) - 1, "every class local");
     let probe = core.probe_classes();
     assert_eq!(probe.count_ones(), 1);
-    assert_eq!(local & probe, probe, "the probe class is one the coordinator computes");
+    assert_eq!(
+        local & probe,
+        probe,
+        "the probe class is one the coordinator computes"
+    );
     core.set_probe_result(&own_sums(&core, probe));
     let requests: Vec<_> = core.requests().collect();
     assert_eq!(requests.len(), ids.len());
@@ -429,14 +433,22 @@ fn predicting(per_class: Duration, base: &[Duration]) -> (GatherCore, Instant) {
         let got = core.accept(id, &reply(1, mask, 0), t0 + rtt);
         assert_eq!(got, Acceptance::Probed { rtt: Some(rtt) });
         assert!(!got.settles(), "an unawaited probe is not waited for");
-        assert_eq!(core.peer(id).unwrap().base_rtt, None, "booked at the settle");
+        assert_eq!(
+            core.peer(id).unwrap().base_rtt,
+            None,
+            "booked at the settle"
+        );
     }
     core.assign();
     core.settle(t1 + 400 * US);
     for &id in &ids {
         let peer = core.peer(id).unwrap();
         assert_eq!(peer.base_rtt, Some(base[id as usize]));
-        assert_eq!(peer.predicted_base(), Some(3 * base[id as usize]), "srtt + 4 · srtt/2");
+        assert_eq!(
+            peer.predicted_base(),
+            Some(3 * base[id as usize]),
+            "srtt + 4 · srtt/2"
+        );
         assert!(peer.probe.is_none());
     }
     assert_eq!(core.split_stats().probe_replies, ids.len() as u64);
@@ -499,7 +511,10 @@ fn a_slow_workers_share_is_kept_local_while_a_fast_one_still_gets_work() {
     );
     assert_eq!(local | asked(&core, 0), (1u64 << CLASSES) - 1);
     let stats = core.split_stats();
-    assert_eq!(stats.shares_kept_local, 5, "two kept-local frames of two shares, then one");
+    assert_eq!(
+        stats.shares_kept_local, 5,
+        "two kept-local frames of two shares, then one"
+    );
     // Predicted no slower than the coordinator alone: adding the slow worker costs nothing.
     assert!(stats.predicted_split_ns <= stats.predicted_local_ns);
 }
@@ -539,7 +554,10 @@ fn unawaited_probes_go_every_probe_every_frames_one_at_a_time_and_never_make_a_f
         core.begin_frame();
         if let Some(probe) = core.peer(0).unwrap().probe {
             let got = core.accept(0, &reply(probe.seq, probe.classes, 0), t - 950 * US);
-            assert!(matches!(got, Acceptance::Probed { rtt: Some(_) }), "{got:?}");
+            assert!(
+                matches!(got, Acceptance::Probed { rtt: Some(_) }),
+                "{got:?}"
+            );
         }
         core.assign();
         assert_eq!(core.decision(), SplitDecision::KeptLocal);
@@ -556,7 +574,10 @@ fn unawaited_probes_go_every_probe_every_frames_one_at_a_time_and_never_make_a_f
     // Frame 1: no estimate, at once; then every 4th frame.
     assert_eq!(probed, [1, 5, 9]);
     let stats = core.split_stats();
-    assert_eq!((stats.probes, stats.probe_replies, stats.probes_failed), (3, 3, 0));
+    assert_eq!(
+        (stats.probes, stats.probe_replies, stats.probes_failed),
+        (3, 3, 0)
+    );
     assert_eq!(core.peer(0).unwrap().base_rtt, Some(40 * US));
     assert!(core.peer(0).unwrap().predicted_base().unwrap() < 160 * US);
     // At 1 µs a class (16 µs locally) the same worker can never shorten a frame: probed
@@ -624,7 +645,11 @@ fn an_unanswered_probe_is_booked_as_its_frames_reply_window_after_probe_every_fr
     for f in 0..3u64 {
         let t = t0 + Duration::from_millis(f);
         frame(&mut core, t);
-        assert_eq!(core.requests().count(), usize::from(f == 0), "one outstanding");
+        assert_eq!(
+            core.requests().count(),
+            usize::from(f == 0),
+            "one outstanding"
+        );
         core.settle(t + 400 * US);
         assert_eq!(core.peer(5).unwrap().base_rtt, None);
     }
@@ -652,7 +677,10 @@ fn a_benched_worker_is_unbenched_by_timely_unawaited_probes() {
         core.begin_frame();
         if let Some(probe) = core.peer(0).unwrap().probe {
             let got = core.accept(0, &reply(probe.seq, probe.classes, 0), t - 900 * US);
-            assert!(matches!(got, Acceptance::Probed { rtt: Some(_) }), "{got:?}");
+            assert!(
+                matches!(got, Acceptance::Probed { rtt: Some(_) }),
+                "{got:?}"
+            );
         }
         core.assign();
         for (id, mask, probing) in core.requests().collect::<Vec<_>>() {
