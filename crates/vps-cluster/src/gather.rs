@@ -210,11 +210,7 @@ impl PeerState {
     fn book_base(&mut self, sample: Duration) {
         match self.base_rtt {
             Some(old) => {
-                let gap = if old > sample {
-                    old - sample
-                } else {
-                    sample - old
-                };
+                let gap = old.abs_diff(sample);
                 self.base_dev = (self.base_dev.saturating_mul(3).saturating_add(gap)) / 4;
                 self.base_rtt = Some(old.saturating_mul(7).saturating_add(sample) / 8);
             }
