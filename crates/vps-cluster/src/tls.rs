@@ -184,61 +184,43 @@ impl PinnedVerifier {
             CertificateError::ApplicationVerificationFailure,
         ))
     }
-    fn tls12(
-        &self,
-        message: &[u8],
-        cert: &CertificateDer<'_>,
-        dss: &DigitallySignedStruct,
-    ) -> Result<HandshakeSignatureValid, rustls::Error> {
-        rustls::crypto::verify_tls12_signature(
-            message,
-            cert,
-            dss,
-            &self.provider.signature_verification_algorithms,
-        )
-    }
-    fn tls13(
-        &self,
-        message: &[u8],
-        cert: &CertificateDer<'_>,
-        dss: &DigitallySignedStruct,
-    ) -> Result<HandshakeSignatureValid, rustls::Error> {
-        rustls::crypto::verify_tls13_signature(
-            message,
-            cert,
-            dss,
-            &self.provider.signature_verification_algorithms,
-        )
-    }
-    fn schemes(&self) -> Vec<SignatureScheme> {
-        self.provider
-            .signature_verification_algorithms
-            .supported_schemes()
-    }
 }
 
-/// The signature checks both verifier traits ask for, delegated to the provider's algorithms
-/// ([`PinnedVerifier::tls12`], [`PinnedVerifier::tls13`], [`PinnedVerifier::schemes`]).
+/// A signature check of the verifier traits, `$method`, delegated to rustls' `$check` with the
+/// provider's algorithms (the same for both traits).
+macro_rules! pinned_signature {
+    ($method:ident, $check:path) => {
+        fn $method(
+            &self,
+            message: &[u8],
+            cert: &CertificateDer<'_>,
+            dss: &DigitallySignedStruct,
+        ) -> Result<HandshakeSignatureValid, rustls::Error> {
+            $check(
+                message,
+                cert,
+                dss,
+                &self.provider.signature_verification_algorithms,
+            )
+        }
+    };
+}
+
+/// The signature checks both verifier traits ask for ([`pinned_signature`]).
 macro_rules! pinned_signatures {
     () => {
-        fn verify_tls12_signature(
-            &self,
-            message: &[u8],
-            cert: &CertificateDer<'_>,
-            dss: &DigitallySignedStruct,
-        ) -> Result<HandshakeSignatureValid, rustls::Error> {
-            self.tls12(message, cert, dss)
-        }
-        fn verify_tls13_signature(
-            &self,
-            message: &[u8],
-            cert: &CertificateDer<'_>,
-            dss: &DigitallySignedStruct,
-        ) -> Result<HandshakeSignatureValid, rustls::Error> {
-            self.tls13(message, cert, dss)
-        }
+        pinned_signature!(
+            verify_tls12_signature,
+            rustls::crypto::verify_tls12_signature
+        );
+        pinned_signature!(
+            verify_tls13_signature,
+            rustls::crypto::verify_tls13_signature
+        );
         fn supported_verify_schemes(&self) -> Vec<SignatureScheme> {
-            self.schemes()
+            self.provider
+                .signature_verification_algorithms
+                .supported_schemes()
         }
     };
 }

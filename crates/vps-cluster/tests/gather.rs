@@ -540,6 +540,34 @@ fn the_predicted_split_is_never_slower_than_the_coordinator_alone() {
     }
 }
 
+/// One predicting frame at `t` with worker 0: its open probe, if any, is answered correctly at
+/// `answered` (taken at the frame's start, as the driver drains its queue); then the assignment,
+/// each probe's local sums, and every request sent (a probe never awaited, a share awaited).
+/// Returns the requests; the caller settles.
+fn probed_frame(core: &mut GatherCore, t: Instant, answered: Instant) -> Vec<(u32, u64, bool)> {
+    core.begin_frame();
+    if let Some(probe) = core.peer(0).unwrap().probe {
+        let got = core.accept(0, &reply(probe.seq, probe.classes, 0), answered);
+        assert!(
+            matches!(got, Acceptance::Probed { rtt: Some(_) }),
+            "{got:?}"
+        );
+    }
+    core.assign();
+    let requests: Vec<_> = core.requests().collect();
+    for &(id, mask, probing) in &requests {
+        if probing {
+            core.set_probe_result(&own_sums(core, mask));
+        }
+        assert_eq!(
+            core.sent(id, t, true),
+            !probing,
+            "only work shares are awaited"
+        );
+    }
+    requests
+}
+
 #[test]
 fn unawaited_probes_go_every_probe_every_frames_one_at_a_time_and_never_make_a_frame_wait() {
     // 16 classes at 10 µs (160 µs locally); the worker's round trip costs 40 µs more than its
@@ -550,22 +578,11 @@ fn unawaited_probes_go_every_probe_every_frames_one_at_a_time_and_never_make_a_f
     let mut probed = Vec::new();
     for f in 1..=12u64 {
         let t = t0 + Duration::from_millis(f);
-        // The previous frame's probe, answered 50 µs after it left, taken at this frame's start.
-        core.begin_frame();
-        if let Some(probe) = core.peer(0).unwrap().probe {
-            let got = core.accept(0, &reply(probe.seq, probe.classes, 0), t - 950 * US);
-            assert!(
-                matches!(got, Acceptance::Probed { rtt: Some(_) }),
-                "{got:?}"
-            );
-        }
-        core.assign();
+        // The previous frame's probe, answered 50 µs after it left.
+        let requests = probed_frame(&mut core, t, t - 950 * US);
         assert_eq!(core.decision(), SplitDecision::KeptLocal);
-        let requests: Vec<_> = core.requests().collect();
-        for &(id, mask, probing) in &requests {
+        for &(_, _, probing) in &requests {
             assert!(probing);
-            core.set_probe_result(&own_sums(&core, mask));
-            assert!(!core.sent(id, t, true), "never awaited");
             probed.push(f);
         }
         assert!(core.settle(t + 400 * US).is_empty());
@@ -587,14 +604,7 @@ fn unawaited_probes_go_every_probe_every_frames_one_at_a_time_and_never_make_a_f
     let mut probed = Vec::new();
     for f in 1..=60u64 {
         let t = t0 + Duration::from_millis(f);
-        far.begin_frame();
-        if let Some(probe) = far.peer(0).unwrap().probe {
-            far.accept(0, &reply(probe.seq, probe.classes, 0), t - 950 * US);
-        }
-        far.assign();
-        for (id, mask, _) in far.requests().collect::<Vec<_>>() {
-            far.set_probe_result(&own_sums(&far, mask));
-            far.sent(id, t, true);
+        if !probed_frame(&mut far, t, t - 950 * US).is_empty() {
             probed.push(f);
         }
         far.settle(t + 400 * US);
@@ -674,21 +684,7 @@ fn a_benched_worker_is_unbenched_by_timely_unawaited_probes() {
     let mut t = Instant::now();
     let mut transitions = Vec::new();
     for _ in 0..12 {
-        core.begin_frame();
-        if let Some(probe) = core.peer(0).unwrap().probe {
-            let got = core.accept(0, &reply(probe.seq, probe.classes, 0), t - 900 * US);
-            assert!(
-                matches!(got, Acceptance::Probed { rtt: Some(_) }),
-                "{got:?}"
-            );
-        }
-        core.assign();
-        for (id, mask, probing) in core.requests().collect::<Vec<_>>() {
-            if probing {
-                core.set_probe_result(&own_sums(&core, mask));
-            }
-            assert_eq!(core.sent(id, t, true), !probing);
-        }
+        probed_frame(&mut core, t, t - 900 * US);
         transitions.extend(core.settle(t + 400 * US).iter().map(|x| x.1));
         t += Duration::from_millis(1);
     }
