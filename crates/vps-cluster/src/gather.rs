@@ -45,7 +45,8 @@ use vps_haptic::PartialSums;
 pub struct Policy {
     /// Consecutive unmerged work shares before a worker is benched (≥ 1).
     pub bench_after: u32,
-    /// A benched worker is probed every this many frames (≥ 1).
+    /// A benched worker is probed every this many frames (≥ 1); with [`Policy::predict`], so is
+    /// every worker given no share, and an unanswered probe is given up after as many frames.
     pub probe_every: u64,
     /// Consecutive timely probe replies before a benched worker gets work again (≥ 1).
     pub unbench_after: u32,
