@@ -312,11 +312,21 @@ pub struct GatherArgs {
     /// one-process session whatever the timing.
     #[arg(long, default_value_t = default_max_stale_frames())]
     pub max_stale_frames: u64,
-    /// Keep a worker's share on the coordinator when its predicted round trip plus compute would
-    /// not shorten the frame (a small shell then stays local); the report's `cluster.split` says
-    /// how often and why (`vps_cluster::GatherConfig::predict`).
-    #[arg(long)]
-    pub predict_split: bool,
+    /// How the classes are split: `predict` sends a worker its share only when its predicted
+    /// round trip plus compute shortens the frame, measuring it with probes no frame waits for
+    /// (a small shell then stays local); `always` splits every frame between all workers. The
+    /// report's `cluster.split` says how often and why (`vps_cluster::GatherConfig::predict`).
+    #[arg(long, value_enum, default_value_t = SplitMode::Predict)]
+    pub split: SplitMode,
+}
+
+/// `--split`: when the coordinator sends work to its workers.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SplitMode {
+    /// Only when that is predicted to shorten the frame.
+    Predict,
+    /// Every frame, to every worker not benched.
+    Always,
 }
 
 impl Default for GatherArgs {
@@ -326,7 +336,7 @@ impl Default for GatherArgs {
             equal_shares: false,
             spin_us: default_spin_us(),
             max_stale_frames: default_max_stale_frames(),
-            predict_split: false,
+            split: SplitMode::Predict,
         }
     }
 }

@@ -4,7 +4,7 @@
 //! workers on the LAN ([`coordinate`]) or spawned on this host ([`run_local_cluster`]).
 
 use crate::cli::{GatherArgs, RunArgs};
-use crate::session_io::{finish, LiveSession, PreparedSession, SessionOutputs};
+use crate::session_io::{finish, PreparedSession, SessionOutputs};
 use anyhow::{Context, Result};
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -66,16 +66,11 @@ pub fn coordinate(
     gather: GatherArgs,
     spawn: impl FnOnce(SocketAddr) -> Result<Option<vps_cluster::LocalWorkers>>,
 ) -> Result<CoordinatedRun> {
-    let LiveSession {
-        assets,
-        viewer: _viewer,
-        setup,
-        bridge,
-        signals,
-    } = prepared.go_live(session.view)?;
+    // Held whole to the end: its viewer serves the session.
+    let live = prepared.go_live(session.view)?;
     let cluster_assets = Arc::new(ClusterAssets::new(
-        assets.tree.clone(),
-        &assets.shell,
+        live.assets.tree.clone(),
+        &live.assets.shell,
         CLASS_COUNT,
     )?);
     let coordinator = Coordinator::start(
@@ -86,12 +81,12 @@ pub fn coordinate(
     eprintln!("coordinator listening on {addr}, waiting for {workers} worker(s)");
     let _children = spawn(addr)?;
     coordinator
-        .wait_for_workers_until(workers, JOIN_TIMEOUT, &setup.stop)
+        .wait_for_workers_until(workers, JOIN_TIMEOUT, &live.setup.stop)
         .with_context(|| format!("waiting {JOIN_TIMEOUT:?} for {workers} worker(s) to join"))?;
     let gather = GatherConfig {
         local_threads: session.threads.max(1),
         adaptive_shares: !gather.equal_shares,
-        predict: gather.predict_split,
+        predict: gather.split == crate::cli::SplitMode::Predict,
         spin_margin: Duration::from_micros(gather.spin_us),
         stale: vps_cluster::fallback::StalePolicy {
             max_age_frames: gather.max_stale_frames,
@@ -99,8 +94,8 @@ pub fn coordinate(
         },
         ..GatherConfig::default()
     };
-    let (report, cluster) = run_coordinator_session(&coordinator, gather, setup)?;
-    if let Some(signal) = signals.received() {
+    let (report, cluster) = run_coordinator_session(&coordinator, gather, live.setup)?;
+    if let Some(signal) = live.signals.received() {
         // The device has been written zero; tell the workers this coordinator is going.
         coordinator.close(
             vps_cluster::close::CLOSE_COORDINATOR_STOPPING,
@@ -110,9 +105,9 @@ pub fn coordinate(
     Ok(CoordinatedRun {
         report,
         cluster,
-        shell_points: assets.shell.len(),
-        bridge,
-        signals,
+        shell_points: live.assets.shell.len(),
+        bridge: live.bridge,
+        signals: live.signals,
     })
 }
 

@@ -72,6 +72,8 @@ fn session_behind_relay(
         &coordinator,
         GatherConfig {
             log_every: None,
+            // These tests exercise the split itself (`--split always`).
+            predict: false,
             ..GatherConfig::default()
         },
         device,

@@ -63,6 +63,8 @@ fn a_killed_worker_rejoins_and_a_new_worker_joins_mid_session_without_changing_a
         GatherConfig {
             bench_after: 2,
             log_every: None,
+            // These tests exercise the split itself (`--split always`).
+            predict: false,
             ..GatherConfig::default()
         },
         device,

@@ -14,7 +14,7 @@ use crate::events::{Control, Datagram};
 use crate::metrics::{Board, ClusterMetrics};
 use crate::protocol::{read_join, write_frame, write_join, JoinMessage, PROTOCOL_VERSION};
 use crate::shares::{GatherConfig, RemoteShares};
-use crate::tls::{load_pins, server_config, TlsIdentity};
+use crate::tls::{load_identity_and_pins, server_config, TlsIdentity};
 use crate::ClusterError;
 use crossbeam::channel::{bounded, unbounded, Receiver, Sender};
 use rustls::pki_types::CertificateDer;
@@ -49,10 +49,11 @@ impl CoordinatorConfig {
         key: &Path,
         pins: &[PathBuf],
     ) -> Result<CoordinatorConfig, ClusterError> {
+        let (identity, pins) = load_identity_and_pins(cert, key, pins)?;
         Ok(CoordinatorConfig {
             listen,
-            identity: TlsIdentity::load(cert, key)?,
-            pins: load_pins(pins)?,
+            identity,
+            pins,
         })
     }
 }

@@ -146,20 +146,10 @@ mod tests {
     #[test]
     fn past_the_write_or_with_absurd_costs_nothing_overflows() {
         let missing = [share(64, Some(1))];
-        let plan = plan_fallback(
-            &missing,
-            Duration::ZERO,
-            Duration::MAX,
-            StalePolicy::default(),
-        );
-        assert_eq!(plan, [ReuseStale]);
-        let plan = plan_fallback(
-            &missing,
-            Duration::MAX,
-            Duration::MAX,
-            StalePolicy::default(),
-        );
-        assert_eq!(plan, [ReuseStale]);
+        for left in [Duration::ZERO, Duration::MAX] {
+            let plan = plan_fallback(&missing, left, Duration::MAX, StalePolicy::default());
+            assert_eq!(plan, [ReuseStale], "{left:?} left");
+        }
         assert!(plan_fallback(&[], Duration::ZERO, US, StalePolicy::default()).is_empty());
     }
 }

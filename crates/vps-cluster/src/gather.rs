@@ -12,13 +12,18 @@
 //! 1. [`GatherCore::begin_frame`]: a new sequence number; replies carrying an older one are late.
 //! 2. [`GatherCore::join`] / [`GatherCore::leave`]: membership changes queued since the last frame.
 //! 3. [`GatherCore::assign`]: the class split ([`crate::split::split_classes`]) between the
-//!    coordinator (weight 1) and the active workers (adapted weights, see [`crate::split`]); a
-//!    benched worker is asked for one probe class every [`Policy::probe_every`] frames. Returns
-//!    the coordinator's own class mask; [`GatherCore::requests`] lists what to send.
-//! 4. [`GatherCore::sent`]: when each request left (or that it could not be sent).
+//!    coordinator (weight 1) and the active workers (adapted weights, see [`crate::split`]); with
+//!    [`Policy::predict`] each share goes out only when that is predicted to shorten the frame
+//!    ([`SplitDecision`]), and a worker without a share is sent an unawaited probe. Without it, a
+//!    benched worker is asked for one awaited probe class every [`Policy::probe_every`] frames.
+//!    Returns the coordinator's own class mask; [`GatherCore::requests`] lists what to send.
+//! 4. [`GatherCore::sent`]: when each request left (or that it could not be sent), and whether
+//!    its reply is awaited this frame. [`GatherCore::probe_classes`] /
+//!    [`GatherCore::set_probe_result`]: the local sums an unawaited probe is checked against.
 //! 5. [`GatherCore::accept`] / [`GatherCore::malformed`] / [`GatherCore::late`]: each reply.
 //! 6. [`GatherCore::settle`]: at the deadline, books the outcome per worker (weights, benching,
-//!    un-benching) and lists the missing work shares.
+//!    un-benching, round-trip estimates, unawaited probes answered since the last frame) and
+//!    lists the missing work shares.
 //! 7. [`GatherCore::plan_fallback`]: which missing shares are recomputed locally and which are
 //!    stood in for by held sums from an earlier frame ([`crate::fallback`]).
 //! 8. [`GatherCore::take_misbehaving`]: workers to disconnect for bad replies in a row.
@@ -29,6 +34,7 @@
 
 use crate::fallback::{plan_fallback, FallbackAction, MissingShare, StalePolicy};
 use crate::protocol::{mask_classes, FrameReply};
+use crate::report::SplitReport;
 use crate::split::{split_classes, Adapt, ShareOutcome};
 use crate::ClusterError;
 use std::time::{Duration, Instant};
@@ -39,7 +45,8 @@ use vps_haptic::PartialSums;
 pub struct Policy {
     /// Consecutive unmerged work shares before a worker is benched (≥ 1).
     pub bench_after: u32,
-    /// A benched worker is probed every this many frames (≥ 1).
+    /// A benched worker is probed every this many frames (≥ 1); with [`Policy::predict`], so is
+    /// every worker given no share, and an unanswered probe is given up after as many frames.
     pub probe_every: u64,
     /// Consecutive timely probe replies before a benched worker gets work again (≥ 1).
     pub unbench_after: u32,
@@ -49,53 +56,66 @@ pub struct Policy {
     pub adaptive_shares: bool,
     /// When a missing share may be stood in for by earlier sums.
     pub stale: StalePolicy,
-    /// Keep the whole frame local when the predicted split is no faster than computing every
-    /// class on the coordinator (see [`SplitDecision`]).
+    /// Send a work share only when the split is predicted to shorten the frame, and measure the
+    /// workers with unawaited probes (see [`SplitDecision`]); off: the plain split every frame.
     pub predict: bool,
 }
 
 /// How a frame's work was split, and why ([`Policy::predict`]).
 ///
 /// The prediction: the coordinator's cost per class `c` (measured on its own share, passed in
-/// with [`GatherCore::set_local_cost`]) and, per worker, a smoothed fixed round-trip cost `b`
-/// (the merged reply's round trip less `c` per class it computed: network and wake-ups; the
-/// worker is taken to compute as fast as the coordinator). With `k₀` classes local and `kᵢ` at
-/// worker `i`, the split frame is predicted to take `max(k₀·c, maxᵢ(bᵢ + kᵢ·c))`. Starting from
-/// the worker predicted slowest, a share is kept on the coordinator while that does not make the
-/// predicted frame slower; when every share is kept, the frame is local (`C·c` for all `C`
-/// classes). So a worker whose round trip costs more than it saves is not waited for, and adding
-/// workers cannot make a frame slower than the coordinator alone by more than the prediction's
-/// error. A worker with no estimate yet, and every `probe_every`-th frame, is given its share
-/// anyway, so the estimates follow the network.
+/// with [`GatherCore::set_local_cost`]) and, per worker, a pessimistic fixed round-trip cost
+/// `bᵢ = min(srttᵢ + 4·rttvarᵢ, W)` (smoothed as TCP smooths its round trip, RFC 6298) of the
+/// samples "round trip less `c` per class computed" (network and wake-ups; the worker is taken
+/// to compute as fast as the coordinator). `W` is the reply window
+/// ([`GatherCore::set_reply_window`]): no frame waits longer for a reply, a share missing then
+/// is recomputed locally, so a worker never costs a frame more than `W` plus its share's compute. With `k₀` classes local and `kᵢ` at worker `i`, the split
+/// frame is predicted to take `max(k₀·c, maxᵢ(bᵢ + kᵢ·c))`. Starting from the worker predicted
+/// slowest, a share is kept on the coordinator while that does not make the predicted frame
+/// slower (a tie keeps it); a worker with no estimate yet keeps none. When every share is kept,
+/// the frame is local (`C·c` for all `C` classes).
+///
+/// The samples come from merged work shares and from probes that no frame waits for: a worker
+/// given no share this frame (kept, benched, or not yet measured) is sent one class of the
+/// coordinator's own share at most every [`Policy::probe_every`] frames (at once when it has no
+/// estimate), with one probe outstanding per worker. While its predicted fixed cost alone is no
+/// less than computing every class locally (`bᵢ ≥ C·c`: no share of it can shorten a frame), it
+/// is probed [`FAR_PROBE_FACTOR`] times less often. The coordinator computes that class too
+/// and the reply must equal its sums exactly (they are integers); it is never merged, and its
+/// round trip, timed when the datagram arrived, is booked at the first [`GatherCore::settle`]
+/// after it. A probe unanswered for `probe_every` frames is booked as a round trip as long as
+/// it has waited, at most its frame's reply window. So a frame waits for a worker only when the prediction says that shortens it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SplitDecision {
     /// Prediction off, or no worker to split with: the plain split (or everything local).
     Plain,
     /// The split is predicted faster than local: shares go to the workers.
     Split,
-    /// The split is predicted no faster: every class stays local this frame.
+    /// The split is predicted no faster (or a worker is not yet measured): every class stays
+    /// local this frame.
     KeptLocal,
-    /// Split to measure (a worker without an estimate, or a periodic refresh).
-    Measure,
 }
 
-/// Frames per [`SplitDecision`] and the latest prediction (ns), for the cluster report.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct SplitStats {
-    /// Frames split because the prediction favoured it.
-    pub split: u64,
-    /// Frames kept local because the prediction did not favour splitting.
-    pub kept_local: u64,
-    /// Frames split to measure the workers' round trips.
-    pub measured: u64,
-    /// Worker shares kept on the coordinator, summed over frames (all of a kept-local frame's
-    /// shares included).
-    pub shares_kept_local: u64,
-    /// The latest predicted time of the split frame (ns).
-    pub predicted_split_ns: u64,
-    /// The latest predicted time of the all-local frame (ns).
-    pub predicted_local_ns: u64,
+/// An unawaited probe of [`Policy::predict`], outstanding until booked at a settle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct OpenProbe {
+    /// The frame it was sent in.
+    pub seq: u64,
+    /// The one class asked for.
+    pub classes: u64,
+    /// When it left (`None` before [`GatherCore::sent`]).
+    pub sent_at: Option<Instant>,
+    /// The coordinator's own sums of `classes` ([`GatherCore::set_probe_result`]).
+    pub expect: Option<PartialSums>,
+    /// The reply window its frame had (request to that frame's deadline), set at that settle.
+    pub window: Option<Duration>,
+    /// The reply: its round trip, or `None` for a wrong reply. `None` while unanswered.
+    pub answer: Option<Option<Duration>>,
 }
+
+/// How many times less often a worker is probed while no share of it can shorten a frame
+/// (see [`SplitDecision`]): every 100 ms with the default `probe_every` of 10 frames.
+pub const FAR_PROBE_FACTOR: u64 = 10;
 
 /// What the core needs to know of the shell and the voxmap to check replies.
 #[derive(Clone, Debug, PartialEq)]
@@ -151,8 +171,14 @@ pub struct PeerState {
     /// This frame: the round trip of the merged reply.
     pub rtt: Duration,
     /// Smoothed fixed cost of a round trip (its round trip less the compute of its classes at
-    /// the coordinator's cost per class); `None` before its first merged reply.
+    /// the coordinator's cost per class); `None` before its first sample.
     pub base_rtt: Option<Duration>,
+    /// Smoothed mean deviation of those samples (RFC 6298's `RTTVAR`).
+    pub base_dev: Duration,
+    /// The outstanding unawaited probe ([`Policy::predict`]).
+    pub probe: Option<OpenProbe>,
+    /// The frame of the latest unawaited probe sent (0: none yet).
+    pub probed_seq: u64,
 }
 
 impl PeerState {
@@ -173,7 +199,33 @@ impl PeerState {
             merged: false,
             rtt: Duration::ZERO,
             base_rtt: None,
+            base_dev: Duration::ZERO,
+            probe: None,
+            probed_seq: 0,
         }
+    }
+
+    /// Books one sample of the fixed round-trip cost, smoothed as TCP smooths its round trip
+    /// (RFC 6298: the deviation by 1/4, the mean by 1/8; the first sample sets the mean, half of
+    /// it the deviation).
+    fn book_base(&mut self, sample: Duration) {
+        match self.base_rtt {
+            Some(old) => {
+                let gap = old.abs_diff(sample);
+                self.base_dev = (self.base_dev.saturating_mul(3).saturating_add(gap)) / 4;
+                self.base_rtt = Some(old.saturating_mul(7).saturating_add(sample) / 8);
+            }
+            None => {
+                self.base_dev = sample / 2;
+                self.base_rtt = Some(sample);
+            }
+        }
+    }
+
+    /// The pessimistic fixed round-trip cost the prediction uses (`srtt + 4·rttvar`).
+    pub fn predicted_base(&self) -> Option<Duration> {
+        self.base_rtt
+            .map(|b| b.saturating_add(self.base_dev.saturating_mul(4)))
     }
 }
 
@@ -192,6 +244,12 @@ pub enum Acceptance {
     Probe {
         /// Request to reply.
         rtt: Duration,
+    },
+    /// An unawaited probe's reply ([`Policy::predict`]), whenever it came: never merged, never
+    /// awaited; booked at the next settle. `rtt` is `None` when it was wrong (a bad reply).
+    Probed {
+        /// Request to reply.
+        rtt: Option<Duration>,
     },
     /// A work share answered in time: merge its sums. Round trip `rtt`.
     Merged {
@@ -260,7 +318,11 @@ pub struct GatherCore {
     /// The coordinator's cost of one class (latest measurement).
     per_class: Duration,
     decision: SplitDecision,
-    split_stats: SplitStats,
+    split_stats: SplitReport,
+    /// This frame's unawaited probe class (0: none).
+    probe_class: u64,
+    /// The reply window (request to deadline) of the latest frame.
+    window: Duration,
 }
 
 impl GatherCore {
@@ -298,7 +360,9 @@ impl GatherCore {
             fallback: Fallback::default(),
             per_class: Duration::ZERO,
             decision: SplitDecision::Plain,
-            split_stats: SplitStats::default(),
+            split_stats: SplitReport::default(),
+            probe_class: 0,
+            window: Duration::MAX,
         })
     }
 
@@ -330,6 +394,31 @@ impl GatherCore {
     /// the prediction and the fallback plan.
     pub fn set_local_cost(&mut self, per_class: Duration) {
         self.per_class = per_class;
+        self.split_stats.per_class_ns = nanos(per_class);
+    }
+
+    /// The time this frame's replies are awaited, from the requests to the deadline: the most a
+    /// worker's round trip can cost a frame before its share is recomputed locally (the
+    /// prediction's cap). Unset: no cap.
+    pub fn set_reply_window(&mut self, window: Duration) {
+        self.window = window;
+    }
+
+    /// This frame's unawaited probe class (a class of the coordinator's own mask; 0: no probe).
+    /// The driver computes its sums separately and hands them to [`GatherCore::set_probe_result`].
+    pub fn probe_classes(&self) -> u64 {
+        self.probe_class
+    }
+
+    /// The coordinator's own sums of [`GatherCore::probe_classes`]: this frame's probe replies
+    /// must equal them. Without them a probe reply is only checked for plausibility.
+    pub fn set_probe_result(&mut self, sums: &PartialSums) {
+        let seq = self.seq;
+        for peer in &mut self.peers {
+            if let Some(probe) = peer.probe.as_mut().filter(|p| p.seq == seq) {
+                probe.expect = Some(*sums);
+            }
+        }
     }
 
     /// This frame's split decision (as of the latest [`GatherCore::assign`]).
@@ -338,8 +427,8 @@ impl GatherCore {
     }
 
     /// Frames per decision and the latest prediction.
-    pub fn split_stats(&self) -> SplitStats {
-        self.split_stats
+    pub fn split_stats(&self) -> &SplitReport {
+        &self.split_stats
     }
 
     /// Starts the next frame: a new sequence number. Call before membership changes and the
@@ -384,7 +473,7 @@ impl GatherCore {
             peer.sent_at = None;
             if !peer.benched {
                 self.active.push(i);
-            } else if seq.is_multiple_of(probe_every) {
+            } else if !self.policy.predict && seq.is_multiple_of(probe_every) {
                 let class = (seq / probe_every) % u64::from(class_count);
                 peer.asked = 1 << class;
                 peer.probing = true;
@@ -408,6 +497,7 @@ impl GatherCore {
         for (&i, &mask) in self.active.iter().zip(&masks[1..]) {
             self.peers[i].asked = mask;
         }
+        self.open_probes(masks[0]);
         for peer in &mut self.peers {
             peer.points = mask_classes(peer.asked)
                 .map(|c| self.shape.class_points[c as usize])
@@ -417,32 +507,39 @@ impl GatherCore {
     }
 
     /// Decides which shares of the split `masks` (party 0 the coordinator, then the active
-    /// workers) are worth sending ([`SplitDecision`]): starting from the worker predicted
-    /// slowest, a share moves to the coordinator while that does not make the predicted frame
-    /// slower. Moves the kept shares into `masks[0]`; books the decision.
+    /// workers) are worth sending ([`SplitDecision`]): a worker not yet measured keeps none;
+    /// then, starting from the worker predicted slowest, a share moves to the coordinator while
+    /// that does not make the predicted frame slower. Moves the kept shares into `masks[0]`;
+    /// books the decision. Allocates the list of predictions (one small `Vec`).
     fn decide(&mut self, masks: &mut [u64]) -> SplitDecision {
         if !self.policy.predict || self.active.is_empty() {
             return SplitDecision::Plain;
         }
         let c = self.per_class;
         let cost = |mask: u64| c.saturating_mul(mask.count_ones());
-        // (party, predicted remote time), slowest first.
+        // (party, predicted remote time), slowest first; unmeasured workers keep no share.
         let mut remote: Vec<(usize, Duration)> = Vec::with_capacity(self.active.len());
-        let mut unknown = false;
-        for (party, &i) in self.active.iter().enumerate() {
-            match self.peers[i].base_rtt {
-                Some(base) => remote.push((party + 1, base.saturating_add(cost(masks[party + 1])))),
-                None => unknown = true,
-            }
-        }
-        let local_all = c.saturating_mul(self.shape.class_points.len() as u32);
-        if c.is_zero() || unknown || self.seq.is_multiple_of(self.policy.probe_every) {
-            self.split_stats.measured += 1;
-            return SplitDecision::Measure;
-        }
-        remote.sort_by_key(|r| std::cmp::Reverse(r.1));
         let mut local = masks[0];
         let mut kept = 0;
+        for (party, &i) in self.active.iter().enumerate() {
+            let base = self.peers[i].predicted_base().map(|b| b.min(self.window));
+            match base.filter(|_| !c.is_zero()) {
+                Some(base) => remote.push((party + 1, base.saturating_add(cost(masks[party + 1])))),
+                None => {
+                    local |= std::mem::take(&mut masks[party + 1]);
+                    kept += 1;
+                }
+            }
+        }
+        self.split_stats.worker_base_ns = self
+            .active
+            .iter()
+            .filter_map(|&i| self.peers[i].predicted_base())
+            .min()
+            .map(|b| b.min(self.window))
+            .map_or(0, nanos);
+        remote.sort_by_key(|r| std::cmp::Reverse(r.1));
+        let mut moved = 0;
         for (k, &(party, time)) in remote.iter().enumerate() {
             let rest = remote.get(k + 1).map_or(Duration::ZERO, |r| r.1);
             let now = cost(local).max(time);
@@ -451,22 +548,70 @@ impl GatherCore {
                 break;
             }
             local |= masks[party];
-            kept += 1;
+            moved += 1;
         }
-        for &(party, _) in &remote[..kept] {
+        for &(party, _) in &remote[..moved] {
             masks[party] = 0;
         }
         masks[0] = local;
-        let slowest = remote.get(kept).map_or(Duration::ZERO, |r| r.1);
+        let slowest = remote.get(moved).map_or(Duration::ZERO, |r| r.1);
         self.split_stats.predicted_split_ns = nanos(cost(local).max(slowest));
-        self.split_stats.predicted_local_ns = nanos(local_all);
-        self.split_stats.shares_kept_local += kept as u64;
-        if kept == remote.len() {
-            self.split_stats.kept_local += 1;
+        self.split_stats.predicted_local_ns =
+            nanos(c.saturating_mul(self.shape.class_points.len() as u32));
+        self.split_stats.shares_kept_local += (kept + moved) as u64;
+        if moved == remote.len() {
+            self.split_stats.kept_local_frames += 1;
             SplitDecision::KeptLocal
         } else {
-            self.split_stats.split += 1;
+            self.split_stats.split_frames += 1;
             SplitDecision::Split
+        }
+    }
+
+    /// Opens an unawaited probe ([`Policy::predict`]) for each worker given no share this frame
+    /// and none outstanding, when it has no estimate yet or its last probe is `probe_every`
+    /// frames old (times [`FAR_PROBE_FACTOR`] while no share of it can shorten a frame): one class of the coordinator's own mask `local`, rotating with the frame.
+    fn open_probes(&mut self, local: u64) {
+        self.probe_class = 0;
+        if !self.policy.predict || local == 0 {
+            return;
+        }
+        let (seq, every) = (self.seq, self.policy.probe_every);
+        let nth = (seq % u64::from(local.count_ones())) as usize;
+        let Some(class) = mask_classes(local).nth(nth) else {
+            return;
+        };
+        let local_all = self
+            .per_class
+            .saturating_mul(self.shape.class_points.len() as u32);
+        let window = self.window;
+        for peer in &mut self.peers {
+            let far = !local_all.is_zero()
+                && peer
+                    .predicted_base()
+                    .is_some_and(|b| b.min(window) >= local_all);
+            let every = if far {
+                every.saturating_mul(FAR_PROBE_FACTOR)
+            } else {
+                every
+            };
+            let due = peer.base_rtt.is_none() || seq >= peer.probed_seq.saturating_add(every);
+            if peer.asked != 0 || peer.probe.is_some() || !due {
+                continue;
+            }
+            peer.asked = 1 << class;
+            peer.probing = true;
+            peer.probed_seq = seq;
+            peer.probe = Some(OpenProbe {
+                seq,
+                classes: 1 << class,
+                sent_at: None,
+                expect: None,
+                window: None,
+                answer: None,
+            });
+            self.probe_class = 1 << class;
+            self.split_stats.probes += 1;
         }
     }
 
@@ -479,14 +624,37 @@ impl GatherCore {
     }
 
     /// Records that worker `id`'s request left at `at` (`sent`), or could not be sent (then it is
-    /// settled as missing at once).
-    pub fn sent(&mut self, id: u32, at: Instant, sent: bool) {
-        if let Some(peer) = self.peer_mut(id) {
-            peer.sent_at = Some(at);
-            if !sent {
-                peer.settled = true;
+    /// settled as missing at once, or an unawaited probe forgotten). Returns true when the driver
+    /// is to await its reply this frame (sent, and not an unawaited probe).
+    pub fn sent(&mut self, id: u32, at: Instant, sent: bool) -> bool {
+        let unawaited = self.policy.predict;
+        let Some(peer) = self.peer_mut(id) else {
+            return false;
+        };
+        peer.sent_at = Some(at);
+        if peer.probing && unawaited {
+            peer.settled = true;
+            if sent {
+                if let Some(probe) = peer.probe.as_mut() {
+                    probe.sent_at = Some(at);
+                }
+            } else {
+                peer.probe = None;
             }
+            return false;
         }
+        if !sent {
+            peer.settled = true;
+        }
+        sent
+    }
+
+    /// True when a reply from worker `id` for frame `seq` would answer its outstanding
+    /// unawaited probe (the driver takes such a reply whenever it arrives).
+    pub fn answers_probe(&self, id: u32, seq: u64) -> bool {
+        self.peer(id)
+            .and_then(|p| p.probe)
+            .is_some_and(|p| p.seq == seq && p.answer.is_none())
     }
 
     /// A datagram from worker `id` that did not decode; false when `id` is unknown.
@@ -513,9 +681,35 @@ impl GatherCore {
     pub fn accept(&mut self, id: u32, reply: &FrameReply, at: Instant) -> Acceptance {
         let seq = self.seq;
         let (max_depth, max_radius) = (self.shape.max_depth, self.shape.max_radius);
-        let Some(peer) = self.peer_mut(id) else {
+        let Some(index) = self.peers.iter().position(|p| p.id == id) else {
             return Acceptance::Unknown;
         };
+        let peer = &mut self.peers[index];
+        if let Some(probe) = peer.probe.as_mut().filter(|p| p.seq == reply.seq) {
+            if probe.answer.is_some() {
+                return Acceptance::Unrequested;
+            }
+            let points = mask_classes(probe.classes)
+                .map(|c| self.shape.class_points[c as usize])
+                .sum();
+            let valid = reply.classes == probe.classes
+                && probe.expect.map_or(
+                    reply.sums.is_plausible(points, max_depth)
+                        && reply.sums.torque_within(max_radius, max_depth),
+                    |expect| expect == reply.sums,
+                );
+            let rtt = probe
+                .sent_at
+                .filter(|_| valid)
+                .map(|sent| at.saturating_duration_since(sent));
+            probe.answer = Some(rtt);
+            if rtt.is_none() {
+                peer.bad_replies = peer.bad_replies.saturating_add(1);
+            } else {
+                peer.bad_replies = 0;
+            }
+            return Acceptance::Probed { rtt };
+        }
         if reply.seq != seq {
             return Acceptance::Late;
         }
@@ -556,8 +750,24 @@ impl GatherCore {
     pub fn settle(&mut self, deadline: Instant) -> &[(u32, Transition)] {
         self.missing.clear();
         self.transitions.clear();
+        let (seq, per_class, policy) = (self.seq, self.per_class, self.policy);
         for (index, peer) in self.peers.iter_mut().enumerate() {
-            if peer.asked == 0 {
+            if let Some(probe) = peer.probe.as_mut().filter(|p| p.seq == seq) {
+                probe.window = probe.sent_at.map(|s| deadline.saturating_duration_since(s));
+            }
+            if let Some(probe) = peer.probe {
+                let booked = book_probe(peer, probe, seq, deadline, per_class, policy);
+                match booked {
+                    Some(true) => self.split_stats.probe_replies += 1,
+                    Some(false) => self.split_stats.probes_failed += 1,
+                    None => {}
+                }
+                if booked.is_some() && peer.benched && peer.probe_hits >= policy.unbench_after {
+                    unbench(peer, &self.adapt);
+                    self.transitions.push((peer.id, Transition::Unbenched));
+                }
+            }
+            if peer.asked == 0 || (peer.probing && policy.predict) {
                 continue;
             }
             if peer.probing {
@@ -566,24 +776,16 @@ impl GatherCore {
                     peer.probe_hits = 0;
                 }
                 if peer.probe_hits >= self.policy.unbench_after {
-                    peer.benched = false;
-                    // Back with a cautious share; it grows while the worker keeps up.
-                    peer.weight = self.adapt.min_weight.max(0.5);
-                    peer.misses = 0;
-                    peer.probe_hits = 0;
+                    unbench(peer, &self.adapt);
                     self.transitions.push((peer.id, Transition::Unbenched));
                 }
                 continue;
             }
             if peer.merged {
                 peer.misses = 0;
-                // The round trip's fixed part, smoothed by 1/8 as TCP smooths its RTT.
+                // The round trip's fixed part.
                 let compute = self.per_class.saturating_mul(peer.asked.count_ones());
-                let base = peer.rtt.saturating_sub(compute);
-                peer.base_rtt = Some(match peer.base_rtt {
-                    Some(old) => old.saturating_mul(7).saturating_add(base) / 8,
-                    None => base,
-                });
+                peer.book_base(peer.rtt.saturating_sub(compute));
                 let window = peer
                     .sent_at
                     .map_or(Duration::ZERO, |s| deadline.saturating_duration_since(s));
@@ -669,4 +871,51 @@ impl GatherCore {
 
 fn nanos(d: Duration) -> u64 {
     d.as_nanos().min(u128::from(u64::MAX)) as u64
+}
+
+/// Gives a benched worker work again, with a cautious share that grows while it keeps up.
+fn unbench(peer: &mut PeerState, adapt: &Adapt) {
+    peer.benched = false;
+    peer.weight = adapt.min_weight.max(0.5);
+    peer.misses = 0;
+    peer.probe_hits = 0;
+}
+
+/// Books `peer`'s outstanding unawaited `probe` at the settle of frame `seq` (reply deadline
+/// `deadline`), if it is answered, or unanswered for `probe_every` frames. A correct answer is a
+/// round-trip sample (less `per_class` for its one class) and, within the reply window its
+/// frame had, a timely probe towards un-benching; a wrong or missing one resets the streak, and
+/// a missing one books the time it has waited, at most that window, as a sample. Returns whether it was answered
+/// correctly, `None` while it stays outstanding.
+fn book_probe(
+    peer: &mut PeerState,
+    probe: OpenProbe,
+    seq: u64,
+    deadline: Instant,
+    per_class: Duration,
+    policy: Policy,
+) -> Option<bool> {
+    let waited = probe
+        .sent_at
+        .map_or(Duration::ZERO, |s| deadline.saturating_duration_since(s));
+    let answered = match probe.answer {
+        Some(Some(rtt)) => {
+            peer.book_base(rtt.saturating_sub(per_class));
+            let timely = probe.window.is_some_and(|w| rtt <= w);
+            peer.probe_hits = if timely { peer.probe_hits + 1 } else { 0 };
+            true
+        }
+        Some(None) => {
+            peer.probe_hits = 0;
+            false
+        }
+        None if seq.saturating_sub(probe.seq) >= policy.probe_every => {
+            peer.book_base(waited.min(probe.window.unwrap_or(waited)));
+            peer.probe_hits = 0;
+            false
+        }
+        None => return None,
+    };
+    peer.probe = None;
+    Some(answered)
 }

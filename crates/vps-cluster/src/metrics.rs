@@ -17,7 +17,7 @@ use crossbeam::queue::ArrayQueue;
 use hdrhistogram::Histogram;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
-use std::sync::{Arc, OnceLock};
+use std::sync::{Arc, Mutex, OnceLock};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 use vps_runtime::Percentiles;
@@ -169,9 +169,8 @@ pub(crate) struct Board {
     rtt_queue: ArrayQueue<(Arc<PeerMetrics>, u64)>,
     /// What the coordinator's UDP socket received (written by its socket wrapper).
     pub(crate) udp: Arc<crate::udp_count::UdpCounts>,
-    /// The split decisions ([`crate::gather::SplitStats`]): split, kept local, measured,
-    /// predicted split and local frame times (ns), shares kept local.
-    split: [AtomicU64; 6],
+    /// The split decisions so far (the frame thread publishes them when the lock is free).
+    split: Mutex<SplitReport>,
 }
 
 impl Board {
@@ -189,22 +188,15 @@ impl Board {
             slots: (0..MAX_TRACKED_WORKERS).map(|_| OnceLock::new()).collect(),
             udp: Arc::default(),
             rtt_queue: ArrayQueue::new(RTT_QUEUE),
-            split: Default::default(),
+            split: Mutex::default(),
         })
     }
 
-    /// Publishes the split decisions so far. Frame thread only; never blocks or allocates.
-    pub(crate) fn set_split(&self, stats: crate::gather::SplitStats) {
-        let values = [
-            stats.split,
-            stats.kept_local,
-            stats.measured,
-            stats.predicted_split_ns,
-            stats.predicted_local_ns,
-            stats.shares_kept_local,
-        ];
-        for (a, v) in self.split.iter().zip(values) {
-            a.store(v, Ordering::Relaxed);
+    /// Publishes the split decisions so far. Frame thread only; never blocks (when a reader
+    /// holds the lock this frame's figures are skipped, the next frame's follow) or allocates.
+    pub(crate) fn set_split(&self, stats: &SplitReport) {
+        if let Ok(mut split) = self.split.try_lock() {
+            split.clone_from(stats);
         }
     }
 
@@ -259,14 +251,7 @@ impl Board {
             udp_datagrams: self.udp.datagrams(),
             udp_not_quic: self.udp.not_quic(),
             udp_foreign: self.udp.foreign(),
-            split: SplitReport {
-                split_frames: load(&self.split[0]),
-                kept_local_frames: load(&self.split[1]),
-                measured_frames: load(&self.split[2]),
-                predicted_split_ns: load(&self.split[3]),
-                predicted_local_ns: load(&self.split[4]),
-                shares_kept_local: load(&self.split[5]),
-            },
+            split: self.split.lock().map(|s| s.clone()).unwrap_or_default(),
             peers,
         }
     }

@@ -491,37 +491,46 @@ mod tests {
         }
     }
 
-    /// Deterministic pseudo-random bytes (xorshift), no dependency.
+    /// Deterministic pseudo-random bytes.
     fn noise(seed: u64, len: usize) -> Vec<u8> {
-        let mut x = seed | 1;
-        (0..len)
-            .map(|_| {
-                x ^= x << 13;
-                x ^= x >> 7;
-                x ^= x << 17;
-                x as u8
-            })
-            .collect()
+        use rand::{RngCore, SeedableRng};
+        let mut bytes = vec![0; len];
+        rand_chacha::ChaCha8Rng::seed_from_u64(seed).fill_bytes(&mut bytes);
+        bytes
+    }
+
+    /// A request and a reply for `seq` and `classes`, and their datagrams.
+    fn encoded(
+        seq: u64,
+        classes: u64,
+    ) -> (FrameRequest, [u8; REQUEST_LEN], FrameReply, [u8; REPLY_LEN]) {
+        let req = FrameRequest {
+            seq,
+            classes,
+            pose: pose(),
+        };
+        let reply = FrameReply {
+            seq,
+            classes,
+            sums: sums(),
+        };
+        let (mut req_buf, mut reply_buf) = ([0; REQUEST_LEN], [0; REPLY_LEN]);
+        req.encode(&mut req_buf);
+        reply.encode(&mut reply_buf);
+        (req, req_buf, reply, reply_buf)
     }
 
     #[test]
     fn datagrams_round_trip_bit_exactly() {
-        let req = FrameRequest {
-            seq: 0x0123_4567_89ab_cdef,
-            classes: 0xf0f0_0000_0000_0001,
-            pose: pose(),
-        };
-        let mut buf = [0u8; REQUEST_LEN];
-        req.encode(&mut buf);
-        assert_eq!(FrameRequest::decode(&buf), Ok(req));
-        let reply = FrameReply {
-            seq: 42,
-            classes: u64::MAX,
-            sums: sums(),
-        };
-        let mut buf = [0u8; REPLY_LEN];
-        reply.encode(&mut buf);
-        assert_eq!(FrameReply::decode(&buf), Ok(reply));
+        for (seq, classes) in [
+            (0x0123_4567_89ab_cdef, 0xf0f0_0000_0000_0001),
+            (42, u64::MAX),
+        ] {
+            let (req, req_buf, reply, reply_buf) = encoded(seq, classes);
+            assert_eq!(FrameRequest::decode(&req_buf), Ok(req));
+            assert_eq!(FrameReply::decode(&reply_buf), Ok(reply));
+        }
+        let (_, _, _, buf) = encoded(42, u64::MAX);
         assert!(
             FrameRequest::decode(&buf).is_err(),
             "a reply is not a request"
@@ -530,20 +539,7 @@ mod tests {
 
     #[test]
     fn truncated_extended_and_garbage_datagrams_are_errors() {
-        let mut req = [0u8; REQUEST_LEN];
-        FrameRequest {
-            seq: 1,
-            classes: 3,
-            pose: pose(),
-        }
-        .encode(&mut req);
-        let mut rep = [0u8; REPLY_LEN];
-        FrameReply {
-            seq: 1,
-            classes: 3,
-            sums: sums(),
-        }
-        .encode(&mut rep);
+        let (_, req, _, rep) = encoded(1, 3);
         for n in 0..REQUEST_LEN {
             assert!(FrameRequest::decode(&req[..n]).is_err(), "truncated to {n}");
         }

@@ -8,13 +8,19 @@
 //! waits on the reply channel, reads the clock, computes on the local rayon pool and keeps the
 //! metrics board.
 //!
-//! Assignment (between frames): [`split_classes`] deals the classes between the coordinator
-//! (weight 1) and the active workers in proportion to their weights, which adapt to each
-//! worker's replies ([`Adapt`]: additive increase while it answers with room to spare, halved on
-//! a miss; see [`crate::split`]). With adaptation off ([`GatherConfig::adaptive_shares`]) every
-//! weight stays 1: class `c` goes to party `c mod (W + 1)`, party 0 being the coordinator. A
-//! worker whose share is not merged (no reply by the deadline, or
-//! an invalid reply) `bench_after` frames in a row is benched: it gets no work, only a one-class
+//! Prediction (default, [`GatherConfig::predict`]): a worker gets its share only when the core
+//! predicts that this shortens the frame; a worker given none is sent a one-class probe that no
+//! frame waits for, checked against the coordinator's own sums of that class, its round trip
+//! booked at the next frame ([`crate::gather::SplitDecision`]). The rest of this section is the
+//! split itself, as `--split always` applies it every frame.
+//!
+//! Assignment (between frames): [`split_classes`](crate::split::split_classes) deals the
+//! classes between the coordinator (weight 1) and the active workers in proportion to their
+//! weights, which adapt to each worker's replies ([`Adapt`](crate::split::Adapt): additive
+//! increase while it answers with room to spare, halved on a miss; see [`crate::split`]). With
+//! adaptation off ([`GatherConfig::adaptive_shares`]) every weight stays 1: class `c` goes to
+//! party `c mod (W + 1)`, party 0 being the coordinator. A worker whose share is not merged (no
+//! reply by the deadline, or an invalid reply) `bench_after` frames in a row is benched: it gets no work, only a one-class
 //! probe every `probe_every` frames whose result is checked but not used; `unbench_after` probes
 //! answered in time in a row give it work again. A worker that sends `disconnect_after` bad
 //! replies (undecodable, or implausible sums) with no valid one between them is disconnected
@@ -81,8 +87,9 @@ pub struct GatherConfig {
     /// being recomputed ([`crate::fallback`]); `max_age_frames: 0` always recomputes (exact).
     /// Default: up to 3 frames old, only when the recompute cannot finish before the write.
     pub stale: StalePolicy,
-    /// Keep a frame's classes local when the split is predicted no faster than computing them
-    /// all on the coordinator ([`crate::gather::SplitDecision`]). Default off.
+    /// Send a worker its share only when that is predicted to shorten the frame, measuring the
+    /// workers with probes no frame waits for ([`crate::gather::SplitDecision`]); off: the plain
+    /// split every frame, benched workers probed with awaited probes. Default on.
     pub predict: bool,
 }
 
@@ -98,7 +105,7 @@ impl Default for GatherConfig {
             log_every: Some(Duration::from_secs(1)),
             adaptive_shares: true,
             stale: StalePolicy::default(),
-            predict: false,
+            predict: true,
         }
     }
 }
@@ -305,8 +312,7 @@ impl RemoteShares {
                 .conn
                 .send_datagram(Bytes::copy_from_slice(&self.request))
                 .is_ok();
-            self.core.sent(id, at, sent);
-            pending += usize::from(sent);
+            pending += usize::from(self.core.sent(id, at, sent));
         }
         pending
     }
@@ -335,7 +341,13 @@ impl RemoteShares {
                 metrics.bump(|m| &m.invalid);
                 tracing::debug!(worker = datagram.id, "implausible reply dropped");
             }
-            Acceptance::Probe { rtt } => self.board.record_rtt(&metrics, nanos(rtt)),
+            Acceptance::Probe { rtt } | Acceptance::Probed { rtt: Some(rtt), .. } => {
+                self.board.record_rtt(&metrics, nanos(rtt))
+            }
+            Acceptance::Probed { rtt: None } => {
+                metrics.bump(|m| &m.invalid);
+                tracing::debug!(worker = datagram.id, "wrong probe reply");
+            }
             Acceptance::Merged { rtt } => {
                 self.board.record_rtt(&metrics, nanos(rtt));
                 sums.merge(&reply.sums);
@@ -387,8 +399,15 @@ impl RemoteShares {
         }
     }
 
-    /// A reply that arrived after this frame's deadline: counted late, never merged.
+    /// A reply that arrived after this frame's deadline: counted late, never merged; the answer
+    /// to an unawaited probe is taken whenever it comes.
     fn accept_late(&mut self, datagram: Datagram) {
+        if FrameReply::decode(&datagram.bytes)
+            .is_ok_and(|r| self.core.answers_probe(datagram.id, r.seq))
+        {
+            self.accept(datagram, &mut PartialSums::default());
+            return;
+        }
         match self.link(datagram.id) {
             Some(link) if self.core.late(datagram.id) => link.metrics.bump(|m| &m.late),
             _ => self.board.bump(|b| &b.orphan_datagrams),
@@ -491,12 +510,21 @@ impl FrameSampler for RemoteShares {
         while let Ok(stale) = self.datagrams.try_recv() {
             self.accept(stale, &mut unused);
         }
+        self.core
+            .set_reply_window(deadline.saturating_duration_since(Instant::now()));
         let local = self.core.assign();
         self.publish_classes();
         self.board.set_split(self.core.split_stats());
         let pending = self.send_requests(pose);
         let started = Instant::now();
-        let mut sums = self.sample(pose, local);
+        // An unawaited probe's class is computed on its own: the probe reply must equal it.
+        let probe = self.core.probe_classes();
+        let mut sums = self.sample(pose, local & !probe);
+        if probe != 0 {
+            let own = self.sample(pose, probe);
+            self.core.set_probe_result(&own);
+            sums.merge(&own);
+        }
         if local != 0 {
             self.per_class = started.elapsed() / local.count_ones();
             self.core.set_local_cost(self.per_class);

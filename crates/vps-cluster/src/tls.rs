@@ -87,6 +87,16 @@ pub fn load_pins(paths: &[PathBuf]) -> Result<Vec<CertificateDer<'static>>, Clus
     paths.iter().map(|p| load_cert(p)).collect()
 }
 
+/// An identity (`cert`, `key`) and the certificates it admits (`pins`), from PEM files
+/// ([`TlsIdentity::load`], [`load_pins`]).
+pub fn load_identity_and_pins(
+    cert: &Path,
+    key: &Path,
+    pins: &[PathBuf],
+) -> Result<(TlsIdentity, Vec<CertificateDer<'static>>), ClusterError> {
+    Ok((TlsIdentity::load(cert, key)?, load_pins(pins)?))
+}
+
 /// The paths [`make_cert`] wrote.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct CertFiles {
@@ -174,37 +184,45 @@ impl PinnedVerifier {
             CertificateError::ApplicationVerificationFailure,
         ))
     }
-    fn tls12(
-        &self,
-        message: &[u8],
-        cert: &CertificateDer<'_>,
-        dss: &DigitallySignedStruct,
-    ) -> Result<HandshakeSignatureValid, rustls::Error> {
-        rustls::crypto::verify_tls12_signature(
-            message,
-            cert,
-            dss,
-            &self.provider.signature_verification_algorithms,
-        )
-    }
-    fn tls13(
-        &self,
-        message: &[u8],
-        cert: &CertificateDer<'_>,
-        dss: &DigitallySignedStruct,
-    ) -> Result<HandshakeSignatureValid, rustls::Error> {
-        rustls::crypto::verify_tls13_signature(
-            message,
-            cert,
-            dss,
-            &self.provider.signature_verification_algorithms,
-        )
-    }
-    fn schemes(&self) -> Vec<SignatureScheme> {
-        self.provider
-            .signature_verification_algorithms
-            .supported_schemes()
-    }
+}
+
+/// A signature check of the verifier traits, `$method`, delegated to rustls' `$check` with the
+/// provider's algorithms (the same for both traits).
+macro_rules! pinned_signature {
+    ($method:ident, $check:path) => {
+        fn $method(
+            &self,
+            message: &[u8],
+            cert: &CertificateDer<'_>,
+            dss: &DigitallySignedStruct,
+        ) -> Result<HandshakeSignatureValid, rustls::Error> {
+            $check(
+                message,
+                cert,
+                dss,
+                &self.provider.signature_verification_algorithms,
+            )
+        }
+    };
+}
+
+/// The signature checks both verifier traits ask for ([`pinned_signature`]).
+macro_rules! pinned_signatures {
+    () => {
+        pinned_signature!(
+            verify_tls12_signature,
+            rustls::crypto::verify_tls12_signature
+        );
+        pinned_signature!(
+            verify_tls13_signature,
+            rustls::crypto::verify_tls13_signature
+        );
+        fn supported_verify_schemes(&self) -> Vec<SignatureScheme> {
+            self.provider
+                .signature_verification_algorithms
+                .supported_schemes()
+        }
+    };
 }
 
 impl ServerCertVerifier for PinnedVerifier {
@@ -219,25 +237,7 @@ impl ServerCertVerifier for PinnedVerifier {
         self.check(end_entity)
             .map(|()| ServerCertVerified::assertion())
     }
-    fn verify_tls12_signature(
-        &self,
-        message: &[u8],
-        cert: &CertificateDer<'_>,
-        dss: &DigitallySignedStruct,
-    ) -> Result<HandshakeSignatureValid, rustls::Error> {
-        self.tls12(message, cert, dss)
-    }
-    fn verify_tls13_signature(
-        &self,
-        message: &[u8],
-        cert: &CertificateDer<'_>,
-        dss: &DigitallySignedStruct,
-    ) -> Result<HandshakeSignatureValid, rustls::Error> {
-        self.tls13(message, cert, dss)
-    }
-    fn supported_verify_schemes(&self) -> Vec<SignatureScheme> {
-        self.schemes()
-    }
+    pinned_signatures!();
 }
 
 impl ClientCertVerifier for PinnedVerifier {
@@ -253,25 +253,24 @@ impl ClientCertVerifier for PinnedVerifier {
         self.check(end_entity)
             .map(|()| ClientCertVerified::assertion())
     }
-    fn verify_tls12_signature(
-        &self,
-        message: &[u8],
-        cert: &CertificateDer<'_>,
-        dss: &DigitallySignedStruct,
-    ) -> Result<HandshakeSignatureValid, rustls::Error> {
-        self.tls12(message, cert, dss)
-    }
-    fn verify_tls13_signature(
-        &self,
-        message: &[u8],
-        cert: &CertificateDer<'_>,
-        dss: &DigitallySignedStruct,
-    ) -> Result<HandshakeSignatureValid, rustls::Error> {
-        self.tls13(message, cert, dss)
-    }
-    fn supported_verify_schemes(&self) -> Vec<SignatureScheme> {
-        self.schemes()
-    }
+    pinned_signatures!();
+}
+
+/// The crypto provider and a verifier admitting only `pins` (peers of `role`; refusals counted
+/// in `refused`).
+fn pinned(
+    pins: Vec<CertificateDer<'static>>,
+    refused: Arc<AtomicU64>,
+    role: &'static str,
+) -> (Arc<CryptoProvider>, Arc<PinnedVerifier>) {
+    let provider = provider();
+    let verifier = Arc::new(PinnedVerifier {
+        pins,
+        provider: provider.clone(),
+        refused,
+        role,
+    });
+    (provider, verifier)
 }
 
 fn provider() -> Arc<CryptoProvider> {
@@ -300,13 +299,7 @@ pub fn server_config(
     pins: Vec<CertificateDer<'static>>,
     refused: Arc<AtomicU64>,
 ) -> Result<quinn::ServerConfig, ClusterError> {
-    let provider = provider();
-    let verifier = Arc::new(PinnedVerifier {
-        pins,
-        provider: provider.clone(),
-        refused,
-        role: "worker",
-    });
+    let (provider, verifier) = pinned(pins, refused, "worker");
     let mut tls = rustls::ServerConfig::builder_with_provider(provider)
         .with_protocol_versions(&[&rustls::version::TLS13])
         .map_err(tls_err)?
@@ -327,13 +320,7 @@ pub fn client_config(
     pins: Vec<CertificateDer<'static>>,
     refused: Arc<AtomicU64>,
 ) -> Result<quinn::ClientConfig, ClusterError> {
-    let provider = provider();
-    let verifier = Arc::new(PinnedVerifier {
-        pins,
-        provider: provider.clone(),
-        refused,
-        role: "coordinator",
-    });
+    let (provider, verifier) = pinned(pins, refused, "coordinator");
     let mut tls = rustls::ClientConfig::builder_with_provider(provider)
         .with_protocol_versions(&[&rustls::version::TLS13])
         .map_err(tls_err)?

@@ -18,7 +18,7 @@ use crate::protocol::{
     read_frame, read_join, write_join, FrameReply, FrameRequest, JoinMessage, PROTOCOL_VERSION,
     REPLY_LEN,
 };
-use crate::tls::{client_config, load_pins, TlsIdentity, SERVER_NAME};
+use crate::tls::{client_config, TlsIdentity, SERVER_NAME};
 use crate::{close, ClusterError};
 use rustls::pki_types::CertificateDer;
 use std::future::Future;
@@ -52,10 +52,11 @@ impl WorkerConfig {
         key: &std::path::Path,
         pins: &[PathBuf],
     ) -> Result<WorkerConfig, ClusterError> {
+        let (identity, pins) = crate::tls::load_identity_and_pins(cert, key, pins)?;
         Ok(WorkerConfig {
             coordinator,
-            identity: TlsIdentity::load(cert, key)?,
-            pins: load_pins(pins)?,
+            identity,
+            pins,
             cache_dir: None,
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
         })

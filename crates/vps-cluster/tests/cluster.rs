@@ -15,7 +15,7 @@ fn two_workers_give_sums_bit_identical_to_one_process() {
     let ids = identities();
     let scene = scene();
     let (coordinator, workers) = coordinator_with_thread_workers(&ids, scene.clone(), 2);
-    let mut shares = coordinator.shares(GatherConfig::default()).unwrap();
+    let mut shares = coordinator.shares(split_always()).unwrap();
     let poses = poses(40);
     let mut touched = false;
     for pose in &poses {
@@ -49,7 +49,7 @@ fn a_worker_leaving_mid_run_changes_nothing_in_the_sums() {
     let ids = identities();
     let scene = scene();
     let (coordinator, mut workers) = coordinator_with_thread_workers(&ids, scene.clone(), 2);
-    let mut shares = coordinator.shares(GatherConfig::default()).unwrap();
+    let mut shares = coordinator.shares(split_always()).unwrap();
     let poses = poses(60);
     for (i, pose) in poses.iter().enumerate() {
         if i == 20 {
@@ -66,6 +66,18 @@ fn a_worker_leaving_mid_run_changes_nothing_in_the_sums() {
     assert_eq!(report.peers.len(), 2);
     assert!(report.peers.iter().any(|p| !p.connected), "{report:?}");
     workers.pop().unwrap().stop().unwrap();
+}
+
+/// Ends a session with a hand-driven worker: the gatherer and the coordinator go first (the
+/// connection closes, so the worker's thread ends), then that thread is joined.
+fn end_with_fake<T>(
+    shares: vps_cluster::RemoteShares,
+    coordinator: vps_cluster::Coordinator,
+    worker: std::thread::JoinHandle<T>,
+) {
+    drop(shares);
+    drop(coordinator);
+    worker.join().unwrap();
 }
 
 /// A coordinator on `scene` with one hand-driven worker joined over real QUIC.
@@ -108,7 +120,7 @@ fn a_silent_worker_is_benched_and_a_recovered_one_gets_work_again() {
         bench_after: 3,
         probe_every: 2,
         unbench_after: 2,
-        ..GatherConfig::default()
+        ..split_always()
     };
     let mut shares = coordinator.shares(config).unwrap();
     let poses = poses(30);
@@ -124,9 +136,7 @@ fn a_silent_worker_is_benched_and_a_recovered_one_gets_work_again() {
     assert!(!peer.benched, "recovered: {peer:?}");
     assert!(peer.merged > 0, "{peer:?}");
     assert!(peer.lost >= 3, "{peer:?}");
-    drop(shares);
-    drop(coordinator);
-    answering.join().unwrap();
+    end_with_fake(shares, coordinator, answering);
 }
 
 #[test]
@@ -150,7 +160,7 @@ fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
     for datagram in &shaped {
         let _ = udp.send_to(datagram, addr);
     }
-    let mut shares = coordinator.shares(GatherConfig::default()).unwrap();
+    let mut shares = coordinator.shares(split_always()).unwrap();
     let frames = 8;
     let misbehave = {
         let (scene, conn) = (scene.clone(), conn.clone());
@@ -215,9 +225,7 @@ fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
         report.udp_datagrams > report.udp_not_quic + report.udp_foreign,
         "{report:?}"
     );
-    drop(shares);
-    drop(coordinator);
-    misbehave.join().unwrap();
+    end_with_fake(shares, coordinator, misbehave);
 }
 
 #[test]
@@ -234,7 +242,7 @@ fn a_worker_that_keeps_sending_implausible_sums_is_disconnected() {
         .shares(GatherConfig {
             disconnect_after: LIMIT,
             probe_every: 1,
-            ..GatherConfig::default()
+            ..split_always()
         })
         .unwrap();
     // Every reply, work or probe, claims one point more than it was asked for.
@@ -353,7 +361,7 @@ fn run_with_one_slow_worker(
         bench_after: u32::MAX,
         log_every: None,
         adaptive_shares,
-        ..GatherConfig::default()
+        ..split_always()
     };
     let mut shares = coordinator.shares(config).unwrap();
     let slow = answer_slowly(&fake, conn, scene.clone(), Duration::from_millis(1));
@@ -367,9 +375,7 @@ fn run_with_one_slow_worker(
         std::thread::sleep(Duration::from_millis(15));
     }
     let peer = shares.report().peers[0].clone();
-    drop(shares);
-    drop(coordinator);
-    slow.join().unwrap();
+    end_with_fake(shares, coordinator, slow);
     (recomputed, peer)
 }
 
@@ -417,7 +423,7 @@ fn frames_after_the_worker_falls_silent(
         adaptive_shares: false,
         log_every: None,
         stale,
-        ..GatherConfig::default()
+        ..split_always()
     };
     let mut shares = coordinator.shares(config).unwrap();
     let worker = answer(&fake, conn, scene.clone(), Duration::ZERO, 1);
@@ -434,9 +440,7 @@ fn frames_after_the_worker_falls_silent(
         })
         .collect();
     let report = shares.report();
-    drop(shares);
-    drop(coordinator);
-    worker.join().unwrap();
+    end_with_fake(shares, coordinator, worker);
     (results, report)
 }
 
@@ -500,7 +504,7 @@ fn a_zero_disconnect_limit_is_refused_by_name() {
     let err = coordinator
         .shares(GatherConfig {
             disconnect_after: 0,
-            ..GatherConfig::default()
+            ..split_always()
         })
         .err()
         .expect("refused");

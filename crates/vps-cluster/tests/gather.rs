@@ -3,7 +3,9 @@
 
 use std::time::{Duration, Instant};
 use vps_cluster::fallback::StalePolicy;
-use vps_cluster::gather::{Acceptance, GatherCore, Policy, Shape, SplitDecision, Transition};
+use vps_cluster::gather::{
+    Acceptance, GatherCore, Policy, Shape, SplitDecision, Transition, FAR_PROBE_FACTOR,
+};
 use vps_cluster::protocol::FrameReply;
 use vps_haptic::PartialSums;
 
@@ -379,31 +381,77 @@ fn a_zero_count_in_the_policy_is_refused() {
     assert!(GatherCore::new(policy(), none).is_err());
 }
 
-/// A predicting core whose workers have answered one measuring frame with round trips of
-/// `base[i]` plus their classes' compute at `per_class`.
-fn predicting(per_class: Duration, base: &[Duration]) -> (GatherCore, Instant) {
-    let ids: Vec<u32> = (0..base.len() as u32).collect();
-    let mut core = core_with(
+fn predictor(probe_every: u64, workers: &[u32]) -> GatherCore {
+    core_with(
         Policy {
             predict: true,
-            probe_every: 1000,
+            probe_every,
             ..policy()
         },
-        &ids,
-    );
+        workers,
+    )
+}
+
+/// The coordinator's sums of a probe class (the reply a correct worker sends).
+fn own_sums(core: &GatherCore, mask: u64) -> PartialSums {
+    reply(core.seq(), mask, 0).sums
+}
+
+/// A predicting core whose workers have each answered one unawaited probe with a round trip of
+/// `base[i]` plus one class's compute at `per_class`, booked at the next frame's settle. Returns
+/// the core and a time 10 ms later.
+fn predicting(per_class: Duration, base: &[Duration]) -> (GatherCore, Instant) {
+    let ids: Vec<u32> = (0..base.len() as u32).collect();
+    let mut core = predictor(1000, &ids);
     core.set_local_cost(per_class);
     let t0 = Instant::now();
-    frame(&mut core, t0);
-    assert_eq!(core.decision(), SplitDecision::Measure, "no estimate yet");
-    for (id, mask, _) in core.requests().collect::<Vec<_>>() {
-        let rtt = base[id as usize] + per_class * mask.count_ones();
+    let local = frame(&mut core, t0);
+    assert_eq!(core.decision(), SplitDecision::KeptLocal, "no estimate yet");
+    assert_eq!(local, (1u64 << CLASSES) - 1, "every class local");
+    let probe = core.probe_classes();
+    assert_eq!(probe.count_ones(), 1);
+    assert_eq!(
+        local & probe,
+        probe,
+        "the probe class is one the coordinator computes"
+    );
+    core.set_probe_result(&own_sums(&core, probe));
+    let requests: Vec<_> = core.requests().collect();
+    assert_eq!(requests.len(), ids.len());
+    for &(_, mask, probing) in &requests {
+        assert!(probing);
+        assert_eq!(mask, probe);
+    }
+    // Nothing awaited, nothing missing: the frame ends at once.
+    assert!(core.settle(t0 + 400 * US).is_empty());
+    assert_eq!(core.missing().count(), 0);
+    // The replies arrive after the frame; the next frame takes them and books them at its settle.
+    let t1 = t0 + Duration::from_millis(1);
+    core.begin_frame();
+    for &(id, mask, _) in &requests {
+        let rtt = base[id as usize] + per_class;
         let got = core.accept(id, &reply(1, mask, 0), t0 + rtt);
-        assert!(matches!(got, Acceptance::Merged { .. }));
+        assert_eq!(got, Acceptance::Probed { rtt: Some(rtt) });
+        assert!(!got.settles(), "an unawaited probe is not waited for");
+        assert_eq!(
+            core.peer(id).unwrap().base_rtt,
+            None,
+            "booked at the settle"
+        );
     }
-    core.settle(t0 + Duration::from_secs(1));
+    core.assign();
+    core.settle(t1 + 400 * US);
     for &id in &ids {
-        assert_eq!(core.peer(id).unwrap().base_rtt, Some(base[id as usize]));
+        let peer = core.peer(id).unwrap();
+        assert_eq!(peer.base_rtt, Some(base[id as usize]));
+        assert_eq!(
+            peer.predicted_base(),
+            Some(3 * base[id as usize]),
+            "srtt + 4 · srtt/2"
+        );
+        assert!(peer.probe.is_none());
     }
+    assert_eq!(core.split_stats().probe_replies, ids.len() as u64);
     (core, t0 + Duration::from_millis(10))
 }
 
@@ -414,10 +462,15 @@ fn a_small_shell_stays_local_when_the_round_trip_costs_more_than_it_saves() {
     let local = frame(&mut core, t);
     assert_eq!(core.decision(), SplitDecision::KeptLocal);
     assert_eq!(local, (1u64 << CLASSES) - 1, "every class local");
-    assert_eq!(core.requests().count(), 0, "nothing sent");
+    assert!(
+        core.requests().all(|r| r.2),
+        "nothing but probes sent: {:?}",
+        core.requests().collect::<Vec<_>>()
+    );
     let stats = core.split_stats();
-    assert_eq!((stats.kept_local, stats.split, stats.measured), (1, 0, 1));
+    assert_eq!((stats.kept_local_frames, stats.split_frames), (3, 0));
     assert_eq!(stats.predicted_local_ns, 16_000);
+    assert_eq!(stats.worker_base_ns, 600_000);
     // Nothing asked is nothing missing: no fallback, no miss, no bench.
     assert!(core.settle(t + 100 * US).is_empty());
     assert_eq!(core.plan_fallback(Duration::ZERO, US).recompute, 0);
@@ -425,15 +478,19 @@ fn a_small_shell_stays_local_when_the_round_trip_costs_more_than_it_saves() {
 
 #[test]
 fn a_costly_shell_is_split_when_the_round_trip_is_cheap() {
-    // 16 classes at 100 µs: 1.6 ms locally; half of them at a worker with a 50 µs round trip.
+    // 16 classes at 100 µs: 1.6 ms locally; half of them at a worker whose round trip is
+    // predicted at 150 µs (50 µs, pessimistically tripled after one sample).
     let (mut core, t) = predicting(100 * US, &[50 * US]);
     let local = frame(&mut core, t);
     assert_eq!(core.decision(), SplitDecision::Split);
     let asked = asked(&core, 0);
+    assert!(!core.peer(0).unwrap().probing, "a work share, awaited");
+    assert!(core.sent(0, t, true));
+    assert_eq!(core.probe_classes(), 0, "no probe: the worker has a share");
     assert_eq!(local | asked, (1u64 << CLASSES) - 1);
     assert_eq!((local.count_ones(), asked.count_ones()), (8, 8));
     let stats = core.split_stats();
-    assert_eq!(stats.predicted_split_ns, 850_000);
+    assert_eq!(stats.predicted_split_ns, 950_000);
     assert_eq!(stats.predicted_local_ns, 1_600_000);
     assert!(stats.predicted_split_ns < stats.predicted_local_ns);
 }
@@ -446,49 +503,215 @@ fn a_slow_workers_share_is_kept_local_while_a_fast_one_still_gets_work() {
     let local = frame(&mut core, t);
     assert_eq!(core.decision(), SplitDecision::Split);
     assert_ne!(asked(&core, 0), 0, "the fast worker keeps its share");
-    assert_eq!(
-        asked(&core, 1),
-        0,
-        "the slow worker's share is computed locally"
+    assert!(!core.peer(0).unwrap().probing);
+    let slow = core.peer(1).unwrap();
+    assert!(
+        slow.asked == 0 || slow.probing,
+        "the slow worker's share is computed locally (at most a probe goes out)"
     );
     assert_eq!(local | asked(&core, 0), (1u64 << CLASSES) - 1);
     let stats = core.split_stats();
-    assert_eq!(stats.shares_kept_local, 1);
+    assert_eq!(
+        stats.shares_kept_local, 5,
+        "two kept-local frames of two shares, then one"
+    );
     // Predicted no slower than the coordinator alone: adding the slow worker costs nothing.
     assert!(stats.predicted_split_ns <= stats.predicted_local_ns);
 }
 
 #[test]
-fn every_probe_every_frames_the_split_is_measured_again() {
-    let mut core = core_with(
-        Policy {
-            predict: true,
-            probe_every: 4,
-            ..policy()
-        },
-        &[0],
-    );
-    core.set_local_cost(US);
-    let t0 = Instant::now();
-    let mut decisions = Vec::new();
-    for f in 0..8u64 {
-        let t = t0 + Duration::from_millis(f);
-        frame(&mut core, t);
-        decisions.push(core.decision());
-        for (id, mask, probing) in core.requests().collect::<Vec<_>>() {
-            assert!(!probing);
-            core.accept(id, &reply(core.seq(), mask, 0), t + 200 * US);
+fn the_predicted_split_is_never_slower_than_the_coordinator_alone() {
+    for per_class in [US, 10 * US, 100 * US] {
+        for fast in [0, 10, 100, 1000, 10_000u32] {
+            for slow in [0, 50, 500, 5000u32] {
+                let base = [fast * US, slow * US, (fast + slow) * US];
+                let (mut core, t) = predicting(per_class, &base);
+                let local = frame(&mut core, t);
+                let stats = core.split_stats();
+                assert!(
+                    stats.predicted_split_ns <= stats.predicted_local_ns,
+                    "{per_class:?} {base:?}: {stats:?}"
+                );
+                let work = core.requests().filter(|r| !r.2).fold(0, |u, r| u | r.1);
+                assert_eq!(local & work, 0);
+                assert_eq!(local | work, (1u64 << CLASSES) - 1, "every class once");
+            }
         }
-        core.settle(t + 500 * US);
     }
-    use SplitDecision::*;
+}
+
+/// One predicting frame at `t` with worker 0: its open probe, if any, is answered correctly at
+/// `answered` (taken at the frame's start, as the driver drains its queue); then the assignment,
+/// each probe's local sums, and every request sent (a probe never awaited, a share awaited).
+/// Returns the requests; the caller settles.
+fn probed_frame(core: &mut GatherCore, t: Instant, answered: Instant) -> Vec<(u32, u64, bool)> {
+    core.begin_frame();
+    if let Some(probe) = core.peer(0).unwrap().probe {
+        let got = core.accept(0, &reply(probe.seq, probe.classes, 0), answered);
+        assert!(
+            matches!(got, Acceptance::Probed { rtt: Some(_) }),
+            "{got:?}"
+        );
+    }
+    core.assign();
+    let requests: Vec<_> = core.requests().collect();
+    for &(id, mask, probing) in &requests {
+        if probing {
+            core.set_probe_result(&own_sums(core, mask));
+        }
+        assert_eq!(
+            core.sent(id, t, true),
+            !probing,
+            "only work shares are awaited"
+        );
+    }
+    requests
+}
+
+#[test]
+fn unawaited_probes_go_every_probe_every_frames_one_at_a_time_and_never_make_a_frame_wait() {
+    // 16 classes at 10 µs (160 µs locally); the worker's round trip costs 40 µs more than its
+    // one class: close enough to be worth measuring, not yet worth a share (8 classes).
+    let mut core = predictor(4, &[0]);
+    core.set_local_cost(10 * US);
+    let t0 = Instant::now();
+    let mut probed = Vec::new();
+    for f in 1..=12u64 {
+        let t = t0 + Duration::from_millis(f);
+        // The previous frame's probe, answered 50 µs after it left.
+        let requests = probed_frame(&mut core, t, t - 950 * US);
+        assert_eq!(core.decision(), SplitDecision::KeptLocal);
+        for &(_, _, probing) in &requests {
+            assert!(probing);
+            probed.push(f);
+        }
+        assert!(core.settle(t + 400 * US).is_empty());
+        assert_eq!(core.missing().count(), 0);
+    }
+    // Frame 1: no estimate, at once; then every 4th frame.
+    assert_eq!(probed, [1, 5, 9]);
+    let stats = core.split_stats();
     assert_eq!(
-        decisions,
-        [Measure, KeptLocal, KeptLocal, Measure, KeptLocal, KeptLocal, KeptLocal, Measure]
+        (stats.probes, stats.probe_replies, stats.probes_failed),
+        (3, 3, 0)
     );
+    assert_eq!(core.peer(0).unwrap().base_rtt, Some(40 * US));
+    assert!(core.peer(0).unwrap().predicted_base().unwrap() < 160 * US);
+    // At 1 µs a class (16 µs locally) the same worker can never shorten a frame: probed
+    // FAR_PROBE_FACTOR times less often.
+    let mut far = predictor(4, &[0]);
+    far.set_local_cost(US);
+    let mut probed = Vec::new();
+    for f in 1..=60u64 {
+        let t = t0 + Duration::from_millis(f);
+        if !probed_frame(&mut far, t, t - 950 * US).is_empty() {
+            probed.push(f);
+        }
+        far.settle(t + 400 * US);
+    }
+    assert_eq!(probed, [1, 1 + 4 * FAR_PROBE_FACTOR]);
     // With the prediction off the plain split is sent every frame.
     let mut plain = core_with(policy(), &[0]);
     frame(&mut plain, t0);
-    assert_eq!(plain.decision(), Plain);
+    assert_eq!(plain.decision(), SplitDecision::Plain);
     assert_ne!(asked(&plain, 0), 0);
+    assert!(plain.sent(0, t0, true), "a work share is awaited");
+}
+
+#[test]
+fn a_wrong_probe_reply_is_a_bad_reply_and_books_nothing() {
+    let mut core = predictor(4, &[3]);
+    core.set_local_cost(US);
+    let t0 = Instant::now();
+    frame(&mut core, t0);
+    let probe = core.probe_classes();
+    core.set_probe_result(&own_sums(&core, probe));
+    core.settle(t0 + 400 * US);
+    core.begin_frame();
+    // Plausible, but not the coordinator's sums for the class.
+    let got = core.accept(3, &reply(1, probe, 1), t0 + 100 * US);
+    assert_eq!(got, Acceptance::Probed { rtt: None });
+    assert_eq!(core.peer(3).unwrap().bad_replies, 1);
+    // A second reply to the same probe is a duplicate.
+    let again = core.accept(3, &reply(1, probe, 0), t0 + 110 * US);
+    assert_eq!(again, Acceptance::Unrequested);
+    core.assign();
+    core.settle(t0 + 1400 * US);
+    let peer = core.peer(3).unwrap();
+    assert_eq!(peer.base_rtt, None);
+    assert_eq!(core.split_stats().probes_failed, 1);
+    // A reply for a frame it was not probed in is late.
+    assert_eq!(
+        core.accept(3, &reply(1, probe, 0), t0 + 1500 * US),
+        Acceptance::Late
+    );
+}
+
+#[test]
+fn an_unanswered_probe_is_booked_as_its_frames_reply_window_after_probe_every_frames() {
+    let mut core = predictor(3, &[5]);
+    core.set_local_cost(US);
+    let t0 = Instant::now();
+    for f in 0..3u64 {
+        let t = t0 + Duration::from_millis(f);
+        frame(&mut core, t);
+        assert_eq!(
+            core.requests().count(),
+            usize::from(f == 0),
+            "one outstanding"
+        );
+        core.settle(t + 400 * US);
+        assert_eq!(core.peer(5).unwrap().base_rtt, None);
+    }
+    // Frame 4's settle: 3 frames without an answer. The probe left at t0 and waited 3.4 ms,
+    // but no frame waits longer than its 400 µs window: that is what it costs.
+    let t = t0 + Duration::from_millis(3);
+    core.begin_frame();
+    core.assign();
+    core.settle(t + 400 * US);
+    assert_eq!(core.peer(5).unwrap().base_rtt, Some(400 * US));
+    assert_eq!(core.split_stats().probes_failed, 1);
+    assert!(core.peer(5).unwrap().probe.is_none());
+}
+
+#[test]
+fn a_benched_worker_is_unbenched_by_timely_unawaited_probes() {
+    // A costly shell (16 classes at 100 µs) and a worker whose probes come back in 100 µs, but
+    // whose work shares never do: measured, split, benched after 2 misses, then back after 2
+    // timely probes. No frame waits for a probe.
+    let mut core = predictor(2, &[0]);
+    core.set_local_cost(100 * US);
+    let mut t = Instant::now();
+    let mut transitions = Vec::new();
+    for _ in 0..12 {
+        probed_frame(&mut core, t, t - 900 * US);
+        transitions.extend(core.settle(t + 400 * US).iter().map(|x| x.1));
+        t += Duration::from_millis(1);
+    }
+    assert_eq!(
+        transitions[..3],
+        [Transition::Lost, Transition::Lost, Transition::Benched],
+        "{transitions:?}"
+    );
+    assert_eq!(transitions[3], Transition::Unbenched, "{transitions:?}");
+    assert!(core.split_stats().split_frames >= 2);
+}
+
+#[test]
+fn a_worker_costs_at_most_the_reply_window_in_the_prediction() {
+    // 16 classes at 100 µs (1.6 ms locally), one worker measured at 5 ms: uncapped, the split
+    // would be predicted at 15.8 ms; but no frame waits more than its 400 µs window for it, and
+    // its share is then recomputed, so the split is predicted at 400 + 800 µs.
+    let (mut core, t) = predicting(100 * US, &[5000 * US]);
+    core.set_reply_window(400 * US);
+    frame(&mut core, t);
+    assert_eq!(core.decision(), SplitDecision::Split);
+    let stats = core.split_stats();
+    assert_eq!(stats.worker_base_ns, 400_000);
+    assert_eq!(stats.predicted_split_ns, 1_200_000);
+    // On a small shell (1 µs a class) the same worker is never worth its window.
+    let (mut small, t) = predicting(US, &[5000 * US]);
+    small.set_reply_window(400 * US);
+    frame(&mut small, t);
+    assert_eq!(small.decision(), SplitDecision::KeptLocal);
 }

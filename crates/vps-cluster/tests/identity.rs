@@ -20,13 +20,21 @@ fn wait_until(what: &str, mut done: impl FnMut() -> bool) {
     }
 }
 
+/// A coordinator with worker 0 joined: (coordinator, its address, the worker).
+fn coordinator_with_first_worker(
+    ids: &Identities,
+) -> (vps_cluster::Coordinator, std::net::SocketAddr, ThreadWorker) {
+    let coordinator = start_coordinator(ids, scene());
+    let addr = coordinator.local_addr().unwrap();
+    let first = ThreadWorker::spawn(worker_config(ids, addr));
+    coordinator.wait_for_workers(1, JOIN_WAIT).unwrap();
+    (coordinator, addr, first)
+}
+
 #[test]
 fn a_second_worker_with_a_connected_certificate_is_refused_and_told_why() {
     let ids = identities();
-    let coordinator = start_coordinator(&ids, scene());
-    let addr = coordinator.local_addr().unwrap();
-    let first = ThreadWorker::spawn(worker_config(&ids, addr));
-    coordinator.wait_for_workers(1, JOIN_WAIT).unwrap();
+    let (coordinator, addr, first) = coordinator_with_first_worker(&ids);
 
     let err = run_worker(worker_config(&ids, addr)).expect_err("the duplicate is refused");
     match &err {
@@ -52,10 +60,7 @@ fn a_second_worker_with_a_connected_certificate_is_refused_and_told_why() {
 #[test]
 fn the_certificate_joins_again_after_the_first_worker_has_gone() {
     let ids = identities();
-    let coordinator = start_coordinator(&ids, scene());
-    let addr = coordinator.local_addr().unwrap();
-    let first = ThreadWorker::spawn(worker_config(&ids, addr));
-    coordinator.wait_for_workers(1, JOIN_WAIT).unwrap();
+    let (coordinator, addr, first) = coordinator_with_first_worker(&ids);
     first.stop().unwrap();
     wait_until("the first worker's departure", || {
         coordinator.joined_workers() == 0

@@ -4,7 +4,6 @@
 mod common;
 
 use common::*;
-use vps_cluster::GatherConfig;
 use vps_haptic::Wrench;
 
 /// Runs a cluster session with two thread workers; worker 1 is stopped at frame `leave_at`
@@ -14,7 +13,7 @@ fn cluster_writes(leave_at: u64) -> (Vec<Wrench>, vps_cluster::ClusterReport) {
     let (coordinator, mut workers) = coordinator_with_thread_workers(&ids, scene(), 2);
     let leaving = workers.pop().unwrap();
     let (device, writes) = hand(leave_at, leaving.stop.clone());
-    let (_, cluster) = exact_cluster_session(&coordinator, GatherConfig::default(), device, FRAMES);
+    let (_, cluster) = exact_cluster_session(&coordinator, split_always(), device, FRAMES);
     // The live snapshot, read after the session, is the final report.
     assert_eq!(coordinator.metrics().snapshot(), cluster);
     leaving.stop().unwrap();

@@ -13,9 +13,18 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 use vps_cluster::{
-    run_worker_until, ClusterAssets, ClusterError, Coordinator, CoordinatorConfig, RemoteShares,
-    TlsIdentity, WorkerConfig, WorkerReport,
+    run_worker_until, ClusterAssets, ClusterError, Coordinator, CoordinatorConfig, GatherConfig,
+    RemoteShares, TlsIdentity, WorkerConfig, WorkerReport,
 };
+
+/// The gatherer's defaults, but splitting every frame (`--split always`): these tests exercise
+/// the split itself, on a scene too small for the prediction ever to favour it.
+pub fn split_always() -> GatherConfig {
+    GatherConfig {
+        predict: false,
+        ..GatherConfig::default()
+    }
+}
 
 pub struct Identities {
     pub coordinator: TlsIdentity,
