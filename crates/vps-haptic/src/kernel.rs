@@ -59,6 +59,28 @@ pub fn sample_class<L: VoxelLookup>(
     pose: &KernelPose,
     class: u32,
 ) -> PartialSums {
+    sample_class_on(map, shell, pose, class, Widest::Avx512)
+}
+
+/// The widest copy of the block loop that [`sample_class_on`] may run where the CPU has it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Widest {
+    /// AVX-512 (F, DQ) with POPCNT, else AVX2, else portable: the current kernel.
+    Avx512,
+    /// AVX2, else portable: the kernel before the AVX-512 copy ([`crate::previous`]).
+    Avx2,
+}
+
+/// [`sample_class`] on at most the `widest` copy of the block loop. Every copy gives the same
+/// bits. Does not allocate or block.
+#[inline]
+pub(crate) fn sample_class_on<L: VoxelLookup>(
+    map: &L,
+    shell: &ClassedShell,
+    pose: &KernelPose,
+    class: u32,
+    widest: Widest,
+) -> PartialSums {
     let mut sums = PartialSums::default();
     if let Some(range) = shell.class_range(class) {
         sums.sampled = range.len() as u64;
@@ -74,7 +96,7 @@ pub fn sample_class<L: VoxelLookup>(
                 &shell.ny[range.clone()],
                 &shell.nz[range],
             ];
-            accumulate(map, &frame, points, normals, &mut sums);
+            accumulate(map, &frame, points, normals, &mut sums, widest);
         }
     }
     sums
@@ -97,9 +119,20 @@ pub fn sample_classes<L: VoxelLookup>(
 
 /// The merged sums of every class of `shell`. Does not allocate or block.
 pub fn sample_all<L: VoxelLookup>(map: &L, shell: &ClassedShell, pose: &KernelPose) -> PartialSums {
+    sample_all_on(map, shell, pose, Widest::Avx512)
+}
+
+/// [`sample_all`] on at most the `widest` copy of the block loop (the same bits). Does not
+/// allocate or block.
+pub(crate) fn sample_all_on<L: VoxelLookup>(
+    map: &L,
+    shell: &ClassedShell,
+    pose: &KernelPose,
+    widest: Widest,
+) -> PartialSums {
     let mut sums = PartialSums::default();
     for class in 0..shell.class_count() {
-        sums.merge(&sample_class(map, shell, pose, class));
+        sums.merge(&sample_class_on(map, shell, pose, class, widest));
     }
     sums
 }
@@ -296,7 +329,8 @@ impl ClassAccumulator {
 /// Body-frame point coordinates (`px, py, pz`) or normals of one class.
 type Soa<'a> = [&'a [f32]; 3];
 
-/// The hot loop over one class: adds the class's sums to `sums`.
+/// The hot loop over one class: adds the class's sums to `sums`, on the widest copy of the block
+/// loop up to `widest` that the CPU runs.
 #[inline]
 fn accumulate<L: VoxelLookup>(
     map: &L,
@@ -304,13 +338,62 @@ fn accumulate<L: VoxelLookup>(
     points: Soa,
     normals: Soa,
     sums: &mut PartialSums,
+    widest: Widest,
 ) {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports AVX2 (checked just above).
-        return unsafe { accumulate_avx2(map, frame, points, normals, sums) };
+    {
+        if widest == Widest::Avx512 && cpu_has_avx512() {
+            // SAFETY: the CPU supports AVX2, AVX-512F, AVX-512DQ and POPCNT (checked just above).
+            return unsafe { accumulate_avx512(map, frame, points, normals, sums) };
+        }
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2 (checked just above).
+            return unsafe { accumulate_avx2(map, frame, points, normals, sums) };
+        }
     }
-    accumulate_any::<L, false>(map, frame, points, normals, sums)
+    accumulate_any::<L, false, false>(map, frame, points, normals, sums)
+}
+
+/// Whether the CPU runs [`accumulate_avx512`]: AVX2, AVX-512F, AVX-512DQ and POPCNT.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+fn cpu_has_avx512() -> bool {
+    std::arch::is_x86_feature_detected!("avx2")
+        && std::arch::is_x86_feature_detected!("avx512f")
+        && std::arch::is_x86_feature_detected!("avx512dq")
+        && std::arch::is_x86_feature_detected!("popcnt")
+}
+
+/// Whether [`sample_class`] runs its AVX-512 copy of the block loop on this CPU (x86-64 with
+/// AVX2, AVX-512F, AVX-512DQ and POPCNT); otherwise its AVX2 copy or its portable one, as the
+/// previous kernel does. Same sums either way.
+pub fn runs_avx512_copy() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        cpu_has_avx512()
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// [`accumulate_avx2`] with each sum's eight lanes rounded to `i64` by one AVX-512DQ conversion
+/// (`vcvtps2qq`, to nearest, ties to even: the same integers as the f64 rounding of the AVX2
+/// copy) and counts by POPCNT. The same bits as the other copies.
+///
+/// # Safety
+/// The CPU must support AVX2, AVX-512F, AVX-512DQ and POPCNT ([`cpu_has_avx512`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,avx512f,avx512dq,popcnt")]
+unsafe fn accumulate_avx512<L: VoxelLookup>(
+    map: &L,
+    frame: &GridFrame,
+    points: Soa,
+    normals: Soa,
+    sums: &mut PartialSums,
+) {
+    accumulate_any::<L, true, true>(map, frame, points, normals, sums)
 }
 
 /// [`accumulate_any`] compiled for AVX2, full blocks written with AVX2 intrinsics ([`avx2`]): the
@@ -328,13 +411,14 @@ unsafe fn accumulate_avx2<L: VoxelLookup>(
     normals: Soa,
     sums: &mut PartialSums,
 ) {
-    accumulate_any::<L, true>(map, frame, points, normals, sums)
+    accumulate_any::<L, true, false>(map, frame, points, normals, sums)
 }
 
 /// Picks the clamping or the plain copy of the block loop (the same bits; see the module docs).
-/// `AVX2`: full blocks through [`avx2::sample_block`] (only where the CPU has AVX2).
+/// `AVX2`: full blocks through [`avx2::sample_block`] (only where the CPU has AVX2); `WIDE`: with
+/// its AVX-512 rounding (only where the CPU has AVX-512F and DQ, and with `AVX2`).
 #[inline(always)]
-fn accumulate_any<L: VoxelLookup, const AVX2: bool>(
+fn accumulate_any<L: VoxelLookup, const AVX2: bool, const WIDE: bool>(
     map: &L,
     frame: &GridFrame,
     points: Soa,
@@ -342,16 +426,16 @@ fn accumulate_any<L: VoxelLookup, const AVX2: bool>(
     sums: &mut PartialSums,
 ) {
     if frame.needs_clamp {
-        accumulate_lanes::<L, true, AVX2>(map, frame, points, normals, sums)
+        accumulate_lanes::<L, true, AVX2, WIDE>(map, frame, points, normals, sums)
     } else {
-        accumulate_lanes::<L, false, AVX2>(map, frame, points, normals, sums)
+        accumulate_lanes::<L, false, AVX2, WIDE>(map, frame, points, normals, sums)
     }
 }
 
 /// The block loop (see the module docs); full blocks, then one zero-padded tail block; the lanes
 /// flushed every [`CHUNK_BLOCKS`] blocks.
 #[inline(always)]
-fn accumulate_lanes<L: VoxelLookup, const CLAMP: bool, const AVX2: bool>(
+fn accumulate_lanes<L: VoxelLookup, const CLAMP: bool, const AVX2: bool, const WIDE: bool>(
     map: &L,
     frame: &GridFrame,
     points: Soa,
@@ -373,10 +457,11 @@ fn accumulate_lanes<L: VoxelLookup, const CLAMP: bool, const AVX2: bool>(
         for start in (begin..end).step_by(LANES) {
             #[cfg(target_arch = "x86_64")]
             if AVX2 {
-                // SAFETY: AVX2 is only requested from `accumulate_avx2`, which runs only where
-                // the CPU has it.
+                // SAFETY: AVX2 is only requested from `accumulate_avx2` and
+                // `accumulate_avx512`, which run only where the CPU has it (and, for `WIDE`, the
+                // AVX-512 features of the latter); this is inlined into them.
                 unsafe {
-                    avx2::sample_block::<L, CLAMP>(
+                    avx2::sample_block::<L, CLAMP, WIDE>(
                         map, frame, points, normals, start, &mut last, &mut acc,
                     )
                 };
@@ -528,6 +613,13 @@ struct LastVoxel {
 }
 
 impl LastVoxel {
+    /// Lane `lane` of `cell`, with its kind bits and layer, as the voxel looked up last.
+    #[inline(always)]
+    fn remember(&mut self, cell: &[[i32; LANES]; 3], lane: usize, kind: u8, layer: u8) {
+        self.cell = [cell[0][lane], cell[1][lane], cell[2][lane]];
+        self.voxel = voxel_of(kind, layer);
+    }
+
     /// Before the first lookup: a cell outside every grid, which reads as Free anyway.
     const NONE: LastVoxel = LastVoxel {
         cell: [i32::MIN; 3],
@@ -566,8 +658,6 @@ fn look_up_fresh<L: VoxelLookup>(
     fresh: u32,
     last: &mut LastVoxel,
 ) -> ([u8; LANES], [u8; LANES]) {
-    /// At most this many fresh lanes are looked up one by one.
-    const FEW: u32 = 2;
     let (kinds, layers) = if fresh.count_ones() > FEW {
         let mut cells = *cell;
         for axis in &mut cells {
@@ -590,10 +680,30 @@ fn look_up_fresh<L: VoxelLookup>(
         (kinds, layers)
     };
     if valid > 0 {
-        last.cell = [cell[0][valid - 1], cell[1][valid - 1], cell[2][valid - 1]];
-        last.voxel = voxel_of(kinds[valid - 1], layers[valid - 1]);
+        last.remember(cell, valid - 1, kinds[valid - 1], layers[valid - 1]);
     }
     (kinds, layers)
+}
+
+/// At most this many fresh lanes are looked up one by one ([`look_up_fresh`]).
+const FEW: u32 = 2;
+
+/// [`look_up_fresh`] for a full block: the cells go to [`VoxelLookup::get_block`] as they are
+/// (no padding lanes to move outside the grid, so no copy). Used by the AVX-512 copy of the block.
+#[inline(always)]
+fn look_up_full<L: VoxelLookup>(
+    map: &L,
+    cell: &[[i32; LANES]; 3],
+    fresh: u32,
+    last: &mut LastVoxel,
+) -> ([u8; LANES], [u8; LANES]) {
+    if fresh.count_ones() <= FEW {
+        return look_up_fresh(map, cell, LANES, fresh, last);
+    }
+    let block = map.get_block(cell);
+    let l = LANES - 1;
+    last.remember(cell, l, block.kinds[l], block.layers[l]);
+    (block.kinds, block.layers)
 }
 
 /// A [`LayeredVoxel`] from its kind bits and layer.
@@ -685,8 +795,8 @@ fn brake_block<const CLAMP: bool>(
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use super::{
-        count_bytes, look_up_fresh, ClassAccumulator, GridFrame, I64s, KindMasks, LastVoxel, Soa,
-        LANES, LENGTH_Q, ROUNDER, Y_MAX,
+        count_bytes, look_up_fresh, look_up_full, ClassAccumulator, GridFrame, I64s, KindMasks,
+        LastVoxel, Soa, LANES, LENGTH_Q, ROUNDER, ROUNDER_BITS, Y_MAX,
     };
     use glam::Mat3;
     use std::arch::x86_64::*;
@@ -694,13 +804,22 @@ mod avx2 {
 
     type V3 = [__m256; 3];
 
-    /// Lanes `start..start + LANES` of the three arrays.
+    /// Lanes `start..start + LANES` of the three arrays. `UNCHECKED` (the AVX-512 copy): without
+    /// bounds checks, which `accumulate_lanes` makes once per class instead.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2; with `UNCHECKED`, `start + LANES` must be within every array.
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn load(xs: Soa, start: usize) -> V3 {
+    unsafe fn load<const UNCHECKED: bool>(xs: Soa, start: usize) -> V3 {
         let mut out = [_mm256_setzero_ps(); 3];
         for r in 0..3 {
-            let lanes = &xs[r][start..start + LANES];
+            let lanes = if UNCHECKED {
+                // SAFETY: `start + LANES` is within every array (this function's contract).
+                unsafe { xs[r].get_unchecked(start..start + LANES) }
+            } else {
+                &xs[r][start..start + LANES]
+            };
             // SAFETY: `lanes` holds LANES f32 (32 bytes); unaligned load.
             out[r] = unsafe { _mm256_loadu_ps(lanes.as_ptr()) };
         }
@@ -769,10 +888,14 @@ mod avx2 {
     }
 
     /// `super::add_fixed`: `acc += bits(f64(y) + 1.5 · 2^52)` per lane, `y` clamped first with
-    /// `CLAMP` (`max` then `min`: NaN gives `-Y_MAX` as `f32::max` does).
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn add_fixed<const CLAMP: bool>(acc: &mut I64s, y: __m256) {
+    /// `CLAMP` (`max` then `min`: NaN gives `-Y_MAX` as `f32::max` does). `WIDE`: the AVX-512
+    /// copy, [`add_rounded_avx512`].
+    ///
+    /// # Safety
+    /// The CPU must support AVX2, and AVX-512F and DQ with `WIDE`; inlined only into callers
+    /// compiled for them.
+    #[inline(always)]
+    unsafe fn add_fixed<const CLAMP: bool, const WIDE: bool>(acc: &mut I64s, y: __m256) {
         let y = if CLAMP {
             _mm256_min_ps(
                 _mm256_max_ps(y, _mm256_set1_ps(-Y_MAX)),
@@ -781,6 +904,41 @@ mod avx2 {
         } else {
             y
         };
+        if WIDE {
+            // SAFETY: as this function's.
+            unsafe { add_rounded_avx512(acc, y) }
+        } else {
+            // SAFETY: as this function's.
+            unsafe { add_rounded_avx2(acc, y) }
+        }
+    }
+
+    /// `acc += round(y) + bits(1.5 · 2^52)` per lane (the carried form of `super::add_fixed`):
+    /// one conversion of the eight f32 lanes to `i64`, to nearest with ties to even, the same
+    /// integer as `bits(f64(y) + 1.5 · 2^52) − bits(1.5 · 2^52)` for every `|y| < 2^51` (`f64(y)`
+    /// is exact and both round the exact value to nearest, ties to even). `|y| ≤ Y_MAX` here: the
+    /// frame's bound or the clamp (see the module docs).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F and AVX-512DQ.
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512dq")]
+    unsafe fn add_rounded_avx512(acc: &mut I64s, y: __m256) {
+        let rounded =
+            _mm512_cvt_roundps_epi64::<{ _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC }>(y);
+        let carried = _mm512_add_epi64(rounded, _mm512_set1_epi64(ROUNDER_BITS));
+        let p = acc.as_mut_ptr().cast::<__m512i>();
+        // SAFETY: `acc` is 8 i64 (64 bytes), loaded and stored unaligned.
+        unsafe { _mm512_storeu_si512(p, _mm512_add_epi64(_mm512_loadu_si512(p), carried)) };
+    }
+
+    /// `acc += bits(f64(y) + 1.5 · 2^52)` per lane, in two halves of four.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn add_rounded_avx2(acc: &mut I64s, y: __m256) {
         let rounder = _mm256_set1_pd(ROUNDER);
         let lo = _mm256_add_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(y)), rounder);
         let hi = _mm256_add_pd(_mm256_cvtps_pd(_mm256_extractf128_ps::<1>(y)), rounder);
@@ -798,11 +956,15 @@ mod avx2 {
         }
     }
 
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn add3_fixed<const CLAMP: bool>(acc: &mut [I64s; 3], y: &V3) {
+    /// [`add_fixed`] per component.
+    ///
+    /// # Safety
+    /// As [`add_fixed`]'s.
+    #[inline(always)]
+    unsafe fn add3_fixed<const CLAMP: bool, const WIDE: bool>(acc: &mut [I64s; 3], y: &V3) {
         for (a, v) in acc.iter_mut().zip(y) {
-            unsafe { add_fixed::<CLAMP>(a, *v) };
+            // SAFETY: as this function's.
+            unsafe { add_fixed::<CLAMP, WIDE>(a, *v) };
         }
     }
 
@@ -814,13 +976,15 @@ mod avx2 {
     }
 
     /// `super::sample_block` for a full block at `start` (`start + LANES` within every array).
+    /// Not compiled for a target feature itself: always inlined into `accumulate_avx2` or
+    /// `accumulate_avx512`, whose features its intrinsics then use. `WIDE`: the AVX-512 rounding
+    /// ([`add_fixed`]).
     ///
     /// # Safety
-    /// The CPU must support AVX2.
+    /// The CPU must support AVX2, and with `WIDE` AVX-512F and AVX-512DQ.
     #[allow(clippy::too_many_arguments)]
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn sample_block<L: VoxelLookup, const CLAMP: bool>(
+    #[inline(always)]
+    pub(super) unsafe fn sample_block<L: VoxelLookup, const CLAMP: bool, const WIDE: bool>(
         map: &L,
         frame: &GridFrame,
         points: Soa,
@@ -830,19 +994,29 @@ mod avx2 {
         acc: &mut ClassAccumulator,
     ) {
         unsafe {
-            let lever = mat_vec(&frame.rotation_lever, &load(points, start));
+            // The AVX-512 copy skips the bounds checks: `start + LANES ≤ n`, the shortest of the
+            // six arrays (`accumulate_lanes`). The AVX2 copy stays the previous kernel's code.
+            let lever = mat_vec(&frame.rotation_lever, &load::<WIDE>(points, start));
             let inv = _mm256_set1_ps(frame.inv_voxel_lever);
             let mut grid: V3 = [_mm256_setzero_ps(); 3];
             // floor, as `lanes::floor_i32`: truncate, then −1 where truncation rounded up.
+            // (`WIDE`: round down, then truncate.)
             let mut cell = [_mm256_setzero_si256(); 3];
             for r in 0..3 {
                 grid[r] = _mm256_add_ps(
                     _mm256_mul_ps(lever[r], inv),
                     _mm256_set1_ps(frame.translation_grid[r]),
                 );
-                let t = _mm256_cvttps_epi32(grid[r]);
-                let up = _mm256_cmp_ps::<_CMP_LT_OQ>(grid[r], _mm256_cvtepi32_ps(t));
-                cell[r] = _mm256_add_epi32(t, _mm256_castps_si256(up));
+                cell[r] = if WIDE {
+                    // Rounded down first: the same cells wherever `lanes::floor_i32` gives a
+                    // cell inside an i32 grid (beyond ±2^31 both give cells outside every grid,
+                    // which read as Free).
+                    _mm256_cvttps_epi32(_mm256_floor_ps(grid[r]))
+                } else {
+                    let t = _mm256_cvttps_epi32(grid[r]);
+                    let up = _mm256_cmp_ps::<_CMP_LT_OQ>(grid[r], _mm256_cvtepi32_ps(t));
+                    _mm256_add_epi32(t, _mm256_castps_si256(up))
+                };
             }
             // Lanes whose cell differs from the previous lane's (lane 0: the last voxel's).
             let shift = _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6);
@@ -859,7 +1033,11 @@ mod avx2 {
             for r in 0..3 {
                 _mm256_storeu_si256(cells[r].as_mut_ptr().cast(), cell[r]);
             }
-            let (kinds, layers) = look_up_fresh(map, &cells, LANES, fresh, last);
+            let (kinds, layers) = if WIDE {
+                look_up_full(map, &cells, fresh, last)
+            } else {
+                look_up_fresh(map, &cells, LANES, fresh, last)
+            };
             let Some(KindMasks {
                 surface,
                 proximity,
@@ -868,7 +1046,7 @@ mod avx2 {
             else {
                 return;
             };
-            let normal = mat_vec(&frame.rotation, &load(normals, start));
+            let normal = mat_vec(&frame.rotation, &load::<WIDE>(normals, start));
             let kind = _mm256_cvtepu8_epi32(_mm_loadl_epi64(kinds.as_ptr().cast()));
             if surface | interior != 0 {
                 acc.surface += count_bytes(surface);
@@ -894,8 +1072,8 @@ mod avx2 {
                 let depth = _mm256_and_ps(keep, _mm256_mul_ps(d, _mm256_set1_ps(frame.voxel_q)));
                 acc.contacts += count_positive(depth);
                 let force_dir = scale(&normal, depth);
-                add3_fixed::<CLAMP>(&mut acc.depth_normal, &force_dir);
-                add3_fixed::<CLAMP>(&mut acc.depth_torque, &cross(&lever, &force_dir));
+                add3_fixed::<CLAMP, WIDE>(&mut acc.depth_normal, &force_dir);
+                add3_fixed::<CLAMP, WIDE>(&mut acc.depth_torque, &cross(&lever, &force_dir));
                 acc.depth_blocks += 1;
             }
             if proximity != 0 {
@@ -922,10 +1100,10 @@ mod avx2 {
                 let a = _mm256_mul_ps(x, _mm256_set1_ps(LENGTH_Q));
                 let a_sq = _mm256_mul_ps(x, a);
                 acc.approaching += count_negative(a);
-                add_fixed::<CLAMP>(&mut acc.brake_sq, a_sq);
+                add_fixed::<CLAMP, WIDE>(&mut acc.brake_sq, a_sq);
                 let brake_dir = scale(&normal, a);
-                add3_fixed::<CLAMP>(&mut acc.brake_force, &brake_dir);
-                add3_fixed::<CLAMP>(&mut acc.brake_torque, &cross(&lever, &brake_dir));
+                add3_fixed::<CLAMP, WIDE>(&mut acc.brake_force, &brake_dir);
+                add3_fixed::<CLAMP, WIDE>(&mut acc.brake_torque, &cross(&lever, &brake_dir));
                 acc.brake_blocks += 1;
             }
         }
@@ -938,9 +1116,9 @@ mod tests {
     use glam::{DVec3, Vec3};
     use vps_voxmap::{DenseGrid, GridSpec};
 
-    /// The AVX2 copy and the baseline copy of the hot loop give the same bits.
+    /// The AVX2 and AVX-512 copies and the baseline copy of the hot loop give the same bits.
     #[test]
-    fn avx2_and_baseline_copies_agree_bit_for_bit() {
+    fn simd_and_baseline_copies_agree_bit_for_bit() {
         if !std::arch::is_x86_feature_detected!("avx2") {
             return;
         }
@@ -1001,30 +1179,42 @@ mod tests {
         let points = [&soa[0][..], &soa[1][..], &soa[2][..]];
         let normals = [&soa[3][..], &soa[4][..], &soa[5][..]];
         let mut base = PartialSums::default();
-        accumulate_any::<DenseGrid, false>(&grid, &frame, points, normals, &mut base);
+        accumulate_any::<DenseGrid, false, false>(&grid, &frame, points, normals, &mut base);
         let mut avx2 = PartialSums::default();
         // SAFETY: AVX2 was detected above.
         unsafe { accumulate_avx2(&grid, &frame, points, normals, &mut avx2) };
         assert!(base.surface > 50 && base.approaching > 20 && base.contacts > 20);
         assert_eq!(base, avx2);
+        if cpu_has_avx512() {
+            let mut avx512 = PartialSums::default();
+            // SAFETY: AVX2, AVX-512F, AVX-512DQ and POPCNT were detected just above.
+            unsafe { accumulate_avx512(&grid, &frame, points, normals, &mut avx512) };
+            assert_eq!(base, avx512);
+        }
         // The clamping copy gives the same bits when nothing needs clamping.
         let clamping = GridFrame {
             needs_clamp: true,
             ..frame
         };
         let mut clamped = PartialSums::default();
-        accumulate_any::<DenseGrid, false>(&grid, &clamping, points, normals, &mut clamped);
+        accumulate_any::<DenseGrid, false, false>(&grid, &clamping, points, normals, &mut clamped);
         assert_eq!(clamped, base);
         let mut clamped = PartialSums::default();
         // SAFETY: AVX2 was detected above.
         unsafe { accumulate_avx2(&grid, &clamping, points, normals, &mut clamped) };
         assert_eq!(clamped, base);
+        if cpu_has_avx512() {
+            let mut clamped = PartialSums::default();
+            // SAFETY: AVX2, AVX-512F, AVX-512DQ and POPCNT were detected just above.
+            unsafe { accumulate_avx512(&grid, &clamping, points, normals, &mut clamped) };
+            assert_eq!(clamped, base);
+        }
         // Each point on its own, in reverse order: the same bits (per-point rounding).
         let mut alone = PartialSums::default();
         for i in (0..n).rev() {
             let pts = [&soa[0][i..=i], &soa[1][i..=i], &soa[2][i..=i]];
             let nrm = [&soa[3][i..=i], &soa[4][i..=i], &soa[5][i..=i]];
-            accumulate_any::<DenseGrid, false>(&grid, &frame, pts, nrm, &mut alone);
+            accumulate_any::<DenseGrid, false, false>(&grid, &frame, pts, nrm, &mut alone);
         }
         assert_eq!(alone, base);
     }
