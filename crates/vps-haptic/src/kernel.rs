@@ -499,7 +499,7 @@ fn count_bytes(x: u64) -> u64 {
 }
 
 /// A block's Surface, Proximity and Interior lanes as byte masks: `0x01` in the byte of each lane
-/// of that kind, `0` elsewhere.
+/// of that kind, `0` elsewhere (from the AVX-512 copy: bit `l` for lane `l`).
 struct KindMasks {
     surface: u64,
     proximity: u64,
@@ -646,12 +646,15 @@ fn look_up<L: VoxelLookup>(
 ) -> ([u8; LANES], [u8; LANES]) {
     // Bit l: lane l is in another voxel than lane l − 1.
     let fresh = differs_from_previous(cell, last.cell) & ((1u32 << valid) - 1);
-    look_up_fresh(map, cell, valid, fresh, last)
+    look_up_fresh::<L, true>(map, cell, valid, fresh, last)
 }
 
-/// [`look_up`] with the lanes that start a new voxel given (bit `l` of `fresh`).
+/// [`look_up`] with the lanes that start a new voxel given (bit `l` of `fresh`). `COPY`: the cells
+/// of a whole-block lookup are copied (padding lanes moved outside the grid) even for a full block,
+/// as the previous kernel does; the AVX-512 copy passes `false`, and a full block goes to
+/// [`VoxelLookup::get_block`] as it is.
 #[inline(always)]
-fn look_up_fresh<L: VoxelLookup>(
+fn look_up_fresh<L: VoxelLookup, const COPY: bool>(
     map: &L,
     cell: &[[i32; LANES]; 3],
     valid: usize,
@@ -659,11 +662,15 @@ fn look_up_fresh<L: VoxelLookup>(
     last: &mut LastVoxel,
 ) -> ([u8; LANES], [u8; LANES]) {
     let (kinds, layers) = if fresh.count_ones() > FEW {
-        let mut cells = *cell;
-        for axis in &mut cells {
-            axis[valid..].fill(-1);
-        }
-        let block = map.get_block(&cells);
+        let block = if COPY || valid < LANES {
+            let mut cells = *cell;
+            for axis in &mut cells {
+                axis[valid..].fill(-1);
+            }
+            map.get_block(&cells)
+        } else {
+            map.get_block(cell)
+        };
         (block.kinds, block.layers)
     } else {
         let mut kinds = [0u8; LANES];
@@ -687,24 +694,6 @@ fn look_up_fresh<L: VoxelLookup>(
 
 /// At most this many fresh lanes are looked up one by one ([`look_up_fresh`]).
 const FEW: u32 = 2;
-
-/// [`look_up_fresh`] for a full block: the cells go to [`VoxelLookup::get_block`] as they are
-/// (no padding lanes to move outside the grid, so no copy). Used by the AVX-512 copy of the block.
-#[inline(always)]
-fn look_up_full<L: VoxelLookup>(
-    map: &L,
-    cell: &[[i32; LANES]; 3],
-    fresh: u32,
-    last: &mut LastVoxel,
-) -> ([u8; LANES], [u8; LANES]) {
-    if fresh.count_ones() <= FEW {
-        return look_up_fresh(map, cell, LANES, fresh, last);
-    }
-    let block = map.get_block(cell);
-    let l = LANES - 1;
-    last.remember(cell, l, block.kinds[l], block.layers[l]);
-    (block.kinds, block.layers)
-}
 
 /// A [`LayeredVoxel`] from its kind bits and layer.
 #[inline(always)]
@@ -795,8 +784,8 @@ fn brake_block<const CLAMP: bool>(
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use super::{
-        count_bytes, look_up_fresh, look_up_full, ClassAccumulator, GridFrame, I64s, KindMasks,
-        LastVoxel, Soa, LANES, LENGTH_Q, ROUNDER, ROUNDER_BITS, Y_MAX,
+        count_bytes, look_up_fresh, ClassAccumulator, GridFrame, I64s, KindMasks, LastVoxel, Soa,
+        LANES, LENGTH_Q, ROUNDER, ROUNDER_BITS, Y_MAX,
     };
     use glam::Mat3;
     use std::arch::x86_64::*;
@@ -975,6 +964,38 @@ mod avx2 {
         _mm256_cmpeq_epi32(kinds, _mm256_set1_epi32(i32::from(kind.bits())))
     }
 
+    /// `ClassAccumulator::count_kinds` in 32-bit lanes, for the AVX-512 copy: the same counts,
+    /// and the masks with one bit per lane (bit `l`: lane `l`) instead of one byte.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and POPCNT.
+    #[inline]
+    #[target_feature(enable = "avx2,popcnt")]
+    unsafe fn count_kind_lanes(
+        acc: &mut ClassAccumulator,
+        kinds: &[u8; LANES],
+    ) -> Option<KindMasks> {
+        // SAFETY: `kinds` is 8 bytes, loaded unaligned.
+        let kind = _mm256_cvtepu8_epi32(unsafe { _mm_loadl_epi64(kinds.as_ptr().cast()) });
+        let lanes = |k: Voxel| _mm256_movemask_ps(_mm256_castsi256_ps(kind_is(kind, k))) as u64;
+        let (surface, proximity, interior) = (
+            lanes(Voxel::Surface),
+            lanes(Voxel::Proximity),
+            lanes(Voxel::Interior),
+        );
+        let non_free = surface | proximity | interior;
+        if non_free == 0 {
+            return None;
+        }
+        acc.non_free += u64::from(non_free.count_ones());
+        acc.interior += u64::from(interior.count_ones());
+        Some(KindMasks {
+            surface,
+            proximity,
+            interior,
+        })
+    }
+
     /// `super::sample_block` for a full block at `start` (`start + LANES` within every array).
     /// Not compiled for a target feature itself: always inlined into `accumulate_avx2` or
     /// `accumulate_avx512`, whose features its intrinsics then use. `WIDE`: the AVX-512 rounding
@@ -1034,22 +1055,34 @@ mod avx2 {
                 _mm256_storeu_si256(cells[r].as_mut_ptr().cast(), cell[r]);
             }
             let (kinds, layers) = if WIDE {
-                look_up_full(map, &cells, fresh, last)
+                look_up_fresh::<L, false>(map, &cells, LANES, fresh, last)
             } else {
-                look_up_fresh(map, &cells, LANES, fresh, last)
+                look_up_fresh::<L, true>(map, &cells, LANES, fresh, last)
+            };
+            let masks = if WIDE {
+                if u64::from_le_bytes(kinds) == 0 {
+                    return;
+                }
+                count_kind_lanes(acc, &kinds)
+            } else {
+                acc.count_kinds(kinds)
             };
             let Some(KindMasks {
                 surface,
                 proximity,
                 interior,
-            }) = acc.count_kinds(kinds)
+            }) = masks
             else {
                 return;
             };
             let normal = mat_vec(&frame.rotation, &load::<WIDE>(normals, start));
             let kind = _mm256_cvtepu8_epi32(_mm_loadl_epi64(kinds.as_ptr().cast()));
             if surface | interior != 0 {
-                acc.surface += count_bytes(surface);
+                acc.surface += if WIDE {
+                    u64::from(surface.count_ones())
+                } else {
+                    count_bytes(surface)
+                };
                 let is_interior = kind_is(kind, Voxel::Interior);
                 let pushing = _mm256_or_si256(is_interior, kind_is(kind, Voxel::Surface));
                 // Interior points push as layer 1.
