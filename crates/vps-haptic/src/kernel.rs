@@ -7,10 +7,14 @@
 //! point is in a Proximity voxel, each for all lanes at once with the other lanes masked to zero.
 //! A block in free space therefore costs its transform and lookups only.
 //!
-//! Two copies of a block, the same bits: the portable lane loops of [`crate::lanes`] (baseline
-//! x86-64 and other targets, and the zero-padded tail block of each class), and, where the CPU has
-//! AVX2, full blocks written with AVX2 intrinsics (`avx2::sample_block`): the same IEEE operations
-//! in the same order, no fused multiply-add.
+//! Three copies of a block, the same bits: the portable lane loops of [`crate::lanes`] (baseline
+//! x86-64 and other targets, and the zero-padded tail block of each class); where the CPU has
+//! AVX2, full blocks written with AVX2 intrinsics (`avx2::sample_block`); and where it also has
+//! AVX-512F, AVX-512DQ and POPCNT, the same intrinsics compiled with those features
+//! (`accumulate_avx512`), which round each sum's eight lanes to `i64` in one `vcvtps2qq` and count
+//! with `popcnt`. The same IEEE operations in the same order, no fused multiply-add. The AVX2 copy
+//! is also the previous kernel ([`crate::previous`]), so the AVX-512 copy's own choices sit
+//! behind its `WIDE` flag rather than in the shared code.
 //!
 //! Exactness (docs/architecture.md#exact-sums-and-the-cluster): each point's contribution is
 //! computed in f32 (IEEE basic operations only, no fused multiply-add, so the same bits on every
@@ -20,7 +24,8 @@
 //!
 //! Fixed point per point: the f32 value `y` (already scaled to LSB units, a power-of-two scaling
 //! folded into the arithmetic, hence exact) is widened to f64 and rounded to the nearest integer
-//! by adding `1.5 · 2^52`; the sum's bits minus those of `1.5 · 2^52` are the integer. This is
+//! by adding `1.5 · 2^52`; the sum's bits minus those of `1.5 · 2^52` are the integer (the
+//! AVX-512 copy converts `y` to the same integer directly and adds those bits itself). This is
 //! exact for `|y| < 2^51`; every point is kept within `|y| ≤ 2^50` ([`Y_MAX`]): when the frame's
 //! bounds ([`GridFrame::needs_clamp`]) cannot rule out a larger value, each value is clamped
 //! first, which changes nothing for a value already in range, so both paths give the same bits.
@@ -202,7 +207,9 @@ impl GridFrame {
     /// sum (a factor 2 covers f32 rounding): `|N| ≤ ‖R‖ n_max`, `|P − x| ≤ ‖R‖ r_max`,
     /// `d ≤ (|N| + 256) s` (half a diagonal, at most 255 layers), `|V| ≤ |v| + |ω| |P − x|`, with
     /// `‖R‖² ≤` the largest absolute row sum of `RᵀR` (Gershgorin; ≈ 1 for a rotation). True for
-    /// absurd sizes or speeds: for a 5 mm voxel, a 10 cm part and unit normals, from about 20 m/s.
+    /// absurd sizes or speeds: for a 5 mm voxel, a 10 cm part and unit normals, from about 20 m/s;
+    /// and for a shell with a point or normal that is not finite (whose NaN contributions the clamp
+    /// sends to `-Y_MAX` in every copy of the block loop alike).
     fn needs_clamp(pose: &KernelPose, voxel: f64, shell: &ClassedShell) -> bool {
         let r = pose.rotation.as_dmat3();
         let gram = r.transpose() * r;
@@ -226,7 +233,7 @@ impl GridFrame {
             approach * normal * l,
             lever * approach * normal * a,
         ];
-        !worst.iter().all(|w| *w <= f64::from(Y_MAX) / 2.0)
+        !(shell.points_finite() && worst.iter().all(|w| *w <= f64::from(Y_MAX) / 2.0))
     }
 }
 
@@ -1185,62 +1192,68 @@ mod tests {
             linear_velocity: Vec3::new(0.3, -0.7, 0.2),
             angular_velocity: Vec3::new(-4.0, 2.5, 7.0),
         };
-        let shell = ClassedShell::new(
-            &vps_voxmap::PointShell {
-                points: (0..n)
-                    .map(|i| Vec3::new(soa[0][i], soa[1][i], soa[2][i]))
-                    .collect(),
-                normals: (0..n)
-                    .map(|i| Vec3::new(soa[3][i], soa[4][i], soa[5][i]))
-                    .collect(),
-                voxel_size: spec.voxel_size,
-                method: vps_voxmap::shell::ShellMethod::VoxelCentres,
-                mass: vps_voxmap::MassProperties {
-                    volume: 0.0,
-                    center_of_mass: DVec3::ZERO,
-                    bounding_radius: 0.1,
+        let shell_of = |soa: &[Vec<f32>; 6]| {
+            ClassedShell::new(
+                &vps_voxmap::PointShell {
+                    points: (0..n)
+                        .map(|i| Vec3::new(soa[0][i], soa[1][i], soa[2][i]))
+                        .collect(),
+                    normals: (0..n)
+                        .map(|i| Vec3::new(soa[3][i], soa[4][i], soa[5][i]))
+                        .collect(),
+                    voxel_size: spec.voxel_size,
+                    method: vps_voxmap::shell::ShellMethod::VoxelCentres,
+                    mass: vps_voxmap::MassProperties {
+                        volume: 0.0,
+                        center_of_mass: DVec3::ZERO,
+                        bounding_radius: 0.1,
+                    },
                 },
-            },
-            1,
-        );
+                1,
+            )
+        };
+        let shell = shell_of(&soa);
         // The frame's bound is loose (normals up to √3 long here, fast spin) and asks for
         // clamping; the actual values are far below Y_MAX, so both copies must agree.
         let frame = GridFrame {
             needs_clamp: false,
             ..GridFrame::new(&grid, &pose, &shell)
         };
-        let points = [&soa[0][..], &soa[1][..], &soa[2][..]];
-        let normals = [&soa[3][..], &soa[4][..], &soa[5][..]];
-        let mut base = PartialSums::default();
-        accumulate_any::<DenseGrid, false, false>(&grid, &frame, points, normals, &mut base);
-        let mut avx2 = PartialSums::default();
-        // SAFETY: AVX2 was detected above.
-        unsafe { accumulate_avx2(&grid, &frame, points, normals, &mut avx2) };
+        // The portable copy's sums, after checking that the AVX2 and (where the CPU has it) the
+        // AVX-512 copies give the same bits.
+        let every_copy = |frame: &GridFrame, soa: &[Vec<f32>; 6]| {
+            let points = [&soa[0][..], &soa[1][..], &soa[2][..]];
+            let normals = [&soa[3][..], &soa[4][..], &soa[5][..]];
+            let mut base = PartialSums::default();
+            accumulate_any::<DenseGrid, false, false>(&grid, frame, points, normals, &mut base);
+            let mut avx2 = PartialSums::default();
+            // SAFETY: AVX2 was detected above.
+            unsafe { accumulate_avx2(&grid, frame, points, normals, &mut avx2) };
+            assert_eq!(avx2, base);
+            if cpu_has_avx512() {
+                let mut avx512 = PartialSums::default();
+                // SAFETY: AVX2, AVX-512F, AVX-512DQ and POPCNT were detected just above.
+                unsafe { accumulate_avx512(&grid, frame, points, normals, &mut avx512) };
+                assert_eq!(avx512, base);
+            }
+            base
+        };
+        let base = every_copy(&frame, &soa);
         assert!(base.surface > 50 && base.approaching > 20 && base.contacts > 20);
-        assert_eq!(base, avx2);
-        if cpu_has_avx512() {
-            let mut avx512 = PartialSums::default();
-            // SAFETY: AVX2, AVX-512F, AVX-512DQ and POPCNT were detected just above.
-            unsafe { accumulate_avx512(&grid, &frame, points, normals, &mut avx512) };
-            assert_eq!(base, avx512);
-        }
         // The clamping copy gives the same bits when nothing needs clamping.
         let clamping = GridFrame {
             needs_clamp: true,
             ..frame
         };
-        let mut clamped = PartialSums::default();
-        accumulate_any::<DenseGrid, false, false>(&grid, &clamping, points, normals, &mut clamped);
-        assert_eq!(clamped, base);
-        let mut clamped = PartialSums::default();
-        // SAFETY: AVX2 was detected above.
-        unsafe { accumulate_avx2(&grid, &clamping, points, normals, &mut clamped) };
-        assert_eq!(clamped, base);
-        if cpu_has_avx512() {
-            let mut clamped = PartialSums::default();
-            // SAFETY: AVX2, AVX-512F, AVX-512DQ and POPCNT were detected just above.
-            unsafe { accumulate_avx512(&grid, &clamping, points, normals, &mut clamped) };
-            assert_eq!(clamped, base);
+        assert_eq!(every_copy(&clamping, &soa), base);
+        // A point or a normal that is not finite: the frame clamps, and every copy sends the NaN
+        // contributions to -Y_MAX alike.
+        for (array, index, value) in [(0, 17, f32::NAN), (4, 40, f32::INFINITY)] {
+            let mut poisoned = soa.clone();
+            poisoned[array][index] = value;
+            let frame_poisoned = GridFrame::new(&grid, &pose, &shell_of(&poisoned));
+            assert!(frame_poisoned.needs_clamp);
+            assert_ne!(every_copy(&frame_poisoned, &poisoned), base);
         }
         // Each point on its own, in reverse order: the same bits (per-point rounding).
         let mut alone = PartialSums::default();
