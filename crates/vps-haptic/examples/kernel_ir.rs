@@ -11,12 +11,16 @@
 //!
 //! ```sh
 //! cargo build --release -p vps-haptic --example kernel_ir
-//! valgrind --tool=callgrind --toggle-collect='*accumulate*' \
-//!     target/release/examples/kernel_ir 10000 contact 20            # current kernel
-//! valgrind --tool=callgrind --toggle-collect='*accumulate*' \
-//!     target/release/examples/kernel_ir 10000 contact 20 previous   # previous kernel
+//! valgrind --tool=callgrind --toggle-collect='*accumulate_avx2*' \
+//!     target/release/examples/kernel_ir 10000 contact 10 previous   # previous kernel (AVX2 copy)
+//! SYMS=$(nm target/release/examples/kernel_ir | grep accumulate_avx512 | awk '{print $3}' | paste -sd,) \
+//!     gdb -q -batch -x crates/vps-haptic/examples/step_count.py \
+//!     --args target/release/examples/kernel_ir 1000 contact 1      # current kernel (AVX-512 copy)
 //! ```
-//! Instructions per point = the collected `Ir` / (`reps` · `n`).
+//! Instructions per point = the collected `Ir` (or the counted instructions) / (`reps` · `n`).
+//! Valgrind has no AVX-512 and hides it from the program, so under callgrind both kernels run the
+//! AVX2 copy; the AVX-512 copy is counted by single-stepping (`step_count.py`, slow: small
+//! shells).
 
 use glam::{DQuat, DVec3, Vec3};
 use std::hint::black_box;
@@ -91,7 +95,7 @@ fn main() {
     let radius_vox = (n as f64 / (4.0 * std::f64::consts::PI)).sqrt().max(3.0) / per_voxel_edge;
     let dense = band_scene(radius_vox);
     let tree = VoxelTree::from_dense(&dense, TreeConfig::default()).expect("valid scene");
-    // A fourth argument `previous`: the previous kernel (per-class f64 sums).
+    // A fourth argument `previous`: the previous kernel (the current one on at most AVX2).
     let kernel = if args.get(4).is_some_and(|a| a == "previous") {
         vps_haptic::previous::sample_all::<VoxelTree>
     } else {

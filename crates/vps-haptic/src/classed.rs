@@ -20,6 +20,24 @@ pub struct ClassedShell {
     offsets: Vec<usize>,
     max_radius: f64,
     max_normal: f64,
+    /// Every point is finite (normals: see [`ClassedShell::max_normal`]).
+    finite: bool,
+}
+
+/// The largest length among `vectors` (0 for none); infinite if any is not finite, so that the
+/// kernel's bound on contributions then asks for clamping (see `crate::kernel`).
+fn largest_length(vectors: &[glam::Vec3]) -> f64 {
+    vectors
+        .iter()
+        .map(|v| {
+            let length = f64::from(v.length());
+            if length.is_finite() {
+                length
+            } else {
+                f64::INFINITY
+            }
+        })
+        .fold(0.0, f64::max)
 }
 
 impl ClassedShell {
@@ -37,11 +55,8 @@ impl ClassedShell {
             nz: Vec::with_capacity(n),
             offsets: Vec::with_capacity(classes + 1),
             max_radius: shell.max_radius(),
-            max_normal: shell
-                .normals
-                .iter()
-                .map(|n| f64::from(n.length()))
-                .fold(0.0, f64::max),
+            max_normal: largest_length(&shell.normals),
+            finite: shell.points.iter().all(|p| p.is_finite()),
         };
         out.offsets.push(0);
         for class in 0..classes {
@@ -79,13 +94,20 @@ impl ClassedShell {
         self.class_range(class).map_or(0, |r| r.len())
     }
 
+    /// Whether every point is finite; a shell that is not makes the kernel clamp each
+    /// contribution (see `crate::kernel`), so that every copy of its block loop gives the same
+    /// bits even then.
+    pub(crate) fn points_finite(&self) -> bool {
+        self.finite
+    }
+
     /// Largest distance of a point from the body origin (m): `r_max` of the tunnelling guard.
     pub fn max_radius(&self) -> f64 {
         self.max_radius
     }
 
-    /// Largest length of a body-frame normal (1 for unit normals; bounds the kernel's
-    /// contributions, see `crate::kernel`).
+    /// Largest length of a body-frame normal (1 for unit normals; infinite if some normal is not
+    /// finite; bounds the kernel's contributions, see `crate::kernel`).
     pub fn max_normal(&self) -> f64 {
         self.max_normal
     }

@@ -7,10 +7,14 @@
 //! point is in a Proximity voxel, each for all lanes at once with the other lanes masked to zero.
 //! A block in free space therefore costs its transform and lookups only.
 //!
-//! Two copies of a block, the same bits: the portable lane loops of [`crate::lanes`] (baseline
-//! x86-64 and other targets, and the zero-padded tail block of each class), and, where the CPU has
-//! AVX2, full blocks written with AVX2 intrinsics (`avx2::sample_block`): the same IEEE operations
-//! in the same order, no fused multiply-add.
+//! Three copies of a block, the same bits: the portable lane loops of [`crate::lanes`] (baseline
+//! x86-64 and other targets, and the zero-padded tail block of each class); where the CPU has
+//! AVX2, full blocks written with AVX2 intrinsics (`avx2::sample_block`); and where it also has
+//! AVX-512F, AVX-512DQ and POPCNT, the same intrinsics compiled with those features
+//! (`accumulate_avx512`), which round each sum's eight lanes to `i64` in one `vcvtps2qq` and count
+//! with `popcnt`. The same IEEE operations in the same order, no fused multiply-add. The AVX2 copy
+//! is also the previous kernel ([`crate::previous`]), so the AVX-512 copy's own choices sit
+//! behind its `WIDE` flag rather than in the shared code.
 //!
 //! Exactness (docs/architecture.md#exact-sums-and-the-cluster): each point's contribution is
 //! computed in f32 (IEEE basic operations only, no fused multiply-add, so the same bits on every
@@ -20,7 +24,8 @@
 //!
 //! Fixed point per point: the f32 value `y` (already scaled to LSB units, a power-of-two scaling
 //! folded into the arithmetic, hence exact) is widened to f64 and rounded to the nearest integer
-//! by adding `1.5 · 2^52`; the sum's bits minus those of `1.5 · 2^52` are the integer. This is
+//! by adding `1.5 · 2^52`; the sum's bits minus those of `1.5 · 2^52` are the integer (the
+//! AVX-512 copy converts `y` to the same integer directly and adds those bits itself). This is
 //! exact for `|y| < 2^51`; every point is kept within `|y| ≤ 2^50` ([`Y_MAX`]): when the frame's
 //! bounds ([`GridFrame::needs_clamp`]) cannot rule out a larger value, each value is clamped
 //! first, which changes nothing for a value already in range, so both paths give the same bits.
@@ -59,6 +64,28 @@ pub fn sample_class<L: VoxelLookup>(
     pose: &KernelPose,
     class: u32,
 ) -> PartialSums {
+    sample_class_on(map, shell, pose, class, Widest::Avx512)
+}
+
+/// The widest copy of the block loop that [`sample_class_on`] may run where the CPU has it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Widest {
+    /// AVX-512 (F, DQ) with POPCNT, else AVX2, else portable: the current kernel.
+    Avx512,
+    /// AVX2, else portable: the kernel before the AVX-512 copy ([`crate::previous`]).
+    Avx2,
+}
+
+/// [`sample_class`] on at most the `widest` copy of the block loop. Every copy gives the same
+/// bits. Does not allocate or block.
+#[inline]
+pub(crate) fn sample_class_on<L: VoxelLookup>(
+    map: &L,
+    shell: &ClassedShell,
+    pose: &KernelPose,
+    class: u32,
+    widest: Widest,
+) -> PartialSums {
     let mut sums = PartialSums::default();
     if let Some(range) = shell.class_range(class) {
         sums.sampled = range.len() as u64;
@@ -74,7 +101,7 @@ pub fn sample_class<L: VoxelLookup>(
                 &shell.ny[range.clone()],
                 &shell.nz[range],
             ];
-            accumulate(map, &frame, points, normals, &mut sums);
+            accumulate(map, &frame, points, normals, &mut sums, widest);
         }
     }
     sums
@@ -97,9 +124,20 @@ pub fn sample_classes<L: VoxelLookup>(
 
 /// The merged sums of every class of `shell`. Does not allocate or block.
 pub fn sample_all<L: VoxelLookup>(map: &L, shell: &ClassedShell, pose: &KernelPose) -> PartialSums {
+    sample_all_on(map, shell, pose, Widest::Avx512)
+}
+
+/// [`sample_all`] on at most the `widest` copy of the block loop (the same bits). Does not
+/// allocate or block.
+pub(crate) fn sample_all_on<L: VoxelLookup>(
+    map: &L,
+    shell: &ClassedShell,
+    pose: &KernelPose,
+    widest: Widest,
+) -> PartialSums {
     let mut sums = PartialSums::default();
     for class in 0..shell.class_count() {
-        sums.merge(&sample_class(map, shell, pose, class));
+        sums.merge(&sample_class_on(map, shell, pose, class, widest));
     }
     sums
 }
@@ -169,7 +207,9 @@ impl GridFrame {
     /// sum (a factor 2 covers f32 rounding): `|N| ≤ ‖R‖ n_max`, `|P − x| ≤ ‖R‖ r_max`,
     /// `d ≤ (|N| + 256) s` (half a diagonal, at most 255 layers), `|V| ≤ |v| + |ω| |P − x|`, with
     /// `‖R‖² ≤` the largest absolute row sum of `RᵀR` (Gershgorin; ≈ 1 for a rotation). True for
-    /// absurd sizes or speeds: for a 5 mm voxel, a 10 cm part and unit normals, from about 20 m/s.
+    /// absurd sizes or speeds: for a 5 mm voxel, a 10 cm part and unit normals, from about 20 m/s;
+    /// and for a shell with a point or normal that is not finite (whose NaN contributions the clamp
+    /// sends to `-Y_MAX` in every copy of the block loop alike).
     fn needs_clamp(pose: &KernelPose, voxel: f64, shell: &ClassedShell) -> bool {
         let r = pose.rotation.as_dmat3();
         let gram = r.transpose() * r;
@@ -193,7 +233,7 @@ impl GridFrame {
             approach * normal * l,
             lever * approach * normal * a,
         ];
-        !worst.iter().all(|w| *w <= f64::from(Y_MAX) / 2.0)
+        !(shell.points_finite() && worst.iter().all(|w| *w <= f64::from(Y_MAX) / 2.0))
     }
 }
 
@@ -296,7 +336,8 @@ impl ClassAccumulator {
 /// Body-frame point coordinates (`px, py, pz`) or normals of one class.
 type Soa<'a> = [&'a [f32]; 3];
 
-/// The hot loop over one class: adds the class's sums to `sums`.
+/// The hot loop over one class: adds the class's sums to `sums`, on the widest copy of the block
+/// loop up to `widest` that the CPU runs.
 #[inline]
 fn accumulate<L: VoxelLookup>(
     map: &L,
@@ -304,13 +345,62 @@ fn accumulate<L: VoxelLookup>(
     points: Soa,
     normals: Soa,
     sums: &mut PartialSums,
+    widest: Widest,
 ) {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports AVX2 (checked just above).
-        return unsafe { accumulate_avx2(map, frame, points, normals, sums) };
+    {
+        if widest == Widest::Avx512 && cpu_has_avx512() {
+            // SAFETY: the CPU supports AVX2, AVX-512F, AVX-512DQ and POPCNT (checked just above).
+            return unsafe { accumulate_avx512(map, frame, points, normals, sums) };
+        }
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2 (checked just above).
+            return unsafe { accumulate_avx2(map, frame, points, normals, sums) };
+        }
     }
-    accumulate_any::<L, false>(map, frame, points, normals, sums)
+    accumulate_any::<L, false, false>(map, frame, points, normals, sums)
+}
+
+/// Whether the CPU runs [`accumulate_avx512`]: AVX2, AVX-512F, AVX-512DQ and POPCNT.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+fn cpu_has_avx512() -> bool {
+    std::arch::is_x86_feature_detected!("avx2")
+        && std::arch::is_x86_feature_detected!("avx512f")
+        && std::arch::is_x86_feature_detected!("avx512dq")
+        && std::arch::is_x86_feature_detected!("popcnt")
+}
+
+/// Whether [`sample_class`] runs its AVX-512 copy of the block loop on this CPU (x86-64 with
+/// AVX2, AVX-512F, AVX-512DQ and POPCNT); otherwise its AVX2 copy or its portable one, as the
+/// previous kernel does. Same sums either way.
+pub fn runs_avx512_copy() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        cpu_has_avx512()
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// [`accumulate_avx2`] with each sum's eight lanes rounded to `i64` by one AVX-512DQ conversion
+/// (`vcvtps2qq`, to nearest, ties to even: the same integers as the f64 rounding of the AVX2
+/// copy) and counts by POPCNT. The same bits as the other copies.
+///
+/// # Safety
+/// The CPU must support AVX2, AVX-512F, AVX-512DQ and POPCNT ([`cpu_has_avx512`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,avx512f,avx512dq,popcnt")]
+unsafe fn accumulate_avx512<L: VoxelLookup>(
+    map: &L,
+    frame: &GridFrame,
+    points: Soa,
+    normals: Soa,
+    sums: &mut PartialSums,
+) {
+    accumulate_any::<L, true, true>(map, frame, points, normals, sums)
 }
 
 /// [`accumulate_any`] compiled for AVX2, full blocks written with AVX2 intrinsics ([`avx2`]): the
@@ -328,13 +418,14 @@ unsafe fn accumulate_avx2<L: VoxelLookup>(
     normals: Soa,
     sums: &mut PartialSums,
 ) {
-    accumulate_any::<L, true>(map, frame, points, normals, sums)
+    accumulate_any::<L, true, false>(map, frame, points, normals, sums)
 }
 
 /// Picks the clamping or the plain copy of the block loop (the same bits; see the module docs).
-/// `AVX2`: full blocks through [`avx2::sample_block`] (only where the CPU has AVX2).
+/// `AVX2`: full blocks through [`avx2::sample_block`] (only where the CPU has AVX2); `WIDE`: with
+/// its AVX-512 rounding (only where the CPU has AVX-512F and DQ, and with `AVX2`).
 #[inline(always)]
-fn accumulate_any<L: VoxelLookup, const AVX2: bool>(
+fn accumulate_any<L: VoxelLookup, const AVX2: bool, const WIDE: bool>(
     map: &L,
     frame: &GridFrame,
     points: Soa,
@@ -342,16 +433,16 @@ fn accumulate_any<L: VoxelLookup, const AVX2: bool>(
     sums: &mut PartialSums,
 ) {
     if frame.needs_clamp {
-        accumulate_lanes::<L, true, AVX2>(map, frame, points, normals, sums)
+        accumulate_lanes::<L, true, AVX2, WIDE>(map, frame, points, normals, sums)
     } else {
-        accumulate_lanes::<L, false, AVX2>(map, frame, points, normals, sums)
+        accumulate_lanes::<L, false, AVX2, WIDE>(map, frame, points, normals, sums)
     }
 }
 
 /// The block loop (see the module docs); full blocks, then one zero-padded tail block; the lanes
 /// flushed every [`CHUNK_BLOCKS`] blocks.
 #[inline(always)]
-fn accumulate_lanes<L: VoxelLookup, const CLAMP: bool, const AVX2: bool>(
+fn accumulate_lanes<L: VoxelLookup, const CLAMP: bool, const AVX2: bool, const WIDE: bool>(
     map: &L,
     frame: &GridFrame,
     points: Soa,
@@ -373,10 +464,11 @@ fn accumulate_lanes<L: VoxelLookup, const CLAMP: bool, const AVX2: bool>(
         for start in (begin..end).step_by(LANES) {
             #[cfg(target_arch = "x86_64")]
             if AVX2 {
-                // SAFETY: AVX2 is only requested from `accumulate_avx2`, which runs only where
-                // the CPU has it.
+                // SAFETY: AVX2 is only requested from `accumulate_avx2` and
+                // `accumulate_avx512`, which run only where the CPU has it (and, for `WIDE`, the
+                // AVX-512 features of the latter); this is inlined into them.
                 unsafe {
-                    avx2::sample_block::<L, CLAMP>(
+                    avx2::sample_block::<L, CLAMP, WIDE>(
                         map, frame, points, normals, start, &mut last, &mut acc,
                     )
                 };
@@ -414,7 +506,7 @@ fn count_bytes(x: u64) -> u64 {
 }
 
 /// A block's Surface, Proximity and Interior lanes as byte masks: `0x01` in the byte of each lane
-/// of that kind, `0` elsewhere.
+/// of that kind, `0` elsewhere (from the AVX-512 copy: bit `l` for lane `l`).
 struct KindMasks {
     surface: u64,
     proximity: u64,
@@ -528,6 +620,13 @@ struct LastVoxel {
 }
 
 impl LastVoxel {
+    /// Lane `lane` of `cell`, with its kind bits and layer, as the voxel looked up last.
+    #[inline(always)]
+    fn remember(&mut self, cell: &[[i32; LANES]; 3], lane: usize, kind: u8, layer: u8) {
+        self.cell = [cell[0][lane], cell[1][lane], cell[2][lane]];
+        self.voxel = voxel_of(kind, layer);
+    }
+
     /// Before the first lookup: a cell outside every grid, which reads as Free anyway.
     const NONE: LastVoxel = LastVoxel {
         cell: [i32::MIN; 3],
@@ -554,26 +653,31 @@ fn look_up<L: VoxelLookup>(
 ) -> ([u8; LANES], [u8; LANES]) {
     // Bit l: lane l is in another voxel than lane l − 1.
     let fresh = differs_from_previous(cell, last.cell) & ((1u32 << valid) - 1);
-    look_up_fresh(map, cell, valid, fresh, last)
+    look_up_fresh::<L, true>(map, cell, valid, fresh, last)
 }
 
-/// [`look_up`] with the lanes that start a new voxel given (bit `l` of `fresh`).
+/// [`look_up`] with the lanes that start a new voxel given (bit `l` of `fresh`). `COPY`: the cells
+/// of a whole-block lookup are copied (padding lanes moved outside the grid) even for a full block,
+/// as the previous kernel does; the AVX-512 copy passes `false`, and a full block goes to
+/// [`VoxelLookup::get_block`] as it is.
 #[inline(always)]
-fn look_up_fresh<L: VoxelLookup>(
+fn look_up_fresh<L: VoxelLookup, const COPY: bool>(
     map: &L,
     cell: &[[i32; LANES]; 3],
     valid: usize,
     fresh: u32,
     last: &mut LastVoxel,
 ) -> ([u8; LANES], [u8; LANES]) {
-    /// At most this many fresh lanes are looked up one by one.
-    const FEW: u32 = 2;
     let (kinds, layers) = if fresh.count_ones() > FEW {
-        let mut cells = *cell;
-        for axis in &mut cells {
-            axis[valid..].fill(-1);
-        }
-        let block = map.get_block(&cells);
+        let block = if COPY || valid < LANES {
+            let mut cells = *cell;
+            for axis in &mut cells {
+                axis[valid..].fill(-1);
+            }
+            map.get_block(&cells)
+        } else {
+            map.get_block(cell)
+        };
         (block.kinds, block.layers)
     } else {
         let mut kinds = [0u8; LANES];
@@ -590,11 +694,13 @@ fn look_up_fresh<L: VoxelLookup>(
         (kinds, layers)
     };
     if valid > 0 {
-        last.cell = [cell[0][valid - 1], cell[1][valid - 1], cell[2][valid - 1]];
-        last.voxel = voxel_of(kinds[valid - 1], layers[valid - 1]);
+        last.remember(cell, valid - 1, kinds[valid - 1], layers[valid - 1]);
     }
     (kinds, layers)
 }
+
+/// At most this many fresh lanes are looked up one by one ([`look_up_fresh`]).
+const FEW: u32 = 2;
 
 /// A [`LayeredVoxel`] from its kind bits and layer.
 #[inline(always)]
@@ -686,7 +792,7 @@ fn brake_block<const CLAMP: bool>(
 mod avx2 {
     use super::{
         count_bytes, look_up_fresh, ClassAccumulator, GridFrame, I64s, KindMasks, LastVoxel, Soa,
-        LANES, LENGTH_Q, ROUNDER, Y_MAX,
+        LANES, LENGTH_Q, ROUNDER, ROUNDER_BITS, Y_MAX,
     };
     use glam::Mat3;
     use std::arch::x86_64::*;
@@ -694,13 +800,22 @@ mod avx2 {
 
     type V3 = [__m256; 3];
 
-    /// Lanes `start..start + LANES` of the three arrays.
+    /// Lanes `start..start + LANES` of the three arrays. `UNCHECKED` (the AVX-512 copy): without
+    /// bounds checks, which `accumulate_lanes` makes once per class instead.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2; with `UNCHECKED`, `start + LANES` must be within every array.
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn load(xs: Soa, start: usize) -> V3 {
+    unsafe fn load<const UNCHECKED: bool>(xs: Soa, start: usize) -> V3 {
         let mut out = [_mm256_setzero_ps(); 3];
         for r in 0..3 {
-            let lanes = &xs[r][start..start + LANES];
+            let lanes = if UNCHECKED {
+                // SAFETY: `start + LANES` is within every array (this function's contract).
+                unsafe { xs[r].get_unchecked(start..start + LANES) }
+            } else {
+                &xs[r][start..start + LANES]
+            };
             // SAFETY: `lanes` holds LANES f32 (32 bytes); unaligned load.
             out[r] = unsafe { _mm256_loadu_ps(lanes.as_ptr()) };
         }
@@ -769,10 +884,14 @@ mod avx2 {
     }
 
     /// `super::add_fixed`: `acc += bits(f64(y) + 1.5 · 2^52)` per lane, `y` clamped first with
-    /// `CLAMP` (`max` then `min`: NaN gives `-Y_MAX` as `f32::max` does).
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn add_fixed<const CLAMP: bool>(acc: &mut I64s, y: __m256) {
+    /// `CLAMP` (`max` then `min`: NaN gives `-Y_MAX` as `f32::max` does). `WIDE`: the AVX-512
+    /// copy, [`add_rounded_avx512`].
+    ///
+    /// # Safety
+    /// The CPU must support AVX2, and AVX-512F and DQ with `WIDE`; inlined only into callers
+    /// compiled for them.
+    #[inline(always)]
+    unsafe fn add_fixed<const CLAMP: bool, const WIDE: bool>(acc: &mut I64s, y: __m256) {
         let y = if CLAMP {
             _mm256_min_ps(
                 _mm256_max_ps(y, _mm256_set1_ps(-Y_MAX)),
@@ -781,6 +900,41 @@ mod avx2 {
         } else {
             y
         };
+        if WIDE {
+            // SAFETY: as this function's.
+            unsafe { add_rounded_avx512(acc, y) }
+        } else {
+            // SAFETY: as this function's.
+            unsafe { add_rounded_avx2(acc, y) }
+        }
+    }
+
+    /// `acc += round(y) + bits(1.5 · 2^52)` per lane (the carried form of `super::add_fixed`):
+    /// one conversion of the eight f32 lanes to `i64`, to nearest with ties to even, the same
+    /// integer as `bits(f64(y) + 1.5 · 2^52) − bits(1.5 · 2^52)` for every `|y| < 2^51` (`f64(y)`
+    /// is exact and both round the exact value to nearest, ties to even). `|y| ≤ Y_MAX` here: the
+    /// frame's bound or the clamp (see the module docs).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F and AVX-512DQ.
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512dq")]
+    unsafe fn add_rounded_avx512(acc: &mut I64s, y: __m256) {
+        let rounded =
+            _mm512_cvt_roundps_epi64::<{ _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC }>(y);
+        let carried = _mm512_add_epi64(rounded, _mm512_set1_epi64(ROUNDER_BITS));
+        let p = acc.as_mut_ptr().cast::<__m512i>();
+        // SAFETY: `acc` is 8 i64 (64 bytes), loaded and stored unaligned.
+        unsafe { _mm512_storeu_si512(p, _mm512_add_epi64(_mm512_loadu_si512(p), carried)) };
+    }
+
+    /// `acc += bits(f64(y) + 1.5 · 2^52)` per lane, in two halves of four.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn add_rounded_avx2(acc: &mut I64s, y: __m256) {
         let rounder = _mm256_set1_pd(ROUNDER);
         let lo = _mm256_add_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(y)), rounder);
         let hi = _mm256_add_pd(_mm256_cvtps_pd(_mm256_extractf128_ps::<1>(y)), rounder);
@@ -798,11 +952,15 @@ mod avx2 {
         }
     }
 
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn add3_fixed<const CLAMP: bool>(acc: &mut [I64s; 3], y: &V3) {
+    /// [`add_fixed`] per component.
+    ///
+    /// # Safety
+    /// As [`add_fixed`]'s.
+    #[inline(always)]
+    unsafe fn add3_fixed<const CLAMP: bool, const WIDE: bool>(acc: &mut [I64s; 3], y: &V3) {
         for (a, v) in acc.iter_mut().zip(y) {
-            unsafe { add_fixed::<CLAMP>(a, *v) };
+            // SAFETY: as this function's.
+            unsafe { add_fixed::<CLAMP, WIDE>(a, *v) };
         }
     }
 
@@ -813,14 +971,48 @@ mod avx2 {
         _mm256_cmpeq_epi32(kinds, _mm256_set1_epi32(i32::from(kind.bits())))
     }
 
-    /// `super::sample_block` for a full block at `start` (`start + LANES` within every array).
+    /// `ClassAccumulator::count_kinds` in 32-bit lanes, for the AVX-512 copy: the same counts,
+    /// and the masks with one bit per lane (bit `l`: lane `l`) instead of one byte.
     ///
     /// # Safety
-    /// The CPU must support AVX2.
-    #[allow(clippy::too_many_arguments)]
+    /// The CPU must support AVX2 and POPCNT.
     #[inline]
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn sample_block<L: VoxelLookup, const CLAMP: bool>(
+    #[target_feature(enable = "avx2,popcnt")]
+    unsafe fn count_kind_lanes(
+        acc: &mut ClassAccumulator,
+        kinds: &[u8; LANES],
+    ) -> Option<KindMasks> {
+        // SAFETY: `kinds` is 8 bytes, loaded unaligned.
+        let kind = _mm256_cvtepu8_epi32(unsafe { _mm_loadl_epi64(kinds.as_ptr().cast()) });
+        let lanes = |k: Voxel| _mm256_movemask_ps(_mm256_castsi256_ps(kind_is(kind, k))) as u64;
+        let (surface, proximity, interior) = (
+            lanes(Voxel::Surface),
+            lanes(Voxel::Proximity),
+            lanes(Voxel::Interior),
+        );
+        let non_free = surface | proximity | interior;
+        if non_free == 0 {
+            return None;
+        }
+        acc.non_free += u64::from(non_free.count_ones());
+        acc.interior += u64::from(interior.count_ones());
+        Some(KindMasks {
+            surface,
+            proximity,
+            interior,
+        })
+    }
+
+    /// `super::sample_block` for a full block at `start` (`start + LANES` within every array).
+    /// Not compiled for a target feature itself: always inlined into `accumulate_avx2` or
+    /// `accumulate_avx512`, whose features its intrinsics then use. `WIDE`: the AVX-512 rounding
+    /// ([`add_fixed`]).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2, and with `WIDE` AVX-512F and AVX-512DQ.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(super) unsafe fn sample_block<L: VoxelLookup, const CLAMP: bool, const WIDE: bool>(
         map: &L,
         frame: &GridFrame,
         points: Soa,
@@ -830,19 +1022,29 @@ mod avx2 {
         acc: &mut ClassAccumulator,
     ) {
         unsafe {
-            let lever = mat_vec(&frame.rotation_lever, &load(points, start));
+            // The AVX-512 copy skips the bounds checks: `start + LANES ≤ n`, the shortest of the
+            // six arrays (`accumulate_lanes`). The AVX2 copy stays the previous kernel's code.
+            let lever = mat_vec(&frame.rotation_lever, &load::<WIDE>(points, start));
             let inv = _mm256_set1_ps(frame.inv_voxel_lever);
             let mut grid: V3 = [_mm256_setzero_ps(); 3];
             // floor, as `lanes::floor_i32`: truncate, then −1 where truncation rounded up.
+            // (`WIDE`: round down, then truncate.)
             let mut cell = [_mm256_setzero_si256(); 3];
             for r in 0..3 {
                 grid[r] = _mm256_add_ps(
                     _mm256_mul_ps(lever[r], inv),
                     _mm256_set1_ps(frame.translation_grid[r]),
                 );
-                let t = _mm256_cvttps_epi32(grid[r]);
-                let up = _mm256_cmp_ps::<_CMP_LT_OQ>(grid[r], _mm256_cvtepi32_ps(t));
-                cell[r] = _mm256_add_epi32(t, _mm256_castps_si256(up));
+                cell[r] = if WIDE {
+                    // Rounded down first: the same cells wherever `lanes::floor_i32` gives a
+                    // cell inside an i32 grid (beyond ±2^31 both give cells outside every grid,
+                    // which read as Free).
+                    _mm256_cvttps_epi32(_mm256_floor_ps(grid[r]))
+                } else {
+                    let t = _mm256_cvttps_epi32(grid[r]);
+                    let up = _mm256_cmp_ps::<_CMP_LT_OQ>(grid[r], _mm256_cvtepi32_ps(t));
+                    _mm256_add_epi32(t, _mm256_castps_si256(up))
+                };
             }
             // Lanes whose cell differs from the previous lane's (lane 0: the last voxel's).
             let shift = _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6);
@@ -859,19 +1061,35 @@ mod avx2 {
             for r in 0..3 {
                 _mm256_storeu_si256(cells[r].as_mut_ptr().cast(), cell[r]);
             }
-            let (kinds, layers) = look_up_fresh(map, &cells, LANES, fresh, last);
+            let (kinds, layers) = if WIDE {
+                look_up_fresh::<L, false>(map, &cells, LANES, fresh, last)
+            } else {
+                look_up_fresh::<L, true>(map, &cells, LANES, fresh, last)
+            };
+            let masks = if WIDE {
+                if u64::from_le_bytes(kinds) == 0 {
+                    return;
+                }
+                count_kind_lanes(acc, &kinds)
+            } else {
+                acc.count_kinds(kinds)
+            };
             let Some(KindMasks {
                 surface,
                 proximity,
                 interior,
-            }) = acc.count_kinds(kinds)
+            }) = masks
             else {
                 return;
             };
-            let normal = mat_vec(&frame.rotation, &load(normals, start));
+            let normal = mat_vec(&frame.rotation, &load::<WIDE>(normals, start));
             let kind = _mm256_cvtepu8_epi32(_mm_loadl_epi64(kinds.as_ptr().cast()));
             if surface | interior != 0 {
-                acc.surface += count_bytes(surface);
+                acc.surface += if WIDE {
+                    u64::from(surface.count_ones())
+                } else {
+                    count_bytes(surface)
+                };
                 let is_interior = kind_is(kind, Voxel::Interior);
                 let pushing = _mm256_or_si256(is_interior, kind_is(kind, Voxel::Surface));
                 // Interior points push as layer 1.
@@ -894,8 +1112,8 @@ mod avx2 {
                 let depth = _mm256_and_ps(keep, _mm256_mul_ps(d, _mm256_set1_ps(frame.voxel_q)));
                 acc.contacts += count_positive(depth);
                 let force_dir = scale(&normal, depth);
-                add3_fixed::<CLAMP>(&mut acc.depth_normal, &force_dir);
-                add3_fixed::<CLAMP>(&mut acc.depth_torque, &cross(&lever, &force_dir));
+                add3_fixed::<CLAMP, WIDE>(&mut acc.depth_normal, &force_dir);
+                add3_fixed::<CLAMP, WIDE>(&mut acc.depth_torque, &cross(&lever, &force_dir));
                 acc.depth_blocks += 1;
             }
             if proximity != 0 {
@@ -922,10 +1140,10 @@ mod avx2 {
                 let a = _mm256_mul_ps(x, _mm256_set1_ps(LENGTH_Q));
                 let a_sq = _mm256_mul_ps(x, a);
                 acc.approaching += count_negative(a);
-                add_fixed::<CLAMP>(&mut acc.brake_sq, a_sq);
+                add_fixed::<CLAMP, WIDE>(&mut acc.brake_sq, a_sq);
                 let brake_dir = scale(&normal, a);
-                add3_fixed::<CLAMP>(&mut acc.brake_force, &brake_dir);
-                add3_fixed::<CLAMP>(&mut acc.brake_torque, &cross(&lever, &brake_dir));
+                add3_fixed::<CLAMP, WIDE>(&mut acc.brake_force, &brake_dir);
+                add3_fixed::<CLAMP, WIDE>(&mut acc.brake_torque, &cross(&lever, &brake_dir));
                 acc.brake_blocks += 1;
             }
         }
@@ -938,9 +1156,9 @@ mod tests {
     use glam::{DVec3, Vec3};
     use vps_voxmap::{DenseGrid, GridSpec};
 
-    /// The AVX2 copy and the baseline copy of the hot loop give the same bits.
+    /// The AVX2 and AVX-512 copies and the baseline copy of the hot loop give the same bits.
     #[test]
-    fn avx2_and_baseline_copies_agree_bit_for_bit() {
+    fn simd_and_baseline_copies_agree_bit_for_bit() {
         if !std::arch::is_x86_feature_detected!("avx2") {
             return;
         }
@@ -974,57 +1192,75 @@ mod tests {
             linear_velocity: Vec3::new(0.3, -0.7, 0.2),
             angular_velocity: Vec3::new(-4.0, 2.5, 7.0),
         };
-        let shell = ClassedShell::new(
-            &vps_voxmap::PointShell {
-                points: (0..n)
-                    .map(|i| Vec3::new(soa[0][i], soa[1][i], soa[2][i]))
-                    .collect(),
-                normals: (0..n)
-                    .map(|i| Vec3::new(soa[3][i], soa[4][i], soa[5][i]))
-                    .collect(),
-                voxel_size: spec.voxel_size,
-                method: vps_voxmap::shell::ShellMethod::VoxelCentres,
-                mass: vps_voxmap::MassProperties {
-                    volume: 0.0,
-                    center_of_mass: DVec3::ZERO,
-                    bounding_radius: 0.1,
+        let shell_of = |soa: &[Vec<f32>; 6]| {
+            ClassedShell::new(
+                &vps_voxmap::PointShell {
+                    points: (0..n)
+                        .map(|i| Vec3::new(soa[0][i], soa[1][i], soa[2][i]))
+                        .collect(),
+                    normals: (0..n)
+                        .map(|i| Vec3::new(soa[3][i], soa[4][i], soa[5][i]))
+                        .collect(),
+                    voxel_size: spec.voxel_size,
+                    method: vps_voxmap::shell::ShellMethod::VoxelCentres,
+                    mass: vps_voxmap::MassProperties {
+                        volume: 0.0,
+                        center_of_mass: DVec3::ZERO,
+                        bounding_radius: 0.1,
+                    },
                 },
-            },
-            1,
-        );
+                1,
+            )
+        };
+        let shell = shell_of(&soa);
         // The frame's bound is loose (normals up to √3 long here, fast spin) and asks for
         // clamping; the actual values are far below Y_MAX, so both copies must agree.
         let frame = GridFrame {
             needs_clamp: false,
             ..GridFrame::new(&grid, &pose, &shell)
         };
-        let points = [&soa[0][..], &soa[1][..], &soa[2][..]];
-        let normals = [&soa[3][..], &soa[4][..], &soa[5][..]];
-        let mut base = PartialSums::default();
-        accumulate_any::<DenseGrid, false>(&grid, &frame, points, normals, &mut base);
-        let mut avx2 = PartialSums::default();
-        // SAFETY: AVX2 was detected above.
-        unsafe { accumulate_avx2(&grid, &frame, points, normals, &mut avx2) };
+        // The portable copy's sums, after checking that the AVX2 and (where the CPU has it) the
+        // AVX-512 copies give the same bits.
+        let every_copy = |frame: &GridFrame, soa: &[Vec<f32>; 6]| {
+            let points = [&soa[0][..], &soa[1][..], &soa[2][..]];
+            let normals = [&soa[3][..], &soa[4][..], &soa[5][..]];
+            let mut base = PartialSums::default();
+            accumulate_any::<DenseGrid, false, false>(&grid, frame, points, normals, &mut base);
+            let mut avx2 = PartialSums::default();
+            // SAFETY: AVX2 was detected above.
+            unsafe { accumulate_avx2(&grid, frame, points, normals, &mut avx2) };
+            assert_eq!(avx2, base);
+            if cpu_has_avx512() {
+                let mut avx512 = PartialSums::default();
+                // SAFETY: AVX2, AVX-512F, AVX-512DQ and POPCNT were detected just above.
+                unsafe { accumulate_avx512(&grid, frame, points, normals, &mut avx512) };
+                assert_eq!(avx512, base);
+            }
+            base
+        };
+        let base = every_copy(&frame, &soa);
         assert!(base.surface > 50 && base.approaching > 20 && base.contacts > 20);
-        assert_eq!(base, avx2);
         // The clamping copy gives the same bits when nothing needs clamping.
         let clamping = GridFrame {
             needs_clamp: true,
             ..frame
         };
-        let mut clamped = PartialSums::default();
-        accumulate_any::<DenseGrid, false>(&grid, &clamping, points, normals, &mut clamped);
-        assert_eq!(clamped, base);
-        let mut clamped = PartialSums::default();
-        // SAFETY: AVX2 was detected above.
-        unsafe { accumulate_avx2(&grid, &clamping, points, normals, &mut clamped) };
-        assert_eq!(clamped, base);
+        assert_eq!(every_copy(&clamping, &soa), base);
+        // A point or a normal that is not finite: the frame clamps, and every copy sends the NaN
+        // contributions to -Y_MAX alike.
+        for (array, index, value) in [(0, 17, f32::NAN), (4, 40, f32::INFINITY)] {
+            let mut poisoned = soa.clone();
+            poisoned[array][index] = value;
+            let frame_poisoned = GridFrame::new(&grid, &pose, &shell_of(&poisoned));
+            assert!(frame_poisoned.needs_clamp);
+            assert_ne!(every_copy(&frame_poisoned, &poisoned), base);
+        }
         // Each point on its own, in reverse order: the same bits (per-point rounding).
         let mut alone = PartialSums::default();
         for i in (0..n).rev() {
             let pts = [&soa[0][i..=i], &soa[1][i..=i], &soa[2][i..=i]];
             let nrm = [&soa[3][i..=i], &soa[4][i..=i], &soa[5][i..=i]];
-            accumulate_any::<DenseGrid, false>(&grid, &frame, pts, nrm, &mut alone);
+            accumulate_any::<DenseGrid, false, false>(&grid, &frame, pts, nrm, &mut alone);
         }
         assert_eq!(alone, base);
     }

@@ -180,34 +180,6 @@ pub(crate) fn differs_from_previous(cell: &[[i32; LANES]; 3], first_prev: [i32; 
     mask
 }
 
-/// Per-lane f64 running sums of the previous kernel (`crate::previous`), one canonical order:
-/// lane `l` adds the block values of lane `l` in block order; [`reduce`] combines the lanes in a
-/// fixed tree.
-pub(crate) type F64s = [f64; LANES];
-
-/// `acc += v` per lane, `v` widened to f64 (exact).
-#[inline(always)]
-pub(crate) fn add_f64(acc: &mut F64s, v: &F32s) {
-    for l in 0..LANES {
-        acc[l] += v[l] as f64;
-    }
-}
-
-/// `acc += v` per component and lane.
-#[inline(always)]
-pub(crate) fn add3_f64(acc: &mut [F64s; 3], v: &Vec3s) {
-    for (a, x) in acc.iter_mut().zip(v) {
-        add_f64(a, x);
-    }
-}
-
-/// The lanes' total in a fixed order: `((l0 + l1) + (l2 + l3)) + ((l4 + l5) + (l6 + l7))`.
-#[inline]
-pub(crate) fn reduce(acc: &F64s) -> f64 {
-    let pair = |i: usize| acc[i] + acc[i + 1];
-    (pair(0) + pair(2)) + (pair(4) + pair(6))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -270,11 +242,5 @@ mod tests {
         assert_eq!(differs_from_previous(&cell, [7; 3]), 0b1110_1000);
         assert_eq!(differs_from_previous(&cell, [7, 7, 6]), 0b1110_1001);
         assert_eq!(differs_from_previous(&cell, [i32::MIN; 3]) & 1, 1);
-    }
-
-    #[test]
-    fn reduce_is_the_fixed_pairwise_tree() {
-        let acc = [1e16, 1.0, -1e16, 1.0, 3.0, 0.5, 0.25, 0.125];
-        assert_eq!(reduce(&acc), ((1e16 + 1.0) + (-1e16 + 1.0)) + (3.5 + 0.375));
     }
 }
