@@ -8,7 +8,7 @@
 //! Run: `cargo bench --bench voxmap`.
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
-use glam::{DVec3, IVec3};
+use glam::IVec3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::time::Duration;
@@ -38,11 +38,7 @@ fn shelled_box(g: &mut DenseGrid, lo: IVec3, hi: IVec3) {
 }
 
 fn scene(rng: &mut ChaCha8Rng) -> DenseGrid {
-    let mut g = DenseGrid::new(GridSpec {
-        origin: DVec3::ZERO,
-        voxel_size: 0.005,
-        dims: DIMS,
-    });
+    let mut g = DenseGrid::new(GridSpec::at_origin(0.005, DIMS));
     shelled_box(&mut g, IVec3::new(-10, -10, -10), IVec3::new(530, 410, 20));
     for _ in 0..40 {
         let lo = IVec3::new(

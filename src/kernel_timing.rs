@@ -96,11 +96,10 @@ pub fn sphere_shell(n: usize, radius: f64) -> PointShell {
 /// free pose). Allocates S³ (or 2S³) bytes; parallel over z slices.
 pub fn band_scene(radius_vox: f64, free_slot: bool) -> DenseGrid {
     let slot = (2.0 * (radius_vox + 4.0)).ceil() as u32;
-    let spec = GridSpec {
-        origin: DVec3::ZERO,
-        voxel_size: VOXEL_SIZE,
-        dims: [if free_slot { 2 * slot } else { slot }, slot, slot],
-    };
+    let spec = GridSpec::at_origin(
+        VOXEL_SIZE,
+        [if free_slot { 2 * slot } else { slot }, slot, slot],
+    );
     let centre = DVec3::splat(slot as f64 / 2.0);
     let mut grid = DenseGrid::new(spec);
     let plane = (spec.dims[0] * spec.dims[1]) as usize;

@@ -60,11 +60,7 @@ fn sphere_shell(n: usize, radius: f64, sample: f64) -> PointShell {
 
 fn band_scene(radius_vox: f64) -> DenseGrid {
     let slot = (2.0 * (radius_vox + 4.0)).ceil() as u32;
-    let spec = GridSpec {
-        origin: DVec3::ZERO,
-        voxel_size: VOXEL_SIZE,
-        dims: [2 * slot, slot, slot],
-    };
+    let spec = GridSpec::at_origin(VOXEL_SIZE, [2 * slot, slot, slot]);
     let centre = DVec3::splat(slot as f64 / 2.0);
     let mut grid = DenseGrid::new(spec);
     for z in 0..slot as i32 {

@@ -1,6 +1,6 @@
 //! Hand-made voxmaps.
 
-use glam::{DVec3, IVec3};
+use glam::IVec3;
 use vps_voxmap::{DenseGrid, GridSpec, TreeConfig, Voxel, VoxelTree};
 
 /// Voxel size of the test wall (m).
@@ -13,11 +13,7 @@ pub const WALL_TOP: f64 = 0.05;
 /// A 20 × 20 × 20 grid of 5 mm voxels (origin at 0) holding a horizontal wall whose face is at
 /// [`WALL_TOP`].
 pub fn wall() -> DenseGrid {
-    let mut g = DenseGrid::new(GridSpec {
-        origin: DVec3::ZERO,
-        voxel_size: VOXEL,
-        dims: [20, 20, 20],
-    });
+    let mut g = DenseGrid::new(GridSpec::at_origin(VOXEL, [20, 20, 20]));
     for z in 0..8 {
         fill_layer(&mut g, z, Voxel::Interior);
     }
@@ -34,11 +30,7 @@ pub fn wall_tree() -> VoxelTree {
 
 /// An all-Free `n × n × n` grid of 1 cm voxels with its origin at 0.
 pub fn empty_cm_grid(n: u32) -> DenseGrid {
-    DenseGrid::new(GridSpec {
-        origin: DVec3::ZERO,
-        voxel_size: 0.01,
-        dims: [n; 3],
-    })
+    DenseGrid::new(GridSpec::at_origin(0.01, [n; 3]))
 }
 
 /// Sets every voxel whose z index is `k` to `kind`.

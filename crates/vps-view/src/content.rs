@@ -311,24 +311,12 @@ pub(crate) mod tests {
 
     /// A 40³ grid of 1 cm voxels at the origin with a Surface slab at z = 10 (Interior below).
     pub(crate) fn slab() -> Arc<VoxelTree> {
-        let spec = GridSpec {
-            origin: DVec3::ZERO,
-            voxel_size: 0.01,
-            dims: [40, 40, 40],
-        };
-        let mut grid = DenseGrid::new(spec);
-        for z in 0..=10 {
-            for y in 0..40 {
-                for x in 0..40 {
-                    let kind = if z == 10 {
-                        Voxel::Surface
-                    } else {
-                        Voxel::Interior
-                    };
-                    grid.set(IVec3::new(x, y, z), kind);
-                }
-            }
-        }
+        let spec = GridSpec::at_origin(0.01, [40, 40, 40]);
+        let grid = DenseGrid::from_fn(spec, |p| match p.z {
+            10 => Voxel::Surface,
+            z if z < 10 => Voxel::Interior,
+            _ => Voxel::Free,
+        });
         Arc::new(VoxelTree::from_dense(&grid, TreeConfig::default()).unwrap())
     }
 
@@ -425,23 +413,17 @@ pub(crate) mod tests {
             voxel_size: 0.005,
             dims: [70, 45, 33],
         };
-        let mut grid = DenseGrid::new(spec);
-        for z in 0..33 {
-            for y in 0..45 {
-                for x in 0..70 {
-                    let h = (x * 73 + y * 151 + z * 29) % 17;
-                    let block = (8..24).contains(&x) && (16..32).contains(&y) && z < 16;
-                    let kind = if block || h == 0 || h == 5 {
-                        Voxel::Surface
-                    } else if h == 3 {
-                        Voxel::Interior
-                    } else {
-                        Voxel::Free
-                    };
-                    grid.set(IVec3::new(x, y, z), kind);
-                }
+        let grid = DenseGrid::from_fn(spec, |IVec3 { x, y, z }| {
+            let h = (x * 73 + y * 151 + z * 29) % 17;
+            let block = (8..24).contains(&x) && (16..32).contains(&y) && z < 16;
+            if block || h == 0 || h == 5 {
+                Voxel::Surface
+            } else if h == 3 {
+                Voxel::Interior
+            } else {
+                Voxel::Free
             }
-        }
+        });
         VoxelTree::from_dense(&grid, config).unwrap()
     }
 
@@ -465,15 +447,11 @@ pub(crate) mod tests {
     #[test]
     fn past_the_largest_coarsening_the_cells_are_thinned() {
         // Surface voxels 64 apart along x in a long thin grid: 1000 cells at every k ≤ 64.
-        let spec = GridSpec {
-            origin: DVec3::ZERO,
-            voxel_size: 0.01,
-            dims: [64_000, 1, 1],
-        };
-        let mut grid = DenseGrid::new(spec);
-        for i in 0..1000 {
-            grid.set(IVec3::new(i * 64, 0, 0), Voxel::Surface);
-        }
+        let spec = GridSpec::at_origin(0.01, [64_000, 1, 1]);
+        let grid = DenseGrid::from_fn(spec, |p| match p.x % 64 {
+            0 => Voxel::Surface,
+            _ => Voxel::Free,
+        });
         let tree = VoxelTree::from_dense(&grid, TreeConfig::default()).unwrap();
         let (cells, k) = decimate_boxes(&tree, 1000, 10);
         assert_eq!(k, MAX_COARSENING);

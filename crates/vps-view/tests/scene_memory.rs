@@ -3,7 +3,7 @@
 //! holds a few Surface voxels builds its scene with a few megabytes. Peak heap use is measured by
 //! a counting global allocator (this test binary only).
 
-use glam::{DVec3, UVec3};
+use glam::UVec3;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
@@ -60,11 +60,7 @@ impl CubeSource for FewVoxels {
 fn a_huge_nearly_empty_grid_builds_its_scene_in_small_memory() {
     let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     const N: u32 = 1 << 14;
-    let spec = GridSpec {
-        origin: DVec3::ZERO,
-        voxel_size: 0.001,
-        dims: [N; 3],
-    };
+    let spec = GridSpec::at_origin(0.001, [N; 3]);
     let voxels = vec![
         UVec3::new(0, 0, 0),
         UVec3::new(1, 0, 0),
@@ -109,11 +105,7 @@ fn a_huge_grid_full_of_surface_tiles_is_decimated_in_bounded_memory() {
         }
     }
     const N: u32 = 1 << 14;
-    let spec = GridSpec {
-        origin: DVec3::ZERO,
-        voxel_size: 0.001,
-        dims: [N; 3],
-    };
+    let spec = GridSpec::at_origin(0.001, [N; 3]);
     let config = TreeConfig {
         log2_dims: [3, 5, 5],
     };

@@ -138,11 +138,7 @@ mod tests {
             interior,
             surface,
         };
-        let spec = GridSpec {
-            origin: glam::DVec3::ZERO,
-            voxel_size: 1.0,
-            dims: [64, 1, 1],
-        };
+        let spec = GridSpec::at_origin(1.0, [64, 1, 1]);
         let dense = to_dense(spec, &layers);
         for (n, e) in expected.iter().enumerate() {
             assert_eq!(Voxel::from_bits(dense.data[n]), *e, "pair {n}");

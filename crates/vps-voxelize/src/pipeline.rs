@@ -557,11 +557,7 @@ mod tests {
 
     #[test]
     fn object_window_is_aligned_and_clipped() {
-        let spec = GridSpec {
-            origin: DVec3::ZERO,
-            voxel_size: 1.0,
-            dims: [200, 10, 10],
-        };
+        let spec = GridSpec::at_origin(1.0, [200, 10, 10]);
         let b = Aabb {
             min: DVec3::new(100.5, 3.5, -5.0),
             max: DVec3::new(110.5, 4.5, 4.0),

@@ -231,11 +231,7 @@ mod tests {
     use crate::tri_box::triangle_box_overlap;
 
     fn spec(n: u32) -> GridSpec {
-        GridSpec {
-            origin: DVec3::ZERO,
-            voxel_size: 0.5,
-            dims: [n; 3],
-        }
+        GridSpec::at_origin(0.5, [n; 3])
     }
 
     /// Brute force: test every voxel of the window.

@@ -2,31 +2,19 @@
 //! 2-bit scene (nested boxes) as a 512-tree and sums `get` over 1 M pseudo-random indices.
 //! Prints the checksum so the loop cannot be optimised away.
 
-use glam::{DVec3, IVec3};
+use glam::IVec3;
 use std::hint::black_box;
 use vps_voxmap::{DenseGrid, GridSpec, TreeConfig, Voxel, VoxelLookup, VoxelTree};
 
 fn main() {
     let n = 300u32;
-    let mut grid = DenseGrid::new(GridSpec {
-        origin: DVec3::ZERO,
-        voxel_size: 0.005,
-        dims: [n; 3],
+    let spec = GridSpec::at_origin(0.005, [n; 3]);
+    let grid = DenseGrid::from_fn(spec, |p| match (p - 150).abs().max_element() {
+        0..=99 => Voxel::Interior,
+        100..=101 => Voxel::Surface,
+        102 => Voxel::Proximity,
+        _ => Voxel::Free,
     });
-    for z in 0..n as i32 {
-        for y in 0..n as i32 {
-            for x in 0..n as i32 {
-                let r = (x - 150).abs().max((y - 150).abs()).max((z - 150).abs());
-                let v = match r {
-                    0..=99 => Voxel::Interior,
-                    100..=101 => Voxel::Surface,
-                    102 => Voxel::Proximity,
-                    _ => Voxel::Free,
-                };
-                grid.set(IVec3::new(x, y, z), v);
-            }
-        }
-    }
     let tree = VoxelTree::from_dense(&grid, TreeConfig::default()).expect("tree");
     drop(grid);
     let mut state = 0x2545_f491_4f6c_dd1du64;

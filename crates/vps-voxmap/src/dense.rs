@@ -23,6 +23,19 @@ impl DenseGrid {
         }
     }
 
+    /// The grid whose voxel at each index `ijk` is `f(ijk)`, called once per voxel in storage
+    /// order (x fastest, then y, then z).
+    pub fn from_fn(spec: GridSpec, mut f: impl FnMut(IVec3) -> Voxel) -> Self {
+        let [nx, ny, nz] = spec.dims.map(|d| d as i32);
+        let mut data = Vec::with_capacity(spec.voxel_count() as usize);
+        for z in 0..nz {
+            for y in 0..ny {
+                data.extend((0..nx).map(|x| f(IVec3::new(x, y, z)) as u8));
+            }
+        }
+        Self { spec, data }
+    }
+
     /// The voxel at `ijk`; Free outside the grid.
     #[inline]
     pub fn get(&self, ijk: IVec3) -> Voxel {
@@ -49,5 +62,32 @@ impl DenseGrid {
             c[(b & 3) as usize] += 1;
         }
         c
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec3;
+
+    #[test]
+    fn from_fn_sets_each_voxel_at_its_own_index() {
+        let kind = |p: IVec3| Voxel::from_bits(((p.x + 2 * p.y + 3 * p.z) % 4) as u8);
+        let spec = GridSpec {
+            origin: DVec3::new(0.5, -1.0, 2.0),
+            ..GridSpec::at_origin(0.25, [5, 3, 4])
+        };
+        let mut calls = Vec::new();
+        let grid = DenseGrid::from_fn(spec, |p| {
+            calls.push(p);
+            kind(p)
+        });
+        // Each index once, in storage order, and each voxel where `get` reads it.
+        assert_eq!(calls.len(), 60);
+        for (i, &p) in calls.iter().enumerate() {
+            assert_eq!(spec.linear(p), i, "{p}");
+            assert_eq!(grid.get(p), kind(p), "{p}");
+        }
+        assert_eq!(grid.counts().iter().sum::<u64>(), 60);
     }
 }

@@ -17,6 +17,16 @@ pub struct GridSpec {
 }
 
 impl GridSpec {
+    /// The grid of `dims` voxels of edge `voxel_size` (m) whose voxel (0, 0, 0) has its minimum
+    /// corner at the world origin.
+    pub const fn at_origin(voxel_size: f64, dims: [u32; 3]) -> Self {
+        Self {
+            origin: DVec3::ZERO,
+            voxel_size,
+            dims,
+        }
+    }
+
     /// Total number of voxels, saturating at `u64::MAX` (three dims near `u32::MAX` overflow u64).
     pub fn voxel_count(&self) -> u64 {
         self.dims

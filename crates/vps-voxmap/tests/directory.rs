@@ -5,7 +5,7 @@
 mod common;
 
 use common::FnSource;
-use glam::{DVec3, IVec3, UVec3};
+use glam::{IVec3, UVec3};
 use vps_voxmap::{GridSpec, TreeConfig, VoxelTree, VoxelWidth, BLOCK_LANES};
 
 /// A tree of `width` over `dims` holding random-ish codes valid for the width in slabs (Free
@@ -24,11 +24,7 @@ fn clustered_tree(dims: [u32; 3], width: VoxelWidth, config: TreeConfig, seed: u
             0
         }
     };
-    let spec = GridSpec {
-        origin: DVec3::ZERO,
-        voxel_size: 0.01,
-        dims,
-    };
+    let spec = GridSpec::at_origin(0.01, dims);
     let tree = VoxelTree::from_source(spec, width, config, &FnSource { dims, code }).unwrap();
     assert!(tree.directory_bytes() > 0, "{width:?} {config:?}");
     tree

@@ -510,11 +510,7 @@ mod tests {
 
     #[test]
     fn constant_512_shape_matches_the_default_tree() {
-        let spec = GridSpec {
-            origin: glam::DVec3::ZERO,
-            voxel_size: 0.01,
-            dims: [700, 20, 9],
-        };
+        let spec = GridSpec::at_origin(0.01, [700, 20, 9]);
         let tree = VoxelTree::from_dense(&DenseGrid::new(spec), TreeConfig::default()).unwrap();
         assert_eq!(tree.lookup_shape(), LookupShape::TREE_512);
         let other = VoxelTree::from_dense(&DenseGrid::new(spec), TreeConfig::uniform(2)).unwrap();

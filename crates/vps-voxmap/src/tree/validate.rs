@@ -181,15 +181,11 @@ mod tests {
     use super::*;
     use crate::tree::TreeConfig;
     use crate::{DenseGrid, Voxel};
-    use glam::{DVec3, IVec3};
+    use glam::IVec3;
 
     /// A tree with stored nodes at every level, tiles of several kinds, and clipped boundary cubes.
     fn sample(config: TreeConfig) -> VoxelTree {
-        let mut grid = DenseGrid::new(GridSpec {
-            origin: DVec3::ZERO,
-            voxel_size: 0.01,
-            dims: [45, 30, 21],
-        });
+        let mut grid = DenseGrid::new(GridSpec::at_origin(0.01, [45, 30, 21]));
         for i in 0..grid.data.len() {
             let ijk = IVec3::new((i % 45) as i32, (i / 45 % 30) as i32, (i / 1350) as i32);
             let v = if ijk.x < 20 {

@@ -142,27 +142,20 @@ pub(super) fn regions_of(tree: &VoxelTree, kind: Voxel, mut f: impl FnMut(UVec3,
 #[cfg(test)]
 mod tests {
     use crate::{DenseGrid, GridSpec, TreeConfig, Voxel, VoxelTree};
-    use glam::{DVec3, IVec3};
+    use glam::IVec3;
 
     #[test]
     fn regions_cover_exactly_the_voxels_of_a_kind() {
-        let spec = GridSpec {
-            origin: DVec3::ZERO,
-            voxel_size: 0.01,
-            dims: [37, 21, 70],
-        };
-        let mut grid = DenseGrid::new(spec);
-        for z in 0..70 {
-            for y in 0..21 {
-                for x in 0..37 {
-                    // A solid block (tiles at the leaf level) and scattered voxels (leaves).
-                    let solid = (16..64).contains(&z) && y < 16 && x < 32;
-                    if solid || (x * 7 + y * 3 + z) % 11 == 0 {
-                        grid.set(IVec3::new(x, y, z), Voxel::Surface);
-                    }
-                }
+        let spec = GridSpec::at_origin(0.01, [37, 21, 70]);
+        let grid = DenseGrid::from_fn(spec, |IVec3 { x, y, z }| {
+            // A solid block (tiles at the leaf level) and scattered voxels (leaves).
+            let solid = (16..64).contains(&z) && y < 16 && x < 32;
+            if solid || (x * 7 + y * 3 + z) % 11 == 0 {
+                Voxel::Surface
+            } else {
+                Voxel::Free
             }
-        }
+        });
         let tree = VoxelTree::from_dense(&grid, TreeConfig::uniform(2)).unwrap();
         let mut seen = DenseGrid::new(spec);
         let mut count = 0u64;
