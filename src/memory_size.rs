@@ -4,8 +4,7 @@
 /// `GiB`, `TiB` (powers of 1024) or `kB`, `MB`, `GB`, `TB` (powers of 1000), case-insensitive.
 /// The result is at least one byte, or an error saying what was wrong.
 pub fn parse_bytes(text: &str) -> Result<u64, String> {
-    let t = text.trim();
-    let lower = t.to_ascii_lowercase();
+    let lower = text.to_ascii_lowercase();
     let units: [(&str, f64); 9] = [
         ("kib", 1024.0),
         ("mib", 1024.0 * 1024.0),
@@ -17,14 +16,8 @@ pub fn parse_bytes(text: &str) -> Result<u64, String> {
         ("tb", 1e12),
         ("b", 1.0),
     ];
-    let (number, scale) = units
-        .iter()
-        .find_map(|(suffix, scale)| lower.strip_suffix(suffix).map(|n| (n.trim(), *scale)))
-        .unwrap_or((lower.as_str(), 1.0));
-    let value: f64 = number
-        .parse()
-        .map_err(|_| format!("'{text}' is not a memory size (examples: 16GiB, 512MiB, 8GB)"))?;
-    let bytes = value * scale;
+    let bytes = vps_units::scaled_number(&lower, &units)
+        .ok_or_else(|| format!("'{text}' is not a memory size (examples: 16GiB, 512MiB, 8GB)"))?;
     if !bytes.is_finite() || bytes < 1.0 || bytes >= u64::MAX as f64 {
         return Err(format!(
             "'{text}' must be a memory size from 1 byte to 16 EiB"

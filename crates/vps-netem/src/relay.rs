@@ -560,21 +560,15 @@ fn lower_timer_slack() {
 /// Parses a duration with a unit: `100us`, `1.5ms`, `2s`, `250ns` (a bare number is seconds).
 /// Negative, non-finite or unparsable text is an error naming the text.
 pub fn parse_duration(text: &str) -> Result<Duration, String> {
-    let t = text.trim();
-    let (number, scale) = [
+    let units = [
         ("ns", 1e-9),
         ("us", 1e-6),
         ("µs", 1e-6),
         ("ms", 1e-3),
         ("s", 1.0),
-    ]
-    .iter()
-    .find_map(|(suffix, scale)| t.strip_suffix(suffix).map(|n| (n.trim(), *scale)))
-    .unwrap_or((t, 1.0));
-    let value: f64 = number
-        .parse()
-        .map_err(|_| format!("'{text}' is not a duration (examples: 100us, 1.5ms, 2s)"))?;
-    let seconds = value * scale;
+    ];
+    let seconds = vps_units::scaled_number(text, &units)
+        .ok_or_else(|| format!("'{text}' is not a duration (examples: 100us, 1.5ms, 2s)"))?;
     if !(0.0..=1e6).contains(&seconds) {
         return Err(format!(
             "'{text}' must be a finite duration ≥ 0 (at most 10^6 s)"

@@ -6,15 +6,9 @@ use serde::{Deserialize, Deserializer};
 /// Parses a length in metres. Accepts a bare number (metres) or a number followed by `m`, `cm`, `mm`
 /// or `um`. The result is finite and strictly positive, or an error saying what was wrong.
 pub fn parse_length(text: &str) -> Result<f64, String> {
-    let t = text.trim();
-    let (number, scale) = [("mm", 1e-3), ("cm", 1e-2), ("um", 1e-6), ("m", 1.0)]
-        .iter()
-        .find_map(|(suffix, scale)| t.strip_suffix(suffix).map(|n| (n.trim(), *scale)))
-        .unwrap_or((t, 1.0));
-    let value: f64 = number
-        .parse()
-        .map_err(|_| format!("'{text}' is not a length (examples: 0.005, 5mm, 0.5cm)"))?;
-    let metres = value * scale;
+    let units = [("mm", 1e-3), ("cm", 1e-2), ("um", 1e-6), ("m", 1.0)];
+    let metres = vps_units::scaled_number(text, &units)
+        .ok_or_else(|| format!("'{text}' is not a length (examples: 0.005, 5mm, 0.5cm)"))?;
     if !metres.is_finite() || metres <= 0.0 {
         return Err(format!("'{text}' must be a positive, finite length"));
     }
