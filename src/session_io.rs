@@ -356,7 +356,7 @@ pub fn run_scripted(
         ..LoopConfig::default()
     };
     let mut plan = assets.plan(&DeviceChoice::Simulated, script, config)?;
-    plan.params = params;
+    plan.setup.params = params;
     let report = run_loop(
         assets.tree.clone(),
         assets.classed_shell(),

@@ -96,7 +96,7 @@ pub fn run(frames: u64, spin_us: u64) -> Result<()> {
             ..GatherArgs::default()
         };
         let mut prepared = prepare(&session)?;
-        let config = &mut prepared.plan.config;
+        let config = &mut prepared.plan.setup.config;
         config.free_running = true;
         config.realtime = false;
         config.watchdog = Duration::from_millis(10);

@@ -9,22 +9,17 @@ use anyhow::Result;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use vps_device::script::Script;
-use vps_device::HapticDevice;
-use vps_haptic::{HapticParams, PartState};
+use vps_haptic::HapticParams;
 use vps_input::BridgeMonitor;
 use vps_runtime::{LoopConfig, SessionSetup, SignalStop, StateFeedSender};
 
-/// A session ready to run: everything the runtime's loop needs except the viewer feed and the
-/// stop flag.
+/// A session ready to run: the runtime's setup, still without the viewer feed and with a stop
+/// flag nobody else holds (the `into_*setup` methods give it those), and the bridge's monitor.
 pub struct SessionPlan {
-    /// Validated haptic parameters.
-    pub params: HapticParams,
-    /// The opened device.
-    pub device: Box<dyn HapticDevice>,
-    /// The part's state at frame 0.
-    pub initial: PartState,
-    /// Frame loop settings.
-    pub config: LoopConfig,
+    /// Validated haptic parameters, the opened device, the part's state at frame 0 and the frame
+    /// loop settings; `feed` is `None` and `stop` a fresh, lowered flag until
+    /// [`SessionPlan::into_setup_with_stop`] (or its shorthands) sets them.
+    pub setup: SessionSetup,
     /// The bridge's counters and wrench log when the device is the UDP bridge: readable after the
     /// device has moved into the loop (clone it before [`SessionPlan::into_setup`]).
     pub bridge: Option<BridgeMonitor>,
@@ -34,10 +29,14 @@ impl SessionPlan {
     /// A plan driving the opened `device` with `params` and `config`.
     pub fn new(params: HapticParams, device: OpenedDevice, config: LoopConfig) -> SessionPlan {
         SessionPlan {
-            params,
-            device: device.device,
-            initial: device.initial,
-            config,
+            setup: SessionSetup {
+                params,
+                device: device.device,
+                initial: device.initial,
+                config,
+                feed: None,
+                stop: Arc::new(AtomicBool::new(false)),
+            },
             bridge: device.bridge,
         }
     }
@@ -49,19 +48,16 @@ impl SessionPlan {
         stop: Arc<AtomicBool>,
     ) -> SessionSetup {
         SessionSetup {
-            params: self.params,
-            device: self.device,
-            initial: self.initial,
-            config: self.config,
             feed,
             stop,
+            ..self.setup
         }
     }
 
     /// [`SessionPlan::into_setup_with_stop`] with a stop flag nobody raises: the session ends by
     /// its frame count or its device.
     pub fn into_setup(self, feed: Option<StateFeedSender>) -> SessionSetup {
-        self.into_setup_with_stop(feed, Arc::new(AtomicBool::new(false)))
+        SessionSetup { feed, ..self.setup }
     }
 
     /// The runtime's setup, stopped by SIGINT, SIGTERM and SIGHUP: installs the handlers (the
