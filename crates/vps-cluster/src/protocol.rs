@@ -20,6 +20,7 @@
 use crate::ClusterError;
 use glam::{Mat3, Vec3};
 use vps_haptic::{KernelPose, PartialSums};
+use vps_wire::SliceWriter;
 
 /// Version of the datagram and join formats; a worker with another version is refused.
 pub const PROTOCOL_VERSION: u16 = 1;
@@ -137,26 +138,11 @@ impl Reader<'_> {
     }
 }
 
-struct Writer<'a> {
-    bytes: &'a mut [u8],
-    at: usize,
-}
-
-impl Writer<'_> {
-    fn put(&mut self, b: &[u8]) {
-        self.bytes[self.at..self.at + b.len()].copy_from_slice(b);
-        self.at += b.len();
-    }
-    fn f32s(&mut self, v: &[f32]) {
-        v.iter().for_each(|x| self.put(&x.to_le_bytes()));
-    }
-}
-
 impl FrameRequest {
     /// Writes the 96-byte encoding into `out`. Does not allocate.
     pub fn encode(&self, out: &mut [u8; REQUEST_LEN]) {
         header(out, KIND_REQUEST);
-        let mut w = Writer { bytes: out, at: 8 };
+        let mut w = SliceWriter::new(out, 8);
         w.put(&self.seq.to_le_bytes());
         w.put(&self.classes.to_le_bytes());
         w.f32s(&self.pose.rotation.to_cols_array());
@@ -201,7 +187,7 @@ impl FrameReply {
     pub fn encode(&self, out: &mut [u8; REPLY_LEN]) {
         header(out, KIND_REPLY);
         let s = &self.sums;
-        let mut w = Writer { bytes: out, at: 8 };
+        let mut w = SliceWriter::new(out, 8);
         w.put(&self.seq.to_le_bytes());
         w.put(&self.classes.to_le_bytes());
         for v in s.depth_normal.iter().chain(&s.depth_torque) {

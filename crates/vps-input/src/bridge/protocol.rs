@@ -31,6 +31,7 @@
 
 use glam::{DQuat, DVec3};
 use vps_haptic::{HandleSample, Wrench};
+use vps_wire::SliceWriter;
 
 /// The first four bytes of every datagram.
 pub const MAGIC: [u8; 4] = *b"VPSB";
@@ -159,28 +160,25 @@ impl Datagram {
         out[4] = VERSION;
         out[6..22].copy_from_slice(&self.token);
         out[22..30].copy_from_slice(&self.sequence.to_le_bytes());
-        let mut w = Writer {
-            out,
-            pos: HEADER_LEN,
+        out[5] = match &self.message {
+            Message::PoseIn(_) => KIND_POSE_IN,
+            Message::PoseInFlags { .. } => KIND_POSE_IN_FLAGS,
+            Message::WrenchOut { .. } => KIND_WRENCH_OUT,
         };
+        let mut w = SliceWriter::new(out, HEADER_LEN);
         match &self.message {
-            Message::PoseIn(s) => {
-                w.out[5] = KIND_POSE_IN;
-                w.sample(s);
-            }
+            Message::PoseIn(s) => put_sample(&mut w, s),
             Message::PoseInFlags { sample, flags } => {
-                w.out[5] = KIND_POSE_IN_FLAGS;
-                w.sample(sample);
-                w.bytes(&flags.to_le_bytes());
+                put_sample(&mut w, sample);
+                w.put(&flags.to_le_bytes());
             }
             Message::WrenchOut { wrench, frame } => {
-                w.out[5] = KIND_WRENCH_OUT;
-                w.vec3(wrench.force);
-                w.vec3(wrench.torque);
-                w.bytes(&frame.to_le_bytes());
+                w.f64s(&wrench.force.to_array());
+                w.f64s(&wrench.torque.to_array());
+                w.put(&frame.to_le_bytes());
             }
         }
-        w.pos
+        w.position()
     }
 
     /// Decodes and validates one datagram. Does not allocate or panic.
@@ -305,32 +303,14 @@ fn decode_wrench(payload: &[u8]) -> Result<Message, ProtocolError> {
     Ok(Message::WrenchOut { wrench, frame })
 }
 
-/// Sequential little-endian writer into a fixed buffer large enough for any message.
-struct Writer<'a> {
-    out: &'a mut [u8; MAX_DATAGRAM],
-    pos: usize,
-}
-
-impl Writer<'_> {
-    fn bytes(&mut self, b: &[u8]) {
-        self.out[self.pos..self.pos + b.len()].copy_from_slice(b);
-        self.pos += b.len();
-    }
-    fn f64s(&mut self, v: &[f64]) {
-        for x in v {
-            self.bytes(&x.to_le_bytes());
-        }
-    }
-    fn vec3(&mut self, v: DVec3) {
-        self.f64s(&v.to_array());
-    }
-    fn sample(&mut self, s: &HandleSample) {
-        self.vec3(s.position);
-        let q = s.orientation;
-        self.f64s(&[q.x, q.y, q.z, q.w]);
-        self.vec3(s.linear_velocity);
-        self.vec3(s.angular_velocity);
-    }
+/// Writes a handle sample: position (m), orientation quaternion `x, y, z, w`, linear velocity
+/// (m/s), angular velocity (rad/s), each component an `f64`.
+fn put_sample(w: &mut SliceWriter, s: &HandleSample) {
+    let q = s.orientation;
+    w.f64s(&s.position.to_array());
+    w.f64s(&[q.x, q.y, q.z, q.w]);
+    w.f64s(&s.linear_velocity.to_array());
+    w.f64s(&s.angular_velocity.to_array());
 }
 
 #[cfg(test)]
