@@ -13,6 +13,8 @@
 //!
 //! None of this is on a frame path; everything may allocate and panic on failure (these are
 //! test fixtures).
+//!
+//! Where this crate sits in vps: `docs/architecture.md#crates` at the repository root.
 
 #[cfg(feature = "cluster")]
 pub mod cluster;

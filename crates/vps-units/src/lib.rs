@@ -1,6 +1,8 @@
 //! Numbers written with a unit suffix: `0.005`, `5mm`, `1.5 ms`, `16GiB`. Each caller names its
 //! own units and scales (lengths in m, durations in s, sizes in bytes), checks the range of the
 //! result and words its own error; this crate only splits the suffix off and scales the number.
+//!
+//! Where this crate sits in vps: `docs/architecture.md#crates` at the repository root.
 
 /// `text` (trimmed) as a number times the scale of its unit suffix: the first `(suffix, scale)`
 /// of `units` that `text` ends with is stripped (white space between the number and the unit is

@@ -2,6 +2,8 @@
 //! (`vps-cluster`) and the device bridge's datagrams (`vps-input`) are encoded with. Sizes are the
 //! caller's: each message's length is fixed by its format and its buffer is at least that long, so
 //! the writer does not check (a write past the end of the buffer panics). Does not allocate.
+//!
+//! Where this crate sits in vps: `docs/architecture.md#crates` at the repository root.
 
 /// Sequential writer into `bytes`, starting at a given offset (after a header the caller wrote).
 pub struct SliceWriter<'a> {
