@@ -745,6 +745,7 @@ impl Wire {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use vps_testkit::scene_edit::{bad_scenes, SceneEdit};
 
     const GOOD: &str = r#"
 name = "t"
@@ -836,79 +837,73 @@ max = [0.4, 0.1, 0.2]
 
     #[test]
     fn errors_name_the_file_and_field() {
-        /// The good scene with `from` replaced by `to`: its error names `field`.
-        struct Edit {
-            from: &'static str,
-            to: &'static str,
-            field: &'static str,
-        }
         let replaced = [
-            Edit {
+            SceneEdit {
                 from: "voxel_width = 2",
                 to: "voxel_width = 3",
                 field: "`voxels.voxel_width`",
             },
-            Edit {
+            SceneEdit {
                 from: "voxel_size = 0.005",
                 to: "voxel_size = -1.0",
                 field: "`voxels.voxel_size`",
             },
-            Edit {
+            SceneEdit {
                 from: "voxel_size = 0.005",
                 to: "voxel_size = \"fast\"",
                 field: "`voxels.voxel_size`",
             },
-            Edit {
+            SceneEdit {
                 from: "spacing = 0.05",
                 to: "spacing = 0.0",
                 field: "`corridor.spacing`",
             },
-            Edit {
+            SceneEdit {
                 from: "spacing = 0.05",
                 to: "spacing = 1e-9",
                 field: "`corridor.spacing`",
             },
-            Edit {
+            SceneEdit {
                 from: "max = [0.4, 0.1, 0.2]",
                 to: "max = [0.4, -0.2, 0.2]",
                 field: "`workspace`",
             },
-            Edit {
+            SceneEdit {
                 from: "scale = [4.0, 1.0, 0.5]",
                 to: "scale = [4.0, 0.0, 0.5]",
                 field: "`static[0].scale`",
             },
-            Edit {
+            SceneEdit {
                 from: "scale = [4.0, 1.0, 0.5]",
                 to: "units = \"mmm\"",
                 field: "`static[0].units`",
             },
-            Edit {
+            SceneEdit {
                 from: "braking = true",
                 to: "braking = true\nbrake = 1",
                 field: "brake",
             },
-            Edit {
+            SceneEdit {
                 from: "braking = true",
                 to: "braking = 1",
                 field: "`voxels.braking`",
             },
-            Edit {
+            SceneEdit {
                 from: "shell_method = \"exact\"",
                 to: "shell_method = \"dots\"",
                 field: "dots",
             },
-            Edit {
+            SceneEdit {
                 from: "part = \"builtin:teapot\"\n",
                 to: "",
                 field: "part",
             },
-            Edit {
+            SceneEdit {
                 from: "part = \"builtin:teapot\"\n",
                 to: "[part]\nsource = \"x.stl\"\ngrp = [0, 0, 0]\n",
                 field: "grp",
             },
-            Edit {
+            SceneEdit {
                 from: "[corridor]",
                 to: "[hand]\nwaypoints = []\n[corridor]",
                 field: "corridor",
@@ -935,15 +930,7 @@ max = [0.4, 0.1, 0.2]
                 "`device.mapping.offset`",
             ),
         ];
-        let cases = replaced
-            .iter()
-            .map(|e| (GOOD.replace(e.from, e.to), e.field))
-            .chain(
-                appended
-                    .iter()
-                    .map(|(tail, field)| (format!("{GOOD}{tail}"), *field)),
-            );
-        for (text, field) in cases {
+        for (text, field) in bad_scenes(GOOD, &replaced, &appended) {
             let err = parse(&text).unwrap_err().to_string();
             assert!(err.starts_with("scene.toml"), "{err}");
             assert!(err.contains(field), "{field} not named in: {err}");
