@@ -227,6 +227,23 @@ pub struct NetemRelayArgs {
     pub json: bool,
 }
 
+/// The TLS identity of a cluster service (`vps worker`, `vps coordinator`): its own certificate
+/// and key, and the certificates of the peers it accepts.
+#[derive(Args, Debug, Clone, Default, PartialEq)]
+pub struct IdentityArgs {
+    /// This worker's or coordinator's certificate (PEM). Required, here or in the config file.
+    #[arg(long)]
+    pub cert: Option<PathBuf>,
+    /// This worker's or coordinator's private key (PEM). Required, here or in the config file.
+    #[arg(long)]
+    pub key: Option<PathBuf>,
+    /// A peer certificate to accept (a worker pins its coordinator's, a coordinator its workers'),
+    /// or a directory of them (*.crt); repeatable; any other is refused (and logged by a
+    /// coordinator). At least one, here or in the config file (`pins`).
+    #[arg(long)]
+    pub pin: Vec<PathBuf>,
+}
+
 /// Arguments of `vps worker`.
 #[derive(Args, Debug)]
 pub struct WorkerArgs {
@@ -237,16 +254,9 @@ pub struct WorkerArgs {
     /// The coordinator's address (IP:port). Required, here or in the config file.
     #[arg(long)]
     pub coordinator: Option<std::net::SocketAddr>,
-    /// This worker's certificate (PEM). Required, here or in the config file.
-    #[arg(long)]
-    pub cert: Option<PathBuf>,
-    /// This worker's private key (PEM). Required, here or in the config file.
-    #[arg(long)]
-    pub key: Option<PathBuf>,
-    /// A coordinator certificate to accept, or a directory of them (*.crt); repeatable; any
-    /// other is refused. At least one, here or in the config file (`pins`).
-    #[arg(long)]
-    pub pin: Vec<PathBuf>,
+    /// This worker's certificate, key and pinned coordinator certificates.
+    #[command(flatten)]
+    pub identity: IdentityArgs,
     /// Directory to cache scenes in, by content hash.
     #[arg(long)]
     pub cache: Option<PathBuf>,
@@ -271,16 +281,9 @@ pub struct CoordinatorArgs {
     /// Address to listen on (UDP, QUIC).
     #[arg(long, default_value = "0.0.0.0:7800")]
     pub listen: std::net::SocketAddr,
-    /// The coordinator's certificate (PEM). Required, here or in the config file.
-    #[arg(long)]
-    pub cert: Option<PathBuf>,
-    /// The coordinator's private key (PEM). Required, here or in the config file.
-    #[arg(long)]
-    pub key: Option<PathBuf>,
-    /// A worker certificate to admit, or a directory of them (*.crt); repeatable; any other is
-    /// refused and logged. At least one, here or in the config file (`pins`).
-    #[arg(long)]
-    pub pin: Vec<PathBuf>,
+    /// The coordinator's certificate, key and pinned worker certificates.
+    #[command(flatten)]
+    pub identity: IdentityArgs,
     /// Workers to wait for before the session starts.
     #[arg(long, default_value_t = 1)]
     pub workers: usize,
@@ -502,6 +505,15 @@ pub struct VoxelizeArgs {
     /// Voxelize only the region the part can reach: MINX,MINY,MINZ,MAXX,MAXY,MAXZ (m).
     #[arg(long)]
     pub workspace: Option<String>,
+    /// The memory budget, the output file and the report's format.
+    #[command(flatten)]
+    pub build: BuildArgs,
+}
+
+/// What a command building a file from a mesh (`vps voxelize`, `vps shell`) may spend, where it
+/// writes, and how it reports.
+#[derive(Args, Debug)]
+pub struct BuildArgs {
     /// Working-memory budget: the voxelizer estimates its peak from the plan before working and
     /// refuses above it (bytes, or 16GiB, 512MiB, 8GB; default half of physical memory).
     #[arg(long, value_parser = parse_bytes, value_name = "SIZE")]
@@ -534,16 +546,9 @@ pub struct ShellArgs {
     /// Point placement.
     #[arg(long, value_enum, default_value_t = ShellMethodArg::Centres)]
     pub method: ShellMethodArg,
-    /// Working-memory budget: the voxelizer estimates its peak from the plan before working and
-    /// refuses above it (bytes, or 16GiB, 512MiB, 8GB; default half of physical memory).
-    #[arg(long, value_parser = parse_bytes, value_name = "SIZE")]
-    pub max_memory: Option<u64>,
-    /// Output file.
-    #[arg(short, long)]
-    pub output: PathBuf,
-    /// Print the statistics as JSON.
-    #[arg(long)]
-    pub json: bool,
+    /// The memory budget, the output file and the report's format.
+    #[command(flatten)]
+    pub build: BuildArgs,
 }
 
 /// Arguments of `vps inspect`.

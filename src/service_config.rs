@@ -7,7 +7,7 @@
 //! the command line overrides the file's value. A `pins` entry (and a `--pin`) may name a directory:
 //! every `*.crt` in it is pinned.
 
-use crate::cli::{CoordinatorArgs, WorkerArgs};
+use crate::cli::{CoordinatorArgs, IdentityArgs, WorkerArgs};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::parser::ValueSource;
 use clap::ArgMatches;
@@ -148,9 +148,7 @@ pub fn resolve_worker(args: &mut WorkerArgs, matches: &ArgMatches) -> Result<()>
             &mut args.coordinator,
             f.coordinator.map(Some),
         );
-        take(matches, "cert", &mut args.cert, f.cert.map(Some));
-        take(matches, "key", &mut args.key, f.key.map(Some));
-        take(matches, "pin", &mut args.pin, f.pins);
+        take_identity(matches, &mut args.identity, f.cert, f.key, f.pins);
         take(matches, "cache", &mut args.cache, f.cache.map(Some));
         take(matches, "threads", &mut args.threads, threads.map(Some));
         take(
@@ -164,7 +162,7 @@ pub fn resolve_worker(args: &mut WorkerArgs, matches: &ArgMatches) -> Result<()>
     if args.coordinator.is_none() {
         bail!(from("--coordinator ADDR", "coordinator"));
     }
-    check_identity(args.cert.is_some(), args.key.is_some(), &args.pin, from)
+    check_identity(&args.identity, from)
 }
 
 /// `vps coordinator`: merges `--config FILE` (when given) under the command-line flags of
@@ -192,9 +190,7 @@ pub fn resolve_coordinator(args: &mut CoordinatorArgs, matches: &ArgMatches) -> 
         )?;
         let s = &mut args.session;
         take(matches, "listen", &mut args.listen, f.listen);
-        take(matches, "cert", &mut args.cert, f.cert.map(Some));
-        take(matches, "key", &mut args.key, f.key.map(Some));
-        take(matches, "pin", &mut args.pin, f.pins);
+        take_identity(matches, &mut args.identity, f.cert, f.key, f.pins);
         take(matches, "workers", &mut args.workers, f.workers);
         take(matches, "scene", &mut s.scene.scene, f.scene);
         take(matches, "no_cache", &mut s.scene.no_cache, f.no_cache);
@@ -223,7 +219,7 @@ pub fn resolve_coordinator(args: &mut CoordinatorArgs, matches: &ArgMatches) -> 
         );
     }
     let from = |flag: &str, key: &str| needed("vps coordinator", flag, key);
-    check_identity(args.cert.is_some(), args.key.is_some(), &args.pin, from)
+    check_identity(&args.identity, from)
 }
 
 /// The error for a required setting given neither as a flag nor in the config file.
@@ -231,20 +227,29 @@ fn needed(command: &str, flag: &str, key: &str) -> String {
     format!("{command}: give {flag}, or `{key}` in the --config file")
 }
 
+/// Sets the identity's certificate, key and pins to a config file's `cert`, `key` and `pins`
+/// where the command line did not give `--cert`, `--key` or `--pin`.
+fn take_identity(
+    matches: &ArgMatches,
+    identity: &mut IdentityArgs,
+    cert: Option<PathBuf>,
+    key: Option<PathBuf>,
+    pins: Option<Vec<PathBuf>>,
+) {
+    take(matches, "cert", &mut identity.cert, cert.map(Some));
+    take(matches, "key", &mut identity.key, key.map(Some));
+    take(matches, "pin", &mut identity.pin, pins);
+}
+
 /// A service needs its certificate, its key and at least one pinned certificate.
-fn check_identity(
-    cert: bool,
-    key: bool,
-    pins: &[PathBuf],
-    from: impl Fn(&str, &str) -> String,
-) -> Result<()> {
-    if !cert {
+fn check_identity(identity: &IdentityArgs, from: impl Fn(&str, &str) -> String) -> Result<()> {
+    if identity.cert.is_none() {
         bail!(from("--cert FILE", "cert"));
     }
-    if !key {
+    if identity.key.is_none() {
         bail!(from("--key FILE", "key"));
     }
-    if pins.is_empty() {
+    if identity.pin.is_empty() {
         bail!(from("--pin FILE (repeatable)", "pins"));
     }
     Ok(())
@@ -315,14 +320,20 @@ mod tests {
         assert_eq!(args.workers, 2);
         assert_eq!(args.session.voxel_size, Some(0.005));
         assert_eq!(args.gather.spin_us, 100);
-        assert_eq!(args.cert, Some(PathBuf::from("/etc/vps/coordinator.crt")));
+        assert_eq!(
+            args.identity.cert,
+            Some(PathBuf::from("/etc/vps/coordinator.crt"))
+        );
         let path = repo("configs/worker.toml");
         let Command::Worker(args) =
             parsed(&["vps", "worker", "--config", path.to_str().unwrap()]).unwrap()
         else {
             panic!("not a worker")
         };
-        assert_eq!(args.key, Some(PathBuf::from("/etc/vps/worker.key")));
+        assert_eq!(
+            args.identity.key,
+            Some(PathBuf::from("/etc/vps/worker.key"))
+        );
     }
 
     #[test]
@@ -381,7 +392,7 @@ mod tests {
         };
         assert_eq!(args.workers, 5);
         assert_eq!(args.gather.spin_us, 7);
-        assert_eq!(args.pin, vec![PathBuf::from("/tmp/a.crt")]);
+        assert_eq!(args.identity.pin, vec![PathBuf::from("/tmp/a.crt")]);
         // Keys not overridden still come from the file.
         assert_eq!(args.gather.max_stale_frames, 3);
         let path = repo("configs/worker.toml");

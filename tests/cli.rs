@@ -8,20 +8,24 @@ fn sandbox() -> Vps {
     Vps::new(env!("CARGO_BIN_EXE_vps"))
 }
 
+/// `vps COMMAND MESH --voxel-size 5mm -o OUT --json` (`voxelize` or `shell`), then
+/// `vps inspect OUT --json`: the two reports.
+fn build_and_inspect(
+    vps: &Vps,
+    command: &str,
+    mesh: &str,
+    out: &str,
+) -> (serde_json::Value, serde_json::Value) {
+    let made = json(&vps.run(&[command, mesh, "--voxel-size", "5mm", "-o", out, "--json"]));
+    let info = json(&vps.run(&["inspect", out, "--json"]));
+    (made, info)
+}
+
 #[test]
 fn voxelize_inspect_probe_round_trip_on_builtin_sphere() {
     let vps = sandbox();
     let vmap = vps.path("sphere.vmap");
-    let made = json(&vps.run(&[
-        "voxelize",
-        "builtin:sphere",
-        "--voxel-size",
-        "5mm",
-        "-o",
-        &vmap,
-        "--json",
-    ]));
-    let info = json(&vps.run(&["inspect", &vmap, "--json"]));
+    let (made, info) = build_and_inspect(&vps, "voxelize", "builtin:sphere", &vmap);
     assert_eq!(
         made["hash"], info["hash"],
         "hash survives the file round trip"
@@ -90,16 +94,7 @@ fn bad_arguments_are_rejected_with_a_message() {
 fn shell_file_round_trip() {
     let vps = sandbox();
     let shell = vps.path("teapot.vshell");
-    let made = json(&vps.run(&[
-        "shell",
-        "builtin:teapot",
-        "--voxel-size",
-        "5mm",
-        "-o",
-        &shell,
-        "--json",
-    ]));
-    let info = json(&vps.run(&["inspect", &shell, "--json"]));
+    let (made, info) = build_and_inspect(&vps, "shell", "builtin:teapot", &shell);
     assert_eq!(made["points"], info["points"]);
     assert!(info["points"].as_u64().unwrap() > 100);
 }

@@ -4,6 +4,7 @@
 
 use std::path::Path;
 use vps_testkit::process::{json, stderr, Vps};
+use vps_testkit::scene_edit::{bad_scenes, SceneEdit};
 
 /// Corners of an axis-aligned box and its 12 triangles, wound outward.
 fn cuboid(min: [f64; 3], max: [f64; 3]) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
@@ -237,57 +238,62 @@ fn the_voxmap_cache_is_used_and_rebuilt_when_an_input_changes() {
 #[test]
 fn bad_scene_files_name_the_file_and_field_and_run_nothing() {
     let bay = bay();
-    let cases = [
+    let replaced = [
+        SceneEdit {
+            from: "[voxels]",
+            to: "[voxels]\nvoxel_sise = 0.005",
+            field: "voxels.voxel_sise",
+        },
+        SceneEdit {
+            from: "speed = 0.08",
+            to: "speed = \"fast\"",
+            field: "hand.speed",
+        },
+        SceneEdit {
+            from: "voxel_size = \"5mm\"",
+            to: "voxel_size = -0.005",
+            field: "voxels.voxel_size",
+        },
+        SceneEdit {
+            from: "source = \"floor.obj\"",
+            to: "source = \"missing.obj\"",
+            field: "static[0].source",
+        },
+        SceneEdit {
+            from: "units = \"mm\"\nrotate_deg = [-90",
+            to: "units = \"milimetres\"\nrotate_deg = [-90",
+            field: "part.units",
+        },
+        // The part left in metres: 30 m across in a 0.2 m bay.
+        SceneEdit {
+            from: "units = \"mm\"\nrotate_deg = [-90",
+            to: "rotate_deg = [-90",
+            field: "`part`",
+        },
+        SceneEdit {
+            from: "voxel_size = \"5mm\"",
+            to: "voxel_size = \"1um\"",
+            field: "voxels.voxel_size",
+        },
+    ];
+    // (appended, field): the bay scene with `appended` after it names `field`.
+    let appended = [
         (
-            SCENE.replace("[voxels]", "[voxels]\nvoxel_sise = 0.005"),
-            "voxels.voxel_sise",
-        ),
-        (
-            SCENE.replace("speed = 0.08", "speed = \"fast\""),
-            "hand.speed",
-        ),
-        (
-            SCENE.replace("voxel_size = \"5mm\"", "voxel_size = -0.005"),
-            "voxels.voxel_size",
-        ),
-        (
-            SCENE.replace("source = \"floor.obj\"", "source = \"missing.obj\""),
-            "static[0].source",
-        ),
-        (
-            SCENE.replace(
-                "units = \"mm\"\nrotate_deg = [-90",
-                "units = \"milimetres\"\nrotate_deg = [-90",
-            ),
-            "part.units",
-        ),
-        (
-            // The part left in metres: 30 m across in a 0.2 m bay.
-            SCENE.replace("units = \"mm\"\nrotate_deg = [-90", "rotate_deg = [-90"),
-            "`part`",
-        ),
-        (
-            SCENE.replace("voxel_size = \"5mm\"", "voxel_size = \"1um\""),
-            "voxels.voxel_size",
-        ),
-        (
-            format!("{SCENE}[device]\nkind = \"bridge\"\n[device.mapping]\nscale = 0.0\n"),
+            "[device]\nkind = \"bridge\"\n[device.mapping]\nscale = 0.0\n",
             "device.mapping.scale",
         ),
         (
-            format!("{SCENE}[device]\nkind = \"bridge\"\npose_timeout_ms = 1\n"),
+            "[device]\nkind = \"bridge\"\npose_timeout_ms = 1\n",
             "device.pose_timeout_ms",
         ),
+        ("[device]\nmax_force = 0.0\n", "device.max_force"),
+        // The old haptic key of the device limit names where the limit lives now.
         (
-            format!("{SCENE}[device]\nmax_force = 0.0\n"),
-            "device.max_force",
-        ),
-        (
-            // The old haptic key of the device limit names where the limit lives now.
-            format!("{SCENE}[haptic]\ndevice_max_force = 15.0\n"),
+            "[haptic]\ndevice_max_force = 15.0\n",
             "`[device]` key `max_force`",
         ),
     ];
+    let cases = bad_scenes(SCENE, &replaced, &appended);
     for (i, (text, field)) in cases.iter().enumerate() {
         let name = format!("bad{i}.toml");
         std::fs::write(bay.dir().join(&name), text).unwrap();

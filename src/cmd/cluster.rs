@@ -34,11 +34,12 @@ const EXIT_REFUSED: i32 = 2;
 /// flags override the `--config` file's settings.
 pub fn worker(mut args: WorkerArgs, matches: &ArgMatches) -> Result<()> {
     resolve_worker(&mut args, matches)?;
-    let (Some(coordinator), Some(cert), Some(key)) = (args.coordinator, &args.cert, &args.key)
+    let (Some(coordinator), Some(cert), Some(key)) =
+        (args.coordinator, &args.identity.cert, &args.identity.key)
     else {
         bail!("vps worker: --coordinator, --cert and --key are required");
     };
-    let pins = expand_pins(&args.pin)?;
+    let pins = expand_pins(&args.identity.pin)?;
     let mut config = WorkerConfig::from_files(coordinator, cert, key, &pins)?;
     config.cache_dir = args.cache.clone();
     if let Some(threads) = args.threads {
@@ -74,10 +75,10 @@ pub fn worker(mut args: WorkerArgs, matches: &ArgMatches) -> Result<()> {
 /// `matches` (the subcommand's) tell which flags override the `--config` file's settings.
 pub fn coordinator(mut args: CoordinatorArgs, matches: &ArgMatches) -> Result<()> {
     resolve_coordinator(&mut args, matches)?;
-    let (Some(cert), Some(key)) = (&args.cert, &args.key) else {
+    let (Some(cert), Some(key)) = (&args.identity.cert, &args.identity.key) else {
         bail!("vps coordinator: --cert and --key are required");
     };
-    let pins = expand_pins(&args.pin)?;
+    let pins = expand_pins(&args.identity.pin)?;
     let outputs = SessionOutputs::reserve(&args.session)?;
     coordinate(
         &args.session,

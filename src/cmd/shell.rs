@@ -37,22 +37,23 @@ pub fn method_of(arg: ShellMethodArg) -> ShellMethod {
 
 /// Runs the command.
 pub fn run(args: &ShellArgs) -> Result<()> {
-    check_output_path(&args.output, &crate::output::mesh_inputs(&args.mesh))?;
+    check_output_path(&args.build.output, &crate::output::mesh_inputs(&args.mesh))?;
     let scene = mesh_source::load(&args.mesh)?;
     let budget = args
+        .build
         .max_memory
         .unwrap_or_else(vps_voxelize::default_memory_budget);
     let shell = point_shell_within(&scene.mesh, args.voxel_size, method_of(args.method), budget)
         .with_context(|| format!("building the point shell of {}", scene.source))?;
-    vps_voxmap::file::save_shell(&shell, &args.output)?;
+    vps_voxmap::file::save_shell(&shell, &args.build.output)?;
     let summary = ShellSummary {
         source: scene.source,
-        output: args.output.display().to_string(),
+        output: args.build.output.display().to_string(),
         method: match shell.method {
             ShellMethod::VoxelCentres => "voxel-centres",
             ShellMethod::ExactSurface => "exact-surface",
         },
         figures: ShellFigures::of(&shell),
     };
-    print_summary(&summary, args.json)
+    print_summary(&summary, args.build.json)
 }

@@ -31,7 +31,7 @@ struct VoxelizeSummary {
 
 /// Runs the command.
 pub fn run(args: &VoxelizeArgs) -> Result<()> {
-    check_output_path(&args.output, &crate::output::mesh_inputs(&args.mesh))?;
+    check_output_path(&args.build.output, &crate::output::mesh_inputs(&args.mesh))?;
     let scene = mesh_source::load(&args.mesh)?;
     let Some(width) = VoxelWidth::from_bits(args.width) else {
         bail!("--width {}: must be 2, 4 or 8", args.width);
@@ -40,13 +40,13 @@ pub fn run(args: &VoxelizeArgs) -> Result<()> {
     let opts = VoxelizeOptions {
         voxel_size: args.voxel_size,
         offset_layers: args.offset,
-        progress: !args.json,
+        progress: !args.build.json,
         width,
         workspace,
         ..VoxelizeOptions::default()
     };
     let opts = VoxelizeOptions {
-        max_memory_bytes: args.max_memory.unwrap_or(opts.max_memory_bytes),
+        max_memory_bytes: args.build.max_memory.unwrap_or(opts.max_memory_bytes),
         ..opts
     };
     let (tree, stats) = voxelize_tree(
@@ -56,10 +56,10 @@ pub fn run(args: &VoxelizeArgs) -> Result<()> {
     )
     .with_context(|| format!("voxelizing {}", scene.source))?;
     let tree_ms = stats.output_ms;
-    vps_voxmap::file::save_voxmap(&tree, &args.output)?;
+    vps_voxmap::file::save_voxmap(&tree, &args.build.output)?;
     let summary = VoxelizeSummary {
         source: scene.source,
-        output: args.output.display().to_string(),
+        output: args.build.output.display().to_string(),
         triangles: stats.triangles,
         degenerate_dropped: scene.degenerate_dropped,
         voxel_size_m: args.voxel_size,
@@ -76,7 +76,7 @@ pub fn run(args: &VoxelizeArgs) -> Result<()> {
         counts: crate::output::KindCounts::from(tree.counts()),
         hash: hex(&tree.content_hash()),
     };
-    print_summary(&summary, args.json)
+    print_summary(&summary, args.build.json)
 }
 
 impl std::fmt::Display for VoxelizeSummary {

@@ -80,15 +80,11 @@ fn end_with_fake<T>(
     worker.join().unwrap();
 }
 
-/// A coordinator on `scene` with one hand-driven worker joined over real QUIC.
-struct OneFake {
-    coordinator: vps_cluster::Coordinator,
-    addr: std::net::SocketAddr,
-    fake: FakeWorker,
-    conn: quinn::Connection,
-}
-
-fn coordinator_with_one_fake(scene: &std::sync::Arc<vps_cluster::ClusterAssets>) -> OneFake {
+/// A coordinator on `scene` with one hand-driven worker joined over real QUIC: the coordinator,
+/// the worker and its connection (the coordinator's address is `coordinator.local_addr()`).
+fn coordinator_with_one_fake(
+    scene: &std::sync::Arc<vps_cluster::ClusterAssets>,
+) -> (vps_cluster::Coordinator, FakeWorker, quinn::Connection) {
     let ids = identities();
     let coordinator = start_coordinator(&ids, scene.clone());
     let addr = coordinator.local_addr().unwrap();
@@ -99,23 +95,13 @@ fn coordinator_with_one_fake(scene: &std::sync::Arc<vps_cluster::ClusterAssets>)
     coordinator
         .wait_for_workers(1, Duration::from_secs(8))
         .unwrap();
-    OneFake {
-        coordinator,
-        addr,
-        fake,
-        conn,
-    }
+    (coordinator, fake, conn)
 }
 
 #[test]
 fn a_silent_worker_is_benched_and_a_recovered_one_gets_work_again() {
     let scene = scene();
-    let OneFake {
-        coordinator,
-        addr: _,
-        fake,
-        conn,
-    } = coordinator_with_one_fake(&scene);
+    let (coordinator, fake, conn) = coordinator_with_one_fake(&scene);
     let config = GatherConfig {
         bench_after: 3,
         probe_every: 2,
@@ -142,12 +128,8 @@ fn a_silent_worker_is_benched_and_a_recovered_one_gets_work_again() {
 #[test]
 fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
     let scene = scene();
-    let OneFake {
-        coordinator,
-        addr,
-        fake,
-        conn,
-    } = coordinator_with_one_fake(&scene);
+    let (coordinator, fake, conn) = coordinator_with_one_fake(&scene);
+    let addr = coordinator.local_addr().unwrap();
     // Raw UDP garbage at the coordinator's socket: counted (0xA5 lacks QUIC's fixed bit, and the
     // short ones are shorter than any QUIC packet), dropped by quinn, nothing panics. Garbage
     // shaped like QUIC (fixed bit set) names no connection of the coordinator: counted apart.
@@ -231,12 +213,7 @@ fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
 #[test]
 fn a_worker_that_keeps_sending_implausible_sums_is_disconnected() {
     let scene = scene();
-    let OneFake {
-        coordinator,
-        fake,
-        conn,
-        ..
-    } = coordinator_with_one_fake(&scene);
+    let (coordinator, fake, conn) = coordinator_with_one_fake(&scene);
     const LIMIT: u32 = 6;
     let mut shares = coordinator
         .shares(GatherConfig {
@@ -351,12 +328,7 @@ fn run_with_one_slow_worker(
     frames: usize,
 ) -> (Vec<u32>, vps_cluster::PeerReport) {
     let scene = scene();
-    let OneFake {
-        coordinator,
-        addr: _,
-        fake,
-        conn,
-    } = coordinator_with_one_fake(&scene);
+    let (coordinator, fake, conn) = coordinator_with_one_fake(&scene);
     let config = GatherConfig {
         bench_after: u32::MAX,
         log_every: None,
@@ -413,12 +385,7 @@ fn frames_after_the_worker_falls_silent(
     stale: vps_cluster::fallback::StalePolicy,
     poses: &[vps_haptic::KernelPose],
 ) -> (Vec<vps_runtime::PoolResult>, vps_cluster::ClusterReport) {
-    let OneFake {
-        coordinator,
-        addr: _,
-        fake,
-        conn,
-    } = coordinator_with_one_fake(scene);
+    let (coordinator, fake, conn) = coordinator_with_one_fake(scene);
     let config = GatherConfig {
         adaptive_shares: false,
         log_every: None,

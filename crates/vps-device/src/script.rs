@@ -276,13 +276,34 @@ pub struct SurfaceContact {
     pub orientation: DQuat,
 }
 
+/// Where a press into a [`SurfaceContact`] starts and ends.
+struct PressPoints {
+    /// The contact's outward normal, normalised.
+    normal: DVec3,
+    /// `standoff` (m) out from the touching position along the normal.
+    above: DVec3,
+    /// `pace.press_depth` (m) past the touching position, along −normal.
+    pressed: DVec3,
+}
+
 impl SurfaceContact {
+    /// The points of a press from `standoff` (m) out to `pace.press_depth` (m) in. Errors name
+    /// `normal` (zero or non-finite), `standoff` or `press_depth` (negative or non-finite), in
+    /// that order.
+    fn press_points(&self, standoff: f64, pace: &Pace) -> Result<PressPoints, ScriptError> {
+        let normal = unit(self.normal, "normal")?;
+        Ok(PressPoints {
+            normal,
+            above: self.point + non_negative(standoff, "standoff")? * normal,
+            pressed: self.point - non_negative(pace.press_depth, "press_depth")? * normal,
+        })
+    }
+
     /// A script that starts at `start` and moves at `pace.speed` to `pace.press_depth` (m) past
     /// the touching position, along −normal. Errors name `normal` (zero or non-finite) or
     /// `press_depth` (negative or non-finite).
     fn press_from(&self, start: DVec3, pace: &Pace) -> Result<ScriptBuilder, ScriptError> {
-        let n = unit(self.normal, "normal")?;
-        let pressed = self.point - non_negative(pace.press_depth, "press_depth")? * n;
+        let pressed = self.press_points(0.0, pace)?.pressed;
         Ok(ScriptBuilder::start(start, self.orientation).move_to(pressed, pace.speed))
     }
 }
@@ -357,8 +378,7 @@ pub fn slide_along_surface(
         direction - direction.dot(n) * n,
         "direction (tangential part)",
     )?;
-    let above = contact.point + non_negative(standoff, "standoff")? * n;
-    let pressed = contact.point - non_negative(pace.press_depth, "press_depth")? * n;
+    let PressPoints { above, pressed, .. } = contact.press_points(standoff, pace)?;
     let slid = pressed + non_negative(length, "length")? * tangent;
     ScriptBuilder::start(above, contact.orientation)
         .move_to(pressed, pace.speed)
@@ -437,9 +457,11 @@ pub fn wedge(
     twist_rate: f64,
     pace: &Pace,
 ) -> Result<Script, ScriptError> {
-    let n = unit(apex.normal, "normal")?;
-    let above = apex.point + non_negative(standoff, "standoff")? * n;
-    let pressed = apex.point - non_negative(pace.press_depth, "press_depth")? * n;
+    let PressPoints {
+        normal: n,
+        above,
+        pressed,
+    } = apex.press_points(standoff, pace)?;
     let twist = non_negative(twist, "twist")?;
     let q0 = apex.orientation;
     ScriptBuilder::start(above, q0)

@@ -37,6 +37,23 @@ fn push(dev: &mut BridgeDevice, client: &mut BridgeClient) -> vps_input::bridge:
     client.recv_wrench(DEADLINE).unwrap().expect("reply")
 }
 
+/// Reads at `t` until `accepted` poses have arrived, then checks that the part moved by `step` (m)
+/// from `from` and that [`PUSH`] comes back as 2 N along +X: the device drives the part with the
+/// mapping's scale and rotation, and forces return through it.
+fn follows(
+    dev: &mut BridgeDevice,
+    client: &mut BridgeClient,
+    t: f64,
+    accepted: u64,
+    from: &HandleSample,
+    step: DVec3,
+) {
+    let moved = read_at(dev, t, |c| c.accepted == accepted);
+    assert!(close(moved.position - from.position, step), "{moved:?}");
+    let r = push(dev, client);
+    assert!(close(r.wrench.force, DVec3::new(2.0, 0.0, 0.0)), "{r:?}");
+}
+
 fn mapping() -> WorkspaceMapping {
     WorkspaceMapping {
         scale: 5.0,
@@ -120,13 +137,14 @@ fn clutch_holds_the_target_and_release_does_not_jump() {
     client
         .send_pose_flags(&at(p1 + DVec3::new(0.01, 0.0, 0.0)), 0)
         .unwrap();
-    let moved = read_at(&mut dev, 0.003, |c| c.accepted == 5);
-    assert!(close(
-        moved.position - released.position,
-        DVec3::new(0.0, 0.05, 0.0)
-    ));
-    let r = push(&mut dev, &mut client);
-    assert!(close(r.wrench.force, DVec3::new(2.0, 0.0, 0.0)), "{r:?}");
+    follows(
+        &mut dev,
+        &mut client,
+        0.003,
+        5,
+        &released,
+        DVec3::new(0.0, 0.05, 0.0),
+    );
 
     // The session's closing zero reaches the device as exact +0.0 bits through the rotation.
     dev.write(&Wrench::ZERO).unwrap();
@@ -208,13 +226,14 @@ fn silent_device_is_zeroed_held_and_reanchored_on_resume() {
     client
         .send_pose(&at(p1 + DVec3::new(0.0, 0.0, 0.01)))
         .unwrap();
-    let moved = read_at(&mut dev, 0.301, |c| c.accepted == 3);
-    assert!(close(
-        moved.position - resumed.position,
-        DVec3::new(0.0, 0.0, 0.05)
-    ));
-    let r = push(&mut dev, &mut client);
-    assert!(close(r.wrench.force, DVec3::new(2.0, 0.0, 0.0)));
+    follows(
+        &mut dev,
+        &mut client,
+        0.301,
+        3,
+        &resumed,
+        DVec3::new(0.0, 0.0, 0.05),
+    );
     assert_eq!(dev.counters().timeouts, 1);
 }
 

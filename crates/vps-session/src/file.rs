@@ -745,6 +745,7 @@ impl Wire {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use vps_testkit::scene_edit::{bad_scenes, SceneEdit};
 
     const GOOD: &str = r#"
 name = "t"
@@ -836,89 +837,100 @@ max = [0.4, 0.1, 0.2]
 
     #[test]
     fn errors_name_the_file_and_field() {
-        let cases = [
+        let replaced = [
+            SceneEdit {
+                from: "voxel_width = 2",
+                to: "voxel_width = 3",
+                field: "`voxels.voxel_width`",
+            },
+            SceneEdit {
+                from: "voxel_size = 0.005",
+                to: "voxel_size = -1.0",
+                field: "`voxels.voxel_size`",
+            },
+            SceneEdit {
+                from: "voxel_size = 0.005",
+                to: "voxel_size = \"fast\"",
+                field: "`voxels.voxel_size`",
+            },
+            SceneEdit {
+                from: "spacing = 0.05",
+                to: "spacing = 0.0",
+                field: "`corridor.spacing`",
+            },
+            SceneEdit {
+                from: "spacing = 0.05",
+                to: "spacing = 1e-9",
+                field: "`corridor.spacing`",
+            },
+            SceneEdit {
+                from: "max = [0.4, 0.1, 0.2]",
+                to: "max = [0.4, -0.2, 0.2]",
+                field: "`workspace`",
+            },
+            SceneEdit {
+                from: "scale = [4.0, 1.0, 0.5]",
+                to: "scale = [4.0, 0.0, 0.5]",
+                field: "`static[0].scale`",
+            },
+            SceneEdit {
+                from: "scale = [4.0, 1.0, 0.5]",
+                to: "units = \"mmm\"",
+                field: "`static[0].units`",
+            },
+            SceneEdit {
+                from: "braking = true",
+                to: "braking = true\nbrake = 1",
+                field: "brake",
+            },
+            SceneEdit {
+                from: "braking = true",
+                to: "braking = 1",
+                field: "`voxels.braking`",
+            },
+            SceneEdit {
+                from: "shell_method = \"exact\"",
+                to: "shell_method = \"dots\"",
+                field: "dots",
+            },
+            SceneEdit {
+                from: "part = \"builtin:teapot\"\n",
+                to: "",
+                field: "part",
+            },
+            SceneEdit {
+                from: "part = \"builtin:teapot\"\n",
+                to: "[part]\nsource = \"x.stl\"\ngrp = [0, 0, 0]\n",
+                field: "grp",
+            },
+            SceneEdit {
+                from: "[corridor]",
+                to: "[hand]\nwaypoints = []\n[corridor]",
+                field: "corridor",
+            },
+        ];
+        // (appended, field): the scene with `appended` after it names `field`.
+        let appended = [
+            ("\n[device]\nkind = \"joystick\"\n", "`device.kind`"),
             (
-                GOOD.replace("voxel_width = 2", "voxel_width = 3"),
-                "`voxels.voxel_width`",
-            ),
-            (
-                GOOD.replace("voxel_size = 0.005", "voxel_size = -1.0"),
-                "`voxels.voxel_size`",
-            ),
-            (
-                GOOD.replace("voxel_size = 0.005", "voxel_size = \"fast\""),
-                "`voxels.voxel_size`",
-            ),
-            (
-                GOOD.replace("spacing = 0.05", "spacing = 0.0"),
-                "`corridor.spacing`",
-            ),
-            (
-                GOOD.replace("spacing = 0.05", "spacing = 1e-9"),
-                "`corridor.spacing`",
-            ),
-            (
-                GOOD.replace("max = [0.4, 0.1, 0.2]", "max = [0.4, -0.2, 0.2]"),
-                "`workspace`",
-            ),
-            (
-                GOOD.replace("scale = [4.0, 1.0, 0.5]", "scale = [4.0, 0.0, 0.5]"),
-                "`static[0].scale`",
-            ),
-            (
-                GOOD.replace("scale = [4.0, 1.0, 0.5]", "units = \"mmm\""),
-                "`static[0].units`",
-            ),
-            (
-                GOOD.replace("braking = true", "braking = true\nbrake = 1"),
-                "brake",
-            ),
-            (
-                GOOD.replace("braking = true", "braking = 1"),
-                "`voxels.braking`",
-            ),
-            (
-                GOOD.replace("shell_method = \"exact\"", "shell_method = \"dots\""),
-                "dots",
-            ),
-            (GOOD.replace("part = \"builtin:teapot\"\n", ""), "part"),
-            (
-                GOOD.replace(
-                    "part = \"builtin:teapot\"\n",
-                    "[part]\nsource = \"x.stl\"\ngrp = [0, 0, 0]\n",
-                ),
-                "grp",
-            ),
-            (
-                GOOD.replace("[corridor]", "[hand]\nwaypoints = []\n[corridor]"),
-                "corridor",
-            ),
-            (
-                format!("{GOOD}\n[device]\nkind = \"joystick\"\n"),
-                "`device.kind`",
-            ),
-            (
-                format!("{GOOD}\n[device]\nkind = \"bridge\"\npose_timeout_ms = 0\n"),
+                "\n[device]\nkind = \"bridge\"\npose_timeout_ms = 0\n",
                 "`device.pose_timeout_ms`",
             ),
             (
-                format!("{GOOD}\n[device]\nkind = \"bridge\"\n[device.mapping]\nscale = 0.0\n"),
+                "\n[device]\nkind = \"bridge\"\n[device.mapping]\nscale = 0.0\n",
                 "`device.mapping.scale`",
             ),
             (
-                format!("{GOOD}\n[device]\n[device.mapping]\nforce_scale = -1.0\n"),
+                "\n[device]\n[device.mapping]\nforce_scale = -1.0\n",
                 "`device.mapping.force_scale`",
             ),
+            ("\n[device]\n[device.mapping]\nscael = 2.0\n", "scael"),
             (
-                format!("{GOOD}\n[device]\n[device.mapping]\nscael = 2.0\n"),
-                "scael",
-            ),
-            (
-                format!("{GOOD}\n[device]\n[device.mapping]\noffset = [0.0, 1.0]\n"),
+                "\n[device]\n[device.mapping]\noffset = [0.0, 1.0]\n",
                 "`device.mapping.offset`",
             ),
         ];
-        for (text, field) in cases {
+        for (text, field) in bad_scenes(GOOD, &replaced, &appended) {
             let err = parse(&text).unwrap_err().to_string();
             assert!(err.starts_with("scene.toml"), "{err}");
             assert!(err.contains(field), "{field} not named in: {err}");

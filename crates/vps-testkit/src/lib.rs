@@ -6,6 +6,8 @@
 //! - [`device`]: a device wrapper that logs every write and fails or trips on demand.
 //! - [`full_stdout`]: the check that a command writing to a full stdout fails cleanly.
 //! - [`hand`]: the scripted simulated hand that approaches the wall and rests on it.
+//! - [`scene_edit`]: bad variants of a good scene file's text, each with the field its error
+//!   must name.
 //! - [`process`]: running the `vps` binary from the root package's tests with a private cache
 //!   directory (`VPS_CACHE_DIR`), so that tests never write into the user's cache.
 //! - `cluster` (feature `cluster`): the standard one-process session and a loopback coordinator,
@@ -23,4 +25,5 @@ pub mod full_stdout;
 pub mod hand;
 pub mod process;
 pub mod scene;
+pub mod scene_edit;
 pub mod shell;

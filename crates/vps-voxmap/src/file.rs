@@ -260,21 +260,8 @@ fn encode_voxmap_body(tree: &VoxelTree, w: &mut impl Write) -> io::Result<()> {
 }
 
 fn read_spec<R: Read>(dec: &mut Decoder<R>) -> Result<GridSpec, FileError> {
-    let voxel_size = dec.f64("voxel_size")?;
-    if !(voxel_size.is_finite() && voxel_size > 0.0) {
-        return Err(invalid(
-            "voxel_size",
-            format!("{voxel_size} is not finite and > 0"),
-        ));
-    }
-    let origin = DVec3::new(
-        dec.f64("origin.x")?,
-        dec.f64("origin.y")?,
-        dec.f64("origin.z")?,
-    );
-    if !origin.is_finite() {
-        return Err(invalid("origin", format!("{origin} is not finite")));
-    }
+    let voxel_size = dec.f64_positive("voxel_size")?;
+    let origin = dec.dvec3_finite("origin", ["origin.x", "origin.y", "origin.z"])?;
     let dims = [
         dec.u32("dims[0]")?,
         dec.u32("dims[1]")?,
@@ -354,40 +341,22 @@ pub fn read_shell_sized(r: impl Read, len: u64) -> Result<PointShell, FileError>
 fn decode_shell(mut dec: Decoder<impl Read>) -> Result<PointShell, FileError> {
     dec.magic(SHELL_MAGIC)?;
     dec.version(SHELL_VERSION)?;
-    let voxel_size = dec.f64("voxel_size")?;
-    if !(voxel_size.is_finite() && voxel_size > 0.0) {
-        return Err(invalid(
-            "voxel_size",
-            format!("{voxel_size} is not finite and > 0"),
-        ));
-    }
+    let voxel_size = dec.f64_positive("voxel_size")?;
     let method = match dec.u8("method")? {
         0 => ShellMethod::VoxelCentres,
         1 => ShellMethod::ExactSurface,
         m => return Err(invalid("method", format!("{m} is not 0 or 1"))),
     };
-    let volume = dec.f64("mass.volume")?;
-    if !(volume.is_finite() && volume >= 0.0) {
-        return Err(invalid(
-            "mass.volume",
-            format!("{volume} is not finite and >= 0"),
-        ));
-    }
-    let center_of_mass = DVec3::new(
-        dec.f64("mass.center_of_mass.x")?,
-        dec.f64("mass.center_of_mass.y")?,
-        dec.f64("mass.center_of_mass.z")?,
-    );
-    if !center_of_mass.is_finite() {
-        return Err(invalid("mass.center_of_mass", "not finite"));
-    }
-    let bounding_radius = dec.f64("mass.bounding_radius")?;
-    if !(bounding_radius.is_finite() && bounding_radius >= 0.0) {
-        return Err(invalid(
-            "mass.bounding_radius",
-            format!("{bounding_radius} is not finite and >= 0"),
-        ));
-    }
+    let volume = dec.f64_non_negative("mass.volume")?;
+    let center_of_mass = dec.dvec3_finite(
+        "mass.center_of_mass",
+        [
+            "mass.center_of_mass.x",
+            "mass.center_of_mass.y",
+            "mass.center_of_mass.z",
+        ],
+    )?;
+    let bounding_radius = dec.f64_non_negative("mass.bounding_radius")?;
     let count = dec.u64("point count")?;
     // Points and normals share the count: both arrays must fit in what is left.
     dec.check_fits("point count", count, 24)?;
@@ -645,6 +614,42 @@ impl<R: Read> Decoder<R> {
 
     fn f64(&mut self, field: &'static str) -> Result<f64, FileError> {
         Ok(f64::from_le_bytes(self.bytes(field)?))
+    }
+
+    /// An `f64` that must be finite and > 0 (a voxel size); the error names `field` and the value.
+    fn f64_positive(&mut self, field: &'static str) -> Result<f64, FileError> {
+        let v = self.f64(field)?;
+        if !(v.is_finite() && v > 0.0) {
+            return Err(invalid(field, format!("{v} is not finite and > 0")));
+        }
+        Ok(v)
+    }
+
+    /// A vector read from the `f64` fields `parts` (x, y, z) that must be finite; the error names
+    /// `field` and the vector.
+    fn dvec3_finite(
+        &mut self,
+        field: &'static str,
+        parts: [&'static str; 3],
+    ) -> Result<DVec3, FileError> {
+        let v = DVec3::new(
+            self.f64(parts[0])?,
+            self.f64(parts[1])?,
+            self.f64(parts[2])?,
+        );
+        if !v.is_finite() {
+            return Err(invalid(field, format!("{v} is not finite")));
+        }
+        Ok(v)
+    }
+
+    /// An `f64` that must be finite and >= 0; the error names `field` and the value.
+    fn f64_non_negative(&mut self, field: &'static str) -> Result<f64, FileError> {
+        let v = self.f64(field)?;
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(invalid(field, format!("{v} is not finite and >= 0")));
+        }
+        Ok(v)
     }
 
     fn magic(&mut self, expected: [u8; 8]) -> Result<(), FileError> {

@@ -220,63 +220,37 @@ mod tests {
 
     #[test]
     fn other_fields_are_named() {
-        let c = BridgeConfig {
-            velocity_timeout: 0.0,
-            ..Default::default()
-        };
-        assert!(matches!(
-            c.validate(),
-            Err(BridgeError::Config {
-                field: "velocity_timeout",
-                ..
-            })
-        ));
-        let c = BridgeConfig {
-            initial_orientation: DQuat::from_xyzw(0.0, 0.0, 0.0, 0.0),
-            ..Default::default()
-        };
-        assert!(matches!(
-            c.validate(),
-            Err(BridgeError::Config {
-                field: "initial_orientation",
-                ..
-            })
-        ));
-        for (c, field) in [
+        /// An edit of the default config, and the field its error must name.
+        type Case = (fn(&mut BridgeConfig), &'static str);
+        let cases: [Case; 5] = [
+            (|c| c.velocity_timeout = 0.0, "velocity_timeout"),
             (
-                BridgeConfig {
-                    pose_timeout: 0.0,
-                    ..Default::default()
-                },
-                "pose_timeout",
+                |c| c.initial_orientation = DQuat::from_xyzw(0.0, 0.0, 0.0, 0.0),
+                "initial_orientation",
             ),
+            (|c| c.pose_timeout = 0.0, "pose_timeout"),
             (
-                BridgeConfig {
-                    wrench_log_frames: MAX_WRENCH_LOG_FRAMES + 1,
-                    ..Default::default()
-                },
+                |c| c.wrench_log_frames = MAX_WRENCH_LOG_FRAMES + 1,
                 "wrench_log_frames",
             ),
-        ] {
+            (
+                |c| {
+                    c.limits = DeviceLimits {
+                        max_force: f64::INFINITY,
+                        max_torque: 0.1,
+                    }
+                },
+                "limits",
+            ),
+        ];
+        for (edit, field) in cases {
+            let mut c = BridgeConfig::default();
+            edit(&mut c);
             match c.validate() {
                 Err(BridgeError::Config { field: f, .. }) => assert_eq!(f, field),
                 other => panic!("{field}: {other:?}"),
             }
         }
-        let c = BridgeConfig {
-            limits: DeviceLimits {
-                max_force: f64::INFINITY,
-                max_torque: 0.1,
-            },
-            ..Default::default()
-        };
-        assert!(matches!(
-            c.validate(),
-            Err(BridgeError::Config {
-                field: "limits",
-                ..
-            })
-        ));
     }
 
     #[test]

@@ -27,9 +27,20 @@ pub struct KnownDevice {
     pub layout: Layout,
 }
 
-const fn known(vendor_id: u16, product_id: u16, name: &'static str, layout: Layout) -> KnownDevice {
+/// A product sold under Logitech's vendor id ([`VENDOR_LOGITECH`]).
+const fn logitech(product_id: u16, name: &'static str, layout: Layout) -> KnownDevice {
     KnownDevice {
-        vendor_id,
+        vendor_id: VENDOR_LOGITECH,
+        product_id,
+        name,
+        layout,
+    }
+}
+
+/// A product sold under 3Dconnexion's own vendor id ([`VENDOR_3DCONNEXION`]).
+const fn three_dconnexion(product_id: u16, name: &'static str, layout: Layout) -> KnownDevice {
+    KnownDevice {
+        vendor_id: VENDOR_3DCONNEXION,
         product_id,
         name,
         layout,
@@ -38,58 +49,27 @@ const fn known(vendor_id: u16, product_id: u16, name: &'static str, layout: Layo
 
 /// Best-known SpaceMouse-family ids (see the module docs for how reliable they are).
 pub const KNOWN_DEVICES: &[KnownDevice] = &[
-    known(VENDOR_LOGITECH, 0xc603, "SpaceMouse Plus XT", Layout::Split),
-    known(VENDOR_LOGITECH, 0xc605, "CADMan", Layout::Split),
-    known(VENDOR_LOGITECH, 0xc606, "SpaceMouse Classic", Layout::Split),
-    known(VENDOR_LOGITECH, 0xc621, "SpaceBall 5000", Layout::Split),
-    known(VENDOR_LOGITECH, 0xc623, "SpaceTraveller", Layout::Split),
-    known(VENDOR_LOGITECH, 0xc625, "SpacePilot", Layout::Split),
-    known(VENDOR_LOGITECH, 0xc626, "SpaceNavigator", Layout::Split),
-    known(VENDOR_LOGITECH, 0xc627, "SpaceExplorer", Layout::Split),
-    known(
-        VENDOR_LOGITECH,
-        0xc628,
-        "SpaceNavigator for Notebooks",
-        Layout::Split,
-    ),
-    known(VENDOR_LOGITECH, 0xc629, "SpacePilot Pro", Layout::Split),
-    known(VENDOR_LOGITECH, 0xc62b, "SpaceMouse Pro", Layout::Split),
-    known(
-        VENDOR_3DCONNEXION,
-        0xc62e,
-        "SpaceMouse Wireless (cabled)",
-        Layout::Combined,
-    ),
-    known(
-        VENDOR_3DCONNEXION,
-        0xc62f,
-        "SpaceMouse Wireless (receiver)",
-        Layout::Combined,
-    ),
-    known(
-        VENDOR_3DCONNEXION,
-        0xc631,
-        "SpaceMouse Pro Wireless (cabled)",
-        Layout::Combined,
-    ),
-    known(
-        VENDOR_3DCONNEXION,
+    logitech(0xc603, "SpaceMouse Plus XT", Layout::Split),
+    logitech(0xc605, "CADMan", Layout::Split),
+    logitech(0xc606, "SpaceMouse Classic", Layout::Split),
+    logitech(0xc621, "SpaceBall 5000", Layout::Split),
+    logitech(0xc623, "SpaceTraveller", Layout::Split),
+    logitech(0xc625, "SpacePilot", Layout::Split),
+    logitech(0xc626, "SpaceNavigator", Layout::Split),
+    logitech(0xc627, "SpaceExplorer", Layout::Split),
+    logitech(0xc628, "SpaceNavigator for Notebooks", Layout::Split),
+    logitech(0xc629, "SpacePilot Pro", Layout::Split),
+    logitech(0xc62b, "SpaceMouse Pro", Layout::Split),
+    three_dconnexion(0xc62e, "SpaceMouse Wireless (cabled)", Layout::Combined),
+    three_dconnexion(0xc62f, "SpaceMouse Wireless (receiver)", Layout::Combined),
+    three_dconnexion(0xc631, "SpaceMouse Pro Wireless (cabled)", Layout::Combined),
+    three_dconnexion(
         0xc632,
         "SpaceMouse Pro Wireless (receiver)",
         Layout::Combined,
     ),
-    known(
-        VENDOR_3DCONNEXION,
-        0xc635,
-        "SpaceMouse Compact",
-        Layout::Auto,
-    ),
-    known(
-        VENDOR_3DCONNEXION,
-        0xc652,
-        "3Dconnexion Universal Receiver",
-        Layout::Combined,
-    ),
+    three_dconnexion(0xc635, "SpaceMouse Compact", Layout::Auto),
+    three_dconnexion(0xc652, "3Dconnexion Universal Receiver", Layout::Combined),
 ];
 
 /// The table entry for `(vendor_id, product_id)`, if any.

@@ -488,72 +488,31 @@ mod tests {
 
     #[test]
     fn validation_names_the_field() {
-        let cases: Vec<(SpaceMouseConfig, &str)> = vec![
+        /// An edit of the default config, and the field its error must name.
+        type Case = (fn(&mut SpaceMouseConfig), &'static str);
+        let cases: [Case; 9] = [
+            (|c| c.dead_zone = 1.0, "dead_zone"),
+            (|c| c.full_scale = 0.0, "full_scale"),
+            (|c| c.translation_speed = f64::NAN, "translation_speed"),
+            (|c| c.axis_map = [0, 1, 2, 3, 4, 4], "axis_map[5]"),
+            (|c| c.axis_map = [0, 1, 9, 3, 4, 5], "axis_map[2]"),
             (
-                SpaceMouseConfig {
-                    dead_zone: 1.0,
-                    ..Default::default()
-                },
-                "dead_zone",
-            ),
-            (
-                SpaceMouseConfig {
-                    full_scale: 0.0,
-                    ..Default::default()
-                },
-                "full_scale",
-            ),
-            (
-                SpaceMouseConfig {
-                    translation_speed: f64::NAN,
-                    ..Default::default()
-                },
-                "translation_speed",
-            ),
-            (
-                SpaceMouseConfig {
-                    axis_map: [0, 1, 2, 3, 4, 4],
-                    ..Default::default()
-                },
-                "axis_map[5]",
-            ),
-            (
-                SpaceMouseConfig {
-                    axis_map: [0, 1, 9, 3, 4, 5],
-                    ..Default::default()
-                },
-                "axis_map[2]",
-            ),
-            (
-                SpaceMouseConfig {
-                    axis_sign: [1.0, 1.0, 0.5, 1.0, 1.0, 1.0],
-                    ..Default::default()
-                },
+                |c| c.axis_sign = [1.0, 1.0, 0.5, 1.0, 1.0, 1.0],
                 "axis_sign[2]",
             ),
             (
-                SpaceMouseConfig {
-                    axis_sensitivity: [1.0, -1.0, 1.0, 1.0, 1.0, 1.0],
-                    ..Default::default()
-                },
+                |c| c.axis_sensitivity = [1.0, -1.0, 1.0, 1.0, 1.0, 1.0],
                 "axis_sensitivity[1]",
             ),
+            (|c| c.stale_after = 0.0, "stale_after"),
             (
-                SpaceMouseConfig {
-                    stale_after: 0.0,
-                    ..Default::default()
-                },
-                "stale_after",
-            ),
-            (
-                SpaceMouseConfig {
-                    start_orientation: DQuat::from_xyzw(0.0, 0.0, 0.0, 2.0),
-                    ..Default::default()
-                },
+                |c| c.start_orientation = DQuat::from_xyzw(0.0, 0.0, 0.0, 2.0),
                 "start_orientation",
             ),
         ];
-        for (cfg, field) in cases {
+        for (edit, field) in cases {
+            let mut cfg = SpaceMouseConfig::default();
+            edit(&mut cfg);
             let e = RateControl::new(cfg).unwrap_err();
             assert_eq!(e.field, field);
             assert!(e.to_string().contains(field));

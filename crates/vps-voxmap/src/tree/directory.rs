@@ -40,6 +40,8 @@ fn directory_allowed(directory_bytes: u64, tree_bytes: u64) -> bool {
 pub(crate) struct LeafDirectory {
     /// Leaf cubes per axis: `ceil(grid dims / leaf edge)`.
     dims: [u32; 3],
+    /// The tree's grid dims (voxels per axis): a block cell outside them reads Free.
+    grid_dims: [u32; 3],
     /// Raw [`Slot`] words: a tile, or a child holding the leaf's index in the leaf arena.
     slots: Vec<u32>,
     /// Block reads use AVX2 and a gather of the slots (see [`LeafDirectory::read_block`]): the CPU
@@ -47,10 +49,11 @@ pub(crate) struct LeafDirectory {
     gathers: bool,
 }
 
-/// Equal content: the dims and slots (whether block reads gather is a property of the host).
+/// Equal content: the dims, grid dims and slots (whether block reads gather is a property of the
+/// host).
 impl PartialEq for LeafDirectory {
     fn eq(&self, other: &Self) -> bool {
-        self.dims == other.dims && self.slots == other.slots
+        self.dims == other.dims && self.grid_dims == other.grid_dims && self.slots == other.slots
     }
 }
 
@@ -108,6 +111,7 @@ impl LeafDirectory {
         let gathers = cpu_has_avx2();
         Some(LeafDirectory {
             dims,
+            grid_dims: tree.spec.dims,
             slots,
             gathers,
         })
@@ -146,9 +150,9 @@ impl LeafDirectory {
         leaf.code_in_word(unsafe { *leaf_words.get_unchecked(word) }, p)
     }
 
-    /// The codes at the cells of a block (`cells[axis][lane]`, any values; a cell outside
-    /// `grid_dims` reads 0, Free). `grid_dims` must be the tree's dims, `leaf` its leaf shape and
-    /// `leaf_words` its leaf arena. Same result per lane as [`LeafDirectory::read`]. With AVX2
+    /// The codes at the cells of a block (`cells[axis][lane]`, any values; a cell outside the
+    /// tree's grid dims reads 0, Free). `leaf` must be the tree's leaf shape and `leaf_words` its
+    /// leaf arena. Same result per lane as [`LeafDirectory::read`]. With AVX2
     /// (detected when the directory is built): one gather of the eight slots and, if some lane is
     /// in a leaf, eight word loads ([`LeafDirectory::read_block_avx2`]); otherwise the
     /// portable lane loops ([`LeafDirectory::read_block_portable`]).
@@ -157,15 +161,14 @@ impl LeafDirectory {
         &self,
         leaf_words: &[u64],
         leaf: LeafShape,
-        grid_dims: [u32; 3],
         cells: &BlockCells,
     ) -> [u8; BLOCK_LANES] {
         #[cfg(target_arch = "x86_64")]
         if self.gathers {
             // SAFETY: `gathers` is set only when the CPU has AVX2 (`build`).
-            return unsafe { self.read_block_avx2(leaf_words, leaf, grid_dims, cells) };
+            return unsafe { self.read_block_avx2(leaf_words, leaf, cells) };
         }
-        self.read_block_portable(leaf_words, leaf, grid_dims, cells)
+        self.read_block_portable(leaf_words, leaf, cells)
     }
 
     /// [`LeafDirectory::read_block`] in plain loops over lane arrays, so that the index
@@ -177,7 +180,6 @@ impl LeafDirectory {
         &self,
         leaf_words: &[u64],
         leaf: LeafShape,
-        grid_dims: [u32; 3],
         cells: &BlockCells,
     ) -> [u8; BLOCK_LANES] {
         const L: usize = BLOCK_LANES;
@@ -185,7 +187,7 @@ impl LeafDirectory {
         // Unsigned cells: a negative cell wraps above every dim.
         let p = cells.map(|axis| axis.map(|c| c as u32));
         // Dims are at most i32::MAX (checked on assembly): signed compares, which vectorise.
-        let dims = grid_dims.map(|d| d as i32);
+        let dims = self.grid_dims.map(|d| d as i32);
         let mut inside = [0u32; L];
         for (a, axis) in cells.iter().enumerate() {
             for l in 0..L {
@@ -278,7 +280,6 @@ impl LeafDirectory {
         &self,
         leaf_words: &[u64],
         leaf: LeafShape,
-        grid_dims: [u32; 3],
         cells: &BlockCells,
     ) -> [u8; BLOCK_LANES] {
         use std::arch::x86_64::*;
@@ -296,15 +297,15 @@ impl LeafDirectory {
         let dim = |d: u32| _mm256_set1_epi32(d as i32);
         let in_x = _mm256_andnot_si256(
             _mm256_cmpgt_epi32(zero, x),
-            _mm256_cmpgt_epi32(dim(grid_dims[0]), x),
+            _mm256_cmpgt_epi32(dim(self.grid_dims[0]), x),
         );
         let in_y = _mm256_andnot_si256(
             _mm256_cmpgt_epi32(zero, y),
-            _mm256_cmpgt_epi32(dim(grid_dims[1]), y),
+            _mm256_cmpgt_epi32(dim(self.grid_dims[1]), y),
         );
         let in_z = _mm256_andnot_si256(
             _mm256_cmpgt_epi32(zero, z),
-            _mm256_cmpgt_epi32(dim(grid_dims[2]), z),
+            _mm256_cmpgt_epi32(dim(self.grid_dims[2]), z),
         );
         let inside = _mm256_and_si256(_mm256_and_si256(in_x, in_y), in_z);
         // The slot index of the lane's leaf cube (wrapping garbage outside the grid, masked to 0).

@@ -190,18 +190,13 @@ impl VoxelTree {
         };
         if self.paper_shape {
             // 2-bit codes are the kinds' bits.
-            let kinds = directory.read_block(
-                &self.leaf_words,
-                LookupShape::TREE_512.leaf,
-                self.spec.dims,
-                cells,
-            );
+            let kinds = directory.read_block(&self.leaf_words, LookupShape::TREE_512.leaf, cells);
             return VoxelBlock {
                 kinds,
                 layers: [0; BLOCK_LANES],
             };
         }
-        let codes = directory.read_block(&self.leaf_words, self.leaf_shape, self.spec.dims, cells);
+        let codes = directory.read_block(&self.leaf_words, self.leaf_shape, cells);
         let mut block = VoxelBlock::default();
         for l in 0..BLOCK_LANES {
             let v = self.decode(codes[l]);
