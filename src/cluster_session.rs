@@ -14,7 +14,7 @@ use vps_cluster::{
     local_cluster_certs, run_coordinator_session, spawn_local_workers, ClusterAssets,
     ClusterReport, Coordinator, CoordinatorConfig, GatherConfig, LocalWorkerArgs,
 };
-use vps_runtime::{LoopReport, SignalStop};
+use vps_runtime::{KeepOffFrameCore, LoopReport, Placement, SignalStop};
 use vps_session::CLASS_COUNT;
 
 /// How long the coordinator waits for its workers to join before it starts.
@@ -32,11 +32,26 @@ pub struct CoordinatedRun {
     pub bridge: Option<vps_input::BridgeMonitor>,
     /// The signal handlers that could stop the session (which one did, if any).
     pub signals: SignalStop,
+    /// What was kept off the frame thread's core (`None`: nothing, on one core or unpaced).
+    pub placement: Option<Placement>,
 }
 
 impl CoordinatedRun {
-    /// [`finish`] for a coordinated session: its report carries the per-worker figures.
+    /// [`finish`] for a coordinated session: its report carries the per-worker figures and, as
+    /// `cluster.placement`, where the threads and worker processes were placed.
     pub fn finish(self, args: &RunArgs, outputs: SessionOutputs) -> Result<()> {
+        let mut cluster = serde_json::to_value(&self.cluster)?;
+        if let Some(fields) = cluster.as_object_mut() {
+            let mut placement = serde_json::to_value(&self.placement)?;
+            if let Some(p) = placement.as_object_mut() {
+                // What the OS granted the frame thread, beside what was planned for it.
+                p.insert(
+                    "frame_thread_pinned_core".into(),
+                    serde_json::to_value(self.report.rt.pinned_core)?,
+                );
+            }
+            fields.insert("placement".into(), placement);
+        }
         finish(
             args,
             outputs,
@@ -44,14 +59,16 @@ impl CoordinatedRun {
             self.shell_points,
             &self.report,
             self.bridge.as_ref(),
-            Some(&self.cluster),
+            Some(&cluster),
         )
     }
 }
 
 /// Runs `prepared` on a coordinator started on `listen` (identity `cert`, `key`; admitting the
 /// workers whose certificates are `pins`) once `workers` have joined; `spawn` starts local workers
-/// when asked, given the coordinator's address. `session` gives the local threads and the viewer
+/// when asked, given the coordinator's address and what to keep off the frame thread's core
+/// (on a machine of more than one core, the coordinator's network and metrics threads are kept
+/// off it too). `session` gives the local threads and the viewer
 /// address; `gather` the share adaptation ([`GatherConfig::adaptive_shares`]) and the spin margin
 /// ([`GatherConfig::spin_margin`]).
 #[allow(clippy::too_many_arguments)]
@@ -64,8 +81,16 @@ pub fn coordinate(
     pins: &[PathBuf],
     workers: usize,
     gather: GatherArgs,
-    spawn: impl FnOnce(SocketAddr) -> Result<Option<vps_cluster::LocalWorkers>>,
+    spawn: impl FnOnce(
+        SocketAddr,
+        Option<&KeepOffFrameCore>,
+    ) -> Result<Option<vps_cluster::LocalWorkers>>,
 ) -> Result<CoordinatedRun> {
+    let keep_off = if prepared.plan.config.realtime {
+        KeepOffFrameCore::for_frame(prepared.plan.config.core)
+    } else {
+        None
+    };
     // Held whole to the end: its viewer serves the session.
     let live = prepared.go_live(session.view)?;
     let cluster_assets = Arc::new(ClusterAssets::new(
@@ -74,12 +99,15 @@ pub fn coordinate(
         CLASS_COUNT,
     )?);
     let coordinator = Coordinator::start(
-        CoordinatorConfig::from_files(listen, cert, key, pins)?,
+        CoordinatorConfig {
+            keep_off: keep_off.clone(),
+            ..CoordinatorConfig::from_files(listen, cert, key, pins)?
+        },
         cluster_assets,
     )?;
     let addr = coordinator.local_addr()?;
     eprintln!("coordinator listening on {addr}, waiting for {workers} worker(s)");
-    let _children = spawn(addr)?;
+    let _children = spawn(addr, keep_off.as_ref())?;
     coordinator
         .wait_for_workers_until(workers, JOIN_TIMEOUT, &live.setup.stop)
         .with_context(|| format!("waiting {JOIN_TIMEOUT:?} for {workers} worker(s) to join"))?;
@@ -95,6 +123,7 @@ pub fn coordinate(
         ..GatherConfig::default()
     };
     let (report, cluster) = run_coordinator_session(&coordinator, gather, live.setup)?;
+    let placement = coordinator.placement();
     if let Some(signal) = live.signals.received() {
         // The device has been written zero; tell the workers this coordinator is going.
         coordinator.close(
@@ -108,6 +137,7 @@ pub fn coordinate(
         shell_points: live.assets.shell.len(),
         bridge: live.bridge,
         signals: live.signals,
+        placement,
     })
 }
 
@@ -133,13 +163,13 @@ pub fn run_local_cluster(
         &certs.worker_pins(),
         workers,
         gather,
-        |addr| {
+        |addr, keep_off| {
             // Each worker its own certificate: the coordinator admits one live connection per
             // certificate.
             let spawn_args: Vec<LocalWorkerArgs> = (0..workers)
                 .filter_map(|k| certs.worker_args(k, addr, Some(worker_threads)))
                 .collect();
-            Ok(Some(spawn_local_workers(&exe, &spawn_args)?))
+            Ok(Some(spawn_local_workers(&exe, &spawn_args, keep_off)?))
         },
     );
     let _ = std::fs::remove_dir_all(&dir);

@@ -89,7 +89,7 @@ pub fn coordinator(mut args: CoordinatorArgs, matches: &ArgMatches) -> Result<()
         &pins,
         args.workers,
         args.gather,
-        |_| Ok(None),
+        |_, _| Ok(None),
     )?
     .finish(&args.session, outputs)
 }

@@ -24,6 +24,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
+use vps_runtime::{KeepOffFrameCore, Placement};
 
 /// How long a worker may take to join, scene transfer included.
 pub const JOIN_TIMEOUT: Duration = Duration::from_secs(60);
@@ -39,6 +40,9 @@ pub struct CoordinatorConfig {
     pub identity: TlsIdentity,
     /// The worker certificates admitted.
     pub pins: Vec<CertificateDer<'static>>,
+    /// When set, the coordinator's network threads and its metrics thread are kept off the frame
+    /// thread's core (see [`vps_runtime::KeepOffFrameCore`]); `None`: they may run anywhere.
+    pub keep_off: Option<KeepOffFrameCore>,
 }
 
 impl CoordinatorConfig {
@@ -54,6 +58,7 @@ impl CoordinatorConfig {
             listen,
             identity,
             pins,
+            keep_off: None,
         })
     }
 }
@@ -78,6 +83,7 @@ pub struct Coordinator {
     counters: Arc<NetCounters>,
     board: Arc<Board>,
     gatherer_made: AtomicBool,
+    keep_off: Option<KeepOffFrameCore>,
 }
 
 impl Coordinator {
@@ -88,10 +94,16 @@ impl Coordinator {
     ) -> Result<Coordinator, ClusterError> {
         // One network thread: a datagram's connection driver and its reader task then run on the
         // same thread, with no hand-off between them.
-        let runtime = tokio::runtime::Builder::new_multi_thread()
+        let mut builder = tokio::runtime::Builder::new_multi_thread();
+        builder
             .worker_threads(1)
             .thread_name("vps-coord-net")
-            .enable_all()
+            .enable_all();
+        if let Some(keep) = config.keep_off.clone() {
+            // Worker and blocking threads alike, as each starts.
+            builder.on_thread_start(move || keep.pin_this_thread("coordinator network thread"));
+        }
+        let runtime = builder
             .build()
             .map_err(|e| ClusterError::Network(format!("cannot start the runtime: {e}")))?;
         let counters = Arc::new(NetCounters::default());
@@ -115,6 +127,7 @@ impl Coordinator {
         };
         runtime.spawn(accept_loop(endpoint.clone(), links));
         Ok(Coordinator {
+            keep_off: config.keep_off,
             runtime,
             endpoint,
             assets,
@@ -220,7 +233,15 @@ impl Coordinator {
             self.datagrams.clone(),
             self.board.clone(),
             config,
+            self.keep_off.clone(),
         )
+    }
+
+    /// Where this coordinator's threads were placed, and any local worker processes spawned with
+    /// the same [`KeepOffFrameCore`]: `None` when nothing is kept off the frame core (one core,
+    /// or not asked).
+    pub fn placement(&self) -> Option<Placement> {
+        self.keep_off.as_ref().map(KeepOffFrameCore::placement)
     }
 }
 

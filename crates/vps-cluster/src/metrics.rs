@@ -288,13 +288,22 @@ pub(crate) struct Reporter {
 
 impl Reporter {
     /// Starts the `vps-metrics` thread; `log_every` is the period of the `info` summary (`None`:
-    /// none).
-    pub(crate) fn start(board: Arc<Board>, log_every: Option<Duration>) -> std::io::Result<Self> {
+    /// none); `keep_off`, when given, keeps the thread off the frame thread's core.
+    pub(crate) fn start(
+        board: Arc<Board>,
+        log_every: Option<Duration>,
+        keep_off: Option<vps_runtime::KeepOffFrameCore>,
+    ) -> std::io::Result<Self> {
         let stop = Arc::new(AtomicBool::new(false));
         let flag = stop.clone();
         let thread = std::thread::Builder::new()
             .name("vps-metrics".into())
-            .spawn(move || report_loop(&board, &flag, log_every))?;
+            .spawn(move || {
+                if let Some(keep) = keep_off {
+                    keep.pin_this_thread("metrics thread");
+                }
+                report_loop(&board, &flag, log_every)
+            })?;
         Ok(Reporter {
             stop,
             thread: Some(thread),

@@ -10,7 +10,7 @@ use std::ffi::OsString;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use vps_runtime::{spawn_loop_with, LoopReport, SessionSetup};
+use vps_runtime::{spawn_loop_with, KeepOffFrameCore, LoopReport, SessionSetup};
 
 /// Runs a haptic session whose frames are gathered from `coordinator`'s workers (local fallback
 /// for every missing share), on the runtime's frame loop: same clock, watchdog, statistics and
@@ -164,24 +164,56 @@ impl Drop for LocalWorkers {
 /// Starts one worker process per entry of `args`: `exe` (normally `std::env::current_exe()`)
 /// with [`LocalWorkerArgs::to_args`] (each worker its own certificate: the coordinator refuses a
 /// second live connection with the same one). stdin is closed, stdout/stderr are inherited. If
-/// one fails to start, those already started are killed.
+/// one fails to start, those already started are killed. With `keep_off`, each child is
+/// restricted at spawn (between `fork` and `exec`, so every thread it ever starts inherits it) to
+/// the cores other than the frame thread's, and the outcome is recorded in `keep_off`'s
+/// [`vps_runtime::Placement`].
 pub fn spawn_local_workers(
     exe: &Path,
     args: &[LocalWorkerArgs],
+    keep_off: Option<&KeepOffFrameCore>,
 ) -> Result<LocalWorkers, ClusterError> {
     let mut workers = LocalWorkers {
         children: Vec::with_capacity(args.len()),
     };
     for args in args {
-        let child = Command::new(exe)
-            .args(args.to_args())
-            .stdin(Stdio::null())
-            .spawn()
-            .map_err(|e| ClusterError::File {
-                path: exe.to_path_buf(),
-                message: format!("cannot start a worker process: {e}"),
-            })?;
+        let mut command = Command::new(exe);
+        command.args(args.to_args()).stdin(Stdio::null());
+        if let Some(keep) = keep_off {
+            restrict_child(&mut command, keep.other_cores());
+        }
+        let child = command.spawn().map_err(|e| ClusterError::File {
+            path: exe.to_path_buf(),
+            message: format!("cannot start a worker process: {e}"),
+        })?;
+        if let Some(keep) = keep_off {
+            // `spawn` returns once the child has run `exec`, so its mask is set by now.
+            keep.note(match vps_runtime::rt::affinity_of(child.id()) {
+                Ok(cores) => format!("local worker process: cores {cores:?}"),
+                Err(e) => format!("local worker process: mask unknown ({e})"),
+            });
+        }
         workers.children.push(child);
     }
     Ok(workers)
 }
+
+/// Makes `command`'s child restrict itself to `cores` before it runs `exec`. A refusal is not
+/// fatal: the child then keeps its parent's mask (the report reads the mask back).
+#[cfg(target_os = "linux")]
+fn restrict_child(command: &mut Command, cores: &[usize]) {
+    use std::os::unix::process::CommandExt;
+    // Built here, before the fork: the child only makes the syscall.
+    let set = vps_runtime::rt::cpu_set(cores);
+    // SAFETY: the closure runs in the forked child before exec and makes one async-signal-safe
+    // syscall on memory it owns (a copy of `set`); it does not allocate or lock.
+    unsafe {
+        command.pre_exec(move || {
+            libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set);
+            Ok(())
+        });
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+fn restrict_child(_command: &mut Command, _cores: &[usize]) {}

@@ -166,6 +166,7 @@ impl RemoteShares {
         datagrams: Receiver<Datagram>,
         board: Arc<Board>,
         config: GatherConfig,
+        keep_off: Option<vps_runtime::KeepOffFrameCore>,
     ) -> Result<RemoteShares, ClusterError> {
         if config.local_threads == 0 {
             return Err(ClusterError::Config {
@@ -184,6 +185,11 @@ impl RemoteShares {
             max_radius: assets.shell.max_radius(),
         };
         let core = GatherCore::new(config.policy(), shape)?;
+        // The local pool is deliberately NOT kept off the frame core: it works only inside a
+        // frame, while the frame thread blocks in `install` waiting for it, so on the frame core
+        // it runs in the frame thread's place rather than against it; keeping it off would halve
+        // the local share's parallelism on a 2-core machine. With one local thread it is never
+        // used (the frame thread computes its share itself) and its thread sleeps.
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(config.local_threads)
             .thread_name(|i| format!("vps-local-{i}"))
@@ -192,7 +198,7 @@ impl RemoteShares {
                 field: "local_threads",
                 message: e.to_string(),
             })?;
-        let reporter = Reporter::start(board.clone(), config.log_every)
+        let reporter = Reporter::start(board.clone(), config.log_every, keep_off)
             .map_err(|e| ClusterError::Network(format!("cannot start the metrics thread: {e}")))?;
         Ok(RemoteShares {
             assets,

@@ -64,6 +64,7 @@ pub fn start_coordinator(ids: &Identities, scene: Arc<ClusterAssets>) -> Coordin
                 .chain(&ids.others)
                 .map(|w| w.cert.clone())
                 .collect(),
+            keep_off: None,
         },
         scene,
     )
