@@ -86,8 +86,8 @@ pub fn coordinate(
         Option<&KeepOffFrameCore>,
     ) -> Result<Option<vps_cluster::LocalWorkers>>,
 ) -> Result<CoordinatedRun> {
-    let keep_off = if prepared.plan.config.realtime {
-        KeepOffFrameCore::for_frame(prepared.plan.config.core)
+    let keep_off = if prepared.plan.setup.config.realtime {
+        KeepOffFrameCore::for_frame(prepared.plan.setup.config.core)
     } else {
         None
     };
