@@ -63,6 +63,16 @@ fn children(pid: u32) -> Vec<u32> {
     pids
 }
 
+/// Whether process `pid` has exec'd `vps worker`. Between `fork` and `exec` a child still runs
+/// the coordinator's image with the forking thread's mask (its own mask is set just before
+/// `exec`), so only what a child does after `exec` is judged; once its command line says
+/// `worker`, it stays so.
+fn is_worker(pid: u32) -> bool {
+    std::fs::read(format!("/proc/{pid}/cmdline"))
+        .map(|cmdline| cmdline.split(|&b| b == 0).nth(1) == Some(b"worker".as_slice()))
+        .unwrap_or(false)
+}
+
 fn own_cores() -> Vec<usize> {
     let status = std::fs::read_to_string("/proc/self/status").unwrap();
     parse_list(
@@ -118,7 +128,7 @@ fn local_workers_and_coordinator_threads_stay_off_the_frame_core() {
                 seen.push(mask);
             }
         }
-        for worker in children(pid) {
+        for worker in children(pid).into_iter().filter(|&w| is_worker(w)) {
             let seen = workers.entry(worker).or_default();
             for task in tasks(worker) {
                 if !seen.contains(&task) {
