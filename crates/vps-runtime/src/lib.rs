@@ -27,9 +27,7 @@ pub use haptic_loop::{
     SessionSetup,
 };
 pub use pool::{ClassPool, FrameSampler, PoolResult};
-pub use rt::{
-    pin_away_from, pin_current_thread, request_realtime, KeepOffFrameCore, Placement, RtGrant,
-};
+pub use rt::{pin_current_thread, request_realtime, KeepOffFrameCore, Placement, RtGrant};
 pub use stats::{FrameRecord, FrameStats, Percentiles, StatsSummary};
 pub use stop::{SignalStop, StopSignal};
 

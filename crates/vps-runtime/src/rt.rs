@@ -63,19 +63,26 @@ fn set_fifo() -> Result<i32, String> {
 /// Pins the calling thread to `core` (or, when `None`, to the last core the process may use);
 /// returns the core's id, or why the OS refused.
 pub fn pin_current_thread(core: Option<usize>) -> Result<usize, String> {
-    let cores = core_affinity::get_core_ids().ok_or("cannot list the cores")?;
-    let chosen = match core {
-        Some(want) => cores
-            .iter()
-            .find(|c| c.id == want)
-            .copied()
-            .ok_or_else(|| format!("core {want} is not available to this process"))?,
-        None => *cores.last().ok_or("no core available")?,
-    };
-    if core_affinity::set_for_current(chosen) {
-        Ok(chosen.id)
+    let cores = allowed_cores().ok_or("cannot list the cores")?;
+    let chosen = choose_core(core, &cores)?;
+    if core_affinity::set_for_current(core_affinity::CoreId { id: chosen }) {
+        Ok(chosen)
     } else {
-        Err(format!("setting affinity to core {} failed", chosen.id))
+        Err(format!("setting affinity to core {chosen} failed"))
+    }
+}
+
+/// The one rule for the frame thread's core, shared by [`pin_current_thread`] and
+/// [`frame_core`]: `requested` when it is among `allowed` (ascending), else an error; with no
+/// request, the last allowed core (away from core 0, where most interrupts land).
+fn choose_core(requested: Option<usize>, allowed: &[usize]) -> Result<usize, String> {
+    match requested {
+        Some(want) if allowed.contains(&want) => Ok(want),
+        Some(want) => Err(format!("core {want} is not available to this process")),
+        None => allowed
+            .last()
+            .copied()
+            .ok_or_else(|| "no core available".to_string()),
     }
 }
 
@@ -83,11 +90,7 @@ pub fn pin_current_thread(core: Option<usize>) -> Result<usize, String> {
 /// calling thread: `requested` when the calling thread may use it, else (or when `None`) the last
 /// core it may use. `None` when the cores cannot be listed or `requested` is not available.
 pub fn frame_core(requested: Option<usize>) -> Option<usize> {
-    let cores = allowed_cores()?;
-    match requested {
-        Some(want) => cores.contains(&want).then_some(want),
-        None => cores.last().copied(),
-    }
+    choose_core(requested, &allowed_cores()?).ok()
 }
 
 /// The cores the calling thread may run on, ascending (`None`: the OS would not say).
@@ -109,19 +112,6 @@ pub fn cores_away_from(frame: usize, allowed: &[usize]) -> Vec<usize> {
         return Vec::new();
     }
     allowed.iter().copied().filter(|&c| c != frame).collect()
-}
-
-/// Restricts the calling thread to the cores it may use other than `frame` (see
-/// [`cores_away_from`]); returns the cores it may now use, or an empty list when nothing was
-/// changed (one core). Threads it spawns afterwards inherit the mask.
-pub fn pin_away_from(frame: usize) -> Result<Vec<usize>, String> {
-    let allowed = allowed_cores().ok_or("cannot list the cores")?;
-    let away = cores_away_from(frame, &allowed);
-    if away.is_empty() {
-        return Ok(away);
-    }
-    set_affinity(0, &away)?;
-    Ok(away)
 }
 
 /// A CPU set holding `cores` (those past the set's capacity are left out), for
@@ -211,8 +201,9 @@ impl KeepOffFrameCore {
         &self.away
     }
 
-    /// Pins the calling thread away from the frame core ([`pin_away_from`]) and records the
-    /// outcome under `what` (e.g. the thread's role). Never fails.
+    /// Restricts the calling thread to [`Self::other_cores`] (threads it spawns afterwards
+    /// inherit the mask) and records the outcome under `what` (e.g. the thread's role). Never
+    /// fails.
     pub fn pin_this_thread(&self, what: &str) {
         let line = match set_affinity(0, &self.away) {
             Ok(()) => format!("{what}: cores {:?}", self.away),
