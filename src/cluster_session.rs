@@ -37,9 +37,9 @@ pub struct CoordinatedRun {
 }
 
 impl CoordinatedRun {
-    /// [`finish`] for a coordinated session: its report carries the per-worker figures and, as
-    /// `cluster.placement`, where the threads and worker processes were placed.
-    pub fn finish(self, args: &RunArgs, outputs: SessionOutputs) -> Result<()> {
+    /// The per-worker figures as JSON with, as `placement`, where the threads and worker
+    /// processes were placed and which core the OS granted the frame thread.
+    pub fn cluster_json(&self) -> Result<serde_json::Value> {
         let mut cluster = serde_json::to_value(&self.cluster)?;
         if let Some(fields) = cluster.as_object_mut() {
             let mut placement = serde_json::to_value(&self.placement)?;
@@ -52,6 +52,13 @@ impl CoordinatedRun {
             }
             fields.insert("placement".into(), placement);
         }
+        Ok(cluster)
+    }
+
+    /// [`finish`] for a coordinated session: its report carries [`Self::cluster_json`] as
+    /// `cluster`.
+    pub fn finish(self, args: &RunArgs, outputs: SessionOutputs) -> Result<()> {
+        let cluster = self.cluster_json()?;
         finish(
             args,
             outputs,

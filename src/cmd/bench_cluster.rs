@@ -13,7 +13,6 @@ use crate::output::print_json;
 use crate::session_io::PreparedSession;
 use anyhow::Result;
 use serde::Serialize;
-use vps_cluster::ClusterReport;
 use vps_runtime::{LoopConfig, StatsSummary};
 use vps_session::{DeviceChoice, SessionAssets};
 use vps_voxelize::ShellMethod;
@@ -51,7 +50,8 @@ struct ClusterBenchReport {
     realtime_granted: bool,
     host_idle: crate::host::HostIdle,
     stats: StatsSummary,
-    cluster: ClusterReport,
+    /// Per-worker figures and `placement` (`CoordinatedRun::cluster_json`).
+    cluster: serde_json::Value,
 }
 
 /// Runs the benchmark and prints JSON.
@@ -82,6 +82,7 @@ pub fn run(bench: ClusterBench) -> Result<()> {
         bench.gather,
     )?;
     crate::exit::require_complete(&run.report.end, Some(&run.signals))?;
+    let cluster = run.cluster_json()?;
     print_json(&ClusterBenchReport {
         command: format!(
             "vps bench cluster --scene {} --points {} --frames {} --workers {} --worker-threads {} --threads {} \
@@ -109,6 +110,6 @@ pub fn run(bench: ClusterBench) -> Result<()> {
         realtime_granted: run.report.rt.fifo,
         host_idle: crate::host::HostIdle::read(),
         stats: run.report.stats,
-        cluster: run.cluster,
+        cluster,
     })
 }
