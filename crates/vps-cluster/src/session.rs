@@ -209,7 +209,8 @@ fn restrict_child(command: &mut Command, cores: &[usize]) {
     // syscall on memory it owns (a copy of `set`); it does not allocate or lock.
     unsafe {
         command.pre_exec(move || {
-            libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set);
+            // A refusal leaves the parent's mask (see above), so its error is dropped.
+            let _ = vps_runtime::rt::apply_cpu_set(0, &set);
             Ok(())
         });
     }

@@ -128,17 +128,24 @@ pub fn cpu_set(cores: &[usize]) -> libc::cpu_set_t {
     set
 }
 
-/// Sets the affinity of thread or process `tid` (0: the calling thread) to `cores`.
+/// Sets the affinity of thread or process `tid` (0: the calling thread) to the cores in `set`
+/// ([`cpu_set`]). One syscall; it neither allocates nor locks (an error is the OS error code), so
+/// a forked child may call it before `exec`.
 #[cfg(target_os = "linux")]
-fn set_affinity(tid: libc::pid_t, cores: &[usize]) -> Result<(), String> {
-    let set = cpu_set(cores);
+pub fn apply_cpu_set(tid: libc::pid_t, set: &libc::cpu_set_t) -> std::io::Result<()> {
     // SAFETY: a valid, initialised cpu_set_t of the size passed.
-    let rc = unsafe { libc::sched_setaffinity(tid, std::mem::size_of::<libc::cpu_set_t>(), &set) };
+    let rc = unsafe { libc::sched_setaffinity(tid, std::mem::size_of::<libc::cpu_set_t>(), set) };
     if rc == 0 {
         Ok(())
     } else {
-        Err(std::io::Error::last_os_error().to_string())
+        Err(std::io::Error::last_os_error())
     }
+}
+
+/// Sets the affinity of thread or process `tid` (0: the calling thread) to `cores`.
+#[cfg(target_os = "linux")]
+fn set_affinity(tid: libc::pid_t, cores: &[usize]) -> Result<(), String> {
+    apply_cpu_set(tid, &cpu_set(cores)).map_err(|e| e.to_string())
 }
 
 #[cfg(not(target_os = "linux"))]
