@@ -12,7 +12,7 @@ use std::sync::Arc;
 use std::time::Duration;
 use vps_cluster::{
     local_cluster_certs, run_coordinator_session, spawn_local_workers, ClusterAssets,
-    ClusterReport, Coordinator, CoordinatorConfig, GatherConfig, LocalWorkerArgs,
+    ClusterReport, Coordinator, CoordinatorConfig, GatherConfig, LocalWorkerArgs, PeerTls,
 };
 use vps_runtime::{KeepOffFrameCore, LoopReport, Placement, SignalStop};
 use vps_session::CLASS_COUNT;
@@ -107,8 +107,9 @@ pub fn coordinate(
     )?);
     let coordinator = Coordinator::start(
         CoordinatorConfig {
+            listen,
+            tls: PeerTls::load(cert, key, pins)?,
             keep_off: keep_off.clone(),
-            ..CoordinatorConfig::from_files(listen, cert, key, pins)?
         },
         cluster_assets,
     )?;

@@ -10,7 +10,7 @@ use anyhow::{bail, Result};
 use clap::ArgMatches;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
-use vps_cluster::{make_cert, run_worker_service, ClusterError, Rejoin, WorkerConfig};
+use vps_cluster::{make_cert, run_worker_service, ClusterError, PeerTls, Rejoin, WorkerConfig};
 use vps_runtime::SignalStop;
 
 /// `vps cert`: a new self-signed certificate and key for a coordinator or worker.
@@ -40,7 +40,7 @@ pub fn worker(mut args: WorkerArgs, matches: &ArgMatches) -> Result<()> {
         bail!("vps worker: --coordinator, --cert and --key are required");
     };
     let pins = expand_pins(&args.identity.pin)?;
-    let mut config = WorkerConfig::from_files(coordinator, cert, key, &pins)?;
+    let mut config = WorkerConfig::new(coordinator, PeerTls::load(cert, key, &pins)?);
     config.cache_dir = args.cache.clone();
     if let Some(threads) = args.threads {
         config.threads = threads.max(1);

@@ -14,13 +14,12 @@ use crate::events::{Control, Datagram};
 use crate::metrics::{Board, ClusterMetrics};
 use crate::protocol::{read_join, write_frame, write_join, JoinMessage, PROTOCOL_VERSION};
 use crate::shares::{GatherConfig, RemoteShares};
-use crate::tls::{load_identity_and_pins, server_config, TlsIdentity};
+use crate::tls::{server_config, PeerTls};
 use crate::ClusterError;
 use crossbeam::channel::{bounded, unbounded, Receiver, Sender};
 use rustls::pki_types::CertificateDer;
 use std::collections::HashSet;
 use std::net::SocketAddr;
-use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -36,31 +35,11 @@ const DATAGRAM_QUEUE: usize = 4096;
 pub struct CoordinatorConfig {
     /// UDP address to listen on (port 0: any free port, see [`Coordinator::local_addr`]).
     pub listen: SocketAddr,
-    /// The coordinator's certificate and key.
-    pub identity: TlsIdentity,
-    /// The worker certificates admitted.
-    pub pins: Vec<CertificateDer<'static>>,
+    /// The coordinator's certificate and key, and the worker certificates admitted.
+    pub tls: PeerTls,
     /// When set, the coordinator's network threads and its metrics thread are kept off the frame
     /// thread's core (see [`vps_runtime::KeepOffFrameCore`]); `None`: they may run anywhere.
     pub keep_off: Option<KeepOffFrameCore>,
-}
-
-impl CoordinatorConfig {
-    /// A config from PEM files: `cert`/`key` are the coordinator's, `pins` the admitted workers'.
-    pub fn from_files(
-        listen: SocketAddr,
-        cert: &Path,
-        key: &Path,
-        pins: &[PathBuf],
-    ) -> Result<CoordinatorConfig, ClusterError> {
-        let (identity, pins) = load_identity_and_pins(cert, key, pins)?;
-        Ok(CoordinatorConfig {
-            listen,
-            identity,
-            pins,
-            keep_off: None,
-        })
-    }
 }
 
 /// Counters shared between the network tasks and the owner.
@@ -108,7 +87,7 @@ impl Coordinator {
             .map_err(|e| ClusterError::Network(format!("cannot start the runtime: {e}")))?;
         let counters = Arc::new(NetCounters::default());
         let board = Board::new();
-        let server = server_config(&config.identity, config.pins, counters.refused.clone())?;
+        let server = server_config(&config.tls, counters.refused.clone())?;
         let endpoint = {
             let _guard = runtime.enter();
             crate::udp_count::counting_endpoint(config.listen, Some(server), board.udp.clone())

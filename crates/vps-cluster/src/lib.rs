@@ -48,7 +48,7 @@ pub use session::{
     LocalWorkers,
 };
 pub use shares::{GatherConfig, RemoteShares};
-pub use tls::{make_cert, CertFiles, TlsIdentity};
+pub use tls::{make_cert, CertFiles, PeerTls, TlsIdentity};
 pub use worker::{
     run_worker, run_worker_service, run_worker_until, Rejoin, WorkerConfig, WorkerReport,
     WorkerService,

@@ -87,14 +87,26 @@ pub fn load_pins(paths: &[PathBuf]) -> Result<Vec<CertificateDer<'static>>, Clus
     paths.iter().map(|p| load_cert(p)).collect()
 }
 
-/// An identity (`cert`, `key`) and the certificates it admits (`pins`), from PEM files
-/// ([`TlsIdentity::load`], [`load_pins`]).
-pub fn load_identity_and_pins(
-    cert: &Path,
-    key: &Path,
-    pins: &[PathBuf],
-) -> Result<(TlsIdentity, Vec<CertificateDer<'static>>), ClusterError> {
-    Ok((TlsIdentity::load(cert, key)?, load_pins(pins)?))
+/// One side of the cluster's mutual TLS: this node's certificate and key, and the peer
+/// certificates it admits (pinned byte for byte). The coordinator's pins are its workers'
+/// certificates; a worker's, its coordinators'.
+#[derive(Clone, Debug)]
+pub struct PeerTls {
+    /// This node's certificate and key.
+    pub identity: TlsIdentity,
+    /// The peer certificates admitted.
+    pub pins: Vec<CertificateDer<'static>>,
+}
+
+impl PeerTls {
+    /// An identity (`cert`, `key`) and the certificates it admits (`pins`), from PEM files
+    /// ([`TlsIdentity::load`], [`load_pins`]).
+    pub fn load(cert: &Path, key: &Path, pins: &[PathBuf]) -> Result<PeerTls, ClusterError> {
+        Ok(PeerTls {
+            identity: TlsIdentity::load(cert, key)?,
+            pins: load_pins(pins)?,
+        })
+    }
 }
 
 /// The paths [`make_cert`] wrote.
@@ -292,19 +304,21 @@ fn transport() -> Arc<quinn::TransportConfig> {
     Arc::new(t)
 }
 
-/// The coordinator's QUIC server config: TLS 1.3, client certificate required and pinned.
-/// `refused` counts peers refused for an unpinned certificate.
+/// The coordinator's QUIC server config: TLS 1.3, presents `tls.identity`, client certificate
+/// required and one of `tls.pins`. `refused` counts peers refused for an unpinned certificate.
 pub fn server_config(
-    identity: &TlsIdentity,
-    pins: Vec<CertificateDer<'static>>,
+    tls: &PeerTls,
     refused: Arc<AtomicU64>,
 ) -> Result<quinn::ServerConfig, ClusterError> {
-    let (provider, verifier) = pinned(pins, refused, "worker");
+    let (provider, verifier) = pinned(tls.pins.clone(), refused, "worker");
     let mut tls = rustls::ServerConfig::builder_with_provider(provider)
         .with_protocol_versions(&[&rustls::version::TLS13])
         .map_err(tls_err)?
         .with_client_cert_verifier(verifier)
-        .with_single_cert(vec![identity.cert.clone()], identity.key.clone_key())
+        .with_single_cert(
+            vec![tls.identity.cert.clone()],
+            tls.identity.key.clone_key(),
+        )
         .map_err(tls_err)?;
     tls.alpn_protocols = vec![ALPN.to_vec()];
     let quic = quinn::crypto::rustls::QuicServerConfig::try_from(tls).map_err(tls_err)?;
@@ -313,20 +327,22 @@ pub fn server_config(
     Ok(config)
 }
 
-/// A worker's QUIC client config: TLS 1.3, presents `identity`, accepts only a pinned server
-/// certificate. `refused` counts coordinators refused for an unpinned certificate.
+/// A worker's QUIC client config: TLS 1.3, presents `tls.identity`, accepts only a server
+/// certificate among `tls.pins`. `refused` counts coordinators refused for an unpinned certificate.
 pub fn client_config(
-    identity: &TlsIdentity,
-    pins: Vec<CertificateDer<'static>>,
+    tls: &PeerTls,
     refused: Arc<AtomicU64>,
 ) -> Result<quinn::ClientConfig, ClusterError> {
-    let (provider, verifier) = pinned(pins, refused, "coordinator");
+    let (provider, verifier) = pinned(tls.pins.clone(), refused, "coordinator");
     let mut tls = rustls::ClientConfig::builder_with_provider(provider)
         .with_protocol_versions(&[&rustls::version::TLS13])
         .map_err(tls_err)?
         .dangerous()
         .with_custom_certificate_verifier(verifier)
-        .with_client_auth_cert(vec![identity.cert.clone()], identity.key.clone_key())
+        .with_client_auth_cert(
+            vec![tls.identity.cert.clone()],
+            tls.identity.key.clone_key(),
+        )
         .map_err(tls_err)?;
     tls.alpn_protocols = vec![ALPN.to_vec()];
     let quic = quinn::crypto::rustls::QuicClientConfig::try_from(tls).map_err(tls_err)?;

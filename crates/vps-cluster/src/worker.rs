@@ -18,9 +18,8 @@ use crate::protocol::{
     read_frame, read_join, write_join, FrameReply, FrameRequest, JoinMessage, PROTOCOL_VERSION,
     REPLY_LEN,
 };
-use crate::tls::{client_config, TlsIdentity, SERVER_NAME};
+use crate::tls::{client_config, PeerTls, SERVER_NAME};
 use crate::{close, ClusterError};
-use rustls::pki_types::CertificateDer;
 use std::future::Future;
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -33,10 +32,8 @@ use std::time::Duration;
 pub struct WorkerConfig {
     /// The coordinator's UDP address.
     pub coordinator: SocketAddr,
-    /// This worker's certificate and key.
-    pub identity: TlsIdentity,
-    /// The coordinator certificates this worker accepts.
-    pub pins: Vec<CertificateDer<'static>>,
+    /// This worker's certificate and key, and the coordinator certificates it accepts.
+    pub tls: PeerTls,
     /// Where received scene files are kept (`None`: no cache).
     pub cache_dir: Option<PathBuf>,
     /// Compute threads (≥ 1).
@@ -44,22 +41,15 @@ pub struct WorkerConfig {
 }
 
 impl WorkerConfig {
-    /// A config from PEM files: `cert`/`key` are this worker's, `pins` the accepted coordinator
-    /// certificates. One compute thread per available core, no cache.
-    pub fn from_files(
-        coordinator: SocketAddr,
-        cert: &std::path::Path,
-        key: &std::path::Path,
-        pins: &[PathBuf],
-    ) -> Result<WorkerConfig, ClusterError> {
-        let (identity, pins) = crate::tls::load_identity_and_pins(cert, key, pins)?;
-        Ok(WorkerConfig {
+    /// A config for joining `coordinator` with `tls` (e.g. [`PeerTls::load`] from PEM files):
+    /// one compute thread per available core, no cache.
+    pub fn new(coordinator: SocketAddr, tls: PeerTls) -> WorkerConfig {
+        WorkerConfig {
             coordinator,
-            identity,
-            pins,
+            tls,
             cache_dir: None,
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
-        })
+        }
     }
 }
 
@@ -132,11 +122,7 @@ async fn worker_main(
     let udp = Arc::new(crate::udp_count::UdpCounts::default());
     let mut endpoint =
         crate::udp_count::counting_endpoint(bind, None, udp.clone()).map_err(net_err)?;
-    endpoint.set_default_client_config(client_config(
-        &config.identity,
-        config.pins.clone(),
-        Arc::new(AtomicU64::new(0)),
-    )?);
+    endpoint.set_default_client_config(client_config(&config.tls, Arc::new(AtomicU64::new(0)))?);
     let conn = match endpoint
         .connect(config.coordinator, SERVER_NAME)
         .map_err(net_err)?

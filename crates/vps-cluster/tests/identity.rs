@@ -8,7 +8,7 @@ mod common;
 use common::*;
 use std::time::{Duration, Instant};
 use vps_cluster::close::{is_refusal, CLOSE_BAD_REPLIES, CLOSE_DUPLICATE_IDENTITY};
-use vps_cluster::{run_worker, ClusterError, TlsIdentity, WorkerConfig};
+use vps_cluster::{run_worker, ClusterError, PeerTls, TlsIdentity, WorkerConfig};
 
 const JOIN_WAIT: Duration = Duration::from_secs(20);
 
@@ -80,9 +80,13 @@ fn an_unpinned_worker_is_told_its_certificate_is_not_pinned() {
     let ids = identities();
     let coordinator = start_coordinator(&ids, scene());
     let addr = coordinator.local_addr().unwrap();
+    let config = worker_config(&ids, addr);
     let err = run_worker(WorkerConfig {
-        identity: TlsIdentity::generate("stranger").unwrap(),
-        ..worker_config(&ids, addr)
+        tls: PeerTls {
+            identity: TlsIdentity::generate("stranger").unwrap(),
+            ..config.tls
+        },
+        ..config
     })
     .expect_err("refused");
     match &err {

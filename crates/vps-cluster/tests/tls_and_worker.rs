@@ -11,7 +11,7 @@ use vps_cluster::protocol::{
     REQUEST_LEN,
 };
 use vps_cluster::tls::server_config;
-use vps_cluster::{make_cert, run_worker, ClusterError, TlsIdentity, WorkerConfig};
+use vps_cluster::{make_cert, run_worker, ClusterError, PeerTls, TlsIdentity, WorkerConfig};
 use vps_haptic::sample_all;
 
 /// A coordinator on [`scene`] and the error of one worker joining it with the standard worker
@@ -30,7 +30,10 @@ fn refused_worker(
 fn a_worker_with_an_unpinned_certificate_is_refused_and_counted() {
     let stranger = TlsIdentity::generate("stranger").unwrap();
     let (coordinator, err) = refused_worker(|config| WorkerConfig {
-        identity: stranger,
+        tls: PeerTls {
+            identity: stranger,
+            ..config.tls
+        },
         ..config
     });
     // A refusal for good, saying why (not "join: read: connection lost").
@@ -53,7 +56,10 @@ fn a_worker_with_an_unpinned_certificate_is_refused_and_counted() {
 fn a_worker_refuses_a_coordinator_it_did_not_pin() {
     let other = TlsIdentity::generate("other").unwrap();
     let (coordinator, err) = refused_worker(|config| WorkerConfig {
-        pins: vec![other.cert.clone()],
+        tls: PeerTls {
+            pins: vec![other.cert.clone()],
+            ..config.tls
+        },
         ..config
     });
     assert!(
@@ -112,8 +118,10 @@ fn a_worker_survives_garbage_counts_it_and_uses_its_scene_cache() {
     let endpoint = {
         let _g = rt.enter();
         let config = server_config(
-            &ids.coordinator,
-            vec![ids.worker.cert.clone()],
+            &PeerTls {
+                identity: ids.coordinator.clone(),
+                pins: vec![ids.worker.cert.clone()],
+            },
             Arc::new(AtomicU64::new(0)),
         )
         .unwrap();

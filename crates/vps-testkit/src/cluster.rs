@@ -12,7 +12,7 @@ use std::time::Duration;
 use vps_cluster::fallback::StalePolicy;
 use vps_cluster::{
     local_cluster_certs, run_coordinator_session, ClusterAssets, ClusterReport, Coordinator,
-    CoordinatorConfig, GatherConfig, LocalCerts, LocalWorkerArgs,
+    CoordinatorConfig, GatherConfig, LocalCerts, LocalWorkerArgs, PeerTls,
 };
 use vps_device::HapticDevice;
 use vps_haptic::{HapticParams, KernelPose, PartState, Wrench};
@@ -45,13 +45,16 @@ pub const LOOPBACK_WORKERS: usize = 4;
 pub fn loopback_coordinator(dir: &std::path::Path) -> (Coordinator, LocalCerts) {
     let certs = local_cluster_certs(dir, LOOPBACK_WORKERS).expect("certificates");
     let coordinator = Coordinator::start(
-        CoordinatorConfig::from_files(
-            "127.0.0.1:0".parse().expect("addr"),
-            &certs.coordinator.cert,
-            &certs.coordinator.key,
-            &certs.worker_pins(),
-        )
-        .expect("coordinator config"),
+        CoordinatorConfig {
+            listen: "127.0.0.1:0".parse().expect("addr"),
+            tls: PeerTls::load(
+                &certs.coordinator.cert,
+                &certs.coordinator.key,
+                &certs.worker_pins(),
+            )
+            .expect("coordinator certificates"),
+            keep_off: None,
+        },
         scene(),
     )
     .expect("coordinator starts");

@@ -14,7 +14,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 use vps_cluster::{
     run_worker_until, ClusterAssets, ClusterError, Coordinator, CoordinatorConfig, GatherConfig,
-    RemoteShares, TlsIdentity, WorkerConfig, WorkerReport,
+    PeerTls, RemoteShares, TlsIdentity, WorkerConfig, WorkerReport,
 };
 
 /// The gatherer's defaults, but splitting every frame (`--split always`): these tests exercise
@@ -59,11 +59,13 @@ pub fn start_coordinator(ids: &Identities, scene: Arc<ClusterAssets>) -> Coordin
     Coordinator::start(
         CoordinatorConfig {
             listen: "127.0.0.1:0".parse().expect("addr"),
-            identity: ids.coordinator.clone(),
-            pins: std::iter::once(&ids.worker)
-                .chain(&ids.others)
-                .map(|w| w.cert.clone())
-                .collect(),
+            tls: PeerTls {
+                identity: ids.coordinator.clone(),
+                pins: std::iter::once(&ids.worker)
+                    .chain(&ids.others)
+                    .map(|w| w.cert.clone())
+                    .collect(),
+            },
             keep_off: None,
         },
         scene,
@@ -79,8 +81,10 @@ pub fn worker_config(ids: &Identities, addr: SocketAddr) -> WorkerConfig {
 pub fn worker_config_k(ids: &Identities, addr: SocketAddr, k: usize) -> WorkerConfig {
     WorkerConfig {
         coordinator: addr,
-        identity: ids.worker_k(k).clone(),
-        pins: vec![ids.coordinator.cert.clone()],
+        tls: PeerTls {
+            identity: ids.worker_k(k).clone(),
+            pins: vec![ids.coordinator.cert.clone()],
+        },
         cache_dir: None,
         threads: 1,
     }
@@ -161,8 +165,10 @@ impl FakeWorker {
         };
         endpoint.set_default_client_config(
             vps_cluster::tls::client_config(
-                identity,
-                vec![coordinator_cert.cert.clone()],
+                &PeerTls {
+                    identity: identity.clone(),
+                    pins: vec![coordinator_cert.cert.clone()],
+                },
                 Arc::new(std::sync::atomic::AtomicU64::new(0)),
             )
             .expect("client config"),

@@ -237,30 +237,31 @@ fn pack_row(bytes: &[u8], bits_log2: u32) -> u64 {
         b[..chunk.len()].copy_from_slice(chunk);
         let x = u64::from_le_bytes(b);
         let packed = match bits_log2 {
-            1 => pack8(x),
-            2 => pack8_nibbles(x),
+            1 => pack8::<2>(x),
+            2 => pack8::<4>(x),
             _ => x,
         };
         acc | packed.checked_shl((8 << bits_log2) * c as u32).unwrap_or(0)
     })
 }
 
-/// Packs the low four bits of each of 8 bytes into 32 bits (byte `i` → bits `4i..4i+4`).
+/// Packs the low `W` bits of each of 8 bytes into `8 W` bits (byte `i` → bits `W i..W (i + 1)`),
+/// for `W` = 2 or 4: three steps, each closing the gaps between neighbouring fields in lanes twice
+/// as wide as the step before. The masks are compile-time constants (`const` blocks).
 #[inline(always)]
-fn pack8_nibbles(x: u64) -> u64 {
-    let x = x & 0x0F0F_0F0F_0F0F_0F0F;
-    let x = (x | x >> 4) & 0x00FF_00FF_00FF_00FF;
-    let x = (x | x >> 8) & 0x0000_FFFF_0000_FFFF;
-    (x | x >> 16) & 0xFFFF_FFFF
+fn pack8<const W: u32>(x: u64) -> u64 {
+    let gap = 8 - W;
+    let x = x & const { lanes(8, W) };
+    let x = (x | x >> gap) & const { lanes(16, 2 * W) };
+    let x = (x | x >> (2 * gap)) & const { lanes(32, 4 * W) };
+    (x | x >> (4 * gap)) & const { lanes(64, 8 * W) }
 }
 
-/// Packs the low two bits of each of 8 bytes into 16 bits (byte `i` → bits `2i..2i+2`).
-#[inline(always)]
-fn pack8(x: u64) -> u64 {
-    let x = x & 0x0303_0303_0303_0303;
-    let x = (x | x >> 6) & 0x000F_000F_000F_000F;
-    let x = (x | x >> 12) & 0x0000_00FF_0000_00FF;
-    (x | x >> 24) & 0xFFFF
+/// A word whose every `lane`-bit lane (`lane` = 8, 16, 32 or 64) holds `low` (< 64) one bits at
+/// its bottom, e.g. `lanes(8, 2)` = `0x0303_0303_0303_0303`.
+const fn lanes(lane: u32, low: u32) -> u64 {
+    let one_per_lane = (u64::MAX as u128 / ((1u128 << lane) - 1)) as u64;
+    one_per_lane * ((1u64 << low) - 1)
 }
 
 #[cfg(test)]
@@ -270,11 +271,45 @@ mod tests {
     #[test]
     fn pack8_places_each_byte_in_its_field() {
         let bytes = [0u8, 1, 2, 3, 3, 2, 1, 0];
-        let packed = pack8(u64::from_le_bytes(bytes));
+        let packed = pack8::<2>(u64::from_le_bytes(bytes));
         for (i, &b) in bytes.iter().enumerate() {
             assert_eq!((packed >> (2 * i)) & 3, b as u64, "byte {i}");
         }
         assert_eq!(packed >> 16, 0);
+    }
+
+    #[test]
+    fn lanes_are_the_packing_masks() {
+        let w2 = [lanes(8, 2), lanes(16, 4), lanes(32, 8), lanes(64, 16)];
+        assert_eq!(
+            w2,
+            [
+                0x0303_0303_0303_0303,
+                0x000F_000F_000F_000F,
+                0x0000_00FF_0000_00FF,
+                0xFFFF
+            ]
+        );
+        let w4 = [lanes(8, 4), lanes(16, 8), lanes(32, 16), lanes(64, 32)];
+        assert_eq!(
+            w4,
+            [
+                0x0F0F_0F0F_0F0F_0F0F,
+                0x00FF_00FF_00FF_00FF,
+                0x0000_FFFF_0000_FFFF,
+                0xFFFF_FFFF
+            ]
+        );
+    }
+
+    #[test]
+    fn pack8_of_nibbles_places_each_byte_in_its_field() {
+        let bytes = [0u8, 1, 0xF, 7, 0x18, 0xA, 0xFF, 3];
+        let packed = pack8::<4>(u64::from_le_bytes(bytes));
+        for (i, &b) in bytes.iter().enumerate() {
+            assert_eq!((packed >> (4 * i)) & 0xF, b as u64 & 0xF, "byte {i}");
+        }
+        assert_eq!(packed >> 32, 0);
     }
 
     #[test]
