@@ -7,7 +7,10 @@
 //! in a Surface voxel of a mixed leaf), `free` in the empty slot (every point in a Free tile),
 //! `dense` is the contact pose against the dense byte grid. `fine` and `fine-free` use a shell 16×
 //! finer than the voxmap (≈ 256 points per voxel of area, like `vps bench loop`'s 100k-point
-//! teapot) split into 64 cyclic classes, as the runtime does.
+//! teapot) split into 64 cyclic classes, as the runtime does. `fine4` and `fine4-free` are the same
+//! against a 4-bit map (the loop's default scenes): the band holds every Surface layer (0..=6) and
+//! Proximity layer (0..=5) of the width, Interior inside, and the slot is wide enough that the
+//! empty half stays Free.
 //!
 //! ```sh
 //! cargo build --release -p vps-haptic --example kernel_ir
@@ -26,7 +29,10 @@ use glam::{DQuat, DVec3, Vec3};
 use std::hint::black_box;
 use vps_haptic::{sample_all, ClassedShell, KernelPose, PartState};
 use vps_voxmap::shell::ShellMethod;
-use vps_voxmap::{DenseGrid, GridSpec, MassProperties, PointShell, TreeConfig, Voxel, VoxelTree};
+use vps_voxmap::{
+    CubeSource, DenseGrid, GridSpec, LayeredVoxel, MassProperties, PointShell, TreeConfig, Voxel,
+    VoxelTree, VoxelWidth,
+};
 
 const VOXEL_SIZE: f64 = 0.005;
 
@@ -58,8 +64,8 @@ fn sphere_shell(n: usize, radius: f64, sample: f64) -> PointShell {
     }
 }
 
-fn band_scene(radius_vox: f64) -> DenseGrid {
-    let slot = (2.0 * (radius_vox + 4.0)).ceil() as u32;
+fn band_scene(radius_vox: f64, margin_vox: f64) -> DenseGrid {
+    let slot = (2.0 * (radius_vox + margin_vox)).ceil() as u32;
     let spec = GridSpec::at_origin(VOXEL_SIZE, [2 * slot, slot, slot]);
     let centre = DVec3::splat(slot as f64 / 2.0);
     let mut grid = DenseGrid::new(spec);
@@ -81,16 +87,86 @@ fn band_scene(radius_vox: f64) -> DenseGrid {
     grid
 }
 
+/// The 4-bit code at signed distance `d` (voxels, negative inside) from the band's sphere: Surface
+/// layer ℓ for `d` in (0.5 − ℓ, 1.5 − ℓ], ℓ = 0..=6, Interior deeper, Proximity layer ℓ for `d` in
+/// (1.5 + ℓ, 2.5 + ℓ], ℓ = 0..=5, Free farther.
+fn layered_code(d: f64) -> u8 {
+    let w = VoxelWidth::Four;
+    let v = if d <= 1.5 {
+        let layer = (1.5 - d).floor() as i64;
+        if layer >= i64::from(w.surface_layers()) {
+            LayeredVoxel {
+                kind: Voxel::Interior,
+                layer: 0,
+            }
+        } else {
+            LayeredVoxel {
+                kind: Voxel::Surface,
+                layer: layer as u8,
+            }
+        }
+    } else {
+        let layer = (d - 1.5).ceil() as i64 - 1;
+        if layer < i64::from(w.proximity_layers()) {
+            LayeredVoxel {
+                kind: Voxel::Proximity,
+                layer: layer as u8,
+            }
+        } else {
+            LayeredVoxel {
+                kind: Voxel::Free,
+                layer: 0,
+            }
+        }
+    };
+    w.encode(v).expect("layers within the width")
+}
+
+/// The 4-bit band of `layered_code` around a sphere of `radius_vox` centred in the first of two
+/// slots of `spec` (voxel centres).
+struct LayeredBand {
+    dims: [u32; 3],
+    centre: DVec3,
+    radius_vox: f64,
+}
+
+impl CubeSource for LayeredBand {
+    fn cube(&self, origin: glam::UVec3, extent: u32, out: &mut [u8]) -> Option<u8> {
+        let e = extent as usize;
+        for (i, o) in out.iter_mut().enumerate() {
+            let p =
+                origin + glam::UVec3::new((i % e) as u32, (i / e % e) as u32, (i / (e * e)) as u32);
+            let inside = (0..3).all(|a| p[a] < self.dims[a]);
+            let d = (p.as_dvec3() + DVec3::splat(0.5) - self.centre).length() - self.radius_vox;
+            *o = if inside { layered_code(d) } else { 0 };
+        }
+        None
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let n: usize = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(10_000);
     let mode = args.get(2).map_or("contact", String::as_str);
     let reps: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(20);
     let fine = mode.starts_with("fine");
+    let four_bit = mode.starts_with("fine4");
     let per_voxel_edge = if fine { 16.0 } else { 1.0 };
     let radius_vox = (n as f64 / (4.0 * std::f64::consts::PI)).sqrt().max(3.0) / per_voxel_edge;
-    let dense = band_scene(radius_vox);
-    let tree = VoxelTree::from_dense(&dense, TreeConfig::default()).expect("valid scene");
+    // The 4-bit band reaches 8.5 voxels out: a wider slot keeps the empty half Free.
+    let dense = band_scene(radius_vox, if four_bit { 12.0 } else { 4.0 });
+    let tree = if four_bit {
+        let slot = dense.spec.dims[1] as f64;
+        let source = LayeredBand {
+            dims: dense.spec.dims,
+            centre: DVec3::splat(slot / 2.0),
+            radius_vox,
+        };
+        VoxelTree::from_source(dense.spec, VoxelWidth::Four, TreeConfig::default(), &source)
+            .expect("valid scene")
+    } else {
+        VoxelTree::from_dense(&dense, TreeConfig::default()).expect("valid scene")
+    };
     // A fourth argument `previous`: the previous kernel (the current one on at most AVX2).
     let kernel = if args.get(4).is_some_and(|a| a == "previous") {
         vps_haptic::previous::sample_all::<VoxelTree>
@@ -102,7 +178,7 @@ fn main() {
     let shell = ClassedShell::new(&shell, if fine { 64 } else { 1 });
     let slot = dense.spec.dims[1] as f64;
     let centre = match mode {
-        "free" | "fine-free" => DVec3::new(slot * 1.5, slot / 2.0, slot / 2.0),
+        "free" | "fine-free" | "fine4-free" => DVec3::new(slot * 1.5, slot / 2.0, slot / 2.0),
         _ => DVec3::splat(slot / 2.0),
     };
     let state = PartState::at_rest(dense.spec.origin + centre * VOXEL_SIZE, DQuat::IDENTITY);

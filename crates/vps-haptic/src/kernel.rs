@@ -40,7 +40,7 @@ use crate::lanes::{
 use crate::state::KernelPose;
 use crate::sums::{PartialSums, AREA_SCALE, LENGTH_SCALE};
 use glam::{IVec3, Mat3};
-use vps_voxmap::{LayeredVoxel, Voxel, VoxelLookup};
+use vps_voxmap::{LayeredVoxel, LookupTask, Voxel, VoxelLookup};
 
 /// The sums of class `class` of `shell` at `pose` against `map`.
 ///
@@ -337,9 +337,56 @@ impl ClassAccumulator {
 type Soa<'a> = [&'a [f32]; 3];
 
 /// The hot loop over one class: adds the class's sums to `sums`, on the widest copy of the block
-/// loop up to `widest` that the CPU runs.
+/// loop up to `widest` that the CPU runs, compiled per lookup format
+/// ([`VoxelLookup::specialised`]: for the tree, one copy for its 2-bit 512-tree path and one for
+/// its general path, so neither tests the format per lookup).
 #[inline]
 fn accumulate<L: VoxelLookup>(
+    map: &L,
+    frame: &GridFrame,
+    points: Soa,
+    normals: Soa,
+    sums: &mut PartialSums,
+    widest: Widest,
+) {
+    map.specialised(ClassTask {
+        frame,
+        points,
+        normals,
+        sums,
+        widest,
+    })
+}
+
+/// The arguments of [`accumulate`] but the lookup, run on the lookup
+/// [`VoxelLookup::specialised`] hands over.
+struct ClassTask<'a> {
+    frame: &'a GridFrame,
+    points: Soa<'a>,
+    normals: Soa<'a>,
+    sums: &'a mut PartialSums,
+    widest: Widest,
+}
+
+impl LookupTask for ClassTask<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn run<L: VoxelLookup>(self, map: &L) {
+        let ClassTask {
+            frame,
+            points,
+            normals,
+            sums,
+            widest,
+        } = self;
+        accumulate_on(map, frame, points, normals, sums, widest)
+    }
+}
+
+/// [`accumulate`] on the lookup as given.
+#[inline(always)]
+fn accumulate_on<L: VoxelLookup>(
     map: &L,
     frame: &GridFrame,
     points: Soa,
@@ -680,18 +727,30 @@ fn look_up_fresh<L: VoxelLookup, const COPY: bool>(
         };
         (block.kinds, block.layers)
     } else {
-        let mut kinds = [0u8; LANES];
-        let mut layers = [0u8; LANES];
-        let (mut kind, mut layer) = (last.voxel.kind.bits(), last.voxel.layer);
-        for l in 0..valid {
-            if fresh >> l & 1 != 0 {
-                let v = map.get_layered(IVec3::new(cell[0][l], cell[1][l], cell[2][l]));
-                (kind, layer) = (v.kind.bits(), v.layer);
-            }
-            kinds[l] = kind;
-            layers[l] = layer;
+        // Lane bytes of one u64: every lane starts as the last voxel; each fresh lane, in lane
+        // order, overwrites itself and the lanes after it, so a lane ends with the voxel of the
+        // nearest fresh lane at or before it (lane 0: `last`). Lanes `valid..` read 0.
+        const ONES: u64 = u64::from_le_bytes([1; LANES]);
+        let mut kinds = ONES * u64::from(last.voxel.kind.bits());
+        let mut layers = ONES * u64::from(last.voxel.layer);
+        debug_assert!(fresh >> valid == 0, "fresh lanes are valid lanes");
+        let mut rest = fresh;
+        while rest != 0 {
+            let l = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            let v = map.get_layered(IVec3::new(cell[0][l], cell[1][l], cell[2][l]));
+            let from_l = u64::MAX << (8 * l);
+            kinds = (kinds & !from_l) | ((ONES * u64::from(v.kind.bits())) & from_l);
+            layers = (layers & !from_l) | ((ONES * u64::from(v.layer)) & from_l);
         }
-        (kinds, layers)
+        // Lanes 0..valid (none when `valid` is 0).
+        let in_block = u64::MAX
+            .checked_shr(8 * (LANES - valid) as u32)
+            .unwrap_or(0);
+        (
+            (kinds & in_block).to_le_bytes(),
+            (layers & in_block).to_le_bytes(),
+        )
     };
     if valid > 0 {
         last.remember(cell, valid - 1, kinds[valid - 1], layers[valid - 1]);

@@ -419,3 +419,86 @@ fn runs_of_points_in_one_voxel_match_points_sampled_alone() {
         }
     }
 }
+
+/// The voxels of a [`DenseGrid`] with distance layers made up from the position, as the codes of
+/// `width`: a 4- or 8-bit voxmap source.
+struct LayeredSource<'a> {
+    grid: &'a DenseGrid,
+    width: vps_voxmap::VoxelWidth,
+}
+
+impl vps_voxmap::CubeSource for LayeredSource<'_> {
+    fn cube(&self, origin: glam::UVec3, extent: u32, out: &mut [u8]) -> Option<u8> {
+        let e = extent as usize;
+        for (i, o) in out.iter_mut().enumerate() {
+            let p =
+                origin + glam::UVec3::new((i % e) as u32, (i / e % e) as u32, (i / (e * e)) as u32);
+            let kind = self.grid.get(p.as_ivec3());
+            let layer = match kind {
+                Voxel::Surface => (p.x + 2 * p.y + p.z) % u32::from(self.width.surface_layers()),
+                Voxel::Proximity => {
+                    (p.x + p.y + 3 * p.z) % u32::from(self.width.proximity_layers())
+                }
+                _ => 0,
+            };
+            let inside = (0..3).all(|a| p[a] < self.grid.spec.dims[a]);
+            *o = if inside {
+                let v = vps_voxmap::LayeredVoxel {
+                    kind,
+                    layer: layer as u8,
+                };
+                self.width.encode(v).expect("layer within the width")
+            } else {
+                0
+            };
+        }
+        None
+    }
+}
+
+/// A tree's lookups as plain calls: no per-format copy of the kernel
+/// (`VoxelLookup::specialised` left at its default).
+struct Unspecialised<'a>(&'a vps_voxmap::VoxelTree);
+
+impl vps_voxmap::VoxelLookup for Unspecialised<'_> {
+    fn spec(&self) -> &vps_voxmap::GridSpec {
+        self.0.spec()
+    }
+    fn get(&self, ijk: IVec3) -> Voxel {
+        self.0.get(ijk)
+    }
+    fn get_layered(&self, ijk: IVec3) -> vps_voxmap::LayeredVoxel {
+        self.0.get_layered(ijk)
+    }
+}
+
+/// The kernel's copy for a tree's format (2-, 4- and 8-bit 512-trees and another shape, with and
+/// without the leaf directory) gives the sums of plain per-voxel lookups, bit for bit, for a
+/// random shell (whole-block lookups) and a shell finer than the voxmap (lane-by-lane lookups).
+#[test]
+fn tree_formats_give_the_sums_of_plain_lookups() {
+    use vps_voxmap::{TreeConfig, VoxelTree, VoxelWidth};
+    let (grid, random_shell) = random_scene(11, 700);
+    let fine_shell = cube_shell(0.012, 24);
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    for width in VoxelWidth::ALL {
+        for config in [TreeConfig::default(), TreeConfig::uniform(2)] {
+            let source = LayeredSource { grid: &grid, width };
+            let tree = VoxelTree::from_source(grid.spec, width, config, &source).unwrap();
+            assert!(tree.directory_bytes() > 0);
+            for tree in [tree.clone(), tree.without_directory()] {
+                for (shell, classes) in [(&random_shell, 3), (&fine_shell, 5)] {
+                    let classed = ClassedShell::new(shell, classes);
+                    let pose = KernelPose::from_state(&random_state(&mut rng));
+                    let want = sample_all(&Unspecialised(&tree), &classed, &pose);
+                    assert!(want.surface > 0, "{width:?} {config:?}: {want:?}");
+                    assert_eq!(
+                        sample_all(&tree, &classed, &pose),
+                        want,
+                        "{width:?} {config:?}"
+                    );
+                }
+            }
+        }
+    }
+}

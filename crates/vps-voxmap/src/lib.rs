@@ -57,6 +57,27 @@ pub trait VoxelLookup: Sync {
     fn get_block(&self, cells: &BlockCells) -> VoxelBlock {
         block_by_lanes(self, cells)
     }
+
+    /// Runs `task` on this lookup or on an equivalent one (the same voxel at every index) whose
+    /// code is fixed to this map's format, so that a hot loop compiled once per format tests the
+    /// format once per task instead of once per lookup. The default runs `task` on `self`; the tree
+    /// passes a view of itself that takes its 2-bit 512-tree path or its general (decoding) path
+    /// without a per-lookup test.
+    #[inline(always)]
+    fn specialised<T: LookupTask>(&self, task: T) -> T::Output
+    where
+        Self: Sized,
+    {
+        task.run(self)
+    }
+}
+
+/// Work generic over the lookup, handed to [`VoxelLookup::specialised`].
+pub trait LookupTask {
+    /// What the task returns.
+    type Output;
+    /// Runs the task on `map`.
+    fn run<L: VoxelLookup>(self, map: &L) -> Self::Output;
 }
 
 /// [`VoxelLookup::get_block`] as one [`VoxelLookup::get_layered`] call per lane: the trait's

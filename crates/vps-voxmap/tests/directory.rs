@@ -6,7 +6,10 @@ mod common;
 
 use common::FnSource;
 use glam::{IVec3, UVec3};
-use vps_voxmap::{GridSpec, TreeConfig, VoxelTree, VoxelWidth, BLOCK_LANES};
+use vps_voxmap::{
+    GridSpec, LayeredVoxel, LookupTask, TreeConfig, Voxel, VoxelLookup, VoxelTree, VoxelWidth,
+    BLOCK_LANES,
+};
 
 /// A tree of `width` over `dims` holding random-ish codes valid for the width in slabs (Free
 /// elsewhere), so that tiles, leaves and uniform internal nodes all occur.
@@ -91,6 +94,79 @@ fn block_reads_equal_single_reads_inside_outside_and_far_away() {
                         (block.kinds[l], block.layers[l]),
                         (one.kind.bits(), one.layer)
                     );
+                }
+            }
+        }
+    }
+}
+
+/// Reads every cell of a box around the grid through the lookup it is handed (for the tree, the
+/// copy of its lookups for its shape: `VoxelLookup::specialised`), single and in blocks.
+struct ReadAll {
+    lo: IVec3,
+    hi: IVec3,
+}
+
+impl LookupTask for ReadAll {
+    type Output = Vec<(Voxel, LayeredVoxel, u8, u8)>;
+
+    #[allow(clippy::needless_range_loop)] // lane loops read as lanes
+    fn run<L: VoxelLookup>(self, map: &L) -> Self::Output {
+        let mut out = Vec::new();
+        for z in self.lo.z..self.hi.z {
+            for y in self.lo.y..self.hi.y {
+                let mut cells = [[0i32; BLOCK_LANES]; 3];
+                for x in self.lo.x..self.hi.x {
+                    let l = (x - self.lo.x) as usize % BLOCK_LANES;
+                    cells[0][l] = x;
+                    cells[1][l] = y;
+                    cells[2][l] = z;
+                    if l == BLOCK_LANES - 1 {
+                        let block = map.get_block(&cells);
+                        for l in 0..BLOCK_LANES {
+                            let ijk = IVec3::new(cells[0][l], cells[1][l], cells[2][l]);
+                            out.push((
+                                map.get(ijk),
+                                map.get_layered(ijk),
+                                block.kinds[l],
+                                block.layers[l],
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+#[test]
+fn specialised_lookups_equal_the_trees_for_every_width_and_shape() {
+    let dims = [70, 40, 30];
+    let task = || ReadAll {
+        lo: IVec3::new(-3, -2, -2),
+        hi: IVec3::new(-3 + 80, 42, 32),
+    };
+    for width in VoxelWidth::ALL {
+        for config in [TreeConfig::default(), TreeConfig::uniform(2)] {
+            let tree = clustered_tree(dims, width, config, 5);
+            for tree in [
+                tree.clone(),
+                tree.clone().without_directory(),
+                tree.without_gathers(),
+            ] {
+                let shaped = tree.specialised(task());
+                let plain = task().run(&tree);
+                assert_eq!(shaped.len(), 80 * 44 * 34);
+                assert!(shaped.iter().any(|v| v.1.layer > 0) || width == VoxelWidth::Two);
+                for (i, (s, p)) in shaped.iter().zip(&plain).enumerate() {
+                    assert_eq!(s, p, "{width:?} {config:?} read {i}");
+                    assert_eq!(
+                        (s.1.kind.bits(), s.1.layer),
+                        (s.2, s.3),
+                        "{width:?} read {i}"
+                    );
+                    assert_eq!(s.0, s.1.kind, "{width:?} read {i}");
                 }
             }
         }

@@ -23,8 +23,8 @@ pub use directory::{DIRECTORY_ALLOWANCE_BYTES, DIRECTORY_MAX_BYTES};
 pub use error::TreeError;
 
 use crate::{
-    BlockCells, DenseGrid, GridSpec, LayeredVoxel, Voxel, VoxelBlock, VoxelLookup, VoxelWidth,
-    BLOCK_LANES,
+    BlockCells, DenseGrid, GridSpec, LayeredVoxel, LookupTask, Voxel, VoxelBlock, VoxelLookup,
+    VoxelWidth, BLOCK_LANES,
 };
 use directory::LeafDirectory;
 use glam::{IVec3, UVec3};
@@ -48,6 +48,11 @@ pub struct VoxelTree {
     width: VoxelWidth,
     /// `config` is the paper's 512-tree and `width` is 2 bits: `get` takes the constant-shift walk.
     paper_shape: bool,
+    /// `log2(width bits)` (1, 2 or 3) when `config` is the 512-tree, else 0: which copy of the
+    /// lookups a [`ShapedTree`] of this tree may run besides the general one.
+    fixed_shape: u32,
+    /// Each code's voxel for `width`, so that decoding a looked-up code is one load.
+    codes: CodeTable,
     root: RootGrid,
     upper: InternalLevel,
     lower: InternalLevel,
@@ -91,21 +96,54 @@ struct LookupShape {
 
 impl LookupShape {
     /// The shape of [`TreeConfig::default`] (`N = 3` at every level), as constants.
-    const TREE_512: LookupShape = LookupShape {
-        root_shift: 9,
-        upper: internal::InternalShape {
-            log2: 3,
-            child_shift: 6,
-        },
-        lower: internal::InternalShape {
-            log2: 3,
-            child_shift: 3,
-        },
-        leaf: LeafShape {
-            log2: 3,
-            bits_log2: 1,
-        },
-    };
+    const TREE_512: LookupShape = LookupShape::tree_512(1);
+
+    /// The shape of the 512-tree of `2^bits_log2` bits per voxel, as constants.
+    const fn tree_512(bits_log2: u32) -> LookupShape {
+        LookupShape {
+            root_shift: 9,
+            upper: internal::InternalShape {
+                log2: 3,
+                child_shift: 6,
+            },
+            lower: internal::InternalShape {
+                log2: 3,
+                child_shift: 3,
+            },
+            leaf: LeafShape { log2: 3, bits_log2 },
+        }
+    }
+}
+
+/// The voxel of every code of one width (a reserved code reads Free, layer 0, as
+/// [`VoxelTree::get_layered`] reads it), indexed by the code: decoding is one load instead of the
+/// comparisons of [`VoxelWidth::decode`]. Derived from the width, so equal widths give equal tables.
+#[derive(Clone, PartialEq)]
+struct CodeTable([LayeredVoxel; 256]);
+
+impl CodeTable {
+    /// The table of `width`.
+    fn new(width: VoxelWidth) -> CodeTable {
+        CodeTable(std::array::from_fn(|code| {
+            width.decode(code as u8).unwrap_or(LayeredVoxel {
+                kind: Voxel::Free,
+                layer: 0,
+            })
+        }))
+    }
+
+    /// The voxel stored as `code`.
+    #[inline(always)]
+    fn get(&self, code: u8) -> LayeredVoxel {
+        self.0[usize::from(code)]
+    }
+}
+
+/// Not the 256 entries: they follow from the tree's width.
+impl std::fmt::Debug for CodeTable {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("CodeTable(..)")
+    }
 }
 
 /// The end of a lookup path above the voxel: a tile or a leaf (by its first word in the leaf arena).
@@ -148,15 +186,27 @@ impl VoxelTree {
     /// slot, at most two internal slots and one leaf word. Does not allocate or block.
     #[inline(always)]
     pub fn get(&self, ijk: IVec3) -> Voxel {
+        if self.paper_shape {
+            self.get_as::<PAPER_SHAPE>(ijk)
+        } else {
+            self.get_as::<ANY_SHAPE>(ijk)
+        }
+    }
+
+    /// [`VoxelTree::get`] on the copy of the lookup for `SHAPE` (see [`ShapedTree`]): `SHAPE` must
+    /// be [`ANY_SHAPE`] or this tree's [`VoxelTree::fixed_shape`].
+    #[inline(always)]
+    fn get_as<const SHAPE: u32>(&self, ijk: IVec3) -> Voxel {
+        debug_assert!(SHAPE == ANY_SHAPE || SHAPE == self.fixed_shape);
         let Some(p) = self.in_grid(ijk) else {
             return Voxel::Free;
         };
         // The paper's 2-bit 512-tree (the default) gets a copy of the walk with constant shifts: on
         // baseline x86-64 a shift by a register amount costs several micro-ops.
-        if self.paper_shape {
+        if SHAPE == PAPER_SHAPE {
             Voxel::from_bits(self.read(p, &LookupShape::TREE_512))
         } else {
-            self.kind_of(self.read(p, &self.lookup_shape()))
+            self.kind_of(self.read(p, &self.lookup_shape_as::<SHAPE>()))
         }
     }
 
@@ -164,31 +214,54 @@ impl VoxelTree {
     /// Same cost as [`VoxelTree::get`] plus a decode. Does not allocate or block.
     #[inline(always)]
     pub fn get_layered(&self, ijk: IVec3) -> LayeredVoxel {
+        if self.paper_shape {
+            self.get_layered_as::<PAPER_SHAPE>(ijk)
+        } else {
+            self.get_layered_as::<ANY_SHAPE>(ijk)
+        }
+    }
+
+    /// [`VoxelTree::get_layered`] on the copy of the lookup for `SHAPE` (as
+    /// [`VoxelTree::get_as`]).
+    #[inline(always)]
+    fn get_layered_as<const SHAPE: u32>(&self, ijk: IVec3) -> LayeredVoxel {
+        debug_assert!(SHAPE == ANY_SHAPE || SHAPE == self.fixed_shape);
         let Some(p) = self.in_grid(ijk) else {
             return LayeredVoxel {
                 kind: Voxel::Free,
                 layer: 0,
             };
         };
-        if self.paper_shape {
+        if SHAPE == PAPER_SHAPE {
             return LayeredVoxel {
                 kind: Voxel::from_bits(self.read(p, &LookupShape::TREE_512)),
                 layer: 0,
             };
         }
-        self.decode(self.read(p, &self.lookup_shape()))
+        self.decode(self.read(p, &self.lookup_shape_as::<SHAPE>()))
     }
 
     /// The voxels of a block of cells, lane by lane as [`VoxelTree::get_layered`]. With the leaf
     /// directory, one vectorisable pass over the block (see `directory::LeafDirectory::read_block`);
     /// without it, one walk per lane. Does not allocate or block.
-    #[allow(clippy::needless_range_loop)] // lane loops: index form vectorises and reads as lanes
     #[inline(always)]
     pub fn get_block(&self, cells: &BlockCells) -> VoxelBlock {
-        let Some(directory) = &self.directory else {
-            return crate::block_by_lanes(self, cells);
-        };
         if self.paper_shape {
+            self.get_block_as::<PAPER_SHAPE>(cells)
+        } else {
+            self.get_block_as::<ANY_SHAPE>(cells)
+        }
+    }
+
+    /// [`VoxelTree::get_block`] on the copy of the lookup for `SHAPE` (as [`VoxelTree::get_as`]).
+    #[allow(clippy::needless_range_loop)] // lane loops: index form vectorises and reads as lanes
+    #[inline(always)]
+    fn get_block_as<const SHAPE: u32>(&self, cells: &BlockCells) -> VoxelBlock {
+        debug_assert!(SHAPE == ANY_SHAPE || SHAPE == self.fixed_shape);
+        let Some(directory) = &self.directory else {
+            return crate::block_by_lanes(ShapedTree::<SHAPE>::of(self), cells);
+        };
+        if SHAPE == PAPER_SHAPE {
             // 2-bit codes are the kinds' bits.
             let kinds = directory.read_block(&self.leaf_words, LookupShape::TREE_512.leaf, cells);
             return VoxelBlock {
@@ -196,7 +269,11 @@ impl VoxelTree {
                 layers: [0; BLOCK_LANES],
             };
         }
-        let codes = directory.read_block(&self.leaf_words, self.leaf_shape, cells);
+        let codes = directory.read_block(
+            &self.leaf_words,
+            self.lookup_shape_as::<SHAPE>().leaf,
+            cells,
+        );
         let mut block = VoxelBlock::default();
         for l in 0..BLOCK_LANES {
             let v = self.decode(codes[l]);
@@ -211,17 +288,14 @@ impl VoxelTree {
     fn kind_of(&self, code: u8) -> Voxel {
         match self.width {
             VoxelWidth::Two => Voxel::from_bits(code),
-            w => w.kind_of(code),
+            _ => self.codes.get(code).kind,
         }
     }
 
     /// The voxel of a stored (valid) code.
     #[inline(always)]
     fn decode(&self, code: u8) -> LayeredVoxel {
-        self.width.decode(code).unwrap_or(LayeredVoxel {
-            kind: Voxel::Free,
-            layer: 0,
-        })
+        self.codes.get(code)
     }
 
     /// `ijk` as unsigned coordinates when it is inside the dims. Dims are at most `i32::MAX`
@@ -263,6 +337,17 @@ impl VoxelTree {
             upper: self.upper.shape,
             lower: self.lower.shape,
             leaf: self.leaf_shape,
+        }
+    }
+
+    /// [`VoxelTree::lookup_shape`] as constants where `SHAPE` fixes it (the 512-tree of
+    /// `2^SHAPE` bits per voxel), read from the tree for [`ANY_SHAPE`].
+    #[inline(always)]
+    fn lookup_shape_as<const SHAPE: u32>(&self) -> LookupShape {
+        if SHAPE == ANY_SHAPE {
+            self.lookup_shape()
+        } else {
+            LookupShape::tree_512(SHAPE)
         }
     }
 
@@ -418,6 +503,12 @@ impl VoxelTree {
             config,
             width,
             paper_shape: config == TreeConfig::default() && width == VoxelWidth::Two,
+            fixed_shape: if config == TreeConfig::default() {
+                width.bits_log2()
+            } else {
+                ANY_SHAPE
+            },
+            codes: CodeTable::new(width),
             root: RootGrid {
                 dims: RootGrid::dims_for(spec.dims, root_shift),
                 shift: root_shift,
@@ -496,6 +587,65 @@ impl VoxelLookup for VoxelTree {
     #[inline(always)]
     fn get_block(&self, cells: &BlockCells) -> VoxelBlock {
         VoxelTree::get_block(self, cells)
+    }
+
+    /// `task` on a [`ShapedTree`] of this tree: which copy of the lookups, chosen once here.
+    #[inline(always)]
+    fn specialised<T: LookupTask>(&self, task: T) -> T::Output {
+        match self.fixed_shape {
+            PAPER_SHAPE => task.run(ShapedTree::<PAPER_SHAPE>::of(self)),
+            FOUR_BIT_SHAPE => task.run(ShapedTree::<FOUR_BIT_SHAPE>::of(self)),
+            _ => task.run(ShapedTree::<ANY_SHAPE>::of(self)),
+        }
+    }
+}
+
+/// [`ShapedTree`]'s general copy: shifts read from the tree, codes decoded by table. Right for
+/// every tree.
+const ANY_SHAPE: u32 = 0;
+/// [`ShapedTree`]'s copy for the paper's 2-bit 512-tree (the default): constant shifts, and the
+/// codes are the kinds.
+const PAPER_SHAPE: u32 = 1;
+/// [`ShapedTree`]'s copy for the 4-bit 512-tree: constant shifts, codes decoded by table.
+const FOUR_BIT_SHAPE: u32 = 2;
+
+/// A tree whose lookups run one copy of the lookup code, chosen by `SHAPE` instead of tested per
+/// lookup: [`ANY_SHAPE`] for any tree, or (only for a tree of that shape, its
+/// [`VoxelTree::fixed_shape`]) [`PAPER_SHAPE`] or [`FOUR_BIT_SHAPE`]. The same voxels as the tree.
+/// The tree itself (not a reference to it), so that a loop over lookups reads the tree's fields
+/// through one reference, as it would the tree's.
+#[repr(transparent)]
+struct ShapedTree<const SHAPE: u32>(VoxelTree);
+
+impl<const SHAPE: u32> ShapedTree<SHAPE> {
+    /// `tree` as a [`ShapedTree`]; `SHAPE` must be [`ANY_SHAPE`] or the tree's `fixed_shape`
+    /// (checked in debug builds by every lookup).
+    #[inline(always)]
+    fn of(tree: &VoxelTree) -> &ShapedTree<SHAPE> {
+        // SAFETY: `ShapedTree` is a `repr(transparent)` wrapper of `VoxelTree`, so the pointer
+        // casts to a reference of the same layout, alignment and lifetime.
+        unsafe { &*(tree as *const VoxelTree).cast::<ShapedTree<SHAPE>>() }
+    }
+}
+
+impl<const SHAPE: u32> VoxelLookup for ShapedTree<SHAPE> {
+    fn spec(&self) -> &GridSpec {
+        &self.0.spec
+    }
+
+    #[inline(always)]
+    fn get(&self, ijk: IVec3) -> Voxel {
+        self.0.get_as::<SHAPE>(ijk)
+    }
+
+    #[inline(always)]
+    fn get_layered(&self, ijk: IVec3) -> LayeredVoxel {
+        self.0.get_layered_as::<SHAPE>(ijk)
+    }
+
+    #[inline(always)]
+    fn get_block(&self, cells: &BlockCells) -> VoxelBlock {
+        self.0.get_block_as::<SHAPE>(cells)
     }
 }
 
