@@ -4,21 +4,33 @@
 //! stamped with the frame's sequence number) by the calling (frame) thread and by `T − 1` worker
 //! threads spawned once by [`ClassPool::new`]: whoever is free takes the next class, so a worker
 //! that wakes late or is preempted simply takes fewer classes instead of holding back a fixed
-//! share. Once every class is claimed, the frame thread waits until a deadline for the classes
-//! the workers are still computing (at most one each); any class not in by then is computed on
-//! the calling thread, and a reply that turns up later is recognised by its sequence number and
-//! dropped. Partial sums are integers, so the merged result is bit-identical for every thread
+//! share. Once every class is claimed, the frame thread waits for the classes the workers are
+//! still computing (at most one each), but only for about as long as they should take: twice its
+//! own mean time per class this frame plus [`HEDGE_SLACK`], and never past the caller's deadline
+//! (the *hedge*). Any class not in by then — its worker was preempted or woke late — is computed
+//! on the calling thread, and a reply that turns up later is recognised by its sequence number
+//! and dropped. Partial sums are integers, so the merged result is bit-identical for every thread
 //! count and whoever computed each class.
 
 use crate::RuntimeError;
-use crossbeam::channel::{bounded, Receiver, RecvTimeoutError, Sender};
+use crossbeam::channel::{bounded, Receiver, Sender};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::thread::JoinHandle;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 use vps_haptic::{sample_class, ClassedShell, KernelPose, PartialSums};
 use vps_voxmap::VoxelLookup;
+
+/// What the frame thread waits, beyond twice its own mean time per class, for a class a worker
+/// still holds once none is left to claim, before computing that class itself: room for a
+/// reply's hand-off and for classes that cost more than the mean (20 µs).
+pub const HEDGE_SLACK: Duration = Duration::from_micros(20);
+
+/// How many of its own mean class times the frame thread waits for a class in flight (see
+/// [`HEDGE_SLACK`]). A class in flight was claimed before the frame thread's last claim, so it
+/// should be in within one class time.
+const HEDGE_CLASS_TIMES: u32 = 2;
 
 struct Job {
     seq: u32,
@@ -191,9 +203,11 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
     }
 
     /// Samples every class at `pose`: opens the frame's cursor, wakes the workers, claims and
-    /// computes classes here until none is left, waits for the workers' classes until `deadline`
-    /// (blocking on the reply channel, never past `deadline`), then computes any class still
-    /// missing here. Does not allocate.
+    /// computes classes here until none is left, waits (spinning) for the classes the workers
+    /// still hold until the hedge time (twice this thread's mean class time this frame plus
+    /// [`HEDGE_SLACK`] after its last class) or `deadline`, whichever is first, then computes
+    /// here any class still missing, one at a time, taking replies that arrive in between. Does
+    /// not allocate or block.
     pub fn compute(&mut self, pose: &KernelPose, deadline: Instant) -> PoolResult {
         self.seq = self.seq.wrapping_add(1);
         let seq = self.seq;
@@ -211,43 +225,62 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
         }
         let mut sums = PartialSums::default();
         let mut missing = classes as usize;
+        let own_started = Instant::now();
+        let mut own = 0u32;
         while let Some(class) = self.cursor.claim(seq, classes) {
             sums.merge(&sample_class(&*self.map, &self.shell, pose, class));
             self.done[class as usize] = true;
             missing -= 1;
+            own += 1;
         }
-        while missing > 0 {
-            match self.replies.recv_deadline(deadline) {
-                Ok(reply) if reply.seq == seq && !self.done[reply.class as usize] => {
-                    sums.merge(&reply.sums);
-                    self.done[reply.class as usize] = true;
-                    missing -= 1;
+        if missing > 0 {
+            let now = Instant::now();
+            let wait_until = match own {
+                // Every class went to a worker: no own class time to judge by.
+                0 => deadline,
+                _ => {
+                    deadline.min(now + (now - own_started) / own * HEDGE_CLASS_TIMES + HEDGE_SLACK)
                 }
-                Ok(_stale) => {}
-                Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => break,
+            };
+            loop {
+                missing -= self.take_replies(seq, &mut sums);
+                if missing == 0 || Instant::now() >= wait_until {
+                    break;
+                }
+                std::hint::spin_loop();
             }
         }
         let mut fallback_shares = 0;
-        if missing > 0 {
-            // Take what arrived meanwhile (the deadline may have passed long before this frame's
-            // own classes were done), then compute the rest here.
-            while let Ok(reply) = self.replies.try_recv() {
-                if reply.seq == seq && !self.done[reply.class as usize] {
-                    sums.merge(&reply.sums);
-                    self.done[reply.class as usize] = true;
-                }
+        for class in 0..classes {
+            if missing == 0 {
+                break;
             }
-            for class in 0..classes {
-                if !self.done[class as usize] {
-                    sums.merge(&sample_class(&*self.map, &self.shell, pose, class));
-                    fallback_shares += 1;
-                }
+            missing -= self.take_replies(seq, &mut sums);
+            if !self.done[class as usize] {
+                sums.merge(&sample_class(&*self.map, &self.shell, pose, class));
+                self.done[class as usize] = true;
+                missing -= 1;
+                fallback_shares += 1;
             }
         }
         PoolResult {
             sums,
             fallback_shares,
         }
+    }
+
+    /// Merges the queued replies of frame `seq` for classes not yet done; returns how many.
+    /// Replies of other frames and repeats are dropped. Does not block or allocate.
+    fn take_replies(&mut self, seq: u32, sums: &mut PartialSums) -> usize {
+        let mut taken = 0;
+        while let Ok(reply) = self.replies.try_recv() {
+            if reply.seq == seq && !self.done[reply.class as usize] {
+                sums.merge(&reply.sums);
+                self.done[reply.class as usize] = true;
+                taken += 1;
+            }
+        }
+        taken
     }
 }
 
@@ -299,7 +332,7 @@ impl<L: VoxelLookup + Send + Sync + 'static> Drop for ClassPool<L> {
 mod tests {
     use super::*;
     use glam::{DQuat, DVec3};
-    use std::time::Duration;
+    use std::sync::atomic::AtomicBool;
     use vps_haptic::{sample_all, PartState};
     use vps_testkit::scene::wall;
     use vps_testkit::shell::sphere_shell;
@@ -371,6 +404,77 @@ mod tests {
                 assert_eq!(&got.sums, want, "threads = {threads}");
             }
         }
+    }
+
+    /// The wall, except that once `armed` a lookup on the pool thread `vps-pool-1` stalls until
+    /// `released`, and lookups on any other thread wait until that pool thread has stalled (so
+    /// that it holds a class of the frame).
+    struct StallsOnPoolThread {
+        wall: vps_voxmap::DenseGrid,
+        armed: AtomicBool,
+        stalled: AtomicBool,
+        released: AtomicBool,
+    }
+
+    impl VoxelLookup for StallsOnPoolThread {
+        fn spec(&self) -> &vps_voxmap::GridSpec {
+            self.wall.spec()
+        }
+        fn get(&self, ijk: glam::IVec3) -> vps_voxmap::Voxel {
+            if self.armed.load(Ordering::Acquire) {
+                // A backstop so that a failing test does not hang.
+                let backstop = Instant::now() + Duration::from_secs(30);
+                let on_pool = std::thread::current().name() == Some("vps-pool-1");
+                if on_pool {
+                    self.stalled.store(true, Ordering::Release);
+                }
+                let flag = if on_pool {
+                    &self.released
+                } else {
+                    &self.stalled
+                };
+                while !flag.load(Ordering::Acquire) && Instant::now() < backstop {
+                    std::thread::sleep(Duration::from_micros(100));
+                }
+            }
+            self.wall.get(ijk)
+        }
+    }
+
+    #[test]
+    fn a_class_held_by_a_stalled_thread_is_computed_here_long_before_the_deadline() {
+        let map = Arc::new(StallsOnPoolThread {
+            wall: wall(),
+            armed: AtomicBool::new(false),
+            stalled: AtomicBool::new(false),
+            released: AtomicBool::new(false),
+        });
+        let shell = Arc::new(ClassedShell::new(&sphere_shell(300), 8));
+        let pose = KernelPose::from_state(&PartState::at_rest(
+            DVec3::new(0.05, 0.05, 0.06),
+            DQuat::IDENTITY,
+        ));
+        let want = sample_all(&map.wall, &shell, &pose);
+        let mut pool = ClassPool::new(map.clone(), shell, 2).unwrap();
+        map.armed.store(true, Ordering::Release);
+        let deadline = Instant::now() + Duration::from_secs(20);
+        let got = pool.compute(&pose, deadline);
+        let returned = Instant::now();
+        map.armed.store(false, Ordering::Release);
+        map.released.store(true, Ordering::Release);
+        assert!(
+            map.stalled.load(Ordering::Acquire),
+            "the pool thread held a class"
+        );
+        assert_eq!(got.sums, want);
+        assert_eq!(got.fallback_shares, 1, "the stalled thread's one class");
+        assert!(
+            returned < deadline,
+            "the frame thread waited for the stalled class until the deadline"
+        );
+        // The stalled thread's late reply is dropped; the next frame is whole again.
+        let again = pool.compute(&pose, Instant::now() + Duration::from_secs(20));
+        assert_eq!(again.sums, want);
     }
 
     #[test]
