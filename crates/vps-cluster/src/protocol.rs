@@ -22,8 +22,10 @@ use glam::{Mat3, Vec3};
 use vps_haptic::{KernelPose, PartialSums};
 use vps_wire::SliceWriter;
 
-/// Version of the datagram and join formats; a worker with another version is refused.
-pub const PROTOCOL_VERSION: u16 = 1;
+/// Version of the datagram and join formats and of what a class is; a worker with another version
+/// is refused. 2: classes are dealt in runs of points ([`vps_haptic::classed::run_length`]), so a
+/// class mask names other points than in version 1.
+pub const PROTOCOL_VERSION: u16 = 2;
 /// Largest class count a frame datagram can address (one bit per class).
 pub const MAX_CLASSES: u32 = 64;
 /// Size of an encoded [`FrameRequest`] (bytes).

@@ -1,8 +1,31 @@
-//! The point shell split cyclically into classes (docs/architecture.md#exact-sums-and-the-cluster): point `i` belongs to class
-//! `i mod C`. Each class is stored contiguously as structure-of-arrays f32, so sampling a class is
-//! one linear scan over six arrays.
+//! The point shell split cyclically into classes
+//! (docs/architecture.md#exact-sums-and-the-cluster): the shell's points, in order, are dealt out
+//! in runs of [`run_length`] consecutive points, run `j` to class `j mod C`, so point
+//! `i` belongs to class `(i / R) mod C`. Each class is stored contiguously as structure-of-arrays
+//! f32, so sampling a class is one linear scan over six arrays.
+//!
+//! Why runs: a shell in Morton order has neighbouring points next to each other, and a shell
+//! finer than the voxmap has many points per voxel; a run keeps such neighbours together in one
+//! class, so the kernel's blocks of points mostly repeat the previous point's voxel and skip its
+//! lookup. Runs are short enough that every class still samples the whole shell evenly (at least
+//! [`MIN_RUNS_PER_CLASS`] runs each, so class sizes differ by at most one run).
 
 use vps_voxmap::PointShell;
+
+/// The longest run of consecutive shell points dealt to one class (16 points: two blocks of the
+/// kernel's 8 lanes).
+pub const MAX_RUN_LENGTH: usize = 16;
+
+/// Runs shorter than [`MAX_RUN_LENGTH`] are used where needed so that every class gets at least
+/// this many runs (a shell of fewer than `C` times this many points is dealt point by point).
+pub const MIN_RUNS_PER_CLASS: usize = 16;
+
+/// The run length `R` for `points` points in `classes` classes: the longest up to
+/// [`MAX_RUN_LENGTH`] that still gives every class [`MIN_RUNS_PER_CLASS`] runs, at least 1.
+pub fn run_length(points: usize, classes: u32) -> usize {
+    let classes = (classes.max(1) as usize).saturating_mul(MIN_RUNS_PER_CLASS);
+    (points / classes).clamp(1, MAX_RUN_LENGTH)
+}
 
 /// A [`PointShell`] reordered by class. Within a class, points keep their shell order (ascending
 /// index), which is Morton order when the shell is.
@@ -41,8 +64,9 @@ fn largest_length(vectors: &[glam::Vec3]) -> f64 {
 }
 
 impl ClassedShell {
-    /// Splits `shell` into `class_count` classes (a `class_count` of 0 is taken as 1). Classes may be
-    /// empty when `class_count > shell.len()`. Allocates; not for the frame path.
+    /// Splits `shell` into `class_count` classes (a `class_count` of 0 is taken as 1), in runs of
+    /// [`run_length`]`(shell.len(), class_count)` points. Classes may be empty when
+    /// `class_count > shell.len()`. Allocates; not for the frame path.
     pub fn new(shell: &PointShell, class_count: u32) -> ClassedShell {
         let classes = class_count.max(1) as usize;
         let n = shell.points.len().min(shell.normals.len());
@@ -59,8 +83,10 @@ impl ClassedShell {
             finite: shell.points.iter().all(|p| p.is_finite()),
         };
         out.offsets.push(0);
+        let run = run_length(n, classes as u32);
         for class in 0..classes {
-            for i in (class..n).step_by(classes) {
+            let runs = (class * run..n).step_by(classes * run);
+            for i in runs.flat_map(|start| start..(start + run).min(n)) {
                 let (p, nrm) = (shell.points[i], shell.normals[i]);
                 out.px.push(p.x);
                 out.py.push(p.y);
@@ -117,5 +143,66 @@ impl ClassedShell {
     pub(crate) fn class_range(&self, class: u32) -> Option<std::ops::Range<usize>> {
         let c = class as usize;
         (c + 1 < self.offsets.len()).then(|| self.offsets[c]..self.offsets[c + 1])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A shell whose point `i` has x = i, so a class's points name their indices.
+    fn numbered(n: usize) -> PointShell {
+        let mut shell = vps_testkit::shell::sphere_shell(n);
+        for (i, p) in shell.points.iter_mut().enumerate() {
+            p.x = i as f32;
+        }
+        shell
+    }
+
+    #[test]
+    fn run_lengths_keep_sixteen_runs_per_class() {
+        assert_eq!(run_length(106_861, 64), 16);
+        assert_eq!(run_length(16_384, 64), 16);
+        assert_eq!(run_length(16_383, 64), 15);
+        assert_eq!(run_length(10_000, 64), 9);
+        assert_eq!(run_length(386, 64), 1);
+        assert_eq!(run_length(0, 64), 1);
+        assert_eq!(run_length(1_000, 0), 16, "a class count of 0 is taken as 1");
+    }
+
+    #[test]
+    fn classes_deal_runs_cyclically_and_partition_the_shell() {
+        for (n, classes) in [
+            (106_861, 64),
+            (10_000, 64),
+            (1_000, 7),
+            (386, 64),
+            (5, 8),
+            (0, 3),
+        ] {
+            let shell = ClassedShell::new(&numbered(n), classes);
+            let run = run_length(n, classes);
+            let mut seen = vec![false; n];
+            let mut sizes = Vec::new();
+            for class in 0..shell.class_count() {
+                let range = shell.class_range(class).unwrap();
+                sizes.push(range.len());
+                for i in range.map(|k| shell.px[k] as usize) {
+                    assert_eq!(
+                        (i / run) % classes as usize,
+                        class as usize,
+                        "n {n}, point {i}"
+                    );
+                    assert!(!seen[i], "point {i} in two classes");
+                    seen[i] = true;
+                }
+            }
+            assert!(seen.iter().all(|&s| s), "n {n}: every point in a class");
+            let (small, large) = (sizes.iter().min().unwrap(), sizes.iter().max().unwrap());
+            assert!(
+                large - small <= run,
+                "n {n}: class sizes {small}..{large}, run {run}"
+            );
+        }
     }
 }

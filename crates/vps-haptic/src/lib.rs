@@ -7,8 +7,9 @@
 //! - [`HandleSample`], [`Wrench`]: what a device reports and receives (SI units).
 //! - [`PartState`]: pose and velocities of the dynamic object (f64).
 //! - [`KernelPose`]: the f32 per-frame input of the sampling kernel, made from a [`PartState`].
-//! - [`ClassedShell`]: the point shell split cyclically into `C` classes (point `i` is in class
-//!   `i mod C`); `sample_class` returns that class's [`PartialSums`].
+//! - [`ClassedShell`]: the point shell split cyclically into `C` classes in runs of `R`
+//!   consecutive points (point `i` is in class `(i / R) mod C`, [`classed::run_length`]);
+//!   `sample_class` returns that class's [`PartialSums`].
 //! - [`PartialSums`]: integer fixed-point sums that merge exactly in any grouping and order.
 //! - [`HapticParams`]: validated parameters with derived defaults (TOML-loadable).
 //! - [`step`]: merged sums + handle + state → device wrench, next state, flags ([`FrameOutput`]).
