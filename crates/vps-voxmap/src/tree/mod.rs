@@ -24,7 +24,7 @@ pub use error::TreeError;
 
 use crate::{
     BlockCells, DenseGrid, GridSpec, LayeredVoxel, LookupTask, Voxel, VoxelBlock, VoxelLookup,
-    VoxelWidth, BLOCK_LANES,
+    VoxelWidth, WideBlockCells, WideVoxelBlock, BLOCK_LANES, WIDE_BLOCK_LANES,
 };
 use directory::LeafDirectory;
 use glam::{IVec3, UVec3};
@@ -276,6 +276,51 @@ impl VoxelTree {
         );
         let mut block = VoxelBlock::default();
         for l in 0..BLOCK_LANES {
+            let v = self.decode(codes[l]);
+            block.kinds[l] = v.kind.bits();
+            block.layers[l] = v.layer;
+        }
+        block
+    }
+
+    /// The voxels of a wide block of cells, lane by lane as [`VoxelTree::get_layered`]. With the
+    /// leaf directory and AVX-512F, one pass over the sixteen lanes (see
+    /// `directory::LeafDirectory::read_wide_block`); otherwise [`VoxelTree::get_block`] on each
+    /// half. Does not allocate or block.
+    #[inline(always)]
+    pub fn get_wide_block(&self, cells: &WideBlockCells) -> WideVoxelBlock {
+        if self.paper_shape {
+            self.get_wide_block_as::<PAPER_SHAPE>(cells)
+        } else {
+            self.get_wide_block_as::<ANY_SHAPE>(cells)
+        }
+    }
+
+    /// [`VoxelTree::get_wide_block`] on the copy of the lookup for `SHAPE` (as
+    /// [`VoxelTree::get_as`]).
+    #[allow(clippy::needless_range_loop)] // lane loops: index form vectorises and reads as lanes
+    #[inline(always)]
+    fn get_wide_block_as<const SHAPE: u32>(&self, cells: &WideBlockCells) -> WideVoxelBlock {
+        debug_assert!(SHAPE == ANY_SHAPE || SHAPE == self.fixed_shape);
+        let Some(directory) = self.directory.as_ref().filter(|d| d.reads_wide()) else {
+            return crate::wide_block_by_halves(cells, |half| self.get_block_as::<SHAPE>(half));
+        };
+        if SHAPE == PAPER_SHAPE {
+            // 2-bit codes are the kinds' bits.
+            let kinds =
+                directory.read_wide_block(&self.leaf_words, LookupShape::TREE_512.leaf, cells);
+            return WideVoxelBlock {
+                kinds,
+                layers: [0; WIDE_BLOCK_LANES],
+            };
+        }
+        let codes = directory.read_wide_block(
+            &self.leaf_words,
+            self.lookup_shape_as::<SHAPE>().leaf,
+            cells,
+        );
+        let mut block = WideVoxelBlock::default();
+        for l in 0..WIDE_BLOCK_LANES {
             let v = self.decode(codes[l]);
             block.kinds[l] = v.kind.bits();
             block.layers[l] = v.layer;
@@ -589,6 +634,11 @@ impl VoxelLookup for VoxelTree {
         VoxelTree::get_block(self, cells)
     }
 
+    #[inline(always)]
+    fn get_wide_block(&self, cells: &WideBlockCells) -> WideVoxelBlock {
+        VoxelTree::get_wide_block(self, cells)
+    }
+
     /// `task` on a [`ShapedTree`] of this tree: which copy of the lookups, chosen once here.
     #[inline(always)]
     fn specialised<T: LookupTask>(&self, task: T) -> T::Output {
@@ -646,6 +696,11 @@ impl<const SHAPE: u32> VoxelLookup for ShapedTree<SHAPE> {
     #[inline(always)]
     fn get_block(&self, cells: &BlockCells) -> VoxelBlock {
         self.0.get_block_as::<SHAPE>(cells)
+    }
+
+    #[inline(always)]
+    fn get_wide_block(&self, cells: &WideBlockCells) -> WideVoxelBlock {
+        self.0.get_wide_block_as::<SHAPE>(cells)
     }
 }
 
