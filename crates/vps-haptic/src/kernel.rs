@@ -146,7 +146,9 @@ pub(crate) fn sample_all_on<L: VoxelLookup>(
 /// below 2^51, and [`CHUNK_BLOCKS`] such values fit an `i64` lane.
 const Y_MAX: f32 = (1u64 << 50) as f32;
 
-/// Blocks a lane adds before it is flushed into `i128`: `2^11 · 2^50 = 2^61 < 2^63`.
+/// Blocks of [`LANES`] points a chunk holds: each lane adds at most this many values (one per
+/// 8-lane block, two per wide block of twice the points) before it is flushed into `i128`:
+/// `2^11 · 2^50 = 2^61 < 2^63`.
 const CHUNK_BLOCKS: usize = 1 << 11;
 
 /// `1.5 · 2^52`: adding it to an f64 of magnitude below 2^51 rounds it to an integer (nearest,
@@ -246,9 +248,10 @@ struct ClassAccumulator {
     brake_sq: I64s,
     brake_force: [I64s; 3],
     brake_torque: [I64s; 3],
-    /// Blocks that added to the depth lanes since the last flush.
+    /// Values each depth lane added since the last flush (one per 8-lane block, two per wide
+    /// block).
     depth_blocks: i64,
-    /// Blocks that added to the braking lanes since the last flush.
+    /// Values each braking lane added since the last flush (as `depth_blocks`).
     brake_blocks: i64,
     surface: u64,
     contacts: u64,
@@ -508,7 +511,25 @@ fn accumulate_lanes<L: VoxelLookup, const CLAMP: bool, const AVX2: bool, const W
     let mut begin = 0;
     while begin < full {
         let end = (begin + chunk).min(full);
-        for start in (begin..end).step_by(LANES) {
+        #[allow(unused_mut)] // mutated on x86-64 only
+        let mut begin_8 = begin;
+        #[cfg(target_arch = "x86_64")]
+        if WIDE {
+            // Full wide blocks first (the chunk is a whole number of them), then at most one
+            // 8-lane block at the class's end.
+            while begin_8 + wide::WIDE_LANES <= end {
+                // SAFETY: `WIDE` is only requested from `accumulate_avx512`, which runs only where
+                // the CPU has AVX-512F and DQ; `begin_8 + WIDE_LANES ≤ end ≤ n`, the shortest of
+                // the six arrays.
+                unsafe {
+                    wide::sample_block::<L, CLAMP>(
+                        map, frame, points, normals, begin_8, &mut last, &mut acc,
+                    )
+                };
+                begin_8 += wide::WIDE_LANES;
+            }
+        }
+        for start in (begin_8..end).step_by(LANES) {
             #[cfg(target_arch = "x86_64")]
             if AVX2 {
                 // SAFETY: AVX2 is only requested from `accumulate_avx2` and
@@ -671,6 +692,12 @@ impl LastVoxel {
     #[inline(always)]
     fn remember(&mut self, cell: &[[i32; LANES]; 3], lane: usize, kind: u8, layer: u8) {
         self.cell = [cell[0][lane], cell[1][lane], cell[2][lane]];
+        self.voxel = voxel_of(kind, layer);
+    }
+
+    /// Kind bits `kind` and layer `layer` as the voxel looked up last (its cell set apart).
+    #[inline(always)]
+    fn remember_voxel(&mut self, kind: u8, layer: u8) {
         self.voxel = voxel_of(kind, layer);
     }
 
@@ -847,6 +874,9 @@ fn brake_block<const CLAMP: bool>(
 /// leave much of the block arithmetic in 128-bit halves even when compiled for AVX2. Every
 /// operation is the portable one (same operands, same order, no fused multiply-add), so a block
 /// gives the same bits either way (a unit test checks it).
+#[cfg(target_arch = "x86_64")]
+mod wide;
+
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use super::{
