@@ -10,16 +10,12 @@
 //! `l + 8`), so a block adds two carried values per lane; integers add exactly in any grouping.
 
 use super::{ClassAccumulator, GridFrame, I64s, LastVoxel, Soa, LENGTH_Q, ROUNDER_BITS, Y_MAX};
-use glam::{IVec3, Mat3};
+use glam::Mat3;
 use std::arch::x86_64::*;
 use vps_voxmap::{Voxel, VoxelLookup, WIDE_BLOCK_LANES};
 
 /// Points per wide block: one 512-bit register of f32.
 pub(super) const WIDE_LANES: usize = WIDE_BLOCK_LANES;
-
-/// At most this many fresh lanes of a wide block are looked up one by one; more take the wide
-/// block lookup ([`VoxelLookup::get_wide_block`]).
-const FEW_WIDE: u32 = 4;
 
 type V3 = [__m512; 3];
 
@@ -134,52 +130,39 @@ unsafe fn add3_fixed<const CLAMP: bool>(acc: &mut [I64s; 3], y: &V3) {
     }
 }
 
-/// The kinds (bits) and layers of a wide block's voxels, one 32-bit lane each. A lane whose voxel
-/// equals the previous lane's (lane 0: `last`) copies its result: with more than [`FEW_WIDE`]
-/// fresh lanes (bit `l` of `fresh`) the whole block is looked up at once
-/// ([`VoxelLookup::get_wide_block`]), otherwise only the fresh lanes, one by one, each written over
-/// its own and the following lanes. Updates `last` to lane `WIDE_LANES - 1`.
+/// The kinds (bits) and layers of a wide block's voxels, one 32-bit lane each, looked up at once
+/// ([`VoxelLookup::get_wide_block`]); when no lane starts a new voxel (`fresh`, bit `l`: lane `l`
+/// is in another voxel than lane `l - 1`, lane 0 than `last`), every lane copies `last` instead.
+/// Updates `last` to lane `WIDE_LANES - 1`. Always inlined (into `accumulate_avx512`, whose
+/// features its intrinsics use): a call would pass the vectors through memory.
 ///
 /// # Safety
 /// The CPU must support AVX-512F.
-#[inline]
-#[target_feature(enable = "avx512f")]
-fn look_up<L: VoxelLookup>(
+#[inline(always)]
+unsafe fn look_up<L: VoxelLookup>(
     map: &L,
     cells: &[[i32; WIDE_LANES]; 3],
     fresh: __mmask16,
     last: &mut LastVoxel,
 ) -> (__m512i, __m512i) {
     const END: usize = WIDE_LANES - 1;
-    let (kind, layer) = if fresh.count_ones() > FEW_WIDE {
+    // SAFETY: the CPU supports AVX-512F (this function's contract); the kind and layer arrays are
+    // 16 bytes each, loaded unaligned.
+    unsafe {
+        if fresh == 0 {
+            return (
+                _mm512_set1_epi32(i32::from(last.voxel.kind.bits())),
+                _mm512_set1_epi32(i32::from(last.voxel.layer)),
+            );
+        }
         let block = map.get_wide_block(cells);
         last.remember_voxel(block.kinds[END], block.layers[END]);
-        // SAFETY: 16 bytes each, loaded unaligned.
-        unsafe {
-            (
-                _mm512_cvtepu8_epi32(_mm_loadu_si128(block.kinds.as_ptr().cast())),
-                _mm512_cvtepu8_epi32(_mm_loadu_si128(block.layers.as_ptr().cast())),
-            )
-        }
-    } else {
-        let mut voxel = last.voxel;
-        let mut kind = _mm512_set1_epi32(i32::from(voxel.kind.bits()));
-        let mut layer = _mm512_set1_epi32(i32::from(voxel.layer));
-        let mut rest = fresh;
-        while rest != 0 {
-            let l = rest.trailing_zeros() as usize;
-            rest &= rest - 1;
-            voxel = map.get_layered(IVec3::new(cells[0][l], cells[1][l], cells[2][l]));
-            // Lanes l.. take this voxel (a later fresh lane overwrites its own).
-            let from_l = u16::MAX << l;
-            kind = _mm512_mask_set1_epi32(kind, from_l, i32::from(voxel.kind.bits()));
-            layer = _mm512_mask_set1_epi32(layer, from_l, i32::from(voxel.layer));
-        }
-        last.voxel = voxel;
-        (kind, layer)
-    };
-    last.cell = [cells[0][END], cells[1][END], cells[2][END]];
-    (kind, layer)
+        last.cell = [cells[0][END], cells[1][END], cells[2][END]];
+        (
+            _mm512_cvtepu8_epi32(_mm_loadu_si128(block.kinds.as_ptr().cast())),
+            _mm512_cvtepu8_epi32(_mm_loadu_si128(block.layers.as_ptr().cast())),
+        )
+    }
 }
 
 /// `super::sample_block` for a full wide block at `start` (`start + WIDE_LANES` within every

@@ -63,11 +63,13 @@ impl PartialEq for LeafDirectory {
 
 impl Eq for LeafDirectory {}
 
-/// Whether this CPU can run [`LeafDirectory::read_wide_block`]'s AVX-512 path.
+/// Whether this CPU can run [`LeafDirectory::read_wide_block`]'s AVX-512 path (AVX-512F), and the
+/// tree's byte-shuffle decode of the codes it reads (SSSE3).
 fn cpu_has_avx512f() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("ssse3")
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
@@ -144,8 +146,9 @@ impl LeafDirectory {
         self
     }
 
-    /// Whether [`LeafDirectory::read_wide_block`] reads the sixteen lanes in one pass (AVX-512F);
-    /// otherwise a wide block is better read as two blocks.
+    /// Whether [`LeafDirectory::read_wide_block`] reads the sixteen lanes in one pass (the CPU has
+    /// AVX-512F, and SSSE3 for the tree's decode); otherwise a wide block is better read as two
+    /// blocks.
     #[inline(always)]
     pub(crate) fn reads_wide(&self) -> bool {
         self.wide_gathers
