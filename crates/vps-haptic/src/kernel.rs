@@ -10,11 +10,13 @@
 //! Three copies of a block, the same bits: the portable lane loops of [`crate::lanes`] (baseline
 //! x86-64 and other targets, and the zero-padded tail block of each class); where the CPU has
 //! AVX2, full blocks written with AVX2 intrinsics (`avx2::sample_block`); and where it also has
-//! AVX-512F, AVX-512DQ and POPCNT, the same intrinsics compiled with those features
-//! (`accumulate_avx512`), which round each sum's eight lanes to `i64` in one `vcvtps2qq` and count
-//! with `popcnt`. The same IEEE operations in the same order, no fused multiply-add. The AVX2 copy
-//! is also the previous kernel ([`crate::previous`]), so the AVX-512 copy's own choices sit
-//! behind its `WIDE` flag rather than in the shared code.
+//! AVX-512F, AVX-512DQ and POPCNT, the AVX-512 copy (`accumulate_avx512`): full blocks of 16
+//! points in 512-bit registers (`wide::sample_block`, lookups through
+//! [`VoxelLookup::get_wide_block`]), then the class's last full block of 8 on the AVX2 intrinsics
+//! compiled with those features (rounding each sum's eight lanes to `i64` in one `vcvtps2qq`,
+//! counting with `popcnt`), then the portable tail. The same IEEE operations in the same order, no
+//! fused multiply-add. The AVX2 copy is also the previous kernel ([`crate::previous`]), so the
+//! AVX-512 copy's own choices sit behind its `WIDE` flag rather than in the shared code.
 //!
 //! Exactness (docs/architecture.md#exact-sums-and-the-cluster): each point's contribution is
 //! computed in f32 (IEEE basic operations only, no fused multiply-add, so the same bits on every
@@ -435,9 +437,10 @@ pub fn runs_avx512_copy() -> bool {
     }
 }
 
-/// [`accumulate_avx2`] with each sum's eight lanes rounded to `i64` by one AVX-512DQ conversion
-/// (`vcvtps2qq`, to nearest, ties to even: the same integers as the f64 rounding of the AVX2
-/// copy) and counts by POPCNT. The same bits as the other copies.
+/// The AVX-512 copy: full blocks of 16 points in 512-bit registers (`wide::sample_block`), then
+/// [`accumulate_avx2`]'s block for a last full block of 8, with each sum's eight lanes rounded to
+/// `i64` by one AVX-512DQ conversion (`vcvtps2qq`, to nearest, ties to even: the same integers as
+/// the f64 rounding of the AVX2 copy) and counts by POPCNT. The same bits as the other copies.
 ///
 /// # Safety
 /// The CPU must support AVX2, AVX-512F, AVX-512DQ and POPCNT ([`cpu_has_avx512`]).
@@ -489,8 +492,9 @@ fn accumulate_any<L: VoxelLookup, const AVX2: bool, const WIDE: bool>(
     }
 }
 
-/// The block loop (see the module docs); full blocks, then one zero-padded tail block; the lanes
-/// flushed every [`CHUNK_BLOCKS`] blocks.
+/// The block loop (see the module docs); full blocks (with `WIDE`, blocks of 16 points while a
+/// chunk has them, then blocks of 8), then one zero-padded tail block; the lanes flushed every
+/// [`CHUNK_BLOCKS`] blocks of 8 points.
 #[inline(always)]
 fn accumulate_lanes<L: VoxelLookup, const CLAMP: bool, const AVX2: bool, const WIDE: bool>(
     map: &L,
