@@ -65,7 +65,7 @@ impl Eq for LeafDirectory {}
 
 /// Whether this CPU can run [`LeafDirectory::read_wide_block`]'s AVX-512 path (AVX-512F), and the
 /// tree's byte-shuffle decode of the codes it reads (SSSE3).
-fn cpu_has_avx512f() -> bool {
+fn cpu_reads_wide() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         std::arch::is_x86_feature_detected!("avx512f")
@@ -128,7 +128,7 @@ impl LeafDirectory {
             });
         let gathers = cpu_has_avx2();
         // The wide read gathers leaf words at signed 32-bit word offsets.
-        let wide_gathers = cpu_has_avx512f() && tree.leaf_words.len() <= i32::MAX as usize;
+        let wide_gathers = cpu_reads_wide() && tree.leaf_words.len() <= i32::MAX as usize;
         Some(LeafDirectory {
             dims,
             grid_dims: tree.spec.dims,
