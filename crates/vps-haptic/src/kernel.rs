@@ -10,11 +10,13 @@
 //! Three copies of a block, the same bits: the portable lane loops of [`crate::lanes`] (baseline
 //! x86-64 and other targets, and the zero-padded tail block of each class); where the CPU has
 //! AVX2, full blocks written with AVX2 intrinsics (`avx2::sample_block`); and where it also has
-//! AVX-512F, AVX-512DQ and POPCNT, the same intrinsics compiled with those features
-//! (`accumulate_avx512`), which round each sum's eight lanes to `i64` in one `vcvtps2qq` and count
-//! with `popcnt`. The same IEEE operations in the same order, no fused multiply-add. The AVX2 copy
-//! is also the previous kernel ([`crate::previous`]), so the AVX-512 copy's own choices sit
-//! behind its `WIDE` flag rather than in the shared code.
+//! AVX-512F, AVX-512DQ and POPCNT, the AVX-512 copy (`accumulate_avx512`): full blocks of 16
+//! points in 512-bit registers (`wide::sample_block`, lookups through
+//! [`VoxelLookup::get_wide_block`]), then the class's last full block of 8 on the AVX2 intrinsics
+//! compiled with those features (rounding each sum's eight lanes to `i64` in one `vcvtps2qq`,
+//! counting with `popcnt`), then the portable tail. The same IEEE operations in the same order, no
+//! fused multiply-add. The AVX2 copy is also the previous kernel ([`crate::previous`]), so the
+//! AVX-512 copy's own choices sit behind its `WIDE` flag rather than in the shared code.
 //!
 //! Exactness (docs/architecture.md#exact-sums-and-the-cluster): each point's contribution is
 //! computed in f32 (IEEE basic operations only, no fused multiply-add, so the same bits on every
@@ -146,7 +148,9 @@ pub(crate) fn sample_all_on<L: VoxelLookup>(
 /// below 2^51, and [`CHUNK_BLOCKS`] such values fit an `i64` lane.
 const Y_MAX: f32 = (1u64 << 50) as f32;
 
-/// Blocks a lane adds before it is flushed into `i128`: `2^11 · 2^50 = 2^61 < 2^63`.
+/// Blocks of [`LANES`] points a chunk holds: each lane adds at most this many values (one per
+/// 8-lane block, two per wide block of twice the points) before it is flushed into `i128`:
+/// `2^11 · 2^50 = 2^61 < 2^63`.
 const CHUNK_BLOCKS: usize = 1 << 11;
 
 /// `1.5 · 2^52`: adding it to an f64 of magnitude below 2^51 rounds it to an integer (nearest,
@@ -246,9 +250,10 @@ struct ClassAccumulator {
     brake_sq: I64s,
     brake_force: [I64s; 3],
     brake_torque: [I64s; 3],
-    /// Blocks that added to the depth lanes since the last flush.
+    /// Values each depth lane added since the last flush (one per 8-lane block, two per wide
+    /// block).
     depth_blocks: i64,
-    /// Blocks that added to the braking lanes since the last flush.
+    /// Values each braking lane added since the last flush (as `depth_blocks`).
     brake_blocks: i64,
     surface: u64,
     contacts: u64,
@@ -432,9 +437,10 @@ pub fn runs_avx512_copy() -> bool {
     }
 }
 
-/// [`accumulate_avx2`] with each sum's eight lanes rounded to `i64` by one AVX-512DQ conversion
-/// (`vcvtps2qq`, to nearest, ties to even: the same integers as the f64 rounding of the AVX2
-/// copy) and counts by POPCNT. The same bits as the other copies.
+/// The AVX-512 copy: full blocks of 16 points in 512-bit registers (`wide::sample_block`), then
+/// [`accumulate_avx2`]'s block for a last full block of 8, with each sum's eight lanes rounded to
+/// `i64` by one AVX-512DQ conversion (`vcvtps2qq`, to nearest, ties to even: the same integers as
+/// the f64 rounding of the AVX2 copy) and counts by POPCNT. The same bits as the other copies.
 ///
 /// # Safety
 /// The CPU must support AVX2, AVX-512F, AVX-512DQ and POPCNT ([`cpu_has_avx512`]).
@@ -486,8 +492,9 @@ fn accumulate_any<L: VoxelLookup, const AVX2: bool, const WIDE: bool>(
     }
 }
 
-/// The block loop (see the module docs); full blocks, then one zero-padded tail block; the lanes
-/// flushed every [`CHUNK_BLOCKS`] blocks.
+/// The block loop (see the module docs); full blocks (with `WIDE`, blocks of 16 points while a
+/// chunk has them, then blocks of 8), then one zero-padded tail block; the lanes flushed every
+/// [`CHUNK_BLOCKS`] blocks of 8 points.
 #[inline(always)]
 fn accumulate_lanes<L: VoxelLookup, const CLAMP: bool, const AVX2: bool, const WIDE: bool>(
     map: &L,
@@ -508,7 +515,25 @@ fn accumulate_lanes<L: VoxelLookup, const CLAMP: bool, const AVX2: bool, const W
     let mut begin = 0;
     while begin < full {
         let end = (begin + chunk).min(full);
-        for start in (begin..end).step_by(LANES) {
+        #[allow(unused_mut)] // mutated on x86-64 only
+        let mut begin_8 = begin;
+        #[cfg(target_arch = "x86_64")]
+        if WIDE {
+            // Full wide blocks first (the chunk is a whole number of them), then at most one
+            // 8-lane block at the class's end.
+            while begin_8 + wide::WIDE_LANES <= end {
+                // SAFETY: `WIDE` is only requested from `accumulate_avx512`, which runs only where
+                // the CPU has AVX-512F and DQ; `begin_8 + WIDE_LANES ≤ end ≤ n`, the shortest of
+                // the six arrays.
+                unsafe {
+                    wide::sample_block::<L, CLAMP>(
+                        map, frame, points, normals, begin_8, &mut last, &mut acc,
+                    )
+                };
+                begin_8 += wide::WIDE_LANES;
+            }
+        }
+        for start in (begin_8..end).step_by(LANES) {
             #[cfg(target_arch = "x86_64")]
             if AVX2 {
                 // SAFETY: AVX2 is only requested from `accumulate_avx2` and
@@ -671,6 +696,12 @@ impl LastVoxel {
     #[inline(always)]
     fn remember(&mut self, cell: &[[i32; LANES]; 3], lane: usize, kind: u8, layer: u8) {
         self.cell = [cell[0][lane], cell[1][lane], cell[2][lane]];
+        self.voxel = voxel_of(kind, layer);
+    }
+
+    /// Kind bits `kind` and layer `layer` as the voxel looked up last (its cell set apart).
+    #[inline(always)]
+    fn remember_voxel(&mut self, kind: u8, layer: u8) {
         self.voxel = voxel_of(kind, layer);
     }
 
@@ -847,6 +878,9 @@ fn brake_block<const CLAMP: bool>(
 /// leave much of the block arithmetic in 128-bit halves even when compiled for AVX2. Every
 /// operation is the portable one (same operands, same order, no fused multiply-add), so a block
 /// gives the same bits either way (a unit test checks it).
+#[cfg(target_arch = "x86_64")]
+mod wide;
+
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use super::{

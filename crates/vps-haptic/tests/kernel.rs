@@ -474,12 +474,16 @@ impl vps_voxmap::VoxelLookup for Unspecialised<'_> {
 
 /// The kernel's copy for a tree's format (2-, 4- and 8-bit 512-trees and another shape, with and
 /// without the leaf directory) gives the sums of plain per-voxel lookups, bit for bit, for a
-/// random shell (whole-block lookups) and a shell finer than the voxmap (lane-by-lane lookups).
+/// random shell (whole-block lookups) and a shell finer than the voxmap (lane-by-lane lookups and
+/// blocks wholly in one voxel); and so does the previous kernel (at most the AVX2 copy, 8-lane
+/// blocks), so the AVX-512 copy's 16-lane blocks are checked against other code.
 #[test]
 fn tree_formats_give_the_sums_of_plain_lookups() {
     use vps_voxmap::{TreeConfig, VoxelTree, VoxelWidth};
     let (grid, random_shell) = random_scene(11, 700);
     let fine_shell = cube_shell(0.012, 24);
+    // ≈ 40 consecutive points per voxel: whole blocks of 16 in the voxel looked up last.
+    let finer_shell = cube_shell(0.012, 200);
     let mut rng = ChaCha8Rng::seed_from_u64(11);
     for width in VoxelWidth::ALL {
         for config in [TreeConfig::default(), TreeConfig::uniform(2)] {
@@ -487,7 +491,7 @@ fn tree_formats_give_the_sums_of_plain_lookups() {
             let tree = VoxelTree::from_source(grid.spec, width, config, &source).unwrap();
             assert!(tree.directory_bytes() > 0);
             for tree in [tree.clone(), tree.without_directory()] {
-                for (shell, classes) in [(&random_shell, 3), (&fine_shell, 5)] {
+                for (shell, classes) in [(&random_shell, 3), (&fine_shell, 5), (&finer_shell, 1)] {
                     let classed = ClassedShell::new(shell, classes);
                     let pose = KernelPose::from_state(&random_state(&mut rng));
                     let want = sample_all(&Unspecialised(&tree), &classed, &pose);
@@ -496,6 +500,11 @@ fn tree_formats_give_the_sums_of_plain_lookups() {
                         sample_all(&tree, &classed, &pose),
                         want,
                         "{width:?} {config:?}"
+                    );
+                    assert_eq!(
+                        vps_haptic::previous::sample_all(&tree, &classed, &pose),
+                        want,
+                        "{width:?} {config:?}, previous kernel"
                     );
                 }
             }

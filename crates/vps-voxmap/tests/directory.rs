@@ -8,7 +8,7 @@ use common::FnSource;
 use glam::{IVec3, UVec3};
 use vps_voxmap::{
     GridSpec, LayeredVoxel, LookupTask, TreeConfig, Voxel, VoxelLookup, VoxelTree, VoxelWidth,
-    BLOCK_LANES,
+    BLOCK_LANES, WIDE_BLOCK_LANES,
 };
 
 /// A tree of `width` over `dims` holding random-ish codes valid for the width in slabs (Free
@@ -100,6 +100,76 @@ fn block_reads_equal_single_reads_inside_outside_and_far_away() {
     }
 }
 
+#[test]
+#[allow(clippy::needless_range_loop)]
+fn wide_block_reads_equal_single_reads_for_every_width_and_shape() {
+    for width in VoxelWidth::ALL {
+        for config in [TreeConfig::default(), TreeConfig::uniform(2)] {
+            let tree = clustered_tree([130, 66, 40], width, config, 13);
+            let walk = tree.clone().without_directory();
+            // Wide reads as two blocks on the portable path, on any host.
+            let portable = tree.clone().without_gathers();
+            let mut state = 5u64;
+            let mut next = |span: i64| {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                ((state >> 20) as i64).rem_euclid(span) as i32
+            };
+            let mut leaf_lanes = 0;
+            for round in 0..6_000 {
+                let mut cells = [[0i32; WIDE_BLOCK_LANES]; 3];
+                for l in 0..WIDE_BLOCK_LANES {
+                    for (a, axis) in cells.iter_mut().enumerate() {
+                        axis[l] = match round % 5 {
+                            // Around the grid, borders included.
+                            0 | 1 => next([136, 72, 46][a]) - 3,
+                            // A few voxels apart, so that most lanes share a leaf.
+                            2 => [40, 20, 12][a] + next(12),
+                            // Anywhere in i32.
+                            3 => next(1 << 32) ^ i32::MIN,
+                            // Extremes.
+                            _ => [i32::MIN, i32::MAX, -1, 0][next(4) as usize],
+                        };
+                    }
+                }
+                // Through the directory (one pass where the CPU has AVX-512F), as two blocks,
+                // walked lane by lane, and through the copy of the lookups for the tree's shape.
+                let shaped = tree.specialised(Wide(cells));
+                for block in [
+                    tree.get_wide_block(&cells),
+                    walk.get_wide_block(&cells),
+                    portable.get_wide_block(&cells),
+                    shaped,
+                ] {
+                    for l in 0..WIDE_BLOCK_LANES {
+                        let ijk = IVec3::new(cells[0][l], cells[1][l], cells[2][l]);
+                        let one = walk.get_layered(ijk);
+                        leaf_lanes += usize::from(one.layer > 0);
+                        assert_eq!(
+                            (block.kinds[l], block.layers[l]),
+                            (one.kind.bits(), one.layer),
+                            "{width:?} {config:?} round {round} lane {l}"
+                        );
+                    }
+                }
+            }
+            assert!(leaf_lanes > 0 || width == VoxelWidth::Two);
+        }
+    }
+}
+
+/// One wide block read through the lookup it is handed.
+struct Wide([[i32; WIDE_BLOCK_LANES]; 3]);
+
+impl LookupTask for Wide {
+    type Output = vps_voxmap::WideVoxelBlock;
+
+    fn run<L: VoxelLookup>(self, map: &L) -> Self::Output {
+        map.get_wide_block(&self.0)
+    }
+}
+
 /// Reads every cell of a box around the grid through the lookup it is handed (for the tree, the
 /// copy of its lookups for its shape: `VoxelLookup::specialised`), single and in blocks.
 struct ReadAll {
@@ -108,29 +178,38 @@ struct ReadAll {
 }
 
 impl LookupTask for ReadAll {
-    type Output = Vec<(Voxel, LayeredVoxel, u8, u8)>;
+    type Output = Vec<(Voxel, LayeredVoxel, u8, u8, u8, u8)>;
 
     #[allow(clippy::needless_range_loop)] // lane loops read as lanes
     fn run<L: VoxelLookup>(self, map: &L) -> Self::Output {
         let mut out = Vec::new();
         for z in self.lo.z..self.hi.z {
             for y in self.lo.y..self.hi.y {
-                let mut cells = [[0i32; BLOCK_LANES]; 3];
+                let mut cells = [[0i32; WIDE_BLOCK_LANES]; 3];
                 for x in self.lo.x..self.hi.x {
-                    let l = (x - self.lo.x) as usize % BLOCK_LANES;
+                    let l = (x - self.lo.x) as usize % WIDE_BLOCK_LANES;
                     cells[0][l] = x;
                     cells[1][l] = y;
                     cells[2][l] = z;
-                    if l == BLOCK_LANES - 1 {
-                        let block = map.get_block(&cells);
-                        for l in 0..BLOCK_LANES {
-                            let ijk = IVec3::new(cells[0][l], cells[1][l], cells[2][l]);
-                            out.push((
-                                map.get(ijk),
-                                map.get_layered(ijk),
-                                block.kinds[l],
-                                block.layers[l],
-                            ));
+                    if l == WIDE_BLOCK_LANES - 1 {
+                        let wide = map.get_wide_block(&cells);
+                        for half in 0..2 {
+                            let cells: [[i32; BLOCK_LANES]; 3] = std::array::from_fn(|a| {
+                                std::array::from_fn(|l| cells[a][half * BLOCK_LANES + l])
+                            });
+                            let block = map.get_block(&cells);
+                            for l in 0..BLOCK_LANES {
+                                let ijk = IVec3::new(cells[0][l], cells[1][l], cells[2][l]);
+                                let w = half * BLOCK_LANES + l;
+                                out.push((
+                                    map.get(ijk),
+                                    map.get_layered(ijk),
+                                    block.kinds[l],
+                                    block.layers[l],
+                                    wide.kinds[w],
+                                    wide.layers[w],
+                                ));
+                            }
                         }
                     }
                 }
@@ -166,6 +245,7 @@ fn specialised_lookups_equal_the_trees_for_every_width_and_shape() {
                         (s.2, s.3),
                         "{width:?} read {i}"
                     );
+                    assert_eq!((s.2, s.3), (s.4, s.5), "{width:?} wide read {i}");
                     assert_eq!(s.0, s.1.kind, "{width:?} read {i}");
                 }
             }

@@ -14,7 +14,7 @@
 use super::internal::Slot;
 use super::leaf::LeafShape;
 use super::{LeafRef, VoxelTree};
-use crate::{BlockCells, BLOCK_LANES};
+use crate::{BlockCells, WideBlockCells, BLOCK_LANES, WIDE_BLOCK_LANES};
 use glam::UVec3;
 use rayon::prelude::*;
 
@@ -47,6 +47,10 @@ pub(crate) struct LeafDirectory {
     /// Block reads use AVX2 and a gather of the slots (see [`LeafDirectory::read_block`]): the CPU
     /// has AVX2. Not part of the content.
     gathers: bool,
+    /// Wide block reads use AVX-512F gathers (see [`LeafDirectory::read_wide_block`]): the CPU
+    /// has AVX-512F and the leaf arena's word numbers fit the gathers' signed 32-bit offsets. Not
+    /// part of the content.
+    wide_gathers: bool,
 }
 
 /// Equal content: the dims, grid dims and slots (whether block reads gather is a property of the
@@ -58,6 +62,20 @@ impl PartialEq for LeafDirectory {
 }
 
 impl Eq for LeafDirectory {}
+
+/// Whether this CPU can run [`LeafDirectory::read_wide_block`]'s AVX-512 path (AVX-512F), and the
+/// tree's byte-shuffle decode of the codes it reads (SSSE3).
+fn cpu_reads_wide() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("ssse3")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
 
 /// Whether this CPU can run [`LeafDirectory::read_block`]'s AVX2 path.
 fn cpu_has_avx2() -> bool {
@@ -109,19 +127,31 @@ impl LeafDirectory {
                 }
             });
         let gathers = cpu_has_avx2();
+        // The wide read gathers leaf words at signed 32-bit word offsets.
+        let wide_gathers = cpu_reads_wide() && tree.leaf_words.len() <= i32::MAX as usize;
         Some(LeafDirectory {
             dims,
             grid_dims: tree.spec.dims,
             slots,
             gathers,
+            wide_gathers,
         })
     }
 
-    /// The same directory with block reads on the portable path (no AVX2 gathers): for
-    /// benchmarks of the gathers and tests that both paths agree.
+    /// The same directory with block reads on the portable path (no AVX2 or AVX-512 gathers):
+    /// for benchmarks of the gathers and tests that both paths agree.
     pub(crate) fn without_gathers(mut self) -> Self {
         self.gathers = false;
+        self.wide_gathers = false;
         self
+    }
+
+    /// Whether [`LeafDirectory::read_wide_block`] reads the sixteen lanes in one pass (the CPU has
+    /// AVX-512F, and SSSE3 for the tree's decode); otherwise a wide block is better read as two
+    /// blocks.
+    #[inline(always)]
+    pub(crate) fn reads_wide(&self) -> bool {
+        self.wide_gathers
     }
 
     /// Heap bytes held.
@@ -386,6 +416,153 @@ impl LeafDirectory {
         let codes = _mm256_blendv_epi8(slot, _mm256_and_si256(leaf_codes, code_mask), is_leaf);
         narrow_bytes(_mm256_and_si256(codes, byte))
     }
+}
+
+impl LeafDirectory {
+    /// The codes at the cells of a wide block (`cells[axis][lane]`, any values; a cell outside the
+    /// tree's grid dims reads 0, Free): the same result per lane as [`LeafDirectory::read`] and
+    /// as [`LeafDirectory::read_block`] on each half. With AVX-512F (detected when the directory
+    /// is built, see [`LeafDirectory::reads_wide`]): one masked gather of the sixteen slots and, if
+    /// some lane is in a leaf, two masked gathers of the leaf words
+    /// ([`LeafDirectory::read_wide_block_avx512`]); otherwise `read_block` on each half.
+    #[inline(always)]
+    pub(crate) fn read_wide_block(
+        &self,
+        leaf_words: &[u64],
+        leaf: LeafShape,
+        cells: &WideBlockCells,
+    ) -> [u8; WIDE_BLOCK_LANES] {
+        #[cfg(target_arch = "x86_64")]
+        if self.wide_gathers {
+            // SAFETY: `wide_gathers` is set only when the CPU has AVX-512F and the leaf arena's
+            // word numbers fit an i32 (`build`).
+            return unsafe { self.read_wide_block_avx512(leaf_words, leaf, cells) };
+        }
+        let mut codes = [0u8; WIDE_BLOCK_LANES];
+        let kinds = crate::wide_block_by_halves(cells, |half| crate::VoxelBlock {
+            kinds: self.read_block(leaf_words, leaf, half),
+            layers: [0; BLOCK_LANES],
+        });
+        codes.copy_from_slice(&kinds.kinds);
+        codes
+    }
+
+    /// [`LeafDirectory::read_wide_block`] with AVX-512F: the in-grid test as a lane mask, one
+    /// gather of the in-grid lanes' slots (the others read as Free tiles), and only when some lane
+    /// is in a leaf, one gather of the leaf lanes' words per eight lanes and a per-lane variable
+    /// shift. Same results as [`LeafDirectory::read_block_portable`] on each half (tested on
+    /// random blocks).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F, and the leaf arena must hold at most `i32::MAX` words.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    #[inline]
+    unsafe fn read_wide_block_avx512(
+        &self,
+        leaf_words: &[u64],
+        leaf: LeafShape,
+        cells: &WideBlockCells,
+    ) -> [u8; WIDE_BLOCK_LANES] {
+        use std::arch::x86_64::*;
+        // SAFETY: each load reads the 64 bytes of one `[i32; 16]` axis; no alignment needed.
+        let (x, y, z) = unsafe {
+            (
+                _mm512_loadu_si512(cells[0].as_ptr().cast()),
+                _mm512_loadu_si512(cells[1].as_ptr().cast()),
+                _mm512_loadu_si512(cells[2].as_ptr().cast()),
+            )
+        };
+        let dim = |d: u32| _mm512_set1_epi32(d as i32);
+        // In the grid: c < dim per axis, unsigned (a negative cell wraps above every dim: dims
+        // are at most i32::MAX, checked on assembly).
+        let inside = _mm512_cmplt_epu32_mask(x, dim(self.grid_dims[0]));
+        let inside = _mm512_mask_cmplt_epu32_mask(inside, y, dim(self.grid_dims[1]));
+        let inside = _mm512_mask_cmplt_epu32_mask(inside, z, dim(self.grid_dims[2]));
+        // The slot index of the lane's leaf cube (wrapping garbage outside the grid, not read).
+        let cube_shift = _mm_cvtsi32_si128(leaf.log2 as i32);
+        let (cx, cy, cz) = (
+            _mm512_srl_epi32(x, cube_shift),
+            _mm512_srl_epi32(y, cube_shift),
+            _mm512_srl_epi32(z, cube_shift),
+        );
+        let row = _mm512_add_epi32(cy, _mm512_mullo_epi32(dim(self.dims[1]), cz));
+        let index = _mm512_add_epi32(cx, _mm512_mullo_epi32(dim(self.dims[0]), row));
+        // Out-of-grid lanes are not read and become Free tiles.
+        let free_tile = _mm512_set1_epi32(Slot::TILE_BIT as i32);
+        // SAFETY: an in-grid lane's index is below the slot count (see `read`), which is below
+        // 2^24 (`DIRECTORY_MAX_BYTES`), so a non-negative i32; other lanes are masked off.
+        let slot = unsafe {
+            _mm512_mask_i32gather_epi32::<4>(free_tile, inside, index, self.slots.as_ptr().cast())
+        };
+        // Tile lanes have the top bit set; a tile's code is the slot's low byte.
+        let is_leaf = _mm512_cmpge_epi32_mask(slot, _mm512_setzero_si512());
+        if is_leaf == 0 {
+            return narrow_wide_bytes(slot);
+        }
+        // Lanes in a leaf: the word holding the voxel and the voxel's bit in it.
+        let edge_mask = _mm512_set1_epi32((leaf.edge() - 1) as i32);
+        let axis_shift = |n: u32| _mm_cvtsi32_si128(n as i32);
+        let local = _mm512_or_si512(
+            _mm512_or_si512(
+                _mm512_and_si512(x, edge_mask),
+                _mm512_sll_epi32(_mm512_and_si512(y, edge_mask), axis_shift(leaf.log2)),
+            ),
+            _mm512_sll_epi32(_mm512_and_si512(z, edge_mask), axis_shift(2 * leaf.log2)),
+        );
+        let bit = _mm512_sll_epi32(local, axis_shift(leaf.bits_log2));
+        // Below `leaf_words.len()` ≤ i32::MAX for leaf lanes (`build`).
+        let word = _mm512_add_epi32(
+            _mm512_sll_epi32(slot, axis_shift(leaf.word_shift())),
+            _mm512_srli_epi32::<6>(bit),
+        );
+        let shift = _mm512_and_si512(bit, _mm512_set1_epi32(63));
+        let zero = _mm512_setzero_si512();
+        // SAFETY: a leaf lane's slot holds a stored leaf's index (as in `read`), so its word is
+        // inside the arena (a non-negative i32, see above); tile lanes are masked off.
+        let (words_lo, words_hi) = unsafe {
+            (
+                _mm512_mask_i32gather_epi64::<8>(
+                    zero,
+                    is_leaf as u8,
+                    _mm512_castsi512_si256(word),
+                    leaf_words.as_ptr().cast(),
+                ),
+                _mm512_mask_i32gather_epi64::<8>(
+                    zero,
+                    (is_leaf >> 8) as u8,
+                    _mm512_extracti64x4_epi64::<1>(word),
+                    leaf_words.as_ptr().cast(),
+                ),
+            )
+        };
+        let codes_lo = _mm512_srlv_epi64(
+            words_lo,
+            _mm512_cvtepu32_epi64(_mm512_castsi512_si256(shift)),
+        );
+        let codes_hi = _mm512_srlv_epi64(
+            words_hi,
+            _mm512_cvtepu32_epi64(_mm512_extracti64x4_epi64::<1>(shift)),
+        );
+        // The low 32 bits of each 64-bit lane, in lane order.
+        let even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
+        let leaf_codes = _mm512_permutex2var_epi32(codes_lo, even, codes_hi);
+        let code_mask = _mm512_set1_epi32(((1u32 << (1u32 << leaf.bits_log2)) - 1) as i32);
+        narrow_wide_bytes(_mm512_mask_and_epi32(slot, is_leaf, leaf_codes, code_mask))
+    }
+}
+
+/// The low byte of each of the sixteen 32-bit lanes of `v`, in lane order.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn narrow_wide_bytes(v: std::arch::x86_64::__m512i) -> [u8; WIDE_BLOCK_LANES] {
+    use std::arch::x86_64::*;
+    let bytes = _mm512_cvtepi32_epi8(v);
+    let mut out = [0u8; WIDE_BLOCK_LANES];
+    // SAFETY: `out` is 16 bytes, stored unaligned.
+    unsafe { _mm_storeu_si128(out.as_mut_ptr().cast(), bytes) };
+    out
 }
 
 /// The eight 32-bit lanes of `v` (each 0..=255) as bytes, in lane order.

@@ -24,7 +24,7 @@ pub use error::TreeError;
 
 use crate::{
     BlockCells, DenseGrid, GridSpec, LayeredVoxel, LookupTask, Voxel, VoxelBlock, VoxelLookup,
-    VoxelWidth, BLOCK_LANES,
+    VoxelWidth, WideBlockCells, WideVoxelBlock, BLOCK_LANES, WIDE_BLOCK_LANES,
 };
 use directory::LeafDirectory;
 use glam::{IVec3, UVec3};
@@ -119,23 +119,64 @@ impl LookupShape {
 /// [`VoxelTree::get_layered`] reads it), indexed by the code: decoding is one load instead of the
 /// comparisons of [`VoxelWidth::decode`]. Derived from the width, so equal widths give equal tables.
 #[derive(Clone, PartialEq)]
-struct CodeTable([LayeredVoxel; 256]);
+struct CodeTable {
+    /// The voxel of each code.
+    voxels: [LayeredVoxel; 256],
+    /// The kind bits of codes 0..16 (every code of a 4-bit tree), for a byte shuffle.
+    low_kinds: [u8; 16],
+    /// The layers of codes 0..16.
+    low_layers: [u8; 16],
+}
 
 impl CodeTable {
     /// The table of `width`.
     fn new(width: VoxelWidth) -> CodeTable {
-        CodeTable(std::array::from_fn(|code| {
+        let voxels: [LayeredVoxel; 256] = std::array::from_fn(|code| {
             width.decode(code as u8).unwrap_or(LayeredVoxel {
                 kind: Voxel::Free,
                 layer: 0,
             })
-        }))
+        });
+        CodeTable {
+            voxels,
+            low_kinds: std::array::from_fn(|code| voxels[code].kind.bits()),
+            low_layers: std::array::from_fn(|code| voxels[code].layer),
+        }
     }
 
     /// The voxel stored as `code`.
     #[inline(always)]
     fn get(&self, code: u8) -> LayeredVoxel {
-        self.0[usize::from(code)]
+        self.voxels[usize::from(code)]
+    }
+
+    /// The voxels of sixteen codes below 16 (a 4-bit tree's), as [`CodeTable::get`] per lane:
+    /// one byte shuffle per table.
+    ///
+    /// # Safety
+    /// The CPU must support SSSE3; every code must be below 16.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "ssse3")]
+    #[inline]
+    unsafe fn decode_low(&self, codes: [u8; WIDE_BLOCK_LANES]) -> WideVoxelBlock {
+        use std::arch::x86_64::*;
+        debug_assert!(codes.iter().all(|&c| c < 16));
+        let mut block = WideVoxelBlock::default();
+        // SAFETY: 16-byte arrays, loaded and stored unaligned.
+        unsafe {
+            let codes = _mm_loadu_si128(codes.as_ptr().cast());
+            let kinds = _mm_loadu_si128(self.low_kinds.as_ptr().cast());
+            let layers = _mm_loadu_si128(self.low_layers.as_ptr().cast());
+            _mm_storeu_si128(
+                block.kinds.as_mut_ptr().cast(),
+                _mm_shuffle_epi8(kinds, codes),
+            );
+            _mm_storeu_si128(
+                block.layers.as_mut_ptr().cast(),
+                _mm_shuffle_epi8(layers, codes),
+            );
+        }
+        block
     }
 }
 
@@ -276,6 +317,57 @@ impl VoxelTree {
         );
         let mut block = VoxelBlock::default();
         for l in 0..BLOCK_LANES {
+            let v = self.decode(codes[l]);
+            block.kinds[l] = v.kind.bits();
+            block.layers[l] = v.layer;
+        }
+        block
+    }
+
+    /// The voxels of a wide block of cells, lane by lane as [`VoxelTree::get_layered`]. With the
+    /// leaf directory and AVX-512F, one pass over the sixteen lanes (see
+    /// `directory::LeafDirectory::read_wide_block`); otherwise [`VoxelTree::get_block`] on each
+    /// half. Does not allocate or block.
+    #[inline(always)]
+    pub fn get_wide_block(&self, cells: &WideBlockCells) -> WideVoxelBlock {
+        if self.paper_shape {
+            self.get_wide_block_as::<PAPER_SHAPE>(cells)
+        } else {
+            self.get_wide_block_as::<ANY_SHAPE>(cells)
+        }
+    }
+
+    /// [`VoxelTree::get_wide_block`] on the copy of the lookup for `SHAPE` (as
+    /// [`VoxelTree::get_as`]).
+    #[allow(clippy::needless_range_loop)] // lane loops: index form vectorises and reads as lanes
+    #[inline(always)]
+    fn get_wide_block_as<const SHAPE: u32>(&self, cells: &WideBlockCells) -> WideVoxelBlock {
+        debug_assert!(SHAPE == ANY_SHAPE || SHAPE == self.fixed_shape);
+        let Some(directory) = self.directory.as_ref().filter(|d| d.reads_wide()) else {
+            return crate::wide_block_by_halves(cells, |half| self.get_block_as::<SHAPE>(half));
+        };
+        if SHAPE == PAPER_SHAPE {
+            // 2-bit codes are the kinds' bits.
+            let kinds =
+                directory.read_wide_block(&self.leaf_words, LookupShape::TREE_512.leaf, cells);
+            return WideVoxelBlock {
+                kinds,
+                layers: [0; WIDE_BLOCK_LANES],
+            };
+        }
+        let codes = directory.read_wide_block(
+            &self.leaf_words,
+            self.lookup_shape_as::<SHAPE>().leaf,
+            cells,
+        );
+        #[cfg(target_arch = "x86_64")]
+        if SHAPE == FOUR_BIT_SHAPE {
+            // SAFETY: the directory reads wide blocks only where the CPU has AVX-512F and SSSE3
+            // (`LeafDirectory::reads_wide`); a 4-bit tree's codes are below 16.
+            return unsafe { self.codes.decode_low(codes) };
+        }
+        let mut block = WideVoxelBlock::default();
+        for l in 0..WIDE_BLOCK_LANES {
             let v = self.decode(codes[l]);
             block.kinds[l] = v.kind.bits();
             block.layers[l] = v.layer;
@@ -589,6 +681,11 @@ impl VoxelLookup for VoxelTree {
         VoxelTree::get_block(self, cells)
     }
 
+    #[inline(always)]
+    fn get_wide_block(&self, cells: &WideBlockCells) -> WideVoxelBlock {
+        VoxelTree::get_wide_block(self, cells)
+    }
+
     /// `task` on a [`ShapedTree`] of this tree: which copy of the lookups, chosen once here.
     #[inline(always)]
     fn specialised<T: LookupTask>(&self, task: T) -> T::Output {
@@ -646,6 +743,11 @@ impl<const SHAPE: u32> VoxelLookup for ShapedTree<SHAPE> {
     #[inline(always)]
     fn get_block(&self, cells: &BlockCells) -> VoxelBlock {
         self.0.get_block_as::<SHAPE>(cells)
+    }
+
+    #[inline(always)]
+    fn get_wide_block(&self, cells: &WideBlockCells) -> WideVoxelBlock {
+        self.0.get_wide_block_as::<SHAPE>(cells)
     }
 }
 
