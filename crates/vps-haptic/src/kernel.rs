@@ -363,8 +363,8 @@ fn accumulate<L: VoxelLookup>(
     })
 }
 
-/// The arguments of [`accumulate`] but the lookup, run on the lookup
-/// [`VoxelLookup::specialised`] hands over.
+/// The arguments of [`accumulate`] but the lookup; [`VoxelLookup::specialised`] runs it on the
+/// lookup it hands over, on the widest copy of the block loop up to `widest` that the CPU runs.
 struct ClassTask<'a> {
     frame: &'a GridFrame,
     points: Soa<'a>,
@@ -385,32 +385,22 @@ impl LookupTask for ClassTask<'_> {
             sums,
             widest,
         } = self;
-        accumulate_on(map, frame, points, normals, sums, widest)
-    }
-}
-
-/// [`accumulate`] on the lookup as given.
-#[inline(always)]
-fn accumulate_on<L: VoxelLookup>(
-    map: &L,
-    frame: &GridFrame,
-    points: Soa,
-    normals: Soa,
-    sums: &mut PartialSums,
-    widest: Widest,
-) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if widest == Widest::Avx512 && cpu_has_avx512() {
-            // SAFETY: the CPU supports AVX2, AVX-512F, AVX-512DQ and POPCNT (checked just above).
-            return unsafe { accumulate_avx512(map, frame, points, normals, sums) };
+        #[cfg(target_arch = "x86_64")]
+        {
+            if widest == Widest::Avx512 && cpu_has_avx512() {
+                // SAFETY: the CPU supports AVX2, AVX-512F, AVX-512DQ and POPCNT (checked just
+                // above).
+                return unsafe { accumulate_avx512(map, frame, points, normals, sums) };
+            }
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU supports AVX2 (checked just above).
+                return unsafe { accumulate_avx2(map, frame, points, normals, sums) };
+            }
         }
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2 (checked just above).
-            return unsafe { accumulate_avx2(map, frame, points, normals, sums) };
-        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = widest;
+        accumulate_any::<L, false, false>(map, frame, points, normals, sums)
     }
-    accumulate_any::<L, false, false>(map, frame, points, normals, sums)
 }
 
 /// Whether the CPU runs [`accumulate_avx512`]: AVX2, AVX-512F, AVX-512DQ and POPCNT.
