@@ -868,6 +868,58 @@ fn brake_block<const CLAMP: bool>(
 /// leave much of the block arithmetic in 128-bit halves even when compiled for AVX2. Every
 /// operation is the portable one (same operands, same order, no fused multiply-add), so a block
 /// gives the same bits either way (a unit test checks it).
+/// The vector helpers of one SIMD copy of the block — `mat_vec`, `dot`, `cross` and `scale` over
+/// `[$f; 3]` — written once for both widths (`__m256` in [`avx2`], `__m512` in `wide`): the same
+/// IEEE operations in the same order as `lanes::mat_vec`, `dot`, `cross` and `scale`, so every
+/// copy gives the same bits. Arguments: the target feature, the vector type, and its zero,
+/// broadcast, add, subtract and multiply intrinsics.
+#[cfg(target_arch = "x86_64")]
+macro_rules! vec3_ops {
+    ($feature:literal, $f:ty, $zero:ident, $set1:ident, $add:ident, $sub:ident, $mul:ident) => {
+        /// `m · v`: `(c0 v.x + c1 v.y) + c2 v.z`, as `lanes::mat_vec`.
+        #[inline]
+        #[target_feature(enable = $feature)]
+        fn mat_vec(m: &Mat3, v: &[$f; 3]) -> [$f; 3] {
+            let c = [m.x_axis, m.y_axis, m.z_axis];
+            let mut out = [$zero(); 3];
+            for r in 0..3 {
+                let a = $mul($set1(c[0][r]), v[0]);
+                let b = $mul($set1(c[1][r]), v[1]);
+                let z = $mul($set1(c[2][r]), v[2]);
+                out[r] = $add($add(a, b), z);
+            }
+            out
+        }
+
+        /// `(a.x b.x + a.y b.y) + a.z b.z`, as `lanes::dot`.
+        #[inline]
+        #[target_feature(enable = $feature)]
+        fn dot(a: &[$f; 3], b: &[$f; 3]) -> $f {
+            let xy = $add($mul(a[0], b[0]), $mul(a[1], b[1]));
+            $add(xy, $mul(a[2], b[2]))
+        }
+
+        /// `a × b` with glam's formula, as `lanes::cross`.
+        #[inline]
+        #[target_feature(enable = $feature)]
+        fn cross(a: &[$f; 3], b: &[$f; 3]) -> [$f; 3] {
+            let mut out = [$zero(); 3];
+            for (r, o) in out.iter_mut().enumerate() {
+                let (i, j) = ((r + 1) % 3, (r + 2) % 3);
+                *o = $sub($mul(a[i], b[j]), $mul(b[i], a[j]));
+            }
+            out
+        }
+
+        /// `v · s` per lane, as `lanes::scale`.
+        #[inline]
+        #[target_feature(enable = $feature)]
+        fn scale(v: &[$f; 3], s: $f) -> [$f; 3] {
+            [$mul(v[0], s), $mul(v[1], s), $mul(v[2], s)]
+        }
+    };
+}
+
 #[cfg(target_arch = "x86_64")]
 mod wide;
 
@@ -905,51 +957,15 @@ mod avx2 {
         out
     }
 
-    /// `m · v`: `(c0 v.x + c1 v.y) + c2 v.z`, as `lanes::mat_vec`.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn mat_vec(m: &Mat3, v: &V3) -> V3 {
-        let c = [m.x_axis, m.y_axis, m.z_axis];
-        let mut out = [_mm256_setzero_ps(); 3];
-        for r in 0..3 {
-            let a = _mm256_mul_ps(_mm256_set1_ps(c[0][r]), v[0]);
-            let b = _mm256_mul_ps(_mm256_set1_ps(c[1][r]), v[1]);
-            let z = _mm256_mul_ps(_mm256_set1_ps(c[2][r]), v[2]);
-            out[r] = _mm256_add_ps(_mm256_add_ps(a, b), z);
-        }
-        out
-    }
-
-    /// `(a.x b.x + a.y b.y) + a.z b.z`, as `lanes::dot`.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn dot(a: &V3, b: &V3) -> __m256 {
-        let xy = _mm256_add_ps(_mm256_mul_ps(a[0], b[0]), _mm256_mul_ps(a[1], b[1]));
-        _mm256_add_ps(xy, _mm256_mul_ps(a[2], b[2]))
-    }
-
-    /// `a × b` with glam's formula, as `lanes::cross`.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn cross(a: &V3, b: &V3) -> V3 {
-        let mut out = [_mm256_setzero_ps(); 3];
-        for (r, o) in out.iter_mut().enumerate() {
-            let (i, j) = ((r + 1) % 3, (r + 2) % 3);
-            *o = _mm256_sub_ps(_mm256_mul_ps(a[i], b[j]), _mm256_mul_ps(b[i], a[j]));
-        }
-        out
-    }
-
-    /// `v · s` per lane, as `lanes::scale`.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn scale(v: &V3, s: __m256) -> V3 {
-        [
-            _mm256_mul_ps(v[0], s),
-            _mm256_mul_ps(v[1], s),
-            _mm256_mul_ps(v[2], s),
-        ]
-    }
+    vec3_ops!(
+        "avx2",
+        __m256,
+        _mm256_setzero_ps,
+        _mm256_set1_ps,
+        _mm256_add_ps,
+        _mm256_sub_ps,
+        _mm256_mul_ps
+    );
 
     /// Number of lanes with `x > 0` (`GT`) or `x < 0`.
     #[inline]

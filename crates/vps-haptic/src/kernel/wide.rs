@@ -35,51 +35,15 @@ unsafe fn load(xs: Soa, start: usize) -> V3 {
     out
 }
 
-/// `m · v`: `(c0 v.x + c1 v.y) + c2 v.z`, as `lanes::mat_vec`.
-#[inline]
-#[target_feature(enable = "avx512f")]
-fn mat_vec(m: &Mat3, v: &V3) -> V3 {
-    let c = [m.x_axis, m.y_axis, m.z_axis];
-    let mut out = [_mm512_setzero_ps(); 3];
-    for r in 0..3 {
-        let a = _mm512_mul_ps(_mm512_set1_ps(c[0][r]), v[0]);
-        let b = _mm512_mul_ps(_mm512_set1_ps(c[1][r]), v[1]);
-        let z = _mm512_mul_ps(_mm512_set1_ps(c[2][r]), v[2]);
-        out[r] = _mm512_add_ps(_mm512_add_ps(a, b), z);
-    }
-    out
-}
-
-/// `(a.x b.x + a.y b.y) + a.z b.z`, as `lanes::dot`.
-#[inline]
-#[target_feature(enable = "avx512f")]
-fn dot(a: &V3, b: &V3) -> __m512 {
-    let xy = _mm512_add_ps(_mm512_mul_ps(a[0], b[0]), _mm512_mul_ps(a[1], b[1]));
-    _mm512_add_ps(xy, _mm512_mul_ps(a[2], b[2]))
-}
-
-/// `a × b` with glam's formula, as `lanes::cross`.
-#[inline]
-#[target_feature(enable = "avx512f")]
-fn cross(a: &V3, b: &V3) -> V3 {
-    let mut out = [_mm512_setzero_ps(); 3];
-    for (r, o) in out.iter_mut().enumerate() {
-        let (i, j) = ((r + 1) % 3, (r + 2) % 3);
-        *o = _mm512_sub_ps(_mm512_mul_ps(a[i], b[j]), _mm512_mul_ps(b[i], a[j]));
-    }
-    out
-}
-
-/// `v · s` per lane, as `lanes::scale`.
-#[inline]
-#[target_feature(enable = "avx512f")]
-fn scale(v: &V3, s: __m512) -> V3 {
-    [
-        _mm512_mul_ps(v[0], s),
-        _mm512_mul_ps(v[1], s),
-        _mm512_mul_ps(v[2], s),
-    ]
-}
+vec3_ops!(
+    "avx512f",
+    __m512,
+    _mm512_setzero_ps,
+    _mm512_set1_ps,
+    _mm512_add_ps,
+    _mm512_sub_ps,
+    _mm512_mul_ps
+);
 
 /// Number of set lanes of a mask.
 #[inline(always)]
