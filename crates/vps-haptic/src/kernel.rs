@@ -686,7 +686,7 @@ impl LastVoxel {
     #[inline(always)]
     fn remember(&mut self, cell: &[[i32; LANES]; 3], lane: usize, kind: u8, layer: u8) {
         self.cell = [cell[0][lane], cell[1][lane], cell[2][lane]];
-        self.voxel = voxel_of(kind, layer);
+        self.remember_voxel(kind, layer);
     }
 
     /// Kind bits `kind` and layer `layer` as the voxel looked up last (its cell set apart).
@@ -864,10 +864,6 @@ fn brake_block<const CLAMP: bool>(
     acc.brake_blocks += 1;
 }
 
-/// The full-block path of the AVX2 copy, written with AVX2 intrinsics: the portable lane loops
-/// leave much of the block arithmetic in 128-bit halves even when compiled for AVX2. Every
-/// operation is the portable one (same operands, same order, no fused multiply-add), so a block
-/// gives the same bits either way (a unit test checks it).
 /// The vector helpers of one SIMD copy of the block — `mat_vec`, `dot`, `cross` and `scale` over
 /// `[$f; 3]` — written once for both widths (`__m256` in [`avx2`], `__m512` in `wide`): the same
 /// IEEE operations in the same order as `lanes::mat_vec`, `dot`, `cross` and `scale`, so every
@@ -923,6 +919,10 @@ macro_rules! vec3_ops {
 #[cfg(target_arch = "x86_64")]
 mod wide;
 
+/// The full-block path of the AVX2 copy, written with AVX2 intrinsics: the portable lane loops
+/// leave much of the block arithmetic in 128-bit halves even when compiled for AVX2. Every
+/// operation is the portable one (same operands, same order, no fused multiply-add), so a block
+/// gives the same bits either way (a unit test checks it).
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use super::{

@@ -146,14 +146,6 @@ impl LeafDirectory {
         self
     }
 
-    /// Whether [`LeafDirectory::read_wide_block`] reads the sixteen lanes in one pass (the CPU has
-    /// AVX-512F, and SSSE3 for the tree's decode); otherwise a wide block is better read as two
-    /// blocks.
-    #[inline(always)]
-    pub(crate) fn reads_wide(&self) -> bool {
-        self.wide_gathers
-    }
-
     /// Heap bytes held.
     pub(crate) fn memory_bytes(&self) -> usize {
         4 * self.slots.capacity()
@@ -420,31 +412,26 @@ impl LeafDirectory {
 
 impl LeafDirectory {
     /// The codes at the cells of a wide block (`cells[axis][lane]`, any values; a cell outside the
-    /// tree's grid dims reads 0, Free): the same result per lane as [`LeafDirectory::read`] and
-    /// as [`LeafDirectory::read_block`] on each half. With AVX-512F (detected when the directory
-    /// is built, see [`LeafDirectory::reads_wide`]): one masked gather of the sixteen slots and, if
-    /// some lane is in a leaf, two masked gathers of the leaf words
-    /// ([`LeafDirectory::read_wide_block_avx512`]); otherwise `read_block` on each half.
+    /// tree's grid dims reads 0, Free), the same result per lane as [`LeafDirectory::read`]: one
+    /// masked gather of the sixteen slots and, if some lane is in a leaf, two masked gathers of
+    /// the leaf words ([`LeafDirectory::read_wide_block_avx512`]). `None` where the directory has
+    /// no such read (no AVX-512F or SSSE3, detected when it is built): read the block as two
+    /// blocks then.
     #[inline(always)]
     pub(crate) fn read_wide_block(
         &self,
         leaf_words: &[u64],
         leaf: LeafShape,
         cells: &WideBlockCells,
-    ) -> [u8; WIDE_BLOCK_LANES] {
+    ) -> Option<[u8; WIDE_BLOCK_LANES]> {
         #[cfg(target_arch = "x86_64")]
         if self.wide_gathers {
             // SAFETY: `wide_gathers` is set only when the CPU has AVX-512F and the leaf arena's
             // word numbers fit an i32 (`build`).
-            return unsafe { self.read_wide_block_avx512(leaf_words, leaf, cells) };
+            return Some(unsafe { self.read_wide_block_avx512(leaf_words, leaf, cells) });
         }
-        let mut codes = [0u8; WIDE_BLOCK_LANES];
-        let kinds = crate::wide_block_by_halves(cells, |half| crate::VoxelBlock {
-            kinds: self.read_block(leaf_words, leaf, half),
-            layers: [0; BLOCK_LANES],
-        });
-        codes.copy_from_slice(&kinds.kinds);
-        codes
+        let _ = (leaf_words, leaf, cells);
+        None
     }
 
     /// [`LeafDirectory::read_wide_block`] with AVX-512F: the in-grid test as a lane mask, one

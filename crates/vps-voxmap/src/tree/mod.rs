@@ -343,27 +343,27 @@ impl VoxelTree {
     #[inline(always)]
     fn get_wide_block_as<const SHAPE: u32>(&self, cells: &WideBlockCells) -> WideVoxelBlock {
         debug_assert!(SHAPE == ANY_SHAPE || SHAPE == self.fixed_shape);
-        let Some(directory) = self.directory.as_ref().filter(|d| d.reads_wide()) else {
+        let leaf = if SHAPE == PAPER_SHAPE {
+            LookupShape::TREE_512.leaf
+        } else {
+            self.lookup_shape_as::<SHAPE>().leaf
+        };
+        let directory = self.directory.as_ref();
+        let wide = directory.and_then(|d| d.read_wide_block(&self.leaf_words, leaf, cells));
+        let Some(codes) = wide else {
             return crate::wide_block_by_halves(cells, |half| self.get_block_as::<SHAPE>(half));
         };
         if SHAPE == PAPER_SHAPE {
             // 2-bit codes are the kinds' bits.
-            let kinds =
-                directory.read_wide_block(&self.leaf_words, LookupShape::TREE_512.leaf, cells);
             return WideVoxelBlock {
-                kinds,
+                kinds: codes,
                 layers: [0; WIDE_BLOCK_LANES],
             };
         }
-        let codes = directory.read_wide_block(
-            &self.leaf_words,
-            self.lookup_shape_as::<SHAPE>().leaf,
-            cells,
-        );
         #[cfg(target_arch = "x86_64")]
         if SHAPE == FOUR_BIT_SHAPE {
             // SAFETY: the directory reads wide blocks only where the CPU has AVX-512F and SSSE3
-            // (`LeafDirectory::reads_wide`); a 4-bit tree's codes are below 16.
+            // (`LeafDirectory::read_wide_block`); a 4-bit tree's codes are below 16.
             return unsafe { self.codes.decode_low(codes) };
         }
         let mut block = WideVoxelBlock::default();
