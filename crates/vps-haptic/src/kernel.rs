@@ -509,8 +509,17 @@ fn accumulate_lanes<L: VoxelLookup, const CLAMP: bool, const AVX2: bool, const W
         let mut begin_8 = begin;
         #[cfg(target_arch = "x86_64")]
         if WIDE {
-            // Full wide blocks first (the chunk is a whole number of them), then at most one
-            // 8-lane block at the class's end.
+            // Pairs of wide blocks first (`wide::sample_block_pair`; a chunk is a whole number of
+            // pairs), then at most one wide block and one 8-lane block at the class's end.
+            while begin_8 + 2 * wide::WIDE_LANES <= end {
+                // SAFETY: as below, with `begin_8 + 2 · WIDE_LANES ≤ end`.
+                unsafe {
+                    wide::sample_block_pair::<L, CLAMP>(
+                        map, frame, points, normals, begin_8, &mut last, &mut acc,
+                    )
+                };
+                begin_8 += 2 * wide::WIDE_LANES;
+            }
             while begin_8 + wide::WIDE_LANES <= end {
                 // SAFETY: `WIDE` is only requested from `accumulate_avx512`, which runs only where
                 // the CPU has AVX-512F and DQ; `begin_8 + WIDE_LANES ≤ end ≤ n`, the shortest of
@@ -1339,6 +1348,21 @@ mod tests {
         };
         let base = every_copy(&frame, &soa);
         assert!(base.surface > 50 && base.approaching > 20 && base.contacts > 20);
+        // Shorter shells reach every way a class ends in the AVX-512 copy: pairs of wide blocks
+        // only, then a lone wide block, an 8-lane block and a tail, alone or together.
+        for len in [5, 8, 16, 24, 32, 40, 48, 59, 987] {
+            let prefix = soa.clone().map(|mut v| {
+                v.truncate(len);
+                v
+            });
+            let mut alone = PartialSums::default();
+            for i in 0..len {
+                let pts = [&soa[0][i..=i], &soa[1][i..=i], &soa[2][i..=i]];
+                let nrm = [&soa[3][i..=i], &soa[4][i..=i], &soa[5][i..=i]];
+                accumulate_any::<DenseGrid, false, false>(&grid, &frame, pts, nrm, &mut alone);
+            }
+            assert_eq!(every_copy(&frame, &prefix), alone, "{len} points");
+        }
         // The clamping copy gives the same bits when nothing needs clamping.
         let clamping = GridFrame {
             needs_clamp: true,
