@@ -11,7 +11,7 @@
 //! x86-64 and other targets, and the zero-padded tail block of each class); where the CPU has
 //! AVX2, full blocks written with AVX2 intrinsics (`avx2::sample_block`); and where it also has
 //! AVX-512F, AVX-512DQ and POPCNT, the AVX-512 copy (`accumulate_avx512`): full blocks of 16
-//! points in 512-bit registers (`wide::sample_block`, lookups through
+//! points in 512-bit registers (`wide::sample_blocks`, lookups through
 //! [`VoxelLookup::get_wide_block`]), then the class's last full block of 8 on the AVX2 intrinsics
 //! compiled with those features (rounding each sum's eight lanes to `i64` in one `vcvtps2qq`,
 //! counting with `popcnt`), then the portable tail. The same IEEE operations in the same order, no
@@ -427,7 +427,7 @@ pub fn runs_avx512_copy() -> bool {
     }
 }
 
-/// The AVX-512 copy: full blocks of 16 points in 512-bit registers (`wide::sample_block`), then
+/// The AVX-512 copy: full blocks of 16 points in 512-bit registers (`wide::sample_blocks`), then
 /// [`accumulate_avx2`]'s block for a last full block of 8, with each sum's eight lanes rounded to
 /// `i64` by one AVX-512DQ conversion (`vcvtps2qq`, to nearest, ties to even: the same integers as
 /// the f64 rounding of the AVX2 copy) and counts by POPCNT. The same bits as the other copies.
@@ -509,12 +509,12 @@ fn accumulate_lanes<L: VoxelLookup, const CLAMP: bool, const AVX2: bool, const W
         let mut begin_8 = begin;
         #[cfg(target_arch = "x86_64")]
         if WIDE {
-            // Pairs of wide blocks first (`wide::sample_block_pair`; a chunk is a whole number of
+            // Pairs of wide blocks first (`wide::sample_blocks`; a chunk is a whole number of
             // pairs), then at most one wide block and one 8-lane block at the class's end.
             while begin_8 + 2 * wide::WIDE_LANES <= end {
                 // SAFETY: as below, with `begin_8 + 2 · WIDE_LANES ≤ end`.
                 unsafe {
-                    wide::sample_block_pair::<L, CLAMP>(
+                    wide::sample_blocks::<L, CLAMP, true>(
                         map, frame, points, normals, begin_8, &mut last, &mut acc,
                     )
                 };
@@ -525,7 +525,7 @@ fn accumulate_lanes<L: VoxelLookup, const CLAMP: bool, const AVX2: bool, const W
                 // the CPU has AVX-512F and DQ; `begin_8 + WIDE_LANES ≤ end ≤ n`, the shortest of
                 // the six arrays.
                 unsafe {
-                    wide::sample_block::<L, CLAMP>(
+                    wide::sample_blocks::<L, CLAMP, false>(
                         map, frame, points, normals, begin_8, &mut last, &mut acc,
                     )
                 };

@@ -5,7 +5,7 @@
 //! multiply-add), lane masks in `__mmask16` registers instead of vector masks; a unit test checks
 //! the bits against the portable and AVX2 copies.
 //!
-//! Blocks go in pairs ([`sample_block_pair`]): both blocks are placed and looked up ([`locate`]),
+//! Blocks go in pairs ([`sample_blocks`]): both blocks are placed and looked up ([`locate`]),
 //! then both do their arithmetic ([`sample_located`]). A block's arithmetic waits on its lookup's
 //! two dependent loads; issued block by block, the next block's lookups queue behind that wait.
 //! In pairs they are in flight together: contact 4.26 -> 3.34 ns per point, free space unchanged
@@ -218,21 +218,20 @@ unsafe fn locate<L: VoxelLookup>(
     }
 }
 
-/// `super::sample_block` for the two full wide blocks at `start` and `start + WIDE_LANES`
-/// (`start + 2 · WIDE_LANES` within every array): both blocks' lookups ([`locate`], in block
-/// order, so `last` evolves as block by block), then both blocks' arithmetic
-/// ([`sample_located`]). The same sums as block by block: the lookups are the same and the sums
-/// are integers. Faster in contact: the second block's lookup chain (slot, then leaf word) is
-/// issued before the first block's arithmetic, which would otherwise wait on it with the second
-/// block's lookups queued behind. Inlined into `accumulate_avx512`, whose features its
-/// intrinsics use.
+/// `super::sample_block` for the full wide block at `start`, and with `PAIR` the one after it
+/// too (`start + WIDE_LANES`, or `start + 2 · WIDE_LANES` with `PAIR`, within every array): the
+/// blocks' lookups ([`locate`], in block order, so `last` evolves as block by block), then their
+/// arithmetic ([`sample_located`]). The same sums as block by block: the lookups are the same and
+/// the sums are integers. A pair is faster in contact: the second block's lookup chain (slot,
+/// then leaf word) is issued before the first block's arithmetic, which would otherwise wait on
+/// its own lookup with the second block's lookups queued behind. Inlined into
+/// `accumulate_avx512`, whose features its intrinsics use.
 ///
 /// # Safety
-/// The CPU must support AVX-512F and AVX-512DQ; `start + 2 · WIDE_LANES` must be within the six
-/// arrays.
+/// The CPU must support AVX-512F and AVX-512DQ; the blocks must be within the six arrays.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-pub(super) unsafe fn sample_block_pair<L: VoxelLookup, const CLAMP: bool>(
+pub(super) unsafe fn sample_blocks<L: VoxelLookup, const CLAMP: bool, const PAIR: bool>(
     map: &L,
     frame: &GridFrame,
     points: Soa,
@@ -243,33 +242,15 @@ pub(super) unsafe fn sample_block_pair<L: VoxelLookup, const CLAMP: bool>(
 ) {
     unsafe {
         let first = locate(map, frame, points, start, last);
-        let second = locate(map, frame, points, start + WIDE_LANES, last);
+        let second = if PAIR {
+            Some(locate(map, frame, points, start + WIDE_LANES, last))
+        } else {
+            None
+        };
         sample_located::<CLAMP>(frame, normals, start, &first, acc);
-        sample_located::<CLAMP>(frame, normals, start + WIDE_LANES, &second, acc);
-    }
-}
-
-/// `super::sample_block` for a full wide block at `start` (`start + WIDE_LANES` within every
-/// array): [`locate`], then [`sample_located`]. Inlined into `accumulate_avx512`, whose features
-/// its intrinsics use.
-///
-/// # Safety
-/// The CPU must support AVX-512F and AVX-512DQ; `start + WIDE_LANES` must be within the six
-/// arrays.
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-pub(super) unsafe fn sample_block<L: VoxelLookup, const CLAMP: bool>(
-    map: &L,
-    frame: &GridFrame,
-    points: Soa,
-    normals: Soa,
-    start: usize,
-    last: &mut LastVoxel,
-    acc: &mut ClassAccumulator,
-) {
-    unsafe {
-        let block = locate(map, frame, points, start, last);
-        sample_located::<CLAMP>(frame, normals, start, &block, acc);
+        if let Some(second) = second {
+            sample_located::<CLAMP>(frame, normals, start + WIDE_LANES, &second, acc);
+        }
     }
 }
 
