@@ -880,7 +880,17 @@ fn brake_block<const CLAMP: bool>(
 /// broadcast, add, subtract and multiply intrinsics.
 #[cfg(target_arch = "x86_64")]
 macro_rules! vec3_ops {
-    ($feature:literal, $f:ty, $zero:ident, $set1:ident, $add:ident, $sub:ident, $mul:ident) => {
+    (
+        $feature:literal,
+        $f:ty,
+        $i:ty,
+        $zero:ident,
+        $set1:ident,
+        $add:ident,
+        $sub:ident,
+        $mul:ident,
+        $to_f:ident
+    ) => {
         /// `m · v`: `(c0 v.x + c1 v.y) + c2 v.z`, as `lanes::mat_vec`.
         #[inline]
         #[target_feature(enable = $feature)]
@@ -921,6 +931,35 @@ macro_rules! vec3_ops {
         #[target_feature(enable = $feature)]
         fn scale(v: &[$f; 3], s: $f) -> [$f; 3] {
             [$mul(v[0], s), $mul(v[1], s), $mul(v[2], s)]
+        }
+
+        /// `u + w × lever` with `u` and `w` the same in every lane, as
+        /// `lanes::add_cross_uniform`.
+        #[inline]
+        #[target_feature(enable = $feature)]
+        fn add_cross_uniform(u: [f32; 3], w: [f32; 3], lever: &[$f; 3]) -> [$f; 3] {
+            let mut out = [$zero(); 3];
+            for (r, o) in out.iter_mut().enumerate() {
+                let (i, j) = ((r + 1) % 3, (r + 2) % 3);
+                *o = $add(
+                    $set1(u[r]),
+                    $sub($mul($set1(w[i]), lever[j]), $mul(lever[i], $set1(w[j]))),
+                );
+            }
+            out
+        }
+
+        /// `(cell + 0.5) − grid` per axis: from each point (grid coordinates) to the centre of
+        /// its voxel `cell`, in voxels.
+        #[inline]
+        #[target_feature(enable = $feature)]
+        fn to_centre(cell: &[$i; 3], grid: &[$f; 3]) -> [$f; 3] {
+            let half = $set1(0.5);
+            let mut out = [$zero(); 3];
+            for r in 0..3 {
+                out[r] = $sub($add($to_f(cell[r]), half), grid[r]);
+            }
+            out
         }
     };
 }
@@ -969,11 +1008,13 @@ mod avx2 {
     vec3_ops!(
         "avx2",
         __m256,
+        __m256i,
         _mm256_setzero_ps,
         _mm256_set1_ps,
         _mm256_add_ps,
         _mm256_sub_ps,
-        _mm256_mul_ps
+        _mm256_mul_ps,
+        _mm256_cvtepi32_ps
     );
 
     /// Number of lanes with `x > 0` (`GT`) or `x < 0`.
@@ -1206,13 +1247,10 @@ mod avx2 {
                     _mm256_set1_epi32(1),
                     is_interior,
                 );
-                let half = _mm256_set1_ps(0.5);
-                let mut to_centre: V3 = [_mm256_setzero_ps(); 3];
-                for r in 0..3 {
-                    to_centre[r] =
-                        _mm256_sub_ps(_mm256_add_ps(_mm256_cvtepi32_ps(cell[r]), half), grid[r]);
-                }
-                let d = _mm256_add_ps(dot(&normal, &to_centre), _mm256_cvtepi32_ps(layer));
+                let d = _mm256_add_ps(
+                    dot(&normal, &to_centre(&cell, &grid)),
+                    _mm256_cvtepi32_ps(layer),
+                );
                 let keep = _mm256_and_ps(
                     _mm256_castsi256_ps(pushing),
                     _mm256_cmp_ps::<_CMP_GT_OQ>(d, _mm256_setzero_ps()),
@@ -1225,20 +1263,8 @@ mod avx2 {
                 acc.depth_blocks += 1;
             }
             if proximity != 0 {
-                let w = frame.angular_velocity_lever;
-                let u = frame.linear_velocity;
-                // u + w × lever, as `lanes::add_cross_uniform`.
-                let mut velocity: V3 = [_mm256_setzero_ps(); 3];
-                for r in 0..3 {
-                    let (i, j) = ((r + 1) % 3, (r + 2) % 3);
-                    velocity[r] = _mm256_add_ps(
-                        _mm256_set1_ps(u[r]),
-                        _mm256_sub_ps(
-                            _mm256_mul_ps(_mm256_set1_ps(w[i]), lever[j]),
-                            _mm256_mul_ps(lever[i], _mm256_set1_ps(w[j])),
-                        ),
-                    );
-                }
+                let velocity =
+                    add_cross_uniform(frame.linear_velocity, frame.angular_velocity_lever, &lever);
                 let approach = dot(&velocity, &normal);
                 let approaching = _mm256_and_ps(
                     _mm256_castsi256_ps(kind_is(kind, Voxel::Proximity)),

@@ -44,11 +44,13 @@ unsafe fn load(xs: Soa, start: usize) -> V3 {
 vec3_ops!(
     "avx512f",
     __m512,
+    __m512i,
     _mm512_setzero_ps,
     _mm512_set1_ps,
     _mm512_add_ps,
     _mm512_sub_ps,
-    _mm512_mul_ps
+    _mm512_mul_ps,
+    _mm512_cvtepi32_ps
 );
 
 /// Number of set lanes of a mask.
@@ -282,8 +284,6 @@ unsafe fn sample_located<const CLAMP: bool>(
         );
         acc.non_free += count(non_free);
         acc.interior += count(interior);
-        // Placed again rather than kept from `locate`: storing and reloading the placement costs
-        // more than recomputing it, and only blocks with a non-Free point get here.
         let Placed { lever, grid, cell } = block.placed;
         let normal = mat_vec(&frame.rotation, &load(normals, start));
         let pushing = surface | interior;
@@ -291,14 +291,11 @@ unsafe fn sample_located<const CLAMP: bool>(
             acc.surface += count(surface);
             // Interior points push as layer 1.
             let layer = _mm512_mask_set1_epi32(block.layer, interior, 1);
-            let half = _mm512_set1_ps(0.5);
-            let mut to_centre: V3 = [_mm512_setzero_ps(); 3];
-            for r in 0..3 {
-                to_centre[r] =
-                    _mm512_sub_ps(_mm512_add_ps(_mm512_cvtepi32_ps(cell[r]), half), grid[r]);
-            }
             let zero = _mm512_setzero_ps();
-            let d = _mm512_add_ps(dot(&normal, &to_centre), _mm512_cvtepi32_ps(layer));
+            let d = _mm512_add_ps(
+                dot(&normal, &to_centre(&cell, &grid)),
+                _mm512_cvtepi32_ps(layer),
+            );
             let keep = _mm512_mask_cmp_ps_mask::<_CMP_GT_OQ>(pushing, d, zero);
             let depth = _mm512_maskz_mul_ps(keep, d, _mm512_set1_ps(frame.voxel_q));
             acc.contacts += count(_mm512_cmp_ps_mask::<_CMP_GT_OQ>(depth, zero));
@@ -308,20 +305,8 @@ unsafe fn sample_located<const CLAMP: bool>(
             acc.depth_blocks += 2;
         }
         if proximity != 0 {
-            let w = frame.angular_velocity_lever;
-            let u = frame.linear_velocity;
-            // u + w × lever, as `lanes::add_cross_uniform`.
-            let mut velocity: V3 = [_mm512_setzero_ps(); 3];
-            for r in 0..3 {
-                let (i, j) = ((r + 1) % 3, (r + 2) % 3);
-                velocity[r] = _mm512_add_ps(
-                    _mm512_set1_ps(u[r]),
-                    _mm512_sub_ps(
-                        _mm512_mul_ps(_mm512_set1_ps(w[i]), lever[j]),
-                        _mm512_mul_ps(lever[i], _mm512_set1_ps(w[j])),
-                    ),
-                );
-            }
+            let velocity =
+                add_cross_uniform(frame.linear_velocity, frame.angular_velocity_lever, &lever);
             let zero = _mm512_setzero_ps();
             let approach = dot(&velocity, &normal);
             let approaching = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(proximity, approach, zero);
