@@ -244,7 +244,16 @@ fn bridge_flags_are_checked_with_clear_messages() {
 
 /// A scene whose device is the bridge, mapped: device +X is scene +Y (rotated 90° about Z),
 /// scaled ×2, the device origin at the part's start (0, 0, 0.5), far above the floor.
-const MAPPED_SCENE: &str = r#"
+fn mapped_scene() -> String {
+    let device = vps_fuzz::seeds::bridge_device_section(
+        "127.0.0.1:0",
+        200,
+        2.0,
+        [0, 0, 90],
+        [0.0, 0.0, 0.5],
+    );
+    format!(
+        r#"
 part = "builtin:sphere"
 [[static]]
 source = "builtin:box"
@@ -253,14 +262,9 @@ scale = [10.0, 10.0, 1.0]
 voxel_size = "10mm"
 [hand]
 waypoints = [[0.0, 0.0, 0.5], [0.0, 0.0, 0.6]]
-[device]
-kind = "bridge:127.0.0.1:0"
-pose_timeout_ms = 200
-[device.mapping]
-scale = 2.0
-rotate_deg = [0, 0, 90]
-offset = [0.0, 0.0, 0.5]
-"#;
+{device}"#
+    )
+}
 
 /// Runs a 2.5 s session on `scene` with `extra` flags while a client moves the device 0.02 m
 /// along +X and holds it there; returns where the part ended (m).
@@ -322,7 +326,7 @@ fn drive_mapped_scene(scene: &Path, extra: &[&str]) -> [f64; 3] {
 fn a_scene_files_mapping_places_the_device_and_flags_override_it() {
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("mapped.toml");
-    std::fs::write(&scene, MAPPED_SCENE).unwrap();
+    std::fs::write(&scene, mapped_scene()).unwrap();
     let close = |p: [f64; 3], want: [f64; 3]| {
         let d = (0..3).map(|i| (p[i] - want[i]).powi(2)).sum::<f64>().sqrt();
         assert!(d < 0.005, "part at {p:?}, expected {want:?} (off by {d} m)");

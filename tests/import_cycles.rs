@@ -806,15 +806,15 @@ fn finds_a_direct_circle() {
         ),
     ]);
     let c = cycles(&edges);
-    assert_eq!(c.len(), 1, "{}", report(&c));
+    let text = report(&c);
+    assert_eq!(c.len(), 1, "{text}");
     assert_eq!(
         c[0].0,
         vec![PathBuf::from("src/a.rs"), PathBuf::from("src/b/mod.rs")]
     );
     assert!(
-        report(&c).contains("src/b/mod.rs:2 -> src/a.rs (`crate::a::A`)"),
-        "{}",
-        report(&c)
+        text.contains("src/b/mod.rs:2 -> src/a.rs (`crate::a::A`)"),
+        "{text}"
     );
 }
 

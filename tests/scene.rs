@@ -2,36 +2,22 @@
 //! millimetres, one object rotated and translated) runs with the simulated hand, on one process
 //! and on two local workers; the voxmap cache; bad scene files.
 
+use glam::DVec3;
 use std::path::Path;
 use vps_testkit::process::{json, stderr, Vps};
 use vps_testkit::scene_edit::{bad_scenes, SceneEdit};
 
-/// Corners of an axis-aligned box and its 12 triangles, wound outward.
-fn cuboid(min: [f64; 3], max: [f64; 3]) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
-    let vertices = (0..8)
-        .map(|i| {
-            [
-                if i & 1 == 0 { min[0] } else { max[0] },
-                if i & 2 == 0 { min[1] } else { max[1] },
-                if i & 4 == 0 { min[2] } else { max[2] },
-            ]
-        })
+/// Corners of an axis-aligned box and its 12 triangles, wound outward: the built-in box's
+/// triangles over its corners moved to `min` and `max` (exactly: each coordinate is one of the
+/// two given).
+fn cuboid(min: [f64; 3], max: [f64; 3]) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    let unit = vps_mesh::builtin::cuboid(DVec3::ONE);
+    let vertices = unit
+        .vertices
+        .iter()
+        .map(|v| [0, 1, 2].map(|k| if v[k] < 0.0 { min[k] } else { max[k] }))
         .collect();
-    let triangles = vec![
-        [0, 2, 3],
-        [0, 3, 1],
-        [4, 5, 7],
-        [4, 7, 6],
-        [0, 1, 5],
-        [0, 5, 4],
-        [2, 6, 7],
-        [2, 7, 3],
-        [0, 4, 6],
-        [0, 6, 2],
-        [1, 3, 7],
-        [1, 7, 5],
-    ];
-    (vertices, triangles)
+    (vertices, unit.triangles)
 }
 
 /// A binary STL of a box (coordinates as given, e.g. millimetres).
@@ -42,7 +28,7 @@ fn write_stl(path: &Path, min: [f64; 3], max: [f64; 3]) {
     for tri in &t {
         bytes.extend_from_slice(&[0u8; 12]); // normal: readers recompute it
         for &i in tri {
-            for c in v[i] {
+            for c in v[i as usize] {
                 bytes.extend_from_slice(&(c as f32).to_le_bytes());
             }
         }
@@ -227,12 +213,8 @@ fn the_voxmap_cache_is_used_and_rebuilt_when_an_input_changes() {
         "{rebuilt}"
     );
     // --no-cache neither reads nor writes.
-    let out = bay.run(&["run", "--scene", &scene, "--seconds", "0.1", "--no-cache"]);
-    assert!(
-        stderr(&out).contains("voxmap: built (cache off)"),
-        "{}",
-        stderr(&out)
-    );
+    let out = stderr(&bay.run(&["run", "--scene", &scene, "--seconds", "0.1", "--no-cache"]));
+    assert!(out.contains("voxmap: built (cache off)"), "{out}");
 }
 
 #[test]

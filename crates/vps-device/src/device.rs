@@ -154,6 +154,22 @@ pub trait HapticDevice: Send {
     }
 }
 
+/// Writes [`HapticDevice::limits`] and [`HapticDevice::name`] inside an `impl HapticDevice`
+/// block, for a device that keeps its limits in a field `limits: DeviceLimits` and its name in a
+/// field `name: String` (the replay device here, the SpaceMouse driver in `vps-input`).
+#[macro_export]
+macro_rules! limits_and_name_from_fields {
+    () => {
+        fn limits(&self) -> $crate::DeviceLimits {
+            self.limits
+        }
+
+        fn name(&self) -> &str {
+            &self.name
+        }
+    };
+}
+
 /// Checks every component of a handle sample is finite.
 pub(crate) fn check_sample(device: &str, s: &HandleSample) -> Result<(), DeviceError> {
     let what = if !s.position.is_finite() {

@@ -325,13 +325,7 @@ impl HapticDevice for ReplayDevice {
         }
     }
 
-    fn limits(&self) -> DeviceLimits {
-        self.limits
-    }
-
-    fn name(&self) -> &str {
-        &self.name
-    }
+    crate::limits_and_name_from_fields!();
 }
 
 #[cfg(test)]

@@ -249,11 +249,7 @@ scene = "scenes/rig-teapot.toml"
 /// `assets/scenes/`), and one using every optional section (`[hand]`, `[workspace]`, inline
 /// `[haptic]`, a bridge `[device]` with its mapping and timeout, lengths as strings).
 pub fn scene_toml() -> Vec<Vec<u8>> {
-    vec![
-        include_bytes!("../../../configs/scenes/bay-teapot.toml").to_vec(),
-        include_bytes!("../../../configs/scenes/rig-teapot.toml").to_vec(),
-        include_bytes!("../../../assets/scenes/bracket-in-bay.toml").to_vec(),
-        br#"name = "every-section"
+    let every_section = r#"name = "every-section"
 [part]
 source = "builtin:teapot"
 units = "cm"
@@ -283,17 +279,33 @@ max = [0.2, 0.2, 0.2]
 mass = 0.5
 k_ff = 2000.0
 device_max_force = 4.0
-[device]
-kind = "bridge:127.0.0.1:7700"
-pose_timeout_ms = 100
-[device.mapping]
-scale = 5.0
-rotate_deg = [90, 0, 0]
-offset = [0.05, 0.0, 0.0]
-force_scale = 0.5
-"#
-        .to_vec(),
+"#;
+    let device = bridge_device_section("127.0.0.1:7700", 100, 5.0, [90, 0, 0], [0.05, 0.0, 0.0]);
+    vec![
+        include_bytes!("../../../configs/scenes/bay-teapot.toml").to_vec(),
+        include_bytes!("../../../configs/scenes/rig-teapot.toml").to_vec(),
+        include_bytes!("../../../assets/scenes/bracket-in-bay.toml").to_vec(),
+        format!("{every_section}{device}force_scale = 0.5\n").into_bytes(),
     ]
+}
+
+/// The `[device]` section of a scene file whose device is the UDP bridge on `addr`, held after
+/// `pose_timeout_ms` (ms) of silence, with a `[device.mapping]`: `scale` scene metres per device
+/// metre, `rotate_deg` the device axes' rotation into the scene's (degrees, X then Y then Z),
+/// `offset` the scene position of the device origin (m). Ends with a newline, so that more
+/// `[device.mapping]` keys may follow. The scene-file seed is written with it, and so is the
+/// mapped-bridge scene of the bridge tests (`tests/bridge_clients.rs`).
+pub fn bridge_device_section(
+    addr: &str,
+    pose_timeout_ms: u32,
+    scale: f64,
+    rotate_deg: [i32; 3],
+    offset: [f64; 3],
+) -> String {
+    format!(
+        "[device]\nkind = \"bridge:{addr}\"\npose_timeout_ms = {pose_timeout_ms}\n\
+         [device.mapping]\nscale = {scale:?}\nrotate_deg = {rotate_deg:?}\noffset = {offset:?}\n"
+    )
 }
 
 fn sample(i: u32) -> HandleSample {

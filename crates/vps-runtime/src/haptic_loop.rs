@@ -426,7 +426,7 @@ mod tests {
     use vps_haptic::HandleSample;
     use vps_testkit::device::{LoggingDevice, Writes};
     use vps_testkit::hand::{approach_and_rest_on_wall, START};
-    use vps_testkit::scene::{wall, VOXEL, WALL_TOP};
+    use vps_testkit::scene::{wall, ArmedWall, VOXEL, WALL_TOP};
     use vps_testkit::shell::{sphere_shell, SPHERE_RADIUS};
     use vps_voxmap::DenseGrid;
 
@@ -668,35 +668,19 @@ mod tests {
         assert_eq!(writes[300], Wrench::ZERO);
     }
 
-    /// The wall, except that once `armed` a lookup on the pool thread `vps-pool-1` panics and one
+    /// The wall, except that once armed a lookup on the pool thread `vps-pool-1` panics and one
     /// on the frame thread is slowed down (so that the pool threads get classes to compute).
-    struct PanicsOnPoolThread {
-        wall: DenseGrid,
-        armed: AtomicBool,
-    }
-
-    impl VoxelLookup for PanicsOnPoolThread {
-        fn spec(&self) -> &vps_voxmap::GridSpec {
-            self.wall.spec()
-        }
-        fn get(&self, ijk: glam::IVec3) -> vps_voxmap::Voxel {
-            if self.armed.load(Ordering::Relaxed) {
-                match std::thread::current().name() {
-                    Some("vps-pool-1") => panic!("lookup failed on a pool thread"),
-                    Some("vps-frame") => std::thread::sleep(Duration::from_micros(20)),
-                    _ => {}
-                }
-            }
-            self.wall.get(ijk)
-        }
+    fn panics_on_pool_thread() -> ArmedWall<(), impl Fn(&()) + Sync> {
+        ArmedWall::new((), |_: &()| match std::thread::current().name() {
+            Some("vps-pool-1") => panic!("lookup failed on a pool thread"),
+            Some("vps-frame") => std::thread::sleep(Duration::from_micros(20)),
+            _ => {}
+        })
     }
 
     #[test]
     fn a_panic_on_a_pool_thread_ends_the_session_after_a_zero_wrench() {
-        let map = Arc::new(PanicsOnPoolThread {
-            wall: wall(),
-            armed: AtomicBool::new(false),
-        });
+        let map = Arc::new(panics_on_pool_thread());
         let (device, writes) = probe(hand());
         let stop = Arc::new(AtomicBool::new(false));
         let (tx, mut rx) = state_feed();
@@ -713,7 +697,7 @@ mod tests {
         while rx.latest().is_none_or(|f| f.frame < 20) {
             std::thread::yield_now();
         }
-        map.armed.store(true, Ordering::Relaxed);
+        map.armed.store(true, Ordering::Release);
         // The pool thread takes a class within a few frames; the session must end by itself. The
         // stop flag is a backstop so that a failing test does not hang.
         let backstop = std::time::Instant::now() + Duration::from_secs(60);

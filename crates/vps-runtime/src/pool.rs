@@ -334,7 +334,7 @@ mod tests {
     use glam::{DQuat, DVec3};
     use std::sync::atomic::AtomicBool;
     use vps_haptic::{sample_all, PartState};
-    use vps_testkit::scene::wall;
+    use vps_testkit::scene::{wall, ArmedWall};
     use vps_testkit::shell::sphere_shell;
 
     #[test]
@@ -406,54 +406,52 @@ mod tests {
         }
     }
 
-    /// The wall, except that once `armed` a lookup on the pool thread `vps-pool-1` stalls until
-    /// `released`, and lookups on any other thread wait until that pool thread has stalled (so
-    /// that it holds a class of the frame).
-    struct StallsOnPoolThread {
-        wall: vps_voxmap::DenseGrid,
-        armed: AtomicBool,
-        stalled: AtomicBool,
-        released: AtomicBool,
-    }
-
-    impl VoxelLookup for StallsOnPoolThread {
-        fn spec(&self) -> &vps_voxmap::GridSpec {
-            self.wall.spec()
-        }
-        fn get(&self, ijk: glam::IVec3) -> vps_voxmap::Voxel {
-            if self.armed.load(Ordering::Acquire) {
-                // A backstop so that a failing test does not hang.
-                let backstop = Instant::now() + Duration::from_secs(30);
-                let on_pool = std::thread::current().name() == Some("vps-pool-1");
-                if on_pool {
-                    self.stalled.store(true, Ordering::Release);
-                }
-                let flag = if on_pool {
-                    &self.released
-                } else {
-                    &self.stalled
-                };
-                while !flag.load(Ordering::Acquire) && Instant::now() < backstop {
-                    std::thread::sleep(Duration::from_micros(100));
-                }
-            }
-            self.wall.get(ijk)
-        }
-    }
-
-    #[test]
-    fn a_class_held_by_a_stalled_thread_is_computed_here_long_before_the_deadline() {
-        let map = Arc::new(StallsOnPoolThread {
-            wall: wall(),
-            armed: AtomicBool::new(false),
-            stalled: AtomicBool::new(false),
-            released: AtomicBool::new(false),
-        });
+    /// A 300-point sphere shell in 8 classes, and a pose at rest with its centre 1 cm above the
+    /// wall's face (the 1.5 cm sphere dips into the wall: in contact).
+    fn shell_above_wall() -> (Arc<ClassedShell>, KernelPose) {
         let shell = Arc::new(ClassedShell::new(&sphere_shell(300), 8));
         let pose = KernelPose::from_state(&PartState::at_rest(
             DVec3::new(0.05, 0.05, 0.06),
             DQuat::IDENTITY,
         ));
+        (shell, pose)
+    }
+
+    /// What the stalling lookup and its test share.
+    #[derive(Default)]
+    struct Stall {
+        /// Set by the pool thread `vps-pool-1` when its lookup stalls.
+        stalled: AtomicBool,
+        /// Set by the test to let the stalled lookup go on.
+        released: AtomicBool,
+    }
+
+    /// The wall, except that once armed a lookup on the pool thread `vps-pool-1` stalls until
+    /// `released`, and lookups on any other thread wait until that pool thread has stalled (so
+    /// that it holds a class of the frame).
+    fn stalls_on_pool_thread() -> ArmedWall<Stall, impl Fn(&Stall) + Sync> {
+        ArmedWall::new(Stall::default(), |stall: &Stall| {
+            // A backstop so that a failing test does not hang.
+            let backstop = Instant::now() + Duration::from_secs(30);
+            let on_pool = std::thread::current().name() == Some("vps-pool-1");
+            if on_pool {
+                stall.stalled.store(true, Ordering::Release);
+            }
+            let flag = if on_pool {
+                &stall.released
+            } else {
+                &stall.stalled
+            };
+            while !flag.load(Ordering::Acquire) && Instant::now() < backstop {
+                std::thread::sleep(Duration::from_micros(100));
+            }
+        })
+    }
+
+    #[test]
+    fn a_class_held_by_a_stalled_thread_is_computed_here_long_before_the_deadline() {
+        let map = Arc::new(stalls_on_pool_thread());
+        let (shell, pose) = shell_above_wall();
         let want = sample_all(&map.wall, &shell, &pose);
         let mut pool = ClassPool::new(map.clone(), shell, 2).unwrap();
         map.armed.store(true, Ordering::Release);
@@ -461,9 +459,9 @@ mod tests {
         let got = pool.compute(&pose, deadline);
         let returned = Instant::now();
         map.armed.store(false, Ordering::Release);
-        map.released.store(true, Ordering::Release);
+        map.state.released.store(true, Ordering::Release);
         assert!(
-            map.stalled.load(Ordering::Acquire),
+            map.state.stalled.load(Ordering::Acquire),
             "the pool thread held a class"
         );
         assert_eq!(got.sums, want);
@@ -480,11 +478,7 @@ mod tests {
     #[test]
     fn a_past_deadline_falls_back_to_local_compute_with_the_same_result() {
         let map = Arc::new(wall());
-        let shell = Arc::new(ClassedShell::new(&sphere_shell(300), 8));
-        let pose = KernelPose::from_state(&PartState::at_rest(
-            DVec3::new(0.05, 0.05, 0.06),
-            DQuat::IDENTITY,
-        ));
+        let (shell, pose) = shell_above_wall();
         let want = sample_all(&*map, &shell, &pose);
         let mut pool = ClassPool::new(map, shell, 3).unwrap();
         for _ in 0..20 {

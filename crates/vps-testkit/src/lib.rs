@@ -1,7 +1,8 @@
 //! Shared fixtures for the tests of the vps workspace (`publish = false`, used only as a
 //! dev-dependency).
 //!
-//! - [`scene`]: hand-made voxmaps (the flat test wall, small grids).
+//! - [`scene`]: hand-made voxmaps (the flat test wall, small grids) and the wall as a lookup
+//!   that runs a hook once armed (to make lookups panic or stall on chosen threads).
 //! - [`shell`]: point shells (the Fibonacci sphere shell and its directions).
 //! - [`device`]: a device wrapper that logs every write and fails or trips on demand.
 //! - [`full_stdout`]: the check that a command writing to a full stdout fails cleanly.

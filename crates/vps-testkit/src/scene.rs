@@ -1,7 +1,8 @@
 //! Hand-made voxmaps.
 
 use glam::IVec3;
-use vps_voxmap::{DenseGrid, GridSpec, TreeConfig, Voxel, VoxelTree};
+use std::sync::atomic::{AtomicBool, Ordering};
+use vps_voxmap::{DenseGrid, GridSpec, TreeConfig, Voxel, VoxelLookup, VoxelTree};
 
 /// Voxel size of the test wall (m).
 pub const VOXEL: f64 = 0.005;
@@ -43,6 +44,43 @@ pub fn fill_layer(grid: &mut DenseGrid, k: i32, kind: Voxel) {
     }
 }
 
+/// The test [`wall`] as a lookup that, once [`ArmedWall::armed`] is set, calls `hook(&state)`
+/// before every lookup: for tests that make lookups panic, stall or slow down on chosen threads.
+pub struct ArmedWall<S, F> {
+    /// The wall the lookups read.
+    pub wall: DenseGrid,
+    /// Whether the hook runs (false at first; loaded with `Acquire`).
+    pub armed: AtomicBool,
+    /// What the hook and the test share (flags the hook sets or waits on).
+    pub state: S,
+    hook: F,
+}
+
+impl<S: Sync, F: Fn(&S) + Sync> ArmedWall<S, F> {
+    /// The wall, not armed, with `hook` and its `state`.
+    pub fn new(state: S, hook: F) -> ArmedWall<S, F> {
+        ArmedWall {
+            wall: wall(),
+            armed: AtomicBool::new(false),
+            state,
+            hook,
+        }
+    }
+}
+
+impl<S: Sync, F: Fn(&S) + Sync> VoxelLookup for ArmedWall<S, F> {
+    fn spec(&self) -> &GridSpec {
+        self.wall.spec()
+    }
+
+    fn get(&self, ijk: IVec3) -> Voxel {
+        if self.armed.load(Ordering::Acquire) {
+            (self.hook)(&self.state);
+        }
+        self.wall.get(ijk)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -58,5 +96,20 @@ mod tests {
         assert_eq!(at(11), Voxel::Free);
         // Free, Interior, Surface, Proximity.
         assert_eq!(g.counts(), [400 * 9, 400 * 8, 400 * 2, 400]);
+    }
+
+    #[test]
+    fn an_armed_wall_calls_its_hook_only_once_armed() {
+        let map = ArmedWall::new(std::sync::atomic::AtomicU64::new(0), |calls| {
+            calls.fetch_add(1, Ordering::Relaxed);
+        });
+        let ijk = IVec3::new(3, 17, 8);
+        assert_eq!(map.get(ijk), Voxel::Surface);
+        assert_eq!(map.state.load(Ordering::Relaxed), 0);
+        map.armed.store(true, Ordering::Release);
+        assert_eq!(map.get(ijk), Voxel::Surface);
+        assert_eq!(map.get(IVec3::new(3, 17, 11)), Voxel::Free);
+        assert_eq!(map.state.load(Ordering::Relaxed), 2);
+        assert_eq!(map.spec(), wall().spec());
     }
 }

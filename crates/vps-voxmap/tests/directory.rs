@@ -18,9 +18,7 @@ fn clustered_tree(dims: [u32; 3], width: VoxelWidth, config: TreeConfig, seed: u
     let code = move |p: UVec3| {
         let mixed = (p.x + p.y + p.z) % 37 < 9;
         let i = u64::from(p.x + dims[0] * (p.y + dims[1] * p.z));
-        let hash = (i ^ seed)
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
+        let hash = lcg_step(i ^ seed);
         if mixed {
             codes[(hash >> 33) as usize % codes.len()]
         } else {
@@ -31,6 +29,56 @@ fn clustered_tree(dims: [u32; 3], width: VoxelWidth, config: TreeConfig, seed: u
     let tree = VoxelTree::from_source(spec, width, config, &FnSource { dims, code }).unwrap();
     assert!(tree.directory_bytes() > 0, "{width:?} {config:?}");
     tree
+}
+
+/// One step of Knuth's MMIX linear congruential generator (also the cell hash above).
+fn lcg_step(state: u64) -> u64 {
+    state
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407)
+}
+
+/// Draws from an MMIX LCG started at `state`: each call steps it and returns a value in
+/// `0..span` taken from the state's bits 20 and up.
+fn draws(mut state: u64) -> impl FnMut(i64) -> i32 {
+    move |span| {
+        state = lcg_step(state);
+        ((state >> 20) as i64).rem_euclid(span) as i32
+    }
+}
+
+/// Where [`random_cells`] puts a block's cells (for a tree over the 130 × 66 × 40 voxels of the
+/// block tests).
+#[derive(Clone, Copy)]
+enum Place {
+    /// Around the grid, borders included.
+    Around,
+    /// A few voxels apart, so that most lanes share a leaf.
+    Near,
+    /// Anywhere in i32.
+    Anywhere,
+    /// Extremes.
+    Extreme,
+}
+
+/// A block of `LANES` cells placed as `place` says, drawn from `next` lane by lane, x then y then
+/// z.
+fn random_cells<const LANES: usize>(
+    next: &mut impl FnMut(i64) -> i32,
+    place: Place,
+) -> [[i32; LANES]; 3] {
+    let mut cells = [[0i32; LANES]; 3];
+    for l in 0..LANES {
+        for (a, axis) in cells.iter_mut().enumerate() {
+            axis[l] = match place {
+                Place::Around => next([136, 72, 46][a]) - 3,
+                Place::Near => [40, 20, 12][a] + next(12),
+                Place::Anywhere => next(1 << 32) ^ i32::MIN,
+                Place::Extreme => [i32::MIN, i32::MAX, -1, 0][next(4) as usize],
+            };
+        }
+    }
+    cells
 }
 
 #[test]
@@ -55,32 +103,16 @@ fn directory_and_walk_agree_on_every_voxel() {
 #[test]
 #[allow(clippy::needless_range_loop)]
 fn block_reads_equal_single_reads_inside_outside_and_far_away() {
+    use Place::{Anywhere, Around, Extreme};
     for width in VoxelWidth::ALL {
         let tree = clustered_tree([130, 66, 40], width, TreeConfig::default(), 11);
         let walk = tree.clone().without_directory();
         // Block reads on the portable path (no AVX2 gathers) on any host.
         let portable = tree.clone().without_gathers();
-        let mut state = 3u64;
-        let mut next = |span: i64| {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 20) as i64).rem_euclid(span) as i32
-        };
+        let mut next = draws(3);
         for round in 0..20_000 {
-            let mut cells = [[0i32; BLOCK_LANES]; 3];
-            for l in 0..BLOCK_LANES {
-                for (a, axis) in cells.iter_mut().enumerate() {
-                    axis[l] = match round % 4 {
-                        // Around the grid, borders included.
-                        0 | 1 => next([136, 72, 46][a]) - 3,
-                        // Anywhere in i32.
-                        2 => next(1 << 32) ^ i32::MIN,
-                        // Extremes.
-                        _ => [i32::MIN, i32::MAX, -1, 0][next(4) as usize],
-                    };
-                }
-            }
+            let place = [Around, Around, Anywhere, Extreme][round % 4];
+            let cells: [[i32; BLOCK_LANES]; 3] = random_cells(&mut next, place);
             // Through the directory, and walked lane by lane without it.
             for block in [
                 tree.get_block(&cells),
@@ -103,36 +135,18 @@ fn block_reads_equal_single_reads_inside_outside_and_far_away() {
 #[test]
 #[allow(clippy::needless_range_loop)]
 fn wide_block_reads_equal_single_reads_for_every_width_and_shape() {
+    use Place::{Anywhere, Around, Extreme, Near};
     for width in VoxelWidth::ALL {
         for config in [TreeConfig::default(), TreeConfig::uniform(2)] {
             let tree = clustered_tree([130, 66, 40], width, config, 13);
             let walk = tree.clone().without_directory();
             // Wide reads as two blocks on the portable path, on any host.
             let portable = tree.clone().without_gathers();
-            let mut state = 5u64;
-            let mut next = |span: i64| {
-                state = state
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                ((state >> 20) as i64).rem_euclid(span) as i32
-            };
+            let mut next = draws(5);
             let mut leaf_lanes = 0;
             for round in 0..6_000 {
-                let mut cells = [[0i32; WIDE_BLOCK_LANES]; 3];
-                for l in 0..WIDE_BLOCK_LANES {
-                    for (a, axis) in cells.iter_mut().enumerate() {
-                        axis[l] = match round % 5 {
-                            // Around the grid, borders included.
-                            0 | 1 => next([136, 72, 46][a]) - 3,
-                            // A few voxels apart, so that most lanes share a leaf.
-                            2 => [40, 20, 12][a] + next(12),
-                            // Anywhere in i32.
-                            3 => next(1 << 32) ^ i32::MIN,
-                            // Extremes.
-                            _ => [i32::MIN, i32::MAX, -1, 0][next(4) as usize],
-                        };
-                    }
-                }
+                let place = [Around, Around, Near, Anywhere, Extreme][round % 5];
+                let cells: [[i32; WIDE_BLOCK_LANES]; 3] = random_cells(&mut next, place);
                 // Through the directory (one pass where the CPU has AVX-512F), as two blocks,
                 // walked lane by lane, and through the copy of the lookups for the tree's shape.
                 let shaped = tree.specialised(Wide(cells));

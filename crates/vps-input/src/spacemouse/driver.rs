@@ -224,13 +224,7 @@ impl<S: ReportSource> HapticDevice for SpaceMouse<S> {
         Ok(())
     }
 
-    fn limits(&self) -> DeviceLimits {
-        self.limits
-    }
-
-    fn name(&self) -> &str {
-        &self.name
-    }
+    vps_device::limits_and_name_from_fields!();
 }
 
 #[cfg(test)]
