@@ -351,7 +351,8 @@ impl RunningLoop {
         let tick = if self.config.free_running {
             cx.clock.next_immediate()
         } else {
-            cx.clock.wait_next()
+            let pool = &mut self.pool;
+            cx.clock.wait_next_then(|| pool.prepare())
         };
         let time = tick.index as f64 * cx.period_s;
         let handle = self.device.read(time)?;
