@@ -111,13 +111,6 @@ impl FrameClock {
     /// thread for up to one period (plus the OS's sleep overshoot beyond the spin margin); does
     /// not allocate.
     pub fn wait_next(&mut self) -> Tick {
-        self.wait_next_then(|| {})
-    }
-
-    /// [`FrameClock::wait_next`], calling `on_spin` once when the sleep ends and the spinning
-    /// begins (about `spin_margin` before the tick, or at once when the tick is already due):
-    /// the moment to wake helpers the frame will need.
-    pub fn wait_next_then(&mut self, on_spin: impl FnOnce()) -> Tick {
         let plan = schedule(
             Instant::now().saturating_duration_since(self.t0),
             self.next,
@@ -129,7 +122,6 @@ impl FrameClock {
         if wake > now {
             std::thread::sleep(wake - now);
         }
-        on_spin();
         let mut started = Instant::now();
         while started < scheduled {
             std::hint::spin_loop();

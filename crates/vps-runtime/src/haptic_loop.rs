@@ -351,8 +351,7 @@ impl RunningLoop {
         let tick = if self.config.free_running {
             cx.clock.next_immediate()
         } else {
-            let pool = &mut self.pool;
-            cx.clock.wait_next_then(|| pool.prepare())
+            cx.clock.wait_next()
         };
         let time = tick.index as f64 * cx.period_s;
         let handle = self.device.read(time)?;

@@ -37,38 +37,6 @@ struct Job {
     pose: KernelPose,
 }
 
-/// What the frame thread sends a pool thread.
-enum Order {
-    /// A frame is coming (within about the loop's spin margin): wake now and spin for its job,
-    /// so the job does not wait on the thread's wake-up ([`ClassPool::prepare`]).
-    Wake,
-    /// Sample this frame's classes.
-    Job(Job),
-}
-
-/// How long a woken pool thread spins for its job before it blocks again (the frame was late,
-/// or the session ended): ten times the loop's default spin margin.
-const WAKE_SPIN: Duration = Duration::from_millis(2);
-
-/// After an [`Order::Wake`]: the next job, spinning (at most [`WAKE_SPIN`]); `None` when none
-/// came in time or the pool is closing. Does not allocate.
-fn spin_for_job(orders: &Receiver<Order>) -> Option<Job> {
-    let woken = Instant::now();
-    loop {
-        match orders.try_recv() {
-            Ok(Order::Job(job)) => return Some(job),
-            Ok(Order::Wake) => {}
-            Err(crossbeam::channel::TryRecvError::Disconnected) => return None,
-            Err(crossbeam::channel::TryRecvError::Empty) => {
-                if woken.elapsed() >= WAKE_SPIN {
-                    return None;
-                }
-                std::hint::spin_loop();
-            }
-        }
-    }
-}
-
 struct Reply {
     seq: u32,
     class: u32,
@@ -76,7 +44,7 @@ struct Reply {
 }
 
 struct Worker {
-    orders: Option<Sender<Order>>,
+    jobs: Option<Sender<Job>>,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -177,8 +145,7 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
         let mut workers = Vec::with_capacity(threads - 1);
         let failure = Arc::new(OnceLock::new());
         for index in 1..threads {
-            // Room for one wake and one job: a wake never keeps a job out.
-            let (order_tx, order_rx) = bounded::<Order>(2);
+            let (job_tx, job_rx) = bounded::<Job>(1);
             let (map, shell, cursor, reply_tx, failure) = (
                 map.clone(),
                 shell.clone(),
@@ -189,14 +156,7 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
             let thread = std::thread::Builder::new()
                 .name(format!("vps-pool-{index}"))
                 .spawn(move || {
-                    for order in order_rx.iter() {
-                        let job = match order {
-                            Order::Job(job) => job,
-                            Order::Wake => match spin_for_job(&order_rx) {
-                                Some(job) => job,
-                                None => continue,
-                            },
-                        };
+                    for job in job_rx.iter() {
                         let work = catch_unwind(AssertUnwindSafe(|| {
                             while let Some(class) = cursor.claim(job.seq, classes) {
                                 let sums = sample_class(&*map, &shell, &job.pose, class);
@@ -221,7 +181,7 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
                 })
                 .map_err(RuntimeError::Spawn)?;
             workers.push(Worker {
-                orders: Some(order_tx),
+                jobs: Some(job_tx),
                 thread: Some(thread),
             });
         }
@@ -257,10 +217,10 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
         while self.replies.try_recv().is_ok() {}
         self.cursor.open(seq);
         for worker in &self.workers {
-            if let Some(tx) = &worker.orders {
-                // Fails when the worker still holds older orders (it will find that frame closed
+            if let Some(tx) = &worker.jobs {
+                // Fails when the worker still holds an older job (it will find that frame closed
                 // and skip it; this frame's classes go to the others) or has gone.
-                let _ = tx.try_send(Order::Job(Job { seq, pose: *pose }));
+                let _ = tx.try_send(Job { seq, pose: *pose });
             }
         }
         let mut sums = PartialSums::default();
@@ -309,19 +269,6 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
         }
     }
 
-    /// Wakes the pool threads for a frame about to come: each spins for its job (at most
-    /// [`WAKE_SPIN`]) instead of blocking, so the job does not wait on the thread's wake-up
-    /// (tens of microseconds in a VM). Called by the loop when the frame thread stops sleeping
-    /// and starts spinning for the tick. Does not block or allocate.
-    pub fn prepare(&mut self) {
-        for worker in &self.workers {
-            if let Some(tx) = &worker.orders {
-                // Fails only when the worker still holds older orders; it is awake then.
-                let _ = tx.try_send(Order::Wake);
-            }
-        }
-    }
-
     /// Merges the queued replies of frame `seq` for classes not yet done; returns how many.
     /// Replies of other frames and repeats are dropped. Does not block or allocate.
     fn take_replies(&mut self, seq: u32, sums: &mut PartialSums) -> usize {
@@ -348,10 +295,6 @@ pub trait FrameSampler: Send {
     /// The merged sums of every class at `pose`; shares not in by `deadline` are computed locally.
     fn compute(&mut self, pose: &KernelPose, deadline: Instant) -> PoolResult;
 
-    /// The next `compute` comes within about the loop's spin margin: wake whatever threads it
-    /// will use. The default does nothing. Does not block or allocate.
-    fn prepare(&mut self) {}
-
     /// A failure of one of the sampler's own threads (a caught panic: which thread, the message)
     /// that must end the session; the frame loop checks it after every `compute`, before the
     /// frame's device write. `None` (the default) while all is well. Does not block or allocate.
@@ -365,10 +308,6 @@ impl<L: VoxelLookup + Send + Sync + 'static> FrameSampler for ClassPool<L> {
         ClassPool::compute(self, pose, deadline)
     }
 
-    fn prepare(&mut self) {
-        ClassPool::prepare(self)
-    }
-
     /// Allocates the message (only when a worker has panicked).
     fn failure(&self) -> Option<String> {
         self.failure.get().cloned()
@@ -379,7 +318,7 @@ impl<L: VoxelLookup + Send + Sync + 'static> Drop for ClassPool<L> {
     /// Closes the job channels and joins the workers (each finishes at most one job).
     fn drop(&mut self) {
         for w in &mut self.workers {
-            w.orders.take();
+            w.jobs.take();
         }
         for w in &mut self.workers {
             if let Some(t) = w.thread.take() {
@@ -460,51 +399,11 @@ mod tests {
         );
         for threads in 1..=4 {
             let mut pool = ClassPool::new(map.clone(), shell.clone(), threads).unwrap();
-            for (frame, (pose, want)) in poses.iter().zip(&reference).enumerate() {
-                // Frames with and without the wake before them (twice on one: a repeated wake
-                // must not keep the job out).
-                for _ in 0..frame % 3 {
-                    pool.prepare();
-                }
+            for (pose, want) in poses.iter().zip(&reference) {
                 let got = pool.compute(pose, Instant::now() + Duration::from_secs(5));
-                assert_eq!(&got.sums, want, "threads = {threads}, frame {frame}");
+                assert_eq!(&got.sums, want, "threads = {threads}");
             }
         }
-    }
-
-    #[test]
-    fn a_wake_with_no_frame_after_it_neither_blocks_the_pool_nor_loses_the_next_job() {
-        // Once armed, lookups off the pool thread `vps-pool-1` wait (up to a backstop) until it
-        // has looked a voxel up itself: the frame's job must reach it.
-        let map = Arc::new(ArmedWall::new(
-            AtomicBool::new(false),
-            |pool_ran: &AtomicBool| {
-                if std::thread::current().name() == Some("vps-pool-1") {
-                    pool_ran.store(true, Ordering::Release);
-                    return;
-                }
-                let backstop = Instant::now() + Duration::from_secs(10);
-                while !pool_ran.load(Ordering::Acquire) && Instant::now() < backstop {
-                    std::thread::sleep(Duration::from_micros(100));
-                }
-            },
-        ));
-        let (shell, pose) = shell_above_wall();
-        let want = sample_all(&map.wall, &shell, &pose);
-        let mut pool = ClassPool::new(map.clone(), shell.clone(), 2).unwrap();
-        pool.prepare();
-        // Past the woken thread's spin: it blocks again, and the next job must still reach it.
-        std::thread::sleep(WAKE_SPIN * 2);
-        map.armed.store(true, Ordering::Release);
-        let got = pool.compute(&pose, Instant::now() + Duration::from_secs(30));
-        assert!(
-            map.state.load(Ordering::Acquire),
-            "the pool thread got no job"
-        );
-        assert_eq!(got.sums, want);
-        // A wake just before the pool closes: dropping it joins its thread.
-        pool.prepare();
-        drop(pool);
     }
 
     /// A 300-point sphere shell in 8 classes, and a pose at rest with its centre 1 cm above the
