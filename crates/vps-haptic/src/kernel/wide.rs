@@ -8,7 +8,7 @@
 //! Blocks go in pairs ([`sample_blocks`]): both blocks are placed and looked up ([`locate`]),
 //! then both do their arithmetic ([`sample_located`]). A block's arithmetic waits on its lookup's
 //! two dependent loads; issued block by block, the next block's lookups queue behind that wait.
-//! In pairs they are in flight together: contact 4.26 -> 3.34 ns per point, free space unchanged
+//! In pairs they are in flight together: contact about 1.3× faster, free space unchanged
 //! (docs/kernel.md).
 //!
 //! Sums: each of a sum's sixteen values is rounded to `i64` (`vcvtps2qq`, two conversions of eight)
@@ -140,7 +140,7 @@ unsafe fn look_up<L: VoxelLookup>(
 /// A wide block's voxels after its lookups ([`locate`]), before its arithmetic
 /// ([`sample_located`]).
 #[derive(Clone, Copy)]
-pub(super) struct LocatedBlock {
+struct LocatedBlock {
     /// The points' placement.
     placed: Placed,
     /// The voxel kinds' bits.
