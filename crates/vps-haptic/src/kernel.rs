@@ -1163,6 +1163,8 @@ mod avx2 {
     ///
     /// # Safety
     /// The CPU must support AVX2, and with `WIDE` AVX-512F and AVX-512DQ.
+    // The arguments stay separate: bundled in one struct (map, frame, points, normals) they cost
+    // 5 % more instructions in contact (1k points: 16,396 → 17,287), by value or by reference.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub(super) unsafe fn sample_block<L: VoxelLookup, const CLAMP: bool, const WIDE: bool>(

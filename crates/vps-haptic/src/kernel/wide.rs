@@ -231,6 +231,8 @@ unsafe fn locate<L: VoxelLookup>(
 ///
 /// # Safety
 /// The CPU must support AVX-512F and AVX-512DQ; the blocks must be within the six arrays.
+// The arguments stay separate: bundled in one struct (map, frame, points, normals) they cost
+// 5 % more instructions in contact (1k points: 16,396 → 17,287), by value or by reference.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(super) unsafe fn sample_blocks<L: VoxelLookup, const CLAMP: bool, const PAIR: bool>(
