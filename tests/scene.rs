@@ -296,3 +296,31 @@ fn bad_scene_files_name_the_file_and_field_and_run_nothing() {
         assert!(!err.contains("voxmap: built"), "{name} voxelized: {err}");
     }
 }
+
+/// `vps run`'s text report and its loop-period error speak of the session (a rename once printed
+/// "assets end:", "assets:" and "the assets loop").
+#[test]
+fn the_text_report_speaks_of_the_session() {
+    let bay = bay();
+    let scene = bay.path("bay.toml");
+    let out = bay.run(&["run", "--scene", &scene, "--seconds", "0.1"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("session end: frames done"), "{text}");
+    assert!(text.contains("\nsession:\n"), "{text}");
+    assert!(!text.contains("assets"), "{text}");
+
+    let haptic = bay.path("haptic.toml");
+    std::fs::write(&haptic, "dt = 0.002\n").unwrap();
+    let err = bay.fails(&[
+        "run",
+        "--scene",
+        &scene,
+        "--haptic",
+        &haptic,
+        "--seconds",
+        "0.1",
+    ]);
+    assert!(err.contains("the session loop runs at 1000 Hz"), "{err}");
+    assert!(!err.contains("assets"), "{err}");
+}
