@@ -256,6 +256,30 @@ fn stl_with_wrong_length_is_an_error() {
     );
 }
 
+/// An empty file (an interrupted export) and a binary STL cut inside its header say so, in every
+/// format, instead of the parser's "failed to fill whole buffer".
+#[test]
+fn empty_files_and_a_cut_stl_header_say_what_is_wrong() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["empty.stl", "empty.obj", "empty.ply"] {
+        let err = load_mesh(&write(&dir, name, b"")).unwrap_err().to_string();
+        assert!(
+            err.contains(name) && err.contains("the file is empty (0 bytes)"),
+            "{err}"
+        );
+    }
+    let header = &binary_stl_bytes(b"binary")[..40];
+    let err = load_mesh(&write(&dir, "cut.stl", header))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("cut.stl")
+            && err.contains("40 bytes: shorter than a binary STL's 84-byte header"),
+        "{err}"
+    );
+    assert!(!err.contains("fill whole buffer"), "{err}");
+}
+
 /// Deterministic pseudo-random bytes.
 fn garbage(len: usize, seed: u64) -> Vec<u8> {
     use rand::{RngCore, SeedableRng};
