@@ -252,3 +252,40 @@ fn the_service_config_files_are_read_checked_and_overridden_by_flags() {
         );
     }
 }
+
+/// A bridge mapping flag out of its documented range is a command line the parser refuses (exit
+/// 2), naming the flag and the range, before anything is voxelized; it used to fail with exit 1
+/// after the scene was built, naming the bridge config's `mapping.scale` / `pose_timeout` (s).
+#[test]
+fn bridge_mapping_flags_out_of_range_are_refused_before_any_work() {
+    let vps = sandbox();
+    for (flag, value, range) in [
+        ("--map-scale", "0", "0.001 to 1000"),
+        ("--map-scale", "2000", "0.001 to 1000"),
+        ("--force-scale", "0", "above 0, up to 1000"),
+        ("--pose-timeout-ms", "1", "2 to 10000 (ms)"),
+        ("--pose-timeout-ms", "NaN", "2 to 10000 (ms)"),
+    ] {
+        let out = vps.run(&[
+            "run",
+            "--scene",
+            "builtin:rig-teapot",
+            "--device",
+            "bridge:127.0.0.1:0",
+            flag,
+            value,
+            "--seconds",
+            "1",
+        ]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{flag} {value}: {err}");
+        assert!(
+            err.contains(flag) && err.contains(range),
+            "{flag} {value}: {err}"
+        );
+        assert!(
+            !err.contains("voxmap"),
+            "{flag} {value} built the scene: {err}"
+        );
+    }
+}
