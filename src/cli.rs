@@ -542,12 +542,41 @@ pub struct BuildArgs {
     /// refuses above it (bytes, or 16GiB, 512MiB, 8GB; default half of physical memory).
     #[arg(long, value_parser = parse_bytes, value_name = "SIZE")]
     pub max_memory: Option<u64>,
+    /// Units of the mesh file's coordinates, converted to metres before anything else (as a scene
+    /// file's `units`); built-in meshes are in metres.
+    #[arg(long, value_enum, default_value_t = MeshUnits::M)]
+    pub units: MeshUnits,
     /// Output file.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Print the statistics as JSON.
     #[arg(long)]
     pub json: bool,
+}
+
+/// Units of a mesh file on the command line (`--units`).
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MeshUnits {
+    /// Metres.
+    M,
+    /// Centimetres.
+    Cm,
+    /// Millimetres.
+    Mm,
+    /// Inches.
+    In,
+}
+
+impl MeshUnits {
+    /// Metres per file unit.
+    pub fn metres(self) -> f64 {
+        match self {
+            MeshUnits::M => 1.0,
+            MeshUnits::Cm => 0.01,
+            MeshUnits::Mm => 0.001,
+            MeshUnits::In => 0.0254,
+        }
+    }
 }
 
 /// Point-shell placement on the command line.
