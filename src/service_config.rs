@@ -318,7 +318,9 @@ mod tests {
             panic!("not a coordinator")
         };
         assert_eq!(args.workers, 2);
-        assert_eq!(args.session.voxel_size, Some(0.005));
+        // Left to the scene: a voxel size here would override the scene file a user names in
+        // `scene` (a 1 mm scene ran at 5 mm).
+        assert_eq!(args.session.voxel_size, None);
         assert_eq!(args.gather.spin_us, 100);
         assert_eq!(
             args.identity.cert,
@@ -370,6 +372,23 @@ mod tests {
             err.contains(&path.display().to_string()) && err.contains("seconds"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn a_voxel_size_with_a_unit_is_read_from_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("c.toml");
+        std::fs::write(
+            &path,
+            "cert = \"c\"\nkey = \"k\"\npins = [\"p\"]\nvoxel_size = \"2mm\"\n",
+        )
+        .unwrap();
+        let Command::Coordinator(args) =
+            parsed(&["vps", "coordinator", "--config", path.to_str().unwrap()]).unwrap()
+        else {
+            panic!("not a coordinator")
+        };
+        assert_eq!(args.session.voxel_size, Some(0.002));
     }
 
     #[test]
