@@ -261,7 +261,8 @@ pub fn finish<C: Serialize>(
             if out.complete { "" } else { " (partial)" }
         );
         print_summary("session", &out.stats, None);
-        println!("final part position (m): {:?}", out.final_position_m);
+        let [x, y, z] = out.final_position_m.map(crate::output::metres_4);
+        println!("final part position (m): [{x}, {y}, {z}]");
         if let Some(c) = &out.bridge {
             println!(
                 "bridge: poses received {}, bad datagrams {} (+{} wrong token, {} stale), \

@@ -309,6 +309,23 @@ fn the_text_report_speaks_of_the_session() {
     assert!(text.contains("session end: frames done"), "{text}");
     assert!(text.contains("\nsession:\n"), "{text}");
     assert!(!text.contains("assets"), "{text}");
+    // The final position at 0.1 mm (it was printed with 17 digits: 0.07500950959614927).
+    let line = text
+        .lines()
+        .find_map(|l| l.strip_prefix("final part position (m): "))
+        .unwrap_or_else(|| panic!("no final position: {text}"));
+    let coords: Vec<&str> = line
+        .trim_matches(|c| c == '[' || c == ']')
+        .split(", ")
+        .collect();
+    assert_eq!(coords.len(), 3, "{line}");
+    for c in coords {
+        let decimals = c.split_once('.').map_or(0, |(_, d)| d.len());
+        assert!(
+            decimals == 4 && c.parse::<f64>().is_ok() && c != "-0.0000",
+            "{line}"
+        );
+    }
 
     let haptic = bay.path("haptic.toml");
     std::fs::write(&haptic, "dt = 0.002\n").unwrap();

@@ -5,7 +5,7 @@
 //! effective voxel settings, where each came from (the scene file or the built-in default) and
 //! why.
 
-use crate::output::print_json;
+use crate::output::{metres_4, print_json};
 use anyhow::Result;
 use serde::Serialize;
 use vps_mesh::TriMesh;
@@ -143,23 +143,19 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
     println!("scene {} ({}): ok", report.name, report.scene);
     let line = |o: &ObjectReport| {
         println!(
-            "  {:<10} {:>9} triangles  bounds (m) [{:.4}, {:.4}, {:.4}] .. [{:.4}, {:.4}, {:.4}]  {}",
+            "  {:<10} {:>9} triangles  bounds (m) [{}] .. [{}]  {}",
             o.field,
             o.triangles,
-            o.bounds_min_m[0],
-            o.bounds_min_m[1],
-            o.bounds_min_m[2],
-            o.bounds_max_m[0],
-            o.bounds_max_m[1],
-            o.bounds_max_m[2],
+            o.bounds_min_m.map(metres_4).join(", "),
+            o.bounds_max_m.map(metres_4).join(", "),
             o.source
         )
     };
     report.objects.iter().for_each(line);
     line(&report.part);
     println!(
-        "  grip (part coordinates, m): [{:.4}, {:.4}, {:.4}]",
-        report.grip_m[0], report.grip_m[1], report.grip_m[2]
+        "  grip (part coordinates, m): [{}]",
+        report.grip_m.map(metres_4).join(", ")
     );
     let v = &report.voxels;
     println!(
