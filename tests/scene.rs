@@ -341,3 +341,21 @@ fn the_text_report_speaks_of_the_session() {
     assert!(err.contains("the session loop runs at 1000 Hz"), "{err}");
     assert!(!err.contains("assets"), "{err}");
 }
+
+/// `vps scene check` says which voxel settings the built-in defaults' reason is about: the bay sets
+/// only `voxel_size`. (The reason, which ends "so set voxels.voxel_width = 4 ...", was printed
+/// unqualified even for a scene that already sets both.)
+#[test]
+fn scene_check_names_the_settings_left_to_the_defaults() {
+    let bay = bay();
+    let out = bay.run(&["scene", "check", &bay.path("bay.toml")]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains(
+            "why (built-in defaults, used here for voxel_width, shell_method, offset_layers): "
+        ),
+        "{text}"
+    );
+    assert!(!text.contains("-0.0000"), "{text}");
+}

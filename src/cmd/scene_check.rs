@@ -13,6 +13,9 @@ use vps_session::estimate::VoxmapEstimate;
 use vps_session::file::{ShellMethodName, BUILTIN_VOXELS_REASON};
 use vps_session::LoadedScene;
 
+/// Where a setting the scene file does not give comes from.
+const BUILT_IN: &str = "built-in default";
+
 /// Share of the 1 ms period a frame's compute may take (as `vps tune`'s default budget).
 const FRAME_BUDGET_FRACTION: f64 = 0.6;
 /// Seconds per timing batch of the kernel measurement.
@@ -37,11 +40,7 @@ struct Setting<T> {
 fn setting<T>(value: T, in_file: bool) -> Setting<T> {
     Setting {
         value,
-        from: if in_file {
-            "scene file"
-        } else {
-            "built-in default"
-        },
+        from: if in_file { "scene file" } else { BUILT_IN },
     }
 }
 
@@ -87,6 +86,20 @@ fn object(field: String, source: &str, mesh: &TriMesh) -> ObjectReport {
         bounds_min_m: b.min.to_array(),
         bounds_max_m: b.max.to_array(),
     }
+}
+
+/// The `voxels` keys of `v` that the scene file left to the built-in defaults.
+fn defaults_used(v: &VoxelsReport) -> Vec<&'static str> {
+    [
+        ("voxel_size", v.voxel_size_m.from),
+        ("voxel_width", v.voxel_width_bits.from),
+        ("shell_method", v.shell_method.from),
+        ("offset_layers", v.offset_layers.from),
+    ]
+    .into_iter()
+    .filter(|(_, from)| *from == BUILT_IN)
+    .map(|(key, _)| key)
+    .collect()
 }
 
 /// Runs `vps scene check`.
@@ -176,7 +189,10 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
         println!("  why (scene file): {reason}");
     }
     if let Some(reason) = v.builtin_reason {
-        println!("  why (built-in defaults): {reason}");
+        println!(
+            "  why (built-in defaults, used here for {}): {reason}",
+            defaults_used(v).join(", ")
+        );
     }
     println!(
         "voxmap: {} m, {}-bit{}: about {:.3e} voxels in the grid, {:.3e} in the surface band, \
