@@ -358,4 +358,17 @@ fn scene_check_names_the_settings_left_to_the_defaults() {
         "{text}"
     );
     assert!(!text.contains("-0.0000"), "{text}");
+
+    // 5 m voxels (`voxel_size = 5`, metres) on a 30 mm part: flagged, not just "ok".
+    std::fs::write(
+        bay.dir().join("coarse.toml"),
+        SCENE.replace("voxel_size = \"5mm\"", "voxel_size = 5"),
+    )
+    .unwrap();
+    let check = json(&bay.run(&["scene", "check", &bay.path("coarse.toml"), "--json"]));
+    let flags = check["flags"].to_string();
+    assert!(
+        flags.contains("voxels.voxel_size: 5 m is no finer than the part (0.0300 m across)"),
+        "{check}"
+    );
 }
