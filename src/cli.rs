@@ -441,7 +441,7 @@ pub struct RunArgs {
 #[derive(Args, Debug, Clone, Default, PartialEq)]
 pub struct BridgeArgs {
     /// Scene metres per device metre (0.001 to 1000). Default: the scene's, else 1.
-    #[arg(long)]
+    #[arg(long, value_parser = parse_map_scale)]
     pub map_scale: Option<f64>,
     /// Scene position of the device origin, X,Y,Z (m). Default: the scene's, else 0,0,0.
     #[arg(long, value_parser = parse_triple, value_name = "X,Y,Z")]
@@ -452,16 +452,40 @@ pub struct BridgeArgs {
     pub map_rotate_deg: Option<[f64; 3]>,
     /// Device force per scene force (also scales torque), before the device's limits.
     /// Default: the scene's, else 1.
-    #[arg(long)]
+    #[arg(long, value_parser = parse_force_scale)]
     pub force_scale: Option<f64>,
     /// A device silent this long is held with zero output, and re-anchored when it resumes (ms,
     /// 2 to 10000). Default: the scene's, else 50.
-    #[arg(long)]
+    #[arg(long, value_parser = parse_pose_timeout_ms)]
     pub pose_timeout_ms: Option<f64>,
     /// Write every wrench sent to the device to this file (one line per wrench: frame, then the
     /// six f64 bit patterns in hex; format in docs/devices.md).
     #[arg(long, value_name = "FILE")]
     pub log_wrenches: Option<PathBuf>,
+}
+
+/// A finite number of `text` that `ok` accepts, else an error giving the allowed `range`.
+fn parse_in_range(text: &str, ok: impl Fn(f64) -> bool, range: &str) -> Result<f64, String> {
+    text.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite() && ok(*v))
+        .ok_or_else(|| format!("`{text}`: allowed {range}"))
+}
+
+/// `--map-scale`: scene metres per device metre, in [0.001, 1000].
+fn parse_map_scale(text: &str) -> Result<f64, String> {
+    parse_in_range(text, |v| (0.001..=1000.0).contains(&v), "0.001 to 1000")
+}
+
+/// `--force-scale`: device force per scene force, in (0, 1000].
+fn parse_force_scale(text: &str) -> Result<f64, String> {
+    parse_in_range(text, |v| v > 0.0 && v <= 1000.0, "above 0, up to 1000")
+}
+
+/// `--pose-timeout-ms`: in [2, 10000] ms.
+fn parse_pose_timeout_ms(text: &str) -> Result<f64, String> {
+    parse_in_range(text, |v| (2.0..=10000.0).contains(&v), "2 to 10000 (ms)")
 }
 
 /// Parses `X,Y,Z` (three finite numbers).
@@ -518,12 +542,41 @@ pub struct BuildArgs {
     /// refuses above it (bytes, or 16GiB, 512MiB, 8GB; default half of physical memory).
     #[arg(long, value_parser = parse_bytes, value_name = "SIZE")]
     pub max_memory: Option<u64>,
+    /// Units of the mesh file's coordinates, converted to metres before anything else (as a scene
+    /// file's `units`); built-in meshes are in metres.
+    #[arg(long, value_enum, default_value_t = MeshUnits::M)]
+    pub units: MeshUnits,
     /// Output file.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Print the statistics as JSON.
     #[arg(long)]
     pub json: bool,
+}
+
+/// Units of a mesh file on the command line (`--units`).
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MeshUnits {
+    /// Metres.
+    M,
+    /// Centimetres.
+    Cm,
+    /// Millimetres.
+    Mm,
+    /// Inches.
+    In,
+}
+
+impl MeshUnits {
+    /// Metres per file unit.
+    pub fn metres(self) -> f64 {
+        match self {
+            MeshUnits::M => 1.0,
+            MeshUnits::Cm => 0.01,
+            MeshUnits::Mm => 0.001,
+            MeshUnits::In => 0.0254,
+        }
+    }
 }
 
 /// Point-shell placement on the command line.

@@ -80,6 +80,17 @@ pub fn error_report(err: &anyhow::Error) -> String {
     message
 }
 
+/// A length or coordinate (m) for a text report: four decimals (0.1 mm; `--json` has every digit),
+/// never `-0.0000`.
+pub fn metres_4(v: f64) -> String {
+    let text = format!("{v:.4}");
+    if text == "-0.0000" {
+        "0.0000".into()
+    } else {
+        text
+    }
+}
+
 /// Checks, before any work, that `output` can be written: not a directory, its directory exists
 /// and accepts a new file, and it is none of `inputs` (the same file, through links too). Errors
 /// name the path and what to change.
@@ -236,6 +247,15 @@ impl std::fmt::Display for ShellFigures {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Text reports show 0.1 mm and never `-0.0000` (scene check printed a bound of -1e-18 so).
+    #[test]
+    fn metres_4_has_no_negative_zero() {
+        assert_eq!(metres_4(-1e-18), "0.0000");
+        assert_eq!(metres_4(-0.00004), "0.0000");
+        assert_eq!(metres_4(-0.00005001), "-0.0001");
+        assert_eq!(metres_4(0.07500950959614927), "0.0750");
+    }
 
     #[derive(Debug, thiserror::Error)]
     #[error("{path}: {source}")]

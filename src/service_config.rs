@@ -318,7 +318,9 @@ mod tests {
             panic!("not a coordinator")
         };
         assert_eq!(args.workers, 2);
-        assert_eq!(args.session.voxel_size, Some(0.005));
+        // Left to the scene: a voxel size here would override the scene file a user names in
+        // `scene` (a 1 mm scene ran at 5 mm).
+        assert_eq!(args.session.voxel_size, None);
         assert_eq!(args.gather.spin_us, 100);
         assert_eq!(
             args.identity.cert,
@@ -370,6 +372,61 @@ mod tests {
             err.contains(&path.display().to_string()) && err.contains("seconds"),
             "{err}"
         );
+    }
+
+    /// The committed systemd units: each `ExecStart` is a command line this binary accepts, its
+    /// config file is the one deploy/README.md installs, and both units give vps a writable cache
+    /// directory (the coordinator's had none: the `vps` user has no home, so the scene was
+    /// voxelized at every start).
+    #[test]
+    fn the_systemd_units_run_real_command_lines_with_a_cache() {
+        for (unit, command, config) in [
+            (
+                "vps-coordinator.service",
+                "coordinator",
+                "/etc/vps/coordinator.toml",
+            ),
+            ("vps-worker.service", "worker", "/etc/vps/worker.toml"),
+        ] {
+            let text = std::fs::read_to_string(repo(&format!("deploy/systemd/{unit}"))).unwrap();
+            let value = |key: &str| {
+                text.lines()
+                    .find_map(|l| l.strip_prefix(key)?.strip_prefix('='))
+                    .unwrap_or_else(|| panic!("{unit}: no {key}"))
+                    .to_string()
+            };
+            let exec = value("ExecStart");
+            let argv: Vec<&str> = exec.split_whitespace().collect();
+            assert_eq!(argv[..2], ["/usr/local/bin/vps", command], "{unit}");
+            assert_eq!(argv[2..], ["--config", config], "{unit}");
+            Cli::command()
+                .try_get_matches_from(&argv)
+                .unwrap_or_else(|e| panic!("{unit}: {e}"));
+            assert_eq!(value("CacheDirectory"), "vps", "{unit}");
+        }
+        let coordinator =
+            std::fs::read_to_string(repo("deploy/systemd/vps-coordinator.service")).unwrap();
+        assert!(
+            coordinator.contains("\nEnvironment=VPS_CACHE_DIR=/var/cache/vps\n"),
+            "the coordinator's voxmap cache is not pointed at its CacheDirectory"
+        );
+    }
+
+    #[test]
+    fn a_voxel_size_with_a_unit_is_read_from_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("c.toml");
+        std::fs::write(
+            &path,
+            "cert = \"c\"\nkey = \"k\"\npins = [\"p\"]\nvoxel_size = \"2mm\"\n",
+        )
+        .unwrap();
+        let Command::Coordinator(args) =
+            parsed(&["vps", "coordinator", "--config", path.to_str().unwrap()]).unwrap()
+        else {
+            panic!("not a coordinator")
+        };
+        assert_eq!(args.session.voxel_size, Some(0.002));
     }
 
     #[test]

@@ -201,7 +201,7 @@ fn check_loop_period(params: &HapticParams, source: &str) -> Result<()> {
     let period = LoopConfig::default().period.as_secs_f64();
     if (params.dt - period).abs() > 1e-12 {
         bail!(
-            "{source}: haptic parameter `dt` = {} s: the assets loop runs at {} Hz, so `dt` \
+            "{source}: haptic parameter `dt` = {} s: the session loop runs at {} Hz, so `dt` \
              must be {period} s (or left out)",
             params.dt,
             1.0 / period
@@ -254,14 +254,15 @@ pub fn finish<C: Serialize>(
         print_json(&out)?;
     } else {
         println!(
-            "device: {}, {} shell points, assets end: {}{}",
+            "device: {}, {} shell points, session end: {}{}",
             out.device,
             out.shell_points,
             out.end,
             if out.complete { "" } else { " (partial)" }
         );
-        print_summary("assets", &out.stats, None);
-        println!("final part position (m): {:?}", out.final_position_m);
+        print_summary("session", &out.stats, None);
+        let [x, y, z] = out.final_position_m.map(crate::output::metres_4);
+        println!("final part position (m): [{x}, {y}, {z}]");
         if let Some(c) = &out.bridge {
             println!(
                 "bridge: poses received {}, bad datagrams {} (+{} wrong token, {} stale), \
@@ -285,7 +286,7 @@ pub fn finish<C: Serialize>(
         return Err(SessionExit {
             code: exit_code,
             reason: format!(
-                "the assets ended early ({}); the device was sent zero force",
+                "the session ended early ({}); the device was sent zero force",
                 out.end
             ),
         }

@@ -252,3 +252,101 @@ fn the_service_config_files_are_read_checked_and_overridden_by_flags() {
         );
     }
 }
+
+/// A bridge mapping flag out of its documented range is a command line the parser refuses (exit
+/// 2), naming the flag and the range, before anything is voxelized; it used to fail with exit 1
+/// after the scene was built, naming the bridge config's `mapping.scale` / `pose_timeout` (s).
+#[test]
+fn bridge_mapping_flags_out_of_range_are_refused_before_any_work() {
+    let vps = sandbox();
+    for (flag, value, range) in [
+        ("--map-scale", "0", "0.001 to 1000"),
+        ("--map-scale", "2000", "0.001 to 1000"),
+        ("--force-scale", "0", "above 0, up to 1000"),
+        ("--pose-timeout-ms", "1", "2 to 10000 (ms)"),
+        ("--pose-timeout-ms", "NaN", "2 to 10000 (ms)"),
+    ] {
+        let out = vps.run(&[
+            "run",
+            "--scene",
+            "builtin:rig-teapot",
+            "--device",
+            "bridge:127.0.0.1:0",
+            flag,
+            value,
+            "--seconds",
+            "1",
+        ]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{flag} {value}: {err}");
+        assert!(
+            err.contains(flag) && err.contains(range),
+            "{flag} {value}: {err}"
+        );
+        assert!(
+            !err.contains("voxmap"),
+            "{flag} {value} built the scene: {err}"
+        );
+    }
+}
+
+/// A CAD export in millimetres: `vps voxelize` / `vps shell` read it with `--units mm` (as a scene
+/// file's `units`); without it the refusal says the file was read in metres and names the flag.
+#[test]
+fn voxelize_and_shell_read_a_mesh_in_millimetres_with_units() {
+    let vps = sandbox();
+    let obj = vps.path("block.obj");
+    // A 100 × 40 × 100 mm block (8 corners, 6 quads).
+    let mut text = String::from("# mm\n");
+    for i in 0..8 {
+        let c = |k: usize, lo: f64, hi: f64| if i >> k & 1 == 0 { lo } else { hi };
+        text += &format!(
+            "v {} {} {}\n",
+            c(0, -50.0, 50.0),
+            c(1, 0.0, 40.0),
+            c(2, -50.0, 50.0)
+        );
+    }
+    text += "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";
+    std::fs::write(&obj, text).unwrap();
+    let vmap = vps.path("block.vmap");
+    for command in ["voxelize", "shell"] {
+        let err = vps.fails(&[command, &obj, "--voxel-size", "1mm", "-o", &vmap]);
+        assert!(
+            err.contains("read in metres: 100.0000 m across") && err.contains("--units mm"),
+            "{command}: {err}"
+        );
+    }
+    let made = json(&vps.run(&[
+        "voxelize",
+        &obj,
+        "--units",
+        "mm",
+        "--voxel-size",
+        "5mm",
+        "-o",
+        &vmap,
+        "--json",
+    ]));
+    let info = json(&vps.run(&["inspect", &vmap, "--json"]));
+    assert_eq!(made["hash"], info["hash"]);
+    // 100 mm at 5 mm: 20 voxels across plus the padding, not 20,000.
+    let dims = made["dims"][0].as_u64().unwrap();
+    assert!((20..40).contains(&dims), "{made}");
+    let shell = vps.path("block.vshell");
+    let made = json(&vps.run(&[
+        "shell",
+        &obj,
+        "--units",
+        "mm",
+        "--voxel-size",
+        "5mm",
+        "-o",
+        &shell,
+        "--json",
+    ]));
+    let radius = made["max_radius_m"].as_f64().unwrap();
+    assert!((0.05..0.08).contains(&radius), "{made}");
+    let err = vps.fails(&["voxelize", "builtin:box", "--units", "mm", "-o", &vmap]);
+    assert!(err.contains("--units applies to mesh files"), "{err}");
+}

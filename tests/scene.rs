@@ -296,3 +296,79 @@ fn bad_scene_files_name_the_file_and_field_and_run_nothing() {
         assert!(!err.contains("voxmap: built"), "{name} voxelized: {err}");
     }
 }
+
+/// `vps run`'s text report and its loop-period error speak of the session (a rename once printed
+/// "assets end:", "assets:" and "the assets loop").
+#[test]
+fn the_text_report_speaks_of_the_session() {
+    let bay = bay();
+    let scene = bay.path("bay.toml");
+    let out = bay.run(&["run", "--scene", &scene, "--seconds", "0.1"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("session end: frames done"), "{text}");
+    assert!(text.contains("\nsession:\n"), "{text}");
+    assert!(!text.contains("assets"), "{text}");
+    // The final position at 0.1 mm (it was printed with 17 digits: 0.07500950959614927).
+    let line = text
+        .lines()
+        .find_map(|l| l.strip_prefix("final part position (m): "))
+        .unwrap_or_else(|| panic!("no final position: {text}"));
+    let coords: Vec<&str> = line
+        .trim_matches(|c| c == '[' || c == ']')
+        .split(", ")
+        .collect();
+    assert_eq!(coords.len(), 3, "{line}");
+    for c in coords {
+        let decimals = c.split_once('.').map_or(0, |(_, d)| d.len());
+        assert!(
+            decimals == 4 && c.parse::<f64>().is_ok() && c != "-0.0000",
+            "{line}"
+        );
+    }
+
+    let haptic = bay.path("haptic.toml");
+    std::fs::write(&haptic, "dt = 0.002\n").unwrap();
+    let err = bay.fails(&[
+        "run",
+        "--scene",
+        &scene,
+        "--haptic",
+        &haptic,
+        "--seconds",
+        "0.1",
+    ]);
+    assert!(err.contains("the session loop runs at 1000 Hz"), "{err}");
+    assert!(!err.contains("assets"), "{err}");
+}
+
+/// `vps scene check` says which voxel settings the built-in defaults' reason is about: the bay sets
+/// only `voxel_size`. (The reason, which ends "so set voxels.voxel_width = 4 ...", was printed
+/// unqualified even for a scene that already sets both.)
+#[test]
+fn scene_check_names_the_settings_left_to_the_defaults() {
+    let bay = bay();
+    let out = bay.run(&["scene", "check", &bay.path("bay.toml")]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains(
+            "why (built-in defaults, used here for voxel_width, shell_method, offset_layers): "
+        ),
+        "{text}"
+    );
+    assert!(!text.contains("-0.0000"), "{text}");
+
+    // 5 m voxels (`voxel_size = 5`, metres) on a 30 mm part: flagged, not just "ok".
+    std::fs::write(
+        bay.dir().join("coarse.toml"),
+        SCENE.replace("voxel_size = \"5mm\"", "voxel_size = 5"),
+    )
+    .unwrap();
+    let check = json(&bay.run(&["scene", "check", &bay.path("coarse.toml"), "--json"]));
+    let flags = check["flags"].to_string();
+    assert!(
+        flags.contains("voxels.voxel_size: 5 m is no finer than the part (0.0300 m across)"),
+        "{check}"
+    );
+}

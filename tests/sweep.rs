@@ -120,6 +120,25 @@ fn quick_sweep_writes_json_csv_and_plots() {
     }
 }
 
+/// `vps sweep --scene MY.toml` outside the repository: the default sweep file is not there, and the
+/// error says what it is for and how to give one (it said only "reading configs/sweep.toml").
+#[test]
+fn a_missing_default_sweep_file_says_how_to_give_one() {
+    let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
+    let out = vps
+        .cmd()
+        .current_dir(vps.dir())
+        .args(["sweep", "--quick", "--scene", "builtin:rig-teapot"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = stderr(&out);
+    assert!(
+        err.contains("the sweep file configs/sweep.toml") && err.contains("--config FILE"),
+        "{err}"
+    );
+}
+
 #[test]
 fn bad_scene_file_names_the_field() {
     let (vps, config) = with_sweep_file(

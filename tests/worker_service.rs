@@ -189,4 +189,8 @@ fn a_worker_outlives_its_coordinators_sigterm_and_joins_the_next_one() {
     w.signal("TERM");
     assert_eq!(w.wait_exit().code(), Some(0));
     assert_eq!(w.count("worker stopped (SIGTERM)"), 1);
+    // Its log went to a pipe (as to a file or the systemd journal): no terminal colour codes.
+    assert!(w.count("joined") >= 2);
+    assert_eq!(w.count("\u{1b}["), 0, "colour codes in a piped log");
+    assert_eq!(first.count("\u{1b}["), 0, "colour codes in a piped log");
 }

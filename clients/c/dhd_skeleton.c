@@ -8,7 +8,8 @@
  *   vps run --device bridge:127.0.0.1:7700 --map-scale 5 --seconds 600 &
  *   ./dhd_bridge 127.0.0.1:7700
  *
- * Without that define it builds a stub that says so, so a plain `gcc *.c` never needs the SDK.
+ * Without that define it builds, one file at a time (each has its own main; example.c too), a
+ * stub that says so: `gcc -std=c99 -O2 -o STUB FILE.c -lm` never needs the SDK.
  *
  * Units: DHD already speaks SI (m, m/s, rad/s, N, N.m), as vps does.
  */

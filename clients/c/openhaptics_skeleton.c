@@ -7,7 +7,8 @@
  *   vps run --device bridge:127.0.0.1:7700 --map-scale 5 --seconds 600 &
  *   ./touch_bridge 127.0.0.1:7700
  *
- * Without that define it builds a stub that says so, so a plain `gcc *.c` never needs the SDK.
+ * Without that define it builds, one file at a time (each has its own main; example.c too), a
+ * stub that says so: `gcc -std=c99 -O2 -o STUB FILE.c -lm` never needs the SDK.
  *
  * Units: HDAPI positions are in mm and velocities in mm/s; vps wants m and m/s. Forces are N both
  * sides. HD_CURRENT_TORQUE (6-DOF output Phantoms only) is in mN.m; vps sends N.m. The Touch

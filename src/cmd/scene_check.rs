@@ -5,13 +5,16 @@
 //! effective voxel settings, where each came from (the scene file or the built-in default) and
 //! why.
 
-use crate::output::print_json;
+use crate::output::{metres_4, print_json};
 use anyhow::Result;
 use serde::Serialize;
 use vps_mesh::TriMesh;
 use vps_session::estimate::VoxmapEstimate;
 use vps_session::file::{ShellMethodName, BUILTIN_VOXELS_REASON};
 use vps_session::LoadedScene;
+
+/// Where a setting the scene file does not give comes from.
+const BUILT_IN: &str = "built-in default";
 
 /// Share of the 1 ms period a frame's compute may take (as `vps tune`'s default budget).
 const FRAME_BUDGET_FRACTION: f64 = 0.6;
@@ -37,11 +40,7 @@ struct Setting<T> {
 fn setting<T>(value: T, in_file: bool) -> Setting<T> {
     Setting {
         value,
-        from: if in_file {
-            "scene file"
-        } else {
-            "built-in default"
-        },
+        from: if in_file { "scene file" } else { BUILT_IN },
     }
 }
 
@@ -87,6 +86,32 @@ fn object(field: String, source: &str, mesh: &TriMesh) -> ObjectReport {
         bounds_min_m: b.min.to_array(),
         bounds_max_m: b.max.to_array(),
     }
+}
+
+/// A flag when the voxel edge `voxel_size` (m) is at least the part's largest extent: its shell of
+/// `points` cannot resolve the part's shape (a bare number is metres: `5` is 5 m, not 5 mm).
+fn coarse_voxel_flag(voxel_size: f64, part: &TriMesh, points: usize) -> Option<String> {
+    let size = part.bounds().size().max_element();
+    (voxel_size >= size).then(|| {
+        format!(
+            "voxels.voxel_size: {voxel_size} m is no finer than the part ({size:.4} m across), so \
+             its shell has {points} points; a bare number is metres (for millimetres write \"5mm\")"
+        )
+    })
+}
+
+/// The `voxels` keys of `v` that the scene file left to the built-in defaults.
+fn defaults_used(v: &VoxelsReport) -> Vec<&'static str> {
+    [
+        ("voxel_size", v.voxel_size_m.from),
+        ("voxel_width", v.voxel_width_bits.from),
+        ("shell_method", v.shell_method.from),
+        ("offset_layers", v.offset_layers.from),
+    ]
+    .into_iter()
+    .filter(|(_, from)| *from == BUILT_IN)
+    .map(|(key, _)| key)
+    .collect()
 }
 
 /// Runs `vps scene check`.
@@ -135,7 +160,16 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
         frame_compute_estimate_us: frame_us,
         frame_budget_us: budget_us,
         fits_frame_budget: frame_us <= budget_us,
-        flags: loaded.warnings.clone(),
+        flags: loaded
+            .warnings
+            .iter()
+            .cloned()
+            .chain(coarse_voxel_flag(
+                voxels.voxel_size,
+                &loaded.part,
+                shell.len(),
+            ))
+            .collect(),
     };
     if json {
         return print_json(&report);
@@ -143,23 +177,19 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
     println!("scene {} ({}): ok", report.name, report.scene);
     let line = |o: &ObjectReport| {
         println!(
-            "  {:<10} {:>9} triangles  bounds (m) [{:.4}, {:.4}, {:.4}] .. [{:.4}, {:.4}, {:.4}]  {}",
+            "  {:<10} {:>9} triangles  bounds (m) [{}] .. [{}]  {}",
             o.field,
             o.triangles,
-            o.bounds_min_m[0],
-            o.bounds_min_m[1],
-            o.bounds_min_m[2],
-            o.bounds_max_m[0],
-            o.bounds_max_m[1],
-            o.bounds_max_m[2],
+            o.bounds_min_m.map(metres_4).join(", "),
+            o.bounds_max_m.map(metres_4).join(", "),
             o.source
         )
     };
     report.objects.iter().for_each(line);
     line(&report.part);
     println!(
-        "  grip (part coordinates, m): [{:.4}, {:.4}, {:.4}]",
-        report.grip_m[0], report.grip_m[1], report.grip_m[2]
+        "  grip (part coordinates, m): [{}]",
+        report.grip_m.map(metres_4).join(", ")
     );
     let v = &report.voxels;
     println!(
@@ -180,7 +210,10 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
         println!("  why (scene file): {reason}");
     }
     if let Some(reason) = v.builtin_reason {
-        println!("  why (built-in defaults): {reason}");
+        println!(
+            "  why (built-in defaults, used here for {}): {reason}",
+            defaults_used(v).join(", ")
+        );
     }
     println!(
         "voxmap: {} m, {}-bit{}: about {:.3e} voxels in the grid, {:.3e} in the surface band, \

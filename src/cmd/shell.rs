@@ -4,7 +4,6 @@ use crate::cli::{ShellArgs, ShellMethodArg};
 use crate::output::{check_output_path, print_summary, ShellFigures};
 use anyhow::{Context, Result};
 use serde::Serialize;
-use vps_session::mesh_source;
 use vps_voxelize::{point_shell_within, ShellMethod};
 
 #[derive(Serialize)]
@@ -38,13 +37,19 @@ pub fn method_of(arg: ShellMethodArg) -> ShellMethod {
 /// Runs the command.
 pub fn run(args: &ShellArgs) -> Result<()> {
     check_output_path(&args.build.output, &crate::output::mesh_inputs(&args.mesh))?;
-    let scene = mesh_source::load(&args.mesh)?;
+    let scene = crate::cmd::voxelize::load_mesh(&args.mesh, args.build.units)?;
     let budget = args
         .build
         .max_memory
         .unwrap_or_else(vps_voxelize::default_memory_budget);
     let shell = point_shell_within(&scene.mesh, args.voxel_size, method_of(args.method), budget)
-        .with_context(|| format!("building the point shell of {}", scene.source))?;
+        .with_context(|| {
+            format!(
+                "building the point shell of {}{}",
+                scene.source,
+                crate::cmd::voxelize::units_hint(&scene, args.build.units)
+            )
+        })?;
     vps_voxmap::file::save_shell(&shell, &args.build.output)?;
     let summary = ShellSummary {
         source: scene.source,

@@ -37,21 +37,37 @@ struct TuneReport {
     measured: Vec<Measured>,
     chosen_voxel_size_mm: Option<f64>,
     predicted_accuracy: Option<SweepRow>,
+    /// Why the sweep table could not be read, when it could not.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    sweep_error: Option<String>,
     verify_frames: u64,
     verify_realtime_granted: Option<bool>,
     verify: Option<StatsSummary>,
 }
 
-/// The committed sweep's row for this scene, method, voxel width and size, if the file has one.
-fn sweep_row(path: &Path, scene: &LoadedScene, size_mm: f64) -> Option<SweepRow> {
-    let table: SweepTable = serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()?;
+/// The sweep table at `path`, or why it cannot be used (naming the file; the default path is
+/// relative to the working directory).
+fn read_sweep(path: &Path) -> Result<SweepTable, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        format!(
+            "cannot read {}: {e} (run tune from the repository root, or give --sweep FILE)",
+            path.display()
+        )
+    })?;
+    serde_json::from_str(&text).map_err(|e| format!("{}: not a sweep table: {e}", path.display()))
+}
+
+/// The committed sweep's row for this scene, method, voxel width and size: `Ok(None)` when the
+/// table has none, an error when the table cannot be read.
+fn sweep_row(path: &Path, scene: &LoadedScene, size_mm: f64) -> Result<Option<SweepRow>, String> {
+    let table = read_sweep(path)?;
     let voxels = &scene.file.voxels;
-    table.rows.into_iter().find(|r| {
+    Ok(table.rows.into_iter().find(|r| {
         r.scene == scene.name
             && r.method == voxels.shell_method
             && r.voxel_width == u32::from(voxels.voxel_width)
             && (r.voxel_size_mm - size_mm).abs() < 1e-9
-    })
+    }))
 }
 
 /// Prints `report` (stopped by a signal while `what`) and fails with exit status `128 + N`.
@@ -106,6 +122,7 @@ pub fn run(args: &TuneArgs) -> Result<()> {
         measured: Vec::new(),
         chosen_voxel_size_mm: None,
         predicted_accuracy: None,
+        sweep_error: None,
         verify_frames: args.verify_frames,
         verify_realtime_granted: None,
         verify: None,
@@ -153,7 +170,10 @@ pub fn run(args: &TuneArgs) -> Result<()> {
         );
     };
     report.chosen_voxel_size_mm = Some(size_mm);
-    report.predicted_accuracy = sweep_row(&args.sweep, &scene, size_mm);
+    match sweep_row(&args.sweep, &scene, size_mm) {
+        Ok(row) => report.predicted_accuracy = row,
+        Err(why) => report.sweep_error = Some(why),
+    }
     let verify = run_sweep_session(&session, args.verify_frames, true, &signals)?;
     if !verify.end.is_complete() {
         return stopped(args, report, &signals, &format!("verifying {size_mm} mm"));
@@ -173,7 +193,14 @@ pub fn run(args: &TuneArgs) -> Result<()> {
             shown(r.penetration_ratio),
             shown(r.min_separation_mm)
         ),
-        None => println!("accuracy: {} has no row for {} at {size_mm} mm (run vps sweep)", args.sweep.display(), scene.name),
+        None => match &report.sweep_error {
+            Some(why) => println!("accuracy: unknown: {why}"),
+            None => println!(
+                "accuracy: {} has no row for {} at {size_mm} mm (run vps sweep)",
+                args.sweep.display(),
+                scene.name
+            ),
+        },
     }
     crate::session_io::print_summary(
         &format!(
@@ -189,4 +216,29 @@ pub fn run(args: &TuneArgs) -> Result<()> {
 /// A figure of the sweep table, `-` when the table has none.
 fn shown(value: Option<f64>) -> String {
     value.map_or("-".into(), |v| format!("{v:.3}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A sweep file that is missing (tune run outside the repository, where the default
+    /// `docs/sweep/sweep.json` does not exist) or not a table says so, naming the file; it used to
+    /// read as "has no row for SCENE (run vps sweep)".
+    #[test]
+    fn a_missing_or_bad_sweep_file_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let missing = dir.path().join("docs/sweep/sweep.json");
+        let err = read_sweep(&missing).err().unwrap();
+        assert!(
+            err.contains(&format!("cannot read {}", missing.display())) && err.contains("--sweep"),
+            "{err}"
+        );
+        let bad = dir.path().join("bad.json");
+        std::fs::write(&bad, "[1, 2]").unwrap();
+        let err = read_sweep(&bad).err().unwrap();
+        assert!(err.contains("bad.json: not a sweep table"), "{err}");
+        let committed = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/sweep/sweep.json");
+        assert!(!read_sweep(&committed).unwrap().rows.is_empty());
+    }
 }

@@ -1,6 +1,6 @@
 //! `vps voxelize`: mesh → `.vmap`.
 
-use crate::cli::VoxelizeArgs;
+use crate::cli::{MeshUnits, VoxelizeArgs};
 use crate::output::{check_output_path, hex, mib, print_summary};
 use anyhow::{bail, Context, Result};
 use glam::DVec3;
@@ -29,10 +29,29 @@ struct VoxelizeSummary {
     hash: String,
 }
 
+/// Loads the mesh of `vps voxelize` / `vps shell`: a file in `units` (converted to metres), or a
+/// built-in mesh (metres; `--units` other than m is refused for it).
+pub fn load_mesh(source: &str, units: MeshUnits) -> Result<mesh_source::SceneMesh> {
+    if source.starts_with("builtin:") && units != MeshUnits::M {
+        bail!("--units applies to mesh files; {source} is in metres already");
+    }
+    mesh_source::load_scaled(source, units.metres())
+}
+
+/// For an error of a mesh file read in metres: its size and the `--units` a CAD export in
+/// millimetres needs (empty otherwise).
+pub fn units_hint(mesh: &mesh_source::SceneMesh, units: MeshUnits) -> String {
+    if units != MeshUnits::M || mesh.source.starts_with("builtin:") {
+        return String::new();
+    }
+    let size = mesh.mesh.bounds().size().max_element();
+    format!(" (read in metres: {size:.4} m across; a file in millimetres needs --units mm)")
+}
+
 /// Runs the command.
 pub fn run(args: &VoxelizeArgs) -> Result<()> {
     check_output_path(&args.build.output, &crate::output::mesh_inputs(&args.mesh))?;
-    let scene = mesh_source::load(&args.mesh)?;
+    let scene = load_mesh(&args.mesh, args.build.units)?;
     let Some(width) = VoxelWidth::from_bits(args.width) else {
         bail!("--width {}: must be 2, 4 or 8", args.width);
     };
@@ -54,7 +73,13 @@ pub fn run(args: &VoxelizeArgs) -> Result<()> {
         &opts,
         TreeConfig::uniform(args.tree_n),
     )
-    .with_context(|| format!("voxelizing {}", scene.source))?;
+    .with_context(|| {
+        format!(
+            "voxelizing {}{}",
+            scene.source,
+            units_hint(&scene, args.build.units)
+        )
+    })?;
     let tree_ms = stats.output_ms;
     vps_voxmap::file::save_voxmap(&tree, &args.build.output)?;
     let summary = VoxelizeSummary {

@@ -90,6 +90,13 @@ pub fn load_mesh_scaled(path: &Path, scale: f64) -> Result<LoadedMesh, MeshError
 /// [`std::panic::catch_unwind`]: a panic inside a parser crate becomes a [`MeshError::Parse`]
 /// instead of taking the process down (the panic message is still printed by the panic hook).
 pub fn parse_mesh(bytes: &[u8], format: MeshFormat, file: &str) -> Result<TriMesh, MeshError> {
+    if bytes.is_empty() {
+        return Err(parse_error(
+            file,
+            None,
+            "the file is empty (0 bytes): was the export interrupted?",
+        ));
+    }
     let parse = || match format {
         MeshFormat::Obj => obj::parse(bytes, file),
         MeshFormat::Stl => stl::parse(bytes, file),

@@ -21,10 +21,12 @@ pub enum SceneError {
         message: String,
     },
     /// A field is unknown, of the wrong type, or has a value outside its range.
-    #[error("{path}: field `{field}`: {message}")]
+    #[error("{path}{}: field `{field}`: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
     Field {
         /// The file.
         path: String,
+        /// 1-based line of the field in the file, when the TOML parser places it.
+        line: Option<usize>,
         /// Dotted field name, e.g. `voxels.voxel_size` or `static[1].units`.
         field: String,
         /// What is wrong and what is allowed.
@@ -36,6 +38,7 @@ pub enum SceneError {
 pub(crate) fn field_error(path: &str, field: &str, message: impl Into<String>) -> SceneError {
     SceneError::Field {
         path: path.to_string(),
+        line: None,
         field: field.to_string(),
         message: message.into(),
     }

@@ -442,7 +442,17 @@ impl SceneFile {
                     message,
                 }
             } else {
-                field_error(path, &field, message)
+                let line = e
+                    .inner()
+                    .span()
+                    .and_then(|span| text.get(..span.start))
+                    .map(|before| before.matches('\n').count() + 1);
+                SceneError::Field {
+                    path: path.to_string(),
+                    line,
+                    field,
+                    message,
+                }
             }
         })?;
         let file = file.into_scene();
@@ -833,6 +843,48 @@ max = [0.4, 0.1, 0.2]
             assert_eq!(p.x, 0.05 + 0.1 * i as f64);
             assert_eq!((p.y, p.z), (1.0, 0.75));
         }
+    }
+
+    /// An error the TOML parser can place gives the line: `scene.toml:LINE: field ...`.
+    #[test]
+    fn a_misspelt_or_mistyped_key_names_its_line() {
+        let typo = GOOD.replace("offset_layers = 2", "offset_layer = 2");
+        let err = parse(&typo).unwrap_err().to_string();
+        assert!(
+            err.starts_with("scene.toml:14: field `voxels.offset_layer`: unknown field"),
+            "{err}"
+        );
+        let wrong_type = GOOD.replace("braking = true", "braking = \"yes\"");
+        let err = parse(&wrong_type).unwrap_err().to_string();
+        assert!(
+            err.starts_with("scene.toml:15: field `voxels.braking`"),
+            "{err}"
+        );
+        // A range checked after parsing has no line.
+        let err = parse(&GOOD.replace("voxel_width = 2", "voxel_width = 3"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("scene.toml: field `voxels.voxel_width`"),
+            "{err}"
+        );
+    }
+
+    /// A length written as a string needs a unit: `"5"` is refused (likely meant mm), while the
+    /// number `5` (metres) and `"5mm"` are read as documented.
+    #[test]
+    fn a_length_string_without_a_unit_is_refused() {
+        let bare = GOOD.replace("voxel_size = 0.005", "voxel_size = \"5\"");
+        let err = parse(&bare).unwrap_err().to_string();
+        assert!(
+            err.contains("field `voxels.voxel_size`") && err.contains("\"5\" has no unit"),
+            "{err}"
+        );
+        let spacing = GOOD.replace("spacing = 0.05", "spacing = \"0.05\"");
+        let err = parse(&spacing).unwrap_err().to_string();
+        assert!(err.contains("field `corridor.spacing`"), "{err}");
+        let mm = parse(&GOOD.replace("voxel_size = 0.005", "voxel_size = \"5mm\"")).unwrap();
+        assert!((mm.voxels.voxel_size - 0.005).abs() < 1e-15);
     }
 
     #[test]

@@ -1,7 +1,7 @@
 //! Mesh sources: a file path or `builtin:NAME`, loaded in metres and placed (units, scale,
 //! rotation, translation).
 
-use anyhow::{anyhow, Context, Result};
+use anyhow::{anyhow, Result};
 use glam::{DQuat, DVec3};
 use std::path::Path;
 use vps_mesh::TriMesh;
@@ -41,8 +41,8 @@ pub fn load_scaled(source: &str, metres_per_unit: f64) -> Result<SceneMesh> {
             degenerate_dropped: 0,
         });
     }
-    let loaded = vps_mesh::load_mesh_scaled(Path::new(source), metres_per_unit)
-        .with_context(|| format!("loading mesh {source}"))?;
+    // Every `MeshError` names the file already.
+    let loaded = vps_mesh::load_mesh_scaled(Path::new(source), metres_per_unit)?;
     Ok(SceneMesh {
         mesh: loaded.mesh,
         source: source.to_string(),

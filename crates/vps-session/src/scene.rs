@@ -99,7 +99,7 @@ impl LoadedScene {
             let field = format!("static[{i}]");
             let source = resolve(&o.source, &base);
             let mut mesh = load_scaled(&source, o.units.metres())
-                .map_err(|e| field_error(&label, &format!("{field}.source"), format!("{e:#}")))?
+                .map_err(|e| mesh_error(&label, &format!("{field}.source"), &o.source, &base, &e))?
                 .mesh;
             Placement {
                 scale: DVec3::from_array(o.scale),
@@ -113,7 +113,7 @@ impl LoadedScene {
         }
         let source = resolve(&file.part.source, &base);
         let mut mesh = load_scaled(&source, file.part.units.metres())
-            .map_err(|e| field_error(&label, "part.source", format!("{e:#}")))?
+            .map_err(|e| mesh_error(&label, "part.source", &file.part.source, &base, &e))?
             .mesh;
         Placement {
             scale: DVec3::ONE,
@@ -206,12 +206,33 @@ impl LoadedScene {
         );
         let gib = |b: f64| b / 1024f64.powi(3);
         if est.tree_bytes > VOXMAP_MEMORY_BUDGET || est.grid_voxels > MAX_GRID_VOXELS {
-            let hint = if self.file.workspace.is_some() {
-                "use a larger voxel_size or a smaller [workspace]"
+            let mut hint = if self.file.workspace.is_some() {
+                "use a larger voxel_size or a smaller [workspace]".to_string()
             } else {
                 "use a larger voxel_size, or declare a [workspace] region (min, max in m) the part \
                  can reach so only that region is voxelized"
+                    .to_string()
             };
+            // A CAD file in mm read as metres is the likelier cause: name the largest object
+            // left in metres.
+            let largest_in_metres = self
+                .file
+                .objects
+                .iter()
+                .zip(&self.statics)
+                .enumerate()
+                .filter(|(_, (o, _))| {
+                    o.units == crate::file::Units::Metres && !o.source.starts_with("builtin:")
+                })
+                .map(|(i, (_, mesh))| (i, mesh.bounds().size().max_element()))
+                .max_by(|a, b| a.1.total_cmp(&b.1));
+            if let Some((i, size)) = largest_in_metres {
+                hint = format!(
+                    "static[{i}] is {size:.4} m across read as metres (its `units` is m, the \
+                     default): if the file is in millimetres set `units = \"mm\"` there (cm, in \
+                     likewise); else {hint}"
+                );
+            }
             return Err(field_error(
                 &self.label,
                 "voxels.voxel_size",
@@ -379,6 +400,44 @@ impl LoadedScene {
             part_mesh,
         })
     }
+}
+
+/// The error of a mesh that did not load, for `field` (`static[i].source`, `part.source`) of the
+/// scene file `label`: the loader's causes, each once; when the file is missing, where a relative
+/// `written` source was looked for.
+fn mesh_error(
+    label: &str,
+    field: &str,
+    written: &str,
+    base: &Path,
+    err: &anyhow::Error,
+) -> SceneError {
+    let mut text = String::new();
+    for cause in err.chain() {
+        let cause = cause.to_string();
+        if !text.contains(&cause) {
+            if !text.is_empty() {
+                text.push_str(": ");
+            }
+            text.push_str(&cause);
+        }
+    }
+    let missing = err.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::NotFound)
+    });
+    if missing && !written.starts_with("builtin:") && Path::new(written).is_relative() {
+        let dir = if base.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            base
+        };
+        text.push_str(&format!(
+            " (`{written}` is taken relative to the scene file's directory, {})",
+            dir.display()
+        ));
+    }
+    field_error(label, field, text)
 }
 
 /// Flags a mesh whose size is implausible after units, with a hint.
@@ -634,5 +693,85 @@ impl SessionAssets {
     /// The shell split into [`crate::CLASS_COUNT`] classes.
     pub fn classed_shell(&self) -> Arc<vps_haptic::ClassedShell> {
         crate::classed(&self.shell)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An OBJ of the axis-aligned box `min`..`max` (file units), 12 outward triangles.
+    fn box_obj(min: [f64; 3], max: [f64; 3]) -> String {
+        let mut text = String::new();
+        for i in 0..8 {
+            let c = |k: usize| if i >> k & 1 == 0 { min[k] } else { max[k] };
+            text += &format!("v {} {} {}\n", c(0), c(1), c(2));
+        }
+        for f in [
+            [1, 3, 4, 2],
+            [5, 6, 8, 7],
+            [1, 2, 6, 5],
+            [3, 7, 8, 4],
+            [1, 5, 7, 3],
+            [2, 4, 8, 6],
+        ] {
+            text += &format!("f {} {} {} {}\n", f[0], f[1], f[2], f[3]);
+        }
+        text
+    }
+
+    /// A scene directory holding `fixture.obj` (200 × 200 × 40) and `peg.obj` (20 × 20 × 60), both
+    /// in millimetres, and `scene.toml` made of `statics` then a hand path.
+    fn scene_dir(statics: &str) -> (tempfile::TempDir, String) {
+        let dir = tempfile::tempdir().unwrap();
+        let write = |name: &str, text: &str| std::fs::write(dir.path().join(name), text).unwrap();
+        write(
+            "fixture.obj",
+            &box_obj([-100.0, -100.0, 0.0], [100.0, 100.0, 40.0]),
+        );
+        write("peg.obj", &box_obj([-10.0, -10.0, 0.0], [10.0, 10.0, 60.0]));
+        let scene = format!(
+            "[part]\nsource = \"peg.obj\"\nunits = \"mm\"\n{statics}\
+             [voxels]\nvoxel_size = \"2mm\"\n[hand]\nwaypoints = [[0.0, 0.0, 0.1]]\n"
+        );
+        write("scene.toml", &scene);
+        let path = dir.path().join("scene.toml").display().to_string();
+        (dir, path)
+    }
+
+    /// A missing mesh says where a relative source was looked for, and the OS's reason once.
+    #[test]
+    fn a_missing_mesh_says_where_it_was_looked_for() {
+        let (dir, scene) = scene_dir("[[static]]\nsource = \"meshes/fixture.obj\"\n");
+        let err = LoadedScene::load(&scene).err().unwrap().to_string();
+        let expected = format!(
+            "(`meshes/fixture.obj` is taken relative to the scene file's directory, {})",
+            dir.path().display()
+        );
+        assert!(err.contains("field `static[0].source`"), "{err}");
+        assert!(err.contains(&expected), "{err}");
+        assert_eq!(err.matches("os error 2").count(), 1, "{err}");
+    }
+
+    /// CAD files in mm with `units` left out read as metres: the voxmap estimate is refused, and
+    /// the error points at `units` before the voxel size or a workspace.
+    #[test]
+    fn a_voxmap_too_large_from_mm_read_as_metres_names_units() {
+        let (_dir, scene) = scene_dir("[[static]]\nsource = \"fixture.obj\"\n");
+        let loaded = LoadedScene::load(&scene).unwrap();
+        let err = loaded
+            .plan_voxmap(0.002, VoxelWidth::Two)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("field `voxels.voxel_size`"), "{err}");
+        assert!(
+            err.contains("static[0] is 200.0000 m across read as metres")
+                && err.contains("set `units = \"mm\"` there"),
+            "{err}"
+        );
+        // With the units declared the same scene fits, so no hint is needed.
+        let (_dir, scene) = scene_dir("[[static]]\nsource = \"fixture.obj\"\nunits = \"mm\"\n");
+        let loaded = LoadedScene::load(&scene).unwrap();
+        assert!(loaded.plan_voxmap(0.002, VoxelWidth::Two).is_ok());
     }
 }

@@ -27,6 +27,14 @@ fn check_element_indices(bytes: &[u8], file: &str) -> Result<(), MeshError> {
                         let Ok(value) = reference.parse::<i64>() else {
                             continue; // Empty or not a number: tobj handles it.
                         };
+                        if value == 0 {
+                            return Err(parse_error(
+                                file,
+                                Some(index + 1),
+                                "index 0: OBJ indices start at 1 (a negative index counts back \
+                                 from the last element read)",
+                            ));
+                        }
                         let in_range = if value < 0 {
                             value.unsigned_abs() <= seen[kind]
                         } else {
@@ -34,11 +42,12 @@ fn check_element_indices(bytes: &[u8], file: &str) -> Result<(), MeshError> {
                         };
                         if !in_range {
                             let what = ["vertex", "texture coordinate", "normal"][kind];
+                            let plural = ["vertices", "texture coordinates", "normals"][kind];
                             return Err(parse_error(
                                 file,
                                 Some(index + 1),
                                 format!(
-                                    "{what} index {value} is out of range ({} {what}s read so \
+                                    "{what} index {value} is out of range ({} {plural} read so \
                                      far, {} bytes in the file)",
                                     seen[kind],
                                     bytes.len()

@@ -16,7 +16,19 @@ pub(super) fn parse(bytes: &[u8], file: &str) -> Result<TriMesh, MeshError> {
     let ply = Parser::<DefaultElement>::new()
         .read_ply(&mut reader)
         .map_err(|e| {
-            let (line, message) = split_line_prefix(&e.to_string());
+            // ply-rs-bw wraps the reader's end of file in its own message.
+            let text = e.to_string();
+            if e.kind() == std::io::ErrorKind::UnexpectedEof
+                || text.contains("UnexpectedEof")
+                || text.contains("failed to fill whole buffer")
+            {
+                return parse_error(
+                    file,
+                    None,
+                    "the file ends before the elements its header declares (truncated?)",
+                );
+            }
+            let (line, message) = split_line_prefix(&text);
             parse_error(file, line, message)
         })?;
 

@@ -22,6 +22,17 @@ pub(super) fn parse(bytes: &[u8], file: &str) -> Result<TriMesh, MeshError> {
         data[..5].copy_from_slice(b"     ");
     }
     let looks_ascii = data.starts_with(b"solid ");
+    if !looks_ascii && data.len() < BINARY_HEADER_LEN {
+        return Err(parse_error(
+            file,
+            None,
+            format!(
+                "{} bytes: shorter than a binary STL's {BINARY_HEADER_LEN}-byte header (80-byte \
+                 comment, then the triangle count), and not ASCII STL (which starts with `solid `)",
+                data.len()
+            ),
+        ));
+    }
     if !looks_ascii && data.len() >= BINARY_HEADER_LEN && !is_binary_by_length(&data) {
         let declared = binary_triangle_count(&data);
         return Err(parse_error(

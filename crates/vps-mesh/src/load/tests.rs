@@ -256,6 +256,60 @@ fn stl_with_wrong_length_is_an_error() {
     );
 }
 
+/// An empty file (an interrupted export) and a binary STL cut inside its header say so, in every
+/// format, instead of the parser's "failed to fill whole buffer".
+#[test]
+fn empty_files_and_a_cut_stl_header_say_what_is_wrong() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["empty.stl", "empty.obj", "empty.ply"] {
+        let err = load_mesh(&write(&dir, name, b"")).unwrap_err().to_string();
+        assert!(
+            err.contains(name) && err.contains("the file is empty (0 bytes)"),
+            "{err}"
+        );
+    }
+    let header = &binary_stl_bytes(b"binary")[..40];
+    let err = load_mesh(&write(&dir, "cut.stl", header))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("cut.stl")
+            && err.contains("40 bytes: shorter than a binary STL's 84-byte header"),
+        "{err}"
+    );
+    assert!(!err.contains("fill whole buffer"), "{err}");
+}
+
+/// OBJ index 0 (indices start at 1) names its line and says why, and a binary PLY cut short says
+/// it ends early; they said "face vertex index out of bounds" (no line) and "failed to fill whole
+/// buffer".
+#[test]
+fn obj_index_zero_and_a_truncated_binary_ply_say_what_is_wrong() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n";
+    let err = load_mesh(&write(&dir, "zero.obj", text.as_bytes()))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("zero.obj: line 4:") && err.contains("OBJ indices start at 1"),
+        "{err}"
+    );
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -9\n";
+    let err = load_mesh(&write(&dir, "neg.obj", text.as_bytes()))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("(3 vertices read so far"), "{err}");
+    let bytes = ply_binary_bytes();
+    let cut = &bytes[..bytes.len() - 10];
+    let err = load_mesh(&write(&dir, "cut.ply", cut))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("cut.ply") && err.contains("ends before the elements its header declares"),
+        "{err}"
+    );
+}
+
 /// Deterministic pseudo-random bytes.
 fn garbage(len: usize, seed: u64) -> Vec<u8> {
     use rand::{RngCore, SeedableRng};
