@@ -7,7 +7,7 @@
 //! - [`dense`]: [`DenseGrid`], one byte per voxel; the voxelizer's workspace and the tree's test oracle.
 //! - `tree` (mask, leaf, internal, root, accessor): the fixed-depth tree, constant-cost `get`.
 //! - [`shell`]: [`PointShell`], body-frame points with inward normals and mass properties.
-//! - [`file`]: the versioned `.vmap` and `.vshell` binary formats with content hashes.
+//! - [`file`](mod@file): the versioned `.vmap` and `.vshell` binary formats with content hashes.
 //!
 //! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
