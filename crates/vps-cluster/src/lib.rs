@@ -23,6 +23,8 @@
 //! [`session`] ([`run_coordinator_session`], [`spawn_local_workers`]). The loopback impairment
 //! relay and the raw UDP baseline are in the `vps-netem` crate.
 
+#![warn(missing_docs)]
+
 pub mod assets;
 pub mod close;
 pub mod coordinator;

@@ -18,6 +18,8 @@
 //!
 //! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
+#![warn(missing_docs)]
+
 pub mod alloc;
 pub mod mutate;
 pub mod runner;

@@ -19,6 +19,8 @@
 //! behind the default gains), [`contact`] (force field, braking), [`coupling`] (virtual coupling),
 //! [`dynamics`] (integration, tunnelling guard), [`frame`] (one frame).
 
+#![warn(missing_docs)]
+
 pub mod classed;
 pub mod contact;
 pub mod coupling;

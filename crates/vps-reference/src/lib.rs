@@ -23,6 +23,8 @@
 //!
 //! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
+#![warn(missing_docs)]
+
 pub mod bvh;
 pub mod components;
 pub mod contact;

@@ -8,6 +8,8 @@
 //!
 //! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
+#![warn(missing_docs)]
+
 pub mod cache;
 pub mod device;
 pub mod error;

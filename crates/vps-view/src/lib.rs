@@ -30,6 +30,8 @@
 //!
 //! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
+#![warn(missing_docs)]
+
 pub mod access;
 pub mod browser;
 pub mod client;

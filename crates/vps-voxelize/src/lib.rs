@@ -17,6 +17,8 @@
 //! 72-million-voxel scene needs about 9 MB per plane and word operations handle 64 voxels at once.
 //! All lengths are metres.
 
+#![warn(missing_docs)]
+
 mod bitgrid;
 pub mod error;
 mod flood_fill;

@@ -11,6 +11,8 @@
 //!
 //! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
+#![warn(missing_docs)]
+
 pub mod atomic;
 pub mod dense;
 pub mod file;
