@@ -1,4 +1,4 @@
-//! The exact contact reference that the voxel force is held against (issue 5).
+//! The exact contact reference that the voxel force is held against (docs/fidelity.md).
 //!
 //! For a part pose, every shell point is measured against the static triangle meshes themselves
 //! (not the voxmap): signed distance to the nearest triangle through a bounding-volume hierarchy,
