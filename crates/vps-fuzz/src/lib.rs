@@ -1,6 +1,6 @@
 //! The vps robustness suite: seeded, deterministic mutation fuzzing of every parser and decoder
-//! that reads untrusted bytes (mesh OBJ, STL and PLY; `.vmap`; `.vshell`; haptic TOML; handle
-//! traces; bridge datagrams; cluster datagrams and join messages).
+//! that reads untrusted bytes (mesh OBJ, STL and PLY; `.vmap`; `.vshell`; haptic TOML; scene
+//! files; sweep files; handle traces; bridge datagrams; cluster datagrams and join messages).
 //!
 //! - [`seeds`]: seed corpora generated from real valid inputs (encoded by the project's own
 //!   writers, or by small writers of the mesh formats).
