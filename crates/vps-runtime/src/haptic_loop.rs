@@ -1,5 +1,6 @@
 //! The 1 kHz haptic loop: one dedicated frame thread that reads the device, samples the shell with
-//! the [`ClassPool`], steps the sans-IO core and writes the device, every tick.
+//! the [`ClassPool`] (or another [`FrameSampler`], [`spawn_loop_with`]), steps the sans-IO core and
+//! writes the device, every tick.
 //!
 //! Per frame: wait for the tick ([`FrameClock`]) → `device.read(tick time)` → [`KernelPose`] of the
 //! current state → the [`FrameSampler`] computes all classes, with a reply deadline half the
