@@ -303,10 +303,11 @@ pub struct GatherArgs {
     pub equal_shares: bool,
     /// Spin instead of sleeping on the reply queue for the last this many µs before the reply
     /// deadline. A value at least the reply window (half the watchdog budget: 400 µs in a
-    /// session) busy-waits for every reply: one wake-up less per frame (one local worker's gather
-    /// p50 61–93 → 46–47 µs on the project's 2-core VM, docs/cluster.md), but the frame thread's
-    /// core then does nothing else; use it only where each worker and the coordinator's network
-    /// thread have cores of their own (two local workers on two cores: p99.9 0.2 → 4.1 ms).
+    /// session) busy-waits for every reply: one wake-up less per frame (one local worker's round
+    /// trip p50 61–93 → 46–47 µs on the project's 2-core VM, docs/cluster.md), but the frame
+    /// thread's core then does nothing else; use it only where each worker and the coordinator's
+    /// network thread have cores of their own (two local workers on two cores: worst gather p99.9
+    /// 0.2–0.5 → 4.1–4.2 ms).
     #[arg(long, default_value_t = default_spin_us())]
     pub spin_us: u64,
     /// A missing worker share whose local recompute cannot finish before the device write is due

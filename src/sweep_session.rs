@@ -1,5 +1,5 @@
-//! What `vps sweep` and `vps tune` share: one setting's scripted session on a built voxmap
-//! ([`SweepSession`], [`session_on`]), running it on the runtime's 1 kHz loop with the command's
+//! What `vps sweep` and `vps tune` share: what one setting's scripted session runs with on a built
+//! voxmap ([`SweepSession`], [`session_on`]), running it on the runtime's 1 kHz loop with the command's
 //! signal handlers ([`run_sweep_session`]), and the row of the sweep table ([`SweepRow`], the JSON
 //! `vps sweep` writes and `vps tune` reads). Not a subcommand.
 
@@ -14,7 +14,8 @@ use vps_session::scene::BuiltVoxmap;
 use vps_session::{classed, DeviceChoice, LoadedScene, SessionPlan};
 use vps_voxmap::{PointShell, VoxelTree};
 
-/// One setting's session: a voxmap, the part's shell on it, the parameters and the script.
+/// What one setting's session runs with (its setup, not the run: [`run_sweep_session`] runs it): a
+/// voxmap, the part's shell on it, the parameters and the script.
 pub struct SweepSession {
     /// The voxmap.
     pub tree: Arc<VoxelTree>,
@@ -28,7 +29,7 @@ pub struct SweepSession {
     pub script: Script,
 }
 
-/// A session on an already built `map`: the part's shell of `method` at `voxel_size` (m), the
+/// The setup of a session on an already built `map`: the part's shell of `method` at `voxel_size` (m), the
 /// scene's parameters and its script lasting at least `seconds` (s). Allocates; setup only.
 pub fn session_on(
     scene: &LoadedScene,

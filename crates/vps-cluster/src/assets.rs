@@ -12,8 +12,8 @@ use vps_haptic::{sample_class, ClassedShell, KernelPose, PartialSums};
 use vps_voxmap::file::{read_shell, read_voxmap, write_shell, write_voxmap};
 use vps_voxmap::{PointShell, VoxelTree};
 
-/// Largest scene file a worker accepts (bytes).
-pub const MAX_SCENE_FILE: u64 = 1 << 32;
+/// Largest asset file (voxmap or shell file) a worker accepts (bytes).
+pub const MAX_ASSET_FILE: u64 = 1 << 32;
 
 /// Everything a cluster node needs to compute class shares: the scene's voxmap, the part's point
 /// shell split into classes, and the identity (content hashes and sizes) by which the coordinator
@@ -138,7 +138,7 @@ pub struct AssetsCache {
 }
 
 impl AssetsCache {
-    /// A cache in `dir`; `None` caches nothing (every join transfers the scene).
+    /// A cache in `dir`; `None` caches nothing (every join transfers the voxmap and shell files).
     pub fn new(dir: Option<PathBuf>) -> AssetsCache {
         AssetsCache { dir }
     }

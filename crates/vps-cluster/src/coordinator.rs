@@ -1,5 +1,5 @@
 //! The coordinator's network side: a QUIC server endpoint on a small tokio runtime that admits
-//! pinned workers (join exchange, scene transfer) and turns each worker's datagrams into events on
+//! pinned workers (join exchange, asset transfer) and turns each worker's datagrams into events on
 //! crossbeam channels, which the frame thread polls through [`RemoteShares`]. Nothing here is on
 //! the frame path.
 //!
@@ -25,7 +25,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use vps_runtime::{KeepOffFrameCore, Placement};
 
-/// How long a worker may take to join, scene transfer included.
+/// How long a worker may take to join, asset transfer included.
 pub const JOIN_TIMEOUT: Duration = Duration::from_secs(60);
 /// Datagrams queued for the frame thread before newer ones are dropped (counted as lost).
 const DATAGRAM_QUEUE: usize = 4096;
@@ -391,8 +391,8 @@ fn fail_join(conn: &quinn::Connection, links: &Links, id: u32, remote: SocketAdd
     );
 }
 
-/// The coordinator's half of the join exchange (see [`JoinMessage`]); returns whether a scene file
-/// was sent.
+/// The coordinator's half of the join exchange (see [`JoinMessage`]); returns whether an asset file
+/// (voxmap or shell) was sent.
 async fn admit(
     conn: &quinn::Connection,
     id: u32,
@@ -424,7 +424,7 @@ async fn admit(
         &mut send,
         &JoinMessage::Welcome {
             worker_id: id,
-            scene: scene.identity,
+            assets: scene.identity,
         },
     )
     .await?;

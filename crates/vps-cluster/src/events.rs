@@ -7,7 +7,7 @@ use std::time::Instant;
 
 /// Connection-level events for the frame thread.
 pub(crate) enum Control {
-    /// A worker finished joining and can be given work; `scene_sent`: it was sent the scene.
+    /// A worker finished joining and can be given work; `scene_sent`: it was sent the voxmap or shell file.
     Joined {
         id: u32,
         conn: quinn::Connection,

@@ -1,17 +1,22 @@
 //! The vps cluster (docs/architecture.md#exact-sums-and-the-cluster): a coordinator that owns the device and the 1 kHz frame loop, and
-//! workers that hold a copy of the scene and compute the class shares they are sent, over QUIC
-//! (quinn) with operator-pinned mutual TLS.
+//! workers that hold a copy of its assets (the scene's voxmap and the part's classed point shell,
+//! [`ClusterAssets`]) and compute the class shares they are sent, over QUIC (quinn) with
+//! operator-pinned mutual TLS.
 //!
 //! Topology: workers dial the coordinator (the QUIC server), so workers can join at any time and
 //! `vps cluster --local-workers N` only needs the coordinator's address. Joining uses one reliable
-//! stream (version check, scene identity by content hash, scene files shipped when the worker
-//! lacks them); frames use unreliable datagrams (pose + class mask out, partial sums back).
+//! stream (version check, the assets' identity by content hash, the voxmap and shell files shipped
+//! when the worker lacks them); frames use unreliable datagrams (pose + class mask out, partial
+//! sums back).
 //!
 //! The frame thread never waits on a tokio timer: [`RemoteShares`] (a
 //! [`vps_runtime::FrameSampler`]) sends the requests, computes the coordinator's own share on local
 //! threads, waits on a crossbeam channel until shortly before the deadline and then spins, and
-//! computes every share still missing locally. Partial sums are integers, so the result is
-//! bit-identical to a one-process run whoever computed each share.
+//! computes every share still missing locally, or, when that cannot finish before the device
+//! write is due, stands in for it with that share's sums from up to 3 frames earlier (by default;
+//! counted, [`fallback`]). Partial sums are integers, so the result is bit-identical to a
+//! one-process run whoever computed each share, in every frame without such a stand-in
+//! ([`fallback::StalePolicy::NEVER`] rules them out).
 //!
 //! Module map: [`protocol`] (wire formats), [`tls`] (certificates, pinning verifiers, QUIC
 //! configs), [`assets`] ([`ClusterAssets`]: voxmap, classed shell, identity, worker cache),
@@ -20,8 +25,11 @@
 //! acceptance, benching, fallback plan, predicted split; no clock, socket or thread), [`shares`]
 //! ([`RemoteShares`]: the I/O driver around it), [`split`] and [`fallback`] (its pure arithmetic),
 //! [`metrics`] and [`report`] (live figures and the final report), [`close`] (close codes),
-//! [`session`] ([`run_coordinator_session`], [`spawn_local_workers`]). The loopback impairment
+//! [`session`] ([`run_coordinator_session`], [`spawn_local_workers`]), [`udp_count`] (datagrams
+//! counted on the UDP socket before quinn sees them). The loopback impairment
 //! relay and the raw UDP baseline are in the `vps-netem` crate.
+
+#![warn(missing_docs)]
 
 pub mod assets;
 pub mod close;
@@ -73,7 +81,7 @@ pub enum ClusterError {
     /// The QUIC endpoint or connection.
     #[error("network: {0}")]
     Network(String),
-    /// The join exchange failed (version, scene, malformed message, refused).
+    /// The join exchange failed (version, assets' identity, malformed message, refused).
     #[error("join: {0}")]
     Join(String),
     /// The coordinator and this worker refuse each other for good (a certificate not pinned on
@@ -82,7 +90,8 @@ pub enum ClusterError {
     /// The message says who refused and why.
     #[error("{0}")]
     Refused(String),
-    /// The scene cannot be used by the cluster.
+    /// The cluster's assets (voxmap, classed shell, their files) cannot be built, encoded, read
+    /// or used; the message says which.
     #[error("scene: {0}")]
     Scene(String),
     /// A configuration value is invalid.

@@ -15,7 +15,8 @@
 //! | 24.. | 18 × f32: rotation (9, column-major), translation (m), linear velocity (m/s), angular velocity (rad/s) | 13 × i128 then 6 × u64: the [`PartialSums`] fields in declaration order |
 //!
 //! Join messages (reliable stream): each is a frame `len: u64` + body, see [`JoinMessage`]; the
-//! scene files travel as frames of their own (raw file bytes).
+//! asset files (the voxmap and shell files of [`ClusterAssets`](crate::ClusterAssets)) travel as
+//! frames of their own (raw file bytes).
 
 use crate::ClusterError;
 use glam::{Mat3, Vec3};
@@ -32,7 +33,8 @@ pub const MAX_CLASSES: u32 = 64;
 pub const REQUEST_LEN: usize = 24 + 18 * 4;
 /// Size of an encoded [`FrameReply`] (bytes).
 pub const REPLY_LEN: usize = 24 + 13 * 16 + 6 * 8;
-/// Largest join message body (bytes); scene files have their own limit.
+/// Largest join message body (bytes); asset files have their own limit
+/// ([`MAX_ASSET_FILE`](crate::assets::MAX_ASSET_FILE)).
 pub const MAX_JOIN_MESSAGE: u64 = 4096;
 
 const MAGIC: &[u8; 3] = b"VPS";
@@ -248,7 +250,7 @@ pub fn mask_classes(mask: u64) -> impl Iterator<Item = u32> {
 
 /// Messages of the join exchange on the reliable stream, in order: worker → [`JoinMessage::Hello`];
 /// coordinator → [`JoinMessage::Welcome`] or [`JoinMessage::Reject`]; worker →
-/// [`JoinMessage::Need`]; coordinator → the needed scene files (voxmap first) as raw frames;
+/// [`JoinMessage::Need`]; coordinator → the needed asset files (voxmap first) as raw frames;
 /// worker → [`JoinMessage::Ready`].
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum JoinMessage {
@@ -257,26 +259,26 @@ pub enum JoinMessage {
         /// [`PROTOCOL_VERSION`] of the worker.
         version: u16,
     },
-    /// The coordinator accepts the worker and names the scene.
+    /// The coordinator accepts the worker and names the assets (voxmap and classed shell).
     Welcome {
         /// The id the coordinator gave this worker (logs and statistics).
         worker_id: u32,
-        /// The scene's identity.
-        scene: AssetsIdentity,
+        /// The assets' identity.
+        assets: AssetsIdentity,
     },
     /// The coordinator refuses the worker.
     Reject {
         /// Why (UTF-8, at most [`MAX_JOIN_MESSAGE`] bytes).
         reason: String,
     },
-    /// Which scene files the worker lacks.
+    /// Which asset files the worker lacks.
     Need {
         /// Send the voxmap file.
         voxmap: bool,
         /// Send the point shell file.
         shell: bool,
     },
-    /// The worker holds the scene and answers frame datagrams from now on.
+    /// The worker holds the assets and answers frame datagrams from now on.
     Ready,
 }
 
@@ -312,15 +314,15 @@ impl JoinMessage {
                 v.extend_from_slice(&version.to_le_bytes());
                 v
             }
-            JoinMessage::Welcome { worker_id, scene } => {
+            JoinMessage::Welcome { worker_id, assets } => {
                 let mut v = Vec::with_capacity(WELCOME_LEN);
                 v.push(TAG_WELCOME);
                 v.extend_from_slice(&worker_id.to_le_bytes());
-                v.extend_from_slice(&scene.voxmap_hash);
-                v.extend_from_slice(&scene.shell_hash);
-                v.extend_from_slice(&scene.class_count.to_le_bytes());
-                v.extend_from_slice(&scene.voxmap_len.to_le_bytes());
-                v.extend_from_slice(&scene.shell_len.to_le_bytes());
+                v.extend_from_slice(&assets.voxmap_hash);
+                v.extend_from_slice(&assets.shell_hash);
+                v.extend_from_slice(&assets.class_count.to_le_bytes());
+                v.extend_from_slice(&assets.voxmap_len.to_le_bytes());
+                v.extend_from_slice(&assets.shell_len.to_le_bytes());
                 v
             }
             JoinMessage::Reject { reason } => {
@@ -373,7 +375,7 @@ impl JoinMessage {
                 }
                 Ok(JoinMessage::Welcome {
                     worker_id,
-                    scene: AssetsIdentity {
+                    assets: AssetsIdentity {
                         voxmap_hash,
                         shell_hash,
                         class_count,
@@ -572,7 +574,7 @@ mod tests {
 
     #[test]
     fn join_messages_round_trip_and_reject_bad_fields() {
-        let scene = AssetsIdentity {
+        let assets = AssetsIdentity {
             voxmap_hash: [7; 32],
             shell_hash: [9; 32],
             class_count: 64,
@@ -583,7 +585,7 @@ mod tests {
             JoinMessage::Hello { version: 3 },
             JoinMessage::Welcome {
                 worker_id: 5,
-                scene,
+                assets,
             },
             JoinMessage::Reject {
                 reason: "nope".into(),
@@ -602,9 +604,9 @@ mod tests {
         }
         let mut welcome = JoinMessage::Welcome {
             worker_id: 1,
-            scene: AssetsIdentity {
+            assets: AssetsIdentity {
                 class_count: 65,
-                ..scene
+                ..assets
             },
         }
         .encode();

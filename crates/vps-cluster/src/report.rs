@@ -36,7 +36,8 @@ pub struct PeerReport {
     pub connected: bool,
     /// The coordinator closed its connection for bad replies ([`GatherConfig::disconnect_after`](crate::GatherConfig::disconnect_after)).
     pub disconnected_for_bad_replies: bool,
-    /// The coordinator sent it the scene files at join (false: it had them in its cache).
+    /// The coordinator sent it the voxmap or shell file at join (false: it had both in its
+    /// cache). The name predates the cluster assets; it is a key of the session report.
     pub scene_sent: bool,
     /// Round-trip samples in `rtt_ns`.
     pub rtt_samples: u64,

@@ -14,17 +14,18 @@
 //! booked at the next frame ([`crate::gather::SplitDecision`]). The rest of this section is the
 //! split itself, as `--split always` applies it every frame.
 //!
-//! Assignment (between frames): [`split_classes`](crate::split::split_classes) deals the
-//! classes between the coordinator (weight 1) and the active workers in proportion to their
-//! weights, which adapt to each worker's replies ([`Adapt`](crate::split::Adapt): additive
-//! increase while it answers with room to spare, halved on a miss; see [`crate::split`]). With
-//! adaptation off ([`GatherConfig::adaptive_shares`]) every weight stays 1: class `c` goes to
-//! party `c mod (W + 1)`, party 0 being the coordinator. A worker whose share is not merged (no
-//! reply by the deadline, or an invalid reply) `bench_after` frames in a row is benched: it gets no work, only a one-class
-//! probe every `probe_every` frames whose result is checked but not used; `unbench_after` probes
-//! answered in time in a row give it work again. A worker that sends `disconnect_after` bad
-//! replies (undecodable, or implausible sums) with no valid one between them is disconnected
-//! (application close code [`CLOSE_BAD_REPLIES`]).
+//! Assignment (at the start of each frame, [`GatherCore::assign`]):
+//! [`split_classes`](crate::split::split_classes) deals the classes between the coordinator
+//! (weight 1) and the active workers in proportion to their weights, which adapt to each worker's
+//! replies ([`Adapt`](crate::split::Adapt): additive increase while it answers with room to spare,
+//! halved on a miss; see [`crate::split`]). With adaptation off
+//! ([`GatherConfig::adaptive_shares`]) every weight stays 1: class `c` goes to party
+//! `c mod (W + 1)`, party 0 being the coordinator. A worker whose share is not merged (no reply by the
+//! deadline, or an invalid reply) `bench_after` frames in a row is benched: it gets no work, only
+//! a one-class probe every `probe_every` frames whose result is checked but not used;
+//! `unbench_after` probes answered in time in a row give it work again. A worker that sends
+//! `disconnect_after` bad replies (undecodable, or implausible sums) with no valid one between
+//! them is disconnected (application close code [`CLOSE_BAD_REPLIES`]).
 //!
 //! Fallback (at the deadline): every missing share (no reply, or a rejected one) is recomputed on
 //! local threads; only when that cannot finish before the device write is due (one reply window

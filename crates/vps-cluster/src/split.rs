@@ -27,8 +27,9 @@ pub struct Adapt {
     pub gentle_decrease: f64,
     /// Factor applied after a missed share.
     pub miss_decrease: f64,
-    /// Weight bounds.
+    /// Smallest weight: however often a worker misses, its weight is never halved below this.
     pub min_weight: f64,
+    /// Largest weight a worker can reach (the coordinator's is 1).
     pub max_weight: f64,
 }
 
@@ -49,8 +50,13 @@ impl Default for Adapt {
 /// What became of a worker's share this frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ShareOutcome {
-    /// Merged; the round trip and the time the worker had (request sent to deadline).
-    Merged { rtt: Duration, window: Duration },
+    /// Merged in time.
+    Merged {
+        /// The share's round trip: request sent to reply received (s).
+        rtt: Duration,
+        /// The time the worker had: request sent to the reply deadline (s).
+        window: Duration,
+    },
     /// Not merged: late, lost or rejected.
     Missed,
 }

@@ -1,4 +1,4 @@
-//! `vps worker`: dials the coordinator, joins (receiving the scene unless cached), then answers
+//! `vps worker`: dials the coordinator, joins (receiving the voxmap and shell files unless cached), then answers
 //! frame datagrams with the partial sums of the classes each one asks for.
 //!
 //! Threads: one tokio current-thread runtime for the network, which also computes each share: on
@@ -13,7 +13,7 @@
 //! until its stop flag is set. A refusal for good ([`ClusterError::Refused`]: a certificate not
 //! pinned on either side, an incompatible protocol) ends it with that error instead.
 
-use crate::assets::{AssetsCache, ClusterAssets, MAX_SCENE_FILE};
+use crate::assets::{AssetsCache, ClusterAssets, MAX_ASSET_FILE};
 use crate::protocol::{
     read_frame, read_join, write_join, FrameReply, FrameRequest, JoinMessage, PROTOCOL_VERSION,
     REPLY_LEN,
@@ -34,7 +34,7 @@ pub struct WorkerConfig {
     pub coordinator: SocketAddr,
     /// This worker's certificate and key, and the coordinator certificates it accepts.
     pub tls: PeerTls,
-    /// Where received scene files are kept (`None`: no cache).
+    /// Where received voxmap and shell files are kept (`None`: no cache).
     pub cache_dir: Option<PathBuf>,
     /// Compute threads (≥ 1).
     pub threads: usize,
@@ -58,7 +58,8 @@ impl WorkerConfig {
 pub struct WorkerReport {
     /// The id the coordinator gave it.
     pub worker_id: u32,
-    /// The scene was transferred (not found in the cache).
+    /// The voxmap or shell file was transferred (not found in the cache). Named like the
+    /// coordinator's `PeerReport::scene_sent`, a key of the session report.
     pub scene_transferred: bool,
     /// Valid frame requests received.
     pub requests: u64,
@@ -393,8 +394,8 @@ impl Answerer {
     }
 }
 
-/// The join exchange (see [`JoinMessage`]): returns the scene, the worker id and whether the scene
-/// was transferred.
+/// The join exchange (see [`JoinMessage`]): returns the assets, the worker id and whether an asset
+/// file was transferred.
 async fn join(
     conn: &quinn::Connection,
     cache: &AssetsCache,
@@ -408,7 +409,7 @@ async fn join(
     )
     .await?;
     let (worker_id, identity) = match read_join(&mut recv).await? {
-        JoinMessage::Welcome { worker_id, scene } => (worker_id, scene),
+        JoinMessage::Welcome { worker_id, assets } => (worker_id, assets),
         JoinMessage::Reject { reason } => {
             return Err(ClusterError::Refused(format!(
                 "the coordinator rejected the join: {reason}"
@@ -472,7 +473,7 @@ async fn read_file(
     expected: u64,
     what: &str,
 ) -> Result<Vec<u8>, ClusterError> {
-    if expected > MAX_SCENE_FILE {
+    if expected > MAX_ASSET_FILE {
         return Err(ClusterError::Join(format!(
             "{what} file of {expected} bytes exceeds the limit"
         )));

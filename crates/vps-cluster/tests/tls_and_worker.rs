@@ -150,7 +150,7 @@ fn a_worker_survives_garbage_counts_it_and_uses_its_scene_cache() {
                 &mut send,
                 &JoinMessage::Welcome {
                     worker_id: 9,
-                    scene: scene.identity,
+                    assets: scene.identity,
                 },
             )
             .await

@@ -13,6 +13,8 @@
 //!
 //! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
+#![warn(missing_docs)]
+
 pub mod device;
 mod rotation;
 pub mod script;

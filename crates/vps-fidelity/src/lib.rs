@@ -15,6 +15,8 @@
 //!
 //! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
+#![warn(missing_docs)]
+
 pub mod measure;
 pub mod scenes;
 

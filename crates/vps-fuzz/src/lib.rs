@@ -1,6 +1,6 @@
 //! The vps robustness suite: seeded, deterministic mutation fuzzing of every parser and decoder
-//! that reads untrusted bytes (mesh OBJ, STL and PLY; `.vmap`; `.vshell`; haptic TOML; handle
-//! traces; bridge datagrams; cluster datagrams and join messages).
+//! that reads untrusted bytes (mesh OBJ, STL and PLY; `.vmap`; `.vshell`; haptic TOML; scene
+//! files; sweep files; handle traces; bridge datagrams; cluster datagrams and join messages).
 //!
 //! - [`seeds`]: seed corpora generated from real valid inputs (encoded by the project's own
 //!   writers, or by small writers of the mesh formats).
@@ -17,6 +17,8 @@
 //! inputs per target in CI.
 //!
 //! Where this crate sits in vps: `docs/architecture.md` at the repository root.
+
+#![warn(missing_docs)]
 
 pub mod alloc;
 pub mod mutate;

@@ -403,7 +403,10 @@ fn join_messages() -> Vec<JoinMessage> {
     let mut all: Vec<JoinMessage> = [0, 1, u16::MAX]
         .map(|version| JoinMessage::Hello { version })
         .into();
-    all.extend([0, u32::MAX].map(|worker_id| JoinMessage::Welcome { worker_id, scene }));
+    all.extend([0, u32::MAX].map(|worker_id| JoinMessage::Welcome {
+        worker_id,
+        assets: scene,
+    }));
     all.extend(
         ["", "scene mismatch", &"x".repeat(200)].map(|reason| JoinMessage::Reject {
             reason: reason.to_string(),

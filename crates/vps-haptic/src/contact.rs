@@ -7,8 +7,9 @@ use crate::sums::PartialSums;
 use crate::Wrench;
 use glam::DVec3;
 
-/// The contact wrench on the part at its centre of mass: `K_ff Σ d N` and `K_ff Σ (P−x) × d N`,
-/// scaled by `threshold / N` once the contact count N reaches the averaging threshold (10).
+/// The contact wrench on the part about its body origin `x`: `K_ff Σ d N` and `K_ff Σ (P−x) × d N`
+/// (N, N·m), scaled by `threshold / N` once the contact count N reaches the averaging threshold
+/// (default 10). Pure; does not allocate or block.
 pub fn contact_wrench(params: &HapticParams, gains: &Gains, sums: &PartialSums) -> Wrench {
     let n = sums.contacts;
     let threshold = u64::from(params.contact_average_threshold);
@@ -30,7 +31,8 @@ pub fn contact_wrench(params: &HapticParams, gains: &Gains, sums: &PartialSums) 
 /// approach kinetic energy in one frame), capped at `m v_n / (dt |S_f|)` so that one frame's braking
 /// impulse can at most stop the approach, never reverse it (which keeps braking dissipative when
 /// the points' approach speeds differ, e.g. under rotation). Force `−b S_f`; torque `−b S_t` only
-/// with `braking_torque`, capped so one frame can at most stop the angular velocity.
+/// with `braking_torque`, capped so one frame can at most stop the angular velocity. Pure; does not
+/// allocate or block.
 pub fn brake_wrench(
     params: &HapticParams,
     gains: &Gains,

@@ -19,7 +19,7 @@ use glam::{DQuat, DVec3};
 /// `T_s = k_R θ − b_R (w − w_h)`, θ the axis·angle of `R_h R^T` along the shortest arc, clamped the
 /// same way to `k_R s / (2 r_max)`: the torque of the twist that moves the outermost point half a
 /// voxel (an extension: the paper has no torque clamp; without one the user could twist the part
-/// through the force layer).
+/// through the force layer). Pure; does not allocate or block.
 pub fn coupling_wrench(
     params: &HapticParams,
     gains: &Gains,

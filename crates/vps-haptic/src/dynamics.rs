@@ -6,13 +6,13 @@ use crate::state::PartState;
 use crate::Wrench;
 use glam::DQuat;
 
-/// The state after one step under `net` (force and torque at the centre of mass), and whether the
-/// tunnelling guard limited the velocities.
+/// The state after one step under `net` (force and torque at the body origin, taken as the centre
+/// of mass: see [`PartState::position`]), and whether the tunnelling guard limited the velocities.
 ///
 /// `v' = v + dt F/m`, `w' = w + dt T/I` (isotropic inertia: no gyroscopic term); then, if
 /// `|v'| + |w'| r_max > f s / dt`, both are scaled down by the same factor so that no point moves
 /// more than `f s` in a frame; then `x' = x + dt v'` and `q' = normalise(exp(w' dt / 2) q)` (the
-/// exact rotation by `w' dt`, renormalised). Does not allocate.
+/// exact rotation by `w' dt`, renormalised). Does not allocate or block.
 pub fn integrate(
     params: &HapticParams,
     gains: &Gains,

@@ -1,13 +1,13 @@
 //! The sampling kernel (docs/architecture.md#the-haptic-frame): transform each point of a class by the part's pose, look up its
 //! voxel and add its contribution to [`PartialSums`]. No allocation, no locks, no I/O.
 //!
-//! Points go through in blocks of [`LANES`] (see [`crate::lanes`]): (1) transform, floor and look
+//! Points go through in blocks of `LANES` (8, module `lanes`): (1) transform, floor and look
 //! up the whole block; (2) only if some point of the block is not Free, rotate the normals; (3) the
 //! contact arithmetic only if some point is in a Surface voxel, the braking arithmetic only if some
 //! point is in a Proximity voxel, each for all lanes at once with the other lanes masked to zero.
 //! A block in free space therefore costs its transform and lookups only.
 //!
-//! Three copies of a block, the same bits: the portable lane loops of [`crate::lanes`] (baseline
+//! Three copies of a block, the same bits: the portable lane loops of module `lanes` (baseline
 //! x86-64 and other targets, and the zero-padded tail block of each class); where the CPU has
 //! AVX2, full blocks written with AVX2 intrinsics (`avx2::sample_block`); and where it also has
 //! AVX-512F, AVX-512DQ and POPCNT, the AVX-512 copy (`accumulate_avx512`): full blocks of 16
@@ -28,10 +28,10 @@
 //! folded into the arithmetic, hence exact) is widened to f64 and rounded to the nearest integer
 //! by adding `1.5 · 2^52`; the sum's bits minus those of `1.5 · 2^52` are the integer (the
 //! AVX-512 copy converts `y` to the same integer directly and adds those bits itself). This is
-//! exact for `|y| < 2^51`; every point is kept within `|y| ≤ 2^50` ([`Y_MAX`]): when the frame's
-//! bounds ([`GridFrame::needs_clamp`]) cannot rule out a larger value, each value is clamped
+//! exact for `|y| < 2^51`; every point is kept within `|y| ≤ 2^50` (`Y_MAX`): when the frame's
+//! bounds (`GridFrame::needs_clamp`) cannot rule out a larger value, each value is clamped
 //! first, which changes nothing for a value already in range, so both paths give the same bits.
-//! Lanes are `i64`; a lane adds at most [`CHUNK_BLOCKS`] values (≤ 2^11 · 2^50 = 2^61 < 2^63)
+//! Lanes are `i64`; a lane adds at most `CHUNK_BLOCKS` values (≤ 2^11 · 2^50 = 2^61 < 2^63)
 //! before it is flushed into the class's `i128` totals.
 
 use crate::classed::ClassedShell;

@@ -3,7 +3,7 @@
 //! process, a port or a sleep, and every mode (local threads, child processes, LAN workers) calls the
 //! same code.
 //!
-//! The contract other crates rely on (the runtime, the device layer, later the cluster):
+//! The contract other crates rely on (the runtime, the device layer, the cluster):
 //! - [`HandleSample`], [`Wrench`]: what a device reports and receives (SI units).
 //! - [`PartState`]: pose and velocities of the dynamic object (f64).
 //! - [`KernelPose`]: the f32 per-frame input of the sampling kernel, made from a [`PartState`].
@@ -18,6 +18,8 @@
 //! (sampling), [`sums`] (fixed-point sums), [`params`] and [`stability`] (parameters and the bound
 //! behind the default gains), [`contact`] (force field, braking), [`coupling`] (virtual coupling),
 //! [`dynamics`] (integration, tunnelling guard), [`frame`] (one frame).
+
+#![warn(missing_docs)]
 
 pub mod classed;
 pub mod contact;

@@ -317,6 +317,7 @@ impl HapticParams {
     }
 
     /// The resolved gains: given values, or the defaults derived from the stability bound.
+    /// Arithmetic only (called by [`crate::step`] every frame); does not allocate or block.
     pub fn gains(&self) -> Gains {
         let m = self.mass;
         let inertia = self

@@ -8,11 +8,13 @@ use glam::{DQuat, DVec3, Mat3, Vec3};
 /// Invariants kept by [`crate::step`]: every component finite, `orientation` unit length.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PartState {
-    /// Position of the centre of mass (m).
+    /// Position of the body origin (m): the part's grip, which is its centre of mass unless a
+    /// scene file sets `part.grip`. The dynamics ([`crate::dynamics`]) treat this point as the
+    /// centre of mass.
     pub position: DVec3,
     /// Orientation: body frame → world frame (unit quaternion).
     pub orientation: DQuat,
-    /// Linear velocity of the centre of mass (m/s).
+    /// Linear velocity of the body origin (m/s).
     pub linear_velocity: DVec3,
     /// Angular velocity, world frame (rad/s).
     pub angular_velocity: DVec3,
@@ -55,9 +57,9 @@ impl PartState {
 pub struct KernelPose {
     /// Rotation matrix, body → world.
     pub rotation: Mat3,
-    /// Position of the centre of mass (m).
+    /// Position of the body origin (m), [`PartState::position`].
     pub translation: Vec3,
-    /// Linear velocity of the centre of mass (m/s).
+    /// Linear velocity of the body origin (m/s).
     pub linear_velocity: Vec3,
     /// Angular velocity, world frame (rad/s).
     pub angular_velocity: Vec3,

@@ -102,7 +102,8 @@ impl PartialSums {
     /// depth sums zero without contacts; `S_q ≥ 0`; braking sums zero without approaching points and
     /// `|S_f component| ≤ √(approaching · S_q)` (Cauchy–Schwarz), each with one LSB per point of
     /// rounding slack (on `S_q` too: a class whose `S_q` rounds to 0 may still carry an `S_f`).
-    /// Torque sums need the part's radius: see [`PartialSums::torque_within`].
+    /// Torque sums need the part's radius: see [`PartialSums::torque_within`]. Arithmetic only
+    /// (the cluster checks every reply with it on the frame thread); does not allocate or block.
     pub fn is_plausible(&self, points_in_share: u64, max_depth: f64) -> bool {
         let counts_ok = self.sampled == points_in_share
             && self
@@ -142,7 +143,8 @@ impl PartialSums {
     /// True when the torque sums are consistent with levers no longer than `max_radius` (m) and
     /// contact depths of at most `max_depth` (m; see [`PartialSums::max_contact_depth`]):
     /// `|Σ (P−x) × d N|_c ≤ r_max · contacts · max_depth` and
-    /// `|S_t|_c ≤ r_max · √(approaching · S_q)`, with one LSB per point of slack.
+    /// `|S_t|_c ≤ r_max · √(approaching · S_q)`, with one LSB per point of slack. Arithmetic
+    /// only; does not allocate or block.
     pub fn torque_within(&self, max_radius: f64, max_depth: f64) -> bool {
         if !(max_radius.is_finite() && max_radius >= 0.0 && max_depth.is_finite()) {
             return false;

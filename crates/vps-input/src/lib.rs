@@ -11,6 +11,8 @@
 //!
 //! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
+#![warn(missing_docs)]
+
 pub mod bridge;
 mod error;
 pub mod spacemouse;

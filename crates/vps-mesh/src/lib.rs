@@ -14,6 +14,8 @@
 //!
 //! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
+#![warn(missing_docs)]
+
 pub mod builtin;
 pub mod closest_point;
 pub mod load;

@@ -3,6 +3,8 @@
 //! [`transport_bench`] (the raw UDP ping-pong baseline of `vps bench transport`). See
 //! docs/architecture.md#exact-sums-and-the-cluster for the cluster they rehearse.
 
+#![warn(missing_docs)]
+
 pub mod relay;
 pub mod transport_bench;
 

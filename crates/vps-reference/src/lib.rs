@@ -1,4 +1,4 @@
-//! The exact contact reference that the voxel force is held against (issue 5).
+//! The exact contact reference that the voxel force is held against (docs/fidelity.md).
 //!
 //! For a part pose, every shell point is measured against the static triangle meshes themselves
 //! (not the voxmap): signed distance to the nearest triangle through a bounding-volume hierarchy,
@@ -22,6 +22,8 @@
 //! and [`ExactScene::unsigned_components`] counts such components. All lengths are metres.
 //!
 //! Where this crate sits in vps: `docs/architecture.md` at the repository root.
+
+#![warn(missing_docs)]
 
 pub mod bvh;
 pub mod components;

@@ -21,7 +21,7 @@ pub struct Schedule {
 /// Plans the next tick. Rules: if tick `next` is still ahead, or less than one period late, run it
 /// (late frames are recorded against their scheduled tick). If it is a whole period or more late,
 /// skip to the first tick strictly after `elapsed` and count the skipped ones as missed.
-/// `period` must be > 0 (a zero period is treated as 1 ns).
+/// `period` must be > 0 (a zero period is treated as 1 ns). Pure; does not allocate or block.
 pub fn schedule(elapsed: Duration, next: u64, period: Duration) -> Schedule {
     let period_ns = period.as_nanos().max(1);
     let due = period_ns.saturating_mul(next as u128);
@@ -64,7 +64,7 @@ pub struct Tick {
 }
 
 impl Tick {
-    /// `started − scheduled` (the period error), in ns, saturating.
+    /// `started − scheduled` (the period error), in ns, saturating. Does not allocate or block.
     pub fn lateness_ns(&self) -> u64 {
         u64::try_from(
             self.started

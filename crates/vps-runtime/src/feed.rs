@@ -63,7 +63,7 @@ impl RecentMax {
     pub const WINDOW: u32 = 32;
 
     /// Records `value` and returns the largest value of the last `WINDOW` to `2 × WINDOW` records
-    /// (fewer at the start), `value` included.
+    /// (fewer at the start), `value` included. Does not allocate or block.
     pub fn record(&mut self, value: u64) -> u64 {
         if self.filled == Self::WINDOW {
             self.previous = self.current;

@@ -1,10 +1,16 @@
 //! The 1 kHz haptic loop: one dedicated frame thread that reads the device, samples the shell with
-//! the [`ClassPool`], steps the sans-IO core and writes the device, every tick.
+//! the [`ClassPool`] (or another [`FrameSampler`], [`spawn_loop_with`]), steps the sans-IO core and
+//! writes the device, every tick.
 //!
 //! Per frame: wait for the tick ([`FrameClock`]) → `device.read(tick time)` → [`KernelPose`] of the
-//! current state → pool computes all classes (workers until half the watchdog budget, then the
-//! frame thread computes what is missing) → [`step`] → watchdog check → `device.write` → statistics
-//! → publish to the state feed (never blocks).
+//! current state → the [`FrameSampler`] computes all classes, with a reply deadline half the
+//! watchdog budget after the frame started (when the frame thread woke for its tick, where the
+//! watchdog counts from too) → [`step`] → saturation to the device's
+//! [`DeviceLimits`](vps_device::DeviceLimits) (counted as clamped) → watchdog check →
+//! `device.write` → statistics → publish to the state feed (never blocks). With the local
+//! [`ClassPool`], pool threads and the frame thread claim classes, and the frame thread computes
+//! any class a pool thread still holds at the *hedge* (see [`crate::pool`]); the cluster's
+//! gatherer is `vps_cluster::shares`.
 //!
 //! Watchdog: a frame whose compute time (device read to just before the write) reaches
 //! `LoopConfig::watchdog` sends the zero wrench instead (counted in `watchdog_trips`); the part's

@@ -12,6 +12,8 @@
 //!
 //! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
+#![warn(missing_docs)]
+
 pub mod clock;
 pub mod feed;
 pub mod haptic_loop;

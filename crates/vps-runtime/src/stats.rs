@@ -165,7 +165,8 @@ impl FrameStats {
         s.clamped_frames += r.clamped as u64;
     }
 
-    /// The counters so far (percentiles not filled in; cheap, for the state feed).
+    /// The counters so far (percentiles not filled in; for the state feed, every frame). Does not
+    /// allocate or block.
     pub fn counters(&self) -> &StatsSummary {
         &self.summary
     }

@@ -1,12 +1,13 @@
 //! How a session is stopped from outside its frame thread: SIGINT, SIGTERM and SIGHUP set the
-//! session's stop flag (and record which signal came); the frame thread sees the flag at its next
-//! tick, writes the exact zero wrench and returns its report (see
-//! [`crate::haptic_loop`]). The handlers only store into atomics (async-signal-safe); a second
-//! signal while the session stops sets the same flags again and cannot skip the zero write.
+//! session's stop flag (and record which signal came); the frame thread sees the flag once the
+//! frame in progress is written, before the next one, writes the exact zero wrench and returns its
+//! report (see [`crate::haptic_loop`]). The handlers only store into atomics (async-signal-safe); a
+//! second signal while the session stops sets the same flags again and cannot skip the zero write.
 //!
-//! Exit codes of a session command (documented in the README): 0 the session ran to its end,
-//! 1 an error (the device failed, a bad argument), 101 a panic on the frame path (the device was
-//! sent zero first), `128 + N` stopped by signal N after the report was written
+//! Exit codes of a session command (listed in docs/sessions.md; set by the `vps` binary,
+//! `src/exit.rs`): 0 the session ran to its end, 1 an error (the device failed, a bad argument),
+//! 2 a command line refused or a worker refused for good, 101 a panic on the frame path (the
+//! device was sent zero first), `128 + N` stopped by signal N after the report was written
 //! ([`StopSignal::exit_code`]: 129 SIGHUP, 130 SIGINT, 143 SIGTERM).
 
 use crate::RuntimeError;

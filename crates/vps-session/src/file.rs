@@ -1,7 +1,7 @@
-//! The scene file (TOML): one file describes a whole session: the static objects, the part, the
-//! voxel settings, the workspace region, the haptic parameters, the simulated hand's path and the
-//! default device. See `docs/scenes.md` for every key. Parsing rejects unknown keys; every error
-//! names the file and the dotted field.
+//! The scene file (TOML): one file describes a scene and what sessions on it run with: the static
+//! objects, the part, the voxel settings, the workspace region, the haptic parameters, the
+//! simulated hand's path and the default device. See `docs/scenes.md` for every key. Parsing
+//! rejects unknown keys; every error names the file and the dotted field.
 
 use crate::device::BridgeSettings;
 use crate::error::{field_error, SceneError};

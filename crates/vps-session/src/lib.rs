@@ -1,12 +1,21 @@
 //! Sessions from scene files: one TOML file describes the static objects, the part, the voxel
 //! settings, the haptic parameters, the simulated hand's path and the default device
 //! ([`file::SceneFile`]); [`scene::LoadedScene`] loads and places its meshes; [`scene::SessionAssets`]
-//! holds the built voxmap (cached on disk, [`cache`]), point shell, parameters and script; and
-//! [`plan::SessionPlan`] is the one way the runtime's `SessionSetup` is made.
+//! holds the built voxmap (cached on disk, [`cache`]), point shell, parameters, device choice and
+//! hand plan; and [`plan::SessionPlan`] is the one way the runtime's `SessionSetup` is made.
+//!
+//! Module map: [`file`](mod@file) (the scene file), [`mesh_source`] (mesh files and built-ins, placed),
+//! [`length`] (lengths with unit suffixes), [`estimate`] (a voxmap's cost before it is built),
+//! [`cache`] (the voxmap cache), [`scene`] (scene file → [`LoadedScene`] → [`SessionAssets`]),
+//! [`script`] (the simulated hand's scripts), [`device`] (the device a session is driven by),
+//! [`plan`] ([`SessionPlan`], signal handlers), [`sweep_file`] (the sweep file), [`error`]
+//! ([`SceneError`]).
 //!
 //! Units: metres, kilograms, seconds throughout; mesh files may declare cm, mm or inches.
 //!
 //! Where this crate sits in vps: `docs/architecture.md` at the repository root.
+
+#![warn(missing_docs)]
 
 pub mod cache;
 pub mod device;

@@ -25,13 +25,14 @@ use crate::hand::{approach_and_rest_on_wall, START};
 use crate::scene::{wall_tree, VOXEL};
 use crate::shell::{sphere_shell, SPHERE_RADIUS};
 
-/// Classes of the cluster scene's shell.
+/// Classes of the shell of the cluster tests' assets ([`scene`]).
 pub const CLASSES: u32 = 64;
 
 /// Frames of the standard session.
 pub const FRAMES: u64 = 400;
 
-/// The wall as a tree and a 600-point sphere shell in [`CLASSES`] classes.
+/// The cluster tests' assets: the wall as a tree and a 600-point sphere shell in [`CLASSES`]
+/// classes. (Named `scene` for its many callers; it is a [`ClusterAssets`], static wall and part.)
 pub fn scene() -> Arc<ClusterAssets> {
     Arc::new(ClusterAssets::new(Arc::new(wall_tree()), &sphere_shell(600), CLASSES).expect("scene"))
 }
@@ -178,7 +179,7 @@ pub fn one_process_writes_for(frames: u64) -> Vec<Wrench> {
 
 /// The command line of a one-thread `vps worker` dialling `coordinator` as local worker `k` of
 /// `certs` (its own certificate: the coordinator admits one live connection per certificate),
-/// pinning the coordinator's certificate, caching scenes in `cache_dir`. Panics when `certs` has
+/// pinning the coordinator's certificate, caching received voxmap and shell files in `cache_dir`. Panics when `certs` has
 /// no worker `k`.
 pub fn worker_args(
     coordinator: SocketAddr,

@@ -19,6 +19,8 @@
 //!
 //! Where this crate sits in vps: `docs/architecture.md#crates` at the repository root.
 
+#![warn(missing_docs)]
+
 #[cfg(feature = "cluster")]
 pub mod cluster;
 pub mod device;

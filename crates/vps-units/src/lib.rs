@@ -4,6 +4,8 @@
 //!
 //! Where this crate sits in vps: `docs/architecture.md#crates` at the repository root.
 
+#![warn(missing_docs)]
+
 /// `text` (trimmed) as a number times the scale of its unit suffix: the first `(suffix, scale)`
 /// of `units` that `text` ends with is stripped (white space between the number and the unit is
 /// allowed) and the rest parsed as an `f64`; with no listed suffix the whole text is the number,

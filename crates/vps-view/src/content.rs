@@ -49,7 +49,8 @@ impl Default for SceneLimits {
 /// Largest coarsening factor tried; past it the coarse cells are thinned by a stride.
 const MAX_COARSENING: u32 = 64;
 
-/// The scene's description as `/scene` serves it (JSON). Lengths in m.
+/// What the viewer draws, as `/scene` serves it (JSON): the static scene and, when there is one,
+/// the part (its shell and mesh; the `/scene/*` routes serve both). Lengths in m.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct SceneMeta {
     /// What the scene is (e.g. "aircraft bay", a file name).

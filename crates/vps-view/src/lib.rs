@@ -8,7 +8,8 @@
 //! one JSON state message per tick to every WebSocket client. A slow client only ever misses
 //! states: nothing queues up.
 //!
-//! Routes (see [`server`]): `/` the page, `/app.js` its script, `/scene` scene metadata (JSON),
+//! Routes (see [`server`]): `/` the page, `/app.js` its script, `/scene` the viewer content's
+//! metadata (JSON, [`content::SceneMeta`]: the static scene and the part),
 //! `/scene/boxes` and `/scene/shell` (little-endian f32 xyz triples, m), `/scene/mesh` and
 //! `/scene/part_mesh` (little-endian f32 triangle corners, m), `/state` the latest state (JSON),
 //! `/ws` the state stream (WebSocket, JSON text messages). Every request's `Host` and `Origin` are
@@ -29,6 +30,8 @@
 //! DevTools, for browser tests).
 //!
 //! Where this crate sits in vps: `docs/architecture.md` at the repository root.
+
+#![warn(missing_docs)]
 
 pub mod access;
 pub mod browser;

@@ -12,10 +12,14 @@
 //!   the surface, optional distance layers (4- and 8-bit voxels).
 //! - [`mass`]: volume, centre of mass and bounding radius of a mesh.
 //! - [`shell`]: the point shell of the dynamic object.
+//! - [`memory`]: working-memory estimates made before any voxel is computed, and the budget.
+//! - [`stats`]: what one voxelization measured; [`error`]: why it failed.
 //!
 //! Internally every step works on bit planes (one bit per voxel, rows padded to 64-bit words), so a
 //! 72-million-voxel scene needs about 9 MB per plane and word operations handle 64 voxels at once.
 //! All lengths are metres.
+
+#![warn(missing_docs)]
 
 mod bitgrid;
 pub mod error;

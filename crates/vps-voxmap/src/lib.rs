@@ -1,15 +1,19 @@
-//! The voxmap: 2-bit voxels of a static scene, stored in a fixed-depth 2^(3N) tree (McNeely et al.
-//! 1999, §4.3), plus the point shell of the dynamic object.
+//! The voxmap: 2-bit voxels of a static scene (4- and 8-bit with distance layers, [`VoxelWidth`]),
+//! stored in a fixed-depth 2^(3N) tree (McNeely et al. 1999, §4.3), plus the point shell of the
+//! dynamic object.
 //!
 //! Module map:
-//! - [`voxel`]: the four voxel kinds.
+//! - [`voxel`]: the four voxel kinds, the voxel widths and layered voxels.
 //! - [`grid`]: [`GridSpec`], the world ↔ voxel-index mapping shared by every structure.
 //! - [`dense`]: [`DenseGrid`], one byte per voxel; the voxelizer's workspace and the tree's test oracle.
 //! - `tree` (mask, leaf, internal, root, accessor): the fixed-depth tree, constant-cost `get`.
 //! - [`shell`]: [`PointShell`], body-frame points with inward normals and mass properties.
-//! - [`file`]: the versioned `.vmap` and `.vshell` binary formats with content hashes.
+//! - [`file`](mod@file): the versioned `.vmap` and `.vshell` binary formats with content hashes.
+//! - [`atomic`]: atomic file replacement, behind [`file::save_voxmap`] and [`file::save_shell`].
 //!
 //! Where this crate sits in vps: `docs/architecture.md` at the repository root.
+
+#![warn(missing_docs)]
 
 pub mod atomic;
 pub mod dense;

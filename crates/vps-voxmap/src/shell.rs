@@ -1,5 +1,6 @@
 //! The point shell of the dynamic object (docs/architecture.md#voxmaps-and-point-shells): surface points with inward unit normals in the
-//! body frame, whose origin is the object's centre of mass.
+//! body frame, whose origin is the object's centre of mass as built (a session may move it to the
+//! part's grip, `vps_session::LoadedScene::build_shell`).
 
 use glam::{DVec3, Vec3};
 
@@ -25,7 +26,9 @@ pub enum ShellMethod {
 }
 
 /// The point shell. Invariants: `points.len() == normals.len()`, every normal is unit length and
-/// finite, points are in the body frame (m, origin at the centre of mass), Morton ordered.
+/// finite, points are in the body frame (m), Morton ordered. The body origin is the centre of mass
+/// as built by the voxelizer; a session's shell has its origin at the part's grip instead
+/// (`vps_session::LoadedScene::build_shell` shifts the points, not `mass`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct PointShell {
     /// Body-frame points (m), f32 for the sampling kernel.
@@ -36,7 +39,8 @@ pub struct PointShell {
     pub voxel_size: f64,
     /// How the points were placed.
     pub method: ShellMethod,
-    /// Mass properties of the source mesh (its COM is the body origin).
+    /// Mass properties of the source mesh, in the mesh's own frame (its COM is the body origin
+    /// unless the points were shifted to a grip).
     pub mass: MassProperties,
 }
 

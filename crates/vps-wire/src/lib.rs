@@ -5,6 +5,8 @@
 //!
 //! Where this crate sits in vps: `docs/architecture.md#crates` at the repository root.
 
+#![warn(missing_docs)]
+
 /// Sequential writer into `bytes`, starting at a given offset (after a header the caller wrote).
 pub struct SliceWriter<'a> {
     bytes: &'a mut [u8],

@@ -2,12 +2,12 @@
 //! (64³-voxel cubes, the default tree's lower node) so that working memory and the voxmap follow the
 //! scene's surface, not its bounding volume.
 //!
-//! 1. Per object ([`object`]): triangles binned to chunks, occupied chunks scan-converted, Free space
+//! 1. Per object (module `object`): triangles binned to chunks, occupied chunks scan-converted, Free space
 //!    flooded from the object window's walls across chunks with a worklist.
 //! 2. Objects merged chunk by chunk with the precedence Interior > Surface > Free.
-//! 3. Per chunk that holds Surface, or touches one that does ([`finish`]): Proximity, the `k`-layer
+//! 3. Per chunk that holds Surface, or touches one that does (module `finish`): Proximity, the `k`-layer
 //!    offset and the distance layers in a halo box read from the neighbours.
-//! 4. The tree is built straight from the finished chunks ([`source`]).
+//! 4. The tree is built straight from the finished chunks (module `source`).
 //!
 //! Empty space costs one small enum per chunk; only chunks with Surface hold bit planes.
 

@@ -18,14 +18,15 @@ use crate::{BlockCells, WideBlockCells, BLOCK_LANES, WIDE_BLOCK_LANES};
 use glam::UVec3;
 use rayon::prelude::*;
 
-/// Largest directory built (bytes): 64 MiB, i.e. grids up to 2^34 voxels with the 512-tree
-/// (e.g. 2,560³ voxels; the aircraft bay at 5 mm needs 0.63 MB). Slot indices therefore fit
-/// a `u32`.
+/// Largest directory built (bytes): 64 MiB, i.e. 2^24 four-byte slots, one per 8³ leaf cube:
+/// grids up to 2^33 voxels with the 512-tree (e.g. 2,048³ voxels; the aircraft bay at 5 mm needs
+/// 0.62 MB, see [`DIRECTORY_ALLOWANCE_BYTES`]). Slot indices therefore fit a `u32`.
 pub const DIRECTORY_MAX_BYTES: usize = 64 << 20;
 
 /// A directory up to this size (bytes, 4 MiB) is built whatever the tree's size; a larger one
 /// only when it is no larger than the tree's arenas ([`VoxelTree::memory_bytes`]). The aircraft
-/// bay at 5 mm: 0.63 MB beside 7.45 MB. A large, mostly empty grid (a small part far from the rest
+/// bay at 5 mm (2-bit): 624,624 B beside 7,445,128 B (`vps voxelize builtin:aircraft-bay -o bay.vmap`
+/// then `vps inspect bay.vmap --json`). A large, mostly empty grid (a small part far from the rest
 /// of the scene) gets no directory and walks the tree instead.
 pub const DIRECTORY_ALLOWANCE_BYTES: usize = 4 << 20;
 

@@ -1,6 +1,7 @@
 //! The fixed-depth `2^(3N)` voxel tree (docs/architecture.md#voxmaps-and-point-shells, McNeely et al. 1999 §4.3), in OpenVDB's shape:
-//! a dense [`root`] array of upper [`internal`] nodes, lower internal nodes, and bit-packed [`leaf`]
-//! nodes; a region that is uniform at any level is one tile value in its parent's slot.
+//! a dense root array (module `root`) of upper internal nodes (module `internal`), lower internal
+//! nodes, and bit-packed leaf nodes (module `leaf`); a region that is uniform at any level is one
+//! tile value in its parent's slot.
 //!
 //! Lookup reads the root slot, at most two internal slots and one leaf word: a fixed number of index
 //! computations with no loop over depth. Memory follows the scene's surface, not its volume.
@@ -686,7 +687,7 @@ impl VoxelLookup for VoxelTree {
         VoxelTree::get_wide_block(self, cells)
     }
 
-    /// `task` on a [`ShapedTree`] of this tree: which copy of the lookups, chosen once here.
+    /// `task` on a `ShapedTree` of this tree: which copy of the lookups, chosen once here.
     #[inline(always)]
     fn specialised<T: LookupTask>(&self, task: T) -> T::Output {
         match self.fixed_shape {
