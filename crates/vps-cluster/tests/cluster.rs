@@ -13,13 +13,13 @@ use vps_runtime::FrameSampler;
 #[test]
 fn two_workers_give_sums_bit_identical_to_one_process() {
     let ids = identities();
-    let scene = scene();
-    let (coordinator, workers) = coordinator_with_thread_workers(&ids, scene.clone(), 2);
+    let assets = assets();
+    let (coordinator, workers) = coordinator_with_thread_workers(&ids, assets.clone(), 2);
     let mut shares = coordinator.shares(split_always()).unwrap();
     let poses = poses(40);
     let mut touched = false;
     for pose in &poses {
-        let want = sample_all(&*scene.map, &scene.shell, pose);
+        let want = sample_all(&*assets.map, &assets.shell, pose);
         touched |= want.contacts > 0 && want.approaching > 0;
         let got = shares.compute(pose, Instant::now() + DEADLINE);
         assert_eq!(got.sums, want);
@@ -47,15 +47,15 @@ fn two_workers_give_sums_bit_identical_to_one_process() {
 #[test]
 fn a_worker_leaving_mid_run_changes_nothing_in_the_sums() {
     let ids = identities();
-    let scene = scene();
-    let (coordinator, mut workers) = coordinator_with_thread_workers(&ids, scene.clone(), 2);
+    let assets = assets();
+    let (coordinator, mut workers) = coordinator_with_thread_workers(&ids, assets.clone(), 2);
     let mut shares = coordinator.shares(split_always()).unwrap();
     let poses = poses(60);
     for (i, pose) in poses.iter().enumerate() {
         if i == 20 {
             workers.pop().unwrap().stop().unwrap();
         }
-        let want = sample_all(&*scene.map, &scene.shell, pose);
+        let want = sample_all(&*assets.map, &assets.shell, pose);
         assert_eq!(
             shares.compute(pose, Instant::now() + DEADLINE).sums,
             want,
@@ -80,13 +80,13 @@ fn end_with_fake<T>(
     worker.join().unwrap();
 }
 
-/// A coordinator on `scene` with one hand-driven worker joined over real QUIC: the coordinator,
+/// A coordinator on `assets` with one hand-driven worker joined over real QUIC: the coordinator,
 /// the worker and its connection (the coordinator's address is `coordinator.local_addr()`).
 fn coordinator_with_one_fake(
-    scene: &std::sync::Arc<vps_cluster::ClusterAssets>,
+    assets: &std::sync::Arc<vps_cluster::ClusterAssets>,
 ) -> (vps_cluster::Coordinator, FakeWorker, quinn::Connection) {
     let ids = identities();
-    let coordinator = start_coordinator(&ids, scene.clone());
+    let coordinator = start_coordinator(&ids, assets.clone());
     let addr = coordinator.local_addr().unwrap();
     let fake = FakeWorker::new(&ids.worker, &ids.coordinator);
     let conn = fake
@@ -100,8 +100,8 @@ fn coordinator_with_one_fake(
 
 #[test]
 fn a_silent_worker_is_benched_and_a_recovered_one_gets_work_again() {
-    let scene = scene();
-    let (coordinator, fake, conn) = coordinator_with_one_fake(&scene);
+    let assets = assets();
+    let (coordinator, fake, conn) = coordinator_with_one_fake(&assets);
     let config = GatherConfig {
         bench_after: 3,
         probe_every: 2,
@@ -111,11 +111,11 @@ fn a_silent_worker_is_benched_and_a_recovered_one_gets_work_again() {
     let mut shares = coordinator.shares(config).unwrap();
     let poses = poses(30);
     // Silent for 6 frames (short deadline: nobody answers anyway).
-    assert_exact_frames(&mut shares, &scene, &poses[..6], Duration::from_millis(2));
+    assert_exact_frames(&mut shares, &assets, &poses[..6], Duration::from_millis(2));
     assert_eq!(shares.active_workers(), 0, "benched after 3 misses");
     // Now answer every request correctly from a thread.
-    let answering = answer_slowly(&fake, conn.clone(), scene.clone(), Duration::ZERO);
-    assert_exact_frames(&mut shares, &scene, &poses[6..], DEADLINE);
+    let answering = answer_slowly(&fake, conn.clone(), assets.clone(), Duration::ZERO);
+    assert_exact_frames(&mut shares, &assets, &poses[6..], DEADLINE);
     let report = shares.report();
     let peer = &report.peers[0];
     assert!(peer.benched_times >= 1, "{peer:?}");
@@ -127,8 +127,8 @@ fn a_silent_worker_is_benched_and_a_recovered_one_gets_work_again() {
 
 #[test]
 fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
-    let scene = scene();
-    let (coordinator, fake, conn) = coordinator_with_one_fake(&scene);
+    let assets = assets();
+    let (coordinator, fake, conn) = coordinator_with_one_fake(&assets);
     let addr = coordinator.local_addr().unwrap();
     // Raw UDP garbage at the coordinator's socket: counted (0xA5 lacks QUIC's fixed bit, and the
     // short ones are shorter than any QUIC packet), dropped by quinn, nothing panics. Garbage
@@ -145,7 +145,7 @@ fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
     let mut shares = coordinator.shares(split_always()).unwrap();
     let frames = 8;
     let misbehave = {
-        let (scene, conn) = (scene.clone(), conn.clone());
+        let (assets, conn) = (assets.clone(), conn.clone());
         let rt = fake.runtime.handle().clone();
         std::thread::spawn(move || {
             rt.block_on(async move {
@@ -156,7 +156,7 @@ fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
                         .num_threads(1)
                         .build()
                         .unwrap()
-                        .install(|| scene.sample_mask(&req.pose, req.classes));
+                        .install(|| assets.sample_mask(&req.pose, req.classes));
                     let send = |b: &[u8]| {
                         let _ = conn.send_datagram(bytes::Bytes::copy_from_slice(b));
                     };
@@ -189,7 +189,7 @@ fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
             })
         })
     };
-    assert_exact_frames(&mut shares, &scene, &poses(frames), DEADLINE);
+    assert_exact_frames(&mut shares, &assets, &poses(frames), DEADLINE);
     let report = shares.report();
     let peer = &report.peers[0];
     assert_eq!(peer.merged, 0, "{peer:?}");
@@ -212,8 +212,8 @@ fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
 
 #[test]
 fn a_worker_that_keeps_sending_implausible_sums_is_disconnected() {
-    let scene = scene();
-    let (coordinator, fake, conn) = coordinator_with_one_fake(&scene);
+    let assets = assets();
+    let (coordinator, fake, conn) = coordinator_with_one_fake(&assets);
     const LIMIT: u32 = 6;
     let mut shares = coordinator
         .shares(GatherConfig {
@@ -224,15 +224,15 @@ fn a_worker_that_keeps_sending_implausible_sums_is_disconnected() {
         .unwrap();
     // Every reply, work or probe, claims one point more than it was asked for.
     let liar = {
-        let scene = scene.clone();
+        let assets = assets.clone();
         reply_with(&fake, conn.clone(), move |req| {
-            let mut sums = scene.sample_mask_serial(&req.pose, req.classes);
+            let mut sums = assets.sample_mask_serial(&req.pose, req.classes);
             sums.sampled += 1;
             Some(sums)
         })
     };
     // Every frame exact: bad shares are recomputed.
-    assert_exact_frames(&mut shares, &scene, &poses(40), DEADLINE);
+    assert_exact_frames(&mut shares, &assets, &poses(40), DEADLINE);
     let report = shares.report();
     let peer = &report.peers[0];
     assert!(peer.disconnected_for_bad_replies, "{peer:?}");
@@ -260,10 +260,10 @@ fn a_worker_that_keeps_sending_implausible_sums_is_disconnected() {
 fn answer_slowly(
     fake: &FakeWorker,
     conn: quinn::Connection,
-    scene: std::sync::Arc<vps_cluster::ClusterAssets>,
+    assets: std::sync::Arc<vps_cluster::ClusterAssets>,
     per_class: Duration,
 ) -> std::thread::JoinHandle<(u32, quinn::ConnectionError)> {
-    answer(fake, conn, scene, per_class, usize::MAX)
+    answer(fake, conn, assets, per_class, usize::MAX)
 }
 
 /// Answers the first `count` requests as [`answer_slowly`] does, then reads the rest without
@@ -271,7 +271,7 @@ fn answer_slowly(
 fn answer(
     fake: &FakeWorker,
     conn: quinn::Connection,
-    scene: std::sync::Arc<vps_cluster::ClusterAssets>,
+    assets: std::sync::Arc<vps_cluster::ClusterAssets>,
     per_class: Duration,
     count: usize,
 ) -> std::thread::JoinHandle<(u32, quinn::ConnectionError)> {
@@ -282,7 +282,7 @@ fn answer(
         }
         answered += 1;
         std::thread::sleep(per_class * req.classes.count_ones());
-        Some(scene.sample_mask_serial(&req.pose, req.classes))
+        Some(assets.sample_mask_serial(&req.pose, req.classes))
     })
 }
 
@@ -327,8 +327,8 @@ fn run_with_one_slow_worker(
     adaptive_shares: bool,
     frames: usize,
 ) -> (Vec<u32>, vps_cluster::PeerReport) {
-    let scene = scene();
-    let (coordinator, fake, conn) = coordinator_with_one_fake(&scene);
+    let assets = assets();
+    let (coordinator, fake, conn) = coordinator_with_one_fake(&assets);
     let config = GatherConfig {
         bench_after: u32::MAX,
         log_every: None,
@@ -336,10 +336,10 @@ fn run_with_one_slow_worker(
         ..split_always()
     };
     let mut shares = coordinator.shares(config).unwrap();
-    let slow = answer_slowly(&fake, conn, scene.clone(), Duration::from_millis(1));
+    let slow = answer_slowly(&fake, conn, assets.clone(), Duration::from_millis(1));
     let mut recomputed = Vec::new();
     for (i, pose) in poses(frames).iter().enumerate() {
-        let want = sample_all(&*scene.map, &scene.shell, pose);
+        let want = sample_all(&*assets.map, &assets.shell, pose);
         let got = shares.compute(pose, Instant::now() + Duration::from_millis(20));
         assert_eq!(got.sums, want, "frame {i}");
         recomputed.push(got.fallback_shares);
@@ -381,11 +381,11 @@ fn equal_shares_keep_a_slow_worker_at_half_the_classes() {
 /// (answered and merged), every later frame with a deadline already past (no time to recompute).
 /// Returns each frame's result and the final report.
 fn frames_after_the_worker_falls_silent(
-    scene: &std::sync::Arc<vps_cluster::ClusterAssets>,
+    assets: &std::sync::Arc<vps_cluster::ClusterAssets>,
     stale: vps_cluster::fallback::StalePolicy,
     poses: &[vps_haptic::KernelPose],
 ) -> (Vec<vps_runtime::PoolResult>, vps_cluster::ClusterReport) {
-    let (coordinator, fake, conn) = coordinator_with_one_fake(scene);
+    let (coordinator, fake, conn) = coordinator_with_one_fake(assets);
     let config = GatherConfig {
         adaptive_shares: false,
         log_every: None,
@@ -393,7 +393,7 @@ fn frames_after_the_worker_falls_silent(
         ..split_always()
     };
     let mut shares = coordinator.shares(config).unwrap();
-    let worker = answer(&fake, conn, scene.clone(), Duration::ZERO, 1);
+    let worker = answer(&fake, conn, assets.clone(), Duration::ZERO, 1);
     let results = poses
         .iter()
         .enumerate()
@@ -413,27 +413,27 @@ fn frames_after_the_worker_falls_silent(
 
 #[test]
 fn a_share_that_cannot_be_recomputed_in_time_is_stood_in_for_by_its_last_sums_for_three_frames() {
-    let scene = scene();
+    let assets = assets();
     let poses = poses(5);
     let (got, report) =
-        frames_after_the_worker_falls_silent(&scene, StalePolicy::default(), &poses);
+        frames_after_the_worker_falls_silent(&assets, StalePolicy::default(), &poses);
     let (even, odd) = (0x5555_5555_5555_5555u64, 0xAAAA_AAAA_AAAA_AAAAu64);
     // Frame 0: answered in time and merged.
     assert_eq!(
         got[0].sums,
-        sample_all(&*scene.map, &scene.shell, &poses[0])
+        sample_all(&*assets.map, &assets.shell, &poses[0])
     );
     // Frames 1–3: the odd classes' sums of frame 0 stand in (ages 1, 2, 3).
     for (result, pose) in got[1..4].iter().zip(&poses[1..4]) {
-        let mut want = scene.sample_mask_serial(pose, even);
-        want.merge(&scene.sample_mask_serial(&poses[0], odd));
+        let mut want = assets.sample_mask_serial(pose, even);
+        want.merge(&assets.sample_mask_serial(&poses[0], odd));
         assert_eq!(result.sums, want);
         assert_eq!(result.fallback_shares, 0, "stood in for, not recomputed");
     }
     // Frame 4: those sums would be 4 frames old, too old: recomputed, exact again.
     assert_eq!(
         got[4].sums,
-        sample_all(&*scene.map, &scene.shell, &poses[4])
+        sample_all(&*assets.map, &assets.shell, &poses[4])
     );
     assert_eq!(got[4].fallback_shares, 1);
     assert_eq!(
@@ -442,21 +442,21 @@ fn a_share_that_cannot_be_recomputed_in_time_is_stood_in_for_by_its_last_sums_fo
         "{report:?}"
     );
     assert_ne!(
-        sample_all(&*scene.map, &scene.shell, &poses[0]),
-        sample_all(&*scene.map, &scene.shell, &poses[3]),
+        sample_all(&*assets.map, &assets.shell, &poses[0]),
+        sample_all(&*assets.map, &assets.shell, &poses[3]),
         "the poses must differ for this test to mean anything"
     );
 }
 
 #[test]
 fn with_stale_reuse_off_a_late_share_is_always_recomputed() {
-    let scene = scene();
+    let assets = assets();
     let poses = poses(4);
-    let (got, report) = frames_after_the_worker_falls_silent(&scene, StalePolicy::NEVER, &poses);
+    let (got, report) = frames_after_the_worker_falls_silent(&assets, StalePolicy::NEVER, &poses);
     for (i, (result, pose)) in got.iter().zip(&poses).enumerate() {
         assert_eq!(
             result.sums,
-            sample_all(&*scene.map, &scene.shell, pose),
+            sample_all(&*assets.map, &assets.shell, pose),
             "frame {i}"
         );
     }
@@ -465,9 +465,9 @@ fn with_stale_reuse_off_a_late_share_is_always_recomputed() {
 
 #[test]
 fn a_zero_disconnect_limit_is_refused_by_name() {
-    let scene = scene();
+    let assets = assets();
     let ids = identities();
-    let coordinator = start_coordinator(&ids, scene);
+    let coordinator = start_coordinator(&ids, assets);
     let err = coordinator
         .shares(GatherConfig {
             disconnect_after: 0,

@@ -24,7 +24,7 @@ fn wait_until(what: &str, mut done: impl FnMut() -> bool) {
 fn coordinator_with_first_worker(
     ids: &Identities,
 ) -> (vps_cluster::Coordinator, std::net::SocketAddr, ThreadWorker) {
-    let coordinator = start_coordinator(ids, scene());
+    let coordinator = start_coordinator(ids, assets());
     let addr = coordinator.local_addr().unwrap();
     let first = ThreadWorker::spawn(worker_config(ids, addr));
     coordinator.wait_for_workers(1, JOIN_WAIT).unwrap();
@@ -78,7 +78,7 @@ fn the_certificate_joins_again_after_the_first_worker_has_gone() {
 #[test]
 fn an_unpinned_worker_is_told_its_certificate_is_not_pinned() {
     let ids = identities();
-    let coordinator = start_coordinator(&ids, scene());
+    let coordinator = start_coordinator(&ids, assets());
     let addr = coordinator.local_addr().unwrap();
     let config = worker_config(&ids, addr);
     let err = run_worker(WorkerConfig {

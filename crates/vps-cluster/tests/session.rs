@@ -10,7 +10,7 @@ use vps_haptic::Wrench;
 /// (never when 0).
 fn cluster_writes(leave_at: u64) -> (Vec<Wrench>, vps_cluster::ClusterReport) {
     let ids = identities();
-    let (coordinator, mut workers) = coordinator_with_thread_workers(&ids, scene(), 2);
+    let (coordinator, mut workers) = coordinator_with_thread_workers(&ids, assets(), 2);
     let leaving = workers.pop().unwrap();
     let (device, writes) = hand(leave_at, leaving.stop.clone());
     let (_, cluster) = exact_cluster_session(&coordinator, split_always(), device, FRAMES);

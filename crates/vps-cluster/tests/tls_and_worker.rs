@@ -14,13 +14,13 @@ use vps_cluster::tls::server_config;
 use vps_cluster::{make_cert, run_worker, ClusterError, PeerTls, TlsIdentity, WorkerConfig};
 use vps_haptic::sample_all;
 
-/// A coordinator on [`scene`] and the error of one worker joining it with the standard worker
+/// A coordinator on [`assets`] and the error of one worker joining it with the standard worker
 /// configuration changed by `change`.
 fn refused_worker(
     change: impl FnOnce(WorkerConfig) -> WorkerConfig,
 ) -> (vps_cluster::Coordinator, ClusterError) {
     let ids = identities();
-    let coordinator = start_coordinator(&ids, scene());
+    let coordinator = start_coordinator(&ids, assets());
     let addr = coordinator.local_addr().unwrap();
     let err = run_worker(change(worker_config(&ids, addr))).unwrap_err();
     (coordinator, err)
@@ -72,7 +72,7 @@ fn a_worker_refuses_a_coordinator_it_did_not_pin() {
 #[test]
 fn a_wrong_protocol_version_is_rejected_at_join() {
     let ids = identities();
-    let coordinator = start_coordinator(&ids, scene());
+    let coordinator = start_coordinator(&ids, assets());
     let fake = FakeWorker::new(&ids.worker, &ids.coordinator);
     let err = fake
         .join(coordinator.local_addr().unwrap(), PROTOCOL_VERSION + 1)
@@ -103,12 +103,12 @@ fn make_cert_writes_loadable_pem_files_and_refuses_to_overwrite() {
     }
 }
 
-/// A hand-driven coordinator: accepts one pinned worker, ships the scene on request, then sends
+/// A hand-driven coordinator: accepts one pinned worker, ships the assets on request, then sends
 /// garbage, truncated and valid requests and checks the one valid reply.
 #[test]
 fn a_worker_survives_garbage_counts_it_and_uses_its_scene_cache() {
     let ids = identities();
-    let scene = scene();
+    let assets = assets();
     let cache = tempfile::tempdir().unwrap();
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(1)
@@ -129,14 +129,14 @@ fn a_worker_survives_garbage_counts_it_and_uses_its_scene_cache() {
     };
     let addr = endpoint.local_addr().unwrap();
     let pose = poses(10)[7];
-    let want = sample_all(&*scene.map, &scene.shell, &pose);
+    let want = sample_all(&*assets.map, &assets.shell, &pose);
     assert!(want.contacts > 0);
     for round in 0..2 {
         let worker = ThreadWorker::spawn(WorkerConfig {
             cache_dir: Some(cache.path().to_path_buf()),
             ..worker_config(&ids, addr)
         });
-        let (scene, endpoint) = (scene.clone(), endpoint.clone());
+        let (assets, endpoint) = (assets.clone(), endpoint.clone());
         let reply = rt.block_on(async move {
             let conn = endpoint.accept().await.unwrap().await.unwrap();
             let (mut send, mut recv) = conn.accept_bi().await.unwrap();
@@ -150,7 +150,7 @@ fn a_worker_survives_garbage_counts_it_and_uses_its_scene_cache() {
                 &mut send,
                 &JoinMessage::Welcome {
                     worker_id: 9,
-                    assets: scene.identity,
+                    assets: assets.identity,
                 },
             )
             .await
@@ -165,8 +165,8 @@ fn a_worker_survives_garbage_counts_it_and_uses_its_scene_cache() {
                 }
             );
             if transfer {
-                write_frame(&mut send, scene.voxmap_file()).await.unwrap();
-                write_frame(&mut send, scene.shell_file()).await.unwrap();
+                write_frame(&mut send, assets.voxmap_file()).await.unwrap();
+                write_frame(&mut send, assets.shell_file()).await.unwrap();
             }
             assert_eq!(read_join(&mut recv).await.unwrap(), JoinMessage::Ready);
             // Raw UDP garbage at the worker's socket (counted by its shape, dropped by quinn),

@@ -290,9 +290,14 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
 ///
 /// Contract: `compute` returns the sums over every class of the shell at `pose` and returns by
 /// `deadline` plus the time to compute locally what is missing at `deadline`; it must not wait on
-/// an async timer. Called once per frame from the frame thread.
+/// an async timer. Called once per frame from the frame thread. The one allowed departure from
+/// "at `pose`": a cluster gatherer whose stale policy allows it may stand in for a late share with
+/// that share's sums from an earlier frame, and counts it (`vps_cluster::fallback`). The local
+/// pool neither allocates nor blocks beyond that bound; the cluster gatherer allocates a datagram
+/// buffer per request (see its `compute`).
 pub trait FrameSampler: Send {
-    /// The merged sums of every class at `pose`; shares not in by `deadline` are computed locally.
+    /// The merged sums of every class at `pose`; shares not in by `deadline` are computed locally
+    /// (or, for a cluster gatherer, stood in for by earlier sums where its policy allows).
     fn compute(&mut self, pose: &KernelPose, deadline: Instant) -> PoolResult;
 
     /// A failure of one of the sampler's own threads (a caught panic: which thread, the message)

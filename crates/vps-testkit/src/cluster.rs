@@ -25,22 +25,24 @@ use crate::hand::{approach_and_rest_on_wall, START};
 use crate::scene::{wall_tree, VOXEL};
 use crate::shell::{sphere_shell, SPHERE_RADIUS};
 
-/// Classes of the shell of the cluster tests' assets ([`scene`]).
+/// Classes of the shell of the cluster tests' [`assets`].
 pub const CLASSES: u32 = 64;
 
 /// Frames of the standard session.
 pub const FRAMES: u64 = 400;
 
 /// The cluster tests' assets: the wall as a tree and a 600-point sphere shell in [`CLASSES`]
-/// classes. (Named `scene` for its many callers; it is a [`ClusterAssets`], static wall and part.)
-pub fn scene() -> Arc<ClusterAssets> {
-    Arc::new(ClusterAssets::new(Arc::new(wall_tree()), &sphere_shell(600), CLASSES).expect("scene"))
+/// classes.
+pub fn assets() -> Arc<ClusterAssets> {
+    Arc::new(
+        ClusterAssets::new(Arc::new(wall_tree()), &sphere_shell(600), CLASSES).expect("assets"),
+    )
 }
 
 /// Workers [`loopback_coordinator`] makes certificates for.
 pub const LOOPBACK_WORKERS: usize = 4;
 
-/// A coordinator on loopback serving [`scene`], with fresh certificates written to `dir` and
+/// A coordinator on loopback serving [`assets`], with fresh certificates written to `dir` and
 /// pinned both ways (the [`LOOPBACK_WORKERS`] workers' are the only ones admitted, one live
 /// connection each).
 pub fn loopback_coordinator(dir: &std::path::Path) -> (Coordinator, LocalCerts) {
@@ -56,7 +58,7 @@ pub fn loopback_coordinator(dir: &std::path::Path) -> (Coordinator, LocalCerts) 
             .expect("coordinator certificates"),
             keep_off: None,
         },
-        scene(),
+        assets(),
     )
     .expect("coordinator starts");
     (coordinator, certs)
@@ -160,11 +162,11 @@ pub fn one_process_writes() -> Vec<Wrench> {
 /// Every device write of the one-process run of `frames` frames (one per frame plus the final
 /// zero wrench).
 pub fn one_process_writes_for(frames: u64) -> Vec<Wrench> {
-    let scene = scene();
+    let assets = assets();
     let (device, writes) = hand(0, Arc::new(AtomicBool::new(false)));
     let report = run_loop(
-        scene.map.clone(),
-        scene.shell.clone(),
+        assets.map.clone(),
+        assets.shell.clone(),
         standard_setup(device, frames),
     )
     .expect("one-process session");
