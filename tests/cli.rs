@@ -296,18 +296,8 @@ fn bridge_mapping_flags_out_of_range_are_refused_before_any_work() {
 fn voxelize_and_shell_read_a_mesh_in_millimetres_with_units() {
     let vps = sandbox();
     let obj = vps.path("block.obj");
-    // A 100 × 40 × 100 mm block (8 corners, 6 quads).
-    let mut text = String::from("# mm\n");
-    for i in 0..8 {
-        let c = |k: usize, lo: f64, hi: f64| if i >> k & 1 == 0 { lo } else { hi };
-        text += &format!(
-            "v {} {} {}\n",
-            c(0, -50.0, 50.0),
-            c(1, 0.0, 40.0),
-            c(2, -50.0, 50.0)
-        );
-    }
-    text += "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";
+    // A 100 × 40 × 100 mm block.
+    let text = vps_testkit::obj::box_obj([-50.0, 0.0, -50.0], [50.0, 40.0, 50.0]);
     std::fs::write(&obj, text).unwrap();
     let vmap = vps.path("block.vmap");
     for command in ["voxelize", "shell"] {
@@ -317,34 +307,28 @@ fn voxelize_and_shell_read_a_mesh_in_millimetres_with_units() {
             "{command}: {err}"
         );
     }
-    let made = json(&vps.run(&[
-        "voxelize",
-        &obj,
-        "--units",
-        "mm",
-        "--voxel-size",
-        "5mm",
-        "-o",
-        &vmap,
-        "--json",
-    ]));
+    // `vps COMMAND block.obj --units mm --voxel-size 5mm -o OUT --json`, as JSON.
+    let in_mm = |command: &str, out: &str| {
+        json(&vps.run(&[
+            command,
+            &obj,
+            "--units",
+            "mm",
+            "--voxel-size",
+            "5mm",
+            "-o",
+            out,
+            "--json",
+        ]))
+    };
+    let made = in_mm("voxelize", &vmap);
     let info = json(&vps.run(&["inspect", &vmap, "--json"]));
     assert_eq!(made["hash"], info["hash"]);
     // 100 mm at 5 mm: 20 voxels across plus the padding, not 20,000.
     let dims = made["dims"][0].as_u64().unwrap();
     assert!((20..40).contains(&dims), "{made}");
     let shell = vps.path("block.vshell");
-    let made = json(&vps.run(&[
-        "shell",
-        &obj,
-        "--units",
-        "mm",
-        "--voxel-size",
-        "5mm",
-        "-o",
-        &shell,
-        "--json",
-    ]));
+    let made = in_mm("shell", &shell);
     let radius = made["max_radius_m"].as_f64().unwrap();
     assert!((0.05..0.08).contains(&radius), "{made}");
     let err = vps.fails(&["voxelize", "builtin:box", "--units", "mm", "-o", &vmap]);

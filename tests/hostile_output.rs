@@ -108,28 +108,10 @@ fn a_bad_output_directory_is_refused_before_voxelizing() {
     assert!(!err.contains("memory"), "{err}");
 }
 
-/// A 12-triangle cube of edge `size` (m) centred at the origin, as OBJ.
+/// A cube of edge `size` (m) centred at the origin, as OBJ.
 fn write_cube(path: &Path, size: f64) {
     let h = size / 2.0;
-    let mut text = String::new();
-    for i in 0..8 {
-        let c = |bit: i32| if i >> bit & 1 == 1 { h } else { -h };
-        text += &format!("v {} {} {}\n", c(0), c(1), c(2));
-    }
-    for f in [
-        [1, 3, 4, 2],
-        [5, 6, 8, 7],
-        [1, 2, 6, 5],
-        [3, 7, 8, 4],
-        [1, 5, 7, 3],
-        [2, 4, 8, 6],
-    ] {
-        text += &format!(
-            "f {} {} {}\nf {} {} {}\n",
-            f[0], f[1], f[2], f[0], f[2], f[3]
-        );
-    }
-    std::fs::write(path, text).unwrap();
+    std::fs::write(path, vps_testkit::obj::box_obj([-h; 3], [h; 3])).unwrap();
 }
 
 #[test]

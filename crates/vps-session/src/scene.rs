@@ -699,26 +699,7 @@ impl SessionAssets {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// An OBJ of the axis-aligned box `min`..`max` (file units), 12 outward triangles.
-    fn box_obj(min: [f64; 3], max: [f64; 3]) -> String {
-        let mut text = String::new();
-        for i in 0..8 {
-            let c = |k: usize| if i >> k & 1 == 0 { min[k] } else { max[k] };
-            text += &format!("v {} {} {}\n", c(0), c(1), c(2));
-        }
-        for f in [
-            [1, 3, 4, 2],
-            [5, 6, 8, 7],
-            [1, 2, 6, 5],
-            [3, 7, 8, 4],
-            [1, 5, 7, 3],
-            [2, 4, 8, 6],
-        ] {
-            text += &format!("f {} {} {} {}\n", f[0], f[1], f[2], f[3]);
-        }
-        text
-    }
+    use vps_testkit::obj::box_obj;
 
     /// A scene directory holding `fixture.obj` (200 × 200 × 40) and `peg.obj` (20 × 20 × 60), both
     /// in millimetres, and `scene.toml` made of `statics` then a hand path.

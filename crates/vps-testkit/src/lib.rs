@@ -7,6 +7,7 @@
 //! - [`device`]: a device wrapper that logs every write and fails or trips on demand.
 //! - [`full_stdout`]: the check that a command writing to a full stdout fails cleanly.
 //! - [`hand`]: the scripted simulated hand that approaches the wall and rests on it.
+//! - [`obj`]: mesh files as test input (the OBJ text of a box).
 //! - [`scene_edit`]: bad variants of a good scene file's text, each with the field its error
 //!   must name.
 //! - [`process`]: running the `vps` binary from the root package's tests with a private cache
@@ -26,6 +27,7 @@ pub mod cluster;
 pub mod device;
 pub mod full_stdout;
 pub mod hand;
+pub mod obj;
 pub mod process;
 pub mod scene;
 pub mod scene_edit;
