@@ -403,7 +403,7 @@ pub struct RunArgs {
     /// The device: `sim` (simulated hand on the scene's script), `spacemouse` (first SpaceMouse
     /// found; input only), `bridge[:ADDR]` (UDP device bridge, default 127.0.0.1:7700),
     /// `replay:FILE` (a recorded trace). Default: the scene's `[device] kind`, else `sim`.
-    #[arg(long)]
+    #[arg(long, value_parser = parse_device)]
     pub device: Option<String>,
     /// Haptic parameters (TOML; see configs/haptic.toml), instead of the scene's `[haptic]`.
     /// Defaults are derived when absent.
@@ -463,6 +463,12 @@ pub struct BridgeArgs {
     /// six f64 bit patterns in hex; format in docs/devices.md).
     #[arg(long, value_name = "FILE")]
     pub log_wrenches: Option<PathBuf>,
+}
+
+/// `--device`: one of the forms `vps_session::DeviceChoice::parse` accepts, checked before any
+/// work (the device itself is opened once the scene is built).
+fn parse_device(text: &str) -> Result<String, String> {
+    vps_session::DeviceChoice::parse(text).map(|_| text.to_string())
 }
 
 /// A finite number of `text` that `ok` accepts, else an error giving the allowed `range`.

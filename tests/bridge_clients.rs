@@ -231,14 +231,15 @@ fn bridge_flags_are_checked_with_clear_messages() {
         "0,nan,0",
     ]);
     assert!(e.contains("not a finite number"), "{e}");
+    // Out of range: refused by the parser, naming the flag and the documented range.
     let e = run(&["--device", "bridge:127.0.0.1:0", "--map-scale", "0"]);
     assert!(
-        e.contains("--map-scale") && e.contains("allowed 0.001 to 1000"),
+        e.contains("--map-scale") && e.contains("0.001 to 1000"),
         "{e}"
     );
     let e = run(&["--device", "bridge:127.0.0.1:0", "--pose-timeout-ms", "0"]);
     assert!(
-        e.contains("--pose-timeout-ms") && e.contains("allowed 2 to 10000 (ms)"),
+        e.contains("--pose-timeout-ms") && e.contains("2 to 10000 (ms)"),
         "{e}"
     );
     let e = run(&["--device", "sim", "--force-scale", "2"]);

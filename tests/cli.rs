@@ -253,9 +253,10 @@ fn the_service_config_files_are_read_checked_and_overridden_by_flags() {
     }
 }
 
-/// A bridge mapping flag out of its documented range is a command line the parser refuses (exit
-/// 2), naming the flag and the range, before anything is voxelized; it used to fail with exit 1
-/// after the scene was built, naming the bridge config's `mapping.scale` / `pose_timeout` (s).
+/// A bridge mapping flag out of its documented range, or a `--device` of no known form, is a command
+/// line the parser refuses (exit 2), naming the flag and what is allowed, before anything is
+/// voxelized; they used to fail with exit 1 after the scene was built (the mapping naming the
+/// bridge config's `mapping.scale` / `pose_timeout` in s).
 #[test]
 fn bridge_mapping_flags_out_of_range_are_refused_before_any_work() {
     let vps = sandbox();
@@ -265,18 +266,24 @@ fn bridge_mapping_flags_out_of_range_are_refused_before_any_work() {
         ("--force-scale", "0", "above 0, up to 1000"),
         ("--pose-timeout-ms", "1", "2 to 10000 (ms)"),
         ("--pose-timeout-ms", "NaN", "2 to 10000 (ms)"),
-    ] {
-        let out = vps.run(&[
-            "run",
-            "--scene",
-            "builtin:rig-teapot",
+        // A misspelt device was refused with exit 1 after the scene was built.
+        (
             "--device",
-            "bridge:127.0.0.1:0",
-            flag,
-            value,
-            "--seconds",
-            "1",
-        ]);
+            "joystick",
+            "expected sim, spacemouse, bridge[:ADDR] or replay:FILE",
+        ),
+        (
+            "--device",
+            "bridge:localhost",
+            "not an address like 127.0.0.1:7700",
+        ),
+    ] {
+        let mut args = vec!["run", "--scene", "builtin:rig-teapot", "--seconds", "1"];
+        if flag != "--device" {
+            args.extend(["--device", "bridge:127.0.0.1:0"]);
+        }
+        args.extend([flag, value]);
+        let out = vps.run(&args);
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{flag} {value}: {err}");
         assert!(

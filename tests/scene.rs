@@ -372,3 +372,30 @@ fn scene_check_names_the_settings_left_to_the_defaults() {
         "{check}"
     );
 }
+
+/// docs/scenes.md "Clearances": the example peg (20 mm) enters its 22 mm hole with
+/// `offset_layers = 0` and stops on the rim with the default 2, whose force layer closes the 1 mm
+/// gap at 1 mm voxels; neither penetrates.
+#[test]
+fn the_peg_enters_its_hole_only_without_offset_layers() {
+    let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
+    let text = std::fs::read_to_string(example.join("peg-in-hole.toml")).unwrap();
+    for file in ["peg.obj", "peg-fixture.stl"] {
+        std::fs::copy(example.join(file), vps.dir().join(file)).unwrap();
+    }
+    let final_z = |offset: u32| {
+        let name = format!("peg-{offset}.toml");
+        let edited = text.replace("offset_layers = 0", &format!("offset_layers = {offset}"));
+        std::fs::write(vps.dir().join(&name), edited).unwrap();
+        let scene = vps.path(&name);
+        let report = json(&vps.run(&["run", "--scene", &scene, "--seconds", "4", "--json"]));
+        assert_eq!(report["stats"]["penetrating_frames"], 0, "{report}");
+        report["final_position_m"][2].as_f64().unwrap()
+    };
+    let inside = final_z(0);
+    assert!((inside - 0.05).abs() < 0.002, "offset 0: z {inside}");
+    let on_rim = final_z(2);
+    // The block's top is at 0.04 m and the grip 0.03 m above the peg's bottom.
+    assert!(on_rim > 0.07, "offset 2: z {on_rim}");
+}

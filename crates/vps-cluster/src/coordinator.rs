@@ -275,6 +275,12 @@ struct Links {
     live: LiveIdentities,
 }
 
+/// Whether a worker's connection ended because this coordinator closed it (its session done, or
+/// stopping): the normal end, logged as information, where any other end is a warning.
+fn closed_here(reason: &quinn::ConnectionError) -> bool {
+    matches!(reason, quinn::ConnectionError::LocallyClosed)
+}
+
 async fn accept_loop(endpoint: quinn::Endpoint, links: Links) {
     while let Some(incoming) = endpoint.accept().await {
         tokio::spawn(serve(incoming, links.clone()));
@@ -338,7 +344,11 @@ async fn serve(incoming: quinn::Incoming, links: Links) {
             Err(e) => break e,
         }
     };
-    tracing::warn!("worker {id} at {remote} left: {reason}");
+    if closed_here(&reason) {
+        tracing::info!("worker {id} at {remote} left: {reason} (by this coordinator)");
+    } else {
+        tracing::warn!("worker {id} at {remote} left: {reason}");
+    }
     links.counters.joined.fetch_sub(1, Ordering::Relaxed);
     let _ = links.control.send(Control::Closed { id });
 }
@@ -441,5 +451,20 @@ async fn admit(
     match read_join(&mut recv).await? {
         JoinMessage::Ready => Ok(voxmap || shell),
         other => Err(ClusterError::Join(format!("expected Ready, got {other:?}"))),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::closed_here;
+    use quinn::ConnectionError;
+
+    /// A session that ends normally logged "worker 0 at ... left: closed" as a WARN in the
+    /// coordinator's service log; only other ends are warnings now.
+    #[test]
+    fn only_a_connection_this_coordinator_closed_is_a_normal_end() {
+        assert!(closed_here(&ConnectionError::LocallyClosed));
+        assert!(!closed_here(&ConnectionError::TimedOut));
+        assert!(!closed_here(&ConnectionError::Reset));
     }
 }
