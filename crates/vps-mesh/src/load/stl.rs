@@ -45,9 +45,12 @@ pub(super) fn parse(bytes: &[u8], file: &str) -> Result<TriMesh, MeshError> {
             ),
         ));
     }
-    let indexed = stl_io::read_stl(&mut Cursor::new(data)).map_err(|e| {
+    let indexed = stl_io::read_stl(&mut Cursor::new(&data)).map_err(|e| {
         let kind = if looks_ascii { "ASCII" } else { "binary" };
-        parse_error(file, None, format!("{kind} STL: {e}"))
+        // stl_io names no line; for ASCII, the first `vertex` or `facet normal` line whose
+        // numbers do not read as three finite f32 is the likely culprit.
+        let line = looks_ascii.then(|| first_bad_number_line(&data)).flatten();
+        parse_error(file, line, format!("{kind} STL: {e}"))
     })?;
     let vertices = indexed
         .vertices
@@ -60,6 +63,22 @@ pub(super) fn parse(bytes: &[u8], file: &str) -> Result<TriMesh, MeshError> {
         .map(|f| f.vertices.map(|i| i as u32))
         .collect();
     Ok(TriMesh::new(vertices, triangles))
+}
+
+/// The 1-based line of the first `vertex x y z` or `facet normal x y z` line of an ASCII STL whose
+/// three numbers are not all finite f32 (or are not three), if any.
+fn first_bad_number_line(data: &[u8]) -> Option<usize> {
+    let text = String::from_utf8_lossy(data);
+    text.lines().enumerate().find_map(|(index, line)| {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let numbers = match words.as_slice() {
+            ["vertex", numbers @ ..] => numbers,
+            ["facet", "normal", numbers @ ..] => numbers,
+            _ => return None,
+        };
+        let finite = |w: &&str| w.parse::<f32>().is_ok_and(f32::is_finite);
+        (numbers.len() != 3 || !numbers.iter().all(finite)).then_some(index + 1)
+    })
 }
 
 /// The triangle count in a binary STL header; the caller checks the length.

@@ -402,3 +402,21 @@ fn numbers_that_broke_the_parser_crates_are_errors_naming_the_line() {
         );
     }
 }
+
+/// stl_io names no line for a bad number in an ASCII STL; the loader finds the first `vertex` or
+/// `facet normal` line whose numbers are not three finite f32.
+#[test]
+fn ascii_stl_bad_number_names_its_line() {
+    let text = ascii_stl_text();
+    // Line 4 is the first facet's first vertex.
+    let nan = text.replacen("vertex 0 0 0", "vertex 0 NaN 0", 1);
+    let err = parse_mesh(nan.as_bytes(), MeshFormat::Stl, "t.stl")
+        .unwrap_err()
+        .to_string();
+    assert!(err.starts_with("t.stl: line 4: parse error"), "{err}");
+    let short = text.replacen("facet normal 0 0 0", "facet normal 0 0", 1);
+    let err = parse_mesh(short.as_bytes(), MeshFormat::Stl, "t.stl")
+        .unwrap_err()
+        .to_string();
+    assert!(err.starts_with("t.stl: line 2: parse error"), "{err}");
+}
