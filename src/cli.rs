@@ -626,7 +626,8 @@ pub struct InspectArgs {
 pub struct ProbeArgs {
     /// The voxmap.
     pub voxmap: PathBuf,
-    /// CSV file of world points, one `x,y,z` per line (m); blank lines and lines starting with # skipped.
+    /// CSV file of world points, one `x,y,z` per line (m); blank lines, lines starting with # and
+    /// a first line of words (a header such as `x,y,z`) skipped.
     #[arg(long)]
     pub points: PathBuf,
     /// Print as JSON.

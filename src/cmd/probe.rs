@@ -14,16 +14,24 @@ struct ProbeResult {
     kind: &'static str,
 }
 
-/// Parses the CSV text: one `x,y,z` (m) per line; blank lines and `#` comments skipped. Errors name
+/// Parses the CSV text: one `x,y,z` (m) per line; blank lines and `#` comments skipped, and a
+/// header (a first line of three fields none of which is a number, such as `x,y,z`). Errors name
 /// the file and line.
 fn parse_points(text: &str, file: &str) -> Result<Vec<(usize, DVec3)>> {
     let mut out = Vec::new();
+    let mut first = true;
     for (i, raw) in text.lines().enumerate() {
         let line = raw.trim();
         if line.is_empty() || line.starts_with('#') {
             continue;
         }
         let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        let is_header =
+            first && fields.len() == 3 && fields.iter().all(|f| f.parse::<f64>().is_err());
+        first = false;
+        if is_header {
+            continue;
+        }
         if fields.len() != 3 {
             bail!(
                 "{file}:{}: expected 3 comma-separated numbers x,y,z, found {}",
@@ -79,6 +87,7 @@ pub fn run(args: &ProbeArgs) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::parse_points;
+    use glam::DVec3;
 
     #[test]
     fn parses_and_reports_line_numbers() {
@@ -91,5 +100,19 @@ mod tests {
         assert!(err.contains("p.csv:2"), "{err}");
         let err = parse_points("0,nan,0\n", "p.csv").unwrap_err().to_string();
         assert!(err.contains("p.csv:1") && err.contains("nan"), "{err}");
+    }
+
+    /// A spreadsheet's header line (`x,y,z`) is skipped; the same words further down are an error.
+    #[test]
+    fn a_header_line_is_skipped_only_first() {
+        let pts = parse_points("x, y, z\n0,0,0\n", "p.csv").unwrap();
+        assert_eq!(pts, vec![(2, DVec3::ZERO)]);
+        let err = parse_points("0,0,0\nx,y,z\n", "p.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("p.csv:2") && err.contains("'x'"), "{err}");
+        // A first line with a number in it is data, and its bad field is named.
+        let err = parse_points("x,0,0\n", "p.csv").unwrap_err().to_string();
+        assert!(err.contains("p.csv:1") && err.contains("'x'"), "{err}");
     }
 }
