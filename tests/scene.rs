@@ -358,6 +358,11 @@ fn scene_check_names_the_settings_left_to_the_defaults() {
         "{text}"
     );
     assert!(!text.contains("-0.0000"), "{text}");
+    // The default 2 offset layers at 5 mm: openings under about 10 mm a side read as closed.
+    assert!(
+        text.contains("clearance: the force layer stands 2 voxel(s), 10 mm, off every static"),
+        "{text}"
+    );
 
     // 5 m voxels (`voxel_size = 5`, metres) on a 30 mm part: flagged, not just "ok".
     std::fs::write(

@@ -215,6 +215,15 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
             defaults_used(v).join(", ")
         );
     }
+    if v.offset_layers.value > 0 {
+        let standoff_mm = f64::from(v.offset_layers.value) * v.voxel_size_m.value * 1e3;
+        println!(
+            "  clearance: the force layer stands {} voxel(s), {standoff_mm} mm, off every static \
+             surface and the part stops at least that far out: a gap under about {standoff_mm} mm \
+             a side reads as closed (docs/scenes.md, Clearances)",
+            v.offset_layers.value
+        );
+    }
     println!(
         "voxmap: {} m, {}-bit{}: about {:.3e} voxels in the grid, {:.3e} in the surface band, \
          {:.1} MiB of tree (estimate)",
