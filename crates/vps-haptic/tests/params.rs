@@ -56,6 +56,11 @@ fn default_gains_sit_at_the_stated_margin() {
     );
     assert!(s.translational < s.rotational);
     assert!(s.worst() < 0.6, "{s:?}");
+    // The indices quoted in docs/haptics.md, configs/haptic.toml and `StabilityIndices`.
+    assert!(
+        (s.rotational - 0.574).abs() < 5e-4 && (s.translational - 0.302).abs() < 5e-4,
+        "{s:?}"
+    );
     assert!((g.k_ff - 2.0 * g.k_t).abs() < 1e-9);
     assert!((g.inertia - 0.4 * p.mass * p.max_radius * p.max_radius).abs() < 1e-15);
     assert!((g.b_t - 2.0 * (g.k_t * p.mass).sqrt()).abs() < 1e-12);
