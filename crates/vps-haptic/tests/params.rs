@@ -56,6 +56,11 @@ fn default_gains_sit_at_the_stated_margin() {
     );
     assert!(s.translational < s.rotational);
     assert!(s.worst() < 0.6, "{s:?}");
+    // The indices quoted in docs/haptics.md, configs/haptic.toml and `StabilityIndices`.
+    assert!(
+        (s.rotational - 0.574).abs() < 5e-4 && (s.translational - 0.302).abs() < 5e-4,
+        "{s:?}"
+    );
     assert!((g.k_ff - 2.0 * g.k_t).abs() < 1e-9);
     assert!((g.inertia - 0.4 * p.mass * p.max_radius * p.max_radius).abs() < 1e-15);
     assert!((g.b_t - 2.0 * (g.k_t * p.mass).sqrt()).abs() < 1e-12);
@@ -202,4 +207,61 @@ fn the_old_device_limit_keys_name_their_new_place() {
             assert!(msg.contains(needle), "{needle:?} missing from {msg}");
         }
     }
+}
+
+/// The figures of docs/haptics.md "Setting the gains for your device": derived gains per mass at
+/// 1 kHz, the holding force `k_T s / 2` at 5 mm, and the k_T (per kg) at which the worse stability
+/// index reaches 1 when only `k_t` is given (K_ff, k_R, b_T, b_R still derived from it).
+#[test]
+fn device_tuning_figures_of_the_docs() {
+    let s = 0.005;
+    // (mass kg, k_T N/m, b_T N·s/m, holding force N at 5 mm)
+    for (mass, k_t, b_t, hold) in [
+        (0.012, 317.5, 3.904, 0.794),
+        (0.05, 1322.9, 16.27, 3.307),
+        (0.1, 2645.8, 32.53, 6.615),
+        (1.0, 26458.0, 325.3, 66.15),
+    ] {
+        let p = HapticParams {
+            mass,
+            ..HapticParams::default()
+        };
+        let g = p.gains();
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-3 * b;
+        assert!(close(g.k_t, k_t), "mass {mass}: k_t {}", g.k_t);
+        assert!(close(g.b_t, b_t), "mass {mass}: b_t {}", g.b_t);
+        assert!(
+            close(g.k_t * s / 2.0, hold),
+            "mass {mass}: hold {}",
+            g.k_t * s / 2.0
+        );
+        // The indices do not depend on the mass when the gains are derived.
+        let idx = p.stability();
+        assert!((idx.rotational - 0.574).abs() < 5e-4, "{idx:?}");
+    }
+    // Derived k_T per kg at dt = 1 ms: 26,458 N/m per kg; the stability ceiling with only k_t
+    // given: 52,094 N/m per kg (rotational index 1), 625 N/m at 12 g.
+    let ceiling_per_kg = 52_094.0;
+    for mass in [0.012, 0.1, 1.0] {
+        let with_kt = |k_t: f64| HapticParams {
+            mass,
+            k_t: Some(k_t),
+            ..HapticParams::default()
+        };
+        let below = with_kt(0.999 * ceiling_per_kg * mass).stability();
+        let above = with_kt(1.001 * ceiling_per_kg * mass).stability();
+        assert!(
+            below.worst() < 1.0 && above.worst() > 1.0,
+            "{below:?} {above:?}"
+        );
+        assert!(above.rotational > above.translational);
+        assert!(below.translational < 0.6, "{below:?}");
+    }
+    assert!((0.012f64 * ceiling_per_kg - 625.1).abs() < 0.1);
+    // Damping past critical raises the index: b_T at the translational limit c·dt < 2 is 2 m / dt.
+    let p = HapticParams {
+        b_t: Some(2.0 * 0.012 / 0.001),
+        ..HapticParams::default()
+    };
+    assert!(p.stability().translational.is_infinite());
 }
