@@ -3,6 +3,9 @@
 use crate::memory_size::parse_bytes;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
+use vps_input::bridge::config::POSE_TIMEOUT_RANGE_S;
+use vps_input::bridge::mapping::{MAX_FORCE_SCALE, SCALE_RANGE};
+use vps_session::file::Units;
 use vps_session::length::parse_length;
 
 /// Voxel-sampling 6-DOF haptic rendering.
@@ -480,19 +483,23 @@ fn parse_in_range(text: &str, ok: impl Fn(f64) -> bool, range: &str) -> Result<f
         .ok_or_else(|| format!("`{text}`: allowed {range}"))
 }
 
-/// `--map-scale`: scene metres per device metre, in [0.001, 1000].
+/// `--map-scale`: scene metres per device metre, in the bridge's [`SCALE_RANGE`].
 fn parse_map_scale(text: &str) -> Result<f64, String> {
-    parse_in_range(text, |v| (0.001..=1000.0).contains(&v), "0.001 to 1000")
+    let range = format!("{} to {}", SCALE_RANGE.start(), SCALE_RANGE.end());
+    parse_in_range(text, |v| SCALE_RANGE.contains(&v), &range)
 }
 
-/// `--force-scale`: device force per scene force, in (0, 1000].
+/// `--force-scale`: device force per scene force, in (0, [`MAX_FORCE_SCALE`]].
 fn parse_force_scale(text: &str) -> Result<f64, String> {
-    parse_in_range(text, |v| v > 0.0 && v <= 1000.0, "above 0, up to 1000")
+    let range = format!("above 0, up to {MAX_FORCE_SCALE}");
+    parse_in_range(text, |v| v > 0.0 && v <= MAX_FORCE_SCALE, &range)
 }
 
-/// `--pose-timeout-ms`: in [2, 10000] ms.
+/// `--pose-timeout-ms`: the bridge's [`POSE_TIMEOUT_RANGE_S`], in ms.
 fn parse_pose_timeout_ms(text: &str) -> Result<f64, String> {
-    parse_in_range(text, |v| (2.0..=10000.0).contains(&v), "2 to 10000 (ms)")
+    let (low, high) = (POSE_TIMEOUT_RANGE_S.start(), POSE_TIMEOUT_RANGE_S.end());
+    let range = format!("{} to {} (ms)", low * 1e3, high * 1e3);
+    parse_in_range(text, |v| POSE_TIMEOUT_RANGE_S.contains(&(v / 1e3)), &range)
 }
 
 /// Parses `X,Y,Z` (three finite numbers).
@@ -549,41 +556,16 @@ pub struct BuildArgs {
     /// refuses above it (bytes, or 16GiB, 512MiB, 8GB; default half of physical memory).
     #[arg(long, value_parser = parse_bytes, value_name = "SIZE")]
     pub max_memory: Option<u64>,
-    /// Units of the mesh file's coordinates, converted to metres before anything else (as a scene
-    /// file's `units`); built-in meshes are in metres.
-    #[arg(long, value_enum, default_value_t = MeshUnits::M)]
-    pub units: MeshUnits,
+    /// Units of the mesh file's coordinates (m, cm, mm, in), converted to metres before anything
+    /// else (as a scene file's `units`); built-in meshes are in metres.
+    #[arg(long, default_value = "m")]
+    pub units: Units,
     /// Output file.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Print the statistics as JSON.
     #[arg(long)]
     pub json: bool,
-}
-
-/// Units of a mesh file on the command line (`--units`).
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum MeshUnits {
-    /// Metres.
-    M,
-    /// Centimetres.
-    Cm,
-    /// Millimetres.
-    Mm,
-    /// Inches.
-    In,
-}
-
-impl MeshUnits {
-    /// Metres per file unit.
-    pub fn metres(self) -> f64 {
-        match self {
-            MeshUnits::M => 1.0,
-            MeshUnits::Cm => 0.01,
-            MeshUnits::Mm => 0.001,
-            MeshUnits::In => 0.0254,
-        }
-    }
 }
 
 /// Point-shell placement on the command line.

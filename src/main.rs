@@ -22,6 +22,7 @@ mod host;
 mod kernel_timing;
 mod limits;
 mod memory_size;
+mod mesh_arg;
 mod output;
 mod service_config;
 mod session_io;
@@ -50,7 +51,7 @@ fn main() {
         // A session that ended early has already written its report; its status says why
         // (src/exit.rs: 1 error, 101 panic, 128 + N signal N).
         let code = exit::exit_code(&err);
-        let message = output::error_report(&err);
+        let message = vps_session::error::error_chain_text(&err);
         if code == 1 {
             eprintln!("vps: error: {message}");
         } else {

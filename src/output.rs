@@ -62,24 +62,6 @@ pub fn print_summary<T: Serialize + std::fmt::Display>(value: &T, json: bool) ->
     }
 }
 
-/// The message `main` prints for `err`: its chain joined by ": ", skipping a cause whose text the
-/// message already holds (error types that print their source inside their own message would
-/// otherwise repeat it two or three times).
-pub fn error_report(err: &anyhow::Error) -> String {
-    let mut message = String::new();
-    for cause in err.chain() {
-        let text = cause.to_string();
-        if text.is_empty() || message.contains(&text) {
-            continue;
-        }
-        if !message.is_empty() {
-            message.push_str(": ");
-        }
-        message.push_str(&text);
-    }
-    message
-}
-
 /// A length or coordinate (m) for a text report: four decimals (0.1 mm; `--json` has every digit),
 /// never `-0.0000`.
 pub fn metres_4(v: f64) -> String {
@@ -255,25 +237,6 @@ mod tests {
         assert_eq!(metres_4(-0.00004), "0.0000");
         assert_eq!(metres_4(-0.00005001), "-0.0001");
         assert_eq!(metres_4(0.07500950959614927), "0.0750");
-    }
-
-    #[derive(Debug, thiserror::Error)]
-    #[error("{path}: {source}")]
-    struct Outer {
-        path: String,
-        source: std::io::Error,
-    }
-
-    #[test]
-    fn the_report_names_each_cause_once() {
-        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "No such file");
-        let err = anyhow::Error::new(Outer {
-            path: "a.obj".into(),
-            source: io,
-        })
-        .context("loading the scene");
-        assert_eq!(error_report(&err), "loading the scene: a.obj: No such file");
-        assert_eq!(format!("{err:#}").matches("No such file").count(), 2);
     }
 
     #[test]

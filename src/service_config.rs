@@ -15,6 +15,7 @@ use serde::Deserialize;
 use std::io::Read;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
+use vps_session::length::{parse_length, parse_length_string};
 
 /// Largest config file read (bytes): a few hundred are typical.
 const MAX_FILE_BYTES: u64 = 1 << 20;
@@ -172,22 +173,18 @@ pub fn resolve_coordinator(args: &mut CoordinatorArgs, matches: &ArgMatches) -> 
         let f = load_coordinator(&path)?;
         let seconds = checked(&path, "seconds", f.seconds, crate::limits::parse_seconds)?;
         let threads = checked(&path, "threads", f.threads, crate::limits::parse_count)?;
+        // As in a scene file: a number is metres, a string needs a unit.
+        let key = "voxel_size";
         let voxel_size = match f.voxel_size {
             None => None,
-            Some(toml::Value::String(s)) => Some(s),
-            Some(toml::Value::Float(v)) => Some(v.to_string()),
-            Some(toml::Value::Integer(v)) => Some(v.to_string()),
+            Some(toml::Value::String(s)) => checked(&path, key, Some(s), parse_length_string)?,
+            Some(toml::Value::Float(v)) => checked(&path, key, Some(v), parse_length)?,
+            Some(toml::Value::Integer(v)) => checked(&path, key, Some(v), parse_length)?,
             Some(other) => bail!(
                 "{}: `voxel_size` = {other}: expected metres or a length with a unit (\"5mm\")",
                 path.display()
             ),
         };
-        let voxel_size = checked(
-            &path,
-            "voxel_size",
-            voxel_size,
-            vps_session::length::parse_length,
-        )?;
         let s = &mut args.session;
         take(matches, "listen", &mut args.listen, f.listen);
         take_identity(matches, &mut args.identity, f.cert, f.key, f.pins);
@@ -427,6 +424,20 @@ mod tests {
             panic!("not a coordinator")
         };
         assert_eq!(args.session.voxel_size, Some(0.002));
+        // A string without a unit is refused, as in a scene file (it ran as 5 m voxels).
+        std::fs::write(
+            &path,
+            "cert = \"c\"\nkey = \"k\"\npins = [\"p\"]\nvoxel_size = \"5\"\n",
+        )
+        .unwrap();
+        let err = parsed(&["vps", "coordinator", "--config", path.to_str().unwrap()])
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            err.contains("`voxel_size`") && err.contains("\"5\" has no unit"),
+            "{err}"
+        );
     }
 
     #[test]

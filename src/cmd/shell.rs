@@ -1,6 +1,7 @@
 //! `vps shell`: mesh → `.vshell` point shell.
 
 use crate::cli::{ShellArgs, ShellMethodArg};
+use crate::mesh_arg::{load_mesh, units_hint};
 use crate::output::{check_output_path, print_summary, ShellFigures};
 use anyhow::{Context, Result};
 use serde::Serialize;
@@ -37,7 +38,7 @@ pub fn method_of(arg: ShellMethodArg) -> ShellMethod {
 /// Runs the command.
 pub fn run(args: &ShellArgs) -> Result<()> {
     check_output_path(&args.build.output, &crate::output::mesh_inputs(&args.mesh))?;
-    let scene = crate::cmd::voxelize::load_mesh(&args.mesh, args.build.units)?;
+    let scene = load_mesh(&args.mesh, args.build.units)?;
     let budget = args
         .build
         .max_memory
@@ -47,7 +48,7 @@ pub fn run(args: &ShellArgs) -> Result<()> {
             format!(
                 "building the point shell of {}{}",
                 scene.source,
-                crate::cmd::voxelize::units_hint(&scene, args.build.units)
+                units_hint(&scene, args.build.units)
             )
         })?;
     vps_voxmap::file::save_shell(&shell, &args.build.output)?;

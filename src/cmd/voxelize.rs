@@ -1,12 +1,12 @@
 //! `vps voxelize`: mesh → `.vmap`.
 
-use crate::cli::{MeshUnits, VoxelizeArgs};
+use crate::cli::VoxelizeArgs;
+use crate::mesh_arg::{load_mesh, units_hint};
 use crate::output::{check_output_path, hex, mib, print_summary};
 use anyhow::{bail, Context, Result};
 use glam::DVec3;
 use serde::Serialize;
 use vps_mesh::Aabb;
-use vps_session::mesh_source;
 use vps_voxelize::{voxelize_tree, VoxelizeOptions};
 use vps_voxmap::{TreeConfig, VoxelWidth};
 
@@ -27,25 +27,6 @@ struct VoxelizeSummary {
     peak_work_bytes: u64,
     counts: crate::output::KindCounts,
     hash: String,
-}
-
-/// Loads the mesh of `vps voxelize` / `vps shell`: a file in `units` (converted to metres), or a
-/// built-in mesh (metres; `--units` other than m is refused for it).
-pub fn load_mesh(source: &str, units: MeshUnits) -> Result<mesh_source::SceneMesh> {
-    if source.starts_with("builtin:") && units != MeshUnits::M {
-        bail!("--units applies to mesh files; {source} is in metres already");
-    }
-    mesh_source::load_scaled(source, units.metres())
-}
-
-/// For an error of a mesh file read in metres: its size and the `--units` a CAD export in
-/// millimetres needs (empty otherwise).
-pub fn units_hint(mesh: &mesh_source::SceneMesh, units: MeshUnits) -> String {
-    if units != MeshUnits::M || mesh.source.starts_with("builtin:") {
-        return String::new();
-    }
-    let size = mesh.mesh.bounds().size().max_element();
-    format!(" (read in metres: {size:.4} m across; a file in millimetres needs --units mm)")
 }
 
 /// Runs the command.

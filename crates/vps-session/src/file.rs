@@ -62,6 +62,21 @@ pub enum Units {
     Inches,
 }
 
+impl std::str::FromStr for Units {
+    type Err = String;
+
+    /// The names a scene file's `units` takes: `m`, `cm`, `mm`, `in`.
+    fn from_str(text: &str) -> Result<Self, String> {
+        match text {
+            "m" => Ok(Units::Metres),
+            "cm" => Ok(Units::Centimetres),
+            "mm" => Ok(Units::Millimetres),
+            "in" => Ok(Units::Inches),
+            _ => Err(format!("`{text}`: allowed m, cm, mm, in")),
+        }
+    }
+}
+
 impl Units {
     /// Metres per unit.
     pub fn metres(self) -> f64 {

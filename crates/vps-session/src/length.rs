@@ -15,9 +15,21 @@ pub fn parse_length(text: &str) -> Result<f64, String> {
     Ok(metres)
 }
 
-/// Deserializes a length (m) written as a number or as a string with a unit (`"2mm"`). A string
-/// without a unit (`"5"`) is refused: a number is metres, and a unit-less string is more likely a
-/// forgotten `mm`. The range of a number is checked by the caller (a negative number is reported
+/// Parses a length written as a string in a file (`"5mm"`): as [`parse_length`], but a string
+/// without a unit (`"5"`) is refused: a file writes metres as a bare number, and a unit-less
+/// string is more likely a forgotten `mm`.
+pub fn parse_length_string(text: &str) -> Result<f64, String> {
+    if text.trim().parse::<f64>().is_ok() {
+        return Err(format!(
+            "\"{text}\" has no unit: write one (\"{text}mm\", \"{text}cm\", \"{text}m\"), or a bare \
+             number of metres ({text})"
+        ));
+    }
+    parse_length(text)
+}
+
+/// Deserializes a length (m) written as a number (metres) or as a string with a unit (`"2mm"`,
+/// [`parse_length_string`]). The range of a number is checked by the caller (a negative number is reported
 /// with its field there).
 pub(crate) fn length<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
     #[derive(Deserialize)]
@@ -34,13 +46,7 @@ pub(crate) fn length<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
     })? {
         Written::Number(v) => Ok(v),
         Written::Integer(v) => Ok(v as f64),
-        Written::Text(t) if t.trim().parse::<f64>().is_ok() => {
-            Err(serde::de::Error::custom(format!(
-                "\"{t}\" has no unit: write one (\"{t}mm\", \"{t}cm\", \"{t}m\"), or a bare number \
-                 of metres ({t})"
-            )))
-        }
-        Written::Text(t) => parse_length(&t).map_err(serde::de::Error::custom),
+        Written::Text(t) => parse_length_string(&t).map_err(serde::de::Error::custom),
     }
 }
 

@@ -412,16 +412,7 @@ fn mesh_error(
     base: &Path,
     err: &anyhow::Error,
 ) -> SceneError {
-    let mut text = String::new();
-    for cause in err.chain() {
-        let cause = cause.to_string();
-        if !text.contains(&cause) {
-            if !text.is_empty() {
-                text.push_str(": ");
-            }
-            text.push_str(&cause);
-        }
-    }
+    let mut text = crate::error::error_chain_text(err);
     let missing = err.chain().any(|c| {
         c.downcast_ref::<std::io::Error>()
             .is_some_and(|io| io.kind() == std::io::ErrorKind::NotFound)

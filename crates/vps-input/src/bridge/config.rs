@@ -12,6 +12,9 @@ use super::protocol::Token;
 /// Longest accepted `wrench_log_frames`: one hour at 1 kHz (56 bytes each, about 200 MB).
 pub const MAX_WRENCH_LOG_FRAMES: usize = 3_600_000;
 
+/// Allowed `pose_timeout` (s), both ends included.
+pub const POSE_TIMEOUT_RANGE_S: std::ops::RangeInclusive<f64> = 0.002..=10.0;
+
 /// Settings of a [`BridgeDevice`](super::BridgeDevice) (TOML/JSON loadable; defaults for all).
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -113,12 +116,14 @@ impl BridgeConfig {
                 format!("{} s must be finite and > 0", self.velocity_timeout),
             ));
         }
-        if !(self.pose_timeout.is_finite() && (0.002..=10.0).contains(&self.pose_timeout)) {
+        if !(self.pose_timeout.is_finite() && POSE_TIMEOUT_RANGE_S.contains(&self.pose_timeout)) {
             return Err(bad(
                 "pose_timeout",
                 format!(
-                    "{} s must be finite and within [0.002, 10]",
-                    self.pose_timeout
+                    "{} s must be finite and within [{}, {}]",
+                    self.pose_timeout,
+                    POSE_TIMEOUT_RANGE_S.start(),
+                    POSE_TIMEOUT_RANGE_S.end()
                 ),
             ));
         }

@@ -51,6 +51,12 @@ impl Default for WorkspaceMapping {
     }
 }
 
+/// Allowed `scale` (scene metres per device metre), both ends included.
+pub const SCALE_RANGE: std::ops::RangeInclusive<f64> = 1e-3..=1e3;
+
+/// Largest `force_scale` (device force per scene force); it must also be above 0.
+pub const MAX_FORCE_SCALE: f64 = 1e3;
+
 fn bad(field: &'static str, message: String) -> BridgeError {
     BridgeError::Config { field, message }
 }
@@ -58,10 +64,15 @@ fn bad(field: &'static str, message: String) -> BridgeError {
 impl WorkspaceMapping {
     /// Checks every field; the error names the first bad one and its allowed range.
     pub fn validate(&self) -> Result<(), BridgeError> {
-        if !(self.scale.is_finite() && (1e-3..=1e3).contains(&self.scale)) {
+        if !(self.scale.is_finite() && SCALE_RANGE.contains(&self.scale)) {
             return Err(bad(
                 "mapping.scale",
-                format!("{} must be finite and within [0.001, 1000]", self.scale),
+                format!(
+                    "{} must be finite and within [{}, {}]",
+                    self.scale,
+                    SCALE_RANGE.start(),
+                    SCALE_RANGE.end()
+                ),
             ));
         }
         if !self.rotate_deg.iter().all(|d| d.is_finite()) {
@@ -79,10 +90,16 @@ impl WorkspaceMapping {
                 format!("{:?} must be three finite coordinates (m)", self.offset),
             ));
         }
-        if !(self.force_scale.is_finite() && self.force_scale > 0.0 && self.force_scale <= 1e3) {
+        if !(self.force_scale.is_finite()
+            && self.force_scale > 0.0
+            && self.force_scale <= MAX_FORCE_SCALE)
+        {
             return Err(bad(
                 "mapping.force_scale",
-                format!("{} must be finite and within (0, 1000]", self.force_scale),
+                format!(
+                    "{} must be finite and within (0, {MAX_FORCE_SCALE}]",
+                    self.force_scale
+                ),
             ));
         }
         Ok(())
