@@ -54,7 +54,7 @@ fn averaging_starts_at_ten_contacts() {
 fn free_space_gives_exactly_zero() {
     let params = HapticParams::default();
     let shell = ClassedShell::new(&cube_shell(0.01, 4), 3);
-    let map = wall();
+    let map = half_space();
     let state = PartState::at_rest(DVec3::new(0.0, 0.0, 0.05), DQuat::IDENTITY);
     let handle = HandleSample {
         position: DVec3::new(0.02, -0.01, 0.06),

@@ -108,7 +108,7 @@ fn outside_the_grid_is_free() {
 /// Approaching Proximity points feed the braking sums; receding ones do not.
 #[test]
 fn braking_sums_only_for_approaching_points() {
-    let grid = wall();
+    let grid = half_space();
     let shell = ClassedShell::new(&shell_from(&[Vec3::ZERO], &[Vec3::Z]), 1);
     let mut state = PartState::at_rest(DVec3::new(0.0011, 0.0012, 0.002), DQuat::IDENTITY);
     state.linear_velocity = DVec3::new(0.1, 0.0, -0.3);
@@ -379,7 +379,7 @@ fn layer_zero_maps_give_bit_identical_sums() {
 fn runs_of_points_in_one_voxel_match_points_sampled_alone() {
     let shell = cube_shell(0.012, 24);
     let n = shell.points.len();
-    for (map, z) in [(wall(), 0.0), (thin_plate(), 0.0115)] {
+    for (map, z) in [(half_space(), 0.0), (thin_plate(), 0.0115)] {
         let mut state = PartState::at_rest(
             DVec3::new(0.0013, -0.0021, z),
             DQuat::from_euler(glam::EulerRot::XYZ, 0.2, -0.1, 0.3),

@@ -30,7 +30,7 @@ fn resting_contact_energy_does_not_grow() {
     let params = params_for(&shell);
     let classed = ClassedShell::new(&shell, 1);
     let per_point = ClassedShell::new(&shell, shell.len() as u32);
-    let map = wall();
+    let map = half_space();
     let mut state = PartState::at_rest(DVec3::new(OFF, OFF, 0.0075), DQuat::IDENTITY);
     let handle = handle_at(DVec3::new(OFF, OFF, -0.0125), DVec3::ZERO);
     let steps_per_second = (1.0 / params.dt).round() as usize;
@@ -119,7 +119,7 @@ fn simulate(
 ) -> Run {
     let classed = ClassedShell::new(shell, 1);
     let per_point = ClassedShell::new(shell, shell.len() as u32);
-    let map = wall();
+    let map = half_space();
     let mut state = PartState::at_rest(DVec3::new(OFF, OFF, start_z), DQuat::IDENTITY);
     let steps = (duration / params.dt).round() as usize;
     let window_steps = (window / params.dt).round() as usize;

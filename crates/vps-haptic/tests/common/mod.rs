@@ -64,9 +64,10 @@ pub fn spec() -> GridSpec {
     }
 }
 
-/// A half-space wall below z = 0: Interior for z < −2s, a two-voxel Surface layer in
-/// [−2s, 0), Proximity in [0, s), Free above.
-pub fn wall() -> DenseGrid {
+/// A half-space wall below z = 0 on this crate's 40³ grid (`vps_testkit::scene::wall` is another
+/// fixture: 20³ at the origin): Interior for z < −2s, a two-voxel Surface layer in [−2s, 0),
+/// Proximity in [0, s), Free above.
+pub fn half_space() -> DenseGrid {
     let mut g = DenseGrid::new(spec());
     for k in 0..18 {
         fill_layer(&mut g, k, Voxel::Interior);
