@@ -27,7 +27,7 @@ use vps_runtime::{
     run_loop, LoopConfig, LoopReport, Percentiles, SessionSetup, SignalStop, StateFeedSender,
     StatsSummary,
 };
-use vps_session::{BridgeSettings, DeviceChoice, SessionAssets, SessionPlan};
+use vps_session::{BridgeSettings, DeviceChoice, LoadedScene, SessionAssets, SessionPlan};
 use vps_view::{LiveViewer, SceneLimits, ViewerContent};
 
 /// The session report (`--json`, `--report FILE`).
@@ -125,11 +125,11 @@ impl PreparedSession {
     }
 }
 
-/// The device of `--device`, else the scene file's.
-pub fn device_choice(text: Option<&str>, assets: &SessionAssets) -> Result<DeviceChoice> {
+/// The device of `--device`, else the scene file's (`scene_device`).
+pub fn device_choice(text: Option<&str>, scene_device: &DeviceChoice) -> Result<DeviceChoice> {
     match text {
         Some(t) => DeviceChoice::parse(t).map_err(|m| anyhow!("--device {m}")),
-        None => Ok(assets.device.clone()),
+        None => Ok(scene_device.clone()),
     }
 }
 
@@ -166,13 +166,14 @@ fn bridge_settings(
     Ok(settings)
 }
 
-/// Builds the scene, loads parameters and opens the device of `args`.
+/// Checks that the device of `args` is there, builds the scene, loads parameters and opens the
+/// device. A missing device is reported before the voxmap is built (that can take minutes).
 pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
-    let mut assets = SessionAssets::open(
-        &args.scene.scene,
-        &args.scene.build_options(args.voxel_size),
-    )?;
-    let choice = device_choice(args.device.as_deref(), &assets)?;
+    let loaded = LoadedScene::load(&args.scene.scene)?;
+    let choice = device_choice(args.device.as_deref(), &loaded.device)?;
+    choice.check_available()?;
+    let mut assets =
+        SessionAssets::from_loaded(loaded, &args.scene.build_options(args.voxel_size))?;
     if let Some(path) = &args.haptic {
         assets.params = HapticParams::from_file(path)?
             .with_scene(assets.voxel_size, assets.shell.max_radius())?;

@@ -4,14 +4,20 @@
 
 use anyhow::{Context, Result};
 use glam::DQuat;
+use std::net::UdpSocket;
 use std::path::{Path, PathBuf};
 use vps_device::script::Script;
 use vps_device::trace::{load_trace, ReplayDevice};
 use vps_device::{DeviceLimits, HandParams, HapticDevice, SimulatedHand};
 use vps_haptic::PartState;
 use vps_input::{
-    BridgeConfig, BridgeDevice, BridgeMonitor, SpaceMouse, SpaceMouseConfig, WorkspaceMapping,
+    list_devices, BridgeConfig, BridgeDevice, BridgeMonitor, InputError, SpaceMouse,
+    SpaceMouseConfig, WorkspaceMapping,
 };
+
+/// What an error opening a SpaceMouse adds.
+const SPACEMOUSE_HINT: &str =
+    "opening a SpaceMouse (`vps devices` lists what this machine sees; /dev/hidraw* must be readable)";
 
 /// The default address of the UDP device bridge.
 pub const DEFAULT_BRIDGE_ADDR: &str = "127.0.0.1:7700";
@@ -110,6 +116,37 @@ impl DeviceChoice {
         })
     }
 
+    /// Checks, before anything slow is built, that the device can be opened: a drivable
+    /// SpaceMouse is listed, the bridge's address can be bound (the socket is closed again), a
+    /// replay's trace reads. The simulated hand always passes. Opening can still fail later (a
+    /// device unplugged meanwhile). Blocking (HID enumeration, a bind, a file read); setup-time
+    /// only.
+    pub fn check_available(&self) -> Result<()> {
+        match self {
+            DeviceChoice::Simulated => Ok(()),
+            DeviceChoice::SpaceMouse => {
+                let devices = list_devices().context(SPACEMOUSE_HINT)?;
+                if devices.iter().any(|d| d.drivable) {
+                    Ok(())
+                } else {
+                    Err(InputError::NoDevice {
+                        found: devices.len(),
+                    })
+                    .context(SPACEMOUSE_HINT)
+                }
+            }
+            DeviceChoice::Bridge(addr) => {
+                UdpSocket::bind(addr)
+                    .with_context(|| format!("binding the device bridge on {addr}"))?;
+                Ok(())
+            }
+            DeviceChoice::Replay(path) => {
+                load_trace(path).context("reading the trace to replay")?;
+                Ok(())
+            }
+        }
+    }
+
     /// Opens the device; `script` drives the simulated hand and gives the others their start pose;
     /// `bridge` sets up the UDP bridge (its `limits` apply to every device). Blocking (opens
     /// files, sockets, HID).
@@ -135,9 +172,7 @@ impl DeviceChoice {
                     ..Default::default()
                 };
                 let device = SpaceMouse::open_first(config)
-                    .context(
-                        "opening a SpaceMouse (`vps devices` lists what this machine sees; /dev/hidraw* must be readable)",
-                    )?
+                    .context(SPACEMOUSE_HINT)?
                     .with_limits(bridge.limits);
                 (Box::new(device), at_start, None)
             }

@@ -642,7 +642,11 @@ pub struct SessionAssets {
 impl SessionAssets {
     /// Loads and builds `scene` (`builtin:NAME` or a file) with `options`.
     pub fn open(scene: &str, options: &BuildOptions) -> Result<SessionAssets> {
-        let loaded = LoadedScene::load(scene)?;
+        Self::from_loaded(LoadedScene::load(scene)?, options)
+    }
+
+    /// Builds `loaded` with `options`, printing its warnings to stderr first.
+    pub fn from_loaded(loaded: LoadedScene, options: &BuildOptions) -> Result<SessionAssets> {
         for w in &loaded.warnings {
             eprintln!("{}: warning: {w}", loaded.label);
         }
