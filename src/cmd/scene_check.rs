@@ -114,6 +114,34 @@ fn defaults_used(v: &VoxelsReport) -> Vec<&'static str> {
     .collect()
 }
 
+/// An estimated count as a whole number to 3 significant digits (`2`, `204000`), or in exponent
+/// form above a million (`5.995e6`): an estimate has no fractions of a voxel, nor six exact digits.
+fn approximate_count(estimate: f64) -> String {
+    if estimate >= 1e6 {
+        return format!("{estimate:.3e}");
+    }
+    if estimate < 1000.0 {
+        return format!("{}", estimate.round());
+    }
+    let unit = 10f64.powi(estimate.log10().floor() as i32 - 2);
+    format!("{}", (estimate / unit).round() * unit)
+}
+
+/// An estimated size in bytes: MiB to one decimal, or KiB below 0.1 MiB.
+fn approximate_size(bytes: f64) -> String {
+    if bytes < 0.1 * 1048576.0 {
+        format!("{:.0} KiB", bytes / 1024.0)
+    } else {
+        format!("{:.1} MiB", bytes / 1048576.0)
+    }
+}
+
+/// A length in m as millimetres to the micrometre, without trailing zeros (`0.007` → `7`).
+fn millimetres(metres: f64) -> String {
+    let text = format!("{:.3}", metres * 1e3);
+    text.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
 /// Runs `vps scene check`.
 pub fn run(scene: &str, json: bool) -> Result<()> {
     let loaded = LoadedScene::load(scene)?;
@@ -216,7 +244,7 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
         );
     }
     if v.offset_layers.value > 0 {
-        let standoff_mm = f64::from(v.offset_layers.value) * v.voxel_size_m.value * 1e3;
+        let standoff_mm = millimetres(f64::from(v.offset_layers.value) * v.voxel_size_m.value);
         println!(
             "  clearance: the force layer stands {} voxel(s), {standoff_mm} mm, off every static \
              surface and the part stops at least that far out: a gap under about {standoff_mm} mm \
@@ -225,8 +253,8 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
         );
     }
     println!(
-        "voxmap: {} m, {}-bit{}: about {:.3e} voxels in the grid, {:.3e} in the surface band, \
-         {:.1} MiB of tree (estimate)",
+        "voxmap: {} m, {}-bit{}: about {} voxels in the grid, {} in the surface band, \
+         {} of tree (estimate)",
         report.voxel_size_m,
         report.voxel_width_bits,
         if report.workspace {
@@ -234,9 +262,9 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
         } else {
             ""
         },
-        estimate.grid_voxels,
-        estimate.band_voxels,
-        estimate.tree_bytes / 1048576.0
+        approximate_count(estimate.grid_voxels),
+        approximate_count(estimate.band_voxels),
+        approximate_size(estimate.tree_bytes)
     );
     println!(
         "shell: {} points; kernel {:.1} ns/point in full contact on this machine: a frame about \
@@ -255,4 +283,31 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
         println!("flag: {flag}");
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn estimates_print_as_whole_counts() {
+        assert_eq!(approximate_count(2.268), "2");
+        assert_eq!(approximate_count(204_128.4), "204000");
+        assert_eq!(approximate_count(599_500.0), "600000");
+        assert_eq!(approximate_count(5.995e6), "5.995e6");
+    }
+
+    #[test]
+    fn small_trees_print_in_kib() {
+        assert_eq!(approximate_size(2048.0), "2 KiB");
+        assert_eq!(approximate_size(0.3 * 1048576.0), "0.3 MiB");
+    }
+
+    #[test]
+    fn millimetres_carry_no_float_noise() {
+        // 7 × 0.001 m is 0.007000000000000001 m in f64.
+        assert_eq!(millimetres(7.0 * 0.001), "7");
+        assert_eq!(millimetres(0.0025), "2.5");
+        assert_eq!(millimetres(0.0100), "10");
+    }
 }
