@@ -12,7 +12,6 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::parser::ValueSource;
 use clap::ArgMatches;
 use serde::Deserialize;
-use std::io::Read;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use vps_session::length::{parse_length, parse_length_string};
@@ -87,17 +86,8 @@ pub struct CoordinatorFile {
 /// Reads and parses `path` (at most [`MAX_FILE_BYTES`]); errors name the file, and for a bad or
 /// unknown key, the key and its line.
 fn load<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
-    let file = std::fs::File::open(path).with_context(|| format!("reading {}", path.display()))?;
-    let mut text = String::new();
-    file.take(MAX_FILE_BYTES + 1)
-        .read_to_string(&mut text)
+    let text = vps_files::read_regular_to_string(path, MAX_FILE_BYTES)
         .with_context(|| format!("reading {}", path.display()))?;
-    if text.len() as u64 > MAX_FILE_BYTES {
-        bail!(
-            "{}: larger than {MAX_FILE_BYTES} bytes; not a config file",
-            path.display()
-        );
-    }
     toml::from_str(&text).map_err(|e| anyhow!("{}: {e}", path.display()))
 }
 

@@ -176,3 +176,114 @@ fn a_crafted_map_of_2_pow_39_voxels_is_inspected_and_probed_from_its_tree() {
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("interior") && text.contains("free"), "{text}");
 }
+
+/// Runs `vps ARGS`, killing it (and failing) if it has not ended within 60 s: the failure being
+/// tested for is a command that waits forever on a pipe.
+fn run_with_deadline(args: &[&std::ffi::OsStr]) -> Output {
+    let mut child = vps()
+        .args(args)
+        .env("VPS_CACHE_DIR", std::env::temp_dir().join("vps-hostile-input-cache"))
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawning vps");
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    while child.try_wait().unwrap().is_none() {
+        if std::time::Instant::now() > deadline {
+            child.kill().unwrap();
+            panic!("vps {args:?} still running after 60 s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.wait_with_output().unwrap()
+}
+
+#[test]
+fn a_pipe_a_device_or_a_directory_named_as_an_input_file_is_refused_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let map = small_map(dir.path());
+    let fifo = |name: &str| {
+        let path = dir.path().join(name);
+        let status = Command::new("mkfifo").arg(&path).status().expect("mkfifo runs");
+        assert!(status.success());
+        path
+    };
+    // A link with a mesh extension to an endless device: the extension check passes, the open
+    // must not.
+    let zero_stl = dir.path().join("zero.stl");
+    std::os::unix::fs::symlink("/dev/zero", &zero_stl).unwrap();
+    let (part_stl, map_fifo, points_fifo, scene_fifo, config_fifo) = (
+        fifo("part.stl"),
+        fifo("map.vmap"),
+        fifo("points.csv"),
+        fifo("scene.toml"),
+        fifo("worker.toml"),
+    );
+    let out_map = dir.path().join("out.vmap");
+    let zero = PathBuf::from("/dev/zero");
+    let replay_zero = std::ffi::OsString::from("replay:/dev/zero");
+    let a_dir = dir.path().to_path_buf();
+    let cases: Vec<(Vec<&std::ffi::OsStr>, &Path, &str)> = vec![
+        (
+            vec!["voxelize".as_ref(), part_stl.as_ref(), "-o".as_ref(), out_map.as_ref()],
+            &part_stl,
+            "a named pipe (FIFO)",
+        ),
+        (
+            vec!["voxelize".as_ref(), zero_stl.as_ref(), "-o".as_ref(), out_map.as_ref()],
+            &zero_stl,
+            "a character device",
+        ),
+        (vec!["inspect".as_ref(), map_fifo.as_ref()], &map_fifo, "a named pipe"),
+        (vec!["inspect".as_ref(), zero.as_ref()], &zero, "a character device"),
+        (vec!["inspect".as_ref(), a_dir.as_ref()], &a_dir, "a directory"),
+        (
+            vec!["probe".as_ref(), map.as_ref(), "--points".as_ref(), points_fifo.as_ref()],
+            &points_fifo,
+            "a named pipe",
+        ),
+        (
+            vec!["probe".as_ref(), zero.as_ref(), "--points".as_ref(), points_fifo.as_ref()],
+            &zero,
+            "a character device",
+        ),
+        (
+            vec!["run".as_ref(), "--scene".as_ref(), scene_fifo.as_ref(), "--seconds".as_ref(), "0.1".as_ref()],
+            &scene_fifo,
+            "a named pipe",
+        ),
+        (
+            vec!["run".as_ref(), "--haptic".as_ref(), zero.as_ref(), "--seconds".as_ref(), "0.1".as_ref()],
+            &zero,
+            "a character device",
+        ),
+        (
+            vec!["run".as_ref(), "--device".as_ref(), replay_zero.as_ref(), "--seconds".as_ref(), "0.1".as_ref()],
+            &zero,
+            "a character device",
+        ),
+        (
+            vec!["sweep".as_ref(), "--config".as_ref(), zero.as_ref()],
+            &zero,
+            "a character device",
+        ),
+        (
+            vec!["worker".as_ref(), "--config".as_ref(), config_fifo.as_ref()],
+            &config_fifo,
+            "a named pipe",
+        ),
+    ];
+    for (args, path, what) in cases {
+        let out = run_with_deadline(&args);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "vps {args:?}: {err}");
+        let name = path.display().to_string();
+        assert!(err.contains(&name), "vps {args:?}: the error does not name {name}: {err}");
+        assert!(
+            err.contains("not a regular file") && err.contains(what),
+            "vps {args:?}: the error does not say it is {what}: {err}"
+        );
+    }
+    assert!(!out_map.exists());
+}

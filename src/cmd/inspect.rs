@@ -66,11 +66,8 @@ struct ShellInfo {
 /// Runs the command.
 pub fn run(args: &InspectArgs) -> Result<()> {
     let name = args.file.display();
-    let mut file = std::fs::File::open(&args.file).with_context(|| format!("opening {name}"))?;
-    let len = file
-        .metadata()
-        .with_context(|| format!("reading {name}"))?
-        .len();
+    let (mut file, len) =
+        vps_files::open_regular(&args.file).with_context(|| format!("opening {name}"))?;
     if len < 8 {
         bail!(
             "{name}: the file is {} ({len} bytes; a .vmap or .vshell starts with 8 magic bytes)",

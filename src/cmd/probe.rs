@@ -14,6 +14,9 @@ struct ProbeResult {
     kind: &'static str,
 }
 
+/// The largest points file read, in bytes (1 GiB: about 30 million points).
+const MAX_POINTS_FILE_BYTES: u64 = 1 << 30;
+
 /// Parses the CSV text: one `x,y,z` (m) per line; blank lines and `#` comments skipped, and a
 /// header (a first line of three fields none of which is a number, such as `x,y,z`). Errors name
 /// the file and line.
@@ -56,7 +59,8 @@ fn parse_points(text: &str, file: &str) -> Result<Vec<(usize, DVec3)>> {
 pub fn run(args: &ProbeArgs) -> Result<()> {
     let tree = vps_voxmap::file::load_voxmap(&args.voxmap)?;
     let name = args.points.display().to_string();
-    let text = std::fs::read_to_string(&args.points).with_context(|| format!("reading {name}"))?;
+    let text = vps_files::read_regular_to_string(&args.points, MAX_POINTS_FILE_BYTES)
+        .with_context(|| format!("reading {name}"))?;
     let results: Vec<ProbeResult> = parse_points(&text, &name)?
         .into_iter()
         .map(|(line, p)| {

@@ -22,14 +22,14 @@ use vps_reference::{reference_contact, ExactScene};
 use vps_runtime::{SessionEnd, SignalStop, StatsSummary};
 use vps_session::file::ShellMethodName;
 use vps_session::scene::BuiltVoxmap;
-use vps_session::sweep_file::{SweepFile, SweepRun};
+use vps_session::sweep_file::{SweepFile, SweepRun, MAX_SWEEP_FILE_BYTES};
 use vps_session::{classed, stop_on_signals, CachePolicy, LoadedScene};
 
 /// Runs the sweep. SIGINT, SIGTERM and SIGHUP stop it: the running session's device is written
 /// zero, the rows done so far are written (marked partial, with the reason) and the command fails
 /// with exit status `128 + N`.
 pub fn run(args: &SweepArgs) -> Result<()> {
-    let text = std::fs::read_to_string(&args.config).with_context(|| {
+    let text = vps_files::read_regular_to_string(&args.config, MAX_SWEEP_FILE_BYTES).with_context(|| {
         format!(
             "reading the sweep file {} (voxel sizes and methods, also for --scene; a relative \
                  path is taken from the working directory: run from the repository root or give \

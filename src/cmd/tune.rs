@@ -45,10 +45,13 @@ struct TuneReport {
     verify: Option<StatsSummary>,
 }
 
+/// The largest sweep table read, in bytes (256 MiB; a sweep's table is a few hundred KiB).
+const MAX_SWEEP_TABLE_BYTES: u64 = 256 << 20;
+
 /// The sweep table at `path`, or why it cannot be used (naming the file; the default path is
 /// relative to the working directory).
 fn read_sweep(path: &Path) -> Result<SweepTable, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| {
+    let text = vps_files::read_regular_to_string(path, MAX_SWEEP_TABLE_BYTES).map_err(|e| {
         format!(
             "cannot read {}: {e} (run tune from the repository root, or give --sweep FILE)",
             path.display()

@@ -4,14 +4,16 @@
 //!
 //! Threads: the frame thread is the only writer of the counters (so a bump is a relaxed load and
 //! store, no read-modify-write); the reporter thread (`vps-metrics`) owns the RTT histograms,
-//! publishes their percentiles every [`REPORT_TICK`], logs benched/un-benched transitions as they
-//! happen and a one-line summary per worker every `log_every` at `info` level. Nothing in this
+//! publishes their percentiles every [`REPORT_TICK`], logs benched/un-benched transitions
+//! ([`crate::bench_log`]: the first at once, then at most one line per worker per 10 s) and a
+//! one-line summary per worker every `log_every` at `info` level. Nothing in this
 //! module blocks or allocates on the frame path except `PeerMetrics::new` (at join).
 //!
 //! Consistency: every field of a snapshot is read atomically, but fields are read one after the
 //! other, so a snapshot taken mid-frame may mix adjacent frames (e.g. `requests` one ahead of
 //! `merged`). Final reports are taken after the frame loop and the reporter have stopped.
 
+use crate::bench_log::{BenchLine, BenchLog, BENCH_LOG_PERIOD};
 use crate::report::{ClusterReport, PeerReport, SplitReport};
 use crossbeam::queue::ArrayQueue;
 use hdrhistogram::Histogram;
@@ -329,8 +331,7 @@ impl Drop for Reporter {
 struct Tracked {
     peer: Arc<PeerMetrics>,
     rtt: Histogram<u64>,
-    benched_times: u64,
-    unbenched_times: u64,
+    bench_log: BenchLog,
 }
 
 fn report_loop(board: &Board, stop: &AtomicBool, log_every: Option<Duration>) {
@@ -344,8 +345,9 @@ fn report_loop(board: &Board, stop: &AtomicBool, log_every: Option<Duration>) {
                 .entry(peer.id)
                 .or_insert_with(|| tracked(peer.clone()));
         }
+        let now = Instant::now();
         for t in peers.values_mut() {
-            log_transitions(t);
+            log_transitions(t, now, stopping);
         }
         if log_every.is_some_and(|e| last_log.elapsed() >= e) {
             last_log = Instant::now();
@@ -363,8 +365,7 @@ fn tracked(peer: Arc<PeerMetrics>) -> Tracked {
         peer,
         // 2 significant digits: 1 % resolution; bounds are constants, so this cannot fail.
         rtt: Histogram::new_with_bounds(1, MAX_RTT_NS, 2).expect("valid histogram bounds"),
-        benched_times: 0,
-        unbenched_times: 0,
+        bench_log: BenchLog::default(),
     }
 }
 
@@ -392,20 +393,39 @@ fn drain(board: &Board, peers: &mut HashMap<u32, Tracked>) {
     }
 }
 
-fn log_transitions(t: &mut Tracked) {
-    let benched = t.peer.benched_times.load(Ordering::Relaxed);
-    let unbenched = t.peer.unbenched_times.load(Ordering::Relaxed);
-    if benched > t.benched_times {
-        tracing::warn!(
-            worker = t.peer.id,
+/// Logs a worker's bench transitions, at most one line per [`BENCH_LOG_PERIOD`] (see
+/// [`BenchLog`]); `stopping` logs what is pending.
+fn log_transitions(t: &mut Tracked, now: Instant, stopping: bool) {
+    let load = |a: &AtomicU64| a.load(Ordering::Relaxed);
+    let line = t.bench_log.observe(
+        load(&t.peer.benched_times),
+        load(&t.peer.unbenched_times),
+        t.peer.benched.load(Ordering::Relaxed),
+        now,
+        stopping,
+    );
+    let worker = t.peer.id;
+    match line {
+        None => {}
+        Some(BenchLine::Benched) => tracing::warn!(
+            worker,
             "benched (missed or invalid replies); its shares are computed locally"
-        );
+        ),
+        Some(BenchLine::Recovered) => tracing::info!(worker, "recovered: given work again"),
+        Some(BenchLine::Flapping {
+            benched,
+            recovered,
+            now_benched,
+        }) => tracing::warn!(
+            worker,
+            benched,
+            recovered,
+            now_benched,
+            "in and out of the bench (late or invalid replies) since the last line, which is at \
+             most one per {} s; benched shares are computed locally",
+            BENCH_LOG_PERIOD.as_secs()
+        ),
     }
-    if unbenched > t.unbenched_times {
-        tracing::info!(worker = t.peer.id, "recovered: given work again");
-    }
-    t.benched_times = benched;
-    t.unbenched_times = unbenched;
 }
 
 fn log_summary(board: &Board, peers: &HashMap<u32, Tracked>) {

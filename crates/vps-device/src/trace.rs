@@ -10,7 +10,7 @@
 //! bit.
 
 use crate::device::{check_sample, DeviceError, DeviceLimits, HapticDevice};
-use std::io::{BufRead, BufReader, Write};
+use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 use vps_haptic::{HandleSample, Wrench};
 
@@ -199,7 +199,7 @@ pub fn write_trace(out: &mut impl Write, trace: &Trace, path: &Path) -> Result<(
 /// Reads a trace written by [`save_trace`], checking every format rule; errors name the file and
 /// line.
 pub fn load_trace(path: &Path) -> Result<Trace, TraceError> {
-    let file = std::fs::File::open(path).map_err(|source| TraceError::Io {
+    let (file, _) = vps_files::open_regular(path).map_err(|source| TraceError::Io {
         path: path.to_path_buf(),
         source,
     })?;
@@ -210,21 +210,45 @@ pub fn load_trace(path: &Path) -> Result<Trace, TraceError> {
 /// header promising billions of frames in a short file cannot ask for a huge allocation.
 const MAX_RESERVED_FRAMES: u64 = 4096;
 
+/// The longest line read, in bytes. A frame line is about 300 bytes and a header under 1 KiB; a
+/// longer line (a file with no line breaks, or not a trace at all) is refused once this many bytes
+/// are read, before more memory is taken for it.
+pub const MAX_LINE_BYTES: usize = 64 * 1024;
+
 /// Reads a trace in the JSON-lines format from `reader`, checking every format rule; `path` names
-/// the source in errors (with the line). Memory grows with the lines actually read.
-pub fn read_trace(reader: impl BufRead, path: &Path) -> Result<Trace, TraceError> {
+/// the source in errors (with the line). Memory grows with the lines actually read, each at most
+/// [`MAX_LINE_BYTES`].
+pub fn read_trace(mut reader: impl BufRead, path: &Path) -> Result<Trace, TraceError> {
     let malformed = |line: usize, message: String| TraceError::Malformed {
         path: path.to_path_buf(),
         line,
         message,
     };
-    let mut lines = reader.lines().enumerate().map(|(i, l)| (i + 1, l));
+    let mut line = 0;
     let mut next_line = |what: &str| -> Result<Option<(usize, String)>, TraceError> {
-        match lines.next() {
-            None => Ok(None),
-            Some((n, Ok(text))) => Ok(Some((n, text))),
-            Some((n, Err(e))) => Err(malformed(n, format!("cannot read {what}: {e}"))),
+        line += 1;
+        let mut bytes = Vec::new();
+        let read = (&mut reader)
+            .take(MAX_LINE_BYTES as u64 + 1)
+            .read_until(b'\n', &mut bytes)
+            .map_err(|e| malformed(line, format!("cannot read {what}: {e}")))?;
+        if read == 0 {
+            return Ok(None);
         }
+        if bytes.last() == Some(&b'\n') {
+            bytes.pop();
+            if bytes.last() == Some(&b'\r') {
+                bytes.pop();
+            }
+        } else if bytes.len() > MAX_LINE_BYTES {
+            return Err(malformed(
+                line,
+                format!("cannot read {what}: the line is longer than {MAX_LINE_BYTES} bytes"),
+            ));
+        }
+        let text = String::from_utf8(bytes)
+            .map_err(|_| malformed(line, format!("cannot read {what}: not UTF-8 text")))?;
+        Ok(Some((line, text)))
     };
     let (_, text) =
         next_line("header")?.ok_or_else(|| malformed(1, "empty file: no header".into()))?;
@@ -468,6 +492,36 @@ mod tests {
         expect_malformed(&format!("{header}\n{f0}\n"), 3, "promises 2");
         let missing_field = f1.replace("\"time\":0.0,", "");
         expect_malformed(&format!("{header}\n{f0}\n{missing_field}\n"), 3, "time");
+        assert_eq!(
+            load_text(&format!("{header}\r\n{f0}\r\n{f1}\r\n"))
+                .unwrap()
+                .frames
+                .len(),
+            2,
+            "CRLF line ends read as LF"
+        );
+        let latin1 = [format!("{header}\n{f0}\n").into_bytes(), vec![0xe9, b'\n']].concat();
+        match read_trace(&latin1[..], Path::new("mem.jsonl")) {
+            Err(TraceError::Malformed { line: 3, message, .. }) => {
+                assert!(message.contains("not UTF-8"), "{message}")
+            }
+            other => panic!("expected a malformed line 3, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_line_without_end_is_refused_after_max_line_bytes() {
+        // An endless stream of bytes with no line break: only MAX_LINE_BYTES + 1 are read.
+        let endless = std::io::BufReader::new(std::io::repeat(b'x'));
+        match read_trace(endless, Path::new("zeros")) {
+            Err(TraceError::Malformed { line: 1, message, .. }) => {
+                assert!(message.contains("longer than 65536 bytes"), "{message}")
+            }
+            other => panic!("expected a malformed line 1, got {other:?}"),
+        }
+        let header = r#"{"format":"vps-trace","version":1,"device":"d","period":0.001,"frames":0}"#;
+        let exactly_max = format!("{header}{}", " ".repeat(MAX_LINE_BYTES - header.len()));
+        assert_eq!(load_text(&exactly_max).unwrap().frames.len(), 0);
     }
 
     #[test]

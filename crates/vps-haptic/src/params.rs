@@ -127,6 +127,9 @@ pub const PARAM_RANGES: [ParamRange; 12] = [
 /// so a working choice, not a proven optimum). 10× let the part get stuck in a wall.
 pub const ROTATIONAL_COUPLING_FACTOR: f64 = 2.0;
 
+/// The largest haptic parameter file read, in bytes (1 MiB; the file has a dozen keys).
+pub const MAX_PARAMS_FILE_BYTES: u64 = vps_files::MIB;
+
 /// Parameters of one haptic frame (docs/architecture.md#the-haptic-frame). SI units. Gains left `None` are derived
 /// ([`HapticParams::gains`]) from `dt`, `mass`, the inertia and the stability bound; see
 /// [`crate::stability`] for the derivation. `voxel_size` and `max_radius` describe the scene and the
@@ -265,10 +268,11 @@ impl HapticParams {
         Ok(params)
     }
 
-    /// Reads, parses and validates a TOML file.
+    /// Reads, parses and validates a TOML file (a regular file of at most
+    /// [`MAX_PARAMS_FILE_BYTES`]).
     pub fn from_file(path: impl AsRef<Path>) -> Result<Self, ParamsError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| ParamsError::Io {
+        let text = vps_files::read_regular_to_string(path, MAX_PARAMS_FILE_BYTES).map_err(|source| ParamsError::Io {
             path: path.display().to_string(),
             source,
         })?;

@@ -55,6 +55,10 @@ impl MeshFormat {
     }
 }
 
+/// The largest mesh file read, in bytes (4 GiB: a binary STL of about 80 million triangles). A
+/// larger file is refused before it is read, naming its size and this bound.
+pub const MAX_MESH_FILE_BYTES: u64 = 4 * vps_files::GIB;
+
 /// Loads a mesh file whose coordinates are already metres. See [`load_mesh_scaled`].
 pub fn load_mesh(path: &Path) -> Result<LoadedMesh, MeshError> {
     load_mesh_scaled(path, 1.0)
@@ -69,7 +73,7 @@ pub fn load_mesh_scaled(path: &Path, scale: f64) -> Result<LoadedMesh, MeshError
         return Err(MeshError::InvalidScale { file, scale });
     }
     let format = MeshFormat::from_path(path)?;
-    let bytes = std::fs::read(path).map_err(|source| MeshError::Io {
+    let bytes = vps_files::read_regular(path, MAX_MESH_FILE_BYTES).map_err(|source| MeshError::Io {
         file: file.clone(),
         source,
     })?;

@@ -18,6 +18,10 @@ use vps_voxmap::VoxelWidth;
 /// The most waypoints a path may have, after a corridor is expanded (count × laps).
 pub const MAX_WAYPOINTS: usize = 100_000;
 
+/// The largest scene file read, in bytes: room for [`MAX_WAYPOINTS`] written inline with their
+/// rotations. A larger file is refused before it is read, naming its size and this bound.
+pub const MAX_SCENE_FILE_BYTES: u64 = 64 * vps_files::MIB;
+
 /// How far a corridor's detours look for a surface (m) unless the scene says otherwise.
 pub const DEFAULT_DETOUR_REACH: f64 = 0.8;
 
@@ -475,10 +479,11 @@ impl SceneFile {
         Ok(file)
     }
 
-    /// Reads, parses and validates a scene file.
+    /// Reads, parses and validates a scene file (a regular file of at most
+    /// [`MAX_SCENE_FILE_BYTES`]).
     pub fn from_file(path: &Path) -> Result<SceneFile, SceneError> {
         let label = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
+        let text = vps_files::read_regular_to_string(path, MAX_SCENE_FILE_BYTES).map_err(|source| SceneError::Read {
             path: label.clone(),
             source,
         })?;

@@ -15,6 +15,9 @@ use vps_voxmap::VoxelWidth;
 /// The longest session (s): 1e7 s, about 116 days; a longer one is a typo or an overflow.
 pub const MAX_SESSION_SECONDS: f64 = 1e7;
 
+/// The largest sweep file read, in bytes (1 MiB; the committed one is under 2 KiB).
+pub const MAX_SWEEP_FILE_BYTES: u64 = 1 << 20;
+
 /// The default of `reference_points_per_frame`.
 pub const DEFAULT_REFERENCE_POINTS_PER_FRAME: usize = 500;
 

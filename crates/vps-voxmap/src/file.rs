@@ -459,8 +459,7 @@ fn load<T>(
         source: Box::new(source),
     };
     let io = |field, source| at_path(FileError::Io { field, source });
-    let file = File::open(path).map_err(|source| io("open", source))?;
-    let len = file.metadata().map_err(|source| io("open", source))?.len();
+    let (file, len) = vps_files::open_regular(path).map_err(|source| io("open", source))?;
     if len == 0 {
         return Err(at_path(FileError::Empty { expected: magic }));
     }

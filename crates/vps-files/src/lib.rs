@@ -1,0 +1,246 @@
+//! The files a user names (meshes, scene and parameter files, voxmaps, traces, point lists) are
+//! opened only when they are regular files and read only within a size bound.
+//!
+//! A path given by mistake can be something other than a file: a named pipe (or a shell's
+//! `<(...)`) makes an ordinary `open` wait for a writer forever; `/dev/zero` or `/dev/urandom`
+//! never end, so reading them whole grows a buffer until memory runs out; a directory fails with
+//! an error that does not say what was expected. [`open_regular`] refuses each of these at once
+//! with an error saying what the path is, and [`read_regular`] also refuses a file over the
+//! caller's size bound before allocating for it. Errors are [`std::io::Error`]s, so callers keep
+//! their own error types (which name the file) and only change how they open it.
+//!
+//! Where this crate sits in vps: `docs/architecture.md#crates` at the repository root.
+
+#![warn(missing_docs)]
+
+use std::fs::{File, FileType, OpenOptions};
+use std::io::{self, Read};
+use std::path::Path;
+
+/// One mebibyte (2^20 bytes), for writing size bounds.
+pub const MIB: u64 = 1 << 20;
+/// One gibibyte (2^30 bytes), for writing size bounds.
+pub const GIB: u64 = 1 << 30;
+
+/// Opens `path` for reading if it is a regular file (symbolic links followed), returning the file
+/// and its length in bytes.
+///
+/// Never blocks: on Unix the file is opened with `O_NONBLOCK`, so opening a named pipe returns at
+/// once; the flag is cleared again once the file is known to be regular. Anything else (a
+/// directory, a named pipe, a character or block device, a socket) is an error of kind
+/// [`io::ErrorKind::InvalidInput`] whose message says what the path is.
+pub fn open_regular(path: &Path) -> io::Result<(File, u64)> {
+    let mut options = OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        options.custom_flags(libc::O_NONBLOCK);
+    }
+    let file = options.open(path)?;
+    let metadata = file.metadata()?;
+    if !metadata.is_file() {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!(
+                "not a regular file but {}: give the path of a file on disk (a pipe or device \
+                 could block or never end)",
+                describe(&metadata.file_type())
+            ),
+        ));
+    }
+    #[cfg(unix)]
+    clear_nonblocking(&file)?;
+    Ok((file, metadata.len()))
+}
+
+/// Reads all of `path` if it is a regular file (see [`open_regular`]) of at most `max_bytes`
+/// bytes. A larger file is an error of kind [`io::ErrorKind::FileTooLarge`] naming its size and
+/// the bound, returned before anything is allocated; a file that grows past the bound while it is
+/// read is refused the same way, so at most `max_bytes + 1` bytes are ever held.
+pub fn read_regular(path: &Path, max_bytes: u64) -> io::Result<Vec<u8>> {
+    let (file, len) = open_regular(path)?;
+    if len > max_bytes {
+        return Err(too_large(len, max_bytes));
+    }
+    // `len <= max_bytes`, a bound the caller chose to fit in memory.
+    let mut bytes = Vec::with_capacity(usize::try_from(len).unwrap_or(0));
+    file.take(max_bytes.saturating_add(1))
+        .read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(too_large(bytes.len() as u64, max_bytes));
+    }
+    Ok(bytes)
+}
+
+/// [`read_regular`], then the bytes as UTF-8 text; text that is not UTF-8 is an error of kind
+/// [`io::ErrorKind::InvalidData`] naming the byte offset of the first invalid byte.
+pub fn read_regular_to_string(path: &Path, max_bytes: u64) -> io::Result<String> {
+    String::from_utf8(read_regular(path, max_bytes)?).map_err(|e| {
+        io::Error::new(
+            io::ErrorKind::InvalidData,
+            format!(
+                "not UTF-8 text: the byte at offset {} is not valid UTF-8",
+                e.utf8_error().valid_up_to()
+            ),
+        )
+    })
+}
+
+/// `bytes` for people: `"5.0 GiB (5368709120 bytes)"`, `"512 bytes"`.
+pub fn describe_size(bytes: u64) -> String {
+    let b = bytes as f64;
+    if bytes >= GIB {
+        format!("{:.1} GiB ({bytes} bytes)", b / GIB as f64)
+    } else if bytes >= MIB {
+        format!("{:.1} MiB ({bytes} bytes)", b / MIB as f64)
+    } else if bytes >= 1024 {
+        format!("{:.1} KiB ({bytes} bytes)", b / 1024.0)
+    } else {
+        format!("{bytes} bytes")
+    }
+}
+
+fn too_large(len: u64, max_bytes: u64) -> io::Error {
+    io::Error::new(
+        io::ErrorKind::FileTooLarge,
+        format!(
+            "the file is {}, over the limit of {} for this input",
+            describe_size(len),
+            describe_size(max_bytes)
+        ),
+    )
+}
+
+/// What a path that is not a regular file is, as a noun phrase.
+fn describe(file_type: &FileType) -> &'static str {
+    if file_type.is_dir() {
+        return "a directory";
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if file_type.is_fifo() {
+            return "a named pipe (FIFO)";
+        }
+        if file_type.is_char_device() {
+            return "a character device";
+        }
+        if file_type.is_block_device() {
+            return "a block device";
+        }
+        if file_type.is_socket() {
+            return "a socket";
+        }
+    }
+    "a special file"
+}
+
+/// Clears `O_NONBLOCK` on a file opened with it, so reads behave as on any opened file.
+#[cfg(unix)]
+fn clear_nonblocking(file: &File) -> io::Result<()> {
+    use std::os::fd::AsRawFd;
+    let fd = file.as_raw_fd();
+    // SAFETY: `fd` is an open descriptor owned by `file` for the duration of both calls; F_GETFL
+    // and F_SETFL read and set its status flags and touch no memory of ours.
+    unsafe {
+        let flags = libc::fcntl(fd, libc::F_GETFL);
+        if flags < 0 || libc::fcntl(fd, libc::F_SETFL, flags & !libc::O_NONBLOCK) < 0 {
+            return Err(io::Error::last_os_error());
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::mpsc;
+    use std::time::Duration;
+
+    #[test]
+    fn a_regular_file_reads_whole_up_to_the_bound() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.txt");
+        std::fs::write(&path, "0123456789").unwrap();
+        assert_eq!(read_regular_to_string(&path, 10).unwrap(), "0123456789");
+        let (_, len) = open_regular(&path).unwrap();
+        assert_eq!(len, 10);
+    }
+
+    #[test]
+    fn a_file_over_the_bound_is_refused_naming_both_sizes() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("big.bin");
+        std::fs::write(&path, vec![7u8; 2048]).unwrap();
+        let err = read_regular(&path, 1024).unwrap_err();
+        assert_eq!(err.kind(), io::ErrorKind::FileTooLarge);
+        let message = err.to_string();
+        assert!(message.contains("2.0 KiB (2048 bytes)"), "{message}");
+        assert!(message.contains("1.0 KiB (1024 bytes)"), "{message}");
+    }
+
+    #[test]
+    fn a_directory_is_refused_as_a_directory() {
+        let dir = tempfile::tempdir().unwrap();
+        let err = read_regular(dir.path(), MIB).unwrap_err();
+        assert_eq!(err.kind(), io::ErrorKind::InvalidInput);
+        assert!(err.to_string().contains("a directory"), "{err}");
+    }
+
+    #[test]
+    fn text_that_is_not_utf8_names_the_offset() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("latin1.toml");
+        std::fs::write(&path, b"name = \"caf\xe9\"").unwrap();
+        let err = read_regular_to_string(&path, MIB).unwrap_err();
+        assert_eq!(err.kind(), io::ErrorKind::InvalidData);
+        assert!(err.to_string().contains("offset 11"), "{err}");
+    }
+
+    /// Runs `open` on another thread and fails (instead of hanging) if it has not returned in
+    /// 10 s; the only thread in this crate's tests, there because the failure being tested for
+    /// is a call that never returns.
+    fn returns_promptly(path: std::path::PathBuf) -> io::Result<(File, u64)> {
+        let (send, receive) = mpsc::channel();
+        std::thread::spawn(move || send.send(open_regular(&path)).unwrap());
+        receive
+            .recv_timeout(Duration::from_secs(10))
+            .expect("open_regular blocked for 10 s")
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_named_pipe_is_refused_without_waiting_for_a_writer() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("pipe");
+        let c_path = std::ffi::CString::new(path.as_os_str().as_encoded_bytes()).unwrap();
+        // SAFETY: `c_path` is a valid NUL-terminated path that outlives the call.
+        assert_eq!(unsafe { libc::mkfifo(c_path.as_ptr(), 0o600) }, 0);
+        let err = returns_promptly(path).unwrap_err();
+        assert_eq!(err.kind(), io::ErrorKind::InvalidInput);
+        assert!(err.to_string().contains("a named pipe (FIFO)"), "{err}");
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn an_endless_device_is_refused_before_any_read() {
+        let zero = Path::new("/dev/zero");
+        if !zero.exists() {
+            eprintln!("skipped: no /dev/zero");
+            return;
+        }
+        let err = returns_promptly(zero.to_path_buf()).unwrap_err();
+        assert!(err.to_string().contains("a character device"), "{err}");
+        let err = read_regular(zero, GIB).unwrap_err();
+        assert_eq!(err.kind(), io::ErrorKind::InvalidInput);
+    }
+
+    #[test]
+    fn sizes_read_in_the_largest_whole_unit() {
+        assert_eq!(describe_size(512), "512 bytes");
+        assert_eq!(describe_size(1536), "1.5 KiB (1536 bytes)");
+        assert_eq!(describe_size(16 * MIB), "16.0 MiB (16777216 bytes)");
+        assert_eq!(describe_size(5 * GIB), "5.0 GiB (5368709120 bytes)");
+    }
+}
