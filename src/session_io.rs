@@ -172,11 +172,16 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
     let loaded = LoadedScene::load(&args.scene.scene)?;
     let choice = device_choice(args.device.as_deref(), &loaded.device)?;
     choice.check_available()?;
+    // Read before the voxmap is built (that can take minutes), so a bad file is reported at once.
+    let haptic_file = args
+        .haptic
+        .as_deref()
+        .map(HapticParams::from_file)
+        .transpose()?;
     let mut assets =
         SessionAssets::from_loaded(loaded, &args.scene.build_options(args.voxel_size))?;
-    if let Some(path) = &args.haptic {
-        assets.params = HapticParams::from_file(path)?
-            .with_scene(assets.voxel_size, assets.shell.max_radius())?;
+    if let Some(params) = haptic_file {
+        assets.params = params.with_scene(assets.voxel_size, assets.shell.max_radius())?;
     }
     let source = match &args.haptic {
         Some(path) => path.display().to_string(),

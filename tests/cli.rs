@@ -298,18 +298,20 @@ fn bridge_mapping_flags_out_of_range_are_refused_before_any_work() {
 }
 
 /// A device that cannot be opened (a bridge port another program holds, a trace file that is not
-/// there) is reported before the voxmap is built, which can take minutes for a user's scene; the
+/// there) or a `--haptic` file that cannot be read is reported before the voxmap is built, which can take minutes for a user's scene; the
 /// error used to come after the build. A missing SpaceMouse goes the same way (not tested here: a
 /// developer's machine may have one).
 #[test]
-fn a_device_that_cannot_open_is_reported_before_the_voxmap_is_built() {
+fn a_device_that_cannot_open_or_a_bad_haptic_file_is_reported_before_the_voxmap_is_built() {
     let vps = sandbox();
     let held = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
     let bridge = format!("bridge:{}", held.local_addr().unwrap());
     let replay = format!("replay:{}", vps.path("no-such-trace.csv"));
-    for (device, expected) in [
-        (bridge.as_str(), "binding the device bridge on"),
-        (replay.as_str(), "reading the trace to replay"),
+    let haptic = vps.path("no-such-haptic.toml");
+    for (flag, value, expected) in [
+        ("--device", bridge.as_str(), "binding the device bridge on"),
+        ("--device", replay.as_str(), "reading the trace to replay"),
+        ("--haptic", haptic.as_str(), "cannot read haptic parameters"),
     ] {
         let out = vps.run(&[
             "run",
@@ -318,15 +320,15 @@ fn a_device_that_cannot_open_is_reported_before_the_voxmap_is_built() {
             "--seconds",
             "1",
             "--no-cache",
-            "--device",
-            device,
+            flag,
+            value,
         ]);
         let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(1), "{device}: {err}");
-        assert!(err.contains(expected), "{device}: {err}");
+        assert_eq!(out.status.code(), Some(1), "{value}: {err}");
+        assert!(err.contains(expected), "{value}: {err}");
         assert!(
             !err.contains("voxmap:"),
-            "{device}: built before the check: {err}"
+            "{value}: built before the check: {err}"
         );
     }
 }

@@ -182,7 +182,10 @@ fn a_crafted_map_of_2_pow_39_voxels_is_inspected_and_probed_from_its_tree() {
 fn run_with_deadline(args: &[&std::ffi::OsStr]) -> Output {
     let mut child = vps()
         .args(args)
-        .env("VPS_CACHE_DIR", std::env::temp_dir().join("vps-hostile-input-cache"))
+        .env(
+            "VPS_CACHE_DIR",
+            std::env::temp_dir().join("vps-hostile-input-cache"),
+        )
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -205,7 +208,10 @@ fn a_pipe_a_device_or_a_directory_named_as_an_input_file_is_refused_at_once() {
     let map = small_map(dir.path());
     let fifo = |name: &str| {
         let path = dir.path().join(name);
-        let status = Command::new("mkfifo").arg(&path).status().expect("mkfifo runs");
+        let status = Command::new("mkfifo")
+            .arg(&path)
+            .status()
+            .expect("mkfifo runs");
         assert!(status.success());
         path
     };
@@ -226,40 +232,90 @@ fn a_pipe_a_device_or_a_directory_named_as_an_input_file_is_refused_at_once() {
     let a_dir = dir.path().to_path_buf();
     let cases: Vec<(Vec<&std::ffi::OsStr>, &Path, &str)> = vec![
         (
-            vec!["voxelize".as_ref(), part_stl.as_ref(), "-o".as_ref(), out_map.as_ref()],
+            vec![
+                "voxelize".as_ref(),
+                part_stl.as_ref(),
+                "-o".as_ref(),
+                out_map.as_ref(),
+            ],
             &part_stl,
             "a named pipe (FIFO)",
         ),
         (
-            vec!["voxelize".as_ref(), zero_stl.as_ref(), "-o".as_ref(), out_map.as_ref()],
+            vec![
+                "voxelize".as_ref(),
+                zero_stl.as_ref(),
+                "-o".as_ref(),
+                out_map.as_ref(),
+            ],
             &zero_stl,
             "a character device",
         ),
-        (vec!["inspect".as_ref(), map_fifo.as_ref()], &map_fifo, "a named pipe"),
-        (vec!["inspect".as_ref(), zero.as_ref()], &zero, "a character device"),
-        (vec!["inspect".as_ref(), a_dir.as_ref()], &a_dir, "a directory"),
         (
-            vec!["probe".as_ref(), map.as_ref(), "--points".as_ref(), points_fifo.as_ref()],
+            vec!["inspect".as_ref(), map_fifo.as_ref()],
+            &map_fifo,
+            "a named pipe",
+        ),
+        (
+            vec!["inspect".as_ref(), zero.as_ref()],
+            &zero,
+            "a character device",
+        ),
+        (
+            vec!["inspect".as_ref(), a_dir.as_ref()],
+            &a_dir,
+            "a directory",
+        ),
+        (
+            vec![
+                "probe".as_ref(),
+                map.as_ref(),
+                "--points".as_ref(),
+                points_fifo.as_ref(),
+            ],
             &points_fifo,
             "a named pipe",
         ),
         (
-            vec!["probe".as_ref(), zero.as_ref(), "--points".as_ref(), points_fifo.as_ref()],
+            vec![
+                "probe".as_ref(),
+                zero.as_ref(),
+                "--points".as_ref(),
+                points_fifo.as_ref(),
+            ],
             &zero,
             "a character device",
         ),
         (
-            vec!["run".as_ref(), "--scene".as_ref(), scene_fifo.as_ref(), "--seconds".as_ref(), "0.1".as_ref()],
+            vec![
+                "run".as_ref(),
+                "--scene".as_ref(),
+                scene_fifo.as_ref(),
+                "--seconds".as_ref(),
+                "0.1".as_ref(),
+            ],
             &scene_fifo,
             "a named pipe",
         ),
         (
-            vec!["run".as_ref(), "--haptic".as_ref(), zero.as_ref(), "--seconds".as_ref(), "0.1".as_ref()],
+            vec![
+                "run".as_ref(),
+                "--haptic".as_ref(),
+                zero.as_ref(),
+                "--seconds".as_ref(),
+                "0.1".as_ref(),
+            ],
             &zero,
             "a character device",
         ),
         (
-            vec!["run".as_ref(), "--device".as_ref(), replay_zero.as_ref(), "--seconds".as_ref(), "0.1".as_ref()],
+            vec![
+                "run".as_ref(),
+                "--device".as_ref(),
+                replay_zero.as_ref(),
+                "--seconds".as_ref(),
+                "0.1".as_ref(),
+            ],
             &zero,
             "a character device",
         ),
@@ -279,7 +335,10 @@ fn a_pipe_a_device_or_a_directory_named_as_an_input_file_is_refused_at_once() {
         let err = stderr(&out);
         assert_eq!(out.status.code(), Some(1), "vps {args:?}: {err}");
         let name = path.display().to_string();
-        assert!(err.contains(&name), "vps {args:?}: the error does not name {name}: {err}");
+        assert!(
+            err.contains(&name),
+            "vps {args:?}: the error does not name {name}: {err}"
+        );
         assert!(
             err.contains("not a regular file") && err.contains(what),
             "vps {args:?}: the error does not say it is {what}: {err}"

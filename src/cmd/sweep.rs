@@ -29,14 +29,16 @@ use vps_session::{classed, stop_on_signals, CachePolicy, LoadedScene};
 /// zero, the rows done so far are written (marked partial, with the reason) and the command fails
 /// with exit status `128 + N`.
 pub fn run(args: &SweepArgs) -> Result<()> {
-    let text = vps_files::read_regular_to_string(&args.config, MAX_SWEEP_FILE_BYTES).with_context(|| {
-        format!(
-            "reading the sweep file {} (voxel sizes and methods, also for --scene; a relative \
+    let text = vps_files::read_regular_to_string(&args.config, MAX_SWEEP_FILE_BYTES).with_context(
+        || {
+            format!(
+                "reading the sweep file {} (voxel sizes and methods, also for --scene; a relative \
                  path is taken from the working directory: run from the repository root or give \
                  --config FILE)",
-            args.config.display()
-        )
-    })?;
+                args.config.display()
+            )
+        },
+    )?;
     let config = SweepFile::from_toml_str(&text, &args.config.display().to_string())?;
     for path in [&args.json, &args.csv].into_iter().flatten() {
         check_output_path(path, &[&args.config])?;

@@ -115,7 +115,13 @@ mod tests {
             let gap = Duration::from_millis(100 * (pair[1].0 - pair[0].0));
             assert!(gap >= BENCH_LOG_PERIOD, "{pair:?}");
         }
-        let flushed = log.observe(benched, recovered, false, start + Duration::from_secs(61), true);
+        let flushed = log.observe(
+            benched,
+            recovered,
+            false,
+            start + Duration::from_secs(61),
+            true,
+        );
         let (mut logged_benched, mut logged_recovered) = (0, 0);
         for line in lines.iter().map(|(_, l)| l).chain(flushed.iter()) {
             match *line {
@@ -138,13 +144,22 @@ mod tests {
         let mut log = BenchLog::default();
         let at = |s: u64| start + Duration::from_secs(s);
         assert_eq!(log.observe(0, 0, false, at(0), false), None);
-        assert_eq!(log.observe(1, 0, true, at(1), false), Some(BenchLine::Benched));
+        assert_eq!(
+            log.observe(1, 0, true, at(1), false),
+            Some(BenchLine::Benched)
+        );
         // Recovered 3 s later: within the quiet period, so held back until it ends.
         assert_eq!(log.observe(1, 1, false, at(4), false), None);
-        assert_eq!(log.observe(1, 1, false, at(11), false), Some(BenchLine::Recovered));
+        assert_eq!(
+            log.observe(1, 1, false, at(11), false),
+            Some(BenchLine::Recovered)
+        );
         // Nothing for a while: the quiet period lapses, so the next transition is immediate.
         assert_eq!(log.observe(1, 1, false, at(30), false), None);
-        assert_eq!(log.observe(2, 1, true, at(31), false), Some(BenchLine::Benched));
+        assert_eq!(
+            log.observe(2, 1, true, at(31), false),
+            Some(BenchLine::Benched)
+        );
         assert_eq!(
             log.observe(3, 2, true, at(32), true),
             Some(BenchLine::Flapping {

@@ -502,7 +502,9 @@ mod tests {
         );
         let latin1 = [format!("{header}\n{f0}\n").into_bytes(), vec![0xe9, b'\n']].concat();
         match read_trace(&latin1[..], Path::new("mem.jsonl")) {
-            Err(TraceError::Malformed { line: 3, message, .. }) => {
+            Err(TraceError::Malformed {
+                line: 3, message, ..
+            }) => {
                 assert!(message.contains("not UTF-8"), "{message}")
             }
             other => panic!("expected a malformed line 3, got {other:?}"),
@@ -514,7 +516,9 @@ mod tests {
         // An endless stream of bytes with no line break: only MAX_LINE_BYTES + 1 are read.
         let endless = std::io::BufReader::new(std::io::repeat(b'x'));
         match read_trace(endless, Path::new("zeros")) {
-            Err(TraceError::Malformed { line: 1, message, .. }) => {
+            Err(TraceError::Malformed {
+                line: 1, message, ..
+            }) => {
                 assert!(message.contains("longer than 65536 bytes"), "{message}")
             }
             other => panic!("expected a malformed line 1, got {other:?}"),

@@ -272,10 +272,13 @@ impl HapticParams {
     /// [`MAX_PARAMS_FILE_BYTES`]).
     pub fn from_file(path: impl AsRef<Path>) -> Result<Self, ParamsError> {
         let path = path.as_ref();
-        let text = vps_files::read_regular_to_string(path, MAX_PARAMS_FILE_BYTES).map_err(|source| ParamsError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
+        let text =
+            vps_files::read_regular_to_string(path, MAX_PARAMS_FILE_BYTES).map_err(|source| {
+                ParamsError::Io {
+                    path: path.display().to_string(),
+                    source,
+                }
+            })?;
         Self::from_toml_str(&text, &path.display().to_string())
     }
 

@@ -73,10 +73,11 @@ pub fn load_mesh_scaled(path: &Path, scale: f64) -> Result<LoadedMesh, MeshError
         return Err(MeshError::InvalidScale { file, scale });
     }
     let format = MeshFormat::from_path(path)?;
-    let bytes = vps_files::read_regular(path, MAX_MESH_FILE_BYTES).map_err(|source| MeshError::Io {
-        file: file.clone(),
-        source,
-    })?;
+    let bytes =
+        vps_files::read_regular(path, MAX_MESH_FILE_BYTES).map_err(|source| MeshError::Io {
+            file: file.clone(),
+            source,
+        })?;
     let mut mesh = parse_mesh(&bytes, format, &file)?;
     if scale != 1.0 {
         for v in &mut mesh.vertices {

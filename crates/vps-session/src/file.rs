@@ -483,10 +483,13 @@ impl SceneFile {
     /// [`MAX_SCENE_FILE_BYTES`]).
     pub fn from_file(path: &Path) -> Result<SceneFile, SceneError> {
         let label = path.display().to_string();
-        let text = vps_files::read_regular_to_string(path, MAX_SCENE_FILE_BYTES).map_err(|source| SceneError::Read {
-            path: label.clone(),
-            source,
-        })?;
+        let text =
+            vps_files::read_regular_to_string(path, MAX_SCENE_FILE_BYTES).map_err(|source| {
+                SceneError::Read {
+                    path: label.clone(),
+                    source,
+                }
+            })?;
         Self::from_toml_str(&text, &label)
     }
 
