@@ -197,7 +197,11 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
         record_trace: args.record.is_some(),
         ..LoopConfig::default()
     };
-    let plan = assets.plan(&choice, assets.script()?, config)?;
+    let script = assets.script()?;
+    if let Some(warning) = assets.start_overlap(&script).warning() {
+        eprintln!("{}: warning: {warning}", assets.label);
+    }
+    let plan = assets.plan(&choice, script, config)?;
     Ok(PreparedSession { assets, plan })
 }
 

@@ -404,3 +404,39 @@ fn the_peg_enters_its_hole_only_without_offset_layers() {
     // The block's top is at 0.04 m and the grip 0.03 m above the peg's bottom.
     assert!(on_rim > 0.07, "offset 2: z {on_rim}");
 }
+
+/// A part whose first waypoint lies inside a static object is held there for the whole session
+/// (every frame penetrates). `vps run` said nothing and printed a penetration ratio of 1 as if
+/// the haptics had failed; it now warns before the session, naming the waypoint and the fix. The
+/// bay as given (the part starts in free space) gets no such warning.
+#[test]
+fn a_part_starting_inside_a_static_object_is_warned_about() {
+    let bay = bay();
+    let warning = "the part starts inside a static object";
+    let clear = bay.run(&["run", "--scene", &bay.path("bay.toml"), "--seconds", "0.1"]);
+    assert!(clear.status.success(), "{}", stderr(&clear));
+    assert!(!stderr(&clear).contains(warning), "{}", stderr(&clear));
+
+    write_stl(
+        &bay.dir().join("block.stl"),
+        [-40.0, -40.0, 0.0],
+        [40.0, 40.0, 80.0],
+    );
+    let inside = SCENE
+        .replace(
+            "[voxels]",
+            "[[static]]\nsource = \"block.stl\"\nunits = \"mm\"\n\n[voxels]",
+        )
+        .replace("[[0.0, 0.0, 0.05],", "[[0.0, 0.0, 0.04],");
+    std::fs::write(bay.dir().join("inside.toml"), inside).unwrap();
+    let scene = bay.path("inside.toml");
+    let out = bay.run(&["run", "--scene", &scene, "--seconds", "0.1"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let err = stderr(&out);
+    assert!(
+        err.contains(&format!("inside.toml: warning: {warning}"))
+            && err.contains("first hand waypoint [0.0000, 0.0000, 0.0400] m")
+            && err.contains("`hand.waypoints[0]`"),
+        "{err}"
+    );
+}

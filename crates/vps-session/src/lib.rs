@@ -7,7 +7,8 @@
 //! Module map: [`file`](mod@file) (the scene file), [`mesh_source`] (mesh files and built-ins, placed),
 //! [`length`] (lengths with unit suffixes), [`estimate`] (a voxmap's cost before it is built),
 //! [`cache`] (the voxmap cache), [`scene`] (scene file → [`LoadedScene`] → [`SessionAssets`]),
-//! [`script`] (the simulated hand's scripts), [`device`] (the device a session is driven by),
+//! [`script`] (the simulated hand's scripts), [`start_pose`] (a part
+//! that starts inside a static object), [`device`] (the device a session is driven by),
 //! [`plan`] ([`SessionPlan`], signal handlers), [`sweep_file`] (the sweep file), [`error`]
 //! ([`SceneError`]).
 //!
@@ -27,6 +28,7 @@ pub mod mesh_source;
 pub mod plan;
 pub mod scene;
 pub mod script;
+pub mod start_pose;
 pub mod sweep_file;
 
 pub use cache::CachePolicy;
