@@ -440,3 +440,36 @@ fn a_part_starting_inside_a_static_object_is_warned_about() {
         "{err}"
     );
 }
+
+/// A scene of CAD exports in millimetres with no object rotated is flagged by `vps scene check`
+/// (and warned about by a session): the scene's up is +Z and most CAD exports are Y up, and a
+/// user who forgot `rotate_deg = [90, 0, 0]` saw "ok" and a part lying on its side. The bay,
+/// whose part is rotated, has no flag (`a_scene_of_mesh_files_runs_touching_without_penetrating`).
+#[test]
+fn a_cad_scene_with_nothing_rotated_is_flagged_for_y_up() {
+    let bay = bay();
+    let unrotated = SCENE.replace("rotate_deg = [-90, 0, 0]\n", "").replace(
+        "rotate_deg = [0, 0, 90]\ntranslate = [0.1, -0.1, 0.0]\n",
+        "translate = [0.1, -0.1, 0.0]\n",
+    );
+    assert!(!unrotated.contains("rotate_deg"), "{unrotated}");
+    std::fs::write(bay.dir().join("flat.toml"), unrotated).unwrap();
+    let scene = bay.path("flat.toml");
+    let check = json(&bay.run(&["scene", "check", &scene, "--json"]));
+    let flags = check["flags"].to_string();
+    assert!(
+        flags.contains("no object is rotated (`rotate_deg`) and the scene's up is +Z")
+            && flags.contains("set `rotate_deg = [90, 0, 0]` in [part] and in every [[static]]"),
+        "{check}"
+    );
+    // The text form says whether its kernel figure comes from a debug build.
+    let out = bay.run(&["scene", "check", &scene]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        text.contains("this vps is a debug build"),
+        cfg!(debug_assertions),
+        "{text}"
+    );
+    assert_eq!(check["debug_build"], cfg!(debug_assertions), "{check}");
+}

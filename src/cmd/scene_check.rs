@@ -74,6 +74,8 @@ struct CheckReport {
     frame_compute_estimate_us: f64,
     frame_budget_us: f64,
     fits_frame_budget: bool,
+    /// Whether this binary is a debug build (its kernel timing is no guide to a release build).
+    debug_build: bool,
     flags: Vec<String>,
 }
 
@@ -188,6 +190,7 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
         frame_compute_estimate_us: frame_us,
         frame_budget_us: budget_us,
         fits_frame_budget: frame_us <= budget_us,
+        debug_build: cfg!(debug_assertions),
         flags: loaded
             .warnings
             .iter()
@@ -279,6 +282,12 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
             "does NOT fit (use a larger voxel_size, or workers: vps cluster)"
         }
     );
+    if report.debug_build {
+        println!(
+            "  (this vps is a debug build, whose kernel is many times slower: build with \
+             `cargo build --release` and check with target/release/vps for this machine's figure)"
+        );
+    }
     for flag in &report.flags {
         println!("flag: {flag}");
     }

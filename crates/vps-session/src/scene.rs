@@ -6,7 +6,7 @@ use crate::cache::{cache_key, cache_path, read_cached, write_cached, CachePolicy
 use crate::device::{BridgeSettings, DeviceChoice};
 use crate::error::{field_error, SceneError};
 use crate::estimate::{estimate, VoxmapEstimate, MAX_GRID_VOXELS, VOXMAP_MEMORY_BUDGET};
-use crate::file::{rotation, SceneFile};
+use crate::file::{rotation, SceneFile, Units};
 use crate::mesh_source::{load_scaled, resolve, Placement};
 use crate::script::{laps_script, path_script};
 use anyhow::{Context, Result};
@@ -122,6 +122,7 @@ impl LoadedScene {
         }
         .apply(&mut mesh);
         plausible_size(&mesh, "part", &mut warnings);
+        warnings.extend(y_up_hint(&file));
         let (part, part_source) = (mesh, source);
         let scene_bounds = statics
             .iter()
@@ -429,6 +430,23 @@ fn mesh_error(
         ));
     }
     field_error(label, field, text)
+}
+
+/// A hint when the scene looks like CAD exports left in their Y-up frame: some mesh is declared in
+/// cm, mm or inches (a CAD export) and no object is rotated, while the scene's up is +Z (the hand's
+/// waypoints, the standard session's floor).
+fn y_up_hint(file: &SceneFile) -> Option<String> {
+    let unrotated = |degrees: &[f64; 3]| *degrees == [0.0; 3];
+    let from_cad =
+        file.part.units != Units::Metres || file.objects.iter().any(|o| o.units != Units::Metres);
+    let none_rotated =
+        unrotated(&file.part.rotate_deg) && file.objects.iter().all(|o| unrotated(&o.rotate_deg));
+    (from_cad && none_rotated).then(|| {
+        "no object is rotated (`rotate_deg`) and the scene's up is +Z: if the mesh files are CAD \
+         exports with Y up, as most are, set `rotate_deg = [90, 0, 0]` in [part] and in every \
+         [[static]] (docs/scenes.md)"
+            .to_string()
+    })
 }
 
 /// Flags a mesh whose size is implausible after units, with a hint.
