@@ -16,6 +16,7 @@ use crate::cli::{BridgeArgs, RunArgs};
 use crate::exit::{outcome, SessionExit};
 use crate::output::{check_output_path, print_json, write_file};
 use anyhow::{anyhow, bail, Context, Result};
+use glam::DVec3;
 use serde::Serialize;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
@@ -44,6 +45,10 @@ struct RunReport {
     /// The process's exit status (src/exit.rs; README, "Units, limits and safety").
     exit_code: i32,
     final_position_m: [f64; 3],
+    /// Where the hand (the device's handle) was in the last frame (m): a part held back by an
+    /// obstacle stays away from it. `None` when no frame ran.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    final_hand_position_m: Option<[f64; 3]>,
     stats: StatsSummary,
     /// The device's own counters (e.g. the bridge's datagram counts), when it keeps any.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -248,6 +253,7 @@ pub fn finish<C: Serialize>(
         complete: report.end.is_complete(),
         exit_code,
         final_position_m: report.final_state.position.to_array(),
+        final_hand_position_m: report.final_handle.map(|h| h.position.to_array()),
         stats: report.stats.clone(),
         device_counters: report.device_counters.clone(),
         cluster: cluster.map(serde_json::to_value).transpose()?,
@@ -273,6 +279,15 @@ pub fn finish<C: Serialize>(
         print_summary("session", &out.stats, None);
         let [x, y, z] = out.final_position_m.map(crate::output::metres_4);
         println!("final part position (m): [{x}, {y}, {z}]");
+        if let Some(hand) = out.final_hand_position_m {
+            let gap = (DVec3::from_array(hand) - DVec3::from_array(out.final_position_m)).length();
+            let [x, y, z] = hand.map(crate::output::metres_4);
+            println!(
+                "final hand position (m): [{x}, {y}, {z}]; the part's grip is {} m from it \
+                 (a part held back by an obstacle stays away from the hand)",
+                crate::output::metres_4(gap)
+            );
+        }
         if let Some(c) = &out.bridge {
             println!(
                 "bridge: poses received {}, bad datagrams {} (+{} wrong token, {} stale), \

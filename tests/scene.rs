@@ -473,3 +473,54 @@ fn a_cad_scene_with_nothing_rotated_is_flagged_for_y_up() {
     );
     assert_eq!(check["debug_build"], cfg!(debug_assertions), "{check}");
 }
+
+/// Whether a part gets where the hand takes it: the report gives the hand's last position beside
+/// the part's (text and JSON), so a part held back by an obstacle reads as such. (It gave only the
+/// part's position, and a user could not tell "stopped by the floor" from "arrived".) Here the
+/// hand ends 50 mm inside the floor and the 30 mm cube rests on it.
+#[test]
+fn the_report_gives_the_hands_last_position_beside_the_parts() {
+    let bay = bay();
+    let pressed = SCENE.replace(
+        "waypoints = [[0.0, 0.0, 0.05], [0.0, 0.0, 0.005], [0.03, 0.0, 0.005], [0.03, 0.0, 0.03], [0.09, 0.0, 0.03], [0.03, 0.0, 0.03]]",
+        "waypoints = [[0.0, 0.0, 0.05], [0.0, 0.0, -0.05]]",
+    );
+    assert!(pressed.contains("-0.05]]"), "{pressed}");
+    std::fs::write(bay.dir().join("pressed.toml"), pressed).unwrap();
+    let scene = bay.path("pressed.toml");
+    let args = ["run", "--scene", &scene, "--seconds", "1.5"];
+    let report = json(&bay.run(&[&args[..], &["--json"]].concat()));
+    let hand: Vec<f64> = report["final_hand_position_m"]
+        .as_array()
+        .unwrap_or_else(|| panic!("no final_hand_position_m: {report}"))
+        .iter()
+        .map(|c| c.as_f64().unwrap())
+        .collect();
+    let part: Vec<f64> = report["final_position_m"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c.as_f64().unwrap())
+        .collect();
+    // The simulated hand yields a little to the force it feels; it still ends deep in the floor.
+    assert!(hand[2] < -0.04, "the hand ends in the floor: {report}");
+    assert!(
+        part[2] > 0.015,
+        "the cube (half-size 15 mm) rests on the floor (top z = 0): {report}"
+    );
+    let out = bay.run(&args);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("final hand position (m): "))
+        .unwrap_or_else(|| panic!("no hand line: {text}"));
+    let gap = line
+        .split("the part's grip is ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|g| g.parse::<f64>().ok())
+        .unwrap_or_else(|| panic!("no distance: {line}"));
+    assert!(gap > 0.055, "the part is held on the floor: {line}");
+    assert!(line.contains("held back by an obstacle"), "{line}");
+}

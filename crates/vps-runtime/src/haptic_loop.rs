@@ -38,7 +38,7 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 use vps_device::{DeviceError, HapticDevice, Trace, TraceRecorder};
-use vps_haptic::{step, ClassedShell, HapticParams, KernelPose, PartState, Wrench};
+use vps_haptic::{step, ClassedShell, HandleSample, HapticParams, KernelPose, PartState, Wrench};
 use vps_voxmap::VoxelLookup;
 
 /// How the loop runs. The number of classes is the [`ClassedShell`]'s own.
@@ -146,6 +146,9 @@ pub struct LoopReport {
     pub rt: RtGrant,
     /// The part's state after the last frame.
     pub final_state: PartState,
+    /// The handle as the device gave it in the last frame (`None` when no frame ran): where the
+    /// hand is, which a part held back by an obstacle does not reach.
+    pub final_handle: Option<HandleSample>,
     /// The device's name.
     pub device_name: String,
     /// The handle trace, when `record_trace` was set.
@@ -276,6 +279,7 @@ struct FrameContext {
     limits: vps_device::DeviceLimits,
     recorder: Option<TraceRecorder>,
     trace_error: Option<String>,
+    last_handle: Option<HandleSample>,
     stats: FrameStats,
     recent_compute: RecentMax,
     recent_lateness: RecentMax,
@@ -300,6 +304,7 @@ impl RunningLoop {
             limits: self.device.limits(),
             recorder,
             trace_error: None,
+            last_handle: None,
             stats: FrameStats::new(),
             recent_compute: RecentMax::default(),
             recent_lateness: RecentMax::default(),
@@ -344,6 +349,7 @@ impl RunningLoop {
             stats: cx.stats.summary(),
             rt,
             final_state: self.state,
+            final_handle: cx.last_handle,
             device_name: self.device.name().to_string(),
             trace: cx.recorder.map(TraceRecorder::finish),
             trace_error: cx.trace_error,
@@ -361,6 +367,7 @@ impl RunningLoop {
         };
         let time = tick.index as f64 * cx.period_s;
         let handle = self.device.read(time)?;
+        cx.last_handle = Some(handle);
         if let Some(rec) = cx.recorder.as_mut() {
             if let Err(e) = rec.record(cx.frame, time, handle) {
                 cx.trace_error = Some(e.to_string());
