@@ -224,3 +224,40 @@ fn sigterm_writes_the_rows_done_as_a_partial_table() {
         "{csv}"
     );
 }
+
+/// A sweep of a scene whose hand never brings the part to a surface has every accuracy column
+/// null; it said nothing, and the nulls read like a broken reference. It now says no row touched
+/// anything and what to change; a path that presses the part on the box gets no such note.
+#[test]
+fn a_sweep_without_contact_says_why_its_accuracy_is_empty() {
+    let note = "no row's session touched a static object";
+    let sweep = |waypoints: &str| {
+        let (vps, config) = with_sweep_file(
+            "voxel_sizes_mm = [10.0]\nmethods = [\"centres\"]\nwidths = [2]\n\
+             [[run]]\nscene = \"scene.toml\"\n",
+        );
+        std::fs::write(
+            vps.dir().join("scene.toml"),
+            format!(
+                "part = \"builtin:sphere\"\n[[static]]\nsource = \"builtin:box\"\n\
+                 [voxels]\nvoxel_size = \"10mm\"\n[hand]\nwaypoints = {waypoints}\nspeed = 0.5\n"
+            ),
+        )
+        .unwrap();
+        let out = vps
+            .cmd()
+            .args(["sweep", "--quick", "--config"])
+            .arg(&config)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", stderr(&out));
+        stderr(&out)
+    };
+    let away = sweep("[[0.5, 0.0, 0.0], [0.6, 0.0, 0.0]]");
+    assert!(
+        away.contains(note) && away.contains("--quick cut each session to its first 2 s"),
+        "{away}"
+    );
+    let pressing = sweep("[[0.3, 0.0, 0.0], [0.0, 0.0, 0.0]]");
+    assert!(!pressing.contains(note), "{pressing}");
+}

@@ -113,12 +113,35 @@ pub fn run(args: &SweepArgs) -> Result<()> {
             }
         }
     }
+    if let Some(note) = no_contact_note(&rows, args.quick) {
+        eprintln!("sweep: {note}");
+    }
     let table = SweepTable {
         complete: true,
         end: "all rows done".into(),
         rows,
     };
     write_outputs(args, &table)
+}
+
+/// A note when no row's session touched a static object: every accuracy column is then empty
+/// (null), which reads like a failure of the reference rather than a path that never meets a
+/// surface. `quick`: the sessions were cut to [`QUICK_SECONDS`].
+fn no_contact_note(rows: &[SweepRow], quick: bool) -> Option<String> {
+    if rows.is_empty() || rows.iter().any(|r| r.penetration_ratio.is_some()) {
+        return None;
+    }
+    let cut = if quick {
+        format!(" (--quick cut each session to its first {QUICK_SECONDS} s)")
+    } else {
+        String::new()
+    };
+    Some(format!(
+        "no row's session touched a static object{cut}, so the accuracy columns \
+         (penetration_ratio, direction and magnitude error, min_separation_mm) are empty (null); \
+         give the scene a hand path that presses the part against a surface early on \
+         ([hand] waypoints, docs/scenes.md)"
+    ))
 }
 
 /// The sweep was stopped by a signal during `what` (its device already written zero): writes
