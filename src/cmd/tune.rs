@@ -197,11 +197,15 @@ pub fn run(args: &TuneArgs) -> Result<()> {
             shown(r.min_separation_mm)
         ),
         None => match &report.sweep_error {
-            Some(why) => println!("accuracy: unknown: {why}"),
+            Some(why) => println!(
+                "accuracy: unknown: {why}; {}",
+                how_to_measure(&args.scene)
+            ),
             None => println!(
-                "accuracy: {} has no row for {} at {size_mm} mm (run vps sweep)",
+                "accuracy: {} has no row for {} at {size_mm} mm; {}",
                 args.sweep.display(),
-                scene.name
+                scene.name,
+                how_to_measure(&args.scene)
             ),
         },
     }
@@ -216,6 +220,18 @@ pub fn run(args: &TuneArgs) -> Result<()> {
     Ok(())
 }
 
+/// How a user gets accuracy figures for `scene` (a scene file or `builtin:NAME`): the committed
+/// table has rows only for the standard scenes, so a scene of one's own must be swept first.
+fn how_to_measure(scene: &str) -> String {
+    format!(
+        "to measure it: vps sweep --scene {scene} --json {SWEEP_OUT} (from the repository root, \
+         or with --config FILE), then vps tune --scene {scene} --sweep {SWEEP_OUT}"
+    )
+}
+
+/// The table file [`how_to_measure`] suggests.
+const SWEEP_OUT: &str = "my-sweep.json";
+
 /// A figure of the sweep table, `-` when the table has none.
 fn shown(value: Option<f64>) -> String {
     value.map_or("-".into(), |v| format!("{v:.3}"))
@@ -228,6 +244,19 @@ mod tests {
     /// A sweep file that is missing (tune run outside the repository, where the default
     /// `docs/sweep/sweep.json` does not exist) or not a table says so, naming the file; it used to
     /// read as "has no row for SCENE (run vps sweep)".
+    /// A scene of one's own has no row in the committed table: tune said "(run vps sweep)"
+    /// (which, without `--scene` and `--json`, sweeps the standard scenes and prints to the
+    /// terminal); it now gives the two commands that measure the scene and use the result.
+    #[test]
+    fn the_way_to_accuracy_for_a_scene_of_ones_own_is_spelled_out() {
+        let text = how_to_measure("bay.toml");
+        assert!(
+            text.contains("vps sweep --scene bay.toml --json my-sweep.json")
+                && text.contains("vps tune --scene bay.toml --sweep my-sweep.json"),
+            "{text}"
+        );
+    }
+
     #[test]
     fn a_missing_or_bad_sweep_file_is_named() {
         let dir = tempfile::tempdir().unwrap();
