@@ -467,7 +467,7 @@ fn a_cad_scene_with_nothing_rotated_is_flagged_for_y_up() {
     assert!(out.status.success(), "{}", stderr(&out));
     let text = String::from_utf8_lossy(&out.stdout);
     assert_eq!(
-        text.contains("this vps is a debug build"),
+        text.contains("this vps was built without --release"),
         cfg!(debug_assertions),
         "{text}"
     );

@@ -74,7 +74,8 @@ struct CheckReport {
     frame_compute_estimate_us: f64,
     frame_budget_us: f64,
     fits_frame_budget: bool,
-    /// Whether this binary is a debug build (its kernel timing is no guide to a release build).
+    /// Whether this binary was built with debug assertions, i.e. without `--release` (its kernel
+    /// timing is then no guide to a release build's).
     debug_build: bool,
     flags: Vec<String>,
 }
@@ -284,8 +285,8 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
     );
     if report.debug_build {
         println!(
-            "  (this vps is a debug build, whose kernel is many times slower: build with \
-             `cargo build --release` and check with target/release/vps for this machine's figure)"
+            "  (this vps was built without --release (debug assertions on): its kernel figure is no \
+             guide to a release build's; check the budget with target/release/vps)"
         );
     }
     for flag in &report.flags {
