@@ -15,6 +15,16 @@ pub fn parse_length(text: &str) -> Result<f64, String> {
     Ok(metres)
 }
 
+/// `metres` as millimetres rounded up to two significant digits, with the unit (`0.0001234` →
+/// `"0.13 mm"`, `0.0234` → `"24 mm"`): a size to suggest that is never finer than `metres`.
+pub fn millimetres_rounded_up(metres: f64) -> String {
+    let mm = metres * 1e3;
+    let unit = 10f64.powi(mm.log10().floor() as i32 - 1);
+    let rounded = (mm / unit).ceil() * unit;
+    let decimals = (-(unit.log10().round() as i32)).max(0) as usize;
+    format!("{rounded:.decimals$} mm")
+}
+
 /// Parses a length written as a string in a file (`"5mm"`): as [`parse_length`], but a string
 /// without a unit (`"5"`) is refused: a file writes metres as a bare number, and a unit-less
 /// string is more likely a forgotten `mm`.
@@ -52,7 +62,7 @@ pub(crate) fn length<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
 
 #[cfg(test)]
 mod tests {
-    use super::parse_length;
+    use super::{millimetres_rounded_up, parse_length};
 
     #[test]
     fn accepts_units() {
@@ -68,5 +78,13 @@ mod tests {
         for bad in ["", "mm", "abc", "-5mm", "0", "inf", "NaN", "5 parsecs"] {
             assert!(parse_length(bad).is_err(), "{bad} accepted");
         }
+    }
+
+    #[test]
+    fn suggested_sizes_round_up_to_two_digits() {
+        assert_eq!(millimetres_rounded_up(0.0001234), "0.13 mm");
+        assert_eq!(millimetres_rounded_up(0.0234), "24 mm");
+        assert_eq!(millimetres_rounded_up(0.002), "2.0 mm");
+        assert_eq!(millimetres_rounded_up(1.5), "1500 mm");
     }
 }

@@ -227,6 +227,20 @@ impl LoadedScene {
                 })
                 .map(|(i, (_, mesh))| (i, mesh.bounds().size().max_element()))
                 .max_by(|a, b| a.1.total_cmp(&b.1));
+            if largest_in_metres.is_none() {
+                if let Some(finest) = self.finest_voxel_size(voxel_size, width) {
+                    hint = format!(
+                        "{hint}; for this scene{} the finest voxel_size within the limits is \
+                         about {}",
+                        if self.file.workspace.is_some() {
+                            " and workspace"
+                        } else {
+                            ""
+                        },
+                        crate::length::millimetres_rounded_up(finest)
+                    );
+                }
+            }
             if let Some((i, size)) = largest_in_metres {
                 hint = format!(
                     "static[{i}] is {size:.4} m across read as metres (its `units` is m, the \
@@ -247,6 +261,37 @@ impl LoadedScene {
             ));
         }
         Ok(est)
+    }
+
+    /// The smallest voxel size (m), to about 1 %, above `too_fine` whose estimated voxmap is within
+    /// the limits of [`LoadedScene::plan_voxmap`]; `None` when none up to 10 m is. Setup-time:
+    /// a few dozen estimates.
+    pub fn finest_voxel_size(&self, too_fine: f64, width: VoxelWidth) -> Option<f64> {
+        let fits = |s: f64| {
+            let est = estimate(
+                &self.statics,
+                &self.voxelize_options(s, width),
+                TreeConfig::default(),
+            );
+            est.tree_bytes <= VOXMAP_MEMORY_BUDGET && est.grid_voxels <= MAX_GRID_VOXELS
+        };
+        let (mut low, mut high) = (too_fine, too_fine);
+        while !fits(high) {
+            low = high;
+            high *= 2.0;
+            if high > 10.0 {
+                return None;
+            }
+        }
+        while high / low > 1.01 {
+            let mid = (low * high).sqrt();
+            if fits(mid) {
+                high = mid;
+            } else {
+                low = mid;
+            }
+        }
+        Some(high)
     }
 
     /// The static scene's voxmap at `voxel_size` (m) and `width`, from the cache when it holds
@@ -745,6 +790,31 @@ mod tests {
         assert!(err.contains("field `static[0].source`"), "{err}");
         assert!(err.contains(&expected), "{err}");
         assert_eq!(err.matches("os error 2").count(), 1, "{err}");
+    }
+
+    /// An absurdly fine voxel size (0.01 mm) was refused with the estimate and the limits but
+    /// no figure to use instead; the error now gives the finest size within the limits for the
+    /// scene, and that size (not a fifth less) is accepted.
+    #[test]
+    fn a_voxel_size_too_fine_names_the_finest_that_fits() {
+        let (_dir, scene) = scene_dir("[[static]]\nsource = \"fixture.obj\"\nunits = \"mm\"\n");
+        let loaded = LoadedScene::load(&scene).unwrap();
+        let err = loaded
+            .plan_voxmap(0.00001, VoxelWidth::Two)
+            .unwrap_err()
+            .to_string();
+        let finest_mm: f64 = err
+            .split("the finest voxel_size within the limits is about ")
+            .nth(1)
+            .and_then(|rest| rest.strip_suffix(" mm"))
+            .and_then(|mm| mm.parse().ok())
+            .unwrap_or_else(|| panic!("{err}"));
+        assert!(loaded
+            .plan_voxmap(finest_mm * 1e-3, VoxelWidth::Two)
+            .is_ok());
+        assert!(loaded
+            .plan_voxmap(finest_mm * 0.8e-3, VoxelWidth::Two)
+            .is_err());
     }
 
     /// CAD files in mm with `units` left out read as metres: the voxmap estimate is refused, and
