@@ -57,24 +57,65 @@ impl TlsIdentity {
         })
     }
 
-    /// Loads a PEM certificate and a PEM private key.
+    /// Loads a PEM certificate and a PEM private key, and checks that the key is the
+    /// certificate's (a key from another `vps cert` run is refused here, naming both files,
+    /// rather than at every connection).
     pub fn load(cert: &Path, key: &Path) -> Result<TlsIdentity, ClusterError> {
-        Ok(TlsIdentity {
+        let identity = TlsIdentity {
             cert: load_cert(cert)?,
-            key: PrivateKeyDer::from_pem_file(key).map_err(|e| ClusterError::File {
+            key: PrivateKeyDer::from_pem_file(key)
+                .map_err(|e| pem_error(key, "a PEM private key", e))?,
+        };
+        if !identity.key_matches_cert() {
+            return Err(ClusterError::File {
                 path: key.to_path_buf(),
-                message: format!("not a PEM private key: {e}"),
-            })?,
-        })
+                message: format!(
+                    "not the private key of the certificate {} (give the .key that `vps cert` wrote beside that .crt)",
+                    cert.display()
+                ),
+            });
+        }
+        Ok(identity)
+    }
+
+    /// Whether the private key is the one whose public half the certificate carries (an
+    /// unusable key, e.g. of an unsupported algorithm, counts as not matching).
+    pub fn key_matches_cert(&self) -> bool {
+        let Ok(signing_key) = provider()
+            .key_provider
+            .load_private_key(self.key.clone_key())
+        else {
+            return false;
+        };
+        rustls::sign::CertifiedKey::new(vec![self.cert.clone()], signing_key)
+            .keys_match()
+            .is_ok()
     }
 }
 
 /// Loads one PEM certificate (the first in the file).
 pub fn load_cert(path: &Path) -> Result<CertificateDer<'static>, ClusterError> {
-    CertificateDer::from_pem_file(path).map_err(|e| ClusterError::File {
+    CertificateDer::from_pem_file(path).map_err(|e| pem_error(path, "a PEM certificate", e))
+}
+
+/// A PEM file that could not be used: one that cannot be read says so (missing, permission
+/// denied), one that can but holds no `what` says that.
+fn pem_error(path: &Path, what: &str, e: rustls::pki_types::pem::Error) -> ClusterError {
+    let message = match e {
+        rustls::pki_types::pem::Error::Io(io)
+            if io.kind() == std::io::ErrorKind::PermissionDenied =>
+        {
+            format!(
+                "cannot read {what} file: {io} (the user running vps, `vps` under the systemd units, must be able to read it: deploy/README.md section 2)"
+            )
+        }
+        rustls::pki_types::pem::Error::Io(io) => format!("cannot read {what} file: {io}"),
+        other => format!("not {what}: {other}"),
+    };
+    ClusterError::File {
         path: path.to_path_buf(),
-        message: format!("not a PEM certificate: {e}"),
-    })
+        message,
+    }
 }
 
 /// Loads the pinned certificates, one PEM file each. Errors on an empty list.
@@ -349,4 +390,66 @@ pub fn client_config(
     let mut config = quinn::ClientConfig::new(Arc::new(quic));
     config.transport_config(transport());
     Ok(config)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn message(err: ClusterError) -> String {
+        err.to_string()
+    }
+
+    #[test]
+    fn a_key_of_another_certificate_is_refused_naming_both_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = make_cert(dir.path(), "a").unwrap();
+        let b = make_cert(dir.path(), "b").unwrap();
+        assert!(TlsIdentity::load(&a.cert, &a.key).is_ok());
+        let m = message(TlsIdentity::load(&a.cert, &b.key).unwrap_err());
+        assert!(m.starts_with(&format!("{}: ", b.key.display())), "{m}");
+        assert!(
+            m.contains(&format!(
+                "not the private key of the certificate {}",
+                a.cert.display()
+            )),
+            "{m}"
+        );
+        let pins = std::slice::from_ref(&b.cert);
+        assert!(PeerTls::load(&a.cert, &b.key, pins).is_err());
+    }
+
+    #[test]
+    fn a_missing_file_is_not_called_a_bad_pem_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = make_cert(dir.path(), "a").unwrap();
+        let missing = dir.path().join("missing.crt");
+        let m = message(TlsIdentity::load(&missing, &a.key).unwrap_err());
+        assert!(
+            m.starts_with(&format!(
+                "{}: cannot read a PEM certificate file: ",
+                missing.display()
+            )),
+            "{m}"
+        );
+        assert!(!m.contains("not a PEM"), "{m}");
+        let m = message(TlsIdentity::load(&a.cert, &dir.path().join("missing.key")).unwrap_err());
+        assert!(m.contains("cannot read a PEM private key file: "), "{m}");
+    }
+
+    #[test]
+    fn a_file_without_pem_says_so() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = make_cert(dir.path(), "a").unwrap();
+        let text = dir.path().join("notes.crt");
+        std::fs::write(&text, "hello\n").unwrap();
+        let m = message(load_cert(&text).unwrap_err());
+        assert!(
+            m.starts_with(&format!("{}: not a PEM certificate: ", text.display())),
+            "{m}"
+        );
+        // A certificate given as the key: no private key in it.
+        let m = message(TlsIdentity::load(&a.cert, &a.cert).unwrap_err());
+        assert!(m.contains("not a PEM private key"), "{m}");
+    }
 }
