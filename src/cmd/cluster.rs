@@ -21,6 +21,11 @@ pub fn cert(out: &std::path::Path, name: &str) -> Result<()> {
         "key         {} (keep private; pin the certificate on the other side)",
         files.key.display()
     );
+    let cert = vps_cluster::tls::load_cert(&files.cert)?;
+    println!(
+        "sha256      {} (what a refusing peer logs; openssl x509 -noout -fingerprint -sha256 -in FILE)",
+        vps_cluster::tls::fingerprint(&cert)
+    );
     Ok(())
 }
 

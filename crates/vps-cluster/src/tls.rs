@@ -5,7 +5,7 @@
 //! when its end-entity certificate is byte-for-byte one of the pinned certificates, then check the
 //! TLS 1.3 handshake signature against its key. Names, dates and chains play no part. The
 //! coordinator is the QUIC server and requires a client certificate; a refused peer is logged
-//! (`tracing::warn`, with its fingerprint) and counted.
+//! (`tracing::warn`, with the name it was made for and its SHA-256 fingerprint) and counted.
 //!
 //! One crypto provider, `ring`, is passed explicitly to every config (no process-wide default).
 
@@ -205,12 +205,27 @@ fn write_private(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     options.open(path)?.write_all(bytes)
 }
 
-/// A short hex fingerprint of a certificate (first 8 bytes of its BLAKE3), for logs.
+/// A certificate's SHA-256 fingerprint (of its DER bytes), lower-case hex without separators: what
+/// `openssl x509 -noout -fingerprint -sha256 -in FILE` prints (there in upper case, with colons).
 pub fn fingerprint(cert: &[u8]) -> String {
-    blake3::hash(cert).as_bytes()[..8]
+    ring::digest::digest(&ring::digest::SHA256, cert)
+        .as_ref()
         .iter()
         .map(|b| format!("{b:02x}"))
         .collect()
+}
+
+/// The names a certificate was made for (its DNS subject alternative names: the `--name` of
+/// `vps cert`), comma-separated; `?` when it has none or cannot be read.
+pub fn certificate_names(cert: &CertificateDer<'_>) -> String {
+    let names: Vec<String> = webpki::EndEntityCert::try_from(cert)
+        .map(|c| c.valid_dns_names().map(str::to_string).collect())
+        .unwrap_or_default();
+    if names.is_empty() {
+        "?".into()
+    } else {
+        names.join(",")
+    }
 }
 
 /// Accepts exactly the pinned certificates, as client or server verifier.
@@ -229,9 +244,10 @@ impl PinnedVerifier {
         }
         self.refused.fetch_add(1, Ordering::Relaxed);
         tracing::warn!(
-            fingerprint = %fingerprint(end_entity),
-            "refused a {} with an unpinned certificate",
-            self.role
+            "refused a {} with an unpinned certificate: `{}` (sha256 {}); to admit it, pin its .crt here",
+            self.role,
+            certificate_names(end_entity),
+            fingerprint(end_entity)
         );
         Err(rustls::Error::InvalidCertificate(
             CertificateError::ApplicationVerificationFailure,
@@ -451,5 +467,24 @@ mod tests {
         // A certificate given as the key: no private key in it.
         let m = message(TlsIdentity::load(&a.cert, &a.cert).unwrap_err());
         assert!(m.contains("not a PEM private key"), "{m}");
+    }
+
+    #[test]
+    fn a_certificate_is_named_and_fingerprinted_as_openssl_prints_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = make_cert(dir.path(), "worker-h3").unwrap();
+        let cert = load_cert(&a.cert).unwrap();
+        assert_eq!(certificate_names(&cert), "worker-h3");
+        let hex = fingerprint(&cert);
+        assert_eq!(hex.len(), 64);
+        // SHA-256 of the empty input, to pin the digest itself.
+        assert_eq!(
+            fingerprint(b""),
+            "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855"
+        );
+        assert_eq!(
+            certificate_names(&CertificateDer::from(vec![1u8, 2, 3])),
+            "?"
+        );
     }
 }
