@@ -447,6 +447,13 @@ mod tests {
             coordinator.contains("\nEnvironment=VPS_CACHE_DIR=/var/cache/vps\n"),
             "the coordinator's voxmap cache is not pointed at its CacheDirectory"
         );
+        // A worker exits 1 on a configuration error (unknown key, unreadable or mismatched key:
+        // tests/service_mistakes.rs) and 2 when refused for good; restarting cures neither.
+        let worker = std::fs::read_to_string(repo("deploy/systemd/vps-worker.service")).unwrap();
+        assert!(
+            worker.contains("\nRestartPreventExitStatus=1 2\n"),
+            "the worker unit restarts a worker whose configuration is wrong"
+        );
     }
 
     #[test]
