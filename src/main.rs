@@ -31,11 +31,16 @@ mod sweep_session;
 
 use clap::{CommandFactory, FromArgMatches};
 
+/// The log filter without `RUST_LOG`: warnings, and the cluster services' joins and departures
+/// (a worker's "joined", a coordinator's "worker N at ADDR joined / left"), which an admin reading
+/// the journal needs to see; the per-second worker figures stay at `RUST_LOG=vps_cluster=info`.
+const DEFAULT_LOG_FILTER: &str = "warn,vps_cluster::worker=info,vps_cluster::coordinator=info";
+
 fn main() {
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn")),
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(DEFAULT_LOG_FILTER)),
         )
         .with_writer(std::io::stderr)
         // Colour codes only on a terminal: not in a file, a pipe or the systemd journal.

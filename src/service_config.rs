@@ -5,7 +5,10 @@
 //! Every key is the name of a command-line flag (`voxel_size` for `--voxel-size`, `pins` for the
 //! repeated `--pin`), an unknown key is refused naming the file and the key, and a flag given on
 //! the command line overrides the file's value. A `pins` entry (and a `--pin`) may name a directory:
-//! every `*.crt` in it is pinned.
+//! every `*.crt` in it is pinned. A relative path in a file (`cert`, `key`, `pins`, `cache`,
+//! `scene`, `replay:FILE`, `haptic`, `record`, `report`) is taken from the file's own directory,
+//! not from the working directory (`/` under systemd); on the command line it is the working
+//! directory's, as for any flag.
 
 use crate::cli::{CoordinatorArgs, IdentityArgs, WorkerArgs};
 use anyhow::{anyhow, bail, Context, Result};
@@ -91,6 +94,37 @@ fn load<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
     toml::from_str(&text).map_err(|e| anyhow!("{}: {e}", path.display()))
 }
 
+/// `path` as written in the config file `config`: a relative one is taken from the file's own
+/// directory.
+fn beside(config: &Path, path: PathBuf) -> PathBuf {
+    if path.is_relative() {
+        config.parent().unwrap_or(Path::new("")).join(path)
+    } else {
+        path
+    }
+}
+
+/// [`beside`] for every path of a list.
+fn all_beside(config: &Path, paths: Option<Vec<PathBuf>>) -> Option<Vec<PathBuf>> {
+    paths.map(|v| v.into_iter().map(|p| beside(config, p)).collect())
+}
+
+/// [`beside`] for `scene`: a scene file's path; `builtin:NAME` is kept.
+fn scene_beside(config: &Path, scene: String) -> String {
+    if scene.starts_with("builtin:") {
+        return scene;
+    }
+    beside(config, PathBuf::from(scene)).display().to_string()
+}
+
+/// [`beside`] for `device`: the trace of `replay:FILE`; other devices are kept.
+fn device_beside(config: &Path, device: String) -> String {
+    match device.strip_prefix("replay:") {
+        Some(trace) => format!("replay:{}", beside(config, PathBuf::from(trace)).display()),
+        None => device,
+    }
+}
+
 /// Reads a worker's config file.
 pub fn load_worker(path: &Path) -> Result<WorkerFile> {
     load(path)
@@ -139,8 +173,14 @@ pub fn resolve_worker(args: &mut WorkerArgs, matches: &ArgMatches) -> Result<()>
             &mut args.coordinator,
             f.coordinator.map(Some),
         );
-        take_identity(matches, &mut args.identity, f.cert, f.key, f.pins);
-        take(matches, "cache", &mut args.cache, f.cache.map(Some));
+        let (cert, key) = (
+            f.cert.map(|p| beside(&path, p)),
+            f.key.map(|p| beside(&path, p)),
+        );
+        let pins = all_beside(&path, f.pins);
+        take_identity(matches, &mut args.identity, cert, key, pins);
+        let cache = f.cache.map(|p| Some(beside(&path, p)));
+        take(matches, "cache", &mut args.cache, cache);
         take(matches, "threads", &mut args.threads, threads.map(Some));
         take(
             matches,
@@ -177,12 +217,20 @@ pub fn resolve_coordinator(args: &mut CoordinatorArgs, matches: &ArgMatches) -> 
         };
         let s = &mut args.session;
         take(matches, "listen", &mut args.listen, f.listen);
-        take_identity(matches, &mut args.identity, f.cert, f.key, f.pins);
+        let (cert, key) = (
+            f.cert.map(|p| beside(&path, p)),
+            f.key.map(|p| beside(&path, p)),
+        );
+        let pins = all_beside(&path, f.pins);
+        take_identity(matches, &mut args.identity, cert, key, pins);
         take(matches, "workers", &mut args.workers, f.workers);
-        take(matches, "scene", &mut s.scene.scene, f.scene);
+        let scene = f.scene.map(|v| scene_beside(&path, v));
+        take(matches, "scene", &mut s.scene.scene, scene);
         take(matches, "no_cache", &mut s.scene.no_cache, f.no_cache);
-        take(matches, "device", &mut s.device, f.device.map(Some));
-        take(matches, "haptic", &mut s.haptic, f.haptic.map(Some));
+        let device = f.device.map(|v| Some(device_beside(&path, v)));
+        take(matches, "device", &mut s.device, device);
+        let haptic = f.haptic.map(|p| Some(beside(&path, p)));
+        take(matches, "haptic", &mut s.haptic, haptic);
         take(
             matches,
             "voxel_size",
@@ -191,8 +239,10 @@ pub fn resolve_coordinator(args: &mut CoordinatorArgs, matches: &ArgMatches) -> 
         );
         take(matches, "seconds", &mut s.seconds, seconds);
         take(matches, "threads", &mut s.threads, threads);
-        take(matches, "record", &mut s.record, f.record.map(Some));
-        take(matches, "report", &mut s.report, f.report.map(Some));
+        let record = f.record.map(|p| Some(beside(&path, p)));
+        take(matches, "record", &mut s.record, record);
+        let report = f.report.map(|p| Some(beside(&path, p)));
+        take(matches, "report", &mut s.report, report);
         take(matches, "json", &mut s.json, f.json);
         take(matches, "view", &mut s.view, f.view.map(Some));
         let g = &mut args.gather;
@@ -397,6 +447,13 @@ mod tests {
             coordinator.contains("\nEnvironment=VPS_CACHE_DIR=/var/cache/vps\n"),
             "the coordinator's voxmap cache is not pointed at its CacheDirectory"
         );
+        // A worker exits 1 on a configuration error (unknown key, unreadable or mismatched key:
+        // tests/service_mistakes.rs) and 2 when refused for good; restarting cures neither.
+        let worker = std::fs::read_to_string(repo("deploy/systemd/vps-worker.service")).unwrap();
+        assert!(
+            worker.contains("\nRestartPreventExitStatus=1 2\n"),
+            "the worker unit restarts a worker whose configuration is wrong"
+        );
     }
 
     #[test]
@@ -490,5 +547,86 @@ mod tests {
         );
         let empty = tempfile::tempdir().unwrap();
         assert!(expand_pins(&[empty.path().to_path_buf()]).is_err());
+    }
+
+    #[test]
+    fn relative_paths_in_a_file_are_taken_from_its_directory() {
+        let dir = tempfile::tempdir().unwrap();
+        let etc = dir.path().join("etc");
+        std::fs::create_dir(&etc).unwrap();
+        let worker = etc.join("worker.toml");
+        std::fs::write(
+            &worker,
+            "coordinator = \"127.0.0.1:7800\"\ncert = \"worker.crt\"\nkey = \"keys/worker.key\"\n\
+             pins = [\"pins\", \"/abs/c.crt\"]\ncache = \"../cache\"\n",
+        )
+        .unwrap();
+        let Command::Worker(args) =
+            parsed(&["vps", "worker", "--config", worker.to_str().unwrap()]).unwrap()
+        else {
+            panic!("not a worker")
+        };
+        assert_eq!(args.identity.cert, Some(etc.join("worker.crt")));
+        assert_eq!(args.identity.key, Some(etc.join("keys/worker.key")));
+        assert_eq!(
+            args.identity.pin,
+            vec![etc.join("pins"), PathBuf::from("/abs/c.crt")]
+        );
+        assert_eq!(args.cache, Some(etc.join("../cache")));
+
+        let coordinator = etc.join("coordinator.toml");
+        std::fs::write(
+            &coordinator,
+            "cert = \"c.crt\"\nkey = \"c.key\"\npins = [\"pins\"]\nscene = \"scenes/bay.toml\"\n\
+             device = \"replay:traces/t.jsonl\"\nhaptic = \"haptic.toml\"\n\
+             record = \"out/trace.jsonl\"\nreport = \"/var/lib/vps/report.json\"\n",
+        )
+        .unwrap();
+        // A flag keeps its own meaning: relative to the working directory.
+        let Command::Coordinator(args) = parsed(&[
+            "vps",
+            "coordinator",
+            "--config",
+            coordinator.to_str().unwrap(),
+            "--key",
+            "here.key",
+        ])
+        .unwrap() else {
+            panic!("not a coordinator")
+        };
+        assert_eq!(args.identity.cert, Some(etc.join("c.crt")));
+        assert_eq!(args.identity.key, Some(PathBuf::from("here.key")));
+        assert_eq!(args.identity.pin, vec![etc.join("pins")]);
+        let s = &args.session;
+        assert_eq!(
+            s.scene.scene,
+            etc.join("scenes/bay.toml").display().to_string()
+        );
+        let replay = format!("replay:{}", etc.join("traces/t.jsonl").display());
+        assert_eq!(s.device.as_deref(), Some(replay.as_str()));
+        assert_eq!(s.haptic, Some(etc.join("haptic.toml")));
+        assert_eq!(s.record, Some(etc.join("out/trace.jsonl")));
+        assert_eq!(s.report, Some(PathBuf::from("/var/lib/vps/report.json")));
+
+        // builtin: scenes and other devices are not paths.
+        std::fs::write(
+            &coordinator,
+            "cert = \"c.crt\"\nkey = \"c.key\"\npins = [\"p.crt\"]\nscene = \"builtin:bay-teapot\"\ndevice = \"bridge:127.0.0.1:7700\"\n",
+        )
+        .unwrap();
+        let Command::Coordinator(args) = parsed(&[
+            "vps",
+            "coordinator",
+            "--config",
+            coordinator.to_str().unwrap(),
+        ])
+        .unwrap() else {
+            panic!("not a coordinator")
+        };
+        assert_eq!(args.session.scene.scene, "builtin:bay-teapot");
+        assert_eq!(
+            args.session.device.as_deref(),
+            Some("bridge:127.0.0.1:7700")
+        );
     }
 }

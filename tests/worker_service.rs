@@ -165,6 +165,16 @@ fn a_worker_outlives_its_coordinators_sigterm_and_joins_the_next_one() {
     let status = stranger.wait_exit();
     assert_eq!(status.code(), Some(2), "a refused worker exits 2");
     assert_eq!(stranger.count("refused this worker's certificate"), 1);
+    // The coordinator names the refused certificate as `vps cert` made it, with the fingerprint
+    // `vps cert` printed (openssl's SHA-256 of the certificate).
+    let stranger_cert = vps_cluster::tls::load_cert(&dir.path().join("stranger.crt")).unwrap();
+    first.wait_for(
+        &format!(
+            "refused a worker with an unpinned certificate: `stranger` (sha256 {})",
+            vps_cluster::tls::fingerprint(&stranger_cert)
+        ),
+        1,
+    );
 
     let mut w = worker(dir.path(), port, "worker");
     w.wait_for("joined", 1);

@@ -21,6 +21,11 @@ pub fn cert(out: &std::path::Path, name: &str) -> Result<()> {
         "key         {} (keep private; pin the certificate on the other side)",
         files.key.display()
     );
+    let cert = vps_cluster::tls::load_cert(&files.cert)?;
+    println!(
+        "sha256      {} (what a refusing peer logs; openssl x509 -noout -fingerprint -sha256 -in FILE)",
+        vps_cluster::tls::fingerprint(&cert)
+    );
     Ok(())
 }
 
@@ -79,6 +84,9 @@ pub fn coordinator(mut args: CoordinatorArgs, matches: &ArgMatches) -> Result<()
         bail!("vps coordinator: --cert and --key are required");
     };
     let pins = expand_pins(&args.identity.pin)?;
+    // Mistakes in the certificates or the address are reported before the voxmap is built.
+    PeerTls::load(cert, key, &pins)?;
+    check_listen_address(args.listen)?;
     let outputs = SessionOutputs::reserve(&args.session)?;
     coordinate(
         &args.session,
@@ -92,6 +100,19 @@ pub fn coordinator(mut args: CoordinatorArgs, matches: &ArgMatches) -> Result<()
         |_, _| Ok(None),
     )?
     .finish(&args.session, outputs)
+}
+
+/// Whether a UDP socket can be bound on `listen` now (the port free, the address this host's):
+/// the coordinator's QUIC endpoint binds it for real once the scene is ready.
+fn check_listen_address(listen: std::net::SocketAddr) -> Result<()> {
+    match std::net::UdpSocket::bind(listen) {
+        Ok(_) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::AddrInUse => bail!(
+            "cannot listen on UDP {listen}: {e}; another process holds that port (another vps coordinator? `ss -ulpn 'sport = :{}'` shows which), or choose another `listen` port",
+            listen.port()
+        ),
+        Err(e) => bail!("cannot listen on UDP {listen}: {e}"),
+    }
 }
 
 /// `vps cluster --local-workers N`: the coordinator plus N worker processes on loopback, with

@@ -292,7 +292,9 @@ async fn serve(incoming: quinn::Incoming, links: Links) {
     let conn = match incoming.await {
         Ok(conn) => conn,
         Err(e) => {
-            tracing::warn!("refused a connection from {remote}: {e}");
+            // Not a refusal by itself: an unpinned certificate is logged by the verifier just before;
+            // a timeout is a peer that gave up or went away mid-handshake.
+            tracing::warn!("no connection from {remote}: its handshake failed: {e}");
             return;
         }
     };

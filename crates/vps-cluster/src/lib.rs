@@ -39,6 +39,7 @@ pub mod coordinator;
 mod events;
 pub mod fallback;
 pub mod gather;
+pub mod join_log;
 pub mod metrics;
 pub mod protocol;
 pub mod report;

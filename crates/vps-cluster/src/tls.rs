@@ -5,7 +5,7 @@
 //! when its end-entity certificate is byte-for-byte one of the pinned certificates, then check the
 //! TLS 1.3 handshake signature against its key. Names, dates and chains play no part. The
 //! coordinator is the QUIC server and requires a client certificate; a refused peer is logged
-//! (`tracing::warn`, with its fingerprint) and counted.
+//! (`tracing::warn`, with the name it was made for and its SHA-256 fingerprint) and counted.
 //!
 //! One crypto provider, `ring`, is passed explicitly to every config (no process-wide default).
 
@@ -57,24 +57,65 @@ impl TlsIdentity {
         })
     }
 
-    /// Loads a PEM certificate and a PEM private key.
+    /// Loads a PEM certificate and a PEM private key, and checks that the key is the
+    /// certificate's (a key from another `vps cert` run is refused here, naming both files,
+    /// rather than at every connection).
     pub fn load(cert: &Path, key: &Path) -> Result<TlsIdentity, ClusterError> {
-        Ok(TlsIdentity {
+        let identity = TlsIdentity {
             cert: load_cert(cert)?,
-            key: PrivateKeyDer::from_pem_file(key).map_err(|e| ClusterError::File {
+            key: PrivateKeyDer::from_pem_file(key)
+                .map_err(|e| pem_error(key, "a PEM private key", e))?,
+        };
+        if !identity.key_matches_cert() {
+            return Err(ClusterError::File {
                 path: key.to_path_buf(),
-                message: format!("not a PEM private key: {e}"),
-            })?,
-        })
+                message: format!(
+                    "not the private key of the certificate {} (give the .key that `vps cert` wrote beside that .crt)",
+                    cert.display()
+                ),
+            });
+        }
+        Ok(identity)
+    }
+
+    /// Whether the private key is the one whose public half the certificate carries (an
+    /// unusable key, e.g. of an unsupported algorithm, counts as not matching).
+    pub fn key_matches_cert(&self) -> bool {
+        let Ok(signing_key) = provider()
+            .key_provider
+            .load_private_key(self.key.clone_key())
+        else {
+            return false;
+        };
+        rustls::sign::CertifiedKey::new(vec![self.cert.clone()], signing_key)
+            .keys_match()
+            .is_ok()
     }
 }
 
 /// Loads one PEM certificate (the first in the file).
 pub fn load_cert(path: &Path) -> Result<CertificateDer<'static>, ClusterError> {
-    CertificateDer::from_pem_file(path).map_err(|e| ClusterError::File {
+    CertificateDer::from_pem_file(path).map_err(|e| pem_error(path, "a PEM certificate", e))
+}
+
+/// A PEM file that could not be used: one that cannot be read says so (missing, permission
+/// denied), one that can but holds no `what` says that.
+fn pem_error(path: &Path, what: &str, e: rustls::pki_types::pem::Error) -> ClusterError {
+    let message = match e {
+        rustls::pki_types::pem::Error::Io(io)
+            if io.kind() == std::io::ErrorKind::PermissionDenied =>
+        {
+            format!(
+                "cannot read {what} file: {io} (the user running vps, `vps` under the systemd units, must be able to read it: deploy/README.md section 2)"
+            )
+        }
+        rustls::pki_types::pem::Error::Io(io) => format!("cannot read {what} file: {io}"),
+        other => format!("not {what}: {other}"),
+    };
+    ClusterError::File {
         path: path.to_path_buf(),
-        message: format!("not a PEM certificate: {e}"),
-    })
+        message,
+    }
 }
 
 /// Loads the pinned certificates, one PEM file each. Errors on an empty list.
@@ -164,12 +205,27 @@ fn write_private(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     options.open(path)?.write_all(bytes)
 }
 
-/// A short hex fingerprint of a certificate (first 8 bytes of its BLAKE3), for logs.
+/// A certificate's SHA-256 fingerprint (of its DER bytes), lower-case hex without separators: what
+/// `openssl x509 -noout -fingerprint -sha256 -in FILE` prints (there in upper case, with colons).
 pub fn fingerprint(cert: &[u8]) -> String {
-    blake3::hash(cert).as_bytes()[..8]
+    ring::digest::digest(&ring::digest::SHA256, cert)
+        .as_ref()
         .iter()
         .map(|b| format!("{b:02x}"))
         .collect()
+}
+
+/// The names a certificate was made for (its DNS subject alternative names: the `--name` of
+/// `vps cert`), comma-separated; `?` when it has none or cannot be read.
+pub fn certificate_names(cert: &CertificateDer<'_>) -> String {
+    let names: Vec<String> = webpki::EndEntityCert::try_from(cert)
+        .map(|c| c.valid_dns_names().map(str::to_string).collect())
+        .unwrap_or_default();
+    if names.is_empty() {
+        "?".into()
+    } else {
+        names.join(",")
+    }
 }
 
 /// Accepts exactly the pinned certificates, as client or server verifier.
@@ -188,9 +244,10 @@ impl PinnedVerifier {
         }
         self.refused.fetch_add(1, Ordering::Relaxed);
         tracing::warn!(
-            fingerprint = %fingerprint(end_entity),
-            "refused a {} with an unpinned certificate",
-            self.role
+            "refused a {} with an unpinned certificate: `{}` (sha256 {}); to admit it, pin its .crt here",
+            self.role,
+            certificate_names(end_entity),
+            fingerprint(end_entity)
         );
         Err(rustls::Error::InvalidCertificate(
             CertificateError::ApplicationVerificationFailure,
@@ -349,4 +406,85 @@ pub fn client_config(
     let mut config = quinn::ClientConfig::new(Arc::new(quic));
     config.transport_config(transport());
     Ok(config)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn message(err: ClusterError) -> String {
+        err.to_string()
+    }
+
+    #[test]
+    fn a_key_of_another_certificate_is_refused_naming_both_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = make_cert(dir.path(), "a").unwrap();
+        let b = make_cert(dir.path(), "b").unwrap();
+        assert!(TlsIdentity::load(&a.cert, &a.key).is_ok());
+        let m = message(TlsIdentity::load(&a.cert, &b.key).unwrap_err());
+        assert!(m.starts_with(&format!("{}: ", b.key.display())), "{m}");
+        assert!(
+            m.contains(&format!(
+                "not the private key of the certificate {}",
+                a.cert.display()
+            )),
+            "{m}"
+        );
+        let pins = std::slice::from_ref(&b.cert);
+        assert!(PeerTls::load(&a.cert, &b.key, pins).is_err());
+    }
+
+    #[test]
+    fn a_missing_file_is_not_called_a_bad_pem_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = make_cert(dir.path(), "a").unwrap();
+        let missing = dir.path().join("missing.crt");
+        let m = message(TlsIdentity::load(&missing, &a.key).unwrap_err());
+        assert!(
+            m.starts_with(&format!(
+                "{}: cannot read a PEM certificate file: ",
+                missing.display()
+            )),
+            "{m}"
+        );
+        assert!(!m.contains("not a PEM"), "{m}");
+        let m = message(TlsIdentity::load(&a.cert, &dir.path().join("missing.key")).unwrap_err());
+        assert!(m.contains("cannot read a PEM private key file: "), "{m}");
+    }
+
+    #[test]
+    fn a_file_without_pem_says_so() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = make_cert(dir.path(), "a").unwrap();
+        let text = dir.path().join("notes.crt");
+        std::fs::write(&text, "hello\n").unwrap();
+        let m = message(load_cert(&text).unwrap_err());
+        assert!(
+            m.starts_with(&format!("{}: not a PEM certificate: ", text.display())),
+            "{m}"
+        );
+        // A certificate given as the key: no private key in it.
+        let m = message(TlsIdentity::load(&a.cert, &a.cert).unwrap_err());
+        assert!(m.contains("not a PEM private key"), "{m}");
+    }
+
+    #[test]
+    fn a_certificate_is_named_and_fingerprinted_as_openssl_prints_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = make_cert(dir.path(), "worker-h3").unwrap();
+        let cert = load_cert(&a.cert).unwrap();
+        assert_eq!(certificate_names(&cert), "worker-h3");
+        let hex = fingerprint(&cert);
+        assert_eq!(hex.len(), 64);
+        // SHA-256 of the empty input, to pin the digest itself.
+        assert_eq!(
+            fingerprint(b""),
+            "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855"
+        );
+        assert_eq!(
+            certificate_names(&CertificateDer::from(vec![1u8, 2, 3])),
+            "?"
+        );
+    }
 }

@@ -178,7 +178,7 @@ async fn worker_main(
                     }
                 }
                 Err(e) => {
-                    tracing::info!("connection ended: {e}");
+                    tracing::debug!("connection ended: {e}");
                     break e.to_string();
                 }
             },
@@ -274,9 +274,11 @@ pub fn run_worker_service(
         let mut service = WorkerService::default();
         let mut wait = rejoin.first;
         let mut rng = rand::thread_rng();
+        let mut join_log = crate::join_log::JoinLog::default();
         while !stop.load(Ordering::Relaxed) {
             match worker_main(config.clone(), stop.clone()).await {
                 Ok(report) => {
+                    join_log.joined();
                     let stopped = report.ended == "stopped";
                     if !stopped {
                         tracing::warn!(
@@ -295,7 +297,11 @@ pub fn run_worker_service(
                 Err(e) if rejoin.exit_with_coordinator => return Err(e),
                 Err(e) => {
                     service.failed_attempts += 1;
-                    tracing::warn!("cannot join {}: {e}; retrying", config.coordinator);
+                    let coordinator = config.coordinator.to_string();
+                    let now = std::time::Instant::now();
+                    if let Some(line) = join_log.failed(&coordinator, &e.to_string(), now) {
+                        tracing::warn!("{line}");
+                    }
                 }
             }
             let jittered = wait.mul_f64(rand::Rng::gen_range(&mut rng, 0.5..=1.0));
