@@ -524,3 +524,35 @@ fn the_report_gives_the_hands_last_position_beside_the_parts() {
     assert!(gap > 0.055, "the part is held on the floor: {line}");
     assert!(line.contains("held back by an obstacle"), "{line}");
 }
+
+/// A voxel edge no finer than the part was flagged only by `vps scene check`; `vps run` on such a
+/// scene (here `--voxel-size 0.05` against a 30 mm cube: an 8-point shell) ran without a word and
+/// the part could end metres from the hand. Every session now warns before it runs.
+#[test]
+fn a_session_warns_of_voxels_no_finer_than_the_part() {
+    let bay = bay();
+    let scene = bay.path("bay.toml");
+    let out = bay.run(&[
+        "run",
+        "--scene",
+        &scene,
+        "--voxel-size",
+        "0.05",
+        "--seconds",
+        "0.1",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let err = stderr(&out);
+    assert!(
+        err.contains(
+            "bay.toml: warning: voxels.voxel_size: 0.05 m is no finer than the part (0.0300 m across)"
+        ),
+        "{err}"
+    );
+    let fine = bay.run(&["run", "--scene", &scene, "--seconds", "0.1"]);
+    assert!(
+        !stderr(&fine).contains("no finer than the part"),
+        "{}",
+        stderr(&fine)
+    );
+}

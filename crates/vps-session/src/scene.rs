@@ -494,6 +494,18 @@ fn y_up_hint(file: &SceneFile) -> Option<String> {
     })
 }
 
+/// A flag when the voxel edge `voxel_size` (m) is at least the part's largest extent: its shell of
+/// `points` cannot resolve the part's shape (a bare number is metres: `5` is 5 m, not 5 mm).
+pub fn coarse_voxel_flag(voxel_size: f64, part: &TriMesh, points: usize) -> Option<String> {
+    let size = part.bounds().size().max_element();
+    (voxel_size >= size).then(|| {
+        format!(
+            "voxels.voxel_size: {voxel_size} m is no finer than the part ({size:.4} m across), so \
+             its shell has {points} points; a bare number is metres (for millimetres write \"5mm\")"
+        )
+    })
+}
+
 /// Flags a mesh whose size is implausible after units, with a hint.
 fn plausible_size(mesh: &TriMesh, field: &str, warnings: &mut Vec<String>) {
     let size = mesh.bounds().size().max_element();
@@ -713,7 +725,12 @@ impl SessionAssets {
         for w in &loaded.warnings {
             eprintln!("{}: warning: {w}", loaded.label);
         }
-        loaded.build(options)
+        let assets = loaded.build(options)?;
+        if let Some(w) = coarse_voxel_flag(assets.voxel_size, &assets.part_mesh, assets.shell.len())
+        {
+            eprintln!("{}: warning: {w}", assets.label);
+        }
+        Ok(assets)
     }
 
     /// The scene's script for the simulated hand.
