@@ -556,3 +556,26 @@ fn a_session_warns_of_voxels_no_finer_than_the_part() {
         stderr(&fine)
     );
 }
+
+/// Hand waypoints written in millimetres (`[0.0, 0.0, 50.0]` for 50 mm) put the hand 50 m away:
+/// scene check said ok and the session touched nothing. The first such waypoint is now flagged,
+/// saying waypoints are metres; the bay's own waypoints are not.
+#[test]
+fn waypoints_written_in_millimetres_are_flagged() {
+    let bay = bay();
+    let in_mm = SCENE.replace(
+        "waypoints = [[0.0, 0.0, 0.05], [0.0, 0.0, 0.005],",
+        "waypoints = [[0.0, 0.0, 50.0], [0.0, 0.0, 0.005],",
+    );
+    assert!(in_mm.contains("50.0]"), "{in_mm}");
+    std::fs::write(bay.dir().join("mm.toml"), in_mm).unwrap();
+    let check = json(&bay.run(&["scene", "check", &bay.path("mm.toml"), "--json"]));
+    let flags = check["flags"].to_string();
+    assert!(
+        flags.contains("hand.waypoints[0]: [0, 0, 50] m is 49.940 m from the static objects")
+            && flags.contains("waypoints are in metres whatever the meshes' `units`"),
+        "{check}"
+    );
+    let fine = json(&bay.run(&["scene", "check", &bay.path("bay.toml"), "--json"]));
+    assert!(!fine["flags"].to_string().contains("waypoints"), "{fine}");
+}

@@ -143,6 +143,7 @@ impl LoadedScene {
             )
             .into());
         }
+        warnings.extend(distant_waypoint_hint(&file, &scene_bounds, part_size));
         let params = scene_params(&file, &label, &base)?;
         let device = match &file.device {
             Some(d) => DeviceChoice::parse(&d.kind)
@@ -503,6 +504,38 @@ pub fn coarse_voxel_flag(voxel_size: f64, part: &TriMesh, points: usize) -> Opti
             "voxels.voxel_size: {voxel_size} m is no finer than the part ({size:.4} m across), so \
              its shell has {points} points; a bare number is metres (for millimetres write \"5mm\")"
         )
+    })
+}
+
+/// A hint for the first hand waypoint (or corridor end) farther from the static objects' bounds
+/// than the scene and the part are across: waypoints are metres whatever the meshes' `units`, and
+/// one written in millimetres (`[0, 0, 120]`) puts the hand far away, where nothing is touched.
+fn distant_waypoint_hint(file: &SceneFile, scene: &Aabb, part_size: DVec3) -> Option<String> {
+    let points: Vec<(String, [f64; 3])> = match (&file.hand, &file.corridor) {
+        (Some(hand), _) => hand
+            .waypoints
+            .iter()
+            .enumerate()
+            .map(|(i, w)| (format!("hand.waypoints[{i}]"), *w))
+            .collect(),
+        (None, Some(c)) => vec![
+            ("corridor.from".into(), c.from),
+            ("corridor.to".into(), c.to),
+        ],
+        (None, None) => Vec::new(),
+    };
+    let across = scene.size().max_element() + part_size.max_element();
+    points.into_iter().find_map(|(field, w)| {
+        let p = DVec3::from_array(w);
+        let distance = (p - p.clamp(scene.min, scene.max)).length();
+        (distance > across).then(|| {
+            format!(
+                "{field}: [{}, {}, {}] m is {distance:.3} m from the static objects, which with the \
+                 part span {across:.3} m, so the hand touches nothing there: waypoints are in \
+                 metres whatever the meshes' `units` (120 mm is 0.12)",
+                w[0], w[1], w[2]
+            )
+        })
     })
 }
 
