@@ -579,3 +579,31 @@ fn waypoints_written_in_millimetres_are_flagged() {
     let fine = json(&bay.run(&["scene", "check", &bay.path("bay.toml"), "--json"]));
     assert!(!fine["flags"].to_string().contains("waypoints"), "{fine}");
 }
+
+/// A `grip` or a `translate` written in millimetres like the meshes (`grip = [0, 0, 15]`,
+/// `translate = [-100, -100, 0]`) passed scene check as ok: the handle held the part 15 m away, and
+/// the wall stood 100 m off with the voxmap's grid stretched to reach it. Both are now flagged,
+/// saying they are metres; the bay as given has no flags
+/// (`a_scene_of_mesh_files_runs_touching_without_penetrating`).
+#[test]
+fn a_grip_or_translate_written_in_millimetres_is_flagged() {
+    let bay = bay();
+    let in_mm = SCENE
+        .replace(
+            "rotate_deg = [-90, 0, 0]\n",
+            "rotate_deg = [-90, 0, 0]\ngrip = [0.0, 0.0, 15.0]\n",
+        )
+        .replace(
+            "translate = [-0.1, -0.1, 0.0]",
+            "translate = [-100.0, -100.0, 0.0]",
+        );
+    std::fs::write(bay.dir().join("mm.toml"), in_mm).unwrap();
+    let check = json(&bay.run(&["scene", "check", &bay.path("mm.toml"), "--json"]));
+    let flags = check["flags"].to_string();
+    assert!(
+        flags.contains("part.grip: [0, 0, 15] m is 14.985 m outside the part (0.030 m across)")
+            && flags.contains("static[2].translate: [-100, -100, 0] m puts it ")
+            && flags.contains("`translate` is in metres whatever the mesh's `units`"),
+        "{check}"
+    );
+}

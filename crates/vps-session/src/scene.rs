@@ -144,6 +144,8 @@ impl LoadedScene {
             .into());
         }
         warnings.extend(distant_waypoint_hint(&file, &scene_bounds, part_size));
+        warnings.extend(distant_grip_hint(&file, &part));
+        warnings.extend(distant_static_hints(&file, &statics));
         let params = scene_params(&file, &label, &base)?;
         let device = match &file.device {
             Some(d) => DeviceChoice::parse(&d.kind)
@@ -537,6 +539,63 @@ fn distant_waypoint_hint(file: &SceneFile, scene: &Aabb, part_size: DVec3) -> Op
             )
         })
     })
+}
+
+/// The distance (m) between two boxes; 0 when they overlap or touch.
+fn box_gap(a: &Aabb, b: &Aabb) -> f64 {
+    let gap = (a.min - b.max).max(b.min - a.max).max(DVec3::ZERO);
+    gap.length()
+}
+
+/// A hint when `part.grip` lies farther from the part than the part is across: the grip is metres
+/// in part coordinates, and one written in millimetres (`[0, 0, 43]`) holds the part metres away.
+fn distant_grip_hint(file: &SceneFile, part: &TriMesh) -> Option<String> {
+    let grip = file.part.grip?;
+    let bounds = part.bounds();
+    let p = DVec3::from_array(grip);
+    let distance = (p - p.clamp(bounds.min, bounds.max)).length();
+    let across = bounds.size().max_element();
+    (distance > across).then(|| {
+        format!(
+            "part.grip: [{}, {}, {}] m is {distance:.3} m outside the part ({across:.3} m across): \
+             the grip is in metres, in part coordinates after units and rotation (43 mm is 0.043)",
+            grip[0], grip[1], grip[2]
+        )
+    })
+}
+
+/// Hints for every moved `[[static]]` (non-zero `translate`) that lies farther from all the other
+/// static objects than they and it span: `translate` is metres, and one written in millimetres
+/// puts the object metres away (and the voxmap's grid around both).
+fn distant_static_hints(file: &SceneFile, statics: &[TriMesh]) -> Vec<String> {
+    let bounds: Vec<Aabb> = statics.iter().map(TriMesh::bounds).collect();
+    let mut hints = Vec::new();
+    for (i, object) in file.objects.iter().enumerate() {
+        if object.translate == [0.0; 3] {
+            continue;
+        }
+        let Some(others) = bounds
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != i)
+            .map(|(_, b)| *b)
+            .reduce(|a, b| a.union(&b))
+        else {
+            continue;
+        };
+        let distance = box_gap(&bounds[i], &others);
+        let across = bounds[i].size().max_element() + others.size().max_element();
+        if distance > across {
+            let t = object.translate;
+            hints.push(format!(
+                "static[{i}].translate: [{}, {}, {}] m puts it {distance:.3} m from the other \
+                 static objects, which with it span {across:.3} m: `translate` is in metres \
+                 whatever the mesh's `units` (150 mm is 0.15)",
+                t[0], t[1], t[2]
+            ));
+        }
+    }
+    hints
 }
 
 /// Flags a mesh whose size is implausible after units, with a hint.
