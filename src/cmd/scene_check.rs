@@ -184,7 +184,7 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
             .warnings
             .iter()
             .cloned()
-            .chain(vps_session::scene::coarse_voxel_flag(
+            .chain(vps_session::hints::coarse_voxel_flag(
                 voxels.voxel_size,
                 &loaded.part,
                 shell.len(),

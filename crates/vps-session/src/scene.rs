@@ -6,7 +6,10 @@ use crate::cache::{cache_key, cache_path, read_cached, write_cached, CachePolicy
 use crate::device::{BridgeSettings, DeviceChoice};
 use crate::error::{field_error, SceneError};
 use crate::estimate::{estimate, VoxmapEstimate, MAX_GRID_VOXELS, VOXMAP_MEMORY_BUDGET};
-use crate::file::{rotation, SceneFile, Units};
+use crate::file::{rotation, SceneFile};
+use crate::hints::{
+    coarse_voxel_flag, distant_grip_hint, distant_static_hints, distant_waypoint_hint, y_up_hint,
+};
 use crate::mesh_source::{load_scaled, resolve, Placement};
 use crate::script::{laps_script, path_script};
 use anyhow::{Context, Result};
@@ -478,124 +481,6 @@ fn mesh_error(
         ));
     }
     field_error(label, field, text)
-}
-
-/// A hint when the scene looks like CAD exports left in their Y-up frame: some mesh is declared in
-/// cm, mm or inches (a CAD export) and no object is rotated, while the scene's up is +Z (the hand's
-/// waypoints, the standard session's floor).
-fn y_up_hint(file: &SceneFile) -> Option<String> {
-    let unrotated = |degrees: &[f64; 3]| *degrees == [0.0; 3];
-    let from_cad =
-        file.part.units != Units::Metres || file.objects.iter().any(|o| o.units != Units::Metres);
-    let none_rotated =
-        unrotated(&file.part.rotate_deg) && file.objects.iter().all(|o| unrotated(&o.rotate_deg));
-    (from_cad && none_rotated).then(|| {
-        "no object is rotated (`rotate_deg`) and the scene's up is +Z: if the mesh files are CAD \
-         exports with Y up, as most are, set `rotate_deg = [90, 0, 0]` in [part] and in every \
-         [[static]] (docs/scenes.md)"
-            .to_string()
-    })
-}
-
-/// A flag when the voxel edge `voxel_size` (m) is at least the part's largest extent: its shell of
-/// `points` cannot resolve the part's shape (a bare number is metres: `5` is 5 m, not 5 mm).
-pub fn coarse_voxel_flag(voxel_size: f64, part: &TriMesh, points: usize) -> Option<String> {
-    let size = part.bounds().size().max_element();
-    (voxel_size >= size).then(|| {
-        format!(
-            "voxels.voxel_size: {voxel_size} m is no finer than the part ({size:.4} m across), so \
-             its shell has {points} points; a bare number is metres (for millimetres write \"5mm\")"
-        )
-    })
-}
-
-/// A hint for the first hand waypoint (or corridor end) farther from the static objects' bounds
-/// than the scene and the part are across: waypoints are metres whatever the meshes' `units`, and
-/// one written in millimetres (`[0, 0, 120]`) puts the hand far away, where nothing is touched.
-fn distant_waypoint_hint(file: &SceneFile, scene: &Aabb, part_size: DVec3) -> Option<String> {
-    let points: Vec<(String, [f64; 3])> = match (&file.hand, &file.corridor) {
-        (Some(hand), _) => hand
-            .waypoints
-            .iter()
-            .enumerate()
-            .map(|(i, w)| (format!("hand.waypoints[{i}]"), *w))
-            .collect(),
-        (None, Some(c)) => vec![
-            ("corridor.from".into(), c.from),
-            ("corridor.to".into(), c.to),
-        ],
-        (None, None) => Vec::new(),
-    };
-    let across = scene.size().max_element() + part_size.max_element();
-    points.into_iter().find_map(|(field, w)| {
-        let p = DVec3::from_array(w);
-        let distance = (p - p.clamp(scene.min, scene.max)).length();
-        (distance > across).then(|| {
-            format!(
-                "{field}: [{}, {}, {}] m is {distance:.3} m from the static objects, which with the \
-                 part span {across:.3} m, so the hand touches nothing there: waypoints are in \
-                 metres whatever the meshes' `units` (120 mm is 0.12)",
-                w[0], w[1], w[2]
-            )
-        })
-    })
-}
-
-/// The distance (m) between two boxes; 0 when they overlap or touch.
-fn box_gap(a: &Aabb, b: &Aabb) -> f64 {
-    let gap = (a.min - b.max).max(b.min - a.max).max(DVec3::ZERO);
-    gap.length()
-}
-
-/// A hint when `part.grip` lies farther from the part than the part is across: the grip is metres
-/// in part coordinates, and one written in millimetres (`[0, 0, 43]`) holds the part metres away.
-fn distant_grip_hint(file: &SceneFile, part: &TriMesh) -> Option<String> {
-    let grip = file.part.grip?;
-    let bounds = part.bounds();
-    let p = DVec3::from_array(grip);
-    let distance = (p - p.clamp(bounds.min, bounds.max)).length();
-    let across = bounds.size().max_element();
-    (distance > across).then(|| {
-        format!(
-            "part.grip: [{}, {}, {}] m is {distance:.3} m outside the part ({across:.3} m across): \
-             the grip is in metres, in part coordinates after units and rotation (43 mm is 0.043)",
-            grip[0], grip[1], grip[2]
-        )
-    })
-}
-
-/// Hints for every moved `[[static]]` (non-zero `translate`) that lies farther from all the other
-/// static objects than they and it span: `translate` is metres, and one written in millimetres
-/// puts the object metres away (and the voxmap's grid around both).
-fn distant_static_hints(file: &SceneFile, statics: &[TriMesh]) -> Vec<String> {
-    let bounds: Vec<Aabb> = statics.iter().map(TriMesh::bounds).collect();
-    let mut hints = Vec::new();
-    for (i, object) in file.objects.iter().enumerate() {
-        if object.translate == [0.0; 3] {
-            continue;
-        }
-        let Some(others) = bounds
-            .iter()
-            .enumerate()
-            .filter(|(j, _)| *j != i)
-            .map(|(_, b)| *b)
-            .reduce(|a, b| a.union(&b))
-        else {
-            continue;
-        };
-        let distance = box_gap(&bounds[i], &others);
-        let across = bounds[i].size().max_element() + others.size().max_element();
-        if distance > across {
-            let t = object.translate;
-            hints.push(format!(
-                "static[{i}].translate: [{}, {}, {}] m puts it {distance:.3} m from the other \
-                 static objects, which with it span {across:.3} m: `translate` is in metres \
-                 whatever the mesh's `units` (150 mm is 0.15)",
-                t[0], t[1], t[2]
-            ));
-        }
-    }
-    hints
 }
 
 /// Flags a mesh whose size is implausible after units, with a hint.
