@@ -309,6 +309,13 @@ fn the_text_report_speaks_of_the_session() {
     assert!(text.contains("session end: frames done"), "{text}");
     assert!(text.contains("\nsession:\n"), "{text}");
     assert!(!text.contains("assets"), "{text}");
+    // A binary built without --release says its figures are no guide (a user running
+    // target/debug/vps saw thousands of watchdog trips and zero force with no word why).
+    assert_eq!(
+        text.contains("this vps was built without --release"),
+        cfg!(debug_assertions),
+        "{text}"
+    );
     // The final position at 0.1 mm (it was printed with 17 digits: 0.07500950959614927).
     let line = text
         .lines()
