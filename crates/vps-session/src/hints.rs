@@ -100,20 +100,22 @@ pub(crate) fn distant_grip_hint(file: &SceneFile, part: &TriMesh) -> Option<Stri
 /// puts the object metres away (and the voxmap's grid around both).
 pub(crate) fn distant_static_hints(file: &SceneFile, statics: &[TriMesh]) -> Vec<String> {
     let bounds: Vec<Aabb> = statics.iter().map(TriMesh::bounds).collect();
+    // The union of all boxes before i and of all after i: every "others" in linear time (a scene
+    // may hold 10^4 objects).
+    let mut before = vec![Aabb::EMPTY; bounds.len() + 1];
+    let mut after = vec![Aabb::EMPTY; bounds.len() + 1];
+    for (i, b) in bounds.iter().enumerate() {
+        before[i + 1] = before[i].union(b);
+    }
+    for (i, b) in bounds.iter().enumerate().rev() {
+        after[i] = after[i + 1].union(b);
+    }
     let mut hints = Vec::new();
-    for (i, object) in file.objects.iter().enumerate() {
-        if object.translate == [0.0; 3] {
+    for (i, object) in file.objects.iter().enumerate().take(bounds.len()) {
+        if object.translate == [0.0; 3] || bounds.len() < 2 {
             continue;
         }
-        let Some(others) = bounds
-            .iter()
-            .enumerate()
-            .filter(|(j, _)| *j != i)
-            .map(|(_, b)| *b)
-            .reduce(|a, b| a.union(&b))
-        else {
-            continue;
-        };
+        let others = before[i].union(&after[i + 1]);
         let distance = box_gap(&bounds[i], &others);
         let across = bounds[i].size().max_element() + others.size().max_element();
         if distance > across {
