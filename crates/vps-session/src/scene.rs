@@ -177,6 +177,14 @@ impl LoadedScene {
         })
     }
 
+    /// Prints the scene's warnings (units, Y-up, lengths that look like millimetres) to stderr,
+    /// one line each, prefixed with the scene's label.
+    pub fn print_warnings(&self) {
+        for w in &self.warnings {
+            eprintln!("{}: warning: {w}", self.label);
+        }
+    }
+
     /// Triangles in the static objects.
     pub fn scene_triangles(&self) -> usize {
         self.statics.iter().map(TriMesh::triangle_count).sum()
@@ -699,9 +707,7 @@ impl SessionAssets {
 
     /// Builds `loaded` with `options`, printing its warnings to stderr first.
     pub fn from_loaded(loaded: LoadedScene, options: &BuildOptions) -> Result<SessionAssets> {
-        for w in &loaded.warnings {
-            eprintln!("{}: warning: {w}", loaded.label);
-        }
+        loaded.print_warnings();
         let assets = loaded.build(options)?;
         if let Some(w) = coarse_voxel_flag(assets.voxel_size, &assets.part_mesh, assets.shell.len())
         {
