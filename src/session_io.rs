@@ -277,6 +277,13 @@ pub fn finish<C: Serialize>(
             if out.complete { "" } else { " (partial)" }
         );
         print_summary("session", &out.stats, None);
+        if cfg!(debug_assertions) {
+            println!(
+                "  (this vps was built without --release (debug assertions on): its frames are no \
+                 guide to a release build's, and frames past the watchdog budget send zero force; \
+                 run target/release/vps for a real session)"
+            );
+        }
         let [x, y, z] = out.final_position_m.map(crate::output::metres_4);
         println!("final part position (m): [{x}, {y}, {z}]");
         if let Some(hand) = out.final_hand_position_m {

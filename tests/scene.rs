@@ -309,6 +309,13 @@ fn the_text_report_speaks_of_the_session() {
     assert!(text.contains("session end: frames done"), "{text}");
     assert!(text.contains("\nsession:\n"), "{text}");
     assert!(!text.contains("assets"), "{text}");
+    // A binary built without --release says its figures are no guide (a user running
+    // target/debug/vps saw thousands of watchdog trips and zero force with no word why).
+    assert_eq!(
+        text.contains("this vps was built without --release"),
+        cfg!(debug_assertions),
+        "{text}"
+    );
     // The final position at 0.1 mm (it was printed with 17 digits: 0.07500950959614927).
     let line = text
         .lines()
@@ -523,4 +530,87 @@ fn the_report_gives_the_hands_last_position_beside_the_parts() {
         .unwrap_or_else(|| panic!("no distance: {line}"));
     assert!(gap > 0.055, "the part is held on the floor: {line}");
     assert!(line.contains("held back by an obstacle"), "{line}");
+}
+
+/// A voxel edge no finer than the part was flagged only by `vps scene check`; `vps run` on such a
+/// scene (here `--voxel-size 0.05` against a 30 mm cube: an 8-point shell) ran without a word and
+/// the part could end metres from the hand. Every session now warns before it runs.
+#[test]
+fn a_session_warns_of_voxels_no_finer_than_the_part() {
+    let bay = bay();
+    let scene = bay.path("bay.toml");
+    let out = bay.run(&[
+        "run",
+        "--scene",
+        &scene,
+        "--voxel-size",
+        "0.05",
+        "--seconds",
+        "0.1",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let err = stderr(&out);
+    assert!(
+        err.contains(
+            "bay.toml: warning: voxels.voxel_size: 0.05 m is no finer than the part (0.0300 m across)"
+        ),
+        "{err}"
+    );
+    let fine = bay.run(&["run", "--scene", &scene, "--seconds", "0.1"]);
+    assert!(
+        !stderr(&fine).contains("no finer than the part"),
+        "{}",
+        stderr(&fine)
+    );
+}
+
+/// Hand waypoints written in millimetres (`[0.0, 0.0, 50.0]` for 50 mm) put the hand 50 m away:
+/// scene check said ok and the session touched nothing. The first such waypoint is now flagged,
+/// saying waypoints are metres; the bay's own waypoints are not.
+#[test]
+fn waypoints_written_in_millimetres_are_flagged() {
+    let bay = bay();
+    let in_mm = SCENE.replace(
+        "waypoints = [[0.0, 0.0, 0.05], [0.0, 0.0, 0.005],",
+        "waypoints = [[0.0, 0.0, 50.0], [0.0, 0.0, 0.005],",
+    );
+    assert!(in_mm.contains("50.0]"), "{in_mm}");
+    std::fs::write(bay.dir().join("mm.toml"), in_mm).unwrap();
+    let check = json(&bay.run(&["scene", "check", &bay.path("mm.toml"), "--json"]));
+    let flags = check["flags"].to_string();
+    assert!(
+        flags.contains("hand.waypoints[0]: [0, 0, 50] m is 49.940 m from the static objects")
+            && flags.contains("waypoints are in metres whatever the meshes' `units`"),
+        "{check}"
+    );
+    let fine = json(&bay.run(&["scene", "check", &bay.path("bay.toml"), "--json"]));
+    assert!(!fine["flags"].to_string().contains("waypoints"), "{fine}");
+}
+
+/// A `grip` or a `translate` written in millimetres like the meshes (`grip = [0, 0, 15]`,
+/// `translate = [-100, -100, 0]`) passed scene check as ok: the handle held the part 15 m away, and
+/// the wall stood 100 m off with the voxmap's grid stretched to reach it. Both are now flagged,
+/// saying they are metres; the bay as given has no flags
+/// (`a_scene_of_mesh_files_runs_touching_without_penetrating`).
+#[test]
+fn a_grip_or_translate_written_in_millimetres_is_flagged() {
+    let bay = bay();
+    let in_mm = SCENE
+        .replace(
+            "rotate_deg = [-90, 0, 0]\n",
+            "rotate_deg = [-90, 0, 0]\ngrip = [0.0, 0.0, 15.0]\n",
+        )
+        .replace(
+            "translate = [-0.1, -0.1, 0.0]",
+            "translate = [-100.0, -100.0, 0.0]",
+        );
+    std::fs::write(bay.dir().join("mm.toml"), in_mm).unwrap();
+    let check = json(&bay.run(&["scene", "check", &bay.path("mm.toml"), "--json"]));
+    let flags = check["flags"].to_string();
+    assert!(
+        flags.contains("part.grip: [0, 0, 15] m is 14.985 m outside the part (0.030 m across)")
+            && flags.contains("static[2].translate: [-100, -100, 0] m puts it ")
+            && flags.contains("`translate` is in metres whatever the mesh's `units`"),
+        "{check}"
+    );
 }

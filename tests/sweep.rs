@@ -258,6 +258,12 @@ fn a_sweep_without_contact_says_why_its_accuracy_is_empty() {
         away.contains(note) && away.contains("--quick cut each session to its first 2 s"),
         "{away}"
     );
+    // The scene's own warnings are printed by the sweep as by a session (here: a hand 0.5 m off
+    // a 0.1 m box).
+    assert!(
+        away.contains("scene.toml: warning: hand.waypoints[0]: [0.5, 0, 0] m is 0.450 m from"),
+        "{away}"
+    );
     let pressing = sweep("[[0.3, 0.0, 0.0], [0.0, 0.0, 0.0]]");
     assert!(!pressing.contains(note), "{pressing}");
 }

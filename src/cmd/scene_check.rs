@@ -91,18 +91,6 @@ fn object(field: String, source: &str, mesh: &TriMesh) -> ObjectReport {
     }
 }
 
-/// A flag when the voxel edge `voxel_size` (m) is at least the part's largest extent: its shell of
-/// `points` cannot resolve the part's shape (a bare number is metres: `5` is 5 m, not 5 mm).
-fn coarse_voxel_flag(voxel_size: f64, part: &TriMesh, points: usize) -> Option<String> {
-    let size = part.bounds().size().max_element();
-    (voxel_size >= size).then(|| {
-        format!(
-            "voxels.voxel_size: {voxel_size} m is no finer than the part ({size:.4} m across), so \
-             its shell has {points} points; a bare number is metres (for millimetres write \"5mm\")"
-        )
-    })
-}
-
 /// The `voxels` keys of `v` that the scene file left to the built-in defaults.
 fn defaults_used(v: &VoxelsReport) -> Vec<&'static str> {
     [
@@ -196,7 +184,7 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
             .warnings
             .iter()
             .cloned()
-            .chain(coarse_voxel_flag(
+            .chain(vps_session::hints::coarse_voxel_flag(
                 voxels.voxel_size,
                 &loaded.part,
                 shell.len(),

@@ -59,6 +59,7 @@ pub fn run(args: &SweepArgs) -> Result<()> {
             base.join(&spec.scene).display().to_string()
         };
         let scene = LoadedScene::load(&path)?;
+        scene.print_warnings();
         let widths = match config.widths_of(spec) {
             Some(widths) => widths.to_vec(),
             None => vec![scene.width()?],

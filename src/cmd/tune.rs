@@ -107,6 +107,7 @@ pub fn run(args: &TuneArgs) -> Result<()> {
         );
     }
     let scene = LoadedScene::load(&args.scene)?;
+    scene.print_warnings();
     for w in &scene.warnings {
         eprintln!("{}: warning: {w}", scene.label);
     }

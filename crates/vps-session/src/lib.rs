@@ -5,7 +5,8 @@
 //! hand plan; and [`plan::SessionPlan`] is the one way the runtime's `SessionSetup` is made.
 //!
 //! Module map: [`file`](mod@file) (the scene file), [`mesh_source`] (mesh files and built-ins, placed),
-//! [`length`] (lengths with unit suffixes), [`estimate`] (a voxmap's cost before it is built),
+//! [`length`] (lengths with unit suffixes), [`hints`] (a CAD user's likely slips),
+//! [`estimate`] (a voxmap's cost before it is built),
 //! [`cache`] (the voxmap cache), [`scene`] (scene file → [`LoadedScene`] → [`SessionAssets`]),
 //! [`script`] (the simulated hand's scripts), [`start_pose`] (a part
 //! that starts inside a static object), [`device`] (the device a session is driven by),
@@ -23,6 +24,7 @@ pub mod device;
 pub mod error;
 pub mod estimate;
 pub mod file;
+pub mod hints;
 pub mod length;
 pub mod mesh_source;
 pub mod plan;

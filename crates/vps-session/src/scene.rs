@@ -6,7 +6,10 @@ use crate::cache::{cache_key, cache_path, read_cached, write_cached, CachePolicy
 use crate::device::{BridgeSettings, DeviceChoice};
 use crate::error::{field_error, SceneError};
 use crate::estimate::{estimate, VoxmapEstimate, MAX_GRID_VOXELS, VOXMAP_MEMORY_BUDGET};
-use crate::file::{rotation, SceneFile, Units};
+use crate::file::{rotation, SceneFile};
+use crate::hints::{
+    coarse_voxel_flag, distant_grip_hint, distant_static_hints, distant_waypoint_hint, y_up_hint,
+};
 use crate::mesh_source::{load_scaled, resolve, Placement};
 use crate::script::{laps_script, path_script};
 use anyhow::{Context, Result};
@@ -143,6 +146,9 @@ impl LoadedScene {
             )
             .into());
         }
+        warnings.extend(distant_waypoint_hint(&file, &scene_bounds, part_size));
+        warnings.extend(distant_grip_hint(&file, &part));
+        warnings.extend(distant_static_hints(&file, &statics));
         let params = scene_params(&file, &label, &base)?;
         let device = match &file.device {
             Some(d) => DeviceChoice::parse(&d.kind)
@@ -169,6 +175,14 @@ impl LoadedScene {
             bridge,
             warnings,
         })
+    }
+
+    /// Prints the scene's warnings (units, Y-up, lengths that look like millimetres) to stderr,
+    /// one line each, prefixed with the scene's label.
+    pub fn print_warnings(&self) {
+        for w in &self.warnings {
+            eprintln!("{}: warning: {w}", self.label);
+        }
     }
 
     /// Triangles in the static objects.
@@ -477,23 +491,6 @@ fn mesh_error(
     field_error(label, field, text)
 }
 
-/// A hint when the scene looks like CAD exports left in their Y-up frame: some mesh is declared in
-/// cm, mm or inches (a CAD export) and no object is rotated, while the scene's up is +Z (the hand's
-/// waypoints, the standard session's floor).
-fn y_up_hint(file: &SceneFile) -> Option<String> {
-    let unrotated = |degrees: &[f64; 3]| *degrees == [0.0; 3];
-    let from_cad =
-        file.part.units != Units::Metres || file.objects.iter().any(|o| o.units != Units::Metres);
-    let none_rotated =
-        unrotated(&file.part.rotate_deg) && file.objects.iter().all(|o| unrotated(&o.rotate_deg));
-    (from_cad && none_rotated).then(|| {
-        "no object is rotated (`rotate_deg`) and the scene's up is +Z: if the mesh files are CAD \
-         exports with Y up, as most are, set `rotate_deg = [90, 0, 0]` in [part] and in every \
-         [[static]] (docs/scenes.md)"
-            .to_string()
-    })
-}
-
 /// Flags a mesh whose size is implausible after units, with a hint.
 fn plausible_size(mesh: &TriMesh, field: &str, warnings: &mut Vec<String>) {
     let size = mesh.bounds().size().max_element();
@@ -710,10 +707,13 @@ impl SessionAssets {
 
     /// Builds `loaded` with `options`, printing its warnings to stderr first.
     pub fn from_loaded(loaded: LoadedScene, options: &BuildOptions) -> Result<SessionAssets> {
-        for w in &loaded.warnings {
-            eprintln!("{}: warning: {w}", loaded.label);
+        loaded.print_warnings();
+        let assets = loaded.build(options)?;
+        if let Some(w) = coarse_voxel_flag(assets.voxel_size, &assets.part_mesh, assets.shell.len())
+        {
+            eprintln!("{}: warning: {w}", assets.label);
         }
-        loaded.build(options)
+        Ok(assets)
     }
 
     /// The scene's script for the simulated hand.

@@ -1,0 +1,132 @@
+//! Hints for scene files that parse and load but look like a CAD user's slip: meshes left in
+//! their Y-up frame, and lengths written in millimetres where the scene file takes metres (hand
+//! waypoints, the grip, a static object's `translate`), and a voxel edge no finer than the part.
+//! Each hint names the field and says what to write instead; none stops a session.
+
+use crate::file::{SceneFile, Units};
+use glam::DVec3;
+use vps_mesh::{Aabb, TriMesh};
+
+/// A hint when the scene looks like CAD exports left in their Y-up frame: some mesh is declared in
+/// cm, mm or inches (a CAD export) and no object is rotated, while the scene's up is +Z (the hand's
+/// waypoints, the standard session's floor).
+pub(crate) fn y_up_hint(file: &SceneFile) -> Option<String> {
+    let unrotated = |degrees: &[f64; 3]| *degrees == [0.0; 3];
+    let from_cad =
+        file.part.units != Units::Metres || file.objects.iter().any(|o| o.units != Units::Metres);
+    let none_rotated =
+        unrotated(&file.part.rotate_deg) && file.objects.iter().all(|o| unrotated(&o.rotate_deg));
+    (from_cad && none_rotated).then(|| {
+        "no object is rotated (`rotate_deg`) and the scene's up is +Z: if the mesh files are CAD \
+         exports with Y up, as most are, set `rotate_deg = [90, 0, 0]` in [part] and in every \
+         [[static]] (docs/scenes.md)"
+            .to_string()
+    })
+}
+
+/// A flag when the voxel edge `voxel_size` (m) is at least the part's largest extent: its shell of
+/// `points` cannot resolve the part's shape (a bare number is metres: `5` is 5 m, not 5 mm).
+pub fn coarse_voxel_flag(voxel_size: f64, part: &TriMesh, points: usize) -> Option<String> {
+    let size = part.bounds().size().max_element();
+    (voxel_size >= size).then(|| {
+        format!(
+            "voxels.voxel_size: {voxel_size} m is no finer than the part ({size:.4} m across), so \
+             its shell has {points} points; a bare number is metres (for millimetres write \"5mm\")"
+        )
+    })
+}
+
+/// A hint for the first hand waypoint (or corridor end) farther from the static objects' bounds
+/// than the scene and the part are across: waypoints are metres whatever the meshes' `units`, and
+/// one written in millimetres (`[0, 0, 120]`) puts the hand far away, where nothing is touched.
+pub(crate) fn distant_waypoint_hint(
+    file: &SceneFile,
+    scene: &Aabb,
+    part_size: DVec3,
+) -> Option<String> {
+    let points: Vec<(String, [f64; 3])> = match (&file.hand, &file.corridor) {
+        (Some(hand), _) => hand
+            .waypoints
+            .iter()
+            .enumerate()
+            .map(|(i, w)| (format!("hand.waypoints[{i}]"), *w))
+            .collect(),
+        (None, Some(c)) => vec![
+            ("corridor.from".into(), c.from),
+            ("corridor.to".into(), c.to),
+        ],
+        (None, None) => Vec::new(),
+    };
+    let across = scene.size().max_element() + part_size.max_element();
+    points.into_iter().find_map(|(field, w)| {
+        let p = DVec3::from_array(w);
+        let distance = (p - p.clamp(scene.min, scene.max)).length();
+        (distance > across).then(|| {
+            format!(
+                "{field}: [{}, {}, {}] m is {distance:.3} m from the static objects, which with the \
+                 part span {across:.3} m, so the hand touches nothing there: waypoints are in \
+                 metres whatever the meshes' `units` (120 mm is 0.12)",
+                w[0], w[1], w[2]
+            )
+        })
+    })
+}
+
+/// The distance (m) between two boxes; 0 when they overlap or touch.
+fn box_gap(a: &Aabb, b: &Aabb) -> f64 {
+    let gap = (a.min - b.max).max(b.min - a.max).max(DVec3::ZERO);
+    gap.length()
+}
+
+/// A hint when `part.grip` lies farther from the part than the part is across: the grip is metres
+/// in part coordinates, and one written in millimetres (`[0, 0, 43]`) holds the part metres away.
+pub(crate) fn distant_grip_hint(file: &SceneFile, part: &TriMesh) -> Option<String> {
+    let grip = file.part.grip?;
+    let bounds = part.bounds();
+    let p = DVec3::from_array(grip);
+    let distance = (p - p.clamp(bounds.min, bounds.max)).length();
+    let across = bounds.size().max_element();
+    (distance > across).then(|| {
+        format!(
+            "part.grip: [{}, {}, {}] m is {distance:.3} m outside the part ({across:.3} m across): \
+             the grip is in metres, in part coordinates after units and rotation (43 mm is 0.043)",
+            grip[0], grip[1], grip[2]
+        )
+    })
+}
+
+/// Hints for every moved `[[static]]` (non-zero `translate`) that lies farther from all the other
+/// static objects than they and it span: `translate` is metres, and one written in millimetres
+/// puts the object metres away (and the voxmap's grid around both).
+pub(crate) fn distant_static_hints(file: &SceneFile, statics: &[TriMesh]) -> Vec<String> {
+    let bounds: Vec<Aabb> = statics.iter().map(TriMesh::bounds).collect();
+    // The union of all boxes before i and of all after i: every "others" in linear time (a scene
+    // may hold 10^4 objects).
+    let mut before = vec![Aabb::EMPTY; bounds.len() + 1];
+    let mut after = vec![Aabb::EMPTY; bounds.len() + 1];
+    for (i, b) in bounds.iter().enumerate() {
+        before[i + 1] = before[i].union(b);
+    }
+    for (i, b) in bounds.iter().enumerate().rev() {
+        after[i] = after[i + 1].union(b);
+    }
+    let mut hints = Vec::new();
+    for (i, object) in file.objects.iter().enumerate().take(bounds.len()) {
+        if object.translate == [0.0; 3] || bounds.len() < 2 {
+            continue;
+        }
+        let others = before[i].union(&after[i + 1]);
+        let distance = box_gap(&bounds[i], &others);
+        let across = bounds[i].size().max_element() + others.size().max_element();
+        if distance > across {
+            let t = object.translate;
+            hints.push(format!(
+                "static[{i}].translate: [{}, {}, {}] m puts it {distance:.3} m from the other \
+                 static objects, which with it span {across:.3} m: `translate` is in metres \
+                 whatever the mesh's `units` (150 mm is 0.15)",
+                t[0], t[1], t[2]
+            ));
+        }
+    }
+    hints
+}
