@@ -266,6 +266,20 @@ fn without_rust_log_the_join_is_logged_on_both_sides() {
     assert_eq!(coordinator.wait_exit(), Some(0));
     assert_eq!(worker.wait_exit(), Some(0));
     assert_eq!(worker.count(&format!("joined {listen}")), 1);
+    // The coordinator's session ending is routine: said at info, not as a warning.
+    let went_away: Vec<String> = worker
+        .lines
+        .lock()
+        .unwrap()
+        .iter()
+        .filter(|l| l.contains("went away ("))
+        .cloned()
+        .collect();
+    assert_eq!(went_away.len(), 1, "{went_away:?}");
+    assert!(
+        went_away[0].contains(" INFO ") && went_away[0].contains("coordinator done"),
+        "{went_away:?}"
+    );
     let joined = coordinator
         .lines
         .lock()
