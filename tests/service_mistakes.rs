@@ -289,3 +289,30 @@ fn without_rust_log_the_join_is_logged_on_both_sides() {
         .count();
     assert_eq!(joined, 1);
 }
+
+#[test]
+fn a_coordinator_whose_workers_do_not_come_says_what_to_check() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let c = make_cert(d, "coordinator").unwrap();
+    let w = make_cert(d, "worker").unwrap();
+    let s = |p: &Path| p.to_string_lossy().into_owned();
+    let out = run(
+        d,
+        &d.join("cache"),
+        &coordinator_args(&s(&c.cert), &s(&c.key), &s(&w.cert), "127.0.0.1:0"),
+    );
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains(
+            "only 0 of 1 worker(s) joined within 20 s (0 refused for an unpinned certificate"
+        ),
+        "{err}"
+    );
+    assert!(
+        err.contains("start the workers (each dials 127.0.0.1:"),
+        "{err}"
+    );
+    assert!(!err.contains("network:"), "{err}");
+}
