@@ -120,8 +120,14 @@ pub fn coordinate(
         .wait_for_workers_until(workers, JOIN_TIMEOUT, &live.setup.stop)
         .is_err()
     {
+        // Listening on every address (0.0.0.0): a worker dials one of this host's own.
+        let dialled = if addr.ip().is_unspecified() {
+            format!("this host's LAN IP, UDP port {}", addr.port())
+        } else {
+            addr.to_string()
+        };
         anyhow::bail!(
-            "only {} of {workers} worker(s) joined within {} s ({} refused for an unpinned certificate, logged above): start the workers (each dials {addr}, its `coordinator`), pin each worker's certificate here and this coordinator's on each worker, or lower `workers`",
+            "only {} of {workers} worker(s) joined within {} s ({} refused for an unpinned certificate, logged above): start the workers (each dials {dialled}, its `coordinator`), pin each worker's certificate here and this coordinator's on each worker, or lower `workers`",
             coordinator.joined_workers(),
             JOIN_TIMEOUT.as_secs(),
             coordinator.refused_unpinned()
