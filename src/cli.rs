@@ -255,7 +255,7 @@ pub struct WorkerArgs {
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
     /// The coordinator's address (IP:port). Required, here or in the config file.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::limits::parse_ip_port)]
     pub coordinator: Option<std::net::SocketAddr>,
     /// This worker's certificate, key and pinned coordinator certificates.
     #[command(flatten)]
@@ -282,7 +282,7 @@ pub struct CoordinatorArgs {
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
     /// Address to listen on (UDP, QUIC).
-    #[arg(long, default_value = "0.0.0.0:7800")]
+    #[arg(long, default_value = "0.0.0.0:7800", value_parser = crate::limits::parse_ip_port)]
     pub listen: std::net::SocketAddr,
     /// The coordinator's certificate, key and pinned worker certificates.
     #[command(flatten)]

@@ -116,9 +116,23 @@ pub fn coordinate(
     let addr = coordinator.local_addr()?;
     eprintln!("coordinator listening on {addr}, waiting for {workers} worker(s)");
     let _children = spawn(addr, keep_off.as_ref())?;
-    coordinator
+    if coordinator
         .wait_for_workers_until(workers, JOIN_TIMEOUT, &live.setup.stop)
-        .with_context(|| format!("waiting {JOIN_TIMEOUT:?} for {workers} worker(s) to join"))?;
+        .is_err()
+    {
+        // Listening on every address (0.0.0.0): a worker dials one of this host's own.
+        let dialled = if addr.ip().is_unspecified() {
+            format!("this host's LAN IP, UDP port {}", addr.port())
+        } else {
+            addr.to_string()
+        };
+        anyhow::bail!(
+            "only {} of {workers} worker(s) joined within {} s ({} refused for an unpinned certificate, logged above): start the workers (each dials {dialled}, its `coordinator`), pin each worker's certificate here and this coordinator's on each worker, or lower `workers`",
+            coordinator.joined_workers(),
+            JOIN_TIMEOUT.as_secs(),
+            coordinator.refused_unpinned()
+        );
+    }
     let gather = GatherConfig {
         local_threads: session.threads.max(1),
         adaptive_shares: !gather.equal_shares,

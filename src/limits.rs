@@ -55,6 +55,21 @@ pub fn parse_seconds(text: &str) -> Result<f64, String> {
     }
 }
 
+/// A socket address, IP:port (`192.168.1.10:7800`, `[fe80::1]:7800`). A host name is refused
+/// saying so: the cluster services never resolve names.
+pub fn parse_ip_port(text: &str) -> Result<std::net::SocketAddr, String> {
+    text.trim().parse().map_err(|_| {
+        let looks_like_a_name = text
+            .rsplit_once(':')
+            .is_some_and(|(host, port)| port.parse::<u16>().is_ok() && host.parse::<std::net::IpAddr>().is_err());
+        if looks_like_a_name {
+            format!("`{text}` names a host: give its IP address and port (e.g. 192.168.1.10:7800); host names are not resolved")
+        } else {
+            format!("`{text}` is not IP:port (e.g. 192.168.1.10:7800 or [fe80::1]:7800)")
+        }
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -26,8 +26,8 @@ const MAX_FILE_BYTES: u64 = 1 << 20;
 #[derive(Deserialize, Debug, Default, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct WorkerFile {
-    /// `--coordinator`.
-    pub coordinator: Option<SocketAddr>,
+    /// `--coordinator` (IP:port; checked by [`crate::limits::parse_ip_port`]).
+    pub coordinator: Option<String>,
     /// `--cert`.
     pub cert: Option<PathBuf>,
     /// `--key`.
@@ -46,8 +46,8 @@ pub struct WorkerFile {
 #[derive(Deserialize, Debug, Default, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct CoordinatorFile {
-    /// `--listen`.
-    pub listen: Option<SocketAddr>,
+    /// `--listen` (IP:port; checked by [`crate::limits::parse_ip_port`]).
+    pub listen: Option<String>,
     /// `--cert`.
     pub cert: Option<PathBuf>,
     /// `--key`.
@@ -167,11 +167,13 @@ pub fn resolve_worker(args: &mut WorkerArgs, matches: &ArgMatches) -> Result<()>
     if let Some(path) = args.config.clone() {
         let f = load_worker(&path)?;
         let threads = checked(&path, "threads", f.threads, crate::limits::parse_count)?;
+        let ip_port = crate::limits::parse_ip_port;
+        let coordinator = checked(&path, "coordinator", f.coordinator, ip_port)?;
         take(
             matches,
             "coordinator",
             &mut args.coordinator,
-            f.coordinator.map(Some),
+            coordinator.map(Some),
         );
         let (cert, key) = (
             f.cert.map(|p| beside(&path, p)),
@@ -216,7 +218,8 @@ pub fn resolve_coordinator(args: &mut CoordinatorArgs, matches: &ArgMatches) -> 
             ),
         };
         let s = &mut args.session;
-        take(matches, "listen", &mut args.listen, f.listen);
+        let listen = checked(&path, "listen", f.listen, crate::limits::parse_ip_port)?;
+        take(matches, "listen", &mut args.listen, listen);
         let (cert, key) = (
             f.cert.map(|p| beside(&path, p)),
             f.key.map(|p| beside(&path, p)),
@@ -341,11 +344,11 @@ mod tests {
     #[test]
     fn the_committed_configs_load() {
         let c = load_coordinator(&repo("configs/coordinator.toml")).unwrap();
-        assert_eq!(c.listen, Some("0.0.0.0:7800".parse().unwrap()));
+        assert_eq!(c.listen.as_deref(), Some("0.0.0.0:7800"));
         assert_eq!(c.workers, Some(2));
         assert_eq!(c.pins, Some(vec![PathBuf::from("/etc/vps/pins")]));
         let w = load_worker(&repo("configs/worker.toml")).unwrap();
-        assert_eq!(w.coordinator, Some("10.77.0.1:7800".parse().unwrap()));
+        assert_eq!(w.coordinator.as_deref(), Some("10.77.0.1:7800"));
         assert_eq!(w.cache, Some(PathBuf::from("/var/cache/vps")));
 
         let path = repo("configs/coordinator.toml");
@@ -627,6 +630,46 @@ mod tests {
         assert_eq!(
             args.session.device.as_deref(),
             Some("bridge:127.0.0.1:7700")
+        );
+    }
+
+    #[test]
+    fn a_host_name_for_the_coordinator_is_refused_saying_to_give_an_ip() {
+        let dir = tempfile::tempdir().unwrap();
+        let worker = dir.path().join("worker.toml");
+        std::fs::write(
+            &worker,
+            "coordinator = \"coord.lan:7800\"\ncert = \"w.crt\"\nkey = \"w.key\"\npins = [\"c.crt\"]\n",
+        )
+        .unwrap();
+        let err = parsed(&["vps", "worker", "--config", worker.to_str().unwrap()])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains(&format!(
+                "{}: `coordinator`: `coord.lan:7800` names a host: give its IP address and port",
+                worker.display()
+            )),
+            "{err}"
+        );
+        let err = parsed(&["vps", "worker", "--coordinator", "coord.lan:7800"])
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("host names are not resolved"), "{err}");
+        let coordinator = dir.path().join("coordinator.toml");
+        std::fs::write(&coordinator, "listen = \"7800\"\n").unwrap();
+        let err = parsed(&[
+            "vps",
+            "coordinator",
+            "--config",
+            coordinator.to_str().unwrap(),
+        ])
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("`listen`: `7800` is not IP:port"), "{err}");
+        assert_eq!(
+            crate::limits::parse_ip_port("[::1]:7800"),
+            Ok("[::1]:7800".parse().unwrap())
         );
     }
 }

@@ -266,6 +266,20 @@ fn without_rust_log_the_join_is_logged_on_both_sides() {
     assert_eq!(coordinator.wait_exit(), Some(0));
     assert_eq!(worker.wait_exit(), Some(0));
     assert_eq!(worker.count(&format!("joined {listen}")), 1);
+    // The coordinator's session ending is routine: said at info, not as a warning.
+    let went_away: Vec<String> = worker
+        .lines
+        .lock()
+        .unwrap()
+        .iter()
+        .filter(|l| l.contains("went away ("))
+        .cloned()
+        .collect();
+    assert_eq!(went_away.len(), 1, "{went_away:?}");
+    assert!(
+        went_away[0].contains(" INFO ") && went_away[0].contains("coordinator done"),
+        "{went_away:?}"
+    );
     let joined = coordinator
         .lines
         .lock()
@@ -274,4 +288,31 @@ fn without_rust_log_the_join_is_logged_on_both_sides() {
         .filter(|l| l.contains("worker 0 at 127.0.0.1:") && l.contains("joined (scene sent: true)"))
         .count();
     assert_eq!(joined, 1);
+}
+
+#[test]
+fn a_coordinator_whose_workers_do_not_come_says_what_to_check() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let c = make_cert(d, "coordinator").unwrap();
+    let w = make_cert(d, "worker").unwrap();
+    let s = |p: &Path| p.to_string_lossy().into_owned();
+    let out = run(
+        d,
+        &d.join("cache"),
+        &coordinator_args(&s(&c.cert), &s(&c.key), &s(&w.cert), "127.0.0.1:0"),
+    );
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains(
+            "only 0 of 1 worker(s) joined within 20 s (0 refused for an unpinned certificate"
+        ),
+        "{err}"
+    );
+    assert!(
+        err.contains("start the workers (each dials 127.0.0.1:"),
+        "{err}"
+    );
+    assert!(!err.contains("network:"), "{err}");
 }

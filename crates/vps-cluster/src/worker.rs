@@ -77,6 +77,10 @@ pub struct WorkerReport {
     pub udp_foreign: u64,
     /// How the connection ended ("stopped", or the coordinator's close as quinn reports it).
     pub ended: String,
+    /// The coordinator closed the connection itself because its session ended or it was stopped
+    /// (close codes [`close::CLOSE_SESSION_DONE`], [`close::CLOSE_COORDINATOR_STOPPING`]): the
+    /// expected end of a session, not a loss.
+    pub coordinator_closed: bool,
 }
 
 /// Runs a worker until the coordinator closes the connection or goes silent (idle timeout).
@@ -156,6 +160,7 @@ async fn worker_main(
 
     let mut answer = Answerer::new(scene, config.threads)?;
     let mut invalid = 0u64;
+    let mut coordinator_closed = false;
     let ended = loop {
         tokio::select! {
             datagram = conn.read_datagram() => match datagram {
@@ -179,6 +184,7 @@ async fn worker_main(
                 }
                 Err(e) => {
                     tracing::debug!("connection ended: {e}");
+                    coordinator_closed = closed_by_coordinator(&e);
                     break e.to_string();
                 }
             },
@@ -202,7 +208,16 @@ async fn worker_main(
         udp_not_quic: udp.not_quic(),
         udp_foreign: udp.foreign(),
         ended,
+        coordinator_closed,
     })
+}
+
+/// Whether `e` is the coordinator closing the connection at the end of its session or when
+/// stopped (what [`WorkerReport::coordinator_closed`] records).
+fn closed_by_coordinator(e: &quinn::ConnectionError) -> bool {
+    let expected = [close::CLOSE_SESSION_DONE, close::CLOSE_COORDINATOR_STOPPING].map(u64::from);
+    matches!(e, quinn::ConnectionError::ApplicationClosed(a)
+        if expected.contains(&a.error_code.into_inner()))
 }
 
 /// The refusal for good that a connection error means, if it means one: a TLS failure (a
@@ -280,12 +295,18 @@ pub fn run_worker_service(
                 Ok(report) => {
                     join_log.joined();
                     let stopped = report.ended == "stopped";
-                    if !stopped {
-                        tracing::warn!(
-                            "coordinator {} went away ({}); waiting for the next one",
-                            config.coordinator,
-                            report.ended
-                        );
+                    // A session that ended or a coordinator that was stopped is routine (info);
+                    // a coordinator lost without a close is worth a warning.
+                    let next = if rejoin.exit_with_coordinator {
+                        "exiting with it"
+                    } else {
+                        "waiting for the next one"
+                    };
+                    let (coordinator, why) = (config.coordinator, &report.ended);
+                    if report.coordinator_closed {
+                        tracing::info!("coordinator {coordinator} went away ({why}); {next}");
+                    } else if !stopped {
+                        tracing::warn!("coordinator {coordinator} went away ({why}); {next}");
                     }
                     service.sessions.push(report);
                     if stopped || rejoin.exit_with_coordinator {
