@@ -15,12 +15,22 @@ pub const JOIN_LOG_PERIOD: Duration = Duration::from_secs(60);
 /// The log state of a worker's failed attempts since its last join.
 #[derive(Clone, Debug, Default)]
 pub struct JoinLog {
+    /// The longest wait between two attempts, for the summary line.
+    retry_at_most: Duration,
     last_reason: Option<String>,
     last_logged: Option<Instant>,
     attempts_since_logged: u64,
 }
 
 impl JoinLog {
+    /// A log for a worker that waits at most `retry_at_most` between attempts.
+    pub fn new(retry_at_most: Duration) -> JoinLog {
+        JoinLog {
+            retry_at_most,
+            ..JoinLog::default()
+        }
+    }
+
     /// A failed attempt to join `coordinator` because of `reason`, at `now`: the line to log, if
     /// one is due.
     pub fn failed(&mut self, coordinator: &str, reason: &str, now: Instant) -> Option<String> {
@@ -36,7 +46,7 @@ impl JoinLog {
             format!(
                 "still cannot join {coordinator}: {reason}; {} attempts since the last line, retrying every {} s at most (logged once per {} s)",
                 self.attempts_since_logged,
-                crate::worker::Rejoin::default().max.as_secs(),
+                self.retry_at_most.as_secs(),
                 JOIN_LOG_PERIOD.as_secs()
             )
         } else {
@@ -50,7 +60,7 @@ impl JoinLog {
 
     /// The worker joined: the next failure is logged at once.
     pub fn joined(&mut self) {
-        *self = JoinLog::default();
+        *self = JoinLog::new(self.retry_at_most);
     }
 }
 
@@ -61,7 +71,7 @@ mod tests {
     #[test]
     fn the_first_failure_at_once_then_one_line_a_minute_counting_attempts() {
         let t0 = Instant::now();
-        let mut log = JoinLog::default();
+        let mut log = JoinLog::new(Duration::from_secs(5));
         let first = log.failed("10.0.0.1:7800", "timed out", t0).unwrap();
         assert!(
             first.starts_with("cannot join 10.0.0.1:7800: timed out; retrying"),
@@ -94,7 +104,7 @@ mod tests {
     #[test]
     fn a_new_reason_is_logged_at_once_and_a_join_resets() {
         let t0 = Instant::now();
-        let mut log = JoinLog::default();
+        let mut log = JoinLog::new(Duration::from_secs(5));
         assert!(log.failed("c", "timed out", t0).is_some());
         let other = log
             .failed("c", "connection refused", t0 + Duration::from_secs(1))

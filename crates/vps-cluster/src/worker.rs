@@ -289,7 +289,7 @@ pub fn run_worker_service(
         let mut service = WorkerService::default();
         let mut wait = rejoin.first;
         let mut rng = rand::thread_rng();
-        let mut join_log = crate::join_log::JoinLog::default();
+        let mut join_log = crate::join_log::JoinLog::new(rejoin.max);
         while !stop.load(Ordering::Relaxed) {
             match worker_main(config.clone(), stop.clone()).await {
                 Ok(report) => {
