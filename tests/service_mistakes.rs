@@ -6,12 +6,11 @@
 //!
 //! Nothing here depends on timing: every wait is bounded by a generous deadline only.
 
-use std::io::{BufRead, BufReader};
 use std::path::Path;
-use std::process::{Child, Command, Output, Stdio};
-use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::process::{Command, Output, Stdio};
+use std::time::Duration;
 use vps_cluster::make_cert;
+use vps_testkit::process::WatchedProcess;
 
 const DEADLINE: Duration = Duration::from_secs(240);
 
@@ -156,70 +155,13 @@ fn relative_paths_in_a_config_file_are_its_directorys_whatever_the_working_direc
     assert!(err.contains(&expected), "{err}");
 }
 
-/// A child `vps` process (no `RUST_LOG`) whose stderr lines are collected; killed on drop.
-struct Proc {
-    child: Child,
-    lines: Arc<Mutex<Vec<String>>>,
-}
-
-impl Proc {
-    fn start(label: &'static str, cache: &Path, args: &[String]) -> Proc {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_vps"))
-            .args(args)
-            .env("VPS_CACHE_DIR", cache)
-            .env_remove("RUST_LOG")
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("start vps");
-        let stderr = child.stderr.take().unwrap();
-        let lines = Arc::new(Mutex::new(Vec::new()));
-        let sink = lines.clone();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-                eprintln!("[{label}] {line}");
-                sink.lock().unwrap().push(line);
-            }
-        });
-        Proc { child, lines }
-    }
-
-    fn count(&self, text: &str) -> usize {
-        self.lines
-            .lock()
-            .unwrap()
-            .iter()
-            .filter(|l| l.contains(text))
-            .count()
-    }
-
-    /// Waits until a stderr line contains `text`.
-    fn wait_for(&self, text: &str) {
-        let until = Instant::now() + DEADLINE;
-        while self.count(text) == 0 {
-            assert!(Instant::now() < until, "no {text:?} on stderr");
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-
-    fn wait_exit(&mut self) -> Option<i32> {
-        let until = Instant::now() + DEADLINE;
-        loop {
-            if let Some(status) = self.child.try_wait().unwrap() {
-                return status.code();
-            }
-            assert!(Instant::now() < until, "the process did not exit");
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-}
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
+/// Starts `vps ARGS` with its voxmap cache in `cache` and no `RUST_LOG` (as under systemd).
+fn start(label: &str, cache: &Path, args: &[String]) -> WatchedProcess {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_vps"));
+    cmd.args(args)
+        .env("VPS_CACHE_DIR", cache)
+        .env_remove("RUST_LOG");
+    WatchedProcess::spawn(cmd, label, DEADLINE)
 }
 
 #[test]
@@ -235,7 +177,7 @@ fn without_rust_log_the_join_is_logged_on_both_sides() {
         .port();
     let s = |p: &Path| p.to_string_lossy().into_owned();
     let listen = format!("127.0.0.1:{port}");
-    let mut coordinator = Proc::start(
+    let mut coordinator = start(
         "coordinator",
         &d.join("cache"),
         &coordinator_args(&s(&c.cert), &s(&c.key), &s(&w.cert), &listen)
@@ -244,7 +186,7 @@ fn without_rust_log_the_join_is_logged_on_both_sides() {
             .collect::<Vec<_>>(),
     );
     // A worker that exits with its coordinator gives up if it is not there yet.
-    coordinator.wait_for("waiting for 1 worker");
+    coordinator.wait_for("waiting for 1 worker", 1);
     let worker_args: Vec<String> = [
         "worker",
         "--coordinator",
@@ -262,30 +204,21 @@ fn without_rust_log_the_join_is_logged_on_both_sides() {
     .iter()
     .map(|a| a.to_string())
     .collect();
-    let mut worker = Proc::start("worker", &d.join("worker-cache"), &worker_args);
-    assert_eq!(coordinator.wait_exit(), Some(0));
-    assert_eq!(worker.wait_exit(), Some(0));
+    let mut worker = start("worker", &d.join("worker-cache"), &worker_args);
+    assert_eq!(coordinator.wait_exit().code(), Some(0));
+    assert_eq!(worker.wait_exit().code(), Some(0));
     assert_eq!(worker.count(&format!("joined {listen}")), 1);
     // The coordinator's session ending is routine: said at info, not as a warning.
-    let went_away: Vec<String> = worker
-        .lines
-        .lock()
-        .unwrap()
-        .iter()
-        .filter(|l| l.contains("went away ("))
-        .cloned()
-        .collect();
+    let went_away: Vec<String> = worker.lines_containing("went away (");
     assert_eq!(went_away.len(), 1, "{went_away:?}");
     assert!(
         went_away[0].contains(" INFO ") && went_away[0].contains("coordinator done"),
         "{went_away:?}"
     );
     let joined = coordinator
-        .lines
-        .lock()
-        .unwrap()
+        .lines_containing("joined (scene sent: true)")
         .iter()
-        .filter(|l| l.contains("worker 0 at 127.0.0.1:") && l.contains("joined (scene sent: true)"))
+        .filter(|l| l.contains("worker 0 at 127.0.0.1:"))
         .count();
     assert_eq!(joined, 1);
 }

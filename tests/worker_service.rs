@@ -6,89 +6,21 @@
 //!
 //! Nothing here depends on timing: every wait is bounded by a generous deadline only.
 
-use std::io::{BufRead, BufReader};
 use std::path::Path;
-use std::process::{Child, Command, ExitStatus, Stdio};
-use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::process::Command;
+use std::time::Duration;
 use vps_cluster::make_cert;
+use vps_testkit::process::WatchedProcess;
 
 const DEADLINE: Duration = Duration::from_secs(240);
 
-/// A child `vps` process whose stderr lines are collected; killed and reaped on drop.
-struct Proc {
-    child: Child,
-    lines: Arc<Mutex<Vec<String>>>,
-}
-
-impl Proc {
-    /// Starts `vps ARGS` with its voxmap cache in `dir`.
-    fn start(label: &'static str, dir: &Path, args: &[&str]) -> Proc {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_vps"))
-            .args(args)
-            .env("VPS_CACHE_DIR", dir.join("cache"))
-            .env("RUST_LOG", "vps_cluster=info")
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("start vps");
-        let stderr = child.stderr.take().unwrap();
-        let lines = Arc::new(Mutex::new(Vec::new()));
-        let sink = lines.clone();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-                eprintln!("[{label}] {line}");
-                sink.lock().unwrap().push(line);
-            }
-        });
-        Proc { child, lines }
-    }
-
-    /// Waits until `count` stderr lines contain `text`.
-    fn wait_for(&self, text: &str, count: usize) {
-        let until = Instant::now() + DEADLINE;
-        while self.count(text) < count {
-            assert!(Instant::now() < until, "no {count}× {text:?} on stderr");
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-
-    fn count(&self, text: &str) -> usize {
-        self.lines
-            .lock()
-            .unwrap()
-            .iter()
-            .filter(|l| l.contains(text))
-            .count()
-    }
-
-    fn signal(&self, name: &str) {
-        let ok = Command::new("kill")
-            .args([format!("-{name}"), self.child.id().to_string()])
-            .status()
-            .unwrap()
-            .success();
-        assert!(ok);
-    }
-
-    fn wait_exit(&mut self) -> ExitStatus {
-        let until = Instant::now() + DEADLINE;
-        loop {
-            if let Some(status) = self.child.try_wait().unwrap() {
-                return status;
-            }
-            assert!(Instant::now() < until, "the process did not exit");
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-}
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
+/// Starts `vps ARGS` with its voxmap cache in `dir` and `RUST_LOG=vps_cluster=info`.
+fn start(label: &str, dir: &Path, args: &[&str]) -> WatchedProcess {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_vps"));
+    cmd.args(args)
+        .env("VPS_CACHE_DIR", dir.join("cache"))
+        .env("RUST_LOG", "vps_cluster=info");
+    WatchedProcess::spawn(cmd, label, DEADLINE)
 }
 
 /// A UDP port free on loopback just now.
@@ -100,9 +32,9 @@ fn free_port() -> u16 {
         .port()
 }
 
-fn coordinator(dir: &Path, port: u16, seconds: &str, report: &str) -> Proc {
+fn coordinator(dir: &Path, port: u16, seconds: &str, report: &str) -> WatchedProcess {
     let p = |name: &str| dir.join(name).to_string_lossy().into_owned();
-    Proc::start(
+    start(
         "coordinator",
         dir,
         &[
@@ -125,9 +57,9 @@ fn coordinator(dir: &Path, port: u16, seconds: &str, report: &str) -> Proc {
     )
 }
 
-fn worker(dir: &Path, port: u16, name: &str) -> Proc {
+fn worker(dir: &Path, port: u16, name: &str) -> WatchedProcess {
     let p = |file: String| dir.join(file).to_string_lossy().into_owned();
-    Proc::start(
+    start(
         "worker",
         dir,
         &[
@@ -186,7 +118,7 @@ fn a_worker_outlives_its_coordinators_sigterm_and_joins_the_next_one() {
 
     // The worker heard why and waits for the next coordinator.
     w.wait_for("coordinator stopping (SIGTERM)", 1);
-    assert!(w.child.try_wait().unwrap().is_none(), "the worker exited");
+    assert!(w.is_running(), "the worker exited");
 
     let mut second = coordinator(dir.path(), port, "1", "second.json");
     w.wait_for("joined", 2);

@@ -7,9 +7,9 @@
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
-use std::sync::mpsc;
-use std::time::Duration;
+use std::process::{Child, Command, ExitStatus, Output, Stdio};
+use std::sync::{mpsc, Arc, Mutex};
+use std::time::{Duration, Instant};
 use tempfile::TempDir;
 
 /// The `vps` binary with a temporary working directory and a private voxmap cache inside it
@@ -146,5 +146,100 @@ pub fn spawn_until_line(
             let _ = child.wait();
             panic!("{cmd:?} printed no {marker:?} line within {patience:?}");
         }
+    }
+}
+
+/// A child process whose stderr lines are collected (and echoed to the test's stderr as
+/// `[label] LINE`), so a test can wait for a line, count lines, signal it and wait for its exit,
+/// each wait bounded by `patience`. Killed (SIGKILL) and reaped on drop.
+pub struct WatchedProcess {
+    child: Child,
+    lines: Arc<Mutex<Vec<String>>>,
+    patience: Duration,
+}
+
+impl WatchedProcess {
+    /// Spawns `cmd` with stdin and stdout null and stderr collected.
+    pub fn spawn(mut cmd: Command, label: &str, patience: Duration) -> WatchedProcess {
+        let mut child = cmd
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("the child starts");
+        let stderr = child.stderr.take().expect("piped stderr");
+        let lines = Arc::new(Mutex::new(Vec::new()));
+        let sink = lines.clone();
+        let label = label.to_string();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+                eprintln!("[{label}] {line}");
+                sink.lock().unwrap().push(line);
+            }
+        });
+        WatchedProcess {
+            child,
+            lines,
+            patience,
+        }
+    }
+
+    /// Stderr lines so far that contain `text`.
+    pub fn count(&self, text: &str) -> usize {
+        self.lines
+            .lock()
+            .unwrap()
+            .iter()
+            .filter(|l| l.contains(text))
+            .count()
+    }
+
+    /// The stderr lines so far that contain `text`.
+    pub fn lines_containing(&self, text: &str) -> Vec<String> {
+        let lines = self.lines.lock().unwrap();
+        lines.iter().filter(|l| l.contains(text)).cloned().collect()
+    }
+
+    /// Waits until `count` stderr lines contain `text`; panics after the patience.
+    pub fn wait_for(&self, text: &str, count: usize) {
+        let until = Instant::now() + self.patience;
+        while self.count(text) < count {
+            assert!(Instant::now() < until, "no {count}× {text:?} on stderr");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// Sends signal `name` (`TERM`, `INT`, ...) with `kill`.
+    pub fn signal(&self, name: &str) {
+        let ok = Command::new("kill")
+            .args([format!("-{name}"), self.child.id().to_string()])
+            .status()
+            .expect("kill runs")
+            .success();
+        assert!(ok, "kill -{name} failed");
+    }
+
+    /// Whether the process has not exited yet.
+    pub fn is_running(&mut self) -> bool {
+        self.child.try_wait().unwrap().is_none()
+    }
+
+    /// Waits for the process to exit; panics after the patience.
+    pub fn wait_exit(&mut self) -> ExitStatus {
+        let until = Instant::now() + self.patience;
+        loop {
+            if let Some(status) = self.child.try_wait().unwrap() {
+                return status;
+            }
+            assert!(Instant::now() < until, "the process did not exit");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+impl Drop for WatchedProcess {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
     }
 }
