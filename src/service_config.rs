@@ -175,12 +175,7 @@ pub fn resolve_worker(args: &mut WorkerArgs, matches: &ArgMatches) -> Result<()>
             &mut args.coordinator,
             coordinator.map(Some),
         );
-        let (cert, key) = (
-            f.cert.map(|p| beside(&path, p)),
-            f.key.map(|p| beside(&path, p)),
-        );
-        let pins = all_beside(&path, f.pins);
-        take_identity(matches, &mut args.identity, cert, key, pins);
+        take_identity(matches, &mut args.identity, &path, f.cert, f.key, f.pins);
         let cache = f.cache.map(|p| Some(beside(&path, p)));
         take(matches, "cache", &mut args.cache, cache);
         take(matches, "threads", &mut args.threads, threads.map(Some));
@@ -220,12 +215,7 @@ pub fn resolve_coordinator(args: &mut CoordinatorArgs, matches: &ArgMatches) -> 
         let s = &mut args.session;
         let listen = checked(&path, "listen", f.listen, crate::limits::parse_ip_port)?;
         take(matches, "listen", &mut args.listen, listen);
-        let (cert, key) = (
-            f.cert.map(|p| beside(&path, p)),
-            f.key.map(|p| beside(&path, p)),
-        );
-        let pins = all_beside(&path, f.pins);
-        take_identity(matches, &mut args.identity, cert, key, pins);
+        take_identity(matches, &mut args.identity, &path, f.cert, f.key, f.pins);
         take(matches, "workers", &mut args.workers, f.workers);
         let scene = f.scene.map(|v| scene_beside(&path, v));
         take(matches, "scene", &mut s.scene.scene, scene);
@@ -268,17 +258,21 @@ fn needed(command: &str, flag: &str, key: &str) -> String {
 }
 
 /// Sets the identity's certificate, key and pins to a config file's `cert`, `key` and `pins`
+/// (relative paths taken from the directory of `config`, the file)
 /// where the command line did not give `--cert`, `--key` or `--pin`.
 fn take_identity(
     matches: &ArgMatches,
     identity: &mut IdentityArgs,
+    config: &Path,
     cert: Option<PathBuf>,
     key: Option<PathBuf>,
     pins: Option<Vec<PathBuf>>,
 ) {
-    take(matches, "cert", &mut identity.cert, cert.map(Some));
-    take(matches, "key", &mut identity.key, key.map(Some));
-    take(matches, "pin", &mut identity.pin, pins);
+    let cert = cert.map(|p| Some(beside(config, p)));
+    let key = key.map(|p| Some(beside(config, p)));
+    take(matches, "cert", &mut identity.cert, cert);
+    take(matches, "key", &mut identity.key, key);
+    take(matches, "pin", &mut identity.pin, all_beside(config, pins));
 }
 
 /// A service needs its certificate, its key and at least one pinned certificate.

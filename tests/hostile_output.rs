@@ -329,6 +329,21 @@ fn a_pipe_a_device_or_a_directory_named_as_an_input_file_is_refused_at_once() {
             &config_fifo,
             "a named pipe",
         ),
+        (
+            vec![
+                "worker".as_ref(),
+                "--coordinator".as_ref(),
+                "127.0.0.1:9".as_ref(),
+                "--cert".as_ref(),
+                zero.as_ref(),
+                "--key".as_ref(),
+                zero.as_ref(),
+                "--pin".as_ref(),
+                zero.as_ref(),
+            ],
+            &zero,
+            "a character device",
+        ),
     ];
     for (args, path, what) in cases {
         let out = run_with_deadline(&args);

@@ -63,8 +63,7 @@ impl TlsIdentity {
     pub fn load(cert: &Path, key: &Path) -> Result<TlsIdentity, ClusterError> {
         let identity = TlsIdentity {
             cert: load_cert(cert)?,
-            key: PrivateKeyDer::from_pem_file(key)
-                .map_err(|e| pem_error(key, "a PEM private key", e))?,
+            key: read_pem(key, "a PEM private key")?,
         };
         if !identity.key_matches_cert() {
             return Err(ClusterError::File {
@@ -95,7 +94,18 @@ impl TlsIdentity {
 
 /// Loads one PEM certificate (the first in the file).
 pub fn load_cert(path: &Path) -> Result<CertificateDer<'static>, ClusterError> {
-    CertificateDer::from_pem_file(path).map_err(|e| pem_error(path, "a PEM certificate", e))
+    read_pem(path, "a PEM certificate")
+}
+
+/// The largest PEM file read, in bytes (64 KiB; a `vps cert` certificate or key is under 1 KiB).
+const MAX_PEM_FILE_BYTES: u64 = 64 * 1024;
+
+/// Reads the first `what` of the PEM file `path`: a regular file of at most
+/// [`MAX_PEM_FILE_BYTES`] (a pipe or device named by mistake is refused at once, see `vps-files`).
+fn read_pem<T: PemObject>(path: &Path, what: &str) -> Result<T, ClusterError> {
+    let bytes = vps_files::read_regular(path, MAX_PEM_FILE_BYTES)
+        .map_err(|e| pem_error(path, what, rustls::pki_types::pem::Error::Io(e)))?;
+    T::from_pem_slice(&bytes).map_err(|e| pem_error(path, what, e))
 }
 
 /// A PEM file that could not be used: one that cannot be read says so (missing, permission
