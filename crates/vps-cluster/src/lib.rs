@@ -24,11 +24,11 @@
 //! connection per certificate), [`gather`] (the pure gather state machine: assignment, reply
 //! acceptance, benching, fallback plan, predicted split; no clock, socket or thread), [`shares`]
 //! ([`RemoteShares`]: the I/O driver around it), [`split`] and [`fallback`] (its pure arithmetic),
-//! [`metrics`] and [`report`] (live figures and the final report; [`bench_log`]: how often the
-//! log speaks of a worker going onto and off the bench), [`close`] (close codes),
-//! [`session`] ([`run_coordinator_session`], [`spawn_local_workers`]), [`udp_count`] (datagrams
-//! counted on the UDP socket before quinn sees them). The loopback impairment
-//! relay and the raw UDP baseline are in the `vps-netem` crate.
+//! [`metrics`] and [`report`] (live figures and the final report), [`bench_log`] and [`join_log`]
+//! (how often the log speaks of a worker going onto and off the bench, and of a worker's failed
+//! joins), [`close`] (close codes), [`session`] ([`run_coordinator_session`],
+//! [`spawn_local_workers`]), [`udp_count`] (datagrams counted on the UDP socket before quinn sees
+//! them). The loopback impairment relay and the raw UDP baseline are in the `vps-netem` crate.
 
 #![warn(missing_docs)]
 
