@@ -9,7 +9,7 @@
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::Duration;
-use vps_cluster::make_cert;
+use vps_cluster::{make_cert, CertFiles};
 use vps_testkit::process::WatchedProcess;
 
 const DEADLINE: Duration = Duration::from_secs(240);
@@ -30,41 +30,58 @@ fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
-/// A coordinator's command line with its certificate `cert`, key `key`, on `listen`.
-fn coordinator_args<'a>(
-    cert: &'a str,
-    key: &'a str,
-    pin: &'a str,
-    listen: &'a str,
-) -> Vec<&'a str> {
-    vec![
-        "coordinator",
-        "--listen",
-        listen,
-        "--cert",
-        cert,
-        "--key",
-        key,
-        "--pin",
-        pin,
-        "--seconds",
-        "1",
-    ]
+/// A temporary directory with a coordinator's and a worker's certificates (`vps cert`'s files).
+struct Certs {
+    dir: tempfile::TempDir,
+    coordinator: CertFiles,
+    worker: CertFiles,
+}
+
+impl Certs {
+    fn new() -> Certs {
+        let dir = tempfile::tempdir().unwrap();
+        let coordinator = make_cert(dir.path(), "coordinator").unwrap();
+        let worker = make_cert(dir.path(), "worker").unwrap();
+        Certs {
+            dir,
+            coordinator,
+            worker,
+        }
+    }
+
+    fn path(&self) -> &Path {
+        self.dir.path()
+    }
+
+    /// A 1 s coordinator session's command line on `listen` with the coordinator's certificate,
+    /// the key `key` and the worker's certificate pinned.
+    fn coordinator_args(&self, key: &Path, listen: &str) -> Vec<String> {
+        let cert = &self.coordinator.cert;
+        let pin = &self.worker.cert;
+        let args = ["coordinator", "--listen", listen, "--cert", &text(cert)];
+        let rest = ["--key", &text(key), "--pin", &text(pin), "--seconds", "1"];
+        args.iter().chain(&rest).map(|a| a.to_string()).collect()
+    }
+
+    /// Runs [`Certs::coordinator_args`] to its end in the directory (cache `DIR/cache`).
+    fn run_coordinator(&self, key: &Path, listen: &str) -> Output {
+        let args = self.coordinator_args(key, listen);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        run(self.path(), &self.path().join("cache"), &args)
+    }
+}
+
+fn text(path: &Path) -> String {
+    path.to_string_lossy().into_owned()
 }
 
 #[test]
 fn a_key_of_another_certificate_is_refused_at_once_by_both_services() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let c = make_cert(d, "coordinator").unwrap();
-    let w = make_cert(d, "worker").unwrap();
-    let s = |p: &Path| p.to_string_lossy().into_owned();
+    let certs = Certs::new();
+    let (d, c, w) = (certs.path(), &certs.coordinator, &certs.worker);
+    let s = text;
 
-    let out = run(
-        d,
-        &d.join("cache"),
-        &coordinator_args(&s(&c.cert), &s(&w.key), &s(&w.cert), "127.0.0.1:0"),
-    );
+    let out = certs.run_coordinator(&w.key, "127.0.0.1:0");
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(1), "{err}");
     let expected = format!(
@@ -102,18 +119,11 @@ fn a_key_of_another_certificate_is_refused_at_once_by_both_services() {
 
 #[test]
 fn a_port_already_held_is_reported_before_the_voxmap_is_built() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let c = make_cert(d, "coordinator").unwrap();
-    let w = make_cert(d, "worker").unwrap();
+    let certs = Certs::new();
+    let d = certs.path();
     let held = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
     let listen = held.local_addr().unwrap().to_string();
-    let s = |p: &Path| p.to_string_lossy().into_owned();
-    let out = run(
-        d,
-        &d.join("cache"),
-        &coordinator_args(&s(&c.cert), &s(&c.key), &s(&w.cert), &listen),
-    );
+    let out = certs.run_coordinator(&certs.coordinator.key, &listen);
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(
@@ -166,24 +176,19 @@ fn start(label: &str, cache: &Path, args: &[String]) -> WatchedProcess {
 
 #[test]
 fn without_rust_log_the_join_is_logged_on_both_sides() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let c = make_cert(d, "coordinator").unwrap();
-    let w = make_cert(d, "worker").unwrap();
+    let certs = Certs::new();
+    let (d, c, w) = (certs.path(), &certs.coordinator, &certs.worker);
+    let s = text;
     let port = std::net::UdpSocket::bind("127.0.0.1:0")
         .unwrap()
         .local_addr()
         .unwrap()
         .port();
-    let s = |p: &Path| p.to_string_lossy().into_owned();
     let listen = format!("127.0.0.1:{port}");
     let mut coordinator = start(
         "coordinator",
         &d.join("cache"),
-        &coordinator_args(&s(&c.cert), &s(&c.key), &s(&w.cert), &listen)
-            .iter()
-            .map(|a| a.to_string())
-            .collect::<Vec<_>>(),
+        &certs.coordinator_args(&c.key, &listen),
     );
     // A worker that exits with its coordinator gives up if it is not there yet.
     coordinator.wait_for("waiting for 1 worker", 1);
@@ -225,16 +230,8 @@ fn without_rust_log_the_join_is_logged_on_both_sides() {
 
 #[test]
 fn a_coordinator_whose_workers_do_not_come_says_what_to_check() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let c = make_cert(d, "coordinator").unwrap();
-    let w = make_cert(d, "worker").unwrap();
-    let s = |p: &Path| p.to_string_lossy().into_owned();
-    let out = run(
-        d,
-        &d.join("cache"),
-        &coordinator_args(&s(&c.cert), &s(&c.key), &s(&w.cert), "127.0.0.1:0"),
-    );
+    let certs = Certs::new();
+    let out = certs.run_coordinator(&certs.coordinator.key, "127.0.0.1:0");
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(
