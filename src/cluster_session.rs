@@ -7,7 +7,6 @@ use crate::cli::{GatherArgs, RunArgs};
 use crate::session_io::{finish, PreparedSession, SessionOutputs};
 use anyhow::{Context, Result};
 use std::net::SocketAddr;
-use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 use vps_cluster::{
@@ -71,21 +70,18 @@ impl CoordinatedRun {
     }
 }
 
-/// Runs `prepared` on a coordinator started on `listen` (identity `cert`, `key`; admitting the
-/// workers whose certificates are `pins`) once `workers` have joined; `spawn` starts local workers
+/// Runs `prepared` on a coordinator started on `listen` (with `tls`: its identity and the pinned
+/// workers' certificates, loaded by the caller) once `workers` have joined; `spawn` starts local workers
 /// when asked, given the coordinator's address and what to keep off the frame thread's core
 /// (on a machine of more than one core, the coordinator's network and metrics threads are kept
 /// off it too). `session` gives the local threads and the viewer
 /// address; `gather` the share adaptation ([`GatherConfig::adaptive_shares`]) and the spin margin
 /// ([`GatherConfig::spin_margin`]).
-#[allow(clippy::too_many_arguments)]
 pub fn coordinate(
     session: &RunArgs,
     prepared: PreparedSession,
     listen: SocketAddr,
-    cert: &std::path::Path,
-    key: &std::path::Path,
-    pins: &[PathBuf],
+    tls: PeerTls,
     workers: usize,
     gather: GatherArgs,
     spawn: impl FnOnce(
@@ -108,7 +104,7 @@ pub fn coordinate(
     let coordinator = Coordinator::start(
         CoordinatorConfig {
             listen,
-            tls: PeerTls::load(cert, key, pins)?,
+            tls,
             keep_off: keep_off.clone(),
         },
         cluster_assets,
@@ -180,9 +176,11 @@ pub fn run_local_cluster(
         session,
         prepared,
         "127.0.0.1:0".parse()?,
-        &certs.coordinator.cert,
-        &certs.coordinator.key,
-        &certs.worker_pins(),
+        PeerTls::load(
+            &certs.coordinator.cert,
+            &certs.coordinator.key,
+            &certs.worker_pins(),
+        )?,
         workers,
         gather,
         |addr, keep_off| {

@@ -85,16 +85,14 @@ pub fn coordinator(mut args: CoordinatorArgs, matches: &ArgMatches) -> Result<()
     };
     let pins = expand_pins(&args.identity.pin)?;
     // Mistakes in the certificates or the address are reported before the voxmap is built.
-    PeerTls::load(cert, key, &pins)?;
+    let tls = PeerTls::load(cert, key, &pins)?;
     check_listen_address(args.listen)?;
     let outputs = SessionOutputs::reserve(&args.session)?;
     coordinate(
         &args.session,
         prepare(&args.session)?,
         args.listen,
-        cert,
-        key,
-        &pins,
+        tls,
         args.workers,
         args.gather,
         |_, _| Ok(None),
