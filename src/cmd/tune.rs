@@ -108,9 +108,6 @@ pub fn run(args: &TuneArgs) -> Result<()> {
     }
     let scene = LoadedScene::load(&args.scene)?;
     scene.print_warnings();
-    for w in &scene.warnings {
-        eprintln!("{}: warning: {w}", scene.label);
-    }
     let width = scene.width()?;
     let cache = if args.no_cache {
         CachePolicy::Off
