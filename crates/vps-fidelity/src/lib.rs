@@ -20,7 +20,7 @@
 pub mod measure;
 pub mod scenes;
 
-pub use measure::{run, FidelityGrid, FidelityReport, SceneFigures, SettingRow, SlideFigures};
+pub use measure::{run, FidelityGrid, ForceModel, FidelityReport, SceneFigures, SettingRow, SlideFigures};
 pub use scenes::SceneKind;
 
 /// Why a benchmark setting could not be built.
@@ -35,6 +35,14 @@ pub enum FidelityError {
         voxel_size_m: f64,
         /// The voxelizer's error.
         source: vps_voxelize::VoxelizeError,
+    },
+    /// The distance band of the obstacles could not be built.
+    #[error("{scene}: distance band: {source}")]
+    Band {
+        /// The scene.
+        scene: &'static str,
+        /// The builder's error.
+        source: vps_voxelize::distance::BandBuildError,
     },
     /// The exact reference rejected the obstacle meshes.
     #[error("{scene}: exact reference: {source}")]

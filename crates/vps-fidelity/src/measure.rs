@@ -19,11 +19,67 @@ use vps_haptic::contact::contact_wrench;
 use vps_haptic::{sample_all, ClassedShell, HapticParams, KernelPose, PartState, PartialSums};
 use vps_mesh::TriMesh;
 use vps_reference::{reference_contact, ExactScene, ReferenceContact};
+use vps_voxelize::distance::distance_band;
 use vps_voxelize::{point_shell, voxelize_tree, ShellMethod, VoxelWidth, VoxelizeOptions};
 use vps_voxmap::{TreeConfig, VoxelTree};
 
 /// Force layers grown outside each obstacle (the scenes' default, 2).
 pub const OFFSET_LAYERS: u32 = 2;
+
+/// Depths (voxels) at which the `distance` model is measured: its separations are
+/// `standoff − depth` (the tangent-plane model's come from [`FidelityGrid::separations_voxels`],
+/// measured from its own offset of `offset_layers + ½` voxels). From one voxel deep to a
+/// thirty-second of a voxel (resting contact sits near `s / 40` with the default gains), and one
+/// pose set half a voxel clear of the stand-off (no contact expected).
+pub const DISTANCE_DEPTHS_VOXELS: [f64; 7] = [1.0, 0.5, 0.25, 0.125, 0.0625, 0.03125, -0.5];
+
+/// Which force model a row measures.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ForceModel {
+    /// The paper's tangent-plane model on the voxel layers (offset `OFFSET_LAYERS`).
+    TangentPlane,
+    /// The signed-distance band with a stand-off of `standoff_voxels` voxels.
+    Distance {
+        /// Stand-off in voxels.
+        standoff_voxels: f64,
+    },
+}
+
+impl ForceModel {
+    /// The distance model at its default stand-off.
+    pub const DISTANCE: ForceModel = ForceModel::Distance {
+        standoff_voxels: vps_voxmap::distance::DEFAULT_STANDOFF_VOXELS,
+    };
+
+    /// `tangent-plane` or `distance`.
+    pub fn name(self) -> &'static str {
+        match self {
+            ForceModel::TangentPlane => "tangent-plane",
+            ForceModel::Distance { .. } => "distance",
+        }
+    }
+
+    /// Where the exact reference's depths start (m): the tangent-plane model's offset
+    /// (`offset_layers + ½` voxels) or the stand-off.
+    pub fn reference_offset_m(self, s: f64) -> f64 {
+        match self {
+            ForceModel::TangentPlane => (f64::from(OFFSET_LAYERS) + 0.5) * s,
+            ForceModel::Distance { standoff_voxels } => standoff_voxels * s,
+        }
+    }
+
+    /// The separations (voxels) this model is measured at.
+    pub fn separations_voxels(self, grid: &FidelityGrid) -> Vec<f64> {
+        match self {
+            ForceModel::TangentPlane => grid.separations_voxels.clone(),
+            ForceModel::Distance { standoff_voxels } => DISTANCE_DEPTHS_VOXELS
+                .iter()
+                .map(|d| standoff_voxels - d)
+                .collect(),
+        }
+    }
+}
 
 /// Exact torque counted as significant above this fraction of `|F| r_max`.
 const SIGNIFICANT_TORQUE: f64 = 0.1;
@@ -44,6 +100,8 @@ pub struct FidelityGrid {
     pub poses: usize,
     /// Frames of the sliding-box run (0.1 mm per frame).
     pub slide_frames: usize,
+    /// Force models measured (each setting once per model).
+    pub models: Vec<ForceModel>,
 }
 
 impl FidelityGrid {
@@ -57,14 +115,25 @@ impl FidelityGrid {
             separations_voxels: vec![-1.0, -0.5, 0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0],
             poses: 8,
             slide_frames: 400,
+            models: vec![ForceModel::TangentPlane, ForceModel::DISTANCE],
         }
     }
 
     /// Checks the grid; errors name the field.
     pub fn validate(&self) -> Result<(), FidelityError> {
         let bad = |m: &str| Err(FidelityError::Grid(m.to_owned()));
-        if self.voxel_sizes_m.is_empty() || self.widths.is_empty() || self.methods.is_empty() {
-            return bad("voxel sizes, widths and methods must each list at least one value");
+        if self.voxel_sizes_m.is_empty()
+            || self.widths.is_empty()
+            || self.methods.is_empty()
+            || self.models.is_empty()
+        {
+            return bad("voxel sizes, widths, methods and models must each list at least one value");
+        }
+        if self.models.iter().any(|m| match m {
+            ForceModel::TangentPlane => false,
+            ForceModel::Distance { standoff_voxels } => !(0.0..=vps_voxmap::distance::MAX_STANDOFF_VOXELS).contains(standoff_voxels),
+        }) {
+            return bad("a distance model's stand-off must be within 0..=0.5 voxels");
         }
         if self
             .voxel_sizes_m
@@ -146,9 +215,13 @@ pub struct SlideFigures {
     pub reference_p99_jump_n: f64,
 }
 
-/// One setting: voxel size, width, shell method; every scene and the slide.
+/// One setting: force model, voxel size, width, shell method; every scene and the slide.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct SettingRow {
+    /// `tangent-plane` or `distance`.
+    pub model: &'static str,
+    /// The distance model's stand-off (voxels); 0 for the tangent-plane model.
+    pub standoff_voxels: f64,
     /// Voxel size (mm).
     pub voxel_size_mm: f64,
     /// Bits per voxel.
@@ -159,11 +232,13 @@ pub struct SettingRow {
     pub all: SceneFigures,
     /// Per scene, in [`SceneKind::ALL`] order.
     pub scenes: Vec<SceneFigures>,
-    /// The sliding box, shallow: 2 voxels above the plane (exact depth ½ voxel: where resting
-    /// contact sits, in the outermost force layer).
+    /// The sliding box, shallow. Tangent plane: 2 voxels above the plane (exact depth ½ voxel:
+    /// where resting contact sits, in the outermost force layer). Distance: 1/16 voxel into the
+    /// stand-off.
     pub slide_shallow: SlideFigures,
-    /// The sliding box, deep: 1 voxel above the plane (exact depth 1½ voxels: one voxel deeper
-    /// than the outermost force layer, Interior in a 2-bit map).
+    /// The sliding box, deep. Tangent plane: 1 voxel above the plane (exact depth 1½ voxels: one
+    /// voxel deeper than the outermost force layer, Interior in a 2-bit map). Distance: ½ voxel
+    /// into the stand-off.
     pub slide_deep: SlideFigures,
 }
 
@@ -186,10 +261,12 @@ pub struct FidelityReport {
 pub fn run(grid: &FidelityGrid) -> Result<FidelityReport, FidelityError> {
     grid.validate()?;
     let mut rows = Vec::new();
-    for &s in &grid.voxel_sizes_m {
-        for &width in &grid.widths {
-            for &method in &grid.methods {
-                rows.push(measure_setting(grid, s, width, method)?);
+    for &model in &grid.models {
+        for &s in &grid.voxel_sizes_m {
+            for &width in &grid.widths {
+                for &method in &grid.methods {
+                    rows.push(measure_setting(grid, model, s, width, method)?);
+                }
             }
         }
     }
@@ -220,10 +297,13 @@ struct Prepared {
     classed: ClassedShell,
     body_vertices: Vec<DVec3>,
     max_radius: f64,
+    /// Where the exact reference's depths start (m), [`ForceModel::reference_offset_m`].
+    reference_offset_m: f64,
 }
 
 fn prepare(
     scene: SceneKind,
+    model: ForceModel,
     s: f64,
     width: VoxelWidth,
     method: ShellMethod,
@@ -242,6 +322,18 @@ fn prepare(
         ..VoxelizeOptions::default()
     };
     let (tree, _) = voxelize_tree(obstacles, &opts, TreeConfig::default()).map_err(voxelize_err)?;
+    let tree = match model {
+        ForceModel::TangentPlane => tree,
+        ForceModel::Distance { standoff_voxels } => {
+            let band = distance_band(&tree, obstacles, standoff_voxels * s, u64::MAX).map_err(
+                |source| FidelityError::Band {
+                    scene: scene.name(),
+                    source,
+                },
+            )?;
+            tree.with_distance_band(band)
+        }
+    };
     let shell = point_shell(part, s, method).map_err(voxelize_err)?;
     let exact = ExactScene::new(obstacles).map_err(|source| FidelityError::Reference {
         scene: scene.name(),
@@ -255,13 +347,14 @@ fn prepare(
         max_radius: shell.max_radius(),
         shell_points: shell.points,
         body_vertices: part.vertices.iter().map(|v| *v - com).collect(),
+        reference_offset_m: model.reference_offset_m(s),
     })
 }
 
 impl Prepared {
     /// The voxel sums of the part at rest at `position`, `orientation` over voxels of `s` (m),
-    /// and the exact contact of its shell points, counted from the voxmap's offset layers plus
-    /// half a voxel, over one voxel.
+    /// and the exact contact of its shell points, counted from the model's reference offset
+    /// ([`ForceModel::reference_offset_m`]), over one voxel.
     fn sums_and_reference(
         &self,
         s: f64,
@@ -270,7 +363,7 @@ impl Prepared {
     ) -> (PartialSums, ReferenceContact) {
         let state = PartState::at_rest(position, orientation);
         let sums = sample_all(&self.tree, &self.classed, &KernelPose::from_state(&state));
-        let offset = (f64::from(OFFSET_LAYERS) + 0.5) * s;
+        let offset = self.reference_offset_m;
         let reference = reference_contact(
             &self.exact,
             &self.shell_points,
@@ -304,6 +397,7 @@ fn jitter(k: usize) -> [f64; 3] {
 
 fn measure_setting(
     grid: &FidelityGrid,
+    model: ForceModel,
     s: f64,
     width: VoxelWidth,
     method: ShellMethod,
@@ -312,9 +406,17 @@ fn measure_setting(
     let mut pooled = Vec::new();
     let mut pooled_radius = Vec::new();
     for scene in SceneKind::ALL {
-        let prepared = prepare(scene, s, width, method, &scene.obstacles(s), &scene.part())?;
-        let poses: Vec<(f64, usize)> = grid
-            .separations_voxels
+        let prepared = prepare(
+            scene,
+            model,
+            s,
+            width,
+            method,
+            &scene.obstacles(s),
+            &scene.part(),
+        )?;
+        let poses: Vec<(f64, usize)> = model
+            .separations_voxels(grid)
             .iter()
             .flat_map(|&d| (0..grid.poses).map(move |k| (d, k)))
             .collect();
@@ -333,9 +435,18 @@ fn measure_setting(
         pooled.extend(samples);
     }
     let all = figures_with_radii("all", &pooled, &pooled_radius);
-    let slide_shallow = slide(grid, s, width, method, 2.0)?;
-    let slide_deep = slide(grid, s, width, method, 1.0)?;
+    let (shallow, deep) = match model {
+        ForceModel::TangentPlane => (2.0, 1.0),
+        ForceModel::Distance { standoff_voxels } => (standoff_voxels - 0.0625, standoff_voxels - 0.5),
+    };
+    let slide_shallow = slide(grid, model, s, width, method, shallow)?;
+    let slide_deep = slide(grid, model, s, width, method, deep)?;
     Ok(SettingRow {
+        model: model.name(),
+        standoff_voxels: match model {
+            ForceModel::TangentPlane => 0.0,
+            ForceModel::Distance { standoff_voxels } => standoff_voxels,
+        },
         voxel_size_mm: s * 1e3,
         bits: width.bits(),
         method: match method {
@@ -398,6 +509,7 @@ fn figures_with_radii(name: &str, samples: &[PoseSample], radii: &[f64]) -> Scen
 /// The sliding-box run of [`SlideFigures`].
 fn slide(
     grid: &FidelityGrid,
+    model: ForceModel,
     s: f64,
     width: VoxelWidth,
     method: ShellMethod,
@@ -405,7 +517,7 @@ fn slide(
 ) -> Result<SlideFigures, FidelityError> {
     let scene = SceneKind::SpherePlane; // only its obstacle (the plane slab) is used
     let part = vps_mesh::builtin::cuboid(DVec3::splat(0.015));
-    let prepared = prepare(scene, s, width, method, &scene.obstacles(s), &part)?;
+    let prepared = prepare(scene, model, s, width, method, &scene.obstacles(s), &part)?;
     let params = HapticParams::default().with_scene(s, prepared.max_radius)?;
     let gains = params.gains();
     let orientation = DQuat::from_rotation_z(17f64.to_radians());

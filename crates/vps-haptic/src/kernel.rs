@@ -103,7 +103,10 @@ pub(crate) fn sample_class_on<L: VoxelLookup>(
                 &shell.ny[range.clone()],
                 &shell.nz[range],
             ];
-            accumulate(map, &frame, points, normals, &mut sums, widest);
+            match map.distance_band() {
+                Some(band) => distance::accumulate(band, &frame, points, normals, &mut sums),
+                None => accumulate(map, &frame, points, normals, &mut sums, widest),
+            }
         }
     }
     sums
@@ -968,6 +971,7 @@ macro_rules! vec3_ops {
     };
 }
 
+mod distance;
 #[cfg(target_arch = "x86_64")]
 mod wide;
 

@@ -10,6 +10,7 @@
 //! - [`pipeline`]: [`voxelize`] and friends, options, statistics.
 //! - [`sparse`]: the chunked pipeline behind [`voxelize_tree`]: same voxels, memory that follows
 //!   the surface, optional distance layers (4- and 8-bit voxels).
+//! - [`distance`]: the signed-distance band (the `distance` force model) from the exact triangles.
 //! - [`mass`]: volume, centre of mass and bounding radius of a mesh.
 //! - [`shell`]: the point shell of the dynamic object.
 //! - [`memory`]: working-memory estimates made before any voxel is computed, and the budget.
@@ -22,6 +23,7 @@
 #![warn(missing_docs)]
 
 mod bitgrid;
+pub mod distance;
 pub mod error;
 mod flood_fill;
 pub mod mass;

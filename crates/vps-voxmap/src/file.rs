@@ -13,6 +13,12 @@
 //! hashes are what they were before v2 existed; a v2 header declaring 2 bits is rejected. Reserved
 //! codes are rejected on read.
 //!
+//! `.vmap` v3 (a map with a signed-distance band, [`crate::distance`]): v2's layout with the
+//! bits-per-voxel byte (2, 4 or 8) always present, then after the leaf words the band: f64
+//! stand-off (m), 3×u32 cube dims, the directory as a u64 count and that many u32 slots, the codes
+//! as a u64 count and that many i8. Maps without a band are still written as v1/v2, byte for byte
+//! as before; a v1/v2 reader (an older vps) refuses a v3 file by its version.
+//!
 //! `.vshell` v1: magic `VPSSHEL\0`, u32 version, f64 voxel size (m), u8 method, f64 volume (m³),
 //! 3×f64 centre of mass (m), f64 bounding radius (m), u64 point count `n`, `n`×3×f32 points (m),
 //! `n`×3×f32 normals, then the blake3 trailer.
@@ -26,7 +32,8 @@
 use crate::atomic::{write_atomically, AtomicStage};
 use crate::shell::ShellMethod;
 use crate::tree::{Arenas, TreeConfig, TreeError, VoxelTree};
-use crate::{GridSpec, MassProperties, PointShell, VoxelWidth};
+use crate::distance;
+use crate::{DistanceBand, GridSpec, MassProperties, PointShell, VoxelWidth};
 use glam::{DVec3, Vec3};
 use std::fs::File;
 use std::io::{self, BufReader, BufWriter, Read, Write};
@@ -38,6 +45,8 @@ pub const VOXMAP_MAGIC: [u8; 8] = *b"VPSVMAP\0";
 pub const VOXMAP_VERSION: u32 = 2;
 /// The `.vmap` version of 2-bit maps (written for them, and read as 2-bit).
 pub const VOXMAP_VERSION_2BIT: u32 = 1;
+/// The `.vmap` version of maps that carry a signed-distance band (any width).
+pub const VOXMAP_VERSION_DISTANCE: u32 = 3;
 /// Magic bytes opening a `.vshell` file.
 pub const SHELL_MAGIC: [u8; 8] = *b"VPSSHEL\0";
 /// The `.vshell` version this build writes and reads.
@@ -163,7 +172,7 @@ pub fn read_voxmap_sized(r: impl Read, len: u64) -> Result<VoxelTree, FileError>
 
 fn decode_voxmap(mut dec: Decoder<impl Read>) -> Result<VoxelTree, FileError> {
     dec.magic(VOXMAP_MAGIC)?;
-    let version = dec.version_in(VOXMAP_VERSION_2BIT..=VOXMAP_VERSION)?;
+    let version = dec.version_in(VOXMAP_VERSION_2BIT..=VOXMAP_VERSION_DISTANCE)?;
     let spec = read_spec(&mut dec)?;
     let config = TreeConfig {
         log2_dims: [
@@ -176,6 +185,7 @@ fn decode_voxmap(mut dec: Decoder<impl Read>) -> Result<VoxelTree, FileError> {
     let width = match version {
         VOXMAP_VERSION_2BIT => VoxelWidth::Two,
         _ => match dec.u8("bits per voxel")? {
+            2 if version == VOXMAP_VERSION_DISTANCE => VoxelWidth::Two,
             4 => VoxelWidth::Four,
             8 => VoxelWidth::Eight,
             b => {
@@ -199,6 +209,11 @@ fn decode_voxmap(mut dec: Decoder<impl Read>) -> Result<VoxelTree, FileError> {
     let lower = dec.counted_u32s("lower slots", lower_len)?;
     let words_per_leaf = ((width.bits() as u64) << (3 * config.log2_dims[0])).div_ceil(64);
     let leaves = dec.counted_u64s("leaf words", count_children(&lower) * words_per_leaf)?;
+    let band = if version == VOXMAP_VERSION_DISTANCE {
+        Some(decode_band(&mut dec, &spec)?)
+    } else {
+        None
+    };
     dec.finish()?;
     let arenas = Arenas {
         root,
@@ -206,7 +221,35 @@ fn decode_voxmap(mut dec: Decoder<impl Read>) -> Result<VoxelTree, FileError> {
         lower,
         leaves,
     };
-    Ok(VoxelTree::from_parts(spec, config, width, arenas)?)
+    let tree = VoxelTree::from_parts(spec, config, width, arenas)?;
+    Ok(match band {
+        Some(band) => tree.with_distance_band(band),
+        None => tree,
+    })
+}
+
+/// The band section of a v3 `.vmap` (after the leaf words).
+fn decode_band<R: Read>(dec: &mut Decoder<R>, spec: &GridSpec) -> Result<DistanceBand, FileError> {
+    let standoff = dec.f64("distance standoff")?;
+    let found = [
+        dec.u32("distance cube dims[0]")?,
+        dec.u32("distance cube dims[1]")?,
+        dec.u32("distance cube dims[2]")?,
+    ];
+    let expected = distance::cube_dims(spec);
+    if found != expected {
+        return Err(invalid(
+            "distance cube dims",
+            format!("{found:?}, but the grid's dims imply {expected:?}"),
+        ));
+    }
+    let slots = expected.iter().map(|&d| u64::from(d)).product();
+    let directory = dec.counted_u32s("distance directory", slots)?;
+    let bricks = directory.iter().filter(|&&v| v >= 2).count() as u64;
+    let count = dec.expected_count("distance codes", bricks * distance::BRICK_CODES as u64)?;
+    let codes = dec.array(count, "distance codes", |b: [u8; 1]| b[0] as i8)?;
+    DistanceBand::from_parts(spec, standoff, found, directory, codes)
+        .map_err(|e| invalid("distance band", e.to_string()))
 }
 
 /// Writes `tree` to `path` (created or truncated); errors name the path.
@@ -235,8 +278,10 @@ impl VoxelTree {
 fn encode_voxmap_body(tree: &VoxelTree, w: &mut impl Write) -> io::Result<()> {
     w.write_all(&VOXMAP_MAGIC)?;
     let width = tree.width();
-    let version = match width {
-        VoxelWidth::Two => VOXMAP_VERSION_2BIT,
+    let band = tree.distance_band();
+    let version = match (width, band) {
+        (_, Some(_)) => VOXMAP_VERSION_DISTANCE,
+        (VoxelWidth::Two, None) => VOXMAP_VERSION_2BIT,
         _ => VOXMAP_VERSION,
     };
     w.write_all(&version.to_le_bytes())?;
@@ -249,14 +294,23 @@ fn encode_voxmap_body(tree: &VoxelTree, w: &mut impl Write) -> io::Result<()> {
         w.write_all(&d.to_le_bytes())?;
     }
     w.write_all(&tree.config().log2_dims)?;
-    if width != VoxelWidth::Two {
+    if version != VOXMAP_VERSION_2BIT {
         w.write_all(&[width.bits() as u8])?;
     }
     let (root, upper, lower, leaves) = tree.arenas();
     for arena in [root, upper, lower] {
         write_array(w, arena, |x| x.to_le_bytes())?;
     }
-    write_array(w, leaves, |x| x.to_le_bytes())
+    write_array(w, leaves, |x| x.to_le_bytes())?;
+    if let Some(band) = band {
+        w.write_all(&band.standoff_m().to_le_bytes())?;
+        for d in band.cube_dims() {
+            w.write_all(&d.to_le_bytes())?;
+        }
+        write_array(w, band.directory(), |x| x.to_le_bytes())?;
+        write_array(w, band.codes(), |x| x.to_le_bytes())?;
+    }
+    Ok(())
 }
 
 fn read_spec<R: Read>(dec: &mut Decoder<R>) -> Result<GridSpec, FileError> {

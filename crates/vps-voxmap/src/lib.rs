@@ -5,6 +5,8 @@
 //! Module map:
 //! - [`voxel`]: the four voxel kinds, the voxel widths and layered voxels.
 //! - [`grid`]: [`GridSpec`], the world ↔ voxel-index mapping shared by every structure.
+//! - [`distance`]: [`DistanceBand`], sub-voxel signed distances near the surface (the `distance`
+//!   force model).
 //! - [`dense`]: [`DenseGrid`], one byte per voxel; the voxelizer's workspace and the tree's test oracle.
 //! - `tree` (mask, leaf, internal, root, accessor): the fixed-depth tree, constant-cost `get`.
 //! - [`shell`]: [`PointShell`], body-frame points with inward normals and mass properties.
@@ -17,6 +19,7 @@
 
 pub mod atomic;
 pub mod dense;
+pub mod distance;
 pub mod file;
 pub mod grid;
 pub mod shell;
@@ -24,6 +27,7 @@ pub mod tree;
 pub mod voxel;
 
 pub use dense::DenseGrid;
+pub use distance::DistanceBand;
 pub use file::FileError;
 pub use grid::GridSpec;
 pub use shell::{MassProperties, PointShell};
@@ -69,6 +73,13 @@ pub trait VoxelLookup: Sync {
     #[inline(always)]
     fn get_wide_block(&self, cells: &WideBlockCells) -> WideVoxelBlock {
         wide_block_by_halves(cells, |half| self.get_block(half))
+    }
+
+    /// The map's signed-distance band, when it has one: the sampling kernel then runs the
+    /// `distance` force model instead of the tangent-plane one. The default has none.
+    #[inline(always)]
+    fn distance_band(&self) -> Option<&DistanceBand> {
+        None
     }
 
     /// Runs `task` on this lookup or on an equivalent one (the same voxel at every index) whose

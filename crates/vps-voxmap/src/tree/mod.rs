@@ -28,8 +28,10 @@ use crate::{
     VoxelWidth, WideBlockCells, WideVoxelBlock, BLOCK_LANES, WIDE_BLOCK_LANES,
 };
 use directory::LeafDirectory;
+use crate::DistanceBand;
 use glam::{IVec3, UVec3};
 use internal::InternalLevel;
+use std::sync::Arc;
 use leaf::LeafShape;
 use root::RootGrid;
 
@@ -62,6 +64,9 @@ pub struct VoxelTree {
     /// The flattened upper levels, when small enough (module `directory`); lookups use it
     /// instead of the walk.
     directory: Option<LeafDirectory>,
+    /// The signed-distance band of the `distance` force model, when the map carries one
+    /// ([`VoxelTree::with_distance_band`]); part of the content (file and hash).
+    distance: Option<Arc<DistanceBand>>,
 }
 
 /// A tree's stored parts in file order, for [`VoxelTree::from_parts`]: root slots, upper slots,
@@ -505,6 +510,19 @@ impl VoxelTree {
             + 8 * self.leaf_words.capacity()
     }
 
+    /// This tree carrying `band` (built for this tree's grid, see
+    /// [`crate::distance`]): the sampling kernel then runs the `distance` force model on it.
+    /// Replaces any band it had.
+    pub fn with_distance_band(mut self, band: DistanceBand) -> VoxelTree {
+        self.distance = Some(Arc::new(band));
+        self
+    }
+
+    /// The signed-distance band, when the map carries one.
+    pub fn distance_band(&self) -> Option<&DistanceBand> {
+        self.distance.as_deref()
+    }
+
     /// Bytes a dense array of the same width over the dims would take:
     /// `ceil(W * voxel_count / 8)`.
     pub fn dense_equivalent_bytes(&self) -> u64 {
@@ -592,6 +610,7 @@ impl VoxelTree {
         }
         let root_shift = config.shift(2);
         Ok(VoxelTree {
+            distance: None,
             spec,
             config,
             width,
@@ -668,6 +687,11 @@ impl VoxelLookup for VoxelTree {
     }
 
     #[inline(always)]
+    fn distance_band(&self) -> Option<&DistanceBand> {
+        self.distance.as_deref()
+    }
+
+    #[inline(always)]
     fn get(&self, ijk: IVec3) -> Voxel {
         VoxelTree::get(self, ijk)
     }
@@ -729,6 +753,11 @@ impl<const SHAPE: u32> ShapedTree<SHAPE> {
 impl<const SHAPE: u32> VoxelLookup for ShapedTree<SHAPE> {
     fn spec(&self) -> &GridSpec {
         &self.0.spec
+    }
+
+    #[inline(always)]
+    fn distance_band(&self) -> Option<&DistanceBand> {
+        self.0.distance.as_deref()
     }
 
     #[inline(always)]

@@ -1,0 +1,511 @@
+//! The signed-distance band: sub-voxel distances to the scene's exact surface in a narrow band
+//! around it, for the `distance` force model (docs/architecture.md#voxmaps-and-point-shells).
+//!
+//! **What is stored.** A sample sits at every voxel centre of the grid the band shares with its
+//! tree. Each sample holds `e = d − standoff` quantised to an `i8` in steps of `s / 64` (`s` the
+//! voxel size), where `d` is the signed distance (m, positive outside) from the voxel centre to the
+//! exact meshes and `standoff` the stand-off distance the force starts at. Codes saturate at ±127
+//! (±1.98 voxels): [`CODE_FAR`] means "at least that far outside the stand-off", [`CODE_DEEP`] "at
+//! least that deep". The stand-off is baked in, so the frame path needs no parameter for it.
+//!
+//! **Layout.** The grid is cut into cubes of 8³ voxels (the tree's leaf cube). A cube whose samples
+//! are all saturated the same way needs no storage: its directory slot says [`Cube::Far`] or
+//! [`Cube::Deep`]. Every other cube has a brick of 9³ codes: its 8³ samples plus the first sample
+//! of the next cube on each axis (an apron), so that the trilinear cell of any point whose lower
+//! corner lies in the cube reads one brick. Bricks are numbered in directory order (x fastest), so
+//! equal content gives equal bytes.
+//!
+//! **Query** ([`DistanceBand::cell`]): the trilinear cell whose lower corner sample is `base`;
+//! [`BandCell::value_and_gradient`] interpolates `e` (in voxels) and its gradient (the direction of
+//! steepest increase: the scene's outward normal at the surface). f32 basic operations in a fixed
+//! order, no fused multiply-add: the same bits on every machine.
+//!
+//! Memory: 4 bytes per 8³ cube (the directory) plus 729 bytes per brick.
+
+use crate::GridSpec;
+
+/// Voxels per cube edge (the tree's leaf cube).
+pub const CUBE_EDGE: u32 = 8;
+/// Samples per brick edge: the cube's 8 plus one of the next cube (the apron).
+pub const BRICK_EDGE: usize = 9;
+/// Codes per brick: `9³`.
+pub const BRICK_CODES: usize = BRICK_EDGE * BRICK_EDGE * BRICK_EDGE;
+/// Quantisation: codes per voxel of distance (a code is `s / 64`).
+pub const CODES_PER_VOXEL: f32 = 64.0;
+/// A sample at least [`BAND_VOXELS`] outside the stand-off.
+pub const CODE_FAR: i8 = 127;
+/// A sample at least [`BAND_VOXELS`] inside the stand-off (deep).
+pub const CODE_DEEP: i8 = -127;
+/// The band's half width in voxels: `127 / 64`.
+pub const BAND_VOXELS: f32 = 127.0 / CODES_PER_VOXEL;
+/// The largest stand-off a band holds, in voxels: the surface itself (`d = 0`, `e = −standoff`)
+/// must lie at least a voxel inside the band, so that points just inside it are still resolved.
+pub const MAX_STANDOFF_VOXELS: f64 = 0.5;
+
+/// The stand-off a scene gets when it states none, in voxels: an eighth of a voxel. Resting
+/// contact under the coupling's largest force sits about `s / 40` into the stand-off with the
+/// default gains (`k_T s / 2` over ten averaged contacts at `K_ff = 2 k_T`), so an eighth keeps
+/// the exact surface clear with a margin of five, while a peg still enters a hole with a quarter
+/// voxel of clearance a side.
+pub const DEFAULT_STANDOFF_VOXELS: f64 = 0.125;
+
+/// Directory slot value of a cube whose samples are all [`CODE_FAR`].
+const SLOT_FAR: u32 = 0;
+/// Directory slot value of a cube whose samples are all [`CODE_DEEP`].
+const SLOT_DEEP: u32 = 1;
+/// Brick `k` is stored in slots as `k + BRICK_SLOT_BASE`.
+const BRICK_SLOT_BASE: u32 = 2;
+
+/// What a directory slot holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Cube {
+    /// Every sample of the cube is [`CODE_FAR`]: free space beyond the band.
+    Far,
+    /// Every sample of the cube is [`CODE_DEEP`]: inside the scene beyond the band.
+    Deep,
+    /// The cube's brick, by index.
+    Brick(u32),
+}
+
+/// The signed-distance band of a voxmap (see the module docs). Immutable once built; `Sync`.
+///
+/// Invariants (checked by [`DistanceBand::from_parts`]): the directory has one slot per cube of the
+/// grid; brick slots number the bricks 0, 1, 2, … in directory order; `codes` holds exactly
+/// 729 codes per brick, none equal to −128; the stand-off is finite, in `[0, 0.5]` voxels.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DistanceBand {
+    standoff_m: f64,
+    cube_dims: [u32; 3],
+    directory: Vec<u32>,
+    codes: Vec<i8>,
+}
+
+/// Why band parts are not a valid [`DistanceBand`]; each names the field at fault.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum BandError {
+    /// The stand-off is not finite or outside `[0, 0.5]` voxels.
+    #[error("distance band standoff: {standoff_m} m is not within 0..={max_m} m (half a voxel)")]
+    Standoff {
+        /// The stand-off given (m).
+        standoff_m: f64,
+        /// The largest allowed (m).
+        max_m: f64,
+    },
+    /// The cube dims do not match the grid.
+    #[error("distance band cube dims {found:?}: the grid's dims imply {expected:?}")]
+    CubeDims {
+        /// As given.
+        found: [u32; 3],
+        /// `ceil(grid dims / 8)`.
+        expected: [u32; 3],
+    },
+    /// The directory has the wrong length.
+    #[error("distance band directory: {found} slots, the cube dims imply {expected}")]
+    DirectoryLength {
+        /// As given.
+        found: usize,
+        /// One per cube.
+        expected: u64,
+    },
+    /// A brick slot is out of order (bricks must be numbered in directory order).
+    #[error("distance band directory slot {slot}: brick {found}, expected brick {expected} (bricks are numbered in directory order)")]
+    BrickOrder {
+        /// Slot index.
+        slot: usize,
+        /// Brick named.
+        found: u32,
+        /// The next brick number.
+        expected: u32,
+    },
+    /// The codes do not hold 729 per brick.
+    #[error("distance band codes: {found} codes for {bricks} bricks (729 each)")]
+    CodesLength {
+        /// As given.
+        found: usize,
+        /// Bricks in the directory.
+        bricks: u64,
+    },
+    /// A code is −128 (reserved).
+    #[error("distance band code {index}: -128 is reserved (codes are -127..=127)")]
+    ReservedCode {
+        /// Index of the first such code.
+        index: usize,
+    },
+}
+
+/// The cubes per axis of a grid of `dims` voxels: `ceil(dims / 8)`.
+pub fn cube_dims(spec: &GridSpec) -> [u32; 3] {
+    spec.dims.map(|d| d.div_ceil(CUBE_EDGE))
+}
+
+/// The eight codes of one trilinear cell, `corners[z][y][x]`, as f32.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BandCell {
+    /// Codes of the cell's corners (`s / 64` each), `[z][y][x]`.
+    pub corners: [[[f32; 2]; 2]; 2],
+}
+
+/// What the band holds at one trilinear cell.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CellLookup {
+    /// Free space beyond the band (outside the grid included).
+    Far,
+    /// Inside the scene beyond the band.
+    Deep,
+    /// A cell of stored samples.
+    Near(BandCell),
+}
+
+impl BandCell {
+    /// `e` (voxels, `d − standoff`) at fractional position `f` (each in `[0, 1]`) in the cell, and
+    /// its gradient (per voxel, dimensionless: the outward direction, not normalised). The f32
+    /// operations and their order are fixed (no fused multiply-add), so the bits are the same on
+    /// every machine. Does not allocate.
+    #[inline(always)]
+    pub fn value_and_gradient(&self, f: [f32; 3]) -> (f32, [f32; 3]) {
+        let c = &self.corners;
+        let [fx, fy, fz] = f;
+        let (gx, gy, gz) = (1.0 - fx, 1.0 - fy, 1.0 - fz);
+        // Edges along x, then their interpolation.
+        let x00 = c[0][0][0] * gx + c[0][0][1] * fx;
+        let x10 = c[0][1][0] * gx + c[0][1][1] * fx;
+        let x01 = c[1][0][0] * gx + c[1][0][1] * fx;
+        let x11 = c[1][1][0] * gx + c[1][1][1] * fx;
+        let y0 = x00 * gy + x10 * fy;
+        let y1 = x01 * gy + x11 * fy;
+        let value = y0 * gz + y1 * fz;
+        // d/dx: the x differences interpolated in y and z.
+        let d00 = c[0][0][1] - c[0][0][0];
+        let d10 = c[0][1][1] - c[0][1][0];
+        let d01 = c[1][0][1] - c[1][0][0];
+        let d11 = c[1][1][1] - c[1][1][0];
+        let dx = (d00 * gy + d10 * fy) * gz + (d01 * gy + d11 * fy) * fz;
+        // d/dy from the x-interpolated edges; d/dz from the y-interpolated faces.
+        let dy = (x10 - x00) * gz + (x11 - x01) * fz;
+        let dz = y1 - y0;
+        let q = 1.0 / CODES_PER_VOXEL;
+        (value * q, [dx * q, dy * q, dz * q])
+    }
+
+    /// True when every corner is [`CODE_FAR`].
+    #[inline(always)]
+    pub fn all_far(&self) -> bool {
+        self.corners.iter().flatten().flatten().all(|&c| c >= f32::from(CODE_FAR))
+    }
+
+    /// True when every corner is [`CODE_DEEP`].
+    #[inline(always)]
+    pub fn all_deep(&self) -> bool {
+        self.corners.iter().flatten().flatten().all(|&c| c <= f32::from(CODE_DEEP))
+    }
+}
+
+impl DistanceBand {
+    /// A band from its parts (see the type's invariants); the error names the part at fault.
+    /// `spec` is the grid of the tree the band belongs to.
+    pub fn from_parts(
+        spec: &GridSpec,
+        standoff_m: f64,
+        cube_dims_given: [u32; 3],
+        directory: Vec<u32>,
+        codes: Vec<i8>,
+    ) -> Result<DistanceBand, BandError> {
+        let max_m = MAX_STANDOFF_VOXELS * spec.voxel_size;
+        if !(standoff_m.is_finite() && (0.0..=max_m).contains(&standoff_m)) {
+            return Err(BandError::Standoff { standoff_m, max_m });
+        }
+        let expected = cube_dims(spec);
+        if cube_dims_given != expected {
+            return Err(BandError::CubeDims {
+                found: cube_dims_given,
+                expected,
+            });
+        }
+        let slots: u64 = expected.iter().map(|&d| u64::from(d)).product();
+        if directory.len() as u64 != slots {
+            return Err(BandError::DirectoryLength {
+                found: directory.len(),
+                expected: slots,
+            });
+        }
+        let mut next = 0u32;
+        for (slot, &v) in directory.iter().enumerate() {
+            if v >= BRICK_SLOT_BASE {
+                let found = v - BRICK_SLOT_BASE;
+                if found != next {
+                    return Err(BandError::BrickOrder {
+                        slot,
+                        found,
+                        expected: next,
+                    });
+                }
+                next += 1;
+            }
+        }
+        if codes.len() as u64 != u64::from(next) * BRICK_CODES as u64 {
+            return Err(BandError::CodesLength {
+                found: codes.len(),
+                bricks: u64::from(next),
+            });
+        }
+        if let Some(index) = codes.iter().position(|&c| c == i8::MIN) {
+            return Err(BandError::ReservedCode { index });
+        }
+        Ok(DistanceBand {
+            standoff_m,
+            cube_dims: expected,
+            directory,
+            codes,
+        })
+    }
+
+    /// The stand-off baked into the codes (m): contact begins where the exact distance falls
+    /// below it.
+    pub fn standoff_m(&self) -> f64 {
+        self.standoff_m
+    }
+
+    /// Cubes per axis.
+    pub fn cube_dims(&self) -> [u32; 3] {
+        self.cube_dims
+    }
+
+    /// Raw directory slots (file encoding).
+    pub fn directory(&self) -> &[u32] {
+        &self.directory
+    }
+
+    /// All brick codes, brick after brick (file encoding).
+    pub fn codes(&self) -> &[i8] {
+        &self.codes
+    }
+
+    /// Number of bricks stored.
+    pub fn brick_count(&self) -> usize {
+        self.codes.len() / BRICK_CODES
+    }
+
+    /// Heap bytes held: the directory and the bricks.
+    pub fn memory_bytes(&self) -> usize {
+        4 * self.directory.capacity() + self.codes.capacity()
+    }
+
+    /// The deepest contact depth a point can report (m): a point deeper than the band pushes with
+    /// the band's depth, [`BAND_VOXELS`] voxels.
+    pub fn max_contact_depth(&self, voxel_size: f64) -> f64 {
+        f64::from(BAND_VOXELS) * voxel_size
+    }
+
+    /// What cube `c` (cube indices) holds; outside the grid reads [`Cube::Far`].
+    #[inline(always)]
+    pub fn cube(&self, c: [i32; 3]) -> Cube {
+        let [nx, ny, nz] = self.cube_dims;
+        if c[0] < 0
+            || c[1] < 0
+            || c[2] < 0
+            || c[0] as u32 >= nx
+            || c[1] as u32 >= ny
+            || c[2] as u32 >= nz
+        {
+            return Cube::Far;
+        }
+        let slot = (c[2] as usize * ny as usize + c[1] as usize) * nx as usize + c[0] as usize;
+        match self.directory[slot] {
+            SLOT_FAR => Cube::Far,
+            SLOT_DEEP => Cube::Deep,
+            b => Cube::Brick(b - BRICK_SLOT_BASE),
+        }
+    }
+
+    /// The trilinear cell whose lower corner is the sample of voxel `base` (samples sit at voxel
+    /// centres, so the cell spans voxel centres `base ..= base + 1` on each axis). Reads one
+    /// directory slot and eight codes of one brick. Does not allocate or block.
+    #[inline(always)]
+    pub fn cell(&self, base: [i32; 3]) -> CellLookup {
+        let edge = CUBE_EDGE as i32;
+        let c = base.map(|b| b.div_euclid(edge));
+        match self.cube(c) {
+            Cube::Far => CellLookup::Far,
+            Cube::Deep => CellLookup::Deep,
+            Cube::Brick(k) => {
+                let l = [0, 1, 2].map(|a| (base[a] - c[a] * edge) as usize);
+                let brick = &self.codes[k as usize * BRICK_CODES..][..BRICK_CODES];
+                let at = |x: usize, y: usize, z: usize| {
+                    f32::from(brick[((l[2] + z) * BRICK_EDGE + l[1] + y) * BRICK_EDGE + l[0] + x])
+                };
+                CellLookup::Near(BandCell {
+                    corners: [
+                        [[at(0, 0, 0), at(1, 0, 0)], [at(0, 1, 0), at(1, 1, 0)]],
+                        [[at(0, 0, 1), at(1, 0, 1)], [at(0, 1, 1), at(1, 1, 1)]],
+                    ],
+                })
+            }
+        }
+    }
+
+    /// `e` (m, `d − standoff`) at world point `p` (m) of the grid `spec`, interpolated; `None`
+    /// beyond the band (far outside or deep inside). For inspection and tests, not the frame path.
+    pub fn standoff_distance_at(&self, spec: &GridSpec, p: glam::DVec3) -> Option<f64> {
+        let t = (p - spec.origin) / spec.voxel_size - glam::DVec3::splat(0.5);
+        let base = t.floor();
+        let f = (t - base).as_vec3().to_array();
+        match self.cell(base.as_ivec3().to_array()) {
+            CellLookup::Near(cell) => {
+                let (e, _) = cell.value_and_gradient(f);
+                Some(f64::from(e) * spec.voxel_size)
+            }
+            _ => None,
+        }
+    }
+}
+
+/// Assembles a band from a per-cube sampler: `sample(cube)` returns the cube's 729 codes (its 8³
+/// samples and the apron, `[z][y][x]` with x fastest), or `None` when none of them lies within the
+/// band, in which case `deep(cube)` says whether the cube is inside the scene. Cubes are visited in
+/// directory order. The builder of the voxelizer supplies the sampler; this keeps the numbering
+/// canonical.
+pub fn assemble(
+    spec: &GridSpec,
+    standoff_m: f64,
+    mut cubes: impl FnMut([u32; 3]) -> CubeCodes,
+) -> Result<DistanceBand, BandError> {
+    let dims = cube_dims(spec);
+    let mut directory = Vec::with_capacity(dims.iter().map(|&d| d as usize).product());
+    let mut codes = Vec::new();
+    let mut bricks = 0u32;
+    for z in 0..dims[2] {
+        for y in 0..dims[1] {
+            for x in 0..dims[0] {
+                match cubes([x, y, z]) {
+                    CubeCodes::Far => directory.push(SLOT_FAR),
+                    CubeCodes::Deep => directory.push(SLOT_DEEP),
+                    CubeCodes::Brick(b) => {
+                        directory.push(bricks + BRICK_SLOT_BASE);
+                        codes.extend_from_slice(&b[..]);
+                        bricks += 1;
+                    }
+                }
+            }
+        }
+    }
+    DistanceBand::from_parts(spec, standoff_m, dims, directory, codes)
+}
+
+/// One cube's content for [`assemble`].
+#[derive(Clone, Debug, PartialEq)]
+pub enum CubeCodes {
+    /// All samples far outside.
+    Far,
+    /// All samples deep inside.
+    Deep,
+    /// The 729 codes.
+    Brick(Box<[i8; BRICK_CODES]>),
+}
+
+/// The code of a stand-off distance `e` (m) at voxel size `s` (m): `round(e · 64 / s)` clamped to
+/// ±127.
+pub fn code_of(e_m: f64, voxel_size: f64) -> i8 {
+    let q = (e_m / voxel_size * f64::from(CODES_PER_VOXEL)).round();
+    q.clamp(f64::from(CODE_DEEP), f64::from(CODE_FAR)) as i8
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec3;
+
+    fn spec() -> GridSpec {
+        GridSpec {
+            origin: DVec3::ZERO,
+            voxel_size: 0.01,
+            dims: [20, 10, 9],
+        }
+    }
+
+    /// A plane `z = 0.045` m (outside above): every cube sampled analytically.
+    fn plane_band(standoff: f64) -> DistanceBand {
+        let s = spec();
+        assemble(&s, standoff, |c| {
+            let mut b = Box::new([0i8; BRICK_CODES]);
+            let mut any_near = false;
+            for z in 0..BRICK_EDGE {
+                for y in 0..BRICK_EDGE {
+                    for x in 0..BRICK_EDGE {
+                        let zc = (f64::from(c[2] * 8) + z as f64 + 0.5) * s.voxel_size;
+                        let code = code_of(zc - 0.045 - standoff, s.voxel_size);
+                        any_near |= code.abs() < 127;
+                        b[(z * BRICK_EDGE + y) * BRICK_EDGE + x] = code;
+                    }
+                }
+            }
+            if any_near {
+                CubeCodes::Brick(b)
+            } else if b[0] > 0 {
+                CubeCodes::Far
+            } else {
+                CubeCodes::Deep
+            }
+        })
+        .unwrap()
+    }
+
+    #[test]
+    fn a_plane_is_interpolated_exactly_with_its_normal() {
+        let band = plane_band(0.002);
+        let s = spec();
+        for &(x, y, z) in &[(0.031, 0.052, 0.047), (0.1234, 0.02, 0.04), (0.07, 0.07, 0.0501)] {
+            let e = band.standoff_distance_at(&s, DVec3::new(x, y, z)).unwrap();
+            // Quantisation: half a code, s / 128.
+            assert!((e - (z - 0.045 - 0.002)).abs() <= s.voxel_size / 128.0 + 1e-9, "{e}");
+        }
+        let t = DVec3::new(3.3, 4.1, 3.9);
+        let base = t.floor();
+        let CellLookup::Near(cell) = band.cell(base.as_ivec3().to_array()) else {
+            panic!("near the plane")
+        };
+        let (_, g) = cell.value_and_gradient((t - base).as_vec3().to_array());
+        assert_eq!(g[0], 0.0);
+        assert_eq!(g[1], 0.0);
+        assert!((g[2] - 1.0).abs() < 1.0 / 64.0, "{g:?}");
+    }
+
+    #[test]
+    fn far_and_deep_cubes_are_not_stored_and_outside_reads_far() {
+        let band = plane_band(0.0);
+        assert_eq!(band.cell([-3, 0, 0]), CellLookup::Far);
+        assert_eq!(band.cell([0, 0, 900]), CellLookup::Far);
+        assert!(band.brick_count() > 0);
+        assert!(band.brick_count() < band.directory().len());
+    }
+
+    #[test]
+    fn parts_that_break_an_invariant_are_refused_naming_it() {
+        let s = spec();
+        let dims = cube_dims(&s);
+        let n = dims.iter().product::<u32>() as usize;
+        let too_far = DistanceBand::from_parts(&s, 0.006, dims, vec![0; n], vec![]);
+        assert!(matches!(too_far, Err(BandError::Standoff { .. })));
+        let short = DistanceBand::from_parts(&s, 0.0, dims, vec![0; n - 1], vec![]);
+        assert!(matches!(short, Err(BandError::DirectoryLength { .. })));
+        let mut dir = vec![0; n];
+        dir[3] = 3; // brick 1 before brick 0
+        let order = DistanceBand::from_parts(&s, 0.0, dims, dir, vec![0; 729]);
+        assert!(matches!(order, Err(BandError::BrickOrder { slot: 3, .. })));
+        let mut dir = vec![0; n];
+        dir[3] = 2;
+        let codes = DistanceBand::from_parts(&s, 0.0, dims, dir.clone(), vec![0; 728]);
+        assert!(matches!(codes, Err(BandError::CodesLength { .. })));
+        let mut bad = vec![0i8; 729];
+        bad[5] = i8::MIN;
+        let reserved = DistanceBand::from_parts(&s, 0.0, dims, dir, bad);
+        assert_eq!(reserved, Err(BandError::ReservedCode { index: 5 }));
+    }
+
+    #[test]
+    fn codes_round_and_saturate() {
+        assert_eq!(code_of(0.0, 0.01), 0);
+        assert_eq!(code_of(0.01 / 64.0 * 3.4, 0.01), 3);
+        assert_eq!(code_of(1.0, 0.01), CODE_FAR);
+        assert_eq!(code_of(-1.0, 0.01), CODE_DEEP);
+    }
+}
