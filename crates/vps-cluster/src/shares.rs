@@ -179,10 +179,15 @@ impl RemoteShares {
             class_points: (0..assets.shell.class_count())
                 .map(|c| assets.shell.class_len(c) as u64)
                 .collect(),
-            max_depth: PartialSums::max_contact_depth(
-                assets.map.spec().voxel_size,
-                assets.map.width().surface_layers(),
-            ),
+            max_depth: {
+                let s = assets.map.spec().voxel_size;
+                let layered = PartialSums::max_contact_depth(s, assets.map.width().surface_layers());
+                // A map with a distance band pushes by the band's depth at most.
+                assets
+                    .map
+                    .distance_band()
+                    .map_or(layered, |band| layered.max(band.max_contact_depth(s)))
+            },
             max_radius: assets.shell.max_radius(),
         };
         let core = GatherCore::new(config.policy(), shape)?;

@@ -225,6 +225,13 @@ pub struct VoxelSettings {
     pub braking: Option<bool>,
     /// Shell point placement: `centres` or `exact`. Default `centres`.
     pub shell_method: ShellMethodName,
+    /// The force model: `tangent-plane` (the paper's, on the voxel layers) or `distance` (the
+    /// signed-distance band with a stand-off). Default `tangent-plane`.
+    pub force_model: ForceModelName,
+    /// The `distance` model's stand-off (m): contact starts this far from the exact surface.
+    /// `0..=` half a voxel; `None`: an eighth of the voxel size
+    /// ([`vps_voxmap::distance::DEFAULT_STANDOFF_VOXELS`]). Refused with `tangent-plane`.
+    pub standoff: Option<f64>,
     /// Why the scene file chose its voxel settings (`voxels.reason`, 1..=500 characters), shown by
     /// `vps scene check`; `None` when the file gives none.
     pub reason: Option<String>,
@@ -244,6 +251,8 @@ pub struct VoxelKeysSet {
     pub offset_layers: bool,
     /// `voxels.shell_method`.
     pub shell_method: bool,
+    /// `voxels.force_model`.
+    pub force_model: bool,
 }
 
 /// Why the built-in voxel defaults (5 mm, 2-bit, offset 2, voxel centres) are what they are, for
@@ -259,6 +268,8 @@ impl Default for VoxelSettings {
             offset_layers: 2,
             braking: None,
             shell_method: ShellMethodName::Centres,
+            force_model: ForceModelName::TangentPlane,
+            standoff: None,
             reason: None,
             set_in_file: VoxelKeysSet::default(),
         }
@@ -275,6 +286,9 @@ struct VoxelsWire {
     offset_layers: Option<u32>,
     braking: Option<bool>,
     shell_method: Option<ShellMethodName>,
+    force_model: Option<ForceModelName>,
+    #[serde(default, deserialize_with = "optional_length")]
+    standoff: Option<f64>,
     reason: Option<String>,
 }
 
@@ -291,12 +305,15 @@ impl VoxelsWire {
                 voxel_width: self.voxel_width.is_some(),
                 offset_layers: self.offset_layers.is_some(),
                 shell_method: self.shell_method.is_some(),
+                force_model: self.force_model.is_some(),
             },
             voxel_size: self.voxel_size.unwrap_or(d.voxel_size),
             voxel_width: self.voxel_width.unwrap_or(d.voxel_width),
             offset_layers: self.offset_layers.unwrap_or(d.offset_layers),
             braking: self.braking,
             shell_method: self.shell_method.unwrap_or(d.shell_method),
+            force_model: self.force_model.unwrap_or(d.force_model),
+            standoff: self.standoff,
             reason: self.reason,
         }
     }
@@ -318,6 +335,40 @@ impl ShellMethodName {
         match self {
             ShellMethodName::Centres => ShellMethod::VoxelCentres,
             ShellMethodName::Exact => ShellMethod::ExactSurface,
+        }
+    }
+}
+
+/// The force model as written in a scene file (`voxels.force_model`).
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ForceModelName {
+    /// The paper's tangent-plane model on the voxel layers (offset layers set the stand-off).
+    TangentPlane,
+    /// The signed-distance band: exact sub-voxel distances and the scene's own normals, with a
+    /// stand-off in metres (`voxels.standoff`).
+    Distance,
+}
+
+impl ForceModelName {
+    /// `tangent-plane` or `distance`, as written.
+    pub fn name(self) -> &'static str {
+        match self {
+            ForceModelName::TangentPlane => "tangent-plane",
+            ForceModelName::Distance => "distance",
+        }
+    }
+}
+
+impl VoxelSettings {
+    /// The stand-off (m) at `voxel_size` (m) for the `distance` model, `None` for the
+    /// tangent-plane model: `voxels.standoff`, else an eighth of the voxel.
+    pub fn standoff_at(&self, voxel_size: f64) -> Option<f64> {
+        match self.force_model {
+            ForceModelName::TangentPlane => None,
+            ForceModelName::Distance => Some(self.standoff.unwrap_or(
+                voxel_size * vps_voxmap::distance::DEFAULT_STANDOFF_VOXELS,
+            )),
         }
     }
 }
@@ -581,6 +632,24 @@ impl SceneFile {
             );
         }
         self.width(path)?;
+        if let Some(standoff) = v.standoff {
+            let half = v.voxel_size * vps_voxmap::distance::MAX_STANDOFF_VOXELS;
+            if v.force_model != ForceModelName::Distance {
+                return bad(
+                    "voxels.standoff",
+                    "applies to force_model = \"distance\" only (the tangent-plane model's stand-off is offset_layers voxels)".into(),
+                );
+            }
+            if !(standoff.is_finite() && (0.0..=half).contains(&standoff)) {
+                return bad(
+                    "voxels.standoff",
+                    format!(
+                        "{standoff} m must be within 0..={half} m (half of voxel_size {} m)",
+                        v.voxel_size
+                    ),
+                );
+            }
+        }
         if v.offset_layers > 16 {
             return bad(
                 "voxels.offset_layers",

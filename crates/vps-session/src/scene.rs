@@ -20,6 +20,7 @@ use std::time::Instant;
 use vps_device::script::Script;
 use vps_haptic::HapticParams;
 use vps_mesh::{Aabb, TriMesh};
+use vps_voxelize::distance::distance_band;
 use vps_voxelize::{point_shell, voxelize_tree, ShellMethod, VoxelizeOptions};
 use vps_voxmap::{PointShell, TreeConfig, VoxelTree, VoxelWidth};
 
@@ -325,10 +326,11 @@ impl LoadedScene {
         };
         let objects = &self.statics;
         let t = Instant::now();
+        let standoff = self.file.voxels.standoff_at(voxel_size);
         let cached_at = match cache {
             CachePolicy::Dir(dir) => Some(cache_path(
                 dir,
-                &cache_key(objects, &opts, TreeConfig::default()),
+                &with_band_key(cache_key(objects, &opts, TreeConfig::default()), standoff),
             )),
             CachePolicy::Off => None,
         };
@@ -351,6 +353,14 @@ impl LoadedScene {
                     width.bits()
                 )
             })?;
+        let tree = match standoff {
+            None => tree,
+            Some(standoff) => {
+                let band = distance_band(&tree, objects, standoff, opts.max_memory_bytes)
+                    .map_err(|e| field_error(&self.label, "voxels.standoff", e.to_string()))?;
+                tree.with_distance_band(band)
+            }
+        };
         let voxelize_ms = t.elapsed().as_secs_f64() * 1e3;
         let origin = match cached_at {
             Some(path) => match write_cached(&path, &tree) {
@@ -837,5 +847,20 @@ mod tests {
         let (_dir, scene) = scene_dir("[[static]]\nsource = \"fixture.obj\"\nunits = \"mm\"\n");
         let loaded = LoadedScene::load(&scene).unwrap();
         assert!(loaded.plan_voxmap(0.002, VoxelWidth::Two).is_ok());
+    }
+}
+
+/// The cache key of a voxmap that also carries a distance band with stand-off `standoff` (m): the
+/// voxmap's key hashed with the stand-off's bits; the voxmap's own key when there is no band.
+fn with_band_key(key: String, standoff: Option<f64>) -> String {
+    match standoff {
+        None => key,
+        Some(standoff) => {
+            let mut h = blake3::Hasher::new();
+            h.update(key.as_bytes());
+            h.update(b"distance-band-1");
+            h.update(&standoff.to_bits().to_le_bytes());
+            h.finalize().to_hex().to_string()
+        }
     }
 }
