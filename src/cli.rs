@@ -748,6 +748,10 @@ pub enum BenchKind {
         /// Poses per scene and separation.
         #[arg(long, default_value_t = 8)]
         poses: usize,
+        /// Force models: `tangent-plane` (the paper's), `distance` (signed-distance band,
+        /// stand-off 1/8 voxel), or both.
+        #[arg(long, value_delimiter = ',', default_value = "tangent-plane,distance")]
+        models: Vec<FidelityModelArg>,
     },
     /// Device bridge round trip (pose out, wrench back), immediate and at 1 kHz, beside a raw
     /// UDP ping-pong.
@@ -816,4 +820,13 @@ impl Default for RunArgs {
             bridge: BridgeArgs::default(),
         }
     }
+}
+
+/// A force model of `vps bench fidelity --models`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum FidelityModelArg {
+    /// The paper's tangent-plane model on the voxel layers.
+    TangentPlane,
+    /// The signed-distance band at its default stand-off (1/8 voxel).
+    Distance,
 }

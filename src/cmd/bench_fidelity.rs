@@ -2,13 +2,14 @@
 
 use crate::output::print_json;
 use anyhow::{bail, Result};
-use vps_fidelity::measure::FidelityGrid;
+use crate::cli::FidelityModelArg;
+use vps_fidelity::measure::{FidelityGrid, ForceModel};
 
-/// Runs the benchmark at `voxel_sizes` (m), every width and shell method, `poses` per scene and
+/// Runs the benchmark at `voxel_sizes` (m) for `models`, every width and shell method, `poses` per scene and
 /// separation, and prints the report. Blocking, parallel.
 ///
 /// Errors: `--poses` outside 1..=64, a `--voxel-sizes` value outside [0.5 mm, 20 mm].
-pub fn run(voxel_sizes: Vec<f64>, poses: usize) -> Result<()> {
+pub fn run(voxel_sizes: Vec<f64>, poses: usize, models: Vec<FidelityModelArg>) -> Result<()> {
     if !(1..=64).contains(&poses) {
         bail!("--poses {poses} is out of range: allowed 1..=64");
     }
@@ -21,6 +22,13 @@ pub fn run(voxel_sizes: Vec<f64>, poses: usize) -> Result<()> {
     let grid = FidelityGrid {
         voxel_sizes_m: voxel_sizes,
         poses,
+        models: models
+            .iter()
+            .map(|m| match m {
+                FidelityModelArg::TangentPlane => ForceModel::TangentPlane,
+                FidelityModelArg::Distance => ForceModel::DISTANCE,
+            })
+            .collect(),
         ..FidelityGrid::full()
     };
     print_json(&vps_fidelity::run(&grid)?)

@@ -113,8 +113,11 @@ pub fn dispatch(cli: Cli, matches: &ArgMatches) -> Result<()> {
                 points, seconds, ..
             } => crate::output::print_json(&bench_kernel::run(&points, seconds)?),
             BenchKind::Fidelity {
-                voxel_sizes, poses, ..
-            } => bench_fidelity::run(voxel_sizes, poses),
+                voxel_sizes,
+                poses,
+                models,
+                ..
+            } => bench_fidelity::run(voxel_sizes, poses, models),
             BenchKind::Scaling {
                 max,
                 points,

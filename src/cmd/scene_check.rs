@@ -51,6 +51,10 @@ struct VoxelsReport {
     voxel_width_bits: Setting<u8>,
     shell_method: Setting<ShellMethodName>,
     offset_layers: Setting<u32>,
+    /// `tangent-plane` or `distance`.
+    force_model: Setting<&'static str>,
+    /// The `distance` model's stand-off (m); `None` for the tangent-plane model.
+    standoff_m: Option<f64>,
     /// The scene file's `voxels.reason`.
     reason: Option<String>,
     /// Why the built-in defaults are what they are, when any setting is one.
@@ -148,6 +152,8 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
         voxel_width_bits: setting(voxels.voxel_width, set.voxel_width),
         shell_method: setting(voxels.shell_method, set.shell_method),
         offset_layers: setting(voxels.offset_layers, set.offset_layers),
+        force_model: setting(voxels.force_model.name(), set.force_model),
+        standoff_m: voxels.standoff_at(voxels.voxel_size),
         reason: voxels.reason.clone(),
         builtin_reason: (!(set.voxel_size
             && set.voxel_width
@@ -235,7 +241,22 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
             defaults_used(v).join(", ")
         );
     }
-    if v.offset_layers.value > 0 {
+    if let Some(standoff) = v.standoff_m {
+        println!(
+            "  force model: distance ({}): contact starts {} mm from the exact surface (the \
+             stand-off), distances resolved to {} mm (1/128 voxel): a clearance of more than \
+             about {} mm a side reads as open",
+            v.force_model.from,
+            millimetres(standoff),
+            millimetres(v.voxel_size_m.value / 128.0),
+            millimetres(standoff)
+        );
+    } else if v.offset_layers.value > 0 {
+        println!(
+            "  force model: tangent-plane ({}), the paper's; force_model = \"distance\" \
+             resolves sub-voxel gaps (docs/scenes.md, Force models)",
+            v.force_model.from
+        );
         let standoff_mm = millimetres(f64::from(v.offset_layers.value) * v.voxel_size_m.value);
         println!(
             "  clearance: the force layer stands {} voxel(s), {standoff_mm} mm, off every static \

@@ -44,6 +44,35 @@ fn two_workers_give_sums_bit_identical_to_one_process() {
     }
 }
 
+/// The same with the `distance` force model: the band travels to the workers inside the voxmap
+/// (`.vmap` v3) and their shares merge to the one-process sums bit for bit.
+#[test]
+fn two_workers_give_distance_model_sums_bit_identical_to_one_process() {
+    let ids = identities();
+    let assets = vps_testkit::cluster::band_assets();
+    assert!(assets.map.distance_band().is_some());
+    let (coordinator, workers) = coordinator_with_thread_workers(&ids, assets.clone(), 2);
+    let mut shares = coordinator.shares(split_always()).unwrap();
+    let mut touched = false;
+    for pose in &poses(40) {
+        let want = sample_all(&*assets.map, &assets.shell, pose);
+        touched |= want.contacts > 0 && want.approaching > 0;
+        let got = shares.compute(pose, Instant::now() + DEADLINE);
+        assert_eq!(got.sums, want);
+    }
+    assert!(touched, "the poses must touch and brake");
+    let report = shares.report();
+    for peer in &report.peers {
+        assert!(peer.merged > 0, "worker {} contributed nothing", peer.id);
+        assert_eq!(peer.invalid, 0, "a genuine share was judged implausible");
+    }
+    drop(shares);
+    for w in workers {
+        let r = w.stop().unwrap();
+        assert!(r.scene_transferred);
+    }
+}
+
 #[test]
 fn a_worker_leaving_mid_run_changes_nothing_in_the_sums() {
     let ids = identities();

@@ -39,6 +39,19 @@ pub fn assets() -> Arc<ClusterAssets> {
     )
 }
 
+/// [`assets`] on [`crate::scene::wall_band_tree`]: the same wall and shell, sampled with the
+/// `distance` force model.
+pub fn band_assets() -> Arc<ClusterAssets> {
+    Arc::new(
+        ClusterAssets::new(
+            Arc::new(crate::scene::wall_band_tree()),
+            &sphere_shell(600),
+            CLASSES,
+        )
+        .expect("assets"),
+    )
+}
+
 /// Workers [`loopback_coordinator`] makes certificates for.
 pub const LOOPBACK_WORKERS: usize = 4;
 

@@ -29,6 +29,31 @@ pub fn wall_tree() -> VoxelTree {
     VoxelTree::from_dense(&wall(), TreeConfig::uniform(2)).expect("valid tree config")
 }
 
+/// [`wall_tree`] carrying a signed-distance band (the `distance` force model) of the plane
+/// `z = WALL_TOP` with a stand-off of 1/8 voxel, computed analytically: each sample holds
+/// `z − WALL_TOP − standoff`, quantised as the band stores it.
+pub fn wall_band_tree() -> VoxelTree {
+    use vps_voxmap::distance::{self, CubeCodes, BRICK_CODES, BRICK_EDGE, CODE_FAR};
+    let tree = wall_tree();
+    let spec = *tree.spec();
+    let standoff = VOXEL / 8.0;
+    let band = distance::assemble(&spec, standoff, |c| {
+        let mut codes = Box::new([0i8; BRICK_CODES]);
+        for z in 0..BRICK_EDGE {
+            let zc = (f64::from(c[2] * 8) + z as f64 + 0.5) * VOXEL;
+            let code = distance::code_of(zc - WALL_TOP - standoff, VOXEL);
+            codes[z * BRICK_EDGE * BRICK_EDGE..(z + 1) * BRICK_EDGE * BRICK_EDGE].fill(code);
+        }
+        match (codes.iter().min(), codes.iter().max()) {
+            (Some(&lo), _) if lo == CODE_FAR => CubeCodes::Far,
+            (_, Some(&hi)) if hi == -CODE_FAR => CubeCodes::Deep,
+            _ => CubeCodes::Brick(codes),
+        }
+    })
+    .expect("a valid band");
+    tree.with_distance_band(band)
+}
+
 /// An all-Free `n × n × n` grid of 1 cm voxels with its origin at 0.
 pub fn empty_cm_grid(n: u32) -> DenseGrid {
     DenseGrid::new(GridSpec::at_origin(0.01, [n; 3]))
