@@ -753,6 +753,10 @@ pub enum BenchKind {
         #[arg(long, value_delimiter = ',', default_value = "tangent-plane,distance")]
         models: Vec<FidelityModelArg>,
     },
+    /// Pegs (square, round) pushed by the hand into holes with 0.1 to 2 voxels of clearance a
+    /// side, at 2 and 1 mm voxels, with both force models: whether each entered, the minimum
+    /// exact separation and the penetrating frames, as JSON (docs/fidelity.md, Clearance).
+    Clearance,
     /// Device bridge round trip (pose out, wrench back), immediate and at 1 kHz, beside a raw
     /// UDP ping-pong.
     Bridge {

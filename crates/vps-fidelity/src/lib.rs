@@ -5,6 +5,8 @@
 //! Module map:
 //! - [`scenes`]: the five scenes (sphere on a plane, a tilted box on a plane, a box in a 90°
 //!   corner, a peg in a hole with clearance, a cylinder in a 90° V wedge) and their poses.
+//! - [`clearance`]: a square and a round peg pushed into holes of sub-voxel to two-voxel
+//!   clearance through the haptic frame, both force models.
 //! - [`measure`]: one setting (voxel size, bits per voxel, shell method) measured over every scene,
 //!   and the sliding-box smoothness run; [`run`] over a grid of settings.
 //!
@@ -17,6 +19,7 @@
 
 #![warn(missing_docs)]
 
+pub mod clearance;
 pub mod measure;
 pub mod scenes;
 
