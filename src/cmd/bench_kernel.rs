@@ -14,7 +14,8 @@
 //! case is built by `crate::kernel_timing` (`vps scene check` times the same contact case).
 
 use crate::host::load_average;
-use crate::kernel_timing::{band_scene, shell_radius_vox, sphere_shell, VOXEL_SIZE};
+use crate::kernel_timing::{band_scene, shell_radius_vox, sphere_band, sphere_shell, VOXEL_SIZE};
+use vps_voxmap::distance::DEFAULT_STANDOFF_VOXELS;
 use anyhow::Result;
 use glam::{DQuat, DVec3};
 use serde::Serialize;
@@ -59,6 +60,19 @@ pub struct KernelFigure {
     pub contact_surface_fraction: f64,
     /// Tree memory of the synthetic scene (bytes).
     pub tree_bytes: usize,
+    /// The `distance` force model on the same tree carrying a signed-distance band of the same
+    /// sphere (a ball half a voxel beyond the shell, stand-off 1/8 voxel), alternated batch by
+    /// batch with the current tangent-plane kernel.
+    pub distance: KernelTimes,
+    /// Distance over tangent-plane ns per point in contact (median of the per-round ratios; < 1:
+    /// the distance model is faster).
+    pub distance_over_tangent_contact: f64,
+    /// Distance over tangent-plane ns per point in free space (median of the per-round ratios).
+    pub distance_over_tangent_free: f64,
+    /// Points in contact with the distance model in the contact pose (should be all).
+    pub distance_contact_fraction: f64,
+    /// Memory of the distance band (bytes), beside `tree_bytes`.
+    pub distance_band_bytes: usize,
 }
 
 /// The host while the benchmark ran: read the figures against its load.
@@ -206,6 +220,35 @@ fn alternated(
     )
 }
 
+/// Tangent-plane and distance ns per point (medians) and the median of the per-round ratios
+/// distance / tangent-plane: `sample_all` on `tree` and on `band_tree` alternated.
+fn alternated_models(
+    tree: &VoxelTree,
+    band_tree: &VoxelTree,
+    shell: &ClassedShell,
+    pose: &KernelPose,
+    secs: f64,
+) -> (f64, f64, f64) {
+    let kernel: Kernel<VoxelTree> = sample_all;
+    let reps = calibrate(kernel, tree, shell, pose, secs);
+    let rounds: Vec<(f64, f64)> = (0..BATCHES)
+        .map(|round| {
+            if round % 2 == 0 {
+                let tangent = batch(kernel, tree, shell, pose, reps);
+                (tangent, batch(kernel, band_tree, shell, pose, reps))
+            } else {
+                let distance = batch(kernel, band_tree, shell, pose, reps);
+                (batch(kernel, tree, shell, pose, reps), distance)
+            }
+        })
+        .collect();
+    (
+        median(rounds.iter().map(|r| r.0).collect()),
+        median(rounds.iter().map(|r| r.1).collect()),
+        median(rounds.iter().map(|r| r.1 / r.0).collect()),
+    )
+}
+
 fn pose_at(spec: &GridSpec, centre_vox: DVec3) -> KernelPose {
     let state = PartState::at_rest(spec.origin + centre_vox * spec.voxel_size, DQuat::IDENTITY);
     KernelPose::from_state(&state)
@@ -227,6 +270,18 @@ fn measure(n: usize, batch_seconds: f64) -> Result<KernelFigure> {
         alternated(&tree, &shell, &contact, batch_seconds);
     let (old_free, new_free, free_speedup) = alternated(&tree, &shell, &free, batch_seconds);
     let dense_ns = ns_per_point(&dense, &shell, &contact, batch_seconds);
+    let band = sphere_band(&dense.spec, radius_vox, DEFAULT_STANDOFF_VOXELS)?;
+    let band_bytes = band.memory_bytes();
+    let band_tree = tree.clone().with_distance_band(band);
+    let band_sums = sample_all(&band_tree, &shell, &contact);
+    anyhow::ensure!(
+        sample_all(&band_tree, &shell, &free).non_free == 0,
+        "the distance model's free pose touches"
+    );
+    let (_, distance_contact, distance_over_tangent_contact) =
+        alternated_models(&tree, &band_tree, &shell, &contact, batch_seconds);
+    let (_, distance_free, distance_over_tangent_free) =
+        alternated_models(&tree, &band_tree, &shell, &free, batch_seconds);
     let times = |contact: f64, free: f64| KernelTimes {
         contact_ns_per_point: contact,
         free_ns_per_point: free,
@@ -241,6 +296,11 @@ fn measure(n: usize, batch_seconds: f64) -> Result<KernelFigure> {
         contact_dense_ns_per_point: dense_ns,
         contact_surface_fraction: sums.surface as f64 / n as f64,
         tree_bytes: tree.memory_bytes(),
+        distance: times(distance_contact, distance_free),
+        distance_over_tangent_contact,
+        distance_over_tangent_free,
+        distance_contact_fraction: band_sums.contacts as f64 / n as f64,
+        distance_band_bytes: band_bytes,
     })
 }
 
@@ -260,5 +320,10 @@ mod tests {
         assert_eq!(sample_all(&dense, &shell, &contact).surface, n as u64);
         let free_sums = sample_all(&dense, &shell, &free);
         assert_eq!(free_sums.surface + free_sums.interior, 0);
+        let tree = VoxelTree::from_dense(&dense, TreeConfig::default()).unwrap();
+        let band = sphere_band(&dense.spec, radius_vox, DEFAULT_STANDOFF_VOXELS).unwrap();
+        let band_tree = tree.with_distance_band(band);
+        assert_eq!(sample_all(&band_tree, &shell, &contact).contacts, n as u64);
+        assert_eq!(sample_all(&band_tree, &shell, &free).non_free, 0);
     }
 }

@@ -57,6 +57,27 @@ struct SparseBench {
     dense_over_sparse_time: f64,
     /// Wider voxels: one run each.
     widths: Vec<WidthBench>,
+    /// The signed-distance band (the `distance` force model, stand-off 1/8 voxel) built on the
+    /// 4-bit map, against that map.
+    distance_band: DistanceBandBench,
+}
+
+/// The distance band's cost beside the 4-bit map it belongs to.
+#[derive(Serialize)]
+struct DistanceBandBench {
+    /// Time to build the band from the 4-bit tree and the triangles (ms).
+    build_ms: f64,
+    /// Bricks (cubes of 8³ voxels stored near the surface).
+    bricks: usize,
+    /// The band's memory (bytes: directory and bricks).
+    band_bytes: usize,
+    /// The 4-bit map's tree memory (bytes).
+    four_bit_tree_bytes: usize,
+    /// (tree + band) over the 4-bit tree alone: the distance voxmap's memory relative to the
+    /// 4-bit map.
+    memory_ratio: f64,
+    /// (4-bit voxelization + band build) over the 4-bit voxelization alone.
+    build_time_ratio: f64,
 }
 
 #[derive(Serialize)]
@@ -193,8 +214,28 @@ pub fn run_voxelize(source: &str, voxel_size: f64, repeat: u32) -> Result<()> {
     let (sparse_tree, sparse_stats) = sparse_last.expect("at least one repetition");
     let sparse_rss = peak_rss_bytes();
     let mut widths = Vec::new();
+    let mut distance_band = None;
     for width in [VoxelWidth::Four, VoxelWidth::Eight] {
         let (tree, stats) = sparse_once(&scene.mesh, voxel_size, width)?;
+        if width == VoxelWidth::Four {
+            let t = Instant::now();
+            let band = vps_voxelize::distance::distance_band(
+                &tree,
+                std::slice::from_ref(&scene.mesh),
+                voxel_size * vps_voxmap::distance::DEFAULT_STANDOFF_VOXELS,
+                vps_voxelize::default_memory_budget(),
+            )?;
+            let build_ms = t.elapsed().as_secs_f64() * 1e3;
+            distance_band = Some(DistanceBandBench {
+                build_ms,
+                bricks: band.brick_count(),
+                band_bytes: band.memory_bytes(),
+                four_bit_tree_bytes: tree.memory_bytes(),
+                memory_ratio: (tree.memory_bytes() + band.memory_bytes()) as f64
+                    / tree.memory_bytes() as f64,
+                build_time_ratio: (stats.total_ms + build_ms) / stats.total_ms,
+            });
+        }
         let layers = tree.layer_counts();
         let count = |k: vps_voxmap::Voxel| layers.iter().filter(|(v, _)| v.kind == k).count();
         widths.push(WidthBench {
@@ -254,6 +295,7 @@ pub fn run_voxelize(source: &str, voxel_size: f64, repeat: u32) -> Result<()> {
             same_tree_as_dense: sparse_tree.content_hash() == tree.content_hash(),
             dense_over_sparse_time: (dense_median + tree_build_ms) / sparse_median,
             widths,
+            distance_band: distance_band.context("the 4-bit run")?,
         },
     };
     print_json(&report)
