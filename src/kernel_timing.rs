@@ -139,29 +139,33 @@ pub fn sphere_band(
     use vps_voxmap::distance::{self, CubeCodes, BRICK_CODES, BRICK_EDGE, CODE_DEEP, CODE_FAR};
     let centre = DVec3::splat(spec.dims[1] as f64 / 2.0);
     let ball = radius_vox + 0.5;
-    Ok(distance::assemble(spec, standoff_voxels * spec.voxel_size, |c| {
-        let mut codes = Box::new([0i8; BRICK_CODES]);
-        for z in 0..BRICK_EDGE {
-            for y in 0..BRICK_EDGE {
-                for x in 0..BRICK_EDGE {
-                    let p = DVec3::new(
-                        f64::from(c[0] * 8) + x as f64 + 0.5,
-                        f64::from(c[1] * 8) + y as f64 + 0.5,
-                        f64::from(c[2] * 8) + z as f64 + 0.5,
-                    );
-                    let d = (p - centre).length() - ball - standoff_voxels;
-                    codes[(z * BRICK_EDGE + y) * BRICK_EDGE + x] = distance::code_of(d, 1.0);
+    Ok(distance::assemble(
+        spec,
+        standoff_voxels * spec.voxel_size,
+        |c| {
+            let mut codes = Box::new([0i8; BRICK_CODES]);
+            for z in 0..BRICK_EDGE {
+                for y in 0..BRICK_EDGE {
+                    for x in 0..BRICK_EDGE {
+                        let p = DVec3::new(
+                            f64::from(c[0] * 8) + x as f64 + 0.5,
+                            f64::from(c[1] * 8) + y as f64 + 0.5,
+                            f64::from(c[2] * 8) + z as f64 + 0.5,
+                        );
+                        let d = (p - centre).length() - ball - standoff_voxels;
+                        codes[(z * BRICK_EDGE + y) * BRICK_EDGE + x] = distance::code_of(d, 1.0);
+                    }
                 }
             }
-        }
-        if codes.iter().all(|&c| c == CODE_FAR) {
-            CubeCodes::Far
-        } else if codes.iter().all(|&c| c == CODE_DEEP) {
-            CubeCodes::Deep
-        } else {
-            CubeCodes::Brick(codes)
-        }
-    })?)
+            if codes.iter().all(|&c| c == CODE_FAR) {
+                CubeCodes::Far
+            } else if codes.iter().all(|&c| c == CODE_DEEP) {
+                CubeCodes::Deep
+            } else {
+                CubeCodes::Brick(codes)
+            }
+        },
+    )?)
 }
 
 #[cfg(test)]

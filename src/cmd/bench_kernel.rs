@@ -15,13 +15,13 @@
 
 use crate::host::load_average;
 use crate::kernel_timing::{band_scene, shell_radius_vox, sphere_band, sphere_shell, VOXEL_SIZE};
-use vps_voxmap::distance::DEFAULT_STANDOFF_VOXELS;
 use anyhow::Result;
 use glam::{DQuat, DVec3};
 use serde::Serialize;
 use std::hint::black_box;
 use std::time::Instant;
 use vps_haptic::{sample_all, ClassedShell, KernelPose, PartState, PartialSums};
+use vps_voxmap::distance::DEFAULT_STANDOFF_VOXELS;
 use vps_voxmap::{GridSpec, VoxelLookup};
 use vps_voxmap::{TreeConfig, VoxelTree};
 

@@ -112,11 +112,9 @@ pub fn dispatch(cli: Cli, matches: &ArgMatches) -> Result<()> {
             BenchKind::Kernel {
                 points, seconds, ..
             } => crate::output::print_json(&bench_kernel::run(&points, seconds)?),
-            BenchKind::Clearance => {
-                crate::output::print_json(&vps_fidelity::clearance::run(
-                    &vps_fidelity::clearance::ClearanceGrid::full(),
-                )?)
-            }
+            BenchKind::Clearance => crate::output::print_json(&vps_fidelity::clearance::run(
+                &vps_fidelity::clearance::ClearanceGrid::full(),
+            )?),
             BenchKind::Fidelity {
                 voxel_sizes,
                 poses,

@@ -181,7 +181,8 @@ impl RemoteShares {
                 .collect(),
             max_depth: {
                 let s = assets.map.spec().voxel_size;
-                let layered = PartialSums::max_contact_depth(s, assets.map.width().surface_layers());
+                let layered =
+                    PartialSums::max_contact_depth(s, assets.map.width().surface_layers());
                 // A map with a distance band pushes by the band's depth at most.
                 assets
                     .map

@@ -17,7 +17,8 @@ fn main() {
             r.clearance_mm,
             if r.entered { "yes" } else { "no" },
             r.deepest_mm,
-            r.min_separation_mm.map_or("-".to_string(), |m| format!("{m:.3}")),
+            r.min_separation_mm
+                .map_or("-".to_string(), |m| format!("{m:.3}")),
             r.penetrating_frames
         );
     }

@@ -158,10 +158,22 @@ fn fixture(h: f64) -> Vec<TriMesh> {
     };
     let half_depth = HOLE_DEPTH / 2.0;
     vec![
-        at(DVec3::new(t / 2.0, h + t, half_depth), DVec3::new(h + t / 2.0, 0.0, zc)),
-        at(DVec3::new(t / 2.0, h + t, half_depth), DVec3::new(-h - t / 2.0, 0.0, zc)),
-        at(DVec3::new(h, t / 2.0, half_depth), DVec3::new(0.0, h + t / 2.0, zc)),
-        at(DVec3::new(h, t / 2.0, half_depth), DVec3::new(0.0, -h - t / 2.0, zc)),
+        at(
+            DVec3::new(t / 2.0, h + t, half_depth),
+            DVec3::new(h + t / 2.0, 0.0, zc),
+        ),
+        at(
+            DVec3::new(t / 2.0, h + t, half_depth),
+            DVec3::new(-h - t / 2.0, 0.0, zc),
+        ),
+        at(
+            DVec3::new(h, t / 2.0, half_depth),
+            DVec3::new(0.0, h + t / 2.0, zc),
+        ),
+        at(
+            DVec3::new(h, t / 2.0, half_depth),
+            DVec3::new(0.0, -h - t / 2.0, zc),
+        ),
         at(
             DVec3::new(h + t, h + t, t / 2.0),
             DVec3::new(0.0, 0.0, -HOLE_DEPTH - t / 2.0),
@@ -204,8 +216,8 @@ fn run_one(
         }
     };
     let exact = ExactScene::new(&walls).map_err(|e| err(e.to_string()))?;
-    let shell = point_shell(&peg.mesh(), s, ShellMethod::ExactSurface)
-        .map_err(|e| err(e.to_string()))?;
+    let shell =
+        point_shell(&peg.mesh(), s, ShellMethod::ExactSurface).map_err(|e| err(e.to_string()))?;
     let classed = ClassedShell::new(&shell, 1);
     let params = HapticParams::default()
         .with_scene(s, shell.max_radius())

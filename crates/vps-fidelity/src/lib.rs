@@ -23,7 +23,9 @@ pub mod clearance;
 pub mod measure;
 pub mod scenes;
 
-pub use measure::{run, FidelityGrid, ForceModel, FidelityReport, SceneFigures, SettingRow, SlideFigures};
+pub use measure::{
+    run, FidelityGrid, FidelityReport, ForceModel, SceneFigures, SettingRow, SlideFigures,
+};
 pub use scenes::SceneKind;
 
 /// Why a benchmark setting could not be built.

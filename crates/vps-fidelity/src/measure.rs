@@ -127,11 +127,15 @@ impl FidelityGrid {
             || self.methods.is_empty()
             || self.models.is_empty()
         {
-            return bad("voxel sizes, widths, methods and models must each list at least one value");
+            return bad(
+                "voxel sizes, widths, methods and models must each list at least one value",
+            );
         }
         if self.models.iter().any(|m| match m {
             ForceModel::TangentPlane => false,
-            ForceModel::Distance { standoff_voxels } => !(0.0..=vps_voxmap::distance::MAX_STANDOFF_VOXELS).contains(standoff_voxels),
+            ForceModel::Distance { standoff_voxels } => {
+                !(0.0..=vps_voxmap::distance::MAX_STANDOFF_VOXELS).contains(standoff_voxels)
+            }
         }) {
             return bad("a distance model's stand-off must be within 0..=0.5 voxels");
         }
@@ -437,7 +441,9 @@ fn measure_setting(
     let all = figures_with_radii("all", &pooled, &pooled_radius);
     let (shallow, deep) = match model {
         ForceModel::TangentPlane => (2.0, 1.0),
-        ForceModel::Distance { standoff_voxels } => (standoff_voxels - 0.0625, standoff_voxels - 0.5),
+        ForceModel::Distance { standoff_voxels } => {
+            (standoff_voxels - 0.0625, standoff_voxels - 0.5)
+        }
     };
     let slide_shallow = slide(grid, model, s, width, method, shallow)?;
     let slide_deep = slide(grid, model, s, width, method, deep)?;

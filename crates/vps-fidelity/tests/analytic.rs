@@ -61,7 +61,10 @@ fn reference_matches_the_analytic_direction() {
 fn row<'a>(rows: &'a [SettingRow], mm: f64, bits: u32, method: &str) -> &'a SettingRow {
     rows.iter()
         .find(|r| {
-            r.model == "tangent-plane" && r.voxel_size_mm == mm && r.bits == bits && r.method == method
+            r.model == "tangent-plane"
+                && r.voxel_size_mm == mm
+                && r.bits == bits
+                && r.method == method
         })
         .unwrap()
 }

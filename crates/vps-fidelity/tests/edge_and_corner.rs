@@ -35,10 +35,21 @@ fn maps() -> (VoxelTree, VoxelTree) {
 
 /// The force direction's angle from +z (degrees) of a 30 mm block turned by `q`, its lowest
 /// shell point `depth` (m) below `top` (m).
-fn angle(map: &VoxelTree, shell: &ClassedShell, body: &[DVec3], q: DQuat, top: f64, depth: f64) -> Option<f64> {
+fn angle(
+    map: &VoxelTree,
+    shell: &ClassedShell,
+    body: &[DVec3],
+    q: DQuat,
+    top: f64,
+    depth: f64,
+) -> Option<f64> {
     let lowest = body.iter().map(|v| (q * *v).z).fold(f64::MAX, f64::min);
     let position = DVec3::new(0.0013, -0.0007, top - depth - lowest);
-    let sums = sample_all(map, shell, &KernelPose::from_state(&PartState::at_rest(position, q)));
+    let sums = sample_all(
+        map,
+        shell,
+        &KernelPose::from_state(&PartState::at_rest(position, q)),
+    );
     let f = sums.depth_normal_si();
     (f.length() > 0.0).then(|| f.angle_between(DVec3::Z).to_degrees())
 }
@@ -63,7 +74,14 @@ fn edge_first_and_corner_first_presses_push_along_the_planes_normal() {
             for depth_voxels in [0.05, 0.1, 0.25] {
                 let d = angle(&band, &classed, &body, q, standoff, depth_voxels * S)
                     .unwrap_or_else(|| panic!("{name} {tilt_deg}°: no distance force"));
-                let tp = angle(&layers, &classed, &body, q, tangent_offset, depth_voxels * S);
+                let tp = angle(
+                    &layers,
+                    &classed,
+                    &body,
+                    q,
+                    tangent_offset,
+                    depth_voxels * S,
+                );
                 println!("{name:6} tilt {tilt_deg:2}° depth {depth_voxels:4} voxel: distance {d:5.2}°, tangent-plane {tp:?}°");
                 assert!(d <= 2.0, "{name} tilt {tilt_deg}°: {d}° off the normal");
                 worst = worst.max(d);

@@ -4,7 +4,9 @@
 //! the rest of the run. No frame may have any shell point beyond the wall's far face.
 
 use glam::{DQuat, DVec3};
-use vps_haptic::{sample_all, step, ClassedShell, HandleSample, HapticParams, KernelPose, PartState};
+use vps_haptic::{
+    sample_all, step, ClassedShell, HandleSample, HapticParams, KernelPose, PartState,
+};
 use vps_mesh::builtin::cuboid;
 use vps_reference::{reference_contact, ExactScene};
 use vps_voxelize::distance::distance_band;
@@ -31,7 +33,9 @@ fn a_part_struck_into_a_thin_wall_never_passes_it() {
     let exact = ExactScene::new(&walls).unwrap();
     let shell = point_shell(&cuboid(DVec3::splat(0.01)), S, ShellMethod::ExactSurface).unwrap();
     let classed = ClassedShell::new(&shell, 1);
-    let params = HapticParams::default().with_scene(S, shell.max_radius()).unwrap();
+    let params = HapticParams::default()
+        .with_scene(S, shell.max_radius())
+        .unwrap();
     for speed in [1.0, 3.0, 10.0] {
         for (name, q) in [
             ("face-on", DQuat::IDENTITY),
@@ -58,7 +62,14 @@ fn a_part_struck_into_a_thin_wall_never_passes_it() {
                     .map(|p| (state.orientation * p.as_dvec3() + state.position).x)
                     .fold(f64::MIN, f64::max);
                 through += usize::from(far > THICKNESS);
-                let r = reference_contact(&exact, &shell.points, state.position, state.orientation, 0.0, S);
+                let r = reference_contact(
+                    &exact,
+                    &shell.points,
+                    state.position,
+                    state.orientation,
+                    0.0,
+                    S,
+                );
                 penetrating += usize::from(r.penetrating_points > 0);
                 deepest = deepest.max(r.max_penetration_m);
             }
@@ -66,8 +77,14 @@ fn a_part_struck_into_a_thin_wall_never_passes_it() {
                 "{speed} m/s {name}: {through} frames through, {penetrating} frames penetrating, deepest {:.3} mm",
                 deepest * 1e3
             );
-            assert_eq!(through, 0, "{speed} m/s {name}: the part went through the wall");
-            assert_eq!(penetrating, 0, "{speed} m/s {name}: a shell point entered the wall");
+            assert_eq!(
+                through, 0,
+                "{speed} m/s {name}: the part went through the wall"
+            );
+            assert_eq!(
+                penetrating, 0,
+                "{speed} m/s {name}: a shell point entered the wall"
+            );
         }
     }
 }

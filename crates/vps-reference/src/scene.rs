@@ -45,6 +45,10 @@ pub struct ExactScene {
     edge_normals: Vec<[DVec3; 3]>,
     vertex_normals: Vec<[DVec3; 3]>,
     objects: Vec<Object>,
+    /// Per triangle: its component is closed and oriented (has an inside).
+    triangle_closed: Vec<bool>,
+    /// Per triangle: its component's index.
+    triangle_component: Vec<u32>,
     top: Bvh,
 }
 
@@ -61,6 +65,8 @@ impl ExactScene {
             edge_normals: Vec::new(),
             vertex_normals: Vec::new(),
             objects: Vec::new(),
+            triangle_closed: Vec::new(),
+            triangle_component: Vec::new(),
             top: Bvh::build(&[]),
         };
         for (index, mesh) in meshes.iter().enumerate() {
@@ -112,8 +118,15 @@ impl ExactScene {
                     .map(|k| at_edge[&edge_key(tri[k], tri[(k + 1) % 3])].normalize_or(faces[t])),
             );
         }
+        self.triangle_closed.resize(self.triangles.len(), false);
+        self.triangle_component.resize(self.triangles.len(), 0);
         for part in parts {
             let triangles: Vec<u32> = part.triangles.iter().map(|&t| t + base).collect();
+            let component = self.objects.len() as u32;
+            for &t in &triangles {
+                self.triangle_closed[t as usize] = part.closed;
+                self.triangle_component[t as usize] = component;
+            }
             let boxes: Vec<Aabb> = triangles
                 .iter()
                 .map(|&t| triangle_bounds(&self.triangles[t as usize]))
@@ -126,6 +139,29 @@ impl ExactScene {
                 closed: part.closed,
             });
         }
+    }
+
+    /// Triangle `t` (global index: the meshes given to [`ExactScene::new`] one after the other,
+    /// each in its own order) as its three corners (m). Panics when `t` is out of range.
+    pub fn triangle(&self, t: u32) -> [DVec3; 3] {
+        self.triangles[t as usize]
+    }
+
+    /// The signed distance from `p` (m) to triangle `t` alone (global index, see
+    /// [`ExactScene::triangle`]): the distance to its closest point, negative when `p` lies behind
+    /// the angle-weighted pseudo-normal of that point's feature and the triangle's component is
+    /// closed. For a `t` that is the nearest triangle of the scene to `p` this is the scene's
+    /// signed distance wherever solids do not overlap. Panics when `t` is out of range. Pure.
+    pub fn signed_to_triangle_at(&self, p: DVec3, t: u32) -> SignedDistance {
+        let (closest, _) = closest_point(p, &self.triangles[t as usize]);
+        self.signed_to_triangle(p, t, closest.distance(p), self.triangle_closed[t as usize])
+    }
+
+    /// The connected component (index, `0..component_count()`) triangle `t` belongs to. The
+    /// scene's signed distance is the minimum over components of the signed distance to each
+    /// component's nearest triangle. Panics when `t` is out of range.
+    pub fn component_of(&self, t: u32) -> u32 {
+        self.triangle_component[t as usize]
     }
 
     /// Triangles in the scene.

@@ -366,9 +366,10 @@ impl VoxelSettings {
     pub fn standoff_at(&self, voxel_size: f64) -> Option<f64> {
         match self.force_model {
             ForceModelName::TangentPlane => None,
-            ForceModelName::Distance => Some(self.standoff.unwrap_or(
-                voxel_size * vps_voxmap::distance::DEFAULT_STANDOFF_VOXELS,
-            )),
+            ForceModelName::Distance => Some(
+                self.standoff
+                    .unwrap_or(voxel_size * vps_voxmap::distance::DEFAULT_STANDOFF_VOXELS),
+            ),
         }
     }
 }

@@ -49,10 +49,11 @@ pub const MAX_STANDOFF_VOXELS: f64 = 0.5;
 /// voxel of clearance a side.
 pub const DEFAULT_STANDOFF_VOXELS: f64 = 0.125;
 
-/// Directory slot value of a cube whose samples are all [`CODE_FAR`].
-const SLOT_FAR: u32 = 0;
+/// Directory slot value of a cube whose samples are all [`CODE_FAR`] (and of any cell outside the
+/// grid, [`DistanceBand::slot_of_cell`]).
+pub const SLOT_FAR: u32 = 0;
 /// Directory slot value of a cube whose samples are all [`CODE_DEEP`].
-const SLOT_DEEP: u32 = 1;
+pub const SLOT_DEEP: u32 = 1;
 /// Brick `k` is stored in slots as `k + BRICK_SLOT_BASE`.
 const BRICK_SLOT_BASE: u32 = 2;
 
@@ -190,13 +191,21 @@ impl BandCell {
     /// True when every corner is [`CODE_FAR`].
     #[inline(always)]
     pub fn all_far(&self) -> bool {
-        self.corners.iter().flatten().flatten().all(|&c| c >= f32::from(CODE_FAR))
+        self.corners
+            .iter()
+            .flatten()
+            .flatten()
+            .all(|&c| c >= f32::from(CODE_FAR))
     }
 
     /// True when every corner is [`CODE_DEEP`].
     #[inline(always)]
     pub fn all_deep(&self) -> bool {
-        self.corners.iter().flatten().flatten().all(|&c| c <= f32::from(CODE_DEEP))
+        self.corners
+            .iter()
+            .flatten()
+            .flatten()
+            .all(|&c| c <= f32::from(CODE_DEEP))
     }
 }
 
@@ -315,6 +324,42 @@ impl DistanceBand {
             SLOT_DEEP => Cube::Deep,
             b => Cube::Brick(b - BRICK_SLOT_BASE),
         }
+    }
+
+    /// The raw directory slot of the cube holding the trilinear cell whose lower corner is the
+    /// sample of voxel `base`: [`SLOT_FAR`] (also outside the grid), [`SLOT_DEEP`], or a brick's
+    /// slot for [`DistanceBand::cell_codes`]. One load; does not allocate or block.
+    #[inline(always)]
+    pub fn slot_of_cell(&self, base: [i32; 3]) -> u32 {
+        let [nx, ny, nz] = self.cube_dims;
+        let c = base.map(|b| b >> 3);
+        if c[0] < 0
+            || c[1] < 0
+            || c[2] < 0
+            || c[0] as u32 >= nx
+            || c[1] as u32 >= ny
+            || c[2] as u32 >= nz
+        {
+            return SLOT_FAR;
+        }
+        self.directory[(c[2] as usize * ny as usize + c[1] as usize) * nx as usize + c[0] as usize]
+    }
+
+    /// The eight codes (`[z][y][x]`) of the trilinear cell whose lower corner is the sample of
+    /// voxel `base`, in the brick of directory slot `slot` (a brick slot that
+    /// [`DistanceBand::slot_of_cell`] returned for the same `base`). Eight loads; does not
+    /// allocate or block.
+    #[inline(always)]
+    pub fn cell_codes(&self, slot: u32, base: [i32; 3]) -> [[[i8; 2]; 2]; 2] {
+        let brick = (slot - BRICK_SLOT_BASE) as usize * BRICK_CODES;
+        let l = base.map(|b| (b & (CUBE_EDGE as i32 - 1)) as usize);
+        let at = brick + (l[2] * BRICK_EDGE + l[1]) * BRICK_EDGE + l[0];
+        let codes = &self.codes[at..at + BRICK_EDGE * BRICK_EDGE + BRICK_EDGE + 2];
+        let get = |x: usize, y: usize, z: usize| codes[(z * BRICK_EDGE + y) * BRICK_EDGE + x];
+        [
+            [[get(0, 0, 0), get(1, 0, 0)], [get(0, 1, 0), get(1, 1, 0)]],
+            [[get(0, 0, 1), get(1, 0, 1)], [get(0, 1, 1), get(1, 1, 1)]],
+        ]
     }
 
     /// The trilinear cell whose lower corner is the sample of voxel `base` (samples sit at voxel
@@ -453,10 +498,17 @@ mod tests {
     fn a_plane_is_interpolated_exactly_with_its_normal() {
         let band = plane_band(0.002);
         let s = spec();
-        for &(x, y, z) in &[(0.031, 0.052, 0.047), (0.1234, 0.02, 0.04), (0.07, 0.07, 0.0501)] {
+        for &(x, y, z) in &[
+            (0.031, 0.052, 0.047),
+            (0.1234, 0.02, 0.04),
+            (0.07, 0.07, 0.0501),
+        ] {
             let e = band.standoff_distance_at(&s, DVec3::new(x, y, z)).unwrap();
             // Quantisation: half a code, s / 128.
-            assert!((e - (z - 0.045 - 0.002)).abs() <= s.voxel_size / 128.0 + 1e-9, "{e}");
+            assert!(
+                (e - (z - 0.045 - 0.002)).abs() <= s.voxel_size / 128.0 + 1e-9,
+                "{e}"
+            );
         }
         let t = DVec3::new(3.3, 4.1, 3.9);
         let base = t.floor();

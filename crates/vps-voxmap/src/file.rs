@@ -30,9 +30,9 @@
 //! ([`crate::atomic`]): a failed save leaves no truncated file.
 
 use crate::atomic::{write_atomically, AtomicStage};
+use crate::distance;
 use crate::shell::ShellMethod;
 use crate::tree::{Arenas, TreeConfig, TreeError, VoxelTree};
-use crate::distance;
 use crate::{DistanceBand, GridSpec, MassProperties, PointShell, VoxelWidth};
 use glam::{DVec3, Vec3};
 use std::fs::File;

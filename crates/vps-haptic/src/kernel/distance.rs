@@ -18,12 +18,15 @@
 //! The same fixed point and the same accumulator as the tangent-plane loop (module docs of
 //! `kernel`): each contribution is computed in f32 with basic IEEE operations in a fixed order and
 //! rounded to the sums' LSB at once, so any split of the shell gives the same sums bit for bit.
-//! Portable lane code only (no AVX copy yet). No allocation, no locks, no I/O.
+//! Portable lane code, compiled a second time with AVX2 enabled where the CPU has it (the same
+//! operations, so the same bits). No allocation, no locks, no I/O.
 
 use super::{add3_fixed, brake_block, load, ClassAccumulator, GridFrame, Soa, CHUNK_BLOCKS};
 use crate::lanes::{cross, floor_i32, mat_vec, scale, scale_add, F32s, Vec3s, LANES};
 use crate::sums::PartialSums;
-use vps_voxmap::distance::{CellLookup, DistanceBand, BAND_VOXELS};
+use vps_voxmap::distance::{
+    DistanceBand, BAND_VOXELS, CODES_PER_VOXEL, CODE_DEEP, CODE_FAR, SLOT_DEEP, SLOT_FAR,
+};
 
 /// Shortest gradient (per voxel, 1 for an exact distance field) whose direction is trusted; below
 /// it the point's own normal is used.
@@ -40,6 +43,39 @@ pub(super) fn accumulate(
     normals: Soa,
     sums: &mut PartialSums,
 ) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2 (checked just above).
+        return unsafe { accumulate_avx2(band, frame, points, normals, sums) };
+    }
+    accumulate_any(band, frame, points, normals, sums)
+}
+
+/// [`accumulate_any`] compiled with AVX2 enabled (wider lane loops; the same IEEE operations, so
+/// the same bits).
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn accumulate_avx2(
+    band: &DistanceBand,
+    frame: &GridFrame,
+    points: Soa,
+    normals: Soa,
+    sums: &mut PartialSums,
+) {
+    accumulate_any(band, frame, points, normals, sums)
+}
+
+#[inline(always)]
+fn accumulate_any(
+    band: &DistanceBand,
+    frame: &GridFrame,
+    points: Soa,
+    normals: Soa,
+    sums: &mut PartialSums,
+) {
     if frame.needs_clamp {
         accumulate_lanes::<true>(band, frame, points, normals, sums)
     } else {
@@ -47,6 +83,7 @@ pub(super) fn accumulate(
     }
 }
 
+#[inline(always)]
 fn accumulate_lanes<const CLAMP: bool>(
     band: &DistanceBand,
     frame: &GridFrame,
@@ -61,29 +98,32 @@ fn accumulate_lanes<const CLAMP: bool>(
         .map(|a| a.len())
         .min()
         .unwrap_or(0);
+    // Full blocks with the block length a constant (so that loading a block is a fixed-size
+    // copy), flushed every chunk; then the zero-padded tail block.
+    let full = n - n % LANES;
     let chunk = CHUNK_BLOCKS * LANES;
     let mut begin = 0;
-    while begin < n {
-        let end = (begin + chunk).min(n);
+    while begin < full {
+        let end = (begin + chunk).min(full);
         for start in (begin..end).step_by(LANES) {
-            let valid = (end - start).min(LANES);
-            sample_block::<CLAMP>(band, frame, points, normals, start, valid, &mut acc);
+            sample_block::<CLAMP>(band, frame, points, normals, start, LANES, &mut acc);
         }
         acc.flush(sums);
         begin = end;
     }
+    if full < n {
+        sample_block::<CLAMP>(band, frame, points, normals, full, n - full, &mut acc);
+    }
     acc.finish_into(sums);
 }
 
-/// What one lane found in the band.
-#[derive(Clone, Copy, PartialEq)]
-enum Found {
-    Far,
-    Deep,
-    /// `e` (voxels) and the gradient.
-    Near(f32, [f32; 3]),
-}
+/// Codes of one trilinear cell per lane: `corners[z][y][x][lane]`.
+type Corners = [[[F32s; 2]; 2]; 2];
 
+/// One block of `valid ≤ LANES` points: transform, cell lookup per lane, then the band arithmetic
+/// for all lanes at once (lane loops the compiler vectorises; lanes outside the band masked to
+/// zero by selection, never by multiplication, so a non-finite value in a masked lane cannot
+/// reach the sums).
 #[inline(always)]
 fn sample_block<const CLAMP: bool>(
     band: &DistanceBand,
@@ -104,68 +144,110 @@ fn sample_block<const CLAMP: bool>(
         }
     }
     let base = [floor_i32(&t[0]), floor_i32(&t[1]), floor_i32(&t[2])];
-    let mut found = [Found::Far; LANES];
-    let mut any = false;
-    for (l, slot) in found.iter_mut().enumerate().take(valid) {
-        let b = [base[0][l], base[1][l], base[2][l]];
-        *slot = match band.cell(b) {
-            CellLookup::Far => continue,
-            CellLookup::Deep => Found::Deep,
-            CellLookup::Near(cell) => {
-                if cell.all_far() {
-                    continue;
-                }
-                if cell.all_deep() {
-                    Found::Deep
-                } else {
-                    let f = [0, 1, 2].map(|a| t[a][l] - b[a] as f32);
-                    let (e, g) = cell.value_and_gradient(f);
-                    if e >= BAND_VOXELS {
-                        continue;
-                    }
-                    Found::Near(e, g)
-                }
-            }
-        };
-        any = true;
+    // The directory slot of each lane's cube (lanes past `valid` and outside the grid: far):
+    // cube indices and the range test as lane arithmetic, then one load per lane in range.
+    let [nx, ny, nz] = band.cube_dims();
+    let mut index = [0u32; LANES];
+    let mut inside = [false; LANES];
+    for l in 0..LANES {
+        let c = [base[0][l] >> 3, base[1][l] >> 3, base[2][l] >> 3];
+        inside[l] = l < valid && (c[0] as u32) < nx && (c[1] as u32) < ny && (c[2] as u32) < nz;
+        index[l] = ((c[2] as u32).wrapping_mul(ny).wrapping_add(c[1] as u32))
+            .wrapping_mul(nx)
+            .wrapping_add(c[0] as u32);
     }
-    if !any {
+    if !inside.iter().any(|&i| i) {
         return;
     }
+    let directory = band.directory();
+    let slots: [u32; LANES] = std::array::from_fn(|l| {
+        if inside[l] {
+            directory
+                .get(index[l] as usize)
+                .copied()
+                .unwrap_or(SLOT_FAR)
+        } else {
+            SLOT_FAR
+        }
+    });
+    if slots.iter().all(|&s| s == SLOT_FAR) {
+        return;
+    }
+    let mut corners: Corners = [[[[f32::from(CODE_FAR); LANES]; 2]; 2]; 2];
+    let mut deep_slot = [false; LANES];
+    for l in 0..LANES {
+        match slots[l] {
+            SLOT_FAR => {}
+            SLOT_DEEP => deep_slot[l] = true,
+            slot => {
+                let codes = band.cell_codes(slot, [base[0][l], base[1][l], base[2][l]]);
+                for (z, plane) in codes.iter().enumerate() {
+                    for (y, row) in plane.iter().enumerate() {
+                        for (x, &c) in row.iter().enumerate() {
+                            corners[z][y][x][l] = f32::from(c);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let mut f = [[0.0f32; LANES]; 3];
+    for a in 0..3 {
+        for l in 0..LANES {
+            f[a][l] = t[a][l] - base[a][l] as f32;
+        }
+    }
+    let (e, gradient) = value_and_gradient(&corners, &f);
+    let far_code = f32::from(CODE_FAR);
+    let deep_code = f32::from(CODE_DEEP);
     let part_normal = mat_vec(&frame.rotation, &load(normals, start, valid));
-    // Per lane: the push direction and depth (2^-40 m), and the braking lanes.
     let mut direction: Vec3s = [[0.0; LANES]; 3];
     let mut depth: F32s = [0.0; LANES];
     let mut braking = [false; LANES];
-    let mut pushing = false;
+    let (mut surface, mut interior, mut near) = (0u64, 0u64, 0u64);
     for l in 0..LANES {
-        let own = [part_normal[0][l], part_normal[1][l], part_normal[2][l]];
-        let (dir, d) = match found[l] {
-            Found::Far => continue,
-            Found::Deep => {
-                acc.non_free += 1;
-                acc.interior += 1;
-                (own, BAND_VOXELS)
-            }
-            Found::Near(e, g) => {
-                acc.non_free += 1;
-                let dir = scene_normal(g).unwrap_or(own);
-                if e < 0.0 {
-                    acc.surface += 1;
-                    (dir, -e)
-                } else {
-                    braking[l] = e < BRAKE_RANGE_VOXELS;
-                    (dir, 0.0)
+        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+        for plane in &corners {
+            for row in plane {
+                for corner in row {
+                    lo = lo.min(corner[l]);
+                    hi = hi.max(corner[l]);
                 }
             }
-        };
-        for a in 0..3 {
-            direction[a][l] = dir[a];
         }
-        depth[l] = d * frame.voxel_q;
-        pushing |= d > 0.0;
+        let deep = deep_slot[l] || hi <= deep_code;
+        let in_band = !deep && lo < far_code && e[l] < BAND_VOXELS;
+        let len_sq = (gradient[0][l] * gradient[0][l] + gradient[1][l] * gradient[1][l])
+            + gradient[2][l] * gradient[2][l];
+        let trusted = len_sq >= MIN_GRADIENT * MIN_GRADIENT;
+        let inv = 1.0 / len_sq.sqrt();
+        let contact = in_band && e[l] < 0.0;
+        braking[l] = in_band && e[l] >= 0.0 && e[l] < BRAKE_RANGE_VOXELS;
+        let own = !trusted || deep;
+        for a in 0..3 {
+            let scene = gradient[a][l] * inv;
+            let d = if own { part_normal[a][l] } else { scene };
+            direction[a][l] = if contact || braking[l] || deep {
+                d
+            } else {
+                0.0
+            };
+        }
+        depth[l] = if contact {
+            -e[l] * frame.voxel_q
+        } else if deep {
+            BAND_VOXELS * frame.voxel_q
+        } else {
+            0.0
+        };
+        surface += u64::from(contact);
+        interior += u64::from(deep);
+        near += u64::from(in_band || deep);
     }
-    if pushing {
+    acc.surface += surface;
+    acc.interior += interior;
+    acc.non_free += near;
+    if surface + interior > 0 {
         acc.contacts += depth.iter().filter(|&&d| d > 0.0).count() as u64;
         let force_dir = scale(&direction, &depth);
         add3_fixed::<CLAMP>(&mut acc.depth_normal, &force_dir);
@@ -177,14 +259,31 @@ fn sample_block<const CLAMP: bool>(
     }
 }
 
-/// The unit direction of gradient `g`, or `None` when it is shorter than [`MIN_GRADIENT`].
+/// `e` (voxels) and its gradient per lane: the trilinear interpolation of
+/// [`vps_voxmap::distance::BandCell::value_and_gradient`], lane by lane, with the same operations
+/// in the same order.
 #[inline(always)]
-fn scene_normal(g: [f32; 3]) -> Option<[f32; 3]> {
-    let len_sq = (g[0] * g[0] + g[1] * g[1]) + g[2] * g[2];
-    if len_sq >= MIN_GRADIENT * MIN_GRADIENT {
-        let inv = 1.0 / len_sq.sqrt();
-        Some([g[0] * inv, g[1] * inv, g[2] * inv])
-    } else {
-        None
+fn value_and_gradient(c: &Corners, f: &Vec3s) -> (F32s, Vec3s) {
+    let mut value = [0.0; LANES];
+    let mut gradient = [[0.0; LANES]; 3];
+    let q = 1.0 / CODES_PER_VOXEL;
+    for l in 0..LANES {
+        let (fx, fy, fz) = (f[0][l], f[1][l], f[2][l]);
+        let (gx, gy, gz) = (1.0 - fx, 1.0 - fy, 1.0 - fz);
+        let x00 = c[0][0][0][l] * gx + c[0][0][1][l] * fx;
+        let x10 = c[0][1][0][l] * gx + c[0][1][1][l] * fx;
+        let x01 = c[1][0][0][l] * gx + c[1][0][1][l] * fx;
+        let x11 = c[1][1][0][l] * gx + c[1][1][1][l] * fx;
+        let y0 = x00 * gy + x10 * fy;
+        let y1 = x01 * gy + x11 * fy;
+        value[l] = (y0 * gz + y1 * fz) * q;
+        let d00 = c[0][0][1][l] - c[0][0][0][l];
+        let d10 = c[0][1][1][l] - c[0][1][0][l];
+        let d01 = c[1][0][1][l] - c[1][0][0][l];
+        let d11 = c[1][1][1][l] - c[1][1][0][l];
+        gradient[0][l] = ((d00 * gy + d10 * fy) * gz + (d01 * gy + d11 * fy) * fz) * q;
+        gradient[1][l] = ((x10 - x00) * gz + (x11 - x01) * fz) * q;
+        gradient[2][l] = (y1 - y0) * q;
     }
+    (value, gradient)
 }

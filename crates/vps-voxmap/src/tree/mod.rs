@@ -23,17 +23,17 @@ pub use config::TreeConfig;
 pub use directory::{DIRECTORY_ALLOWANCE_BYTES, DIRECTORY_MAX_BYTES};
 pub use error::TreeError;
 
+use crate::DistanceBand;
 use crate::{
     BlockCells, DenseGrid, GridSpec, LayeredVoxel, LookupTask, Voxel, VoxelBlock, VoxelLookup,
     VoxelWidth, WideBlockCells, WideVoxelBlock, BLOCK_LANES, WIDE_BLOCK_LANES,
 };
 use directory::LeafDirectory;
-use crate::DistanceBand;
 use glam::{IVec3, UVec3};
 use internal::InternalLevel;
-use std::sync::Arc;
 use leaf::LeafShape;
 use root::RootGrid;
+use std::sync::Arc;
 
 /// A voxmap stored as a fixed-depth tree: root grid → upper node → lower node → leaf, holding
 /// [`VoxelWidth`] bits per voxel (2: the kind only; 4 or 8: kind and distance layer, see
