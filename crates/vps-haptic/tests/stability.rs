@@ -107,9 +107,53 @@ fn decay_time(params: &HapticParams) -> f64 {
     (params.mass / params.gains().k_t).sqrt()
 }
 
-/// Simulates `duration` s of the cube against the wall from `start` (at rest), the handle following
-/// `handle_z(t) -> (z, v_z)`; the settle window is the last `window` s.
+/// Which force model a grid run uses.
+#[derive(Clone, Copy, PartialEq)]
+enum Model {
+    /// The paper's, on the voxel layers of [`half_space`].
+    TangentPlane,
+    /// The signed-distance band of [`half_space_band`] (stand-off 1/8 voxel).
+    Distance,
+}
+
+/// The `distance` model's stand-off in the grid (m): the default, an eighth of a voxel.
+const STANDOFF: f64 = S / 8.0;
+
+/// Simulates `duration` s of the cube against the wall of `model` from `start` (at rest), the
+/// handle following `handle_z(t) -> (z, v_z)`; the settle window is the last `window` s.
 fn simulate(
+    model: Model,
+    params: &HapticParams,
+    shell: &vps_voxmap::PointShell,
+    start_z: f64,
+    duration: f64,
+    window: f64,
+    handle_z: impl Fn(f64) -> (f64, f64),
+) -> Run {
+    match model {
+        Model::TangentPlane => simulate_on(
+            &half_space(),
+            params,
+            shell,
+            start_z,
+            duration,
+            window,
+            handle_z,
+        ),
+        Model::Distance => simulate_on(
+            &half_space_band(STANDOFF),
+            params,
+            shell,
+            start_z,
+            duration,
+            window,
+            handle_z,
+        ),
+    }
+}
+
+fn simulate_on<L: vps_voxmap::VoxelLookup>(
+    map: &L,
     params: &HapticParams,
     shell: &vps_voxmap::PointShell,
     start_z: f64,
@@ -119,7 +163,6 @@ fn simulate(
 ) -> Run {
     let classed = ClassedShell::new(shell, 1);
     let per_point = ClassedShell::new(shell, shell.len() as u32);
-    let map = half_space();
     let mut state = PartState::at_rest(DVec3::new(OFF, OFF, start_z), DQuat::IDENTITY);
     let steps = (duration / params.dt).round() as usize;
     let window_steps = (window / params.dt).round() as usize;
@@ -135,7 +178,7 @@ fn simulate(
         let t = i as f64 * params.dt;
         let (z, vz) = handle_z(t);
         let handle = handle_at(DVec3::new(OFF, OFF, z), DVec3::new(0.0, 0.0, vz));
-        let f = frame(params, &map, &classed, &state, &handle);
+        let f = frame(params, map, &classed, &state, &handle);
         let d = f.device_wrench;
         out.finite &= d.force.is_finite()
             && d.torque.is_finite()
@@ -147,7 +190,7 @@ fn simulate(
         state = f.next_state;
         out.through |= state.position.z < -0.01;
         if i + window_steps >= steps {
-            let e = energy(params, &map, &per_point, &state, &handle);
+            let e = energy(params, map, &per_point, &state, &handle);
             let e0 = *e_start.get_or_insert(e);
             out.energy_rise = out.energy_rise.max(e - e0);
             out.late_speed = out.late_speed.max(
@@ -164,17 +207,22 @@ fn simulate(
 /// yet) and the handle held 20 mm below, the spring at its clamp. It runs for 0.5 s plus 25 decay
 /// times (the envelope falls by e^-25 at full damping; the coupling damper is masked while the part
 /// moves away from the handle at the clamp, so count on half), settle window the last fifth.
-fn rest_on_wall(params: &HapticParams, shell: &vps_voxmap::PointShell) -> Run {
+/// With the distance model the cube starts with its bottom face at the stand-off (no force yet).
+fn rest_on_wall(model: Model, params: &HapticParams, shell: &vps_voxmap::PointShell) -> Run {
     let duration = 0.5 + 25.0 * decay_time(params);
-    simulate(params, shell, 0.0095, duration, 0.2 * duration, |_| {
+    let start_z = match model {
+        Model::TangentPlane => 0.0095,
+        Model::Distance => 0.01 + STANDOFF,
+    };
+    simulate(model, params, shell, start_z, duration, 0.2 * duration, |_| {
         (-0.01, 0.0)
     })
 }
 
 /// The approach: the cube starts 10 mm above the wall, the handle descends at 0.1 m/s for 0.3 s to
 /// 10 mm below the surface and is then held; 1 s in all. Asserted: finite and never through.
-fn push_into_wall(params: &HapticParams, shell: &vps_voxmap::PointShell) -> Run {
-    simulate(params, shell, 0.02, 1.0, 0.3, |t| {
+fn push_into_wall(model: Model, params: &HapticParams, shell: &vps_voxmap::PointShell) -> Run {
+    simulate(model, params, shell, 0.02, 1.0, 0.3, |t| {
         if t < 0.3 {
             (0.02 - 0.1 * t, -0.1)
         } else {
@@ -198,6 +246,18 @@ fn braking_transit_time(params: &HapticParams) -> f64 {
 /// is written to `target/stability-grid.md`.
 #[test]
 fn parameter_grid_stays_finite() {
+    run_grid(Model::TangentPlane, "stability-grid.md");
+}
+
+/// The same grid with the `distance` force model (the wall as a signed-distance band, stand-off
+/// 1/8 voxel): the same assertions (finite, never through, every cell with index < 1 settles);
+/// the table goes to `target/stability-grid-distance.md`.
+#[test]
+fn parameter_grid_settles_with_the_distance_model() {
+    run_grid(Model::Distance, "stability-grid-distance.md");
+}
+
+fn run_grid(model: Model, file_name: &str) {
     let shell = cube();
     let base = params_for(&shell);
     let k_ffs = [10.0, 1e2, 1e3, 1e4, 1e5, 1e6];
@@ -229,6 +289,17 @@ fn parameter_grid_stays_finite() {
          braking, and the index says nothing about the approach).\n\n\
          Produced by `cargo test -p vps-haptic --test stability parameter_grid -- --nocapture`.\n\n",
     );
+    if model == Model::Distance {
+        table = table.replacen(
+            "# Stability grid (vps-haptic `parameter_grid_stays_finite`)",
+            "# Stability grid, distance model (vps-haptic \
+             `parameter_grid_settles_with_the_distance_model`)\n\n\
+             The wall is a signed-distance band of the plane z = 0 with a stand-off of 1/8 voxel \
+             (0.625 mm), and the resting cube starts with its bottom face at the stand-off. \
+             Everything else as in the tangent-plane grid described below.",
+            1,
+        );
+    }
     table.push_str("| mass (kg) | dt (ms) |");
     for k in k_ffs {
         table.push_str(&format!(" K_ff {k:e} N/m |"));
@@ -251,14 +322,15 @@ fn parameter_grid_stays_finite() {
                 let index = p.stability().worst();
                 let cell = format!("mass {mass} dt {dt} K_ff {k_ff} (index {index:.2})");
                 let rest = rest_on_wall(
+                    model,
                     &HapticParams {
                         braking: false,
                         ..p
                     },
                     &shell,
                 );
-                let rest_braked = rest_on_wall(&p, &shell);
-                let approach = push_into_wall(&p, &shell);
+                let rest_braked = rest_on_wall(model, &p, &shell);
+                let approach = push_into_wall(model, &p, &shell);
                 for (what, r) in [
                     ("rest", &rest),
                     ("rest braked", &rest_braked),
@@ -311,7 +383,7 @@ fn parameter_grid_stays_finite() {
         .map(std::path::PathBuf::from)
         .unwrap_or_else(|_| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target"));
     std::fs::create_dir_all(&target).unwrap();
-    std::fs::write(target.join("stability-grid.md"), &table).unwrap();
+    std::fs::write(target.join(file_name), &table).unwrap();
     println!("{table}");
     assert!(failures.is_empty(), "{failures:#?}");
 }

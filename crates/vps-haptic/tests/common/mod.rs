@@ -7,7 +7,9 @@ use vps_haptic::{
 };
 pub use vps_testkit::scene::fill_layer;
 use vps_voxmap::shell::ShellMethod;
-use vps_voxmap::{DenseGrid, GridSpec, MassProperties, PointShell, Voxel};
+use vps_voxmap::{
+    DenseGrid, GridSpec, MassProperties, PointShell, TreeConfig, Voxel, VoxelLookup, VoxelTree,
+};
 
 /// Voxel size of the fixtures (m).
 pub const S: f64 = 0.005;
@@ -78,6 +80,32 @@ pub fn half_space() -> DenseGrid {
     g
 }
 
+/// [`half_space`] as a tree carrying a signed-distance band of the plane z = 0 (the top of its
+/// force layer taken as the exact surface) with a stand-off of `standoff` (m), computed
+/// analytically: the `distance` force model's counterpart of the same wall.
+pub fn half_space_band(standoff: f64) -> VoxelTree {
+    use vps_voxmap::distance::{self, CubeCodes, BRICK_CODES, BRICK_EDGE, CODE_DEEP, CODE_FAR};
+    let tree = VoxelTree::from_dense(&half_space(), TreeConfig::default()).unwrap();
+    let spec = *tree.spec();
+    let band = distance::assemble(&spec, standoff, |c| {
+        let mut codes = Box::new([0i8; BRICK_CODES]);
+        for z in 0..BRICK_EDGE {
+            let zc = spec.origin.z + (f64::from(c[2] * 8) + z as f64 + 0.5) * S;
+            let code = distance::code_of(zc - standoff, S);
+            codes[z * BRICK_EDGE * BRICK_EDGE..(z + 1) * BRICK_EDGE * BRICK_EDGE].fill(code);
+        }
+        if codes.iter().all(|&c| c == CODE_FAR) {
+            CubeCodes::Far
+        } else if codes.iter().all(|&c| c == CODE_DEEP) {
+            CubeCodes::Deep
+        } else {
+            CubeCodes::Brick(codes)
+        }
+    })
+    .unwrap();
+    tree.with_distance_band(band)
+}
+
 /// A thin plate (2 mm thick, voxelized at 5 mm into one Surface layer, then offset by two layers
 /// as docs/architecture.md#voxmaps-and-point-shells describes): Proximity, Surface, Interior ×3, Surface, Proximity for k = 16..=22.
 /// The plate's mid-plane is the centre of voxel k = 19, z = −0.0025; the layers span
@@ -113,9 +141,9 @@ pub fn handle_at(position: DVec3, velocity: DVec3) -> HandleSample {
 }
 
 /// One full frame: sample the whole shell at `state`, then step.
-pub fn frame(
+pub fn frame<L: VoxelLookup>(
     params: &HapticParams,
-    map: &DenseGrid,
+    map: &L,
     shell: &ClassedShell,
     state: &PartState,
     handle: &HandleSample,
@@ -126,9 +154,9 @@ pub fn frame(
 
 /// Energy of the part-coupling-field system (J): kinetic + clamped-spring potential + the field
 /// potential `scale · K_ff Σ d_i² / 2` (per-point depths from a one-point-per-class shell).
-pub fn energy(
+pub fn energy<L: VoxelLookup>(
     params: &HapticParams,
-    map: &DenseGrid,
+    map: &L,
     per_point: &ClassedShell,
     state: &PartState,
     handle: &HandleSample,
