@@ -12,6 +12,7 @@ use rayon::prelude::*;
 use std::hint::black_box;
 use std::time::Instant;
 use vps_haptic::{sample_all, ClassedShell, KernelPose, PartState};
+use vps_voxmap::distance::DEFAULT_STANDOFF_VOXELS;
 use vps_voxmap::{DenseGrid, GridSpec, MassProperties, PointShell, TreeConfig, Voxel, VoxelTree};
 
 /// Voxel size of the synthetic scene (m); only the counts matter to the kernel.
@@ -26,13 +27,20 @@ pub const MAX_TIMED_POINTS: usize = 200_000;
 
 /// Nanoseconds per point of the current kernel in full contact with `points` points (clamped to
 /// 1..=[`MAX_TIMED_POINTS`]), the median of [`BATCHES`] batches of about `batch_seconds` (s)
-/// each. Allocates the synthetic scene (about 8 bytes per point of voxmap); blocks for about
-/// `(BATCHES + 1) × batch_seconds`.
-pub fn contact_ns_per_point(points: usize, batch_seconds: f64) -> Result<f64> {
+/// each; with `distance`, of the `distance` force model (the same sphere carrying a
+/// signed-distance band, [`sphere_band`]). Allocates the synthetic scene (about 8 bytes per point
+/// of voxmap); blocks for about `(BATCHES + 1) × batch_seconds`.
+pub fn contact_ns_per_point(points: usize, batch_seconds: f64, distance: bool) -> Result<f64> {
     let n = points.clamp(1, MAX_TIMED_POINTS);
     let radius_vox = shell_radius_vox(n);
     let dense = band_scene(radius_vox, false);
     let tree = VoxelTree::from_dense(&dense, TreeConfig::default())?;
+    let tree = if distance {
+        let band = sphere_band(&dense.spec, radius_vox, DEFAULT_STANDOFF_VOXELS)?;
+        tree.with_distance_band(band)
+    } else {
+        tree
+    };
     let shell = ClassedShell::new(&sphere_shell(n, radius_vox * VOXEL_SIZE), 1);
     let centre = dense.spec.origin + DVec3::splat(dense.spec.dims[0] as f64 / 2.0) * VOXEL_SIZE;
     let pose = KernelPose::from_state(&PartState::at_rest(centre, DQuat::IDENTITY));
@@ -183,6 +191,7 @@ mod tests {
         let centre = DVec3::splat(dense.spec.dims[0] as f64 / 2.0) * VOXEL_SIZE;
         let pose = KernelPose::from_state(&PartState::at_rest(centre, DQuat::IDENTITY));
         assert_eq!(sample_all(&tree, &shell, &pose).surface, n as u64);
-        assert!(contact_ns_per_point(n, 0.001).unwrap() > 0.0);
+        assert!(contact_ns_per_point(n, 0.001, false).unwrap() > 0.0);
+        assert!(contact_ns_per_point(n, 0.001, true).unwrap() > 0.0);
     }
 }

@@ -385,29 +385,42 @@ fn scene_check_names_the_settings_left_to_the_defaults() {
     );
 }
 
-/// docs/scenes.md "Clearances": the example peg (20 mm) enters its 22 mm hole with
-/// `offset_layers = 0` and stops on the rim with the default 2, whose force layer closes the 1 mm
-/// gap at 1 mm voxels; neither penetrates.
+/// docs/scenes.md "Clearances": the example peg (20 mm) enters its 22 mm hole with the distance
+/// model as shipped (stand-off 1/8 voxel) and with the tangent-plane model at `offset_layers = 0`,
+/// and stops on the rim with the tangent-plane default of 2, whose force layer closes the 1 mm gap
+/// at 1 mm voxels; none penetrates.
 #[test]
-fn the_peg_enters_its_hole_only_without_offset_layers() {
+fn the_peg_enters_its_hole_with_the_distance_model_or_without_offset_layers() {
     let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
     let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
     let text = std::fs::read_to_string(example.join("peg-in-hole.toml")).unwrap();
     for file in ["peg.obj", "peg-fixture.stl"] {
         std::fs::copy(example.join(file), vps.dir().join(file)).unwrap();
     }
-    let final_z = |offset: u32| {
-        let name = format!("peg-{offset}.toml");
-        let edited = text.replace("offset_layers = 0", &format!("offset_layers = {offset}"));
+    assert!(text.contains("force_model = \"distance\"\n"));
+    let final_z = |offset: Option<u32>| {
+        let name = format!("peg-{offset:?}.toml");
+        let edited = match offset {
+            None => text.clone(),
+            Some(offset) => text.replace(
+                "force_model = \"distance\"\n",
+                &format!("offset_layers = {offset}\n"),
+            ),
+        };
         std::fs::write(vps.dir().join(&name), edited).unwrap();
         let scene = vps.path(&name);
         let report = json(&vps.run(&["run", "--scene", &scene, "--seconds", "4", "--json"]));
         assert_eq!(report["stats"]["penetrating_frames"], 0, "{report}");
         report["final_position_m"][2].as_f64().unwrap()
     };
-    let inside = final_z(0);
+    let distance = final_z(None);
+    assert!(
+        (distance - 0.05).abs() < 0.002,
+        "distance model: z {distance}"
+    );
+    let inside = final_z(Some(0));
     assert!((inside - 0.05).abs() < 0.002, "offset 0: z {inside}");
-    let on_rim = final_z(2);
+    let on_rim = final_z(Some(2));
     // The block's top is at 0.04 m and the grip 0.03 m above the peg's bottom.
     assert!(on_rim > 0.07, "offset 2: z {on_rim}");
 }

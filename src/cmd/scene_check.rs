@@ -144,8 +144,11 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
     let width = loaded.width()?;
     let estimate = loaded.plan_voxmap(voxels.voxel_size, width)?;
     let shell = loaded.build_shell(voxels.voxel_size, voxels.shell_method.method())?;
-    let ns_per_point =
-        crate::kernel_timing::contact_ns_per_point(shell.len().max(1), KERNEL_BATCH_SECONDS)?;
+    let ns_per_point = crate::kernel_timing::contact_ns_per_point(
+        shell.len().max(1),
+        KERNEL_BATCH_SECONDS,
+        voxels.standoff_at(voxels.voxel_size).is_some(),
+    )?;
     let set = voxels.set_in_file;
     let voxels_report = VoxelsReport {
         voxel_size_m: setting(voxels.voxel_size, set.voxel_size),

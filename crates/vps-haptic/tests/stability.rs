@@ -214,9 +214,15 @@ fn rest_on_wall(model: Model, params: &HapticParams, shell: &vps_voxmap::PointSh
         Model::TangentPlane => 0.0095,
         Model::Distance => 0.01 + STANDOFF,
     };
-    simulate(model, params, shell, start_z, duration, 0.2 * duration, |_| {
-        (-0.01, 0.0)
-    })
+    simulate(
+        model,
+        params,
+        shell,
+        start_z,
+        duration,
+        0.2 * duration,
+        |_| (-0.01, 0.0),
+    )
 }
 
 /// The approach: the cube starts 10 mm above the wall, the handle descends at 0.1 m/s for 0.3 s to
