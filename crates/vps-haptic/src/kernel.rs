@@ -104,7 +104,10 @@ pub(crate) fn sample_class_on<L: VoxelLookup>(
                 &shell.nz[range],
             ];
             match map.distance_band() {
-                Some(band) => distance::accumulate(band, &frame, points, normals, &mut sums),
+                Some(band) => {
+                    let standoff_voxels = (band.standoff_m() / map.spec().voxel_size) as f32;
+                    distance::accumulate(band, standoff_voxels, &frame, points, normals, &mut sums)
+                }
                 None => accumulate(map, &frame, points, normals, &mut sums, widest),
             }
         }

@@ -4,7 +4,8 @@
 //! Per point `P` (grid coordinates `g`): the band's trilinear cell around `g` gives
 //! `e = d − standoff` (voxels; `d` the signed distance to the scene's exact surface, the stand-off
 //! baked into the band) and its gradient, whose direction `n` is the scene's outward normal.
-//! - `e < 0`: a contact; pushes with depth `−e · s` along `n` (counted as Surface).
+//! - `e < 0`: a contact; pushes with depth `−e · s` along `n` (counted as Surface, or as Interior
+//!   when `d < 0`, i.e. the point is inside the exact surface: `e < −standoff`).
 //! - deeper than the band (every corner saturated deep, or a cube stored as deep): pushes with the
 //!   band's depth ([`vps_voxmap::distance::BAND_VOXELS`] voxels) along the point's own normal `N`
 //!   (no scene normal is stored there; counted as Interior).
@@ -38,6 +39,7 @@ const BRAKE_RANGE_VOXELS: f32 = 1.0;
 /// Adds the sums of one class's points against `band` to `sums`.
 pub(super) fn accumulate(
     band: &DistanceBand,
+    standoff_voxels: f32,
     frame: &GridFrame,
     points: Soa,
     normals: Soa,
@@ -46,9 +48,9 @@ pub(super) fn accumulate(
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2 (checked just above).
-        return unsafe { accumulate_avx2(band, frame, points, normals, sums) };
+        return unsafe { accumulate_avx2(band, standoff_voxels, frame, points, normals, sums) };
     }
-    accumulate_any(band, frame, points, normals, sums)
+    accumulate_any(band, standoff_voxels, frame, points, normals, sums)
 }
 
 /// [`accumulate_any`] compiled with AVX2 enabled (wider lane loops; the same IEEE operations, so
@@ -60,32 +62,35 @@ pub(super) fn accumulate(
 #[target_feature(enable = "avx2")]
 unsafe fn accumulate_avx2(
     band: &DistanceBand,
+    standoff_voxels: f32,
     frame: &GridFrame,
     points: Soa,
     normals: Soa,
     sums: &mut PartialSums,
 ) {
-    accumulate_any(band, frame, points, normals, sums)
+    accumulate_any(band, standoff_voxels, frame, points, normals, sums)
 }
 
 #[inline(always)]
 fn accumulate_any(
     band: &DistanceBand,
+    standoff_voxels: f32,
     frame: &GridFrame,
     points: Soa,
     normals: Soa,
     sums: &mut PartialSums,
 ) {
     if frame.needs_clamp {
-        accumulate_lanes::<true>(band, frame, points, normals, sums)
+        accumulate_lanes::<true>(band, standoff_voxels, frame, points, normals, sums)
     } else {
-        accumulate_lanes::<false>(band, frame, points, normals, sums)
+        accumulate_lanes::<false>(band, standoff_voxels, frame, points, normals, sums)
     }
 }
 
 #[inline(always)]
 fn accumulate_lanes<const CLAMP: bool>(
     band: &DistanceBand,
+    standoff_voxels: f32,
     frame: &GridFrame,
     points: Soa,
     normals: Soa,
@@ -106,13 +111,31 @@ fn accumulate_lanes<const CLAMP: bool>(
     while begin < full {
         let end = (begin + chunk).min(full);
         for start in (begin..end).step_by(LANES) {
-            sample_block::<CLAMP>(band, frame, points, normals, start, LANES, &mut acc);
+            sample_block::<CLAMP>(
+                band,
+                standoff_voxels,
+                frame,
+                points,
+                normals,
+                start,
+                LANES,
+                &mut acc,
+            );
         }
         acc.flush(sums);
         begin = end;
     }
     if full < n {
-        sample_block::<CLAMP>(band, frame, points, normals, full, n - full, &mut acc);
+        sample_block::<CLAMP>(
+            band,
+            standoff_voxels,
+            frame,
+            points,
+            normals,
+            full,
+            n - full,
+            &mut acc,
+        );
     }
     acc.finish_into(sums);
 }
@@ -124,9 +147,11 @@ type Corners = [[[F32s; 2]; 2]; 2];
 /// for all lanes at once (lane loops the compiler vectorises; lanes outside the band masked to
 /// zero by selection, never by multiplication, so a non-finite value in a masked lane cannot
 /// reach the sums).
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn sample_block<const CLAMP: bool>(
     band: &DistanceBand,
+    standoff_voxels: f32,
     frame: &GridFrame,
     points: Soa,
     normals: Soa,
@@ -240,8 +265,11 @@ fn sample_block<const CLAMP: bool>(
         } else {
             0.0
         };
-        surface += u64::from(contact);
-        interior += u64::from(deep);
+        // Inside the exact surface (d < 0) counts as Interior, as a point in an Interior voxel
+        // does for the tangent-plane model: the session's "penetrating".
+        let inside = contact && e[l] < -standoff_voxels;
+        surface += u64::from(contact && !inside);
+        interior += u64::from(deep || inside);
         near += u64::from(in_band || deep);
     }
     acc.surface += surface;
