@@ -749,12 +749,13 @@ pub enum BenchKind {
         #[arg(long, default_value_t = 8)]
         poses: usize,
         /// Force models: `tangent-plane` (the paper's), `distance` (signed-distance band,
-        /// stand-off 1/8 voxel), or both.
+        /// default stand-off of half a voxel), or both.
         #[arg(long, value_delimiter = ',', default_value = "tangent-plane,distance")]
         models: Vec<FidelityModelArg>,
     },
     /// Pegs (square, round) pushed by the hand into holes with 0.1 to 2 voxels of clearance a
-    /// side, at 2 and 1 mm voxels, with both force models: whether each entered, the minimum
+    /// side, at 2 and 1 mm voxels, with the tangent-plane model and the distance model at half and an eighth of a voxel of
+    /// stand-off: whether each entered, the minimum
     /// exact separation and the penetrating frames, as JSON (docs/fidelity.md, Clearance).
     Clearance,
     /// Device bridge round trip (pose out, wrench back), immediate and at 1 kHz, beside a raw
@@ -831,6 +832,6 @@ impl Default for RunArgs {
 pub enum FidelityModelArg {
     /// The paper's tangent-plane model on the voxel layers.
     TangentPlane,
-    /// The signed-distance band at its default stand-off (1/8 voxel).
+    /// The signed-distance band at its default stand-off (half a voxel).
     Distance,
 }

@@ -386,7 +386,7 @@ fn scene_check_names_the_settings_left_to_the_defaults() {
 }
 
 /// docs/scenes.md "Clearances": the example peg (20 mm) enters its 22 mm hole with the distance
-/// model as shipped (stand-off 1/8 voxel) and with the tangent-plane model at `offset_layers = 0`,
+/// model as shipped (its default stand-off, half a voxel: 0.5 mm) and with the tangent-plane model at `offset_layers = 0`,
 /// and stops on the rim with the tangent-plane default of 2, whose force layer closes the 1 mm gap
 /// at 1 mm voxels; none penetrates.
 #[test]

@@ -61,7 +61,7 @@ pub struct KernelFigure {
     /// Tree memory of the synthetic scene (bytes).
     pub tree_bytes: usize,
     /// The `distance` force model on the same tree carrying a signed-distance band of the same
-    /// sphere (a ball half a voxel beyond the shell, stand-off 1/8 voxel), alternated batch by
+    /// sphere (a ball half a voxel beyond the shell, the default stand-off), alternated batch by
     /// batch with the current tangent-plane kernel.
     pub distance: KernelTimes,
     /// Distance over tangent-plane ns per point in contact (median of the per-round ratios; < 1:

@@ -57,7 +57,7 @@ struct SparseBench {
     dense_over_sparse_time: f64,
     /// Wider voxels: one run each.
     widths: Vec<WidthBench>,
-    /// The signed-distance band (the `distance` force model, stand-off 1/8 voxel) built on the
+    /// The signed-distance band (the `distance` force model, the default stand-off of half a voxel) built on the
     /// 4-bit map, against that map.
     distance_band: DistanceBandBench,
 }

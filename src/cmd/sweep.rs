@@ -233,7 +233,8 @@ struct Accuracy {
 ///
 /// Voxel force `K_ff Σ d_i N_i` (before the N ≥ 10 averaging, which scales both alike); reference
 /// `K_ff Σ e_i n_i` with exact depths `e_i = max(0, δ − φ_i)` from the surface offset by
-/// [`reference_offset`] `δ = (offset_layers + ½) s`. Frames with no point in Surface or Interior
+/// [`reference_offset`] `δ = (offset_layers + ½) s`, or from the stand-off with the `distance`
+/// force model. Frames with no point in Surface or Interior
 /// are skipped: every point is then in a Free or Proximity voxel, whose near face lies at least
 /// `offset_layers × s` from a plane (see [`reference_offset`]), so a reference force there would be
 /// under `K_ff s / 2` per point; the reference is not computed there.
@@ -248,7 +249,14 @@ fn accuracy_pass(
 ) -> Result<Option<Accuracy>> {
     let shell = classed(&session.shell);
     let limits = hand.limits();
-    let offset = reference_offset(set.scene.file.voxels.offset_layers, set.voxel_size);
+    // The distance model's force starts at its stand-off from the exact surface: the reference's
+    // depths do too.
+    let offset = set
+        .scene
+        .file
+        .voxels
+        .standoff_at(set.voxel_size)
+        .unwrap_or_else(|| reference_offset(set.scene.file.voxels.offset_layers, set.voxel_size));
     let reach = offset + 2.0 * set.voxel_size;
     let mut state = initial;
     let mut acc = Accuracy::default();

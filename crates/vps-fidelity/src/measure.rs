@@ -137,7 +137,7 @@ impl FidelityGrid {
                 !(0.0..=vps_voxmap::distance::MAX_STANDOFF_VOXELS).contains(standoff_voxels)
             }
         }) {
-            return bad("a distance model's stand-off must be within 0..=0.5 voxels");
+            return bad("a distance model's stand-off must be within 0..=1 voxel");
         }
         if self
             .voxel_sizes_m

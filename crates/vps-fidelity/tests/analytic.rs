@@ -133,7 +133,7 @@ fn reduced_grid_meets_the_documented_bounds() {
     }
 }
 
-/// The distance model (signed-distance band, default stand-off of 1/8 voxel) on 4-bit maps with
+/// The distance model (signed-distance band, default stand-off of half a voxel) on 4-bit maps with
 /// exact-surface shells, at 5 mm and 2.5 mm: pooled force direction error p50 ≤ 1° and p95 ≤ 5°,
 /// tilted box and corner p50 ≤ 2°, force ratio p50 in [0.9, 1.1], the error no larger at 2.5 mm
 /// than at 5 mm, no pose where the exact force pushes and the band does not, and sliding at

@@ -116,7 +116,8 @@ enum Model {
     Distance,
 }
 
-/// The `distance` model's stand-off in the grid (m): the default, an eighth of a voxel.
+/// The `distance` model's stand-off in the grid (m): a tight one, an eighth of a voxel (the
+/// stand-off moves where the wall is, not how stiff it is).
 const STANDOFF: f64 = S / 8.0;
 
 /// Simulates `duration` s of the cube against the wall of `model` from `start` (at rest), the

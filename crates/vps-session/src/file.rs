@@ -229,7 +229,7 @@ pub struct VoxelSettings {
     /// signed-distance band with a stand-off). Default `tangent-plane`.
     pub force_model: ForceModelName,
     /// The `distance` model's stand-off (m): contact starts this far from the exact surface.
-    /// `0..=` half a voxel; `None`: an eighth of the voxel size
+    /// `0..=` one voxel; `None`: half the voxel size
     /// ([`vps_voxmap::distance::DEFAULT_STANDOFF_VOXELS`]). Refused with `tangent-plane`.
     pub standoff: Option<f64>,
     /// Why the scene file chose its voxel settings (`voxels.reason`, 1..=500 characters), shown by
@@ -362,7 +362,7 @@ impl ForceModelName {
 
 impl VoxelSettings {
     /// The stand-off (m) at `voxel_size` (m) for the `distance` model, `None` for the
-    /// tangent-plane model: `voxels.standoff`, else an eighth of the voxel.
+    /// tangent-plane model: `voxels.standoff`, else half the voxel.
     pub fn standoff_at(&self, voxel_size: f64) -> Option<f64> {
         match self.force_model {
             ForceModelName::TangentPlane => None,
@@ -634,18 +634,18 @@ impl SceneFile {
         }
         self.width(path)?;
         if let Some(standoff) = v.standoff {
-            let half = v.voxel_size * vps_voxmap::distance::MAX_STANDOFF_VOXELS;
+            let max = v.voxel_size * vps_voxmap::distance::MAX_STANDOFF_VOXELS;
             if v.force_model != ForceModelName::Distance {
                 return bad(
                     "voxels.standoff",
                     "applies to force_model = \"distance\" only (the tangent-plane model's stand-off is offset_layers voxels)".into(),
                 );
             }
-            if !(standoff.is_finite() && (0.0..=half).contains(&standoff)) {
+            if !(standoff.is_finite() && (0.0..=max).contains(&standoff)) {
                 return bad(
                     "voxels.standoff",
                     format!(
-                        "{standoff} m must be within 0..={half} m (half of voxel_size {} m)",
+                        "{standoff} m must be within 0..={max} m (one voxel_size, {} m)",
                         v.voxel_size
                     ),
                 );

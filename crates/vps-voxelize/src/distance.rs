@@ -40,8 +40,8 @@ pub const MAX_BAND_CUBES: u64 = 1 << 24;
 /// Why a band could not be built.
 #[derive(Debug, thiserror::Error)]
 pub enum BandBuildError {
-    /// The stand-off is negative, not finite or more than half a voxel.
-    #[error("standoff {standoff_m} m: must be within 0..={max_m} m (half the voxel size {voxel_size} m); for a larger margin use a larger voxel_size")]
+    /// The stand-off is negative, not finite or more than a voxel.
+    #[error("standoff {standoff_m} m: must be within 0..={max_m} m (the voxel size {voxel_size} m); for a larger margin use a larger voxel_size")]
     Standoff {
         /// Given (m).
         standoff_m: f64,
@@ -77,7 +77,7 @@ pub enum BandBuildError {
 }
 
 /// The band of `tree` (built from `meshes`, world frame, m) with the stand-off `standoff_m` (m,
-/// `0..=` half a voxel) baked in, within `max_memory_bytes`. Blocking, parallel (rayon),
+/// `0..=` one voxel) baked in, within `max_memory_bytes`. Blocking, parallel (rayon),
 /// allocates the band.
 pub fn distance_band(
     tree: &VoxelTree,
