@@ -764,6 +764,21 @@ impl SessionAssets {
     }
 }
 
+/// The cache key of a voxmap that also carries a distance band with stand-off `standoff` (m): the
+/// voxmap's key hashed with the stand-off's bits; the voxmap's own key when there is no band.
+fn with_band_key(key: String, standoff: Option<f64>) -> String {
+    match standoff {
+        None => key,
+        Some(standoff) => {
+            let mut h = blake3::Hasher::new();
+            h.update(key.as_bytes());
+            h.update(b"distance-band-1");
+            h.update(&standoff.to_bits().to_le_bytes());
+            h.finalize().to_hex().to_string()
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -847,20 +862,5 @@ mod tests {
         let (_dir, scene) = scene_dir("[[static]]\nsource = \"fixture.obj\"\nunits = \"mm\"\n");
         let loaded = LoadedScene::load(&scene).unwrap();
         assert!(loaded.plan_voxmap(0.002, VoxelWidth::Two).is_ok());
-    }
-}
-
-/// The cache key of a voxmap that also carries a distance band with stand-off `standoff` (m): the
-/// voxmap's key hashed with the stand-off's bits; the voxmap's own key when there is no band.
-fn with_band_key(key: String, standoff: Option<f64>) -> String {
-    match standoff {
-        None => key,
-        Some(standoff) => {
-            let mut h = blake3::Hasher::new();
-            h.update(key.as_bytes());
-            h.update(b"distance-band-1");
-            h.update(&standoff.to_bits().to_le_bytes());
-            h.finalize().to_hex().to_string()
-        }
     }
 }
