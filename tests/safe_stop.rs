@@ -248,3 +248,79 @@ fn rejected_handle_samples_are_counted_in_the_report() {
     );
     assert_eq!(stats["frames"], 2000, "{report}");
 }
+
+/// Issue 36 item 4: with `[device] max_force = 0.3` the largest |F| sent was
+/// 0.30000000000000004 (1,105 of 2,759 wrenches over the limit in exact arithmetic); torque the
+/// same. A client pressing the part onto the bay's floor and turning it, so that the coupling's
+/// pull and twist are clamped in most frames, checks each WrenchOut it receives until 2000 of
+/// each were at their limit, without rounding
+/// (`vps_device::norm::exceeds_exactly`), against both limits: none may exceed them.
+#[test]
+fn no_wrench_sent_exceeds_the_device_limits_by_an_ulp() {
+    let dir = tempfile::tempdir().unwrap();
+    // The standard scene (its geometry, so its cached voxmap) with a 0.3 N, 2 mN·m device.
+    let scene = dir.path().join("limits.toml");
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/scenes/bay-teapot.toml"),
+    )
+    .unwrap();
+    let (max_force, max_torque) = (0.3, 0.002);
+    std::fs::write(
+        &scene,
+        format!("{text}\n[device]\nmax_force = {max_force}\nmax_torque = {max_torque}\n"),
+    )
+    .unwrap();
+    let mut cmd = vps();
+    cmd.args(["run", "--device", "bridge:127.0.0.1:0", "--seconds", "600"])
+        .arg("--scene")
+        .arg(&scene)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null());
+    let (child, addr) = spawn_until_line(cmd, "vps", "device bridge listening on ", DEADLINE);
+    let _vps = Vps(child);
+    let addr: SocketAddr = addr.parse().expect("a socket address");
+    let start = vps_mesh::builtin::bay_corridor()[0];
+    // Turned as well as pressed, so that the coupling's torque is clamped too.
+    let pressed = HandleSample {
+        orientation: DQuat::from_axis_angle(DVec3::new(1.0, 1.0, 0.3).normalize(), 0.6),
+        ..handle_at(start - DVec3::new(0.0, 0.0, 1.0))
+    };
+    let mut client = BridgeClient::connect(addr, None).unwrap();
+    let until = Instant::now() + DEADLINE;
+    let (mut received, mut at_force_limit, mut at_torque_limit) = (0u64, 0u64, 0u64);
+    while at_force_limit < 2000 || at_torque_limit < 2000 {
+        assert!(
+            Instant::now() < until,
+            "only {at_force_limit} clamped wrenches within {DEADLINE:?}"
+        );
+        client.send_pose(&pressed).unwrap();
+        if let Some(reply) = client.recv_wrench(Duration::from_millis(5)).unwrap() {
+            let w = reply.wrench;
+            received += 1;
+            assert!(
+                !vps_device::norm::exceeds_exactly(w.force, max_force),
+                "|F| = {:?} > {max_force} N (frame {}, {:?})",
+                w.force.length(),
+                reply.frame,
+                w.force
+            );
+            assert!(
+                !vps_device::norm::exceeds_exactly(w.torque, max_torque),
+                "|T| = {:?} > {max_torque} N·m (frame {}, {:?})",
+                w.torque.length(),
+                reply.frame,
+                w.torque
+            );
+            if w.force.length() >= max_force * (1.0 - 1e-12) {
+                at_force_limit += 1;
+            }
+            if w.torque.length() >= max_torque * (1.0 - 1e-12) {
+                at_torque_limit += 1;
+            }
+        }
+    }
+    eprintln!(
+        "{received} wrenches checked: {at_force_limit} at the force limit, {at_torque_limit} at \
+         the torque limit"
+    );
+}
