@@ -2,7 +2,7 @@
 //! placed, parameters read, geometry checked) and [`SessionAssets`] (voxmap, point shell, parameters,
 //! device, hand path, and the meshes for a viewer).
 
-use crate::cache::{cache_key, cache_path, read_cached, write_cached, CachePolicy};
+use crate::cache::{cache_key, cache_path, read_cached, write_cached, CachePolicy, Expected};
 use crate::device::{BridgeSettings, DeviceChoice};
 use crate::error::{field_error, SceneError};
 use crate::estimate::{estimate, VoxmapEstimate, MAX_GRID_VOXELS, VOXMAP_MEMORY_BUDGET};
@@ -20,7 +20,7 @@ use std::time::Instant;
 use vps_device::script::Script;
 use vps_haptic::HapticParams;
 use vps_mesh::{Aabb, TriMesh};
-use vps_voxelize::{point_shell, voxelize_tree, ShellMethod, VoxelizeOptions};
+use vps_voxelize::{point_shell, tree_grid, voxelize_tree, ShellMethod, VoxelizeOptions};
 use vps_voxmap::{PointShell, TreeConfig, VoxelTree, VoxelWidth};
 
 /// The scene `vps demo` and every session command use when no `--scene` is given.
@@ -326,14 +326,22 @@ impl LoadedScene {
         let objects = &self.statics;
         let t = Instant::now();
         let cached_at = match cache {
-            CachePolicy::Dir(dir) => Some(cache_path(
-                dir,
-                &cache_key(objects, &opts, TreeConfig::default()),
-            )),
+            CachePolicy::Dir(dir) => {
+                let key = cache_key(objects, &opts, TreeConfig::default());
+                let expected = Expected {
+                    spec: tree_grid(objects, &opts).with_context(|| {
+                        format!("{}: the grid at {} mm", self.label, voxel_size * 1e3)
+                    })?,
+                    width: opts.width,
+                    config: TreeConfig::default(),
+                    key: key.clone(),
+                };
+                Some((cache_path(dir, &key), expected))
+            }
             CachePolicy::Off => None,
         };
-        if let Some(path) = &cached_at {
-            if let Some(tree) = read_cached(path) {
+        if let Some((path, expected)) = &cached_at {
+            if let Some(tree) = read_cached(path, expected) {
                 eprintln!("voxmap: loaded from cache {}", path.display());
                 return Ok(BuiltVoxmap {
                     tree: Arc::new(tree),
@@ -353,7 +361,7 @@ impl LoadedScene {
             })?;
         let voxelize_ms = t.elapsed().as_secs_f64() * 1e3;
         let origin = match cached_at {
-            Some(path) => match write_cached(&path, &tree) {
+            Some((path, expected)) => match write_cached(&path, &expected.key, &tree) {
                 Ok(()) => {
                     eprintln!("voxmap: built, cached at {}", path.display());
                     VoxmapOrigin::Cache(path)
