@@ -7,7 +7,6 @@
 //! (`f64::to_bits`), device frame, N and N·m. Equal lines mean bit-identical wrenches.
 
 use std::io::Write;
-use std::path::Path;
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use vps_haptic::Wrench;
@@ -109,15 +108,14 @@ impl BridgeMonitor {
         self.lock().log.clone()
     }
 
-    /// Writes the wrench log to `path` in the format of this module's documentation and returns
-    /// the number of lines written.
-    pub fn save_wrench_log(&self, path: &Path) -> std::io::Result<usize> {
+    /// Writes the wrench log to `out` in the format of this module's documentation (the caller
+    /// flushes it; the CLI writes it atomically) and returns the number of lines
+    /// written; every write error is returned.
+    pub fn write_wrench_log(&self, out: &mut impl Write) -> std::io::Result<usize> {
         let log = self.sent_wrenches();
-        let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
         for s in &log {
             writeln!(out, "{}", wrench_log_line(s))?;
         }
-        out.flush()?;
         Ok(log.len())
     }
 }
