@@ -176,6 +176,36 @@ pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
     .with_context(|| format!("writing {}", path.display()))
 }
 
+/// The longest line of an error message printed whole (bytes); longer lines (a parser echoing a
+/// 600 KB line of a hostile file) are cut, saying how much was left out.
+pub const MAX_ERROR_LINE: usize = 1000;
+
+/// An error message as `main` prints it: control characters escaped, line breaks kept
+/// ([`vps_files::printable_lines`]: a file cannot drive the terminal through an error quoting
+/// it), every line after the first indented by two spaces (so no text of an input can stand at
+/// the start of a line of its own, as if vps had printed it), and every line cut at
+/// [`MAX_ERROR_LINE`] bytes.
+pub fn shown_error(message: &str) -> String {
+    let text = vps_files::printable_lines(message);
+    let mut out = String::with_capacity(text.len().min(64 * 1024));
+    for (i, line) in text.split('\n').enumerate() {
+        if i > 0 {
+            out.push_str("\n  ");
+        }
+        if line.len() <= MAX_ERROR_LINE {
+            out.push_str(line);
+        } else {
+            let mut cut = MAX_ERROR_LINE;
+            while !line.is_char_boundary(cut) {
+                cut -= 1;
+            }
+            out.push_str(&line[..cut]);
+            out.push_str(&format!(" … ({} more bytes)", line.len() - cut));
+        }
+    }
+    out
+}
+
 /// Lower-case hexadecimal of a hash.
 pub fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
@@ -309,6 +339,17 @@ mod tests {
             .to_string();
         assert!(err.contains("a directory"), "{err}");
         check_output_path("-o", &dir.path().join("out.vmap"), &[&input]).unwrap();
+    }
+
+    #[test]
+    fn errors_are_shown_escaped_and_cut() {
+        assert_eq!(shown_error("a\u{1b}[2J\nb"), "a\\u{1b}[2J\n  b");
+        let long = format!("x{}", "é".repeat(1000));
+        let shown = shown_error(&long);
+        assert!(
+            shown.len() < 1100 && shown.ends_with("more bytes)"),
+            "{shown}"
+        );
     }
 
     #[test]

@@ -253,7 +253,11 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
     };
     let script = assets.script()?;
     if let Some(warning) = assets.start_overlap(&script).warning() {
-        eprintln!("{}: warning: {warning}", assets.label);
+        eprintln!(
+            "{}: warning: {}",
+            vps_files::printable(&assets.label),
+            vps_files::printable(&warning)
+        );
     }
     let plan = assets.plan(&choice, script, config)?;
     Ok(PreparedSession { assets, plan })

@@ -653,3 +653,66 @@ fn an_output_equal_to_an_input_or_another_output_is_refused_before_any_work() {
         }
     }
 }
+
+/// Issue 36 item 8: a scene's `name` and `voxels.reason` were printed raw, so
+/// `\u001b]0;…\u0007\u001b[2J\r\nFAKE: ok` retitled the terminal, cleared it and forged a line.
+/// `vps scene check` prints them, and an error quotes a mesh source with the same bytes, with
+/// every control character escaped: no ESC, BEL or CR reaches the terminal and no line begins
+/// with the forged text.
+#[test]
+fn control_characters_from_a_scene_file_are_printed_escaped() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = small_scene(d);
+    let hostile = r"\u001b]0;owned\u0007\u001b[2J\r\nFAKE: ok";
+    let text = std::fs::read_to_string(&scene)
+        .unwrap()
+        .replace("name = \"small\"", &format!("name = \"{hostile}\""))
+        + &format!("reason = \"{hostile}\"\n");
+    std::fs::write(&scene, text).unwrap();
+    let missing = d.join("missing.toml");
+    std::fs::write(
+        &missing,
+        format!("part = \"builtin:box\"\n\n[[static]]\nsource = \"{hostile}.obj\"\n\n{HAND}"),
+    )
+    .unwrap();
+    let check = run(vps()
+        .env("VPS_CACHE_DIR", d.join("cache"))
+        .args(["scene", "check"])
+        .arg(&scene));
+    assert!(check.status.success(), "{}", stderr(&check));
+    let error = run(vps()
+        .env("VPS_CACHE_DIR", d.join("cache"))
+        .args(["run", "--seconds", "0.1", "--scene"])
+        .arg(&missing));
+    assert_eq!(error.status.code(), Some(1), "{}", stderr(&error));
+    for (what, bytes) in [
+        ("scene check stdout", &check.stdout),
+        ("scene check stderr", &check.stderr),
+        ("the error", &error.stderr),
+    ] {
+        for raw in [0x1b, 0x07, b'\r'] {
+            assert!(
+                !bytes.contains(&raw),
+                "{what} holds the raw byte {raw:#04x}: {:?}",
+                String::from_utf8_lossy(bytes)
+            );
+        }
+        let text = String::from_utf8_lossy(bytes);
+        assert!(
+            !text.lines().any(|l| l.starts_with("FAKE")),
+            "{what} has a forged line: {text}"
+        );
+    }
+    let shown = r"\u{1b}]0;owned\u{7}\u{1b}[2J\r\nFAKE: ok";
+    let out = String::from_utf8_lossy(&check.stdout);
+    assert!(
+        out.contains(&format!("scene {shown} (")),
+        "the name, escaped: {out}"
+    );
+    assert!(
+        out.contains(&format!("why (scene file): {shown}")),
+        "the reason, escaped: {out}"
+    );
+    assert!(stderr(&error).contains(shown), "{}", stderr(&error));
+}

@@ -154,6 +154,50 @@ pub fn output_destination(path: &Path) -> io::Result<PathBuf> {
     }
 }
 
+/// True for a character that must not reach a terminal raw: a control character (Unicode
+/// category Cc: C0, DEL, C1, among them ESC, BEL, CR and LF) or a bidirectional-text control
+/// (U+200E, U+200F, U+202A..=U+202E, U+2066..=U+2069), which can reorder what a line shows.
+fn is_unprintable(c: char) -> bool {
+    c.is_control()
+        || matches!(c, '\u{200e}' | '\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}')
+}
+
+/// `text` (taken from an input: a scene's `name` or `voxels.reason`, a path, a mesh source) fit to
+/// print: every control character written as an escape (`\n`, `\r`, `\t`, else `\u{1b}`
+/// style), so what a file says cannot retitle or clear the terminal, move the cursor or forge a
+/// line of output. The one escaping function of vps: everything printed from input goes through
+/// it (or [`printable_lines`]). Borrowed when nothing needs escaping.
+pub fn printable(text: &str) -> std::borrow::Cow<'_, str> {
+    escape(text, false)
+}
+
+/// [`printable`] for a message of several lines (an error chain with a parser's excerpt of the
+/// file): line breaks are kept, every other control character escaped.
+pub fn printable_lines(text: &str) -> std::borrow::Cow<'_, str> {
+    escape(text, true)
+}
+
+fn escape(text: &str, keep_newlines: bool) -> std::borrow::Cow<'_, str> {
+    let unprintable = |c: char| is_unprintable(c) && !(keep_newlines && c == '\n');
+    if !text.chars().any(unprintable) {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let mut out = String::with_capacity(text.len() + 16);
+    for c in text.chars() {
+        if !unprintable(c) {
+            out.push(c);
+            continue;
+        }
+        match c {
+            '\n' => out.push_str("\\n"),
+            '\r' => out.push_str("\\r"),
+            '\t' => out.push_str("\\t"),
+            _ => out.push_str(&format!("\\u{{{:x}}}", c as u32)),
+        }
+    }
+    std::borrow::Cow::Owned(out)
+}
+
 fn too_large(len: u64, max_bytes: u64) -> io::Error {
     io::Error::new(
         io::ErrorKind::FileTooLarge,
@@ -341,4 +385,19 @@ mod tests {
         assert!(fifo.exists() && !fifo.is_file());
     }
 
+    #[test]
+    fn control_characters_are_escaped_for_printing() {
+        let hostile = "bay\u{1b}]0;owned\u{7}\u{1b}[2J\r\nFAKE: ok\u{202e}txt.exe\u{9b}";
+        let shown = printable(hostile);
+        assert_eq!(
+            shown,
+            "bay\\u{1b}]0;owned\\u{7}\\u{1b}[2J\\r\\nFAKE: ok\\u{202e}txt.exe\\u{9b}"
+        );
+        assert!(!shown.chars().any(is_unprintable));
+        assert_eq!(printable_lines("a\nb\u{7}"), "a\nb\\u{7}");
+        assert!(matches!(
+            printable("plain, ünïcode ok"),
+            std::borrow::Cow::Borrowed(_)
+        ));
+    }
 }

@@ -35,7 +35,8 @@ pub const SMALLEST_PLAUSIBLE_MESH_M: f64 = 0.001;
 pub struct LoadedScene {
     /// The file's path, or `builtin:NAME`.
     pub label: String,
-    /// The scene's name (the file's `name`, else its stem).
+    /// The scene's name (the file's `name`, else its stem), fit to print: control characters
+    /// escaped ([`vps_files::printable`]).
     pub name: String,
     /// The file as parsed.
     pub file: SceneFile,
@@ -160,7 +161,8 @@ impl LoadedScene {
             Some(d) => d.bridge_settings(&label)?,
             None => BridgeSettings::default(),
         };
-        let name = file.name.clone().unwrap_or(stem);
+        // Printed by many commands: its control characters escaped once, here.
+        let name = vps_files::printable(&file.name.clone().unwrap_or(stem)).into_owned();
         Ok(LoadedScene {
             label,
             name,
@@ -181,7 +183,11 @@ impl LoadedScene {
     /// one line each, prefixed with the scene's label.
     pub fn print_warnings(&self) {
         for w in &self.warnings {
-            eprintln!("{}: warning: {w}", self.label);
+            eprintln!(
+                "{}: warning: {}",
+                vps_files::printable(&self.label),
+                vps_files::printable(w)
+            );
         }
     }
 
@@ -496,7 +502,8 @@ fn mesh_error(
             dir.display()
         ));
     }
-    field_error(label, field, text)
+    // The source is the scene file's text: it may hold control characters or line breaks.
+    field_error(label, field, vps_files::printable(&text).into_owned())
 }
 
 /// Flags a mesh whose size is implausible after units, with a hint.
