@@ -290,6 +290,47 @@ fn another_scenes_map_copied_over_a_cache_entry_is_rebuilt_saying_why() {
     );
 }
 
+/// Issue 36 item 7: `vps scene check` said ok to a grip of 1e300 m, a waypoint of 1e308 m and a
+/// speed of 1e-300 m/s; the session then failed with "haptic parameter `max_radius` = inf",
+/// "waypoint 2: time is not finite" or a 300-digit time, naming no key. Both now refuse the file
+/// at once, naming it, the key and the bound.
+#[test]
+fn scene_check_refuses_what_a_session_would_naming_the_file_and_key() {
+    let bay = bay();
+    for (from, to, key, bound) in [
+        (
+            "rotate_deg = [-90, 0, 0]",
+            "rotate_deg = [-90, 0, 0]\ngrip = [1e300, 0, 0]",
+            "`part.grip`",
+            "1000000 m",
+        ),
+        (
+            "[0.03, 0.0, 0.005]",
+            "[1e308, 0.0, 0.005]",
+            "`hand.waypoints[2]`",
+            "1000000 m",
+        ),
+        ("speed = 0.08", "speed = 1e-300", "`hand.speed`", "1e6 s"),
+    ] {
+        let text = SCENE.replacen(from, to, 1);
+        assert_ne!(text, SCENE, "{from}");
+        std::fs::write(bay.dir().join("bad.toml"), text).unwrap();
+        let path = bay.path("bad.toml");
+        for args in [
+            vec!["scene", "check", path.as_str()],
+            vec!["run", "--scene", path.as_str(), "--seconds", "0.1"],
+        ] {
+            let err = bay.fails(&args);
+            assert!(
+                err.contains("bad.toml") && err.contains(key) && err.contains(bound),
+                "{args:?}: {key}, {bound}: {err}"
+            );
+            assert!(!err.contains("voxmap:"), "{args:?}: {err}");
+            assert!(err.len() < 600, "{args:?}: {err}");
+        }
+    }
+}
+
 #[test]
 fn bad_scene_files_name_the_file_and_field_and_run_nothing() {
     let bay = bay();
