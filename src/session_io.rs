@@ -304,6 +304,16 @@ pub fn finish<C: Serialize>(
         .with_context(|| format!("--log-wrenches: writing the wrench log {}", path.display()))?;
         eprintln!("logged {n} wrenches sent to {}", path.display());
     }
+    if let Some(c) = bridge.map(|m| m.counters()) {
+        if c.stale > 0 || c.restarts > 0 {
+            eprintln!(
+                "bridge: {} pose(s) dropped as stale (a sequence number not above the sender's \
+                 newest accepted one); {} time(s) a sender was taken back counting from below its \
+                 old sequence, after its poses had timed out (a restarted client)",
+                c.stale, c.restarts
+            );
+        }
+    }
     let (end, exit_code) = outcome(&report.end, Some(signals));
     let out = RunReport {
         device: report.device_name.clone(),
@@ -358,11 +368,13 @@ pub fn finish<C: Serialize>(
         if let Some(c) = &out.bridge {
             println!(
                 "bridge: poses received {}, bad datagrams {} (+{} wrong token, {} stale), \
-                 timeouts {}, clutch presses {}, zeroed frames {}, wrenches sent {} ({} failed)",
+                 sender restarts {}, timeouts {}, clutch presses {}, zeroed frames {}, wrenches \
+                 sent {} ({} failed)",
                 c.accepted,
                 c.garbage,
                 c.unauthorized,
                 c.stale,
+                c.restarts,
                 c.timeouts,
                 c.clutch_presses,
                 c.zeroed_frames,

@@ -16,8 +16,12 @@ use vps_haptic::Wrench;
 pub struct BridgeCounters {
     /// Poses accepted (newer than the previous one from the same peer).
     pub accepted: u64,
-    /// Valid poses dropped because their sequence was not newer.
+    /// Valid poses dropped because their sequence was not newer (while the peer's newest pose was
+    /// fresh).
     pub stale: u64,
+    /// Poses accepted although their sequence was not newer, because the peer's newest pose had
+    /// timed out: a sender that restarted its sequence (or had sent a far-ahead one).
+    pub restarts: u64,
     /// Datagrams that failed to decode (bad length, magic, version, kind, flags, non-finite
     /// values), or were a WrenchOut (wrong direction).
     pub garbage: u64,
