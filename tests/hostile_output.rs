@@ -716,3 +716,48 @@ fn control_characters_from_a_scene_file_are_printed_escaped() {
     );
     assert!(stderr(&error).contains(shown), "{}", stderr(&error));
 }
+
+/// Issue 36 item 10: a scene file of arrays nested 100,000 deep echoed a 600 KB line in its
+/// error, and a cache "directory" that is a file gave only "File exists (os error 17)". The error
+/// is cut to a bounded length; the cache says what is wrong and the session still runs.
+#[test]
+fn a_deeply_nested_scene_and_a_cache_that_is_a_file_get_short_clear_messages() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let nested = d.join("nested.toml");
+    let depth = 100_000;
+    std::fs::write(
+        &nested,
+        format!("name = {}{}\n", "[ ".repeat(depth), "] ".repeat(depth)),
+    )
+    .unwrap();
+    let out = run_with_deadline(&["scene".as_ref(), "check".as_ref(), nested.as_os_str()]);
+    let err = stderr(&out);
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "{}",
+        &err[..err.len().min(2000)]
+    );
+    assert!(
+        err.contains("nested.toml"),
+        "{}",
+        &err[..err.len().min(2000)]
+    );
+    assert!(err.len() < 16 * 1024, "{} bytes of error", err.len());
+
+    let scene = small_scene(d);
+    let not_a_dir = d.join("cache-file");
+    std::fs::write(&not_a_dir, "").unwrap();
+    let out = run(vps()
+        .env("VPS_CACHE_DIR", &not_a_dir)
+        .args(["run", "--seconds", "0.1", "--scene"])
+        .arg(&scene));
+    let err = stderr(&out);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("is not a directory") && err.contains("VPS_CACHE_DIR"),
+        "{err}"
+    );
+    assert!(!err.contains("os error 17"), "{err}");
+}
