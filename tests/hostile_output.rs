@@ -761,3 +761,49 @@ fn a_deeply_nested_scene_and_a_cache_that_is_a_file_get_short_clear_messages() {
     );
     assert!(!err.contains("os error 17"), "{err}");
 }
+
+/// Issue 36 item 6: a scene file of millions of empty arrays (under the 64 MiB size bound) was
+/// parsed whole (a 63 MiB one peaked at 8.7 GB) before being refused, and 10,000 statics naming
+/// `builtin:aircraft-bay` set out to build about 140 GB of placed copies. The first is refused
+/// before parsing, naming the count and the limit; the second before any copy is made, naming
+/// the memory and the budget.
+#[test]
+fn scenes_that_would_take_unbounded_memory_are_refused_before_it_is_taken() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let arrays = d.join("arrays.toml");
+    std::fs::write(
+        &arrays,
+        format!("name = [{}]\n", "[],".repeat(7 * 1024 * 1024)),
+    )
+    .unwrap();
+    let out = run_with_deadline(&["scene".as_ref(), "check".as_ref(), arrays.as_os_str()]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("arrays.toml") && err.contains("arrays and tables") && err.contains("400000"),
+        "{err}"
+    );
+
+    let many = d.join("many-bays.toml");
+    let mut text = String::from("part = \"builtin:box\"\n");
+    for i in 0..10_000 {
+        text += &format!(
+            "[[static]]\nsource = \"builtin:aircraft-bay\"\ntranslate = [{}, 0, 0]\n",
+            i * 4
+        );
+    }
+    text += "[hand]\nwaypoints = [[0.0, 0.0, 0.1]]\n";
+    std::fs::write(&many, text).unwrap();
+    let out = run_with_deadline(&["scene".as_ref(), "check".as_ref(), many.as_os_str()]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    for want in [
+        "many-bays.toml",
+        "`static`",
+        "10000 placed copies of 1 mesh",
+        "GiB",
+    ] {
+        assert!(err.contains(want), "{want:?} not in: {err}");
+    }
+}

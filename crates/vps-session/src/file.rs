@@ -438,6 +438,11 @@ pub fn rotation(rotate_deg: [f64; 3]) -> DQuat {
     DQuat::from_rotation_z(z) * DQuat::from_rotation_y(y) * DQuat::from_rotation_x(x)
 }
 
+/// The most `[` and `{` a scene file may hold (arrays, tables and array-of-table headers, the
+/// characters counted wherever they are): what 100,000 waypoints and 10,000 objects need and more,
+/// so that the parser's memory is bounded (about 80 MB for this many empty arrays).
+pub const MAX_ARRAYS_AND_TABLES: usize = 400_000;
+
 /// The largest coordinate (m) of a position or translation in a scene file: 1000 km. Far beyond
 /// any scene a haptic device explores, and small enough that no distance, radius or time computed
 /// from such positions overflows (a grip of 1e300 m gave an infinite `max_radius`, a waypoint of
@@ -475,6 +480,19 @@ const MAX_ROTATION_DEG: f64 = 3600.0;
 impl SceneFile {
     /// Parses and validates `text`; `path` names the file in errors.
     pub fn from_toml_str(text: &str, path: &str) -> Result<SceneFile, SceneError> {
+        // The parser holds every array and table of the file: counted first, so that a file of
+        // millions of empty arrays is refused before it is parsed (a 63 MiB one peaked at 8.7 GB).
+        let opened = text.bytes().filter(|b| matches!(b, b'[' | b'{')).count();
+        if opened > MAX_ARRAYS_AND_TABLES {
+            return Err(SceneError::Syntax {
+                path: path.to_string(),
+                message: format!(
+                    "{opened} arrays and tables (`[` and `{{`, counted in strings too), over the \
+                     limit of {MAX_ARRAYS_AND_TABLES} for a scene file ({MAX_WAYPOINTS} waypoints \
+                     and 10000 objects need about 150000)"
+                ),
+            });
+        }
         let de = toml::Deserializer::parse(text).map_err(|e| SceneError::Syntax {
             path: path.to_string(),
             message: e.to_string().trim_end().to_string(),
@@ -1070,6 +1088,25 @@ max = [0.4, 0.1, 0.2]
             err.to_string(),
             "sweep.toml: field `widths[1]`: 16 must be 2, 4 or 8 (bits)"
         );
+    }
+
+    /// Issue 36 item 6: a file of millions of empty arrays is refused before it is parsed,
+    /// naming the count and the limit; a file of the largest legal corridor's size is not.
+    #[test]
+    fn a_file_of_millions_of_arrays_is_refused_before_parsing() {
+        let text = format!("x = [{}]\n", "[],".repeat(MAX_ARRAYS_AND_TABLES));
+        let err = parse(&text).unwrap_err().to_string();
+        assert!(
+            err.starts_with("scene.toml") && err.contains("400001 arrays and tables"),
+            "{err}"
+        );
+        let waypoints = vec!["[0.0, 0.0, 0.1]"; MAX_WAYPOINTS].join(", ");
+        let big = GOOD.replace(
+            "[corridor]\nfrom = [0.0, 0.0, 0.1]\nto = [0.3, 0.0, 0.1]\nspacing = 0.05\n",
+            &format!("[hand]\nwaypoints = [{waypoints}]\n"),
+        );
+        assert_ne!(big, GOOD);
+        parse(&big).unwrap();
     }
 
     /// Issue 36 items 7 and 10: positions so far out that the session's radius or times overflow

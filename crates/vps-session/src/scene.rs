@@ -97,14 +97,52 @@ impl LoadedScene {
 
     fn from_file(file: SceneFile, label: String, stem: String, base: PathBuf) -> Result<Self> {
         let mut warnings = Vec::new();
+        // Each distinct mesh (source and units) is read once, however many objects name it.
+        let mut loaded: Vec<((String, u64), TriMesh)> = Vec::new();
+        let mut which = Vec::with_capacity(file.objects.len());
+        for (i, o) in file.objects.iter().enumerate() {
+            let source = resolve(&o.source, &base);
+            let key = (source, o.units.metres().to_bits());
+            let index = match loaded.iter().position(|(k, _)| *k == key) {
+                Some(index) => index,
+                None => {
+                    let mesh = load_scaled(&key.0, o.units.metres())
+                        .map_err(|e| {
+                            mesh_error(&label, &format!("static[{i}].source"), &o.source, &base, &e)
+                        })?
+                        .mesh;
+                    loaded.push((key, mesh));
+                    loaded.len() - 1
+                }
+            };
+            which.push(index);
+        }
+        // Every object is a placed copy of its mesh: their memory is known before any is made.
+        let copies: u64 = which.iter().map(|&k| mesh_bytes(&loaded[k].1)).sum();
+        let budget = vps_voxelize::default_memory_budget();
+        if copies > budget {
+            return Err(field_error(
+                &label,
+                "static",
+                format!(
+                    "the {} [[static]] objects are {} placed copies of {} mesh(es) holding {} in \
+                     all, over the budget of {} (half of this machine's memory): name fewer or \
+                     smaller meshes",
+                    file.objects.len(),
+                    which.len(),
+                    loaded.len(),
+                    gib(copies),
+                    gib(budget)
+                ),
+            )
+            .into());
+        }
         let mut statics = Vec::with_capacity(file.objects.len());
         let mut static_sources = Vec::with_capacity(file.objects.len());
-        for (i, o) in file.objects.iter().enumerate() {
+        for (i, (o, &k)) in file.objects.iter().zip(&which).enumerate() {
             let field = format!("static[{i}]");
-            let source = resolve(&o.source, &base);
-            let mut mesh = load_scaled(&source, o.units.metres())
-                .map_err(|e| mesh_error(&label, &format!("{field}.source"), &o.source, &base, &e))?
-                .mesh;
+            let source = loaded[k].0 .0.clone();
+            let mut mesh = loaded[k].1.clone();
             Placement {
                 scale: DVec3::from_array(o.scale),
                 rotation: rotation(o.rotate_deg),
@@ -504,6 +542,17 @@ fn mesh_error(
     }
     // The source is the scene file's text: it may hold control characters or line breaks.
     field_error(label, field, vps_files::printable(&text).into_owned())
+}
+
+/// The bytes of a mesh's vertices and triangles.
+fn mesh_bytes(mesh: &TriMesh) -> u64 {
+    (mesh.vertices.len() * std::mem::size_of::<DVec3>()
+        + mesh.triangles.len() * std::mem::size_of::<[u32; 3]>()) as u64
+}
+
+/// Bytes as GiB with two decimals.
+fn gib(bytes: u64) -> String {
+    format!("{:.2} GiB", bytes as f64 / (1u64 << 30) as f64)
 }
 
 /// Flags a mesh whose size is implausible after units, with a hint.
