@@ -129,8 +129,9 @@ fn describe_grid(spec: &GridSpec) -> String {
     )
 }
 
-/// The record text of `tree` cached under `key`.
-fn record_text(key: &str, tree: &VoxelTree) -> String {
+/// The record written beside `tree` cached under `key` ([`record_path`]): the key, the content
+/// hash, the grid, the width and the tree shape, one per line.
+pub fn record_text(key: &str, tree: &VoxelTree) -> String {
     let spec = tree.spec();
     format!(
         "{RECORD_MAGIC}\nkey {key}\ncontent {}\ngrid {}\nwidth {}\ntree {:?}\n",
@@ -160,6 +161,35 @@ fn mismatch(path: &Path, expected: &Expected, tree: &VoxelTree) -> Option<String
             ))
         }
     };
+    record_mismatch(&text, &record_at.display().to_string(), expected, tree)
+}
+
+/// Decodes a cache entry from its bytes (`map`: the `.vmap` file; `record`: its record's text)
+/// and checks that it is the map `expected` asks for, as [`read_cached`] does with the files:
+/// the tree, or why not (a sentence naming the entry as "the cache entry"). What the fuzz target
+/// `cache-entry` runs; an accepted tree always has the grid, width and tree shape expected.
+pub fn check_entry(map: &[u8], record: &str, expected: &Expected) -> Result<VoxelTree, String> {
+    let tree = vps_voxmap::file::read_voxmap_sized(map, map.len() as u64)
+        .map_err(|e| format!("the cache entry is unreadable ({e})"))?;
+    match record_mismatch(record, "of the cache entry", expected, &tree) {
+        None => Ok(tree),
+        Some(reason) => Err(format!("the cache entry {reason}")),
+    }
+}
+
+/// Why a map `tree` whose record (at `record_at`, for messages) reads `text` is not the one
+/// `expected` asks for; `None` when it is.
+fn record_mismatch(
+    text: &str,
+    record_at: &str,
+    expected: &Expected,
+    tree: &VoxelTree,
+) -> Option<String> {
+    if text.len() as u64 > MAX_RECORD_BYTES {
+        return Some(format!(
+            "has an unreadable record {record_at} (over 64 KiB)"
+        ));
+    }
     let field = |name: &str| {
         text.lines()
             .find_map(|l| l.strip_prefix(name)?.strip_prefix(' '))
@@ -168,7 +198,7 @@ fn mismatch(path: &Path, expected: &Expected, tree: &VoxelTree) -> Option<String
     if text.lines().next() != Some(RECORD_MAGIC) {
         return Some(format!(
             "has an unreadable record {} (not a vps cache record)",
-            record_at.display()
+            record_at
         ));
     }
     match field("key") {
@@ -180,12 +210,7 @@ fn mismatch(path: &Path, expected: &Expected, tree: &VoxelTree) -> Option<String
                 expected.key
             ))
         }
-        None => {
-            return Some(format!(
-                "has an unreadable record {} (no key)",
-                record_at.display()
-            ))
-        }
+        None => return Some(format!("has an unreadable record {} (no key)", record_at)),
     }
     let hash = blake3::Hash::from(tree.content_hash()).to_hex().to_string();
     match field("content") {
@@ -199,7 +224,7 @@ fn mismatch(path: &Path, expected: &Expected, tree: &VoxelTree) -> Option<String
         None => {
             return Some(format!(
                 "has an unreadable record {} (no content hash)",
-                record_at.display()
+                record_at
             ))
         }
     }
