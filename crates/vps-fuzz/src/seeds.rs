@@ -422,6 +422,9 @@ fn join_messages() -> Vec<JoinMessage> {
     all
 }
 
+/// Between a cache entry's map bytes and its record's text in a `cache-entry` input.
+pub const CACHE_RECORD_MARKER: &[u8] = b"\n#record\n";
+
 /// The cache entry the `cache-entry` target asks for: the built-in box voxelized at 2 cm, 2-bit,
 /// the default tree (its key, grid, width and tree shape).
 pub fn cache_expected() -> &'static vps_session::cache::Expected {
@@ -456,7 +459,7 @@ pub fn cache_entry() -> Vec<Vec<u8>> {
         let mut bytes = Vec::new();
         vps_voxmap::file::write_voxmap(tree, &mut bytes).expect("encoding a seed voxmap");
         if let Some(record) = record {
-            bytes.extend_from_slice(crate::targets::CACHE_RECORD_MARKER);
+            bytes.extend_from_slice(CACHE_RECORD_MARKER);
             bytes.extend_from_slice(record.as_bytes());
         }
         bytes

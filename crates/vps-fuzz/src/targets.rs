@@ -159,19 +159,19 @@ fn sweep_toml(bytes: &[u8]) -> Result<(), String> {
     Ok(())
 }
 
-/// Between a cache entry's map bytes and its record's text in a `cache-entry` input.
-pub const CACHE_RECORD_MARKER: &[u8] = b"\n#record\n";
-
 /// A voxmap cache entry as `vps_session::cache::check_entry` checks it: the input is the `.vmap`
-/// file's bytes, [`CACHE_RECORD_MARKER`], then the record's text (no marker: no record). The
+/// file's bytes, [`seeds::CACHE_RECORD_MARKER`], then the record's text (no marker: no record). The
 /// entry asked for is the seeds' (`seeds::cache_expected`): an accepted map must have exactly its
 /// grid, width and tree shape.
 fn cache_entry(bytes: &[u8]) -> Result<(), String> {
     let split = bytes
-        .windows(CACHE_RECORD_MARKER.len())
-        .rposition(|w| w == CACHE_RECORD_MARKER);
+        .windows(seeds::CACHE_RECORD_MARKER.len())
+        .rposition(|w| w == seeds::CACHE_RECORD_MARKER);
     let (map, record) = match split {
-        Some(at) => (&bytes[..at], &bytes[at + CACHE_RECORD_MARKER.len()..]),
+        Some(at) => (
+            &bytes[..at],
+            &bytes[at + seeds::CACHE_RECORD_MARKER.len()..],
+        ),
         None => (bytes, &b""[..]),
     };
     let expected = seeds::cache_expected();
