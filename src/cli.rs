@@ -287,8 +287,9 @@ pub struct CoordinatorArgs {
     /// The coordinator's certificate, key and pinned worker certificates.
     #[command(flatten)]
     pub identity: IdentityArgs,
-    /// Workers to wait for before the session starts.
-    #[arg(long, default_value_t = 1)]
+    /// Workers to wait for before the session starts (1..=64: one class of the shell at least
+    /// each).
+    #[arg(long, default_value_t = 1, value_parser = crate::limits::parse_workers)]
     pub workers: usize,
     /// How replies are gathered.
     #[command(flatten)]

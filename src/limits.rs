@@ -15,6 +15,29 @@ fn cores() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 
+/// The most workers a coordinator waits for: the shell is split into
+/// [`vps_cluster::protocol::MAX_CLASSES`] (64) classes and a worker's share is at least one, so a
+/// 65th worker could get no work (`workers = 1000000` was accepted and the coordinator waited for
+/// them).
+pub const MAX_WORKERS: usize = vps_cluster::protocol::MAX_CLASSES as usize;
+
+/// A coordinator's worker count (`--workers`, `workers` in its config file) in
+/// `1..=`[`MAX_WORKERS`].
+pub fn parse_workers(text: &str) -> Result<usize, String> {
+    let n: usize = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("not a whole number; allowed 1..={MAX_WORKERS}"))?;
+    if (1..=MAX_WORKERS).contains(&n) {
+        Ok(n)
+    } else {
+        Err(format!(
+            "allowed 1..={MAX_WORKERS} (the shell is split into {MAX_WORKERS} classes, at least \
+             one per worker)"
+        ))
+    }
+}
+
 /// A thread or process count in `1..=PER_CORE × cores`.
 pub fn parse_count(text: &str) -> Result<usize, String> {
     let limit = PER_CORE * cores();

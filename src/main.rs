@@ -56,7 +56,7 @@ fn main() {
         // A session that ended early has already written its report; its status says why
         // (src/exit.rs: 1 error, 101 panic, 128 + N signal N).
         let code = exit::exit_code(&err);
-        let message = vps_session::error::error_chain_text(&err);
+        let message = output::shown_error(&vps_session::error::error_chain_text(&err));
         if code == 1 {
             eprintln!("vps: error: {message}");
         } else {

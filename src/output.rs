@@ -2,7 +2,7 @@
 //! disk is an error, never a panic), output-path checks made before any work, atomic file writes,
 //! and the error report printed by `main`.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use serde::Serialize;
 use std::io::Write;
 use std::path::Path;
@@ -73,37 +73,79 @@ pub fn metres_4(v: f64) -> String {
     }
 }
 
-/// Checks, before any work, that `output` can be written: not a directory, its directory exists
-/// and accepts a new file, and it is none of `inputs` (the same file, through links too). Errors
-/// name the path and what to change.
-pub fn check_output_path(output: &Path, inputs: &[&Path]) -> Result<()> {
+/// Checks, before any work, that `output` (given with `flag`, e.g. `--report` or `-o`) can be
+/// written: a regular file or a new path, never a directory, named pipe, device, socket or a link
+/// to one or to nothing ([`vps_files::output_destination`]: outputs are written whole and renamed
+/// into place, which would replace such a node); its directory exists and accepts a new file; and
+/// it is none of `inputs` (the same file through links or other spellings of the path too).
+/// Errors name the flag, the path and what to change.
+pub fn check_output_path(flag: &str, output: &Path, inputs: &[&Path]) -> Result<()> {
     let shown = output.display();
-    if output.is_dir() {
-        bail!("output {shown}: is a directory; give a file name");
-    }
+    vps_files::output_destination(output).map_err(|e| anyhow!("{flag} {shown}: {e}"))?;
     let dir = match output.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
     if !dir.is_dir() {
         bail!(
-            "output {shown}: directory {} does not exist (create it first)",
+            "{flag} {shown}: directory {} does not exist (create it first)",
             dir.display()
         );
     }
     tempfile::Builder::new()
         .prefix(".vps-check-")
         .tempfile_in(dir)
-        .with_context(|| format!("output {shown}: cannot create files in {}", dir.display()))?;
+        .with_context(|| format!("{flag} {shown}: cannot create files in {}", dir.display()))?;
     for input in inputs {
-        if same_file(output, input) {
+        if same_place(output, input) {
             bail!(
-                "output {shown} is the input {}; choose another output file",
+                "{flag} {shown} is the input {}; writing it would destroy that input: choose \
+                 another output file",
                 input.display()
             );
         }
     }
     Ok(())
+}
+
+/// Checks every output of a command ([`check_output_path`] each, against all of `inputs`) and
+/// that no two of them name the same file (one would silently replace the other). `outputs` are
+/// (flag, path) pairs.
+pub fn check_outputs(outputs: &[(&str, &Path)], inputs: &[&Path]) -> Result<()> {
+    for (i, (flag, path)) in outputs.iter().enumerate() {
+        check_output_path(flag, path, inputs)?;
+        for (other_flag, other) in &outputs[..i] {
+            if same_place(path, other) {
+                bail!(
+                    "{other_flag} {} and {flag} {} name the same file; one would replace the \
+                     other: give each its own file",
+                    other.display(),
+                    path.display()
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Where `path` leads: its canonical path when it exists (links resolved), else its directory's
+/// canonical path joined with its name; `None` when neither resolves.
+fn resolved(path: &Path) -> Option<std::path::PathBuf> {
+    if let Ok(p) = std::fs::canonicalize(path) {
+        return Some(p);
+    }
+    let name = path.file_name()?;
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    Some(std::fs::canonicalize(dir).ok()?.join(name))
+}
+
+/// True when `a` and `b` are the same file (device and inode: hard links too) or lead to the same
+/// place ([`resolved`]: other spellings, links, and new paths not yet written).
+fn same_place(a: &Path, b: &Path) -> bool {
+    same_file(a, b) || matches!((resolved(a), resolved(b)), (Some(x), Some(y)) if x == y)
 }
 
 /// True when both paths exist and name the same file.
@@ -119,7 +161,7 @@ fn same_file(a: &Path, b: &Path) -> bool {
     #[cfg(not(unix))]
     {
         let _ = (ma, mb);
-        matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y)
+        false
     }
 }
 
@@ -132,6 +174,36 @@ pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
         |stage, e| std::io::Error::new(e.kind(), format!("{}: {e}", stage.name())),
     )
     .with_context(|| format!("writing {}", path.display()))
+}
+
+/// The longest line of an error message printed whole (bytes); longer lines (a parser echoing a
+/// 600 KB line of a hostile file) are cut, saying how much was left out.
+pub const MAX_ERROR_LINE: usize = 1000;
+
+/// An error message as `main` prints it: control characters escaped, line breaks kept
+/// ([`vps_files::printable_lines`]: a file cannot drive the terminal through an error quoting
+/// it), every line after the first indented by two spaces (so no text of an input can stand at
+/// the start of a line of its own, as if vps had printed it), and every line cut at
+/// [`MAX_ERROR_LINE`] bytes.
+pub fn shown_error(message: &str) -> String {
+    let text = vps_files::printable_lines(message);
+    let mut out = String::with_capacity(text.len().min(64 * 1024));
+    for (i, line) in text.split('\n').enumerate() {
+        if i > 0 {
+            out.push_str("\n  ");
+        }
+        if line.len() <= MAX_ERROR_LINE {
+            out.push_str(line);
+        } else {
+            let mut cut = MAX_ERROR_LINE;
+            while !line.is_char_boundary(cut) {
+                cut -= 1;
+            }
+            out.push_str(&line[..cut]);
+            out.push_str(&format!(" … ({} more bytes)", line.len() - cut));
+        }
+    }
+    out
 }
 
 /// Lower-case hexadecimal of a hash.
@@ -245,19 +317,58 @@ mod tests {
         let input = dir.path().join("in.obj");
         std::fs::write(&input, b"v 0 0 0\n").unwrap();
         let missing = dir.path().join("nope/out.vmap");
-        let err = check_output_path(&missing, &[&input])
+        let err = check_output_path("-o", &missing, &[&input])
             .unwrap_err()
             .to_string();
-        assert!(err.contains("does not exist"), "{err}");
-        let err = check_output_path(&input, &[&input])
+        assert!(
+            err.contains("does not exist") && err.starts_with("-o "),
+            "{err}"
+        );
+        let err = check_output_path("-o", &input, &[&input])
             .unwrap_err()
             .to_string();
         assert!(err.contains("is the input"), "{err}");
         let link = dir.path().join("link.obj");
         std::os::unix::fs::symlink(&input, &link).unwrap();
-        assert!(check_output_path(&link, &[&input]).is_err());
-        let err = check_output_path(dir.path(), &[]).unwrap_err().to_string();
-        assert!(err.contains("is a directory"), "{err}");
-        check_output_path(&dir.path().join("out.vmap"), &[&input]).unwrap();
+        assert!(check_output_path("-o", &link, &[&input]).is_err());
+        // Another spelling of the same path.
+        let dotted = dir.path().join(".").join("in.obj");
+        assert!(check_output_path("-o", &dotted, &[&input]).is_err());
+        let err = check_output_path("-o", dir.path(), &[])
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("a directory"), "{err}");
+        check_output_path("-o", &dir.path().join("out.vmap"), &[&input]).unwrap();
+    }
+
+    #[test]
+    fn errors_are_shown_escaped_and_cut() {
+        assert_eq!(shown_error("a\u{1b}[2J\nb"), "a\\u{1b}[2J\n  b");
+        let long = format!("x{}", "é".repeat(1000));
+        let shown = shown_error(&long);
+        assert!(
+            shown.len() < 1100 && shown.ends_with("more bytes)"),
+            "{shown}"
+        );
+    }
+
+    #[test]
+    fn two_outputs_naming_one_file_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = dir.path().join("a.json");
+        let again = dir.path().join("sub/../a.json");
+        std::fs::create_dir(dir.path().join("sub")).unwrap();
+        let err = check_outputs(&[("--report", &a), ("--record", &again)], &[])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("--report") && err.contains("--record") && err.contains("same file"),
+            "{err}"
+        );
+        check_outputs(
+            &[("--report", &a), ("--record", &dir.path().join("b"))],
+            &[],
+        )
+        .unwrap();
     }
 }

@@ -216,7 +216,8 @@ pub fn resolve_coordinator(args: &mut CoordinatorArgs, matches: &ArgMatches) -> 
         let listen = checked(&path, "listen", f.listen, crate::limits::parse_ip_port)?;
         take(matches, "listen", &mut args.listen, listen);
         take_identity(matches, &mut args.identity, &path, f.cert, f.key, f.pins);
-        take(matches, "workers", &mut args.workers, f.workers);
+        let workers = checked(&path, "workers", f.workers, crate::limits::parse_workers)?;
+        take(matches, "workers", &mut args.workers, workers);
         let scene = f.scene.map(|v| scene_beside(&path, v));
         take(matches, "scene", &mut s.scene.scene, scene);
         take(matches, "no_cache", &mut s.scene.no_cache, f.no_cache);

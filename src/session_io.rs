@@ -14,7 +14,7 @@
 
 use crate::cli::{BridgeArgs, RunArgs};
 use crate::exit::{outcome, SessionExit};
-use crate::output::{check_output_path, print_json, write_file};
+use crate::output::{check_outputs, print_json, write_file};
 use anyhow::{anyhow, bail, Context, Result};
 use glam::DVec3;
 use serde::Serialize;
@@ -60,9 +60,11 @@ struct RunReport {
     bridge: Option<BridgeCounters>,
 }
 
-/// The files a session writes at its end, checked ([`check_output_path`]: the directory exists
-/// and takes new files) before the session starts so that a bad path fails before any work;
-/// written atomically at the end.
+/// The files a session writes at its end, checked before the session starts so that a bad path
+/// fails before any work ([`check_outputs`]: each a regular file or a new path in a directory that
+/// takes new files, none of them an input the command line names or another output), and again
+/// against the scene's mesh files once the scene file is read ([`prepare`]); written atomically
+/// at the end.
 #[derive(Default)]
 pub struct SessionOutputs {
     /// `--report FILE`.
@@ -71,18 +73,50 @@ pub struct SessionOutputs {
     record: Option<PathBuf>,
 }
 
+/// Every file a session of `args` writes, with the flag that named it.
+fn named_outputs(args: &RunArgs) -> Vec<(&'static str, &Path)> {
+    [
+        ("--report", &args.report),
+        ("--record", &args.record),
+        ("--log-wrenches", &args.bridge.log_wrenches),
+    ]
+    .into_iter()
+    .filter_map(|(flag, path)| Some((flag, path.as_deref()?)))
+    .collect()
+}
+
+/// The files a session of `args` reads that its command line names: the scene file, the haptic
+/// parameter file and a replayed trace (`--device replay:FILE`).
+fn command_line_inputs(args: &RunArgs) -> Vec<PathBuf> {
+    let mut inputs = Vec::new();
+    if !args.scene.scene.starts_with("builtin:") {
+        inputs.push(PathBuf::from(&args.scene.scene));
+    }
+    inputs.extend(args.haptic.clone());
+    if let Some(trace) = args
+        .device
+        .as_deref()
+        .and_then(|d| d.strip_prefix("replay:"))
+    {
+        inputs.push(PathBuf::from(trace));
+    }
+    inputs
+}
+
+/// Checks every output of `args` against `inputs` and each other ([`check_outputs`]).
+fn check_session_outputs(args: &RunArgs, inputs: &[PathBuf]) -> Result<()> {
+    let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+    check_outputs(&named_outputs(args), &inputs)
+}
+
 impl SessionOutputs {
-    /// Checks `--report` and `--record` of `args`.
+    /// Checks `--report`, `--record` and `--log-wrenches` of `args` (against the inputs its
+    /// command line names and each other).
     pub fn reserve(args: &RunArgs) -> Result<SessionOutputs> {
-        let checked = |path: &Option<PathBuf>| -> Result<Option<PathBuf>> {
-            if let Some(path) = path {
-                check_output_path(path, &[])?;
-            }
-            Ok(path.clone())
-        };
+        check_session_outputs(args, &command_line_inputs(args))?;
         Ok(SessionOutputs {
-            report: checked(&args.report)?,
-            record: checked(&args.record)?,
+            report: args.report.clone(),
+            record: args.record.clone(),
         })
     }
 }
@@ -176,6 +210,21 @@ fn bridge_settings(
 pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
     let loaded = LoadedScene::load(&args.scene.scene)?;
     let choice = device_choice(args.device.as_deref(), &loaded.device)?;
+    // Now that the scene file is read: no output may be one of its meshes (or the trace its
+    // device replays).
+    let mut inputs = command_line_inputs(args);
+    inputs.extend(
+        loaded
+            .static_sources
+            .iter()
+            .chain([&loaded.part_source])
+            .filter(|s| !s.starts_with("builtin:"))
+            .map(PathBuf::from),
+    );
+    if let DeviceChoice::Replay(trace) = &choice {
+        inputs.push(trace.clone());
+    }
+    check_session_outputs(args, &inputs)?;
     choice.check_available()?;
     // Read before the voxmap is built (that can take minutes), so a bad file is reported at once.
     let haptic_file = args
@@ -204,7 +253,11 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
     };
     let script = assets.script()?;
     if let Some(warning) = assets.start_overlap(&script).warning() {
-        eprintln!("{}: warning: {warning}", assets.label);
+        eprintln!(
+            "{}: warning: {}",
+            vps_files::printable(&assets.label),
+            vps_files::printable(&warning)
+        );
     }
     let plan = assets.plan(&choice, script, config)?;
     Ok(PreparedSession { assets, plan })
@@ -239,10 +292,27 @@ pub fn finish<C: Serialize>(
     cluster: Option<&C>,
 ) -> Result<()> {
     if let (Some(monitor), Some(path)) = (bridge, &args.bridge.log_wrenches) {
-        let n = monitor
-            .save_wrench_log(path)
-            .with_context(|| format!("writing the wrench log {}", path.display()))?;
+        let mut n = 0;
+        vps_voxmap::atomic::write_atomically(
+            path,
+            |w| {
+                n = monitor.write_wrench_log(w)?;
+                Ok(())
+            },
+            |stage, e| std::io::Error::new(e.kind(), format!("{}: {e}", stage.name())),
+        )
+        .with_context(|| format!("--log-wrenches: writing the wrench log {}", path.display()))?;
         eprintln!("logged {n} wrenches sent to {}", path.display());
+    }
+    if let Some(c) = bridge.map(|m| m.counters()) {
+        if c.stale > 0 || c.restarts > 0 {
+            eprintln!(
+                "bridge: {} pose(s) dropped as stale (a sequence number not above the sender's \
+                 newest accepted one); {} time(s) a sender was taken back counting from below its \
+                 old sequence, after its poses had timed out (a restarted client)",
+                c.stale, c.restarts
+            );
+        }
     }
     let (end, exit_code) = outcome(&report.end, Some(signals));
     let out = RunReport {
@@ -298,11 +368,13 @@ pub fn finish<C: Serialize>(
         if let Some(c) = &out.bridge {
             println!(
                 "bridge: poses received {}, bad datagrams {} (+{} wrong token, {} stale), \
-                 timeouts {}, clutch presses {}, zeroed frames {}, wrenches sent {} ({} failed)",
+                 sender restarts {}, timeouts {}, clutch presses {}, zeroed frames {}, wrenches \
+                 sent {} ({} failed)",
                 c.accepted,
                 c.garbage,
                 c.unauthorized,
                 c.stale,
+                c.restarts,
                 c.timeouts,
                 c.clutch_presses,
                 c.zeroed_frames,

@@ -53,6 +53,37 @@ fn thread_and_worker_counts_are_bounded_by_the_machine() {
     );
 }
 
+/// Issue 36 item 10: `workers = 1000000` was accepted and the coordinator waited for a million
+/// workers. On the command line and in the coordinator's config file it is refused at once,
+/// naming the flag or the file and key and the range 1..=64 (64 classes, one per worker at least).
+#[test]
+fn a_coordinators_worker_count_is_bounded_by_the_classes() {
+    for workers in ["1000000", "65", "0"] {
+        refused(
+            &[
+                "coordinator",
+                "--workers",
+                workers,
+                "--cert",
+                "c",
+                "--key",
+                "k",
+            ],
+            &["--workers", "allowed 1..=64"],
+        );
+    }
+    let vps = sandbox();
+    let config = vps.dir().join("coordinator.toml");
+    std::fs::write(&config, "workers = 1000000\n").unwrap();
+    let out = vps.run(&["coordinator", "--config", config.to_str().unwrap()]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("coordinator.toml") && err.contains("`workers`") && err.contains("1..=64"),
+        "{err}"
+    );
+}
+
 #[test]
 fn session_lengths_must_be_finite_and_positive() {
     for bad in ["-1", "0", "nan", "inf", "1e300"] {

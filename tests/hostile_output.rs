@@ -361,3 +361,449 @@ fn a_pipe_a_device_or_a_directory_named_as_an_input_file_is_refused_at_once() {
     }
     assert!(!out_map.exists());
 }
+
+/// The hand of the small scenes: down onto the slab and back.
+const HAND: &str = "[hand]\nwaypoints = [[0.0, 0.0, 0.1], [0.0, 0.0, 0.03]]\nspeed = 0.1\n";
+
+/// A scene in `dir` of one static mesh file (`floor.obj`, a 20 cm slab) and the built-in box as
+/// the part, at 1 cm voxels (quick to build): `scene.toml`.
+fn small_scene(dir: &Path) -> PathBuf {
+    std::fs::write(
+        dir.join("floor.obj"),
+        vps_testkit::obj::box_obj([-0.1, -0.1, -0.02], [0.1, 0.1, 0.0]),
+    )
+    .unwrap();
+    let scene = dir.join("scene.toml");
+    std::fs::write(
+        &scene,
+        format!(
+            "name = \"small\"\npart = \"builtin:box\"\n\n[[static]]\nsource = \"floor.obj\"\n\n\
+             {HAND}\n[voxels]\nvoxel_size = \"1cm\"\n"
+        ),
+    )
+    .unwrap();
+    scene
+}
+
+/// Whether `path` is still what it was: a FIFO, a character device or a symbolic link.
+fn kind(path: &Path) -> &'static str {
+    use std::os::unix::fs::FileTypeExt;
+    let t = std::fs::symlink_metadata(path).unwrap().file_type();
+    if t.is_symlink() {
+        "link"
+    } else if t.is_fifo() {
+        "fifo"
+    } else if t.is_char_device() {
+        "char device"
+    } else if t.is_file() {
+        "file"
+    } else {
+        "other"
+    }
+}
+
+/// Issue 36 item 2: as root, `--record /dev/null`, `--report` to a FIFO, a device or a link to
+/// `/proc/self/fd/1`, and `vps voxelize -o` replaced the node with a regular file; `--report
+/// /dev/full` exited 0. Each output flag given a FIFO, a character device (made with mknod when
+/// this runs as root), a link to `/dev/null` or `/dev/full`, or a dangling link, is refused
+/// before any work with status 1, naming the flag, the path and what is there; the node is left
+/// as it was.
+#[test]
+fn an_output_that_is_a_fifo_a_device_or_a_link_to_one_is_refused_and_left_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = small_scene(d);
+    let fifo = d.join("out.fifo");
+    assert!(Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap()
+        .success());
+    let to_null = d.join("null.json");
+    std::os::unix::fs::symlink("/dev/null", &to_null).unwrap();
+    let to_full = d.join("full.trace");
+    std::os::unix::fs::symlink("/dev/full", &to_full).unwrap();
+    let to_stdout = d.join("stdout.json");
+    std::os::unix::fs::symlink("/proc/self/fd/1", &to_stdout).unwrap();
+    let dangling = d.join("dangling.vmap");
+    std::os::unix::fs::symlink(d.join("nowhere/x.vmap"), &dangling).unwrap();
+    // A character device of our own (1, 7: what /dev/full is), so the real one is never at risk.
+    let full = d.join("full");
+    let made_device = Command::new("mknod")
+        .arg(&full)
+        .args(["c", "1", "7"])
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    if !made_device {
+        println!("SKIPPED: the character-device case (mknod needs root)");
+    }
+    let session = |flag: &str, path: &Path| -> Vec<std::ffi::OsString> {
+        let mut args: Vec<std::ffi::OsString> = vec!["run".into(), "--scene".into()];
+        args.push(scene.clone().into());
+        args.extend(["--seconds".into(), "0.1".into(), flag.into()]);
+        args.push(path.into());
+        args
+    };
+    let mut cases: Vec<(Vec<std::ffi::OsString>, &str, &Path, &str)> = vec![
+        (
+            session("--report", &fifo),
+            "--report",
+            &fifo,
+            "a named pipe (FIFO)",
+        ),
+        (
+            session("--record", &to_null),
+            "--record",
+            &to_null,
+            "a symbolic link to /dev/null",
+        ),
+        (
+            session("--report", &to_full),
+            "--report",
+            &to_full,
+            "a symbolic link to /dev/full",
+        ),
+        (
+            session("--report", &to_stdout),
+            "--report",
+            &to_stdout,
+            "not a regular file",
+        ),
+        (
+            vec![
+                "voxelize".into(),
+                "builtin:box".into(),
+                "--voxel-size".into(),
+                "1cm".into(),
+                "-o".into(),
+                fifo.clone().into(),
+            ],
+            "-o",
+            &fifo,
+            "a named pipe (FIFO)",
+        ),
+        (
+            vec![
+                "shell".into(),
+                "builtin:box".into(),
+                "--voxel-size".into(),
+                "1cm".into(),
+                "-o".into(),
+                dangling.clone().into(),
+            ],
+            "-o",
+            &dangling,
+            "does not exist",
+        ),
+        (
+            vec![
+                "run".into(),
+                "--scene".into(),
+                scene.clone().into(),
+                "--device".into(),
+                "bridge:127.0.0.1:0".into(),
+                "--seconds".into(),
+                "0.1".into(),
+                "--log-wrenches".into(),
+                fifo.clone().into(),
+            ],
+            "--log-wrenches",
+            &fifo,
+            "a named pipe (FIFO)",
+        ),
+    ];
+    if made_device {
+        cases.push((
+            session("--report", &full),
+            "--report",
+            &full,
+            "a character device",
+        ));
+    }
+    for (args, flag, path, what) in &cases {
+        let before = kind(path);
+        let args: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_os_str()).collect();
+        let out = run_with_deadline(&args);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "vps {args:?}: {err}");
+        let named = format!("{flag} {}", path.display());
+        assert!(
+            err.contains(&named),
+            "vps {args:?}: does not name {named}: {err}"
+        );
+        assert!(
+            err.contains(what),
+            "vps {args:?}: does not say {what}: {err}"
+        );
+        assert!(
+            !err.contains("voxmap:"),
+            "vps {args:?}: work was done first: {err}"
+        );
+        assert_eq!(
+            kind(path),
+            before,
+            "vps {args:?} changed {}",
+            path.display()
+        );
+    }
+}
+
+/// Issue 36 item 3: `--report s.toml` turned the scene into the report, `--record bracket.obj`
+/// overwrote a mesh the scene names, and `--report X --record X` lost one file, each with status
+/// 0. An output that is an input of the session (the scene file, one of its meshes, the haptic
+/// file, the replayed trace; through a link or another spelling too) or another output is refused
+/// before the voxmap is built, and the input is left as it was.
+#[test]
+fn an_output_equal_to_an_input_or_another_output_is_refused_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = small_scene(d);
+    let floor = d.join("floor.obj");
+    let haptic = d.join("haptic.toml");
+    std::fs::write(&haptic, "k_ff = 1000.0\n").unwrap();
+    let trace = d.join("hand.trace");
+    let recorded = run(vps()
+        .env("VPS_CACHE_DIR", d.join("cache"))
+        .args(["record", "--seconds", "0.2", "--scene"])
+        .arg(&scene)
+        .arg("-o")
+        .arg(&trace));
+    assert!(recorded.status.success(), "{}", stderr(&recorded));
+    let scene_link = d.join("link-to-scene.json");
+    std::os::unix::fs::symlink(&scene, &scene_link).unwrap();
+    let dotted_floor = d.join(".").join("floor.obj");
+    let same = d.join("same.out");
+    let replay = std::ffi::OsString::from(format!("replay:{}", trace.display()));
+    let cases: Vec<(Vec<&std::ffi::OsStr>, &str)> = vec![
+        (vec!["--report".as_ref(), scene.as_ref()], "is the input"),
+        (
+            vec!["--report".as_ref(), scene_link.as_ref()],
+            "is the input",
+        ),
+        (vec!["--record".as_ref(), floor.as_ref()], "is the input"),
+        (
+            vec!["--record".as_ref(), dotted_floor.as_ref()],
+            "is the input",
+        ),
+        (
+            vec![
+                "--haptic".as_ref(),
+                haptic.as_ref(),
+                "--report".as_ref(),
+                haptic.as_ref(),
+            ],
+            "is the input",
+        ),
+        (
+            vec![
+                "--device".as_ref(),
+                replay.as_os_str(),
+                "--record".as_ref(),
+                trace.as_ref(),
+            ],
+            "is the input",
+        ),
+        (
+            vec![
+                "--report".as_ref(),
+                same.as_ref(),
+                "--record".as_ref(),
+                same.as_ref(),
+            ],
+            "name the same file",
+        ),
+        (
+            vec![
+                "--device".as_ref(),
+                "bridge:127.0.0.1:0".as_ref(),
+                "--report".as_ref(),
+                same.as_ref(),
+                "--log-wrenches".as_ref(),
+                same.as_ref(),
+            ],
+            "name the same file",
+        ),
+    ];
+    let inputs = [&scene, &floor, &haptic, &trace];
+    let before: Vec<Vec<u8>> = inputs.iter().map(|p| std::fs::read(p).unwrap()).collect();
+    for (extra, why) in cases {
+        let mut args: Vec<&std::ffi::OsStr> =
+            vec!["run".as_ref(), "--scene".as_ref(), scene.as_ref()];
+        args.extend([
+            std::ffi::OsStr::new("--seconds"),
+            std::ffi::OsStr::new("0.2"),
+        ]);
+        args.extend(extra.iter().copied());
+        let out = run_with_deadline(&args);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "vps {args:?}: {err}");
+        assert!(err.contains(why), "vps {args:?}: {err}");
+        assert!(
+            !err.contains("voxmap:"),
+            "vps {args:?}: work was done first: {err}"
+        );
+        assert!(!same.exists(), "vps {args:?} wrote {}", same.display());
+        for (path, bytes) in inputs.iter().zip(&before) {
+            assert_eq!(
+                &std::fs::read(path).unwrap(),
+                bytes,
+                "vps {args:?} changed {path:?}"
+            );
+        }
+    }
+}
+
+/// Issue 36 item 8: a scene's `name` and `voxels.reason` were printed raw, so
+/// `\u001b]0;…\u0007\u001b[2J\r\nFAKE: ok` retitled the terminal, cleared it and forged a line.
+/// `vps scene check` prints them, and an error quotes a mesh source with the same bytes, with
+/// every control character escaped: no ESC, BEL or CR reaches the terminal and no line begins
+/// with the forged text.
+#[test]
+fn control_characters_from_a_scene_file_are_printed_escaped() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = small_scene(d);
+    let hostile = r"\u001b]0;owned\u0007\u001b[2J\r\nFAKE: ok";
+    let text = std::fs::read_to_string(&scene)
+        .unwrap()
+        .replace("name = \"small\"", &format!("name = \"{hostile}\""))
+        + &format!("reason = \"{hostile}\"\n");
+    std::fs::write(&scene, text).unwrap();
+    let missing = d.join("missing.toml");
+    std::fs::write(
+        &missing,
+        format!("part = \"builtin:box\"\n\n[[static]]\nsource = \"{hostile}.obj\"\n\n{HAND}"),
+    )
+    .unwrap();
+    let check = run(vps()
+        .env("VPS_CACHE_DIR", d.join("cache"))
+        .args(["scene", "check"])
+        .arg(&scene));
+    assert!(check.status.success(), "{}", stderr(&check));
+    let error = run(vps()
+        .env("VPS_CACHE_DIR", d.join("cache"))
+        .args(["run", "--seconds", "0.1", "--scene"])
+        .arg(&missing));
+    assert_eq!(error.status.code(), Some(1), "{}", stderr(&error));
+    for (what, bytes) in [
+        ("scene check stdout", &check.stdout),
+        ("scene check stderr", &check.stderr),
+        ("the error", &error.stderr),
+    ] {
+        for raw in [0x1b, 0x07, b'\r'] {
+            assert!(
+                !bytes.contains(&raw),
+                "{what} holds the raw byte {raw:#04x}: {:?}",
+                String::from_utf8_lossy(bytes)
+            );
+        }
+        let text = String::from_utf8_lossy(bytes);
+        assert!(
+            !text.lines().any(|l| l.starts_with("FAKE")),
+            "{what} has a forged line: {text}"
+        );
+    }
+    let shown = r"\u{1b}]0;owned\u{7}\u{1b}[2J\r\nFAKE: ok";
+    let out = String::from_utf8_lossy(&check.stdout);
+    assert!(
+        out.contains(&format!("scene {shown} (")),
+        "the name, escaped: {out}"
+    );
+    assert!(
+        out.contains(&format!("why (scene file): {shown}")),
+        "the reason, escaped: {out}"
+    );
+    assert!(stderr(&error).contains(shown), "{}", stderr(&error));
+}
+
+/// Issue 36 item 10: a scene file of arrays nested 100,000 deep echoed a 600 KB line in its
+/// error, and a cache "directory" that is a file gave only "File exists (os error 17)". The error
+/// is cut to a bounded length; the cache says what is wrong and the session still runs.
+#[test]
+fn a_deeply_nested_scene_and_a_cache_that_is_a_file_get_short_clear_messages() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let nested = d.join("nested.toml");
+    let depth = 100_000;
+    std::fs::write(
+        &nested,
+        format!("name = {}{}\n", "[ ".repeat(depth), "] ".repeat(depth)),
+    )
+    .unwrap();
+    let out = run_with_deadline(&["scene".as_ref(), "check".as_ref(), nested.as_os_str()]);
+    let err = stderr(&out);
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "{}",
+        &err[..err.len().min(2000)]
+    );
+    assert!(
+        err.contains("nested.toml"),
+        "{}",
+        &err[..err.len().min(2000)]
+    );
+    assert!(err.len() < 16 * 1024, "{} bytes of error", err.len());
+
+    let scene = small_scene(d);
+    let not_a_dir = d.join("cache-file");
+    std::fs::write(&not_a_dir, "").unwrap();
+    let out = run(vps()
+        .env("VPS_CACHE_DIR", &not_a_dir)
+        .args(["run", "--seconds", "0.1", "--scene"])
+        .arg(&scene));
+    let err = stderr(&out);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("is not a directory") && err.contains("VPS_CACHE_DIR"),
+        "{err}"
+    );
+    assert!(!err.contains("os error 17"), "{err}");
+}
+
+/// Issue 36 item 6: a scene file of millions of empty arrays (under the 64 MiB size bound) was
+/// parsed whole (a 63 MiB one peaked at 8.7 GB) before being refused, and 10,000 statics naming
+/// `builtin:aircraft-bay` set out to build about 140 GB of placed copies. The first is refused
+/// before parsing, naming the count and the limit; the second before any copy is made, naming
+/// the memory and the budget.
+#[test]
+fn scenes_that_would_take_unbounded_memory_are_refused_before_it_is_taken() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let arrays = d.join("arrays.toml");
+    std::fs::write(
+        &arrays,
+        format!("name = [{}]\n", "[],".repeat(7 * 1024 * 1024)),
+    )
+    .unwrap();
+    let out = run_with_deadline(&["scene".as_ref(), "check".as_ref(), arrays.as_os_str()]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("arrays.toml") && err.contains("arrays and tables") && err.contains("400000"),
+        "{err}"
+    );
+
+    let many = d.join("many-bays.toml");
+    let mut text = String::from("part = \"builtin:box\"\n");
+    for i in 0..10_000 {
+        text += &format!(
+            "[[static]]\nsource = \"builtin:aircraft-bay\"\ntranslate = [{}, 0, 0]\n",
+            i * 4
+        );
+    }
+    text += "[hand]\nwaypoints = [[0.0, 0.0, 0.1]]\n";
+    std::fs::write(&many, text).unwrap();
+    let out = run_with_deadline(&["scene".as_ref(), "check".as_ref(), many.as_os_str()]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    for want in [
+        "many-bays.toml",
+        "`static`",
+        "10000 placed copies of 1 mesh",
+        "GiB",
+    ] {
+        assert!(err.contains(want), "{want:?} not in: {err}");
+    }
+}

@@ -13,7 +13,7 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 use vps_haptic::{HandleSample, Wrench};
 use vps_input::BridgeClient;
-use vps_testkit::process::spawn_until_line;
+use vps_testkit::process::{spawn_until_line, WatchedProcess};
 
 /// Bounds every wait (scene build, contact, exit); never reached when all is well.
 const DEADLINE: Duration = Duration::from_secs(240);
@@ -247,4 +247,159 @@ fn rejected_handle_samples_are_counted_in_the_report() {
         "{report}"
     );
     assert_eq!(stats["frames"], 2000, "{report}");
+}
+
+/// Issue 36 item 4: with `[device] max_force = 0.3` the largest |F| sent was
+/// 0.30000000000000004 (1,105 of 2,759 wrenches over the limit in exact arithmetic); torque the
+/// same. A client pressing the part onto the bay's floor and turning it, so that the coupling's
+/// pull and twist are clamped in most frames, checks each WrenchOut it receives until 2000 of
+/// each were at their limit, without rounding
+/// (`vps_device::norm::exceeds_exactly`), against both limits: none may exceed them.
+#[test]
+fn no_wrench_sent_exceeds_the_device_limits_by_an_ulp() {
+    let dir = tempfile::tempdir().unwrap();
+    // The standard scene (its geometry, so its cached voxmap) with a 0.3 N, 2 mN·m device.
+    let scene = dir.path().join("limits.toml");
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/scenes/bay-teapot.toml"),
+    )
+    .unwrap();
+    let (max_force, max_torque) = (0.3, 0.002);
+    std::fs::write(
+        &scene,
+        format!("{text}\n[device]\nmax_force = {max_force}\nmax_torque = {max_torque}\n"),
+    )
+    .unwrap();
+    let mut cmd = vps();
+    cmd.args(["run", "--device", "bridge:127.0.0.1:0", "--seconds", "600"])
+        .arg("--scene")
+        .arg(&scene)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null());
+    let (child, addr) = spawn_until_line(cmd, "vps", "device bridge listening on ", DEADLINE);
+    let _vps = Vps(child);
+    let addr: SocketAddr = addr.parse().expect("a socket address");
+    let start = vps_mesh::builtin::bay_corridor()[0];
+    // Turned as well as pressed, so that the coupling's torque is clamped too.
+    let pressed = HandleSample {
+        orientation: DQuat::from_axis_angle(DVec3::new(1.0, 1.0, 0.3).normalize(), 0.6),
+        ..handle_at(start - DVec3::new(0.0, 0.0, 1.0))
+    };
+    let mut client = BridgeClient::connect(addr, None).unwrap();
+    let until = Instant::now() + DEADLINE;
+    let (mut received, mut at_force_limit, mut at_torque_limit) = (0u64, 0u64, 0u64);
+    while at_force_limit < 2000 || at_torque_limit < 2000 {
+        assert!(
+            Instant::now() < until,
+            "only {at_force_limit} clamped wrenches within {DEADLINE:?}"
+        );
+        client.send_pose(&pressed).unwrap();
+        if let Some(reply) = client.recv_wrench(Duration::from_millis(5)).unwrap() {
+            let w = reply.wrench;
+            received += 1;
+            assert!(
+                !vps_device::norm::exceeds_exactly(w.force, max_force),
+                "|F| = {:?} > {max_force} N (frame {}, {:?})",
+                w.force.length(),
+                reply.frame,
+                w.force
+            );
+            assert!(
+                !vps_device::norm::exceeds_exactly(w.torque, max_torque),
+                "|T| = {:?} > {max_torque} N·m (frame {}, {:?})",
+                w.torque.length(),
+                reply.frame,
+                w.torque
+            );
+            if w.force.length() >= max_force * (1.0 - 1e-12) {
+                at_force_limit += 1;
+            }
+            if w.torque.length() >= max_torque * (1.0 - 1e-12) {
+                at_torque_limit += 1;
+            }
+        }
+    }
+    eprintln!(
+        "{received} wrenches checked: {at_force_limit} at the force limit, {at_torque_limit} at \
+         the torque limit"
+    );
+}
+
+/// Issue 36 item 9: one datagram with sequence u64::MAX locked its source out for the session
+/// (every later pose stale, zero output, nothing said); a client restarted on the same port was
+/// dropped until it passed its old sequence. Here the u64::MAX datagram holds the clutch (the
+/// device sends zero), then the same socket counts from 1 again, moving the hand down onto the
+/// floor: once the u64::MAX pose has timed out (50 ms) the stream is taken back and force comes. The
+/// report counts the restart and the stale poses, and stderr says why poses were dropped.
+#[test]
+fn a_sender_restarting_its_sequence_is_taken_back_after_the_pose_timeout() {
+    use vps_input::bridge::protocol::{Datagram, Message, FLAG_CLUTCH};
+    let dir = tempfile::tempdir().unwrap();
+    let report_path = dir.path().join("report.json");
+    let mut cmd = vps();
+    cmd.args([
+        "run",
+        "--device",
+        "bridge:127.0.0.1:0",
+        "--seconds",
+        "600",
+        "--pose-timeout-ms",
+        "50",
+        "--report",
+    ])
+    .arg(&report_path);
+    let mut vps = WatchedProcess::spawn(cmd, "vps", DEADLINE);
+    let marker = "device bridge listening on ";
+    vps.wait_for(marker, 1);
+    let addr: SocketAddr = vps.lines_containing(marker)[0]
+        .split(marker)
+        .nth(1)
+        .unwrap()
+        .trim()
+        .parse()
+        .expect("a socket address");
+    let start = vps_mesh::builtin::bay_corridor()[0];
+    let mut client = BridgeClient::connect(addr, None).unwrap();
+    let far_ahead = Datagram {
+        token: [0; 16],
+        sequence: u64::MAX,
+        message: Message::PoseInFlags {
+            sample: handle_at(start),
+            flags: FLAG_CLUTCH,
+        },
+    };
+    let mut bytes = [0u8; vps_input::bridge::protocol::MAX_DATAGRAM];
+    let n = far_ahead.encode(&mut bytes);
+    client.send_raw(&bytes[..n]).unwrap();
+    let until = Instant::now() + DEADLINE;
+    let mut with_force = 0;
+    let mut sent = 0u32;
+    while with_force < 500 {
+        assert!(
+            Instant::now() < until,
+            "the restarted sender got no force within {DEADLINE:?}"
+        );
+        // Taken back, the stream is re-anchored where the part was held: the hand then moves
+        // down 1 m, 2 mm a pose, pressing the part onto the bay's floor.
+        sent += 1;
+        let down = (f64::from(sent) * 0.002).min(1.0);
+        client
+            .send_pose(&handle_at(start - DVec3::new(0.0, 0.0, down)))
+            .unwrap();
+        if let Ok(Some(reply)) = client.recv_wrench(Duration::from_millis(5)) {
+            if reply.wrench.force.length() > 0.1 {
+                with_force += 1;
+            }
+        }
+    }
+    vps.signal("TERM");
+    assert_eq!(vps.wait_exit().code(), Some(143));
+    vps.wait_for("dropped as stale", 1);
+    let said = vps.lines_containing("dropped as stale").join("\n");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report_path).unwrap()).unwrap();
+    let bridge = &report["bridge"];
+    assert_eq!(bridge["restarts"], 1, "{bridge}");
+    assert!(bridge["stale"].as_u64().unwrap() > 0, "{bridge}");
+    assert!(said.contains("restarted client"), "{said}");
 }

@@ -217,6 +217,120 @@ fn the_voxmap_cache_is_used_and_rebuilt_when_an_input_changes() {
     assert!(out.contains("voxmap: built (cache off)"), "{out}");
 }
 
+/// The `.vmap` entries of a cache directory.
+fn cache_maps(vps: &Vps) -> Vec<std::path::PathBuf> {
+    let mut maps: Vec<_> = std::fs::read_dir(vps.cache())
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "vmap"))
+        .collect();
+    maps.sort();
+    maps
+}
+
+/// Issue 36 item 1: another valid map copied over a cache entry (the 10 mm map over the 5 mm
+/// one, with and without its record) was loaded and rendered; now it is rebuilt, saying why.
+#[test]
+fn another_scenes_map_copied_over_a_cache_entry_is_rebuilt_saying_why() {
+    let bay = bay();
+    let scene = bay.path("bay.toml");
+    let coarse = bay.path("coarse.toml");
+    std::fs::write(&coarse, SCENE.replace("\"5mm\"", "\"10mm\"")).unwrap();
+    let start = |scene: &str| {
+        let out = bay.run(&["run", "--scene", scene, "--seconds", "0.1", "--json"]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        stderr(&out)
+    };
+    assert!(start(&scene).contains("voxmap: built, cached at"));
+    let fine_map = cache_maps(&bay);
+    assert_eq!(fine_map.len(), 1);
+    let fine_map = &fine_map[0];
+    assert!(start(&coarse).contains("voxmap: built, cached at"));
+    let coarse_map = cache_maps(&bay)
+        .into_iter()
+        .find(|p| p != fine_map)
+        .unwrap();
+    let record = |p: &std::path::Path| {
+        let mut s = p.as_os_str().to_owned();
+        s.push(".record");
+        std::path::PathBuf::from(s)
+    };
+    // The map alone, then the map with its record.
+    for with_record in [false, true] {
+        std::fs::copy(&coarse_map, fine_map).unwrap();
+        if with_record {
+            std::fs::copy(record(&coarse_map), record(fine_map)).unwrap();
+        }
+        let err = start(&scene);
+        assert!(!err.contains("loaded from cache"), "{err}");
+        assert!(
+            err.contains("not using it, rebuilding it") && err.contains("voxmap: built, cached at"),
+            "{err}"
+        );
+        let why = if with_record {
+            "recorded as the map of other inputs"
+        } else {
+            "content hash"
+        };
+        assert!(err.contains(why), "{why}: {err}");
+        assert!(start(&scene).contains("voxmap: loaded from cache"));
+    }
+    // A record forged for the 5 mm key: the 10 mm grid still differs from the inputs'.
+    std::fs::copy(&coarse_map, fine_map).unwrap();
+    let fine_key = fine_map.file_stem().unwrap().to_str().unwrap();
+    let coarse_key = coarse_map.file_stem().unwrap().to_str().unwrap();
+    let forged = std::fs::read_to_string(record(&coarse_map))
+        .unwrap()
+        .replace(coarse_key, fine_key);
+    std::fs::write(record(fine_map), forged).unwrap();
+    let err = start(&scene);
+    assert!(
+        err.contains("holds a grid of") && err.contains("voxmap: built, cached at"),
+        "{err}"
+    );
+}
+
+/// Issue 36 item 7: `vps scene check` said ok to a grip of 1e300 m, a waypoint of 1e308 m and a
+/// speed of 1e-300 m/s; the session then failed with "haptic parameter `max_radius` = inf",
+/// "waypoint 2: time is not finite" or a 300-digit time, naming no key. Both now refuse the file
+/// at once, naming it, the key and the bound.
+#[test]
+fn scene_check_refuses_what_a_session_would_naming_the_file_and_key() {
+    let bay = bay();
+    for (from, to, key, bound) in [
+        (
+            "rotate_deg = [-90, 0, 0]",
+            "rotate_deg = [-90, 0, 0]\ngrip = [1e300, 0, 0]",
+            "`part.grip`",
+            "1000000 m",
+        ),
+        (
+            "[0.03, 0.0, 0.005]",
+            "[1e308, 0.0, 0.005]",
+            "`hand.waypoints[2]`",
+            "1000000 m",
+        ),
+        ("speed = 0.08", "speed = 1e-300", "`hand.speed`", "1e6 s"),
+    ] {
+        let text = SCENE.replacen(from, to, 1);
+        assert_ne!(text, SCENE, "{from}");
+        std::fs::write(bay.dir().join("bad.toml"), text).unwrap();
+        let path = bay.path("bad.toml");
+        for args in [
+            vec!["scene", "check", path.as_str()],
+            vec!["run", "--scene", path.as_str(), "--seconds", "0.1"],
+        ] {
+            let err = bay.fails(&args);
+            assert!(
+                err.contains("bad.toml") && err.contains(key) && err.contains(bound),
+                "{args:?}: {key}, {bound}: {err}"
+            );
+            assert!(!err.contains("voxmap:"), "{args:?}: {err}");
+            assert!(err.len() < 600, "{args:?}: {err}");
+        }
+    }
+}
+
 #[test]
 fn bad_scene_files_name_the_file_and_field_and_run_nothing() {
     let bay = bay();

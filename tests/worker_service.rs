@@ -136,3 +136,33 @@ fn a_worker_outlives_its_coordinators_sigterm_and_joins_the_next_one() {
     assert_eq!(w.count("\u{1b}["), 0, "colour codes in a piped log");
     assert_eq!(first.count("\u{1b}["), 0, "colour codes in a piped log");
 }
+
+/// Issue 36 item 5: a worker restarted within about 3 s of a crash was refused for good ("another
+/// worker with this certificate is connected") while the coordinator still held the dead
+/// connection; with the shipped unit (`RestartPreventExitStatus=1 2`) it never came back. Here a
+/// worker is killed (SIGKILL) mid-session and a new one with the same certificate is started at
+/// once: it joins, replacing the dead connection, and stays.
+#[test]
+fn a_worker_restarted_at_once_after_a_crash_replaces_its_dead_connection() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["coordinator", "worker"] {
+        make_cert(dir.path(), name).unwrap();
+    }
+    let port = free_port();
+    let mut coord = coordinator(dir.path(), port, "600", "report.json");
+    coord.wait_for("waiting for 1 worker", 1);
+    let mut crashed = worker(dir.path(), port, "worker");
+    crashed.wait_for("joined", 1);
+    crashed.signal("KILL");
+    crashed.wait_exit();
+    let mut restarted = worker(dir.path(), port, "worker");
+    restarted.wait_for("joined", 1);
+    coord.wait_for("closed that one (a worker restarted after a crash", 1);
+    assert!(restarted.is_running(), "the restarted worker exited");
+    assert_eq!(restarted.count("refused"), 0);
+    coord.signal("TERM");
+    assert_eq!(coord.wait_exit().code(), Some(143));
+    restarted.wait_for("coordinator stopping (SIGTERM)", 1);
+    restarted.signal("TERM");
+    assert_eq!(restarted.wait_exit().code(), Some(0));
+}

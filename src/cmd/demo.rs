@@ -54,7 +54,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             "scene: {} ({}), {} triangles, voxelized at {} m in {:.0} ms, tree {:.2} MiB \
              (+ {:.2} MiB lookup directory)",
             scene.name,
-            scene.label,
+            vps_files::printable(&scene.label),
             scene.scene_triangles,
             scene.voxel_size,
             scene.voxelize_ms,

@@ -8,6 +8,7 @@
 use crate::output::{metres_4, print_json};
 use anyhow::Result;
 use serde::Serialize;
+use vps_files::printable;
 use vps_mesh::TriMesh;
 use vps_session::estimate::VoxmapEstimate;
 use vps_session::file::{ShellMethodName, BUILTIN_VOXELS_REASON};
@@ -203,7 +204,7 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
     if json {
         return print_json(&report);
     }
-    println!("scene {} ({}): ok", report.name, report.scene);
+    println!("scene {} ({}): ok", report.name, printable(&report.scene));
     let line = |o: &ObjectReport| {
         println!(
             "  {:<10} {:>9} triangles  bounds (m) [{}] .. [{}]  {}",
@@ -211,7 +212,7 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
             o.triangles,
             o.bounds_min_m.map(metres_4).join(", "),
             o.bounds_max_m.map(metres_4).join(", "),
-            o.source
+            printable(&o.source)
         )
     };
     report.objects.iter().for_each(line);
@@ -236,7 +237,7 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
         v.offset_layers.from
     );
     if let Some(reason) = &v.reason {
-        println!("  why (scene file): {reason}");
+        println!("  why (scene file): {}", printable(reason));
     }
     if let Some(reason) = v.builtin_reason {
         println!(
@@ -302,7 +303,7 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
         );
     }
     for flag in &report.flags {
-        println!("flag: {flag}");
+        println!("flag: {}", printable(flag));
     }
     Ok(())
 }

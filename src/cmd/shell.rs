@@ -37,7 +37,11 @@ pub fn method_of(arg: ShellMethodArg) -> ShellMethod {
 
 /// Runs the command.
 pub fn run(args: &ShellArgs) -> Result<()> {
-    check_output_path(&args.build.output, &crate::output::mesh_inputs(&args.mesh))?;
+    check_output_path(
+        "-o",
+        &args.build.output,
+        &crate::output::mesh_inputs(&args.mesh),
+    )?;
     let scene = load_mesh(&args.mesh, args.build.units)?;
     let budget = args
         .build

@@ -9,7 +9,7 @@
 
 use crate::cli::SweepArgs;
 use crate::exit::SessionExit;
-use crate::output::{check_output_path, write_file};
+use crate::output::{check_outputs, write_file};
 use crate::sweep_session::{run_sweep_session, session_on, SweepRow, SweepSession, SweepTable};
 use anyhow::{Context, Result};
 use glam::DVec3;
@@ -40,9 +40,11 @@ pub fn run(args: &SweepArgs) -> Result<()> {
         },
     )?;
     let config = SweepFile::from_toml_str(&text, &args.config.display().to_string())?;
-    for path in [&args.json, &args.csv].into_iter().flatten() {
-        check_output_path(path, &[&args.config])?;
-    }
+    let outputs: Vec<(&str, &Path)> = [("--json", &args.json), ("--csv", &args.csv)]
+        .into_iter()
+        .filter_map(|(flag, path)| Some((flag, path.as_deref()?)))
+        .collect();
+    check_outputs(&outputs, &[&args.config])?;
     let base = args.config.parent().unwrap_or(Path::new("."));
     let mut runs = config.run.iter().collect::<Vec<_>>();
     let only;

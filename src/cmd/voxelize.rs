@@ -31,7 +31,11 @@ struct VoxelizeSummary {
 
 /// Runs the command.
 pub fn run(args: &VoxelizeArgs) -> Result<()> {
-    check_output_path(&args.build.output, &crate::output::mesh_inputs(&args.mesh))?;
+    check_output_path(
+        "-o",
+        &args.build.output,
+        &crate::output::mesh_inputs(&args.mesh),
+    )?;
     let scene = load_mesh(&args.mesh, args.build.units)?;
     let Some(width) = VoxelWidth::from_bits(args.width) else {
         bail!("--width {}: must be 2, 4 or 8", args.width);

@@ -3,11 +3,13 @@
 //! crossbeam channels, which the frame thread polls through [`RemoteShares`]. Nothing here is on
 //! the frame path.
 //!
-//! One live connection per pinned certificate: a worker presenting the certificate of a worker
-//! still connected is closed with [`crate::close::CLOSE_DUPLICATE_IDENTITY`] and the reason
-//! [`crate::close::DUPLICATE_IDENTITY_REASON`] before its join, logged and counted
-//! ([`Coordinator::refused_duplicates`]); once the first connection has ended (closed, or silent
-//! past the idle timeout) the certificate may join again.
+//! One live connection per pinned certificate, the newest: a worker presenting the certificate of
+//! a connection the coordinator still holds replaces it. The older connection is closed with
+//! [`crate::close::CLOSE_REPLACED`] and the reason [`crate::close::REPLACED_REASON`], logged and
+//! counted ([`Coordinator::replaced_connections`]). A worker restarted within seconds of a crash
+//! (its dead connection not yet past the idle timeout) so joins at once, where it used to be
+//! refused for good; a second live process with the same certificate takes over and the first is
+//! told why and stops (a refusal: the two do not take turns).
 
 use crate::assets::ClusterAssets;
 use crate::events::{Control, Datagram};
@@ -18,7 +20,7 @@ use crate::tls::{server_config, PeerTls};
 use crate::ClusterError;
 use crossbeam::channel::{bounded, unbounded, Receiver, Sender};
 use rustls::pki_types::CertificateDer;
-use std::collections::HashSet;
+use std::collections::HashMap;
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
@@ -48,7 +50,7 @@ struct NetCounters {
     joined: AtomicUsize,
     admitted: AtomicU64,
     refused: Arc<AtomicU64>,
-    refused_duplicates: AtomicU64,
+    replaced: AtomicU64,
     failed_joins: AtomicU64,
 }
 
@@ -163,10 +165,10 @@ impl Coordinator {
         self.counters.refused.load(Ordering::Relaxed)
     }
 
-    /// Connections refused because another live connection presented the same certificate
-    /// (closed with [`crate::close::CLOSE_DUPLICATE_IDENTITY`]).
-    pub fn refused_duplicates(&self) -> u64 {
-        self.counters.refused_duplicates.load(Ordering::Relaxed)
+    /// Connections closed because a newer connection presented the same certificate (closed
+    /// with [`crate::close::CLOSE_REPLACED`]).
+    pub fn replaced_connections(&self) -> u64 {
+        self.counters.replaced.load(Ordering::Relaxed)
     }
 
     /// Joins that failed after the TLS handshake (version, timeout, malformed message).
@@ -299,22 +301,22 @@ async fn serve(incoming: quinn::Incoming, links: Links) {
         }
     };
     let id = links.next_id.fetch_add(1, Ordering::Relaxed);
-    // One live connection per pinned certificate: held until this task ends (the connection is
-    // gone or was refused), then the certificate may join again.
-    let Some(_live) = links.live.claim(&conn) else {
+    // One live connection per pinned certificate, the newest: held until this task ends (the
+    // connection is gone or was replaced); an older one with the same certificate is closed.
+    let (_live, replaced) = links.live.claim(&conn);
+    if let Some(old) = replaced {
         tracing::warn!(
-            "refused worker {id} at {remote}: another worker with this certificate is connected"
+            "worker {id} at {remote} presents the certificate of the connection from {}: \
+             closed that one (a worker restarted after a crash, or a second process with the \
+             same certificate)",
+            old.remote_address()
         );
-        links
-            .counters
-            .refused_duplicates
-            .fetch_add(1, Ordering::Relaxed);
-        conn.close(
-            crate::close::code(crate::close::CLOSE_DUPLICATE_IDENTITY),
-            crate::close::DUPLICATE_IDENTITY_REASON.as_bytes(),
+        links.counters.replaced.fetch_add(1, Ordering::Relaxed);
+        old.close(
+            crate::close::code(crate::close::CLOSE_REPLACED),
+            crate::close::REPLACED_REASON.as_bytes(),
         );
-        return;
-    };
+    }
     let scene_sent = match tokio::time::timeout(JOIN_TIMEOUT, admit(&conn, id, &links.assets)).await
     {
         Ok(Ok(sent)) => sent,
@@ -355,42 +357,60 @@ async fn serve(incoming: quinn::Incoming, links: Links) {
     let _ = links.control.send(Control::Closed { id });
 }
 
-/// The certificates of the live worker connections (by BLAKE3 of the end-entity certificate).
+/// The newest connection of each certificate (by BLAKE3 of the end-entity certificate), with the
+/// number of the claim that holds it.
 #[derive(Clone, Default)]
-struct LiveIdentities(Arc<Mutex<HashSet<[u8; 32]>>>);
+struct LiveIdentities(Arc<Mutex<LiveMap>>);
 
-/// A claimed certificate; released on drop.
+#[derive(Default)]
+struct LiveMap {
+    next_claim: u64,
+    by_certificate: HashMap<[u8; 32], (u64, quinn::Connection)>,
+}
+
+/// A claimed certificate; released on drop unless a newer claim has taken it.
 struct LiveClaim {
     set: LiveIdentities,
     key: [u8; 32],
+    claim: u64,
 }
 
 impl LiveIdentities {
-    /// Claims `conn`'s peer certificate; `None` when another live connection holds it. A
-    /// connection without a certificate (impossible: the server requires one) claims nothing and
-    /// is let through to the join, which the pinning already gated.
-    fn claim(&self, conn: &quinn::Connection) -> Option<Option<LiveClaim>> {
+    /// Claims `conn`'s peer certificate for it and returns the connection that held it before
+    /// (to be closed), if any. A connection without a certificate (impossible: the server
+    /// requires one) claims nothing and is let through to the join, which the pinning already
+    /// gated.
+    fn claim(&self, conn: &quinn::Connection) -> (Option<LiveClaim>, Option<quinn::Connection>) {
         let certs = conn
             .peer_identity()
             .and_then(|any| any.downcast::<Vec<CertificateDer<'static>>>().ok());
         let Some(cert) = certs.as_ref().and_then(|c| c.first()) else {
-            return Some(None);
+            return (None, None);
         };
         let key = *blake3::hash(cert.as_ref()).as_bytes();
-        let mut set = self.0.lock().unwrap_or_else(|e| e.into_inner());
-        set.insert(key).then(|| {
-            Some(LiveClaim {
-                set: self.clone(),
-                key,
-            })
-        })
+        let mut map = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        map.next_claim += 1;
+        let claim = map.next_claim;
+        let old = map.by_certificate.insert(key, (claim, conn.clone()));
+        let claimed = LiveClaim {
+            set: self.clone(),
+            key,
+            claim,
+        };
+        (Some(claimed), old.map(|(_, c)| c))
     }
 }
 
 impl Drop for LiveClaim {
     fn drop(&mut self) {
-        let mut set = self.set.0.lock().unwrap_or_else(|e| e.into_inner());
-        set.remove(&self.key);
+        let mut map = self.set.0.lock().unwrap_or_else(|e| e.into_inner());
+        if map
+            .by_certificate
+            .get(&self.key)
+            .is_some_and(|(claim, _)| *claim == self.claim)
+        {
+            map.by_certificate.remove(&self.key);
+        }
     }
 }
 

@@ -184,6 +184,12 @@ async fn worker_main(
                 }
                 Err(e) => {
                     tracing::debug!("connection ended: {e}");
+                    // Replaced by a newer connection with this certificate: stop, rather than
+                    // rejoin and take turns with the process that replaced this one.
+                    if let Some(refused) = refusal(config.coordinator, &e) {
+                        endpoint.close(close::code(close::CLOSE_WORKER_STOPPED), b"bye");
+                        return Err(refused);
+                    }
                     coordinator_closed = closed_by_coordinator(&e);
                     break e.to_string();
                 }

@@ -1,13 +1,13 @@
-//! One live connection per pinned certificate, over real QUIC on loopback: a second worker with
-//! the certificate of a connected one is refused (close code `CLOSE_DUPLICATE_IDENTITY`) and told
-//! why; once the first has gone the certificate joins again; an unpinned worker is told that its
-//! certificate is not pinned.
+//! One live connection per pinned certificate, the newest, over real QUIC on loopback: a second
+//! worker with the certificate of a connected one replaces it, and the first is closed (close
+//! code `CLOSE_REPLACED`) and told why; once the first has gone the certificate joins again; an
+//! unpinned worker is told that its certificate is not pinned.
 
 mod common;
 
 use common::*;
 use std::time::{Duration, Instant};
-use vps_cluster::close::{is_refusal, CLOSE_BAD_REPLIES, CLOSE_DUPLICATE_IDENTITY};
+use vps_cluster::close::{is_refusal, CLOSE_BAD_REPLIES, CLOSE_DUPLICATE_IDENTITY, CLOSE_REPLACED};
 use vps_cluster::{run_worker, ClusterError, PeerTls, TlsIdentity, WorkerConfig};
 
 const JOIN_WAIT: Duration = Duration::from_secs(20);
@@ -31,29 +31,39 @@ fn coordinator_with_first_worker(
     (coordinator, addr, first)
 }
 
+/// Issue 36 item 5: a worker restarted within about 3 s of a crash was refused for good ("another
+/// worker with this certificate is connected") while the coordinator still held the dead
+/// connection. The newer connection now replaces the older: here the first worker is alive, is
+/// closed and told why (a refusal, so the two do not take turns), and the second stays joined.
 #[test]
-fn a_second_worker_with_a_connected_certificate_is_refused_and_told_why() {
+fn a_second_worker_with_a_connected_certificate_replaces_it_and_the_first_is_told_why() {
     let ids = identities();
     let (coordinator, addr, first) = coordinator_with_first_worker(&ids);
 
-    let err = run_worker(worker_config(&ids, addr)).expect_err("the duplicate is refused");
+    let second = ThreadWorker::spawn(worker_config(&ids, addr));
+    wait_until("the second worker's join", || {
+        coordinator.admitted_workers() == 2
+    });
+    let err = first
+        .thread
+        .join()
+        .expect("no panic")
+        .expect_err("the first is replaced");
     match &err {
         ClusterError::Refused(m) => assert!(
-            m.contains(
-                "refused by the coordinator: another worker with this certificate is connected"
-            ),
+            m.contains("refused by the coordinator: a newer connection with this worker's certificate joined in its place"),
             "{m}"
         ),
         other => panic!("not a refusal: {other:?}"),
     }
-    assert_eq!(coordinator.refused_duplicates(), 1);
-    assert_eq!(coordinator.joined_workers(), 1, "the first is still joined");
-    assert_eq!(coordinator.admitted_workers(), 1);
-    // A different pinned certificate is not a duplicate.
+    assert_eq!(coordinator.replaced_connections(), 1);
+    wait_until("one joined worker", || coordinator.joined_workers() == 1);
+    // A different pinned certificate replaces nothing.
     let other = ThreadWorker::spawn(worker_config_k(&ids, addr, 1));
     coordinator.wait_for_workers(2, JOIN_WAIT).unwrap();
     other.stop().unwrap();
-    let report = first.stop().expect("the first worker was left alone");
+    assert_eq!(coordinator.replaced_connections(), 1);
+    let report = second.stop().expect("the second worker was left alone");
     assert_eq!(report.ended, "stopped");
 }
 
@@ -71,7 +81,7 @@ fn the_certificate_joins_again_after_the_first_worker_has_gone() {
         coordinator.admitted_workers() == 2
     });
     assert_eq!(coordinator.joined_workers(), 1);
-    assert_eq!(coordinator.refused_duplicates(), 0);
+    assert_eq!(coordinator.replaced_connections(), 0);
     assert_eq!(replacement.stop().unwrap().ended, "stopped");
 }
 
@@ -97,7 +107,7 @@ fn an_unpinned_worker_is_told_its_certificate_is_not_pinned() {
         other => panic!("not a refusal: {other:?}"),
     }
     wait_until("the refusal count", || coordinator.refused_unpinned() == 1);
-    assert_eq!(coordinator.refused_duplicates(), 0);
+    assert_eq!(coordinator.replaced_connections(), 0);
 }
 
 #[test]
@@ -105,4 +115,5 @@ fn a_duplicate_is_a_refusal_for_good_and_a_disconnection_for_bad_replies_is_not(
     assert_ne!(CLOSE_BAD_REPLIES, CLOSE_DUPLICATE_IDENTITY);
     assert!(is_refusal(u64::from(CLOSE_DUPLICATE_IDENTITY)));
     assert!(!is_refusal(u64::from(CLOSE_BAD_REPLIES)));
+    assert!(is_refusal(u64::from(CLOSE_REPLACED)));
 }

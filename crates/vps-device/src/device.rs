@@ -48,25 +48,27 @@ impl DeviceLimits {
         Ok(())
     }
 
-    /// `wrench` with force and torque each scaled down (direction kept) to fit the limits.
-    /// A non-finite component yields the zero wrench. Does not allocate or block.
+    /// `wrench` with force and torque each scaled down (direction kept) to fit the limits, so that
+    /// the exact Euclidean lengths satisfy |F| ≤ `max_force` and |T| ≤ `max_torque`: not one ulp
+    /// over, however a client computes the length ([`crate::norm::clamp_length`]). A wrench
+    /// within the limits is returned unchanged (but for one within about 8 ulps of a limit, scaled
+    /// below it). A non-finite component yields the zero wrench. Does not allocate or block.
     pub fn saturate(&self, wrench: &Wrench) -> Wrench {
         if !wrench.force.is_finite() || !wrench.torque.is_finite() {
             return Wrench::ZERO;
         }
         Wrench {
-            force: wrench.force.clamp_length_max(self.max_force),
-            torque: wrench.torque.clamp_length_max(self.max_torque),
+            force: crate::norm::clamp_length(wrench.force, self.max_force),
+            torque: crate::norm::clamp_length(wrench.torque, self.max_torque),
         }
     }
 
-    /// True when `wrench` is finite and within both maxima (with a relative slack of 1e-9 for
-    /// rounding in [`DeviceLimits::saturate`]).
+    /// True when `wrench` is finite and within both maxima exactly (no slack; conservative by a
+    /// few ulps, [`crate::norm::length_within`]): what [`DeviceLimits::saturate`] returns always
+    /// is.
     pub fn admits(&self, wrench: &Wrench) -> bool {
-        wrench.force.is_finite()
-            && wrench.torque.is_finite()
-            && wrench.force.length() <= self.max_force * (1.0 + 1e-9)
-            && wrench.torque.length() <= self.max_torque * (1.0 + 1e-9)
+        crate::norm::length_within(wrench.force, self.max_force)
+            && crate::norm::length_within(wrench.torque, self.max_torque)
     }
 }
 

@@ -4,6 +4,7 @@
 //!
 //! Module map:
 //! - [`device`]: the trait, [`DeviceLimits`], [`DeviceError`].
+//! - [`norm`]: vector lengths against a limit without rounding up (saturation never overshoots).
 //! - [`script`]: timed waypoint scripts and the built-in motions.
 //! - [`sim_hand`]: the mass-spring-damper hand.
 //! - [`trace`]: [`TraceRecorder`], [`Trace`] files (JSON lines), [`ReplayDevice`].
@@ -16,6 +17,7 @@
 #![warn(missing_docs)]
 
 pub mod device;
+pub mod norm;
 mod rotation;
 pub mod script;
 pub mod sim_hand;

@@ -15,7 +15,7 @@
 
 use std::fs::{File, FileType, OpenOptions};
 use std::io::{self, Read};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// One mebibyte (2^20 bytes), for writing size bounds.
 pub const MIB: u64 = 1 << 20;
@@ -99,6 +99,103 @@ pub fn describe_size(bytes: u64) -> String {
     } else {
         format!("{bytes} bytes")
     }
+}
+
+/// The file an output written to `path` replaces: `path` itself when nothing is there or it is a
+/// regular file; when `path` is a symbolic link (or a chain of them) to a regular file, that file
+/// (canonical path), so the link stays and the file it names is replaced.
+///
+/// Anything else is an error of kind [`io::ErrorKind::InvalidInput`] saying what is there: a
+/// directory, a named pipe, a character or block device or a socket (written as a file, it would
+/// be replaced by one, or block, or swallow the output), a link to one of these, or a link to
+/// nothing (a dangling link: where it leads is not checked, so it is not followed). Outputs are
+/// written whole to a temporary file and renamed into place; such a path never is a place for
+/// that. Blocking only for the file-system calls; never opens `path`.
+pub fn output_destination(path: &Path) -> io::Result<PathBuf> {
+    let refuse = |what: String| {
+        Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!(
+                "{what}: vps writes an output file whole and renames it into place, so it writes \
+                 only to a regular file or a new path; give the path of a file on disk"
+            ),
+        ))
+    };
+    let link = match std::fs::symlink_metadata(path) {
+        Ok(m) => m,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(path.to_path_buf()),
+        Err(e) => return Err(e),
+    };
+    if link.is_file() {
+        return Ok(path.to_path_buf());
+    }
+    if !link.file_type().is_symlink() {
+        return refuse(format!(
+            "not a regular file but {}",
+            describe(&link.file_type())
+        ));
+    }
+    match std::fs::metadata(path) {
+        Ok(target) if target.is_file() => std::fs::canonicalize(path),
+        Ok(target) => refuse(format!(
+            "a symbolic link to {}, which is not a regular file but {}",
+            std::fs::read_link(path)
+                .map(|t| t.display().to_string())
+                .unwrap_or_default(),
+            describe(&target.file_type())
+        )),
+        Err(e) if e.kind() == io::ErrorKind::NotFound => refuse(format!(
+            "a symbolic link to {}, which does not exist",
+            std::fs::read_link(path)
+                .map(|t| t.display().to_string())
+                .unwrap_or_default()
+        )),
+        Err(e) => Err(e),
+    }
+}
+
+/// True for a character that must not reach a terminal raw: a control character (Unicode
+/// category Cc: C0, DEL, C1, among them ESC, BEL, CR and LF) or a bidirectional-text control
+/// (U+200E, U+200F, U+202A..=U+202E, U+2066..=U+2069), which can reorder what a line shows.
+fn is_unprintable(c: char) -> bool {
+    c.is_control()
+        || matches!(c, '\u{200e}' | '\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}')
+}
+
+/// `text` (taken from an input: a scene's `name` or `voxels.reason`, a path, a mesh source) fit to
+/// print: every control character written as an escape (`\n`, `\r`, `\t`, else `\u{1b}`
+/// style), so what a file says cannot retitle or clear the terminal, move the cursor or forge a
+/// line of output. The one escaping function of vps: everything printed from input goes through
+/// it (or [`printable_lines`]). Borrowed when nothing needs escaping.
+pub fn printable(text: &str) -> std::borrow::Cow<'_, str> {
+    escape(text, false)
+}
+
+/// [`printable`] for a message of several lines (an error chain with a parser's excerpt of the
+/// file): line breaks are kept, every other control character escaped.
+pub fn printable_lines(text: &str) -> std::borrow::Cow<'_, str> {
+    escape(text, true)
+}
+
+fn escape(text: &str, keep_newlines: bool) -> std::borrow::Cow<'_, str> {
+    let unprintable = |c: char| is_unprintable(c) && !(keep_newlines && c == '\n');
+    if !text.chars().any(unprintable) {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let mut out = String::with_capacity(text.len() + 16);
+    for c in text.chars() {
+        if !unprintable(c) {
+            out.push(c);
+            continue;
+        }
+        match c {
+            '\n' => out.push_str("\\n"),
+            '\r' => out.push_str("\\r"),
+            '\t' => out.push_str("\\t"),
+            _ => out.push_str(&format!("\\u{{{:x}}}", c as u32)),
+        }
+    }
+    std::borrow::Cow::Owned(out)
 }
 
 fn too_large(len: u64, max_bytes: u64) -> io::Error {
@@ -242,5 +339,65 @@ mod tests {
         assert_eq!(describe_size(1536), "1.5 KiB (1536 bytes)");
         assert_eq!(describe_size(16 * MIB), "16.0 MiB (16777216 bytes)");
         assert_eq!(describe_size(5 * GIB), "5.0 GiB (5368709120 bytes)");
+    }
+
+    #[test]
+    fn an_output_is_a_regular_file_a_new_path_or_a_link_to_a_regular_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let new = dir.path().join("new.json");
+        assert_eq!(output_destination(&new).unwrap(), new);
+        let file = dir.path().join("old.json");
+        std::fs::write(&file, "{}").unwrap();
+        assert_eq!(output_destination(&file).unwrap(), file);
+        let link = dir.path().join("link.json");
+        std::os::unix::fs::symlink(&file, &link).unwrap();
+        assert_eq!(
+            output_destination(&link).unwrap(),
+            std::fs::canonicalize(&file).unwrap()
+        );
+    }
+
+    #[test]
+    fn an_output_that_is_a_pipe_a_device_a_directory_or_a_link_to_one_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("fifo");
+        assert!(std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success());
+        let to_null = dir.path().join("null.json");
+        std::os::unix::fs::symlink("/dev/null", &to_null).unwrap();
+        let dangling = dir.path().join("dangling.json");
+        std::os::unix::fs::symlink(dir.path().join("nowhere"), &dangling).unwrap();
+        for (path, what) in [
+            (fifo.as_path(), "a named pipe (FIFO)"),
+            (Path::new("/dev/null"), "a character device"),
+            (Path::new("/dev/full"), "a character device"),
+            (to_null.as_path(), "a symbolic link to /dev/null"),
+            (dangling.as_path(), "which does not exist"),
+            (dir.path(), "a directory"),
+        ] {
+            let err = output_destination(path).unwrap_err();
+            assert_eq!(err.kind(), io::ErrorKind::InvalidInput, "{path:?}");
+            assert!(err.to_string().contains(what), "{path:?}: {err}");
+        }
+        assert!(fifo.exists() && !fifo.is_file());
+    }
+
+    #[test]
+    fn control_characters_are_escaped_for_printing() {
+        let hostile = "bay\u{1b}]0;owned\u{7}\u{1b}[2J\r\nFAKE: ok\u{202e}txt.exe\u{9b}";
+        let shown = printable(hostile);
+        assert_eq!(
+            shown,
+            "bay\\u{1b}]0;owned\\u{7}\\u{1b}[2J\\r\\nFAKE: ok\\u{202e}txt.exe\\u{9b}"
+        );
+        assert!(!shown.chars().any(is_unprintable));
+        assert_eq!(printable_lines("a\nb\u{7}"), "a\nb\\u{7}");
+        assert!(matches!(
+            printable("plain, ünïcode ok"),
+            std::borrow::Cow::Borrowed(_)
+        ));
     }
 }

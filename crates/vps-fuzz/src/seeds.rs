@@ -421,3 +421,57 @@ fn join_messages() -> Vec<JoinMessage> {
     all.push(JoinMessage::Ready);
     all
 }
+
+/// Between a cache entry's map bytes and its record's text in a `cache-entry` input.
+pub const CACHE_RECORD_MARKER: &[u8] = b"\n#record\n";
+
+/// The cache entry the `cache-entry` target asks for: the built-in box voxelized at 2 cm, 2-bit,
+/// the default tree (its key, grid, width and tree shape).
+pub fn cache_expected() -> &'static vps_session::cache::Expected {
+    static EXPECTED: std::sync::OnceLock<vps_session::cache::Expected> = std::sync::OnceLock::new();
+    EXPECTED.get_or_init(|| cache_map(0.02).1)
+}
+
+/// The built-in box voxelized at `voxel_size` (m) into a cache entry: its map and what it is.
+fn cache_map(voxel_size: f64) -> (vps_voxmap::VoxelTree, vps_session::cache::Expected) {
+    let cube = vps_mesh::builtin::by_name("box").expect("built-in box");
+    let objects = std::slice::from_ref(&cube);
+    let opts = VoxelizeOptions {
+        voxel_size,
+        ..VoxelizeOptions::default()
+    };
+    let config = TreeConfig::default();
+    let (tree, _) = voxelize_tree(objects, &opts, config).expect("voxelizing the seed box");
+    let expected = vps_session::cache::Expected {
+        key: vps_session::cache::cache_key(objects, &opts, config),
+        spec: vps_voxelize::tree_grid(objects, &opts).expect("the seed box's grid"),
+        width: opts.width,
+        config,
+    };
+    (tree, expected)
+}
+
+/// Cache entries (`cache-entry` target): the entry asked for with its record; the same map with
+/// no record and with the record of another entry; another entry's map (4 cm) with its own
+/// record and with a record forged to name the key asked for.
+pub fn cache_entry() -> Vec<Vec<u8>> {
+    let entry = |tree: &vps_voxmap::VoxelTree, record: Option<String>| {
+        let mut bytes = Vec::new();
+        vps_voxmap::file::write_voxmap(tree, &mut bytes).expect("encoding a seed voxmap");
+        if let Some(record) = record {
+            bytes.extend_from_slice(CACHE_RECORD_MARKER);
+            bytes.extend_from_slice(record.as_bytes());
+        }
+        bytes
+    };
+    let record = vps_session::cache::record_text;
+    let (tree, asked) = cache_map(0.02);
+    let (other, theirs) = cache_map(0.04);
+    vec![
+        entry(&tree, Some(record(&asked.key, &tree))),
+        entry(&tree, None),
+        entry(&tree, Some(record(&theirs.key, &other))),
+        entry(&other, Some(record(&theirs.key, &other))),
+        entry(&other, Some(record(&asked.key, &other))),
+    ]
+}

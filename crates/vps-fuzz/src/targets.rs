@@ -159,6 +159,33 @@ fn sweep_toml(bytes: &[u8]) -> Result<(), String> {
     Ok(())
 }
 
+/// A voxmap cache entry as `vps_session::cache::check_entry` checks it: the input is the `.vmap`
+/// file's bytes, [`seeds::CACHE_RECORD_MARKER`], then the record's text (no marker: no record). The
+/// entry asked for is the seeds' (`seeds::cache_expected`): an accepted map must have exactly its
+/// grid, width and tree shape.
+fn cache_entry(bytes: &[u8]) -> Result<(), String> {
+    let split = bytes
+        .windows(seeds::CACHE_RECORD_MARKER.len())
+        .rposition(|w| w == seeds::CACHE_RECORD_MARKER);
+    let (map, record) = match split {
+        Some(at) => (
+            &bytes[..at],
+            &bytes[at + seeds::CACHE_RECORD_MARKER.len()..],
+        ),
+        None => (bytes, &b""[..]),
+    };
+    let expected = seeds::cache_expected();
+    let tree = vps_session::cache::check_entry(map, &String::from_utf8_lossy(record), expected)?;
+    assert!(
+        *tree.spec() == expected.spec
+            && tree.width() == expected.width
+            && tree.config() == expected.config,
+        "cache entry: a map of another grid accepted: {:?}",
+        tree.spec()
+    );
+    Ok(())
+}
+
 fn trace(bytes: &[u8]) -> Result<(), String> {
     vps_device::trace::read_trace(bytes, Path::new(TRACE))
         .map(|_| ())
@@ -265,6 +292,13 @@ pub fn all_targets() -> Vec<Target> {
             run: cluster_datagram,
             must_name: None,
             max_len: 2048,
+        },
+        Target {
+            name: "cache-entry",
+            seeds: seeds::cache_entry,
+            run: cache_entry,
+            must_name: Some("the cache entry"),
+            max_len: 256 * 1024,
         },
         Target {
             name: "sweep-toml",

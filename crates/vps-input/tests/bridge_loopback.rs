@@ -114,6 +114,48 @@ fn older_sequences_are_dropped_and_velocity_times_out() {
     assert_eq!(s.angular_velocity, DVec3::ZERO);
 }
 
+/// Issue 36 item 9: a pose with sequence u64::MAX made every later pose of that sender stale for
+/// the session. Within the pose timeout a lower sequence is still stale; once the newest pose has
+/// timed out, a lower sequence is taken back as a restart, and the stream goes on from it.
+#[test]
+fn a_sender_that_restarts_its_sequence_is_taken_back_after_the_pose_timeout() {
+    let cfg = BridgeConfig {
+        pose_timeout: 0.05,
+        ..Default::default()
+    };
+    let mut dev = BridgeDevice::bind(cfg).unwrap();
+    let client = BridgeClient::connect(dev.local_addr(), None).unwrap();
+    // Device time advances only by what the test passes to `read`, so delivery delays cannot
+    // time the pose out: 0.1 µs per poll.
+    let mut t = 0.0;
+    client
+        .send_pose_with_sequence(&sample(0.3), u64::MAX)
+        .unwrap();
+    poll_until(&mut dev, &mut t, 1e-7, |c| c.accepted == 1);
+    client.send_pose_with_sequence(&sample(0.1), 1).unwrap();
+    let s = poll_until(&mut dev, &mut t, 1e-7, |c| c.stale == 1);
+    assert_eq!(
+        s.position.x, 0.3,
+        "within the timeout a lower sequence is stale"
+    );
+    // Past the timeout (the device holds the last pose): the restarted sender's next pose is
+    // taken back (re-anchored onto the held pose), then its stream goes on and moves the handle.
+    t += 0.1;
+    let held = dev.read(t).unwrap();
+    assert_eq!(dev.counters().timeouts, 1);
+    client.send_pose_with_sequence(&sample(0.2), 2).unwrap();
+    let s = poll_until(&mut dev, &mut t, 1e-7, |c| c.accepted == 2);
+    assert!((s.position - held.position).length() < 1e-12, "re-anchored");
+    client.send_pose_with_sequence(&sample(0.25), 3).unwrap();
+    let s = poll_until(&mut dev, &mut t, 1e-7, |c| c.accepted == 3);
+    assert!(
+        (s.position - held.position).length() > 0.01,
+        "the stream moves again"
+    );
+    let c = dev.counters();
+    assert_eq!((c.restarts, c.stale), (1, 1), "{c:?}");
+}
+
 #[test]
 fn garbage_is_counted_and_ignored() {
     let mut dev = BridgeDevice::bind(patient()).unwrap();

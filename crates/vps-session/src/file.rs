@@ -490,8 +490,40 @@ pub fn rotation(rotate_deg: [f64; 3]) -> DQuat {
     DQuat::from_rotation_z(z) * DQuat::from_rotation_y(y) * DQuat::from_rotation_x(x)
 }
 
-fn finite3(v: &[f64; 3]) -> bool {
-    v.iter().all(|x| x.is_finite())
+/// The most `[` and `{` a scene file may hold (arrays, tables and array-of-table headers, the
+/// characters counted wherever they are): what 100,000 waypoints and 10,000 objects need and more,
+/// so that the parser's memory is bounded (about 80 MB for this many empty arrays).
+pub const MAX_ARRAYS_AND_TABLES: usize = 400_000;
+
+/// The largest coordinate (m) of a position or translation in a scene file: 1000 km. Far beyond
+/// any scene a haptic device explores, and small enough that no distance, radius or time computed
+/// from such positions overflows (a grip of 1e300 m gave an infinite `max_radius`, a waypoint of
+/// 1e308 m a non-finite time, in the session, after `vps scene check` said ok).
+pub const MAX_COORDINATE_M: f64 = 1e6;
+
+/// The longest time (s) a `[hand]` path may take (waypoint to waypoint at `speed`): about 11.6
+/// days. `speed = 1e-300` gave a 300-digit time.
+pub const MAX_PATH_SECONDS: f64 = 1e6;
+
+/// Finite and every coordinate within ±[`MAX_COORDINATE_M`].
+fn position3(v: &[f64; 3]) -> bool {
+    v.iter()
+        .all(|x| x.is_finite() && x.abs() <= MAX_COORDINATE_M)
+}
+
+/// The error text of a position that is not [`position3`].
+fn position_message(v: &[f64; 3]) -> String {
+    format!("{v:?} must be finite and within ±{MAX_COORDINATE_M} m of the origin on every axis (m)")
+}
+
+/// A count for a message: whole below 10^9, else in scientific notation (a spacing of 1e-300 m
+/// gave a 180-digit count).
+fn count_text(n: f64) -> String {
+    if n < 1e9 {
+        format!("{n:.0}")
+    } else {
+        format!("{n:.2e}")
+    }
 }
 
 /// Rotations beyond this many degrees are refused as a likely typo (radians for degrees are fine).
@@ -500,6 +532,19 @@ const MAX_ROTATION_DEG: f64 = 3600.0;
 impl SceneFile {
     /// Parses and validates `text`; `path` names the file in errors.
     pub fn from_toml_str(text: &str, path: &str) -> Result<SceneFile, SceneError> {
+        // The parser holds every array and table of the file: counted first, so that a file of
+        // millions of empty arrays is refused before it is parsed (a 63 MiB one peaked at 8.7 GB).
+        let opened = text.bytes().filter(|b| matches!(b, b'[' | b'{')).count();
+        if opened > MAX_ARRAYS_AND_TABLES {
+            return Err(SceneError::Syntax {
+                path: path.to_string(),
+                message: format!(
+                    "{opened} arrays and tables (`[` and `{{`, counted in strings too), over the \
+                     limit of {MAX_ARRAYS_AND_TABLES} for a scene file ({MAX_WAYPOINTS} waypoints \
+                     and 10000 objects need about 150000)"
+                ),
+            });
+        }
         let de = toml::Deserializer::parse(text).map_err(|e| SceneError::Syntax {
             path: path.to_string(),
             message: e.to_string().trim_end().to_string(),
@@ -561,8 +606,8 @@ impl SceneFile {
         check_source(path, "part.source", &self.part.source)?;
         check_rotation(path, "part.rotate_deg", &self.part.rotate_deg)?;
         if let Some(g) = &self.part.grip {
-            if !finite3(g) {
-                return bad("part.grip", format!("{g:?} must be finite (m)"));
+            if !position3(g) {
+                return bad("part.grip", position_message(g));
             }
         }
         if self.objects.is_empty() {
@@ -580,10 +625,10 @@ impl SceneFile {
                 );
             }
             check_rotation(path, &format!("static[{i}].rotate_deg"), &o.rotate_deg)?;
-            if !finite3(&o.translate) {
+            if !position3(&o.translate) {
                 return bad(
                     &format!("static[{i}].translate"),
-                    format!("{:?} must be finite (m)", o.translate),
+                    position_message(&o.translate),
                 );
             }
         }
@@ -612,14 +657,39 @@ impl SceneFile {
                     ),
                 );
             }
-            if let Some(i) = h.waypoints.iter().position(|w| !finite3(w)) {
-                return bad(&format!("hand.waypoints[{i}]"), "must be finite (m)".into());
+            if let Some(i) = h.waypoints.iter().position(|w| !position3(w)) {
+                return bad(
+                    &format!("hand.waypoints[{i}]"),
+                    position_message(&h.waypoints[i]),
+                );
             }
             if !(h.speed.is_finite() && h.speed > 0.0 && h.speed <= 10.0) {
-                return bad("hand.speed", format!("{} must be in (0, 10] m/s", h.speed));
+                return bad(
+                    "hand.speed",
+                    format!("{:?} must be in (0, 10] m/s", h.speed),
+                );
+            }
+            let length: f64 = h
+                .waypoints
+                .windows(2)
+                .map(|w| DVec3::from_array(w[0]).distance(DVec3::from_array(w[1])))
+                .sum();
+            let seconds = length / h.speed;
+            if seconds > MAX_PATH_SECONDS {
+                return bad(
+                    "hand.speed",
+                    format!(
+                        "{:?} m/s over the {length:.3} m of the waypoints takes {seconds:.3e} s; at \
+                         most {MAX_PATH_SECONDS:.0e} s is allowed (use a larger speed)",
+                        h.speed
+                    ),
+                );
             }
             if !(h.hold_s.is_finite() && (0.0..=60.0).contains(&h.hold_s)) {
-                return bad("hand.hold_s", format!("{} must be in [0, 60] s", h.hold_s));
+                return bad(
+                    "hand.hold_s",
+                    format!("{:?} must be in [0, 60] s", h.hold_s),
+                );
             }
         }
         if let Some(c) = &self.corridor {
@@ -629,7 +699,7 @@ impl SceneFile {
         if !(v.voxel_size.is_finite() && v.voxel_size > 0.0 && v.voxel_size <= 10.0) {
             return bad(
                 "voxels.voxel_size",
-                format!("{} must be a positive length up to 10 m", v.voxel_size),
+                format!("{:?} must be a positive length up to 10 m", v.voxel_size),
             );
         }
         self.width(path)?;
@@ -667,12 +737,13 @@ impl SceneFile {
             }
         }
         if let Some(r) = &self.workspace {
-            let ok = finite3(&r.min) && finite3(&r.max) && (0..3).all(|a| r.min[a] < r.max[a]);
+            let ok = position3(&r.min) && position3(&r.max) && (0..3).all(|a| r.min[a] < r.max[a]);
             if !ok {
                 return bad(
                     "workspace",
                     format!(
-                        "min {:?} must be finite and below max {:?} on every axis",
+                        "min {:?} must be below max {:?} on every axis, both finite and within \
+                         ±{MAX_COORDINATE_M} m of the origin",
                         r.min, r.max
                     ),
                 );
@@ -711,16 +782,16 @@ impl SceneFile {
 
     fn validate_corridor(&self, path: &str, c: &Corridor) -> Result<(), SceneError> {
         let bad = |field: &str, message: String| Err(field_error(path, field, message));
-        if !finite3(&c.from) {
-            return bad("corridor.from", "must be finite (m)".into());
+        if !position3(&c.from) {
+            return bad("corridor.from", position_message(&c.from));
         }
-        if !finite3(&c.to) {
-            return bad("corridor.to", "must be finite (m)".into());
+        if !position3(&c.to) {
+            return bad("corridor.to", position_message(&c.to));
         }
         if !(c.spacing.is_finite() && c.spacing > 0.0) {
             return bad(
                 "corridor.spacing",
-                format!("{} must be a positive length (m)", c.spacing),
+                format!("{:?} must be a positive length (m)", c.spacing),
             );
         }
         let length = DVec3::from_array(c.from).distance(DVec3::from_array(c.to));
@@ -738,16 +809,18 @@ impl SceneFile {
             return bad(
                 "corridor.spacing",
                 format!(
-                    "{} m over {length:.3} m and {} lap(s) gives {count:.0} waypoints per lap; at \
-                     most {MAX_WAYPOINTS} in all are allowed (use a larger spacing)",
-                    c.spacing, c.laps
+                    "{:?} m over {length:.3} m and {} lap(s) gives {} waypoints per lap; at most \
+                     {MAX_WAYPOINTS} in all are allowed (use a larger spacing)",
+                    c.spacing,
+                    c.laps,
+                    count_text(count)
                 ),
             );
         }
         if !(c.reach.is_finite() && c.reach > 0.0 && c.reach <= 1000.0) {
             return bad(
                 "corridor.reach",
-                format!("{} must be a positive length up to 1000 m", c.reach),
+                format!("{:?} must be a positive length up to 1000 m", c.reach),
             );
         }
         Ok(())
@@ -1085,6 +1158,58 @@ max = [0.4, 0.1, 0.2]
             err.to_string(),
             "sweep.toml: field `widths[1]`: 16 must be 2, 4 or 8 (bits)"
         );
+    }
+
+    /// Issue 36 item 6: a file of millions of empty arrays is refused before it is parsed,
+    /// naming the count and the limit; a file of the largest legal corridor's size is not.
+    #[test]
+    fn a_file_of_millions_of_arrays_is_refused_before_parsing() {
+        let text = format!("x = [{}]\n", "[],".repeat(MAX_ARRAYS_AND_TABLES));
+        let err = parse(&text).unwrap_err().to_string();
+        assert!(
+            err.starts_with("scene.toml") && err.contains("400001 arrays and tables"),
+            "{err}"
+        );
+        let waypoints = vec!["[0.0, 0.0, 0.1]"; MAX_WAYPOINTS].join(", ");
+        let big = GOOD.replace(
+            "[corridor]\nfrom = [0.0, 0.0, 0.1]\nto = [0.3, 0.0, 0.1]\nspacing = 0.05\n",
+            &format!("[hand]\nwaypoints = [{waypoints}]\n"),
+        );
+        assert_ne!(big, GOOD);
+        parse(&big).unwrap();
+    }
+
+    /// Issue 36 items 7 and 10: positions so far out that the session's radius or times overflow
+    /// are refused naming the key and the bound; a spacing of 1e-300 m is refused without a
+    /// 180-digit waypoint count.
+    #[test]
+    fn absurd_positions_and_spacings_are_refused_with_short_messages() {
+        for (from, to, field) in [
+            (
+                "from = [0.0, 0.0, 0.1]",
+                "from = [1e300, 0.0, 0.1]",
+                "`corridor.from`",
+            ),
+            ("spacing = 0.05", "spacing = 1e-300", "`corridor.spacing`"),
+            (
+                "max = [0.4, 0.1, 0.2]",
+                "max = [1e306, 0.1, 0.2]",
+                "`workspace`",
+            ),
+        ] {
+            assert!(GOOD.contains(from), "{from}");
+            let err = parse(&GOOD.replace(from, to)).unwrap_err().to_string();
+            assert!(err.contains(field), "{field} not named in: {err}");
+            assert!(err.len() < 400, "{err}");
+            assert!(
+                !err.contains("00000000000000000000"),
+                "a 20-digit number in: {err}"
+            );
+        }
+        let err = parse(&GOOD.replace("spacing = 0.05", "spacing = 1e-300"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("gives 3.00e299 waypoints per lap"), "{err}");
     }
 
     #[test]

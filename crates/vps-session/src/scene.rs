@@ -2,7 +2,7 @@
 //! placed, parameters read, geometry checked) and [`SessionAssets`] (voxmap, point shell, parameters,
 //! device, hand path, and the meshes for a viewer).
 
-use crate::cache::{cache_key, cache_path, read_cached, write_cached, CachePolicy};
+use crate::cache::{cache_key, cache_path, read_cached, write_cached, CachePolicy, Expected};
 use crate::device::{BridgeSettings, DeviceChoice};
 use crate::error::{field_error, SceneError};
 use crate::estimate::{estimate, VoxmapEstimate, MAX_GRID_VOXELS, VOXMAP_MEMORY_BUDGET};
@@ -21,7 +21,7 @@ use vps_device::script::Script;
 use vps_haptic::HapticParams;
 use vps_mesh::{Aabb, TriMesh};
 use vps_voxelize::distance::distance_band;
-use vps_voxelize::{point_shell, voxelize_tree, ShellMethod, VoxelizeOptions};
+use vps_voxelize::{point_shell, tree_grid, voxelize_tree, ShellMethod, VoxelizeOptions};
 use vps_voxmap::{PointShell, TreeConfig, VoxelTree, VoxelWidth};
 
 /// The scene `vps demo` and every session command use when no `--scene` is given.
@@ -36,7 +36,8 @@ pub const SMALLEST_PLAUSIBLE_MESH_M: f64 = 0.001;
 pub struct LoadedScene {
     /// The file's path, or `builtin:NAME`.
     pub label: String,
-    /// The scene's name (the file's `name`, else its stem).
+    /// The scene's name (the file's `name`, else its stem), fit to print: control characters
+    /// escaped ([`vps_files::printable`]).
     pub name: String,
     /// The file as parsed.
     pub file: SceneFile,
@@ -97,14 +98,52 @@ impl LoadedScene {
 
     fn from_file(file: SceneFile, label: String, stem: String, base: PathBuf) -> Result<Self> {
         let mut warnings = Vec::new();
+        // Each distinct mesh (source and units) is read once, however many objects name it.
+        let mut loaded: Vec<((String, u64), TriMesh)> = Vec::new();
+        let mut which = Vec::with_capacity(file.objects.len());
+        for (i, o) in file.objects.iter().enumerate() {
+            let source = resolve(&o.source, &base);
+            let key = (source, o.units.metres().to_bits());
+            let index = match loaded.iter().position(|(k, _)| *k == key) {
+                Some(index) => index,
+                None => {
+                    let mesh = load_scaled(&key.0, o.units.metres())
+                        .map_err(|e| {
+                            mesh_error(&label, &format!("static[{i}].source"), &o.source, &base, &e)
+                        })?
+                        .mesh;
+                    loaded.push((key, mesh));
+                    loaded.len() - 1
+                }
+            };
+            which.push(index);
+        }
+        // Every object is a placed copy of its mesh: their memory is known before any is made.
+        let copies: u64 = which.iter().map(|&k| mesh_bytes(&loaded[k].1)).sum();
+        let budget = vps_voxelize::default_memory_budget();
+        if copies > budget {
+            return Err(field_error(
+                &label,
+                "static",
+                format!(
+                    "the {} [[static]] objects are {} placed copies of {} mesh(es) holding {} in \
+                     all, over the budget of {} (half of this machine's memory): name fewer or \
+                     smaller meshes",
+                    file.objects.len(),
+                    which.len(),
+                    loaded.len(),
+                    gib(copies),
+                    gib(budget)
+                ),
+            )
+            .into());
+        }
         let mut statics = Vec::with_capacity(file.objects.len());
         let mut static_sources = Vec::with_capacity(file.objects.len());
-        for (i, o) in file.objects.iter().enumerate() {
+        for (i, (o, &k)) in file.objects.iter().zip(&which).enumerate() {
             let field = format!("static[{i}]");
-            let source = resolve(&o.source, &base);
-            let mut mesh = load_scaled(&source, o.units.metres())
-                .map_err(|e| mesh_error(&label, &format!("{field}.source"), &o.source, &base, &e))?
-                .mesh;
+            let source = loaded[k].0 .0.clone();
+            let mut mesh = loaded[k].1.clone();
             Placement {
                 scale: DVec3::from_array(o.scale),
                 rotation: rotation(o.rotate_deg),
@@ -161,7 +200,8 @@ impl LoadedScene {
             Some(d) => d.bridge_settings(&label)?,
             None => BridgeSettings::default(),
         };
-        let name = file.name.clone().unwrap_or(stem);
+        // Printed by many commands: its control characters escaped once, here.
+        let name = vps_files::printable(&file.name.clone().unwrap_or(stem)).into_owned();
         Ok(LoadedScene {
             label,
             name,
@@ -182,7 +222,11 @@ impl LoadedScene {
     /// one line each, prefixed with the scene's label.
     pub fn print_warnings(&self) {
         for w in &self.warnings {
-            eprintln!("{}: warning: {w}", self.label);
+            eprintln!(
+                "{}: warning: {}",
+                vps_files::printable(&self.label),
+                vps_files::printable(w)
+            );
         }
     }
 
@@ -328,14 +372,25 @@ impl LoadedScene {
         let t = Instant::now();
         let standoff = self.file.voxels.standoff_at(voxel_size);
         let cached_at = match cache {
-            CachePolicy::Dir(dir) => Some(cache_path(
-                dir,
-                &with_band_key(cache_key(objects, &opts, TreeConfig::default()), standoff),
-            )),
+            CachePolicy::Dir(dir) => {
+                let key = with_band_key(cache_key(objects, &opts, TreeConfig::default()), standoff);
+                let expected = Expected {
+                    spec: tree_grid(objects, &opts).with_context(|| {
+                        format!("{}: the grid at {} mm", self.label, voxel_size * 1e3)
+                    })?,
+                    width: opts.width,
+                    config: TreeConfig::default(),
+                    key: key.clone(),
+                };
+                Some((cache_path(dir, &key), expected))
+            }
             CachePolicy::Off => None,
         };
-        if let Some(path) = &cached_at {
-            if let Some(tree) = read_cached(path) {
+        if let Some((path, expected)) = &cached_at {
+            // The entry must also carry the distance band asked for (or none).
+            let band_as_asked =
+                |t: &VoxelTree| t.distance_band().map(|b| b.standoff_m()) == standoff;
+            if let Some(tree) = read_cached(path, expected).filter(band_as_asked) {
                 eprintln!("voxmap: loaded from cache {}", path.display());
                 return Ok(BuiltVoxmap {
                     tree: Arc::new(tree),
@@ -363,7 +418,7 @@ impl LoadedScene {
         };
         let voxelize_ms = t.elapsed().as_secs_f64() * 1e3;
         let origin = match cached_at {
-            Some(path) => match write_cached(&path, &tree) {
+            Some((path, expected)) => match write_cached(&path, &expected.key, &tree) {
                 Ok(()) => {
                     eprintln!("voxmap: built, cached at {}", path.display());
                     VoxmapOrigin::Cache(path)
@@ -498,7 +553,19 @@ fn mesh_error(
             dir.display()
         ));
     }
-    field_error(label, field, text)
+    // The source is the scene file's text: it may hold control characters or line breaks.
+    field_error(label, field, vps_files::printable(&text).into_owned())
+}
+
+/// The bytes of a mesh's vertices and triangles.
+fn mesh_bytes(mesh: &TriMesh) -> u64 {
+    (mesh.vertices.len() * std::mem::size_of::<DVec3>()
+        + mesh.triangles.len() * std::mem::size_of::<[u32; 3]>()) as u64
+}
+
+/// Bytes as GiB with two decimals.
+fn gib(bytes: u64) -> String {
+    format!("{:.2} GiB", bytes as f64 / (1u64 << 30) as f64)
 }
 
 /// Flags a mesh whose size is implausible after units, with a hint.

@@ -42,8 +42,8 @@ pub use error::{VoxelizeError, MAX_SPARSE_VOXELS, MAX_VOXELS};
 pub use mass::{is_closed_and_oriented, mass_properties};
 pub use memory::{default_memory_budget, MemoryEstimate};
 pub use pipeline::{
-    clip_to_workspace, grid_for, voxelize, voxelize_in, voxelize_in_with_stats, voxelize_tree,
-    voxelize_tree_in, voxelize_with_stats, VoxelizeOptions,
+    clip_to_workspace, grid_for, tree_grid, voxelize, voxelize_in, voxelize_in_with_stats,
+    voxelize_tree, voxelize_tree_in, voxelize_with_stats, VoxelizeOptions,
 };
 pub use shell::{point_shell, point_shell_within};
 pub use stats::VoxelizeStats;

@@ -193,6 +193,15 @@ pub fn clip_to_workspace(spec: &GridSpec, workspace: &Aabb) -> Result<GridSpec, 
     })
 }
 
+/// The grid [`voxelize_tree`] builds for `objects` and `opts` (the padded bounds of every object,
+/// clipped to `opts.workspace`), computed without voxelizing: what a stored map of these inputs
+/// must have (the voxmap cache checks it on load). Errors as [`voxelize_tree`]'s grid checks.
+pub fn tree_grid(objects: &[TriMesh], opts: &VoxelizeOptions) -> Result<GridSpec, VoxelizeError> {
+    check_voxel_size(opts.voxel_size)?;
+    check_objects(objects)?;
+    scene_grid(objects, opts, MAX_SPARSE_VOXELS)
+}
+
 /// The grid of a whole scene: [`grid_for`] its joint bounds, clipped to `opts.workspace`; at most
 /// `limit` voxels after clipping.
 fn scene_grid(

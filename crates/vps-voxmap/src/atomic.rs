@@ -32,11 +32,19 @@ impl AtomicStage {
 /// 0644 on Unix), which is then flushed, synced and renamed over `path`. An error from `write` is
 /// returned as is; an I/O error of the other stages goes through `io_error`. On any error the
 /// temporary file is removed and `path` is untouched. Blocks on file I/O.
+///
+/// Only a regular file or a new path is ever replaced ([`vps_files::output_destination`]): a
+/// symbolic link to a regular file has that file replaced (the link stays); a directory, named
+/// pipe, device, socket, or a link to one or to nothing, is refused (stage
+/// [`AtomicStage::Create`]) before anything is written.
 pub fn write_atomically<E>(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<&mut File>) -> Result<(), E>,
     io_error: impl Fn(AtomicStage, io::Error) -> E,
 ) -> Result<(), E> {
+    let destination =
+        vps_files::output_destination(path).map_err(|e| io_error(AtomicStage::Create, e))?;
+    let path = destination.as_path();
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
@@ -108,5 +116,41 @@ mod tests {
         )
         .unwrap_err();
         assert_eq!(stage, AtomicStage::Create);
+    }
+
+    #[test]
+    fn a_device_a_pipe_or_a_link_to_one_is_never_replaced() {
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("fifo");
+        assert!(std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success());
+        let to_null = dir.path().join("null.json");
+        std::os::unix::fs::symlink("/dev/null", &to_null).unwrap();
+        for path in [&fifo, &to_null] {
+            let err = write_atomically(path, |w| w.write_all(b"new"), |_, e| e).unwrap_err();
+            assert_eq!(err.kind(), io::ErrorKind::InvalidInput, "{path:?}: {err}");
+        }
+        assert!(fifo.exists() && !fifo.is_file(), "the FIFO is still a FIFO");
+        assert!(
+            std::fs::symlink_metadata(&to_null)
+                .unwrap()
+                .file_type()
+                .is_symlink(),
+            "the link is still a link"
+        );
+        // A link to a regular file: the file is replaced, the link kept.
+        let file = dir.path().join("file.txt");
+        std::fs::write(&file, "old").unwrap();
+        let link = dir.path().join("link.txt");
+        std::os::unix::fs::symlink(&file, &link).unwrap();
+        write_atomically(&link, |w| w.write_all(b"new"), |_, e| e).unwrap();
+        assert_eq!(std::fs::read_to_string(&file).unwrap(), "new");
+        assert!(std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink());
     }
 }

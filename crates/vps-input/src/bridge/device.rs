@@ -22,8 +22,11 @@ const MAX_DATAGRAMS_PER_READ: usize = 1024;
 /// `read(t)` drains pending datagrams without blocking (at most 1024) and returns the newest
 /// accepted pose mapped into the scene by the configured [`WorkspaceMapping`]; before any pose,
 /// the configured initial pose with zero velocity. A pose older than `velocity_timeout` is
-/// reported with zero velocities. Poses from one peer must carry increasing sequence numbers; a
-/// pose from a new peer address starts a new stream (the newest peer wins).
+/// reported with zero velocities. Poses from one peer must carry increasing sequence numbers
+/// (others are dropped as stale), except after the peer's newest accepted pose has timed out: a
+/// sequence at or below it then starts the stream again (a restarted client, counted in
+/// `restarts`), so no sequence number, u64::MAX included, locks a sender out for longer than the
+/// pose timeout. A pose from a new peer address starts a new stream (the newest peer wins).
 ///
 /// Holding: while the newest pose carries the clutch flag, or is older than `pose_timeout`, the
 /// device holds: `read` returns the last scene pose it returned, with zero velocities (the
@@ -167,8 +170,15 @@ impl BridgeDevice {
         };
         if let Some(l) = &self.latest {
             if l.peer == from && datagram.sequence <= l.sequence {
-                self.counters.stale += 1;
-                return;
+                // A sender whose stream has been silent past the pose timeout and now counts from
+                // below its last number restarted (or one datagram of u64::MAX locked it out):
+                // take it back rather than drop it for the rest of the session.
+                if t - l.received_at > self.config.pose_timeout {
+                    self.counters.restarts += 1;
+                } else {
+                    self.counters.stale += 1;
+                    return;
+                }
             }
         }
         if clutch && !self.latest.is_some_and(|l| l.clutch) {

@@ -7,7 +7,6 @@
 //! (`f64::to_bits`), device frame, N and N·m. Equal lines mean bit-identical wrenches.
 
 use std::io::Write;
-use std::path::Path;
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use vps_haptic::Wrench;
@@ -17,8 +16,12 @@ use vps_haptic::Wrench;
 pub struct BridgeCounters {
     /// Poses accepted (newer than the previous one from the same peer).
     pub accepted: u64,
-    /// Valid poses dropped because their sequence was not newer.
+    /// Valid poses dropped because their sequence was not newer (while the peer's newest pose was
+    /// fresh).
     pub stale: u64,
+    /// Poses accepted although their sequence was not newer, because the peer's newest pose had
+    /// timed out: a sender that restarted its sequence (or had sent a far-ahead one).
+    pub restarts: u64,
     /// Datagrams that failed to decode (bad length, magic, version, kind, flags, non-finite
     /// values), or were a WrenchOut (wrong direction).
     pub garbage: u64,
@@ -109,15 +112,14 @@ impl BridgeMonitor {
         self.lock().log.clone()
     }
 
-    /// Writes the wrench log to `path` in the format of this module's documentation and returns
-    /// the number of lines written.
-    pub fn save_wrench_log(&self, path: &Path) -> std::io::Result<usize> {
+    /// Writes the wrench log to `out` in the format of this module's documentation (the caller
+    /// flushes it; the CLI writes it atomically) and returns the number of lines
+    /// written; every write error is returned.
+    pub fn write_wrench_log(&self, out: &mut impl Write) -> std::io::Result<usize> {
         let log = self.sent_wrenches();
-        let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
         for s in &log {
             writeln!(out, "{}", wrench_log_line(s))?;
         }
-        out.flush()?;
         Ok(log.len())
     }
 }
