@@ -202,24 +202,45 @@ fn bench_host_counts_ticks_and_rejects_bad_arguments() {
     }
 }
 
-/// `vps bench fidelity` on one voxel size: one row per width and shell method, every scene, both
-/// slides; bad arguments are errors naming the flag.
+/// `vps bench fidelity` on one voxel size: one row per force model, width and shell method, every
+/// scene, both slides (the tangent-plane model at its 9 separations, the distance model at its 7
+/// depths); `--models distance` gives the distance rows alone; bad arguments are errors naming the
+/// flag.
 #[test]
 fn bench_fidelity_reports_every_setting_and_rejects_bad_arguments() {
     let vps = sandbox();
     let report = json(&vps.run(&["bench", "fidelity", "--voxel-sizes", "5mm", "--poses", "1"]));
     let rows = report["rows"].as_array().expect("rows");
-    assert_eq!(rows.len(), 6, "2/4/8 bits × centres/exact");
+    assert_eq!(rows.len(), 12, "2 models × 2/4/8 bits × centres/exact");
     for row in rows {
         assert_eq!(row["voxel_size_mm"], 5.0);
         assert_eq!(row["scenes"].as_array().unwrap().len(), 5);
-        assert_eq!(row["all"]["poses"], 5 * 9);
+        let separations = match row["model"].as_str() {
+            Some("tangent-plane") => 9,
+            Some("distance") => 7,
+            other => panic!("model {other:?}"),
+        };
+        assert_eq!(row["all"]["poses"], 5 * separations);
         assert!(row["all"]["compared"].as_u64().unwrap() > 0);
         assert!(row["slide_deep"]["mean_force_n"].as_f64().unwrap() > 0.0);
     }
+    let distance = json(&vps.run(&[
+        "bench",
+        "fidelity",
+        "--voxel-sizes",
+        "10mm",
+        "--poses",
+        "1",
+        "--models",
+        "distance",
+    ]));
+    let rows = distance["rows"].as_array().expect("rows");
+    assert_eq!(rows.len(), 6);
+    assert!(rows.iter().all(|r| r["model"] == "distance"));
     for (bad, field) in [
         (["--poses", "0"], "--poses"),
         (["--voxel-sizes", "50mm"], "--voxel-sizes"),
+        (["--models", "layers"], "--models"),
     ] {
         let stderr = vps.fails(&["bench", "fidelity", bad[0], bad[1]]);
         assert!(stderr.contains(field), "{bad:?}: {stderr}");
