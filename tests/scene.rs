@@ -741,3 +741,34 @@ fn a_grip_or_translate_written_in_millimetres_is_flagged() {
         "{check}"
     );
 }
+
+/// A session on a scene with `force_model = "distance"` caches a voxmap that carries its band
+/// (`.vmap` version 3), and `vps inspect` reports the band: its stand-off (half of the 1 mm
+/// voxel here), the cubes stored and their memory.
+#[test]
+fn the_distance_models_band_is_cached_with_the_voxmap_and_inspect_reports_it() {
+    let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
+    for file in ["peg-in-hole.toml", "peg.obj", "peg-fixture.stl"] {
+        std::fs::copy(example.join(file), vps.dir().join(file)).unwrap();
+    }
+    let scene = vps.path("peg-in-hole.toml");
+    let out = vps.run(&["run", "--scene", &scene, "--seconds", "0.05"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let cached: Vec<_> = std::fs::read_dir(vps.cache())
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "vmap"))
+        .collect();
+    assert_eq!(cached.len(), 1, "{cached:?}");
+    let info = json(&vps.run(&["inspect", cached[0].to_str().unwrap(), "--json"]));
+    let band = &info["distance_band"];
+    assert!((band["standoff_m"].as_f64().unwrap() - 0.0005).abs() < 1e-12, "{info}");
+    assert!(band["bricks"].as_u64().unwrap() > 0, "{info}");
+    let text = vps.run(&["inspect", cached[0].to_str().unwrap()]);
+    assert!(
+        String::from_utf8_lossy(&text.stdout).contains("distance band (force_model = \"distance\"): stand-off 0.5 mm"),
+        "{}",
+        String::from_utf8_lossy(&text.stdout)
+    );
+}

@@ -28,9 +28,23 @@ struct VoxmapInfo {
     lower_nodes: usize,
     upper_nodes: usize,
     hash: String,
+    /// The signed-distance band of the `distance` force model, when the map carries one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    distance_band: Option<BandInfo>,
     /// Present when a dense copy of the grid would not fit the memory budget (an absurd grid).
     #[serde(skip_serializing_if = "Option::is_none")]
     note: Option<String>,
+}
+
+/// A map's signed-distance band (`vps_voxmap::distance`).
+#[derive(Serialize)]
+struct BandInfo {
+    /// The stand-off baked into the band (m).
+    standoff_m: f64,
+    /// Cubes of 8³ voxels stored (near a surface).
+    bricks: usize,
+    /// The band's memory: directory and bricks (bytes).
+    band_bytes: usize,
 }
 
 /// The note for a grid whose dense copy (`dense_bytes`) exceeds the default memory budget.
@@ -118,6 +132,11 @@ fn inspect_voxmap(args: &InspectArgs) -> Result<()> {
         lower_nodes: nodes.lower,
         upper_nodes: nodes.upper,
         hash: hex(&tree.content_hash()),
+        distance_band: tree.distance_band().map(|band| BandInfo {
+            standoff_m: band.standoff_m(),
+            bricks: band.brick_count(),
+            band_bytes: band.memory_bytes(),
+        }),
         note: dense_note(tree.dense_equivalent_bytes()),
     };
     print_summary(&info, args.json)
@@ -161,6 +180,16 @@ impl std::fmt::Display for VoxmapInfo {
             "  lookup directory {} (built when loaded, not stored)",
             mib(self.directory_bytes as f64)
         )?;
+        if let Some(band) = &self.distance_band {
+            writeln!(
+                f,
+                "  distance band (force_model = \"distance\"): stand-off {} mm, {} cubes of 8³ \
+                 voxels stored, {}",
+                band.standoff_m * 1e3,
+                band.bricks,
+                mib(band.band_bytes as f64)
+            )?;
+        }
         write!(f, "  content hash {}", self.hash)?;
         if let Some(note) = &self.note {
             write!(f, "\n  note: {note}")?;
