@@ -763,11 +763,15 @@ fn the_distance_models_band_is_cached_with_the_voxmap_and_inspect_reports_it() {
     assert_eq!(cached.len(), 1, "{cached:?}");
     let info = json(&vps.run(&["inspect", cached[0].to_str().unwrap(), "--json"]));
     let band = &info["distance_band"];
-    assert!((band["standoff_m"].as_f64().unwrap() - 0.0005).abs() < 1e-12, "{info}");
+    assert!(
+        (band["standoff_m"].as_f64().unwrap() - 0.0005).abs() < 1e-12,
+        "{info}"
+    );
     assert!(band["bricks"].as_u64().unwrap() > 0, "{info}");
     let text = vps.run(&["inspect", cached[0].to_str().unwrap()]);
     assert!(
-        String::from_utf8_lossy(&text.stdout).contains("distance band (force_model = \"distance\"): stand-off 0.5 mm"),
+        String::from_utf8_lossy(&text.stdout)
+            .contains("distance band (force_model = \"distance\"): stand-off 0.5 mm"),
         "{}",
         String::from_utf8_lossy(&text.stdout)
     );

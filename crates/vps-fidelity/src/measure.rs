@@ -241,8 +241,9 @@ pub struct SettingRow {
     /// stand-off.
     pub slide_shallow: SlideFigures,
     /// The sliding box, deep. Tangent plane: 1 voxel above the plane (exact depth 1½ voxels: one
-    /// voxel deeper than the outermost force layer, Interior in a 2-bit map). Distance: ½ voxel
-    /// into the stand-off.
+    /// voxel deeper than the outermost force layer, Interior in a 2-bit map). Distance: 1 voxel
+    /// into the stand-off (a voxel-centre shell's points lie up to half a voxel inside the part's
+    /// faces, so less would leave them without contact).
     pub slide_deep: SlideFigures,
 }
 
@@ -442,7 +443,7 @@ fn measure_setting(
     let (shallow, deep) = match model {
         ForceModel::TangentPlane => (2.0, 1.0),
         ForceModel::Distance { standoff_voxels } => {
-            (standoff_voxels - 0.0625, standoff_voxels - 0.5)
+            (standoff_voxels - 0.0625, standoff_voxels - 1.0)
         }
     };
     let slide_shallow = slide(grid, model, s, width, method, shallow)?;

@@ -131,14 +131,14 @@ fn header_errors_name_the_field() {
     assert!(err.to_string().contains("dims[1]"), "{err}");
 
     let mut bad_version = bytes.clone();
-    bad_version[8] = 3;
+    bad_version[8] = 4;
     let err = read_voxmap(bad_version.as_slice()).unwrap_err();
     assert!(
         matches!(
             err,
             FileError::UnsupportedVersion {
-                found: 3,
-                supported: 2
+                found: 4,
+                supported: 3
             }
         ),
         "{err}"
