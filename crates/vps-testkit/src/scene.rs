@@ -2,7 +2,7 @@
 
 use glam::IVec3;
 use std::sync::atomic::{AtomicBool, Ordering};
-use vps_voxmap::{DenseGrid, GridSpec, TreeConfig, Voxel, VoxelLookup, VoxelTree};
+use vps_voxmap::{DenseGrid, DistanceBand, GridSpec, TreeConfig, Voxel, VoxelLookup, VoxelTree};
 
 /// Voxel size of the test wall (m).
 pub const VOXEL: f64 = 0.005;
@@ -30,28 +30,36 @@ pub fn wall_tree() -> VoxelTree {
 }
 
 /// [`wall_tree`] carrying a signed-distance band (the `distance` force model) of the plane
-/// `z = WALL_TOP` with a stand-off of 1/8 voxel, computed analytically: each sample holds
-/// `z − WALL_TOP − standoff`, quantised as the band stores it.
+/// `z = WALL_TOP` with a stand-off of 1/8 voxel ([`plane_band`]).
 pub fn wall_band_tree() -> VoxelTree {
-    use vps_voxmap::distance::{self, CubeCodes, BRICK_CODES, BRICK_EDGE, CODE_FAR};
     let tree = wall_tree();
-    let spec = *tree.spec();
-    let standoff = VOXEL / 8.0;
-    let band = distance::assemble(&spec, standoff, |c| {
+    let band = plane_band(tree.spec(), WALL_TOP, VOXEL / 8.0);
+    tree.with_distance_band(band)
+}
+
+/// The signed-distance band of the half-space below the plane `z = plane_z` (m) on the grid
+/// `spec`, with stand-off `standoff` (m), computed analytically: each sample holds
+/// `z − plane_z − standoff`, quantised as the band stores it. Panics on a stand-off the band
+/// refuses.
+pub fn plane_band(spec: &GridSpec, plane_z: f64, standoff: f64) -> DistanceBand {
+    use vps_voxmap::distance::{self, CubeCodes, BRICK_CODES, BRICK_EDGE, CODE_DEEP, CODE_FAR};
+    let s = spec.voxel_size;
+    distance::assemble(spec, standoff, |c| {
         let mut codes = Box::new([0i8; BRICK_CODES]);
         for z in 0..BRICK_EDGE {
-            let zc = (f64::from(c[2] * 8) + z as f64 + 0.5) * VOXEL;
-            let code = distance::code_of(zc - WALL_TOP - standoff, VOXEL);
+            let zc = spec.origin.z + (f64::from(c[2] * 8) + z as f64 + 0.5) * s;
+            let code = distance::code_of(zc - plane_z - standoff, s);
             codes[z * BRICK_EDGE * BRICK_EDGE..(z + 1) * BRICK_EDGE * BRICK_EDGE].fill(code);
         }
-        match (codes.iter().min(), codes.iter().max()) {
-            (Some(&lo), _) if lo == CODE_FAR => CubeCodes::Far,
-            (_, Some(&hi)) if hi == -CODE_FAR => CubeCodes::Deep,
-            _ => CubeCodes::Brick(codes),
+        if codes.iter().all(|&c| c == CODE_FAR) {
+            CubeCodes::Far
+        } else if codes.iter().all(|&c| c == CODE_DEEP) {
+            CubeCodes::Deep
+        } else {
+            CubeCodes::Brick(codes)
         }
     })
-    .expect("a valid band");
-    tree.with_distance_band(band)
+    .expect("a valid band")
 }
 
 /// An all-Free `n × n × n` grid of 1 cm voxels with its origin at 0.

@@ -84,25 +84,8 @@ pub fn half_space() -> DenseGrid {
 /// force layer taken as the exact surface) with a stand-off of `standoff` (m), computed
 /// analytically: the `distance` force model's counterpart of the same wall.
 pub fn half_space_band(standoff: f64) -> VoxelTree {
-    use vps_voxmap::distance::{self, CubeCodes, BRICK_CODES, BRICK_EDGE, CODE_DEEP, CODE_FAR};
     let tree = VoxelTree::from_dense(&half_space(), TreeConfig::default()).unwrap();
-    let spec = *tree.spec();
-    let band = distance::assemble(&spec, standoff, |c| {
-        let mut codes = Box::new([0i8; BRICK_CODES]);
-        for z in 0..BRICK_EDGE {
-            let zc = spec.origin.z + (f64::from(c[2] * 8) + z as f64 + 0.5) * S;
-            let code = distance::code_of(zc - standoff, S);
-            codes[z * BRICK_EDGE * BRICK_EDGE..(z + 1) * BRICK_EDGE * BRICK_EDGE].fill(code);
-        }
-        if codes.iter().all(|&c| c == CODE_FAR) {
-            CubeCodes::Far
-        } else if codes.iter().all(|&c| c == CODE_DEEP) {
-            CubeCodes::Deep
-        } else {
-            CubeCodes::Brick(codes)
-        }
-    })
-    .unwrap();
+    let band = vps_testkit::scene::plane_band(tree.spec(), 0.0, standoff);
     tree.with_distance_band(band)
 }
 
