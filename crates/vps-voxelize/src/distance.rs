@@ -3,7 +3,7 @@
 //!
 //! 1. **Cubes to store.** Every 8³ cube whose samples (voxel centres, with the one-sample apron)
 //!    could lie within the band's reach of a triangle is marked: each triangle's box grown by the
-//!    reach `standoff + 127/64 s` (plus half a voxel) marks the cubes it overlaps, and the triangle
+//!    reach `standoff + 127/64 s` (plus half a code of rounding) marks the cubes it overlaps, and the triangle
 //!    is listed with each (a compressed table: counts, offsets, indices).
 //! 2. **Samples.** In each marked cube (parallel, rayon), each listed triangle visits only the
 //!    samples inside its grown box and offers its exact distance (closest point on the triangle);
@@ -103,7 +103,9 @@ pub fn distance_band(
             dims: spec.dims,
         });
     }
-    let reach = standoff_m + f64::from(BAND_VOXELS) * s + 0.5 * s;
+    // Beyond this distance from every triangle a sample's code saturates whatever its exact
+    // distance (1/128 voxel of rounding slack), so no triangle needs to visit it.
+    let reach = standoff_m + (f64::from(BAND_VOXELS) + 1.0 / 128.0) * s;
     let lists =
         CubeTriangles::new(&spec, cube_dims, meshes, reach, max_memory_bytes).map_err(|bytes| {
             BandBuildError::OverBudget {
