@@ -447,6 +447,7 @@ fn cache_map(voxel_size: f64) -> (vps_voxmap::VoxelTree, vps_session::cache::Exp
         spec: vps_voxelize::tree_grid(objects, &opts).expect("the seed box's grid"),
         width: opts.width,
         config,
+        standoff_m: None,
     };
     (tree, expected)
 }

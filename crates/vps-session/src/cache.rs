@@ -119,6 +119,9 @@ pub struct Expected {
     pub width: VoxelWidth,
     /// The tree shape asked for.
     pub config: TreeConfig,
+    /// The stand-off (m) of the distance band the map must carry (the `distance` force model), or
+    /// `None` for a map without one.
+    pub standoff_m: Option<f64>,
 }
 
 /// A grid as one line of text: origin (m, every digit), voxel size (m), dims.
@@ -246,13 +249,25 @@ fn record_mismatch(
             expected.config.log2_dims
         ));
     }
+    let standoff = tree.distance_band().map(|band| band.standoff_m());
+    if standoff != expected.standoff_m {
+        let describe = |s: Option<f64>| match s {
+            Some(s) => format!("a distance band of stand-off {s} m"),
+            None => "no distance band".to_string(),
+        };
+        return Some(format!(
+            "holds {}, but {} was asked for",
+            describe(standoff),
+            describe(expected.standoff_m)
+        ));
+    }
     None
 }
 
 /// Reads the cached voxmap at `path`: `None` when there is none, and when the file is not the map
 /// `expected` asks for: a file that cannot be read or decoded, one without its record, one whose
-/// record names another key or another content hash, or whose grid, width or tree shape differs
-/// from what these inputs give. Each of those is reported on stderr with the reason and treated as
+/// record names another key or another content hash, or whose grid, width, tree shape or distance
+/// band differs from what these inputs give. Each of those is reported on stderr with the reason and treated as
 /// absent (it will be rebuilt and rewritten). Blocking.
 pub fn read_cached(path: &Path, expected: &Expected) -> Option<VoxelTree> {
     if !path.exists() {
@@ -357,6 +372,7 @@ mod tests {
             width: opts.width,
             config: TreeConfig::default(),
             key: key.clone(),
+            standoff_m: None,
         };
         (cache_path(dir, &key), expected, tree)
     }
@@ -409,6 +425,17 @@ mod tests {
         assert!(reason.contains("content hash"), "{reason}");
         let reason = mismatch(&path, &expected, &other).unwrap();
         assert!(reason.contains("grid of"), "{reason}");
+        // The right map, but a distance band was asked for and it carries none.
+        std::fs::write(record_path(&path), record_text(&expected.key, &tree)).unwrap();
+        let banded = Expected {
+            standoff_m: Some(0.001),
+            ..expected
+        };
+        let reason = mismatch(&path, &banded, &tree).unwrap();
+        assert!(
+            reason.contains("holds no distance band, but a distance band of stand-off 0.001 m"),
+            "{reason}"
+        );
     }
 
     #[test]

@@ -381,16 +381,14 @@ impl LoadedScene {
                     width: opts.width,
                     config: TreeConfig::default(),
                     key: key.clone(),
+                    standoff_m: standoff,
                 };
                 Some((cache_path(dir, &key), expected))
             }
             CachePolicy::Off => None,
         };
         if let Some((path, expected)) = &cached_at {
-            // The entry must also carry the distance band asked for (or none).
-            let band_as_asked =
-                |t: &VoxelTree| t.distance_band().map(|b| b.standoff_m()) == standoff;
-            if let Some(tree) = read_cached(path, expected).filter(band_as_asked) {
+            if let Some(tree) = read_cached(path, expected) {
                 eprintln!("voxmap: loaded from cache {}", path.display());
                 return Ok(BuiltVoxmap {
                     tree: Arc::new(tree),
