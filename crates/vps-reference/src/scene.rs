@@ -45,9 +45,7 @@ pub struct ExactScene {
     edge_normals: Vec<[DVec3; 3]>,
     vertex_normals: Vec<[DVec3; 3]>,
     objects: Vec<Object>,
-    /// Per triangle: its component is closed and oriented (has an inside).
-    triangle_closed: Vec<bool>,
-    /// Per triangle: its component's index.
+    /// Per triangle: its component's index in `objects`.
     triangle_component: Vec<u32>,
     top: Bvh,
 }
@@ -65,7 +63,6 @@ impl ExactScene {
             edge_normals: Vec::new(),
             vertex_normals: Vec::new(),
             objects: Vec::new(),
-            triangle_closed: Vec::new(),
             triangle_component: Vec::new(),
             top: Bvh::build(&[]),
         };
@@ -118,13 +115,11 @@ impl ExactScene {
                     .map(|k| at_edge[&edge_key(tri[k], tri[(k + 1) % 3])].normalize_or(faces[t])),
             );
         }
-        self.triangle_closed.resize(self.triangles.len(), false);
         self.triangle_component.resize(self.triangles.len(), 0);
         for part in parts {
             let triangles: Vec<u32> = part.triangles.iter().map(|&t| t + base).collect();
             let component = self.objects.len() as u32;
             for &t in &triangles {
-                self.triangle_closed[t as usize] = part.closed;
                 self.triangle_component[t as usize] = component;
             }
             let boxes: Vec<Aabb> = triangles
@@ -154,7 +149,8 @@ impl ExactScene {
     /// signed distance wherever solids do not overlap. Panics when `t` is out of range. Pure.
     pub fn signed_to_triangle_at(&self, p: DVec3, t: u32) -> SignedDistance {
         let (closest, _) = closest_point(p, &self.triangles[t as usize]);
-        self.signed_to_triangle(p, t, closest.distance(p), self.triangle_closed[t as usize])
+        let closed = self.objects[self.triangle_component[t as usize] as usize].closed;
+        self.signed_to_triangle(p, t, closest.distance(p), closed)
     }
 
     /// The connected component (index, `0..component_count()`) triangle `t` belongs to. The
