@@ -144,7 +144,7 @@ pub fn sphere_band(
     radius_vox: f64,
     standoff_voxels: f64,
 ) -> Result<vps_voxmap::DistanceBand> {
-    use vps_voxmap::distance::{self, CubeCodes, BRICK_CODES, BRICK_EDGE, CODE_DEEP, CODE_FAR};
+    use vps_voxmap::distance::{self, CubeCodes, BRICK_CODES, BRICK_EDGE};
     let centre = DVec3::splat(spec.dims[1] as f64 / 2.0);
     let ball = radius_vox + 0.5;
     Ok(distance::assemble(
@@ -165,13 +165,7 @@ pub fn sphere_band(
                     }
                 }
             }
-            if codes.iter().all(|&c| c == CODE_FAR) {
-                CubeCodes::Far
-            } else if codes.iter().all(|&c| c == CODE_DEEP) {
-                CubeCodes::Deep
-            } else {
-                CubeCodes::Brick(codes)
-            }
+            CubeCodes::from_codes(codes)
         },
     )?)
 }

@@ -42,7 +42,7 @@ pub fn wall_band_tree() -> VoxelTree {
 /// `z − plane_z − standoff`, quantised as the band stores it. Panics on a stand-off the band
 /// refuses.
 pub fn plane_band(spec: &GridSpec, plane_z: f64, standoff: f64) -> DistanceBand {
-    use vps_voxmap::distance::{self, CubeCodes, BRICK_CODES, BRICK_EDGE, CODE_DEEP, CODE_FAR};
+    use vps_voxmap::distance::{self, CubeCodes, BRICK_CODES, BRICK_EDGE};
     let s = spec.voxel_size;
     distance::assemble(spec, standoff, |c| {
         let mut codes = Box::new([0i8; BRICK_CODES]);
@@ -51,13 +51,7 @@ pub fn plane_band(spec: &GridSpec, plane_z: f64, standoff: f64) -> DistanceBand 
             let code = distance::code_of(zc - plane_z - standoff, s);
             codes[z * BRICK_EDGE * BRICK_EDGE..(z + 1) * BRICK_EDGE * BRICK_EDGE].fill(code);
         }
-        if codes.iter().all(|&c| c == CODE_FAR) {
-            CubeCodes::Far
-        } else if codes.iter().all(|&c| c == CODE_DEEP) {
-            CubeCodes::Deep
-        } else {
-            CubeCodes::Brick(codes)
-        }
+        CubeCodes::from_codes(codes)
     })
     .expect("a valid band")
 }

@@ -28,8 +28,8 @@ use vps_mesh::closest_point::closest_point;
 use vps_mesh::TriMesh;
 use vps_reference::ExactScene;
 use vps_voxmap::distance::{
-    self, CubeCodes, DistanceBand, BAND_VOXELS, BRICK_CODES, BRICK_EDGE, CODE_DEEP, CODE_FAR,
-    CUBE_EDGE, MAX_STANDOFF_VOXELS,
+    self, CubeCodes, DistanceBand, BAND_VOXELS, BRICK_CODES, BRICK_EDGE, CUBE_EDGE,
+    MAX_STANDOFF_VOXELS,
 };
 use vps_voxmap::{GridSpec, Voxel, VoxelTree};
 
@@ -321,7 +321,6 @@ fn sample_cube(
         }
     }
     let mut codes = Box::new([0i8; BRICK_CODES]);
-    let (mut far, mut deep) = (true, true);
     for z in 0..BRICK_EDGE {
         for y in 0..BRICK_EDGE {
             for x in 0..BRICK_EDGE {
@@ -339,20 +338,11 @@ fn sample_cube(
                     Some(sd) if interior => -sd.abs(),
                     Some(sd) => sd,
                 };
-                let code = distance::code_of(d - standoff_m, s);
-                far &= code == CODE_FAR;
-                deep &= code == CODE_DEEP;
-                codes[i] = code;
+                codes[i] = distance::code_of(d - standoff_m, s);
             }
         }
     }
-    if far {
-        CubeCodes::Far
-    } else if deep {
-        CubeCodes::Deep
-    } else {
-        CubeCodes::Brick(codes)
-    }
+    CubeCodes::from_codes(codes)
 }
 
 /// Components tracked per sample; a sample near more distinct components than this keeps the

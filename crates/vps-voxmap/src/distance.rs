@@ -61,17 +61,6 @@ pub const SLOT_DEEP: u32 = 1;
 /// Brick `k` is stored in slots as `k + BRICK_SLOT_BASE`.
 const BRICK_SLOT_BASE: u32 = 2;
 
-/// What a directory slot holds.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Cube {
-    /// Every sample of the cube is [`CODE_FAR`]: free space beyond the band.
-    Far,
-    /// Every sample of the cube is [`CODE_DEEP`]: inside the scene beyond the band.
-    Deep,
-    /// The cube's brick, by index.
-    Brick(u32),
-}
-
 /// The signed-distance band of a voxmap (see the module docs). Immutable once built; `Sync`.
 ///
 /// Invariants (checked by [`DistanceBand::from_parts`]): the directory has one slot per cube of the
@@ -191,26 +180,6 @@ impl BandCell {
         let q = 1.0 / CODES_PER_VOXEL;
         (value * q, [dx * q, dy * q, dz * q])
     }
-
-    /// True when every corner is [`CODE_FAR`].
-    #[inline(always)]
-    pub fn all_far(&self) -> bool {
-        self.corners
-            .iter()
-            .flatten()
-            .flatten()
-            .all(|&c| c >= f32::from(CODE_FAR))
-    }
-
-    /// True when every corner is [`CODE_DEEP`].
-    #[inline(always)]
-    pub fn all_deep(&self) -> bool {
-        self.corners
-            .iter()
-            .flatten()
-            .flatten()
-            .all(|&c| c <= f32::from(CODE_DEEP))
-    }
 }
 
 impl DistanceBand {
@@ -309,27 +278,6 @@ impl DistanceBand {
         f64::from(BAND_VOXELS) * voxel_size
     }
 
-    /// What cube `c` (cube indices) holds; outside the grid reads [`Cube::Far`].
-    #[inline(always)]
-    pub fn cube(&self, c: [i32; 3]) -> Cube {
-        let [nx, ny, nz] = self.cube_dims;
-        if c[0] < 0
-            || c[1] < 0
-            || c[2] < 0
-            || c[0] as u32 >= nx
-            || c[1] as u32 >= ny
-            || c[2] as u32 >= nz
-        {
-            return Cube::Far;
-        }
-        let slot = (c[2] as usize * ny as usize + c[1] as usize) * nx as usize + c[0] as usize;
-        match self.directory[slot] {
-            SLOT_FAR => Cube::Far,
-            SLOT_DEEP => Cube::Deep,
-            b => Cube::Brick(b - BRICK_SLOT_BASE),
-        }
-    }
-
     /// The raw directory slot of the cube holding the trilinear cell whose lower corner is the
     /// sample of voxel `base`: [`SLOT_FAR`] (also outside the grid), [`SLOT_DEEP`], or a brick's
     /// slot for [`DistanceBand::cell_codes`]. One load; does not allocate or block.
@@ -371,24 +319,14 @@ impl DistanceBand {
     /// directory slot and eight codes of one brick. Does not allocate or block.
     #[inline(always)]
     pub fn cell(&self, base: [i32; 3]) -> CellLookup {
-        let edge = CUBE_EDGE as i32;
-        let c = base.map(|b| b.div_euclid(edge));
-        match self.cube(c) {
-            Cube::Far => CellLookup::Far,
-            Cube::Deep => CellLookup::Deep,
-            Cube::Brick(k) => {
-                let l = [0, 1, 2].map(|a| (base[a] - c[a] * edge) as usize);
-                let brick = &self.codes[k as usize * BRICK_CODES..][..BRICK_CODES];
-                let at = |x: usize, y: usize, z: usize| {
-                    f32::from(brick[((l[2] + z) * BRICK_EDGE + l[1] + y) * BRICK_EDGE + l[0] + x])
-                };
-                CellLookup::Near(BandCell {
-                    corners: [
-                        [[at(0, 0, 0), at(1, 0, 0)], [at(0, 1, 0), at(1, 1, 0)]],
-                        [[at(0, 0, 1), at(1, 0, 1)], [at(0, 1, 1), at(1, 1, 1)]],
-                    ],
-                })
-            }
+        match self.slot_of_cell(base) {
+            SLOT_FAR => CellLookup::Far,
+            SLOT_DEEP => CellLookup::Deep,
+            slot => CellLookup::Near(BandCell {
+                corners: self
+                    .cell_codes(slot, base)
+                    .map(|plane| plane.map(|row| row.map(f32::from))),
+            }),
         }
     }
 
@@ -451,6 +389,21 @@ pub enum CubeCodes {
     Brick(Box<[i8; BRICK_CODES]>),
 }
 
+impl CubeCodes {
+    /// A cube of `codes` (its 729 samples, `[z][y][x]` with x fastest): [`CubeCodes::Far`] or
+    /// [`CubeCodes::Deep`] when every code is saturated that way (nothing to store), else the
+    /// brick.
+    pub fn from_codes(codes: Box<[i8; BRICK_CODES]>) -> CubeCodes {
+        if codes.iter().all(|&c| c == CODE_FAR) {
+            CubeCodes::Far
+        } else if codes.iter().all(|&c| c == CODE_DEEP) {
+            CubeCodes::Deep
+        } else {
+            CubeCodes::Brick(codes)
+        }
+    }
+}
+
 /// The code of a stand-off distance `e` (m) at voxel size `s` (m): `round(e · 64 / s)` clamped to
 /// ±127.
 pub fn code_of(e_m: f64, voxel_size: f64) -> i8 {
@@ -476,24 +429,11 @@ mod tests {
         let s = spec();
         assemble(&s, standoff, |c| {
             let mut b = Box::new([0i8; BRICK_CODES]);
-            let mut any_near = false;
-            for z in 0..BRICK_EDGE {
-                for y in 0..BRICK_EDGE {
-                    for x in 0..BRICK_EDGE {
-                        let zc = (f64::from(c[2] * 8) + z as f64 + 0.5) * s.voxel_size;
-                        let code = code_of(zc - 0.045 - standoff, s.voxel_size);
-                        any_near |= code.abs() < 127;
-                        b[(z * BRICK_EDGE + y) * BRICK_EDGE + x] = code;
-                    }
-                }
+            for (z, plane) in b.chunks_mut(BRICK_EDGE * BRICK_EDGE).enumerate() {
+                let zc = (f64::from(c[2] * 8) + z as f64 + 0.5) * s.voxel_size;
+                plane.fill(code_of(zc - 0.045 - standoff, s.voxel_size));
             }
-            if any_near {
-                CubeCodes::Brick(b)
-            } else if b[0] > 0 {
-                CubeCodes::Far
-            } else {
-                CubeCodes::Deep
-            }
+            CubeCodes::from_codes(b)
         })
         .unwrap()
     }
