@@ -18,7 +18,7 @@
 //! a tight one of an eighth.
 //! Blocking, allocating, parallel over runs (rayon).
 
-use crate::measure::{ForceModel, OFFSET_LAYERS};
+use crate::measure::ForceModel;
 use glam::{DQuat, DVec3};
 use rayon::prelude::*;
 use vps_haptic::{
@@ -27,9 +27,7 @@ use vps_haptic::{
 use vps_mesh::builtin::{cuboid, cylinder};
 use vps_mesh::TriMesh;
 use vps_reference::{reference_contact, ExactScene};
-use vps_voxelize::distance::distance_band;
-use vps_voxelize::{point_shell, voxelize_tree, ShellMethod, VoxelWidth, VoxelizeOptions};
-use vps_voxmap::TreeConfig;
+use vps_voxelize::{point_shell, ShellMethod, VoxelWidth};
 
 /// The peg's half-width (m): 10 mm.
 pub const PEG_HALF_WIDTH: f64 = 0.01;
@@ -209,22 +207,9 @@ fn run_one(
         message,
     };
     let walls = fixture(PEG_HALF_WIDTH + clearance_voxels * s);
-    let opts = VoxelizeOptions {
-        voxel_size: s,
-        offset_layers: OFFSET_LAYERS,
-        width: VoxelWidth::Four,
-        ..VoxelizeOptions::default()
-    };
-    let (tree, _) =
-        voxelize_tree(&walls, &opts, TreeConfig::default()).map_err(|e| err(e.to_string()))?;
-    let tree = match model {
-        ForceModel::TangentPlane => tree,
-        ForceModel::Distance { standoff_voxels } => {
-            let band = distance_band(&tree, &walls, standoff_voxels * s, u64::MAX)
-                .map_err(|e| err(e.to_string()))?;
-            tree.with_distance_band(band)
-        }
-    };
+    let tree = model
+        .voxmap("clearance", &walls, s, VoxelWidth::Four)
+        .map_err(|e| err(e.to_string()))?;
     let exact = ExactScene::new(&walls).map_err(|e| err(e.to_string()))?;
     let shell =
         point_shell(&peg.mesh(), s, ShellMethod::ExactSurface).map_err(|e| err(e.to_string()))?;

@@ -69,6 +69,41 @@ impl ForceModel {
         }
     }
 
+    /// The voxmap of `obstacles` (world frame, m) that this model samples, at voxel size `s` (m)
+    /// and `width`: voxelized with [`OFFSET_LAYERS`] offset layers, plus, for the distance model,
+    /// the distance band at its stand-off. `scene` names the scene in errors. Blocking, parallel,
+    /// allocates the map.
+    pub fn voxmap(
+        self,
+        scene: &'static str,
+        obstacles: &[TriMesh],
+        s: f64,
+        width: VoxelWidth,
+    ) -> Result<VoxelTree, FidelityError> {
+        let opts = VoxelizeOptions {
+            voxel_size: s,
+            offset_layers: OFFSET_LAYERS,
+            width,
+            ..VoxelizeOptions::default()
+        };
+        let (tree, _) =
+            voxelize_tree(obstacles, &opts, TreeConfig::default()).map_err(|source| {
+                FidelityError::Voxelize {
+                    scene,
+                    voxel_size_m: s,
+                    source,
+                }
+            })?;
+        Ok(match self {
+            ForceModel::TangentPlane => tree,
+            ForceModel::Distance { standoff_voxels } => {
+                let band = distance_band(&tree, obstacles, standoff_voxels * s, u64::MAX)
+                    .map_err(|source| FidelityError::Band { scene, source })?;
+                tree.with_distance_band(band)
+            }
+        })
+    }
+
     /// The separations (voxels) this model is measured at.
     pub fn separations_voxels(self, grid: &FidelityGrid) -> Vec<f64> {
         match self {
@@ -320,25 +355,7 @@ fn prepare(
         voxel_size_m: s,
         source,
     };
-    let opts = VoxelizeOptions {
-        voxel_size: s,
-        offset_layers: OFFSET_LAYERS,
-        width,
-        ..VoxelizeOptions::default()
-    };
-    let (tree, _) = voxelize_tree(obstacles, &opts, TreeConfig::default()).map_err(voxelize_err)?;
-    let tree = match model {
-        ForceModel::TangentPlane => tree,
-        ForceModel::Distance { standoff_voxels } => {
-            let band = distance_band(&tree, obstacles, standoff_voxels * s, u64::MAX).map_err(
-                |source| FidelityError::Band {
-                    scene: scene.name(),
-                    source,
-                },
-            )?;
-            tree.with_distance_band(band)
-        }
-    };
+    let tree = model.voxmap(scene.name(), obstacles, s, width)?;
     let shell = point_shell(part, s, method).map_err(voxelize_err)?;
     let exact = ExactScene::new(obstacles).map_err(|source| FidelityError::Reference {
         scene: scene.name(),

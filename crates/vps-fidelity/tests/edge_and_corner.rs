@@ -3,12 +3,12 @@
 //! tangent-plane model's angle is printed beside it (it follows the block's facets).
 
 use glam::{DQuat, DVec3};
+use vps_fidelity::measure::ForceModel;
 use vps_haptic::{sample_all, ClassedShell, KernelPose, PartState};
 use vps_mesh::builtin::cuboid;
-use vps_voxelize::distance::distance_band;
-use vps_voxelize::{point_shell, voxelize_tree, ShellMethod, VoxelWidth, VoxelizeOptions};
+use vps_voxelize::{point_shell, ShellMethod, VoxelWidth};
 use vps_voxmap::distance::DEFAULT_STANDOFF_VOXELS;
-use vps_voxmap::{TreeConfig, VoxelTree};
+use vps_voxmap::VoxelTree;
 
 const S: f64 = 0.005;
 
@@ -20,17 +20,11 @@ fn floor() -> vps_mesh::TriMesh {
     slab
 }
 
+/// The floor's voxmap for the tangent-plane model and for the distance model (default stand-off).
 fn maps() -> (VoxelTree, VoxelTree) {
-    let floor = floor();
-    let opts = VoxelizeOptions {
-        voxel_size: S,
-        width: VoxelWidth::Four,
-        ..VoxelizeOptions::default()
-    };
-    let (tree, _) = voxelize_tree(std::slice::from_ref(&floor), &opts, TreeConfig::default())
-        .expect("voxelize");
-    let band = distance_band(&tree, &[floor], DEFAULT_STANDOFF_VOXELS * S, u64::MAX).unwrap();
-    (tree.clone(), tree.with_distance_band(band))
+    let floor = [floor()];
+    let map = |model: ForceModel| model.voxmap("floor", &floor, S, VoxelWidth::Four).unwrap();
+    (map(ForceModel::TangentPlane), map(ForceModel::DISTANCE))
 }
 
 /// The force direction's angle from +z (degrees) of a 30 mm block turned by `q`, its lowest

@@ -4,14 +4,13 @@
 //! the rest of the run. No frame may have any shell point beyond the wall's far face.
 
 use glam::{DQuat, DVec3};
+use vps_fidelity::measure::ForceModel;
 use vps_haptic::{
     sample_all, step, ClassedShell, HandleSample, HapticParams, KernelPose, PartState,
 };
 use vps_mesh::builtin::cuboid;
 use vps_reference::{reference_contact, ExactScene};
-use vps_voxelize::distance::distance_band;
-use vps_voxelize::{point_shell, voxelize_tree, ShellMethod, VoxelWidth, VoxelizeOptions};
-use vps_voxmap::TreeConfig;
+use vps_voxelize::{point_shell, ShellMethod, VoxelWidth};
 
 const S: f64 = 0.005;
 /// Near face of the wall at x = 0, far face at x = 2 voxels.
@@ -21,15 +20,12 @@ const THICKNESS: f64 = 2.0 * S;
 fn a_part_struck_into_a_thin_wall_never_passes_it() {
     let mut wall = cuboid(DVec3::new(THICKNESS / 2.0, 0.05, 0.05));
     wall.transform(1.0, DQuat::IDENTITY, DVec3::new(THICKNESS / 2.0, 0.0, 0.0));
-    let opts = VoxelizeOptions {
-        voxel_size: S,
-        width: VoxelWidth::Four,
-        ..VoxelizeOptions::default()
-    };
     let walls = [wall];
-    let (tree, _) = voxelize_tree(&walls, &opts, TreeConfig::default()).unwrap();
-    let band = distance_band(&tree, &walls, 0.25 * S, u64::MAX).unwrap();
-    let map = tree.with_distance_band(band);
+    let map = ForceModel::Distance {
+        standoff_voxels: 0.25,
+    }
+    .voxmap("tunnelling", &walls, S, VoxelWidth::Four)
+    .unwrap();
     let exact = ExactScene::new(&walls).unwrap();
     let shell = point_shell(&cuboid(DVec3::splat(0.01)), S, ShellMethod::ExactSurface).unwrap();
     let classed = ClassedShell::new(&shell, 1);
