@@ -315,3 +315,46 @@ fn value_and_gradient(c: &Corners, f: &Vec3s) -> (F32s, Vec3s) {
     }
     (value, gradient)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use vps_voxmap::distance::BandCell;
+
+    /// The lane form of the trilinear value and gradient gives the bits of the scalar form that
+    /// `vps inspect`, the tests and `DistanceBand::standoff_distance_at` use, for every lane.
+    #[test]
+    fn the_lane_interpolation_is_the_scalar_one_bit_for_bit() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        for _ in 0..1000 {
+            let mut corners: Corners = [[[[0.0; LANES]; 2]; 2]; 2];
+            let mut f: Vec3s = [[0.0; LANES]; 3];
+            for plane in &mut corners {
+                for row in plane.iter_mut() {
+                    for corner in row.iter_mut() {
+                        for c in corner.iter_mut() {
+                            *c = f32::from(rng.gen_range(-127i8..=127));
+                        }
+                    }
+                }
+            }
+            for axis in &mut f {
+                for x in axis.iter_mut() {
+                    *x = rng.gen::<f32>();
+                }
+            }
+            let (value, gradient) = value_and_gradient(&corners, &f);
+            for l in 0..LANES {
+                let cell = BandCell {
+                    corners: corners.map(|plane| plane.map(|row| row.map(|c| c[l]))),
+                };
+                let (v, g) = cell.value_and_gradient([f[0][l], f[1][l], f[2][l]]);
+                assert_eq!(v.to_bits(), value[l].to_bits());
+                for a in 0..3 {
+                    assert_eq!(g[a].to_bits(), gradient[a][l].to_bits());
+                }
+            }
+        }
+    }
+}
