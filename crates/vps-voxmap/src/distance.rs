@@ -9,8 +9,8 @@
 //! least that deep". The stand-off is baked in, so the frame path needs no parameter for it.
 //!
 //! **Layout.** The grid is cut into cubes of 8³ voxels (the tree's leaf cube). A cube whose samples
-//! are all saturated the same way needs no storage: its directory slot says [`Cube::Far`] or
-//! [`Cube::Deep`]. Every other cube has a brick of 9³ codes: its 8³ samples plus the first sample
+//! are all saturated the same way needs no storage: its directory slot says [`SLOT_FAR`] or
+//! [`SLOT_DEEP`]. Every other cube has a brick of 9³ codes: its 8³ samples plus the first sample
 //! of the next cube on each axis (an apron), so that the trilinear cell of any point whose lower
 //! corner lies in the cube reads one brick. Bricks are numbered in directory order (x fastest), so
 //! equal content gives equal bytes.
