@@ -10,7 +10,9 @@
 //! teapot) split into 64 cyclic classes, as the runtime does. `fine4` and `fine4-free` are the same
 //! against a 4-bit map (the loop's default scenes): the band holds every Surface layer (0..=6) and
 //! Proximity layer (0..=5) of the width, Interior inside, and the slot is wide enough that the
-//! empty half stays Free.
+//! empty half stays Free. `distance` and `distance-free` are `contact` and `free` with the map
+//! carrying a signed-distance band (the `distance` force model): the solid ball of radius
+//! `R + ½` voxel, stand-off ½ voxel, so every shell point is a contact.
 //!
 //! ```sh
 //! cargo build --release -p vps-haptic --example kernel_ir
@@ -30,8 +32,8 @@ use std::hint::black_box;
 use vps_haptic::{sample_all, ClassedShell, KernelPose, PartState};
 use vps_voxmap::shell::ShellMethod;
 use vps_voxmap::{
-    CubeSource, DenseGrid, GridSpec, LayeredVoxel, MassProperties, PointShell, TreeConfig, Voxel,
-    VoxelTree, VoxelWidth,
+    distance::DistanceBand, CubeSource, DenseGrid, GridSpec, LayeredVoxel, MassProperties,
+    PointShell, TreeConfig, Voxel, VoxelTree, VoxelWidth,
 };
 
 const VOXEL_SIZE: f64 = 0.005;
@@ -144,6 +146,32 @@ impl CubeSource for LayeredBand {
     }
 }
 
+/// The band of the solid ball of radius `radius_vox + 0.5` voxels about the first slot's centre,
+/// stand-off `standoff_voxels`, computed analytically (as `vps bench kernel` builds it).
+fn sphere_band(spec: &GridSpec, radius_vox: f64, standoff_voxels: f64) -> DistanceBand {
+    use vps_voxmap::distance::{self, CubeCodes, BRICK_CODES, BRICK_EDGE};
+    let centre = DVec3::splat(spec.dims[1] as f64 / 2.0);
+    let ball = radius_vox + 0.5;
+    distance::assemble(spec, standoff_voxels * spec.voxel_size, |c| {
+        let mut codes = Box::new([0i8; BRICK_CODES]);
+        for (i, code) in codes.iter_mut().enumerate() {
+            let (x, y, z) = (
+                i % BRICK_EDGE,
+                i / BRICK_EDGE % BRICK_EDGE,
+                i / (BRICK_EDGE * BRICK_EDGE),
+            );
+            let p = DVec3::new(
+                f64::from(c[0] * 8) + x as f64 + 0.5,
+                f64::from(c[1] * 8) + y as f64 + 0.5,
+                f64::from(c[2] * 8) + z as f64 + 0.5,
+            );
+            *code = distance::code_of((p - centre).length() - ball - standoff_voxels, 1.0);
+        }
+        CubeCodes::from_codes(codes)
+    })
+    .expect("a valid band")
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let n: usize = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(10_000);
@@ -167,6 +195,11 @@ fn main() {
     } else {
         VoxelTree::from_dense(&dense, TreeConfig::default()).expect("valid scene")
     };
+    let tree = if mode.starts_with("distance") {
+        tree.with_distance_band(sphere_band(&dense.spec, radius_vox, 0.5))
+    } else {
+        tree
+    };
     // A fourth argument `previous`: the previous kernel (the current one on at most AVX2).
     let kernel = if args.get(4).is_some_and(|a| a == "previous") {
         vps_haptic::previous::sample_all::<VoxelTree>
@@ -178,7 +211,9 @@ fn main() {
     let shell = ClassedShell::new(&shell, if fine { 64 } else { 1 });
     let slot = dense.spec.dims[1] as f64;
     let centre = match mode {
-        "free" | "fine-free" | "fine4-free" => DVec3::new(slot * 1.5, slot / 2.0, slot / 2.0),
+        "free" | "fine-free" | "fine4-free" | "distance-free" => {
+            DVec3::new(slot * 1.5, slot / 2.0, slot / 2.0)
+        }
         _ => DVec3::splat(slot / 2.0),
     };
     let state = PartState::at_rest(dense.spec.origin + centre * VOXEL_SIZE, DQuat::IDENTITY);

@@ -960,7 +960,9 @@ macro_rules! vec3_ops {
         }
 
         /// `(cell + 0.5) − grid` per axis: from each point (grid coordinates) to the centre of
-        /// its voxel `cell`, in voxels.
+        /// its voxel `cell`, in voxels. (The tangent-plane copies' helper; the distance copy
+        /// has no use for it.)
+        #[allow(dead_code)]
         #[inline]
         #[target_feature(enable = $feature)]
         fn to_centre(cell: &[$i; 3], grid: &[$f; 3]) -> [$f; 3] {
@@ -1001,7 +1003,7 @@ mod avx2 {
     /// The CPU must support AVX2; with `UNCHECKED`, `start + LANES` must be within every array.
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn load<const UNCHECKED: bool>(xs: Soa, start: usize) -> V3 {
+    pub(super) unsafe fn load<const UNCHECKED: bool>(xs: Soa, start: usize) -> V3 {
         let mut out = [_mm256_setzero_ps(); 3];
         for r in 0..3 {
             let lanes = if UNCHECKED {
@@ -1031,14 +1033,14 @@ mod avx2 {
     /// Number of lanes with `x > 0` (`GT`) or `x < 0`.
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn count_positive(x: __m256) -> u64 {
+    pub(super) unsafe fn count_positive(x: __m256) -> u64 {
         let m = _mm256_cmp_ps::<_CMP_GT_OQ>(x, _mm256_setzero_ps());
         u64::from(_mm256_movemask_ps(m).count_ones())
     }
 
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn count_negative(x: __m256) -> u64 {
+    pub(super) unsafe fn count_negative(x: __m256) -> u64 {
         let m = _mm256_cmp_ps::<_CMP_LT_OQ>(x, _mm256_setzero_ps());
         u64::from(_mm256_movemask_ps(m).count_ones())
     }
@@ -1051,7 +1053,7 @@ mod avx2 {
     /// The CPU must support AVX2, and AVX-512F and DQ with `WIDE`; inlined only into callers
     /// compiled for them.
     #[inline(always)]
-    unsafe fn add_fixed<const CLAMP: bool, const WIDE: bool>(acc: &mut I64s, y: __m256) {
+    pub(super) unsafe fn add_fixed<const CLAMP: bool, const WIDE: bool>(acc: &mut I64s, y: __m256) {
         let y = if CLAMP {
             _mm256_min_ps(
                 _mm256_max_ps(y, _mm256_set1_ps(-Y_MAX)),
@@ -1117,7 +1119,10 @@ mod avx2 {
     /// # Safety
     /// As [`add_fixed`]'s.
     #[inline(always)]
-    unsafe fn add3_fixed<const CLAMP: bool, const WIDE: bool>(acc: &mut [I64s; 3], y: &V3) {
+    pub(super) unsafe fn add3_fixed<const CLAMP: bool, const WIDE: bool>(
+        acc: &mut [I64s; 3],
+        y: &V3,
+    ) {
         for (a, v) in acc.iter_mut().zip(y) {
             // SAFETY: as this function's.
             unsafe { add_fixed::<CLAMP, WIDE>(a, *v) };

@@ -21,6 +21,12 @@
 //! order, no fused multiply-add: the same bits on every machine.
 //!
 //! Memory: 4 bytes per 8³ cube (the directory) plus 729 bytes per brick.
+//!
+//! **In memory** the bricks follow two constant bricks, one all [`CODE_FAR`] at slot
+//! [`SLOT_FAR`] and one all [`CODE_DEEP`] at slot [`SLOT_DEEP`], and end in [`CODES_PADDING`]
+//! bytes: every directory slot `v` then names the brick at `v · 729` ([`DistanceBand::slot_codes`]),
+//! so a SIMD kernel reads the cell of any lane, far and deep ones included, with the same four
+//! 4-byte gathers and no branch. The file holds only the stored bricks ([`DistanceBand::codes`]).
 
 use crate::GridSpec;
 
@@ -60,18 +66,24 @@ pub const SLOT_FAR: u32 = 0;
 pub const SLOT_DEEP: u32 = 1;
 /// Brick `k` is stored in slots as `k + BRICK_SLOT_BASE`.
 const BRICK_SLOT_BASE: u32 = 2;
+/// Bytes after the last brick in memory, so that a 4-byte read at any cell corner of any brick
+/// stays inside the allocation (the farthest corner row starts 2 bytes before a brick's end).
+pub const CODES_PADDING: usize = 4;
+/// Codes before the first stored brick in memory: the constant far and deep bricks.
+const CONSTANT_CODES: usize = BRICK_SLOT_BASE as usize * BRICK_CODES;
 
 /// The signed-distance band of a voxmap (see the module docs). Immutable once built; `Sync`.
 ///
 /// Invariants (checked by [`DistanceBand::from_parts`]): the directory has one slot per cube of the
-/// grid; brick slots number the bricks 0, 1, 2, … in directory order; `codes` holds exactly
-/// 729 codes per brick, none equal to −128; the stand-off is finite, in `[0, 1]` voxel.
+/// grid; brick slots number the bricks 0, 1, 2, … in directory order; exactly 729 codes per
+/// brick, none equal to −128; the stand-off is finite, in `[0, 1]` voxel. In memory
+/// (`slot_codes`): the far brick, the deep brick, the stored bricks, [`CODES_PADDING`] zeros.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DistanceBand {
     standoff_m: f64,
     cube_dims: [u32; 3],
     directory: Vec<u32>,
-    codes: Vec<i8>,
+    slot_codes: Vec<i8>,
 }
 
 /// Why band parts are not a valid [`DistanceBand`]; each names the field at fault.
@@ -233,11 +245,16 @@ impl DistanceBand {
         if let Some(index) = codes.iter().position(|&c| c == i8::MIN) {
             return Err(BandError::ReservedCode { index });
         }
+        let mut slot_codes = Vec::with_capacity(CONSTANT_CODES + codes.len() + CODES_PADDING);
+        slot_codes.extend_from_slice(&[CODE_FAR; BRICK_CODES]);
+        slot_codes.extend_from_slice(&[CODE_DEEP; BRICK_CODES]);
+        slot_codes.extend_from_slice(&codes);
+        slot_codes.extend_from_slice(&[0; CODES_PADDING]);
         Ok(DistanceBand {
             standoff_m,
             cube_dims: expected,
             directory,
-            codes,
+            slot_codes,
         })
     }
 
@@ -257,19 +274,27 @@ impl DistanceBand {
         &self.directory
     }
 
-    /// All brick codes, brick after brick (file encoding).
+    /// The stored bricks' codes, brick after brick (file encoding).
     pub fn codes(&self) -> &[i8] {
-        &self.codes
+        &self.slot_codes[CONSTANT_CODES..self.slot_codes.len() - CODES_PADDING]
+    }
+
+    /// The in-memory codes: directory slot `v` names the 729 codes at `v · 729` (slot
+    /// [`SLOT_FAR`] a brick of [`CODE_FAR`], [`SLOT_DEEP`] one of [`CODE_DEEP`]), followed by
+    /// [`CODES_PADDING`] zeros. For kernels that gather codes by slot; the length is not bounded
+    /// by `i32::MAX` (check it before using 32-bit offsets).
+    pub fn slot_codes(&self) -> &[i8] {
+        &self.slot_codes
     }
 
     /// Number of bricks stored.
     pub fn brick_count(&self) -> usize {
-        self.codes.len() / BRICK_CODES
+        self.codes().len() / BRICK_CODES
     }
 
-    /// Heap bytes held: the directory and the bricks.
+    /// Heap bytes held: the directory and the bricks (the two constant bricks included).
     pub fn memory_bytes(&self) -> usize {
-        4 * self.directory.capacity() + self.codes.capacity()
+        4 * self.directory.capacity() + self.slot_codes.capacity()
     }
 
     /// The deepest contact depth a point can report (m): a point deeper than the band pushes with
@@ -298,15 +323,15 @@ impl DistanceBand {
     }
 
     /// The eight codes (`[z][y][x]`) of the trilinear cell whose lower corner is the sample of
-    /// voxel `base`, in the brick of directory slot `slot` (a brick slot that
-    /// [`DistanceBand::slot_of_cell`] returned for the same `base`). Eight loads; does not
-    /// allocate or block.
+    /// voxel `base`, in the brick of directory slot `slot` (the slot that
+    /// [`DistanceBand::slot_of_cell`] returned for the same `base`; [`SLOT_FAR`] and [`SLOT_DEEP`]
+    /// read their constant bricks). Eight loads; does not allocate or block.
     #[inline(always)]
     pub fn cell_codes(&self, slot: u32, base: [i32; 3]) -> [[[i8; 2]; 2]; 2] {
-        let brick = (slot - BRICK_SLOT_BASE) as usize * BRICK_CODES;
+        let brick = slot as usize * BRICK_CODES;
         let l = base.map(|b| (b & (CUBE_EDGE as i32 - 1)) as usize);
         let at = brick + (l[2] * BRICK_EDGE + l[1]) * BRICK_EDGE + l[0];
-        let codes = &self.codes[at..at + BRICK_EDGE * BRICK_EDGE + BRICK_EDGE + 2];
+        let codes = &self.slot_codes[at..at + BRICK_EDGE * BRICK_EDGE + BRICK_EDGE + 2];
         let get = |x: usize, y: usize, z: usize| codes[(z * BRICK_EDGE + y) * BRICK_EDGE + x];
         [
             [[get(0, 0, 0), get(1, 0, 0)], [get(0, 1, 0), get(1, 1, 0)]],
@@ -472,6 +497,41 @@ mod tests {
         assert_eq!(band.cell([0, 0, 900]), CellLookup::Far);
         assert!(band.brick_count() > 0);
         assert!(band.brick_count() < band.directory().len());
+    }
+
+    #[test]
+    fn every_slot_names_its_brick_in_memory_and_the_file_holds_the_stored_bricks_only() {
+        let band = plane_band(0.0);
+        let codes = band.slot_codes();
+        assert_eq!(
+            codes.len(),
+            (band.brick_count() + 2) * BRICK_CODES + CODES_PADDING
+        );
+        assert!(codes[..BRICK_CODES].iter().all(|&c| c == CODE_FAR));
+        assert!(codes[BRICK_CODES..2 * BRICK_CODES]
+            .iter()
+            .all(|&c| c == CODE_DEEP));
+        assert_eq!(
+            band.codes(),
+            &codes[2 * BRICK_CODES..codes.len() - CODES_PADDING]
+        );
+        assert_eq!(
+            band.cell_codes(SLOT_FAR, [5, 6, 7]),
+            [[[CODE_FAR; 2]; 2]; 2]
+        );
+        assert_eq!(
+            band.cell_codes(SLOT_DEEP, [7, 7, 7]),
+            [[[CODE_DEEP; 2]; 2]; 2]
+        );
+        let again = DistanceBand::from_parts(
+            &spec(),
+            band.standoff_m(),
+            band.cube_dims(),
+            band.directory().to_vec(),
+            band.codes().to_vec(),
+        )
+        .unwrap();
+        assert_eq!(again, band);
     }
 
     #[test]
