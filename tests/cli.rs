@@ -416,15 +416,14 @@ fn voxelize_and_shell_read_a_mesh_in_millimetres_with_units() {
     assert!(err.contains("--units applies to mesh files"), "{err}");
 }
 
-/// A scene small enough for every command to run on it in a second or two in a test build: a
-/// sphere 30 mm across pressed by the hand onto a 30 mm cube, at 5 mm voxels (it states no other
-/// voxel setting: the built-in defaults apply).
+/// A scene small enough for every command to run on it in a second or two in a test build: the
+/// built-in sphere (0.1 m across) pressed by the hand onto the built-in 0.1 m cube, at 10 mm
+/// voxels (it states no other voxel setting: the built-in defaults apply).
 fn tiny_scene() -> &'static str {
-    "name = \"tiny\"\n\
-     [part]\nsource = \"builtin:sphere\"\nscale = [0.3, 0.3, 0.3]\n\
-     [[static]]\nsource = \"builtin:box\"\nscale = [0.3, 0.3, 0.3]\n\
-     [voxels]\nvoxel_size = \"5mm\"\n\
-     [hand]\nwaypoints = [[0.1, 0.0, 0.0], [0.0, 0.0, 0.0]]\nspeed = 0.5\n"
+    "name = \"tiny\"\npart = \"builtin:sphere\"\n\
+     [[static]]\nsource = \"builtin:box\"\n\
+     [voxels]\nvoxel_size = \"10mm\"\n\
+     [hand]\nwaypoints = [[0.3, 0.0, 0.0], [0.0, 0.0, 0.0]]\nspeed = 0.5\n"
 }
 
 /// True when `stdout` is, or opens like, a JSON document (an object or a list).

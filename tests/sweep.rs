@@ -120,18 +120,17 @@ fn quick_sweep_writes_json_csv_and_plots() {
     }
 }
 
-/// A user's scene in a folder outside the repository: a sphere 30 mm across pressed by the hand onto
-/// a 30 mm cube, at 5 mm voxels.
-const MY_SCENE: &str = "name = \"mine\"\n\
-    [part]\nsource = \"builtin:sphere\"\nscale = [0.3, 0.3, 0.3]\n\
-    [[static]]\nsource = \"builtin:box\"\nscale = [0.3, 0.3, 0.3]\n\
-    [voxels]\nvoxel_size = \"5mm\"\n\
-    [hand]\nwaypoints = [[0.1, 0.0, 0.0], [0.0, 0.0, 0.0]]\nspeed = 0.5\n";
+/// A user's scene in a folder outside the repository: the built-in sphere (0.1 m across) pressed
+/// by the hand onto the built-in 0.1 m cube, at 10 mm voxels.
+const MY_SCENE: &str = "name = \"mine\"\npart = \"builtin:sphere\"\n\
+    [[static]]\nsource = \"builtin:box\"\n\
+    [voxels]\nvoxel_size = \"10mm\"\n\
+    [hand]\nwaypoints = [[0.3, 0.0, 0.0], [0.0, 0.0, 0.0]]\nspeed = 0.5\n";
 
 /// `vps sweep --quick --scene FILE` and `vps tune --scene FILE` from a temporary folder outside
 /// the repository, with only the binary: the sweep file and the accuracy table are built in
 /// (they failed reading configs/sweep.toml and docs/sweep/sweep.json). The sweep's quick sizes
-/// are the scene's own (5 mm) and twice it, over the built-in file's widths and methods; it
+/// are the scene's own (10 mm) and twice it, over the built-in file's widths and methods; it
 /// prints a table (not JSON), its legend for `-`, and a recommendation; tune prints its table,
 /// its recommendation, and that the built-in table has no row for this scene with the commands
 /// that measure it. A `--config` that does not exist is an error naming it.
@@ -158,10 +157,10 @@ fn sweep_and_tune_run_from_any_folder_with_only_the_binary() {
         .skip(1)
         .map(|l| l.split(',').nth(2).unwrap())
         .collect();
-    // 10 mm then 5 mm, each at 2, 4 and 8 bits with both methods.
+    // 20 mm then 10 mm, each at 2, 4 and 8 bits with both methods.
     assert_eq!(sizes.len(), 12, "{csv}");
-    assert!(sizes[..6].iter().all(|s| *s == "10.0"), "{csv}");
-    assert!(sizes[6..].iter().all(|s| *s == "5.0"), "{csv}");
+    assert!(sizes[..6].iter().all(|s| *s == "20.0"), "{csv}");
+    assert!(sizes[6..].iter().all(|s| *s == "10.0"), "{csv}");
     let header = text.lines().next().unwrap();
     assert!(
         header.starts_with("scene") && header.contains("size mm") && header.contains("PR"),
@@ -169,7 +168,7 @@ fn sweep_and_tune_run_from_any_folder_with_only_the_binary() {
     );
     let rows = text.lines().filter(|l| l.starts_with("mine ")).count();
     assert_eq!(rows, 12, "{text}");
-    // The scene's own setting (5 mm, the built-in 4-bit exact) is marked.
+    // The scene's own setting (10 mm, the built-in 4-bit exact) is marked.
     assert_eq!(text.matches("* scene's own").count(), 1, "{text}");
     assert!(text.contains("-: not measured (null in --json)"), "{text}");
     assert!(

@@ -2,8 +2,10 @@
 //! methods on standard scenes (scene files) and their scripted sessions. Per setting: point count, voxmap memory,
 //! voxelization time, frame compute p50/p99.9 (free-running 1 kHz loop), penetration ratio, and at
 //! sampled touching frames the voxel contact force against the exact reference (vps-reference):
-//! direction and magnitude error, minimum exact separation. Writes JSON (a [`SweepTable`]), CSV
-//! and SVG plots; rows whose width and method are the scene file's own are marked `default`.
+//! direction and magnitude error, minimum exact separation. Prints the table as text with a
+//! recommendation per scene (`sweep_text`), or JSON (a [`SweepTable`]) with `--json`; writes JSON,
+//! CSV and SVG plots to files; rows whose width and method are the scene file's own are marked
+//! `default`. Without `--config` the built-in sweep file and scenes are used (any folder).
 //! SIGINT, SIGTERM and SIGHUP stop it: the running session's device is written zero and the rows
 //! done are written as a partial table (exit status 128 + N). See docs/sweep.md.
 
