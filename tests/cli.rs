@@ -544,6 +544,8 @@ fn no_command_prints_json_without_json() {
                 "50",
                 "--verify-frames",
                 "50",
+                "--budget-fraction",
+                "1",
             ],
             false,
         ),
@@ -625,8 +627,12 @@ fn no_command_prints_json_without_json() {
     ];
     for (args, json_too) in &commands {
         let out = vps.run(args);
+        // Tune fails, having printed its table, when even its coarsest size misses the budget: a
+        // timing on this machine, not a fault.
+        let over_budget =
+            args[0] == "tune" && String::from_utf8_lossy(&out.stderr).contains("voxels miss the");
         assert!(
-            out.status.success(),
+            out.status.success() || over_budget,
             "vps {args:?} failed: {}",
             String::from_utf8_lossy(&out.stderr)
         );
