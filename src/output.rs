@@ -142,12 +142,12 @@ fn write_text(out: &mut String, value: &serde_json::Value, depth: usize) {
         Value::Object(fields) => {
             for (name, v) in fields {
                 let name = vps_files::printable(&name.replace('_', " ")).into_owned();
-                if is_plain(v) {
-                    out.push_str(&format!("{pad}{name}: {}\n", plain_text(v)));
-                } else if v.as_array().is_some_and(Vec::is_empty)
+                if v.as_array().is_some_and(Vec::is_empty)
                     || v.as_object().is_some_and(|o| o.is_empty())
                 {
                     out.push_str(&format!("{pad}{name}: none\n"));
+                } else if is_plain(v) {
+                    out.push_str(&format!("{pad}{name}: {}\n", plain_text(v)));
                 } else {
                     out.push_str(&format!("{pad}{name}:\n"));
                     write_text(out, v, depth + 1);

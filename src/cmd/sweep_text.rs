@@ -257,7 +257,9 @@ mod tests {
             rows: vec![row(10.0, None, None, 10.0)],
         };
         let text = table_text(&table);
-        assert!(!text.contains("null") && !text.contains("NaN"), "{text}");
+        let row = text.lines().nth(1).unwrap();
+        assert!(row.starts_with("s ") && row.contains(" -/- "), "{text}");
+        assert!(!row.contains("null") && !text.contains("NaN"), "{text}");
         assert!(text.contains("-: not measured (null in --json)"), "{text}");
         assert!(
             text.contains("s: no recommendation: no row's session pressed"),
