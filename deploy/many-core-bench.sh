@@ -48,12 +48,12 @@ machine() {
     cat /proc/loadavg
 }
 
-# run NAME ARGS...: vps ARGS > OUT_DIR/NAME.json, stderr to OUT_DIR/stderr/NAME.log.
+# run NAME ARGS...: vps ARGS --json > OUT_DIR/NAME.json, stderr to OUT_DIR/stderr/NAME.log.
 run() {
     local name=$1
     shift
-    echo "$(date -u +%H:%M:%S) vps $*" >&2
-    "$vps" "$@" >"$out/$name.json" 2>"$out/stderr/$name.log"
+    echo "$(date -u +%H:%M:%S) vps $* --json" >&2
+    "$vps" "$@" --json >"$out/$name.json" 2>"$out/stderr/$name.log"
 }
 
 machine before >"$out/machine.txt"

@@ -65,7 +65,7 @@ pub enum Command {
     NetemRelay(NetemRelayArgs),
     /// Serve the live viewer page for an offline voxmap (inspect a scene before running it).
     View(ViewArgs),
-    /// Measure; prints JSON.
+    /// Measure; prints a text report (`--json`: the JSON that docs/results/ keeps).
     Bench(BenchArgs),
     /// Speed against accuracy over voxel sizes and shell methods, against the exact reference.
     Sweep(SweepArgs),
@@ -134,11 +134,14 @@ pub enum SceneCommand {
 /// Arguments of `vps sweep`.
 #[derive(Args, Debug)]
 pub struct SweepArgs {
-    /// The sweep file (voxel sizes, methods, scene files).
-    #[arg(long, default_value = "configs/sweep.toml")]
-    pub config: PathBuf,
-    /// Write the table as JSON here (default: print it).
-    #[arg(long)]
+    /// The sweep file (voxel sizes, widths, methods, scene files). Default: the built-in one
+    /// (configs/sweep.toml as built into vps; its scenes are the built-in scenes), so the sweep
+    /// runs from any folder.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Print the table as JSON instead of text (`--json`), or write it to FILE (`--json FILE`;
+    /// the text is printed then).
+    #[arg(long, value_name = "FILE", num_args = 0..=1, default_missing_value = "-")]
     pub json: Option<PathBuf>,
     /// Write the table as CSV here.
     #[arg(long)]
@@ -146,7 +149,8 @@ pub struct SweepArgs {
     /// Write one SVG plot per figure into this directory.
     #[arg(long)]
     pub plots: Option<PathBuf>,
-    /// Test-sized run: the two coarsest sizes of at least 5 mm, sessions cut to 2 s.
+    /// Test-sized run: each scene at its own voxel size and at twice it (one coarser), sessions
+    /// cut to 2 s.
     #[arg(long)]
     pub quick: bool,
     /// Sweep this scene (file or builtin:NAME) instead of the sweep file's runs, over its sizes
@@ -173,9 +177,10 @@ pub struct TuneArgs {
     /// Paced frames run at the chosen size to verify it.
     #[arg(long, default_value_t = 10_000)]
     pub verify_frames: u64,
-    /// The committed sweep table, for the predicted accuracy.
-    #[arg(long, default_value = "docs/sweep/sweep.json")]
-    pub sweep: PathBuf,
+    /// A sweep table (`vps sweep --json FILE`) for the predicted accuracy. Default: the built-in
+    /// one (docs/sweep/sweep.json as built into vps: the built-in scenes' rows).
+    #[arg(long, value_name = "FILE")]
+    pub sweep: Option<PathBuf>,
     /// Print as JSON.
     #[arg(long)]
     pub json: bool,
@@ -648,6 +653,9 @@ pub struct BenchArgs {
     /// Which measurement.
     #[command(subcommand)]
     pub which: BenchKind,
+    /// Print the report as JSON (the form docs/results/ keeps) instead of text.
+    #[arg(long, global = true)]
+    pub json: bool,
 }
 
 /// The benchmarks.
@@ -757,7 +765,7 @@ pub enum BenchKind {
     /// Pegs (square, round) pushed by the hand into holes with 0.1 to 2 voxels of clearance a
     /// side, at 2 and 1 mm voxels, with the tangent-plane model and the distance model at half and an eighth of a voxel of
     /// stand-off: whether each entered, the minimum
-    /// exact separation and the penetrating frames, as JSON (docs/fidelity.md, Clearance).
+    /// exact separation and the penetrating frames (docs/fidelity.md, Clearance).
     Clearance,
     /// Device bridge round trip (pose out, wrench back), immediate and at 1 kHz, beside a raw
     /// UDP ping-pong.

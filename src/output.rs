@@ -62,6 +62,112 @@ pub fn print_summary<T: Serialize + std::fmt::Display>(value: &T, json: bool) ->
     }
 }
 
+/// A whole number with thousands separators (`10000` → `10,000`), as the text reports print
+/// counts.
+pub fn grouped(n: u64) -> String {
+    let digits = n.to_string();
+    let mut out = String::with_capacity(digits.len() + digits.len() / 3);
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i).is_multiple_of(3) {
+            out.push(',');
+        }
+        out.push(c);
+    }
+    out
+}
+
+/// Prints a measurement's report: pretty JSON with `--json` (`json`), else `title` and the same
+/// figures as indented `name: value` text ([`text_report`]).
+pub fn print_report<T: Serialize>(title: &str, value: &T, json: bool) -> Result<()> {
+    if json {
+        return print_json(value);
+    }
+    let value = serde_json::to_value(value)?;
+    outln!("{}", text_report(title, &value).trim_end())
+}
+
+/// A JSON value as text for a person: `title`, then one `name: value` line per field, nested
+/// objects and lists of objects indented under their name (list items numbered from 1), lists of
+/// plain values on one line, names with spaces for underscores, whole numbers with thousands
+/// separators, `none` for an absent (JSON `null`) figure; strings are escaped
+/// ([`vps_files::printable`]). The field names are those of `--json`'s output.
+pub fn text_report(title: &str, value: &serde_json::Value) -> String {
+    let mut out = format!("{}\n", vps_files::printable(title));
+    write_text(&mut out, value, 1);
+    out
+}
+
+/// One plain value (not an object, nor a list holding one) as text.
+fn plain_text(value: &serde_json::Value) -> String {
+    use serde_json::Value;
+    match value {
+        Value::Null => "none".into(),
+        Value::Bool(b) => if *b { "yes" } else { "no" }.into(),
+        Value::Number(n) => match n.as_u64() {
+            Some(u) => grouped(u),
+            None => match n.as_i64() {
+                Some(i) => format!("-{}", grouped(i.unsigned_abs())),
+                None => {
+                    let f = n.as_f64().unwrap_or(f64::NAN);
+                    if f != 0.0 && (f.abs() >= 1e6 || f.abs() < 1e-3) {
+                        format!("{f:.3e}")
+                    } else {
+                        // Four significant decimals at most, no trailing zeros.
+                        let t = format!("{f:.4}");
+                        let t = t.trim_end_matches('0').trim_end_matches('.');
+                        t.to_string()
+                    }
+                }
+            },
+        },
+        Value::String(s) => vps_files::printable(s).into_owned(),
+        Value::Array(items) => items.iter().map(plain_text).collect::<Vec<_>>().join(", "),
+        Value::Object(_) => String::new(),
+    }
+}
+
+/// True when `value` is printed on its name's line (not an object, nor a list holding one).
+fn is_plain(value: &serde_json::Value) -> bool {
+    match value {
+        serde_json::Value::Object(_) => false,
+        serde_json::Value::Array(items) => items.iter().all(|v| !v.is_object() && !v.is_array()),
+        _ => true,
+    }
+}
+
+fn write_text(out: &mut String, value: &serde_json::Value, depth: usize) {
+    use serde_json::Value;
+    let pad = "  ".repeat(depth);
+    match value {
+        Value::Object(fields) => {
+            for (name, v) in fields {
+                let name = vps_files::printable(&name.replace('_', " ")).into_owned();
+                if v.as_array().is_some_and(Vec::is_empty)
+                    || v.as_object().is_some_and(|o| o.is_empty())
+                {
+                    out.push_str(&format!("{pad}{name}: none\n"));
+                } else if is_plain(v) {
+                    out.push_str(&format!("{pad}{name}: {}\n", plain_text(v)));
+                } else {
+                    out.push_str(&format!("{pad}{name}:\n"));
+                    write_text(out, v, depth + 1);
+                }
+            }
+        }
+        Value::Array(items) => {
+            for (i, v) in items.iter().enumerate() {
+                if is_plain(v) {
+                    out.push_str(&format!("{pad}{}: {}\n", i + 1, plain_text(v)));
+                } else {
+                    out.push_str(&format!("{pad}{}:\n", i + 1));
+                    write_text(out, v, depth + 1);
+                }
+            }
+        }
+        v => out.push_str(&format!("{pad}{}\n", plain_text(v))),
+    }
+}
+
 /// A length or coordinate (m) for a text report: four decimals (0.1 mm; `--json` has every digit),
 /// never `-0.0000`.
 pub fn metres_4(v: f64) -> String {
@@ -309,6 +415,50 @@ mod tests {
         assert_eq!(metres_4(-0.00004), "0.0000");
         assert_eq!(metres_4(-0.00005001), "-0.0001");
         assert_eq!(metres_4(0.07500950959614927), "0.0750");
+    }
+
+    #[test]
+    fn counts_are_grouped_by_thousands() {
+        assert_eq!(grouped(0), "0");
+        assert_eq!(grouped(999), "999");
+        assert_eq!(grouped(1000), "1,000");
+        assert_eq!(grouped(10_000), "10,000");
+        assert_eq!(grouped(1_234_567), "1,234,567");
+    }
+
+    /// The text form of a report holds every figure under its name, nested fields indented, and
+    /// nothing that parses as JSON.
+    #[test]
+    fn a_report_as_text_is_not_json() {
+        let value = serde_json::json!({
+            "frames": 10000,
+            "ratio": 0.12345678,
+            "tiny": 6e-5,
+            "missing": null,
+            "ok": true,
+            "name": "a\u{1b}[2Jb",
+            "sizes": [10.0, 5.0],
+            "inner": {"p50_us": 1.5},
+            "rows": [{"a": 1}, {"a": 2}],
+            "empty": [],
+        });
+        let text = text_report("bench x", &value);
+        assert!(serde_json::from_str::<serde_json::Value>(&text).is_err());
+        for line in [
+            "bench x",
+            "  frames: 10,000",
+            "  ratio: 0.1235",
+            "  tiny: 6.000e-5",
+            "  missing: none",
+            "  ok: yes",
+            "  name: a\\u{1b}[2Jb",
+            "  sizes: 10, 5",
+            "  inner:\n    p50 us: 1.5",
+            "  rows:\n    1:\n      a: 1\n    2:\n      a: 2",
+            "  empty: none",
+        ] {
+            assert!(text.contains(line), "{line:?} in\n{text}");
+        }
     }
 
     #[test]

@@ -383,7 +383,16 @@ pub fn finish<C: Serialize>(
             );
         }
         if let Some(cluster) = &out.cluster {
-            println!("cluster: {}", serde_json::to_string_pretty(cluster)?);
+            // The figures of `vps_cluster::ClusterReport` (plus `placement`) in words; every
+            // figure is in `--json`.
+            match serde_json::from_value::<vps_cluster::ClusterReport>(cluster.clone()) {
+                Ok(report) => {
+                    for line in cluster_lines(&report) {
+                        println!("{line}");
+                    }
+                }
+                Err(_) => println!("cluster: figures with --json"),
+            }
         }
     }
     if exit_code != 0 {
@@ -397,6 +406,105 @@ pub fn finish<C: Serialize>(
         .into());
     }
     Ok(())
+}
+
+/// µs from ns, one decimal.
+fn us(ns: u64) -> String {
+    format!("{:.1} µs", ns as f64 / 1e3)
+}
+
+/// A coordinated session's cluster figures in words for a person: how the frames were split
+/// between the coordinator and its workers and why, what was recomputed or stood in for, and one
+/// line per worker. Every figure is in the `--json` report's `cluster`.
+pub fn cluster_lines(r: &vps_cluster::ClusterReport) -> Vec<String> {
+    use crate::output::grouped;
+    let mut lines = Vec::new();
+    let sp = &r.split;
+    let frames = grouped(r.frames);
+    let predicted = sp.split_frames + sp.kept_local_frames > 0;
+    lines.push(format!(
+        "cluster: {} worker(s), {frames} frames gathered",
+        r.peers.len()
+    ));
+    if !predicted {
+        // `--split always` (no prediction): every frame is split between the workers.
+        let shared = r.frames.saturating_sub(r.local_only_frames);
+        lines.push(format!(
+            "  {} frames split between the coordinator and its workers (--split always), {} \
+             computed wholly here because no worker was able to take work",
+            grouped(shared),
+            grouped(r.local_only_frames)
+        ));
+    } else if sp.split_frames == 0 {
+        let why = if sp.worker_base_ns == 0 {
+            "no worker's round trip was measured yet, and a share is sent only to a measured \
+             worker"
+                .to_string()
+        } else {
+            format!(
+                "the shell is small enough that a worker's round trip costs more than it saves \
+                 (a worker's round trip about {}, the whole frame computed here about {})",
+                us(sp.worker_base_ns),
+                us(sp.predicted_local_ns)
+            )
+        };
+        lines.push(format!("  all {frames} frames kept local: {why}"));
+    } else {
+        lines.push(format!(
+            "  {} frames split between the coordinator and its workers (predicted faster: about \
+             {} split against {} wholly here, latest frame), {} kept local (a split predicted no \
+             faster)",
+            grouped(sp.split_frames),
+            us(sp.predicted_split_ns),
+            us(sp.predicted_local_ns),
+            grouped(sp.kept_local_frames)
+        ));
+    }
+    if sp.probes > 0 {
+        lines.push(format!(
+            "  round trips measured by {} probes (no frame waits for one): {} answered, {} failed",
+            grouped(sp.probes),
+            grouped(sp.probe_replies),
+            grouped(sp.probes_failed)
+        ));
+    }
+    if r.fallback_shares > 0 || r.stale_shares > 0 {
+        lines.push(format!(
+            "  {} worker share(s) recomputed here (a reply late, lost or invalid); {} stood in \
+             for by an earlier frame's sums (degraded accuracy)",
+            grouped(r.fallback_shares),
+            grouped(r.stale_shares)
+        ));
+    } else {
+        lines.push("  no worker share was late or lost".into());
+    }
+    for p in &r.peers {
+        let state = match (p.connected, p.benched) {
+            (false, _) if p.disconnected_for_bad_replies => "disconnected for bad replies",
+            (false, _) => "gone",
+            (true, true) => "connected, benched",
+            (true, false) => "connected",
+        };
+        let rtt = if p.rtt_samples > 0 {
+            format!(
+                ", round trip p50 {} p99 {}",
+                us(p.rtt_ns.p50),
+                us(p.rtt_ns.p99)
+            )
+        } else {
+            String::new()
+        };
+        lines.push(format!(
+            "  worker {}: {state}; {} requests, {} shares merged, {} late, {} lost{rtt}",
+            p.id,
+            grouped(p.requests),
+            grouped(p.merged),
+            grouped(p.late),
+            grouped(p.lost)
+        ));
+    }
+    lines.push("  (every figure, per worker too: --json)".into());
+    lines
 }
 
 fn save_recording(report: &LoopReport, path: &Path) -> Result<()> {
@@ -511,6 +619,28 @@ pub fn print_summary(label: &str, s: &StatsSummary, paper: Option<f64>) {
         s.penetrating_frames,
         s.penetration_ratio
             .map_or("n/a (no contact)".into(), |r| format!("{r:.2e}")),
-        paper.map_or(String::new(), |p| format!(" (paper: {p:.1e})"))
+        paper.map_or(String::new(), |p| format!(" (the paper's: {p:.1e})"))
     );
 }
+
+/// What each figure of [`print_summary`] means, one line each (`vps demo` prints it under its
+/// figures).
+pub const SESSION_LEGEND: &[&str] = &[
+    "what the figures mean:",
+    "  frames: 1 ms loop iterations run (one force sent to the device each)",
+    "  missed deadlines: 1 ms ticks skipped because a frame started or finished too late",
+    "  watchdog trips: frames whose compute overran the budget; the device got zero force for them",
+    "  local fallbacks: worker shares the frame thread computed itself because a worker's reply \
+     missed its deadline (always 0 without workers)",
+    "  compute: time from reading the device to writing its force, per frame (µs percentiles)",
+    "  period error: how far a frame started from its scheduled 1 ms tick (paced sessions only)",
+    "  contact frames: frames in which at least one shell point pushed (a point in an obstacle's \
+     force layer, past its tangent plane)",
+    "  touching: frames with at least one shell point in an obstacle's force layer or inside it \
+     (pushing or not)",
+    "  penetrating: frames with at least one shell point inside an obstacle (past the force layer)",
+    "  penetration ratio: penetrating / touching frames, lower is better; the paper's: McNeely et \
+     al. 1999, Table 2 (6.0e-5 with braking, 1.0e-3 without)",
+    "  braking: pre-contact braking slows the part as it nears a surface (the paper's); the \
+     second session turns it off to show what it prevents",
+];

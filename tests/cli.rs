@@ -181,7 +181,15 @@ fn two_local_worker_processes_reproduce_the_one_process_session() {
 #[test]
 fn bench_host_counts_ticks_and_rejects_bad_arguments() {
     let vps = sandbox();
-    let report = json(&vps.run(&["bench", "host", "--seconds", "0.2", "--busy-us", "100"]));
+    let report = json(&vps.run(&[
+        "bench",
+        "host",
+        "--seconds",
+        "0.2",
+        "--busy-us",
+        "100",
+        "--json",
+    ]));
     // 200 ticks of 1 ms; a stalled machine may start the last one after the end and skip it.
     let ticks = report["ticks"].as_u64().unwrap();
     assert!((190..=200).contains(&ticks), "{ticks} ticks");
@@ -209,7 +217,15 @@ fn bench_host_counts_ticks_and_rejects_bad_arguments() {
 #[test]
 fn bench_fidelity_reports_every_setting_and_rejects_bad_arguments() {
     let vps = sandbox();
-    let report = json(&vps.run(&["bench", "fidelity", "--voxel-sizes", "5mm", "--poses", "1"]));
+    let report = json(&vps.run(&[
+        "bench",
+        "fidelity",
+        "--voxel-sizes",
+        "5mm",
+        "--poses",
+        "1",
+        "--json",
+    ]));
     let rows = report["rows"].as_array().expect("rows");
     assert_eq!(rows.len(), 12, "2 models × 2/4/8 bits × centres/exact");
     for row in rows {
@@ -233,6 +249,7 @@ fn bench_fidelity_reports_every_setting_and_rejects_bad_arguments() {
         "1",
         "--models",
         "distance",
+        "--json",
     ]));
     let rows = distance["rows"].as_array().expect("rows");
     assert_eq!(rows.len(), 6);
@@ -397,4 +414,282 @@ fn voxelize_and_shell_read_a_mesh_in_millimetres_with_units() {
     assert!((0.05..0.08).contains(&radius), "{made}");
     let err = vps.fails(&["voxelize", "builtin:box", "--units", "mm", "-o", &vmap]);
     assert!(err.contains("--units applies to mesh files"), "{err}");
+}
+
+/// A scene small enough for every command to run on it in a second or two in a test build: the
+/// built-in sphere (0.1 m across) pressed by the hand onto the built-in 0.1 m cube, at 10 mm
+/// voxels (it states no other voxel setting: the built-in defaults apply).
+fn tiny_scene() -> &'static str {
+    "name = \"tiny\"\npart = \"builtin:sphere\"\n\
+     [[static]]\nsource = \"builtin:box\"\n\
+     [voxels]\nvoxel_size = \"10mm\"\n\
+     [hand]\nwaypoints = [[0.3, 0.0, 0.0], [0.0, 0.0, 0.0]]\nspeed = 0.5\n"
+}
+
+/// True when `stdout` is, or opens like, a JSON document (an object or a list).
+fn looks_like_json(stdout: &[u8]) -> bool {
+    let text = String::from_utf8_lossy(stdout);
+    let t = text.trim_start();
+    serde_json::from_str::<serde_json::Value>(&text).is_ok()
+        || t.starts_with('{')
+        || t.starts_with('[')
+}
+
+/// Every command's default output is text for a person, never JSON; `--json` gives JSON. Each
+/// command runs once, cheaply (the tiny scene, few frames), without `--json`: it must succeed and
+/// its stdout must not be (or open like) a JSON document; where `--json` is cheap it runs again
+/// with it and its stdout must parse.
+///
+/// Not run here, and why:
+/// - `vps bench viewer`, `vps bench clearance` and `vps bench scaling`: each runs a fixed
+///   workload with no flag to shrink it (the viewer bench and the scaling bench's child runs
+///   voxelize the 596k-triangle aircraft bay, the clearance bench its full grid of pegs, about
+///   20 s in a release build); their text comes from the same `print_report` as the benches
+///   run here, and `vps bench scaling` passes `--json` to the child benches it parses.
+/// - `vps worker`, `vps coordinator` and `vps view` are services that run until stopped:
+///   `worker` and `view` print to stderr only, and a coordinator's report is the one
+///   `vps cluster` prints (the same `finish`), run here.
+#[test]
+fn no_command_prints_json_without_json() {
+    let vps = sandbox();
+    let scene = vps.path("tiny.toml");
+    std::fs::write(&scene, tiny_scene()).unwrap();
+    let (vmap, vshell, trace) = (
+        vps.path("box.vmap"),
+        vps.path("sphere.vshell"),
+        vps.path("t.jsonl"),
+    );
+    let points = vps.path("points.csv");
+    std::fs::write(&points, "0,0,0\n1,1,1\n").unwrap();
+    let sweep = vps.path("sweep.toml");
+    std::fs::write(
+        &sweep,
+        format!(
+            "voxel_sizes_mm = [10.0]\nmethods = [\"exact\"]\nwidths = [4]\n[[run]]\nscene = {:?}\n",
+            scene
+        ),
+    )
+    .unwrap();
+    let certs = vps.path("certs");
+    std::fs::create_dir(&certs).unwrap();
+    let s = scene.as_str();
+    // (arguments, whether `--json` is cheap enough to run too)
+    let commands: Vec<(Vec<&str>, bool)> = vec![
+        (
+            vec![
+                "voxelize",
+                "builtin:box",
+                "--voxel-size",
+                "20mm",
+                "-o",
+                &vmap,
+            ],
+            false,
+        ),
+        (
+            vec![
+                "shell",
+                "builtin:sphere",
+                "--voxel-size",
+                "20mm",
+                "-o",
+                &vshell,
+            ],
+            false,
+        ),
+        (vec!["inspect", &vmap], true),
+        (vec!["inspect", &vshell], true),
+        (vec!["probe", &vmap, "--points", &points], true),
+        (vec!["scene", "check", s], true),
+        (vec!["devices"], true),
+        (vec!["cert", "--out", &certs, "--name", "a"], false),
+        (vec!["demo", "--scene", s, "--seconds", "0.3"], false),
+        (vec!["run", "--scene", s, "--seconds", "0.2"], true),
+        (
+            vec!["record", "--scene", s, "--seconds", "0.2", "-o", &trace],
+            false,
+        ),
+        (vec!["replay", "--scene", s, &trace], true),
+        (
+            vec![
+                "cluster",
+                "--scene",
+                s,
+                "--local-workers",
+                "1",
+                "--seconds",
+                "0.2",
+            ],
+            false,
+        ),
+        (
+            vec![
+                "netem-relay",
+                "--listen",
+                "127.0.0.1:0",
+                "--forward",
+                "127.0.0.1:9",
+                "--seconds",
+                "0.1",
+            ],
+            true,
+        ),
+        (vec!["sweep", "--quick", "--config", &sweep], false),
+        (
+            vec![
+                "tune",
+                "--scene",
+                s,
+                "--frames",
+                "50",
+                "--verify-frames",
+                "50",
+                "--budget-fraction",
+                "1",
+            ],
+            false,
+        ),
+        (
+            vec!["bench", "host", "--seconds", "0.1", "--busy-us", "100"],
+            true,
+        ),
+        (
+            vec!["bench", "kernel", "--points", "1000", "--seconds", "0.01"],
+            true,
+        ),
+        (
+            vec![
+                "bench",
+                "voxelize",
+                "builtin:box",
+                "--voxel-size",
+                "20mm",
+                "--repeat",
+                "1",
+            ],
+            true,
+        ),
+        (
+            vec![
+                "bench",
+                "tree-memory",
+                "builtin:box",
+                "--voxel-size",
+                "20mm",
+            ],
+            true,
+        ),
+        (
+            vec![
+                "bench",
+                "fidelity",
+                "--voxel-sizes",
+                "20mm",
+                "--poses",
+                "1",
+                "--models",
+                "distance",
+            ],
+            false,
+        ),
+        (
+            vec![
+                "bench",
+                "loop",
+                "--scene",
+                s,
+                "--points",
+                "1000",
+                "--frames",
+                "100",
+                "--threads",
+                "1",
+            ],
+            true,
+        ),
+        (
+            vec![
+                "bench",
+                "cluster",
+                "--scene",
+                s,
+                "--points",
+                "1000",
+                "--frames",
+                "100",
+                "--workers",
+                "1",
+            ],
+            false,
+        ),
+        (vec!["bench", "transport", "--frames", "100"], false),
+        (vec!["bench", "bridge", "--round-trips", "100"], false),
+    ];
+    for (args, json_too) in &commands {
+        let out = vps.run(args);
+        // Tune fails, having printed its table, when even its coarsest size misses the budget: a
+        // timing on this machine, not a fault.
+        let over_budget =
+            args[0] == "tune" && String::from_utf8_lossy(&out.stderr).contains("voxels miss the");
+        assert!(
+            out.status.success() || over_budget,
+            "vps {args:?} failed: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(
+            !looks_like_json(&out.stdout),
+            "vps {args:?} printed JSON without --json:\n{}",
+            String::from_utf8_lossy(&out.stdout)
+        );
+        if *json_too {
+            let mut with = args.clone();
+            with.push("--json");
+            json(&vps.run(&with));
+        }
+    }
+}
+
+/// `vps demo`'s text says what each of its figures means: every figure its summaries print
+/// ("contact frames" and "touching", "local fallbacks", "period error", the paper's ratio) has a
+/// line of meaning in the legend under them.
+#[test]
+fn the_demo_explains_each_figure() {
+    let vps = sandbox();
+    let scene = vps.path("tiny.toml");
+    std::fs::write(&scene, tiny_scene()).unwrap();
+    let out = vps.run(&["demo", "--scene", &scene, "--seconds", "0.5"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    let (figures, legend) = text
+        .split_once("what the figures mean:\n")
+        .unwrap_or_else(|| panic!("no legend in\n{text}"));
+    for figure in [
+        "frames",
+        "missed deadlines",
+        "watchdog trips",
+        "local fallbacks",
+        "compute",
+        "period error",
+        "contact frames",
+        "touching",
+        "penetrating",
+        "penetration ratio",
+        "braking",
+    ] {
+        assert!(
+            figures.contains(figure),
+            "{figure} not among the figures:\n{figures}"
+        );
+        let meaning = legend
+            .lines()
+            .find(|l| l.starts_with(&format!("  {figure}: ")))
+            .unwrap_or_else(|| panic!("no meaning for {figure}:\n{legend}"));
+        assert!(meaning.len() > figure.len() + 20, "{meaning}");
+    }
+    assert!(figures.contains("(the paper's: 6.0e-5)"), "{figures}");
+    assert!(legend.contains("McNeely et al. 1999, Table 2"), "{legend}");
 }

@@ -464,8 +464,10 @@ fn the_text_report_speaks_of_the_session() {
 }
 
 /// `vps scene check` says which voxel settings the built-in defaults' reason is about: the bay sets
-/// only `voxel_size`. (The reason, which ends "so set voxels.voxel_width = 4 ...", was printed
-/// unqualified even for a scene that already sets both.)
+/// only `voxel_size`. (The reason was printed unqualified even for a scene that already sets
+/// every key.) The defaults it shows are the sweep's recommendation, 4-bit voxels and
+/// exact-surface points (they were the paper's 2-bit voxel centres while scene check told the
+/// user to set 4 and "exact"), and the reason says how to get the paper's.
 #[test]
 fn scene_check_names_the_settings_left_to_the_defaults() {
     let bay = bay();
@@ -475,6 +477,19 @@ fn scene_check_names_the_settings_left_to_the_defaults() {
     assert!(
         text.contains(
             "why (built-in defaults, used here for voxel_width, shell_method, offset_layers): "
+        ),
+        "{text}"
+    );
+    assert!(
+        text.contains(
+            "width 4 bits (built-in default), shell exact (built-in default), offset 2 layers \
+             (built-in default)"
+        ),
+        "{text}"
+    );
+    assert!(
+        text.contains(
+            "for the paper's format set voxels.voxel_width = 2 and voxels.shell_method = \"centres\""
         ),
         "{text}"
     );

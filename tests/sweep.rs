@@ -63,8 +63,8 @@ fn quick_sweep_writes_json_csv_and_plots() {
     let csv = std::fs::read_to_string(&csv).unwrap();
     let mut lines = csv.lines();
     assert_eq!(lines.next().unwrap(), COLUMNS);
-    // --quick keeps the two coarsest sizes ≥ 5 mm: 10 and 5 mm, two widths and two methods each,
-    // in the order size, width, method.
+    // --quick sweeps the scene's own size (5 mm) and twice it: 10 and 5 mm, two widths and two
+    // methods each, in the order size, width, method.
     let body: Vec<&str> = lines.collect();
     assert_eq!(body.len(), 8, "{csv}");
     let table: serde_json::Value =
@@ -120,21 +120,129 @@ fn quick_sweep_writes_json_csv_and_plots() {
     }
 }
 
-/// `vps sweep --scene MY.toml` outside the repository: the default sweep file is not there, and the
-/// error says what it is for and how to give one (it said only "reading configs/sweep.toml").
+/// A user's scene in a folder outside the repository: the built-in sphere (0.1 m across) pressed
+/// by the hand onto the built-in 0.1 m cube, at 10 mm voxels.
+const MY_SCENE: &str = "name = \"mine\"\npart = \"builtin:sphere\"\n\
+    [[static]]\nsource = \"builtin:box\"\n\
+    [voxels]\nvoxel_size = \"10mm\"\n\
+    [hand]\nwaypoints = [[0.3, 0.0, 0.0], [0.0, 0.0, 0.0]]\nspeed = 0.5\n";
+
+/// `vps sweep --quick --scene FILE` and `vps tune --scene FILE` from a temporary folder outside
+/// the repository, with only the binary: the sweep file and the accuracy table are built in
+/// (they failed reading configs/sweep.toml and docs/sweep/sweep.json). The sweep's quick sizes
+/// are the scene's own (10 mm) and twice it, over the built-in file's widths and methods; it
+/// prints a table (not JSON), its legend for `-`, and a recommendation; tune prints its table,
+/// its recommendation, and that the built-in table has no row for this scene with the commands
+/// that measure it. A `--config` that does not exist is an error naming it.
 #[test]
-fn a_missing_default_sweep_file_says_how_to_give_one() {
+fn sweep_and_tune_run_from_any_folder_with_only_the_binary() {
     let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
+    std::fs::write(vps.dir().join("mine.toml"), MY_SCENE).unwrap();
     let out = vps
         .cmd()
         .current_dir(vps.dir())
-        .args(["sweep", "--quick", "--scene", "builtin:rig-teapot"])
+        .args(["sweep", "--quick", "--scene", "mine.toml", "--csv", "s.csv"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        serde_json::from_str::<serde_json::Value>(&text).is_err(),
+        "{text}"
+    );
+    // No row shows a bare `null`: an unmeasured figure is `-`, explained by the legend.
+    assert!(
+        text.lines()
+            .filter(|l| l.starts_with("mine "))
+            .all(|l| !l.contains("null")),
+        "{text}"
+    );
+    let csv = std::fs::read_to_string(vps.dir().join("s.csv")).unwrap();
+    let sizes: Vec<&str> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(2).unwrap())
+        .collect();
+    // 20 mm then 10 mm, each at 2, 4 and 8 bits with both methods.
+    assert_eq!(sizes.len(), 12, "{csv}");
+    assert!(sizes[..6].iter().all(|s| *s == "20.0"), "{csv}");
+    assert!(sizes[6..].iter().all(|s| *s == "10.0"), "{csv}");
+    let header = text.lines().next().unwrap();
+    assert!(
+        header.starts_with("scene") && header.contains("size mm") && header.contains("PR"),
+        "{text}"
+    );
+    let rows = text.lines().filter(|l| l.starts_with("mine ")).count();
+    assert_eq!(rows, 12, "{text}");
+    // The scene's own setting (10 mm, the built-in 4-bit exact) is marked.
+    assert_eq!(text.matches("* scene's own").count(), 1, "{text}");
+    assert!(text.contains("-: not measured (null in --json)"), "{text}");
+    assert!(
+        text.contains("recommended for mine: [voxels] voxel_size = \"")
+            && text.contains("rule: the lowest penetration ratio"),
+        "{text}"
+    );
+    // `--json` alone: the table on stdout as JSON, and no text.
+    let out = vps
+        .cmd()
+        .current_dir(vps.dir())
+        .args(["sweep", "--quick", "--scene", "mine.toml", "--json"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    let table: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(table["rows"].as_array().unwrap().len(), 12);
+
+    // Tune's choice is a timing on this (loaded) machine: when even 10 mm misses the budget it
+    // fails saying so; either way its table of sizes is printed.
+    let out = vps
+        .cmd()
+        .current_dir(vps.dir())
+        .args([
+            "tune",
+            "--scene",
+            "mine.toml",
+            "--frames",
+            "100",
+            "--verify-frames",
+            "100",
+            "--budget-fraction",
+            "1",
+        ])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("voxel size") && text.contains("compute p99.9") && text.contains("10 mm"),
+        "{text}"
+    );
+    assert!(!text.contains("cannot read"), "{text}");
+    if out.status.success() {
+        assert!(text.contains("recommended: voxel_size = \""), "{text}");
+        assert!(
+            text.contains("the built-in sweep table (docs/sweep/sweep.json) has no row for mine")
+                && text.contains("vps sweep --scene mine.toml --json my-sweep.json"),
+            "{text}"
+        );
+    } else {
+        let err = stderr(&out);
+        assert!(
+            err.contains("even 10 mm voxels miss the 1000 µs p99.9 budget"),
+            "{err}"
+        );
+    }
+
+    let out = vps
+        .cmd()
+        .current_dir(vps.dir())
+        .args(["sweep", "--quick", "--config", "nowhere.toml"])
         .output()
         .unwrap();
     assert!(!out.status.success());
     let err = stderr(&out);
     assert!(
-        err.contains("the sweep file configs/sweep.toml") && err.contains("--config FILE"),
+        err.contains("reading the sweep file nowhere.toml")
+            && err.contains("without --config the built-in one is used"),
         "{err}"
     );
 }

@@ -17,7 +17,7 @@
 //! Raw UDP: blocking sockets on 127.0.0.1, one echo thread, unpinned, pose-sized payload (138
 //! bytes), as in `vps bench transport`.
 
-use crate::output::print_json;
+use crate::output::print_report;
 use anyhow::{bail, Context, Result};
 use glam::{DQuat, DVec3};
 use serde::Serialize;
@@ -213,7 +213,7 @@ fn paced(n: usize) -> Result<BridgeFigure> {
 }
 
 /// Runs the benchmark with `round_trips` per measurement and prints JSON.
-pub fn run(round_trips: u64) -> Result<()> {
+pub fn run(round_trips: u64, json: bool) -> Result<()> {
     let n = usize::try_from(round_trips)
         .ok()
         .filter(|n| (100..=1_000_000).contains(n))
@@ -224,18 +224,22 @@ pub fn run(round_trips: u64) -> Result<()> {
     let bridge_immediate = immediate(n).context("bridge round trips, immediate replies")?;
     let bridge_paced_1khz = paced(n).context("bridge round trips, 1 kHz frames")?;
     let ratio = |a: u64, b: u64| a as f64 / b.max(1) as f64;
-    print_json(&BridgeReport {
-        host_idle: crate::host::HostIdle::read(),
-        immediate_p50_over_raw_udp_p50: ratio(
-            bridge_immediate.percentiles.p50_ns,
-            raw_udp.percentiles.p50_ns,
-        ),
-        immediate_p999_over_raw_udp_p999: ratio(
-            bridge_immediate.percentiles.p999_ns,
-            raw_udp.percentiles.p999_ns,
-        ),
-        raw_udp,
-        bridge_immediate,
-        bridge_paced_1khz,
-    })
+    print_report(
+        "bench bridge: device bridge round trip (pose out, wrench back) beside a raw UDP ping-pong",
+        &BridgeReport {
+            host_idle: crate::host::HostIdle::read(),
+            immediate_p50_over_raw_udp_p50: ratio(
+                bridge_immediate.percentiles.p50_ns,
+                raw_udp.percentiles.p50_ns,
+            ),
+            immediate_p999_over_raw_udp_p999: ratio(
+                bridge_immediate.percentiles.p999_ns,
+                raw_udp.percentiles.p999_ns,
+            ),
+            raw_udp,
+            bridge_immediate,
+            bridge_paced_1khz,
+        },
+        json,
+    )
 }

@@ -9,7 +9,7 @@
 
 use crate::cli::{GatherArgs, RunArgs, SceneArgs};
 use crate::cluster_session::run_local_cluster;
-use crate::output::print_json;
+use crate::output::print_report;
 use crate::session_io::PreparedSession;
 use anyhow::Result;
 use serde::Serialize;
@@ -55,7 +55,7 @@ struct ClusterBenchReport {
 }
 
 /// Runs the benchmark and prints JSON.
-pub fn run(bench: ClusterBench) -> Result<()> {
+pub fn run(bench: ClusterBench, json: bool) -> Result<()> {
     let mut assets = SessionAssets::open(
         &bench.scene.scene,
         &bench.scene.build_options(bench.voxel_size),
@@ -83,7 +83,9 @@ pub fn run(bench: ClusterBench) -> Result<()> {
     )?;
     crate::exit::require_complete(&run.report.end, Some(&run.signals))?;
     let cluster = run.cluster_json()?;
-    print_json(&ClusterBenchReport {
+    print_report(
+        "bench cluster: a paced session over local worker processes",
+        &ClusterBenchReport {
         command: format!(
             "vps bench cluster --scene {} --points {} --frames {} --workers {} --worker-threads {} --threads {} \
              --spin-us {} --max-stale-frames {}{}",
@@ -111,5 +113,7 @@ pub fn run(bench: ClusterBench) -> Result<()> {
         host_idle: crate::host::HostIdle::read(),
         stats: run.report.stats,
         cluster,
-    })
+        },
+        json,
+    )
 }

@@ -1,7 +1,7 @@
 //! `vps bench fidelity`: the analytic benchmark of `vps-fidelity` over the documented grid, as JSON.
 
 use crate::cli::FidelityModelArg;
-use crate::output::print_json;
+use crate::output::print_report;
 use anyhow::{bail, Result};
 use vps_fidelity::measure::{FidelityGrid, ForceModel};
 
@@ -9,7 +9,12 @@ use vps_fidelity::measure::{FidelityGrid, ForceModel};
 /// separation, and prints the report. Blocking, parallel.
 ///
 /// Errors: `--poses` outside 1..=64, a `--voxel-sizes` value outside [0.5 mm, 20 mm].
-pub fn run(voxel_sizes: Vec<f64>, poses: usize, models: Vec<FidelityModelArg>) -> Result<()> {
+pub fn run(
+    voxel_sizes: Vec<f64>,
+    poses: usize,
+    models: Vec<FidelityModelArg>,
+    json: bool,
+) -> Result<()> {
     if !(1..=64).contains(&poses) {
         bail!("--poses {poses} is out of range: allowed 1..=64");
     }
@@ -31,5 +36,9 @@ pub fn run(voxel_sizes: Vec<f64>, poses: usize, models: Vec<FidelityModelArg>) -
             .collect(),
         ..FidelityGrid::full()
     };
-    print_json(&vps_fidelity::run(&grid)?)
+    print_report(
+        "bench fidelity: voxel force and torque against the exact answer",
+        &vps_fidelity::run(&grid)?,
+        json,
+    )
 }

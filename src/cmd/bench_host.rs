@@ -9,7 +9,7 @@
 //! cannot avoid either: run it beside `vps bench loop` to tell the machine's misses from the
 //! loop's. (The duty cycle stays below the kernel's real-time throttling limit, 95 % by default.)
 
-use crate::output::print_json;
+use crate::output::print_report;
 use anyhow::Result;
 use serde::Serialize;
 use std::time::{Duration, Instant};
@@ -64,7 +64,7 @@ struct HostBench {
 }
 
 /// Runs the measurement for `seconds` with `busy_us` of spinning per tick and prints JSON.
-pub fn run(seconds: f64, busy_us: u64) -> Result<()> {
+pub fn run(seconds: f64, busy_us: u64, json: bool) -> Result<()> {
     anyhow::ensure!(
         seconds.is_finite() && seconds > 0.0 && seconds <= 86_400.0,
         "--seconds must be in (0, 86400], got {seconds}"
@@ -78,7 +78,11 @@ pub fn run(seconds: f64, busy_us: u64) -> Result<()> {
         .spawn(move || measure(Duration::from_secs_f64(seconds), busy_us))?
         .join()
         .map_err(|_| anyhow::anyhow!("the probe thread panicked"))?;
-    print_json(&report)
+    print_report(
+        "bench host: stalls of the frame thread's core with no haptics in it",
+        &report,
+        json,
+    )
 }
 
 /// Keeps the `LARGEST_KEPT` largest stalls.

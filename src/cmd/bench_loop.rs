@@ -7,7 +7,7 @@
 //! independently of scene memory). Motion: the scene's script, its laps repeated to cover the run.
 
 use crate::cli::SceneArgs;
-use crate::output::print_json;
+use crate::output::print_report;
 use anyhow::Result;
 use serde::Serialize;
 use vps_runtime::{run_loop, LoopConfig, RtGrant, StatsSummary};
@@ -35,6 +35,7 @@ pub fn run(
     points: usize,
     frames: u64,
     threads: usize,
+    json: bool,
 ) -> Result<()> {
     let mut assets = SessionAssets::open(&scene.scene, &scene.build_options(voxel_size))?;
     let shell_voxel = assets.resample_shell(points, ShellMethod::VoxelCentres)?;
@@ -49,16 +50,20 @@ pub fn run(
     let (setup, signals) = plan.into_live_setup(None)?;
     let report = run_loop(assets.tree.clone(), assets.classed_shell(), setup)?;
     crate::exit::require_complete(&report.end, Some(&signals))?;
-    print_json(&LoopBench {
-        scene: assets.label.clone(),
-        scene_triangles: assets.scene_triangles,
-        voxel_size_m: assets.voxel_size,
-        shell_voxel_size_m: shell_voxel,
-        shell_points: assets.shell.len(),
-        threads,
-        frames_requested: frames,
-        rt: report.rt,
-        host_idle: crate::host::HostIdle::read(),
-        stats: report.stats,
-    })
+    print_report(
+        "bench loop: the 1 kHz loop over many frames",
+        &LoopBench {
+            scene: assets.label.clone(),
+            scene_triangles: assets.scene_triangles,
+            voxel_size_m: assets.voxel_size,
+            shell_voxel_size_m: shell_voxel,
+            shell_points: assets.shell.len(),
+            threads,
+            frames_requested: frames,
+            rt: report.rt,
+            host_idle: crate::host::HostIdle::read(),
+            stats: report.stats,
+        },
+        json,
+    )
 }

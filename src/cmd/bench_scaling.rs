@@ -13,7 +13,7 @@
 //! w workers + the coordinator's thread). One JSON report and, with `--plot`, one SVG of both.
 
 use crate::host::load_average;
-use crate::output::print_json;
+use crate::output::print_report;
 use crate::svg::{draw_legend, write_svg};
 use anyhow::{bail, Context, Result};
 use plotters::prelude::*;
@@ -79,7 +79,7 @@ struct ScalingReport {
 }
 
 /// Runs the benchmark, prints JSON and writes the plot to `plot` if given.
-pub fn run(bench: &ScalingBench, plot: Option<&Path>) -> Result<()> {
+pub fn run(bench: &ScalingBench, plot: Option<&Path>, json: bool) -> Result<()> {
     let mut sizes = bench.points.clone();
     sizes.sort_unstable();
     sizes.dedup();
@@ -153,7 +153,11 @@ pub fn run(bench: &ScalingBench, plot: Option<&Path>) -> Result<()> {
     if let Some(path) = plot {
         plot_scaling(&report, path).with_context(|| format!("plotting {}", path.display()))?;
     }
-    print_json(&report)
+    print_report(
+        "bench scaling: points per frame within the budget against threads and worker processes",
+        &report,
+        json,
+    )
 }
 
 /// Runs `vps <head> <tail>` and reads its JSON report's shell size and compute percentiles.
@@ -162,6 +166,7 @@ fn child_run(exe: &Path, head: &[&str], tail: &[&str]) -> Result<Run> {
     let out = Command::new(exe)
         .args(head)
         .args(tail)
+        .arg("--json")
         .output()
         .with_context(|| format!("running {shown}"))?;
     if !out.status.success() {

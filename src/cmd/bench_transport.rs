@@ -11,7 +11,7 @@
 
 use crate::cli::{GatherArgs, RunArgs};
 use crate::cluster_session::run_local_cluster;
-use crate::output::print_json;
+use crate::output::print_report;
 use crate::session_io::prepare;
 use anyhow::{Context, Result};
 use serde::Serialize;
@@ -63,7 +63,7 @@ struct TransportReport {
 }
 
 /// Runs the benchmark and prints JSON.
-pub fn run(frames: u64, spin_us: u64) -> Result<()> {
+pub fn run(frames: u64, spin_us: u64, json: bool) -> Result<()> {
     let cores = core_affinity::get_core_ids().unwrap_or_default();
     let first = cores.first().map_or(0, |c| c.id);
     let last = cores.last().map_or(0, |c| c.id);
@@ -122,12 +122,16 @@ pub fn run(frames: u64, spin_us: u64) -> Result<()> {
             peers: run.cluster.peers,
         });
     }
-    print_json(&TransportReport {
-        spin_us,
-        host_idle: crate::host::HostIdle::read(),
-        raw_udp,
-        raw_udp_round_trips: raw_udp_placements[0].round_trips,
-        raw_udp_placements,
-        gather,
-    })
+    print_report(
+        "bench transport: gather round trip to local worker processes beside a raw UDP ping-pong",
+        &TransportReport {
+            spin_us,
+            host_idle: crate::host::HostIdle::read(),
+            raw_udp,
+            raw_udp_round_trips: raw_udp_placements[0].round_trips,
+            raw_udp_placements,
+            gather,
+        },
+        json,
+    )
 }

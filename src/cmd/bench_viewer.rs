@@ -6,7 +6,7 @@
 //! zero first); nothing is printed and the status is 128 + N, as for every benchmark.
 
 use crate::exit::require_complete;
-use crate::output::print_json;
+use crate::output::print_report;
 use crate::session_io::{attach_viewer, run_scripted};
 use anyhow::{Context, Result};
 use serde::Serialize;
@@ -80,7 +80,7 @@ impl Ratios {
 
 /// Runs `rounds` pairs of sessions of `seconds` each (without, then with a viewer) and prints
 /// JSON. Alternating spreads slow drifts of the machine's load over both kinds of run.
-pub fn run(seconds: f64, rounds: u32) -> Result<()> {
+pub fn run(seconds: f64, rounds: u32, json: bool) -> Result<()> {
     // Installed before the scene is built: a signal during the build stops the first session at
     // its first frame.
     let signals = stop_on_signals()?;
@@ -105,12 +105,16 @@ pub fn run(seconds: f64, rounds: u32) -> Result<()> {
         )?);
     }
     let ratios: Vec<Ratios> = results.iter().map(|r| r.compute_ratio).collect();
-    print_json(&ViewerBench {
-        session_seconds: results[0].without_viewer.frames as f64 * params.dt,
-        shell_points: scene.shell.len(),
-        median_compute_ratio: Ratios::median(&ratios),
-        rounds: results,
-    })
+    print_report(
+        "bench viewer: frame compute of the paced demo session without and with a viewer",
+        &ViewerBench {
+            session_seconds: results[0].without_viewer.frames as f64 * params.dt,
+            shell_points: scene.shell.len(),
+            median_compute_ratio: Ratios::median(&ratios),
+            rounds: results,
+        },
+        json,
+    )
 }
 
 /// The session with a viewer and one WebSocket client reading every message.

@@ -1,7 +1,7 @@
 //! `vps bench voxelize` and `vps bench tree-memory`: voxelization time, peak memory, voxmap memory,
 //! tree lookup cost against the dense grid, and the paper's Figure 6 (memory against N).
 
-use crate::output::print_json;
+use crate::output::print_report;
 use anyhow::{Context, Result};
 use glam::IVec3;
 use rand::{Rng, SeedableRng};
@@ -201,7 +201,7 @@ fn sparse_once(
 
 /// `vps bench voxelize`: prints JSON. The sparse pipeline runs first, so the peak RSS read after it
 /// is its own; then the dense reference pipeline (with the lookup benchmark).
-pub fn run_voxelize(source: &str, voxel_size: f64, repeat: u32) -> Result<()> {
+pub fn run_voxelize(source: &str, voxel_size: f64, repeat: u32, json: bool) -> Result<()> {
     let scene = mesh_source::load(source)?;
     let mut sparse_times = Vec::new();
     let mut sparse_last = None;
@@ -298,7 +298,11 @@ pub fn run_voxelize(source: &str, voxel_size: f64, repeat: u32) -> Result<()> {
             distance_band: distance_band.context("the 4-bit run")?,
         },
     };
-    print_json(&report)
+    print_report(
+        "bench voxelize: time, peak memory and voxmap memory of voxelizing a scene",
+        &report,
+        json,
+    )
 }
 
 #[derive(Serialize)]
@@ -321,7 +325,12 @@ struct TreeMemoryReport {
 }
 
 /// `vps bench tree-memory`: the paper's Figure 6 study; prints JSON, optionally plots SVG.
-pub fn run_tree_memory(source: &str, voxel_size: f64, plot: Option<&Path>) -> Result<()> {
+pub fn run_tree_memory(
+    source: &str,
+    voxel_size: f64,
+    plot: Option<&Path>,
+    json: bool,
+) -> Result<()> {
     let scene = mesh_source::load(source)?;
     let (dense, stats) = voxelize_once(&scene.mesh, voxel_size)?;
     let mut rows = Vec::new();
@@ -349,7 +358,11 @@ pub fn run_tree_memory(source: &str, voxel_size: f64, plot: Option<&Path>) -> Re
     if let Some(path) = plot {
         plot_tree_memory(&report, path)?;
     }
-    print_json(&report)
+    print_report(
+        "bench tree-memory: total tree memory against N (the paper's Figure 6)",
+        &report,
+        json,
+    )
 }
 
 fn plot_tree_memory(report: &TreeMemoryReport, path: &Path) -> Result<()> {

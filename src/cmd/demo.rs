@@ -128,5 +128,8 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         &off.stats,
         Some(PAPER_PR_NO_BRAKING),
     );
+    for line in crate::session_io::SESSION_LEGEND {
+        println!("{line}");
+    }
     Ok(())
 }

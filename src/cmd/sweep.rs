@@ -2,8 +2,10 @@
 //! methods on standard scenes (scene files) and their scripted sessions. Per setting: point count, voxmap memory,
 //! voxelization time, frame compute p50/p99.9 (free-running 1 kHz loop), penetration ratio, and at
 //! sampled touching frames the voxel contact force against the exact reference (vps-reference):
-//! direction and magnitude error, minimum exact separation. Writes JSON (a [`SweepTable`]), CSV
-//! and SVG plots; rows whose width and method are the scene file's own are marked `default`.
+//! direction and magnitude error, minimum exact separation. Prints the table as text with a
+//! recommendation per scene (`sweep_text`), or JSON (a [`SweepTable`]) with `--json`; writes JSON,
+//! CSV and SVG plots to files; rows whose width and method are the scene file's own are marked
+//! `default`. Without `--config` the built-in sweep file and scenes are used (any folder).
 //! SIGINT, SIGTERM and SIGHUP stop it: the running session's device is written zero and the rows
 //! done are written as a partial table (exit status 128 + N). See docs/sweep.md.
 
@@ -22,30 +24,45 @@ use vps_reference::{reference_contact, ExactScene};
 use vps_runtime::{SessionEnd, SignalStop, StatsSummary};
 use vps_session::file::ShellMethodName;
 use vps_session::scene::BuiltVoxmap;
-use vps_session::sweep_file::{SweepFile, SweepRun, MAX_SWEEP_FILE_BYTES};
+use vps_session::sweep_file::{
+    builtin_run_scene, SweepFile, SweepRun, BUILTIN_SWEEP_FILE, BUILTIN_SWEEP_NAME,
+    MAX_SWEEP_FILE_BYTES,
+};
 use vps_session::{classed, stop_on_signals, CachePolicy, LoadedScene};
 
 /// Runs the sweep. SIGINT, SIGTERM and SIGHUP stop it: the running session's device is written
 /// zero, the rows done so far are written (marked partial, with the reason) and the command fails
 /// with exit status `128 + N`.
 pub fn run(args: &SweepArgs) -> Result<()> {
-    let text = vps_files::read_regular_to_string(&args.config, MAX_SWEEP_FILE_BYTES).with_context(
-        || {
-            format!(
-                "reading the sweep file {} (voxel sizes and methods, also for --scene; a relative \
-                 path is taken from the working directory: run from the repository root or give \
-                 --config FILE)",
-                args.config.display()
-            )
-        },
-    )?;
-    let config = SweepFile::from_toml_str(&text, &args.config.display().to_string())?;
-    let outputs: Vec<(&str, &Path)> = [("--json", &args.json), ("--csv", &args.csv)]
+    let (config, config_name) = match &args.config {
+        Some(path) => {
+            let text = vps_files::read_regular_to_string(path, MAX_SWEEP_FILE_BYTES).with_context(
+                || {
+                    format!(
+                        "reading the sweep file {} (voxel sizes, widths and methods, also for \
+                         --scene; without --config the built-in one is used)",
+                        path.display()
+                    )
+                },
+            )?;
+            let name = path.display().to_string();
+            (SweepFile::from_toml_str(&text, &name)?, name)
+        }
+        None => (
+            SweepFile::from_toml_str(BUILTIN_SWEEP_FILE, BUILTIN_SWEEP_NAME)?,
+            BUILTIN_SWEEP_NAME.to_string(),
+        ),
+    };
+    let json_file = args
+        .json
+        .as_deref()
+        .filter(|p| *p != Path::new(JSON_TO_STDOUT));
+    let outputs: Vec<(&str, &Path)> = [("--json", json_file), ("--csv", args.csv.as_deref())]
         .into_iter()
-        .filter_map(|(flag, path)| Some((flag, path.as_deref()?)))
+        .filter_map(|(flag, path)| Some((flag, path?)))
         .collect();
-    check_outputs(&outputs, &[&args.config])?;
-    let base = args.config.parent().unwrap_or(Path::new("."));
+    let inputs: Vec<&Path> = args.config.as_deref().into_iter().collect();
+    check_outputs(&outputs, &inputs)?;
     let mut runs = config.run.iter().collect::<Vec<_>>();
     let only;
     if let Some(scene) = &args.scene {
@@ -57,8 +74,16 @@ pub fn run(args: &SweepArgs) -> Result<()> {
     for spec in runs {
         let path = if args.scene.is_some() {
             spec.scene.display().to_string()
-        } else {
+        } else if let Some(file) = &args.config {
+            let base = file.parent().unwrap_or(Path::new("."));
             base.join(&spec.scene).display().to_string()
+        } else {
+            builtin_run_scene(&spec.scene).with_context(|| {
+                format!(
+                    "{config_name}: run scene {} is not a built-in scene",
+                    spec.scene.display()
+                )
+            })?
         };
         let scene = LoadedScene::load(&path)?;
         scene.print_warnings();
@@ -72,8 +97,7 @@ pub fn run(args: &SweepArgs) -> Result<()> {
         let mut sizes = config.sizes_mm(spec).to_vec();
         let mut seconds = spec.seconds;
         if args.quick {
-            sizes.retain(|&s| s >= 5.0);
-            sizes.truncate(2);
+            sizes = quick_sizes_mm(scene.file.voxels.voxel_size);
             seconds = Some(seconds.unwrap_or(f64::INFINITY).min(QUICK_SECONDS));
         }
         for &size_mm in &sizes {
@@ -167,6 +191,16 @@ fn stopped(args: &SweepArgs, rows: &[SweepRow], signals: &SignalStop, what: &str
     }
     .into())
 }
+
+/// The voxel sizes (mm) of a `--quick` sweep of a scene whose own voxel size is `own_m` (m):
+/// twice it and it, coarse to fine (rounded to the nanometre, so that 2 × 2.5 mm is 5 mm).
+fn quick_sizes_mm(own_m: f64) -> Vec<f64> {
+    let mm = |x: f64| (x * 1e6).round() / 1e3;
+    vec![mm(2.0 * own_m), mm(own_m)]
+}
+
+/// `--json` without a file: the table as JSON on stdout.
+const JSON_TO_STDOUT: &str = "-";
 
 /// Sessions in `--quick` mode are cut to this length (s).
 const QUICK_SECONDS: f64 = 2.0;
@@ -429,12 +463,20 @@ fn csv(table: &SweepTable) -> Result<String> {
     Ok(out)
 }
 
-/// Writes the JSON (or prints it), the CSV and the plots; files are written atomically.
+/// Writes the JSON (to stdout with `--json`, else to its file), the CSV and the plots, and prints
+/// the table as text with its recommendation unless the JSON went to stdout; files are written
+/// atomically.
 fn write_outputs(args: &SweepArgs, table: &SweepTable) -> Result<()> {
     let json = serde_json::to_string_pretty(table)? + "\n";
     match &args.json {
+        Some(path) if path == Path::new(JSON_TO_STDOUT) => {
+            crate::output::outln!("{}", json.trim_end())?
+        }
         Some(path) => write_file(path, json.as_bytes())?,
-        None => crate::output::outln!("{}", json.trim_end())?,
+        None => {}
+    }
+    if args.json.as_deref() != Some(Path::new(JSON_TO_STDOUT)) {
+        crate::output::outln!("{}", super::sweep_text::table_text(table).trim_end())?;
     }
     if let Some(path) = &args.csv {
         write_file(path, csv(table)?.as_bytes())?;

@@ -48,21 +48,39 @@ struct TuneReport {
 /// The largest sweep table read, in bytes (256 MiB; a sweep's table is a few hundred KiB).
 const MAX_SWEEP_TABLE_BYTES: u64 = 256 << 20;
 
-/// The sweep table at `path`, or why it cannot be used (naming the file; the default path is
-/// relative to the working directory).
-fn read_sweep(path: &Path) -> Result<SweepTable, String> {
-    let text = vps_files::read_regular_to_string(path, MAX_SWEEP_TABLE_BYTES).map_err(|e| {
-        format!(
-            "cannot read {}: {e} (run tune from the repository root, or give --sweep FILE)",
-            path.display()
-        )
-    })?;
+/// The built-in sweep table: docs/sweep/sweep.json as built into vps (the built-in scenes' rows),
+/// used without `--sweep`.
+const BUILTIN_SWEEP_TABLE: &str = include_str!("../../docs/sweep/sweep.json");
+
+/// How the report names [`BUILTIN_SWEEP_TABLE`].
+const BUILTIN_SWEEP_TABLE_NAME: &str = "the built-in sweep table (docs/sweep/sweep.json)";
+
+/// The sweep table at `path` (`None`: the built-in one), or why it cannot be used (naming the
+/// file).
+fn read_sweep(path: Option<&Path>) -> Result<SweepTable, String> {
+    let Some(path) = path else {
+        return serde_json::from_str(BUILTIN_SWEEP_TABLE)
+            .map_err(|e| format!("{BUILTIN_SWEEP_TABLE_NAME}: not a sweep table: {e}"));
+    };
+    let text = vps_files::read_regular_to_string(path, MAX_SWEEP_TABLE_BYTES)
+        .map_err(|e| format!("cannot read {}: {e} (give --sweep FILE)", path.display()))?;
     serde_json::from_str(&text).map_err(|e| format!("{}: not a sweep table: {e}", path.display()))
 }
 
-/// The committed sweep's row for this scene, method, voxel width and size: `Ok(None)` when the
+/// How the report names the sweep table `path` (`None`: the built-in one).
+fn sweep_name(path: Option<&Path>) -> String {
+    path.map_or(BUILTIN_SWEEP_TABLE_NAME.into(), |p| {
+        vps_files::printable(&p.display().to_string()).into_owned()
+    })
+}
+
+/// The sweep table's row for this scene, method, voxel width and size: `Ok(None)` when the
 /// table has none, an error when the table cannot be read.
-fn sweep_row(path: &Path, scene: &LoadedScene, size_mm: f64) -> Result<Option<SweepRow>, String> {
+fn sweep_row(
+    path: Option<&Path>,
+    scene: &LoadedScene,
+    size_mm: f64,
+) -> Result<Option<SweepRow>, String> {
     let table = read_sweep(path)?;
     let voxels = &scene.file.voxels;
     Ok(table.rows.into_iter().find(|r| {
@@ -131,6 +149,23 @@ pub fn run(args: &TuneArgs) -> Result<()> {
     let signals = stop_on_signals()?;
     let mut chosen: Option<(f64, SweepSession)> = None;
     let longest = args.frames.max(args.verify_frames) as f64 * scene.params.dt;
+    if !args.json {
+        println!(
+            "{}: frame compute over {} free-running frames per voxel size (budget p99.9 ≤ \
+             {budget_us:.0} µs); {}-bit voxels, {} shell points",
+            vps_files::printable(&scene.name),
+            crate::output::grouped(args.frames),
+            width.bits(),
+            match scene.file.voxels.shell_method {
+                vps_session::file::ShellMethodName::Centres => "voxel-centre",
+                vps_session::file::ShellMethodName::Exact => "exact-surface",
+            }
+        );
+        println!(
+            "{:>10} {:>9} {:>12} {:>14}",
+            "voxel size", "points", "compute p50", "compute p99.9"
+        );
+    }
     for size_mm in SIZES_MM {
         let s = size_mm * 1e-3;
         let map = scene.build_voxmap(s, width, &cache, true)?;
@@ -144,11 +179,12 @@ pub fn run(args: &TuneArgs) -> Result<()> {
         let within = p999 <= budget_us;
         if !args.json {
             println!(
-                "{size_mm:>6} mm: {:>7} points, compute p50 {:.1} µs, p99.9 {:.1} µs{}",
-                session.shell.len(),
+                "{:>7} mm {:>9} {:>9.1} µs {:>11.1} µs{}",
+                size_mm,
+                crate::output::grouped(session.shell.len() as u64),
                 stats.compute_ns.p50 as f64 / 1e3,
                 p999,
-                if within { "" } else { "  (over budget)" }
+                if within { "" } else { "  over budget" }
             );
         }
         report.measured.push(Measured {
@@ -171,7 +207,7 @@ pub fn run(args: &TuneArgs) -> Result<()> {
         );
     };
     report.chosen_voxel_size_mm = Some(size_mm);
-    match sweep_row(&args.sweep, &scene, size_mm) {
+    match sweep_row(args.sweep.as_deref(), &scene, size_mm) {
         Ok(row) => report.predicted_accuracy = row,
         Err(why) => report.sweep_error = Some(why),
     }
@@ -184,11 +220,20 @@ pub fn run(args: &TuneArgs) -> Result<()> {
     if args.json {
         return crate::output::print_json(&report);
     }
-    println!("budget: frame compute p99.9 ≤ {budget_us:.0} µs; chosen voxel size {size_mm} mm");
+    let finer = if report.measured.len() < SIZES_MM.len() {
+        "the next finer size was over budget"
+    } else {
+        "the finest size tried"
+    };
+    println!(
+        "recommended: voxel_size = \"{size_mm}mm\" for {} on this machine: the finest size whose \
+         frame compute p99.9 fits {budget_us:.0} µs ({finer})",
+        vps_files::printable(&scene.name)
+    );
+    let table_name = sweep_name(args.sweep.as_deref());
     match &report.predicted_accuracy {
         Some(r) => println!(
-            "accuracy at {size_mm} mm from {}: force direction error p50 {} deg, magnitude error p50 {}, penetration ratio {}, min exact separation {} mm",
-            args.sweep.display(),
+            "accuracy at {size_mm} mm from {table_name}: force direction error p50 {} deg, magnitude error p50 {}, penetration ratio {}, min exact separation {} mm",
             shown(r.direction_error_deg_p50),
             shown(r.magnitude_error_p50),
             shown(r.penetration_ratio),
@@ -200,9 +245,8 @@ pub fn run(args: &TuneArgs) -> Result<()> {
                 how_to_measure(&args.scene)
             ),
             None => println!(
-                "accuracy: {} has no row for {} at {size_mm} mm; {}",
-                args.sweep.display(),
-                scene.name,
+                "accuracy: {table_name} has no row for {} at {size_mm} mm; {}",
+                vps_files::printable(&scene.name),
                 how_to_measure(&args.scene)
             ),
         },
@@ -222,8 +266,8 @@ pub fn run(args: &TuneArgs) -> Result<()> {
 /// table has rows only for the standard scenes, so a scene of one's own must be swept first.
 fn how_to_measure(scene: &str) -> String {
     format!(
-        "to measure it: vps sweep --scene {scene} --json {SWEEP_OUT} (from the repository root, \
-         or with --config FILE), then vps tune --scene {scene} --sweep {SWEEP_OUT}"
+        "to measure it: vps sweep --scene {scene} --json {SWEEP_OUT}, then vps tune --scene \
+         {scene} --sweep {SWEEP_OUT}"
     )
 }
 
@@ -259,16 +303,21 @@ mod tests {
     fn a_missing_or_bad_sweep_file_is_named() {
         let dir = tempfile::tempdir().unwrap();
         let missing = dir.path().join("docs/sweep/sweep.json");
-        let err = read_sweep(&missing).err().unwrap();
+        let err = read_sweep(Some(&missing)).err().unwrap();
         assert!(
             err.contains(&format!("cannot read {}", missing.display())) && err.contains("--sweep"),
             "{err}"
         );
         let bad = dir.path().join("bad.json");
         std::fs::write(&bad, "[1, 2]").unwrap();
-        let err = read_sweep(&bad).err().unwrap();
+        let err = read_sweep(Some(&bad)).err().unwrap();
         assert!(err.contains("bad.json: not a sweep table"), "{err}");
         let committed = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/sweep/sweep.json");
-        assert!(!read_sweep(&committed).unwrap().rows.is_empty());
+        assert!(!read_sweep(Some(&committed)).unwrap().rows.is_empty());
+        // The built-in table is the committed one.
+        assert_eq!(
+            read_sweep(None).unwrap().rows.len(),
+            read_sweep(Some(&committed)).unwrap().rows.len()
+        );
     }
 }

@@ -217,13 +217,14 @@ pub struct VoxelSettings {
     /// Voxel edge (m), a number or a string with a unit (`"2mm"`). Default 0.005.
     pub voxel_size: f64,
     /// Bits per voxel: 2 (kinds only, the paper's format), 4 or 8 (kinds plus distance layers).
-    /// Default 2.
+    /// Default 4 ([`RECOMMENDED_VOXEL_WIDTH`]: the sweep's recommendation; 2 is the paper's).
     pub voxel_width: u8,
     /// Force-layer offset in voxel layers (0..=16). Default 2.
     pub offset_layers: u32,
     /// Pre-contact braking; when absent the haptic parameters decide (default on).
     pub braking: Option<bool>,
-    /// Shell point placement: `centres` or `exact`. Default `centres`.
+    /// Shell point placement: `centres` (the paper's) or `exact`. Default `exact`
+    /// ([`RECOMMENDED_SHELL_METHOD`]: the sweep's recommendation).
     pub shell_method: ShellMethodName,
     /// The force model: `tangent-plane` (the paper's, on the voxel layers) or `distance` (the
     /// signed-distance band with a stand-off). Default `tangent-plane`.
@@ -255,19 +256,26 @@ pub struct VoxelKeysSet {
     pub force_model: bool,
 }
 
-/// Why the built-in voxel defaults (5 mm, 2-bit, offset 2, voxel centres) are what they are, for
-/// a scene file that leaves the keys out. The standard scenes set their own (4-bit, exact surface,
-/// chosen by the sweep in docs/sweep.md).
-pub const BUILTIN_VOXELS_REASON: &str = "the paper's format (2-bit voxel centres, 2 offset layers) at 5 mm, kept as the fallback for scene files that state nothing; the sweep (docs/sweep.md) found 4-bit exact-surface shells better on both standard scenes (penetration ratio 0 at every size, direction error p50 falling as the voxels shrink), so set voxels.voxel_width = 4 and voxels.shell_method = \"exact\"";
+/// The built-in `voxels.voxel_width` (bits): 4, the sweep's recommendation (docs/sweep.md). The
+/// paper's format is 2 (`voxel_width = 2`).
+pub const RECOMMENDED_VOXEL_WIDTH: u8 = 4;
+
+/// The built-in `voxels.shell_method`: exact-surface points, the sweep's recommendation
+/// (docs/sweep.md). The paper's is `shell_method = "centres"`.
+pub const RECOMMENDED_SHELL_METHOD: ShellMethodName = ShellMethodName::Exact;
+
+/// Why the built-in voxel defaults (5 mm, 4-bit, offset 2, exact-surface points) are what they
+/// are, for a scene file that leaves the keys out; `vps scene check` shows it.
+pub const BUILTIN_VOXELS_REASON: &str = "the sweep's recommendation (docs/sweep.md): 4-bit voxels with exact-surface shell points kept penetration ratio 0 at every swept size on both standard scenes, with the force direction error p50 falling as the voxels shrink; 5 mm voxels and 2 offset layers; for the paper's format set voxels.voxel_width = 2 and voxels.shell_method = \"centres\"";
 
 impl Default for VoxelSettings {
     fn default() -> Self {
         Self {
             voxel_size: 0.005,
-            voxel_width: 2,
+            voxel_width: RECOMMENDED_VOXEL_WIDTH,
             offset_layers: 2,
             braking: None,
-            shell_method: ShellMethodName::Centres,
+            shell_method: RECOMMENDED_SHELL_METHOD,
             force_model: ForceModelName::TangentPlane,
             standoff: None,
             reason: None,

@@ -21,6 +21,28 @@ pub const MAX_SWEEP_FILE_BYTES: u64 = 1 << 20;
 /// The default of `reference_points_per_frame`.
 pub const DEFAULT_REFERENCE_POINTS_PER_FRAME: usize = 500;
 
+/// The built-in sweep file: `configs/sweep.toml` as built into the binary, used by `vps sweep`
+/// without `--config`. Its runs name `scenes/NAME.toml`, read as the built-in scene `NAME`
+/// ([`builtin_run_scene`]), so it works from any folder.
+pub const BUILTIN_SWEEP_FILE: &str = include_str!("../../../configs/sweep.toml");
+
+/// How errors and reports name [`BUILTIN_SWEEP_FILE`].
+pub const BUILTIN_SWEEP_NAME: &str = "the built-in sweep file (configs/sweep.toml)";
+
+/// The scene a run of the built-in sweep file names: `scenes/NAME.toml` is `builtin:NAME` when
+/// `NAME` is a built-in scene ([`crate::file::BUILTIN_SCENES`]); `None` for any other path.
+pub fn builtin_run_scene(scene: &std::path::Path) -> Option<String> {
+    let name = scene
+        .strip_prefix("scenes")
+        .ok()?
+        .to_str()?
+        .strip_suffix(".toml")?;
+    crate::file::BUILTIN_SCENES
+        .iter()
+        .any(|(n, _)| *n == name)
+        .then(|| format!("builtin:{name}"))
+}
+
 /// A sweep file that cannot be used: the message opens with the file.
 #[derive(Debug, thiserror::Error)]
 pub enum SweepFileError {
@@ -228,6 +250,29 @@ mod tests {
         let file = SweepFile::from_toml_str(text, "configs/sweep.toml").unwrap();
         assert!(!file.run.is_empty());
         assert!(file.voxel_sizes_mm.iter().all(|s| *s > 0.0));
+    }
+
+    /// Every run of the built-in sweep file is a built-in scene, so `vps sweep` needs no file of
+    /// the repository.
+    #[test]
+    fn the_builtin_sweep_file_names_builtin_scenes() {
+        let file = SweepFile::from_toml_str(BUILTIN_SWEEP_FILE, BUILTIN_SWEEP_NAME).unwrap();
+        for run in &file.run {
+            let scene = builtin_run_scene(&run.scene);
+            assert!(scene.is_some(), "{}", run.scene.display());
+        }
+        assert_eq!(
+            builtin_run_scene(std::path::Path::new("scenes/rig-teapot.toml")).as_deref(),
+            Some("builtin:rig-teapot")
+        );
+        assert_eq!(
+            builtin_run_scene(std::path::Path::new("scenes/mine.toml")),
+            None
+        );
+        assert_eq!(
+            builtin_run_scene(std::path::Path::new("rig-teapot.toml")),
+            None
+        );
     }
 
     #[test]
