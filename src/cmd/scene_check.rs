@@ -31,6 +31,19 @@ struct ObjectReport {
     bounds_max_m: [f64; 3],
 }
 
+/// A mesh read once for the objects naming it.
+#[derive(Serialize)]
+struct MeshReport {
+    source: String,
+    /// Static objects naming it (each a placed copy of it).
+    static_objects: usize,
+    /// Whether the part names it.
+    part: bool,
+    triangles: usize,
+    /// Bytes of the one copy held (m, after units; vertices and triangles).
+    bytes: u64,
+}
+
 /// One effective voxel setting and where it came from: `"scene file"` or `"built-in default"`.
 #[derive(Serialize)]
 struct Setting<T> {
@@ -73,10 +86,8 @@ struct CheckReport {
     voxel_width_bits: u32,
     voxels: VoxelsReport,
     workspace: bool,
-    /// Distinct mesh files and built-ins read (each once, however many objects name it).
-    meshes_read: usize,
-    /// Objects naming them: the static objects and the part.
-    mesh_objects: usize,
+    /// The distinct mesh files and built-ins read, each once however many objects name it.
+    meshes: Vec<MeshReport>,
     voxmap_estimate: VoxmapEstimate,
     /// The whole scene's memory without a viewer (checked against `memory_budget_bytes`).
     memory_estimate: SceneMemoryEstimate,
@@ -204,8 +215,17 @@ pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
         voxel_width_bits: width.bits(),
         voxels: voxels_report,
         workspace: loaded.file.workspace.is_some(),
-        meshes_read: loaded.meshes.len(),
-        mesh_objects: loaded.statics.len() + 1,
+        meshes: loaded
+            .meshes
+            .iter()
+            .map(|m| MeshReport {
+                source: m.source.clone(),
+                static_objects: m.statics,
+                part: m.part,
+                triangles: m.mesh.triangle_count(),
+                bytes: vps_session::estimate::mesh_bytes(&m.mesh),
+            })
+            .collect(),
         voxmap_estimate: estimate,
         memory_estimate: memory,
         viewer_memory_bytes,
@@ -310,10 +330,24 @@ pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
         approximate_size(estimate.tree_bytes)
     );
     println!(
-        "meshes: {} file(s) read for {} objects (the static objects and the part), each once; \
-         the placed copies are made when the voxmap is built",
-        report.meshes_read, report.mesh_objects
+        "meshes: {} read for {} objects, each once (the placed copies are made when the voxmap \
+         is built)",
+        report.meshes.len(),
+        report.objects.len() + 1
     );
+    for m in &report.meshes {
+        let users = match (m.static_objects, m.part) {
+            (n, true) if n > 0 => format!("{n} static object(s) and the part"),
+            (_, true) => "the part".to_string(),
+            (n, false) => format!("{n} static object(s)"),
+        };
+        println!(
+            "  {}: {users}; {} triangles, {} held once",
+            printable(&m.source),
+            m.triangles,
+            size_text(m.bytes)
+        );
+    }
     let m = &report.memory_estimate;
     println!(
         "memory: about {} in all (estimate, within the budget of {}): meshes read {}, placed \
