@@ -83,6 +83,11 @@ pub struct SceneArgs {
     /// $XDG_CACHE_HOME/vps, else ~/.cache/vps).
     #[arg(long)]
     pub no_cache: bool,
+    /// Memory budget of the whole scene (meshes, placed copies, voxelizer, voxmap, distance band,
+    /// exact reference, shell, viewer), estimated before anything is built and refused above it
+    /// (bytes, or 16GiB, 512MiB, 8GB; default half of physical memory).
+    #[arg(long, value_parser = parse_bytes, value_name = "SIZE")]
+    pub max_memory: Option<u64>,
 }
 
 impl Default for SceneArgs {
@@ -90,6 +95,7 @@ impl Default for SceneArgs {
         SceneArgs {
             scene: vps_session::DEFAULT_SCENE.into(),
             no_cache: false,
+            max_memory: None,
         }
     }
 }
@@ -104,8 +110,15 @@ impl SceneArgs {
             } else {
                 vps_session::CachePolicy::from_env()
             },
+            max_memory_bytes: self.max_memory,
             ..vps_session::BuildOptions::default()
         }
+    }
+
+    /// The memory budget (bytes): `--max-memory`, else half of physical memory.
+    pub fn memory_budget(&self) -> u64 {
+        self.max_memory
+            .unwrap_or_else(vps_voxelize::default_memory_budget)
     }
 }
 
@@ -128,6 +141,10 @@ pub enum SceneCommand {
         /// Print as JSON.
         #[arg(long)]
         json: bool,
+        /// Memory budget the whole scene's estimate is checked against, as a session's
+        /// `--max-memory` (bytes, or 16GiB, 512MiB, 8GB; default half of physical memory).
+        #[arg(long, value_parser = parse_bytes, value_name = "SIZE")]
+        max_memory: Option<u64>,
     },
 }
 

@@ -208,7 +208,7 @@ fn bridge_settings(
 /// Checks that the device of `args` is there, builds the scene, loads parameters and opens the
 /// device. A missing device is reported before the voxmap is built (that can take minutes).
 pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
-    let loaded = LoadedScene::load(&args.scene.scene)?;
+    let loaded = LoadedScene::load_within(&args.scene.scene, args.scene.memory_budget())?;
     let choice = device_choice(args.device.as_deref(), &loaded.device)?;
     // Now that the scene file is read: no output may be one of its meshes (or the trace its
     // device replays).
@@ -232,8 +232,11 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
         .as_deref()
         .map(HapticParams::from_file)
         .transpose()?;
-    let mut assets =
-        SessionAssets::from_loaded(loaded, &args.scene.build_options(args.voxel_size))?;
+    let options = vps_session::BuildOptions {
+        viewer: args.view.is_some(),
+        ..args.scene.build_options(args.voxel_size)
+    };
+    let mut assets = SessionAssets::from_loaded(loaded, &options)?;
     if let Some(params) = haptic_file {
         assets.params = params.with_scene(assets.voxel_size, assets.shell.max_radius())?;
     }

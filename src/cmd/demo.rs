@@ -38,7 +38,10 @@ struct DemoReport {
 pub fn run(args: &DemoArgs) -> Result<()> {
     let scene = SessionAssets::open(
         &args.scene.scene,
-        &args.scene.build_options(args.voxel_size),
+        &vps_session::BuildOptions {
+            viewer: args.view.is_some(),
+            ..args.scene.build_options(args.voxel_size)
+        },
     )?;
     // Braking on for the first run whatever the scene says: the demo compares on with off.
     let params = HapticParams {

@@ -48,7 +48,11 @@ pub fn dispatch(cli: Cli, matches: &ArgMatches) -> Result<()> {
         Command::Record(args) => run::record(&args),
         Command::Replay(args) => run::replay(&args),
         Command::Scene(args) => match args.which {
-            SceneCommand::Check { scene, json } => scene_check::run(&scene, json),
+            SceneCommand::Check {
+                scene,
+                json,
+                max_memory,
+            } => scene_check::run(&scene, json, max_memory),
         },
         Command::Devices { json } => run::devices(json),
         Command::Cert { out, name } => cluster::cert(&out, &name),

@@ -9,8 +9,8 @@ use crate::output::{metres_4, print_json};
 use anyhow::Result;
 use serde::Serialize;
 use vps_files::printable;
-use vps_mesh::TriMesh;
-use vps_session::estimate::VoxmapEstimate;
+use vps_mesh::Aabb;
+use vps_session::estimate::{size_text, SceneMemoryEstimate, VoxmapEstimate};
 use vps_session::file::{ShellMethodName, BUILTIN_VOXELS_REASON};
 use vps_session::LoadedScene;
 
@@ -29,6 +29,19 @@ struct ObjectReport {
     triangles: usize,
     bounds_min_m: [f64; 3],
     bounds_max_m: [f64; 3],
+}
+
+/// A mesh read once for the objects naming it.
+#[derive(Serialize)]
+struct MeshReport {
+    source: String,
+    /// Static objects naming it (each a placed copy of it).
+    static_objects: usize,
+    /// Whether the part names it.
+    part: bool,
+    triangles: usize,
+    /// Bytes of the one copy held (m, after units; vertices and triangles).
+    bytes: u64,
 }
 
 /// One effective voxel setting and where it came from: `"scene file"` or `"built-in default"`.
@@ -73,7 +86,15 @@ struct CheckReport {
     voxel_width_bits: u32,
     voxels: VoxelsReport,
     workspace: bool,
+    /// The distinct mesh files and built-ins read, each once however many objects name it.
+    meshes: Vec<MeshReport>,
     voxmap_estimate: VoxmapEstimate,
+    /// The whole scene's memory without a viewer (checked against `memory_budget_bytes`).
+    memory_estimate: SceneMemoryEstimate,
+    /// What a viewer (`--view`) adds to `memory_estimate` (bytes).
+    viewer_memory_bytes: u64,
+    /// The budget (bytes): `--max-memory`, else half of physical memory.
+    memory_budget_bytes: u64,
     shell_points: usize,
     kernel_contact_ns_per_point: f64,
     frame_compute_estimate_us: f64,
@@ -85,12 +106,11 @@ struct CheckReport {
     flags: Vec<String>,
 }
 
-fn object(field: String, source: &str, mesh: &TriMesh) -> ObjectReport {
-    let b = mesh.bounds();
+fn object(field: String, source: &str, triangles: usize, b: Aabb) -> ObjectReport {
     ObjectReport {
         field,
         source: source.to_string(),
-        triangles: mesh.triangle_count(),
+        triangles,
         bounds_min_m: b.min.to_array(),
         bounds_max_m: b.max.to_array(),
     }
@@ -138,12 +158,19 @@ fn millimetres(metres: f64) -> String {
     text.trim_end_matches('0').trim_end_matches('.').to_string()
 }
 
-/// Runs `vps scene check`.
-pub fn run(scene: &str, json: bool) -> Result<()> {
-    let loaded = LoadedScene::load(scene)?;
+/// Runs `vps scene check`; `max_memory` (bytes) is the budget instead of half of physical memory.
+pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
+    let budget = max_memory.unwrap_or_else(vps_voxelize::default_memory_budget);
+    let loaded = LoadedScene::load_within(scene, budget)?;
     let voxels = &loaded.file.voxels;
     let width = loaded.width()?;
     let estimate = loaded.plan_voxmap(voxels.voxel_size, width)?;
+    let memory = loaded.memory_estimate(voxels.voxel_size, width, false)?;
+    let with_viewer = loaded.memory_estimate(voxels.voxel_size, width, true);
+    let viewer_memory_bytes = with_viewer
+        .map_or(memory.placed_copies_bytes.saturating_mul(2), |m| {
+            m.viewer_bytes
+        });
     let shell = loaded.build_shell(voxels.voxel_size, voxels.shell_method.method())?;
     let ns_per_point = crate::kernel_timing::contact_ns_per_point(
         shell.len().max(1),
@@ -175,15 +202,34 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
             .iter()
             .zip(&loaded.static_sources)
             .enumerate()
-            .map(|(i, (mesh, source))| object(format!("static[{i}]"), source, mesh))
+            .map(|(i, (o, source))| object(format!("static[{i}]"), source, o.triangles, o.bounds))
             .collect(),
-        part: object("part".into(), &loaded.part_source, &loaded.part),
+        part: object(
+            "part".into(),
+            &loaded.part_source,
+            loaded.part.triangle_count(),
+            loaded.part.bounds(),
+        ),
         grip_m: loaded.grip(&shell).to_array(),
         voxel_size_m: voxels.voxel_size,
         voxel_width_bits: width.bits(),
         voxels: voxels_report,
         workspace: loaded.file.workspace.is_some(),
+        meshes: loaded
+            .meshes
+            .iter()
+            .map(|m| MeshReport {
+                source: m.source.clone(),
+                static_objects: m.statics,
+                part: m.part,
+                triangles: m.mesh.triangle_count(),
+                bytes: vps_session::estimate::mesh_bytes(&m.mesh),
+            })
+            .collect(),
         voxmap_estimate: estimate,
+        memory_estimate: memory,
+        viewer_memory_bytes,
+        memory_budget_bytes: budget,
         shell_points: shell.len(),
         kernel_contact_ns_per_point: ns_per_point,
         frame_compute_estimate_us: frame_us,
@@ -282,6 +328,41 @@ pub fn run(scene: &str, json: bool) -> Result<()> {
         approximate_count(estimate.grid_voxels),
         approximate_count(estimate.band_voxels),
         approximate_size(estimate.tree_bytes)
+    );
+    println!(
+        "meshes: {} read for {} objects, each once (the placed copies are made when the voxmap \
+         is built)",
+        report.meshes.len(),
+        report.objects.len() + 1
+    );
+    for m in &report.meshes {
+        let users = match (m.static_objects, m.part) {
+            (n, true) if n > 0 => format!("{n} static object(s) and the part"),
+            (_, true) => "the part".to_string(),
+            (n, false) => format!("{n} static object(s)"),
+        };
+        println!(
+            "  {}: {users}; {} triangles, {} held once",
+            printable(&m.source),
+            m.triangles,
+            size_text(m.bytes)
+        );
+    }
+    let m = &report.memory_estimate;
+    println!(
+        "memory: about {} in all (estimate, within the budget of {}): meshes read {}, placed \
+         copies {}, voxelizer {}, voxmap {}, distance band {}, exact reference {}, shell {}; a \
+         viewer (--view) adds {}",
+        size_text(m.total_bytes),
+        size_text(report.memory_budget_bytes),
+        size_text(m.meshes_read_bytes),
+        size_text(m.placed_copies_bytes),
+        size_text(m.voxelizer_bytes),
+        size_text(m.voxmap_bytes),
+        size_text(m.distance_band_bytes),
+        size_text(m.exact_reference_bytes),
+        size_text(m.shell_bytes),
+        size_text(report.viewer_memory_bytes)
     );
     println!(
         "shell: {} points; kernel {:.1} ns/point in full contact on this machine: a frame about \

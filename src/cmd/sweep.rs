@@ -92,7 +92,7 @@ pub fn run(args: &SweepArgs) -> Result<()> {
             None => vec![scene.width()?],
         };
         let methods = config.methods_of(spec);
-        let exact = ExactScene::new(&scene.statics)
+        let exact = ExactScene::new(&scene.placed_statics())
             .with_context(|| format!("{path}: building the exact reference"))?;
         let mut sizes = config.sizes_mm(spec).to_vec();
         let mut seconds = spec.seconds;
@@ -561,7 +561,12 @@ mod tests {
         let s = 0.01;
         let opts = scene.voxelize_options(s, VoxelWidth::Two);
         let region = scene.file.workspace.unwrap().aabb();
-        let dense = voxelize_in(&scene.statics, grid_for(&region, &opts).unwrap(), &opts).unwrap();
+        let dense = voxelize_in(
+            &scene.placed_statics(),
+            grid_for(&region, &opts).unwrap(),
+            &opts,
+        )
+        .unwrap();
         let maps: Vec<BuiltVoxmap> = VoxelWidth::ALL
             .iter()
             .map(|&w| scene.build_voxmap(s, w, &CachePolicy::Off, false).unwrap())

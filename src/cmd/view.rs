@@ -20,6 +20,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
                 } else {
                     CachePolicy::from_env()
                 },
+                viewer: true,
                 ..vps_session::BuildOptions::default()
             };
             (

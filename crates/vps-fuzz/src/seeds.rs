@@ -476,3 +476,121 @@ pub fn cache_entry() -> Vec<Vec<u8>> {
         entry(&other, Some(record(&asked.key, &other))),
     ]
 }
+
+/// Between the scene file and each mesh file in a `scene-mesh` input: the marker, the mesh
+/// file's name, a line break, then its bytes (up to the next marker).
+pub const SCENE_FILE_MARKER: &[u8] = b"\n#file ";
+
+/// A `scene-mesh` input: the scene file's text, then each `(name, bytes)` mesh file after a
+/// [`SCENE_FILE_MARKER`] line.
+pub fn scene_bundle(scene: &str, files: &[(&str, Vec<u8>)]) -> Vec<u8> {
+    let mut out = scene.as_bytes().to_vec();
+    for (name, bytes) in files {
+        out.extend_from_slice(SCENE_FILE_MARKER);
+        out.extend_from_slice(name.as_bytes());
+        out.push(b'\n');
+        out.extend_from_slice(bytes);
+    }
+    out
+}
+
+/// A flat `n`×`n`-vertex plate (`size` m square) as OBJ text.
+fn plate_obj(n: usize, size: f64) -> Vec<u8> {
+    let mut s = String::new();
+    for j in 0..n {
+        for i in 0..n {
+            let f = size / (n - 1) as f64;
+            s += &format!("v {} {} 0\n", i as f64 * f, j as f64 * f);
+        }
+    }
+    for j in 0..n - 1 {
+        for i in 0..n - 1 {
+            let a = j * n + i + 1;
+            s += &format!(
+                "f {a} {} {}\nf {a} {} {}\n",
+                a + 1,
+                a + n + 1,
+                a + n + 1,
+                a + n
+            );
+        }
+    }
+    s.into_bytes()
+}
+
+/// Scene files with their mesh files (`scene-mesh` target): a static OBJ cube 1 m across (the
+/// 0.1 m box scaled) with a binary STL part; one OBJ named by twenty objects in several spellings
+/// with a PLY part; a scene whose meshes are malformed (an OBJ face past its vertices) or claim
+/// absurd counts (a PLY `element vertex 4294967295`, a binary STL of 4294967295 triangles in 134
+/// bytes); a mesh in millimetres scaled and rotated; and 400 objects naming one 2,000-triangle
+/// plate (placed copies over a 16 MiB budget).
+pub fn scene_mesh() -> Vec<Vec<u8>> {
+    let obj = obj();
+    let stl = stl();
+    let ply = ply();
+    let hand = "[hand]\nwaypoints = [[0.0, 0.0, 0.3], [0.05, 0.0, 0.2]]\n";
+    let cube_scene = format!(
+        "name = \"mesh-refs\"\n[part]\nsource = \"part.stl\"\n[[static]]\nsource = \"cube.obj\"\n\
+         scale = [10.0, 10.0, 10.0]\ntranslate = [-0.5, -0.5, -1.0]\n[voxels]\nvoxel_size = 0.05\n{hand}"
+    );
+    let mut twenty = String::from("[part]\nsource = \"part.ply\"\n[voxels]\nvoxel_size = 0.05\n");
+    let spellings = ["cube.obj", "./cube.obj", ".//cube.obj", "cube.obj"];
+    for i in 0..20 {
+        twenty += &format!(
+            "[[static]]\nsource = \"{}\"\nscale = [10.0, 10.0, 10.0]\ntranslate = [{}, 0, -1.0]\n",
+            spellings[i % 4],
+            i as f64 * 0.5
+        );
+    }
+    twenty += hand;
+    let mut huge_stl = vec![0u8; 80];
+    huge_stl.extend_from_slice(&u32::MAX.to_le_bytes());
+    huge_stl.extend_from_slice(&[0u8; 50]);
+    let huge_ply = b"ply\nformat ascii 1.0\nelement vertex 4294967295\nproperty float x\n\
+        property float y\nproperty float z\nelement face 1\n\
+        property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n1 1 0\n3 0 1 2\n"
+        .to_vec();
+    let bad_scene = format!(
+        "[part]\nsource = \"part.stl\"\n[[static]]\nsource = \"bad.obj\"\n[[static]]\n\
+         source = \"huge.ply\"\n[[static]]\nsource = \"cube.obj\"\nscale = [10.0, 10.0, 10.0]\n{hand}"
+    );
+    let mm_scene = format!(
+        "[part]\nsource = \"part.obj\"\nunits = \"mm\"\nrotate_deg = [90, 0, 45]\n[[static]]\n\
+         source = \"cube.stl\"\nunits = \"cm\"\nscale = [20.0, 20.0, 2.0]\nrotate_deg = [0, 0, 30]\n\
+         [[static]]\nsource = \"builtin:box\"\ntranslate = [0.0, 0.0, -0.2]\n\
+         [voxels]\nvoxel_size = \"1cm\"\nforce_model = \"distance\"\n{hand}"
+    );
+    let mut plates =
+        String::from("[part]\nsource = \"builtin:box\"\n[voxels]\nvoxel_size = 0.05\n");
+    for i in 0..400 {
+        plates += &format!(
+            "[[static]]\nsource = \"plate.obj\"\ntranslate = [0, 0, {}]\n",
+            i as f64 * 0.01
+        );
+    }
+    plates += hand;
+    vec![
+        scene_bundle(
+            &cube_scene,
+            &[("cube.obj", obj[0].clone()), ("part.stl", stl[1].clone())],
+        ),
+        scene_bundle(
+            &twenty,
+            &[("cube.obj", obj[0].clone()), ("part.ply", ply[1].clone())],
+        ),
+        scene_bundle(
+            &bad_scene,
+            &[
+                ("bad.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n".to_vec()),
+                ("huge.ply", huge_ply),
+                ("cube.obj", obj[0].clone()),
+                ("part.stl", huge_stl),
+            ],
+        ),
+        scene_bundle(
+            &mm_scene,
+            &[("part.obj", obj[2].clone()), ("cube.stl", stl[0].clone())],
+        ),
+        scene_bundle(&plates, &[("plate.obj", plate_obj(32, 1.0))]),
+    ]
+}

@@ -186,6 +186,88 @@ fn cache_entry(bytes: &[u8]) -> Result<(), String> {
     Ok(())
 }
 
+/// The memory budget (bytes) a `scene-mesh` input's scene is loaded and estimated within, as
+/// `vps scene check --max-memory 16MiB` would (under the runner's 64 MiB per input).
+pub const SCENE_MESH_BUDGET: u64 = 16 << 20;
+
+/// A scene file with its mesh files, loaded as `vps scene check` loads it: the input is split at
+/// [`seeds::SCENE_FILE_MARKER`] lines into the scene's text ([`SCENE_TOML`]) and mesh files (each
+/// marker line names its file; names other than `[A-Za-z0-9._-]`, up to 32 bytes, not starting
+/// with a dot, are dropped), written to a fresh directory, then
+/// `LoadedScene::load_within(.., SCENE_MESH_BUDGET)` (every mesh read once, the placed copies'
+/// memory checked) and `LoadedScene::memory_estimate` (the voxmap's limits and the whole scene
+/// against the budget). An accepted scene must have one table entry per distinct source, every
+/// object's bounds finite, and an estimate within the budget. (Scene check then builds the part's
+/// shell and times the kernel: not done here.)
+fn scene_mesh(bytes: &[u8]) -> Result<(), String> {
+    let dir =
+        tempfile::tempdir().map_err(|e| format!("{SCENE_TOML}: a temporary directory: {e}"))?;
+    let mut parts = split_at(bytes, seeds::SCENE_FILE_MARKER).into_iter();
+    let scene = parts.next().unwrap_or_default();
+    for part in parts {
+        let (name, body) = match part.iter().position(|&b| b == b'\n') {
+            Some(at) => (&part[..at], &part[at + 1..]),
+            None => (part, &b""[..]),
+        };
+        let ok = !name.is_empty()
+            && name.len() <= 32
+            && name[0] != b'.'
+            && name
+                .iter()
+                .all(|b| b.is_ascii_alphanumeric() || matches!(b, b'.' | b'_' | b'-'));
+        if ok {
+            let name = String::from_utf8_lossy(name).into_owned();
+            std::fs::write(dir.path().join(name), body)
+                .map_err(|e| format!("{SCENE_TOML}: writing a mesh file: {e}"))?;
+        }
+    }
+    let path = dir.path().join(SCENE_TOML);
+    std::fs::write(&path, scene).map_err(|e| format!("{SCENE_TOML}: writing: {e}"))?;
+    let loaded =
+        vps_session::LoadedScene::load_within(&path.display().to_string(), SCENE_MESH_BUDGET)
+            .map_err(|e| format!("{e:#}"))?;
+    let width = loaded.width().map_err(|e| e.to_string())?;
+    let est = loaded
+        .memory_estimate(loaded.file.voxels.voxel_size, width, false)
+        .map_err(|e| e.to_string())?;
+    assert!(
+        est.total_bytes <= SCENE_MESH_BUDGET,
+        "scene-mesh: an estimate of {} bytes accepted",
+        est.total_bytes
+    );
+    let mut sources: Vec<&str> = loaded.meshes.iter().map(|m| m.source.as_str()).collect();
+    let distinct = sources.len();
+    sources.sort_unstable();
+    sources.dedup();
+    assert_eq!(sources.len(), distinct, "scene-mesh: one source read twice");
+    let objects: usize = loaded.meshes.iter().map(|m| m.statics).sum();
+    assert_eq!(
+        objects,
+        loaded.statics.len(),
+        "scene-mesh: objects miscounted"
+    );
+    assert!(
+        loaded
+            .statics
+            .iter()
+            .all(|o| o.bounds.min.is_finite() && o.bounds.max.is_finite()),
+        "scene-mesh: an object with non-finite bounds accepted"
+    );
+    Ok(())
+}
+
+/// `bytes` split at every `marker` (the markers dropped).
+fn split_at<'a>(bytes: &'a [u8], marker: &[u8]) -> Vec<&'a [u8]> {
+    let mut out = Vec::new();
+    let mut rest = bytes;
+    while let Some(at) = rest.windows(marker.len()).position(|w| w == marker) {
+        out.push(&rest[..at]);
+        rest = &rest[at + marker.len()..];
+    }
+    out.push(rest);
+    out
+}
+
 fn trace(bytes: &[u8]) -> Result<(), String> {
     vps_device::trace::read_trace(bytes, Path::new(TRACE))
         .map(|_| ())
@@ -299,6 +381,13 @@ pub fn all_targets() -> Vec<Target> {
             run: cache_entry,
             must_name: Some("the cache entry"),
             max_len: 256 * 1024,
+        },
+        Target {
+            name: "scene-mesh",
+            seeds: seeds::scene_mesh,
+            run: scene_mesh,
+            must_name: Some(SCENE_TOML),
+            max_len: TEXT,
         },
         Target {
             name: "sweep-toml",

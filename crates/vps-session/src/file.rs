@@ -544,12 +544,24 @@ impl SceneFile {
         // millions of empty arrays is refused before it is parsed (a 63 MiB one peaked at 8.7 GB).
         let opened = text.bytes().filter(|b| matches!(b, b'[' | b'{')).count();
         if opened > MAX_ARRAYS_AND_TABLES {
+            // The line where the limit is passed: where the file must be cut.
+            let at = text
+                .bytes()
+                .enumerate()
+                .filter(|(_, b)| matches!(b, b'[' | b'{'))
+                .nth(MAX_ARRAYS_AND_TABLES)
+                .map_or(0, |(i, _)| i);
+            let line = text.as_bytes()[..at]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count()
+                + 1;
             return Err(SceneError::Syntax {
                 path: path.to_string(),
                 message: format!(
                     "{opened} arrays and tables (`[` and `{{`, counted in strings too), over the \
                      limit of {MAX_ARRAYS_AND_TABLES} for a scene file ({MAX_WAYPOINTS} waypoints \
-                     and 10000 objects need about 150000)"
+                     and 10000 objects need about 150000); the limit is passed on line {line}"
                 ),
             });
         }
@@ -1178,6 +1190,11 @@ max = [0.4, 0.1, 0.2]
             err.starts_with("scene.toml") && err.contains("400001 arrays and tables"),
             "{err}"
         );
+        // Half the arrays on line 3, the rest on line 4: the limit is passed on line 4.
+        let half = "[],".repeat(MAX_ARRAYS_AND_TABLES / 2);
+        let text = format!("a = 1\n\nx = [{half}]\ny = [{half}[]]\n");
+        let err = parse(&text).unwrap_err().to_string();
+        assert!(err.contains("the limit is passed on line 4"), "{err}");
         let waypoints = vec!["[0.0, 0.0, 0.1]"; MAX_WAYPOINTS].join(", ");
         let big = GOOD.replace(
             "[corridor]\nfrom = [0.0, 0.0, 0.1]\nto = [0.3, 0.0, 0.1]\nspacing = 0.05\n",

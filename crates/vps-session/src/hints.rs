@@ -98,8 +98,7 @@ pub(crate) fn distant_grip_hint(file: &SceneFile, part: &TriMesh) -> Option<Stri
 /// Hints for every moved `[[static]]` (non-zero `translate`) that lies farther from all the other
 /// static objects than they and it span: `translate` is metres, and one written in millimetres
 /// puts the object metres away (and the voxmap's grid around both).
-pub(crate) fn distant_static_hints(file: &SceneFile, statics: &[TriMesh]) -> Vec<String> {
-    let bounds: Vec<Aabb> = statics.iter().map(TriMesh::bounds).collect();
+pub(crate) fn distant_static_hints(file: &SceneFile, bounds: &[Aabb]) -> Vec<String> {
     // The union of all boxes before i and of all after i: every "others" in linear time (a scene
     // may hold 10^4 objects).
     let mut before = vec![Aabb::EMPTY; bounds.len() + 1];

@@ -4,7 +4,7 @@
 use anyhow::{anyhow, Result};
 use glam::{DQuat, DVec3};
 use std::path::Path;
-use vps_mesh::TriMesh;
+use vps_mesh::{Aabb, TriMesh};
 
 /// A loaded mesh and a short human-readable description of where it came from.
 pub struct SceneMesh {
@@ -63,22 +63,50 @@ pub struct Placement {
 }
 
 impl Placement {
-    /// Applies the placement to every vertex. The identity placement leaves the mesh bit-identical.
-    pub fn apply(&self, mesh: &mut TriMesh) {
-        let identity_rotation = self.rotation == DQuat::IDENTITY;
-        for v in &mut mesh.vertices {
-            let mut p = *v;
-            if self.scale != DVec3::ONE {
-                p *= self.scale;
-            }
-            if !identity_rotation {
-                p = self.rotation * p;
-            }
-            if self.translate != DVec3::ZERO {
-                p += self.translate;
-            }
-            *v = p;
+    /// Where the placement puts `p` (m): scaled, rotated, translated, each step skipped when it is
+    /// the identity, so the identity placement returns `p` bit-identical.
+    pub fn point(&self, p: DVec3) -> DVec3 {
+        let mut p = p;
+        if self.scale != DVec3::ONE {
+            p *= self.scale;
         }
+        if self.rotation != DQuat::IDENTITY {
+            p = self.rotation * p;
+        }
+        if self.translate != DVec3::ZERO {
+            p += self.translate;
+        }
+        p
+    }
+
+    /// Applies the placement to every vertex ([`Placement::point`]).
+    pub fn apply(&self, mesh: &mut TriMesh) {
+        for v in &mut mesh.vertices {
+            *v = self.point(*v);
+        }
+    }
+
+    /// The bounds (m) of `mesh` placed, without making the placed copy: from the mesh's own
+    /// bounds when there is no rotation (a positive scale and a translation keep each axis's
+    /// order, also in rounding), else from every vertex placed. Equal to the placed copy's bounds.
+    pub fn bounds(&self, mesh: &TriMesh) -> Aabb {
+        if self.rotation == DQuat::IDENTITY && self.scale.min_element() > 0.0 {
+            let b = mesh.bounds();
+            if b.min.cmple(b.max).all() {
+                return Aabb {
+                    min: self.point(b.min),
+                    max: self.point(b.max),
+                };
+            }
+            return b;
+        }
+        mesh.vertices.iter().fold(Aabb::EMPTY, |b, &v| {
+            let p = self.point(v);
+            Aabb {
+                min: b.min.min(p),
+                max: b.max.max(p),
+            }
+        })
     }
 }
 

@@ -5,7 +5,10 @@
 use crate::cache::{cache_key, cache_path, read_cached, write_cached, CachePolicy, Expected};
 use crate::device::{BridgeSettings, DeviceChoice};
 use crate::error::{field_error, SceneError};
-use crate::estimate::{estimate, VoxmapEstimate, MAX_GRID_VOXELS, VOXMAP_MEMORY_BUDGET};
+use crate::estimate::{
+    estimate_triangles, mesh_bytes, scene_memory, size_text, SceneMemoryEstimate,
+    SceneMemoryInputs, VoxmapEstimate, MAX_GRID_VOXELS, VOXMAP_MEMORY_BUDGET,
+};
 use crate::file::{rotation, SceneFile};
 use crate::hints::{
     coarse_voxel_flag, distant_grip_hint, distant_static_hints, distant_waypoint_hint, y_up_hint,
@@ -43,8 +46,13 @@ pub struct LoadedScene {
     pub file: SceneFile,
     /// Directory relative paths in the file are taken from.
     pub base: PathBuf,
-    /// The static objects (m, scene coordinates), in file order.
-    pub statics: Vec<TriMesh>,
+    /// The distinct meshes the scene names (static objects and part), each read once however many
+    /// objects name it: keyed by the canonical file path (or `builtin:NAME`) and the units.
+    pub meshes: Vec<SharedMesh>,
+    /// The static objects, in file order: each a placement of one of [`LoadedScene::meshes`]. The
+    /// placed copies (scene coordinates) are made only when the voxmap is built
+    /// ([`LoadedScene::placed_statics`]).
+    pub statics: Vec<StaticObject>,
     /// Where each static object came from (`builtin:NAME` or the resolved file path).
     pub static_sources: Vec<String>,
     /// The part (m, part coordinates: after units and rotation).
@@ -61,12 +69,48 @@ pub struct LoadedScene {
     pub bridge: BridgeSettings,
     /// Things worth a look that do not stop the scene (implausible mesh sizes), with hints.
     pub warnings: Vec<String>,
+    /// The memory budget (bytes) the whole scene's estimate is checked against before anything
+    /// is built ([`LoadedScene::memory_estimate`]): `--max-memory`, else half of physical memory.
+    pub max_memory_bytes: u64,
+}
+
+/// A mesh a scene names, read and parsed once however many objects name it.
+pub struct SharedMesh {
+    /// `builtin:NAME` or the file path (resolved against the scene file's directory) as first
+    /// named.
+    pub source: String,
+    /// The mesh after its units (m), before any object's placement.
+    pub mesh: Arc<TriMesh>,
+    /// The static objects naming it.
+    pub statics: usize,
+    /// Whether the part names it.
+    pub part: bool,
+}
+
+/// A `[[static]]` object: one of the scene's meshes and where it is placed.
+#[derive(Clone, Debug)]
+pub struct StaticObject {
+    /// Index into [`LoadedScene::meshes`].
+    pub mesh: usize,
+    /// Scale, rotation and translation (m) from the file.
+    pub placement: Placement,
+    /// The bounds of the placed mesh (m, scene coordinates).
+    pub bounds: Aabb,
+    /// Triangles of the mesh.
+    pub triangles: usize,
 }
 
 impl LoadedScene {
     /// Loads `scene`: `builtin:NAME` (see [`BUILTIN_SCENES`](crate::file::BUILTIN_SCENES)) or a scene file path. Blocking:
     /// reads the scene and its mesh files. Errors name the file and the field.
     pub fn load(scene: &str) -> Result<LoadedScene> {
+        Self::load_within(scene, vps_voxelize::default_memory_budget())
+    }
+
+    /// [`LoadedScene::load`] with the memory budget `max_memory_bytes` (bytes): the placed
+    /// copies of the static objects are counted against it before the meshes' bounds are
+    /// computed, and [`LoadedScene::memory_estimate`] checks the whole scene against it.
+    pub fn load_within(scene: &str, max_memory_bytes: u64) -> Result<LoadedScene> {
         if let Some(name) = scene.strip_prefix("builtin:") {
             let (_, text) = crate::file::BUILTIN_SCENES
                 .iter()
@@ -85,6 +129,7 @@ impl LoadedScene {
                 scene.to_string(),
                 name.to_string(),
                 PathBuf::from("."),
+                max_memory_bytes,
             );
         }
         let path = Path::new(scene);
@@ -93,47 +138,71 @@ impl LoadedScene {
             .file_stem()
             .map_or_else(|| scene.to_string(), |s| s.to_string_lossy().into_owned());
         let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-        Self::from_file(file, scene.to_string(), stem, base)
+        Self::from_file(file, scene.to_string(), stem, base, max_memory_bytes)
     }
 
-    fn from_file(file: SceneFile, label: String, stem: String, base: PathBuf) -> Result<Self> {
+    fn from_file(
+        file: SceneFile,
+        label: String,
+        stem: String,
+        base: PathBuf,
+        max_memory_bytes: u64,
+    ) -> Result<Self> {
         let mut warnings = Vec::new();
-        // Each distinct mesh (source and units) is read once, however many objects name it.
-        let mut loaded: Vec<((String, u64), TriMesh)> = Vec::new();
+        // Each distinct mesh (canonical path or builtin, and units) is read once, however many
+        // objects name it; the objects hold an index into this table.
+        let mut meshes: Vec<SharedMesh> = Vec::new();
+        let mut keys: Vec<(String, u64)> = Vec::new();
+        let mut table = |source: &str, units: f64, field: &str| -> Result<usize> {
+            let resolved = resolve(source, &base);
+            let key = (mesh_key(&resolved), units.to_bits());
+            if let Some(index) = keys.iter().position(|k| *k == key) {
+                return Ok(index);
+            }
+            let mesh = load_scaled(&resolved, units)
+                .map_err(|e| mesh_error(&label, field, source, &base, &e))?
+                .mesh;
+            keys.push(key);
+            meshes.push(SharedMesh {
+                source: resolved,
+                mesh: Arc::new(mesh),
+                statics: 0,
+                part: false,
+            });
+            Ok(meshes.len() - 1)
+        };
         let mut which = Vec::with_capacity(file.objects.len());
         for (i, o) in file.objects.iter().enumerate() {
-            let source = resolve(&o.source, &base);
-            let key = (source, o.units.metres().to_bits());
-            let index = match loaded.iter().position(|(k, _)| *k == key) {
-                Some(index) => index,
-                None => {
-                    let mesh = load_scaled(&key.0, o.units.metres())
-                        .map_err(|e| {
-                            mesh_error(&label, &format!("static[{i}].source"), &o.source, &base, &e)
-                        })?
-                        .mesh;
-                    loaded.push((key, mesh));
-                    loaded.len() - 1
-                }
-            };
-            which.push(index);
+            which.push(table(
+                &o.source,
+                o.units.metres(),
+                &format!("static[{i}].source"),
+            )?);
         }
-        // Every object is a placed copy of its mesh: their memory is known before any is made.
-        let copies: u64 = which.iter().map(|&k| mesh_bytes(&loaded[k].1)).sum();
-        let budget = vps_voxelize::default_memory_budget();
-        if copies > budget {
+        let part_index = table(&file.part.source, file.part.units.metres(), "part.source")?;
+        for &k in &which {
+            meshes[k].statics += 1;
+        }
+        meshes[part_index].part = true;
+        // Every object is a placed copy of its mesh: their memory is known before any is made
+        // (and before the placed bounds are computed, O(vertices) per object).
+        let copies = which
+            .iter()
+            .fold(0u64, |t, &k| t.saturating_add(mesh_bytes(&meshes[k].mesh)));
+        if copies > max_memory_bytes {
             return Err(field_error(
                 &label,
                 "static",
                 format!(
                     "the {} [[static]] objects are {} placed copies of {} mesh(es) holding {} in \
-                     all, over the budget of {} (half of this machine's memory): name fewer or \
-                     smaller meshes",
+                     all, over the budget of {}: name fewer or smaller meshes, or raise the \
+                     budget with --max-memory (e.g. --max-memory {})",
                     file.objects.len(),
                     which.len(),
-                    loaded.len(),
-                    gib(copies),
-                    gib(budget)
+                    meshes.len(),
+                    size_text(copies),
+                    budget_text(max_memory_bytes),
+                    raise_to(copies)
                 ),
             )
             .into());
@@ -141,35 +210,36 @@ impl LoadedScene {
         let mut statics = Vec::with_capacity(file.objects.len());
         let mut static_sources = Vec::with_capacity(file.objects.len());
         for (i, (o, &k)) in file.objects.iter().zip(&which).enumerate() {
-            let field = format!("static[{i}]");
-            let source = loaded[k].0 .0.clone();
-            let mut mesh = loaded[k].1.clone();
-            Placement {
+            let placement = Placement {
                 scale: DVec3::from_array(o.scale),
                 rotation: rotation(o.rotate_deg),
                 translate: DVec3::from_array(o.translate),
-            }
-            .apply(&mut mesh);
-            plausible_size(&mesh, &field, &mut warnings);
-            statics.push(mesh);
-            static_sources.push(source);
+            };
+            let mesh = &meshes[k].mesh;
+            let bounds = placement.bounds(mesh);
+            plausible_size(&bounds, &format!("static[{i}]"), &mut warnings);
+            statics.push(StaticObject {
+                mesh: k,
+                placement,
+                bounds,
+                triangles: mesh.triangle_count(),
+            });
+            static_sources.push(meshes[k].source.clone());
         }
-        let source = resolve(&file.part.source, &base);
-        let mut mesh = load_scaled(&source, file.part.units.metres())
-            .map_err(|e| mesh_error(&label, "part.source", &file.part.source, &base, &e))?
-            .mesh;
+        let source = meshes[part_index].source.clone();
+        let mut mesh = TriMesh::clone(&meshes[part_index].mesh);
         Placement {
             scale: DVec3::ONE,
             rotation: rotation(file.part.rotate_deg),
             translate: DVec3::ZERO,
         }
         .apply(&mut mesh);
-        plausible_size(&mesh, "part", &mut warnings);
+        plausible_size(&mesh.bounds(), "part", &mut warnings);
         warnings.extend(y_up_hint(&file));
         let (part, part_source) = (mesh, source);
         let scene_bounds = statics
             .iter()
-            .map(TriMesh::bounds)
+            .map(|o| o.bounds)
             .reduce(|a, b| a.union(&b))
             .unwrap_or(Aabb::EMPTY);
         let (part_size, scene_size) = (part.bounds().size(), scene_bounds.size());
@@ -188,7 +258,8 @@ impl LoadedScene {
         }
         warnings.extend(distant_waypoint_hint(&file, &scene_bounds, part_size));
         warnings.extend(distant_grip_hint(&file, &part));
-        warnings.extend(distant_static_hints(&file, &statics));
+        let static_bounds: Vec<Aabb> = statics.iter().map(|o| o.bounds).collect();
+        warnings.extend(distant_static_hints(&file, &static_bounds));
         let params = scene_params(&file, &label, &base)?;
         let device = match &file.device {
             Some(d) => DeviceChoice::parse(&d.kind)
@@ -207,6 +278,7 @@ impl LoadedScene {
             name,
             file,
             base,
+            meshes,
             statics,
             static_sources,
             part,
@@ -215,6 +287,7 @@ impl LoadedScene {
             device,
             bridge,
             warnings,
+            max_memory_bytes,
         })
     }
 
@@ -230,9 +303,111 @@ impl LoadedScene {
         }
     }
 
-    /// Triangles in the static objects.
+    /// Triangles in the static objects (placed copies counted each).
     pub fn scene_triangles(&self) -> usize {
-        self.statics.iter().map(TriMesh::triangle_count).sum()
+        self.statics.iter().map(|o| o.triangles).sum()
+    }
+
+    /// The bounds of all static objects placed (m, scene coordinates).
+    pub fn static_bounds(&self) -> Aabb {
+        self.statics
+            .iter()
+            .fold(Aabb::EMPTY, |b, o| b.union(&o.bounds))
+    }
+
+    /// Every static object's triangles placed (m, scene coordinates), object by object, without
+    /// making the placed copies.
+    pub fn static_triangles(&self) -> impl Iterator<Item = [DVec3; 3]> + '_ {
+        self.statics.iter().flat_map(move |o| {
+            let mesh = &self.meshes[o.mesh].mesh;
+            (0..mesh.triangle_count()).map(move |i| mesh.triangle(i).map(|v| o.placement.point(v)))
+        })
+    }
+
+    /// The static objects placed (m, scene coordinates), one copy each, in file order: what the
+    /// voxelizer, the voxmap cache's key and the distance band read. Allocates
+    /// [`SceneMemoryEstimate::placed_copies_bytes`]; check [`LoadedScene::memory_estimate`] first.
+    pub fn placed_statics(&self) -> Vec<TriMesh> {
+        self.statics
+            .iter()
+            .map(|o| {
+                let mut mesh = TriMesh::clone(&self.meshes[o.mesh].mesh);
+                o.placement.apply(&mut mesh);
+                mesh
+            })
+            .collect()
+    }
+
+    /// The whole scene's memory at `voxel_size` (m) and `width`, with a viewer's copies when
+    /// `viewer`: refused (naming the estimate, its largest parts, the budget and `--max-memory`)
+    /// when over [`LoadedScene::max_memory_bytes`] or when the voxmap alone is over its limits
+    /// ([`LoadedScene::plan_voxmap`]). Allocation-free; O(triangles placed).
+    pub fn memory_estimate(
+        &self,
+        voxel_size: f64,
+        width: VoxelWidth,
+        viewer: bool,
+    ) -> Result<SceneMemoryEstimate, SceneError> {
+        let voxmap = self.plan_voxmap(voxel_size, width)?;
+        let est = self.memory_of(&voxmap, voxel_size, width, viewer);
+        if est.total_bytes <= self.max_memory_bytes {
+            return Ok(est);
+        }
+        let parts = [
+            ("meshes read", est.meshes_read_bytes, "static"),
+            ("placed copies", est.placed_copies_bytes, "static"),
+            ("voxelizer", est.voxelizer_bytes, "voxels.voxel_size"),
+            ("voxmap", est.voxmap_bytes, "voxels.voxel_size"),
+            ("distance band", est.distance_band_bytes, "voxels.standoff"),
+            ("exact reference", est.exact_reference_bytes, "static"),
+            ("point shell", est.shell_bytes, "part"),
+            ("viewer", est.viewer_bytes, "static"),
+        ];
+        let field = parts.iter().max_by_key(|p| p.1).map_or("static", |p| p.2);
+        let listed: Vec<String> = parts
+            .iter()
+            .filter(|p| p.1 > 0)
+            .map(|p| format!("{} {}", p.0, size_text(p.1)))
+            .collect();
+        Err(field_error(
+            &self.label,
+            field,
+            format!(
+                "at {} mm the scene needs an estimated {} of memory ({}), over the budget of {}: \
+                 use a larger voxel_size, a [workspace], fewer or smaller meshes, or raise the \
+                 budget with --max-memory (e.g. --max-memory {})",
+                voxel_size * 1e3,
+                size_text(est.total_bytes),
+                listed.join(", "),
+                budget_text(self.max_memory_bytes),
+                raise_to(est.total_bytes)
+            ),
+        ))
+    }
+
+    /// [`scene_memory`] for this scene and the voxmap estimate `voxmap`.
+    fn memory_of(
+        &self,
+        voxmap: &VoxmapEstimate,
+        voxel_size: f64,
+        width: VoxelWidth,
+        viewer: bool,
+    ) -> SceneMemoryEstimate {
+        let read = self.meshes.iter().fold(mesh_bytes(&self.part), |t, m| {
+            t.saturating_add(mesh_bytes(&m.mesh))
+        });
+        let placed = self.statics.iter().fold(0u64, |t, o| {
+            t.saturating_add(mesh_bytes(&self.meshes[o.mesh].mesh))
+        });
+        let inputs = SceneMemoryInputs {
+            meshes_read_bytes: read,
+            placed_copies_bytes: placed,
+            placed_triangles: self.scene_triangles() as u64,
+            part_area_m2: self.part.area(),
+            standoff_m: self.file.voxels.standoff_at(voxel_size),
+            viewer,
+        };
+        scene_memory(&inputs, voxmap, voxel_size, width)
     }
 
     /// The voxmap width the scene declares.
@@ -248,6 +423,7 @@ impl LoadedScene {
             offset_layers: self.file.voxels.offset_layers,
             width,
             workspace: self.file.workspace.as_ref().map(|r| r.aabb()),
+            max_memory_bytes: self.max_memory_bytes,
             ..VoxelizeOptions::default()
         }
     }
@@ -259,8 +435,9 @@ impl LoadedScene {
         voxel_size: f64,
         width: VoxelWidth,
     ) -> Result<VoxmapEstimate, SceneError> {
-        let est = estimate(
-            &self.statics,
+        let est = estimate_triangles(
+            self.static_bounds(),
+            self.static_triangles(),
             &self.voxelize_options(voxel_size, width),
             TreeConfig::default(),
         );
@@ -284,7 +461,7 @@ impl LoadedScene {
                 .filter(|(_, (o, _))| {
                     o.units == crate::file::Units::Metres && !o.source.starts_with("builtin:")
                 })
-                .map(|(i, (_, mesh))| (i, mesh.bounds().size().max_element()))
+                .map(|(i, (_, placed))| (i, placed.bounds.size().max_element()))
                 .max_by(|a, b| a.1.total_cmp(&b.1));
             if largest_in_metres.is_none() {
                 if let Some(finest) = self.finest_voxel_size(voxel_size, width) {
@@ -327,8 +504,9 @@ impl LoadedScene {
     /// a few dozen estimates.
     pub fn finest_voxel_size(&self, too_fine: f64, width: VoxelWidth) -> Option<f64> {
         let fits = |s: f64| {
-            let est = estimate(
-                &self.statics,
+            let est = estimate_triangles(
+                self.static_bounds(),
+                self.static_triangles(),
                 &self.voxelize_options(s, width),
                 TreeConfig::default(),
             );
@@ -363,12 +541,25 @@ impl LoadedScene {
         cache: &CachePolicy,
         progress: bool,
     ) -> Result<BuiltVoxmap> {
-        self.plan_voxmap(voxel_size, width)?;
+        self.memory_estimate(voxel_size, width, false)?;
+        let objects = self.placed_statics();
+        self.build_voxmap_of(&objects, voxel_size, width, cache, progress)
+    }
+
+    /// [`LoadedScene::build_voxmap`] of `objects`, the static objects placed, once the memory
+    /// estimate has been checked.
+    fn build_voxmap_of(
+        &self,
+        objects: &[TriMesh],
+        voxel_size: f64,
+        width: VoxelWidth,
+        cache: &CachePolicy,
+        progress: bool,
+    ) -> Result<BuiltVoxmap> {
         let opts = VoxelizeOptions {
             progress,
             ..self.voxelize_options(voxel_size, width)
         };
-        let objects = &self.statics;
         let t = Instant::now();
         let standoff = self.file.voxels.standoff_at(voxel_size);
         let cached_at = match cache {
@@ -495,12 +686,22 @@ impl LoadedScene {
 
     /// Builds the session: voxmap (`options.voxel_size` or the scene's), shell, parameters, hand
     /// and meshes. Blocking, parallel, allocates.
-    pub fn build(self, options: &BuildOptions) -> Result<SessionAssets> {
+    pub fn build(mut self, options: &BuildOptions) -> Result<SessionAssets> {
+        self.max_memory_bytes = options.max_memory_bytes.unwrap_or(self.max_memory_bytes);
         let voxel_size = options.voxel_size.unwrap_or(self.file.voxels.voxel_size);
         let method = options
             .shell_method
             .unwrap_or(self.file.voxels.shell_method.method());
-        let map = self.build_voxmap(voxel_size, self.width()?, &options.cache, options.progress)?;
+        let width = self.width()?;
+        self.memory_estimate(voxel_size, width, options.viewer)?;
+        let objects = self.placed_statics();
+        let map = self.build_voxmap_of(
+            &objects,
+            voxel_size,
+            width,
+            &options.cache,
+            options.progress,
+        )?;
         let shell = self.build_shell(voxel_size, method)?;
         let params = self.params_for(voxel_size, &shell)?;
         let part_mesh = self.part_in_shell_frame(&shell);
@@ -519,7 +720,7 @@ impl LoadedScene {
             bridge: self.bridge,
             hand,
             scene_triangles,
-            static_meshes: self.statics,
+            static_meshes: objects,
             part_mesh,
         })
     }
@@ -555,20 +756,34 @@ fn mesh_error(
     field_error(label, field, vps_files::printable(&text).into_owned())
 }
 
-/// The bytes of a mesh's vertices and triangles.
-fn mesh_bytes(mesh: &TriMesh) -> u64 {
-    (mesh.vertices.len() * std::mem::size_of::<DVec3>()
-        + mesh.triangles.len() * std::mem::size_of::<[u32; 3]>()) as u64
+/// The key of a mesh source in a scene's mesh table: `builtin:NAME`, else the file's canonical
+/// path (links and `./` resolved), else (a file that cannot be resolved, whose load then fails)
+/// the path as resolved against the scene's directory.
+fn mesh_key(resolved: &str) -> String {
+    if resolved.starts_with("builtin:") {
+        return resolved.to_string();
+    }
+    std::fs::canonicalize(resolved)
+        .map_or_else(|_| resolved.to_string(), |p| p.display().to_string())
 }
 
-/// Bytes as GiB with two decimals.
-fn gib(bytes: u64) -> String {
-    format!("{:.2} GiB", bytes as f64 / (1u64 << 30) as f64)
+/// A budget for a message, saying where it came from when it is the default.
+fn budget_text(budget: u64) -> String {
+    if budget == vps_voxelize::default_memory_budget() {
+        format!("{} (half of this machine's memory)", size_text(budget))
+    } else {
+        format!("{} (--max-memory)", size_text(budget))
+    }
+}
+
+/// A `--max-memory` value (whole GiB) that holds `bytes`.
+fn raise_to(bytes: u64) -> String {
+    format!("{}GiB", bytes.div_ceil(1 << 30).max(1))
 }
 
 /// Flags a mesh whose size is implausible after units, with a hint.
-fn plausible_size(mesh: &TriMesh, field: &str, warnings: &mut Vec<String>) {
-    let size = mesh.bounds().size().max_element();
+fn plausible_size(bounds: &Aabb, field: &str, warnings: &mut Vec<String>) {
+    let size = bounds.size().max_element();
     if size > LARGEST_PLAUSIBLE_MESH_M {
         warnings.push(format!(
             "{field}: the mesh is {size:.4e} m across (over 1 km): is the file in mm? set \
@@ -658,6 +873,11 @@ pub struct BuildOptions {
     pub cache: CachePolicy,
     /// Show the voxelizer's progress bar (on a terminal).
     pub progress: bool,
+    /// Whether a viewer will draw the meshes (its copies count in the memory estimate).
+    pub viewer: bool,
+    /// The memory budget (bytes) of the whole scene's estimate and of the voxelizer
+    /// (`--max-memory`); `None`: half of physical memory.
+    pub max_memory_bytes: Option<u64>,
 }
 
 impl Default for BuildOptions {
@@ -668,6 +888,8 @@ impl Default for BuildOptions {
             shell_method: None,
             cache: CachePolicy::from_env(),
             progress: true,
+            viewer: false,
+            max_memory_bytes: None,
         }
     }
 }
@@ -777,7 +999,10 @@ pub struct SessionAssets {
 impl SessionAssets {
     /// Loads and builds `scene` (`builtin:NAME` or a file) with `options`.
     pub fn open(scene: &str, options: &BuildOptions) -> Result<SessionAssets> {
-        Self::from_loaded(LoadedScene::load(scene)?, options)
+        let budget = options
+            .max_memory_bytes
+            .unwrap_or_else(vps_voxelize::default_memory_budget);
+        Self::from_loaded(LoadedScene::load_within(scene, budget)?, options)
     }
 
     /// Builds `loaded` with `options`, printing its warnings to stderr first.

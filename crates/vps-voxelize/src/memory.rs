@@ -75,7 +75,28 @@ pub fn estimate_sparse(objects: &[TriMesh], spec: &GridSpec, width: VoxelWidth) 
         }
     }
     let by_area = (area / (std::f64::consts::SQRT_2 * edge * edge)).ceil();
-    let surface_chunks = by_area.min(boxed).min(chunks);
+    sparse_estimate(chunks, by_area.min(boxed).min(chunks), width)
+}
+
+/// The sparse voxelizer's estimate for a grid of `dims` voxels of `voxel_size` (m) holding
+/// `area` (m²) of surface, when the triangles themselves are not at hand (a scene's estimate
+/// before its placed copies are made): the area bound alone, so at least [`estimate_sparse`]'s
+/// figure for the same surface. Allocation-free, O(1).
+pub fn estimate_sparse_by_area(
+    dims: [f64; 3],
+    voxel_size: f64,
+    area: f64,
+    width: VoxelWidth,
+) -> MemoryEstimate {
+    let n: [f64; 3] = dims.map(|d| (d / CHUNK).ceil());
+    let chunks = n[0] * n[1] * n[2];
+    let edge = CHUNK * voxel_size;
+    let by_area = (area / (std::f64::consts::SQRT_2 * edge * edge)).ceil();
+    sparse_estimate(chunks, by_area.min(chunks), width)
+}
+
+/// The table of `chunks` chunks plus the planes of `surface_chunks` of them.
+fn sparse_estimate(chunks: f64, surface_chunks: f64, width: VoxelWidth) -> MemoryEstimate {
     let per_surface_chunk = (2 + u64::from(width.bits())) * PLANE_BYTES;
     let bytes = chunks * TABLE_BYTES_PER_CHUNK as f64 + surface_chunks * per_surface_chunk as f64;
     MemoryEstimate {
