@@ -9,7 +9,7 @@ use std::sync::Arc;
 use vps_device::script::Script;
 use vps_haptic::HapticParams;
 use vps_runtime::{run_loop, LoopConfig, SignalStop};
-use vps_session::file::ShellMethodName;
+use vps_session::file::{ForceModelName, ShellMethodName};
 use vps_session::scene::BuiltVoxmap;
 use vps_session::{classed, DeviceChoice, LoadedScene, SessionPlan};
 use vps_voxmap::{PointShell, VoxelTree};
@@ -92,7 +92,12 @@ pub struct SweepTable {
     pub rows: Vec<SweepRow>,
 }
 
-/// One row of the table: one scene × voxel size × voxel width × shell method.
+/// The force model of a row from a table written before the sweep had that axis.
+fn tangent_plane() -> ForceModelName {
+    ForceModelName::TangentPlane
+}
+
+/// One row of the table: one scene × force model × voxel size × voxel width × shell method.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct SweepRow {
     /// Scene name.
@@ -103,9 +108,12 @@ pub struct SweepRow {
     pub voxel_size_mm: f64,
     /// Bits per voxel of the voxmap: 2 (kinds only), 4 or 8 (kinds plus distance layers).
     pub voxel_width: u32,
-    /// True when this row's voxel width and shell method are its scene file's own
-    /// (`voxels.voxel_width`, `voxels.shell_method`): the rows a session on that scene runs with
-    /// at each voxel size.
+    /// The force model (`tangent-plane` in tables written before the sweep had this axis).
+    #[serde(default = "tangent_plane")]
+    pub force_model: ForceModelName,
+    /// True when this row's voxel width, shell method and force model are its scene file's own
+    /// (`voxels.voxel_width`, `voxels.shell_method`, `voxels.force_model`): the rows a session on
+    /// that scene runs with at each voxel size.
     pub default: bool,
     /// True when this row's voxel size is also the scene file's own `voxels.voxel_size` (with
     /// `default`: the setting a session on the scene runs with).

@@ -1,5 +1,6 @@
 //! `vps sweep --quick` through the binary: JSON and CSV with the expected columns, one row per size ×
 //! width × method (2- and 4-bit voxmaps), the scene's own settings marked `default`, plots written;
+//! the force-model axis (`force_models`) sweeps both models of one scene;
 //! scene-file and sweep-file errors name the field; SIGTERM ends it with the rows done written as
 //! a partial table and exit status 143.
 
@@ -8,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use vps_testkit::process::{stderr, Vps};
 
-const COLUMNS: &str = "scene,method,voxel_size_mm,voxel_width,default,default_size,voxelized,shell_points,voxmap_bytes,voxelize_ms,frames,compute_p50_us,compute_p999_us,penetration_ratio,compared_frames,both_force_frames,voxel_only_frames,reference_only_frames,direction_error_deg_p50,direction_error_deg_p95,magnitude_error_p50,magnitude_ratio_p50,min_separation_mm";
+const COLUMNS: &str = "scene,method,voxel_size_mm,voxel_width,force_model,default,default_size,voxelized,shell_points,voxmap_bytes,voxelize_ms,frames,compute_p50_us,compute_p999_us,penetration_ratio,compared_frames,both_force_frames,voxel_only_frames,reference_only_frames,direction_error_deg_p50,direction_error_deg_p95,magnitude_error_p50,magnitude_ratio_p50,min_separation_mm";
 
 /// The rig-teapot scene file of the repository, as a TOML string (quoted, escaped).
 fn rig() -> String {
@@ -90,12 +91,12 @@ fn quick_sweep_writes_json_csv_and_plots() {
         .collect();
     assert_eq!(widths, [2, 2, 4, 4, 2, 2, 4, 4]);
     assert!(
-        body[2].starts_with("rig-teapot,centres,10.0,4,false,false,workspace,"),
+        body[2].starts_with("rig-teapot,centres,10.0,4,tangent-plane,false,false,workspace,"),
         "{csv}"
     );
     // The scene's own setting: 5 mm, 4-bit, exact.
     assert!(
-        body[7].starts_with("rig-teapot,exact,5.0,4,true,true,workspace,"),
+        body[7].starts_with("rig-teapot,exact,5.0,4,tangent-plane,true,true,workspace,"),
         "{csv}"
     );
     // Halving the voxel size gives more shell points and a larger voxmap.
@@ -178,8 +179,9 @@ fn sweep_and_tune_run_from_any_folder_with_only_the_binary() {
     assert_eq!(text.matches("* scene's own").count(), 1, "{text}");
     assert!(text.contains("-: not measured (null in --json)"), "{text}");
     assert!(
-        text.contains("recommended for mine: [voxels] voxel_size = \"")
-            && text.contains("rule: the lowest penetration ratio"),
+        text.contains(
+            "recommended for mine: [voxels] force_model = \"tangent-plane\", voxel_size = \""
+        ) && text.contains("rule: the lowest penetration ratio"),
         "{text}"
     );
     // `--json` alone: the table on stdout as JSON, and no text.
@@ -318,7 +320,7 @@ fn sigterm_writes_the_rows_done_as_a_partial_table() {
     assert_eq!(table["complete"], false, "{table}");
     let end = table["end"].as_str().unwrap();
     assert!(
-        end.starts_with("stopped by SIGTERM during rig-teapot 2.5 mm"),
+        end.starts_with("stopped by SIGTERM during rig-teapot tangent-plane 2.5 mm"),
         "{end}"
     );
     assert_eq!(table["rows"].as_array().unwrap().len(), 1);
@@ -374,4 +376,53 @@ fn a_sweep_without_contact_says_why_its_accuracy_is_empty() {
     );
     let pressing = sweep("[[0.3, 0.0, 0.0], [0.0, 0.0, 0.0]]");
     assert!(!pressing.contains(note), "{pressing}");
+}
+
+/// `force_models = ["tangent-plane", "distance"]` sweeps one scene with each model (the scene file
+/// states neither): rows in the order model, size; only the scene's own model (the built-in
+/// default, tangent-plane) is marked `default`; the distance rows carry a band (a larger voxmap
+/// in memory is not asserted: the row counts the tree); the text names each row's model and the
+/// recommendation names the model it chose. An empty list is refused naming the field.
+#[test]
+fn the_force_model_axis_sweeps_each_model() {
+    let (vps, config) = with_sweep_file(
+        "voxel_sizes_mm = [10.0]\nmethods = [\"exact\"]\nwidths = [4]\n\
+         force_models = [\"tangent-plane\", \"distance\"]\n[[run]]\nscene = \"mine.toml\"\nseconds = 1.0\n",
+    );
+    std::fs::write(vps.dir().join("mine.toml"), MY_SCENE).unwrap();
+    let json = vps.dir().join("s.json");
+    let out = vps
+        .cmd()
+        .args(["sweep", "--config"])
+        .arg(&config)
+        .arg("--json")
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    let table: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let rows = table["rows"].as_array().unwrap();
+    let models: Vec<&str> = rows
+        .iter()
+        .map(|r| r["force_model"].as_str().unwrap())
+        .collect();
+    assert_eq!(models, ["tangent-plane", "distance"], "{table}");
+    assert_eq!(rows[0]["default"], true, "{table}");
+    assert_eq!(rows[1]["default"], false, "{table}");
+    let text = String::from_utf8_lossy(&out.stdout);
+    let row_lines: Vec<&str> = text.lines().filter(|l| l.starts_with("mine ")).collect();
+    assert_eq!(row_lines.len(), 2, "{text}");
+    assert!(row_lines[0].contains("tangent"), "{text}");
+    assert!(row_lines[1].contains("distance"), "{text}");
+    assert!(
+        text.contains("recommended for mine: [voxels] force_model = \""),
+        "{text}"
+    );
+    let (vps, config) = with_sweep_file(&format!(
+        "voxel_sizes_mm = [10.0]\nmethods = [\"exact\"]\nforce_models = []\n[[run]]\nscene = {}\n",
+        rig()
+    ));
+    let err = failed_sweep(&vps, &config);
+    assert!(err.contains("force_models is empty"), "{err}");
 }

@@ -22,7 +22,7 @@ use vps_device::{HandParams, HapticDevice, SimulatedHand};
 use vps_haptic::{sample_all, step, HapticParams, KernelPose, PartState, Wrench};
 use vps_reference::{reference_contact, ExactScene};
 use vps_runtime::{SessionEnd, SignalStop, StatsSummary};
-use vps_session::file::ShellMethodName;
+use vps_session::file::{ForceModelName, ShellMethodName};
 use vps_session::scene::BuiltVoxmap;
 use vps_session::sweep_file::{
     builtin_run_scene, SweepFile, SweepRun, BUILTIN_SWEEP_FILE, BUILTIN_SWEEP_NAME,
@@ -85,7 +85,7 @@ pub fn run(args: &SweepArgs) -> Result<()> {
                 )
             })?
         };
-        let scene = LoadedScene::load(&path)?;
+        let mut scene = LoadedScene::load(&path)?;
         scene.print_warnings();
         let widths = match config.widths_of(spec) {
             Some(widths) => widths.to_vec(),
@@ -100,42 +100,54 @@ pub fn run(args: &SweepArgs) -> Result<()> {
             sizes = quick_sizes_mm(scene.file.voxels.voxel_size);
             seconds = Some(seconds.unwrap_or(f64::INFINITY).min(QUICK_SECONDS));
         }
-        for &size_mm in &sizes {
-            for &width in &widths {
-                let voxel_size = size_mm * 1e-3;
-                // Sweeps time voxelization: never from the cache.
-                let map = scene.build_voxmap(voxel_size, width, &CachePolicy::Off, false)?;
-                for &method in methods {
-                    let what = format!(
-                        "{} {size_mm} mm {}-bit {method:?}",
-                        scene.name,
-                        width.bits()
-                    );
-                    eprintln!("sweep: {what}");
-                    let setting = Setting {
-                        scene: &scene,
-                        exact: &exact,
-                        voxel_size,
-                        method,
-                        seconds,
-                        points_per_frame: config.reference_points_per_frame.max(1),
-                        signals: &signals,
-                    };
-                    let t = Instant::now();
-                    let measured = if signals.flag().load(Ordering::SeqCst) {
-                        None
-                    } else {
-                        measure(&setting, &map)?
-                    };
-                    let Some(row) = measured else {
-                        return stopped(args, &rows, &signals, &what);
-                    };
-                    rows.push(row);
-                    eprintln!(
-                        "sweep: row done in {:.1} s (voxelization {:.1} s)",
-                        t.elapsed().as_secs_f64(),
-                        map.voxelize_ms / 1e3
-                    );
+        let own_force_model = scene.file.voxels.force_model;
+        let models = config
+            .force_models_of(spec)
+            .map_or_else(|| vec![own_force_model], <[_]>::to_vec);
+        for &model in &models {
+            // The scene as if its file said `force_model = MODEL` (a stand-off it states applies to
+            // the distance model; the tangent-plane model ignores it).
+            scene.file.voxels.force_model = model;
+            let scene = &scene;
+            for &size_mm in &sizes {
+                for &width in &widths {
+                    let voxel_size = size_mm * 1e-3;
+                    // Sweeps time voxelization: never from the cache.
+                    let map = scene.build_voxmap(voxel_size, width, &CachePolicy::Off, false)?;
+                    for &method in methods {
+                        let what = format!(
+                            "{} {} {size_mm} mm {}-bit {method:?}",
+                            scene.name,
+                            model.name(),
+                            width.bits()
+                        );
+                        eprintln!("sweep: {what}");
+                        let setting = Setting {
+                            scene,
+                            own_force_model,
+                            exact: &exact,
+                            voxel_size,
+                            method,
+                            seconds,
+                            points_per_frame: config.reference_points_per_frame.max(1),
+                            signals: &signals,
+                        };
+                        let t = Instant::now();
+                        let measured = if signals.flag().load(Ordering::SeqCst) {
+                            None
+                        } else {
+                            measure(&setting, &map)?
+                        };
+                        let Some(row) = measured else {
+                            return stopped(args, &rows, &signals, &what);
+                        };
+                        rows.push(row);
+                        eprintln!(
+                            "sweep: row done in {:.1} s (voxelization {:.1} s)",
+                            t.elapsed().as_secs_f64(),
+                            map.voxelize_ms / 1e3
+                        );
+                    }
                 }
             }
         }
@@ -206,7 +218,10 @@ const JSON_TO_STDOUT: &str = "-";
 const QUICK_SECONDS: f64 = 2.0;
 
 struct Setting<'a> {
+    /// The scene, its `voxels.force_model` set to this row's model.
     scene: &'a LoadedScene,
+    /// The force model the scene file itself states.
+    own_force_model: ForceModelName,
     exact: &'a ExactScene,
     voxel_size: f64,
     method: ShellMethodName,
@@ -384,7 +399,10 @@ fn row(set: &Setting, session: &SweepSession, stats: &StatsSummary, acc: Accurac
         method: set.method,
         voxel_size_mm: set.voxel_size * 1e3,
         voxel_width: bits,
-        default: bits == u32::from(own.voxel_width) && set.method == own.shell_method,
+        force_model: own.force_model,
+        default: bits == u32::from(own.voxel_width)
+            && set.method == own.shell_method
+            && own.force_model == set.own_force_model,
         default_size: (set.voxel_size - own.voxel_size).abs() <= 1e-9 * own.voxel_size,
         voxelized: if set.scene.file.workspace.is_some() {
             "workspace"
@@ -420,6 +438,7 @@ pub const CSV_COLUMNS: &[&str] = &[
     "method",
     "voxel_size_mm",
     "voxel_width",
+    "force_model",
     "default",
     "default_size",
     "voxelized",

@@ -4,7 +4,7 @@
 
 use crate::output::grouped;
 use crate::sweep_session::{SweepRow, SweepTable};
-use vps_session::file::ShellMethodName;
+use vps_session::file::{ForceModelName, ShellMethodName};
 
 /// The frame compute p99.9 (µs) a recommended row must fit: 60 % of the 1 ms period, as
 /// `vps tune`'s default budget.
@@ -38,6 +38,14 @@ fn method_name(m: ShellMethodName) -> &'static str {
     }
 }
 
+/// A force model in the table's model column (8 characters at most).
+fn model_name(m: ForceModelName) -> &'static str {
+    match m {
+        ForceModelName::TangentPlane => "tangent",
+        ForceModelName::Distance => "distance",
+    }
+}
+
 /// The table as text: a header, one line per row, the legend, then [`recommendations`].
 pub fn table_text(table: &SweepTable) -> String {
     let mut out = String::new();
@@ -45,8 +53,9 @@ pub fn table_text(table: &SweepTable) -> String {
         out += &format!("partial table: {}\n", vps_files::printable(&table.end));
     }
     out += &format!(
-        "{:<14} {:>7} {:>4} {:<7} {:>9} {:>9} {:>9} {:>9} {:>8} {:>13} {:>7} {:>8}\n",
+        "{:<14} {:<8} {:>7} {:>4} {:<7} {:>9} {:>9} {:>9} {:>9} {:>8} {:>13} {:>7} {:>8}\n",
         "scene",
+        "model",
         "size mm",
         "bits",
         "method",
@@ -66,8 +75,9 @@ pub fn table_text(table: &SweepTable) -> String {
             ""
         };
         out += &format!(
-            "{:<14} {:>7} {:>4} {:<7} {:>9} {:>9} {:>9.1} {:>9.1} {:>8} {:>13} {:>7} {:>8}{own}\n",
+            "{:<14} {:<8} {:>7} {:>4} {:<7} {:>9} {:>9} {:>9.1} {:>9.1} {:>8} {:>13} {:>7} {:>8}{own}\n",
             vps_files::printable(&r.scene),
+            model_name(r.force_model),
             size_mm(r.voxel_size_mm),
             r.voxel_width,
             method_name(r.method),
@@ -95,13 +105,14 @@ pub fn table_text(table: &SweepTable) -> String {
 
 /// What each column and each `-` means.
 const LEGEND: &str = "\
-columns: points: shell points; voxmap: tree memory; p50/p99.9 µs: frame compute, free-running,
+columns: model: force model (tangent: the paper's tangent-plane model on voxel layers;
+  distance: the signed-distance band with a stand-off); points: shell points; voxmap: tree memory; p50/p99.9 µs: frame compute, free-running,
   one thread, on this machine now; PR: penetration ratio, frames with a shell point inside an
   obstacle over frames touching one (0 is best); dir° p50/p95: angle between the voxel force and
   the exact mesh reference's force, median and 95th percentile over the compared frames; |F| err:
   median of |voxel force / exact force - 1|; min sep: the smallest exact distance of any shell
   point from an obstacle over the compared frames (mm, negative: inside it);
-  *: the scene file's own width, method and size.
+  *: the scene file's own model, width, method and size.
 -: not measured (null in --json): PR when the session never touched an obstacle; dir°, |F| err
   when no compared frame had both a voxel and an exact force; min sep when no frame was compared.
 ";
@@ -163,9 +174,10 @@ pub fn recommendations(rows: &[SweepRow]) -> Vec<String> {
             ""
         };
         lines.push(format!(
-            "recommended for {name}: [voxels] voxel_size = \"{}mm\", voxel_width = {}, \
-             shell_method = \"{}\"{own}: penetration ratio {}, force direction error p50 {:.1}° \
+            "recommended for {name}: [voxels] force_model = \"{}\", voxel_size = \"{}mm\", \
+             voxel_width = {}, shell_method = \"{}\"{own}: penetration ratio {}, force direction error p50 {:.1}° \
              (p95 {}°), frame compute p99.9 {:.1} µs{}",
+            best.force_model.name(),
             size_mm(best.voxel_size_mm),
             best.voxel_width,
             method_name(best.method),
@@ -205,6 +217,7 @@ mod tests {
             method: ShellMethodName::Exact,
             voxel_size_mm: size,
             voxel_width: 4,
+            force_model: ForceModelName::TangentPlane,
             default: true,
             default_size: size == 5.0,
             voxelized: "scene".into(),
@@ -239,7 +252,7 @@ mod tests {
         ];
         let lines = recommendations(&rows);
         assert!(
-            lines[0].starts_with("recommended for s: [voxels] voxel_size = \"2.5mm\", voxel_width = 4, shell_method = \"exact\": penetration ratio 0.0000, force direction error p50 3.0°"),
+            lines[0].starts_with("recommended for s: [voxels] force_model = \"tangent-plane\", voxel_size = \"2.5mm\", voxel_width = 4, shell_method = \"exact\": penetration ratio 0.0000, force direction error p50 3.0°"),
             "{lines:?}"
         );
         assert!(

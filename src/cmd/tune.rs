@@ -87,6 +87,7 @@ fn sweep_row(
         r.scene == scene.name
             && r.method == voxels.shell_method
             && r.voxel_width == u32::from(voxels.voxel_width)
+            && r.force_model == voxels.force_model
             && (r.voxel_size_mm - size_mm).abs() < 1e-9
     }))
 }

@@ -199,7 +199,7 @@ impl LoadedScene {
                      budget with --max-memory (e.g. --max-memory {})",
                     file.objects.len(),
                     which.len(),
-                    meshes.len(),
+                    meshes.iter().filter(|m| m.statics > 0).count(),
                     size_text(copies),
                     budget_text(max_memory_bytes),
                     raise_to(copies)

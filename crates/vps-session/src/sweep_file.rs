@@ -7,7 +7,7 @@
 //! an error naming the file and the field (and the allowed range). Setup-time only: allocates,
 //! never blocks (the caller reads the file).
 
-use crate::file::{width_from_bits, ShellMethodName};
+use crate::file::{width_from_bits, ForceModelName, ShellMethodName};
 use serde::Deserialize;
 use std::path::PathBuf;
 use vps_voxmap::VoxelWidth;
@@ -70,6 +70,9 @@ pub struct SweepFile {
     /// Voxel widths for every run that lists none; `None`: each scene's own
     /// `voxels.voxel_width`.
     pub widths: Option<Vec<VoxelWidth>>,
+    /// Force models for every run that lists none; `None`: each scene's own
+    /// `voxels.force_model` (with its own `voxels.standoff`).
+    pub force_models: Option<Vec<ForceModelName>>,
     /// Reference cost budget: the exact reference is computed at every Nth touching frame with
     /// N = ceil(shell points / this) (0 counts as 1).
     pub reference_points_per_frame: usize,
@@ -88,6 +91,8 @@ pub struct SweepRun {
     pub widths: Option<Vec<VoxelWidth>>,
     /// Shell methods for this run (at least one).
     pub methods: Option<Vec<ShellMethodName>>,
+    /// Force models for this run (at least one).
+    pub force_models: Option<Vec<ForceModelName>>,
     /// Longest session (s, in `(0, MAX_SESSION_SECONDS]`); `None`: the whole script.
     pub seconds: Option<f64>,
 }
@@ -100,6 +105,7 @@ impl SweepRun {
             voxel_sizes_mm: None,
             widths: None,
             methods: None,
+            force_models: None,
             seconds: None,
         }
     }
@@ -112,6 +118,7 @@ struct Wire {
     voxel_sizes_mm: Vec<f64>,
     methods: Vec<ShellMethodName>,
     widths: Option<Vec<u8>>,
+    force_models: Option<Vec<ForceModelName>>,
     #[serde(default = "default_points_per_frame")]
     reference_points_per_frame: usize,
     run: Vec<WireRun>,
@@ -124,6 +131,7 @@ struct WireRun {
     voxel_sizes_mm: Option<Vec<f64>>,
     widths: Option<Vec<u8>>,
     methods: Option<Vec<ShellMethodName>>,
+    force_models: Option<Vec<ForceModelName>>,
     seconds: Option<f64>,
 }
 
@@ -143,6 +151,13 @@ impl SweepFile {
             return Err(invalid("needs at least one [[run]] and one method".into()));
         }
         check_sizes(&wire.voxel_sizes_mm, "voxel_sizes_mm").map_err(invalid)?;
+        if wire.force_models.as_ref().is_some_and(Vec::is_empty) {
+            return Err(invalid(
+                "force_models is empty (list \"tangent-plane\", \"distance\" or both, or leave \
+                 it out for each scene's own)"
+                    .into(),
+            ));
+        }
         let widths = wire
             .widths
             .as_deref()
@@ -164,6 +179,9 @@ impl SweepFile {
             if r.methods.as_ref().is_some_and(Vec::is_empty) {
                 return Err(invalid(format!("run[{i}].methods is empty")));
             }
+            if r.force_models.as_ref().is_some_and(Vec::is_empty) {
+                return Err(invalid(format!("run[{i}].force_models is empty")));
+            }
             let widths = r
                 .widths
                 .as_deref()
@@ -174,6 +192,7 @@ impl SweepFile {
                 voxel_sizes_mm: r.voxel_sizes_mm,
                 widths,
                 methods: r.methods,
+                force_models: r.force_models,
                 seconds: r.seconds,
             });
         }
@@ -181,6 +200,7 @@ impl SweepFile {
             voxel_sizes_mm: wire.voxel_sizes_mm,
             methods: wire.methods,
             widths,
+            force_models: wire.force_models,
             reference_points_per_frame: wire.reference_points_per_frame,
             run,
         })
@@ -202,6 +222,11 @@ impl SweepFile {
     /// scene's own width applies).
     pub fn widths_of<'a>(&'a self, run: &'a SweepRun) -> Option<&'a [VoxelWidth]> {
         run.widths.as_deref().or(self.widths.as_deref())
+    }
+
+    /// The force models of `run`: its own, else the sweep's; `None`: the scene's own.
+    pub fn force_models_of<'a>(&'a self, run: &'a SweepRun) -> Option<&'a [ForceModelName]> {
+        run.force_models.as_deref().or(self.force_models.as_deref())
     }
 }
 
