@@ -510,6 +510,30 @@ pub(super) mod avx2 {
                 ),
                 cube[0],
             );
+            // Lanes outside the grid read directory entry 0, masked to slot 0 (far).
+            let mut lane_index = [0u32; LANES];
+            let mut lane_mask = [0u32; LANES];
+            _mm256_storeu_si256(
+                lane_index.as_mut_ptr().cast(),
+                _mm256_and_si256(index, inside),
+            );
+            _mm256_storeu_si256(lane_mask.as_mut_ptr().cast(), inside);
+            // Per lane: the slot, then the four 4-byte rows of the cell (each a corner and its +x
+            // neighbour in its lowest two bytes) at `slot · 729 + in_brick + (dz · 9 + dy) · 9`:
+            // plain loads, which beat hardware gathers here (the `kernel_ir` example's
+            // `distance` mode, alternated on one machine: gathers took 15–45 % longer).
+            let directory = band.directory().as_ptr();
+            let bytes = band.slot_codes().as_ptr();
+            // The slots first: a block with every lane far (free space) ends here.
+            let mut slots = [0u32; LANES];
+            for l in 0..LANES {
+                // SAFETY: `lane_index[l]` is 0 or, in a lane inside the grid, the cube's index
+                // (`< nx·ny·nz`, the directory's length, which `fits_lanes` holds non-zero).
+                slots[l] = *directory.add(lane_index[l] as usize) & lane_mask[l];
+            }
+            if slots.iter().fold(0, |any, &slot| any | slot) == 0 {
+                return;
+            }
             // The cell's lower corner in its brick (`slot · 729` added per lane below).
             let seven = _mm256_set1_epi32(7);
             let edge = _mm256_set1_epi32(BRICK_EDGE as i32);
@@ -525,33 +549,14 @@ pub(super) mod avx2 {
                 ),
                 local[0],
             );
-            // Lanes outside the grid read directory entry 0, masked to slot 0 (far).
-            let mut lane_index = [0u32; LANES];
-            let mut lane_mask = [0u32; LANES];
             let mut lane_in_brick = [0u32; LANES];
-            _mm256_storeu_si256(
-                lane_index.as_mut_ptr().cast(),
-                _mm256_and_si256(index, inside),
-            );
-            _mm256_storeu_si256(lane_mask.as_mut_ptr().cast(), inside);
             _mm256_storeu_si256(lane_in_brick.as_mut_ptr().cast(), in_brick);
-            // Per lane: the slot, then the four 4-byte rows of the cell (each a corner and its +x
-            // neighbour in its lowest two bytes) at `slot · 729 + in_brick + (dz · 9 + dy) · 9`:
-            // plain loads, which beat hardware gathers here (the `kernel_ir` example's
-            // `distance` mode, alternated on one machine: gathers took 15–45 % longer).
-            let directory = band.directory().as_ptr();
-            let bytes = band.slot_codes().as_ptr();
-            let mut any = 0u32;
             let mut rows = [[0i32; LANES]; 4];
             for l in 0..LANES {
-                // SAFETY: `lane_index[l]` is 0 or, in a lane inside the grid, the cube's index
-                // (`< nx·ny·nz`, the directory's length, which `fits_lanes` holds non-zero).
-                let slot = *directory.add(lane_index[l] as usize) & lane_mask[l];
-                any |= slot;
-                // SAFETY: `slot` names a brick in memory (`slot_codes`: `(slot + 1) · 729 +
+                // SAFETY: the slot names a brick in memory (`slot_codes`: `(slot + 1) · 729 +
                 // CODES_PADDING ≤ len`), `lane_in_brick[l] ≤ 7 + 7·9 + 7·81 = 637`, and the
                 // farthest row's 4 bytes end at 637 + 90 + 4 = 731 ≤ 729 + CODES_PADDING.
-                let at = bytes.add(slot as usize * BRICK_CODES + lane_in_brick[l] as usize);
+                let at = bytes.add(slots[l] as usize * BRICK_CODES + lane_in_brick[l] as usize);
                 for (k, step) in [
                     0,
                     BRICK_EDGE,
@@ -563,9 +568,6 @@ pub(super) mod avx2 {
                 {
                     rows[k][l] = at.add(step).cast::<i32>().read_unaligned();
                 }
-            }
-            if any == 0 {
-                return;
             }
             let (r00, r10, r01, r11) = (
                 lanes_of(&rows[0]),
