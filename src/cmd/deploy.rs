@@ -515,6 +515,12 @@ fn readme_text(layout: &DeployLayout) -> String {
          config (coordinator.toml or worker.toml). Paths in a config are relative to its folder.\n"
     );
     let _ = writeln!(t, "Hosts:");
+    let width = layout
+        .hosts
+        .iter()
+        .map(|h| h.name.len() + 1)
+        .max()
+        .unwrap_or(0);
     for host in &layout.hosts {
         let place = match (host.role, &host.address) {
             (Role::Coordinator, _) => format!(
@@ -526,7 +532,8 @@ fn readme_text(layout: &DeployLayout) -> String {
             }
             (Role::Worker, None) => format!("dials {}", layout.coordinator_address),
         };
-        let _ = writeln!(t, "  {}/  {}  {place}", host.name, host.role.name());
+        let folder = format!("{}/", host.name);
+        let _ = writeln!(t, "  {folder:<width$}  {:<11}  {place}", host.role.name());
     }
     let _ = writeln!(
         t,
@@ -536,7 +543,8 @@ fn readme_text(layout: &DeployLayout) -> String {
          hashes the PEM text and gives another digest.)"
     );
     for host in &layout.hosts {
-        let _ = writeln!(t, "  {}.crt  {}", host.name, host.fingerprint);
+        let file = format!("{}.crt", host.name);
+        let _ = writeln!(t, "  {file:<w$}  {}", host.fingerprint, w = width + 3);
     }
     if layout.loopback {
         let _ = writeln!(
