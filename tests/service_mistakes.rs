@@ -291,12 +291,12 @@ fn a_worker_whose_coordinator_is_not_up_says_what_to_check() {
     );
     let port = dial.rsplit(':').next().unwrap();
     for hint in [
-        &format!("no coordinator answered at {dial}"),
-        "is `vps coordinator` running",
-        &format!("is UDP port {port} open"),
-        "is `coordinator` in this worker's config (worker.toml, or --coordinator)",
+        format!("no coordinator answered at {dial}"),
+        "is `vps coordinator` running".to_string(),
+        format!("is UDP port {port} open"),
+        "is `coordinator` in this worker's config (worker.toml, or --coordinator)".to_string(),
     ] {
-        assert!(line.contains(hint.as_str()), "{hint:?} not in {line}");
+        assert!(line.contains(&hint), "{hint:?} not in {line}");
     }
     assert!(worker.is_running(), "a service worker keeps waiting");
 }
