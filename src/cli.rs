@@ -275,8 +275,8 @@ pub enum DeployCommand {
 /// Arguments of `vps deploy init`.
 #[derive(Args, Debug)]
 pub struct DeployInitArgs {
-    /// The coordinator host: NAME=IP[:PORT], the address its workers dial (port default
-    /// --port). It listens on 0.0.0.0 at that port.
+    /// The coordinator host: `NAME=IP[:PORT]`, the address its workers dial (port default
+    /// --port). It listens at that port on every interface (on a loopback address: on it).
     #[arg(
         long,
         value_name = "NAME=IP[:PORT]",
