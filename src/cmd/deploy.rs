@@ -573,7 +573,8 @@ fn readme_text(layout: &DeployLayout) -> String {
               sudo chgrp vps /etc/vps/{name}.key && sudo chmod 0640 /etc/vps/{name}.key\n   \
             and the same on each worker with its own folder. Then compare the fingerprints above.\n\
          3. Open UDP {port} on `{name}` to the workers (deploy/README.md, section 4); workers only dial out.\n\
-         4. Start the workers, then the coordinator (it waits 20 s for its {workers} worker(s)):",
+         4. Start the workers, then the coordinator (it waits 20 s for its {workers} worker(s)); the
+               systemd units are installed as deploy/README.md, section 5 shows:",
         name = coordinator.name,
         port = layout.coordinator_address.port(),
     );
