@@ -55,6 +55,9 @@ pub enum Command {
         #[arg(long)]
         name: String,
     },
+    /// Cluster deployment: `vps deploy init` writes certificates, pins and configs for a list of
+    /// hosts (or a loopback rehearsal), one folder per host.
+    Deploy(DeployArgs),
     /// Run a worker: join a coordinator over QUIC and compute the shares it is given.
     Worker(WorkerArgs),
     /// Run the coordinator: the device loop, with workers from the LAN (pinned certificates).
@@ -267,6 +270,54 @@ pub struct IdentityArgs {
     /// coordinator). At least one, here or in the config file (`pins`).
     #[arg(long)]
     pub pin: Vec<PathBuf>,
+}
+
+/// Arguments of `vps deploy`.
+#[derive(Args, Debug)]
+pub struct DeployArgs {
+    /// What to do.
+    #[command(subcommand)]
+    pub which: DeployCommand,
+}
+
+/// The `vps deploy` subcommands.
+#[derive(Subcommand, Debug)]
+pub enum DeployCommand {
+    /// Write a ready cluster layout into a new folder: per host its certificate and key, the
+    /// peers' certificates to pin, and its coordinator.toml or worker.toml; README.txt says
+    /// which command to run on which host. Never overwrites a file.
+    Init(DeployInitArgs),
+}
+
+/// Arguments of `vps deploy init`.
+#[derive(Args, Debug)]
+pub struct DeployInitArgs {
+    /// The coordinator host: `NAME=IP[:PORT]`, the address its workers dial (port default
+    /// --port). It listens at that port on every interface (on a loopback address: on it).
+    #[arg(
+        long,
+        value_name = "NAME=IP[:PORT]",
+        required_unless_present = "loopback"
+    )]
+    pub coordinator: Option<String>,
+    /// A worker host: NAME, or NAME=ADDR (the address is only written into README.txt:
+    /// workers dial out and need no listening port). Repeat for each worker.
+    #[arg(long, value_name = "NAME[=ADDR]", required_unless_present = "loopback")]
+    pub worker: Vec<String>,
+    /// A one-host rehearsal instead of --coordinator/--worker: a coordinator on 127.0.0.1 and N
+    /// workers (1..=64) dialling it, every file ready to run from this machine.
+    #[arg(long, value_name = "N", conflicts_with_all = ["coordinator", "worker"], value_parser = crate::limits::parse_workers)]
+    pub loopback: Option<usize>,
+    /// The coordinator's UDP port (1..=65535), where --coordinator gives none and with
+    /// --loopback.
+    #[arg(long, default_value_t = 7800, value_parser = clap::value_parser!(u16).range(1..))]
+    pub port: u16,
+    /// The folder to write (created; the files in it must not exist yet).
+    #[arg(short = 'o', long = "out", value_name = "DIR")]
+    pub out: PathBuf,
+    /// Print what was written as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Arguments of `vps worker`.

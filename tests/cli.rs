@@ -472,6 +472,7 @@ fn no_command_prints_json_without_json() {
     .unwrap();
     let certs = vps.path("certs");
     std::fs::create_dir(&certs).unwrap();
+    let deploy = vps.path("layout");
     let s = scene.as_str();
     // (arguments, whether `--json` is cheap enough to run too)
     let commands: Vec<(Vec<&str>, bool)> = vec![
@@ -503,6 +504,11 @@ fn no_command_prints_json_without_json() {
         (vec!["scene", "check", s], true),
         (vec!["devices"], true),
         (vec!["cert", "--out", &certs, "--name", "a"], false),
+        // Run once: a second run into the same folder is refused (tests/deploy.rs runs --json).
+        (
+            vec!["deploy", "init", "--loopback", "1", "-o", &deploy],
+            false,
+        ),
         (vec!["demo", "--scene", s, "--seconds", "0.3"], false),
         (vec!["run", "--scene", s, "--seconds", "0.2"], true),
         (

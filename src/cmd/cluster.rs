@@ -22,9 +22,10 @@ pub fn cert(out: &std::path::Path, name: &str) -> Result<()> {
         files.key.display()
     );
     let cert = vps_cluster::tls::load_cert(&files.cert)?;
+    println!("sha256      {}", vps_cluster::tls::fingerprint(&cert));
     println!(
-        "sha256      {} (what a refusing peer logs; openssl x509 -noout -fingerprint -sha256 -in FILE)",
-        vps_cluster::tls::fingerprint(&cert)
+        "            (the SHA-256 of the certificate's DER, as a refusing peer logs it and `{}` prints it; compare it on both ends)",
+        vps_cluster::tls::FINGERPRINT_COMMAND.replace("FILE", &files.cert.display().to_string())
     );
     Ok(())
 }

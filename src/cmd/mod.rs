@@ -12,6 +12,7 @@ mod bench_viewer;
 mod bench_voxelize;
 mod cluster;
 mod demo;
+mod deploy;
 mod inspect;
 mod netem_relay;
 mod probe;
@@ -25,7 +26,7 @@ mod tune;
 mod view;
 mod voxelize;
 
-use crate::cli::{BenchKind, Cli, Command, SceneCommand};
+use crate::cli::{BenchKind, Cli, Command, DeployCommand, SceneCommand};
 use anyhow::Result;
 use clap::ArgMatches;
 
@@ -56,6 +57,9 @@ pub fn dispatch(cli: Cli, matches: &ArgMatches) -> Result<()> {
         },
         Command::Devices { json } => run::devices(json),
         Command::Cert { out, name } => cluster::cert(&out, &name),
+        Command::Deploy(args) => match args.which {
+            DeployCommand::Init(args) => deploy::init(&args),
+        },
         Command::Worker(args) => cluster::worker(args, &sub("worker")),
         Command::Coordinator(args) => cluster::coordinator(args, &sub("coordinator")),
         Command::Cluster(args) => cluster::local_cluster(&args),

@@ -215,14 +215,18 @@ fn write_private(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     options.open(path)?.write_all(bytes)
 }
 
-/// A certificate's SHA-256 fingerprint (of its DER bytes), lower-case hex without separators: what
-/// `openssl x509 -noout -fingerprint -sha256 -in FILE` prints (there in upper case, with colons).
+/// The command that shows any certificate file's fingerprint exactly as [`fingerprint`] writes it
+/// (`FILE` stands for the `.crt`); it prints `sha256 Fingerprint=` (older versions `SHA256
+/// Fingerprint=`) before the digits. `sha256sum FILE` gives another digest: that of the PEM text.
+pub const FINGERPRINT_COMMAND: &str = "openssl x509 -in FILE -noout -fingerprint -sha256";
+
+/// A certificate's SHA-256 fingerprint, the one convention of vps (`vps cert`, `vps deploy init`,
+/// the coordinator's log of a refused peer, the docs): the SHA-256 of its DER bytes, in upper-case
+/// hex with a colon between bytes (`3F:A2:…`, 95 characters), as [`FINGERPRINT_COMMAND`] prints it.
 pub fn fingerprint(cert: &[u8]) -> String {
-    ring::digest::digest(&ring::digest::SHA256, cert)
-        .as_ref()
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect()
+    let digest = ring::digest::digest(&ring::digest::SHA256, cert);
+    let hex: Vec<String> = digest.as_ref().iter().map(|b| format!("{b:02X}")).collect();
+    hex.join(":")
 }
 
 /// The names a certificate was made for (its DNS subject alternative names: the `--name` of
@@ -486,11 +490,11 @@ mod tests {
         let cert = load_cert(&a.cert).unwrap();
         assert_eq!(certificate_names(&cert), "worker-h3");
         let hex = fingerprint(&cert);
-        assert_eq!(hex.len(), 64);
-        // SHA-256 of the empty input, to pin the digest itself.
+        assert_eq!(hex.len(), 95);
+        // SHA-256 of the empty input, to pin the digest itself and openssl's format.
         assert_eq!(
             fingerprint(b""),
-            "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855"
+            "E3:B0:C4:42:98:FC:1C:14:9A:FB:F4:C8:99:6F:B9:24:27:AE:41:E4:64:9B:93:4C:A4:95:99:1B:78:52:B8:55"
         );
         assert_eq!(
             certificate_names(&CertificateDer::from(vec![1u8, 2, 3])),

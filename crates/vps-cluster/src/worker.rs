@@ -89,7 +89,9 @@ pub fn run_worker(config: WorkerConfig) -> Result<WorkerReport, ClusterError> {
     run_worker_until(config, Arc::new(AtomicBool::new(false)))
 }
 
-/// [`run_worker`], also ending (closing its connection) within about 20 ms of `stop` being set.
+/// [`run_worker`], also ending (closing its connection) within about 20 ms of `stop` being set;
+/// set while it is still connecting or joining, it ends as soon with
+/// [`ClusterError::Network`] ("stopped before joining").
 pub fn run_worker_until(
     config: WorkerConfig,
     stop: Arc<AtomicBool>,
@@ -128,20 +130,30 @@ async fn worker_main(
     let mut endpoint =
         crate::udp_count::counting_endpoint(bind, None, udp.clone()).map_err(net_err)?;
     endpoint.set_default_client_config(client_config(&config.tls, Arc::new(AtomicU64::new(0)))?);
-    let conn = match endpoint
+    let connecting = endpoint
         .connect(config.coordinator, SERVER_NAME)
-        .map_err(net_err)?
-        .await
-    {
-        Ok(conn) => conn,
-        Err(e) => {
-            return Err(refusal(config.coordinator, &e).unwrap_or_else(|| {
-                ClusterError::Network(format!("connect to {}: {e}", config.coordinator))
-            }))
+        .map_err(net_err)?;
+    // A handshake with no coordinator there lasts until the idle timeout (3 s): the stop flag
+    // is watched meanwhile, so that SIGTERM ends a waiting worker at once.
+    let conn = match until_stopped(&stop, connecting).await {
+        None => return Err(stopped_before_joining()),
+        Some(Ok(conn)) => conn,
+        Some(Err(e)) => {
+            return Err(refusal(config.coordinator, &e)
+                .unwrap_or_else(|| connect_error(config.coordinator, &e)))
         }
     };
     let cache = AssetsCache::new(config.cache_dir.clone());
-    let (scene, worker_id, scene_transferred) = match join(&conn, &cache).await {
+    let joined = match until_stopped(&stop, join(&conn, &cache)).await {
+        Some(joined) => joined,
+        None => {
+            conn.close(close::code(close::CLOSE_WORKER_STOPPED), b"worker stopped");
+            endpoint.close(close::code(close::CLOSE_WORKER_STOPPED), b"bye");
+            let _ = tokio::time::timeout(Duration::from_millis(200), endpoint.wait_idle()).await;
+            return Err(stopped_before_joining());
+        }
+    };
+    let (scene, worker_id, scene_transferred) = match joined {
         Ok(joined) => joined,
         Err(e) => {
             // A join that failed because the coordinator closed the connection: say why it did.
@@ -194,7 +206,7 @@ async fn worker_main(
                     break e.to_string();
                 }
             },
-            _ = tokio::time::sleep(Duration::from_millis(20)) => {
+            _ = tokio::time::sleep(STOP_POLL) => {
                 if stop.load(Ordering::Relaxed) {
                     conn.close(close::code(close::CLOSE_WORKER_STOPPED), b"worker stopped");
                     break "stopped".into();
@@ -216,6 +228,44 @@ async fn worker_main(
         ended,
         coordinator_closed,
     })
+}
+
+/// How often a worker waiting on the network looks at its stop flag (the signal handlers only set
+/// an atomic).
+const STOP_POLL: Duration = Duration::from_millis(20);
+
+/// `future`'s output, or `None` once `stop` is set first (looked at every [`STOP_POLL`]).
+async fn until_stopped<F: Future>(stop: &AtomicBool, future: F) -> Option<F::Output> {
+    let mut future = std::pin::pin!(future);
+    loop {
+        tokio::select! {
+            out = &mut future => return Some(out),
+            _ = tokio::time::sleep(STOP_POLL) => {
+                if stop.load(Ordering::Relaxed) {
+                    return None;
+                }
+            }
+        }
+    }
+}
+
+/// The error of a worker stopped (its stop flag set) before it joined.
+fn stopped_before_joining() -> ClusterError {
+    ClusterError::Network("stopped before joining".into())
+}
+
+/// A failed connection to `coordinator` that is not a refusal; a handshake that timed out (no
+/// coordinator answered) says what to check.
+fn connect_error(coordinator: SocketAddr, e: &quinn::ConnectionError) -> ClusterError {
+    let hint = if matches!(e, quinn::ConnectionError::TimedOut) {
+        format!(
+            " (no coordinator answered at {coordinator}: is `vps coordinator` running on that host and listening on that address (its `listen`)? is UDP port {} open in its firewall? is `coordinator` in this worker's config (worker.toml, or --coordinator) the coordinator's right IP:port?)",
+            coordinator.port()
+        )
+    } else {
+        String::new()
+    };
+    ClusterError::Network(format!("connect to {coordinator}: {e}{hint}"))
 }
 
 /// Whether `e` is the coordinator closing the connection at the end of its session or when
@@ -321,6 +371,8 @@ pub fn run_worker_service(
                     wait = rejoin.first;
                 }
                 Err(e @ ClusterError::Refused(_)) => return Err(e),
+                // Stopped while connecting or joining: not a failure to report.
+                Err(_) if stop.load(Ordering::Relaxed) => break,
                 Err(e) if rejoin.exit_with_coordinator => return Err(e),
                 Err(e) => {
                     service.failed_attempts += 1;
@@ -334,7 +386,7 @@ pub fn run_worker_service(
             let jittered = wait.mul_f64(rand::Rng::gen_range(&mut rng, 0.5..=1.0));
             let until = tokio::time::Instant::now() + jittered;
             while tokio::time::Instant::now() < until && !stop.load(Ordering::Relaxed) {
-                tokio::time::sleep(Duration::from_millis(20)).await;
+                tokio::time::sleep(STOP_POLL).await;
             }
             wait = (wait * 2).min(rejoin.max);
         }
