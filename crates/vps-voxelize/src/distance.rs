@@ -301,6 +301,12 @@ fn sample_cube(
     for &t in triangles {
         let tri = scene.triangle(t);
         let component = scene.component_of(t);
+        // The distance to the triangle's plane bounds the distance to the triangle from below:
+        // a sample whose plane distance already exceeds its nearest so far (or the reach) skips
+        // the closest-point computation, which could not have changed anything. (A degenerate
+        // triangle has no plane: the bound is 0.)
+        let normal = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();
+        let plane_offset = normal.dot(tri[0]);
         let range = sample_range(spec, &tri, reach);
         let local = [0, 1, 2].map(|a| {
             let lo = (range[a].0 - first[a]).max(0);
@@ -312,9 +318,17 @@ fn sample_cube(
                 for x in local[0].0..=local[0].1 {
                     let (x, y, z) = (x as usize, y as usize, z as usize);
                     let p = DVec3::new(centre(x, 0), centre(y, 1), centre(z, 2));
+                    let nearest = &mut best[(z * BRICK_EDGE + y) * BRICK_EDGE + x];
+                    let plane = normal.dot(p) - plane_offset;
+                    // A relative margin of 1e-9 keeps rounding from skipping a triangle the
+                    // exact comparison below would have taken.
+                    let bound = nearest.improves_below(component).min(reach_sq);
+                    if plane * plane > bound * (1.0 + 1e-9) {
+                        continue;
+                    }
                     let d_sq = closest_point(p, &tri).0.distance_squared(p);
                     if d_sq <= reach_sq {
-                        best[(z * BRICK_EDGE + y) * BRICK_EDGE + x].offer(component, d_sq, t);
+                        nearest.offer(component, d_sq, t);
                     }
                 }
             }
@@ -365,6 +379,20 @@ impl Default for Nearest {
 }
 
 impl Nearest {
+    /// The squared distance a triangle of `component` must be below for [`Nearest::offer`] to
+    /// keep it: the component's nearest so far, else (a new component) the farthest entry's (an
+    /// unused entry is infinitely far).
+    fn improves_below(&self, component: u32) -> f64 {
+        match self.entries.iter().find(|e| e.0 == component) {
+            Some(e) => e.1,
+            None => self
+                .entries
+                .iter()
+                .map(|e| e.1)
+                .fold(f64::NEG_INFINITY, f64::max),
+        }
+    }
+
     /// Triangle `t` of `component` at squared distance `d_sq`.
     fn offer(&mut self, component: u32, d_sq: f64, t: u32) {
         if let Some(e) = self.entries.iter_mut().find(|e| e.0 == component) {
