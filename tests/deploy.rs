@@ -8,7 +8,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::Duration;
-use vps_testkit::process::WatchedProcess;
+use vps_testkit::process::{free_udp_port, stderr, WatchedProcess};
 
 const DEADLINE: Duration = Duration::from_secs(240);
 
@@ -24,19 +24,6 @@ fn run(args: &[&str]) -> Output {
 
 fn stdout(out: &Output) -> String {
     String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-/// A UDP port free on loopback just now.
-fn free_port() -> u16 {
-    std::net::UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
 }
 
 /// Starts a command line written by `vps deploy init` (`vps SUBCOMMAND ARGS...`, paths without
@@ -62,7 +49,7 @@ fn mode(path: &Path) -> u32 {
 fn a_loopback_layout_runs_a_coordinator_and_two_workers_as_written() {
     let tmp = tempfile::tempdir().unwrap();
     let out_dir = tmp.path().join("lab");
-    let port = free_port().to_string();
+    let port = free_udp_port().to_string();
     let out_text = out_dir.to_string_lossy().into_owned();
     let init = ["deploy", "init", "--loopback", "2", "--port", &port];
     let out = run(&[&init[..], &["-o", &out_text, "--json"]].concat());

@@ -10,7 +10,7 @@ use std::path::Path;
 use std::process::Command;
 use std::time::Duration;
 use vps_cluster::make_cert;
-use vps_testkit::process::WatchedProcess;
+use vps_testkit::process::{free_udp_port, WatchedProcess};
 
 const DEADLINE: Duration = Duration::from_secs(240);
 
@@ -21,15 +21,6 @@ fn start(label: &str, dir: &Path, args: &[&str]) -> WatchedProcess {
         .env("VPS_CACHE_DIR", dir.join("cache"))
         .env("RUST_LOG", "vps_cluster=info");
     WatchedProcess::spawn(cmd, label, DEADLINE)
-}
-
-/// A UDP port free on loopback just now.
-fn free_port() -> u16 {
-    std::net::UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
 }
 
 fn coordinator(dir: &Path, port: u16, seconds: &str, report: &str) -> WatchedProcess {
@@ -88,7 +79,7 @@ fn a_worker_outlives_its_coordinators_sigterm_and_joins_the_next_one() {
     for name in ["coordinator", "worker", "stranger"] {
         make_cert(dir.path(), name).unwrap();
     }
-    let port = free_port();
+    let port = free_udp_port();
     let mut first = coordinator(dir.path(), port, "600", "first.json");
     first.wait_for("waiting for 1 worker", 1);
 
@@ -148,7 +139,7 @@ fn a_worker_restarted_at_once_after_a_crash_replaces_its_dead_connection() {
     for name in ["coordinator", "worker"] {
         make_cert(dir.path(), name).unwrap();
     }
-    let port = free_port();
+    let port = free_udp_port();
     let mut coord = coordinator(dir.path(), port, "600", "report.json");
     coord.wait_for("waiting for 1 worker", 1);
     let mut crashed = worker(dir.path(), port, "worker");

@@ -1302,6 +1302,31 @@ mod avx2 {
     }
 }
 
+/// Tests: a one-class shell of the `n` points and normals in `soa` (x, y, z of the points, then
+/// of the normals), voxel-centre method, bounding radius `radius` (m).
+#[cfg(test)]
+fn soa_shell(soa: &[Vec<f32>; 6], n: usize, voxel_size: f64, radius: f64) -> ClassedShell {
+    use glam::{DVec3, Vec3};
+    ClassedShell::new(
+        &vps_voxmap::PointShell {
+            points: (0..n)
+                .map(|i| Vec3::new(soa[0][i], soa[1][i], soa[2][i]))
+                .collect(),
+            normals: (0..n)
+                .map(|i| Vec3::new(soa[3][i], soa[4][i], soa[5][i]))
+                .collect(),
+            voxel_size,
+            method: vps_voxmap::shell::ShellMethod::VoxelCentres,
+            mass: vps_voxmap::MassProperties {
+                volume: 0.0,
+                center_of_mass: DVec3::ZERO,
+                bounding_radius: radius,
+            },
+        },
+        1,
+    )
+}
+
 #[cfg(all(test, target_arch = "x86_64"))]
 mod tests {
     use super::*;
@@ -1344,26 +1369,7 @@ mod tests {
             linear_velocity: Vec3::new(0.3, -0.7, 0.2),
             angular_velocity: Vec3::new(-4.0, 2.5, 7.0),
         };
-        let shell_of = |soa: &[Vec<f32>; 6]| {
-            ClassedShell::new(
-                &vps_voxmap::PointShell {
-                    points: (0..n)
-                        .map(|i| Vec3::new(soa[0][i], soa[1][i], soa[2][i]))
-                        .collect(),
-                    normals: (0..n)
-                        .map(|i| Vec3::new(soa[3][i], soa[4][i], soa[5][i]))
-                        .collect(),
-                    voxel_size: spec.voxel_size,
-                    method: vps_voxmap::shell::ShellMethod::VoxelCentres,
-                    mass: vps_voxmap::MassProperties {
-                        volume: 0.0,
-                        center_of_mass: DVec3::ZERO,
-                        bounding_radius: 0.1,
-                    },
-                },
-                1,
-            )
-        };
+        let shell_of = |soa: &[Vec<f32>; 6]| soa_shell(soa, n, spec.voxel_size, 0.1);
         let shell = shell_of(&soa);
         // The frame's bound is loose (normals up to √3 long here, fast spin) and asks for
         // clamping; the actual values are far below Y_MAX, so both copies must agree.

@@ -711,7 +711,6 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn the_avx2_block_gives_the_portable_bits() {
-        use crate::ClassedShell;
         use crate::KernelPose;
         use glam::{DVec3, Mat3, Vec3};
         use vps_voxmap::distance::{assemble, CubeCodes, BRICK_CODES};
@@ -757,24 +756,7 @@ mod tests {
             linear_velocity: Vec3::new(0.4, -0.6, 0.3),
             angular_velocity: Vec3::new(-3.0, 2.0, 6.0),
         };
-        let shell = ClassedShell::new(
-            &vps_voxmap::PointShell {
-                points: (0..n)
-                    .map(|i| Vec3::new(soa[0][i], soa[1][i], soa[2][i]))
-                    .collect(),
-                normals: (0..n)
-                    .map(|i| Vec3::new(soa[3][i], soa[4][i], soa[5][i]))
-                    .collect(),
-                voxel_size: spec.voxel_size,
-                method: vps_voxmap::shell::ShellMethod::VoxelCentres,
-                mass: vps_voxmap::MassProperties {
-                    volume: 0.0,
-                    center_of_mass: DVec3::ZERO,
-                    bounding_radius: 0.25,
-                },
-            },
-            1,
-        );
+        let shell = super::super::soa_shell(&soa, n, spec.voxel_size, 0.25);
         let standoff = (band.standoff_m() / spec.voxel_size) as f32;
         for needs_clamp in [false, true] {
             let frame = GridFrame {
