@@ -944,7 +944,9 @@ macro_rules! vec3_ops {
         }
 
         /// `u + w × lever` with `u` and `w` the same in every lane, as
-        /// `lanes::add_cross_uniform`.
+        /// `lanes::add_cross_uniform`. (The distance copy brakes through `avx2::brake_lanes`
+        /// and has no use for it.)
+        #[allow(dead_code)]
         #[inline]
         #[target_feature(enable = $feature)]
         fn add_cross_uniform(u: [f32; 3], w: [f32; 3], lever: &[$f; 3]) -> [$f; 3] {
@@ -1129,6 +1131,41 @@ mod avx2 {
         }
     }
 
+    /// `super::brake_block` in 256-bit registers: `a = V·N` in the lanes of `mask` (all ones or
+    /// all zeros) that approach (`V·N < 0`), 0 elsewhere; adds `a²`, `a N` and `(P − x) × a N`
+    /// and counts the approaching lanes. `lever` is `P − x` in 2^-8 m. Shared by the
+    /// tangent-plane block (Proximity lanes) and the distance block (braking lanes).
+    ///
+    /// # Safety
+    /// As [`add_fixed`]'s.
+    #[inline(always)]
+    pub(super) unsafe fn brake_lanes<const CLAMP: bool, const WIDE: bool>(
+        frame: &GridFrame,
+        lever: &V3,
+        normal: &V3,
+        mask: __m256,
+        acc: &mut ClassAccumulator,
+    ) {
+        unsafe {
+            let velocity =
+                add_cross_uniform(frame.linear_velocity, frame.angular_velocity_lever, lever);
+            let approach = dot(&velocity, normal);
+            let approaching = _mm256_and_ps(
+                mask,
+                _mm256_cmp_ps::<_CMP_LT_OQ>(approach, _mm256_setzero_ps()),
+            );
+            let x = _mm256_and_ps(approaching, approach);
+            let a = _mm256_mul_ps(x, _mm256_set1_ps(LENGTH_Q));
+            let a_sq = _mm256_mul_ps(x, a);
+            acc.approaching += count_negative(a);
+            add_fixed::<CLAMP, WIDE>(&mut acc.brake_sq, a_sq);
+            let brake_dir = scale(normal, a);
+            add3_fixed::<CLAMP, WIDE>(&mut acc.brake_force, &brake_dir);
+            add3_fixed::<CLAMP, WIDE>(&mut acc.brake_torque, &cross(lever, &brake_dir));
+            acc.brake_blocks += 1;
+        }
+    }
+
     /// Lanes of `kinds` equal to `kind`, as 32-bit masks.
     #[inline]
     #[target_feature(enable = "avx2")]
@@ -1281,22 +1318,8 @@ mod avx2 {
                 acc.depth_blocks += 1;
             }
             if proximity != 0 {
-                let velocity =
-                    add_cross_uniform(frame.linear_velocity, frame.angular_velocity_lever, &lever);
-                let approach = dot(&velocity, &normal);
-                let approaching = _mm256_and_ps(
-                    _mm256_castsi256_ps(kind_is(kind, Voxel::Proximity)),
-                    _mm256_cmp_ps::<_CMP_LT_OQ>(approach, _mm256_setzero_ps()),
-                );
-                let x = _mm256_and_ps(approaching, approach);
-                let a = _mm256_mul_ps(x, _mm256_set1_ps(LENGTH_Q));
-                let a_sq = _mm256_mul_ps(x, a);
-                acc.approaching += count_negative(a);
-                add_fixed::<CLAMP, WIDE>(&mut acc.brake_sq, a_sq);
-                let brake_dir = scale(&normal, a);
-                add3_fixed::<CLAMP, WIDE>(&mut acc.brake_force, &brake_dir);
-                add3_fixed::<CLAMP, WIDE>(&mut acc.brake_torque, &cross(&lever, &brake_dir));
-                acc.brake_blocks += 1;
+                let is_proximity = _mm256_castsi256_ps(kind_is(kind, Voxel::Proximity));
+                brake_lanes::<CLAMP, WIDE>(frame, &lever, &normal, is_proximity, acc);
             }
         }
     }

@@ -345,8 +345,8 @@ fn value_and_gradient(c: &Corners, f: &Vec3s) -> (F32s, Vec3s) {
 /// block gives the same bits either way (a unit test checks it).
 #[cfg(target_arch = "x86_64")]
 pub(super) mod avx2 {
-    use super::super::avx2::{add3_fixed, add_fixed, count_negative, count_positive, load};
-    use super::super::{ClassAccumulator, GridFrame, Soa, LENGTH_Q};
+    use super::super::avx2::{add3_fixed, brake_lanes, count_positive, load};
+    use super::super::{ClassAccumulator, GridFrame, Soa};
     use super::{BRAKE_RANGE_VOXELS, LANES, MIN_GRADIENT};
     use glam::Mat3;
     use std::arch::x86_64::*;
@@ -646,18 +646,7 @@ pub(super) mod avx2 {
                 acc.depth_blocks += 1;
             }
             if _mm256_movemask_ps(braking) != 0 {
-                let velocity =
-                    add_cross_uniform(frame.linear_velocity, frame.angular_velocity_lever, &lever);
-                let approach = dot(&velocity, &direction);
-                let x = _mm256_and_ps(_mm256_and_ps(braking, less(approach, zero)), approach);
-                let a = _mm256_mul_ps(x, _mm256_set1_ps(LENGTH_Q));
-                let a_sq = _mm256_mul_ps(x, a);
-                acc.approaching += count_negative(a);
-                add_fixed::<CLAMP, false>(&mut acc.brake_sq, a_sq);
-                let brake_dir = scale(&direction, a);
-                add3_fixed::<CLAMP, false>(&mut acc.brake_force, &brake_dir);
-                add3_fixed::<CLAMP, false>(&mut acc.brake_torque, &cross(&lever, &brake_dir));
-                acc.brake_blocks += 1;
+                brake_lanes::<CLAMP, false>(frame, &lever, &direction, braking, acc);
             }
         }
     }
