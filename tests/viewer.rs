@@ -61,9 +61,9 @@ fn the_demo_is_watched_in_headless_chromium() {
 
     // Two reads of the pose the page shows, 1.5 s apart: the part must have moved.
     let part_line = |pose: &str| pose.lines().nth(1).unwrap_or_default().to_string();
-    let first = wait_for("the pose in the page", patience, || {
-        let pose = browser.text("pose");
-        (pose.starts_with("frame ") && browser.text("status") == "live").then_some(pose)
+    let first = browser.wait_for("the pose in the page", patience, |b| {
+        let pose = b.text("pose");
+        (pose.starts_with("frame ") && b.text("status") == "live").then_some(pose)
     });
     std::thread::sleep(Duration::from_millis(1500));
     let second = browser.text("pose");
@@ -76,8 +76,8 @@ fn the_demo_is_watched_in_headless_chromium() {
 
     // Once the scene is drawn (twice: the first draw may come before the part), the 3D view
     // (the left 500 px; the side panel is 300 px) must not be blank.
-    wait_for("two draws of the scene", patience, || {
-        let draws = browser.eval("Number(document.getElementById('view').dataset.draws || 0)");
+    browser.wait_for("two draws of the scene", patience, |b| {
+        let draws = b.eval("Number(document.getElementById('view').dataset.draws || 0)");
         (draws.as_u64().unwrap_or(0) >= 2).then_some(())
     });
     let renderer = browser.text("render-mode");
@@ -102,9 +102,9 @@ fn the_demo_is_watched_in_headless_chromium() {
         "Page.navigate",
         serde_json::json!({ "url": format!("http://{addr}/?renderer=2d") }),
     );
-    wait_for("two 2D draws", patience, || {
-        let mode = browser.text("render-mode");
-        let draws = browser.eval("Number(document.getElementById('view').dataset.draws || 0)");
+    browser.wait_for("two 2D draws", patience, |b| {
+        let mode = b.text("render-mode");
+        let draws = b.eval("Number(document.getElementById('view').dataset.draws || 0)");
         (mode == "canvas2d" && draws.as_u64().unwrap_or(0) >= 2).then_some(())
     });
     let (colours, share) = canvas_content(&browser.screenshot(), 500);

@@ -527,15 +527,26 @@
   // Redraws are coalesced: at most one pending, at most MAX_FPS per second, and (WebGL2) never
   // while the GPU is still busy with the previous frame, so a slow GPU (or a software one) skips
   // states instead of queueing them.
+  // A browser may withhold animation frames (a page in the background, or headless Chromium on a
+  // busy machine): after ANIMATION_FRAME_WAIT_MS a timer draws instead. A GPU fence that has not
+  // signalled after MAX_GPU_WAIT_MS no longer holds the next draw back.
+  const ANIMATION_FRAME_WAIT_MS = 250, MAX_GPU_WAIT_MS = 2000;
   let drawPending = false, lastDrawAt = -1e9;
   function requestDraw() {
     if (drawPending || !renderer) return;
     drawPending = true;
     const wait = Math.max(0, lastDrawAt + 1000 / MAX_FPS - performance.now());
-    setTimeout(() => requestAnimationFrame(drawWhenReady), wait);
+    setTimeout(onNextFrame, wait);
+  }
+  function onNextFrame() {
+    let done = false;
+    const go = () => { if (!done) { done = true; drawWhenReady(); } };
+    requestAnimationFrame(go);
+    setTimeout(go, ANIMATION_FRAME_WAIT_MS);
   }
   function drawWhenReady() {
-    if (renderer.busy && renderer.busy()) { setTimeout(() => requestAnimationFrame(drawWhenReady), 15); return; }
+    const gpuBusy = renderer.busy && renderer.busy();
+    if (gpuBusy && performance.now() - lastDrawAt < MAX_GPU_WAIT_MS) { setTimeout(onNextFrame, 15); return; }
     drawPending = false; lastDrawAt = performance.now(); drawNow();
   }
   // Draws once; the canvas's data-draws attribute counts the draws (tests wait on it).

@@ -29,7 +29,13 @@ pub struct Browser {
     ws: WsClient,
     session: String,
     next_id: u64,
+    /// The page's latest console messages and uncaught exceptions (at most [`CONSOLE_KEPT`]),
+    /// for failure messages.
+    console: std::collections::VecDeque<String>,
 }
+
+/// How many of the page's console lines a [`Browser`] keeps.
+pub const CONSOLE_KEPT: usize = 20;
 
 impl Browser {
     /// Starts Chromium ([`CHROMIUM`], SwiftShader for WebGL) with a fresh profile in `profile` and
@@ -80,6 +86,7 @@ impl Browser {
             ws,
             session: String::new(),
             next_id: 0,
+            console: std::collections::VecDeque::new(),
         };
         let target = browser.call("Target.createTarget", serde_json::json!({ "url": url }));
         let target_id = target["targetId"].as_str().unwrap().to_string();
@@ -88,10 +95,13 @@ impl Browser {
             serde_json::json!({ "targetId": target_id, "flatten": true }),
         );
         browser.session = attached["sessionId"].as_str().unwrap().to_string();
+        // Console messages and uncaught exceptions arrive as events from now on.
+        browser.call("Runtime.enable", serde_json::json!({}));
         browser
     }
 
-    /// Sends one command (to the page once attached) and returns its result; events are skipped.
+    /// Sends one command (to the page once attached) and returns its result; events are skipped,
+    /// except console messages and exceptions, which are kept for [`Browser::page_summary`].
     pub fn call(&mut self, method: &str, params: serde_json::Value) -> serde_json::Value {
         self.next_id += 1;
         let mut message =
@@ -113,6 +123,66 @@ impl Browser {
                 assert!(reply["error"].is_null(), "{method}: {}", reply["error"]);
                 return reply["result"].clone();
             }
+            self.keep_console_line(&reply);
+        }
+    }
+
+    fn keep_console_line(&mut self, event: &serde_json::Value) {
+        let params = &event["params"];
+        let line = match event["method"].as_str() {
+            Some("Runtime.consoleAPICalled") => {
+                let args: Vec<String> = params["args"]
+                    .as_array()
+                    .map(|a| a.iter().map(|v| v["value"].to_string()).collect())
+                    .unwrap_or_default();
+                format!("console.{}: {}", params["type"], args.join(" "))
+            }
+            Some("Runtime.exceptionThrown") => {
+                let details = &params["exceptionDetails"];
+                format!(
+                    "exception: {} {}",
+                    details["text"], details["exception"]["description"]
+                )
+            }
+            _ => return,
+        };
+        if self.console.len() == CONSOLE_KEPT {
+            self.console.pop_front();
+        }
+        self.console.push_back(line);
+    }
+
+    /// What the viewer page shows now, for failure messages: its status line, renderer, draw count
+    /// and latest console lines.
+    pub fn page_summary(&mut self) -> String {
+        let status = self.text("status");
+        let renderer = self.text("render-mode");
+        let draws = self.eval("Number(document.getElementById('view').dataset.draws || 0)");
+        let console: Vec<&str> = self.console.iter().map(String::as_str).collect();
+        format!(
+            "page status {status:?}, renderer {renderer:?}, draws {draws}, console: [{}]",
+            console.join(" | ")
+        )
+    }
+
+    /// Polls `probe` every 100 ms until it returns a value; panics after `patience` with
+    /// [`Browser::page_summary`], so a failure says what the page showed.
+    pub fn wait_for<T>(
+        &mut self,
+        what: &str,
+        patience: Duration,
+        mut probe: impl FnMut(&mut Browser) -> Option<T>,
+    ) -> T {
+        let deadline = Instant::now() + patience;
+        loop {
+            if let Some(v) = probe(self) {
+                return v;
+            }
+            if Instant::now() >= deadline {
+                let summary = self.page_summary();
+                panic!("{what}: not there after {patience:?}; {summary}");
+            }
+            std::thread::sleep(Duration::from_millis(100));
         }
     }
 

@@ -18,7 +18,7 @@ use std::time::Duration;
 use vps_mesh::builtin::{cuboid, cylinder, uv_sphere};
 use vps_mesh::{load_mesh, TriMesh};
 use vps_runtime::{state_feed, FeedFrame};
-use vps_view::browser::{canvas_content, wait_for, Browser, CHROMIUM};
+use vps_view::browser::{canvas_content, Browser, CHROMIUM};
 use vps_view::{SceneLimits, ViewerContent, ViewerServer};
 use vps_voxelize::{point_shell, voxelize_tree, ShellMethod, VoxelizeOptions};
 use vps_voxmap::TreeConfig;
@@ -97,8 +97,8 @@ fn draws(browser: &mut Browser) -> u64 {
 fn act_and_redraw(browser: &mut Browser, action: &str) {
     let before = draws(browser);
     browser.eval(action);
-    wait_for("a redraw", Duration::from_secs(60), || {
-        (draws(browser) > before).then_some(())
+    browser.wait_for("a redraw", Duration::from_secs(60), |b| {
+        (draws(b) > before).then_some(())
     });
 }
 
@@ -142,22 +142,11 @@ fn a_mesh_file_scene_is_drawn_shaded_in_headless_chromium() {
     let profile = tempfile::tempdir().unwrap();
     let mut browser = Browser::open(profile.path(), &viewer.url());
     let patience = Duration::from_secs(120);
-    let deadline = std::time::Instant::now() + patience;
-    loop {
-        let info = browser.text("scene-info");
-        let pose = browser.text("pose");
-        let n = draws(&mut browser);
-        if info.contains("meshes") && pose.starts_with("frame ") && n >= 1 {
-            break;
-        }
-        let status = browser.text("status");
-        assert!(
-            std::time::Instant::now() < deadline,
-            "the page never drew the scene with the part: status {status:?}, scene {info:?}, \
-             pose {pose:?}, {n} draws"
-        );
-        std::thread::sleep(Duration::from_millis(100));
-    }
+    browser.wait_for("a draw of the scene with the part", patience, |b| {
+        let info = b.text("scene-info");
+        let pose = b.text("pose");
+        (info.contains("meshes") && pose.starts_with("frame ") && draws(b) >= 1).then_some(())
+    });
     let renderer = browser.text("render-mode");
     assert!(
         browser.eval("document.getElementById('voxels').checked") == false,
@@ -198,9 +187,9 @@ fn a_mesh_file_scene_is_drawn_shaded_in_headless_chromium() {
         "Page.navigate",
         serde_json::json!({ "url": format!("{}?renderer=2d", viewer.url()) }),
     );
-    wait_for("a 2D draw", patience, || {
-        let mode = browser.text("render-mode");
-        (mode == "canvas2d" && draws(&mut browser) >= 1).then_some(())
+    browser.wait_for("a 2D draw", patience, |b| {
+        let mode = b.text("render-mode");
+        (mode == "canvas2d" && draws(b) >= 1).then_some(())
     });
     act_and_redraw(&mut browser, "document.getElementById('follow').click()");
     let flat = browser.screenshot();
