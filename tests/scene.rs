@@ -791,3 +791,86 @@ fn the_distance_models_band_is_cached_with_the_voxmap_and_inspect_reports_it() {
         String::from_utf8_lossy(&text.stdout)
     );
 }
+
+/// `vps scene check` reports each mesh's health: the bay's closed boxes are closed and unflagged;
+/// the floor with its top face removed has 4 boundary edges and is flagged as a leak; a single
+/// triangle as the part is flagged as having no inside. `[part] scale` scales the part (one
+/// number or per axis).
+#[test]
+fn scene_check_reports_mesh_health_and_scales_the_part() {
+    let bay = bay();
+    let check = |vps: &Vps| json(&vps.run(&["scene", "check", &vps.path("bay.toml"), "--json"]));
+    let report = check(&bay);
+    let meshes = report["meshes"].as_array().unwrap();
+    assert_eq!(meshes.len(), 3, "{report}");
+    for m in meshes {
+        assert_eq!(m["closed"], true, "{m}");
+        assert_eq!(m["health"]["boundary_edges"], 0, "{m}");
+    }
+    let flags = report["flags"].to_string();
+    assert!(!flags.contains("Mesh health"), "{flags}");
+    let part_size = |r: &serde_json::Value| {
+        let (min, max) = (&r["part"]["bounds_min_m"], &r["part"]["bounds_max_m"]);
+        [0, 1, 2].map(|k| max[k].as_f64().unwrap() - min[k].as_f64().unwrap())
+    };
+    let unscaled = part_size(&report);
+    assert!((unscaled[0] - 0.03).abs() < 1e-9, "{unscaled:?}");
+
+    // The floor's top face (the cuboid's two +z triangles) removed: open, flagged as a leak.
+    let floor = std::fs::read_to_string(bay.dir().join("floor.obj")).unwrap();
+    let (v, t) = cuboid([-100.0, -100.0, -10.0], [100.0, 100.0, 0.0]);
+    let top: Vec<usize> = (0..t.len())
+        .filter(|&i| t[i].iter().all(|&k| v[k as usize][2] == 0.0))
+        .collect();
+    assert_eq!(top.len(), 2, "{floor}");
+    let mut open = String::new();
+    for p in &v {
+        open += &format!("v {} {} {}\n", p[0], p[1], p[2]);
+    }
+    for (_, tri) in t.iter().enumerate().filter(|(i, _)| !top.contains(i)) {
+        open += &format!("f {} {} {}\n", tri[0] + 1, tri[1] + 1, tri[2] + 1);
+    }
+    std::fs::write(bay.dir().join("floor.obj"), open).unwrap();
+    let report = check(&bay);
+    let floor = report["meshes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|m| m["source"].as_str().unwrap().ends_with("floor.obj"))
+        .unwrap()
+        .clone();
+    assert_eq!(floor["closed"], false, "{floor}");
+    assert_eq!(floor["health"]["boundary_edges"], 4, "{floor}");
+    let flags = report["flags"].to_string();
+    assert!(
+        flags.contains("floor.obj is not closed: 4 boundary edges") && flags.contains("flood fill"),
+        "{flags}"
+    );
+    let text =
+        String::from_utf8(bay.run(&["scene", "check", &bay.path("bay.toml")]).stdout).unwrap();
+    assert!(text.contains("not closed: 4 boundary edges"), "{text}");
+
+    // A single triangle as the part, scaled: no inside, flagged; the scale is applied.
+    std::fs::write(
+        bay.dir().join("tri.obj"),
+        "v 0 0 0\nv 20 0 0\nv 0 20 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    for (scale, factor) in [
+        ("scale = 0.5", [0.5, 0.5]),
+        ("scale = [2, 1, 1]", [2.0, 1.0]),
+    ] {
+        let scene = SCENE
+            .replacen("source = \"part.stl\"", "source = \"tri.obj\"", 1)
+            .replacen("rotate_deg = [-90, 0, 0]", scale, 1);
+        std::fs::write(bay.dir().join("bay.toml"), scene).unwrap();
+        let report = check(&bay);
+        let size = part_size(&report);
+        assert!(
+            (size[0] - 0.02 * factor[0]).abs() < 1e-9 && (size[1] - 0.02 * factor[1]).abs() < 1e-9,
+            "{scale}: {size:?}"
+        );
+        let flags = report["flags"].to_string();
+        assert!(flags.contains("tri.obj has no inside"), "{flags}");
+    }
+}

@@ -42,6 +42,12 @@ struct MeshReport {
     triangles: usize,
     /// Bytes of the one copy held (m, after units; vertices and triangles).
     bytes: u64,
+    /// Every edge has two triangles running it opposite ways: the mesh bounds a solid.
+    closed: bool,
+    /// Shells, boundary, non-manifold and inconsistent edges, signed volume.
+    health: vps_mesh::MeshHealth,
+    /// Degenerate triangles the loader dropped.
+    degenerate_dropped: usize,
 }
 
 /// One effective voxel setting and where it came from: `"scene file"` or `"built-in default"`.
@@ -224,6 +230,9 @@ pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
                 part: m.part,
                 triangles: m.mesh.triangle_count(),
                 bytes: vps_session::estimate::mesh_bytes(&m.mesh),
+                closed: m.health.closed(),
+                health: m.health,
+                degenerate_dropped: m.degenerate_dropped,
             })
             .collect(),
         voxmap_estimate: estimate,
@@ -341,11 +350,16 @@ pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
             (_, true) => "the part".to_string(),
             (n, false) => format!("{n} static object(s)"),
         };
+        let dropped = match m.degenerate_dropped {
+            0 => String::new(),
+            n => format!(", {n} degenerate triangles dropped"),
+        };
         println!(
-            "  {}: {users}; {} triangles, {} held once",
+            "  {}: {users}; {} triangles, {} held once; {}{dropped}",
             printable(&m.source),
             m.triangles,
-            size_text(m.bytes)
+            size_text(m.bytes),
+            m.health.summary()
         );
     }
     let m = &report.memory_estimate;

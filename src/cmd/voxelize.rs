@@ -17,6 +17,9 @@ struct VoxelizeSummary {
     output: String,
     triangles: usize,
     degenerate_dropped: usize,
+    /// Every edge has two triangles running it opposite ways: the mesh bounds a solid.
+    closed: bool,
+    health: vps_mesh::MeshHealth,
     voxel_size_m: f64,
     dims: [u32; 3],
     width_bits: u32,
@@ -37,6 +40,7 @@ pub fn run(args: &VoxelizeArgs) -> Result<()> {
         &crate::output::mesh_inputs(&args.mesh),
     )?;
     let scene = load_mesh(&args.mesh, args.build.units)?;
+    let health = vps_mesh::mesh_health(&scene.mesh);
     let Some(width) = VoxelWidth::from_bits(args.width) else {
         bail!("--width {}: must be 2, 4 or 8", args.width);
     };
@@ -72,6 +76,8 @@ pub fn run(args: &VoxelizeArgs) -> Result<()> {
         output: args.build.output.display().to_string(),
         triangles: stats.triangles,
         degenerate_dropped: scene.degenerate_dropped,
+        closed: health.closed(),
+        health,
         voxel_size_m: args.voxel_size,
         dims: stats.dims,
         width_bits: width.bits(),
@@ -90,7 +96,7 @@ pub fn run(args: &VoxelizeArgs) -> Result<()> {
 }
 
 impl std::fmt::Display for VoxelizeSummary {
-    /// What was voxelized, the counts, the memory and the hash, on four lines (no final newline).
+    /// What was voxelized, the mesh's health, the counts, the memory and the hash, on five lines (no final newline).
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(
             f,
@@ -103,6 +109,13 @@ impl std::fmt::Display for VoxelizeSummary {
             self.voxelize_ms,
             self.tree_ms
         )?;
+        let leak = if self.health.boundary_edges > 0 {
+            ": the inside is found by a flood fill from outside, which runs in through any gap \
+             wider than a voxel (docs/scenes.md, Mesh health)"
+        } else {
+            ""
+        };
+        writeln!(f, "mesh: {}{leak}", self.health.summary())?;
         writeln!(f, "{}", self.counts)?;
         writeln!(
             f,

@@ -11,6 +11,7 @@
 //! - [`builtin`]: deterministic built-in scenes (teapot, aircraft bay) and primitives.
 //! - [`weld`]: merging coincident vertices.
 //! - [`closest_point`](mod@closest_point): the point of a triangle nearest to a point.
+//! - [`health`]: whether a mesh is closed, and what is wrong when it is not.
 //!
 //! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
@@ -18,11 +19,13 @@
 
 pub mod builtin;
 pub mod closest_point;
+pub mod health;
 pub mod load;
 pub mod mesh;
 pub mod validate;
 pub mod weld;
 
+pub use health::{mesh_health, MeshHealth};
 pub use load::{load_mesh, load_mesh_scaled, parse_mesh, LoadedMesh, MeshFormat};
 pub use mesh::{Aabb, TriMesh};
 pub use validate::{validate, MeshError, ValidationReport};

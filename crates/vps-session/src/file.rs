@@ -100,9 +100,12 @@ pub struct PartSpec {
     pub source: String,
     /// Units of the mesh file. Default metres.
     pub units: Units,
-    /// Rotation of the mesh (degrees): about X, then Y, then Z. Default none.
+    /// Scale factors per axis (dimensionless, within [`SCALE_RANGE`]) about the mesh's origin,
+    /// after units. Default `[1, 1, 1]`; a scene file may write one number for all three.
+    pub scale: [f64; 3],
+    /// Rotation of the mesh (degrees): about X, then Y, then Z, after scaling. Default none.
     pub rotate_deg: [f64; 3],
-    /// Where the handle holds the part (m), in part coordinates after units and rotation.
+    /// Where the handle holds the part (m), in part coordinates after units, scale and rotation.
     /// Default: the centre of mass.
     pub grip: Option<[f64; 3]>,
 }
@@ -119,6 +122,7 @@ fn part_spec<'de, D: Deserializer<'de>>(d: D) -> Result<PartSpec, D::Error> {
             Ok(PartSpec {
                 source: v.to_string(),
                 units: Units::Metres,
+                scale: unit_scale(),
                 rotate_deg: [0.0; 3],
                 grip: None,
             })
@@ -130,6 +134,8 @@ fn part_spec<'de, D: Deserializer<'de>>(d: D) -> Result<PartSpec, D::Error> {
                 source: String,
                 #[serde(default)]
                 units: Units,
+                #[serde(default = "unit_scale", deserialize_with = "scale_factors")]
+                scale: [f64; 3],
                 #[serde(default)]
                 rotate_deg: [f64; 3],
                 grip: Option<[f64; 3]>,
@@ -138,6 +144,7 @@ fn part_spec<'de, D: Deserializer<'de>>(d: D) -> Result<PartSpec, D::Error> {
             Ok(PartSpec {
                 source: t.source,
                 units: t.units,
+                scale: t.scale,
                 rotate_deg: t.rotate_deg,
                 grip: t.grip,
             })
@@ -164,9 +171,9 @@ pub struct StaticObject {
     /// Units of the mesh file. Default metres.
     #[serde(default)]
     pub units: Units,
-    /// Scale factors per axis (dimensionless, positive), about the mesh's origin, after units.
-    /// Default `[1, 1, 1]`.
-    #[serde(default = "unit_scale")]
+    /// Scale factors per axis (dimensionless, within [`SCALE_RANGE`]), about the mesh's origin,
+    /// after units. Default `[1, 1, 1]`; a scene file may write one number for all three.
+    #[serde(default = "unit_scale", deserialize_with = "scale_factors")]
     pub scale: [f64; 3],
     /// Rotation (degrees): about X, then Y, then Z, after scaling. Default none.
     #[serde(default)]
@@ -470,6 +477,42 @@ impl DeviceSection {
 fn unit_scale() -> [f64; 3] {
     [1.0; 3]
 }
+
+/// The range of each `scale` factor of `[part]` and `[[static]]` (dimensionless).
+pub const SCALE_RANGE: std::ops::RangeInclusive<f64> = 1e-6..=1e6;
+
+/// `scale = 2.5` (the same factor on every axis) or `scale = [x, y, z]`; ranges are checked by
+/// [`SceneFile::validate`].
+fn scale_factors<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Written {
+        Uniform(f64),
+        PerAxis([f64; 3]),
+    }
+    match Written::deserialize(d).map_err(|_| {
+        serde::de::Error::custom("a number or an array of three numbers [x, y, z] is expected")
+    })? {
+        Written::Uniform(s) => Ok([s; 3]),
+        Written::PerAxis(s) => Ok(s),
+    }
+}
+
+/// An error unless every factor of `scale` is within [`SCALE_RANGE`].
+fn check_scale(path: &str, field: &str, scale: &[f64; 3]) -> Result<(), SceneError> {
+    if scale.iter().all(|s| SCALE_RANGE.contains(s)) {
+        return Ok(());
+    }
+    Err(field_error(
+        path,
+        field,
+        format!(
+            "{scale:?}: each factor must be within [{:e}, {:e}]",
+            SCALE_RANGE.start(),
+            SCALE_RANGE.end()
+        ),
+    ))
+}
 fn one() -> usize {
     1
 }
@@ -624,6 +667,7 @@ impl SceneFile {
             }
         }
         check_source(path, "part.source", &self.part.source)?;
+        check_scale(path, "part.scale", &self.part.scale)?;
         check_rotation(path, "part.rotate_deg", &self.part.rotate_deg)?;
         if let Some(g) = &self.part.grip {
             if !position3(g) {
@@ -638,12 +682,7 @@ impl SceneFile {
         }
         for (i, o) in self.objects.iter().enumerate() {
             check_source(path, &format!("static[{i}].source"), &o.source)?;
-            if !o.scale.iter().all(|s| s.is_finite() && *s > 0.0) {
-                return bad(
-                    &format!("static[{i}].scale"),
-                    format!("{:?} must be positive and finite", o.scale),
-                );
-            }
+            check_scale(path, &format!("static[{i}].scale"), &o.scale)?;
             check_rotation(path, &format!("static[{i}].rotate_deg"), &o.rotate_deg)?;
             if !position3(&o.translate) {
                 return bad(
@@ -983,6 +1022,13 @@ max = [0.4, 0.1, 0.2]
         assert_eq!(c.part.units, Units::Millimetres);
         assert_eq!(c.part.rotate_deg, [-90.0, 0.0, 0.0]);
         assert_eq!(c.part.grip, Some([0.0, 0.0, 0.01]));
+        assert_eq!(c.part.scale, [1.0; 3], "no scale: unscaled");
+        let per_axis = table.replace("units = \"mm\"", "units = \"mm\"\nscale = [2, 1, 0.5]");
+        assert_eq!(parse(&per_axis).unwrap().part.scale, [2.0, 1.0, 0.5]);
+        let uniform = table.replace("units = \"mm\"", "units = \"mm\"\nscale = 2.5");
+        assert_eq!(parse(&uniform).unwrap().part.scale, [2.5; 3]);
+        let statics = parse(&GOOD.replace("scale = [4.0, 1.0, 0.5]", "scale = 3")).unwrap();
+        assert_eq!(statics.objects[0].scale, [3.0; 3]);
         let mm = parse(&GOOD.replace("voxel_size = 0.005", "voxel_size = \"2mm\"")).unwrap();
         assert!((mm.voxels.voxel_size - 0.002).abs() < 1e-15);
     }
@@ -1110,6 +1156,21 @@ max = [0.4, 0.1, 0.2]
                 from: "scale = [4.0, 1.0, 0.5]",
                 to: "scale = [4.0, 0.0, 0.5]",
                 field: "`static[0].scale`",
+            },
+            SceneEdit {
+                from: "scale = [4.0, 1.0, 0.5]",
+                to: "scale = [4.0, 1e300, 0.5]",
+                field: "`static[0].scale`",
+            },
+            SceneEdit {
+                from: "scale = [4.0, 1.0, 0.5]",
+                to: "scale = \"big\"",
+                field: "`static[0].scale`",
+            },
+            SceneEdit {
+                from: "part = \"builtin:teapot\"\n",
+                to: "[part]\nsource = \"x.stl\"\nscale = [1, 1e-9, 1]\n",
+                field: "`part.scale`",
             },
             SceneEdit {
                 from: "scale = [4.0, 1.0, 0.5]",

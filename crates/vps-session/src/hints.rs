@@ -5,7 +5,7 @@
 
 use crate::file::{SceneFile, Units};
 use glam::DVec3;
-use vps_mesh::{Aabb, TriMesh};
+use vps_mesh::{Aabb, MeshHealth, TriMesh};
 
 /// A hint when the scene looks like CAD exports left in their Y-up frame: some mesh is declared in
 /// cm, mm or inches (a CAD export) and no object is rotated, while the scene's up is +Z (the hand's
@@ -22,6 +22,44 @@ pub(crate) fn y_up_hint(file: &SceneFile) -> Option<String> {
          [[static]] (docs/scenes.md)"
             .to_string()
     })
+}
+
+/// A part whose enclosed volume is below this share of its bounding box diagonal cubed has no
+/// inside (an open sheet, a single triangle, a panel).
+pub const SHEET_VOLUME_SHARE: f64 = 1e-4;
+
+/// Hints for a mesh whose faults matter to vps ([`vps_mesh::MeshHealth`]): as a static mesh
+/// (`is_static`) with boundary edges (a leak the flood fill can run in through), and as the part
+/// (`is_part`) with no inside. `diagonal` is the mesh's bounding-box diagonal (m). Non-manifold or
+/// inconsistently oriented edges alone change nothing in the voxmap (its inside is found from the
+/// surface voxels), so they are reported by `vps scene check` but not hinted.
+pub(crate) fn open_mesh_hints(
+    source: &str,
+    health: &MeshHealth,
+    diagonal: f64,
+    is_static: bool,
+    is_part: bool,
+) -> Vec<String> {
+    let mut hints = Vec::new();
+    if is_static && health.boundary_edges > 0 {
+        hints.push(format!(
+            "static mesh {source} is {}: vps finds its inside by a flood fill from outside, which \
+             runs in through any gap wider than a voxel, so the inside of a leaky mesh may be lost \
+             and a part inside it feel nothing; close the mesh in the CAD tool or a mesh repair \
+             tool (docs/scenes.md, Mesh health)",
+            health.summary()
+        ));
+    }
+    if is_part && health.signed_volume_m3.abs() < SHEET_VOLUME_SHARE * diagonal.powi(3) {
+        hints.push(format!(
+            "the part's mesh {source} has no inside (it is {}, enclosing {:.3e} m³): an open sheet \
+             or a single triangle as the part can be pulled into a static surface it touches; vps \
+             does not yet render such parts (docs/scenes.md, Mesh health)",
+            health.summary(),
+            health.signed_volume_m3.abs()
+        ));
+    }
+    hints
 }
 
 /// A flag when the voxel edge `voxel_size` (m) is at least the part's largest extent: its shell of

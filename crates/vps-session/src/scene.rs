@@ -11,7 +11,8 @@ use crate::estimate::{
 };
 use crate::file::{rotation, SceneFile};
 use crate::hints::{
-    coarse_voxel_flag, distant_grip_hint, distant_static_hints, distant_waypoint_hint, y_up_hint,
+    coarse_voxel_flag, distant_grip_hint, distant_static_hints, distant_waypoint_hint,
+    open_mesh_hints, y_up_hint,
 };
 use crate::mesh_source::{load_scaled, resolve, Placement};
 use crate::script::{laps_script, path_script};
@@ -85,6 +86,10 @@ pub struct SharedMesh {
     pub statics: usize,
     /// Whether the part names it.
     pub part: bool,
+    /// Whether it is closed, and what is wrong when it is not ([`vps_mesh::mesh_health`]).
+    pub health: vps_mesh::MeshHealth,
+    /// Degenerate triangles the loader dropped.
+    pub degenerate_dropped: usize,
 }
 
 /// A `[[static]]` object: one of the scene's meshes and where it is placed.
@@ -159,15 +164,16 @@ impl LoadedScene {
             if let Some(index) = keys.iter().position(|k| *k == key) {
                 return Ok(index);
             }
-            let mesh = load_scaled(&resolved, units)
-                .map_err(|e| mesh_error(&label, field, source, &base, &e))?
-                .mesh;
+            let loaded = load_scaled(&resolved, units)
+                .map_err(|e| mesh_error(&label, field, source, &base, &e))?;
             keys.push(key);
             meshes.push(SharedMesh {
                 source: resolved,
-                mesh: Arc::new(mesh),
+                health: vps_mesh::mesh_health(&loaded.mesh),
+                mesh: Arc::new(loaded.mesh),
                 statics: 0,
                 part: false,
+                degenerate_dropped: loaded.degenerate_dropped,
             });
             Ok(meshes.len() - 1)
         };
@@ -229,13 +235,23 @@ impl LoadedScene {
         let source = meshes[part_index].source.clone();
         let mut mesh = TriMesh::clone(&meshes[part_index].mesh);
         Placement {
-            scale: DVec3::ONE,
+            scale: DVec3::from_array(file.part.scale),
             rotation: rotation(file.part.rotate_deg),
             translate: DVec3::ZERO,
         }
         .apply(&mut mesh);
         plausible_size(&mesh.bounds(), "part", &mut warnings);
         warnings.extend(y_up_hint(&file));
+        for m in &meshes {
+            let diagonal = m.mesh.bounds().size().length();
+            warnings.extend(open_mesh_hints(
+                &m.source,
+                &m.health,
+                diagonal,
+                m.statics > 0,
+                m.part,
+            ));
+        }
         let (part, part_source) = (mesh, source);
         let scene_bounds = statics
             .iter()

@@ -628,7 +628,15 @@
   // The state comes first (the pose is in the page as soon as possible), then the scene, then the
   // renderer (a software WebGL context can take seconds to create).
   async function start() {
-    const get = async (path, kind) => { const r = await fetch(path, { cache: 'no-store' }); if (!r.ok) throw new Error(`${path}: ${r.status}`); return r[kind](); };
+    // The page's start phase, for tests and for a person debugging a page that draws nothing.
+    const phase = (p) => { document.body.dataset.phase = p; };
+    const get = async (path, kind) => {
+      phase(`fetching ${path}`);
+      const r = await fetch(path, { cache: 'no-store' });
+      if (!r.ok) throw new Error(`${path}: ${r.status}`);
+      phase(`reading ${path}`);
+      return r[kind]();
+    };
     try {
       onState(await get('/state', 'json'));
       connect();
@@ -650,9 +658,12 @@
     buildChunks();
     setFollow(!!(state && state.status !== 'offline' && scene.shell_points));
     resize();
+    phase('creating the renderer');
     renderer = makeGL() || make2D();
     $('render-mode').textContent = renderer ? renderer.mode : 'none';
+    phase('first draw');
     if (renderer) { renderer.setScene(); drawNow(); }
+    phase('running');
   }
   start();
 })();

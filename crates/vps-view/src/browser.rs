@@ -152,15 +152,17 @@ impl Browser {
         self.console.push_back(line);
     }
 
-    /// What the viewer page shows now, for failure messages: its status line, renderer, draw count
-    /// and latest console lines.
+    /// What the viewer page shows now, for failure messages: its status line, how far its start
+    /// got (`body[data-phase]`), renderer, draw count and latest console lines.
     pub fn page_summary(&mut self) -> String {
         let status = self.text("status");
+        let phase = self.eval("document.body ? (document.body.dataset.phase || '') : ''");
         let renderer = self.text("render-mode");
         let draws = self.eval("Number(document.getElementById('view').dataset.draws || 0)");
         let console: Vec<&str> = self.console.iter().map(String::as_str).collect();
         format!(
-            "page status {status:?}, renderer {renderer:?}, draws {draws}, console: [{}]",
+            "page status {status:?}, start phase {phase}, renderer {renderer:?}, draws {draws}, \
+             console: [{}]",
             console.join(" | ")
         )
     }
