@@ -27,20 +27,28 @@ impl Drop for Running {
 pub struct Browser {
     _process: Running,
     ws: WsClient,
+    /// The DevTools session of the page's target ("" before one is attached).
     session: String,
+    /// The page's target id ("" before one is opened).
+    target: String,
     next_id: u64,
     /// The page's latest console messages and uncaught exceptions (at most [`CONSOLE_KEPT`]),
     /// for failure messages.
     console: std::collections::VecDeque<String>,
 }
 
+/// Longest wait for one DevTools reply: a screenshot or an evaluation waits for the page's main
+/// thread, which software WebGL on a loaded 2-core machine has held for over a minute.
+pub const REPLY_PATIENCE: Duration = Duration::from_secs(240);
+
 /// How many of the page's console lines a [`Browser`] keeps.
 pub const CONSOLE_KEPT: usize = 20;
 
 impl Browser {
     /// Starts Chromium ([`CHROMIUM`], SwiftShader for WebGL) with a fresh profile in `profile` and
-    /// opens `url` in an 800 × 600 window. Panics when Chromium does not start or answer within
-    /// 60 s (for tests: check that [`CHROMIUM`] exists first).
+    /// opens `url` in an 800 × 600 window. Panics when Chromium does not start within 60 s or a
+    /// reply takes longer than [`REPLY_PATIENCE`] (for tests: check that [`CHROMIUM`] exists
+    /// first).
     pub fn open(profile: &Path, url: &str) -> Browser {
         let process = Running(
             Command::new(CHROMIUM)
@@ -78,26 +86,44 @@ impl Browser {
         let ws = WsClient::connect(
             SocketAddr::from(([127, 0, 0, 1], port)),
             &path,
-            Duration::from_secs(60),
+            REPLY_PATIENCE,
         )
         .expect("connecting to Chromium's DevTools");
         let mut browser = Browser {
             _process: process,
             ws,
             session: String::new(),
+            target: String::new(),
             next_id: 0,
             console: std::collections::VecDeque::new(),
         };
-        let target = browser.call("Target.createTarget", serde_json::json!({ "url": url }));
-        let target_id = target["targetId"].as_str().unwrap().to_string();
-        let attached = browser.call(
-            "Target.attachToTarget",
-            serde_json::json!({ "targetId": target_id, "flatten": true }),
-        );
-        browser.session = attached["sessionId"].as_str().unwrap().to_string();
-        // Console messages and uncaught exceptions arrive as events from now on.
-        browser.call("Runtime.enable", serde_json::json!({}));
+        browser.open_page(url);
         browser
+    }
+
+    /// Closes the page (when there is one) and opens `url` in a new one, which later calls talk
+    /// to. Closing ends the old page's process without running its scripts, so a page busy
+    /// drawing (software WebGL on a loaded machine) cannot hold the next one back, as navigating
+    /// away from it can.
+    pub fn open_page(&mut self, url: &str) {
+        if !self.target.is_empty() {
+            let target = std::mem::take(&mut self.target);
+            self.session.clear();
+            self.call(
+                "Target.closeTarget",
+                serde_json::json!({ "targetId": target }),
+            );
+        }
+        let target = self.call("Target.createTarget", serde_json::json!({ "url": url }));
+        self.target = target["targetId"].as_str().unwrap().to_string();
+        let attached = self.call(
+            "Target.attachToTarget",
+            serde_json::json!({ "targetId": self.target, "flatten": true }),
+        );
+        self.session = attached["sessionId"].as_str().unwrap().to_string();
+        self.console.clear();
+        // Console messages and uncaught exceptions arrive as events from now on.
+        self.call("Runtime.enable", serde_json::json!({}));
     }
 
     /// Sends one command (to the page once attached) and returns its result; events are skipped,
@@ -105,7 +131,7 @@ impl Browser {
     pub fn call(&mut self, method: &str, params: serde_json::Value) -> serde_json::Value {
         self.next_id += 1;
         let mut message =
-            serde_json::json!({ "id": self.next_id, "method": method, "params": params });
+            serde_json::json!({ "id": self.next_id, "method": method, "params": &params });
         if !self.session.is_empty() {
             message["sessionId"] = self.session.clone().into();
         }
@@ -116,7 +142,7 @@ impl Browser {
             let text = self
                 .ws
                 .read_text()
-                .expect("reading from Chromium")
+                .unwrap_or_else(|e| panic!("reading Chromium's reply to {method} {params}: {e}"))
                 .expect("Chromium closed the connection");
             let reply: serde_json::Value = serde_json::from_str(&text).expect("DevTools JSON");
             if reply["id"] == self.next_id {

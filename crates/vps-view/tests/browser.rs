@@ -183,10 +183,7 @@ fn a_mesh_file_scene_is_drawn_shaded_in_headless_chromium() {
     );
 
     // The 2D-canvas fallback draws the meshes too.
-    browser.call(
-        "Page.navigate",
-        serde_json::json!({ "url": format!("{}?renderer=2d", viewer.url()) }),
-    );
+    browser.open_page(&format!("{}?renderer=2d", viewer.url()));
     browser.wait_for("a 2D draw", patience, |b| {
         let mode = b.text("render-mode");
         (mode == "canvas2d" && draws(b) >= 1).then_some(())
