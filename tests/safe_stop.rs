@@ -30,7 +30,7 @@ impl Drop for Vps {
 
 /// `vps` with its voxmap cache inside the build's target directory, never the user's cache.
 fn vps() -> Command {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_vps"));
+    let mut cmd = Command::new(vps_testkit::process::vps_binary(env!("CARGO_BIN_EXE_vps")));
     cmd.env(
         "VPS_CACHE_DIR",
         std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("vps-cache"),
