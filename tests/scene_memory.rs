@@ -288,7 +288,19 @@ fn deep_nesting_and_token_floods_are_refused_before_parsing_in_bounded_memory() 
 
     let commas = dir.path().join("commas.toml");
     let bytes = 60 << 20;
-    std::fs::write(&commas, format!("x = [1{}]\n", ",".repeat(bytes))).unwrap();
+    // Written in 1 MiB pieces: a child's peak resident memory as wait4 reports it starts from
+    // this process's own peak (the child is spawned from it), so this test must not hold 60 MiB,
+    // nor raise the peak the other tests here measure.
+    {
+        use std::io::Write;
+        let mut file = std::fs::File::create(&commas).unwrap();
+        file.write_all(b"x = [1").unwrap();
+        let piece = vec![b','; 1 << 20];
+        for _ in 0..bytes >> 20 {
+            file.write_all(&piece).unwrap();
+        }
+        file.write_all(b"]\n").unwrap();
+    }
     let (code, out, err, peak) = run_measured(&["scene", "check", commas.to_str().unwrap()]);
     assert_eq!(code, Some(1), "{out}{}", &err[..err.len().min(2000)]);
     for want in ["commas.toml", "TOML tokens", "passed on line 1"] {
