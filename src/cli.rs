@@ -218,6 +218,12 @@ pub struct ViewArgs {
     /// With --scene: always voxelize; never read or write the voxmap cache.
     #[arg(long)]
     pub no_cache: bool,
+    /// With --scene: memory budget of the whole scene (meshes, placed copies, voxelizer, voxmap,
+    /// distance band, exact reference, shell, viewer), estimated before anything is built and
+    /// refused above it, as on the session commands (bytes, or 16GiB, 512MiB, 8GB; default half
+    /// of physical memory).
+    #[arg(long, value_parser = parse_bytes, value_name = "SIZE", requires = "scene")]
+    pub max_memory: Option<u64>,
     /// A part's point shell (.vshell) to describe beside it.
     #[arg(long)]
     pub shell: Option<PathBuf>,

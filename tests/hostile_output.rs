@@ -7,7 +7,7 @@ use std::process::{Command, Output, Stdio};
 use vps_testkit::full_stdout::assert_full_stdout_is_an_error;
 
 fn vps() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_vps"))
+    Command::new(vps_testkit::process::vps_binary(env!("CARGO_BIN_EXE_vps")))
 }
 
 fn run(cmd: &mut Command) -> Output {
@@ -806,4 +806,38 @@ fn scenes_that_would_take_unbounded_memory_are_refused_before_it_is_taken() {
     ] {
         assert!(err.contains(want), "{want:?} not in: {err}");
     }
+}
+
+/// Issue 36 item 10: `corridor.spacing = 1e-300` printed a 180-digit waypoint count; the count is
+/// now in scientific notation and the message short, naming the file and the key.
+#[test]
+fn an_absurd_corridor_spacing_is_refused_with_a_short_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/scenes/rig-teapot.toml");
+    let text = std::fs::read_to_string(rig).unwrap();
+    // `force_model = "tangent-plane"` (the default) left out, so that a binary from before the
+    // force models reads the same scene (tests/hostile_old_vs_new.py runs this test against one).
+    let tiny = text
+        .replace("spacing = 0.025", "spacing = 1e-300")
+        .replace("force_model = \"tangent-plane\"\n", "");
+    assert_ne!(tiny, text);
+    let scene = dir.path().join("tiny.toml");
+    std::fs::write(&scene, tiny).unwrap();
+    let out = run(vps().args(["scene", "check"]).arg(&scene));
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("tiny.toml") && err.contains("corridor.spacing") && err.contains("3.00e299"),
+        "{err}"
+    );
+    let longest_digits = err
+        .split(|c: char| !c.is_ascii_digit())
+        .map(str::len)
+        .max()
+        .unwrap_or(0);
+    assert!(
+        longest_digits < 20,
+        "a {longest_digits}-digit number in: {err}"
+    );
+    assert!(err.len() < 600, "{} bytes: {err}", err.len());
 }

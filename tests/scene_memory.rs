@@ -47,7 +47,7 @@ fn write_scene(path: &Path, sources: &[String]) {
 /// Runs `vps ARGS` to its end; returns its status, stdout, stderr and peak resident memory
 /// (bytes, the child's own `ru_maxrss` from `wait4`).
 fn run_measured(args: &[&str]) -> (Option<i32>, String, String, u64) {
-    let child = Command::new(env!("CARGO_BIN_EXE_vps"))
+    let child = Command::new(vps_testkit::process::vps_binary(env!("CARGO_BIN_EXE_vps")))
         .args(args)
         .env(
             "VPS_CACHE_DIR",
@@ -218,5 +218,101 @@ fn the_whole_scene_estimate_is_printed_and_refused_over_max_memory() {
     assert!(
         !err.contains("voxmap: built"),
         "built before refusing: {err}"
+    );
+}
+
+/// `vps view --scene` takes `--max-memory` as the session commands do: a scene over it is refused
+/// naming the estimate, the budget and the flag, before anything is built or served.
+#[test]
+fn view_refuses_a_scene_over_max_memory_before_building_it() {
+    let (code, out, err, _) = run_measured(&[
+        "view",
+        "--scene",
+        "builtin:bay-teapot",
+        "--no-cache",
+        "--addr",
+        "127.0.0.1:0",
+        "--max-memory",
+        "64MiB",
+    ]);
+    assert_eq!(code, Some(1), "{out}{err}");
+    for want in [
+        "builtin:bay-teapot",
+        "needs an estimated",
+        "over the budget of 64.0 MiB (--max-memory)",
+    ] {
+        assert!(err.contains(want), "{want:?} not in: {err}");
+    }
+    assert!(
+        !err.contains("voxmap: built"),
+        "built before refusing: {err}"
+    );
+    assert!(
+        !err.contains("viewer: http"),
+        "served before refusing: {err}"
+    );
+}
+
+/// Issue 36 items 6 and 10: a scene file nested 100,000 deep, and one of 60 MiB of commas (under
+/// the 64 MiB size bound, but about 63 million tokens, each held twice by the TOML parser before
+/// it builds anything: several GB), are refused before parsing, naming the file, the limit and
+/// the line, in a small fraction of that memory.
+#[test]
+fn deep_nesting_and_token_floods_are_refused_before_parsing_in_bounded_memory() {
+    let dir = tempfile::tempdir().unwrap();
+    let nested = dir.path().join("nested.toml");
+    let depth = 100_000;
+    std::fs::write(
+        &nested,
+        format!(
+            "part = \"builtin:box\"\n\nname = {}{}\n",
+            "[ ".repeat(depth),
+            "] ".repeat(depth)
+        ),
+    )
+    .unwrap();
+    let (code, out, err, _) = run_measured(&["scene", "check", nested.to_str().unwrap()]);
+    assert_eq!(code, Some(1), "{out}{}", &err[..err.len().min(2000)]);
+    for want in [
+        "nested.toml",
+        "nested more than 32 deep",
+        "passed on line 3",
+    ] {
+        assert!(
+            err.contains(want),
+            "{want:?} not in: {}",
+            &err[..err.len().min(2000)]
+        );
+    }
+    assert!(err.len() < 1000, "{} bytes of error", err.len());
+
+    let commas = dir.path().join("commas.toml");
+    let bytes = 60 << 20;
+    // Written in 1 MiB pieces: a child's peak resident memory as wait4 reports it starts from
+    // this process's own peak (the child is spawned from it), so this test must not hold 60 MiB,
+    // nor raise the peak the other tests here measure.
+    {
+        use std::io::Write;
+        let mut file = std::fs::File::create(&commas).unwrap();
+        file.write_all(b"x = [1").unwrap();
+        let piece = vec![b','; 1 << 20];
+        for _ in 0..bytes >> 20 {
+            file.write_all(&piece).unwrap();
+        }
+        file.write_all(b"]\n").unwrap();
+    }
+    let (code, out, err, peak) = run_measured(&["scene", "check", commas.to_str().unwrap()]);
+    assert_eq!(code, Some(1), "{out}{}", &err[..err.len().min(2000)]);
+    for want in ["commas.toml", "TOML tokens", "passed on line 1"] {
+        assert!(
+            err.contains(want),
+            "{want:?} not in: {}",
+            &err[..err.len().min(2000)]
+        );
+    }
+    // The file's text is held once (60 MiB); the parser's tokens would be 24 bytes a comma.
+    assert!(
+        peak < 4 * bytes as u64,
+        "peak resident memory {peak} bytes for a {bytes}-byte file"
     );
 }

@@ -16,7 +16,7 @@ const DEADLINE: Duration = Duration::from_secs(240);
 
 /// Starts `vps ARGS` with its voxmap cache in `dir` and `RUST_LOG=vps_cluster=info`.
 fn start(label: &str, dir: &Path, args: &[&str]) -> WatchedProcess {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_vps"));
+    let mut cmd = Command::new(vps_testkit::process::vps_binary(env!("CARGO_BIN_EXE_vps")));
     cmd.args(args)
         .env("VPS_CACHE_DIR", dir.join("cache"))
         .env("RUST_LOG", "vps_cluster=info");

@@ -21,6 +21,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
                     CachePolicy::from_env()
                 },
                 viewer: true,
+                max_memory_bytes: args.max_memory,
                 ..vps_session::BuildOptions::default()
             };
             (

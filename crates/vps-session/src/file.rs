@@ -546,6 +546,119 @@ pub fn rotation(rotate_deg: [f64; 3]) -> DQuat {
 /// so that the parser's memory is bounded (about 80 MB for this many empty arrays).
 pub const MAX_ARRAYS_AND_TABLES: usize = 400_000;
 
+/// The deepest nesting of arrays and inline tables a scene file may have (`waypoints = [[x, y,
+/// z]]` is 2 deep): below the TOML parser's own recursion limit (80), so that a file nested
+/// 100,000 deep is refused by [`scan_structure`] naming the line, before the parser sees it.
+pub const MAX_NESTING: usize = 32;
+
+/// The most TOML tokens a scene file may hold (keys, values, punctuation, a run of spaces, a
+/// string or a comment each count one; the count is an upper bound of the parser's). The parser
+/// holds two 24-32 byte records per token before it builds anything: 4,000,000 tokens bound that
+/// at about 250 MB, where a 63 MiB file of commas would take about 4 GB. 100,000 waypoints
+/// written one to a line and 10,000 objects need about 2,000,000.
+pub const MAX_TOKENS: usize = 4_000_000;
+
+/// What [`scan_structure`] found over a bound: the message (without the file's name).
+fn structure_error(what: String, line: usize) -> String {
+    format!("{what}; the limit is passed on line {line}")
+}
+
+/// A cheap pass over a scene file's text before the TOML parser sees it: the nesting of arrays
+/// and inline tables (outside strings and comments) within [`MAX_NESTING`] and the count of
+/// tokens within [`MAX_TOKENS`]. Err names the bound, the limit and the line where it is passed.
+/// Strings and comments are skipped as the TOML lexer does (basic strings with `\` escapes,
+/// literal strings, their multi-line forms); an unterminated one ends the pass (the parser then
+/// reports it).
+pub fn scan_structure(text: &str) -> Result<(), String> {
+    let b = text.as_bytes();
+    let (mut i, mut line, mut depth, mut tokens) = (0usize, 1usize, 0usize, 0usize);
+    // The index just past the end of a string opened at `i` by `quote` (1 or 3 bytes), counting
+    // the line breaks inside it; `b.len()` when it never ends.
+    let skip_string = |mut i: usize, quote: &[u8], escapes: bool, line: &mut usize| -> usize {
+        i += quote.len();
+        while i < b.len() {
+            if b[i..].starts_with(quote) {
+                return i + quote.len();
+            }
+            match b[i] {
+                // The escaped byte is skipped (a line break after `\` in a multi-line string).
+                b'\\' if escapes => {
+                    i += 1;
+                    if b.get(i) == Some(&b'\n') {
+                        *line += 1;
+                    }
+                }
+                b'\n' if quote.len() == 1 => return i,
+                b'\n' => *line += 1,
+                _ => {}
+            }
+            i += 1;
+        }
+        b.len()
+    };
+    while i < b.len() {
+        tokens += 1;
+        if tokens > MAX_TOKENS {
+            return Err(structure_error(
+                format!(
+                    "more than {MAX_TOKENS} TOML tokens (keys, values, punctuation), the limit for \
+                     a scene file ({MAX_WAYPOINTS} waypoints and 10000 objects need about \
+                     2000000)"
+                ),
+                line,
+            ));
+        }
+        match b[i] {
+            b'#' => {
+                while i < b.len() && b[i] != b'\n' {
+                    i += 1;
+                }
+            }
+            b'"' if b[i..].starts_with(b"\"\"\"") => {
+                i = skip_string(i, b"\"\"\"", true, &mut line);
+            }
+            b'\'' if b[i..].starts_with(b"'''") => i = skip_string(i, b"'''", false, &mut line),
+            b'"' => i = skip_string(i, b"\"", true, &mut line),
+            b'\'' => i = skip_string(i, b"'", false, &mut line),
+            b'[' | b'{' => {
+                depth += 1;
+                if depth > MAX_NESTING {
+                    return Err(structure_error(
+                        format!(
+                            "arrays and inline tables nested more than {MAX_NESTING} deep, the \
+                             limit for a scene file (waypoints need 2)"
+                        ),
+                        line,
+                    ));
+                }
+                i += 1;
+            }
+            b']' | b'}' => {
+                depth = depth.saturating_sub(1);
+                i += 1;
+            }
+            b'\n' => {
+                line += 1;
+                i += 1;
+            }
+            b' ' | b'\t' => {
+                while i < b.len() && matches!(b[i], b' ' | b'\t') {
+                    i += 1;
+                }
+            }
+            c if c.is_ascii_alphanumeric() || matches!(c, b'_' | b'-' | b'+') => {
+                while i < b.len()
+                    && (b[i].is_ascii_alphanumeric() || matches!(b[i], b'_' | b'-' | b'+'))
+                {
+                    i += 1;
+                }
+            }
+            _ => i += 1,
+        }
+    }
+    Ok(())
+}
+
 /// The largest coordinate (m) of a position or translation in a scene file: 1000 km. Far beyond
 /// any scene a haptic device explores, and small enough that no distance, radius or time computed
 /// from such positions overflows (a grip of 1e300 m gave an infinite `max_radius`, a waypoint of
@@ -608,6 +721,12 @@ impl SceneFile {
                 ),
             });
         }
+        // Nesting and token count: the parser's own vectors grow with the tokens (a 63 MiB file
+        // of commas), and its recursion limit's error echoed a 600 KB line.
+        scan_structure(text).map_err(|message| SceneError::Syntax {
+            path: path.to_string(),
+            message,
+        })?;
         let de = toml::Deserializer::parse(text).map_err(|e| SceneError::Syntax {
             path: path.to_string(),
             message: e.to_string().trim_end().to_string(),
@@ -1263,6 +1382,58 @@ max = [0.4, 0.1, 0.2]
         );
         assert_ne!(big, GOOD);
         parse(&big).unwrap();
+    }
+
+    /// Issue 36 item 6: nesting past [`MAX_NESTING`] and a file of more than [`MAX_TOKENS`]
+    /// tokens are refused before parsing, naming the file, the limit and the line; brackets in
+    /// strings and comments are not nesting, and a multi-line string's lines are counted.
+    #[test]
+    fn deep_nesting_and_too_many_tokens_are_refused_before_parsing_naming_the_line() {
+        let depth = 100_000;
+        let text = format!(
+            "a = 1\nname = {}{}\n",
+            "[ ".repeat(depth),
+            "] ".repeat(depth)
+        );
+        let err = parse(&text).unwrap_err().to_string();
+        assert!(
+            err.starts_with("scene.toml")
+                && err.contains(&format!("nested more than {MAX_NESTING} deep"))
+                && err.contains("the limit is passed on line 2"),
+            "{err}"
+        );
+        assert!(err.len() < 400, "{err}");
+        let at_limit = format!("x = {}{}", "[".repeat(MAX_NESTING), "]".repeat(MAX_NESTING));
+        scan_structure(&at_limit).unwrap();
+        let over = format!(
+            "x = {}{}",
+            "{".repeat(MAX_NESTING + 1),
+            "}".repeat(MAX_NESTING + 1)
+        );
+        assert!(scan_structure(&over).is_err());
+
+        let brackets = "[".repeat(10 * MAX_NESTING);
+        let quoted = format!(
+            "a = \"{brackets}\\\"{brackets}\"\nb = '{brackets}'\n# {brackets}\nc = \"\"\"\n{brackets}\n\
+             \"\"\"\nd = '''{brackets}\n'''\n"
+        );
+        scan_structure(&quoted).unwrap();
+        let after_strings = format!("{quoted}e = {}\n", "[".repeat(MAX_NESTING + 1));
+        assert!(
+            scan_structure(&after_strings)
+                .unwrap_err()
+                .ends_with("passed on line 9"),
+            "{after_strings}"
+        );
+
+        let commas = format!("a = 1\n\nx = [1{}]\n", ",".repeat(MAX_TOKENS));
+        let err = parse(&commas).unwrap_err().to_string();
+        assert!(
+            err.starts_with("scene.toml")
+                && err.contains(&format!("more than {MAX_TOKENS} TOML tokens"))
+                && err.contains("the limit is passed on line 3"),
+            "{err}"
+        );
     }
 
     /// Issue 36 items 7 and 10: positions so far out that the session's radius or times overflow

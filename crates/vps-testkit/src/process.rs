@@ -4,6 +4,11 @@
 //! it is passed in: `let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));`. Every command made here has
 //! `VPS_CACHE_DIR` set to a directory inside the test's own temporary directory, so a test never
 //! writes into the user's cache (`~/.cache/vps`).
+//!
+//! The same test source can run against another build of `vps` (an older commit's, to show that a
+//! test fails there): set `VPS_TEST_BINARY=/path/to/vps` and every binary path that goes through
+//! [`vps_binary`] (so every [`Vps`]) is that file instead of `env!("CARGO_BIN_EXE_vps")`; the
+//! substitution is printed on the test's stderr. `tests/hostile_old_vs_new.sh` uses it.
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -11,6 +16,35 @@ use std::process::{Child, Command, ExitStatus, Output, Stdio};
 use std::sync::{mpsc, Arc, Mutex};
 use std::time::{Duration, Instant};
 use tempfile::TempDir;
+
+/// The environment variable naming a `vps` binary to test instead of the one cargo built.
+pub const TEST_BINARY_ENV: &str = "VPS_TEST_BINARY";
+
+/// The `vps` binary a test runs: `bin` (`env!("CARGO_BIN_EXE_vps")`), or the path in
+/// [`TEST_BINARY_ENV`] when that is set and not empty (printed on stderr, which the test harness
+/// shows with a failing test's output or with `--nocapture`).
+///
+/// # Panics
+/// When `VPS_TEST_BINARY` names no file, so that a mistyped path fails every test at once instead
+/// of testing nothing.
+pub fn vps_binary(bin: &str) -> PathBuf {
+    match std::env::var_os(TEST_BINARY_ENV) {
+        Some(other) if !other.is_empty() => {
+            let other = PathBuf::from(other);
+            assert!(
+                other.is_file(),
+                "{TEST_BINARY_ENV}={} is not a file",
+                other.display()
+            );
+            eprintln!(
+                "{TEST_BINARY_ENV}: testing {} instead of {bin}",
+                other.display()
+            );
+            other
+        }
+        _ => PathBuf::from(bin),
+    }
+}
 
 /// The `vps` binary with a temporary working directory and a private voxmap cache inside it
 /// (both removed on drop).
@@ -21,12 +55,13 @@ pub struct Vps {
 }
 
 impl Vps {
-    /// `bin` is `env!("CARGO_BIN_EXE_vps")`.
+    /// `bin` is `env!("CARGO_BIN_EXE_vps")` (replaced by `VPS_TEST_BINARY` when set:
+    /// [`vps_binary`]).
     pub fn new(bin: &str) -> Vps {
         let dir = tempfile::tempdir().expect("a temporary directory");
         let cache = dir.path().join("cache");
         Vps {
-            bin: bin.into(),
+            bin: vps_binary(bin),
             dir,
             cache,
         }
