@@ -28,6 +28,12 @@ use vps_voxmap::GridSpec;
 /// whole segment to take their side without evaluating the voxels between.
 pub(crate) const MARGIN: f64 = 0.25;
 
+/// Longest piece of a segment (voxels) taken whole from its two ends: longer pieces are bisected.
+/// w need not be monotone along a run that crosses no Surface (a row through a slit runs from
+/// outside to inside and out again without touching a triangle), so ends are never trusted across
+/// more than this.
+pub(crate) const MAX_SKIP: usize = 8;
+
 /// One part of an object to voxelize on its own.
 pub(crate) struct Part<'a> {
     /// The triangles (a borrowed whole object when it needs no split).
@@ -167,8 +173,9 @@ impl PartClass {
     /// `offset`) every voxel the fill reached, inside the part's window, whose winding number is at
     /// least 0.5. Reached voxels are taken in segments: maximal runs within one 64-voxel word of a
     /// row (words are aligned to global x, so the dense and sparse pipelines see the same
-    /// segments); a segment whose two ends are on the same side by at least [`MARGIN`] is taken
-    /// whole, otherwise it is bisected down to single voxels. Parallel over z.
+    /// segments); a piece of at most [`MAX_SKIP`] voxels whose two ends are on the same side by at
+    /// least [`MARGIN`] is taken whole, otherwise it is bisected down to single voxels. Parallel
+    /// over z.
     pub fn add_by_winding(&self, surface: &BitGrid, interior: &mut BitGrid, offset: [usize; 3]) {
         let dims = surface.dims;
         let rw = surface.row_words;
@@ -236,7 +243,7 @@ impl PartClass {
             }
             return;
         }
-        let clear = (wa - 0.5).abs() >= MARGIN && (wb - 0.5).abs() >= MARGIN;
+        let clear = b - a < MAX_SKIP && (wa - 0.5).abs() >= MARGIN && (wb - 0.5).abs() >= MARGIN;
         if ia == ib && clear {
             if ia {
                 (a..=b).for_each(&mut *set);

@@ -189,3 +189,35 @@ fn workspace_wall_through_a_closed_box_keeps_its_inside() {
     let outside = C + DVec3::new(H + 3.0 * S, 0.0, 0.0);
     assert_eq!(grid.get(grid.spec.index_of(outside)), Voxel::Free);
 }
+
+/// Cost of the winding-number classification: the teapot (9120 triangles, open) on a grid of about
+/// 160 voxels along x, dense and sparse. Run with
+/// `cargo test --release -p vps-voxelize --test open_meshes -- --ignored --nocapture`.
+#[test]
+#[ignore = "timing, run by hand"]
+fn winding_cost_on_a_160_voxel_teapot() {
+    use vps_voxelize::{voxelize_tree, voxelize_with_stats};
+    use vps_voxmap::TreeConfig;
+    let pot = vps_mesh::builtin::teapot();
+    let s = pot.bounds().size().x / 150.0;
+    let opts = VoxelizeOptions {
+        voxel_size: s,
+        ..Default::default()
+    };
+    let (grid, stats) = voxelize_with_stats(std::slice::from_ref(&pot), &opts).unwrap();
+    println!(
+        "dense: dims {:?}, {} triangles, total {:.0} ms, scan {:.0} ms, fill + winding {:.0} ms, counts {:?}",
+        grid.spec.dims,
+        pot.triangle_count(),
+        stats.total_ms,
+        stats.scan_ms,
+        stats.fill_ms,
+        grid.counts()
+    );
+    let (_, stats) =
+        voxelize_tree(std::slice::from_ref(&pot), &opts, TreeConfig::default()).unwrap();
+    println!(
+        "sparse: total {:.0} ms, scan {:.0} ms, fill + winding {:.0} ms",
+        stats.total_ms, stats.scan_ms, stats.fill_ms
+    );
+}
