@@ -12,6 +12,7 @@
 //! - [`components`]: connected components of a mesh and whether each is closed and oriented.
 //! - [`scene`]: [`ExactScene`], [`SignedDistance`].
 //! - [`contact`]: [`reference_contact`], [`ReferenceContact`].
+//! - [`winding`]: the generalized winding number, exact and fast hierarchical ([`winding::WindingTree`]).
 //!
 //! What the sign means: each connected component (triangles sharing vertex indices) that is closed
 //! and consistently oriented is a solid; its signed distance is negative inside. The scene's value
@@ -29,6 +30,7 @@ pub mod bvh;
 pub mod components;
 pub mod contact;
 pub mod scene;
+pub mod winding;
 
 pub use contact::{reference_contact, reference_contact_points, ReferenceContact};
 pub use scene::{ExactScene, SignedDistance};

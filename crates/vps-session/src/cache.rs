@@ -18,8 +18,10 @@ use vps_voxelize::VoxelizeOptions;
 use vps_voxmap::file::{load_voxmap, save_voxmap};
 use vps_voxmap::{GridSpec, TreeConfig, VoxelTree, VoxelWidth};
 
-/// Bumped whenever the key's inputs or the voxelizer's output change meaning.
-const CACHE_FORMAT: &str = "vps-voxmap-cache-1";
+/// Bumped whenever the key's inputs or the voxelizer's output change meaning. 2: open parts are
+/// classified by winding number and workspace cuts keep the inside (docs/voxelize.md, "Open and
+/// leaky meshes"), so maps cached by 1 may differ.
+const CACHE_FORMAT: &str = "vps-voxmap-cache-2";
 
 /// Where cached voxmaps live, or that caching is off.
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -41,6 +41,31 @@ pub(crate) fn flood_fill(surface: &BitGrid) -> BitGrid {
     open
 }
 
+/// [`flood_fill`] where a wall voxel seeds the fill only when `may_seed(x, y, z)` (window-local
+/// indices) holds: for a window cut by the grid's boundary, whose wall there may lie inside the
+/// solid. Visits every wall voxel once (no word-wise seeding).
+pub(crate) fn flood_fill_filtered(
+    surface: &BitGrid,
+    may_seed: impl Fn(usize, usize, usize) -> bool,
+) -> BitGrid {
+    let mut open = BitGrid::neither(surface, &BitGrid::zeros(surface.dims));
+    let [nx, ny, nz] = open.dims;
+    let mut stack: Vec<(u32, u32)> = Vec::new();
+    for z in 0..nz {
+        for y in 0..ny {
+            let wall_row = z == 0 || z == nz - 1 || y == 0 || y == ny - 1;
+            for x in 0..nx {
+                let wall = wall_row || x == 0 || x == nx - 1;
+                if wall && open.get(x, y, z) && may_seed(x, y, z) {
+                    stack.push(((y + ny * z) as u32, x as u32));
+                }
+            }
+        }
+    }
+    fill_from(&mut open, &mut stack);
+    open
+}
+
 /// Runs the span fill on `open` (set bits: open voxels not yet reached) from the seeds on `stack`
 /// (`(row, x)` with `row = y + ny * z`), clearing every open voxel 6-connected to a seed. Seeds on
 /// closed voxels are skipped. Leaves `stack` empty.

@@ -4,6 +4,8 @@
 //! - [`tri_box`]: exact triangle / box overlap (13-axis separating axis test).
 //! - `scan_convert`: voxels overlapped by triangles become Surface (parallel over triangles).
 //! - `flood_fill`: Free space flooded from the box walls, 6-connected; the rest is Interior.
+//! - `winding`: open parts classified by generalized winding number, and flood-fill seeds on walls
+//!   cut by the grid (a workspace) kept to the outside.
 //! - `proximity`: Free 26-neighbours of Surface.
 //! - `offset`: the force layer grown outward by `k` layers.
 //! - `merge`: objects combined by precedence Interior > Surface > Proximity > Free.
@@ -37,6 +39,7 @@ pub mod shell;
 pub mod sparse;
 pub mod stats;
 pub mod tri_box;
+mod winding;
 
 pub use error::{VoxelizeError, MAX_SPARSE_VOXELS, MAX_VOXELS};
 pub use mass::{is_closed_and_oriented, mass_properties};

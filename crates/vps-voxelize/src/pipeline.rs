@@ -4,11 +4,12 @@
 
 use crate::bitgrid::BitGrid;
 use crate::error::{VoxelizeError, MAX_SPARSE_VOXELS, MAX_VOXELS};
-use crate::flood_fill::flood_fill;
+use crate::flood_fill::{flood_fill, flood_fill_filtered};
 use crate::merge::{to_dense, MergedPlanes};
 use crate::offset::{offset, Layers};
 use crate::scan_convert::{scan_convert, Window};
 use crate::stats::VoxelizeStats;
+use crate::winding::{split_open, Part, PartClass};
 use glam::DVec3;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
@@ -48,8 +49,9 @@ pub struct VoxelizeOptions {
     /// The region the dynamic part can reach (m). When set, only voxels overlapping it are
     /// voxelized: the grid is the scene's padded grid clipped to the voxels that overlap the
     /// workspace, voxels outside read Free, and triangles outside are never scan-converted.
-    /// Caveat: the flood fill treats the workspace boundary as the grid's wall, so an object cut by
-    /// it is filled from the cut and its interior there reads Free (as [`voxelize_in`] does).
+    /// An object cut by the workspace boundary keeps its inside: on a cut side the flood fill is
+    /// seeded only from wall voxels whose generalized winding number is below 0.5 (docs/voxelize.md,
+    /// "Open and leaky meshes").
     /// Default `None` (the whole scene).
     pub workspace: Option<Aabb>,
     /// Working-memory budget (bytes). The voxelizer estimates its peak from the plan (grid,
@@ -297,13 +299,47 @@ fn ms(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3
 }
 
+/// The Interior plane of one part over `window` given its Surface plane: the flood fill from the
+/// window's walls for a closed part (walls cut by the grid seed only outside when `cut_aware`), the
+/// winding number for an `open` part (see [`crate::winding`]).
+fn interior_of(
+    mesh: &TriMesh,
+    open: bool,
+    cut_aware: bool,
+    spec: &GridSpec,
+    window: &Window,
+    surface: &BitGrid,
+) -> BitGrid {
+    let class = match cut_aware
+        .then(|| PartClass::new(mesh, open, spec))
+        .flatten()
+    {
+        Some(c) if c.open || c.is_cut() => c,
+        _ => return flood_fill(surface),
+    };
+    let o = window.offset;
+    let mut interior = if class.is_cut() {
+        flood_fill_filtered(surface, |x, y, z| {
+            class.may_seed([x + o[0], y + o[1], z + o[2]])
+        })
+    } else {
+        flood_fill(surface)
+    };
+    if class.open {
+        class.add_by_winding(surface, &mut interior, o);
+    }
+    interior
+}
+
 /// Voxelizes `objects` into disjoint planes over `spec` with `offset_layers` of offset. Inputs must
-/// be checked. Shared by [`voxelize_in`] and the point shell.
+/// be checked. Shared by [`voxelize_in`] (`winding` true: open parts and cut windows use the
+/// winding number, [`crate::winding`]) and the point shell (`winding` false: the plain flood fill).
 pub(crate) fn voxelize_planes(
     objects: &[TriMesh],
     spec: &GridSpec,
     offset_layers: u32,
     progress: bool,
+    winding: bool,
     stats: &mut VoxelizeStats,
 ) -> Layers {
     let dims = spec.dims.map(|d| d as usize);
@@ -319,13 +355,26 @@ pub(crate) fn voxelize_planes(
     let merged = Mutex::new(MergedPlanes::new(dims));
     let phase_ms = Mutex::new([0.0f64; 3]);
     bar.set_message("objects: scan + fill");
-    objects.par_iter().for_each(|mesh| {
+    let parts = if winding {
+        split_open(objects)
+    } else {
+        objects
+            .iter()
+            .map(|m| Part {
+                mesh: std::borrow::Cow::Borrowed(m),
+                open: false,
+            })
+            .collect()
+    };
+    parts.par_iter().for_each(|part| {
+        let mesh: &TriMesh = &part.mesh;
         if let Some(window) = object_window(&mesh.bounds(), spec) {
             let t = Instant::now();
             let surface = scan_convert(mesh, spec, &window);
             let scan = ms(t);
             let t = Instant::now();
-            let interior = flood_fill(&surface);
+            let interior =
+                interior_of(mesh, part.open && winding, winding, spec, &window, &surface);
             let fill = ms(t);
             let t = Instant::now();
             lock(&merged).add(&window, &interior, &surface);
@@ -337,6 +386,7 @@ pub(crate) fn voxelize_planes(
         }
         bar.inc(1);
     });
+    drop(parts);
     let [scan_ms, fill_ms, merge_ms] = *lock(&phase_ms);
     stats.scan_ms += scan_ms;
     stats.fill_ms += fill_ms;
@@ -361,8 +411,10 @@ pub(crate) fn voxelize_planes(
 ///
 /// Every mesh must already be in its final world pose (metres): the voxelizer does not transform,
 /// and a rotated object voxelizes to a different shape. Meshes may be open or inconsistently
-/// oriented; cracks narrower than a voxel do not leak, larger holes do (docs/architecture.md#voxmaps-and-point-shells). Each object is
-/// scan-converted and flood-filled on its own, the objects are combined with the precedence of
+/// oriented: closed, consistently oriented components are flood-filled; the voxels the flood fill
+/// reaches in the other components (through holes wider than a voxel) are Interior where their
+/// generalized winding number is at least 0.5 (docs/voxelize.md, "Open and leaky meshes"). Each
+/// object is scan-converted and flood-filled on its own, the objects are combined with the precedence of
 /// [`vps_voxmap::Voxel::merge`], then Proximity and the `opts.offset_layers` force-layer offset are
 /// computed once on the merged result. Blocking, parallel (rayon), allocates about 1.9 bytes per
 /// voxel at the peak.
@@ -440,7 +492,8 @@ pub fn voxelize_tree_in(
 
 /// [`voxelize`] on a given grid: `spec` (its own voxel size wins over `opts.voxel_size`, and
 /// `opts.padding_voxels` is unused). Parts of objects outside the grid are clipped; an object cut by
-/// the grid's boundary is flood-filled from that boundary, so its cut interior reads Free.
+/// the grid's boundary keeps its inside (wall voxels there seed the flood fill only where the
+/// winding number says they are outside).
 pub fn voxelize_in(
     objects: &[TriMesh],
     spec: GridSpec,
@@ -472,6 +525,7 @@ pub fn voxelize_in_with_stats(
         &spec,
         opts.offset_layers,
         opts.progress,
+        true,
         &mut stats,
     );
     let t = Instant::now();

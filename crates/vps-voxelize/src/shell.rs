@@ -95,7 +95,14 @@ pub fn point_shell_within(
         &spec,
         max_memory_bytes,
     )?;
-    let layers = voxelize_planes(objects, &spec, 0, false, &mut VoxelizeStats::default());
+    let layers = voxelize_planes(
+        objects,
+        &spec,
+        0,
+        false,
+        false,
+        &mut VoxelizeStats::default(),
+    );
     let mass = if is_closed_and_oriented(mesh) {
         mass_properties(mesh)
     } else {

@@ -78,9 +78,9 @@ pub(crate) fn voxelize_sparse(
     let mut held = 0usize; // bytes of merged planes
     let mut peak = map_meta;
 
-    for mesh in objects {
+    for part in crate::winding::split_open(objects) {
         let mut times = [0.0; 2];
-        let (chunks, work) = voxelize_object(mesh, spec, &grid, &mut times);
+        let (chunks, work) = voxelize_object(&part.mesh, part.open, spec, &grid, &mut times);
         stats.scan_ms += times[0];
         stats.fill_ms += times[1];
         let result_bytes: usize = chunks

@@ -9,6 +9,7 @@ use super::chunk::{ChunkGrid, CHUNK};
 use crate::bitgrid::BitGrid;
 use crate::flood_fill::{fill_from, push_runs};
 use crate::scan_convert::{for_each_overlap, Window};
+use crate::winding::PartClass;
 use rayon::prelude::*;
 use std::collections::VecDeque;
 use vps_mesh::TriMesh;
@@ -40,11 +41,15 @@ enum FillChunk {
 /// of this object's working planes. `mesh` must be validated.
 pub(crate) fn voxelize_object(
     mesh: &TriMesh,
+    open: bool,
     spec: &GridSpec,
     grid: &ChunkGrid,
     times: &mut [f64; 2],
 ) -> (Vec<(usize, ObjectChunk)>, usize) {
     let Some((lo, hi)) = chunk_window(mesh, spec, grid) else {
+        return (Vec::new(), 0);
+    };
+    let Some(class) = PartClass::new(mesh, open, spec) else {
         return (Vec::new(), 0);
     };
     let wn: [usize; 3] = std::array::from_fn(|a| hi[a] - lo[a] + 1);
@@ -98,7 +103,14 @@ pub(crate) fn voxelize_object(
                 c[axis] == lo[axis]
             };
             if on_wall {
-                receive(chunk, face, None, &mut queue, i);
+                let seeds = if class.is_cut() {
+                    wall_seeds(&class, grid, c, face, chunk)
+                } else {
+                    Some(None)
+                };
+                if let Some(mask) = seeds {
+                    receive(chunk, face, mask.as_deref(), &mut queue, i);
+                }
             }
         }
     }
@@ -139,24 +151,77 @@ pub(crate) fn voxelize_object(
             receive(&mut chunks[j], face ^ 1, mask.as_deref(), &mut queue, j);
         }
     }
-    times[1] += t.elapsed().as_secs_f64() * 1e3;
 
     let out = chunks
-        .into_iter()
+        .into_par_iter()
         .enumerate()
         .filter_map(|(i, chunk)| {
+            let c = global_of(i);
             let content = match chunk {
+                FillChunk::Empty { reached: true } if class.open => {
+                    let dims = grid.chunk_dims(c);
+                    let surface = BitGrid::zeros(dims);
+                    let mut interior = BitGrid::zeros(dims);
+                    class.add_by_winding(&surface, &mut interior, grid.origin(c));
+                    match interior.count() {
+                        0 => return None,
+                        n if n == dims.iter().product::<usize>() as u64 => ObjectChunk::Interior,
+                        _ => ObjectChunk::Mixed { interior, surface },
+                    }
+                }
                 FillChunk::Empty { reached: true } => return None,
                 FillChunk::Empty { reached: false } => ObjectChunk::Interior,
-                FillChunk::Mixed { surface, open, .. } => ObjectChunk::Mixed {
-                    interior: open,
-                    surface,
-                },
+                FillChunk::Mixed {
+                    surface, mut open, ..
+                } => {
+                    if class.open {
+                        class.add_by_winding(&surface, &mut open, grid.origin(c));
+                    }
+                    ObjectChunk::Mixed {
+                        interior: open,
+                        surface,
+                    }
+                }
             };
-            Some((grid.index(global_of(i)), content))
+            Some((grid.index(c), content))
         })
         .collect();
+    times[1] += t.elapsed().as_secs_f64() * 1e3;
     (out, work_bytes)
+}
+
+/// The seeds that window wall `face` of chunk `c` may give a part cut by the grid
+/// ([`PartClass::may_seed`]): `None` for none at all, `Some(None)` for the whole face, or a mask in
+/// [`reached_face`]'s layout. An empty chunk is one connected box: it seeds when its centre is
+/// outside.
+fn wall_seeds(
+    class: &PartClass,
+    grid: &ChunkGrid,
+    c: [usize; 3],
+    face: usize,
+    chunk: &FillChunk,
+) -> Option<Option<Vec<u64>>> {
+    let o = grid.origin(c);
+    let [nx, ny, nz] = grid.chunk_dims(c);
+    if let FillChunk::Empty { .. } = chunk {
+        let centre = [o[0] + nx / 2, o[1] + ny / 2, o[2] + nz / 2];
+        return (!class.inside(centre)).then_some(None);
+    }
+    let high = face % 2 == 1;
+    let at = |n: usize| if high { n - 1 } else { 0 };
+    let ok = |x: usize, y: usize, z: usize| class.may_seed([o[0] + x, o[1] + y, o[2] + z]);
+    let mask: Vec<u64> = match face / 2 {
+        0 => (0..nz)
+            .map(|z| (0..ny).fold(0u64, |m, y| m | (ok(at(nx), y, z) as u64) << y))
+            .collect(),
+        1 => (0..nz)
+            .map(|z| (0..nx).fold(0u64, |m, x| m | (ok(x, at(ny), z) as u64) << x))
+            .collect(),
+        _ => (0..ny)
+            .map(|y| (0..nx).fold(0u64, |m, x| m | (ok(x, y, at(nz)) as u64) << x))
+            .collect(),
+    };
+    Some(Some(mask))
 }
 
 /// The inclusive chunk range of the object's window: its voxels plus two on every side (one for
