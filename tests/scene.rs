@@ -843,7 +843,8 @@ fn scene_check_reports_mesh_health_and_scales_the_part() {
     assert_eq!(floor["health"]["boundary_edges"], 4, "{floor}");
     let flags = report["flags"].to_string();
     assert!(
-        flags.contains("floor.obj is not closed: 4 boundary edges") && flags.contains("flood fill"),
+        flags.contains("floor.obj is not closed: 4 boundary edges")
+            && flags.contains("winding number"),
         "{flags}"
     );
     let text =

@@ -6,8 +6,10 @@
 //! spoken with the viewer crate's small WebSocket client): it opens the page during the demo's
 //! paced session, reads the part's pose from `<pre id="pose">` twice and checks that it changed,
 //! then takes a screenshot once the scene is drawn and checks that the 3D view is not blank. It
-//! reports which renderer the page used (WebGL2 through SwiftShader, or the 2D-canvas fallback),
-//! then loads the page again with the 2D-canvas fallback forced and checks that view too.
+//! reports which renderer the page used (WebGL2 through SwiftShader, or the 2D-canvas fallback).
+//! The forced 2D-canvas fallback is checked by vps-view's own browser test (a server that does not
+//! end: the demo's script ends after about a minute, and its viewer with it, which a loaded
+//! machine reached before a second page had loaded).
 //! Every wait polls with a generous deadline, so a loaded machine makes it slower, not flaky.
 
 use std::net::SocketAddr;
@@ -111,20 +113,6 @@ fn the_demo_is_watched_in_headless_chromium() {
     );
     assert!(colours > 50, "a blank or flat view: {colours} colours");
     assert!(share > 0.02, "the view is almost all background: {share}");
-
-    // The 2D-canvas fallback, forced, draws a non-blank view too.
-    browser.open_page(&format!("http://{addr}/?renderer=2d&fps={PAGE_FPS}"));
-    browser.wait_for("two 2D draws", patience, |b| {
-        let mode = b.text("render-mode");
-        let draws = b.eval("Number(document.getElementById('view').dataset.draws || 0)");
-        (mode == "canvas2d" && draws.as_u64().unwrap_or(0) >= 2).then_some(())
-    });
-    let (colours, share) = canvas_content(&browser.screenshot(), 500);
-    eprintln!(
-        "  2D fallback: {colours} colours, {:.0} % off the background",
-        share * 100.0
-    );
-    assert!(colours > 20 && share > 0.02, "{colours} colours, {share}");
 }
 
 #[test]

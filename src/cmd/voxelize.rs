@@ -110,8 +110,8 @@ impl std::fmt::Display for VoxelizeSummary {
             self.tree_ms
         )?;
         let leak = if self.health.boundary_edges > 0 {
-            ": the inside is found by a flood fill from outside, which runs in through any gap \
-             wider than a voxel (docs/scenes.md, Mesh health)"
+            ": where the flood fill from outside ran in through a gap, the inside is found by \
+             winding number (docs/voxelize.md, Open and leaky meshes)"
         } else {
             ""
         };

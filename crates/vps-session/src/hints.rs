@@ -29,7 +29,7 @@ pub(crate) fn y_up_hint(file: &SceneFile) -> Option<String> {
 pub const SHEET_VOLUME_SHARE: f64 = 1e-4;
 
 /// Hints for a mesh whose faults matter to vps ([`vps_mesh::MeshHealth`]): as a static mesh
-/// (`is_static`) with boundary edges (a leak the flood fill can run in through), and as the part
+/// (`is_static`) with boundary edges (its inside comes from the winding number), and as the part
 /// (`is_part`) with no inside. `diagonal` is the mesh's bounding-box diagonal (m). Non-manifold or
 /// inconsistently oriented edges alone change nothing in the voxmap (its inside is found from the
 /// surface voxels), so they are reported by `vps scene check` but not hinted.
@@ -43,10 +43,11 @@ pub(crate) fn open_mesh_hints(
     let mut hints = Vec::new();
     if is_static && health.boundary_edges > 0 {
         hints.push(format!(
-            "static mesh {source} is {}: vps finds its inside by a flood fill from outside, which \
-             runs in through any gap wider than a voxel, so the inside of a leaky mesh may be lost \
-             and a part inside it feel nothing; close the mesh in the CAD tool or a mesh repair \
-             tool (docs/scenes.md, Mesh health)",
+            "static mesh {source} is {}: vps finds the inside of its open parts by winding \
+             number where a flood fill from outside ran in through a gap, so a leaky housing \
+             keeps its inside; a gap narrower than a voxel, or a mesh whose faces disagree about \
+             outside, can still misplace it: check with vps probe, or close the mesh \
+             (docs/scenes.md, Mesh health)",
             health.summary()
         ));
     }
