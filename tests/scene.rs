@@ -50,6 +50,22 @@ fn write_obj(path: &Path, min: [f64; 3], max: [f64; 3]) {
     std::fs::write(path, text).unwrap();
 }
 
+/// An OBJ of the box from `min` to `max` with its top face (the two triangles at `max[2]`) left
+/// out: an open cup, 4 boundary edges.
+fn write_open_top_obj(path: &Path, min: [f64; 3], max: [f64; 3]) {
+    let (v, t) = cuboid(min, max);
+    let mut text = String::from("# a box without its top face\n");
+    for p in &v {
+        text += &format!("v {} {} {}\n", p[0], p[1], p[2]);
+    }
+    let top = |tri: &[u32; 3]| tri.iter().all(|&k| v[k as usize][2] == max[2]);
+    assert_eq!(t.iter().filter(|tri| top(tri)).count(), 2);
+    for tri in t.iter().filter(|tri| !top(tri)) {
+        text += &format!("f {} {} {}\n", tri[0] + 1, tri[1] + 1, tri[2] + 1);
+    }
+    std::fs::write(path, text).unwrap();
+}
+
 /// A small bay in millimetres: a floor (OBJ, top at z = 0), a wall (STL) used twice: rotated 90°
 /// about Z and moved to x = 0.09..0.1 m, and moved unrotated to y = -0.1..-0.09 m; a 30 mm cube
 /// part (STL, given in "Y-up" and rotated back). The hand presses the part onto the floor,
@@ -588,6 +604,30 @@ fn a_part_starting_inside_a_static_object_is_warned_about() {
             && err.contains("`hand.waypoints[0]`"),
         "{err}"
     );
+
+    // The same block as an open cup (its top face missing): the flood fill from outside runs in
+    // through the opening, and the part inside was not warned about before the winding number
+    // classified the cup's inside (issue 33's leaky housing).
+    write_open_top_obj(
+        &bay.dir().join("cup.obj"),
+        [-40.0, -40.0, 0.0],
+        [40.0, 40.0, 80.0],
+    );
+    std::fs::write(
+        bay.dir().join("cup.toml"),
+        std::fs::read_to_string(bay.dir().join("inside.toml"))
+            .unwrap()
+            .replace("block.stl", "cup.obj"),
+    )
+    .unwrap();
+    let out = bay.run(&["run", "--scene", &bay.path("cup.toml"), "--seconds", "0.1"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let err = stderr(&out);
+    assert!(
+        err.contains(&format!("cup.toml: warning: {warning}"))
+            && err.contains("cup.obj is not closed: 4 boundary edges"),
+        "{err}"
+    );
 }
 
 /// A scene of CAD exports in millimetres with no object rotated is flagged by `vps scene check`
@@ -817,20 +857,11 @@ fn scene_check_reports_mesh_health_and_scales_the_part() {
     assert!((unscaled[0] - 0.03).abs() < 1e-9, "{unscaled:?}");
 
     // The floor's top face (the cuboid's two +z triangles) removed: open, flagged as a leak.
-    let floor = std::fs::read_to_string(bay.dir().join("floor.obj")).unwrap();
-    let (v, t) = cuboid([-100.0, -100.0, -10.0], [100.0, 100.0, 0.0]);
-    let top: Vec<usize> = (0..t.len())
-        .filter(|&i| t[i].iter().all(|&k| v[k as usize][2] == 0.0))
-        .collect();
-    assert_eq!(top.len(), 2, "{floor}");
-    let mut open = String::new();
-    for p in &v {
-        open += &format!("v {} {} {}\n", p[0], p[1], p[2]);
-    }
-    for (_, tri) in t.iter().enumerate().filter(|(i, _)| !top.contains(i)) {
-        open += &format!("f {} {} {}\n", tri[0] + 1, tri[1] + 1, tri[2] + 1);
-    }
-    std::fs::write(bay.dir().join("floor.obj"), open).unwrap();
+    write_open_top_obj(
+        &bay.dir().join("floor.obj"),
+        [-100.0, -100.0, -10.0],
+        [100.0, 100.0, 0.0],
+    );
     let report = check(&bay);
     let floor = report["meshes"]
         .as_array()
