@@ -617,8 +617,9 @@ pub struct VoxelizeArgs {
     /// Tree branching: log2 children per axis at every level (3 = the paper's 512-tree).
     #[arg(long, default_value_t = 3)]
     pub tree_n: u8,
-    /// Bits per voxel: 2 (kinds only), 4 or 8 (kinds plus distance layers).
-    #[arg(long, default_value_t = 2)]
+    /// Bits per voxel: 2 (kinds only, the paper's), 4 or 8 (kinds plus distance layers). The
+    /// default, 4, is what scene files default to (the sweep's recommendation, docs/sweep.md).
+    #[arg(long, default_value_t = 4)]
     pub width: u32,
     /// Voxelize only the region the part can reach: MINX,MINY,MINZ,MAXX,MAXY,MAXZ (m).
     #[arg(long)]
@@ -665,8 +666,9 @@ pub struct ShellArgs {
     /// Voxel edge length (m, or with unit).
     #[arg(long, value_parser = parse_length, default_value = "5mm")]
     pub voxel_size: f64,
-    /// Point placement.
-    #[arg(long, value_enum, default_value_t = ShellMethodArg::Centres)]
+    /// Point placement: `exact` (one point per surface voxel on the mesh surface; the default,
+    /// as in scene files) or `centres` (the paper's: at the voxel centre).
+    #[arg(long, value_enum, default_value_t = ShellMethodArg::Exact)]
     pub method: ShellMethodArg,
     /// The memory budget, the output file and the report's format.
     #[command(flatten)]

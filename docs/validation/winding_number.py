@@ -2,7 +2,7 @@
 """Independent check of vps's inside/outside on open and leaky meshes against libigl's winding
 number (docs/voxelize.md, "Open and leaky meshes").
 
-For each mesh: write it as OBJ (metres), `vps voxelize MESH --voxel-size S --offset 0`, sample
+For each mesh: write it as OBJ (metres), `vps voxelize MESH --voxel-size S --offset 0 --width 2`, sample
 random points in its bounding box grown by 10 %, `vps probe --points --json` them, and compare vps's
 answer (Interior = inside, Free = outside) with libigl's exact generalized winding number
 (w >= 0.5 = inside). Points closer than one voxel to the surface (libigl's point-mesh distance) are
@@ -125,7 +125,7 @@ def check(name, v, f, voxel, n_points, vps, tmp, seed):
     csv = os.path.join(tmp, f"{name}.csv")
     write_obj(obj, v, f)
     t0 = time.time()
-    run([vps, "voxelize", obj, "--voxel-size", str(voxel), "--offset", "0", "-o", vmap])
+    run([vps, "voxelize", obj, "--voxel-size", str(voxel), "--offset", "0", "--width", "2", "-o", vmap])
     vox_s = time.time() - t0
     lo, hi = v.min(axis=0), v.max(axis=0)
     pad = 0.1 * (hi - lo)
