@@ -8,6 +8,7 @@
 //! PLY exports) is not reported open for that. Vertices that differ by rounding are different:
 //! such a seam is reported open, as it is one.
 
+use crate::union_find::{find, union};
 use crate::TriMesh;
 use serde::Serialize;
 use std::collections::HashMap;
@@ -31,9 +32,6 @@ pub struct MeshHealth {
     /// Edges with two triangles that run the edge the same way: the two faces disagree about
     /// which side is outside.
     pub inconsistent_edges: usize,
-    /// Triangles whose corners are not three distinct positions (kept by the loader when their
-    /// indices differ; they have no area).
-    pub collapsed_triangles: usize,
     /// Signed volume (m³) by the divergence theorem: the solid's volume for a closed mesh facing
     /// outward, negative when it faces inward, meaningless when the mesh is open.
     pub signed_volume_m3: f64,
@@ -100,14 +98,13 @@ pub fn mesh_health(mesh: &TriMesh) -> MeshHealth {
     // and −1 (high → low).
     let mut edges: HashMap<(u32, u32), (u32, i32)> =
         HashMap::with_capacity(mesh.triangles.len() * 2);
-    let mut collapsed_triangles = 0;
     let mut signed_volume_m3 = 0.0;
     for (i, t) in mesh.triangles.iter().enumerate() {
         let [a, b, c] = mesh.triangle(i);
         signed_volume_m3 += a.dot(b.cross(c)) / 6.0;
         let corner = t.map(|v| id_of[v as usize]);
+        // Corners at one position have no area (a validated mesh has none) and no edges.
         if corner[0] == corner[1] || corner[1] == corner[2] || corner[0] == corner[2] {
-            collapsed_triangles += 1;
             continue;
         }
         for k in 0..3 {
@@ -150,24 +147,7 @@ pub fn mesh_health(mesh: &TriMesh) -> MeshHealth {
         boundary_edges,
         non_manifold_edges,
         inconsistent_edges,
-        collapsed_triangles,
         signed_volume_m3,
-    }
-}
-
-fn find(parent: &mut [u32], mut v: u32) -> u32 {
-    while parent[v as usize] != v {
-        let up = parent[parent[v as usize] as usize];
-        parent[v as usize] = up;
-        v = up;
-    }
-    v
-}
-
-fn union(parent: &mut [u32], a: u32, b: u32) {
-    let (ra, rb) = (find(parent, a), find(parent, b));
-    if ra != rb {
-        parent[ra.max(rb) as usize] = ra.min(rb);
     }
 }
 

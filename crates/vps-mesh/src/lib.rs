@@ -12,6 +12,7 @@
 //! - [`weld`]: merging coincident vertices.
 //! - [`closest_point`](mod@closest_point): the point of a triangle nearest to a point.
 //! - [`health`]: whether a mesh is closed, and what is wrong when it is not.
+//! - [`union_find`]: connected pieces over vertex ids.
 //!
 //! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
@@ -22,6 +23,7 @@ pub mod closest_point;
 pub mod health;
 pub mod load;
 pub mod mesh;
+pub mod union_find;
 pub mod validate;
 pub mod weld;
 

@@ -2,6 +2,7 @@
 //! closed, consistently oriented surface (every directed edge used once, its reverse once).
 
 use std::collections::HashMap;
+use vps_mesh::union_find::{find, union};
 use vps_mesh::TriMesh;
 
 /// One connected component.
@@ -50,22 +51,6 @@ pub fn components(mesh: &TriMesh) -> Vec<Component> {
         c.orientation = if volume < 0.0 { -1.0 } else { 1.0 };
     }
     out
-}
-
-fn find(parent: &mut [u32], mut v: u32) -> u32 {
-    while parent[v as usize] != v {
-        let up = parent[parent[v as usize] as usize];
-        parent[v as usize] = up;
-        v = up;
-    }
-    v
-}
-
-fn union(parent: &mut [u32], a: u32, b: u32) {
-    let (ra, rb) = (find(parent, a), find(parent, b));
-    if ra != rb {
-        parent[ra.max(rb) as usize] = ra.min(rb);
-    }
 }
 
 /// Every directed edge of `triangles` appears exactly once and its reverse exactly once.
