@@ -13,6 +13,7 @@
 //! - [`closest_point`](mod@closest_point): the point of a triangle nearest to a point.
 //! - [`health`]: whether a mesh is closed, and what is wrong when it is not.
 //! - [`union_find`]: connected pieces over vertex ids.
+//! - [`triangle_distance`](mod@triangle_distance): the nearest points of two triangles.
 //!
 //! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
@@ -23,6 +24,7 @@ pub mod closest_point;
 pub mod health;
 pub mod load;
 pub mod mesh;
+pub mod triangle_distance;
 pub mod union_find;
 pub mod validate;
 pub mod weld;

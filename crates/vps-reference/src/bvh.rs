@@ -33,6 +33,12 @@ pub fn box_distance_sq(b: &Aabb, p: DVec3) -> f64 {
     d.length_squared()
 }
 
+/// Squared distance (m²) between two boxes (0 when they overlap).
+pub fn box_box_distance_sq(a: &Aabb, b: &Aabb) -> f64 {
+    let d = (a.min - b.max).max(b.min - a.max).max(DVec3::ZERO);
+    d.length_squared()
+}
+
 impl Bvh {
     /// Builds the tree over `boxes` (one per primitive; primitive `i` is `boxes[i]`). An empty
     /// slice gives an empty tree whose queries find nothing. Allocates; O(n log n).
@@ -119,6 +125,76 @@ impl Bvh {
                 stack.push(i + 1);
             }
         }
+    }
+
+    /// The pair (primitive of `self`, primitive of `other`) nearest by `distance_sq(a, b,
+    /// best_sq)` (squared metres), among pairs whose boxes lie within `max_sq` of each other;
+    /// `None` when no pair is that close. `other` may move: `place` maps a box of `other`'s frame
+    /// to a box of `self`'s frame that contains everything the first box contained (for a rigid
+    /// motion, the box of the moved box). `distance_sq` may return any value ≥ `best_sq` when it
+    /// can tell early that the pair is not nearer. Branch and bound over both trees, the larger
+    /// node split first, nearer pairs searched first. Allocates a small stack.
+    pub fn nearest_pair(
+        &self,
+        other: &Bvh,
+        place: impl Fn(&Aabb) -> Aabb,
+        max_sq: f64,
+        mut distance_sq: impl FnMut(u32, u32, f64) -> f64,
+    ) -> Option<(u32, u32, f64)> {
+        let (Some(a_root), Some(b_root)) = (self.nodes.first(), other.nodes.first()) else {
+            return None;
+        };
+        let mut best: Option<(u32, u32, f64)> = None;
+        let mut best_sq = max_sq;
+        let mut stack: Vec<(u32, u32, Aabb, f64)> = Vec::with_capacity(128);
+        let b_box = place(&b_root.bounds);
+        stack.push((0, 0, b_box, box_box_distance_sq(&a_root.bounds, &b_box)));
+        let mut children: [(u32, u32, Aabb, f64); 2] = [(0, 0, Aabb::EMPTY, 0.0); 2];
+        while let Some((i, j, j_box, d)) = stack.pop() {
+            if d > best_sq {
+                continue;
+            }
+            let (a, b) = (&self.nodes[i as usize], &other.nodes[j as usize]);
+            if a.count > 0 && b.count > 0 {
+                let (sa, sb) = (a.start_or_right as usize, b.start_or_right as usize);
+                for &pb in &other.order[sb..sb + b.count as usize] {
+                    let pb_box = place(&other.boxes[pb as usize]);
+                    for &pa in &self.order[sa..sa + a.count as usize] {
+                        if box_box_distance_sq(&self.boxes[pa as usize], &pb_box) > best_sq {
+                            continue;
+                        }
+                        let dp = distance_sq(pa, pb, best_sq);
+                        if dp <= best_sq {
+                            best_sq = dp;
+                            best = Some((pa, pb, dp));
+                        }
+                    }
+                }
+                continue;
+            }
+            let split_a =
+                b.count > 0 || (a.count == 0 && a.bounds.size().length() >= j_box.size().length());
+            if split_a {
+                for (slot, child) in children.iter_mut().zip([i + 1, a.start_or_right]) {
+                    let bounds = &self.nodes[child as usize].bounds;
+                    *slot = (child, j, j_box, box_box_distance_sq(bounds, &j_box));
+                }
+            } else {
+                for (slot, child) in children.iter_mut().zip([j + 1, b.start_or_right]) {
+                    let placed = place(&other.nodes[child as usize].bounds);
+                    *slot = (i, child, placed, box_box_distance_sq(&a.bounds, &placed));
+                }
+            }
+            // Push the farther pair first so the nearer one is searched first.
+            if children[0].3 <= children[1].3 {
+                stack.push(children[1]);
+                stack.push(children[0]);
+            } else {
+                stack.push(children[0]);
+                stack.push(children[1]);
+            }
+        }
+        best
     }
 
     /// Bounds of everything in the tree (empty for an empty tree).
@@ -214,5 +290,46 @@ mod tests {
         assert!(Bvh::build(&[])
             .nearest(DVec3::ZERO, 1.0, |_, _| 0.0)
             .is_none());
+    }
+
+    #[test]
+    fn nearest_pair_matches_brute_force_for_a_moved_set() {
+        let scatter = |n: usize, k: f64| -> Vec<DVec3> {
+            (0..n)
+                .map(|i| {
+                    let t = i as f64 * k;
+                    DVec3::new((t * 0.37).sin(), (t * 0.91).cos(), (t * 0.13).sin() * 2.0)
+                })
+                .collect()
+        };
+        let a = scatter(300, 1.0);
+        let b = scatter(200, 1.7);
+        let (ta, tb) = (Bvh::build(&point_boxes(&a)), Bvh::build(&point_boxes(&b)));
+        for shift in [0.0, 0.5, 3.0] {
+            let offset = DVec3::new(shift, -shift * 0.5, 0.25);
+            let place = |bx: &Aabb| Aabb {
+                min: bx.min + offset,
+                max: bx.max + offset,
+            };
+            let (pa, pb, d) = ta
+                .nearest_pair(&tb, place, f64::INFINITY, |i, j, _| {
+                    a[i as usize].distance_squared(b[j as usize] + offset)
+                })
+                .unwrap();
+            let brute = a
+                .iter()
+                .flat_map(|p| b.iter().map(move |q| p.distance_squared(*q + offset)))
+                .fold(f64::INFINITY, f64::min);
+            assert_eq!(d, brute);
+            assert_eq!(
+                a[pa as usize].distance_squared(b[pb as usize] + offset),
+                brute
+            );
+        }
+        let far = |bx: &Aabb| Aabb {
+            min: bx.min + 100.0,
+            max: bx.max + 100.0,
+        };
+        assert!(ta.nearest_pair(&tb, far, 1.0, |_, _, _| 0.0).is_none());
     }
 }

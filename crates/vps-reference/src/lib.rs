@@ -12,6 +12,8 @@
 //! - [`components`]: connected components of a mesh and whether each is closed and oriented.
 //! - [`scene`]: [`ExactScene`], [`SignedDistance`].
 //! - [`contact`]: [`reference_contact`], [`ReferenceContact`].
+//! - [`clearance`]: [`RigidClearance`], the exact distance between a posed part's mesh and each
+//!   static object's mesh.
 //! - [`winding`]: the generalized winding number, exact and fast hierarchical ([`winding::WindingTree`]).
 //!
 //! What the sign means: each connected component (triangles sharing vertex indices) that is closed
@@ -27,11 +29,13 @@
 #![warn(missing_docs)]
 
 pub mod bvh;
+pub mod clearance;
 pub mod components;
 pub mod contact;
 pub mod scene;
 pub mod winding;
 
+pub use clearance::{Closest, RigidClearance};
 pub use contact::{reference_contact, reference_contact_points, ReferenceContact};
 pub use scene::{ExactScene, SignedDistance};
 

@@ -267,14 +267,14 @@ fn edge_key(a: u32, b: u32) -> (u32, u32) {
     (a.min(b), a.max(b))
 }
 
-fn triangle_bounds(t: &[DVec3; 3]) -> Aabb {
+pub(crate) fn triangle_bounds(t: &[DVec3; 3]) -> Aabb {
     Aabb {
         min: t[0].min(t[1]).min(t[2]),
         max: t[0].max(t[1]).max(t[2]),
     }
 }
 
-fn check_mesh(mesh_index: usize, mesh: &TriMesh) -> Result<(), ReferenceError> {
+pub(crate) fn check_mesh(mesh_index: usize, mesh: &TriMesh) -> Result<(), ReferenceError> {
     if let Some((vertex, value)) = mesh
         .vertices
         .iter()

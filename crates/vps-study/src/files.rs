@@ -1,0 +1,314 @@
+//! The study's files, written into one folder:
+//! - `study.json`: the verdict, the settings it was made with, each object's minimum clearance
+//!   (time, distance, the two nearest points), the contact events and the clearance series;
+//! - `path.csv` and `path.json`: the part's and the handle's poses, the wrench sent to the device
+//!   and the scene's force on the part, every `every`-th frame and the last;
+//! - `clearance.csv`: the exact clearance to each object at the series frames;
+//! - `contacts.csv`: one row per contact event.
+//!
+//! Each file is written whole to a temporary file and renamed into place, so a failed write never
+//! leaves a half-written file; only regular files are ever replaced.
+
+use crate::Study;
+use serde_json::{json, Value};
+use std::io::{self, Write};
+use std::path::{Path, PathBuf};
+
+/// The format name in `study.json`.
+pub const STUDY_FORMAT: &str = "vps-study";
+/// The version of `study.json`'s layout.
+pub const STUDY_VERSION: u32 = 1;
+
+/// The names of the files a study writes, in the order written.
+pub const STUDY_FILES: [&str; 5] = [
+    "path.csv",
+    "path.json",
+    "clearance.csv",
+    "contacts.csv",
+    "study.json",
+];
+
+/// The paths of the files a study writes into `dir`.
+pub fn study_paths(dir: &Path) -> Vec<PathBuf> {
+    STUDY_FILES.iter().map(|name| dir.join(name)).collect()
+}
+
+const PATH_COLUMNS: [&str; 30] = [
+    "frame",
+    "time_s",
+    "part_x_m",
+    "part_y_m",
+    "part_z_m",
+    "part_qx",
+    "part_qy",
+    "part_qz",
+    "part_qw",
+    "hand_x_m",
+    "hand_y_m",
+    "hand_z_m",
+    "hand_qx",
+    "hand_qy",
+    "hand_qz",
+    "hand_qw",
+    "device_force_x_n",
+    "device_force_y_n",
+    "device_force_z_n",
+    "device_torque_x_nm",
+    "device_torque_y_nm",
+    "device_torque_z_nm",
+    "contact_force_x_n",
+    "contact_force_y_n",
+    "contact_force_z_n",
+    "contacts",
+    "touching",
+    "penetrating",
+    "clearance_m",
+    "speed_m_per_s",
+];
+
+/// One CSV field: quoted when it holds a comma, quote or line break.
+fn csv_field(text: &str) -> String {
+    if text.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
+}
+
+/// The rows of the path table: every `every`-th frame and the last.
+fn path_rows(study: &Study, every: usize) -> Vec<Vec<Value>> {
+    let frames = crate::clearance::series_frames(study.path.len(), every);
+    // The least clearance over the objects at each series frame, where the series has it.
+    let series = &study.clearance.series_frames;
+    frames
+        .iter()
+        .map(|&i| {
+            let f = &study.path[i];
+            let clearance = series.binary_search(&i).ok().and_then(|k| {
+                study
+                    .clearance
+                    .objects
+                    .iter()
+                    .map(|o| o.series_m[k])
+                    .filter(|d| d.is_finite())
+                    .reduce(f64::min)
+            });
+            let speed = if i > 0 {
+                let prev = &study.path[i - 1];
+                let dt = f.time_s - prev.time_s;
+                (dt > 0.0).then(|| f.part_position_m.distance(prev.part_position_m) / dt)
+            } else {
+                Some(0.0)
+            };
+            let mut row: Vec<Value> = vec![json!(f.frame), json!(f.time_s)];
+            row.extend(f.part_position_m.to_array().map(|v| json!(v)));
+            row.extend(f.part_orientation.to_array().map(|v| json!(v)));
+            row.extend(f.handle_position_m.to_array().map(|v| json!(v)));
+            row.extend(f.handle_orientation.to_array().map(|v| json!(v)));
+            row.extend(f.device_force_n.to_array().map(|v| json!(v)));
+            row.extend(f.device_torque_nm.to_array().map(|v| json!(v)));
+            row.extend(f.contact_force_n.to_array().map(|v| json!(v)));
+            row.push(json!(f.contacts));
+            row.push(json!(f.touching));
+            row.push(json!(f.penetrating));
+            row.push(clearance.map_or(Value::Null, |d| json!(d)));
+            row.push(speed.map_or(Value::Null, |v| json!(v)));
+            row
+        })
+        .collect()
+}
+
+/// A JSON value as a CSV cell: numbers and booleans as written, null as empty.
+fn cell(v: &Value) -> String {
+    match v {
+        Value::Null => String::new(),
+        Value::String(s) => csv_field(s),
+        other => other.to_string(),
+    }
+}
+
+fn write_csv(out: &mut dyn Write, header: &[String], rows: &[Vec<Value>]) -> io::Result<()> {
+    let header: Vec<String> = header.iter().map(|h| csv_field(h)).collect();
+    writeln!(out, "{}", header.join(","))?;
+    for row in rows {
+        let cells: Vec<String> = row.iter().map(cell).collect();
+        writeln!(out, "{}", cells.join(","))?;
+    }
+    Ok(())
+}
+
+fn write_file(path: &Path, write: impl FnOnce(&mut dyn Write) -> io::Result<()>) -> io::Result<()> {
+    vps_voxmap::atomic::write_atomically(
+        path,
+        |out| write(out),
+        |stage, e| {
+            io::Error::new(
+                e.kind(),
+                format!("{}: {}: {e}", path.display(), stage.name()),
+            )
+        },
+    )
+    .map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", path.display())))
+}
+
+/// The content of `study.json`: the verdict, `settings` (what the caller ran the session with:
+/// scene, voxel size, model, command), each object's minimum, the contact events and the series.
+pub fn study_json(study: &Study, settings: &Value, every: usize) -> Value {
+    let names = &study.object_names;
+    let name = |o: Option<usize>| o.and_then(|o| names.get(o)).cloned();
+    let objects: Vec<Value> = study
+        .clearance
+        .objects
+        .iter()
+        .enumerate()
+        .map(|(o, c)| {
+            json!({
+                "name": names.get(o),
+                "minimum_clearance": c.minimum.map(|m| json!({
+                    "distance_m": m.closest.distance_m,
+                    "time_s": m.time_s,
+                    "frame": m.frame,
+                    "on_part_m": m.closest.on_part_m.to_array(),
+                    "on_part_local_m": m.closest.on_part_local_m.to_array(),
+                    "on_object_m": m.closest.on_object_m.to_array(),
+                })),
+                "frames_searched_for_the_minimum": c.searched_frames,
+                "series_m": c.series_m.iter().map(|d| d.is_finite().then_some(*d)).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    let contacts: Vec<Value> = study
+        .contacts
+        .iter()
+        .map(|c| {
+            json!({
+                "start_s": c.start_s,
+                "end_s": c.end_s,
+                "start_frame": c.start_frame,
+                "end_frame": c.end_frame,
+                "object": name(c.object),
+                "peak_force_n": c.peak_force_n,
+                "peak_s": study.path[c.peak_frame].time_s,
+                "distance_at_peak_m": c.distance_at_peak_m,
+                "on_part_local_m": c.on_part_local_m.map(|p| p.to_array()),
+                "on_part_m": c.on_part_m.map(|p| p.to_array()),
+            })
+        })
+        .collect();
+    let v = &study.verdict;
+    json!({
+        "format": STUDY_FORMAT,
+        "version": STUDY_VERSION,
+        "verdict": v.line,
+        "reached": v.reached,
+        "target": {
+            "what": v.target.what,
+            "position_m": v.target.position_m.to_array(),
+            "path_end_s": v.target.path_end_s,
+        },
+        "final_position_m": v.final_position_m.to_array(),
+        "short_m": v.short_m,
+        "reach_tolerance_m": v.tolerance_m,
+        "held_by": name(v.held_by),
+        "session_end_s": v.session_end_s,
+        "path_completed": v.path_completed,
+        "minimum_clearance": v.minimum_clearance.map(|(o, m)| json!({
+            "object": names.get(o),
+            "distance_m": m.closest.distance_m,
+            "time_s": m.time_s,
+            "on_part_m": m.closest.on_part_m.to_array(),
+            "on_object_m": m.closest.on_object_m.to_array(),
+        })),
+        "frames": study.path.len(),
+        "settings": settings,
+        "objects": objects,
+        "contacts": contacts,
+        "clearance_series": {
+            "frames": study.clearance.series_frames,
+            "time_s": study.clearance.series_frames.iter().map(|&i| study.path[i].time_s).collect::<Vec<_>>(),
+        },
+        "path_rows_every": every.max(1),
+        "files": STUDY_FILES,
+        "timings_ms": study.timings,
+    })
+}
+
+/// Writes the study's files into `dir` (created when missing), the path table every `every`-th
+/// frame. Returns the paths written. Blocking file I/O.
+pub fn write_study(
+    dir: &Path,
+    study: &Study,
+    settings: &Value,
+    every: usize,
+) -> io::Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", dir.display())))?;
+    let paths = study_paths(dir);
+    let rows = path_rows(study, every);
+    let header: Vec<String> = PATH_COLUMNS.iter().map(|c| c.to_string()).collect();
+    write_file(&paths[0], |out| write_csv(out, &header, &rows))?;
+    write_file(&paths[1], |out| {
+        serde_json::to_writer(&mut *out, &json!({"columns": PATH_COLUMNS, "rows": rows}))?;
+        writeln!(out)
+    })?;
+    let mut header = vec!["frame".to_string(), "time_s".to_string()];
+    header.extend(study.object_names.iter().map(|n| format!("{n}_m")));
+    let series: Vec<Vec<Value>> = study
+        .clearance
+        .series_frames
+        .iter()
+        .enumerate()
+        .map(|(k, &i)| {
+            let mut row = vec![json!(i), json!(study.path[i].time_s)];
+            row.extend(study.clearance.objects.iter().map(|o| {
+                let d = o.series_m[k];
+                if d.is_finite() {
+                    json!(d)
+                } else {
+                    Value::Null
+                }
+            }));
+            row
+        })
+        .collect();
+    write_file(&paths[2], |out| write_csv(out, &header, &series))?;
+    let header: Vec<String> = [
+        "start_s",
+        "end_s",
+        "object",
+        "peak_force_n",
+        "peak_s",
+        "distance_at_peak_m",
+        "part_point_x_m",
+        "part_point_y_m",
+        "part_point_z_m",
+    ]
+    .iter()
+    .map(|c| c.to_string())
+    .collect();
+    let events: Vec<Vec<Value>> = study
+        .contacts
+        .iter()
+        .map(|c| {
+            let local = c.on_part_local_m.map(|p| p.to_array());
+            vec![
+                json!(c.start_s),
+                json!(c.end_s),
+                json!(c.object.and_then(|o| study.object_names.get(o))),
+                json!(c.peak_force_n),
+                json!(study.path[c.peak_frame].time_s),
+                json!(c.distance_at_peak_m),
+                json!(local.map(|p| p[0])),
+                json!(local.map(|p| p[1])),
+                json!(local.map(|p| p[2])),
+            ]
+        })
+        .collect();
+    write_file(&paths[3], |out| write_csv(out, &header, &events))?;
+    let summary = study_json(study, settings, every);
+    write_file(&paths[4], |out| {
+        serde_json::to_writer_pretty(&mut *out, &summary)?;
+        writeln!(out)
+    })?;
+    Ok(paths)
+}

@@ -1,0 +1,167 @@
+//! Evidence for an assembly study: given a session's handle trace and its scene, the part's path
+//! (recomputed frame by frame with the 1 kHz loop's own core), the exact clearance between the
+//! part's mesh and each static object's mesh over the path, the contact events, and a verdict
+//! ("reached the last waypoint" / "held back at …, N mm short, by <object>"; "minimum clearance
+//! X mm at t = … s near <object>"), written as CSV and JSON files a colleague can open.
+//!
+//! Everything here runs after a session, never on its frame thread: a study is a pure function of
+//! the trace, the voxmap, the shell, the parameters and the meshes, so it can be regenerated or
+//! compared after a change.
+//!
+//! Module map: [`path`] (the part's path from a trace), [`clearance`] (exact clearance series and
+//! minimum), [`contacts`] (contact events), [`verdict`](mod@verdict) (the verdict line), [`files`]
+//! (the study's files).
+//!
+//! Units: metres, seconds, newtons, newton-metres; CSV columns name theirs.
+//!
+//! Where this crate sits in vps: `docs/architecture.md` at the repository root.
+
+#![warn(missing_docs)]
+
+pub mod clearance;
+pub mod contacts;
+pub mod files;
+pub mod path;
+pub mod verdict;
+
+pub use clearance::{ClearanceTrack, MinimumClearance, ObjectClearance};
+pub use contacts::ContactEvent;
+pub use path::PathFrame;
+pub use verdict::{Target, Verdict};
+
+use std::time::Instant;
+use vps_device::trace::Trace;
+use vps_device::DeviceLimits;
+use vps_haptic::{ClassedShell, HapticParams, PartState};
+use vps_mesh::TriMesh;
+use vps_reference::{ReferenceError, RigidClearance};
+use vps_voxmap::VoxelLookup;
+
+/// Why a study cannot be made.
+#[derive(Debug, thiserror::Error)]
+pub enum StudyError {
+    /// The trace has no frames.
+    #[error("the trace has no frames: there is no path to study")]
+    EmptyTrace,
+    /// The part's or an object's mesh cannot be measured.
+    #[error("the exact clearance cannot be measured: {0}")]
+    Mesh(#[from] ReferenceError),
+}
+
+/// What a study is made from.
+pub struct StudyInputs<'a, L: VoxelLookup> {
+    /// The static scene's voxmap the session ran on.
+    pub map: &'a L,
+    /// The part's point shell, in classes.
+    pub shell: &'a ClassedShell,
+    /// The session's haptic parameters.
+    pub params: &'a HapticParams,
+    /// The device's limits (the wrench sent is saturated to them, as in the session).
+    pub limits: DeviceLimits,
+    /// The part's state at the first frame.
+    pub initial: PartState,
+    /// The handle trace of the session.
+    pub trace: &'a Trace,
+    /// The part's mesh in its grip frame (m).
+    pub part_mesh: &'a TriMesh,
+    /// The static objects' meshes, placed (m).
+    pub objects: &'a [TriMesh],
+    /// The static objects' names, for the verdict and the files.
+    pub object_names: &'a [String],
+    /// Where the hand was taking the part; `None`: the hand's last position in the trace.
+    pub target: Option<Target>,
+    /// A clearance sample every this many frames (≥ 1) for the series; the minimum is over every
+    /// frame whatever this is.
+    pub clearance_every: usize,
+    /// How near the goal the grip must end to have reached it (m).
+    pub reach_tolerance_m: f64,
+}
+
+/// Wall time of each stage of a study (ms).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct StudyTimings {
+    /// Recomputing the path.
+    pub path_ms: f64,
+    /// Preparing the meshes' trees.
+    pub trees_ms: f64,
+    /// The clearance series and minimum.
+    pub clearance_ms: f64,
+    /// Contact events.
+    pub contacts_ms: f64,
+}
+
+/// A finished study.
+#[derive(Clone, Debug)]
+pub struct Study {
+    /// One frame per trace frame.
+    pub path: Vec<PathFrame>,
+    /// The part's state after the last frame.
+    pub final_state: PartState,
+    /// Clearance to each object.
+    pub clearance: ClearanceTrack,
+    /// Contact events, in time order.
+    pub contacts: Vec<ContactEvent>,
+    /// The verdict.
+    pub verdict: Verdict,
+    /// The static objects' names.
+    pub object_names: Vec<String>,
+    /// Where the time went.
+    pub timings: StudyTimings,
+}
+
+fn ms_since(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+/// Makes the study of `inputs`. Blocking, parallel (rayon), allocates.
+pub fn run_study<L: VoxelLookup>(inputs: &StudyInputs<'_, L>) -> Result<Study, StudyError> {
+    let last = inputs.trace.frames.last().ok_or(StudyError::EmptyTrace)?;
+    let mut timings = StudyTimings::default();
+    let t = Instant::now();
+    let (path, final_state) = path::recompute_path(
+        inputs.map,
+        inputs.shell,
+        inputs.params,
+        &inputs.limits,
+        inputs.initial,
+        inputs.trace,
+    );
+    timings.path_ms = ms_since(t);
+    let t = Instant::now();
+    let measure = RigidClearance::new(inputs.part_mesh, inputs.objects)?;
+    timings.trees_ms = ms_since(t);
+    let t = Instant::now();
+    let clearance = clearance::track(&measure, &path, inputs.clearance_every);
+    timings.clearance_ms = ms_since(t);
+    let t = Instant::now();
+    let contacts = contacts::contact_events(&measure, &path);
+    timings.contacts_ms = ms_since(t);
+    let held_by = path
+        .last()
+        .filter(|f| f.contacts > 0)
+        .and_then(|f| clearance::nearest_object(&measure, f))
+        .map(|(object, _)| object);
+    let target = inputs.target.clone().unwrap_or_else(|| Target {
+        position_m: last.sample.position,
+        what: "the hand's last position".into(),
+        path_end_s: None,
+    });
+    let verdict = verdict::verdict(
+        &path,
+        final_state.position,
+        target,
+        inputs.reach_tolerance_m,
+        &clearance,
+        held_by,
+        inputs.object_names,
+    );
+    Ok(Study {
+        path,
+        final_state,
+        clearance,
+        contacts,
+        verdict,
+        object_names: inputs.object_names.to_vec(),
+        timings,
+    })
+}
