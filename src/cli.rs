@@ -38,6 +38,9 @@ pub enum Command {
     /// Replay a recorded handle trace exactly, on a scene (the one it was recorded on):
     /// `vps run --device replay:TRACE`.
     Replay(ReplayArgs),
+    /// An assembly study from a recorded trace: the part's path recomputed on the scene, exact
+    /// clearance to each static object, contact events and a verdict, as files in a folder.
+    Study(StudyArgs),
     /// Scene files: check one without running it.
     Scene(SceneCommandArgs),
     /// List the HID devices this machine sees and which vps can drive.
@@ -477,6 +480,31 @@ pub struct ReplayArgs {
     pub session: RunArgs,
 }
 
+/// Arguments of `vps study`.
+#[derive(Args, Debug)]
+pub struct StudyArgs {
+    /// The trace file written by `vps record` or `vps run --record`.
+    pub trace: PathBuf,
+    /// The folder the study's files are written into (made when missing).
+    #[arg(short, long, value_name = "DIR")]
+    pub output: PathBuf,
+    /// The scene the trace was recorded on.
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Haptic parameters (TOML) the session ran with, instead of the scene's `[haptic]`.
+    #[arg(long, value_name = "FILE")]
+    pub haptic: Option<PathBuf>,
+    /// Voxel size the session ran with, instead of the scene's.
+    #[arg(long, value_parser = parse_length)]
+    pub voxel_size: Option<f64>,
+    /// The path table holds every Nth frame (and the last).
+    #[arg(long, value_name = "N", value_parser = parse_frame_stride, default_value_t = 1)]
+    pub every: usize,
+    /// Print study.json's content instead of the text report.
+    #[arg(long)]
+    pub json: bool,
+}
+
 /// Arguments of `vps run`. `Default` matches the command-line defaults.
 #[derive(Args, Debug, Clone)]
 pub struct RunArgs {
@@ -504,6 +532,14 @@ pub struct RunArgs {
     /// Record the handle trace to this file.
     #[arg(long)]
     pub record: Option<PathBuf>,
+    /// Write an assembly study of the session into this folder after it ends (docs/study.md):
+    /// the part's path, exact clearance to each static object, contact events and a verdict.
+    #[arg(long, value_name = "DIR")]
+    pub study: Option<PathBuf>,
+    /// The study's path table holds every Nth frame (and the last); its minimum clearance is
+    /// over every frame whatever N is.
+    #[arg(long, value_name = "N", value_parser = parse_frame_stride, default_value_t = 1)]
+    pub study_every: usize,
     /// Print as JSON.
     #[arg(long)]
     pub json: bool,
@@ -546,6 +582,14 @@ pub struct BridgeArgs {
     /// six f64 bit patterns in hex; format in docs/devices.md).
     #[arg(long, value_name = "FILE")]
     pub log_wrenches: Option<PathBuf>,
+}
+
+/// `--study-every`, `--every`: a whole number of frames in 1..=1000000.
+fn parse_frame_stride(text: &str) -> Result<usize, String> {
+    match text.trim().parse::<usize>() {
+        Ok(n) if (1..=1_000_000).contains(&n) => Ok(n),
+        _ => Err("a whole number of frames; allowed 1..=1000000".into()),
+    }
 }
 
 /// `--device`: one of the forms `vps_session::DeviceChoice::parse` accepts, checked before any
@@ -904,6 +948,8 @@ impl Default for RunArgs {
             seconds: 30.0,
             threads: 1,
             record: None,
+            study: None,
+            study_every: 1,
             json: false,
             report: None,
             view: None,

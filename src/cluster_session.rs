@@ -25,8 +25,10 @@ pub struct CoordinatedRun {
     pub report: LoopReport,
     /// Per-worker figures.
     pub cluster: ClusterReport,
-    /// Points in the shell.
-    pub shell_points: usize,
+    /// The scene's assets the session ran on.
+    pub assets: vps_session::SessionAssets,
+    /// The part's state at the first frame.
+    pub initial: vps_haptic::PartState,
     /// The bridge's counters and wrench log, when the device was the UDP bridge.
     pub bridge: Option<vps_input::BridgeMonitor>,
     /// The signal handlers that could stop the session (which one did, if any).
@@ -62,7 +64,10 @@ impl CoordinatedRun {
             args,
             outputs,
             &self.signals,
-            self.shell_points,
+            crate::session_io::RanSession {
+                assets: &self.assets,
+                initial: self.initial,
+            },
             &self.report,
             self.bridge.as_ref(),
             Some(&cluster),
@@ -94,6 +99,7 @@ pub fn coordinate(
     } else {
         None
     };
+    let initial = prepared.plan.setup.initial;
     // Held whole to the end: its viewer serves the session.
     let live = prepared.go_live(session.view)?;
     let cluster_assets = Arc::new(ClusterAssets::new(
@@ -152,7 +158,8 @@ pub fn coordinate(
     Ok(CoordinatedRun {
         report,
         cluster,
-        shell_points: live.assets.shell.len(),
+        assets: live.assets,
+        initial,
         bridge: live.bridge,
         signals: live.signals,
         placement,

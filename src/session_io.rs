@@ -71,18 +71,29 @@ pub struct SessionOutputs {
     report: Option<PathBuf>,
     /// `--record FILE`.
     record: Option<PathBuf>,
+    /// `--study DIR`.
+    pub study: Option<PathBuf>,
 }
 
-/// Every file a session of `args` writes, with the flag that named it.
-fn named_outputs(args: &RunArgs) -> Vec<(&'static str, &Path)> {
-    [
+/// Every file a session of `args` writes, with the flag that named it (a study's folder: each
+/// file the study writes into it).
+fn named_outputs(args: &RunArgs) -> Vec<(&'static str, PathBuf)> {
+    let mut outputs: Vec<(&'static str, PathBuf)> = [
         ("--report", &args.report),
         ("--record", &args.record),
         ("--log-wrenches", &args.bridge.log_wrenches),
     ]
     .into_iter()
-    .filter_map(|(flag, path)| Some((flag, path.as_deref()?)))
-    .collect()
+    .filter_map(|(flag, path)| Some((flag, path.clone()?)))
+    .collect();
+    if let Some(dir) = &args.study {
+        outputs.extend(
+            vps_study::files::study_paths(dir)
+                .into_iter()
+                .map(|p| ("--study", p)),
+        );
+    }
+    outputs
 }
 
 /// The files a session of `args` reads that its command line names: the scene file, the haptic
@@ -103,10 +114,30 @@ fn command_line_inputs(args: &RunArgs) -> Vec<PathBuf> {
     inputs
 }
 
-/// Checks every output of `args` against `inputs` and each other ([`check_outputs`]).
+/// Checks every output of `args` against `inputs` and each other ([`check_outputs`]), making the
+/// study's folder first when `--study` names one that does not exist yet.
 fn check_session_outputs(args: &RunArgs, inputs: &[PathBuf]) -> Result<()> {
+    if let Some(dir) = &args.study {
+        make_study_dir(dir)?;
+    }
     let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
-    check_outputs(&named_outputs(args), &inputs)
+    let outputs = named_outputs(args);
+    let outputs: Vec<(&str, &Path)> = outputs.iter().map(|(f, p)| (*f, p.as_path())).collect();
+    check_outputs(&outputs, &inputs)
+}
+
+/// Makes `dir` (and its parents) unless it is a folder already; fails, naming it, when it is
+/// something else.
+fn make_study_dir(dir: &Path) -> Result<()> {
+    match std::fs::metadata(dir) {
+        Ok(m) if m.is_dir() => Ok(()),
+        Ok(_) => bail!(
+            "--study {}: exists and is not a folder; give a folder (made when missing)",
+            dir.display()
+        ),
+        Err(_) => std::fs::create_dir_all(dir)
+            .with_context(|| format!("--study {}: cannot make the folder", dir.display())),
+    }
 }
 
 impl SessionOutputs {
@@ -117,6 +148,7 @@ impl SessionOutputs {
         Ok(SessionOutputs {
             report: args.report.clone(),
             record: args.record.clone(),
+            study: args.study.clone(),
         })
     }
 }
@@ -251,7 +283,7 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
         frames: Some(frames),
         threads: args.threads.max(1),
         realtime: true,
-        record_trace: args.record.is_some(),
+        record_trace: args.record.is_some() || args.study.is_some(),
         ..LoopConfig::default()
     };
     let script = assets.script()?;
@@ -281,6 +313,15 @@ fn check_loop_period(params: &HapticParams, source: &str) -> Result<()> {
     Ok(())
 }
 
+/// What a session that has run was run on: for its report and its study.
+#[derive(Clone, Copy)]
+pub struct RanSession<'a> {
+    /// The scene's assets.
+    pub assets: &'a SessionAssets,
+    /// The part's state at the first frame.
+    pub initial: vps_haptic::PartState,
+}
+
 /// Once the device has been written zero: saves the recording (and the bridge's wrench log when
 /// asked), writes the report file, prints the session's figures (with the bridge's counters when
 /// `bridge` is given, and `cluster`, when given, as JSON), and fails with a [`SessionExit`] (its
@@ -289,7 +330,7 @@ pub fn finish<C: Serialize>(
     args: &RunArgs,
     outputs: SessionOutputs,
     signals: &SignalStop,
-    shell_points: usize,
+    ran: RanSession<'_>,
     report: &LoopReport,
     bridge: Option<&BridgeMonitor>,
     cluster: Option<&C>,
@@ -320,7 +361,7 @@ pub fn finish<C: Serialize>(
     let (end, exit_code) = outcome(&report.end, Some(signals));
     let out = RunReport {
         device: report.device_name.clone(),
-        shell_points,
+        shell_points: ran.assets.shell.len(),
         realtime_granted: report.rt.fifo,
         end,
         complete: report.end.is_complete(),
@@ -396,6 +437,19 @@ pub fn finish<C: Serialize>(
                 }
                 Err(_) => println!("cluster: figures with --json"),
             }
+        }
+    }
+    if let Some(dir) = &outputs.study {
+        let study = crate::cmd::study::write_session_study(
+            dir,
+            args.study_every,
+            ran.assets,
+            ran.initial,
+            report,
+        );
+        match study {
+            Err(e) if exit_code != 0 => eprintln!("vps: --study: {e:#}"),
+            other => other?,
         }
     }
     if exit_code != 0 {

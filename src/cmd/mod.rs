@@ -19,6 +19,7 @@ mod probe;
 mod run;
 mod scene_check;
 mod shell;
+pub mod study;
 mod sweep;
 mod sweep_plots;
 mod sweep_text;
@@ -48,6 +49,7 @@ pub fn dispatch(cli: Cli, matches: &ArgMatches) -> Result<()> {
         Command::Run(args) => run::run(&args),
         Command::Record(args) => run::record(&args),
         Command::Replay(args) => run::replay(&args),
+        Command::Study(args) => study::run(&args),
         Command::Scene(args) => match args.which {
             SceneCommand::Check {
                 scene,

@@ -723,6 +723,7 @@ impl LoadedScene {
         let part_mesh = self.part_in_shell_frame(&shell);
         let hand = self.hand();
         let scene_triangles = self.scene_triangles();
+        let static_names = object_names(&self.static_sources);
         Ok(SessionAssets {
             name: self.name,
             label: self.label,
@@ -737,9 +738,39 @@ impl LoadedScene {
             hand,
             scene_triangles,
             static_meshes: objects,
+            static_names,
             part_mesh,
         })
     }
+}
+
+/// A name for each static object, for reports: its source's file stem (`housing` for
+/// `parts/housing.stl`, `box` for `builtin:box`), printable, with ` #i` (its index in the file)
+/// added where two objects would share a name.
+pub fn object_names(sources: &[String]) -> Vec<String> {
+    let stems: Vec<String> = sources
+        .iter()
+        .map(|s| {
+            let stem = match s.strip_prefix("builtin:") {
+                Some(name) => name.to_string(),
+                None => Path::new(s)
+                    .file_stem()
+                    .map_or_else(|| s.clone(), |x| x.to_string_lossy().into_owned()),
+            };
+            vps_files::printable(&stem).into_owned()
+        })
+        .collect();
+    stems
+        .iter()
+        .enumerate()
+        .map(|(i, stem)| {
+            if stems.iter().filter(|&other| other == stem).count() > 1 {
+                format!("{stem} #{i}")
+            } else {
+                stem.clone()
+            }
+        })
+        .collect()
 }
 
 /// The error of a mesh that did not load, for `field` (`static[i].source`, `part.source`) of the
@@ -1006,8 +1037,10 @@ pub struct SessionAssets {
     pub hand: HandPlan,
     /// Triangles in the static scene.
     pub scene_triangles: usize,
-    /// The static meshes, placed (m, scene coordinates): for a viewer.
+    /// The static meshes, placed (m, scene coordinates): for a viewer and a study.
     pub static_meshes: Vec<TriMesh>,
+    /// A name per static object, in file order ([`object_names`]): for reports.
+    pub static_names: Vec<String>,
     /// The part's mesh in the shell's frame (m; origin at the grip): for a viewer.
     pub part_mesh: TriMesh,
 }

@@ -4,7 +4,9 @@
 //! - `path.csv` and `path.json`: the part's and the handle's poses, the wrench sent to the device
 //!   and the scene's force on the part, every `every`-th frame and the last;
 //! - `clearance.csv`: the exact clearance to each object at the series frames;
-//! - `contacts.csv`: one row per contact event.
+//! - `contacts.csv`: one row per contact event;
+//! - `part.obj`: the part's mesh in its own frame (m, origin at the grip): posed by a path row
+//!   (`x = R(q) v + p`) it is the part where the study measured it.
 //!
 //! Each file is written whole to a temporary file and renamed into place, so a failed write never
 //! leaves a half-written file; only regular files are ever replaced.
@@ -13,6 +15,7 @@ use crate::Study;
 use serde_json::{json, Value};
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
+use vps_mesh::TriMesh;
 
 /// The format name in `study.json`.
 pub const STUDY_FORMAT: &str = "vps-study";
@@ -20,11 +23,12 @@ pub const STUDY_FORMAT: &str = "vps-study";
 pub const STUDY_VERSION: u32 = 1;
 
 /// The names of the files a study writes, in the order written.
-pub const STUDY_FILES: [&str; 5] = [
+pub const STUDY_FILES: [&str; 6] = [
     "path.csv",
     "path.json",
     "clearance.csv",
     "contacts.csv",
+    "part.obj",
     "study.json",
 ];
 
@@ -233,11 +237,28 @@ pub fn study_json(study: &Study, settings: &Value, every: usize) -> Value {
     })
 }
 
+/// `mesh` as a Wavefront OBJ (m; shortest round-trip decimals, so it reads back bit for bit).
+fn write_obj(out: &mut dyn Write, mesh: &TriMesh) -> io::Result<()> {
+    writeln!(
+        out,
+        "# the part in its own frame (m), origin at the grip; written by vps study"
+    )?;
+    for v in &mesh.vertices {
+        writeln!(out, "v {} {} {}", v.x, v.y, v.z)?;
+    }
+    for [a, b, c] in &mesh.triangles {
+        writeln!(out, "f {} {} {}", a + 1, b + 1, c + 1)?;
+    }
+    Ok(())
+}
+
 /// Writes the study's files into `dir` (created when missing), the path table every `every`-th
-/// frame. Returns the paths written. Blocking file I/O.
+/// frame, `part_mesh` (the part in its grip frame) as `part.obj`. Returns the paths written.
+/// Blocking file I/O.
 pub fn write_study(
     dir: &Path,
     study: &Study,
+    part_mesh: &TriMesh,
     settings: &Value,
     every: usize,
 ) -> io::Result<Vec<PathBuf>> {
@@ -305,8 +326,9 @@ pub fn write_study(
         })
         .collect();
     write_file(&paths[3], |out| write_csv(out, &header, &events))?;
+    write_file(&paths[4], |out| write_obj(out, part_mesh))?;
     let summary = study_json(study, settings, every);
-    write_file(&paths[4], |out| {
+    write_file(&paths[5], |out| {
         serde_json::to_writer_pretty(&mut *out, &summary)?;
         writeln!(out)
     })?;

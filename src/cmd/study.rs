@@ -1,0 +1,188 @@
+//! `vps study TRACE --scene FILE -o DIR`, and `--study DIR` on the session commands: an assembly
+//! study (the `vps-study` crate) of a recorded session: the part's path recomputed from the
+//! handle trace, exact clearance to each static object, contact events and a verdict, as files in
+//! a folder. Made after the session has ended and its device has been written zero, never on the
+//! frame thread.
+
+use crate::cli::{RunArgs, StudyArgs};
+use crate::output::print_json;
+use crate::session_io::prepare;
+use anyhow::{bail, Context, Result};
+use serde_json::{json, Value};
+use std::path::Path;
+use vps_device::trace::Trace;
+use vps_device::SimulatedHand;
+use vps_haptic::PartState;
+use vps_runtime::LoopReport;
+use vps_session::SessionAssets;
+use vps_study::{run_study, Study, StudyInputs, Target};
+
+/// The clearance series holds every this many frames (10 ms at 1 kHz); the minimum is over every
+/// frame.
+pub const SERIES_EVERY_FRAMES: usize = 10;
+
+/// Makes and writes the study (`--study DIR`, path table every `every` frames) of the session
+/// that produced `report` on `assets`, starting from `initial`, and prints its verdict. Blocking,
+/// parallel; called once the session's device has been written zero.
+pub fn write_session_study(
+    dir: &Path,
+    every: usize,
+    assets: &SessionAssets,
+    initial: PartState,
+    report: &LoopReport,
+) -> Result<()> {
+    if let Some(why) = &report.trace_error {
+        bail!("--study: the session's trace stopped early ({why}); no study written");
+    }
+    let trace = report
+        .trace
+        .as_ref()
+        .context("--study: the loop returned no trace")?;
+    let source = format!("the session ({})", report.device_name);
+    write_study(assets, trace, initial, dir, every, &source, false)
+}
+
+/// `vps study TRACE --scene FILE -o DIR`.
+pub fn run(args: &StudyArgs) -> Result<()> {
+    let trace_path = args.trace.display().to_string();
+    let session = RunArgs {
+        scene: args.scene.clone(),
+        haptic: args.haptic.clone(),
+        voxel_size: args.voxel_size,
+        device: Some(format!("replay:{trace_path}")),
+        study: Some(args.output.clone()),
+        ..RunArgs::default()
+    };
+    // The same preparation as `vps replay`: scene, parameters, and the part at rest at the
+    // trace's first pose; the outputs are checked against every input first.
+    let prepared = prepare(&session)?;
+    let trace = vps_device::trace::load_trace(&args.trace)
+        .with_context(|| format!("reading the trace {trace_path}"))?;
+    let initial = prepared.plan.setup.initial;
+    write_study(
+        &prepared.assets,
+        &trace,
+        initial,
+        &args.output,
+        args.every,
+        &format!("the trace {trace_path}"),
+        args.json,
+    )
+}
+
+/// Where the hand was taking the part: the end of the scene's path when the trace is the
+/// simulated hand's, else `None` (the hand's last position).
+fn target(assets: &SessionAssets, trace: &Trace) -> Result<Option<Target>> {
+    if trace.device != SimulatedHand::NAME {
+        return Ok(None);
+    }
+    let script = assets.script()?;
+    let end = script.duration();
+    Ok(Some(Target {
+        position_m: script.sample(end).0,
+        what: "the last waypoint".into(),
+        path_end_s: Some(end),
+    }))
+}
+
+/// What the study was made with, for `study.json`.
+fn settings(assets: &SessionAssets, trace: &Trace, source: &str) -> Value {
+    let band = vps_voxmap::VoxelLookup::distance_band(&*assets.tree);
+    json!({
+        "scene": assets.label,
+        "scene_name": assets.name,
+        "voxel_size_m": assets.voxel_size,
+        "force_model": if band.is_some() { "distance" } else { "tangent-plane" },
+        "standoff_m": band.map(|b| b.standoff_m()),
+        "shell_points": assets.shell.len(),
+        "braking": assets.params.braking,
+        "device": trace.device,
+        "frames": trace.frames.len(),
+        "made_from": source,
+        "command": std::env::args().collect::<Vec<_>>().join(" "),
+        "clearance_series_every_frames": SERIES_EVERY_FRAMES,
+    })
+}
+
+fn write_study(
+    assets: &SessionAssets,
+    trace: &Trace,
+    initial: PartState,
+    dir: &Path,
+    every: usize,
+    source: &str,
+    json_out: bool,
+) -> Result<()> {
+    let classed = assets.classed_shell();
+    let inputs = StudyInputs {
+        map: &*assets.tree,
+        shell: &classed,
+        params: &assets.params,
+        limits: assets.bridge.limits,
+        initial,
+        trace,
+        part_mesh: &assets.part_mesh,
+        objects: &assets.static_meshes,
+        object_names: &assets.static_names,
+        target: target(assets, trace)?,
+        clearance_every: SERIES_EVERY_FRAMES,
+        reach_tolerance_m: assets.voxel_size,
+    };
+    let study = run_study(&inputs).with_context(|| format!("the study of {source}"))?;
+    let settings = settings(assets, trace, source);
+    let written = vps_study::files::write_study(dir, &study, &assets.part_mesh, &settings, every)
+        .with_context(|| format!("writing the study into {}", dir.display()))?;
+    if json_out {
+        return print_json(&vps_study::files::study_json(&study, &settings, every));
+    }
+    for line in text_report(&study) {
+        println!("{line}");
+    }
+    println!(
+        "study: {} files in {} (study.json, path.csv, clearance.csv, contacts.csv, part.obj; docs/study.md)",
+        written.len(),
+        dir.display()
+    );
+    Ok(())
+}
+
+/// The study in words: the verdict, each object's least clearance, the contact events.
+fn text_report(study: &Study) -> Vec<String> {
+    let mm = |m: f64| format!("{:.2} mm", m * 1e3);
+    let mut lines = vec![format!("verdict: {}", study.verdict.line)];
+    for (name, c) in study.object_names.iter().zip(&study.clearance.objects) {
+        if let Some(m) = c.minimum {
+            let [x, y, z] = m.closest.on_object_m.to_array().map(|v| format!("{v:.4}"));
+            lines.push(format!(
+                "  clearance to {name}: least {} at t = {:.3} s (frame {}), nearest point of \
+                 {name} ({x}, {y}, {z}) m",
+                mm(m.closest.distance_m),
+                m.time_s,
+                m.frame
+            ));
+        }
+    }
+    let names = &study.object_names;
+    match study.contacts.len() {
+        0 => lines.push("  contact events: none (the scene never pushed on the part)".into()),
+        n => {
+            lines.push(format!(
+                "  contact events: {n} (spans with the scene pushing on the part)"
+            ));
+            for c in study.contacts.iter().take(10) {
+                let object = c
+                    .object
+                    .and_then(|o| names.get(o))
+                    .map_or("?", String::as_str);
+                lines.push(format!(
+                    "    {:.3}–{:.3} s against {object}, peak {:.2} N",
+                    c.start_s, c.end_s, c.peak_force_n
+                ));
+            }
+            if n > 10 {
+                lines.push(format!("    … {} more in contacts.csv", n - 10));
+            }
+        }
+    }
+    lines
+}
