@@ -126,6 +126,15 @@ fn check_session_outputs(args: &RunArgs, inputs: &[PathBuf]) -> Result<()> {
     check_outputs(&outputs, &inputs)
 }
 
+/// Makes the study folder `dir` when missing and checks the files a study writes into it
+/// against `inputs` ([`check_outputs`]).
+pub fn reserve_study_dir(dir: &Path, inputs: &[&Path]) -> Result<()> {
+    make_study_dir(dir)?;
+    let paths = vps_study::files::study_paths(dir);
+    let outputs: Vec<(&str, &Path)> = paths.iter().map(|p| ("--study", p.as_path())).collect();
+    check_outputs(&outputs, inputs)
+}
+
 /// Makes `dir` (and its parents) unless it is a folder already; fails, naming it, when it is
 /// something else.
 fn make_study_dir(dir: &Path) -> Result<()> {
@@ -444,6 +453,7 @@ pub fn finish<C: Serialize>(
             dir,
             args.study_every,
             ran.assets,
+            ran.assets.params,
             ran.initial,
             report,
         );
@@ -602,6 +612,25 @@ pub fn attach_viewer(
     Ok(Some(viewer))
 }
 
+/// How [`run_scripted`] runs its session.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Scripted {
+    /// At 1 kHz on the wall clock; otherwise frames back to back (the same physics).
+    pub paced: bool,
+    /// Keep the handle trace (for a study).
+    pub record_trace: bool,
+}
+
+impl Scripted {
+    /// Paced at 1 kHz (`true`) or back to back, no trace kept.
+    pub fn paced(paced: bool) -> Scripted {
+        Scripted {
+            paced,
+            record_trace: false,
+        }
+    }
+}
+
 /// Runs one session of the scene's simulated hand (its script) on `assets` with `params`, for
 /// at most `seconds` (the script's length at most); `paced` runs at 1 kHz on the wall clock,
 /// otherwise frames run back to back (the physics is identical: the device is given the scheduled
@@ -612,7 +641,7 @@ pub fn run_scripted(
     params: HapticParams,
     seconds: f64,
     threads: usize,
-    paced: bool,
+    how: Scripted,
     feed: Option<StateFeedSender>,
     signals: Option<&SignalStop>,
 ) -> Result<LoopReport> {
@@ -621,8 +650,9 @@ pub fn run_scripted(
     let config = LoopConfig {
         frames: Some(frames),
         threads,
-        realtime: paced,
-        free_running: !paced,
+        realtime: how.paced,
+        free_running: !how.paced,
+        record_trace: how.record_trace,
         ..LoopConfig::default()
     };
     let mut plan = assets.plan(&DeviceChoice::Simulated, script, config)?;

@@ -7,7 +7,7 @@
 
 use crate::exit::require_complete;
 use crate::output::print_report;
-use crate::session_io::{attach_viewer, run_scripted};
+use crate::session_io::{attach_viewer, run_scripted, Scripted};
 use anyhow::{Context, Result};
 use serde::Serialize;
 use std::time::Duration;
@@ -94,7 +94,15 @@ pub fn run(seconds: f64, rounds: u32, json: bool) -> Result<()> {
     let params = scene.params;
     let mut results = Vec::new();
     for _ in 0..rounds.max(1) {
-        let without = run_scripted(&scene, params, seconds, 1, true, None, Some(&signals))?;
+        let without = run_scripted(
+            &scene,
+            params,
+            seconds,
+            1,
+            Scripted::paced(true),
+            None,
+            Some(&signals),
+        )?;
         require_complete(&without.end, Some(&signals))?;
         results.push(round_with_viewer(
             &scene,
@@ -142,7 +150,7 @@ fn round_with_viewer(
         params,
         seconds,
         1,
-        true,
+        Scripted::paced(true),
         Some(viewer.feed()),
         Some(signals),
     )?;

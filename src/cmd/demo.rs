@@ -6,7 +6,7 @@
 use crate::cli::DemoArgs;
 use crate::exit::{outcome, SessionExit};
 use crate::output::print_json;
-use crate::session_io::{print_summary, run_scripted};
+use crate::session_io::{print_summary, run_scripted, Scripted};
 use anyhow::Result;
 use serde::Serialize;
 use vps_haptic::HapticParams;
@@ -36,6 +36,9 @@ struct DemoReport {
 
 /// Runs the demo.
 pub fn run(args: &DemoArgs) -> Result<()> {
+    if let Some(dir) = &args.study {
+        crate::session_io::reserve_study_dir(dir, &[])?;
+    }
     let scene = SessionAssets::open(
         &args.scene.scene,
         &vps_session::BuildOptions {
@@ -72,13 +75,13 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     }
     let viewer = crate::session_io::attach_viewer(args.view, &scene)?;
     let feed = || viewer.as_ref().map(|v| v.feed());
-    let session = |params: HapticParams, paced: bool| {
+    let session = |params: HapticParams, how: Scripted| {
         let report = run_scripted(
             &scene,
             params,
             args.seconds,
             threads,
-            paced,
+            how,
             feed(),
             Some(&signals),
         )?;
@@ -94,12 +97,29 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         }
         Ok(report)
     };
-    let on = session(params, true)?;
+    let on = session(
+        params,
+        Scripted {
+            paced: true,
+            record_trace: args.study.is_some(),
+        },
+    )?;
     let off_params = HapticParams {
         braking: false,
         ..params
     };
-    let off = session(off_params, false)?;
+    let off = session(off_params, Scripted::paced(false))?;
+    if let Some(dir) = &args.study {
+        let start = scene.script()?.sample(0.0);
+        crate::cmd::study::write_session_study(
+            dir,
+            args.study_every,
+            &scene,
+            params,
+            vps_haptic::PartState::at_rest(start.0, start.1),
+            &on,
+        )?;
+    }
     if args.json {
         return print_json(&DemoReport {
             scene_triangles: scene.scene_triangles,

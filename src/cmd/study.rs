@@ -12,7 +12,7 @@ use serde_json::{json, Value};
 use std::path::Path;
 use vps_device::trace::Trace;
 use vps_device::SimulatedHand;
-use vps_haptic::PartState;
+use vps_haptic::{HapticParams, PartState};
 use vps_runtime::LoopReport;
 use vps_session::SessionAssets;
 use vps_study::{run_study, Study, StudyInputs, Target};
@@ -28,6 +28,7 @@ pub fn write_session_study(
     dir: &Path,
     every: usize,
     assets: &SessionAssets,
+    params: HapticParams,
     initial: PartState,
     report: &LoopReport,
 ) -> Result<()> {
@@ -39,7 +40,14 @@ pub fn write_session_study(
         .as_ref()
         .context("--study: the loop returned no trace")?;
     let source = format!("the session ({})", report.device_name);
-    write_study(assets, trace, initial, dir, every, &source, false)
+    let run = StudyRun {
+        assets,
+        params,
+        trace,
+        initial,
+        source: &source,
+    };
+    write_study(&run, dir, every, false)
 }
 
 /// `vps study TRACE --scene FILE -o DIR`.
@@ -58,16 +66,14 @@ pub fn run(args: &StudyArgs) -> Result<()> {
     let prepared = prepare(&session)?;
     let trace = vps_device::trace::load_trace(&args.trace)
         .with_context(|| format!("reading the trace {trace_path}"))?;
-    let initial = prepared.plan.setup.initial;
-    write_study(
-        &prepared.assets,
-        &trace,
-        initial,
-        &args.output,
-        args.every,
-        &format!("the trace {trace_path}"),
-        args.json,
-    )
+    let run = StudyRun {
+        assets: &prepared.assets,
+        params: prepared.plan.setup.params,
+        trace: &trace,
+        initial: prepared.plan.setup.initial,
+        source: &format!("the trace {trace_path}"),
+    };
+    write_study(&run, &args.output, args.every, args.json)
 }
 
 /// Where the hand was taking the part: the end of the scene's path when the trace is the
@@ -86,7 +92,8 @@ fn target(assets: &SessionAssets, trace: &Trace) -> Result<Option<Target>> {
 }
 
 /// What the study was made with, for `study.json`.
-fn settings(assets: &SessionAssets, trace: &Trace, source: &str) -> Value {
+fn settings(run: &StudyRun<'_>) -> Value {
+    let (assets, trace) = (run.assets, run.trace);
     let band = vps_voxmap::VoxelLookup::distance_band(&*assets.tree);
     json!({
         "scene": assets.label,
@@ -95,29 +102,38 @@ fn settings(assets: &SessionAssets, trace: &Trace, source: &str) -> Value {
         "force_model": if band.is_some() { "distance" } else { "tangent-plane" },
         "standoff_m": band.map(|b| b.standoff_m()),
         "shell_points": assets.shell.len(),
-        "braking": assets.params.braking,
+        "braking": run.params.braking,
         "device": trace.device,
         "frames": trace.frames.len(),
-        "made_from": source,
+        "made_from": run.source,
         "command": std::env::args().collect::<Vec<_>>().join(" "),
         "clearance_series_every_frames": SERIES_EVERY_FRAMES,
     })
 }
 
-fn write_study(
-    assets: &SessionAssets,
-    trace: &Trace,
+/// A session to study: what it ran on and with, and its trace.
+struct StudyRun<'a> {
+    assets: &'a SessionAssets,
+    params: HapticParams,
+    trace: &'a Trace,
     initial: PartState,
-    dir: &Path,
-    every: usize,
-    source: &str,
-    json_out: bool,
-) -> Result<()> {
+    /// "the session (device)" or "the trace FILE", for messages and study.json.
+    source: &'a str,
+}
+
+fn write_study(run: &StudyRun<'_>, dir: &Path, every: usize, json_out: bool) -> Result<()> {
+    let StudyRun {
+        assets,
+        trace,
+        initial,
+        source,
+        ..
+    } = *run;
     let classed = assets.classed_shell();
     let inputs = StudyInputs {
         map: &*assets.tree,
         shell: &classed,
-        params: &assets.params,
+        params: &run.params,
         limits: assets.bridge.limits,
         initial,
         trace,
@@ -129,7 +145,7 @@ fn write_study(
         reach_tolerance_m: assets.voxel_size,
     };
     let study = run_study(&inputs).with_context(|| format!("the study of {source}"))?;
-    let settings = settings(assets, trace, source);
+    let settings = settings(run);
     let written = vps_study::files::write_study(dir, &study, &assets.part_mesh, &settings, every)
         .with_context(|| format!("writing the study into {}", dir.display()))?;
     if json_out {

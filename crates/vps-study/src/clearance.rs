@@ -90,9 +90,28 @@ fn object_track(
     path: &[PathFrame],
     series: &[usize],
 ) -> ObjectClearance {
+    // Contiguous runs of the series in parallel; within a run each frame starts from the nearest
+    // pair of the frame before (the same answer, found faster).
+    let run = series.len().div_ceil(4 * rayon::current_num_threads()).max(1);
     let measured: Vec<Option<Closest>> = series
-        .par_iter()
-        .map(|&i| measure(clearance, object, &path[i], f64::INFINITY))
+        .par_chunks(run)
+        .flat_map_iter(|frames| {
+            let mut hint: Option<Closest> = None;
+            frames
+                .iter()
+                .map(|&i| {
+                    let f = &path[i];
+                    let c = clearance.nearest_from(
+                        object,
+                        f.part_position_m,
+                        f.part_orientation,
+                        hint.as_ref(),
+                    );
+                    hint = c;
+                    c
+                })
+                .collect::<Vec<_>>()
+        })
         .collect();
     let series_m: Vec<f64> = measured
         .iter()
