@@ -92,7 +92,10 @@ fn object_track(
 ) -> ObjectClearance {
     // Contiguous runs of the series in parallel; within a run each frame starts from the nearest
     // pair of the frame before (the same answer, found faster).
-    let run = series.len().div_ceil(4 * rayon::current_num_threads()).max(1);
+    let run = series
+        .len()
+        .div_ceil(4 * rayon::current_num_threads())
+        .max(1);
     let measured: Vec<Option<Closest>> = series
         .par_chunks(run)
         .flat_map_iter(|frames| {

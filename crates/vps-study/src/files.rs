@@ -220,6 +220,7 @@ pub fn study_json(study: &Study, settings: &Value, every: usize) -> Value {
             "object": names.get(o),
             "distance_m": m.closest.distance_m,
             "time_s": m.time_s,
+            "frame": m.frame,
             "on_part_m": m.closest.on_part_m.to_array(),
             "on_object_m": m.closest.on_object_m.to_array(),
         })),

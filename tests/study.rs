@@ -1,0 +1,272 @@
+//! Assembly studies through the binary (docs/study.md): `vps run --study DIR` on the two example
+//! scenes, checked against figures measured here without the study's search: the session's own
+//! report (where the part ended), the scene's last waypoint, and the exact distance between the
+//! part's mesh and every static mesh by a brute force over every pair of triangles at the
+//! recorded poses. `vps study TRACE` makes the same files from the trace. Outputs never replace
+//! an input.
+
+use glam::{DQuat, DVec3};
+use std::path::Path;
+use vps_mesh::triangle_distance::triangle_distance;
+use vps_mesh::TriMesh;
+use vps_testkit::process::{json, stderr, Vps};
+
+/// A [`Vps`] with the example scenes' files copied in.
+fn examples() -> Vps {
+    let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
+    let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
+    for entry in std::fs::read_dir(&assets).unwrap() {
+        let path = entry.unwrap().path();
+        std::fs::copy(&path, vps.dir().join(path.file_name().unwrap())).unwrap();
+    }
+    vps
+}
+
+/// The rows of a study's path.csv as numbers by column name (booleans as 0/1).
+fn path_rows(csv: &str) -> (Vec<String>, Vec<Vec<f64>>) {
+    let mut lines = csv.lines();
+    let header: Vec<String> = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .map(str::to_string)
+        .collect();
+    let rows = lines
+        .map(|l| {
+            l.split(',')
+                .map(|c| match c {
+                    "true" => 1.0,
+                    "false" => 0.0,
+                    "" => f64::NAN,
+                    x => x.parse().unwrap(),
+                })
+                .collect()
+        })
+        .collect();
+    (header, rows)
+}
+
+/// The least distance between `part` at (`p`, `q`) and any of `statics`: every triangle pair.
+fn brute_force(part: &TriMesh, p: DVec3, q: DQuat, statics: &[TriMesh]) -> f64 {
+    let moved = part.transformed(1.0, q, p);
+    let mut best = f64::INFINITY;
+    for s in statics {
+        for a in 0..moved.triangle_count() {
+            let ta = moved.triangle(a);
+            for b in 0..s.triangle_count() {
+                best = best.min(triangle_distance(&ta, &s.triangle(b)).distance);
+            }
+        }
+    }
+    best
+}
+
+/// Runs `scene` for `seconds` with `--study`, `--record` and `--report`, and checks the study
+/// against the report, the scene's last waypoint and a brute-force clearance; then `vps study`
+/// on the trace must write the same path and verdict.
+fn check_example(vps: &Vps, scene: &str, seconds: &str) {
+    let (study, trace, report) = (
+        format!("{scene}-study"),
+        format!("{scene}.jsonl"),
+        format!("{scene}-report.json"),
+    );
+    let scene_file = vps.path(&format!("{scene}.toml"));
+    let out = vps.run(&[
+        "run",
+        "--scene",
+        &scene_file,
+        "--seconds",
+        seconds,
+        "--record",
+        &vps.path(&trace),
+        "--study",
+        &vps.path(&study),
+        "--report",
+        &vps.path(&report),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let read = |name: &str| std::fs::read_to_string(vps.dir().join(name)).unwrap();
+    let summary: serde_json::Value =
+        serde_json::from_str(&read(&format!("{study}/study.json"))).expect("study.json is JSON");
+    let report: serde_json::Value = serde_json::from_str(&read(&report)).unwrap();
+    // The study's part ends exactly where the session's did.
+    assert_eq!(
+        summary["final_position_m"], report["final_position_m"],
+        "{summary}"
+    );
+    assert!(stdout.contains(&format!(
+        "verdict: {}",
+        summary["verdict"].as_str().unwrap()
+    )));
+    // Reached or not, against the scene's own last waypoint and the voxel size.
+    let loaded = vps_session::LoadedScene::load(&scene_file).unwrap();
+    let last = *loaded.file.hand.as_ref().unwrap().waypoints.last().unwrap();
+    let end = DVec3::from_array(
+        serde_json::from_value::<[f64; 3]>(report["final_position_m"].clone()).unwrap(),
+    );
+    let short = end.distance(DVec3::from_array(last));
+    let voxel = summary["settings"]["voxel_size_m"].as_f64().unwrap();
+    assert_eq!(summary["reached"], short <= voxel, "{summary}");
+    assert!((summary["short_m"].as_f64().unwrap() - short).abs() < 1e-12);
+    // The clearance: the study's minimum is no more than the brute force at any checked frame
+    // and equals it at the frame it names.
+    let part = vps_mesh::load_mesh(vps.dir().join(format!("{study}/part.obj")).as_path())
+        .unwrap()
+        .mesh;
+    let statics = loaded.placed_statics();
+    let (header, rows) = path_rows(&read(&format!("{study}/path.csv")));
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let pose = |row: &[f64]| {
+        let p = DVec3::new(
+            row[col("part_x_m")],
+            row[col("part_y_m")],
+            row[col("part_z_m")],
+        );
+        let q = DQuat::from_xyzw(
+            row[col("part_qx")],
+            row[col("part_qy")],
+            row[col("part_qz")],
+            row[col("part_qw")],
+        );
+        (p, q)
+    };
+    let minimum = &summary["minimum_clearance"];
+    let least = minimum["distance_m"].as_f64().unwrap();
+    let at = minimum["frame"].as_u64().unwrap() as usize;
+    let (p, q) = pose(&rows[at]);
+    let exact = brute_force(&part, p, q, &statics);
+    assert!(
+        (least - exact).abs() < 1e-9,
+        "study {least}, brute force {exact}"
+    );
+    for row in rows.iter().step_by(50) {
+        let (p, q) = pose(row);
+        let d = brute_force(&part, p, q, &statics);
+        assert!(
+            least <= d + 1e-12,
+            "a frame at {d} m is nearer than the minimum {least} m"
+        );
+    }
+    // The same study from the trace alone.
+    let again = format!("{scene}-again");
+    let out = vps.run(&[
+        "study",
+        &vps.path(&trace),
+        "--scene",
+        &scene_file,
+        "-o",
+        &vps.path(&again),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    for file in ["path.csv", "clearance.csv", "contacts.csv", "part.obj"] {
+        assert_eq!(
+            read(&format!("{study}/{file}")),
+            read(&format!("{again}/{file}")),
+            "{file}"
+        );
+    }
+    let again: serde_json::Value =
+        serde_json::from_str(&read(&format!("{again}/study.json"))).unwrap();
+    assert_eq!(again["verdict"], summary["verdict"]);
+    assert_eq!(again["minimum_clearance"], summary["minimum_clearance"]);
+}
+
+/// The peg enters its hole (the distance model, 0.5 mm stand-off, 1 mm clearance a side): the
+/// verdict says it reached the last waypoint with a clearance under a millimetre, as measured.
+#[test]
+fn the_peg_in_hole_study_matches_the_session_and_a_brute_force_clearance() {
+    let vps = examples();
+    check_example(&vps, "peg-in-hole", "3");
+    let summary = json(&vps.run(&[
+        "study",
+        &vps.path("peg-in-hole.jsonl"),
+        "--scene",
+        &vps.path("peg-in-hole.toml"),
+        "-o",
+        &vps.path("peg-json"),
+        "--json",
+    ]));
+    assert_eq!(summary["reached"], true, "{summary}");
+    let least = summary["minimum_clearance"]["distance_m"].as_f64().unwrap();
+    assert!(least > 0.0 && least < 0.001, "{summary}");
+    assert_eq!(summary["minimum_clearance"]["object"], "peg-fixture");
+}
+
+/// The bracket rests on the floor, slides, and presses the side wall: contact events name the
+/// objects; its study matches the session and the brute force.
+#[test]
+fn the_bracket_study_matches_the_session_and_a_brute_force_clearance() {
+    let vps = examples();
+    check_example(&vps, "bracket-in-bay", "8");
+    let summary: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(vps.dir().join("bracket-in-bay-study/study.json")).unwrap(),
+    )
+    .unwrap();
+    let objects: Vec<&str> = summary["contacts"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|c| c["object"].as_str())
+        .collect();
+    assert!(objects.contains(&"bay-floor"), "{summary}");
+    assert!(
+        objects.iter().any(|o| o.starts_with("bay-wall")),
+        "{summary}"
+    );
+}
+
+/// A study never replaces an input or anything but a regular file: `--study` naming a file, and
+/// `vps study` asked to write over its own trace, are refused before any work, the inputs
+/// untouched.
+#[test]
+fn a_study_never_replaces_its_inputs() {
+    let vps = examples();
+    std::fs::write(vps.dir().join("notes.txt"), "keep me").unwrap();
+    let err = vps.fails(&[
+        "run",
+        "--scene",
+        &vps.path("peg-in-hole.toml"),
+        "--seconds",
+        "0.1",
+        "--study",
+        &vps.path("notes.txt"),
+    ]);
+    assert!(err.contains("exists and is not a folder"), "{err}");
+    assert_eq!(
+        std::fs::read_to_string(vps.dir().join("notes.txt")).unwrap(),
+        "keep me"
+    );
+    // A trace named like a study file, in the study's folder.
+    std::fs::create_dir(vps.dir().join("s")).unwrap();
+    let out = vps.run(&[
+        "record",
+        "--scene",
+        &vps.path("peg-in-hole.toml"),
+        "--seconds",
+        "0.1",
+        "-o",
+        &vps.path("s/path.csv"),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let trace = std::fs::read(vps.dir().join("s/path.csv")).unwrap();
+    let err = vps.fails(&[
+        "study",
+        &vps.path("s/path.csv"),
+        "--scene",
+        &vps.path("peg-in-hole.toml"),
+        "-o",
+        &vps.path("s"),
+    ]);
+    assert!(err.contains("--study") && err.contains("path.csv"), "{err}");
+    assert_eq!(std::fs::read(vps.dir().join("s/path.csv")).unwrap(), trace);
+    let err = vps.fails(&[
+        "study",
+        &vps.path("missing.jsonl"),
+        "--scene",
+        &vps.path("peg-in-hole.toml"),
+        "-o",
+        &vps.path("t"),
+    ]);
+    assert!(err.contains("missing.jsonl"), "{err}");
+}
