@@ -523,9 +523,10 @@ pub struct RunArgs {
     /// Voxel size, instead of the scene's `voxels.voxel_size`.
     #[arg(long, value_parser = parse_length)]
     pub voxel_size: Option<f64>,
-    /// Session length (s); a replay runs for the length of its trace.
-    #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 30.0)]
-    pub seconds: f64,
+    /// Session length (s). Default: the simulated hand runs until its path has ended (its last
+    /// hold included); a replay, the length of its trace; any other device, 30 s.
+    #[arg(long, value_parser = crate::limits::parse_seconds)]
+    pub seconds: Option<f64>,
     /// Compute threads, the frame thread included.
     #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 1)]
     pub threads: usize,
@@ -951,7 +952,7 @@ impl Default for RunArgs {
             device: None,
             haptic: None,
             voxel_size: None,
-            seconds: 30.0,
+            seconds: None,
             threads: 1,
             record: None,
             study: None,

@@ -231,7 +231,7 @@ pub fn resolve_coordinator(args: &mut CoordinatorArgs, matches: &ArgMatches) -> 
             &mut s.voxel_size,
             voxel_size.map(Some),
         );
-        take(matches, "seconds", &mut s.seconds, seconds);
+        take(matches, "seconds", &mut s.seconds, seconds.map(Some));
         take(matches, "threads", &mut s.threads, threads);
         let record = f.record.map(|p| Some(beside(&path, p)));
         take(matches, "record", &mut s.record, record);

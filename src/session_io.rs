@@ -286,7 +286,14 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
         None => assets.label.clone(),
     };
     check_loop_period(&assets.params, &source)?;
-    let frames = choice.frames(args.seconds, assets.params.dt)?;
+    let script = assets.script()?;
+    let seconds = session_seconds(args.seconds, &choice, &script);
+    if args.seconds.is_none() && choice == DeviceChoice::Simulated {
+        eprintln!(
+            "session: {seconds:.2} s, until the simulated hand's path ends (--seconds to change)"
+        );
+    }
+    let frames = choice.frames(seconds, assets.params.dt)?;
     assets.bridge = bridge_settings(&args.bridge, &choice, assets.bridge, frames)?;
     let config = LoopConfig {
         frames: Some(frames),
@@ -295,7 +302,6 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
         record_trace: args.record.is_some() || args.study.is_some(),
         ..LoopConfig::default()
     };
-    let script = assets.script()?;
     if let Some(warning) = assets.start_overlap(&script).warning() {
         eprintln!(
             "{}: warning: {}",
@@ -305,6 +311,30 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
     }
     let plan = assets.plan(&choice, script, config)?;
     Ok(PreparedSession { assets, plan })
+}
+
+/// A session's length when `--seconds` is not given and the device is not a replay (whose trace
+/// sets it).
+pub const DEFAULT_SESSION_SECONDS: f64 = 30.0;
+
+/// How long a session runs (s): `--seconds` when given; else, for the simulated hand, until its
+/// path has ended (its last hold included: the last frame at or just past the script's
+/// duration, at most [`crate::limits::MAX_SESSION_SECONDS`]); else [`DEFAULT_SESSION_SECONDS`].
+pub fn session_seconds(
+    given: Option<f64>,
+    choice: &DeviceChoice,
+    script: &vps_device::Script,
+) -> f64 {
+    match (given, choice) {
+        (Some(s), _) => s,
+        (None, DeviceChoice::Simulated) => {
+            // Frames at 0, dt, 2 dt, ...: the last one at or past the path's end.
+            let dt = LoopConfig::default().period.as_secs_f64();
+            let ticks = (script.duration() / dt).ceil() + 1.0;
+            (ticks * dt).min(crate::limits::MAX_SESSION_SECONDS)
+        }
+        (None, _) => DEFAULT_SESSION_SECONDS,
+    }
 }
 
 /// Fails unless the haptic time step `dt` (s) of `params`, read from `source`, is the session
@@ -456,6 +486,7 @@ pub fn finish<C: Serialize>(
             ran.assets.params,
             ran.initial,
             report,
+            args.json,
         );
         match study {
             Err(e) if exit_code != 0 => eprintln!("vps: --study: {e:#}"),

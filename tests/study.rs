@@ -61,10 +61,10 @@ fn brute_force(part: &TriMesh, p: DVec3, q: DQuat, statics: &[TriMesh]) -> f64 {
     best
 }
 
-/// Runs `scene` for `seconds` with `--study`, `--record` and `--report`, and checks the study
-/// against the report, the scene's last waypoint and a brute-force clearance; then `vps study`
-/// on the trace must write the same path and verdict.
-fn check_example(vps: &Vps, scene: &str, seconds: &str) {
+/// Runs `scene` with `--study`, `--record` and `--report` and no `--seconds` (the session ends
+/// with the hand's path), and checks the study against the report, the scene's last waypoint and
+/// a brute-force clearance; then `vps study` on the trace must write the same path and verdict.
+fn check_example(vps: &Vps, scene: &str) {
     let (study, trace, report) = (
         format!("{scene}-study"),
         format!("{scene}.jsonl"),
@@ -75,8 +75,6 @@ fn check_example(vps: &Vps, scene: &str, seconds: &str) {
         "run",
         "--scene",
         &scene_file,
-        "--seconds",
-        seconds,
         "--record",
         &vps.path(&trace),
         "--study",
@@ -85,6 +83,11 @@ fn check_example(vps: &Vps, scene: &str, seconds: &str) {
         &vps.path(&report),
     ]);
     assert!(out.status.success(), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("until the simulated hand's path ends"),
+        "{}",
+        stderr(&out)
+    );
     let stdout = String::from_utf8_lossy(&out.stdout);
     let read = |name: &str| std::fs::read_to_string(vps.dir().join(name)).unwrap();
     let summary: serde_json::Value =
@@ -109,6 +112,12 @@ fn check_example(vps: &Vps, scene: &str, seconds: &str) {
     let voxel = summary["settings"]["voxel_size_m"].as_f64().unwrap();
     assert_eq!(summary["reached"], short <= voxel, "{summary}");
     assert!((summary["short_m"].as_f64().unwrap() - short).abs() < 1e-12);
+    // The session ran to the end of the hand's path: frames at 0, 1, 2, ... ms up to the first
+    // at or past it (a tick the loop missed moves the later frames' times on, not their count).
+    assert_eq!(summary["path_completed"], true, "{summary}");
+    let path_end = summary["target"]["path_end_s"].as_f64().unwrap();
+    let frames = (path_end / 1e-3).ceil() as u64 + 1;
+    assert_eq!(summary["frames"], frames, "{summary}");
     // The clearance: the study's minimum is no more than the brute force at any checked frame
     // and equals it at the frame it names.
     let part = vps_mesh::load_mesh(vps.dir().join(format!("{study}/part.obj")).as_path())
@@ -177,7 +186,7 @@ fn check_example(vps: &Vps, scene: &str, seconds: &str) {
 #[test]
 fn the_peg_in_hole_study_matches_the_session_and_a_brute_force_clearance() {
     let vps = examples();
-    check_example(&vps, "peg-in-hole", "3");
+    check_example(&vps, "peg-in-hole");
     let summary = json(&vps.run(&[
         "study",
         &vps.path("peg-in-hole.jsonl"),
@@ -191,6 +200,20 @@ fn the_peg_in_hole_study_matches_the_session_and_a_brute_force_clearance() {
     let least = summary["minimum_clearance"]["distance_m"].as_f64().unwrap();
     assert!(least > 0.0 && least < 0.001, "{summary}");
     assert_eq!(summary["minimum_clearance"]["object"], "peg-fixture");
+    // With --json the session's stdout is its report alone; the study's words go to stderr.
+    let out = vps.run(&[
+        "run",
+        "--scene",
+        &vps.path("peg-in-hole.toml"),
+        "--seconds",
+        "0.5",
+        "--json",
+        "--study",
+        &vps.path("peg-quiet"),
+    ]);
+    let report = json(&out);
+    assert_eq!(report["stats"]["frames"], 500);
+    assert!(stderr(&out).contains("verdict: "), "{}", stderr(&out));
 }
 
 /// The bracket rests on the floor, slides, and presses the side wall: contact events name the
@@ -198,7 +221,7 @@ fn the_peg_in_hole_study_matches_the_session_and_a_brute_force_clearance() {
 #[test]
 fn the_bracket_study_matches_the_session_and_a_brute_force_clearance() {
     let vps = examples();
-    check_example(&vps, "bracket-in-bay", "8");
+    check_example(&vps, "bracket-in-bay");
     let summary: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(vps.dir().join("bracket-in-bay-study/study.json")).unwrap(),
     )

@@ -86,7 +86,7 @@ pub fn run(frames: u64, spin_us: u64, json: bool) -> Result<()> {
     let mut gather = Vec::new();
     for workers in [1, 2] {
         let session = RunArgs {
-            seconds: frames as f64 / 1000.0,
+            seconds: Some(frames as f64 / 1000.0),
             ..RunArgs::default()
         };
         // Equal shares: the round trip of a fixed share is what is compared with raw UDP.

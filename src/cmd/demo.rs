@@ -118,6 +118,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             params,
             vps_haptic::PartState::at_rest(start.0, start.1),
             &on,
+            args.json,
         )?;
     }
     if args.json {

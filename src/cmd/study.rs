@@ -31,6 +31,7 @@ pub fn write_session_study(
     params: HapticParams,
     initial: PartState,
     report: &LoopReport,
+    json: bool,
 ) -> Result<()> {
     if let Some(why) = &report.trace_error {
         bail!("--study: the session's trace stopped early ({why}); no study written");
@@ -47,7 +48,13 @@ pub fn write_session_study(
         initial,
         source: &source,
     };
-    write_study(&run, dir, every, false)
+    // With --json, stdout holds the session's report alone: the study's words go to stderr.
+    let print = if json {
+        Print::TextToStderr
+    } else {
+        Print::Text
+    };
+    write_study(&run, dir, every, print)
 }
 
 /// `vps study TRACE --scene FILE -o DIR`.
@@ -73,7 +80,8 @@ pub fn run(args: &StudyArgs) -> Result<()> {
         initial: prepared.plan.setup.initial,
         source: &format!("the trace {trace_path}"),
     };
-    write_study(&run, &args.output, args.every, args.json)
+    let print = if args.json { Print::Json } else { Print::Text };
+    write_study(&run, &args.output, args.every, print)
 }
 
 /// Where the hand was taking the part: the end of the scene's path when the trace is the
@@ -121,7 +129,18 @@ struct StudyRun<'a> {
     source: &'a str,
 }
 
-fn write_study(run: &StudyRun<'_>, dir: &Path, every: usize, json_out: bool) -> Result<()> {
+/// Where a study's report goes.
+#[derive(Clone, Copy, PartialEq)]
+enum Print {
+    /// Words on stdout.
+    Text,
+    /// Words on stderr (stdout carries a session's JSON report).
+    TextToStderr,
+    /// study.json's content on stdout.
+    Json,
+}
+
+fn write_study(run: &StudyRun<'_>, dir: &Path, every: usize, print: Print) -> Result<()> {
     let StudyRun {
         assets,
         trace,
@@ -148,17 +167,22 @@ fn write_study(run: &StudyRun<'_>, dir: &Path, every: usize, json_out: bool) -> 
     let settings = settings(run);
     let written = vps_study::files::write_study(dir, &study, &assets.part_mesh, &settings, every)
         .with_context(|| format!("writing the study into {}", dir.display()))?;
-    if json_out {
+    if print == Print::Json {
         return print_json(&vps_study::files::study_json(&study, &settings, every));
     }
-    for line in text_report(&study) {
-        println!("{line}");
-    }
-    println!(
-        "study: {} files in {} (study.json, path.csv, clearance.csv, contacts.csv, part.obj; docs/study.md)",
+    let mut lines = text_report(&study);
+    lines.push(format!(
+        "study: {} files in {} (study.json, path.csv, clearance.csv, contacts.csv, part.obj; \
+         docs/study.md)",
         written.len(),
         dir.display()
-    );
+    ));
+    for line in lines {
+        match print {
+            Print::TextToStderr => eprintln!("{line}"),
+            _ => crate::output::outln!("{line}")?,
+        }
+    }
     Ok(())
 }
 
