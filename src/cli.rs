@@ -500,6 +500,9 @@ pub struct StudyArgs {
     /// The path table holds every Nth frame (and the last).
     #[arg(long, value_name = "N", value_parser = parse_frame_stride, default_value_t = 1)]
     pub every: usize,
+    /// Voxel size of the swept volume. Default: the scene's voxel size.
+    #[arg(long, value_parser = parse_length)]
+    pub swept_voxel_size: Option<f64>,
     /// Print study.json's content instead of the text report.
     #[arg(long)]
     pub json: bool,

@@ -26,6 +26,7 @@ mod mesh_arg;
 mod output;
 mod service_config;
 mod session_io;
+mod session_study;
 mod svg;
 mod sweep_session;
 

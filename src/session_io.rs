@@ -479,7 +479,7 @@ pub fn finish<C: Serialize>(
         }
     }
     if let Some(dir) = &outputs.study {
-        let study = crate::cmd::study::write_session_study(
+        let study = crate::session_study::write_session_study(
             dir,
             args.study_every,
             ran.assets,

@@ -157,6 +157,22 @@ fn check_example(vps: &Vps, scene: &str) {
             "a frame at {d} m is nearer than the minimum {least} m"
         );
     }
+    // The swept volume holds the part at every checked pose (to within one voxel: its surface is
+    // the zero level of a field sampled at voxel centres).
+    let swept = vps_mesh::load_mesh(vps.dir().join(format!("{study}/swept.stl")).as_path())
+        .unwrap()
+        .mesh;
+    assert_eq!(vps_mesh::mesh_health(&swept).boundary_edges, 0);
+    let region = vps_reference::ExactScene::new(std::slice::from_ref(&swept)).unwrap();
+    for row in rows.iter().step_by(50) {
+        let (p, q) = pose(row);
+        for v in &part.vertices {
+            let d = region.signed_distance(q * *v + p).distance_m;
+            assert!(d <= voxel, "a part vertex {d} m outside the swept volume");
+        }
+    }
+    let volume = summary["swept_volume"]["volume_m3"].as_f64().unwrap();
+    assert!(volume > 0.0 && summary["swept_volume"]["mesh_closed"] == true);
     // The same study from the trace alone.
     let again = format!("{scene}-again");
     let out = vps.run(&[
@@ -168,12 +184,16 @@ fn check_example(vps: &Vps, scene: &str) {
         &vps.path(&again),
     ]);
     assert!(out.status.success(), "{}", stderr(&out));
-    for file in ["path.csv", "clearance.csv", "contacts.csv", "part.obj"] {
-        assert_eq!(
-            read(&format!("{study}/{file}")),
-            read(&format!("{again}/{file}")),
-            "{file}"
-        );
+    for file in [
+        "path.csv",
+        "clearance.csv",
+        "contacts.csv",
+        "part.obj",
+        "swept.stl",
+        "swept.vmap",
+    ] {
+        let bytes = |dir: &str| std::fs::read(vps.dir().join(dir).join(file)).unwrap();
+        assert!(bytes(&study) == bytes(&again), "{file} differs");
     }
     let again: serde_json::Value =
         serde_json::from_str(&read(&format!("{again}/study.json"))).unwrap();
@@ -237,6 +257,20 @@ fn the_bracket_study_matches_the_session_and_a_brute_force_clearance() {
         objects.iter().any(|o| o.starts_with("bay-wall")),
         "{summary}"
     );
+    // The swept volume loads back as a static object of a scene, closed.
+    std::fs::write(
+        vps.dir().join("swept-scene.toml"),
+        "[part]\nsource = \"builtin:sphere\"\nscale = 0.01\n[[static]]\nsource = \"bracket-in-bay-study/swept.stl\"\n[voxels]\nvoxel_size = \"4mm\"\n[hand]\nwaypoints = [[0.0, 0.0, 2.0], [0.0, 0.0, 1.9]]\n",
+    )
+    .unwrap();
+    let check = json(&vps.run(&["scene", "check", &vps.path("swept-scene.toml"), "--json"]));
+    let swept = check["meshes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|m| m["source"].as_str().unwrap().ends_with("swept.stl"))
+        .unwrap_or_else(|| panic!("{check}"));
+    assert_eq!(swept["closed"], true, "{check}");
 }
 
 /// A study never replaces an input or anything but a regular file: `--study` naming a file, and

@@ -111,7 +111,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let off = session(off_params, Scripted::paced(false))?;
     if let Some(dir) = &args.study {
         let start = scene.script()?.sample(0.0);
-        crate::cmd::study::write_session_study(
+        crate::session_study::write_session_study(
             dir,
             args.study_every,
             &scene,

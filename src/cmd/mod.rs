@@ -19,7 +19,7 @@ mod probe;
 mod run;
 mod scene_check;
 mod shell;
-pub mod study;
+mod study;
 mod sweep;
 mod sweep_plots;
 mod sweep_text;

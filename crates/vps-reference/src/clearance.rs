@@ -275,7 +275,7 @@ mod tests {
         ));
         let empty = TriMesh::new(Vec::new(), Vec::new());
         assert_eq!(
-            RigidClearance::new(&empty, &[part.clone()]).unwrap_err(),
+            RigidClearance::new(&empty, std::slice::from_ref(&part)).unwrap_err(),
             ReferenceError::Empty
         );
         let c = RigidClearance::new(&part, &[empty]).unwrap();

@@ -6,7 +6,9 @@
 //! - `clearance.csv`: the exact clearance to each object at the series frames;
 //! - `contacts.csv`: one row per contact event;
 //! - `part.obj`: the part's mesh in its own frame (m, origin at the grip): posed by a path row
-//!   (`x = R(q) v + p`) it is the part where the study measured it.
+//!   (`x = R(q) v + p`) it is the part where the study measured it;
+//! - `swept.stl` (binary STL, m) and `swept.vmap` (a voxmap: the region Interior, its boundary
+//!   layer Surface): the swept volume, when made.
 //!
 //! Each file is written whole to a temporary file and renamed into place, so a failed write never
 //! leaves a half-written file; only regular files are ever replaced.
@@ -23,12 +25,14 @@ pub const STUDY_FORMAT: &str = "vps-study";
 pub const STUDY_VERSION: u32 = 1;
 
 /// The names of the files a study writes, in the order written.
-pub const STUDY_FILES: [&str; 6] = [
+pub const STUDY_FILES: [&str; 8] = [
     "path.csv",
     "path.json",
     "clearance.csv",
     "contacts.csv",
     "part.obj",
+    "swept.stl",
+    "swept.vmap",
     "study.json",
 ];
 
@@ -232,6 +236,7 @@ pub fn study_json(study: &Study, settings: &Value, every: usize) -> Value {
             "frames": study.clearance.series_frames,
             "time_s": study.clearance.series_frames.iter().map(|&i| study.path[i].time_s).collect::<Vec<_>>(),
         },
+        "swept_volume": swept_json(study),
         "path_rows_every": every.max(1),
         "files": STUDY_FILES,
         "timings_ms": study.timings,
@@ -251,6 +256,57 @@ fn write_obj(out: &mut dyn Write, mesh: &TriMesh) -> io::Result<()> {
         writeln!(out, "f {} {} {}", a + 1, b + 1, c + 1)?;
     }
     Ok(())
+}
+
+/// `mesh` as a binary STL (f32 metres, facet normals from the winding).
+fn write_stl(out: &mut dyn Write, mesh: &TriMesh) -> io::Result<()> {
+    let mut header = [0u8; 80];
+    let text = b"vps study: swept volume (m)";
+    header[..text.len()].copy_from_slice(text);
+    out.write_all(&header)?;
+    let count = u32::try_from(mesh.triangle_count())
+        .map_err(|_| io::Error::new(io::ErrorKind::InvalidInput, "too many triangles for STL"))?;
+    out.write_all(&count.to_le_bytes())?;
+    for t in 0..mesh.triangle_count() {
+        let [a, b, c] = mesh.triangle(t);
+        let n = (b - a).cross(c - a).normalize_or_zero();
+        for v in [n, a, b, c] {
+            for x in v.to_array() {
+                out.write_all(&(x as f32).to_le_bytes())?;
+            }
+        }
+        out.write_all(&[0, 0])?;
+    }
+    Ok(())
+}
+
+/// The swept volume's figures for `study.json`, or why there is none.
+fn swept_json(study: &Study) -> Value {
+    match &study.swept {
+        None => Value::Null,
+        Some(Err(e)) => json!({ "error": e.to_string() }),
+        Some(Ok(s)) => {
+            let health = vps_mesh::mesh_health(&s.mesh);
+            json!({
+                "voxel_size_m": s.spec.voxel_size,
+                "voxels": s.voxels,
+                "volume_m3": s.volume_m3,
+                "mesh_volume_m3": s.mesh.signed_volume(),
+                "mesh_triangles": s.mesh.triangle_count(),
+                "mesh_closed": health.boundary_edges == 0,
+                "poses_swept": s.poses,
+                "bounds_m": {
+                    "min": s.spec.origin.to_array(),
+                    "max": (s.spec.origin + glam::DVec3::new(
+                        s.spec.dims[0] as f64,
+                        s.spec.dims[1] as f64,
+                        s.spec.dims[2] as f64,
+                    ) * s.spec.voxel_size).to_array(),
+                },
+                "files": ["swept.stl", "swept.vmap"],
+            })
+        }
+    }
 }
 
 /// Writes the study's files into `dir` (created when missing), the path table every `every`-th
@@ -328,10 +384,28 @@ pub fn write_study(
         .collect();
     write_file(&paths[3], |out| write_csv(out, &header, &events))?;
     write_file(&paths[4], |out| write_obj(out, part_mesh))?;
+    let mut written: Vec<PathBuf> = paths[..5].to_vec();
+    if let Some(Ok(swept)) = &study.swept {
+        write_file(&paths[5], |out| write_stl(out, &swept.mesh))?;
+        let tree = vps_voxmap::VoxelTree::from_dense(&swept.to_dense(), Default::default())
+            .map_err(|e| io::Error::other(format!("the swept volume's voxmap: {e}")))?;
+        vps_voxmap::file::save_voxmap(&tree, &paths[6])
+            .map_err(|e| io::Error::other(format!("{}: {e}", paths[6].display())))?;
+        written.extend_from_slice(&paths[5..7]);
+    } else {
+        // No swept volume this time: an earlier study's must not pass for this one's.
+        for stale in &paths[5..7] {
+            if std::fs::symlink_metadata(stale).is_ok_and(|m| m.is_file()) {
+                std::fs::remove_file(stale)
+                    .map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", stale.display())))?;
+            }
+        }
+    }
     let summary = study_json(study, settings, every);
-    write_file(&paths[5], |out| {
+    write_file(&paths[7], |out| {
         serde_json::to_writer_pretty(&mut *out, &summary)?;
         writeln!(out)
     })?;
-    Ok(paths)
+    written.push(paths[7].clone());
+    Ok(written)
 }

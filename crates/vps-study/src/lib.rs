@@ -9,8 +9,8 @@
 //! compared after a change.
 //!
 //! Module map: [`path`] (the part's path from a trace), [`clearance`] (exact clearance series and
-//! minimum), [`contacts`] (contact events), [`verdict`](mod@verdict) (the verdict line), [`files`]
-//! (the study's files).
+//! minimum), [`contacts`] (contact events), [`swept`] (the swept volume as voxels and a closed
+//! mesh), [`verdict`](mod@verdict) (the verdict line), [`files`] (the study's files).
 //!
 //! Units: metres, seconds, newtons, newton-metres; CSV columns name theirs.
 //!
@@ -22,6 +22,7 @@ pub mod clearance;
 pub mod contacts;
 pub mod files;
 pub mod path;
+pub mod swept;
 pub mod verdict;
 
 pub use clearance::{ClearanceTrack, MinimumClearance, ObjectClearance};
@@ -75,6 +76,8 @@ pub struct StudyInputs<'a, L: VoxelLookup> {
     pub clearance_every: usize,
     /// How near the goal the grip must end to have reached it (m).
     pub reach_tolerance_m: f64,
+    /// The swept volume's voxel size (m); `None`: no swept volume.
+    pub swept_voxel_size_m: Option<f64>,
 }
 
 /// Wall time of each stage of a study (ms).
@@ -88,6 +91,8 @@ pub struct StudyTimings {
     pub clearance_ms: f64,
     /// Contact events.
     pub contacts_ms: f64,
+    /// The swept volume.
+    pub swept_ms: f64,
 }
 
 /// A finished study.
@@ -103,6 +108,8 @@ pub struct Study {
     pub contacts: Vec<ContactEvent>,
     /// The verdict.
     pub verdict: Verdict,
+    /// The swept volume, when asked for: made, or why not.
+    pub swept: Option<Result<swept::SweptVolume, swept::SweptError>>,
     /// The static objects' names.
     pub object_names: Vec<String>,
     /// Where the time went.
@@ -155,12 +162,18 @@ pub fn run_study<L: VoxelLookup>(inputs: &StudyInputs<'_, L>) -> Result<Study, S
         held_by,
         inputs.object_names,
     );
+    let t = Instant::now();
+    let swept = inputs
+        .swept_voxel_size_m
+        .map(|h| swept::swept_volume(inputs.part_mesh, &path, h, swept::SweptLimits::default()));
+    timings.swept_ms = ms_since(t);
     Ok(Study {
         path,
         final_state,
         clearance,
         contacts,
         verdict,
+        swept,
         object_names: inputs.object_names.to_vec(),
         timings,
     })
