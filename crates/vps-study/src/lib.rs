@@ -1,8 +1,8 @@
 //! Evidence for an assembly study: given a session's handle trace and its scene, the part's path
 //! (recomputed frame by frame with the 1 kHz loop's own core), the exact clearance between the
 //! part's mesh and each static object's mesh over the path, the contact events, and a verdict
-//! ("reached the last waypoint" / "held back at …, N mm short, by <object>"; "minimum clearance
-//! X mm at t = … s near <object>"), written as CSV and JSON files a colleague can open.
+//! ("reached the last waypoint" / "held back at …, N mm short, by OBJECT"; "minimum clearance
+//! X mm at t = … s near OBJECT"), written as CSV and JSON files a colleague can open.
 //!
 //! Everything here runs after a session, never on its frame thread: a study is a pure function of
 //! the trace, the voxmap, the shell, the parameters and the meshes, so it can be regenerated or
