@@ -2,7 +2,8 @@
 //! (recomputed frame by frame with the 1 kHz loop's own core), the exact clearance between the
 //! part's mesh and each static object's mesh over the path, the contact events, and a verdict
 //! ("reached the last waypoint" / "held back at …, N mm short, by OBJECT"; "minimum clearance
-//! X mm at t = … s near OBJECT"), written as CSV and JSON files a colleague can open.
+//! X mm at t = … s near OBJECT"), and the swept volume (voxels and a closed mesh), written as
+//! CSV, JSON, STL and voxmap files a colleague can open.
 //!
 //! Everything here runs after a session, never on its frame thread: a study is a pure function of
 //! the trace, the voxmap, the shell, the parameters and the meshes, so it can be regenerated or
