@@ -151,8 +151,8 @@ pub fn write_study(run: &StudyRun<'_>, dir: &Path, every: usize, print: Print) -
     }
     let mut lines = text_report(&study);
     lines.push(format!(
-        "study: {} files in {} (study.json, path.csv, clearance.csv, contacts.csv, part.obj, \
-         swept.stl, swept.vmap; docs/study.md)",
+        "study: {} files in {} (open report.html; study.json, path.csv, clearance.csv, \
+         contacts.csv, part.obj, swept.stl, swept.vmap; docs/study.md)",
         written.len(),
         dir.display()
     ));

@@ -273,6 +273,74 @@ fn the_bracket_study_matches_the_session_and_a_brute_force_clearance() {
     assert_eq!(swept["closed"], true, "{check}");
 }
 
+/// The study's page opens in headless Chromium from the file alone: the verdict is on it, the
+/// three plots and two path views drew (lines with points, non-background pixels in a
+/// screenshot), nothing went to the console, and nothing in it points off the file (it works with
+/// no network).
+#[test]
+fn the_study_page_opens_offline_in_headless_chromium() {
+    use vps_view::browser::{canvas_content, Browser, CHROMIUM};
+    if !Path::new(CHROMIUM).exists() {
+        eprintln!(
+            "SKIPPED the_study_page_opens_offline_in_headless_chromium: {CHROMIUM} is not \
+             installed (apt-get install chromium)"
+        );
+        return;
+    }
+    let vps = examples();
+    let out = vps.run(&[
+        "run",
+        "--scene",
+        &vps.path("bracket-in-bay.toml"),
+        "--seconds",
+        "3",
+        "--study",
+        &vps.path("page"),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let page = vps.dir().join("page/report.html");
+    let html = std::fs::read_to_string(&page).unwrap();
+    for outside in ["http:", "https:", "src=", "<script", "@import", "url("] {
+        assert!(
+            !html.contains(outside),
+            "the page refers outside itself: {outside}"
+        );
+    }
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(vps.dir().join("page/study.json")).unwrap())
+            .unwrap();
+    let profile = tempfile::tempdir().unwrap();
+    let mut browser = Browser::open(profile.path(), &format!("file://{}", page.display()));
+    let patience = std::time::Duration::from_secs(120);
+    browser.wait_for("the page loaded", patience, |b| {
+        (b.eval("document.readyState") == "complete").then_some(())
+    });
+    assert_eq!(
+        browser.text("verdict"),
+        summary["verdict"].as_str().unwrap()
+    );
+    for id in [
+        "plot-clearance",
+        "plot-force",
+        "plot-speed",
+        "view-top",
+        "view-side",
+    ] {
+        let points = browser.eval(&format!(
+            "Array.from(document.querySelectorAll('#{id} polyline')).map(p => p.points.numberOfItems).reduce((a, b) => a + b, 0)"
+        ));
+        assert!(points.as_u64().unwrap_or(0) > 10, "{id}: {points}");
+    }
+    let png = browser.screenshot();
+    let (colours, share) = canvas_content(&png, 800);
+    assert!(
+        colours > 4 && share > 0.02,
+        "{colours} colours, {share} off the background"
+    );
+    let console = browser.console_lines();
+    assert!(console.is_empty(), "console: {console:?}");
+}
+
 /// A study never replaces an input or anything but a regular file: `--study` naming a file, and
 /// `vps study` asked to write over its own trace, are refused before any work, the inputs
 /// untouched.

@@ -8,7 +8,8 @@
 //! - `part.obj`: the part's mesh in its own frame (m, origin at the grip): posed by a path row
 //!   (`x = R(q) v + p`) it is the part where the study measured it;
 //! - `swept.stl` (binary STL, m) and `swept.vmap` (a voxmap: the region Interior, its boundary
-//!   layer Surface): the swept volume, when made.
+//!   layer Surface): the swept volume, when made;
+//! - `report.html`: the study on one page that opens offline ([`crate::report`]).
 //!
 //! Each file is written whole to a temporary file and renamed into place, so a failed write never
 //! leaves a half-written file; only regular files are ever replaced.
@@ -25,7 +26,7 @@ pub const STUDY_FORMAT: &str = "vps-study";
 pub const STUDY_VERSION: u32 = 1;
 
 /// The names of the files a study writes, in the order written.
-pub const STUDY_FILES: [&str; 8] = [
+pub const STUDY_FILES: [&str; 9] = [
     "path.csv",
     "path.json",
     "clearance.csv",
@@ -34,6 +35,7 @@ pub const STUDY_FILES: [&str; 8] = [
     "swept.stl",
     "swept.vmap",
     "study.json",
+    "report.html",
 ];
 
 /// The paths of the files a study writes into `dir`.
@@ -407,5 +409,8 @@ pub fn write_study(
         writeln!(out)
     })?;
     written.push(paths[7].clone());
+    let page = crate::report::report_html(study, settings);
+    write_file(&paths[8], |out| out.write_all(page.as_bytes()))?;
+    written.push(paths[8].clone());
     Ok(written)
 }

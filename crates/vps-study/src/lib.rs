@@ -11,7 +11,8 @@
 //!
 //! Module map: [`path`] (the part's path from a trace), [`clearance`] (exact clearance series and
 //! minimum), [`contacts`] (contact events), [`swept`] (the swept volume as voxels and a closed
-//! mesh), [`verdict`](mod@verdict) (the verdict line), [`files`] (the study's files).
+//! mesh), [`verdict`](mod@verdict) (the verdict line), [`report`] (the one-page HTML report),
+//! [`files`] (the study's files).
 //!
 //! Units: metres, seconds, newtons, newton-metres; CSV columns name theirs.
 //!
@@ -23,6 +24,7 @@ pub mod clearance;
 pub mod contacts;
 pub mod files;
 pub mod path;
+pub mod report;
 pub mod swept;
 pub mod verdict;
 

@@ -178,6 +178,11 @@ impl Browser {
         self.console.push_back(line);
     }
 
+    /// The page's latest console messages and uncaught exceptions (at most [`CONSOLE_KEPT`]).
+    pub fn console_lines(&self) -> Vec<String> {
+        self.console.iter().cloned().collect()
+    }
+
     /// What the viewer page shows now, for failure messages: its status line, how far its start
     /// got (`body[data-phase]`), renderer, draw count and latest console lines.
     pub fn page_summary(&mut self) -> String {
