@@ -341,6 +341,47 @@ fn the_study_page_opens_offline_in_headless_chromium() {
     assert!(console.is_empty(), "console: {console:?}");
 }
 
+/// A trace keeps where the session's part started (a real device's first pose is not the
+/// part's): `vps study` (like `vps replay`) starts the part there, not at the first handle sample.
+#[test]
+fn a_study_starts_the_part_where_the_recorded_session_did() {
+    let vps = examples();
+    let out = vps.run(&[
+        "record",
+        "--scene",
+        &vps.path("peg-in-hole.toml"),
+        "--seconds",
+        "0.2",
+        "-o",
+        &vps.path("t.jsonl"),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = std::fs::read_to_string(vps.dir().join("t.jsonl")).unwrap();
+    let (header, frames) = text.split_once('\n').unwrap();
+    let mut header: serde_json::Value = serde_json::from_str(header).unwrap();
+    assert_eq!(header["version"], 2);
+    assert_eq!(
+        header["part_start"]["position"],
+        serde_json::json!([0.0, 0.0, 0.12])
+    );
+    // As if the part had started 15 mm higher than the hand's first reading.
+    header["part_start"]["position"] = serde_json::json!([0.0, 0.0, 0.135]);
+    std::fs::write(vps.dir().join("moved.jsonl"), format!("{header}\n{frames}")).unwrap();
+    let out = vps.run(&[
+        "study",
+        &vps.path("moved.jsonl"),
+        "--scene",
+        &vps.path("peg-in-hole.toml"),
+        "-o",
+        &vps.path("moved"),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let (header, rows) =
+        path_rows(&std::fs::read_to_string(vps.dir().join("moved/path.csv")).unwrap());
+    let z = header.iter().position(|h| h == "part_z_m").unwrap();
+    assert_eq!(rows[0][z], 0.135);
+}
+
 /// A study never replaces an input or anything but a regular file: `--study` naming a file, and
 /// `vps study` asked to write over its own trace, are refused before any work, the inputs
 /// untouched.

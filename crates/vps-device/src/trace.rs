@@ -2,7 +2,10 @@
 //! replay them bit-exactly through [`ReplayDevice`].
 //!
 //! File format (UTF-8, one JSON object per line):
-//! - line 1, the header: `{"format":"vps-trace","version":1,"device":"…","period":0.001,"frames":N}`
+//! - line 1, the header: `{"format":"vps-trace","version":2,"device":"…","period":0.001,"frames":N,
+//!   "part_start":{"position":[x,y,z],"orientation":[x,y,z,w]}}`; `part_start` (version 2) is where
+//!   the session's part started, at rest: a replay or a study starts it there. Version 1 files
+//!   (no `part_start`) are read too; their part starts at the first handle sample.
 //! - lines 2..=N+1, one per frame: `{"frame":i,"time":t,"sample":{…}}` with `frame` = 0, 1, 2, … and
 //!   `time` (s) non-decreasing. Vectors are `[x,y,z]`, quaternions `[x,y,z,w]`.
 //!
@@ -16,8 +19,20 @@ use vps_haptic::{HandleSample, Wrench};
 
 /// The `format` field of a trace header.
 pub const TRACE_FORMAT: &str = "vps-trace";
-/// The trace format version this crate reads and writes.
-pub const TRACE_VERSION: u32 = 1;
+/// The trace format version this crate writes.
+pub const TRACE_VERSION: u32 = 2;
+/// The oldest trace format version this crate reads (version 1: no `part_start`).
+pub const OLDEST_TRACE_VERSION: u32 = 1;
+
+/// Where a recorded session's part started (at rest).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PartStart {
+    /// The part's grip position (m).
+    pub position: glam::DVec3,
+    /// The part's orientation (unit quaternion, `[x, y, z, w]` in the file).
+    pub orientation: glam::DQuat,
+}
 
 /// Why a trace could not be recorded, saved or loaded.
 #[derive(Debug, thiserror::Error)]
@@ -77,6 +92,8 @@ pub struct Trace {
     pub period: f64,
     /// The frames, in order.
     pub frames: Vec<TraceFrame>,
+    /// Where the session's part started, when recorded (version 2 files).
+    pub part_start: Option<PartStart>,
 }
 
 #[derive(serde::Serialize, serde::Deserialize)]
@@ -87,6 +104,8 @@ struct Header {
     device: String,
     period: f64,
     frames: u64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    part_start: Option<PartStart>,
 }
 
 /// Records one [`HandleSample`] per frame. `record` allocates only when the reserved capacity is
@@ -104,8 +123,15 @@ impl TraceRecorder {
                 device: device.to_string(),
                 period,
                 frames: Vec::with_capacity(frames),
+                part_start: None,
             },
         }
+    }
+
+    /// Records that the session's part started at rest at `start`.
+    pub fn with_part_start(mut self, start: PartStart) -> TraceRecorder {
+        self.trace.part_start = Some(start);
+        self
     }
 
     /// Appends frame `frame` (must be the next index) read at `time` (s, ≥ the previous time).
@@ -181,6 +207,7 @@ pub fn write_trace(out: &mut impl Write, trace: &Trace, path: &Path) -> Result<(
         device: trace.device.clone(),
         period: trace.period,
         frames: trace.frames.len() as u64,
+        part_start: trace.part_start,
     };
     let json = |e: serde_json::Error, line| TraceError::Malformed {
         path: path.to_path_buf(),
@@ -254,14 +281,29 @@ pub fn read_trace(mut reader: impl BufRead, path: &Path) -> Result<Trace, TraceE
         next_line("header")?.ok_or_else(|| malformed(1, "empty file: no header".into()))?;
     let header: Header =
         serde_json::from_str(&text).map_err(|e| malformed(1, format!("bad header: {e}")))?;
-    if header.format != TRACE_FORMAT || header.version != TRACE_VERSION {
+    let known = OLDEST_TRACE_VERSION..=TRACE_VERSION;
+    if header.format != TRACE_FORMAT || !known.contains(&header.version) {
         return Err(malformed(
             1,
             format!(
-                "format {:?} version {} is not {TRACE_FORMAT:?} version {TRACE_VERSION}",
+                "format {:?} version {} is not {TRACE_FORMAT:?} version {OLDEST_TRACE_VERSION} \
+                 to {TRACE_VERSION}",
                 header.format, header.version
             ),
         ));
+    }
+    if header.version < 2 && header.part_start.is_some() {
+        return Err(malformed(1, "`part_start` needs version 2 or later".into()));
+    }
+    if let Some(start) = &header.part_start {
+        let unit = (start.orientation.length() - 1.0).abs() < 1e-6;
+        if !(start.position.is_finite() && start.orientation.is_finite() && unit) {
+            return Err(malformed(
+                1,
+                "`part_start`: position must be finite and orientation a finite unit quaternion"
+                    .into(),
+            ));
+        }
     }
     if !(header.period.is_finite() && header.period > 0.0) {
         return Err(malformed(
@@ -274,6 +316,9 @@ pub fn read_trace(mut reader: impl BufRead, path: &Path) -> Result<Trace, TraceE
         header.period,
         header.frames.min(MAX_RESERVED_FRAMES) as usize,
     );
+    if let Some(start) = header.part_start {
+        recorder = recorder.with_part_start(start);
+    }
     while let Some((n, text)) = next_line("frame")? {
         let frame: TraceFrame =
             serde_json::from_str(&text).map_err(|e| malformed(n, format!("bad frame: {e}")))?;
@@ -367,7 +412,11 @@ mod tests {
             .build()
             .unwrap();
         let mut hand = SimulatedHand::new(script, HandParams::default()).unwrap();
-        let mut rec = TraceRecorder::with_capacity(hand.name(), 1e-3, 500);
+        let mut rec =
+            TraceRecorder::with_capacity(hand.name(), 1e-3, 500).with_part_start(PartStart {
+                position: DVec3::new(0.1, 0.2, 0.3 + 1e-17),
+                orientation: DQuat::from_rotation_z(0.3),
+            });
         for n in 0..500u64 {
             let t = n as f64 * 1e-3;
             let s = hand.read(t).unwrap();
@@ -399,6 +448,7 @@ mod tests {
         save_trace(&path, &trace).unwrap();
         let loaded = load_trace(&path).unwrap();
         assert_eq!(loaded.device, trace.device);
+        assert_eq!(loaded.part_start, trace.part_start);
         assert_eq!(loaded.frames.len(), 500);
         let mut replay = ReplayDevice::new(loaded, DeviceLimits::PAPER);
         for f in &trace.frames {
@@ -416,6 +466,23 @@ mod tests {
             replay.read(1.0),
             Err(DeviceError::TraceExhausted { frames: 500, .. })
         ));
+    }
+
+    /// Version 1 files (no part start) still load; a part start in one, or a part start that is
+    /// not a finite unit pose, is refused naming the header line.
+    #[test]
+    fn version_one_traces_load_and_bad_part_starts_are_refused() {
+        let v1 = r#"{"format":"vps-trace","version":1,"device":"d","period":0.001,"frames":0}"#;
+        let trace = load_text(&format!("{v1}\n")).unwrap();
+        assert_eq!(trace.part_start, None);
+        let start = r#""part_start":{"position":[0,0,0],"orientation":[0,0,0,1]}"#;
+        let v1_with_start = v1.replace(r#""frames":0"#, &format!(r#""frames":0,{start}"#));
+        expect_malformed(&format!("{v1_with_start}\n"), 1, "needs version 2");
+        let v2 = v1_with_start.replace(r#""version":1"#, r#""version":2"#);
+        let trace = load_text(&format!("{v2}\n")).unwrap();
+        assert_eq!(trace.part_start.unwrap().orientation, DQuat::IDENTITY);
+        let skewed = v2.replace("[0,0,0,1]", "[0,0,0,2]");
+        expect_malformed(&format!("{skewed}\n"), 1, "unit quaternion");
     }
 
     #[test]

@@ -296,7 +296,12 @@ impl RunningLoop {
         let period_s = self.config.period.as_secs_f64();
         let recorder = self.config.record_trace.then(|| {
             let reserve = self.config.frames.unwrap_or(0).min(MAX_TRACE_RESERVE) as usize;
-            TraceRecorder::with_capacity(self.device.name(), period_s, reserve)
+            TraceRecorder::with_capacity(self.device.name(), period_s, reserve).with_part_start(
+                vps_device::trace::PartStart {
+                    position: self.state.position,
+                    orientation: self.state.orientation,
+                },
+            )
         });
         let mut cx = FrameContext {
             clock: FrameClock::new(Instant::now(), self.config.period, self.config.spin_margin),

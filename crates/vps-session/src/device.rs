@@ -198,7 +198,12 @@ impl DeviceChoice {
                     .frames
                     .first()
                     .with_context(|| format!("{}: the trace has no frames", path.display()))?;
-                let state = PartState::at_rest(first.sample.position, first.sample.orientation);
+                // Where the recorded session's part started, else (an old trace) at the first
+                // handle sample.
+                let state = match trace.part_start {
+                    Some(start) => PartState::at_rest(start.position, start.orientation),
+                    None => PartState::at_rest(first.sample.position, first.sample.orientation),
+                };
                 (
                     Box::new(ReplayDevice::new(trace, bridge.limits)),
                     state,
