@@ -337,10 +337,10 @@ pub fn report_html(study: &Study, settings: &Value) -> String {
         );
     }
     let settings_text = serde_json::to_string_pretty(settings).unwrap_or_default();
-    let _ = write!(
+    let _ = writeln!(
         html,
         "<h2>Settings</h2><pre id=\"settings\">{}</pre><p>Made by vps; every figure is in \
-         <code>study.json</code> beside this page.</p></body></html>\n",
+         <code>study.json</code> beside this page.</p></body></html>",
         escape(&settings_text)
     );
     html
