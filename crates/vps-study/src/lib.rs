@@ -41,9 +41,22 @@ use vps_mesh::TriMesh;
 use vps_reference::{ReferenceError, RigidClearance};
 use vps_voxmap::VoxelLookup;
 
+/// Most frames a study covers: 66 min at 1 kHz, about 0.8 GiB of recomputed path
+/// ([`PathFrame`] is 208 bytes) besides the trace itself.
+pub const MAX_STUDY_FRAMES: usize = 4_000_000;
+
 /// Why a study cannot be made.
 #[derive(Debug, thiserror::Error)]
 pub enum StudyError {
+    /// The trace is longer than a study covers.
+    #[error(
+        "the trace holds {frames} frames; a study covers at most {MAX_STUDY_FRAMES} (66 min at \
+         1 kHz): study a shorter session"
+    )]
+    TooLong {
+        /// Frames in the trace.
+        frames: usize,
+    },
     /// The trace has no frames.
     #[error("the trace has no frames: there is no path to study")]
     EmptyTrace,
@@ -126,6 +139,11 @@ fn ms_since(t: Instant) -> f64 {
 /// Makes the study of `inputs`. Blocking, parallel (rayon), allocates.
 pub fn run_study<L: VoxelLookup>(inputs: &StudyInputs<'_, L>) -> Result<Study, StudyError> {
     let last = inputs.trace.frames.last().ok_or(StudyError::EmptyTrace)?;
+    if inputs.trace.frames.len() > MAX_STUDY_FRAMES {
+        return Err(StudyError::TooLong {
+            frames: inputs.trace.frames.len(),
+        });
+    }
     let mut timings = StudyTimings::default();
     let t = Instant::now();
     let (path, final_state) = path::recompute_path(

@@ -76,3 +76,12 @@ pub fn recompute_path<L: VoxelLookup>(
     }
     (frames, state)
 }
+
+#[cfg(test)]
+mod tests {
+    /// The size `crate::MAX_STUDY_FRAMES`'s memory figure is worked out from.
+    #[test]
+    fn a_path_frame_is_208_bytes() {
+        assert_eq!(std::mem::size_of::<super::PathFrame>(), 208);
+    }
+}
