@@ -55,9 +55,11 @@ pub fn write_session_study(
 }
 
 /// Where the hand was taking the part: the end of the scene's path when the trace is the
-/// simulated hand's, else `None` (the hand's last position).
+/// simulated hand's (or a replay of one), else `None` (the hand's last position).
 fn target(assets: &SessionAssets, trace: &Trace) -> Result<Option<Target>> {
-    if trace.device != SimulatedHand::NAME {
+    let hand = SimulatedHand::NAME;
+    let replayed = trace.device.strip_prefix("replay of ") == Some(hand);
+    if trace.device != hand && !replayed {
         return Ok(None);
     }
     let script = assets.script()?;

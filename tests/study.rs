@@ -220,6 +220,26 @@ fn the_peg_in_hole_study_matches_the_session_and_a_brute_force_clearance() {
     let least = summary["minimum_clearance"]["distance_m"].as_f64().unwrap();
     assert!(least > 0.0 && least < 0.001, "{summary}");
     assert_eq!(summary["minimum_clearance"]["object"], "peg-fixture");
+    // A replay of the trace with --study: the same path and verdict (its device is "replay of
+    // simulated-hand"; its goal is still the scene's last waypoint).
+    let out = vps.run(&[
+        "replay",
+        &vps.path("peg-in-hole.jsonl"),
+        "--scene",
+        &vps.path("peg-in-hole.toml"),
+        "--study",
+        &vps.path("peg-replay"),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let replayed: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(vps.dir().join("peg-replay/study.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(replayed["verdict"], summary["verdict"], "{replayed}");
+    assert_eq!(
+        std::fs::read(vps.dir().join("peg-replay/path.csv")).unwrap(),
+        std::fs::read(vps.dir().join("peg-in-hole-study/path.csv")).unwrap()
+    );
     // With --json the session's stdout is its report alone; the study's words go to stderr.
     let out = vps.run(&[
         "run",
