@@ -619,15 +619,28 @@ fn save_recording(report: &LoopReport, path: &Path) -> Result<()> {
     Ok(())
 }
 
-/// What the viewer draws of a session: its voxmap, shell and meshes, labelled with the scene's name.
+/// What the viewer draws of a session: its voxmap, shell and meshes, labelled with the scene's
+/// name, and the simulated hand's path with the part's start pose (when the scene's script can be
+/// made).
 pub fn viewer_content(assets: &SessionAssets) -> ViewerContent {
-    ViewerContent::new(
+    let content = ViewerContent::new(
         assets.name.clone(),
         assets.tree.clone(),
         Some(Arc::new(assets.shell.clone())),
         SceneLimits::default(),
     )
-    .with_meshes(assets.static_meshes.clone(), Some(assets.part_mesh.clone()))
+    .with_meshes(assets.static_meshes.clone(), Some(assets.part_mesh.clone()));
+    match assets.script() {
+        Ok(script) => {
+            // Every 10 ms of the path (the viewer thins it further when long).
+            let steps = (script.duration() / 0.01).ceil().clamp(1.0, 1e6) as usize;
+            let path: Vec<DVec3> = (0..=steps)
+                .map(|k| script.sample(script.duration() * k as f64 / steps as f64).0)
+                .collect();
+            content.with_hand(&path, script.sample(0.0))
+        }
+        Err(_) => content,
+    }
 }
 
 /// Starts a viewer of `assets` on `addr` when `--view` was given and prints its URL on stderr.

@@ -115,6 +115,34 @@ fn the_demo_is_watched_in_headless_chromium() {
     assert!(share > 0.02, "the view is almost all background: {share}");
 }
 
+/// `vps view --scene` serves the scene's hand path and the part's start pose for the page to
+/// draw (the path from the first waypoint to the last; the part at the first).
+#[test]
+fn a_scene_is_viewed_offline_with_its_hand_path_and_the_part_at_its_start() {
+    let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
+    let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
+    for file in ["peg-in-hole.toml", "peg.obj", "peg-fixture.stl"] {
+        std::fs::copy(assets.join(file), vps.dir().join(file)).unwrap();
+    }
+    let scene = vps.path("peg-in-hole.toml");
+    let (_view, addr) = start_with_viewer(
+        &vps,
+        &["view", "--scene", &scene, "--addr", "127.0.0.1:0"],
+        Duration::from_secs(120),
+    );
+    assert_eq!(state(addr)["status"], "offline");
+    let meta: serde_json::Value =
+        serde_json::from_slice(&http_get(addr, "/scene", HTTP_TIMEOUT).unwrap().body).unwrap();
+    let path = meta["hand_path_m"].as_array().unwrap();
+    assert!(path.len() > 100, "{}", path.len());
+    assert_eq!(path[0], serde_json::json!([0.0, 0.0, 0.12]));
+    assert_eq!(path[path.len() - 1], serde_json::json!([0.0, 0.0, 0.05]));
+    assert_eq!(
+        meta["part_start"]["position_m"],
+        serde_json::json!([0.0, 0.0, 0.12])
+    );
+}
+
 #[test]
 fn a_voxmap_file_is_served_offline() {
     let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));

@@ -78,6 +78,7 @@
   // ---- what to draw this frame, shared by both renderers ----
   const OVERLAY_COLOR = [0.95, 0.6, 0.2]; // Surface voxel boxes over meshes
   const PART_COLOR = [0.92, 0.9, 0.86];
+  const PATH_COLOR = [0.35, 0.63, 1]; // the simulated hand's path
   function depthColor(depth) {
     const t = Math.min(1, depth / (scene ? scene.voxel_size_m : 0.005));
     return [1, 0.88 * (1 - t), 0.25 * (1 - t)];
@@ -329,6 +330,24 @@
         gl.drawArrays(gl.LINES, 0, 6);
       }
     }
+    // The simulated hand's path, as one line strip of segments.
+    let pathVerts = null;
+    function drawPath(vp) {
+      const p = scene.hand_path_m;
+      if (!p || p.length < 2) return;
+      if (!pathVerts) {
+        pathVerts = new Float32Array((p.length - 1) * 6);
+        for (let i = 0; i + 1 < p.length; i++) pathVerts.set([...p[i], ...p[i + 1]], i * 6);
+      }
+      gl.useProgram(lineProg);
+      const a = attr(lineProg, 'a_pos');
+      gl.uniformMatrix4fv(loc(lineProg, 'u_viewProj'), false, vp);
+      gl.bindBuffer(gl.ARRAY_BUFFER, lineBuf);
+      gl.bufferData(gl.ARRAY_BUFFER, pathVerts, gl.DYNAMIC_DRAW);
+      gl.enableVertexAttribArray(a); gl.vertexAttribPointer(a, 3, gl.FLOAT, false, 0, 0); gl.vertexAttribDivisor(a, 0);
+      gl.uniform3fv(loc(lineProg, 'u_color'), PATH_COLOR);
+      gl.drawArrays(gl.LINES, 0, pathVerts.length / 3);
+    }
     let fence = null;
     return {
       mode: 'webgl2',
@@ -361,6 +380,7 @@
       gl.enable(gl.DEPTH_TEST); gl.disable(gl.BLEND); gl.depthMask(true);
       const eye = cameraEye();
       drawMesh(vp, 'scene', IDENTITY, { tint: true });
+      drawPath(vp);
       if (showVoxels) {
         const boxStyle = mesh ? { color: OVERLAY_COLOR } : { tint: true };
         for (const r of lodRanges(eye)) {
@@ -369,7 +389,12 @@
         }
       }
       const f = state && state.frame;
-      if (!f) return;
+      if (!f) {
+        // Before a session's first frame (or offline): the part where it starts.
+        const start = scene.part_start;
+        if (start) drawMesh(vp, 'part', poseMatrix(start.orientation_xyzw, start.position_m), { color: PART_COLOR });
+        return;
+      }
       const pointSize = scene.shell_voxel_size_m * 0.8;
       const partPose = poseMatrix(f.part.orientation_xyzw, f.part.position_m);
       drawMesh(vp, 'part', partPose, { color: PART_COLOR });
@@ -445,12 +470,27 @@
           }
         };
         addFaces(mesh, IDENTITY, null, MAX_2D_TRIANGLES);
+        const start = scene.part_start;
         if (f) addFaces(partMesh, poseMatrix(f.part.orientation_xyzw, f.part.position_m), PART_COLOR, MAX_2D_TRIANGLES / 4);
+        else if (start) addFaces(partMesh, poseMatrix(start.orientation_xyzw, start.position_m), PART_COLOR, MAX_2D_TRIANGLES / 4);
         faces.sort((a, b) => b.depth - a.depth);
         for (const t of faces) {
           ctx.fillStyle = css(t.color); ctx.beginPath();
           t.q.forEach((v, k) => { const x = (v[0] / v[2] * 0.5 + 0.5) * w, y = (0.5 - v[1] / v[2] * 0.5) * h; if (k) ctx.lineTo(x, y); else ctx.moveTo(x, y); });
           ctx.fill();
+        }
+        const path = scene.hand_path_m;
+        if (path && path.length > 1) {
+          ctx.strokeStyle = css(PATH_COLOR); ctx.lineWidth = 1.5; ctx.beginPath();
+          let pen = false;
+          for (const p of path) {
+            const q = project(vp, p);
+            if (q[2] <= 1e-4) { pen = false; continue; }
+            const x = (q[0] / q[2] * 0.5 + 0.5) * w, y = (0.5 - q[1] / q[2] * 0.5) * h;
+            if (pen) ctx.lineTo(x, y); else ctx.moveTo(x, y);
+            pen = true;
+          }
+          ctx.stroke();
         }
         if (showVoxels) {
           const stride = Math.max(1, Math.ceil(boxes.length / 3 / 60000));

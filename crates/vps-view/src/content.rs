@@ -89,6 +89,26 @@ pub struct SceneMeta {
     pub part_mesh_triangles_total: usize,
     /// Vertex-clustering cell of the part's mesh (m); 0 when it was not decimated.
     pub part_mesh_cell_m: f64,
+    /// The simulated hand's path (m, world frame, in time order, at most [`MAX_HAND_PATH_POINTS`]
+    /// points): drawn as a line; empty when there is none.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub hand_path_m: Vec<[f64; 3]>,
+    /// Where the part starts: drawn until a session's first frame arrives (an offline view shows
+    /// it for good); absent when unknown.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub part_start: Option<StartPose>,
+}
+
+/// Most points of [`SceneMeta::hand_path_m`].
+pub const MAX_HAND_PATH_POINTS: usize = 2000;
+
+/// A pose as the page reads it.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct StartPose {
+    /// Position (m).
+    pub position_m: [f64; 3],
+    /// Orientation, quaternion `[x, y, z, w]`.
+    pub orientation_xyzw: [f64; 4],
 }
 
 /// The part as the contact sampler needs it: the static scene's voxmap and the full shell.
@@ -160,6 +180,8 @@ impl ViewerContent {
             part_mesh_triangles: 0,
             part_mesh_triangles_total: 0,
             part_mesh_cell_m: 0.0,
+            hand_path_m: Vec::new(),
+            part_start: None,
         };
         ViewerContent {
             meta,
@@ -170,6 +192,26 @@ impl ViewerContent {
             contact: shell.map(|shell| ContactModel { tree, shell }),
             limits,
         }
+    }
+
+    /// Adds the simulated hand's path (`path`, m, in time order; evenly thinned to at most
+    /// [`MAX_HAND_PATH_POINTS`], the last point kept) and the part's start pose, for the page to
+    /// draw.
+    pub fn with_hand(mut self, path: &[DVec3], start: (DVec3, glam::DQuat)) -> ViewerContent {
+        // One point in `stride`, room left for the last.
+        let stride = path.len().div_ceil(MAX_HAND_PATH_POINTS - 1).max(1);
+        let mut points: Vec<[f64; 3]> = path.iter().step_by(stride).map(|p| p.to_array()).collect();
+        if let Some(last) = path.last() {
+            if points.last() != Some(&last.to_array()) {
+                points.push(last.to_array());
+            }
+        }
+        self.meta.hand_path_m = points;
+        self.meta.part_start = Some(StartPose {
+            position_m: start.0.to_array(),
+            orientation_xyzw: start.1.to_array(),
+        });
+        self
     }
 
     /// The same scene with meshes to draw: `statics` in scene (world) coordinates in metres,

@@ -133,8 +133,16 @@ fn a_mesh_file_scene_is_drawn_shaded_in_headless_chromium() {
         Some(Arc::new(shell)),
         SceneLimits::default(),
     )
-    .with_meshes(vec![statics.clone()], Some(part_in_shell_frame));
+    .with_meshes(vec![statics.clone()], Some(part_in_shell_frame))
+    // A hand's path across the scene at the part's height, drawn as a line by both renderers.
+    .with_hand(
+        &(0..=100)
+            .map(|k| DVec3::new(-0.3 + 0.008 * k as f64, -0.05, 0.32))
+            .collect::<Vec<_>>(),
+        (DVec3::new(-0.3, -0.05, 0.32), DQuat::IDENTITY),
+    );
     assert_eq!(scene.meta.mesh_triangles, statics.triangle_count());
+    assert_eq!(scene.meta.hand_path_m.len(), 101);
     let (tx, rx) = state_feed();
     let viewer = ViewerServer::start("127.0.0.1:0".parse().unwrap(), scene, Some(rx)).unwrap();
     tx.publish(FeedFrame::at_rest(1, DVec3::new(0.1, -0.05, 0.32)));
@@ -197,6 +205,11 @@ fn a_mesh_file_scene_is_drawn_shaded_in_headless_chromium() {
         share * 100.0
     );
     assert!(colours > 20 && share > 0.1, "{colours} colours, {share}");
+    let console = browser.console_lines();
+    assert!(
+        !console.iter().any(|l| l.starts_with("exception")),
+        "the page threw: {console:?}"
+    );
     assert_eq!(
         orange_pixels(&flat),
         0,
