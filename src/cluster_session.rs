@@ -27,8 +27,6 @@ pub struct CoordinatedRun {
     pub cluster: ClusterReport,
     /// The scene's assets the session ran on.
     pub assets: vps_session::SessionAssets,
-    /// The part's state at the first frame.
-    pub initial: vps_haptic::PartState,
     /// The bridge's counters and wrench log, when the device was the UDP bridge.
     pub bridge: Option<vps_input::BridgeMonitor>,
     /// The signal handlers that could stop the session (which one did, if any).
@@ -64,10 +62,7 @@ impl CoordinatedRun {
             args,
             outputs,
             &self.signals,
-            crate::session_io::RanSession {
-                assets: &self.assets,
-                initial: self.initial,
-            },
+            &self.assets,
             &self.report,
             self.bridge.as_ref(),
             Some(&cluster),
@@ -99,7 +94,6 @@ pub fn coordinate(
     } else {
         None
     };
-    let initial = prepared.plan.setup.initial;
     // Held whole to the end: its viewer serves the session.
     let live = prepared.go_live(session.view)?;
     let cluster_assets = Arc::new(ClusterAssets::new(
@@ -159,7 +153,6 @@ pub fn coordinate(
         report,
         cluster,
         assets: live.assets,
-        initial,
         bridge: live.bridge,
         signals: live.signals,
         placement,

@@ -352,24 +352,15 @@ fn check_loop_period(params: &HapticParams, source: &str) -> Result<()> {
     Ok(())
 }
 
-/// What a session that has run was run on: for its report and its study.
-#[derive(Clone, Copy)]
-pub struct RanSession<'a> {
-    /// The scene's assets.
-    pub assets: &'a SessionAssets,
-    /// The part's state at the first frame.
-    pub initial: vps_haptic::PartState,
-}
-
 /// Once the device has been written zero: saves the recording (and the bridge's wrench log when
-/// asked), writes the report file, prints the session's figures (with the bridge's counters when
+/// asked), writes the report file and the study (`--study`, of the session run on `assets`), prints the session's figures (with the bridge's counters when
 /// `bridge` is given, and `cluster`, when given, as JSON), and fails with a [`SessionExit`] (its
 /// exit status) when the session did not run to its end.
 pub fn finish<C: Serialize>(
     args: &RunArgs,
     outputs: SessionOutputs,
     signals: &SignalStop,
-    ran: RanSession<'_>,
+    assets: &SessionAssets,
     report: &LoopReport,
     bridge: Option<&BridgeMonitor>,
     cluster: Option<&C>,
@@ -400,7 +391,7 @@ pub fn finish<C: Serialize>(
     let (end, exit_code) = outcome(&report.end, Some(signals));
     let out = RunReport {
         device: report.device_name.clone(),
-        shell_points: ran.assets.shell.len(),
+        shell_points: assets.shell.len(),
         realtime_granted: report.rt.fifo,
         end,
         complete: report.end.is_complete(),
@@ -482,9 +473,8 @@ pub fn finish<C: Serialize>(
         let study = crate::session_study::write_session_study(
             dir,
             args.study_every,
-            ran.assets,
-            ran.assets.params,
-            ran.initial,
+            assets,
+            assets.params,
             report,
             args.json,
         );

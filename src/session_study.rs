@@ -18,14 +18,14 @@ use vps_study::{run_study, Study, StudyInputs, Target};
 pub const SERIES_EVERY_FRAMES: usize = 10;
 
 /// Makes and writes the study (`--study DIR`, path table every `every` frames) of the session
-/// that produced `report` on `assets`, starting from `initial`, and prints its verdict. Blocking,
-/// parallel; called once the session's device has been written zero.
+/// that produced `report` on `assets` with `params`, its part starting where the trace says the
+/// loop started it, and prints its verdict. Blocking, parallel; called once the session's device
+/// has been written zero.
 pub fn write_session_study(
     dir: &Path,
     every: usize,
     assets: &SessionAssets,
     params: HapticParams,
-    initial: PartState,
     report: &LoopReport,
     json: bool,
 ) -> Result<()> {
@@ -36,6 +36,10 @@ pub fn write_session_study(
         .trace
         .as_ref()
         .context("--study: the loop returned no trace")?;
+    let start = trace
+        .part_start
+        .context("--study: the loop's trace does not say where the part started")?;
+    let initial = PartState::at_rest(start.position, start.orientation);
     let source = format!("the session ({})", report.device_name);
     let run = StudyRun {
         assets,

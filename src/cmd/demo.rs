@@ -110,13 +110,11 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     };
     let off = session(off_params, Scripted::paced(false))?;
     if let Some(dir) = &args.study {
-        let start = scene.script()?.sample(0.0);
         crate::session_study::write_session_study(
             dir,
             args.study_every,
             &scene,
             params,
-            vps_haptic::PartState::at_rest(start.0, start.1),
             &on,
             args.json,
         )?;

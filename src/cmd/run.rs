@@ -4,31 +4,26 @@
 
 use crate::cli::{RecordArgs, ReplayArgs, RunArgs};
 use crate::output::print_json;
-use crate::session_io::{finish, prepare, LiveSession, RanSession, SessionOutputs};
+use crate::session_io::{finish, prepare, LiveSession, SessionOutputs};
 use anyhow::{bail, Result};
 use vps_runtime::{run_loop, LoopReport};
 
 /// Runs one paced session; records the handle trace to `record` when given.
 pub fn run(args: &RunArgs) -> Result<()> {
     let outputs = SessionOutputs::reserve(args)?;
-    let prepared = prepare(args)?;
-    let initial = prepared.plan.setup.initial;
     let LiveSession {
         assets,
         viewer: _viewer,
         setup,
         bridge,
         signals,
-    } = prepared.go_live(args.view)?;
+    } = prepare(args)?.go_live(args.view)?;
     let report: LoopReport = run_loop(assets.tree.clone(), assets.classed_shell(), setup)?;
     finish(
         args,
         outputs,
         &signals,
-        RanSession {
-            assets: &assets,
-            initial,
-        },
+        &assets,
         &report,
         bridge.as_ref(),
         None::<&()>,
