@@ -46,6 +46,18 @@ pub struct ClearanceTrack {
     pub objects: Vec<ObjectClearance>,
 }
 
+impl ClearanceTrack {
+    /// The least clearance to any object (m) at the `k`-th series frame; `None` when no object
+    /// has triangles.
+    pub fn least_at(&self, k: usize) -> Option<f64> {
+        self.objects
+            .iter()
+            .map(|o| o.series_m[k])
+            .filter(|d| d.is_finite())
+            .reduce(f64::min)
+    }
+}
+
 /// The frames of a series of `len` frames, every `every`-th (at least 1) and the last.
 pub fn series_frames(len: usize, every: usize) -> Vec<usize> {
     let mut frames: Vec<usize> = (0..len).step_by(every.max(1)).collect();

@@ -94,22 +94,11 @@ fn path_rows(study: &Study, every: usize) -> Vec<Vec<Value>> {
         .iter()
         .map(|&i| {
             let f = &study.path[i];
-            let clearance = series.binary_search(&i).ok().and_then(|k| {
-                study
-                    .clearance
-                    .objects
-                    .iter()
-                    .map(|o| o.series_m[k])
-                    .filter(|d| d.is_finite())
-                    .reduce(f64::min)
-            });
-            let speed = if i > 0 {
-                let prev = &study.path[i - 1];
-                let dt = f.time_s - prev.time_s;
-                (dt > 0.0).then(|| f.part_position_m.distance(prev.part_position_m) / dt)
-            } else {
-                Some(0.0)
-            };
+            let clearance = series
+                .binary_search(&i)
+                .ok()
+                .and_then(|k| study.clearance.least_at(k));
+            let speed = crate::path::grip_speed(&study.path, i);
             let mut row: Vec<Value> = vec![json!(f.frame), json!(f.time_s)];
             row.extend(f.part_position_m.to_array().map(|v| json!(v)));
             row.extend(f.part_orientation.to_array().map(|v| json!(v)));

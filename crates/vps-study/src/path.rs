@@ -39,6 +39,17 @@ pub struct PathFrame {
     pub penetrating: bool,
 }
 
+/// The grip's speed (m/s) at frame `i` of `path`, from the frame before (0 at the first frame);
+/// `None` when the two frames have the same time.
+pub fn grip_speed(path: &[PathFrame], i: usize) -> Option<f64> {
+    let Some(before) = i.checked_sub(1) else {
+        return Some(0.0);
+    };
+    let (prev, here) = (&path[before], &path[i]);
+    let dt = here.time_s - prev.time_s;
+    (dt > 0.0).then(|| here.part_position_m.distance(prev.part_position_m) / dt)
+}
+
 /// Runs every frame of `trace` again from `initial` on `map` and `shell` with `params`, the device
 /// wrench saturated by `limits` as the loop does. Returns one [`PathFrame`] per trace frame, plus
 /// the part's state after the last frame. Blocking; allocates the result; single-threaded (each

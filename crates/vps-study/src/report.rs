@@ -256,15 +256,7 @@ pub fn report_html(study: &Study, settings: &Value) -> String {
         .series_frames
         .iter()
         .enumerate()
-        .map(|(k, &i)| {
-            let least = study
-                .clearance
-                .objects
-                .iter()
-                .map(|o| o.series_m[k])
-                .fold(f64::INFINITY, f64::min);
-            (study.path[i].time_s, least * 1e3)
-        })
+        .filter_map(|(k, &i)| Some((study.path[i].time_s, study.clearance.least_at(k)? * 1e3)))
         .collect();
     html.push_str(&plot(
         "plot-clearance",
@@ -285,13 +277,12 @@ pub fn report_html(study: &Study, settings: &Value) -> String {
         &force,
         "#c0392b",
     ));
-    let speed: Vec<(f64, f64)> = study
-        .path
-        .windows(2)
-        .map(|w| {
-            let dt = w[1].time_s - w[0].time_s;
-            let v = w[1].part_position_m.distance(w[0].part_position_m) / dt;
-            (w[1].time_s, v * 1e3)
+    let speed: Vec<(f64, f64)> = (1..study.path.len())
+        .filter_map(|i| {
+            Some((
+                study.path[i].time_s,
+                crate::path::grip_speed(&study.path, i)? * 1e3,
+            ))
         })
         .collect();
     html.push_str(&plot(
