@@ -15,7 +15,7 @@ pub use aircraft_bay::{
 
 pub use bezier::{parse_bezier_patches, BezierPatches};
 use glam::DVec3;
-pub use primitives::{cuboid, cylinder, uv_sphere};
+pub use primitives::{cuboid, cuboid_between, cylinder, uv_sphere};
 pub use sweep::{bent_pipe_path, swept_tube};
 
 use crate::TriMesh;

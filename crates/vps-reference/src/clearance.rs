@@ -195,19 +195,14 @@ impl RigidClearance {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use vps_mesh::builtin::{cuboid, uv_sphere};
-
-    /// The closed box from `min` to `max` (m).
-    fn boxed(min: DVec3, max: DVec3) -> TriMesh {
-        cuboid((max - min) * 0.5).transformed(1.0, DQuat::IDENTITY, (max + min) * 0.5)
-    }
+    use vps_mesh::builtin::{cuboid, cuboid_between, uv_sphere};
 
     /// A faceted sphere's distance to a floor is its lowest vertex's height: the mesh distance,
     /// not the ideal sphere's.
     #[test]
     fn a_sphere_above_a_floor_is_its_lowest_vertex_away() {
         let sphere = uv_sphere(0.05, 24, 12);
-        let floor = boxed(DVec3::new(-1.0, -1.0, -0.1), DVec3::new(1.0, 1.0, 0.0));
+        let floor = cuboid_between(DVec3::new(-1.0, -1.0, -0.1), DVec3::new(1.0, 1.0, 0.0));
         let clearance = RigidClearance::new(&sphere, &[floor]).unwrap();
         for (height, tilt) in [(0.2, 0.0), (0.0731, 0.3), (0.06, 1.1)] {
             let orientation = DQuat::from_rotation_x(tilt);
@@ -244,7 +239,7 @@ mod tests {
     #[test]
     fn two_boxes_side_by_side_are_their_gap_apart_at_any_spin_about_the_gap_axis() {
         let part = cuboid(DVec3::splat(0.01));
-        let wall = boxed(DVec3::new(0.05, -0.5, -0.5), DVec3::new(0.1, 0.5, 0.5));
+        let wall = cuboid_between(DVec3::new(0.05, -0.5, -0.5), DVec3::new(0.1, 0.5, 0.5));
         let clearance = RigidClearance::new(&part, &[wall]).unwrap();
         assert!((clearance.part_radius_m() - 0.01 * 3f64.sqrt()).abs() < 1e-15);
         for spin in [0.0, 0.4, 1.3] {

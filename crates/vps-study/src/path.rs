@@ -39,6 +39,28 @@ pub struct PathFrame {
     pub penetrating: bool,
 }
 
+impl PathFrame {
+    /// Frame `frame` at `time_s` (s) with the part and the handle both at `position_m` (m) and
+    /// `orientation`, no force and no contact: a pose of a path that is given rather than
+    /// recomputed (analytic motions, swept-volume checks).
+    pub fn at_pose(frame: u64, time_s: f64, position_m: DVec3, orientation: DQuat) -> PathFrame {
+        PathFrame {
+            frame,
+            time_s,
+            part_position_m: position_m,
+            part_orientation: orientation,
+            handle_position_m: position_m,
+            handle_orientation: orientation,
+            device_force_n: DVec3::ZERO,
+            device_torque_nm: DVec3::ZERO,
+            contact_force_n: DVec3::ZERO,
+            contacts: 0,
+            touching: false,
+            penetrating: false,
+        }
+    }
+}
+
 /// The grip's speed (m/s) at frame `i` of `path`, from the frame before (0 at the first frame);
 /// `None` when the two frames have the same time.
 pub fn grip_speed(path: &[PathFrame], i: usize) -> Option<f64> {

@@ -45,12 +45,12 @@ pub enum SweptError {
         span_m: [f64; 3],
     },
     /// The part's distance table would need more points than allowed at this voxel size.
-    #[error("the part's distance table needs {samples} points at {voxel_size_m} m (limit {limit}); give a coarser voxel size")]
-    TooManySamples {
+    #[error("the part's distance table needs {points} points at {voxel_size_m} m (limit {limit}); give a coarser voxel size")]
+    TableTooLarge {
         /// The voxel size asked for (m).
         voxel_size_m: f64,
-        /// Samples needed.
-        samples: u64,
+        /// Points needed.
+        points: u64,
         /// The limit.
         limit: u64,
     },
@@ -68,7 +68,7 @@ pub struct SweptLimits {
     /// Most voxels in the grid (five bytes each).
     pub max_voxels: u64,
     /// Most points in the part's distance table (four bytes each).
-    pub max_samples: u64,
+    pub max_table_points: u64,
 }
 
 impl Default for SweptLimits {
@@ -76,7 +76,7 @@ impl Default for SweptLimits {
     fn default() -> Self {
         SweptLimits {
             max_voxels: 1 << 28,
-            max_samples: 1 << 26,
+            max_table_points: 1 << 26,
         }
     }
 }
@@ -95,7 +95,7 @@ pub struct SweptVolume {
     /// Poses swept (frames kept plus poses interpolated).
     pub poses: usize,
     /// Points of the part's distance table.
-    pub samples: usize,
+    pub table_points: usize,
     /// The region's surface (m, world frame), outward facing.
     pub mesh: TriMesh,
 }
@@ -136,7 +136,7 @@ impl SweptVolume {
 /// The poses to sweep: the path's frames thinned to no less than `step` (m) of motion apart
 /// (`radius`: the part's radius about its grip), with poses interpolated between two frames that
 /// are more than `step` apart. The first and last frames are always kept.
-fn stamp_poses(path: &[PathFrame], radius: f64, step: f64) -> Vec<(DVec3, DQuat)> {
+fn sweep_poses(path: &[PathFrame], radius: f64, step: f64) -> Vec<(DVec3, DQuat)> {
     let pose = |f: &PathFrame| (f.part_position_m, f.part_orientation);
     let mut poses = Vec::new();
     let Some(first) = path.first() else {
@@ -200,9 +200,9 @@ impl PartField {
         let counts = (extent / spacing).ceil().as_u64vec3() + 1;
         let n = counts.x.saturating_mul(counts.y).saturating_mul(counts.z);
         if n > max {
-            return Err(SweptError::TooManySamples {
+            return Err(SweptError::TableTooLarge {
                 voxel_size_m: 2.0 * spacing,
-                samples: n,
+                points: n,
                 limit: max,
             });
         }
@@ -310,10 +310,17 @@ pub fn swept_volume(
     }
     let h = voxel_size;
     let clamp = 4.0 * h;
-    let field = PartField::new(part, 0.5 * h, 2.0 * h, clamp, 0.5 * h, limits.max_samples)?;
+    let field = PartField::new(
+        part,
+        0.5 * h,
+        2.0 * h,
+        clamp,
+        0.5 * h,
+        limits.max_table_points,
+    )?;
     let corners = field.corners();
     let radius = corners.iter().map(|c| c.length()).fold(0.0, f64::max);
-    let poses = stamp_poses(path, radius, 0.5 * h);
+    let poses = sweep_poses(path, radius, 0.5 * h);
     let (lo, hi) = poses.iter().fold(
         (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
         |(lo, hi), (p, _)| (lo.min(*p), hi.max(*p)),
@@ -384,7 +391,7 @@ pub fn swept_volume(
         volume_m3: count as f64 * h.powi(3),
         inside,
         poses: poses.len(),
-        samples: field.values.len(),
+        table_points: field.values.len(),
         mesh,
     })
 }
@@ -426,26 +433,13 @@ mod tests {
 
     #[test]
     fn poses_are_thinned_and_interpolated_to_the_step() {
-        let frame = |x: f64| PathFrame {
-            frame: 0,
-            time_s: 0.0,
-            part_position_m: DVec3::new(x, 0.0, 0.0),
-            part_orientation: DQuat::IDENTITY,
-            handle_position_m: DVec3::ZERO,
-            handle_orientation: DQuat::IDENTITY,
-            device_force_n: DVec3::ZERO,
-            device_torque_nm: DVec3::ZERO,
-            contact_force_n: DVec3::ZERO,
-            contacts: 0,
-            touching: false,
-            penetrating: false,
-        };
+        let frame = |x: f64| PathFrame::at_pose(0, 0.0, DVec3::new(x, 0.0, 0.0), DQuat::IDENTITY);
         // Slow then one jump of 1.0 with a step of 0.1.
         let path: Vec<PathFrame> = [0.0, 0.01, 0.02, 0.03, 1.03, 1.04]
             .iter()
             .map(|&x| frame(x))
             .collect();
-        let poses = stamp_poses(&path, 0.0, 0.1);
+        let poses = sweep_poses(&path, 0.0, 0.1);
         assert_eq!(poses.first().unwrap().0.x, 0.0);
         assert_eq!(poses.last().unwrap().0.x, 1.04);
         for w in poses.windows(2) {

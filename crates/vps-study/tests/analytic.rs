@@ -6,17 +6,12 @@
 //! frames than the path has.
 
 use glam::{DQuat, DVec3};
-use vps_mesh::builtin::{cuboid, uv_sphere};
+use vps_mesh::builtin::{cuboid_between, uv_sphere};
 use vps_mesh::triangle_distance::triangle_distance;
 use vps_mesh::TriMesh;
 use vps_reference::RigidClearance;
 use vps_study::clearance::track;
-use vps_study::PathFrame;
-
-/// The closed box from `min` to `max` (m).
-fn boxed(min: DVec3, max: DVec3) -> TriMesh {
-    cuboid((max - min) * 0.5).transformed(1.0, DQuat::IDENTITY, (max + min) * 0.5)
-}
+use vps_study::{ClearanceTrack, PathFrame};
 
 /// `frames` poses from `from` to `to` along a straight line, turning `turns` times about `axis`.
 fn line_path(from: DVec3, to: DVec3, axis: DVec3, turns: f64, frames: usize) -> Vec<PathFrame> {
@@ -25,20 +20,7 @@ fn line_path(from: DVec3, to: DVec3, axis: DVec3, turns: f64, frames: usize) -> 
             let s = i as f64 / (frames - 1) as f64;
             let orientation =
                 DQuat::from_axis_angle(axis.normalize(), s * turns * std::f64::consts::TAU);
-            PathFrame {
-                frame: i as u64,
-                time_s: i as f64 * 1e-3,
-                part_position_m: from.lerp(to, s),
-                part_orientation: orientation,
-                handle_position_m: from.lerp(to, s),
-                handle_orientation: orientation,
-                device_force_n: DVec3::ZERO,
-                device_torque_nm: DVec3::ZERO,
-                contact_force_n: DVec3::ZERO,
-                contacts: 0,
-                touching: false,
-                penetrating: false,
-            }
+            PathFrame::at_pose(i as u64, i as f64 * 1e-3, from.lerp(to, s), orientation)
         })
         .collect()
 }
@@ -68,10 +50,30 @@ fn least(values: &[f64]) -> (usize, f64) {
         )
 }
 
+/// Tracks the one object of `clearance` along `path` (a series every 10 frames) and checks its
+/// minimum against `brute` (the exact distance at every frame): the same value to 1e-12 m at the
+/// same frame, found after measuring fewer frames than the path has.
+fn track_and_check(
+    clearance: &RigidClearance,
+    path: &[PathFrame],
+    brute: &[f64],
+) -> ClearanceTrack {
+    let (frame, exact) = least(brute);
+    let tracked = track(clearance, path, 10);
+    let minimum = tracked.objects[0].minimum.unwrap();
+    assert!(
+        (minimum.closest.distance_m - exact).abs() < 1e-12,
+        "{minimum:?} vs {exact} at {frame}"
+    );
+    assert_eq!(minimum.frame, frame);
+    assert!(tracked.objects[0].searched_frames < path.len());
+    tracked
+}
+
 #[test]
 fn a_sphere_along_a_line_past_a_plane_finds_the_exact_minimum_at_its_frame() {
     let sphere = uv_sphere(0.02, 12, 6);
-    let floor = boxed(DVec3::new(-1.0, -1.0, -0.1), DVec3::new(1.0, 1.0, 0.0));
+    let floor = cuboid_between(DVec3::new(-1.0, -1.0, -0.1), DVec3::new(1.0, 1.0, 0.0));
     let clearance = RigidClearance::new(&sphere, std::slice::from_ref(&floor)).unwrap();
     // Descending towards the floor while spinning: the lowest vertex changes along the way.
     let path = line_path(
@@ -98,15 +100,7 @@ fn a_sphere_along_a_line_past_a_plane_finds_the_exact_minimum_at_its_frame() {
     for (a, b) in lowest.iter().zip(&brute) {
         assert!((a - b).abs() < 1e-12, "{a} vs {b}");
     }
-    let (frame, exact) = least(&brute);
-    let tracked = track(&clearance, &path, 10);
-    let minimum = tracked.objects[0].minimum.unwrap();
-    assert!(
-        (minimum.closest.distance_m - exact).abs() < 1e-12,
-        "{minimum:?} vs {exact} at {frame}"
-    );
-    assert_eq!(minimum.frame, frame);
-    assert!(tracked.objects[0].searched_frames < path.len());
+    let tracked = track_and_check(&clearance, &path, &brute);
     // The series is the exact distance at its frames.
     for (k, &i) in tracked.series_frames.iter().enumerate() {
         assert!((tracked.objects[0].series_m[k] - brute[i]).abs() < 1e-12);
@@ -117,7 +111,7 @@ fn a_sphere_along_a_line_past_a_plane_finds_the_exact_minimum_at_its_frame() {
 fn a_sphere_along_a_line_past_a_box_finds_the_exact_minimum_at_its_frame() {
     let sphere = uv_sphere(0.02, 12, 6);
     // A box beside the line: the sphere passes its face, then its vertical edge, and leaves.
-    let block = boxed(DVec3::new(-0.1, 0.03, -0.1), DVec3::new(0.02, 0.2, 0.1));
+    let block = cuboid_between(DVec3::new(-0.1, 0.03, -0.1), DVec3::new(0.02, 0.2, 0.1));
     let clearance = RigidClearance::new(&sphere, std::slice::from_ref(&block)).unwrap();
     let path = line_path(
         DVec3::new(-0.2, -0.02, 0.0),
@@ -130,22 +124,15 @@ fn a_sphere_along_a_line_past_a_box_finds_the_exact_minimum_at_its_frame() {
         .iter()
         .map(|f| brute_force(&sphere, &block, f))
         .collect();
-    let (frame, exact) = least(&brute);
+    let (frame, _) = least(&brute);
     assert!(
         frame > 0 && frame < path.len() - 1,
         "the minimum is inside the path"
     );
-    let tracked = track(&clearance, &path, 10);
-    let minimum = tracked.objects[0].minimum.unwrap();
-    assert!(
-        (minimum.closest.distance_m - exact).abs() < 1e-12,
-        "{minimum:?} vs {exact} at {frame}"
-    );
-    assert_eq!(minimum.frame, frame);
+    let tracked = track_and_check(&clearance, &path, &brute);
     // The two points returned are that far apart, one on the block's surface.
-    let c = minimum.closest;
+    let c = tracked.objects[0].minimum.unwrap().closest;
     assert!((c.on_part_m.distance(c.on_object_m) - c.distance_m).abs() < 1e-12);
-    assert!(tracked.objects[0].searched_frames < path.len());
 }
 
 /// The ideal sphere's answer: the faceted sphere is never nearer than the ideal one and at most
@@ -154,7 +141,7 @@ fn a_sphere_along_a_line_past_a_box_finds_the_exact_minimum_at_its_frame() {
 fn a_fine_sphere_past_a_plane_is_within_its_facet_sag_of_the_ideal_sphere() {
     let (r, segments) = (0.02, 64);
     let sphere = uv_sphere(r, segments, segments / 2);
-    let floor = boxed(DVec3::new(-1.0, -1.0, -0.1), DVec3::new(1.0, 1.0, 0.0));
+    let floor = cuboid_between(DVec3::new(-1.0, -1.0, -0.1), DVec3::new(1.0, 1.0, 0.0));
     let clearance = RigidClearance::new(&sphere, &[floor]).unwrap();
     let path = line_path(
         DVec3::new(-0.2, 0.0, 0.09),

@@ -9,24 +9,12 @@ use glam::{DQuat, DVec3};
 use std::f64::consts::PI;
 use vps_mesh::builtin::{cuboid, uv_sphere};
 use vps_mesh::TriMesh;
-use vps_study::swept::{swept_volume, SweptLimits};
+use vps_study::swept::{swept_volume, SweptLimits, SweptVolume};
 use vps_study::PathFrame;
 
+/// Frame `i` of a 1 kHz path at a pose.
 fn frame(i: usize, position: DVec3, orientation: DQuat) -> PathFrame {
-    PathFrame {
-        frame: i as u64,
-        time_s: i as f64 * 1e-3,
-        part_position_m: position,
-        part_orientation: orientation,
-        handle_position_m: position,
-        handle_orientation: orientation,
-        device_force_n: DVec3::ZERO,
-        device_torque_nm: DVec3::ZERO,
-        contact_force_n: DVec3::ZERO,
-        contacts: 0,
-        touching: false,
-        penetrating: false,
-    }
+    PathFrame::at_pose(i as u64, i as f64 * 1e-3, position, orientation)
 }
 
 /// Both halves of the Hausdorff distance between `mesh` and the surface whose signed distance is
@@ -44,6 +32,39 @@ fn hausdorff(mesh: &TriMesh, sdf: impl Fn(DVec3) -> f64, surface_points: &[DVec3
         .map(|&p| exact.signed_distance(p).distance_m.abs())
         .fold(0.0, f64::max);
     (out, back)
+}
+
+/// Checks `swept` against the analytic shape `what` (signed distance `sdf`, points
+/// `surface_points` on it, volume `volume`, m³) at voxel size `h`: Hausdorff both ways within one
+/// voxel, the voxel set's and the mesh's volumes within 5 %. Prints the figures.
+fn check_against(
+    what: &str,
+    swept: &SweptVolume,
+    sdf: impl Fn(DVec3) -> f64,
+    surface_points: &[DVec3],
+    volume: f64,
+    h: f64,
+) {
+    let (out, back) = hausdorff(&swept.mesh, sdf, surface_points);
+    let mesh_volume = swept.mesh.signed_volume();
+    eprintln!(
+        "{what}: Hausdorff {out:.2e} / {back:.2e} m, voxel volume {:+.2} %, mesh volume {:+.2} %",
+        (swept.volume_m3 / volume - 1.0) * 100.0,
+        (mesh_volume / volume - 1.0) * 100.0
+    );
+    assert!(
+        out <= h && back <= h,
+        "{what}: Hausdorff {out}, {back} against one voxel {h}"
+    );
+    assert!(
+        (swept.volume_m3 - volume).abs() <= 0.05 * volume,
+        "{what}: {} vs {volume}",
+        swept.volume_m3
+    );
+    assert!(
+        (mesh_volume - volume).abs() <= 0.05 * volume,
+        "{what}: {mesh_volume} vs {volume}"
+    );
 }
 
 fn assert_closed(mesh: &TriMesh) {
@@ -81,26 +102,7 @@ fn a_sphere_along_a_line_sweeps_its_capsule() {
             DVec3::new(x, rho * a.cos(), rho * a.sin())
         })
         .collect();
-    let (out, back) = hausdorff(&swept.mesh, capsule, &surface);
-    eprintln!(
-        "capsule: Hausdorff {out:.2e} / {back:.2e} m, voxel volume {:+.2} %, mesh volume {:+.2} %",
-        (swept.volume_m3 / volume - 1.0) * 100.0,
-        (swept.mesh.signed_volume() / volume - 1.0) * 100.0
-    );
-    assert!(
-        out <= h && back <= h,
-        "Hausdorff {out}, {back} against one voxel {h}"
-    );
-    assert!(
-        (swept.volume_m3 - volume).abs() <= 0.05 * volume,
-        "{} vs {volume}",
-        swept.volume_m3
-    );
-    let mesh_volume = swept.mesh.signed_volume();
-    assert!(
-        (mesh_volume - volume).abs() <= 0.05 * volume,
-        "{mesh_volume} vs {volume}"
-    );
+    check_against("capsule", &swept, capsule, &surface, volume, h);
 }
 
 #[test]
@@ -143,24 +145,5 @@ fn a_box_turning_about_its_centre_sweeps_a_cylinder() {
             }
         })
         .collect();
-    let (out, back) = hausdorff(&swept.mesh, cylinder, &surface);
-    eprintln!(
-        "turning box: Hausdorff {out:.2e} / {back:.2e} m, voxel volume {:+.2} %, mesh volume {:+.2} %",
-        (swept.volume_m3 / volume - 1.0) * 100.0,
-        (swept.mesh.signed_volume() / volume - 1.0) * 100.0
-    );
-    assert!(
-        out <= h && back <= h,
-        "Hausdorff {out}, {back} against one voxel {h}"
-    );
-    assert!(
-        (swept.volume_m3 - volume).abs() <= 0.05 * volume,
-        "{} vs {volume}",
-        swept.volume_m3
-    );
-    let mesh_volume = swept.mesh.signed_volume();
-    assert!(
-        (mesh_volume - volume).abs() <= 0.05 * volume,
-        "{mesh_volume} vs {volume}"
-    );
+    check_against("turning box", &swept, cylinder, &surface, volume, h);
 }

@@ -10,6 +10,11 @@ use glam::DVec3;
 
 use crate::TriMesh;
 
+/// The axis-aligned box from corner `min` to corner `max` (m): [`cuboid`] centred between them.
+pub fn cuboid_between(min: DVec3, max: DVec3) -> TriMesh {
+    cuboid((max - min) * 0.5).transformed(1.0, glam::DQuat::IDENTITY, (max + min) * 0.5)
+}
+
 /// An axis-aligned box with the given half extents (m), 8 vertices and 12 triangles.
 ///
 /// Half extents should be positive; a zero or negative component gives a degenerate box that
@@ -136,6 +141,13 @@ mod tests {
         assert!((m.signed_volume() - 0.2 * 0.4 * 0.6).abs() < 1e-12);
         let area = 2.0 * (0.2 * 0.4 + 0.4 * 0.6 + 0.2 * 0.6);
         assert!((m.area() - area).abs() < 1e-12);
+        let between = cuboid_between(DVec3::new(-1.0, 0.5, 2.0), DVec3::new(1.0, 0.75, 2.5));
+        assert_closed(&between);
+        let b = between.bounds();
+        assert_eq!(
+            (b.min, b.max),
+            (DVec3::new(-1.0, 0.5, 2.0), DVec3::new(1.0, 0.75, 2.5))
+        );
     }
 
     #[test]
