@@ -62,7 +62,7 @@ pub fn write_session_study(
 /// simulated hand's (or a replay of one), else `None` (the hand's last position).
 fn target(assets: &SessionAssets, trace: &Trace) -> Result<Option<Target>> {
     let hand = SimulatedHand::NAME;
-    let replayed = trace.device.strip_prefix("replay of ") == Some(hand);
+    let replayed = vps_device::trace::replayed_device(&trace.device) == Some(hand);
     if trace.device != hand && !replayed {
         return Ok(None);
     }

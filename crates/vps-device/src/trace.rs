@@ -19,6 +19,15 @@ use vps_haptic::{HandleSample, Wrench};
 
 /// The `format` field of a trace header.
 pub const TRACE_FORMAT: &str = "vps-trace";
+/// What a [`ReplayDevice`] puts before the recorded device's name to name itself.
+pub const REPLAY_PREFIX: &str = "replay of ";
+
+/// The device a replay named `name` plays back (`Some("simulated-hand")` for `"replay of
+/// simulated-hand"`); `None` when `name` is not a replay's.
+pub fn replayed_device(name: &str) -> Option<&str> {
+    name.strip_prefix(REPLAY_PREFIX)
+}
+
 /// The trace format version this crate writes.
 pub const TRACE_VERSION: u32 = 2;
 /// The oldest trace format version this crate reads (version 1: no `part_start`).
@@ -354,7 +363,7 @@ pub struct ReplayDevice {
 impl ReplayDevice {
     /// Replays `trace`, reporting `limits` to the loop.
     pub fn new(trace: Trace, limits: DeviceLimits) -> ReplayDevice {
-        let name = format!("replay of {}", trace.device);
+        let name = format!("{REPLAY_PREFIX}{}", trace.device);
         ReplayDevice {
             trace,
             next: 0,
