@@ -230,6 +230,10 @@ pub struct ViewArgs {
     /// A part's point shell (.vshell) to describe beside it.
     #[arg(long)]
     pub shell: Option<PathBuf>,
+    /// With --scene: a study's folder (`--study DIR` of a session, or `vps study -o DIR`) to
+    /// scrub along: the part's path, its closest approach and swept volume.
+    #[arg(long, value_name = "DIR", requires = "scene")]
+    pub study: Option<PathBuf>,
     /// Address to serve the page on.
     #[arg(long, default_value = "127.0.0.1:8080")]
     pub addr: std::net::SocketAddr,

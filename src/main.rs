@@ -27,6 +27,7 @@ mod output;
 mod service_config;
 mod session_io;
 mod session_study;
+mod study_view;
 mod svg;
 mod sweep_session;
 

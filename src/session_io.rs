@@ -609,15 +609,15 @@ fn save_recording(report: &LoopReport, path: &Path) -> Result<()> {
     Ok(())
 }
 
-/// What the viewer draws of a session: its voxmap, shell and meshes, labelled with the scene's
-/// name, and the simulated hand's path with the part's start pose (when the scene's script can be
-/// made).
-pub fn viewer_content(assets: &SessionAssets) -> ViewerContent {
+/// What the viewer draws of a session, within `limits`: its voxmap, shell and meshes, labelled
+/// with the scene's name, and the simulated hand's path with the part's start pose (when the
+/// scene's script can be made).
+pub fn viewer_content(assets: &SessionAssets, limits: SceneLimits) -> ViewerContent {
     let content = ViewerContent::new(
         assets.name.clone(),
         assets.tree.clone(),
         Some(Arc::new(assets.shell.clone())),
-        SceneLimits::default(),
+        limits,
     )
     .with_meshes(assets.static_meshes.clone(), Some(assets.part_mesh.clone()));
     match assets.script() {
@@ -641,7 +641,7 @@ pub fn attach_viewer(
     let Some(addr) = addr else {
         return Ok(None);
     };
-    let viewer = LiveViewer::start(addr, viewer_content(assets))?;
+    let viewer = LiveViewer::start(addr, viewer_content(assets, SceneLimits::default()))?;
     eprintln!("viewer: {}", viewer.url());
     Ok(Some(viewer))
 }

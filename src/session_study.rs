@@ -150,8 +150,16 @@ pub fn write_study(run: &StudyRun<'_>, dir: &Path, every: usize, print: Print) -
     };
     let study = run_study(&inputs).with_context(|| format!("the study of {source}"))?;
     let settings = settings(run);
-    let written = vps_study::files::write_study(dir, &study, &assets.part_mesh, &settings, every)
-        .with_context(|| format!("writing the study into {}", dir.display()))?;
+    let view = crate::study_view::report_view(assets, &study);
+    let written = vps_study::files::write_study(
+        dir,
+        &study,
+        &assets.part_mesh,
+        &settings,
+        every,
+        Some(&view),
+    )
+    .with_context(|| format!("writing the study into {}", dir.display()))?;
     if print == Print::Json {
         return print_json(&vps_study::files::study_json(&study, &settings, every));
     }

@@ -295,8 +295,9 @@ fn the_bracket_study_matches_the_session_and_a_brute_force_clearance() {
 
 /// The study's page opens in headless Chromium from the file alone: the verdict is on it, the
 /// three plots and two path views drew (lines with points, non-background pixels in a
-/// screenshot), nothing went to the console, and nothing in it points off the file (it works with
-/// no network).
+/// screenshot), the 3D view (the viewer's page inlined in an iframe) drew the scene and scrubs
+/// the part along its path, nothing went to the console, and nothing in it points off the file
+/// (it works with no network: the viewer's script would fail loudly on a fetch from a file page).
 #[test]
 fn the_study_page_opens_offline_in_headless_chromium() {
     use vps_view::browser::{canvas_content, Browser, CHROMIUM};
@@ -339,6 +340,8 @@ fn the_study_page_opens_offline_in_headless_chromium() {
         browser.text("verdict"),
         summary["verdict"].as_str().unwrap()
     );
+    // The report itself runs no script; the 3D view's runs inside its iframe.
+    assert_eq!(browser.eval("document.scripts.length"), 0);
     for id in [
         "plot-clearance",
         "plot-force",
@@ -356,6 +359,73 @@ fn the_study_page_opens_offline_in_headless_chromium() {
     assert!(
         colours > 4 && share > 0.02,
         "{colours} colours, {share} off the background"
+    );
+
+    // The 3D view: the viewer's page in the iframe, reached through its document.
+    let inner = "document.getElementById('view-3d').contentDocument";
+    browser.wait_for("the 3D view's first draw", patience, |b| {
+        let draws = b.eval(&format!(
+            "Number(({inner}.getElementById('view') || {{dataset: {{}}}}).dataset.draws || 0)"
+        ));
+        (draws.as_u64().unwrap_or(0) >= 1).then_some(())
+    });
+    let phase = browser.eval(&format!("{inner}.body.dataset.phase"));
+    assert_eq!(phase, "running");
+    let renderer = browser.eval(&format!(
+        "{inner}.getElementById('render-mode').textContent"
+    ));
+    assert!(renderer == "webgl2" || renderer == "canvas2d", "{renderer}");
+    assert_eq!(
+        browser.eval(&format!("{inner}.getElementById('study').hidden")),
+        false
+    );
+    assert_eq!(
+        browser.eval(&format!(
+            "{inner}.getElementById('study-verdict').textContent"
+        )),
+        summary["verdict"]
+    );
+    // It opens at the closest approach, and the slider moves the part to the first frame.
+    let least_s = summary["minimum_clearance"]["time_s"].as_f64().unwrap();
+    let readout = |b: &mut Browser| {
+        b.eval(&format!("{inner}.getElementById('study-pose').textContent"))
+            .as_str()
+            .unwrap()
+            .to_string()
+    };
+    let at_closest = readout(&mut browser);
+    assert!(
+        at_closest.starts_with(&format!("t {least_s:.3} s")),
+        "{at_closest} (closest at {least_s} s)"
+    );
+    let frames = browser.eval(&format!("Number({inner}.getElementById('scrub').max) + 1"));
+    assert!(frames.as_u64().unwrap() > 100, "{frames}");
+    let draws_before = browser.eval(&format!(
+        "Number({inner}.getElementById('view').dataset.draws)"
+    ));
+    browser.eval(&format!(
+        "(() => {{ const s = {inner}.getElementById('scrub'); s.value = '0'; \
+         s.dispatchEvent(new Event('input')); return s.value; }})()"
+    ));
+    let at_start = readout(&mut browser);
+    assert!(at_start.starts_with("t 0.000 s  frame 0"), "{at_start}");
+    // Scrolled into view, the 3D view (the iframe's left part) is drawn, not blank: a blank
+    // canvas beside the white page is a handful of colours, shaded meshes hundreds.
+    browser.eval("document.getElementById('view-3d').scrollIntoView()");
+    browser.wait_for("a draw after scrubbing", patience, |b| {
+        let draws = b.eval(&format!(
+            "Number({inner}.getElementById('view').dataset.draws)"
+        ));
+        (draws.as_u64() > draws_before.as_u64()).then_some(())
+    });
+    let png = browser.screenshot();
+    let shot = Path::new(env!("CARGO_TARGET_TMPDIR")).join("study-3d-screenshot.png");
+    std::fs::write(&shot, &png).unwrap();
+    let (colours, share) = canvas_content(&png, 400);
+    assert!(
+        colours > 50 && share > 0.2,
+        "the 3D view looks blank: {colours} colours, {share} off the background (screenshot: {})",
+        shot.display()
     );
     let console = browser.console_lines();
     assert!(console.is_empty(), "console: {console:?}");

@@ -143,6 +143,104 @@ fn a_scene_is_viewed_offline_with_its_hand_path_and_the_part_at_its_start() {
     );
 }
 
+/// `vps view --scene FILE --study DIR` serves a study to scrub: its verdict and closest
+/// approach as study.json says, the part's poses as path.json's rows at the frames kept (the
+/// first, the last and the closest approach's among them), and its swept volume's mesh. A folder
+/// that is not a study is refused, naming the file.
+#[test]
+fn a_study_is_served_to_scrub_along_its_path() {
+    let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
+    let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
+    for file in ["peg-in-hole.toml", "peg.obj", "peg-fixture.stl"] {
+        std::fs::copy(assets.join(file), vps.dir().join(file)).unwrap();
+    }
+    let scene = vps.path("peg-in-hole.toml");
+    let study = vps.path("peg-study");
+    let out = vps.run(&[
+        "run",
+        "--scene",
+        &scene,
+        "--seconds",
+        "2",
+        "--study",
+        &study,
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let read = |file: &str| -> serde_json::Value {
+        serde_json::from_str(
+            &std::fs::read_to_string(vps.dir().join("peg-study").join(file)).unwrap(),
+        )
+        .unwrap()
+    };
+    let (summary, table) = (read("study.json"), read("path.json"));
+    let (_view, addr) = start_with_viewer(
+        &vps,
+        &[
+            "view",
+            "--scene",
+            &scene,
+            "--study",
+            &study,
+            "--addr",
+            "127.0.0.1:0",
+        ],
+        Duration::from_secs(120),
+    );
+    let meta: serde_json::Value =
+        serde_json::from_slice(&http_get(addr, "/scene", HTTP_TIMEOUT).unwrap().body).unwrap();
+    let track = &meta["study"];
+    assert_eq!(track["verdict"], summary["verdict"]);
+    let least = &summary["minimum_clearance"];
+    assert_eq!(track["closest"]["distance_m"], least["distance_m"]);
+    assert_eq!(track["closest"]["on_object_m"], least["on_object_m"]);
+    let frames = track["frame"].as_array().unwrap();
+    let rows = table["rows"].as_array().unwrap();
+    assert!(
+        frames.len() > 100 && frames.len() <= rows.len(),
+        "{}",
+        frames.len()
+    );
+    assert_eq!(frames[0], 0);
+    assert_eq!(frames[frames.len() - 1], rows[rows.len() - 1][0]);
+    assert!(
+        frames.contains(&least["frame"]),
+        "the closest frame is kept"
+    );
+    // Each kept frame's pose and force are path.json's row of that frame.
+    let columns: Vec<&str> = table["columns"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c.as_str().unwrap())
+        .collect();
+    let col = |name: &str| columns.iter().position(|c| *c == name).unwrap();
+    for (k, frame) in frames.iter().enumerate().step_by(37) {
+        let row = &rows[frame.as_u64().unwrap() as usize];
+        assert_eq!(row[col("frame")], *frame);
+        assert_eq!(track["time_s"][k], row[col("time_s")]);
+        assert_eq!(track["position_m"][k][2], row[col("part_z_m")]);
+        assert_eq!(track["orientation_xyzw"][k][3], row[col("part_qw")]);
+        assert_eq!(track["device_force_n"][k][2], row[col("device_force_z_n")]);
+        assert_eq!(track["clearance_m"][k], row[col("clearance_m")]);
+    }
+    let swept = meta["swept_mesh_triangles"].as_u64().unwrap();
+    assert!(swept > 100, "{swept}");
+    let bytes = http_get(addr, "/scene/swept_mesh", HTTP_TIMEOUT)
+        .unwrap()
+        .body;
+    assert_eq!(bytes.len() as u64, swept * 36);
+
+    // Not a study: refused, naming the file.
+    let out = vps.run(&["view", "--scene", &scene, "--study", &vps.path(".")]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("study.json"), "{err}");
+}
+
 #[test]
 fn a_voxmap_file_is_served_offline() {
     let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));

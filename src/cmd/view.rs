@@ -1,8 +1,9 @@
-//! `vps view FILE.vmap` or `vps view --scene FILE`: the viewer offline, with no loop. (`--view
+//! `vps view FILE.vmap` or `vps view --scene FILE [--study DIR]`: the viewer offline, with no loop. (`--view
 //! ADDR` on the session commands attaches it to a session: `crate::session_io::attach_viewer`.)
 
 use crate::cli::ViewArgs;
 use crate::session_io::viewer_content;
+use crate::study_view::track_from_folder;
 use anyhow::{Context, Result};
 use std::sync::Arc;
 use vps_session::{CachePolicy, SessionAssets};
@@ -24,10 +25,27 @@ pub fn run(args: &ViewArgs) -> Result<()> {
                 max_memory_bytes: args.max_memory,
                 ..vps_session::BuildOptions::default()
             };
-            (
-                viewer_content(&SessionAssets::open(scene, &options)?),
-                scene.clone(),
-            )
+            let assets = SessionAssets::open(scene, &options)?;
+            let mut content = viewer_content(&assets, SceneLimits::default());
+            if let Some(dir) = &args.study {
+                let (track, swept, studied) = track_from_folder(dir)?;
+                if !studied.is_empty() && studied != assets.label {
+                    eprintln!(
+                        "vps: warning: the study in {} was made on {studied}, not on {} (the \
+                         part's mesh drawn is this scene's)",
+                        dir.display(),
+                        assets.label
+                    );
+                }
+                eprintln!(
+                    "study: {} frames of {} to scrub; {}",
+                    track.time_s.len(),
+                    dir.display(),
+                    track.verdict
+                );
+                content = content.with_study(track, swept.as_ref());
+            }
+            (content, scene.clone())
         }
         (None, Some(voxmap)) => {
             let tree =

@@ -301,14 +301,16 @@ fn swept_json(study: &Study) -> Value {
 }
 
 /// Writes the study's files into `dir` (created when missing), the path table every `every`-th
-/// frame, `part_mesh` (the part in its grip frame) as `part.obj`. Returns the paths written.
-/// Blocking file I/O.
+/// frame, `part_mesh` (the part in its grip frame) as `part.obj`, `report.html` with `view_page`
+/// as its 3D view (see [`crate::report::report_html`]). Returns the paths written. Blocking file
+/// I/O.
 pub fn write_study(
     dir: &Path,
     study: &Study,
     part_mesh: &TriMesh,
     settings: &Value,
     every: usize,
+    view_page: Option<&str>,
 ) -> io::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir)
         .map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", dir.display())))?;
@@ -398,7 +400,7 @@ pub fn write_study(
         writeln!(out)
     })?;
     written.push(paths[7].clone());
-    let page = crate::report::report_html(study, settings);
+    let page = crate::report::report_html(study, settings, view_page);
     write_file(&paths[8], |out| out.write_all(page.as_bytes()))?;
     written.push(paths[8].clone());
     Ok(written)

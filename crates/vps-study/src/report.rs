@@ -1,8 +1,9 @@
-//! `report.html`: the study in one self-contained page a colleague can open offline (no script,
-//! no font or file fetched): the verdict, the least clearance to each object, plots of clearance,
-//! force and speed over time, the part's path seen from above and from the side with the swept
-//! volume's outline and the closest approach marked, the contact events, and the settings and
-//! command that made it. Plain HTML and inline SVG.
+//! `report.html`: the study in one self-contained page a colleague can open offline (no font or
+//! file fetched): the verdict, the least clearance to each object, plots of clearance, force and
+//! speed over time, the part's path seen from above and from the side with the swept volume's
+//! outline and the closest approach marked, the contact events, and the settings and command that
+//! made it, in plain HTML and inline SVG (no script); and, when the caller gives one, a turnable
+//! 3D view (the viewer's own page with its data inlined, in an `<iframe srcdoc>`).
 
 use crate::Study;
 use glam::DVec3;
@@ -215,8 +216,11 @@ fn view(id: &str, title: &str, study: &Study, a: usize, b: usize) -> String {
     svg
 }
 
-/// The whole page for `study`, made with `settings` (study.json's `settings`).
-pub fn report_html(study: &Study, settings: &Value) -> String {
+/// The whole page for `study`, made with `settings` (study.json's `settings`). `view_page`, when
+/// given, is a complete HTML document (the viewer's standalone page, which this crate does not
+/// make) shown in an `<iframe srcdoc>` as the turnable 3D view; the rest of the page needs no
+/// script.
+pub fn report_html(study: &Study, settings: &Value, view_page: Option<&str>) -> String {
     let v = &study.verdict;
     let names = &study.object_names;
     let name = |o: usize| escape(names.get(o).map_or("?", String::as_str));
@@ -299,6 +303,19 @@ pub fn report_html(study: &Study, settings: &Value) -> String {
     );
     html.push_str(&view("view-top", "From above", study, 0, 1));
     html.push_str(&view("view-side", "From the side", study, 0, 2));
+    if let Some(page) = view_page {
+        let _ = write!(
+            html,
+            "<h2>In 3D</h2><p>The scene's meshes, the part at a frame of its path (green line), \
+             the hand's path (blue), the closest approach (red) and the swept volume \
+             (translucent). Drag to turn, wheel to zoom; the slider moves the part along its \
+             path, from the closest approach at first. The view needs JavaScript; everything it \
+             shows is in this file.</p><iframe id=\"view-3d\" title=\"the study in 3D\" \
+             width=\"100%\" height=\"520\" style=\"border:1px solid #ccc\" \
+             srcdoc=\"{}\"></iframe>",
+            escape(page)
+        );
+    }
     html.push_str("<h2>Contact events</h2>");
     if study.contacts.is_empty() {
         html.push_str("<p>None: the scene never pushed on the part.</p>");

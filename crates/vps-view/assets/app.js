@@ -1,12 +1,16 @@
 // vps viewer: dependency-free WebGL2 (2D-canvas fallback). Served by crates/vps-view; no build step.
 //
 // Data: /scene (JSON metadata), /scene/boxes and /scene/shell (little-endian f32 xyz, metres),
-// /scene/mesh and /scene/part_mesh (f32 triangle corners, 9 per triangle: the static meshes in
-// the world frame, the part's mesh in its body frame), /state (latest state, JSON) and /ws (the
-// same states pushed at 30 Hz). World frame: z up, metres.
+// /scene/mesh, /scene/part_mesh and /scene/swept_mesh (f32 triangle corners, 9 per triangle: the
+// static meshes in the world frame, the part's mesh in its body frame, a study's swept volume in
+// the world frame), /state (latest state, JSON) and /ws (the same states pushed at 30 Hz). World
+// frame: z up, metres. With window.VPS_EMBEDDED set (a standalone page, e.g. a study's report),
+// the same data comes from the page itself and nothing is fetched.
 'use strict';
 (function () {
   const $ = (id) => document.getElementById(id);
+  // {state, scene, files: {route: base64}} when the page carries its own data; null when served.
+  const EMBEDDED = window.VPS_EMBEDDED || null;
   const canvas = $('view');
   const HISTORY = 300; // chart samples (10 s at 30 Hz)
   const FORCE_SCALE = 0.05; // m of arrow per N
@@ -22,6 +26,10 @@
   let shell = new Float32Array(0); // body-frame xyz of the part's drawn points
   let mesh = null; // static meshes: {pos, nrm, count} (world frame), null without
   let partMesh = null; // the part's mesh (body frame), null without
+  let sweptMesh = null; // a study's swept volume (world frame), null without
+  let showSwept = true;
+  let study = null; // a study's track (scene.study), null without
+  let studyIndex = 0; // the study frame shown while no live frame is
   let showVoxels = true; // the Surface voxel boxes (and the shell points): an overlay with meshes
   let state = null; // latest state message
   let renderer = null;
@@ -79,6 +87,9 @@
   const OVERLAY_COLOR = [0.95, 0.6, 0.2]; // Surface voxel boxes over meshes
   const PART_COLOR = [0.92, 0.9, 0.86];
   const PATH_COLOR = [0.35, 0.63, 1]; // the simulated hand's path
+  const STUDY_PATH_COLOR = [0.3, 0.85, 0.45]; // a study's grip path
+  const CLOSEST_COLOR = [1, 0.25, 0.25]; // a study's closest approach
+  const SWEPT_COLOR = [0.3, 0.8, 0.5]; // a study's swept volume (translucent)
   function depthColor(depth) {
     const t = Math.min(1, depth / (scene ? scene.voxel_size_m : 0.005));
     return [1, 0.88 * (1 - t), 0.25 * (1 - t)];
@@ -95,9 +106,16 @@
       { from: c, to: add(c, scale(f.torque_nm, TORQUE_SCALE)), color: [1, 0.56, 0.19] },
     ];
   }
-  function updateCamera() {
+  // The part's pose as drawn: the live frame's, else the study's frame being shown, else null.
+  function shownPart() {
     const f = state && state.frame;
-    if (camera.follow && f) camera.target = f.part.position_m.slice();
+    if (f) return f.part;
+    if (study) return { position_m: study.position_m[studyIndex], orientation_xyzw: study.orientation_xyzw[studyIndex] };
+    return null;
+  }
+  function updateCamera() {
+    const p = shownPart();
+    if (camera.follow && p) camera.target = p.position_m.slice();
   }
   const FOV = 0.9; // vertical field of view (rad)
   function cameraEye() {
@@ -330,23 +348,24 @@
         gl.drawArrays(gl.LINES, 0, 6);
       }
     }
-    // The simulated hand's path, as one line strip of segments.
-    let pathVerts = null;
-    function drawPath(vp) {
-      const p = scene.hand_path_m;
+    // A polyline (points in the world frame) as segments; the vertices are built once per array.
+    const polylineVerts = new Map();
+    function drawPolyline(vp, p, color) {
       if (!p || p.length < 2) return;
-      if (!pathVerts) {
-        pathVerts = new Float32Array((p.length - 1) * 6);
-        for (let i = 0; i + 1 < p.length; i++) pathVerts.set([...p[i], ...p[i + 1]], i * 6);
+      let verts = polylineVerts.get(p);
+      if (!verts) {
+        verts = new Float32Array((p.length - 1) * 6);
+        for (let i = 0; i + 1 < p.length; i++) verts.set([...p[i], ...p[i + 1]], i * 6);
+        polylineVerts.set(p, verts);
       }
       gl.useProgram(lineProg);
       const a = attr(lineProg, 'a_pos');
       gl.uniformMatrix4fv(loc(lineProg, 'u_viewProj'), false, vp);
       gl.bindBuffer(gl.ARRAY_BUFFER, lineBuf);
-      gl.bufferData(gl.ARRAY_BUFFER, pathVerts, gl.DYNAMIC_DRAW);
+      gl.bufferData(gl.ARRAY_BUFFER, verts, gl.DYNAMIC_DRAW);
       gl.enableVertexAttribArray(a); gl.vertexAttribPointer(a, 3, gl.FLOAT, false, 0, 0); gl.vertexAttribDivisor(a, 0);
-      gl.uniform3fv(loc(lineProg, 'u_color'), PATH_COLOR);
-      gl.drawArrays(gl.LINES, 0, pathVerts.length / 3);
+      gl.uniform3fv(loc(lineProg, 'u_color'), color);
+      gl.drawArrays(gl.LINES, 0, verts.length / 3);
     }
     let fence = null;
     return {
@@ -365,7 +384,7 @@
       setScene() {
         gl.bindBuffer(gl.ARRAY_BUFFER, sceneBuf); gl.bufferData(gl.ARRAY_BUFFER, boxes, gl.STATIC_DRAW);
         gl.bindBuffer(gl.ARRAY_BUFFER, shellBuf); gl.bufferData(gl.ARRAY_BUFFER, shell, gl.STATIC_DRAW);
-        for (const [name, m] of [['scene', mesh], ['part', partMesh]]) {
+        for (const [name, m] of [['scene', mesh], ['part', partMesh], ['swept', sweptMesh]]) {
           if (m) meshBufs[name] = { pos: buffer(m.pos), nrm: buffer(m.nrm), count: m.count };
         }
       },
@@ -380,7 +399,13 @@
       gl.enable(gl.DEPTH_TEST); gl.disable(gl.BLEND); gl.depthMask(true);
       const eye = cameraEye();
       drawMesh(vp, 'scene', IDENTITY, { tint: true });
-      drawPath(vp);
+      drawPolyline(vp, scene.hand_path_m, PATH_COLOR);
+      if (study) {
+        drawPolyline(vp, study.position_m, STUDY_PATH_COLOR);
+        gl.disable(gl.DEPTH_TEST); // the closest approach is often hidden between two surfaces
+        for (const l of study.closestLines) drawPolyline(vp, l, CLOSEST_COLOR);
+        gl.enable(gl.DEPTH_TEST);
+      }
       if (showVoxels) {
         const boxStyle = mesh ? { color: OVERLAY_COLOR } : { tint: true };
         for (const r of lodRanges(eye)) {
@@ -390,9 +415,11 @@
       }
       const f = state && state.frame;
       if (!f) {
-        // Before a session's first frame (or offline): the part where it starts.
-        const start = scene.part_start;
-        if (start) drawMesh(vp, 'part', poseMatrix(start.orientation_xyzw, start.position_m), { color: PART_COLOR });
+        // Before a session's first frame (or offline): the part at the study frame shown, or
+        // where it starts.
+        const shown = shownPart() || scene.part_start;
+        if (shown) drawMesh(vp, 'part', poseMatrix(shown.orientation_xyzw, shown.position_m), { color: PART_COLOR });
+        drawSwept(vp);
         return;
       }
       const pointSize = scene.shell_voxel_size_m * 0.8;
@@ -411,6 +438,14 @@
       const handlePose = poseMatrix(f.handle.orientation_xyzw, f.handle.position_m);
       if (partMesh) drawMesh(vp, 'part', handlePose, { color: [0.35, 0.63, 1], alpha: 0.25 });
       else drawBoxes(vp, shellBuf, shell.length / 3, pointSize, handlePose, { color: [0.35, 0.63, 1], alpha: 0.25 });
+      gl.depthMask(true); gl.disable(gl.BLEND);
+      drawSwept(vp);
+    }
+    // The study's swept volume, translucent, over everything opaque.
+    function drawSwept(vp) {
+      if (!sweptMesh || !showSwept) return;
+      gl.enable(gl.BLEND); gl.blendFunc(gl.SRC_ALPHA, gl.ONE_MINUS_SRC_ALPHA); gl.depthMask(false);
+      drawMesh(vp, 'swept', IDENTITY, { color: SWEPT_COLOR, alpha: 0.22 });
       gl.depthMask(true); gl.disable(gl.BLEND);
     }
   }
@@ -457,7 +492,7 @@
         const f = state && state.frame;
         // Meshes: up to MAX_2D_TRIANGLES faces, filled far to near, shaded by their normal.
         const faces = [], eye = cameraEye();
-        const addFaces = (m, model, color, cap) => {
+        const addFaces = (m, model, color, cap, alpha) => {
           if (!m) return;
           const n = m.count / 3, stride = Math.max(1, Math.ceil(n / cap));
           for (let t = 0; t < n; t += stride) {
@@ -466,22 +501,22 @@
             if (q.some((v) => v[2] <= 1e-4)) continue;
             const normal = norm(cross(sub(c[1], c[0]), sub(c[2], c[0])));
             const light = 0.2 + 0.8 * Math.abs(dot(normal, norm(sub(eye, c[0]))));
-            faces.push({ q, depth: q[0][2] + q[1][2] + q[2][2], color: scale(color || heightColor(c[0][2]), light) });
+            faces.push({ q, depth: q[0][2] + q[1][2] + q[2][2], color: scale(color || heightColor(c[0][2]), light), alpha });
           }
         };
         addFaces(mesh, IDENTITY, null, MAX_2D_TRIANGLES);
-        const start = scene.part_start;
-        if (f) addFaces(partMesh, poseMatrix(f.part.orientation_xyzw, f.part.position_m), PART_COLOR, MAX_2D_TRIANGLES / 4);
-        else if (start) addFaces(partMesh, poseMatrix(start.orientation_xyzw, start.position_m), PART_COLOR, MAX_2D_TRIANGLES / 4);
+        const shown = shownPart() || scene.part_start;
+        if (shown) addFaces(partMesh, poseMatrix(shown.orientation_xyzw, shown.position_m), PART_COLOR, MAX_2D_TRIANGLES / 4);
+        if (showSwept) addFaces(sweptMesh, IDENTITY, SWEPT_COLOR, MAX_2D_TRIANGLES / 4, 0.22);
         faces.sort((a, b) => b.depth - a.depth);
         for (const t of faces) {
-          ctx.fillStyle = css(t.color); ctx.beginPath();
+          ctx.fillStyle = css(t.color, t.alpha); ctx.beginPath();
           t.q.forEach((v, k) => { const x = (v[0] / v[2] * 0.5 + 0.5) * w, y = (0.5 - v[1] / v[2] * 0.5) * h; if (k) ctx.lineTo(x, y); else ctx.moveTo(x, y); });
           ctx.fill();
         }
-        const path = scene.hand_path_m;
-        if (path && path.length > 1) {
-          ctx.strokeStyle = css(PATH_COLOR); ctx.lineWidth = 1.5; ctx.beginPath();
+        const stroke = (path, color) => {
+          if (!path || path.length < 2) return;
+          ctx.strokeStyle = css(color); ctx.lineWidth = 1.5; ctx.beginPath();
           let pen = false;
           for (const p of path) {
             const q = project(vp, p);
@@ -491,6 +526,11 @@
             pen = true;
           }
           ctx.stroke();
+        };
+        stroke(scene.hand_path_m, PATH_COLOR);
+        if (study) {
+          stroke(study.position_m, STUDY_PATH_COLOR);
+          for (const l of study.closestLines) stroke(l, CLOSEST_COLOR);
         }
         if (showVoxels) {
           const stride = Math.max(1, Math.ceil(boxes.length / 3 / 60000));
@@ -631,6 +671,74 @@
     setTimeout(poll, 200);
   }
 
+  // ---- a study's path: scrub, play, jump to the closest approach ----
+  function nearestStudyIndex(t) {
+    let best = 0;
+    study.time_s.forEach((u, k) => { if (Math.abs(u - t) < Math.abs(study.time_s[best] - t)) best = k; });
+    return best;
+  }
+  function setStudyIndex(k) {
+    studyIndex = Math.max(0, Math.min(study.time_s.length - 1, k | 0));
+    $('scrub').value = String(studyIndex);
+    const c = study.clearance_m[studyIndex];
+    $('study-pose').textContent = [
+      `t ${study.time_s[studyIndex].toFixed(3)} s  frame ${study.frame[studyIndex]}`,
+      `part   ${v3(study.position_m[studyIndex])} m`,
+      `       q ${study.orientation_xyzw[studyIndex].map((x) => x.toFixed(3)).join(' ')}`,
+      `force  ${v3(study.device_force_n[studyIndex])} N`,
+      `clearance ${typeof c === 'number' ? (c * 1000).toFixed(2) + ' mm' : '(not measured at this frame)'}`,
+    ].join('\n');
+    requestDraw();
+  }
+  let playTimer = null;
+  function setPlaying(on) {
+    if (playTimer) { clearInterval(playTimer); playTimer = null; }
+    $('play').textContent = on ? 'pause' : 'play';
+    if (!on) return;
+    if (studyIndex >= study.time_s.length - 1) setStudyIndex(0);
+    let t = study.time_s[studyIndex], last = performance.now();
+    playTimer = setInterval(() => {
+      const now = performance.now();
+      t += (now - last) / 1000; last = now;
+      let k = studyIndex;
+      while (k + 1 < study.time_s.length && study.time_s[k + 1] <= t) k++;
+      setStudyIndex(k);
+      if (k >= study.time_s.length - 1) setPlaying(false);
+    }, 1000 / MAX_FPS);
+  }
+  function setupStudy(s) {
+    if (!s.time_s.length) return;
+    study = s;
+    // The closest approach: the segment between the two nearest points and a cross on each.
+    study.closestLines = [];
+    if (s.closest) {
+      const c = s.closest, r = Math.max(scene.voxel_size_m, 1e-3);
+      study.closestLines.push([c.on_part_m, c.on_object_m]);
+      for (const p of [c.on_part_m, c.on_object_m]) {
+        for (let a = 0; a < 3; a++) {
+          const d = [0, 0, 0]; d[a] = r;
+          study.closestLines.push([sub(p, d), add(p, d)]);
+        }
+      }
+    }
+    $('study').hidden = false;
+    $('pose').textContent = 'no loop: a study\'s recorded path (below)';
+    $('study-verdict').textContent = s.verdict;
+    $('study-closest').textContent = s.closest
+      ? `closest approach ${(s.closest.distance_m * 1000).toFixed(2)} mm at t = ${s.closest.time_s.toFixed(3)} s near ${s.closest.object}`
+      : 'no static meshes: no clearance';
+    const scrub = $('scrub');
+    scrub.max = String(s.time_s.length - 1);
+    scrub.addEventListener('input', () => { setPlaying(false); setStudyIndex(Number(scrub.value)); });
+    $('play').addEventListener('click', () => setPlaying(!playTimer));
+    const toClosest = $('to-closest');
+    toClosest.disabled = !s.closest;
+    toClosest.addEventListener('click', () => { setPlaying(false); setStudyIndex(nearestStudyIndex(s.closest.time_s)); });
+    $('swept-toggle').hidden = !sweptMesh;
+    $('swept').addEventListener('change', (e) => { showSwept = e.target.checked; requestDraw(); });
+    setStudyIndex(s.closest ? nearestStudyIndex(s.closest.time_s) : 0);
+  }
+
   // ---- camera input ----
   function resize() {
     const r = canvas.getBoundingClientRect(), dpr = window.devicePixelRatio || 1;
@@ -661,6 +769,11 @@
   window.addEventListener('keydown', (e) => {
     if (e.key === 'f') setFollow(!camera.follow);
     if (e.key === 'v') setVoxels(!showVoxels);
+    // A focused slider steps itself.
+    if (study && document.activeElement !== $('scrub')) {
+      if (e.key === 'ArrowLeft') { setPlaying(false); setStudyIndex(studyIndex - 1); }
+      if (e.key === 'ArrowRight') { setPlaying(false); setStudyIndex(studyIndex + 1); }
+    }
   });
   window.addEventListener('resize', requestDraw);
 
@@ -671,21 +784,34 @@
     // The page's start phase, for tests and for a person debugging a page that draws nothing.
     const phase = (p) => { document.body.dataset.phase = p; };
     const get = async (path, kind) => {
+      if (EMBEDDED) return embedded(path);
       phase(`fetching ${path}`);
       const r = await fetch(path, { cache: 'no-store' });
       if (!r.ok) throw new Error(`${path}: ${r.status}`);
       phase(`reading ${path}`);
       return r[kind]();
     };
+    // The page's own copy of a route's data: JSON as it is, buffers decoded from base64.
+    const embedded = (path) => {
+      if (path === '/state') return EMBEDDED.state;
+      if (path === '/scene') return EMBEDDED.scene;
+      const text = EMBEDDED.files[path];
+      if (typeof text !== 'string') throw new Error(`${path}: not in the page`);
+      const raw = atob(text), bytes = new Uint8Array(raw.length);
+      for (let i = 0; i < raw.length; i++) bytes[i] = raw.charCodeAt(i);
+      return bytes.buffer;
+    };
     try {
       onState(await get('/state', 'json'));
-      connect();
-      poll();
+      if (!EMBEDDED) { connect(); poll(); }
+      // With no loop the frame-timing charts have nothing to show.
+      if (state.status === 'offline') for (const c of document.querySelectorAll('.chart')) c.hidden = true;
       scene = await get('/scene', 'json');
       boxes = new Float32Array(await get('/scene/boxes', 'arrayBuffer'));
       shell = new Float32Array(await get('/scene/shell', 'arrayBuffer'));
       if (scene.mesh_triangles) mesh = withNormals(new Float32Array(await get('/scene/mesh', 'arrayBuffer')));
       if (scene.part_mesh_triangles) partMesh = withNormals(new Float32Array(await get('/scene/part_mesh', 'arrayBuffer')));
+      if (scene.swept_mesh_triangles) sweptMesh = withNormals(new Float32Array(await get('/scene/swept_mesh', 'arrayBuffer')));
     } catch (e) {
       $('status').className = 'error'; $('status').textContent = `cannot load the scene: ${e.message}`; return;
     }
@@ -696,6 +822,7 @@
     // The voxel boxes are the view when there is no mesh, an overlay (off at first) when there is.
     setVoxels(!(mesh || partMesh));
     buildChunks();
+    if (scene.study) setupStudy(scene.study);
     setFollow(!!(state && state.status !== 'offline' && scene.shell_points));
     resize();
     phase('creating the renderer');

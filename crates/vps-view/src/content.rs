@@ -14,6 +14,7 @@
 //! [`SceneLimits::max_part_triangles`] (see [`crate::mesh`]), and the boxes become an overlay.
 
 use crate::mesh::{decimate, decimate_all};
+use crate::study::StudyTrack;
 use glam::{DVec3, UVec3, Vec3};
 use serde::Serialize;
 use std::collections::HashSet;
@@ -97,6 +98,12 @@ pub struct SceneMeta {
     /// it for good); absent when unknown.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub part_start: Option<StartPose>,
+    /// An assembly study's path to scrub along ([`ViewerContent::with_study`]); absent without.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub study: Option<StudyTrack>,
+    /// The study's swept-volume mesh triangles drawn (the length of `/scene/swept_mesh` is 36
+    /// bytes per triangle, world frame); 0 without.
+    pub swept_mesh_triangles: usize,
 }
 
 /// Most points of [`SceneMeta::hand_path_m`].
@@ -133,6 +140,8 @@ pub struct ViewerContent {
     pub mesh: Vec<[Vec3; 3]>,
     /// Drawn part mesh triangles (m, the shell's body frame); empty without a part mesh.
     pub part_mesh: Vec<[Vec3; 3]>,
+    /// Drawn swept-volume triangles of a study (m, world frame); empty without.
+    pub swept_mesh: Vec<[Vec3; 3]>,
     /// What contact sampling needs; `None` without a part.
     pub contact: Option<ContactModel>,
     /// The bounds it was built with (the mesh budgets apply in [`ViewerContent::with_meshes`]).
@@ -182,6 +191,8 @@ impl ViewerContent {
             part_mesh_cell_m: 0.0,
             hand_path_m: Vec::new(),
             part_start: None,
+            study: None,
+            swept_mesh_triangles: 0,
         };
         ViewerContent {
             meta,
@@ -189,6 +200,7 @@ impl ViewerContent {
             shell: drawn_shell,
             mesh: Vec::new(),
             part_mesh: Vec::new(),
+            swept_mesh: Vec::new(),
             contact: shell.map(|shell| ContactModel { tree, shell }),
             limits,
         }
@@ -211,6 +223,19 @@ impl ViewerContent {
             position_m: start.0.to_array(),
             orientation_xyzw: start.1.to_array(),
         });
+        self
+    }
+
+    /// Adds an assembly study to scrub along: its `track` (see [`crate::study`]) and its swept
+    /// volume's closed mesh (world frame, m; decimated to [`SceneLimits::max_part_triangles`]),
+    /// drawn translucent. Replaces a study given before.
+    pub fn with_study(mut self, track: StudyTrack, swept: Option<&TriMesh>) -> ViewerContent {
+        let drawn = swept
+            .map(|m| decimate(m, self.limits.max_part_triangles))
+            .unwrap_or_default();
+        self.meta.swept_mesh_triangles = drawn.triangles.len();
+        self.swept_mesh = drawn.triangles;
+        self.meta.study = Some(track);
         self
     }
 

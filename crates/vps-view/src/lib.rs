@@ -10,8 +10,8 @@
 //!
 //! Routes (see [`server`]): `/` the page, `/app.js` its script, `/scene` the viewer content's
 //! metadata (JSON, [`content::SceneMeta`]: the static scene and the part),
-//! `/scene/boxes` and `/scene/shell` (little-endian f32 xyz triples, m), `/scene/mesh` and
-//! `/scene/part_mesh` (little-endian f32 triangle corners, m), `/state` the latest state (JSON),
+//! `/scene/boxes` and `/scene/shell` (little-endian f32 xyz triples, m), `/scene/mesh`,
+//! `/scene/part_mesh` and `/scene/swept_mesh` (little-endian f32 triangle corners, m), `/state` the latest state (JSON),
 //! `/ws` the state stream (WebSocket, JSON text messages). Every request's `Host` and `Origin` are
 //! checked ([`access`]), connections are capped and slow headers timed out ([`ServerLimits`]).
 //!
@@ -19,10 +19,14 @@
 //! leaves and tiles with memory bounded by [`SceneLimits::max_boxes`] ([`content`]); with
 //! [`ViewerContent::with_meshes`], the static meshes and the part's mesh shaded, decimated to
 //! [`SceneLimits::max_static_triangles`] and [`SceneLimits::max_part_triangles`] ([`mesh`]), the
-//! boxes then being an overlay the user turns on.
+//! boxes then being an overlay the user turns on. With [`ViewerContent::with_study`], an assembly
+//! study's path to scrub along, its closest approach and its swept volume ([`study`]). The same
+//! page works with no server at all, its data inlined ([`standalone::standalone_page`]): the 3D
+//! view of a study's `report.html`.
 //!
 //! Module map: [`content`] (what is drawn: decimated Surface voxels, the shell, meshes), [`mesh`]
-//! (mesh decimation and encoding), [`contacts`] (contact points at a pose), [`live`] (a viewer
+//! (mesh decimation and encoding), [`study`] (a study's path as the page scrubs it),
+//! [`standalone`] (the page with its data inlined, one file), [`contacts`] (contact points at a pose), [`live`] (a viewer
 //! attached to a session's feed), [`state`] (the JSON
 //! state message), [`sampler`] (the feed reader thread), [`server`] (routes, WebSocket, limits,
 //! start and shutdown), [`access`] (Host and Origin checks), [`client`] (a minimal blocking
@@ -42,13 +46,16 @@ pub mod live;
 pub mod mesh;
 pub mod sampler;
 pub mod server;
+pub mod standalone;
 pub mod state;
+pub mod study;
 
 pub use contacts::{sample_contacts, ContactSample};
 pub use content::{SceneLimits, ViewerContent};
 pub use live::LiveViewer;
 pub use server::{ServerLimits, ViewerHandle, ViewerServer};
 pub use state::{FrameView, ViewState, ViewStatus};
+pub use study::{ClosestApproach, StudyTrack};
 
 /// How often the viewer reads the feed and pushes a state to its clients (Hz).
 pub const STATE_RATE_HZ: f64 = 30.0;

@@ -4,7 +4,7 @@
 //!
 //! Routes: `/` (the page), `/app.js` (its script), `/scene` ([`crate::content::SceneMeta`] as JSON),
 //! `/scene/boxes` and `/scene/shell` (f32 triples, see [`crate::content::encode_points`]),
-//! `/scene/mesh` and `/scene/part_mesh` (f32 triangle corners, see
+//! `/scene/mesh`, `/scene/part_mesh` and `/scene/swept_mesh` (f32 triangle corners, see
 //! [`crate::mesh::encode_triangles`]), `/state`
 //! (the latest [`crate::ViewState`] as JSON), `/ws` (the same states pushed as text messages at
 //! [`crate::STATE_RATE_HZ`]; whatever a client sends is read and dropped, and a client message
@@ -41,8 +41,8 @@ use vps_runtime::StateFeedReceiver;
 /// Largest message or frame a WebSocket client may send (bytes); more closes its connection.
 pub const MAX_CLIENT_MESSAGE: usize = 4096;
 
-const INDEX_HTML: &str = include_str!("../assets/index.html");
-const APP_JS: &str = include_str!("../assets/app.js");
+pub(crate) const INDEX_HTML: &str = include_str!("../assets/index.html");
+pub(crate) const APP_JS: &str = include_str!("../assets/app.js");
 
 /// Bounds on the viewer's clients.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -90,6 +90,7 @@ struct Shared {
     shell: Bytes,
     mesh: Bytes,
     part_mesh: Bytes,
+    swept_mesh: Bytes,
     states: watch::Receiver<Utf8Bytes>,
 }
 
@@ -136,6 +137,7 @@ impl ViewerServer {
             shell: Bytes::from(encode_points(&scene.shell)),
             mesh: Bytes::from(encode_triangles(&scene.mesh)),
             part_mesh: Bytes::from(encode_triangles(&scene.part_mesh)),
+            swept_mesh: Bytes::from(encode_triangles(&scene.swept_mesh)),
             states: state_rx,
         });
         let app = router(shared, AccessGuard { listening: local });
@@ -329,6 +331,7 @@ fn router(shared: Arc<Shared>, guard: AccessGuard) -> Router {
         .route("/scene/shell", octets(|s| &s.shell))
         .route("/scene/mesh", octets(|s| &s.mesh))
         .route("/scene/part_mesh", octets(|s| &s.part_mesh))
+        .route("/scene/swept_mesh", octets(|s| &s.swept_mesh))
         .route(
             "/state",
             get(|State(s): State<Arc<Shared>>| async move {
