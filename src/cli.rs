@@ -760,9 +760,10 @@ pub struct DemoArgs {
     /// Voxel edge length (m, or with unit), instead of the scene's.
     #[arg(long, value_parser = parse_length)]
     pub voxel_size: Option<f64>,
-    /// Longest session time (s); the scripted session is about 40 s.
-    #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 60.0)]
-    pub seconds: f64,
+    /// Session time (s) of each of the two sessions; default: the scene's hand path to its end
+    /// (its last hold included; about 70 s on the default scene).
+    #[arg(long, value_parser = crate::limits::parse_seconds)]
+    pub seconds: Option<f64>,
     /// Compute threads, the frame thread included. One is right for the teapot's few hundred
     /// points at 5 mm: handing a share to another thread costs more than computing it.
     #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 1)]

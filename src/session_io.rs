@@ -168,6 +168,8 @@ pub struct PreparedSession {
     pub assets: SessionAssets,
     /// Parameters, opened device, initial state and loop settings.
     pub plan: SessionPlan,
+    /// The device it was opened from (a replay's trace, read once, is shared from here).
+    pub device: DeviceChoice,
 }
 
 /// A prepared session made ready to run: its scene, the live viewer when one was asked for (keep
@@ -191,7 +193,7 @@ impl PreparedSession {
     /// Attaches the viewer at `view` (when given) and builds the loop's setup, with a stop flag
     /// set by SIGINT, SIGTERM and SIGHUP (installed here: the device is open from now on).
     pub fn go_live(self, view: Option<std::net::SocketAddr>) -> Result<LiveSession> {
-        let PreparedSession { assets, plan } = self;
+        let PreparedSession { assets, plan, .. } = self;
         let viewer = attach_viewer(view, &assets)?;
         let bridge = plan.bridge.clone();
         let (setup, signals) = plan.into_live_setup(viewer.as_ref().map(|v| v.feed()))?;
@@ -262,8 +264,8 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
             .filter(|s| !s.starts_with("builtin:"))
             .map(PathBuf::from),
     );
-    if let DeviceChoice::Replay(trace) = &choice {
-        inputs.push(trace.clone());
+    if let DeviceChoice::Replay(source) = &choice {
+        inputs.push(source.path.clone());
     }
     check_session_outputs(args, &inputs)?;
     choice.check_available()?;
@@ -310,7 +312,11 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
         );
     }
     let plan = assets.plan(&choice, script, config)?;
-    Ok(PreparedSession { assets, plan })
+    Ok(PreparedSession {
+        assets,
+        plan,
+        device: choice,
+    })
 }
 
 /// A session's length when `--seconds` is not given and the device is not a replay (whose trace
@@ -476,6 +482,10 @@ pub fn finish<C: Serialize>(
             assets,
             assets.params,
             report,
+            out.cluster
+                .as_ref()
+                .and_then(|c| c["stale_shares"].as_u64())
+                .unwrap_or(0),
             args.json,
         );
         match study {

@@ -19,14 +19,16 @@ pub const SERIES_EVERY_FRAMES: usize = 10;
 
 /// Makes and writes the study (`--study DIR`, path table every `every` frames) of the session
 /// that produced `report` on `assets` with `params`, its part starting where the trace says the
-/// loop started it, and prints its verdict. Blocking, parallel; called once the session's device
-/// has been written zero.
+/// loop started it, and prints its verdict. `stale_shares`: shares a cluster stood in for with an
+/// earlier frame's sums (0 for a session on one host), said in the study since it recomputes
+/// them. Blocking, parallel; called once the session's device has been written zero.
 pub fn write_session_study(
     dir: &Path,
     every: usize,
     assets: &SessionAssets,
     params: HapticParams,
     report: &LoopReport,
+    stale_shares: u64,
     json: bool,
 ) -> Result<()> {
     if let Some(why) = &report.trace_error {
@@ -48,6 +50,7 @@ pub fn write_session_study(
         initial,
         source: &source,
         swept_voxel_size: None,
+        stale_shares,
     };
     // With --json, stdout holds the session's report alone: the study's words go to stderr.
     let print = if json {
@@ -92,6 +95,7 @@ fn settings(run: &StudyRun<'_>) -> Value {
         "made_from": run.source,
         "command": std::env::args().collect::<Vec<_>>().join(" "),
         "clearance_series_every_frames": SERIES_EVERY_FRAMES,
+        "cluster_stale_shares": run.stale_shares,
     })
 }
 
@@ -109,6 +113,10 @@ pub struct StudyRun<'a> {
     pub source: &'a str,
     /// The swept volume's voxel size (m); `None`: the scene's.
     pub swept_voxel_size: Option<f64>,
+    /// Shares the session's cluster stood in for with an earlier frame's sums
+    /// (`--max-stale-frames`); the study computes every share, so with any its path may differ
+    /// from the session's. 0 for a session on one host or a trace.
+    pub stale_shares: u64,
 }
 
 /// Where a study's report goes.
@@ -148,9 +156,11 @@ pub fn write_study(run: &StudyRun<'_>, dir: &Path, every: usize, print: Print) -
         reach_tolerance_m: assets.voxel_size,
         swept_voxel_size_m: Some(run.swept_voxel_size.unwrap_or(assets.voxel_size)),
     };
-    let study = run_study(&inputs).with_context(|| format!("the study of {source}"))?;
+    let mut study = run_study(&inputs).with_context(|| format!("the study of {source}"))?;
     let settings = settings(run);
+    let started = std::time::Instant::now();
     let view = crate::study_view::report_view(assets, &study);
+    study.timings.report_view_ms = started.elapsed().as_secs_f64() * 1e3;
     let written = vps_study::files::write_study(
         dir,
         &study,
@@ -164,6 +174,14 @@ pub fn write_study(run: &StudyRun<'_>, dir: &Path, every: usize, print: Print) -
         return print_json(&vps_study::files::study_json(&study, &settings, every));
     }
     let mut lines = text_report(&study);
+    if run.stale_shares > 0 {
+        lines.push(format!(
+            "  caution: the session's cluster stood in for {} late shares with an earlier \
+             frame's sums (--max-stale-frames); the study computed every share exactly, so its \
+             path can differ from the session's",
+            run.stale_shares
+        ));
+    }
     lines.push(format!(
         "study: {} files in {} (open report.html; study.json, path.csv, clearance.csv, \
          contacts.csv, part.obj, swept.stl, swept.vmap; docs/study.md)",

@@ -69,7 +69,11 @@ pub fn run(bench: ClusterBench, json: bool) -> Result<()> {
     };
     let shell_points = assets.shell.len();
     let plan = assets.plan(&DeviceChoice::Simulated, script, config)?;
-    let prepared = PreparedSession { assets, plan };
+    let prepared = PreparedSession {
+        assets,
+        plan,
+        device: DeviceChoice::Simulated,
+    };
     let session = RunArgs {
         threads: bench.local_threads,
         ..RunArgs::default()

@@ -52,6 +52,12 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         ..scene.params
     };
     let threads = args.threads.max(1);
+    // Without --seconds, each session follows the scene's hand path to its end.
+    let seconds = crate::session_io::session_seconds(
+        args.seconds,
+        &vps_session::DeviceChoice::Simulated,
+        &scene.script()?,
+    );
     // One set of handlers for both sessions, installed before the scene is announced: a signal
     // from then on ends the demo (a session started after it stops at its first frame).
     let signals = stop_on_signals()?;
@@ -79,7 +85,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         let report = run_scripted(
             &scene,
             params,
-            args.seconds,
+            seconds,
             threads,
             how,
             feed(),
@@ -116,6 +122,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             &scene,
             params,
             &on,
+            0,
             args.json,
         )?;
     }

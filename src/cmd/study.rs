@@ -4,7 +4,8 @@
 use crate::cli::{RunArgs, StudyArgs};
 use crate::session_io::prepare;
 use crate::session_study::{write_study, Print, StudyRun};
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
+use vps_session::DeviceChoice;
 
 /// `vps study TRACE --scene FILE -o DIR`.
 pub fn run(args: &StudyArgs) -> Result<()> {
@@ -20,7 +21,12 @@ pub fn run(args: &StudyArgs) -> Result<()> {
     // The same preparation as `vps replay`: scene, parameters, and the part at rest at the
     // trace's first pose; the outputs are checked against every input first.
     let prepared = prepare(&session)?;
-    let trace = vps_device::trace::load_trace(&args.trace)
+    // The trace the replay device was opened with, read once.
+    let DeviceChoice::Replay(source) = &prepared.device else {
+        bail!("vps study: the session was not prepared as a replay of {trace_path}");
+    };
+    let trace = source
+        .trace()
         .with_context(|| format!("reading the trace {trace_path}"))?;
     let run = StudyRun {
         assets: &prepared.assets,
@@ -28,6 +34,7 @@ pub fn run(args: &StudyArgs) -> Result<()> {
         trace: &trace,
         initial: prepared.plan.setup.initial,
         source: &format!("the trace {trace_path}"),
+        stale_shares: 0,
         swept_voxel_size: args.swept_voxel_size,
     };
     let print = if args.json { Print::Json } else { Print::Text };

@@ -354,15 +354,17 @@ pub fn read_trace(mut reader: impl BufRead, path: &Path) -> Result<Trace, TraceE
 /// allocates.
 #[derive(Clone, Debug)]
 pub struct ReplayDevice {
-    trace: Trace,
+    trace: std::sync::Arc<Trace>,
     next: usize,
     limits: DeviceLimits,
     name: String,
 }
 
 impl ReplayDevice {
-    /// Replays `trace`, reporting `limits` to the loop.
-    pub fn new(trace: Trace, limits: DeviceLimits) -> ReplayDevice {
+    /// Replays `trace` (owned, or shared with whoever else reads it), reporting `limits` to the
+    /// loop.
+    pub fn new(trace: impl Into<std::sync::Arc<Trace>>, limits: DeviceLimits) -> ReplayDevice {
+        let trace = trace.into();
         let name = format!("{REPLAY_PREFIX}{}", trace.device);
         ReplayDevice {
             trace,

@@ -6,8 +6,9 @@ use anyhow::{Context, Result};
 use glam::DQuat;
 use std::net::UdpSocket;
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, OnceLock};
 use vps_device::script::Script;
-use vps_device::trace::{load_trace, ReplayDevice};
+use vps_device::trace::{load_trace, ReplayDevice, Trace};
 use vps_device::{DeviceLimits, HandParams, HapticDevice, SimulatedHand};
 use vps_haptic::PartState;
 use vps_input::{
@@ -74,7 +75,43 @@ pub enum DeviceChoice {
     /// The UDP device bridge, bound to the address (loopback unless a token is given).
     Bridge(std::net::SocketAddr),
     /// A recorded handle trace, played back exactly.
-    Replay(PathBuf),
+    Replay(ReplaySource),
+}
+
+/// A recorded trace to replay: its file, read the first time anything asks for the trace (the
+/// availability check, the frame count, the device, a study) and shared by every clone after.
+#[derive(Clone, Debug)]
+pub struct ReplaySource {
+    /// The trace file.
+    pub path: PathBuf,
+    loaded: Arc<OnceLock<Arc<Trace>>>,
+}
+
+impl ReplaySource {
+    /// The trace in `path`, not read yet.
+    pub fn new(path: impl Into<PathBuf>) -> ReplaySource {
+        ReplaySource {
+            path: path.into(),
+            loaded: Arc::default(),
+        }
+    }
+
+    /// The trace: read from the file the first time (blocking; errors name the file and line),
+    /// the same shared copy after.
+    pub fn trace(&self) -> Result<Arc<Trace>> {
+        if let Some(trace) = self.loaded.get() {
+            return Ok(trace.clone());
+        }
+        let trace = Arc::new(load_trace(&self.path)?);
+        Ok(self.loaded.get_or_init(|| trace).clone())
+    }
+}
+
+/// Two sources are the same when they name the same file (read or not).
+impl PartialEq for ReplaySource {
+    fn eq(&self, other: &Self) -> bool {
+        self.path == other.path
+    }
 }
 
 impl DeviceChoice {
@@ -90,7 +127,9 @@ impl DeviceChoice {
             Some(("bridge", addr)) => DeviceChoice::Bridge(addr.parse().map_err(|_| {
                 format!("bridge:{addr}: not an address like {DEFAULT_BRIDGE_ADDR}")
             })?),
-            Some(("replay", path)) if !path.is_empty() => DeviceChoice::Replay(path.into()),
+            Some(("replay", path)) if !path.is_empty() => {
+                DeviceChoice::Replay(ReplaySource::new(path))
+            }
             _ => {
                 return Err(format!(
                     "'{text}': expected sim, spacemouse, bridge[:ADDR] or replay:FILE"
@@ -102,7 +141,9 @@ impl DeviceChoice {
     /// A replay path taken relative to `base` (a scene file's directory) unless absolute.
     pub fn relative_to(self, base: &Path) -> DeviceChoice {
         match self {
-            DeviceChoice::Replay(p) if p.is_relative() => DeviceChoice::Replay(base.join(p)),
+            DeviceChoice::Replay(source) if source.path.is_relative() => {
+                DeviceChoice::Replay(ReplaySource::new(base.join(&source.path)))
+            }
             other => other,
         }
     }
@@ -111,7 +152,7 @@ impl DeviceChoice {
     /// Blocking for a replay (reads the trace).
     pub fn frames(&self, seconds: f64, dt: f64) -> Result<u64> {
         Ok(match self {
-            DeviceChoice::Replay(path) => load_trace(path)?.frames.len() as u64,
+            DeviceChoice::Replay(source) => source.trace()?.frames.len() as u64,
             _ => (seconds / dt).round().max(1.0) as u64,
         })
     }
@@ -140,8 +181,8 @@ impl DeviceChoice {
                     .with_context(|| format!("binding the device bridge on {addr}"))?;
                 Ok(())
             }
-            DeviceChoice::Replay(path) => {
-                load_trace(path).context("reading the trace to replay")?;
+            DeviceChoice::Replay(source) => {
+                source.trace().context("reading the trace to replay")?;
                 Ok(())
             }
         }
@@ -192,12 +233,11 @@ impl DeviceChoice {
                 let monitor = device.monitor();
                 (Box::new(device), at_start, Some(monitor))
             }
-            DeviceChoice::Replay(path) => {
-                let trace = load_trace(path)?;
-                let first = trace
-                    .frames
-                    .first()
-                    .with_context(|| format!("{}: the trace has no frames", path.display()))?;
+            DeviceChoice::Replay(source) => {
+                let trace = source.trace()?;
+                let first = trace.frames.first().with_context(|| {
+                    format!("{}: the trace has no frames", source.path.display())
+                })?;
                 // Where the recorded session's part started, else (an old trace) at the first
                 // handle sample.
                 let state = match trace.part_start {
@@ -216,5 +256,47 @@ impl DeviceChoice {
             initial,
             bridge: monitor,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec3;
+    use vps_device::trace::{save_trace, TraceRecorder};
+    use vps_haptic::HandleSample;
+
+    /// A replay's trace is read once: every later ask (and every clone of the choice) gets the
+    /// same copy, even after the file is gone; the file is not read before it is asked for.
+    #[test]
+    fn a_replay_reads_its_trace_once_and_shares_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.jsonl");
+        let sample = HandleSample {
+            position: DVec3::new(0.1, 0.2, 0.3),
+            orientation: DQuat::IDENTITY,
+            linear_velocity: DVec3::ZERO,
+            angular_velocity: DVec3::ZERO,
+        };
+        let mut recorder = TraceRecorder::with_capacity("sim", 1e-3, 3);
+        for k in 0..3 {
+            recorder.record(k, k as f64 * 1e-3, sample).unwrap();
+        }
+        let choice = DeviceChoice::parse(&format!("replay:{}", path.display())).unwrap();
+        let DeviceChoice::Replay(source) = &choice else {
+            panic!("{choice:?}")
+        };
+        assert!(source.trace().is_err(), "no file yet");
+        save_trace(&path, &recorder.finish()).unwrap();
+        assert_eq!(choice.frames(1.0, 1e-3).unwrap(), 3);
+        let first = source.trace().unwrap();
+        std::fs::remove_file(&path).unwrap();
+        choice.check_available().unwrap();
+        let copy = choice.clone();
+        let DeviceChoice::Replay(copied) = &copy else {
+            unreachable!()
+        };
+        assert!(Arc::ptr_eq(&first, &copied.trace().unwrap()));
+        assert_eq!(copy, choice);
     }
 }

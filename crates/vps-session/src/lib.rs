@@ -34,7 +34,7 @@ pub mod start_pose;
 pub mod sweep_file;
 
 pub use cache::CachePolicy;
-pub use device::{BridgeSettings, DeviceChoice, OpenedDevice};
+pub use device::{BridgeSettings, DeviceChoice, OpenedDevice, ReplaySource};
 pub use error::SceneError;
 pub use file::SceneFile;
 pub use plan::{stop_on_signals, SessionPlan};

@@ -109,6 +109,8 @@ pub struct StudyTimings {
     pub contacts_ms: f64,
     /// The swept volume.
     pub swept_ms: f64,
+    /// The report's 3D view (made by the caller, which sets this; 0 without one).
+    pub report_view_ms: f64,
 }
 
 /// A finished study.

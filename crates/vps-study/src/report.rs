@@ -238,6 +238,14 @@ pub fn report_html(study: &Study, settings: &Value, view_page: Option<&str>) -> 
         t = escape(title),
         verdict = escape(&v.line)
     );
+    if let Some(n) = settings["cluster_stale_shares"].as_u64().filter(|&n| n > 0) {
+        let _ = write!(
+            html,
+            "<p id=\"caution\">Caution: the session's cluster stood in for {n} late shares with \
+             an earlier frame's sums (<code>--max-stale-frames</code>); this study computed every \
+             share exactly, so its path can differ from the session's.</p>"
+        );
+    }
     html.push_str("<h2>Least clearance to each object</h2><table><tr><th>object</th><th>least clearance</th><th>at</th><th>nearest point of the object (m)</th></tr>");
     for (o, c) in study.clearance.objects.iter().enumerate() {
         if let Some(m) = c.minimum {
