@@ -10,7 +10,9 @@
 //! (coordinated sessions), [`service_config`] (`--config` files of the cluster services),
 //! [`output`] (stdout, JSON, output files), [`exit`] (exit statuses),
 //! [`host`] (the machine's state beside benchmark figures), [`sweep_session`] (sessions of the
-//! sweep and tune), [`svg`] (plots), [`kernel_timing`] (the kernel timed for `scene check`),
+//! sweep and tune), [`session_study`] (a session's assembly study), [`study_view`] (a study as
+//! the viewer's page scrubs it), [`scene_view`] (what the viewer draws of a scene), [`svg`]
+//! (plots), [`kernel_timing`] (the kernel timed for `scene check`),
 //! [`limits`] and [`memory_size`]
 //! (value parsers).
 
@@ -24,6 +26,7 @@ mod limits;
 mod memory_size;
 mod mesh_arg;
 mod output;
+mod scene_view;
 mod service_config;
 mod session_io;
 mod session_study;

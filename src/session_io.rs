@@ -20,7 +20,6 @@ use glam::DVec3;
 use serde::Serialize;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use vps_device::trace::save_trace;
 use vps_haptic::HapticParams;
 use vps_input::{BridgeCounters, BridgeMonitor};
@@ -29,7 +28,7 @@ use vps_runtime::{
     StatsSummary,
 };
 use vps_session::{BridgeSettings, DeviceChoice, LoadedScene, SessionAssets, SessionPlan};
-use vps_view::{LiveViewer, SceneLimits, ViewerContent};
+use vps_view::{LiveViewer, SceneLimits};
 
 /// The session report (`--json`, `--report FILE`).
 #[derive(Serialize)]
@@ -619,30 +618,6 @@ fn save_recording(report: &LoopReport, path: &Path) -> Result<()> {
     Ok(())
 }
 
-/// What the viewer draws of a session, within `limits`: its voxmap, shell and meshes, labelled
-/// with the scene's name, and the simulated hand's path with the part's start pose (when the
-/// scene's script can be made).
-pub fn viewer_content(assets: &SessionAssets, limits: SceneLimits) -> ViewerContent {
-    let content = ViewerContent::new(
-        assets.name.clone(),
-        assets.tree.clone(),
-        Some(Arc::new(assets.shell.clone())),
-        limits,
-    )
-    .with_meshes(assets.static_meshes.clone(), Some(assets.part_mesh.clone()));
-    match assets.script() {
-        Ok(script) => {
-            // Every 10 ms of the path (the viewer thins it further when long).
-            let steps = (script.duration() / 0.01).ceil().clamp(1.0, 1e6) as usize;
-            let path: Vec<DVec3> = (0..=steps)
-                .map(|k| script.sample(script.duration() * k as f64 / steps as f64).0)
-                .collect();
-            content.with_hand(&path, script.sample(0.0))
-        }
-        Err(_) => content,
-    }
-}
-
 /// Starts a viewer of `assets` on `addr` when `--view` was given and prints its URL on stderr.
 pub fn attach_viewer(
     addr: Option<SocketAddr>,
@@ -651,7 +626,10 @@ pub fn attach_viewer(
     let Some(addr) = addr else {
         return Ok(None);
     };
-    let viewer = LiveViewer::start(addr, viewer_content(assets, SceneLimits::default()))?;
+    let viewer = LiveViewer::start(
+        addr,
+        crate::scene_view::viewer_content(assets, SceneLimits::default()),
+    )?;
     eprintln!("viewer: {}", viewer.url());
     Ok(Some(viewer))
 }

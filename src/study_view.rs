@@ -30,7 +30,7 @@ pub fn report_view(assets: &SessionAssets, study: &Study) -> String {
         Some(Ok(s)) => Some(&s.mesh),
         _ => None,
     };
-    let content = crate::session_io::viewer_content(assets, REPORT_VIEW_LIMITS)
+    let content = crate::scene_view::viewer_content(assets, REPORT_VIEW_LIMITS)
         .with_study(track_of(study), swept);
     vps_view::standalone::standalone_page(&content)
 }

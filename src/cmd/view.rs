@@ -2,7 +2,7 @@
 //! ADDR` on the session commands attaches it to a session: `crate::session_io::attach_viewer`.)
 
 use crate::cli::ViewArgs;
-use crate::session_io::viewer_content;
+use crate::scene_view::viewer_content;
 use crate::study_view::track_from_folder;
 use anyhow::{Context, Result};
 use std::sync::Arc;

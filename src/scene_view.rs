@@ -1,0 +1,32 @@
+//! What the viewer draws of a session's scene ([`viewer_content`]): for the live viewer of a
+//! session (`crate::session_io::attach_viewer`), `vps view --scene` and a study's 3D view
+//! (`crate::study_view`).
+
+use glam::DVec3;
+use std::sync::Arc;
+use vps_session::SessionAssets;
+use vps_view::{SceneLimits, ViewerContent};
+
+/// What the viewer draws of a session, within `limits`: its voxmap, shell and meshes, labelled
+/// with the scene's name, and the simulated hand's path with the part's start pose (when the
+/// scene's script can be made).
+pub fn viewer_content(assets: &SessionAssets, limits: SceneLimits) -> ViewerContent {
+    let content = ViewerContent::new(
+        assets.name.clone(),
+        assets.tree.clone(),
+        Some(Arc::new(assets.shell.clone())),
+        limits,
+    )
+    .with_meshes(assets.static_meshes.clone(), Some(assets.part_mesh.clone()));
+    match assets.script() {
+        Ok(script) => {
+            // Every 10 ms of the path (the viewer thins it further when long).
+            let steps = (script.duration() / 0.01).ceil().clamp(1.0, 1e6) as usize;
+            let path: Vec<DVec3> = (0..=steps)
+                .map(|k| script.sample(script.duration() * k as f64 / steps as f64).0)
+                .collect();
+            content.with_hand(&path, script.sample(0.0))
+        }
+        Err(_) => content,
+    }
+}
