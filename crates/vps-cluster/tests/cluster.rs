@@ -1,6 +1,6 @@
 //! Coordinator + workers over real QUIC on loopback, in one process.
 
-mod common;
+use crate::common;
 
 use common::*;
 use std::time::{Duration, Instant};

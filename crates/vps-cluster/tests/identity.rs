@@ -3,7 +3,7 @@
 //! code `CLOSE_REPLACED`) and told why; once the first has gone the certificate joins again; an
 //! unpinned worker is told that its certificate is not pinned.
 
-mod common;
+use crate::common;
 
 use common::*;
 use std::time::{Duration, Instant};

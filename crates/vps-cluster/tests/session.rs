@@ -1,7 +1,7 @@
 //! Whole haptic sessions on the runtime's frame loop: the cluster's device writes are
 //! bit-identical, frame by frame, to the one-process loop's, also when a worker leaves mid-run.
 
-mod common;
+use crate::common;
 
 use common::*;
 use vps_haptic::Wrench;

@@ -1,6 +1,6 @@
 //! Pinning, certificates, the worker's side of the protocol (join, cache, malformed datagrams).
 
-mod common;
+use crate::common;
 
 use common::*;
 use std::sync::atomic::AtomicU64;

@@ -1,7 +1,7 @@
 //! One frame: averaging, the free-space rule, the coupling clamp, input rejection, unit
 //! quaternions and the device-output invariant.
 
-mod common;
+use crate::common;
 
 use common::*;
 use glam::{DQuat, DVec3};

@@ -1,7 +1,7 @@
 //! The sampling kernel against hand-made voxmaps: the tangent-plane formula, grid boundaries, and
 //! exact merging of partial sums in any split, grouping and order.
 
-mod common;
+use crate::common;
 
 use common::*;
 use glam::{DQuat, DVec3, IVec3, Vec3};

@@ -2,7 +2,7 @@
 //! and mass (finite everywhere, settled wherever the linearised index is below 1; the table is
 //! written to `target/stability-grid.md`), and a 10 m/s collision with a thin plate.
 
-mod common;
+use crate::common;
 
 use common::*;
 use glam::{DQuat, DVec3};
@@ -294,7 +294,7 @@ fn run_grid(model: Model, file_name: &str) {
          through the Proximity voxel at 2 dt (k_T s/2)/m, one voxel in T = m/(dt k_T) s (the \
          previous table called these cells \"no contact: the spring too weak\"; the cause is the \
          braking, and the index says nothing about the approach).\n\n\
-         Produced by `cargo test -p vps-haptic --test stability parameter_grid -- --nocapture`.\n\n",
+         Produced by `cargo test -p vps-haptic --test integration stability::parameter_grid -- --nocapture`.\n\n",
     );
     if model == Model::Distance {
         table = table.replacen(

@@ -4,7 +4,7 @@
 //! `read` until a datagram count is reached (bounded by a generous deadline); nothing asserts on
 //! timing.
 
-mod common;
+use crate::common;
 
 use common::{poll_until, DEADLINE};
 use std::time::Duration;

@@ -4,7 +4,7 @@
 //! datagram count is reached, so how long loopback delivery takes never changes what the device
 //! sees as the pose's age.
 
-mod common;
+use crate::common;
 
 use common::{poll_until, DEADLINE};
 

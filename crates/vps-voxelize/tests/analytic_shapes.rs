@@ -1,7 +1,7 @@
 //! Sphere and box voxmaps against analytic inside/outside: voxels whose centres are farther than
 //! (offset + 1.5)·s·√3 from the surface must be Interior inside and Free outside.
 
-mod common;
+use crate::common;
 
 use common::{check_invariants, voxels};
 use glam::{DQuat, DVec3};

@@ -3,7 +3,7 @@
 //! number was added. The fingerprints below were printed by this test's `print_fingerprints` run
 //! against commit e5e24c3 (the flood fill alone) and must not change.
 
-mod common;
+use crate::common;
 
 use common::voxels;
 use std::path::Path;

@@ -1,6 +1,6 @@
 //! Merging objects by precedence and the position of the offset force layer.
 
-mod common;
+use crate::common;
 
 use common::{check_invariants, voxels};
 use glam::{DQuat, DVec3, IVec3};

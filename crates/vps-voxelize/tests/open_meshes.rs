@@ -2,7 +2,7 @@
 //! oriented is classified by generalized winding number, so neither a crack narrower than a voxel
 //! nor a hole or slit wider than one lets Free space in: the inside of an open box is Interior.
 
-mod common;
+use crate::common;
 
 use common::{check_invariants, voxels};
 use glam::DVec3;
@@ -192,7 +192,7 @@ fn workspace_wall_through_a_closed_box_keeps_its_inside() {
 
 /// Cost of the winding-number classification: the teapot (9120 triangles, open) on a grid of about
 /// 160 voxels along x, dense and sparse. Run with
-/// `cargo test --release -p vps-voxelize --test open_meshes -- --ignored --nocapture`.
+/// `cargo test --release -p vps-voxelize --test integration open_meshes:: -- --ignored --nocapture`.
 #[test]
 #[ignore = "timing, run by hand"]
 fn winding_cost_on_a_160_voxel_teapot() {

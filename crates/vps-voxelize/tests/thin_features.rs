@@ -3,7 +3,7 @@
 //! shares a face, edge or corner with an Interior voxel (so a shell point cannot slip from free space
 //! into the interior without crossing Surface).
 
-mod common;
+use crate::common;
 
 use common::check_invariants;
 use glam::{DQuat, DVec3};

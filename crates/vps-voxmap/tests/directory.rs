@@ -2,7 +2,7 @@
 //! tree walk on every voxel, and block reads equal single reads, for every width and two tree
 //! shapes, inside, on the border of and far outside the grid.
 
-mod common;
+use crate::common;
 
 use common::FnSource;
 use glam::{IVec3, UVec3};

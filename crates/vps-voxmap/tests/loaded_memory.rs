@@ -1,7 +1,7 @@
 //! A voxmap read from a `.vmap` stream holds exactly the memory of the tree that was written: the
 //! loader keeps no growth slack.
 
-mod common;
+use crate::common;
 
 use common::*;
 use vps_voxmap::file::{read_voxmap, write_voxmap};

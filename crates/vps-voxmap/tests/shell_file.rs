@@ -1,6 +1,6 @@
 //! `.vshell` round trips, and every kind of damage is an error.
 
-mod common;
+use crate::common;
 
 use common::assert_every_flipped_byte_rejected;
 use glam::{DVec3, Vec3};

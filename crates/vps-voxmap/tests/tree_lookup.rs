@@ -1,6 +1,6 @@
 //! The tree answers exactly like the dense grid it was built from, for every tree shape.
 
-mod common;
+use crate::common;
 
 use common::{boxes, empty, fill_box, rng, sparse};
 use glam::IVec3;

@@ -1,6 +1,6 @@
 //! `.vmap` round trips, and every kind of damage is an error (never a panic or a huge allocation).
 
-mod common;
+use crate::common;
 
 use common::{assert_every_flipped_byte_rejected, boxes, sparse};
 use vps_voxmap::file::{load_voxmap, read_voxmap, save_voxmap, write_voxmap, VOXMAP_MAGIC};

@@ -1,7 +1,7 @@
 //! 4- and 8-bit trees: built from a cube source, equal to the 2-bit path for 2-bit content, `.vmap`
 //! round trips per width, and reserved codes rejected with a clear error.
 
-mod common;
+use crate::common;
 
 use common::{boxes, FnSource};
 use glam::{DVec3, IVec3, UVec3};
