@@ -343,3 +343,95 @@ fn a_scene_files_mapping_places_the_device_and_flags_override_it() {
         [0.0, 0.1, 0.5],
     );
 }
+
+/// A part with no inside (one triangle, 50 mm legs) driven by the C client into a 0.2 m thick
+/// block: the session renders it two-sided (the distance model, zero normals), so the scene's
+/// force on the part never points into the block (its z component is never negative, over every
+/// frame of the session's study) and the part never ends inside it (its plane never goes below the
+/// block's top; no frame penetrates). Without gcc the test says so and passes.
+#[test]
+fn a_single_triangle_part_is_pushed_out_of_a_block_never_in() {
+    if !available("gcc") {
+        println!("SKIPPED: the single-triangle part over the bridge (gcc not found)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let example = dir.path().join("example");
+    let status = Command::new("gcc")
+        .args(["-std=c99", "-O2", "-o"])
+        .arg(&example)
+        .arg(repo().join("clients/c/example.c"))
+        .arg("-lm")
+        .status()
+        .expect("gcc runs");
+    assert!(status.success(), "the C example compiles");
+    std::fs::write(
+        dir.path().join("triangle.obj"),
+        "v -0.02 -0.02 0\nv 0.03 -0.02 0\nv -0.02 0.03 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    // The block: the built-in 0.1 m cube scaled to 0.4 × 0.4 × 0.2 m, its top at z = 0. The
+    // part starts 30 mm above it; the example moves the device 0.15 m down (to 0.12 m inside the
+    // block) and back every 2 s.
+    let scene = dir.path().join("sheet.toml");
+    std::fs::write(
+        &scene,
+        "[part]\nsource = \"triangle.obj\"\n\
+         [[static]]\nsource = \"builtin:box\"\nscale = [4.0, 4.0, 2.0]\ntranslate = [0.0, 0.0, -0.1]\n\
+         [voxels]\nvoxel_size = \"5mm\"\n\
+         [hand]\nwaypoints = [[0.0, 0.0, 0.03], [0.0, 0.0, 0.031]]\n",
+    )
+    .unwrap();
+    let study = dir.path().join("study");
+    let (child, addr) = start_vps_with(&[
+        "run",
+        "--scene",
+        scene.to_str().unwrap(),
+        "--device",
+        "bridge:127.0.0.1:0",
+        "--seconds",
+        "6",
+        "--study",
+        study.to_str().unwrap(),
+        "--json",
+    ]);
+    let (n, _) = run_example(Command::new(&example), addr, &dir.path().join("c.dump"));
+    assert!(n >= MIN_WRENCHES, "only {n} wrenches");
+    let out = child.wait_with_output().expect("vps finishes");
+    assert!(out.status.success(), "vps run failed");
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON report");
+    assert_eq!(report["stats"]["penetrating_frames"], 0, "{report}");
+
+    let csv = std::fs::read_to_string(study.join("path.csv")).expect("the study's path.csv");
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|c| *c == name).unwrap();
+    let (z, fz) = (col("part_z_m"), col("contact_force_z_n"));
+    let (mut frames, mut pushed, mut lowest, mut most_down) = (0, 0, f64::INFINITY, 0.0f64);
+    for line in lines {
+        let cells: Vec<&str> = line.split(',').collect();
+        let (part_z, force_z): (f64, f64) = (cells[z].parse().unwrap(), cells[fz].parse().unwrap());
+        frames += 1;
+        pushed += usize::from(force_z > 0.01);
+        lowest = lowest.min(part_z);
+        most_down = most_down.min(force_z);
+    }
+    eprintln!(
+        "single-triangle part: {frames} frames, {pushed} pushed up by the block, lowest grip z \
+         {:.2} mm, most downward scene force {most_down:e} N",
+        lowest * 1e3
+    );
+    assert!(
+        pushed > 100,
+        "the part never pressed on the block ({pushed} frames)"
+    );
+    assert!(
+        most_down >= 0.0,
+        "the block pulled the part in: Fz {most_down} N"
+    );
+    assert!(
+        lowest >= 0.0,
+        "the part's plane went {:.3} mm into the block",
+        -lowest * 1e3
+    );
+}

@@ -28,6 +28,13 @@ pub(crate) fn y_up_hint(file: &SceneFile) -> Option<String> {
 /// inside (an open sheet, a single triangle, a panel).
 pub const SHEET_VOLUME_SHARE: f64 = 1e-4;
 
+/// Whether a mesh of `health` and bounding-box diagonal `diagonal` (m) has no inside: it encloses
+/// less than [`SHEET_VOLUME_SHARE`] of `diagonal³` (an open sheet, a single triangle, a panel).
+/// Such a part is rendered two-sided (`LoadedScene::part_two_sided`).
+pub fn has_no_inside(health: &MeshHealth, diagonal: f64) -> bool {
+    health.signed_volume_m3.abs() < SHEET_VOLUME_SHARE * diagonal.powi(3)
+}
+
 /// Hints for a mesh whose faults matter to vps ([`vps_mesh::MeshHealth`]): as a static mesh
 /// (`is_static`) with boundary edges (its inside comes from the winding number), and as the part
 /// (`is_part`) with no inside. `diagonal` is the mesh's bounding-box diagonal (m). Non-manifold or
@@ -51,11 +58,12 @@ pub(crate) fn open_mesh_hints(
             health.summary()
         ));
     }
-    if is_part && health.signed_volume_m3.abs() < SHEET_VOLUME_SHARE * diagonal.powi(3) {
+    if is_part && has_no_inside(health, diagonal) {
         hints.push(format!(
-            "the part's mesh {source} has no inside (it is {}, enclosing {:.3e} m³): an open sheet \
-             or a single triangle as the part can be pulled into a static surface it touches; vps \
-             does not yet render such parts (docs/scenes.md, Mesh health)",
+            "the part's mesh {source} has no inside (it is {}, enclosing {:.3e} m³): vps renders \
+             it two-sided: its shell points have no inward normal and are pushed along the \
+             scene's own surface normal (the distance force model), from either side, never \
+             pulled in (docs/scenes.md, Mesh health)",
             health.summary(),
             health.signed_volume_m3.abs()
         ));

@@ -9,10 +9,10 @@ use crate::estimate::{
     estimate_triangles, mesh_bytes, scene_memory, size_text, SceneMemoryEstimate,
     SceneMemoryInputs, VoxmapEstimate, MAX_GRID_VOXELS, VOXMAP_MEMORY_BUDGET,
 };
-use crate::file::{rotation, SceneFile};
+use crate::file::{rotation, ForceModelName, SceneFile};
 use crate::hints::{
     coarse_voxel_flag, distant_grip_hint, distant_static_hints, distant_waypoint_hint,
-    open_mesh_hints, y_up_hint,
+    has_no_inside, open_mesh_hints, y_up_hint,
 };
 use crate::mesh_source::{load_scaled, resolve, Placement};
 use crate::script::{laps_script, path_script};
@@ -58,6 +58,12 @@ pub struct LoadedScene {
     pub static_sources: Vec<String>,
     /// The part (m, part coordinates: after units and rotation).
     pub part: TriMesh,
+    /// Whether the part has no inside (an open sheet, a single triangle, a panel:
+    /// [`crate::hints::has_no_inside`]). Such a part is rendered two-sided: the scene uses the
+    /// distance force model (switched from the tangent-plane model, with a warning) and the
+    /// part's shell points carry zero normals, so each is pushed along the scene's own surface
+    /// normal, from either side, and never pulled in ([`LoadedScene::build_shell`]).
+    pub part_two_sided: bool,
     /// Where the part came from.
     pub part_source: String,
     /// Haptic parameters of the scene (`[haptic]`, `voxels.braking`), before the voxel size and
@@ -147,7 +153,7 @@ impl LoadedScene {
     }
 
     fn from_file(
-        file: SceneFile,
+        mut file: SceneFile,
         label: String,
         stem: String,
         base: PathBuf,
@@ -242,6 +248,25 @@ impl LoadedScene {
         .apply(&mut mesh);
         plausible_size(&mesh.bounds(), "part", &mut warnings);
         warnings.extend(y_up_hint(&file));
+        let part_two_sided = has_no_inside(
+            &meshes[part_index].health,
+            meshes[part_index].mesh.bounds().size().length(),
+        );
+        if part_two_sided && file.voxels.force_model == ForceModelName::TangentPlane {
+            // The tangent-plane force follows the part's inward normals, which a sheet lacks.
+            file.voxels.force_model = ForceModelName::Distance;
+            warnings.push(format!(
+                "voxels.force_model: the part ({source}) has no inside, so this scene uses \
+                 force_model = \"distance\" (stand-off {} unless voxels.standoff says) instead \
+                 of \"tangent-plane\", whose force follows a part's inward normals \
+                 (docs/scenes.md, Mesh health)",
+                if file.voxels.standoff.is_some() {
+                    "voxels.standoff".to_string()
+                } else {
+                    format!("{} voxel", vps_voxmap::distance::DEFAULT_STANDOFF_VOXELS)
+                }
+            ));
+        }
         for m in &meshes {
             let diagonal = m.mesh.bounds().size().length();
             warnings.extend(open_mesh_hints(
@@ -298,6 +323,7 @@ impl LoadedScene {
             statics,
             static_sources,
             part,
+            part_two_sided,
             part_source,
             params,
             device,
@@ -659,15 +685,26 @@ impl LoadedScene {
 
     /// The part's point shell at `voxel_size` (m) with `method`, in the grip's frame: its origin is
     /// the grip (the centre of mass unless the scene gives `part.grip`). Blocking, allocates.
+    /// A two-sided part's points ([`LoadedScene::part_two_sided`], with the distance model)
+    /// carry zero normals.
     pub fn build_shell(&self, voxel_size: f64, method: ShellMethod) -> Result<PointShell> {
         let mut shell = point_shell(&self.part, voxel_size, method)
             .with_context(|| format!("{}: building the part's point shell", self.label))?;
+        if self.shell_two_sided() {
+            two_sided(&mut shell);
+        }
         let grip = self.grip(&shell);
         if grip != shell.mass.center_of_mass {
             let shift: Vec3 = (shell.mass.center_of_mass - grip).as_vec3();
             shell.points.iter_mut().for_each(|p| *p += shift);
         }
         Ok(shell)
+    }
+
+    /// Whether the part's shell is built two-sided: a part with no inside
+    /// ([`LoadedScene::part_two_sided`]) under the distance force model.
+    fn shell_two_sided(&self) -> bool {
+        self.part_two_sided && self.file.voxels.force_model == ForceModelName::Distance
     }
 
     /// The part's mesh in the frame of a shell built by [`LoadedScene::build_shell`] (m).
@@ -724,6 +761,7 @@ impl LoadedScene {
         let hand = self.hand();
         let scene_triangles = self.scene_triangles();
         let static_names = object_names(&self.static_sources);
+        let shell_two_sided = self.shell_two_sided();
         Ok(SessionAssets {
             name: self.name,
             label: self.label,
@@ -740,8 +778,17 @@ impl LoadedScene {
             static_meshes: objects,
             static_names,
             part_mesh,
+            shell_two_sided,
         })
     }
+}
+
+/// Gives every point of `shell` a zero normal: the points of a part with no inside have no side
+/// of their own, and the distance force model then pushes each along the scene's own surface
+/// normal, from either side (where it needs the point's normal, deeper than the band or where the
+/// scene's gradient vanishes, a zero normal gives no push rather than a pull).
+fn two_sided(shell: &mut PointShell) {
+    shell.normals.iter_mut().for_each(|n| *n = Vec3::ZERO);
 }
 
 /// A name for each static object, for reports: its source's file stem (`housing` for
@@ -1043,6 +1090,9 @@ pub struct SessionAssets {
     pub static_names: Vec<String>,
     /// The part's mesh in the shell's frame (m; origin at the grip): for a viewer.
     pub part_mesh: TriMesh,
+    /// Whether the shell's points carry zero normals: a part with no inside under the distance
+    /// force model ([`LoadedScene::part_two_sided`]); a resampled shell keeps it.
+    pub shell_two_sided: bool,
 }
 
 impl SessionAssets {
@@ -1080,6 +1130,9 @@ impl SessionAssets {
         let shell_voxel = self.voxel_size * (coarse / points.max(1) as f64).sqrt();
         let mut shell = point_shell(&self.part_mesh, shell_voxel, method)
             .with_context(|| format!("{}: resampling the part's point shell", self.label))?;
+        if self.shell_two_sided {
+            two_sided(&mut shell);
+        }
         // `part_mesh` has its origin at the grip: points relative to its centre of mass move to
         // the grip frame by that centre.
         let shift: Vec3 = shell.mass.center_of_mass.as_vec3();
@@ -1140,6 +1193,52 @@ mod tests {
         write("scene.toml", &scene);
         let path = dir.path().join("scene.toml").display().to_string();
         (dir, path)
+    }
+
+    /// A part with no inside (one triangle) is rendered two-sided: the scene switches from the
+    /// tangent-plane model to the distance model with a warning, and its shell's normals are all
+    /// zero (a resampled shell's too); the peg (a closed box) keeps the scene's model and unit
+    /// normals.
+    #[test]
+    fn a_part_with_no_inside_gets_a_two_sided_shell_and_the_distance_model() {
+        let (dir, scene) = scene_dir("[[static]]\nsource = \"fixture.obj\"\nunits = \"mm\"\n");
+        std::fs::write(
+            dir.path().join("sheet.obj"),
+            "v -20 -20 0\nv 30 -20 0\nv -20 30 0\nf 1 2 3\n",
+        )
+        .unwrap();
+        let text = std::fs::read_to_string(&scene).unwrap();
+        let sheet_scene = dir.path().join("sheet.toml");
+        std::fs::write(&sheet_scene, text.replace("peg.obj", "sheet.obj")).unwrap();
+
+        let peg = LoadedScene::load(&scene).unwrap();
+        assert!(!peg.part_two_sided);
+        assert_eq!(peg.file.voxels.force_model, ForceModelName::TangentPlane);
+
+        let sheet = LoadedScene::load(sheet_scene.to_str().unwrap()).unwrap();
+        assert!(sheet.part_two_sided);
+        assert_eq!(sheet.file.voxels.force_model, ForceModelName::Distance);
+        assert!(
+            sheet
+                .warnings
+                .iter()
+                .any(|w| w.starts_with("voxels.force_model: the part") && w.contains("no inside")),
+            "{:?}",
+            sheet.warnings
+        );
+        let shell = sheet.build_shell(0.002, ShellMethod::ExactSurface).unwrap();
+        assert!(shell.len() > 50, "{}", shell.len());
+        assert!(shell.normals.iter().all(|n| *n == Vec3::ZERO));
+        let peg_shell = peg.build_shell(0.002, ShellMethod::ExactSurface).unwrap();
+        assert!(peg_shell
+            .normals
+            .iter()
+            .all(|n| (n.length() - 1.0).abs() < 1e-3));
+        // The shell file format carries zero normals (a cluster worker receives this shell).
+        let mut bytes = Vec::new();
+        vps_voxmap::file::write_shell(&shell, &mut bytes).unwrap();
+        let back = vps_voxmap::file::read_shell(bytes.as_slice()).unwrap();
+        assert_eq!(back.normals, shell.normals);
     }
 
     /// A missing mesh says where a relative source was looked for, and the OS's reason once.

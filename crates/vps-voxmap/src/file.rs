@@ -420,11 +420,14 @@ fn decode_shell(mut dec: Decoder<impl Read>) -> Result<PointShell, FileError> {
     if let Some(i) = points.iter().position(|p| !p.is_finite()) {
         return Err(invalid(format!("points[{i}]"), "not finite"));
     }
-    if let Some(i) = normals
-        .iter()
-        .position(|n| !n.is_finite() || (n.length() - 1.0).abs() > NORMAL_TOLERANCE)
-    {
-        return Err(invalid(format!("normals[{i}]"), "not a finite unit vector"));
+    // Unit, or exactly zero: a point of a part with no inside (two-sided, no side of its own).
+    if let Some(i) = normals.iter().position(|n| {
+        !n.is_finite() || (*n != Vec3::ZERO && (n.length() - 1.0).abs() > NORMAL_TOLERANCE)
+    }) {
+        return Err(invalid(
+            format!("normals[{i}]"),
+            "not a finite unit vector (nor zero)",
+        ));
     }
     Ok(PointShell {
         points,

@@ -25,15 +25,17 @@ pub enum ShellMethod {
     ExactSurface = 1,
 }
 
-/// The point shell. Invariants: `points.len() == normals.len()`, every normal is unit length and
-/// finite, points are in the body frame (m), Morton ordered. The body origin is the centre of mass
+/// The point shell. Invariants: `points.len() == normals.len()`, every normal is finite and unit
+/// length, or exactly zero for every point of a part with no inside (two-sided: the distance force
+/// model pushes such a point along the scene's normal; `vps_session::LoadedScene::part_two_sided`),
+/// points are in the body frame (m), Morton ordered. The body origin is the centre of mass
 /// as built by the voxelizer; a session's shell has its origin at the part's grip instead
 /// (`vps_session::LoadedScene::build_shell` shifts the points, not `mass`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct PointShell {
     /// Body-frame points (m), f32 for the sampling kernel.
     pub points: Vec<Vec3>,
-    /// Inward unit normals, one per point.
+    /// Inward unit normals, one per point (all zero for a two-sided part).
     pub normals: Vec<Vec3>,
     /// The voxel size the shell was sampled at (m).
     pub voxel_size: f64,
