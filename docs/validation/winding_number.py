@@ -160,7 +160,16 @@ def check(name, v, f, voxel, n_points, vps, tmp, seed):
         "mismatches": int(mismatch.sum()),
         "mismatch_percent": round(100.0 * mismatch.sum() / max(compared.sum(), 1), 4),
         "mismatch_igl_w": [round(float(x), 3) for x in w[mismatch][:10]],
+        "vps_interior_igl_outside": int((mismatch & vps_in).sum()),
+        "vps_free_igl_inside": int((mismatch & ~vps_in).sum()),
+        # Orientation-free: |w| >= 0.5 is inside (a solid whose faces all point inward has w = -1).
+        "abs_w_mismatches": int((compared & ((np.abs(w) >= 0.5) != vps_in)).sum()),
         "voxel_centre_mismatches": int(centre_mismatch.sum()),
+        # Those whose voxel centre's w is at least 0.05 from 0.5: not within the hierarchical
+        # approximation's error of the level set.
+        "voxel_centre_mismatches_w_off_half_by_0_05": int(
+            (centre_mismatch & (np.abs(wc - 0.5) >= 0.05)).sum()
+        ),
         "voxel_centre_mismatch_percent": round(
             100.0 * centre_mismatch.sum() / max(compared.sum(), 1), 4
         ),
