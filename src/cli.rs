@@ -90,8 +90,8 @@ pub struct SceneArgs {
     #[arg(long)]
     pub no_cache: bool,
     /// Memory budget of the whole scene (meshes, placed copies, voxelizer, voxmap, distance band,
-    /// exact reference, shell, viewer), estimated before anything is built and refused above it
-    /// (bytes, or 16GiB, 512MiB, 8GB; default half of physical memory).
+    /// exact reference, winding-number trees, shell, viewer), estimated before anything is built
+    /// and refused above it (bytes, or 16GiB, 512MiB, 8GB; default half of physical memory).
     #[arg(long, value_parser = parse_bytes, value_name = "SIZE")]
     pub max_memory: Option<u64>,
 }
@@ -222,7 +222,8 @@ pub struct ViewArgs {
     #[arg(long)]
     pub no_cache: bool,
     /// With --scene: memory budget of the whole scene (meshes, placed copies, voxelizer, voxmap,
-    /// distance band, exact reference, shell, viewer), estimated before anything is built and
+    /// distance band, exact reference, winding-number trees, shell, viewer), estimated before
+    /// anything is built and
     /// refused above it, as on the session commands (bytes, or 16GiB, 512MiB, 8GB; default half
     /// of physical memory).
     #[arg(long, value_parser = parse_bytes, value_name = "SIZE", requires = "scene")]

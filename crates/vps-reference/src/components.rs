@@ -53,6 +53,17 @@ pub fn components(mesh: &TriMesh) -> Vec<Component> {
     out
 }
 
+/// Triangles of `mesh` in components that are not closed and consistently oriented: what the
+/// voxelizer classifies by winding number (and holds a winding-number tree of). Vertex indices
+/// must be in range. O(triangles), allocates about 20 bytes per triangle.
+pub fn open_triangle_count(mesh: &TriMesh) -> usize {
+    components(mesh)
+        .iter()
+        .filter(|c| !c.closed)
+        .map(|c| c.triangles.len())
+        .sum()
+}
+
 /// Every directed edge of `triangles` appears exactly once and its reverse exactly once.
 fn is_closed_and_oriented(mesh: &TriMesh, triangles: &[u32]) -> bool {
     let mut directed: HashMap<(u32, u32), u32> = HashMap::with_capacity(triangles.len() * 3);
@@ -88,5 +99,6 @@ mod tests {
         m.triangles.pop();
         let c = components(&m);
         assert!(!c[1].closed && c[0].closed);
+        assert_eq!(open_triangle_count(&m), c[1].triangles.len());
     }
 }

@@ -82,13 +82,30 @@ pub struct WindingTree {
 }
 
 impl WindingTree {
+    /// Bytes a tree of `triangles` triangles holds: each triangle's corners and the nodes (their
+    /// number depends on the count alone: the tree splits at the median). For memory estimates
+    /// made before a tree is built; [`WindingTree::memory_bytes`] of the built tree is the same.
+    pub fn estimated_bytes(triangles: usize) -> u64 {
+        let tris = std::mem::size_of::<[DVec3; 3]>() as u64;
+        let nodes = node_count(triangles) as u64 * std::mem::size_of::<Node>() as u64;
+        (triangles as u64)
+            .saturating_mul(tris)
+            .saturating_add(nodes)
+    }
+
+    /// Bytes the tree holds (its vectors' capacities).
+    pub fn memory_bytes(&self) -> u64 {
+        (self.nodes.capacity() * std::mem::size_of::<Node>()
+            + self.tris.capacity() * std::mem::size_of::<[DVec3; 3]>()) as u64
+    }
+
     /// The tree of `mesh` with accuracy `beta` (clamped to at least 1; [`BETA`] is the default).
     /// Vertex indices must be in range. O(n log n); an empty mesh gives w = 0 everywhere.
     pub fn new(mesh: &TriMesh, beta: f64) -> WindingTree {
         let mut tris: Vec<[DVec3; 3]> = (0..mesh.triangle_count())
             .map(|t| mesh.triangle(t))
             .collect();
-        let mut nodes = Vec::with_capacity(2 * tris.len() / LEAF_SIZE + 2);
+        let mut nodes = Vec::with_capacity(node_count(tris.len()));
         if !tris.is_empty() {
             let n = tris.len();
             build(&mut nodes, &mut tris, 0, n);
@@ -142,6 +159,33 @@ impl WindingTree {
 }
 
 /// Builds the subtree over `tris[lo..hi]` (reordering them), returns nothing; nodes depth-first.
+/// Nodes of the tree of `triangles` triangles: [`build`] splits a range of more than
+/// [`LEAF_SIZE`] at its median, so a level holds ranges of at most two sizes. O(log n).
+fn node_count(triangles: usize) -> usize {
+    if triangles == 0 {
+        return 0;
+    }
+    let mut total = 0;
+    // (range size, how many ranges of that size) on the current level: at most two entries.
+    let mut level: Vec<(usize, usize)> = vec![(triangles, 1)];
+    while !level.is_empty() {
+        let mut next: Vec<(usize, usize)> = Vec::with_capacity(4);
+        for &(size, count) in &level {
+            total += count;
+            if size > LEAF_SIZE {
+                for half in [size / 2, size - size / 2] {
+                    match next.iter_mut().find(|(s, _)| *s == half) {
+                        Some(entry) => entry.1 += count,
+                        None => next.push((half, count)),
+                    }
+                }
+            }
+        }
+        level = next;
+    }
+    total
+}
+
 fn build(nodes: &mut Vec<Node>, tris: &mut [[DVec3; 3]], lo: usize, hi: usize) {
     let part = &tris[lo..hi];
     let mut dipole = DVec3::ZERO;
@@ -198,6 +242,19 @@ fn build(nodes: &mut Vec<Node>, tris: &mut [[DVec3; 3]], lo: usize, hi: usize) {
 
 #[cfg(test)]
 mod tests {
+    use vps_mesh::builtin;
+
+    /// The estimate made before a tree is built is what the built tree holds, to the byte.
+    #[test]
+    fn the_estimate_bounds_a_built_trees_memory() {
+        for name in ["teapot", "sphere", "box", "aircraft-bay"] {
+            let mesh = builtin::by_name(name).unwrap();
+            let built = WindingTree::new(&mesh, BETA).memory_bytes();
+            let estimated = WindingTree::estimated_bytes(mesh.triangle_count());
+            assert_eq!(built, estimated, "{name}");
+        }
+    }
+
     use super::*;
     use vps_mesh::builtin::{cuboid, uv_sphere};
 

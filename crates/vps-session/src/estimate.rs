@@ -134,6 +134,10 @@ pub struct SceneMemoryEstimate {
     pub distance_band_bytes: u64,
     /// The exact reference the distance band is measured with (distance force model only).
     pub exact_reference_bytes: u64,
+    /// The voxelizer's winding-number trees (`vps_reference::winding::WindingTree`) for static
+    /// objects that are not closed, or for every object when a workspace may cut them; 0
+    /// otherwise. An upper bound: a tree holds only an object's open part.
+    pub winding_trees_bytes: u64,
     /// The part's point shell (about 1.5 points per voxel of its surface area).
     pub shell_bytes: u64,
     /// A viewer's copies of the meshes (0 without one): the copy handed over and the decimation's
@@ -152,6 +156,9 @@ pub struct SceneMemoryInputs {
     pub placed_copies_bytes: u64,
     /// Triangles of the static objects placed, summed over objects.
     pub placed_triangles: u64,
+    /// Triangles of the static objects whose inside the voxelizer finds by winding number
+    /// (objects that are not closed, or all of them under a workspace), summed over objects.
+    pub winding_triangles: u64,
     /// The part's surface area (m²).
     pub part_area_m2: f64,
     /// The distance model's stand-off (m), `None` for the tangent-plane model.
@@ -206,6 +213,9 @@ pub fn scene_memory(
             )
         }
     };
+    let winding = vps_reference::winding::WindingTree::estimated_bytes(
+        usize::try_from(inputs.winding_triangles).unwrap_or(usize::MAX),
+    );
     let shell_points = 1.5 * inputs.part_area_m2 / (voxel_size * voxel_size);
     let shell = bytes(shell_points * SHELL_BYTES_PER_POINT as f64);
     let viewer = if inputs.viewer {
@@ -221,6 +231,7 @@ pub fn scene_memory(
         voxmap_bytes,
         band,
         exact,
+        winding,
         shell,
         viewer,
     ]
@@ -233,6 +244,7 @@ pub fn scene_memory(
         voxmap_bytes,
         distance_band_bytes: band,
         exact_reference_bytes: exact,
+        winding_trees_bytes: winding,
         shell_bytes: shell,
         viewer_bytes: viewer,
         total_bytes: total,

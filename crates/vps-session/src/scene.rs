@@ -402,6 +402,7 @@ impl LoadedScene {
             ("voxmap", est.voxmap_bytes, "voxels.voxel_size"),
             ("distance band", est.distance_band_bytes, "voxels.standoff"),
             ("exact reference", est.exact_reference_bytes, "static"),
+            ("winding-number trees", est.winding_trees_bytes, "static"),
             ("point shell", est.shell_bytes, "part"),
             ("viewer", est.viewer_bytes, "static"),
         ];
@@ -427,6 +428,35 @@ impl LoadedScene {
         ))
     }
 
+    /// Triangles the voxelizer's winding-number trees hold, at most: per static object, those of
+    /// its mesh's components that are not closed (by the file's vertex indices, as the voxelizer
+    /// splits them: `vps_reference::components`), all of them when a `[workspace]` may cut the
+    /// object. O(triangles) per distinct mesh.
+    fn winding_triangles(&self) -> u64 {
+        let cut = self.file.workspace.is_some();
+        let open: Vec<u64> = self
+            .meshes
+            .iter()
+            .map(|m| {
+                if cut || m.statics == 0 {
+                    0
+                } else {
+                    vps_reference::components::open_triangle_count(&m.mesh) as u64
+                }
+            })
+            .collect();
+        self.statics
+            .iter()
+            .map(|o| {
+                if cut {
+                    o.triangles as u64
+                } else {
+                    open[o.mesh]
+                }
+            })
+            .sum()
+    }
+
     /// [`scene_memory`] for this scene and the voxmap estimate `voxmap`.
     fn memory_of(
         &self,
@@ -445,6 +475,7 @@ impl LoadedScene {
             meshes_read_bytes: read,
             placed_copies_bytes: placed,
             placed_triangles: self.scene_triangles() as u64,
+            winding_triangles: self.winding_triangles(),
             part_area_m2: self.part.area(),
             standoff_m: self.file.voxels.standoff_at(voxel_size),
             viewer,
@@ -1239,6 +1270,26 @@ mod tests {
         vps_voxmap::file::write_shell(&shell, &mut bytes).unwrap();
         let back = vps_voxmap::file::read_shell(bytes.as_slice()).unwrap();
         assert_eq!(back.normals, shell.normals);
+    }
+
+    /// The memory estimate counts the voxelizer's winding-number trees: none for the closed
+    /// fixture, a tree of all ten triangles when one of its faces is left out, to the byte.
+    #[test]
+    fn the_estimate_counts_winding_number_trees_of_open_objects() {
+        let (dir, scene) = scene_dir("[[static]]\nsource = \"fixture.obj\"\nunits = \"mm\"\n");
+        let width = VoxelWidth::from_bits(2).unwrap();
+        let closed = LoadedScene::load(&scene).unwrap();
+        let est = closed.memory_estimate(0.002, width, false).unwrap();
+        assert_eq!(est.winding_trees_bytes, 0);
+        let open = box_obj([-100.0, -100.0, 0.0], [100.0, 100.0, 40.0]).replace("f 2 4 8 6\n", "");
+        std::fs::write(dir.path().join("fixture.obj"), open).unwrap();
+        let leaky = LoadedScene::load(&scene).unwrap();
+        let est = leaky.memory_estimate(0.002, width, false).unwrap();
+        assert_eq!(
+            est.winding_trees_bytes,
+            vps_reference::winding::WindingTree::estimated_bytes(10)
+        );
+        assert!(est.total_bytes > est.winding_trees_bytes);
     }
 
     /// A missing mesh says where a relative source was looked for, and the OS's reason once.
