@@ -50,7 +50,8 @@ struct MeshReport {
     degenerate_dropped: usize,
 }
 
-/// One effective voxel setting and where it came from: `"scene file"` or `"built-in default"`.
+/// One effective voxel setting and where it came from: `"scene file"` or `"built-in default"`
+/// (the force model: also `"the part has no inside"`).
 #[derive(Serialize)]
 struct Setting<T> {
     value: T,
@@ -189,7 +190,14 @@ pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
         voxel_width_bits: setting(voxels.voxel_width, set.voxel_width),
         shell_method: setting(voxels.shell_method, set.shell_method),
         offset_layers: setting(voxels.offset_layers, set.offset_layers),
-        force_model: setting(voxels.force_model.name(), set.force_model),
+        force_model: if loaded.force_model_switched {
+            Setting {
+                value: voxels.force_model.name(),
+                from: "the part has no inside",
+            }
+        } else {
+            setting(voxels.force_model.name(), set.force_model)
+        },
         standoff_m: voxels.standoff_at(voxels.voxel_size),
         reason: voxels.reason.clone(),
         builtin_reason: (!(set.voxel_size

@@ -64,6 +64,9 @@ pub struct LoadedScene {
     /// part's shell points carry zero normals, so each is pushed along the scene's own surface
     /// normal, from either side, and never pulled in ([`LoadedScene::build_shell`]).
     pub part_two_sided: bool,
+    /// The scene's force model was switched to the distance model because the part has no
+    /// inside (the file said `tangent-plane`, or nothing).
+    pub force_model_switched: bool,
     /// Where the part came from.
     pub part_source: String,
     /// Haptic parameters of the scene (`[haptic]`, `voxels.braking`), before the voxel size and
@@ -252,7 +255,9 @@ impl LoadedScene {
             &meshes[part_index].health,
             meshes[part_index].mesh.bounds().size().length(),
         );
-        if part_two_sided && file.voxels.force_model == ForceModelName::TangentPlane {
+        let force_model_switched =
+            part_two_sided && file.voxels.force_model == ForceModelName::TangentPlane;
+        if force_model_switched {
             // The tangent-plane force follows the part's inward normals, which a sheet lacks.
             file.voxels.force_model = ForceModelName::Distance;
             warnings.push(format!(
@@ -324,6 +329,7 @@ impl LoadedScene {
             static_sources,
             part,
             part_two_sided,
+            force_model_switched,
             part_source,
             params,
             device,
@@ -1247,7 +1253,8 @@ mod tests {
         assert_eq!(peg.file.voxels.force_model, ForceModelName::TangentPlane);
 
         let sheet = LoadedScene::load(sheet_scene.to_str().unwrap()).unwrap();
-        assert!(sheet.part_two_sided);
+        assert!(sheet.part_two_sided && sheet.force_model_switched);
+        assert!(!peg.force_model_switched);
         assert_eq!(sheet.file.voxels.force_model, ForceModelName::Distance);
         assert!(
             sheet
