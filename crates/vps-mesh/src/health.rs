@@ -247,4 +247,22 @@ mod tests {
             }
         }
     }
+
+    /// What the health report costs at scene load, on the largest built-in mesh (the aircraft
+    /// bay, 596,032 triangles): a measurement, not a check (timing varies with the machine).
+    /// `cargo test --release -p vps-mesh --lib health_cost -- --ignored --nocapture`.
+    #[test]
+    #[ignore]
+    fn health_cost_on_the_aircraft_bay() {
+        let bay = crate::builtin::by_name("aircraft-bay").unwrap();
+        for _ in 0..3 {
+            let t = std::time::Instant::now();
+            let h = mesh_health(&bay);
+            println!(
+                "mesh_health on the aircraft bay: {} triangles, {:.0} ms",
+                h.triangles,
+                t.elapsed().as_secs_f64() * 1e3
+            );
+        }
+    }
 }
