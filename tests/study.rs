@@ -363,11 +363,16 @@ fn the_study_page_opens_offline_in_headless_chromium() {
 
     // The 3D view: the viewer's page in the iframe, reached through its document.
     let inner = "document.getElementById('view-3d').contentDocument";
-    browser.wait_for("the 3D view's first draw", patience, |b| {
-        let draws = b.eval(&format!(
+    // Draws of the 3D view's canvas so far (0 before the iframe's page has made it).
+    let draws = |b: &mut Browser| {
+        b.eval(&format!(
             "Number(({inner}.getElementById('view') || {{dataset: {{}}}}).dataset.draws || 0)"
-        ));
-        (draws.as_u64().unwrap_or(0) >= 1).then_some(())
+        ))
+        .as_u64()
+        .unwrap_or(0)
+    };
+    browser.wait_for("the 3D view's first draw", patience, |b| {
+        (draws(b) >= 1).then_some(())
     });
     let phase = browser.eval(&format!("{inner}.body.dataset.phase"));
     assert_eq!(phase, "running");
@@ -400,9 +405,7 @@ fn the_study_page_opens_offline_in_headless_chromium() {
     );
     let frames = browser.eval(&format!("Number({inner}.getElementById('scrub').max) + 1"));
     assert!(frames.as_u64().unwrap() > 100, "{frames}");
-    let draws_before = browser.eval(&format!(
-        "Number({inner}.getElementById('view').dataset.draws)"
-    ));
+    let draws_before = draws(&mut browser);
     browser.eval(&format!(
         "(() => {{ const s = {inner}.getElementById('scrub'); s.value = '0'; \
          s.dispatchEvent(new Event('input')); return s.value; }})()"
@@ -413,10 +416,7 @@ fn the_study_page_opens_offline_in_headless_chromium() {
     // canvas beside the white page is a handful of colours, shaded meshes hundreds.
     browser.eval("document.getElementById('view-3d').scrollIntoView()");
     browser.wait_for("a draw after scrubbing", patience, |b| {
-        let draws = b.eval(&format!(
-            "Number({inner}.getElementById('view').dataset.draws)"
-        ));
-        (draws.as_u64() > draws_before.as_u64()).then_some(())
+        (draws(b) > draws_before).then_some(())
     });
     let png = browser.screenshot();
     let shot = Path::new(env!("CARGO_TARGET_TMPDIR")).join("study-3d-screenshot.png");

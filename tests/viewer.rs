@@ -115,16 +115,22 @@ fn the_demo_is_watched_in_headless_chromium() {
     assert!(share > 0.02, "the view is almost all background: {share}");
 }
 
-/// `vps view --scene` serves the scene's hand path and the part's start pose for the page to
-/// draw (the path from the first waypoint to the last; the part at the first).
-#[test]
-fn a_scene_is_viewed_offline_with_its_hand_path_and_the_part_at_its_start() {
+/// A [`Vps`] with the peg-in-hole example's files copied in, and the scene file's path.
+fn peg_in_hole() -> (Vps, String) {
     let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
     let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
     for file in ["peg-in-hole.toml", "peg.obj", "peg-fixture.stl"] {
         std::fs::copy(assets.join(file), vps.dir().join(file)).unwrap();
     }
     let scene = vps.path("peg-in-hole.toml");
+    (vps, scene)
+}
+
+/// `vps view --scene` serves the scene's hand path and the part's start pose for the page to
+/// draw (the path from the first waypoint to the last; the part at the first).
+#[test]
+fn a_scene_is_viewed_offline_with_its_hand_path_and_the_part_at_its_start() {
+    let (vps, scene) = peg_in_hole();
     let (_view, addr) = start_with_viewer(
         &vps,
         &["view", "--scene", &scene, "--addr", "127.0.0.1:0"],
@@ -149,12 +155,7 @@ fn a_scene_is_viewed_offline_with_its_hand_path_and_the_part_at_its_start() {
 /// that is not a study is refused, naming the file.
 #[test]
 fn a_study_is_served_to_scrub_along_its_path() {
-    let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
-    let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
-    for file in ["peg-in-hole.toml", "peg.obj", "peg-fixture.stl"] {
-        std::fs::copy(assets.join(file), vps.dir().join(file)).unwrap();
-    }
-    let scene = vps.path("peg-in-hole.toml");
+    let (vps, scene) = peg_in_hole();
     let study = vps.path("peg-study");
     let out = vps.run(&[
         "run",

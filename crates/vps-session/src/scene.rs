@@ -99,6 +99,10 @@ pub struct SharedMesh {
     pub health: vps_mesh::MeshHealth,
     /// Degenerate triangles the loader dropped.
     pub degenerate_dropped: usize,
+    /// Triangles in its components that are not closed by the file's vertex indices, as the
+    /// voxelizer splits them (`vps_reference::components`): what a winding-number tree of it
+    /// holds. 0 when no static object names it.
+    pub open_triangles: usize,
 }
 
 /// A `[[static]]` object: one of the scene's meshes and where it is placed.
@@ -183,6 +187,7 @@ impl LoadedScene {
                 statics: 0,
                 part: false,
                 degenerate_dropped: loaded.degenerate_dropped,
+                open_triangles: 0,
             });
             Ok(meshes.len() - 1)
         };
@@ -197,6 +202,10 @@ impl LoadedScene {
         let part_index = table(&file.part.source, file.part.units.metres(), "part.source")?;
         for &k in &which {
             meshes[k].statics += 1;
+        }
+        // Once per distinct static mesh, for the memory estimate (`LoadedScene::memory_of`).
+        for m in meshes.iter_mut().filter(|m| m.statics > 0) {
+            m.open_triangles = vps_reference::components::open_triangle_count(&m.mesh);
         }
         meshes[part_index].part = true;
         // Every object is a placed copy of its mesh: their memory is known before any is made
@@ -434,30 +443,17 @@ impl LoadedScene {
         ))
     }
 
-    /// Triangles the voxelizer's winding-number trees hold, at most: per static object, those of
-    /// its mesh's components that are not closed (by the file's vertex indices, as the voxelizer
-    /// splits them: `vps_reference::components`), all of them when a `[workspace]` may cut the
-    /// object. O(triangles) per distinct mesh.
+    /// Triangles the voxelizer's winding-number trees hold, at most: per static object, its
+    /// mesh's [`SharedMesh::open_triangles`], all of them when a `[workspace]` may cut the object.
     fn winding_triangles(&self) -> u64 {
         let cut = self.file.workspace.is_some();
-        let open: Vec<u64> = self
-            .meshes
-            .iter()
-            .map(|m| {
-                if cut || m.statics == 0 {
-                    0
-                } else {
-                    vps_reference::components::open_triangle_count(&m.mesh) as u64
-                }
-            })
-            .collect();
         self.statics
             .iter()
             .map(|o| {
                 if cut {
                     o.triangles as u64
                 } else {
-                    open[o.mesh]
+                    self.meshes[o.mesh].open_triangles as u64
                 }
             })
             .sum()
