@@ -48,6 +48,9 @@ struct MeshReport {
     health: vps_mesh::MeshHealth,
     /// Degenerate triangles the loader dropped.
     degenerate_dropped: usize,
+    /// For a STEP file: its unit, the solids read (name, triangles), every solid's name, the
+    /// chord tolerance (m) and the time to tessellate (s).
+    step: Option<vps_mesh::StepSummary>,
 }
 
 /// One effective voxel setting and where it came from: `"scene file"` or `"built-in default"`
@@ -241,6 +244,7 @@ pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
                 closed: m.health.closed(),
                 health: m.health,
                 degenerate_dropped: m.degenerate_dropped,
+                step: m.step.clone(),
             })
             .collect(),
         voxmap_estimate: estimate,
@@ -369,6 +373,23 @@ pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
             size_text(m.bytes),
             m.health.summary()
         );
+        if let Some(step) = &m.step {
+            let listed: Vec<String> = step
+                .solids
+                .iter()
+                .map(|(name, triangles)| format!("{} ({triangles} triangles)", printable(name)))
+                .collect();
+            println!(
+                "    STEP: unit {} (from the file); {} placed solid(s) read of the file's {}: {}; \
+                 chord tolerance {} mm; tessellated in {:.0} ms",
+                step.unit,
+                step.solids.len(),
+                step.available.len(),
+                listed.join(", "),
+                step.chord_tolerance * 1e3,
+                step.seconds * 1e3
+            );
+        }
     }
     let m = &report.memory_estimate;
     println!(

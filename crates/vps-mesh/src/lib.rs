@@ -30,7 +30,10 @@ pub mod validate;
 pub mod weld;
 
 pub use health::{mesh_health, MeshHealth};
-pub use load::{load_mesh, load_mesh_scaled, parse_mesh, LoadedMesh, MeshFormat};
+pub use load::{
+    load_mesh, load_mesh_scaled, load_mesh_with, parse_mesh, parse_step, LoadedMesh, MeshFormat,
+    StepSettings, StepSummary, DEFAULT_STEP_CHORD_TOLERANCE,
+};
 pub use mesh::{Aabb, TriMesh};
 pub use validate::{validate, MeshError, ValidationReport};
 pub use weld::weld_vertices;

@@ -1,4 +1,5 @@
-//! Mesh file readers: OBJ (tobj), STL binary and ASCII (stl_io), PLY ASCII and binary (ply-rs-bw).
+//! Mesh file readers: OBJ (tobj), STL binary and ASCII (stl_io), PLY ASCII and binary (ply-rs-bw),
+//! and STEP B-rep solids tessellated by `vps-step` (truck).
 //!
 //! The format is chosen by the file extension (case-insensitive). Every mesh is scaled to metres and
 //! passed through [`validate`] before it is returned. Every failure is a [`MeshError`] naming the
@@ -23,6 +24,8 @@ pub struct LoadedMesh {
     pub mesh: TriMesh,
     /// What validation dropped or noticed.
     pub report: ValidationReport,
+    /// For a STEP file: its unit, solids and tessellation.
+    pub step: Option<StepSummary>,
 }
 
 /// The mesh file formats understood by [`load_mesh`].
@@ -34,6 +37,9 @@ pub enum MeshFormat {
     Stl,
     /// Stanford PLY, ASCII or binary; faces as `vertex_indices` or `vertex_index` lists.
     Ply,
+    /// STEP (ISO 10303-21, `.step` / `.stp`): B-rep solids tessellated to a chord tolerance, in
+    /// the file's own length unit converted to metres.
+    Step,
 }
 
 impl MeshFormat {
@@ -47,6 +53,7 @@ impl MeshFormat {
             "obj" => Ok(Self::Obj),
             "stl" => Ok(Self::Stl),
             "ply" => Ok(Self::Ply),
+            "step" | "stp" => Ok(Self::Step),
             _ => Err(MeshError::UnknownFormat {
                 file: path.display().to_string(),
                 extension,
@@ -59,6 +66,43 @@ impl MeshFormat {
 /// larger file is refused before it is read, naming its size and this bound.
 pub const MAX_MESH_FILE_BYTES: u64 = 4 * vps_files::GIB;
 
+/// How a STEP file is tessellated.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StepSettings {
+    /// Largest distance between a triangle and the exact surface (m), > 0.
+    pub chord_tolerance: f64,
+    /// Read only the solids with these names (a solid's or its product's name); `None`: all.
+    pub solids: Option<Vec<String>>,
+}
+
+/// The chord tolerance a STEP file is read at when nothing sets one (m): 0.5 mm. A scene sets a
+/// quarter of its voxel size instead.
+pub const DEFAULT_STEP_CHORD_TOLERANCE: f64 = 0.5e-3;
+
+impl Default for StepSettings {
+    fn default() -> Self {
+        Self {
+            chord_tolerance: DEFAULT_STEP_CHORD_TOLERANCE,
+            solids: None,
+        }
+    }
+}
+
+/// What reading a STEP file found, for reports.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct StepSummary {
+    /// The file's length unit (`millimetre`, `inch`, ...).
+    pub unit: String,
+    /// The chord tolerance used (m).
+    pub chord_tolerance: f64,
+    /// The placed solids read, by name, with their triangle counts (one entry per placed copy).
+    pub solids: Vec<(String, usize)>,
+    /// Every solid of the file by name (selected or not).
+    pub available: Vec<String>,
+    /// Wall time of parsing and tessellating (s).
+    pub seconds: f64,
+}
+
 /// Loads a mesh file whose coordinates are already metres. See [`load_mesh_scaled`].
 pub fn load_mesh(path: &Path) -> Result<LoadedMesh, MeshError> {
     load_mesh_scaled(path, 1.0)
@@ -68,6 +112,16 @@ pub fn load_mesh(path: &Path) -> Result<LoadedMesh, MeshError> {
 /// a file in millimetres), then validates it; validation (including the size check) sees metres.
 /// A `scale` that is not finite and positive is [`MeshError::InvalidScale`].
 pub fn load_mesh_scaled(path: &Path, scale: f64) -> Result<LoadedMesh, MeshError> {
+    load_mesh_with(path, scale, &StepSettings::default())
+}
+
+/// [`load_mesh_scaled`] with the settings a STEP file is read with. A STEP file carries its own
+/// length unit, so `scale` must be 1 for one ([`MeshError::InvalidScale`] otherwise).
+pub fn load_mesh_with(
+    path: &Path,
+    scale: f64,
+    step: &StepSettings,
+) -> Result<LoadedMesh, MeshError> {
     let file = path.display().to_string();
     if !(scale.is_finite() && scale > 0.0) {
         return Err(MeshError::InvalidScale { file, scale });
@@ -78,6 +132,25 @@ pub fn load_mesh_scaled(path: &Path, scale: f64) -> Result<LoadedMesh, MeshError
             file: file.clone(),
             source,
         })?;
+    if format == MeshFormat::Step {
+        if scale != 1.0 {
+            return Err(parse_error(
+                &file,
+                None,
+                format!(
+                    "a STEP file carries its own length unit: it cannot also be read in a unit \
+                     ({scale} m per unit); remove the units setting"
+                ),
+            ));
+        }
+        let (mesh, summary) = parse_step(&bytes, &file, step)?;
+        let (mesh, report) = validate(mesh, &file)?;
+        return Ok(LoadedMesh {
+            mesh,
+            report,
+            step: Some(summary),
+        });
+    }
     let mut mesh = parse_mesh(&bytes, format, &file)?;
     if scale != 1.0 {
         for v in &mut mesh.vertices {
@@ -85,7 +158,11 @@ pub fn load_mesh_scaled(path: &Path, scale: f64) -> Result<LoadedMesh, MeshError
         }
     }
     let (mesh, report) = validate(mesh, &file)?;
-    Ok(LoadedMesh { mesh, report })
+    Ok(LoadedMesh {
+        mesh,
+        report,
+        step: None,
+    })
 }
 
 /// Parses the bytes of a mesh file of a known format into an unvalidated mesh in file units.
@@ -106,6 +183,7 @@ pub fn parse_mesh(bytes: &[u8], format: MeshFormat, file: &str) -> Result<TriMes
         MeshFormat::Obj => obj::parse(bytes, file),
         MeshFormat::Stl => stl::parse(bytes, file),
         MeshFormat::Ply => ply::parse(bytes, file),
+        MeshFormat::Step => parse_step(bytes, file, &StepSettings::default()).map(|(m, _)| m),
     };
     std::panic::catch_unwind(parse).unwrap_or_else(|payload| {
         let what = payload
@@ -115,6 +193,58 @@ pub fn parse_mesh(bytes: &[u8], format: MeshFormat, file: &str) -> Result<TriMes
             .unwrap_or_else(|| "unknown panic".to_string());
         Err(parse_error(file, None, format!("parser panicked: {what}")))
     })
+}
+
+/// Reads a STEP file's selected solids into one mesh (m), every placed solid a closed shell.
+/// Errors name `file` and, where the reader knows it, the line.
+pub fn parse_step(
+    bytes: &[u8],
+    file: &str,
+    settings: &StepSettings,
+) -> Result<(TriMesh, StepSummary), MeshError> {
+    let start = std::time::Instant::now();
+    let options = vps_step::StepOptions {
+        chord_tolerance: settings.chord_tolerance,
+        solids: settings.solids.clone(),
+        ..vps_step::StepOptions::new(settings.chord_tolerance)
+    };
+    let model = vps_step::read_step(bytes, &options).map_err(|e| {
+        let line = match &e {
+            vps_step::StepError::Format { line, .. }
+            | vps_step::StepError::Unsupported { line, .. }
+            | vps_step::StepError::Solid { line, .. } => *line,
+            vps_step::StepError::Selection(_) => None,
+        };
+        // The line is in the prefix already; the error's own text repeats it otherwise.
+        let message = e.to_string();
+        let message = match line {
+            Some(l) => message
+                .strip_prefix(&format!("line {l}: "))
+                .map(str::to_string)
+                .unwrap_or(message),
+            None => message,
+        };
+        parse_error(file, line, message)
+    })?;
+    let mut mesh = TriMesh::default();
+    for s in &model.solids {
+        let base = mesh.vertices.len() as u32;
+        mesh.vertices.extend(&s.vertices);
+        mesh.triangles
+            .extend(s.triangles.iter().map(|t| t.map(|i| i + base)));
+    }
+    let summary = StepSummary {
+        unit: model.unit.name.clone(),
+        chord_tolerance: settings.chord_tolerance,
+        solids: model
+            .solids
+            .iter()
+            .map(|s| (s.name.clone(), s.triangles.len()))
+            .collect(),
+        available: model.names.clone(),
+        seconds: start.elapsed().as_secs_f64(),
+    };
+    Ok((mesh, summary))
 }
 
 /// A [`MeshError::Parse`] for `file`.

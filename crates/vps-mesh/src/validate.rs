@@ -33,7 +33,9 @@ pub enum MeshError {
         source: std::io::Error,
     },
     /// The file extension is not one of the supported formats.
-    #[error("{file}: unsupported mesh format '{extension}' (supported: .obj, .stl, .ply)")]
+    #[error(
+        "{file}: unsupported mesh format '{extension}' (supported: .obj, .stl, .ply, .step, .stp)"
+    )]
     UnknownFormat {
         /// File path.
         file: String,

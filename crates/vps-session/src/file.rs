@@ -108,6 +108,11 @@ pub struct PartSpec {
     /// Where the handle holds the part (m), in part coordinates after units, scale and rotation.
     /// Default: the centre of mass.
     pub grip: Option<[f64; 3]>,
+    /// STEP sources only: the solids to read, by name (default all).
+    pub solids: Option<Vec<String>>,
+    /// STEP sources only: the largest distance between a triangle and the exact surface (m).
+    /// Default a quarter of the voxel size.
+    pub chord_tolerance: Option<f64>,
 }
 
 /// `part = "SOURCE"` (today's form) or a `[part]` table.
@@ -125,6 +130,8 @@ fn part_spec<'de, D: Deserializer<'de>>(d: D) -> Result<PartSpec, D::Error> {
                 scale: unit_scale(),
                 rotate_deg: [0.0; 3],
                 grip: None,
+                solids: None,
+                chord_tolerance: None,
             })
         }
         fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<PartSpec, A::Error> {
@@ -139,6 +146,9 @@ fn part_spec<'de, D: Deserializer<'de>>(d: D) -> Result<PartSpec, D::Error> {
                 #[serde(default)]
                 rotate_deg: [f64; 3],
                 grip: Option<[f64; 3]>,
+                solids: Option<Vec<String>>,
+                #[serde(default, deserialize_with = "optional_length")]
+                chord_tolerance: Option<f64>,
             }
             let t = Table::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
             Ok(PartSpec {
@@ -147,6 +157,8 @@ fn part_spec<'de, D: Deserializer<'de>>(d: D) -> Result<PartSpec, D::Error> {
                 scale: t.scale,
                 rotate_deg: t.rotate_deg,
                 grip: t.grip,
+                solids: t.solids,
+                chord_tolerance: t.chord_tolerance,
             })
         }
     }
@@ -181,6 +193,13 @@ pub struct StaticObject {
     /// Translation (m), applied last. Default zero.
     #[serde(default)]
     pub translate: [f64; 3],
+    /// STEP sources only: the solids to read, by name (default all).
+    #[serde(default)]
+    pub solids: Option<Vec<String>>,
+    /// STEP sources only: the largest distance between a triangle and the exact surface (m).
+    /// Default a quarter of the voxel size.
+    #[serde(default, deserialize_with = "optional_length")]
+    pub chord_tolerance: Option<f64>,
 }
 
 /// The simulated hand's path: grip positions (m) visited in order at `speed`.
@@ -786,6 +805,17 @@ impl SceneFile {
             }
         }
         check_source(path, "part.source", &self.part.source)?;
+        check_step(
+            path,
+            "part",
+            StepFields {
+                source: &self.part.source,
+                units: self.part.units,
+                solids: self.part.solids.as_deref(),
+                chord_tolerance: self.part.chord_tolerance,
+                voxel_size: self.voxels.voxel_size,
+            },
+        )?;
         check_scale(path, "part.scale", &self.part.scale)?;
         check_rotation(path, "part.rotate_deg", &self.part.rotate_deg)?;
         if let Some(g) = &self.part.grip {
@@ -801,6 +831,17 @@ impl SceneFile {
         }
         for (i, o) in self.objects.iter().enumerate() {
             check_source(path, &format!("static[{i}].source"), &o.source)?;
+            check_step(
+                path,
+                &format!("static[{i}]"),
+                StepFields {
+                    source: &o.source,
+                    units: o.units,
+                    solids: o.solids.as_deref(),
+                    chord_tolerance: o.chord_tolerance,
+                    voxel_size: self.voxels.voxel_size,
+                },
+            )?;
             check_scale(path, &format!("static[{i}].scale"), &o.scale)?;
             check_rotation(path, &format!("static[{i}].rotate_deg"), &o.rotate_deg)?;
             if !position3(&o.translate) {
@@ -1031,8 +1072,82 @@ fn check_source(path: &str, field: &str, source: &str) -> Result<(), SceneError>
         return Err(field_error(
             path,
             field,
-            "must name a mesh file (.stl, .obj, .ply) or builtin:NAME",
+            "must name a mesh file (.stl, .obj, .ply, .step, .stp) or builtin:NAME",
         ));
+    }
+    Ok(())
+}
+
+/// The finest chord tolerance a STEP source may ask for (m): 1 µm.
+pub const MIN_CHORD_TOLERANCE: f64 = 1e-6;
+/// The most solid names one object may select.
+pub const MAX_SOLID_NAMES: usize = 1000;
+
+/// Whether `source` names a STEP file (`.step` / `.stp`, any case).
+pub fn is_step_source(source: &str) -> bool {
+    let lower = source.to_ascii_lowercase();
+    lower.ends_with(".step") || lower.ends_with(".stp")
+}
+
+/// The STEP-related fields of one object (`part` or `static[i]`).
+struct StepFields<'a> {
+    source: &'a str,
+    units: Units,
+    solids: Option<&'a [String]>,
+    chord_tolerance: Option<f64>,
+    voxel_size: f64,
+}
+
+/// `solids` and `chord_tolerance` apply to STEP sources only, a STEP source takes its unit from
+/// the file (no `units`), the tolerance lies within [`MIN_CHORD_TOLERANCE`] ..= the voxel size,
+/// and each selected name is non-empty.
+fn check_step(path: &str, object: &str, f: StepFields<'_>) -> Result<(), SceneError> {
+    let bad =
+        |key: &str, message: String| Err(field_error(path, &format!("{object}.{key}"), message));
+    if !is_step_source(f.source) {
+        if f.solids.is_some() {
+            return bad(
+                "solids",
+                "applies to STEP sources (.step, .stp) only".into(),
+            );
+        }
+        if f.chord_tolerance.is_some() {
+            return bad(
+                "chord_tolerance",
+                "applies to STEP sources (.step, .stp) only".into(),
+            );
+        }
+        return Ok(());
+    }
+    if f.units != Units::Metres {
+        return bad(
+            "units",
+            "a STEP file carries its own length unit (read from the file): remove `units`".into(),
+        );
+    }
+    if let Some(t) = f.chord_tolerance {
+        if !(t.is_finite() && (MIN_CHORD_TOLERANCE..=f.voxel_size).contains(&t)) {
+            return bad(
+                "chord_tolerance",
+                format!(
+                    "must be within {} mm ..= the voxel size ({} mm), got {} mm",
+                    MIN_CHORD_TOLERANCE * 1e3,
+                    f.voxel_size * 1e3,
+                    t * 1e3
+                ),
+            );
+        }
+    }
+    if let Some(names) = f.solids {
+        if names.is_empty() || names.len() > MAX_SOLID_NAMES {
+            return bad(
+                "solids",
+                format!("must list 1..={MAX_SOLID_NAMES} solid names (omit it to read all)"),
+            );
+        }
+        if let Some(i) = names.iter().position(|n| n.trim().is_empty()) {
+            return bad("solids", format!("name {i} is empty"));
+        }
     }
     Ok(())
 }

@@ -14,6 +14,8 @@ pub struct SceneMesh {
     pub source: String,
     /// Degenerate triangles dropped while loading.
     pub degenerate_dropped: usize,
+    /// For a STEP file: its unit, solids and tessellation.
+    pub step: Option<vps_mesh::StepSummary>,
 }
 
 /// Loads `source`: `builtin:NAME` for a built-in mesh, anything else is a mesh file path (m).
@@ -25,6 +27,16 @@ pub fn load(source: &str) -> Result<SceneMesh> {
 /// [`load`] with every coordinate of a mesh file multiplied by `metres_per_unit` before the
 /// loader validates it (built-in meshes are in metres already and are scaled after loading).
 pub fn load_scaled(source: &str, metres_per_unit: f64) -> Result<SceneMesh> {
+    load_scaled_with(source, metres_per_unit, &vps_mesh::StepSettings::default())
+}
+
+/// [`load_scaled`] reading a STEP file with `step` (a STEP file takes its unit from the file:
+/// `metres_per_unit` must be 1 for one).
+pub fn load_scaled_with(
+    source: &str,
+    metres_per_unit: f64,
+    step: &vps_mesh::StepSettings,
+) -> Result<SceneMesh> {
     if let Some(name) = source.strip_prefix("builtin:") {
         let mut mesh = vps_mesh::builtin::by_name(name).ok_or_else(|| {
             anyhow!(
@@ -39,14 +51,16 @@ pub fn load_scaled(source: &str, metres_per_unit: f64) -> Result<SceneMesh> {
             mesh,
             source: source.to_string(),
             degenerate_dropped: 0,
+            step: None,
         });
     }
     // Every `MeshError` names the file already.
-    let loaded = vps_mesh::load_mesh_scaled(Path::new(source), metres_per_unit)?;
+    let loaded = vps_mesh::load_mesh_with(Path::new(source), metres_per_unit, step)?;
     Ok(SceneMesh {
         mesh: loaded.mesh,
         source: source.to_string(),
         degenerate_dropped: loaded.report.degenerate_dropped,
+        step: loaded.step,
     })
 }
 

@@ -9,12 +9,13 @@ use crate::estimate::{
     estimate_triangles, mesh_bytes, scene_memory, size_text, SceneMemoryEstimate,
     SceneMemoryInputs, VoxmapEstimate, MAX_GRID_VOXELS, VOXMAP_MEMORY_BUDGET,
 };
+use crate::file::is_step_source;
 use crate::file::{rotation, ForceModelName, SceneFile};
 use crate::hints::{
     coarse_voxel_flag, distant_grip_hint, distant_static_hints, distant_waypoint_hint,
     has_no_inside, open_mesh_hints, y_up_hint,
 };
-use crate::mesh_source::{load_scaled, resolve, Placement};
+use crate::mesh_source::{load_scaled_with, resolve, Placement};
 use crate::script::{laps_script, path_script};
 use anyhow::{Context, Result};
 use glam::{DVec3, Vec3};
@@ -23,6 +24,7 @@ use std::sync::Arc;
 use std::time::Instant;
 use vps_device::script::Script;
 use vps_haptic::HapticParams;
+use vps_mesh::StepSettings;
 use vps_mesh::{Aabb, TriMesh};
 use vps_voxelize::distance::distance_band;
 use vps_voxelize::{point_shell, tree_grid, voxelize_tree, ShellMethod, VoxelizeOptions};
@@ -103,6 +105,8 @@ pub struct SharedMesh {
     /// voxelizer splits them (`vps_reference::components`): what a winding-number tree of it
     /// holds. 0 when no static object names it.
     pub open_triangles: usize,
+    /// For a STEP file: its unit, the solids read and the tessellation.
+    pub step: Option<vps_mesh::StepSummary>,
 }
 
 /// A `[[static]]` object: one of the scene's meshes and where it is placed.
@@ -170,36 +174,55 @@ impl LoadedScene {
         // Each distinct mesh (canonical path or builtin, and units) is read once, however many
         // objects name it; the objects hold an index into this table.
         let mut meshes: Vec<SharedMesh> = Vec::new();
-        let mut keys: Vec<(String, u64)> = Vec::new();
-        let mut table = |source: &str, units: f64, field: &str| -> Result<usize> {
-            let resolved = resolve(source, &base);
-            let key = (mesh_key(&resolved), units.to_bits());
-            if let Some(index) = keys.iter().position(|k| *k == key) {
-                return Ok(index);
-            }
-            let loaded = load_scaled(&resolved, units)
-                .map_err(|e| mesh_error(&label, field, source, &base, &e))?;
-            keys.push(key);
-            meshes.push(SharedMesh {
-                source: resolved,
-                health: vps_mesh::mesh_health(&loaded.mesh),
-                mesh: Arc::new(loaded.mesh),
-                statics: 0,
-                part: false,
-                degenerate_dropped: loaded.degenerate_dropped,
-                open_triangles: 0,
-            });
-            Ok(meshes.len() - 1)
+        let mut keys: Vec<(String, u64, String)> = Vec::new();
+        // A STEP file is tessellated at its object's chord tolerance (default a quarter voxel).
+        let voxel_size = file.voxels.voxel_size;
+        let step_settings = |solids: &Option<Vec<String>>, tolerance: Option<f64>| StepSettings {
+            chord_tolerance: tolerance.unwrap_or(voxel_size / 4.0),
+            solids: solids.clone(),
         };
+        let mut table =
+            |source: &str, units: f64, step: StepSettings, field: &str| -> Result<usize> {
+                let resolved = resolve(source, &base);
+                let step_key = if is_step_source(source) {
+                    format!("{:?}", (step.chord_tolerance.to_bits(), &step.solids))
+                } else {
+                    String::new()
+                };
+                let key = (mesh_key(&resolved), units.to_bits(), step_key);
+                if let Some(index) = keys.iter().position(|k| *k == key) {
+                    return Ok(index);
+                }
+                let loaded = load_scaled_with(&resolved, units, &step)
+                    .map_err(|e| mesh_error(&label, field, source, &base, &e))?;
+                keys.push(key);
+                meshes.push(SharedMesh {
+                    source: resolved,
+                    health: vps_mesh::mesh_health(&loaded.mesh),
+                    mesh: Arc::new(loaded.mesh),
+                    statics: 0,
+                    part: false,
+                    degenerate_dropped: loaded.degenerate_dropped,
+                    open_triangles: 0,
+                    step: loaded.step,
+                });
+                Ok(meshes.len() - 1)
+            };
         let mut which = Vec::with_capacity(file.objects.len());
         for (i, o) in file.objects.iter().enumerate() {
             which.push(table(
                 &o.source,
                 o.units.metres(),
+                step_settings(&o.solids, o.chord_tolerance),
                 &format!("static[{i}].source"),
             )?);
         }
-        let part_index = table(&file.part.source, file.part.units.metres(), "part.source")?;
+        let part_index = table(
+            &file.part.source,
+            file.part.units.metres(),
+            step_settings(&file.part.solids, file.part.chord_tolerance),
+            "part.source",
+        )?;
         for &k in &which {
             meshes[k].statics += 1;
         }

@@ -1,0 +1,276 @@
+//! STEP files (ISO 10303-21: the B-rep solids of AP203, AP214 and AP242) as triangle meshes in
+//! metres.
+//!
+//! [`read_step`] reads a file's length unit, finds its B-rep solids (`MANIFOLD_SOLID_BREP`,
+//! `BREP_WITH_VOIDS`), their names and product names, places each copy an assembly makes
+//! (`ITEM_DEFINED_TRANSFORMATION` links between shape representations), and triangulates each
+//! shell within a chord tolerance with the truck kernel. Every solid returned is closed and
+//! consistently oriented (checked: every directed edge once, its reverse once, positive volume);
+//! a solid that cannot be meshed so fails with a [`StepError`] naming it and the reason. Nothing
+//! approximate is returned silently.
+//!
+//! Not read: open shells and surface models (`SHELL_BASED_SURFACE_MODEL`), faceted and tessellated
+//! (AP242 `TESSELLATED_SOLID`) representations, mixed-unit assemblies, external references.
+//!
+//! - [`p21`]: the exchange structure cut into entity instances (bounded, no recursion).
+//! - [`structure`]: units, solids, names and assembly placements from the entity graph.
+//! - [`tessellate`]: one shell to checked triangles.
+//!
+//! Reading allocates and may take seconds for large files: setup work, never frame-path work.
+//!
+//! Where this crate sits in vps: `docs/architecture.md` at the repository root.
+
+#![warn(missing_docs)]
+
+pub mod p21;
+pub mod structure;
+pub mod tessellate;
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+use truck_stepio::r#in::Table;
+
+pub use structure::LengthUnit;
+
+/// How to read a STEP file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StepOptions {
+    /// Largest distance between a triangle and the exact surface (m), > 0.
+    pub chord_tolerance: f64,
+    /// Read only the solids with these names (a solid's own name or its product's name); `None`
+    /// reads every solid. Each name must match at least one solid.
+    pub solids: Option<Vec<String>>,
+    /// The most triangles one solid may need (estimated before the fine pass).
+    pub max_triangles: usize,
+}
+
+impl StepOptions {
+    /// Every solid, at `chord_tolerance` (m), at most 20 million triangles each.
+    pub fn new(chord_tolerance: f64) -> Self {
+        Self {
+            chord_tolerance,
+            solids: None,
+            max_triangles: 20_000_000,
+        }
+    }
+}
+
+/// One placed solid, in metres.
+#[derive(Clone, Debug)]
+pub struct StepSolid {
+    /// The solid's name, or its product's name where the solid has none, or `#ID`.
+    pub name: String,
+    /// The instance number of its `MANIFOLD_SOLID_BREP` / `BREP_WITH_VOIDS`.
+    pub id: u64,
+    /// Vertex positions (m).
+    pub vertices: Vec<DVec3>,
+    /// Triangles, counter-clockwise seen from outside (void shells face inwards).
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl StepSolid {
+    /// The enclosed volume (m³): outer shell less voids.
+    pub fn volume(&self) -> f64 {
+        tessellate::ShellMesh {
+            vertices: self.vertices.clone(),
+            triangles: self.triangles.clone(),
+        }
+        .volume()
+    }
+}
+
+/// What a STEP file held.
+#[derive(Clone, Debug)]
+pub struct StepModel {
+    /// The file's length unit.
+    pub unit: LengthUnit,
+    /// Every selected solid, one per placed copy, in file order.
+    pub solids: Vec<StepSolid>,
+    /// Every solid of the file by name (before selection), for messages.
+    pub names: Vec<String>,
+    /// Entity instances the STEP grammar could not read and that no selected solid needed
+    /// (presentation and PMI entities, mostly).
+    pub unread_instances: usize,
+}
+
+/// Why a STEP file was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum StepError {
+    /// The exchange structure is malformed.
+    #[error("{}{message}", line.map(|l| format!("line {l}: ")).unwrap_or_default())]
+    Format {
+        /// 1-based line, where known.
+        line: Option<usize>,
+        /// What is wrong.
+        message: String,
+    },
+    /// The file uses something this reader does not handle.
+    #[error("{}not supported: {what}", line.map(|l| format!("line {l}: ")).unwrap_or_default())]
+    Unsupported {
+        /// What.
+        what: String,
+        /// 1-based line, where known.
+        line: Option<usize>,
+    },
+    /// A solid could not be meshed.
+    #[error("{}solid '{name}' (#{id}): {reason}", line.map(|l| format!("line {l}: ")).unwrap_or_default())]
+    Solid {
+        /// Its name.
+        name: String,
+        /// Its instance number.
+        id: u64,
+        /// Its line.
+        line: Option<usize>,
+        /// Why.
+        reason: String,
+    },
+    /// The options or the selection do not fit the file.
+    #[error("{0}")]
+    Selection(String),
+}
+
+impl StepError {
+    /// A [`StepError::Format`].
+    pub fn format(line: Option<usize>, message: impl Into<String>) -> Self {
+        Self::Format {
+            line,
+            message: message.into(),
+        }
+    }
+}
+
+/// Reads the B-rep solids of a STEP file's bytes as triangle meshes in metres (see the crate
+/// documentation). Blocking CPU work; allocates about the file's size plus the meshes.
+pub fn read_step(bytes: &[u8], options: &StepOptions) -> Result<StepModel, StepError> {
+    if !(options.chord_tolerance.is_finite() && options.chord_tolerance > 0.0) {
+        return Err(StepError::Selection(format!(
+            "the chord tolerance must be a positive length, got {} m",
+            options.chord_tolerance
+        )));
+    }
+    let text = String::from_utf8_lossy(bytes);
+    let raw = p21::split_instances(&text)?;
+    let instances = p21::parse_instances(&raw);
+    drop(raw);
+    let graph = structure::Graph::new(&instances);
+    let unit = graph.length_unit()?;
+    let all = graph.solids()?;
+    if all.is_empty() {
+        return Err(StepError::Unsupported {
+            what: "the file holds no B-rep solid (MANIFOLD_SOLID_BREP or BREP_WITH_VOIDS); \
+                   surface models and tessellated shapes are not read"
+                .to_string(),
+            line: None,
+        });
+    }
+    let display = |s: &structure::Solid| -> String {
+        if !s.name.is_empty() {
+            s.name.clone()
+        } else {
+            s.product.clone().unwrap_or_else(|| format!("#{}", s.id))
+        }
+    };
+    let names: Vec<String> = all.iter().map(display).collect();
+    let selected: Vec<&structure::Solid> = match &options.solids {
+        None => all.iter().collect(),
+        Some(wanted) => {
+            for w in wanted {
+                let found = all
+                    .iter()
+                    .any(|s| &s.name == w || s.product.as_ref() == Some(w));
+                if !found {
+                    return Err(StepError::Selection(format!(
+                        "no solid named '{w}'; the file's solids: {}",
+                        names.join(", ")
+                    )));
+                }
+            }
+            all.iter()
+                .filter(|s| {
+                    wanted
+                        .iter()
+                        .any(|w| &s.name == w || s.product.as_ref() == Some(w))
+                })
+                .collect()
+        }
+    };
+    let mut table = Table::default();
+    for instance in instances.by_id.values() {
+        // An instance truck cannot read only matters if a selected solid needs it; converting
+        // that solid then fails and says so.
+        let _ = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            table.push_instance(instance)
+        }));
+    }
+    let tolerance = options.chord_tolerance / unit.metres;
+    let coarse_limit = graph.smallest_sphere_radius().unwrap_or(f64::INFINITY) * 0.5;
+    let mut shells: HashMap<u64, tessellate::ShellMesh> = HashMap::new();
+    let mut solids = Vec::new();
+    for s in selected {
+        let fail = |reason: String| StepError::Solid {
+            name: display(s),
+            id: s.id,
+            line: graph.line(s.id),
+            reason,
+        };
+        for &shell in std::iter::once(&s.outer).chain(&s.voids) {
+            if let std::collections::hash_map::Entry::Vacant(slot) = shells.entry(shell) {
+                let mesh = tessellate::shell(
+                    &table,
+                    shell,
+                    tolerance,
+                    coarse_limit,
+                    options.max_triangles,
+                )
+                .map_err(|e| match e {
+                    tessellate::ShellFailure::TooMany { triangles } => fail(format!(
+                        "at a chord tolerance of {} m it needs about {triangles} triangles, \
+                             over the limit of {}: use a coarser tolerance",
+                        options.chord_tolerance, options.max_triangles
+                    )),
+                    other => fail(format!("shell #{shell}: {other}")),
+                })?;
+                slot.insert(mesh);
+            }
+        }
+        for placement in &s.placements {
+            let mut vertices = Vec::new();
+            let mut triangles = Vec::new();
+            for (k, &shell) in std::iter::once(&s.outer).chain(&s.voids).enumerate() {
+                let mesh = &shells[&shell];
+                let base = vertices.len() as u32;
+                vertices.extend(
+                    mesh.vertices
+                        .iter()
+                        .map(|&v| placement.transform_point3(v) * unit.metres),
+                );
+                // Void shells are written facing out of the void; the solid's surface there faces
+                // into it.
+                triangles.extend(mesh.triangles.iter().map(|t| {
+                    let t = t.map(|i| i + base);
+                    if k == 0 {
+                        t
+                    } else {
+                        [t[0], t[2], t[1]]
+                    }
+                }));
+            }
+            if placement.determinant() < 0.0 {
+                triangles.iter_mut().for_each(|t| t.swap(1, 2));
+            }
+            solids.push(StepSolid {
+                name: display(s),
+                id: s.id,
+                vertices,
+                triangles,
+            });
+        }
+    }
+    Ok(StepModel {
+        unit,
+        solids,
+        names,
+        unread_instances: instances.refused.len(),
+    })
+}

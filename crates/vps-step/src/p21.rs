@@ -1,0 +1,344 @@
+//! The ISO 10303-21 exchange structure, split into entity instances before any is parsed.
+//!
+//! The grammar crate (`ruststep`) parses a whole file as one recursive descent and gives up on the
+//! whole file at the first construct it does not know (an empty list `()`, common in AP242 files);
+//! it also recurses once per nesting level, so a hostile file of nested parentheses would overflow
+//! the stack. This module therefore scans the bytes itself, in one pass with no recursion: it finds
+//! the DATA sections, cuts them into `#id = ... ;` instances (strings and comments respected),
+//! checks each instance's nesting depth against [`MAX_DEPTH`], and hands the grammar one instance at
+//! a time ([`parse_instances`]). An instance the grammar refuses is counted and left out; if a solid
+//! needs it, converting that solid fails and says so.
+
+use std::collections::HashMap;
+use std::str::FromStr;
+
+use ruststep::ast::EntityInstance;
+
+use crate::StepError;
+
+/// The deepest parenthesis nesting accepted inside one entity instance. Real files nest about 5
+/// deep (a B-spline surface's control points: record, list of rows, row, point); a deeper
+/// instance is refused before the grammar sees it.
+pub const MAX_DEPTH: usize = 32;
+
+/// One `#id = ... ;` instance of a DATA section, as written.
+#[derive(Debug)]
+pub struct RawInstance<'a> {
+    /// The instance's number (`#id`).
+    pub id: u64,
+    /// 1-based line of the `#` in the file.
+    pub line: usize,
+    /// The instance's text, from `#` to the closing `;` inclusive.
+    pub text: &'a str,
+}
+
+/// The entity instances of a file, parsed one by one.
+pub struct Instances {
+    /// Every instance the grammar accepted, by id.
+    pub by_id: HashMap<u64, EntityInstance>,
+    /// The line of each accepted instance, by id.
+    pub line_of: HashMap<u64, usize>,
+    /// Instances the grammar refused (id, line), in file order.
+    pub refused: Vec<(u64, usize)>,
+}
+
+/// Splits `text` (a whole STEP file) into its DATA sections' instances.
+///
+/// Fails when the file does not start with `ISO-10303-21;`, has no DATA section, or holds a
+/// malformed instance (no `#id =`, an unterminated string or comment, unbalanced parentheses,
+/// nesting deeper than [`MAX_DEPTH`], a repeated id), each error naming the line.
+pub fn split_instances(text: &str) -> Result<Vec<RawInstance<'_>>, StepError> {
+    let body = text.trim_start_matches('\u{feff}').trim_start();
+    if !body.starts_with("ISO-10303-21") {
+        return Err(StepError::format(
+            Some(1),
+            "not a STEP file: it does not start with ISO-10303-21;",
+        ));
+    }
+    let bytes = text.as_bytes();
+    let mut instances = Vec::new();
+    let mut seen = HashMap::new();
+    let mut line = 1usize;
+    let mut i = 0usize;
+    let mut in_data = false;
+    let mut any_data = false;
+    while i < bytes.len() {
+        let b = bytes[i];
+        match b {
+            b'\n' => {
+                line += 1;
+                i += 1;
+            }
+            b'/' if bytes.get(i + 1) == Some(&b'*') => {
+                i = skip_comment(bytes, i, &mut line)?;
+            }
+            b'\'' => {
+                i = skip_string(bytes, i, &mut line)?;
+            }
+            b'#' if in_data => {
+                let start = i;
+                let start_line = line;
+                let end = instance_end(bytes, i, &mut line)?;
+                let text = &text[start..end];
+                let id = instance_id(text).ok_or_else(|| {
+                    StepError::format(
+                        Some(start_line),
+                        "an entity instance that does not start with #NUMBER =",
+                    )
+                })?;
+                if let Some(first) = seen.insert(id, start_line) {
+                    return Err(StepError::format(
+                        Some(start_line),
+                        format!("entity #{id} is defined twice (first on line {first})"),
+                    ));
+                }
+                instances.push(RawInstance {
+                    id,
+                    line: start_line,
+                    text,
+                });
+                i = end;
+            }
+            _ if keyword_at(bytes, i, b"DATA") && !in_data => {
+                // `DATA;` or `DATA(...)`: skip to the `;`.
+                in_data = true;
+                any_data = true;
+                i = instance_end(bytes, i, &mut line)?;
+            }
+            _ if keyword_at(bytes, i, b"ENDSEC") => {
+                in_data = false;
+                i += b"ENDSEC".len();
+            }
+            _ => i += 1,
+        }
+    }
+    if !any_data {
+        return Err(StepError::format(None, "the file has no DATA section"));
+    }
+    Ok(instances)
+}
+
+/// Parses each instance with the STEP grammar. An instance the grammar refuses is recorded in
+/// [`Instances::refused`], not an error: files carry entities (PMI, presentation) the geometry
+/// never needs.
+pub fn parse_instances(raw: &[RawInstance<'_>]) -> Instances {
+    let mut by_id = HashMap::with_capacity(raw.len());
+    let mut line_of = HashMap::with_capacity(raw.len());
+    let mut refused = Vec::new();
+    for r in raw {
+        let text = empty_lists_as_unset(r.text);
+        match EntityInstance::from_str(&text) {
+            Ok(instance) => {
+                by_id.insert(r.id, instance);
+                line_of.insert(r.id, r.line);
+            }
+            Err(_) => refused.push((r.id, r.line)),
+        }
+    }
+    Instances {
+        by_id,
+        line_of,
+        refused,
+    }
+}
+
+/// `text` with every empty list parameter `()` written `($)`: the grammar refuses `()` (legal
+/// ISO 10303-21). A record's own empty argument list (`LENGTH_UNIT()`) follows a keyword and is
+/// kept.
+fn empty_lists_as_unset(text: &str) -> std::borrow::Cow<'_, str> {
+    if !text.contains("()") {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let bytes = text.as_bytes();
+    let mut out = String::with_capacity(text.len() + 8);
+    let mut i = 0;
+    let mut last_significant = b'=';
+    while i < bytes.len() {
+        let b = bytes[i];
+        if b == b'\'' {
+            // Copy a string through unchanged.
+            let mut line = 0;
+            let end = skip_string(bytes, i, &mut line).unwrap_or(bytes.len());
+            out.push_str(&text[i..end]);
+            last_significant = b'\'';
+            i = end;
+            continue;
+        }
+        if b == b'(' && matches!(last_significant, b',' | b'(') {
+            let mut j = i + 1;
+            while j < bytes.len() && bytes[j].is_ascii_whitespace() {
+                j += 1;
+            }
+            if bytes.get(j) == Some(&b')') {
+                out.push_str("($)");
+                last_significant = b')';
+                i = j + 1;
+                continue;
+            }
+        }
+        out.push(b as char);
+        if !b.is_ascii_whitespace() {
+            last_significant = b;
+        }
+        i += 1;
+    }
+    std::borrow::Cow::Owned(out)
+}
+
+/// Whether `keyword` starts at `i` as a whole word followed by `;` or `(` (after spaces).
+fn keyword_at(bytes: &[u8], i: usize, keyword: &[u8]) -> bool {
+    if !bytes[i..].starts_with(keyword) {
+        return false;
+    }
+    if i > 0 && (bytes[i - 1].is_ascii_alphanumeric() || bytes[i - 1] == b'_') {
+        return false;
+    }
+    let mut j = i + keyword.len();
+    while j < bytes.len() && bytes[j].is_ascii_whitespace() {
+        j += 1;
+    }
+    matches!(bytes.get(j), Some(b';') | Some(b'('))
+}
+
+/// The index just past the `;` that ends the instance starting at `start` (depth 0, outside
+/// strings and comments), counting lines.
+fn instance_end(bytes: &[u8], start: usize, line: &mut usize) -> Result<usize, StepError> {
+    let first_line = *line;
+    let mut depth = 0usize;
+    let mut i = start;
+    while i < bytes.len() {
+        match bytes[i] {
+            b'\n' => {
+                *line += 1;
+                i += 1;
+            }
+            b'\'' => i = skip_string(bytes, i, line)?,
+            b'/' if bytes.get(i + 1) == Some(&b'*') => i = skip_comment(bytes, i, line)?,
+            b'(' => {
+                depth += 1;
+                if depth > MAX_DEPTH {
+                    return Err(StepError::format(
+                        Some(first_line),
+                        format!("the instance nests parentheses deeper than {MAX_DEPTH}"),
+                    ));
+                }
+                i += 1;
+            }
+            b')' => {
+                depth = depth
+                    .checked_sub(1)
+                    .ok_or_else(|| StepError::format(Some(*line), "a ')' with no '(' before it"))?;
+                i += 1;
+            }
+            b';' if depth == 0 => return Ok(i + 1),
+            _ => i += 1,
+        }
+    }
+    Err(StepError::format(
+        Some(first_line),
+        "an entity instance with no closing ';' before the end of the file",
+    ))
+}
+
+/// The index just past the string starting at `start` (`'...'`, `''` inside is a quote).
+fn skip_string(bytes: &[u8], start: usize, line: &mut usize) -> Result<usize, StepError> {
+    let first_line = *line;
+    let mut i = start + 1;
+    while i < bytes.len() {
+        match bytes[i] {
+            b'\'' if bytes.get(i + 1) == Some(&b'\'') => i += 2,
+            b'\'' => return Ok(i + 1),
+            b'\n' => {
+                *line += 1;
+                i += 1;
+            }
+            _ => i += 1,
+        }
+    }
+    Err(StepError::format(
+        Some(first_line),
+        "a string ('...') with no closing quote before the end of the file",
+    ))
+}
+
+/// The index just past the comment starting at `start` (`/* ... */`).
+fn skip_comment(bytes: &[u8], start: usize, line: &mut usize) -> Result<usize, StepError> {
+    let first_line = *line;
+    let mut i = start + 2;
+    while i + 1 < bytes.len() {
+        if bytes[i] == b'*' && bytes[i + 1] == b'/' {
+            return Ok(i + 2);
+        }
+        if bytes[i] == b'\n' {
+            *line += 1;
+        }
+        i += 1;
+    }
+    Err(StepError::format(
+        Some(first_line),
+        "a comment (/* ... */) with no end before the end of the file",
+    ))
+}
+
+/// The number of `#NUMBER =` at the start of `text`.
+fn instance_id(text: &str) -> Option<u64> {
+    let rest = text.strip_prefix('#')?;
+    let digits = rest.bytes().take_while(u8::is_ascii_digit).count();
+    let id = rest[..digits].parse().ok()?;
+    rest[digits..].trim_start().starts_with('=').then_some(id)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const HEADER: &str = "ISO-10303-21;\nHEADER;\nFILE_SCHEMA(('X'));\nENDSEC;\n";
+
+    #[test]
+    fn instances_are_cut_at_semicolons_outside_strings_and_comments() {
+        let text = format!(
+            "{HEADER}DATA;\n#1=A('x;y',(1.,2.));\n/* #9=B(); */\n#2 = ( B() C('it''s') );\nENDSEC;\nEND-ISO-10303-21;\n"
+        );
+        let raw = split_instances(&text).unwrap();
+        assert_eq!(raw.len(), 2);
+        assert_eq!((raw[0].id, raw[0].line), (1, 6));
+        assert_eq!(raw[0].text, "#1=A('x;y',(1.,2.));");
+        assert_eq!((raw[1].id, raw[1].line), (2, 8));
+        let parsed = parse_instances(&raw);
+        assert_eq!(parsed.by_id.len(), 2, "refused {:?}", parsed.refused);
+    }
+
+    #[test]
+    fn hostile_structure_is_refused_with_its_line() {
+        let deep = format!(
+            "{HEADER}DATA;\n#1=A{}{};\nENDSEC;\n",
+            "(".repeat(40),
+            ")".repeat(40)
+        );
+        let e = split_instances(&deep).unwrap_err().to_string();
+        assert!(e.contains("line 6") && e.contains("deeper than 32"), "{e}");
+        let open = format!("{HEADER}DATA;\n#1=A('never closed);\nENDSEC;\n");
+        let e = split_instances(&open).unwrap_err().to_string();
+        assert!(e.contains("line 6") && e.contains("closing quote"), "{e}");
+        let twice = format!("{HEADER}DATA;\n#1=A();\n#1=B();\nENDSEC;\n");
+        let e = split_instances(&twice).unwrap_err().to_string();
+        assert!(e.contains("line 7") && e.contains("defined twice"), "{e}");
+        let e = split_instances("solid x\nendsolid")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("not a STEP file"), "{e}");
+        let e = split_instances(&format!("{HEADER}END-ISO-10303-21;")).unwrap_err();
+        assert!(e.to_string().contains("no DATA section"), "{e}");
+    }
+
+    #[test]
+    fn an_empty_list_parameter_is_read_as_unset() {
+        let text = format!("{HEADER}DATA;\n#1=A('note',(),(1,2),LENGTH_UNIT());\nENDSEC;\n");
+        let parsed = parse_instances(&split_instances(&text).unwrap());
+        assert!(parsed.refused.is_empty(), "{:?}", parsed.refused);
+        assert_eq!(
+            empty_lists_as_unset("#1=A('()',( ),X())"),
+            "#1=A('()',($),X())"
+        );
+    }
+}

@@ -1,0 +1,242 @@
+//! One closed shell of a B-rep to triangles, by the truck kernel, checked.
+//!
+//! truck converts the shell's faces, edges and surfaces and triangulates them within a chord
+//! tolerance. It sometimes returns a surface with holes or no triangles at all for a face it
+//! cannot lay out (cones and tori in truck-meshalgo 0.4 do this), and it may panic on malformed
+//! geometry, so every result is checked here: the triangles must form a closed, consistently
+//! oriented surface (every directed edge once, its reverse once) enclosing a positive volume, or
+//! the solid is refused with the reason.
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+use truck_meshalgo::prelude::*;
+use truck_stepio::r#in::Table;
+
+/// A shell as triangles, in file units.
+#[derive(Clone, Debug, Default)]
+pub struct ShellMesh {
+    /// Vertex positions (file units), each distinct position once.
+    pub vertices: Vec<DVec3>,
+    /// Triangles, counter-clockwise seen from outside.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl ShellMesh {
+    /// The enclosed volume (file units cubed; negative when the triangles face inwards).
+    pub fn volume(&self) -> f64 {
+        self.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| self.vertices[i as usize]);
+                a.dot(b.cross(c)) / 6.0
+            })
+            .sum()
+    }
+
+    /// The same surface facing the other way.
+    pub fn flipped(mut self) -> Self {
+        for t in &mut self.triangles {
+            t.swap(1, 2);
+        }
+        self
+    }
+
+    /// Edges used other than once in each direction (0 for a closed, consistently oriented
+    /// surface).
+    pub fn open_edges(&self) -> usize {
+        let mut directed: HashMap<(u32, u32), i32> = HashMap::new();
+        for t in &self.triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                *directed.entry((a, b)).or_default() += 1;
+            }
+        }
+        directed
+            .iter()
+            .filter(|(&(a, b), &n)| n != 1 || directed.get(&(b, a)) != Some(&1))
+            .count()
+    }
+}
+
+/// Why a shell could not be triangulated.
+#[derive(Debug)]
+pub enum ShellFailure {
+    /// The shell is not one truck read.
+    NotRead,
+    /// truck could not build its faces and edges.
+    Convert(String),
+    /// truck panicked.
+    Panicked(String),
+    /// The triangles leave `open_edges` edges open.
+    Open {
+        /// Edges not matched once each way.
+        open_edges: usize,
+        /// Triangles produced.
+        triangles: usize,
+    },
+    /// The triangles enclose no positive volume.
+    NoVolume,
+    /// More triangles than allowed.
+    TooMany {
+        /// The estimate or count.
+        triangles: usize,
+    },
+}
+
+impl std::fmt::Display for ShellFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::NotRead => write!(f, "its shell is not one the geometry kernel could read"),
+            Self::Convert(e) => write!(f, "the geometry kernel could not read its faces: {e}"),
+            Self::Panicked(e) => write!(f, "the geometry kernel failed on it ({e})"),
+            Self::Open {
+                open_edges,
+                triangles,
+            } => write!(
+                f,
+                "its {triangles} triangles do not close ({open_edges} open edges): the \
+                 tessellator could not lay out one of its faces (truck-meshalgo 0.4 cannot mesh \
+                 cones and tori)"
+            ),
+            Self::NoVolume => write!(f, "its triangles enclose no volume"),
+            Self::TooMany { triangles } => write!(f, "it needs about {triangles} triangles"),
+        }
+    }
+}
+
+/// Triangulates closed shell `shell` of `table` within `tolerance` (file units), facing outwards
+/// (positive volume) whatever the file's orientation, refusing it when
+/// about more than `max_triangles` would be needed (estimated from a coarse pass first, so a
+/// too-fine tolerance fails fast instead of exhausting memory).
+///
+/// `coarse_limit` (file units) caps the coarse pass's tolerance: truck refuses a tolerance above a
+/// sphere's radius, so the caller passes half the smallest sphere radius of the file.
+pub fn shell(
+    table: &Table,
+    shell: u64,
+    tolerance: f64,
+    coarse_limit: f64,
+    max_triangles: usize,
+) -> Result<ShellMesh, ShellFailure> {
+    let holder = table.shell.get(&shell).ok_or(ShellFailure::NotRead)?;
+    let run = || -> Result<ShellMesh, ShellFailure> {
+        let compressed = table
+            .to_compressed_shell(holder)
+            .map_err(|e| ShellFailure::Convert(e.to_string()))?;
+        // A coarse pass (1 % of the shell's size) sizes the fine one: triangles grow about as
+        // 1 / tolerance.
+        let corners: Vec<DVec3> = compressed
+            .vertices
+            .iter()
+            .map(|p| DVec3::new(p.x, p.y, p.z))
+            .collect();
+        let size = bounds_diagonal(&corners);
+        let weld = tolerance * 1e-3;
+        let coarse_tolerance = (size * 0.01).min(coarse_limit).max(tolerance);
+        let coarse = to_mesh(
+            &compressed
+                .robust_triangulation(coarse_tolerance)
+                .to_polygon(),
+            weld,
+        );
+        let estimate = (coarse.triangles.len() as f64 * coarse_tolerance / tolerance).ceil();
+        if estimate > max_triangles as f64 {
+            return Err(ShellFailure::TooMany {
+                triangles: estimate as usize,
+            });
+        }
+        let mesh = to_mesh(
+            &compressed.robust_triangulation(tolerance).to_polygon(),
+            weld,
+        );
+        if mesh.triangles.len() > max_triangles {
+            return Err(ShellFailure::TooMany {
+                triangles: mesh.triangles.len(),
+            });
+        }
+        Ok(mesh)
+    };
+    let mesh = std::panic::catch_unwind(std::panic::AssertUnwindSafe(run)).unwrap_or_else(|p| {
+        let what = p
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| p.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "a panic".to_string());
+        Err(ShellFailure::Panicked(what))
+    })?;
+    let open_edges = mesh.open_edges();
+    if open_edges > 0 || mesh.triangles.is_empty() {
+        return Err(ShellFailure::Open {
+            open_edges,
+            triangles: mesh.triangles.len(),
+        });
+    }
+    // Facing outwards whatever the file's orientation (the caller turns void shells inside out).
+    let volume = mesh.volume();
+    if volume > 0.0 {
+        Ok(mesh)
+    } else if volume < 0.0 {
+        Ok(mesh.flipped())
+    } else {
+        Err(ShellFailure::NoVolume)
+    }
+}
+
+/// truck's polygon mesh as indexed triangles with positions closer than `weld` (file units) made
+/// one (truck repeats a position per face, sometimes a few ulps apart; welding them is what lets
+/// [`ShellMesh::open_edges`] see the seams). Degenerate triangles left by welding are dropped.
+fn to_mesh(poly: &PolygonMesh, weld: f64) -> ShellMesh {
+    let mut cells: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+    let mut vertices: Vec<DVec3> = Vec::new();
+    let mut welded = Vec::with_capacity(poly.positions().len());
+    for p in poly.positions() {
+        let v = DVec3::new(p.x, p.y, p.z);
+        let cell = (v / weld).floor().as_i64vec3().to_array();
+        let mut found = None;
+        'search: for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    let key = [cell[0] + dx, cell[1] + dy, cell[2] + dz];
+                    if let Some(list) = cells.get(&key) {
+                        if let Some(&i) = list
+                            .iter()
+                            .find(|&&i| vertices[i as usize].distance(v) <= weld)
+                        {
+                            found = Some(i);
+                            break 'search;
+                        }
+                    }
+                }
+            }
+        }
+        let i = found.unwrap_or_else(|| {
+            vertices.push(v);
+            let i = (vertices.len() - 1) as u32;
+            cells.entry(cell).or_default().push(i);
+            i
+        });
+        welded.push(i);
+    }
+    let triangles = poly
+        .faces()
+        .triangle_iter()
+        .map(|t| [welded[t[0].pos], welded[t[1].pos], welded[t[2].pos]])
+        .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+        .collect();
+    ShellMesh {
+        vertices,
+        triangles,
+    }
+}
+
+/// The diagonal of the points' bounding box (0 for none).
+fn bounds_diagonal(points: &[DVec3]) -> f64 {
+    let Some(first) = points.first() else {
+        return 0.0;
+    };
+    let (lo, hi) = points
+        .iter()
+        .fold((*first, *first), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    (hi - lo).length()
+}
