@@ -87,6 +87,21 @@ pub fn stl() -> Vec<Vec<u8>> {
     out
 }
 
+/// STEP seeds: public test files (assets/step/README.md): a cube (AP203), a solid with a void,
+/// B-spline faces, a two-solid file in metres, an assembly with placements.
+pub fn step() -> Vec<Vec<u8>> {
+    [
+        include_bytes!("../../../assets/step/box_ap203.step").as_slice(),
+        include_bytes!("../../../assets/step/hollow_box_ap214_is.step"),
+        include_bytes!("../../../assets/step/tapered_box_ap214_is.step"),
+        include_bytes!("../../../assets/step/red_cube_blue_cylinder.step"),
+        include_bytes!("../../../assets/step/assembly_ap214_is.step"),
+    ]
+    .iter()
+    .map(|b| b.to_vec())
+    .collect()
+}
+
 /// PLY seeds: ASCII (`vertex_indices`, with a quad and an extra property) and binary
 /// little-endian (`vertex_index`, float and double coordinates).
 pub fn ply() -> Vec<Vec<u8>> {

@@ -32,7 +32,7 @@ pub mod weld;
 pub use health::{mesh_health, MeshHealth};
 pub use load::{
     load_mesh, load_mesh_scaled, load_mesh_with, parse_mesh, parse_step, LoadedMesh, MeshFormat,
-    StepSettings, StepSummary, DEFAULT_STEP_CHORD_TOLERANCE,
+    StepSettings, StepSummary, DEFAULT_STEP_CHORD_TOLERANCE, DEFAULT_STEP_MAX_TRIANGLES,
 };
 pub use mesh::{Aabb, TriMesh};
 pub use validate::{validate, MeshError, ValidationReport};

@@ -73,7 +73,14 @@ pub struct StepSettings {
     pub chord_tolerance: f64,
     /// Read only the solids with these names (a solid's or its product's name); `None`: all.
     pub solids: Option<Vec<String>>,
+    /// The most triangles one solid may need ([`DEFAULT_STEP_MAX_TRIANGLES`]): what bounds the
+    /// tessellator's memory.
+    pub max_triangles: usize,
 }
+
+/// The most triangles one STEP solid may be tessellated into by default: 20 million (about 1 GB
+/// while tessellating).
+pub const DEFAULT_STEP_MAX_TRIANGLES: usize = 20_000_000;
 
 /// The chord tolerance a STEP file is read at when nothing sets one (m): 0.5 mm. A scene sets a
 /// quarter of its voxel size instead.
@@ -84,6 +91,7 @@ impl Default for StepSettings {
         Self {
             chord_tolerance: DEFAULT_STEP_CHORD_TOLERANCE,
             solids: None,
+            max_triangles: DEFAULT_STEP_MAX_TRIANGLES,
         }
     }
 }
@@ -206,6 +214,7 @@ pub fn parse_step(
     let options = vps_step::StepOptions {
         chord_tolerance: settings.chord_tolerance,
         solids: settings.solids.clone(),
+        max_triangles: settings.max_triangles,
         ..vps_step::StepOptions::new(settings.chord_tolerance)
     };
     let model = vps_step::read_step(bytes, &options).map_err(|e| {

@@ -180,6 +180,7 @@ impl LoadedScene {
         let step_settings = |solids: &Option<Vec<String>>, tolerance: Option<f64>| StepSettings {
             chord_tolerance: tolerance.unwrap_or(voxel_size / 4.0),
             solids: solids.clone(),
+            ..StepSettings::default()
         };
         let mut table =
             |source: &str, units: f64, step: StepSettings, field: &str| -> Result<usize> {

@@ -43,15 +43,20 @@ pub struct StepOptions {
     pub solids: Option<Vec<String>>,
     /// The most triangles one solid may need (estimated before the fine pass).
     pub max_triangles: usize,
+    /// The longest the geometry kernel may take to tessellate the file's solids. truck can loop
+    /// for ever on some malformed B-spline geometry; past this the read fails and the kernel's
+    /// thread is left to finish (or run until the process exits).
+    pub deadline: std::time::Duration,
 }
 
 impl StepOptions {
-    /// Every solid, at `chord_tolerance` (m), at most 20 million triangles each.
+    /// Every solid, at `chord_tolerance` (m), at most 20 million triangles each, within 120 s.
     pub fn new(chord_tolerance: f64) -> Self {
         Self {
             chord_tolerance,
             solids: None,
             max_triangles: 20_000_000,
+            deadline: std::time::Duration::from_secs(120),
         }
     }
 }
@@ -140,15 +145,24 @@ impl StepError {
     }
 }
 
-/// Reads the B-rep solids of a STEP file's bytes as triangle meshes in metres (see the crate
-/// documentation). Blocking CPU work; allocates about the file's size plus the meshes.
-pub fn read_step(bytes: &[u8], options: &StepOptions) -> Result<StepModel, StepError> {
-    if !(options.chord_tolerance.is_finite() && options.chord_tolerance > 0.0) {
-        return Err(StepError::Selection(format!(
-            "the chord tolerance must be a positive length, got {} m",
-            options.chord_tolerance
-        )));
-    }
+/// What a STEP file's entity graph says, before any geometry is tessellated: its unit, solids
+/// (selected by name), names and placements. [`read_step`] tessellates from it.
+pub struct StepStructure {
+    /// The file's length unit.
+    pub unit: LengthUnit,
+    /// Every solid of the file by name, for messages.
+    pub names: Vec<String>,
+    /// The selected solids with their display names.
+    pub selected: Vec<(String, structure::Solid)>,
+    /// The parsed entity instances.
+    pub instances: p21::Instances,
+}
+
+/// Reads a STEP file's structure (see [`StepStructure`]) and selects `solids` (by a solid's or
+/// its product's name; `None`: all). Bounded work: one pass over the bytes, no recursion deeper
+/// than [`p21::MAX_DEPTH`], assemblies bounded by [`structure::MAX_ASSEMBLY_DEPTH`] and
+/// [`structure::MAX_PLACED_SOLIDS`].
+pub fn read_structure(bytes: &[u8], solids: Option<&[String]>) -> Result<StepStructure, StepError> {
     let text = String::from_utf8_lossy(bytes);
     let raw = p21::split_instances(&text)?;
     let instances = p21::parse_instances(&raw);
@@ -172,29 +186,46 @@ pub fn read_step(bytes: &[u8], options: &StepOptions) -> Result<StepModel, StepE
         }
     };
     let names: Vec<String> = all.iter().map(display).collect();
-    let selected: Vec<&structure::Solid> = match &options.solids {
-        None => all.iter().collect(),
-        Some(wanted) => {
-            for w in wanted {
-                let found = all
-                    .iter()
-                    .any(|s| &s.name == w || s.product.as_ref() == Some(w));
-                if !found {
-                    return Err(StepError::Selection(format!(
-                        "no solid named '{w}'; the file's solids: {}",
-                        names.join(", ")
-                    )));
-                }
-            }
-            all.iter()
-                .filter(|s| {
-                    wanted
-                        .iter()
-                        .any(|w| &s.name == w || s.product.as_ref() == Some(w))
-                })
-                .collect()
+    let matches = |s: &structure::Solid, w: &String| &s.name == w || s.product.as_ref() == Some(w);
+    if let Some(wanted) = solids {
+        if let Some(w) = wanted.iter().find(|w| !all.iter().any(|s| matches(s, w))) {
+            return Err(StepError::Selection(format!(
+                "no solid named '{w}'; the file's solids: {}",
+                names.join(", ")
+            )));
         }
-    };
+    }
+    let selected = all
+        .into_iter()
+        .filter(|s| solids.is_none_or(|wanted| wanted.iter().any(|w| matches(s, w))))
+        .map(|s| (display(&s), s))
+        .collect();
+    drop(graph);
+    Ok(StepStructure {
+        unit,
+        names,
+        selected,
+        instances,
+    })
+}
+
+/// Reads the B-rep solids of a STEP file's bytes as triangle meshes in metres (see the crate
+/// documentation). Blocking CPU work; allocates about the file's size plus the meshes. The
+/// tessellation runs on a thread of its own, bounded by [`StepOptions::deadline`].
+pub fn read_step(bytes: &[u8], options: &StepOptions) -> Result<StepModel, StepError> {
+    if !(options.chord_tolerance.is_finite() && options.chord_tolerance > 0.0) {
+        return Err(StepError::Selection(format!(
+            "the chord tolerance must be a positive length, got {} m",
+            options.chord_tolerance
+        )));
+    }
+    let StepStructure {
+        unit,
+        names,
+        selected,
+        instances,
+    } = read_structure(bytes, options.solids.as_deref())?;
+    let graph = structure::Graph::new(&instances);
     let mut table = Table::default();
     for instance in instances.by_id.values() {
         // An instance truck cannot read only matters if a selected solid needs it; converting
@@ -205,35 +236,68 @@ pub fn read_step(bytes: &[u8], options: &StepOptions) -> Result<StepModel, StepE
     }
     let tolerance = options.chord_tolerance / unit.metres;
     let coarse_limit = graph.smallest_sphere_radius().unwrap_or(f64::INFINITY) * 0.5;
-    let mut shells: HashMap<u64, tessellate::ShellMesh> = HashMap::new();
+    let mut needed: Vec<u64> = selected
+        .iter()
+        .flat_map(|(_, s)| std::iter::once(s.outer).chain(s.voids.iter().copied()))
+        .collect();
+    needed.sort_unstable();
+    needed.dedup();
+    let max_triangles = options.max_triangles;
+    let (send, receive) = std::sync::mpsc::channel();
+    std::thread::Builder::new()
+        .name("vps-step tessellate".into())
+        .spawn(move || {
+            let shells: HashMap<u64, Result<tessellate::ShellMesh, tessellate::ShellFailure>> =
+                needed
+                    .into_iter()
+                    .map(|id| {
+                        let mesh = tessellate::shell(&table, id, tolerance, coarse_limit, max_triangles);
+                        (id, mesh)
+                    })
+                    .collect();
+            let _ = send.send(shells);
+        })
+        .map_err(|e| StepError::Unsupported {
+            what: format!("cannot start the tessellating thread: {e}"),
+            line: None,
+        })?;
+    let shells = receive
+        .recv_timeout(options.deadline)
+        .map_err(|_| StepError::Unsupported {
+            what: format!(
+                "the geometry kernel (truck) did not finish tessellating the file's solids within \
+                 {} s; it is known to loop on some malformed B-spline geometry: check the file in \
+                 a CAD tool, or export the part as STL",
+                options.deadline.as_secs_f64()
+            ),
+            line: None,
+        })?;
     let mut solids = Vec::new();
-    for s in selected {
-        let fail = |reason: String| StepError::Solid {
-            name: display(s),
-            id: s.id,
-            line: graph.line(s.id),
-            reason,
-        };
+    for (name, s) in &selected {
         for &shell in std::iter::once(&s.outer).chain(&s.voids) {
-            if let std::collections::hash_map::Entry::Vacant(slot) = shells.entry(shell) {
-                let mesh = tessellate::shell(
-                    &table,
-                    shell,
-                    tolerance,
-                    coarse_limit,
-                    options.max_triangles,
-                )
-                .map_err(|e| match e {
-                    tessellate::ShellFailure::TooMany { triangles } => fail(format!(
+            if let Some(Err(e)) = shells.get(&shell) {
+                let reason = match e {
+                    &tessellate::ShellFailure::TooMany { triangles } => format!(
                         "at a chord tolerance of {} m it needs about {triangles} triangles, \
-                             over the limit of {}: use a coarser tolerance",
+                         over the limit of {}: use a coarser tolerance",
                         options.chord_tolerance, options.max_triangles
-                    )),
-                    other => fail(format!("shell #{shell}: {other}")),
-                })?;
-                slot.insert(mesh);
+                    ),
+                    other => format!("shell #{shell}: {other}"),
+                };
+                return Err(StepError::Solid {
+                    name: name.clone(),
+                    id: s.id,
+                    line: graph.line(s.id),
+                    reason,
+                });
             }
         }
+    }
+    let shells: HashMap<u64, tessellate::ShellMesh> = shells
+        .into_iter()
+        .filter_map(|(id, m)| m.ok().map(|m| (id, m)))
+        .collect();
+    for (name, s) in &selected {
         for placement in &s.placements {
             let mut vertices = Vec::new();
             let mut triangles = Vec::new();
@@ -260,7 +324,7 @@ pub fn read_step(bytes: &[u8], options: &StepOptions) -> Result<StepModel, StepE
                 triangles.iter_mut().for_each(|t| t.swap(1, 2));
             }
             solids.push(StepSolid {
-                name: display(s),
+                name: name.clone(),
                 id: s.id,
                 vertices,
                 triangles,

@@ -126,7 +126,12 @@ pub fn parse_instances(raw: &[RawInstance<'_>]) -> Instances {
     let mut line_of = HashMap::with_capacity(raw.len());
     let mut refused = Vec::new();
     for r in raw {
-        let text = empty_lists_as_unset(r.text);
+        if has_overlong_integer(r.text) {
+            // The grammar panics on an integer beyond i64 (instead of refusing it).
+            refused.push((r.id, r.line));
+            continue;
+        }
+        let text = for_the_grammar(r.text);
         match EntityInstance::from_str(&text) {
             Ok(instance) => {
                 by_id.insert(r.id, instance);
@@ -142,11 +147,12 @@ pub fn parse_instances(raw: &[RawInstance<'_>]) -> Instances {
     }
 }
 
-/// `text` with every empty list parameter `()` written `($)`: the grammar refuses `()` (legal
-/// ISO 10303-21). A record's own empty argument list (`LENGTH_UNIT()`) follows a keyword and is
-/// kept.
-fn empty_lists_as_unset(text: &str) -> std::borrow::Cow<'_, str> {
-    if !text.contains("()") {
+/// `text` rewritten around two gaps in the grammar crate, which refuses legal ISO 10303-21:
+/// every empty list parameter `()` is written `($)` (a record's own empty argument list, such as
+/// `LENGTH_UNIT()`, follows a keyword and is kept), and a quote escaped inside a string (`''`) is
+/// written `"` (names are only displayed).
+fn for_the_grammar(text: &str) -> std::borrow::Cow<'_, str> {
+    if !text.contains("()") && !text.contains("''") {
         return std::borrow::Cow::Borrowed(text);
     }
     let bytes = text.as_bytes();
@@ -159,7 +165,10 @@ fn empty_lists_as_unset(text: &str) -> std::borrow::Cow<'_, str> {
             // Copy a string through unchanged.
             let mut line = 0;
             let end = skip_string(bytes, i, &mut line).unwrap_or(bytes.len());
-            out.push_str(&text[i..end]);
+            let inner = &text[i + 1..end.saturating_sub(1).max(i + 1)];
+            out.push('\'');
+            out.push_str(&inner.replace("''", "\""));
+            out.push('\'');
             last_significant = b'\'';
             i = end;
             continue;
@@ -183,6 +192,32 @@ fn empty_lists_as_unset(text: &str) -> std::borrow::Cow<'_, str> {
         i += 1;
     }
     std::borrow::Cow::Owned(out)
+}
+
+/// Whether `text` holds, outside strings, a run of more than 18 digits not after a decimal
+/// point: an integer (an id, a count, an exponent) that may not fit an `i64`.
+fn has_overlong_integer(text: &str) -> bool {
+    let bytes = text.as_bytes();
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i] == b'\'' {
+            let mut line = 0;
+            i = skip_string(bytes, i, &mut line).unwrap_or(bytes.len());
+            continue;
+        }
+        if bytes[i].is_ascii_digit() {
+            let start = i;
+            while i < bytes.len() && bytes[i].is_ascii_digit() {
+                i += 1;
+            }
+            if i - start > 18 && (start == 0 || bytes[start - 1] != b'.') {
+                return true;
+            }
+            continue;
+        }
+        i += 1;
+    }
+    false
 }
 
 /// Whether `keyword` starts at `i` as a whole word followed by `;` or `(` (after spaces).
@@ -332,13 +367,23 @@ mod tests {
     }
 
     #[test]
-    fn an_empty_list_parameter_is_read_as_unset() {
-        let text = format!("{HEADER}DATA;\n#1=A('note',(),(1,2),LENGTH_UNIT());\nENDSEC;\n");
+    fn integers_beyond_i64_are_refused_before_the_grammar() {
+        let text = format!(
+            "{HEADER}DATA;\n#1=A(99999999999999999999);\n#2=B(#99999999999999999999);\n#3=C(1.E99999999999999999999);\n#4=D(0.33333333333333333333333,'12345678901234567890');\nENDSEC;\n"
+        );
+        let parsed = parse_instances(&split_instances(&text).unwrap());
+        assert_eq!(parsed.refused, [(1, 6), (2, 7), (3, 8)]);
+        assert!(parsed.by_id.contains_key(&4));
+    }
+
+    #[test]
+    fn empty_lists_and_escaped_quotes_are_read() {
+        let text = format!("{HEADER}DATA;\n#1=A('note',(),(1,2));\n#2=(B() C('it''s'));\nENDSEC;\n");
         let parsed = parse_instances(&split_instances(&text).unwrap());
         assert!(parsed.refused.is_empty(), "{:?}", parsed.refused);
         assert_eq!(
-            empty_lists_as_unset("#1=A('()',( ),X())"),
-            "#1=A('()',($),X())"
+            for_the_grammar("#1=A('()',( ),X(),'it''s','')"),
+            "#1=A('()',($),X(),'it\"s','')"
         );
     }
 }
