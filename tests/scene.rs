@@ -906,3 +906,93 @@ fn scene_check_reports_mesh_health_and_scales_the_part() {
         assert!(flags.contains("tri.obj has no inside"), "{flags}");
     }
 }
+
+/// The STEP example scene (a four-solid assembly in millimetres as the static scene, one solid
+/// selected from a two-solid file in metres as the part) checks and runs through the real binary:
+/// the report names each file's unit and solids, the session touches the assembly and never
+/// penetrates; STEP-only keys on other sources, `units` on a STEP source, an unknown solid name
+/// and a chord tolerance out of range are refused naming the field.
+#[test]
+fn a_step_scene_checks_and_runs_and_its_mistakes_are_named() {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
+    let dir = vps.dir();
+    let step_dir = dir.join("step");
+    std::fs::create_dir_all(&step_dir).unwrap();
+    for f in ["assembly_ap214_is.step", "red_cube_blue_cylinder.step"] {
+        std::fs::copy(repo.join("assets/step").join(f), step_dir.join(f)).unwrap();
+    }
+    let scenes = dir.join("scenes");
+    std::fs::create_dir_all(&scenes).unwrap();
+    let text = std::fs::read_to_string(repo.join("assets/scenes/step-assembly.toml")).unwrap();
+    std::fs::write(scenes.join("step.toml"), &text).unwrap();
+    let scene = vps.path("scenes/step.toml");
+
+    let check = json(&vps.run(&["scene", "check", &scene, "--json"]));
+    let meshes = check["meshes"].as_array().unwrap();
+    let assembly = &meshes[0]["step"];
+    assert_eq!(assembly["unit"], "millimetre", "{check}");
+    let solids: Vec<&str> = assembly["solids"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s[0].as_str().unwrap())
+        .collect();
+    assert_eq!(solids, ["Cube", "Cube", "Cylinder", "Sphere"]);
+    // A quarter of the scene's 2 mm voxel.
+    assert_eq!(assembly["chord_tolerance"], 0.0005);
+    assert_eq!(meshes[0]["closed"], true);
+    let part = &meshes[1]["step"];
+    assert_eq!(part["unit"], "metre");
+    assert_eq!(part["solids"][0][0], "red_cube");
+    assert_eq!(part["available"].as_array().unwrap().len(), 2);
+    // The placed assembly spans x -114 .. 188.3 mm (the cylinder's side within the chord
+    // tolerance, 0.5 mm).
+    let lo = check["objects"][0]["bounds_min_m"][0].as_f64().unwrap();
+    let hi = check["objects"][0]["bounds_max_m"][0].as_f64().unwrap();
+    assert!(
+        (lo + 0.114).abs() <= 0.5e-3 && (hi - 0.188_298).abs() < 1e-6,
+        "{lo} {hi}"
+    );
+    let text_out = String::from_utf8(vps.run(&["scene", "check", &scene]).stdout).unwrap();
+    assert!(
+        text_out.contains("STEP: unit millimetre (from the file); 4 placed solid(s) read"),
+        "{text_out}"
+    );
+
+    let report = json(&vps.run(&["run", "--scene", &scene, "--seconds", "3", "--json"]));
+    let stats = &report["stats"];
+    assert_eq!(stats["frames"], 3000, "{report}");
+    assert!(stats["touching_frames"].as_u64().unwrap() > 0, "{report}");
+    assert_eq!(stats["penetrating_frames"], 0, "{report}");
+
+    let mistakes = [
+        (
+            "solids = [\"red_cube\"]",
+            "solids = [\"green_sphere\"]",
+            "no solid named 'green_sphere'; the file's solids: blue_cylinder, red_cube",
+        ),
+        (
+            "solids = [\"red_cube\"]",
+            "solids = [\"red_cube\"]\nunits = \"mm\"",
+            "`part.units`",
+        ),
+        (
+            "# chord_tolerance = \"0.5mm\"",
+            "chord_tolerance = \"3mm\"",
+            "must be within 0.001 mm ..= the voxel size (2 mm), got 3 mm",
+        ),
+        (
+            "source = \"../step/red_cube_blue_cylinder.step\"\nsolids = [\"red_cube\"]",
+            "source = \"builtin:teapot\"\nsolids = [\"red_cube\"]",
+            "applies to STEP sources (.step, .stp) only",
+        ),
+    ];
+    for (from, to, expected) in mistakes {
+        let edited = text.replace(from, to);
+        assert_ne!(edited, text, "{from}");
+        std::fs::write(scenes.join("bad.toml"), &edited).unwrap();
+        let e = vps.fails(&["scene", "check", &vps.path("scenes/bad.toml")]);
+        assert!(e.contains(expected) && e.contains("bad.toml"), "{to}: {e}");
+    }
+}

@@ -251,7 +251,8 @@ pub fn read_step(bytes: &[u8], options: &StepOptions) -> Result<StepModel, StepE
                 needed
                     .into_iter()
                     .map(|id| {
-                        let mesh = tessellate::shell(&table, id, tolerance, coarse_limit, max_triangles);
+                        let mesh =
+                            tessellate::shell(&table, id, tolerance, coarse_limit, max_triangles);
                         (id, mesh)
                     })
                     .collect();

@@ -378,7 +378,8 @@ mod tests {
 
     #[test]
     fn empty_lists_and_escaped_quotes_are_read() {
-        let text = format!("{HEADER}DATA;\n#1=A('note',(),(1,2));\n#2=(B() C('it''s'));\nENDSEC;\n");
+        let text =
+            format!("{HEADER}DATA;\n#1=A('note',(),(1,2));\n#2=(B() C('it''s'));\nENDSEC;\n");
         let parsed = parse_instances(&split_instances(&text).unwrap());
         assert!(parsed.refused.is_empty(), "{:?}", parsed.refused);
         assert_eq!(

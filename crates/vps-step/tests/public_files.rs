@@ -24,13 +24,10 @@ fn volume(m: &StepModel) -> f64 {
 }
 
 fn bounds(m: &StepModel) -> (DVec3, DVec3) {
-    m.solids
-        .iter()
-        .flat_map(|s| s.vertices.iter())
-        .fold(
-            (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)),
-            |(lo, hi), v| (lo.min(*v), hi.max(*v)),
-        )
+    m.solids.iter().flat_map(|s| s.vertices.iter()).fold(
+        (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)),
+        |(lo, hi), v| (lo.min(*v), hi.max(*v)),
+    )
 }
 
 /// Every directed edge of every solid used once, its reverse once.
@@ -91,7 +88,8 @@ fn planar_solids_have_their_exact_volume_and_bounds() {
 fn curved_solids_are_within_the_chord_tolerance() {
     // (file, exact volume m³, exact surface area m², bounds m). Triangles lie within the chord
     // tolerance t of the surface, so the volume is off by at most area × t.
-    let cylinder_area = 2.0 * std::f64::consts::PI * 0.05 * 0.1 + 2.0 * std::f64::consts::PI * 0.0025;
+    let cylinder_area =
+        2.0 * std::f64::consts::PI * 0.05 * 0.1 + 2.0 * std::f64::consts::PI * 0.0025;
     let cases = [
         (
             "cylinder_ap214_is.step",
@@ -222,7 +220,10 @@ fn a_tolerance_needing_too_many_triangles_fails_fast() {
 fn broken_files_are_refused_naming_the_line() {
     let good = String::from_utf8(file("box_ap203.step")).unwrap();
     // The outer shell reference points nowhere.
-    let dangling = good.replace("MANIFOLD_SOLID_BREP('',#16)", "MANIFOLD_SOLID_BREP('',#99999)");
+    let dangling = good.replace(
+        "MANIFOLD_SOLID_BREP('',#16)",
+        "MANIFOLD_SOLID_BREP('',#99999)",
+    );
     assert_ne!(dangling, good, "the fixture's solid line changed");
     let e = read_step(dangling.as_bytes(), &StepOptions::new(1e-3))
         .unwrap_err()
@@ -263,7 +264,10 @@ fn a_file_the_kernel_loops_on_fails_at_the_deadline() {
     options.deadline = std::time::Duration::from_secs(2);
     let start = std::time::Instant::now();
     let e = read_step(&bytes, &options).unwrap_err().to_string();
-    assert!(e.contains("did not finish tessellating") && e.contains("within 2 s"), "{e}");
+    assert!(
+        e.contains("did not finish tessellating") && e.contains("within 2 s"),
+        "{e}"
+    );
     assert!(start.elapsed().as_secs_f64() < 30.0);
     // Its structure alone reads at once.
     let s = vps_step::read_structure(&bytes, None).unwrap();
