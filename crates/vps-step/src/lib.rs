@@ -200,7 +200,6 @@ pub fn read_structure(bytes: &[u8], solids: Option<&[String]>) -> Result<StepStr
         .filter(|s| solids.is_none_or(|wanted| wanted.iter().any(|w| matches(s, w))))
         .map(|s| (display(&s), s))
         .collect();
-    drop(graph);
     Ok(StepStructure {
         unit,
         names,

@@ -74,6 +74,11 @@ pub enum ShellFailure {
         open_edges: usize,
         /// Triangles produced.
         triangles: usize,
+        /// Faces of the shell.
+        faces: usize,
+        /// The surface kind of each face the tessellator returned nothing for (`ConicalSurface`,
+        /// `SphericalSurface`, ...).
+        failed_faces: Vec<String>,
     },
     /// The triangles enclose no positive volume.
     NoVolume,
@@ -93,12 +98,34 @@ impl std::fmt::Display for ShellFailure {
             Self::Open {
                 open_edges,
                 triangles,
-            } => write!(
-                f,
-                "its {triangles} triangles do not close ({open_edges} open edges): the \
-                 tessellator could not lay out one of its faces (truck-meshalgo 0.4 cannot mesh \
-                 cones and tori)"
-            ),
+                faces,
+                failed_faces,
+            } => {
+                write!(
+                    f,
+                    "its {triangles} triangles do not close ({open_edges} open edges)"
+                )?;
+                if failed_faces.is_empty() {
+                    write!(f, ": the tessellator left gaps between its {faces} faces")
+                } else {
+                    let mut kinds: Vec<(String, usize)> = Vec::new();
+                    for k in failed_faces {
+                        match kinds.iter_mut().find(|(n, _)| n == k) {
+                            Some((_, c)) => *c += 1,
+                            None => kinds.push((k.clone(), 1)),
+                        }
+                    }
+                    let listed: Vec<String> =
+                        kinds.iter().map(|(k, c)| format!("{c} {k}")).collect();
+                    write!(
+                        f,
+                        ": the tessellator (truck-meshalgo 0.4) could not mesh {} of its {faces} \
+                         faces ({})",
+                        failed_faces.len(),
+                        listed.join(", ")
+                    )
+                }
+            }
             Self::NoVolume => write!(f, "its triangles enclose no volume"),
             Self::TooMany { triangles } => write!(f, "it needs about {triangles} triangles"),
         }
@@ -120,7 +147,7 @@ pub fn shell(
     max_triangles: usize,
 ) -> Result<ShellMesh, ShellFailure> {
     let holder = table.shell.get(&shell).ok_or(ShellFailure::NotRead)?;
-    let run = || -> Result<ShellMesh, ShellFailure> {
+    let run = || -> Result<(ShellMesh, usize, Vec<String>), ShellFailure> {
         let compressed = table
             .to_compressed_shell(holder)
             .map_err(|e| ShellFailure::Convert(e.to_string()))?;
@@ -146,18 +173,24 @@ pub fn shell(
                 triangles: estimate as usize,
             });
         }
-        let mesh = to_mesh(
-            &compressed.robust_triangulation(tolerance).to_polygon(),
-            weld,
-        );
+        let triangulated = compressed.robust_triangulation(tolerance);
+        let failed_faces = triangulated
+            .faces
+            .iter()
+            .zip(&compressed.faces)
+            .filter(|(t, _)| t.surface.as_ref().is_none_or(|m| m.faces().is_empty()))
+            .map(|(_, face)| surface_kind(&format!("{:?}", face.surface)))
+            .collect();
+        let mesh = to_mesh(&triangulated.to_polygon(), weld);
         if mesh.triangles.len() > max_triangles {
             return Err(ShellFailure::TooMany {
                 triangles: mesh.triangles.len(),
             });
         }
-        Ok(mesh)
+        Ok((mesh, compressed.faces.len(), failed_faces))
     };
-    let mesh = std::panic::catch_unwind(std::panic::AssertUnwindSafe(run)).unwrap_or_else(|p| {
+    let (mesh, faces, failed_faces) = std::panic::catch_unwind(std::panic::AssertUnwindSafe(run))
+        .unwrap_or_else(|p| {
         let what = p
             .downcast_ref::<&str>()
             .map(|s| s.to_string())
@@ -170,6 +203,8 @@ pub fn shell(
         return Err(ShellFailure::Open {
             open_edges,
             triangles: mesh.triangles.len(),
+            faces,
+            failed_faces,
         });
     }
     // Facing outwards whatever the file's orientation (the caller turns void shells inside out).
@@ -228,6 +263,21 @@ fn to_mesh(poly: &PolygonMesh, weld: f64) -> ShellMesh {
         vertices,
         triangles,
     }
+}
+
+/// The STEP-like name of a surface from its debug text: the first word naming a surface
+/// (`ElementarySurface(ConicalSurface(...))` → `ConicalSurface`), or `surface`.
+fn surface_kind(debug: &str) -> String {
+    debug
+        .split(|c: char| !c.is_ascii_alphanumeric())
+        .find(|w| {
+            w.ends_with("Surface") && *w != "ElementarySurface" || *w == "Plane" || *w == "Sphere"
+        })
+        .map(|w| match w {
+            "Sphere" => "SphericalSurface".to_string(),
+            other => other.to_string(),
+        })
+        .unwrap_or_else(|| "surface".to_string())
 }
 
 /// The diagonal of the points' bounding box (0 for none).
