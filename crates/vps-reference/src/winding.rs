@@ -27,6 +27,14 @@ use vps_mesh::TriMesh;
 /// `β ×` its radius from the query point.
 pub const BETA: f64 = 2.0;
 
+/// Where the inside test does not trust the approximation: a value within this of ½ is computed
+/// again at [`REFINED_BETA`] ([`WindingTree::refined_winding_number`]).
+pub const NEAR_HALF: f64 = 0.05;
+
+/// The accuracy parameter of the second evaluation near ½: far terms' dropped parts are at most
+/// 1/64 of their own contribution (1/4 at [`BETA`]).
+pub const REFINED_BETA: f64 = 8.0;
+
 /// Most triangles in one leaf of [`WindingTree`].
 const LEAF_SIZE: usize = 8;
 
@@ -121,6 +129,23 @@ impl WindingTree {
     /// The approximate winding number at `p` (m): exact for triangles in near nodes, dipole terms
     /// for far ones.
     pub fn winding_number(&self, p: DVec3) -> f64 {
+        self.winding_number_at_beta(p, self.beta)
+    }
+
+    /// [`Self::winding_number`], evaluated again at [`REFINED_BETA`] when it lies within
+    /// [`NEAR_HALF`] of ½: what the inside test uses, so a point is not classified by the
+    /// approximation's error where the value is close to the threshold (a crack or hole of an open
+    /// mesh seen from afar).
+    pub fn refined_winding_number(&self, p: DVec3) -> f64 {
+        let w = self.winding_number(p);
+        if (w - 0.5).abs() < NEAR_HALF && self.beta < REFINED_BETA {
+            self.winding_number_at_beta(p, REFINED_BETA)
+        } else {
+            w
+        }
+    }
+
+    fn winding_number_at_beta(&self, p: DVec3, beta: f64) -> f64 {
         if self.nodes.is_empty() {
             return 0.0;
         }
@@ -132,7 +157,7 @@ impl WindingTree {
             let node = &self.nodes[stack[top] as usize];
             let d = node.centre - p;
             let dist_sq = d.length_squared();
-            if dist_sq > (self.beta * node.radius).powi(2) {
+            if dist_sq > (beta * node.radius).powi(2) {
                 let d3 = dist_sq * dist_sq.sqrt();
                 let m = &node.moment;
                 let trace = m.x_axis.x + m.y_axis.y + m.z_axis.z;
@@ -152,9 +177,9 @@ impl WindingTree {
         sum / (4.0 * PI)
     }
 
-    /// `winding_number(p) >= 0.5`: `p` is inside the (possibly leaky) solid.
+    /// `refined_winding_number(p) >= 0.5`: `p` is inside the (possibly leaky) solid.
     pub fn inside(&self, p: DVec3) -> bool {
-        self.winding_number(p) >= 0.5
+        self.refined_winding_number(p) >= 0.5
     }
 }
 

@@ -161,12 +161,15 @@ impl PartClass {
         !on_cut || !self.inside(g)
     }
 
-    /// Winding number at the centre of global voxel `g` (0 without a tree).
+    /// Winding number at the centre of global voxel `g` (0 without a tree), computed again more
+    /// exactly near ½ ([`WindingTree::refined_winding_number`]).
     fn w(&self, g: [usize; 3]) -> f64 {
         let c = self.origin
             + (IVec3::new(g[0] as i32, g[1] as i32, g[2] as i32).as_dvec3() + DVec3::splat(0.5))
                 * self.voxel_size;
-        self.tree.as_ref().map_or(0.0, |t| t.winding_number(c))
+        self.tree
+            .as_ref()
+            .map_or(0.0, |t| t.refined_winding_number(c))
     }
 
     /// Adds to `interior` (an open part's flood-fill result over a window starting at global voxel
