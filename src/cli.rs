@@ -659,7 +659,7 @@ pub type MeshSource = String;
 /// Arguments of `vps voxelize`.
 #[derive(Args, Debug)]
 pub struct VoxelizeArgs {
-    /// Mesh file (.obj, .stl, .ply) or builtin:NAME (teapot, aircraft-bay, box, sphere, cylinder).
+    /// Mesh file (.obj, .stl, .ply; .step/.stp tessellated to a quarter voxel) or builtin:NAME (teapot, aircraft-bay, box, sphere, cylinder).
     pub mesh: MeshSource,
     /// Voxel edge length (m, or with unit: 5mm).
     #[arg(long, value_parser = parse_length, default_value = "5mm")]

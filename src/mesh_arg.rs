@@ -6,10 +6,22 @@ use vps_session::file::Units;
 use vps_session::mesh_source;
 
 /// Loads the mesh of `vps voxelize` / `vps shell`: a file in `units` (converted to metres), or a
-/// built-in mesh (metres; `--units` other than m is refused for it).
-pub fn load_mesh(source: &str, units: Units) -> Result<mesh_source::SceneMesh> {
+/// built-in mesh (metres; `--units` other than m is refused for it). A STEP file takes its unit
+/// from the file (`--units` other than m is refused for it) and is tessellated to a quarter of
+/// `voxel_size` (m), as a scene file does.
+pub fn load_mesh(source: &str, units: Units, voxel_size: f64) -> Result<mesh_source::SceneMesh> {
     if source.starts_with("builtin:") && units != Units::Metres {
         bail!("--units applies to mesh files; {source} is in metres already");
+    }
+    if vps_session::file::is_step_source(source) {
+        if units != Units::Metres {
+            bail!("--units: {source} is a STEP file, which carries its own length unit");
+        }
+        let step = vps_mesh::StepSettings {
+            chord_tolerance: voxel_size / 4.0,
+            ..vps_mesh::StepSettings::default()
+        };
+        return mesh_source::load_scaled_with(source, 1.0, &step);
     }
     mesh_source::load_scaled(source, units.metres())
 }

@@ -966,6 +966,61 @@ fn a_step_scene_checks_and_runs_and_its_mistakes_are_named() {
     assert!(stats["touching_frames"].as_u64().unwrap() > 0, "{report}");
     assert_eq!(stats["penetrating_frames"], 0, "{report}");
 
+    // Three more public files in one session: a block with a through hole (an Onshape export in
+    // metres) and the 100 mm cube (AP203) as static objects, the hollow cube (a solid with a void)
+    // as the part, pressed onto the block's top.
+    for f in [
+        "cube_hole.step",
+        "box_ap203.step",
+        "hollow_box_ap214_is.step",
+    ] {
+        std::fs::copy(repo.join("assets/step").join(f), step_dir.join(f)).unwrap();
+    }
+    std::fs::write(
+        scenes.join("three.toml"),
+        r#"[part]
+source = "../step/hollow_box_ap214_is.step"
+scale = 0.1                    # 10 mm across
+
+[[static]]
+source = "../step/cube_hole.step"
+
+[[static]]
+source = "../step/box_ap203.step"
+translate = [0.1, 0.0, 0.0]
+
+[voxels]
+voxel_size = "1mm"
+voxel_width = 4
+shell_method = "exact"
+
+[hand]
+waypoints = [[0.006, 0.0127, 0.04], [0.006, 0.0127, 0.0305], [0.012, 0.0127, 0.0305]]
+speed = 0.03
+hold_s = 0.2
+
+[device]
+kind = "sim"
+"#,
+    )
+    .unwrap();
+    let three = vps.path("scenes/three.toml");
+    let check = json(&vps.run(&["scene", "check", &three, "--json"]));
+    let units: Vec<&str> = check["meshes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["step"]["unit"].as_str().unwrap())
+        .collect();
+    assert_eq!(units, ["metre", "millimetre", "millimetre"], "{check}");
+    let report = json(&vps.run(&["run", "--scene", &three, "--seconds", "2", "--json"]));
+    assert_eq!(report["stats"]["frames"], 2000, "{report}");
+    assert!(
+        report["stats"]["touching_frames"].as_u64().unwrap() > 0,
+        "{report}"
+    );
+    assert_eq!(report["stats"]["penetrating_frames"], 0, "{report}");
+
     let mistakes = [
         (
             "solids = [\"red_cube\"]",

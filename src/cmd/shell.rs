@@ -42,7 +42,7 @@ pub fn run(args: &ShellArgs) -> Result<()> {
         &args.build.output,
         &crate::output::mesh_inputs(&args.mesh),
     )?;
-    let scene = load_mesh(&args.mesh, args.build.units)?;
+    let scene = load_mesh(&args.mesh, args.build.units, args.voxel_size)?;
     let budget = args
         .build
         .max_memory

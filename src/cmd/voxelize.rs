@@ -39,7 +39,7 @@ pub fn run(args: &VoxelizeArgs) -> Result<()> {
         &args.build.output,
         &crate::output::mesh_inputs(&args.mesh),
     )?;
-    let scene = load_mesh(&args.mesh, args.build.units)?;
+    let scene = load_mesh(&args.mesh, args.build.units, args.voxel_size)?;
     let health = vps_mesh::mesh_health(&scene.mesh);
     let Some(width) = VoxelWidth::from_bits(args.width) else {
         bail!("--width {}: must be 2, 4 or 8", args.width);
