@@ -17,7 +17,8 @@
 //! Module map: [`state`] (part state, kernel pose), [`classed`] (cyclic classes), [`kernel`]
 //! (sampling), [`sums`] (fixed-point sums), [`params`] and [`stability`] (parameters and the bound
 //! behind the default gains), [`contact`] (force field, braking), [`coupling`] (virtual coupling),
-//! [`dynamics`] (integration, tunnelling guard), [`frame`] (one frame).
+//! [`dynamics`] (integration, tunnelling guard), [`frame`] (one frame), [`pair`] (contact between
+//! two moving parts, forces equal and opposite to the bit).
 
 #![warn(missing_docs)]
 
@@ -28,6 +29,7 @@ pub mod dynamics;
 pub mod frame;
 pub mod kernel;
 mod lanes;
+pub mod pair;
 pub mod params;
 #[doc(hidden)]
 pub mod previous;

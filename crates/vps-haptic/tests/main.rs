@@ -5,5 +5,6 @@
 mod common;
 mod frame;
 mod kernel;
+mod pair;
 mod params;
 mod stability;

@@ -1,0 +1,117 @@
+//! Contact between two moving parts, sans-IO: the first piece of several parts in one scene.
+//!
+//! Each moving part has a voxmap of its own mesh in its own body frame (origin at its grip) beside
+//! its point shell. For a pair (A, B), A's shell is sampled in B's voxmap at A's pose relative to
+//! B ([`pose_in`]), and B's shell in A's voxmap at B's pose relative to A ([`sample_pair`]). Each
+//! direction's sums become a contact wrench by the same force model as the static scene
+//! ([`crate::contact::contact_wrench`]); [`pair_wrenches`] then applies **one** pair force to
+//! both parts: `F = f_ab − f_ba` on A and `f_ba − f_ab = −F` on B, exact negations in `f64`, so the
+//! two forces are equal and opposite to the bit (a zero component is a zero on both), whatever
+//! the split of the sums (the sums themselves
+//! are exact in any grouping, [`crate::sums`]). Torques are about each part's own origin, and the
+//! pair's total torque about any point is zero up to `f64` rounding (angular momentum is kept).
+//!
+//! Not in this module yet: pre-contact braking between parts (pairs push, they do not brake), and
+//! everything around it (several `[[part]]`s in a scene file, a device per part, the loop, the
+//! cluster split of pairs, the viewer and studies per part): see the issue "Two hands and several
+//! moving parts".
+//!
+//! Pure functions; nothing here allocates or blocks.
+
+use glam::{DQuat, DVec3};
+
+use crate::contact::contact_wrench;
+use crate::params::{Gains, HapticParams};
+use crate::state::{KernelPose, PartState};
+use crate::sums::PartialSums;
+use crate::{sample_all, ClassedShell, Wrench};
+use vps_voxmap::VoxelLookup;
+
+/// Part `a`'s pose and velocities expressed in part `b`'s body frame (where `b`'s voxmap lies):
+/// rotation `R_b^T R_a`, position `R_b^T (x_a − x_b)`, linear velocity of `a`'s origin relative
+/// to `b`'s moving frame `R_b^T (v_a − v_b − ω_b × (x_a − x_b))`, angular velocity
+/// `R_b^T (ω_a − ω_b)`. Computed in `f64`, then made the kernel's `f32` pose.
+pub fn pose_in(a: &PartState, b: &PartState) -> KernelPose {
+    let to_b = b.orientation.normalize().inverse();
+    let offset = a.position - b.position;
+    let relative = PartState {
+        position: to_b * offset,
+        orientation: (to_b * a.orientation.normalize()).normalize(),
+        linear_velocity: to_b
+            * (a.linear_velocity - b.linear_velocity - b.angular_velocity.cross(offset)),
+        angular_velocity: to_b * (a.angular_velocity - b.angular_velocity),
+    };
+    KernelPose::from_state(&relative)
+}
+
+/// Whether two parts' bounding spheres (radius `radius_a`, `radius_b` about their origins, m),
+/// grown by `margin` (m, e.g. the force layer and proximity depth), overlap: the broad phase. A
+/// pair that may not touch is not sampled and costs nothing.
+pub fn may_touch(a: &PartState, radius_a: f64, b: &PartState, radius_b: f64, margin: f64) -> bool {
+    let reach = radius_a + radius_b + margin;
+    (a.position - b.position).length_squared() <= reach * reach
+}
+
+/// One pair's sums, both ways.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PairSums {
+    /// A's shell in B's voxmap (B's body frame; torques about A's origin).
+    pub a_in_b: PartialSums,
+    /// B's shell in A's voxmap (A's body frame; torques about B's origin).
+    pub b_in_a: PartialSums,
+}
+
+/// Samples the pair both ways: every class of A's shell in B's voxmap at [`pose_in`]`(a, b)`,
+/// and every class of B's shell in A's voxmap at [`pose_in`]`(b, a)`. Does not allocate or block.
+pub fn sample_pair<LA: VoxelLookup, LB: VoxelLookup>(
+    (map_a, shell_a, a): (&LA, &ClassedShell, &PartState),
+    (map_b, shell_b, b): (&LB, &ClassedShell, &PartState),
+) -> PairSums {
+    PairSums {
+        a_in_b: sample_all(map_b, shell_a, &pose_in(a, b)),
+        b_in_a: sample_all(map_a, shell_b, &pose_in(b, a)),
+    }
+}
+
+/// The contact wrenches a pair's sums put on each part, in the world frame, torques about each
+/// part's origin.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PairWrenches {
+    /// On A (N, N·m).
+    pub on_a: Wrench,
+    /// On B: its force is exactly `−on_a.force` (N; a zero component is a zero on both); its
+    /// torque is about B's origin (N·m).
+    pub on_b: Wrench,
+}
+
+/// The pair's wrenches from its sums. With `f_ab` the force A's points feel in B (world frame) and
+/// `f_ba` the force B's points feel in A, the pair force on A is `F = f_ab − f_ba` and on B
+/// `f_ba − f_ab`, exactly `−F`. Torques: A's points' torque about A's origin, plus the torque about A's origin of `−f_ba`
+/// applied where B's points are (`−τ_ba − (x_b − x_a) × f_ba`), and the mirror for B. Naming the
+/// parts the other way round gives the same wrenches, swapped, to the bit.
+pub fn pair_wrenches(
+    params: &HapticParams,
+    gains: &Gains,
+    a: &PartState,
+    b: &PartState,
+    sums: &PairSums,
+) -> PairWrenches {
+    let to_world = |q: DQuat, w: Wrench| (q.normalize() * w.force, q.normalize() * w.torque);
+    let (f_ab, tau_ab) = to_world(b.orientation, contact_wrench(params, gains, &sums.a_in_b));
+    let (f_ba, tau_ba) = to_world(a.orientation, contact_wrench(params, gains, &sums.b_in_a));
+    let force = f_ab - f_ba;
+    let lever = |from: DVec3, to: DVec3, f: DVec3| (to - from).cross(f);
+    PairWrenches {
+        on_a: Wrench {
+            force,
+            torque: tau_ab - tau_ba - lever(a.position, b.position, f_ba),
+        },
+        on_b: Wrench {
+            // `f_ba − f_ab`, the exact negation of `force` (IEEE subtraction is antisymmetric for
+            // unequal operands; equal ones give zero on both sides), so naming the parts the
+            // other way round swaps the wrenches bit for bit.
+            force: f_ba - f_ab,
+            torque: tau_ba - tau_ab - lever(b.position, a.position, f_ab),
+        },
+    }
+}

@@ -1,0 +1,223 @@
+//! Contact between two moving parts (`vps_haptic::pair`): two 40 mm cubes, each with a voxmap of
+//! itself in its own body frame and a point shell, pressed together at many poses. The pair's
+//! forces are equal and opposite to the bit, its total torque vanishes, naming the parts the other
+//! way round swaps the wrenches bit for bit, apart parts feel nothing, and the broad phase keeps
+//! apart pairs unsampled.
+
+use glam::{DQuat, DVec3, IVec3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use vps_haptic::pair::{may_touch, pair_wrenches, pose_in, sample_pair, PairSums};
+use vps_haptic::{ClassedShell, HapticParams, KernelPose, PartState};
+use vps_voxmap::{DenseGrid, GridSpec, Voxel};
+
+use crate::common::{cube_shell, S};
+
+/// Half the cube's side (m).
+const HALF: f64 = 0.02;
+
+/// The cube's voxmap in its body frame: 20³ voxels of 5 mm about the origin; Interior deeper than
+/// two voxels inside the faces, a two-voxel Surface layer just inside them, one Proximity layer
+/// outside (as the fixtures' half-space: the faces are the top of the force layer).
+fn cube_map() -> DenseGrid {
+    let spec = GridSpec {
+        origin: DVec3::splat(-0.05),
+        voxel_size: S,
+        dims: [20, 20, 20],
+    };
+    DenseGrid::from_fn(spec, |ijk: IVec3| {
+        let c = DVec3::splat(-0.05) + (ijk.as_dvec3() + DVec3::splat(0.5)) * S;
+        let m = c.abs().max_element();
+        if m < HALF - 2.0 * S {
+            Voxel::Interior
+        } else if m < HALF {
+            Voxel::Surface
+        } else if m < HALF + S {
+            Voxel::Proximity
+        } else {
+            Voxel::Free
+        }
+    })
+}
+
+fn cube() -> (DenseGrid, ClassedShell) {
+    (
+        cube_map(),
+        ClassedShell::new(&cube_shell(HALF as f32, 8), 4),
+    )
+}
+
+fn at(position: DVec3, orientation: DQuat) -> PartState {
+    PartState {
+        position,
+        orientation,
+        linear_velocity: DVec3::ZERO,
+        angular_velocity: DVec3::ZERO,
+    }
+}
+
+fn bits(v: DVec3) -> [u64; 3] {
+    v.to_array().map(f64::to_bits)
+}
+
+/// Exactly opposite: every non-zero component the other's negation to the bit, every zero a zero
+/// on both sides (of either sign: `−0 − +0` is −0).
+fn assert_opposite(a: DVec3, b: DVec3) {
+    for (x, y) in a.to_array().into_iter().zip(b.to_array()) {
+        if x == 0.0 {
+            assert_eq!(y, 0.0, "{a} vs {b}");
+        } else {
+            assert_eq!(x.to_bits(), (-y).to_bits(), "{a} vs {b}");
+        }
+    }
+}
+
+#[test]
+fn a_cube_pressed_on_another_is_pushed_apart_equal_and_opposite_to_the_bit() {
+    let (map, shell) = cube();
+    let params = HapticParams::default();
+    let gains = params.gains();
+    // B sits 4 mm into the top of A: past the tangent planes of the outer force layer's voxels.
+    let a = at(DVec3::ZERO, DQuat::IDENTITY);
+    let b = at(DVec3::new(0.0, 0.0, 2.0 * HALF - 0.004), DQuat::IDENTITY);
+    let sums = sample_pair((&map, &shell, &a), (&map, &shell, &b));
+    assert!(
+        sums.a_in_b.contacts > 0 && sums.b_in_a.contacts > 0,
+        "{sums:?}"
+    );
+    let w = pair_wrenches(&params, &gains, &a, &b, &sums);
+    assert_opposite(w.on_a.force, w.on_b.force);
+    assert!(w.on_a.force.z < 0.0 && w.on_b.force.z > 0.0, "{w:?}");
+    // Straight on: no sideways force, and little torque (the side faces' points on voxel
+    // boundaries fall on one side of them, a few per cent of |F| × half a side).
+    assert!(w.on_a.force.x.abs() < 1e-9 * w.on_a.force.z.abs(), "{w:?}");
+    let small = 0.02 * w.on_a.force.length() * HALF;
+    assert!(
+        w.on_a.torque.length() < small && w.on_b.torque.length() < small,
+        "{w:?}"
+    );
+}
+
+#[test]
+fn at_any_pose_the_forces_are_opposite_to_the_bit_and_the_torques_balance() {
+    let (map, shell) = cube();
+    let params = HapticParams::default();
+    let gains = params.gains();
+    let mut rng = ChaCha8Rng::seed_from_u64(35);
+    let mut touching = 0;
+    for _ in 0..300 {
+        let random_turn = |rng: &mut ChaCha8Rng| {
+            DQuat::from_euler(
+                glam::EulerRot::XYZ,
+                rng.gen_range(-3.0..3.0),
+                rng.gen_range(-3.0..3.0),
+                rng.gen_range(-3.0..3.0),
+            )
+        };
+        let a = PartState {
+            position: DVec3::new(
+                rng.gen_range(-0.01..0.01),
+                rng.gen_range(-0.01..0.01),
+                rng.gen_range(-0.01..0.01),
+            ),
+            orientation: random_turn(&mut rng),
+            linear_velocity: DVec3::new(rng.gen_range(-0.1..0.1), 0.0, 0.0),
+            angular_velocity: DVec3::new(0.0, rng.gen_range(-1.0..1.0), 0.0),
+        };
+        let direction = DVec3::new(
+            rng.gen_range(-1.0..1.0),
+            rng.gen_range(-1.0..1.0),
+            rng.gen_range(-1.0..1.0),
+        )
+        .normalize();
+        let b = PartState {
+            position: a.position + direction * rng.gen_range(0.02..0.06),
+            orientation: random_turn(&mut rng),
+            linear_velocity: DVec3::ZERO,
+            angular_velocity: DVec3::new(rng.gen_range(-1.0..1.0), 0.0, 0.0),
+        };
+        let sums = sample_pair((&map, &shell, &a), (&map, &shell, &b));
+        let w = pair_wrenches(&params, &gains, &a, &b, &sums);
+        assert_opposite(w.on_a.force, w.on_b.force);
+        // The pair's torque about the world origin: x_a × F + τ_a + x_b × (−F) + τ_b = 0.
+        let total = a.position.cross(w.on_a.force)
+            + w.on_a.torque
+            + b.position.cross(w.on_b.force)
+            + w.on_b.torque;
+        let scale = w.on_a.force.length() * 0.1 + w.on_a.torque.length() + 1e-12;
+        assert!(
+            total.length() <= 1e-12 * scale.max(1.0),
+            "{total} for {w:?}"
+        );
+        // The other naming: the same wrenches, swapped, to the bit.
+        let swapped_sums = PairSums {
+            a_in_b: sums.b_in_a,
+            b_in_a: sums.a_in_b,
+        };
+        assert_eq!(
+            sample_pair((&map, &shell, &b), (&map, &shell, &a)),
+            swapped_sums
+        );
+        let s = pair_wrenches(&params, &gains, &b, &a, &swapped_sums);
+        assert_eq!(bits(s.on_a.force), bits(w.on_b.force));
+        assert_eq!(bits(s.on_a.torque), bits(w.on_b.torque));
+        assert_eq!(bits(s.on_b.torque), bits(w.on_a.torque));
+        if sums.a_in_b.contacts + sums.b_in_a.contacts > 0 {
+            touching += 1;
+        }
+    }
+    assert!(touching > 50, "only {touching} of 300 poses touched");
+}
+
+#[test]
+fn apart_parts_feel_nothing_and_the_broad_phase_skips_them() {
+    let (map, shell) = cube();
+    let params = HapticParams::default();
+    let a = at(DVec3::ZERO, DQuat::IDENTITY);
+    let b = at(DVec3::new(0.2, 0.0, 0.0), DQuat::from_rotation_z(0.7));
+    let sums = sample_pair((&map, &shell, &a), (&map, &shell, &b));
+    assert_eq!(sums.a_in_b.contacts + sums.b_in_a.contacts, 0);
+    let w = pair_wrenches(&params, &params.gains(), &a, &b, &sums);
+    assert_eq!(w.on_a.force, DVec3::ZERO);
+    assert_eq!(w.on_b.torque, DVec3::ZERO);
+    // Bounding spheres: the cube's corner is √3 · 20 mm from its origin.
+    let radius = 3f64.sqrt() * HALF;
+    assert!(!may_touch(&a, radius, &b, radius, 2.0 * S));
+    let near = at(DVec3::new(0.07, 0.0, 0.0), DQuat::IDENTITY);
+    assert!(may_touch(&a, radius, &near, radius, 2.0 * S));
+}
+
+#[test]
+fn the_relative_pose_puts_a_in_bs_frame() {
+    // B turned a quarter turn about z at (1, 0, 0); A at (1, 1, 0), unturned, moving +x, and B
+    // spinning about z: in B's frame A sits at (1, 0, 0) (B's x axis is the world's y), turned −90°.
+    let b = PartState {
+        position: DVec3::X,
+        orientation: DQuat::from_rotation_z(std::f64::consts::FRAC_PI_2),
+        linear_velocity: DVec3::ZERO,
+        angular_velocity: DVec3::new(0.0, 0.0, 1.0),
+    };
+    let a = PartState {
+        position: DVec3::new(1.0, 1.0, 0.0),
+        orientation: DQuat::IDENTITY,
+        linear_velocity: DVec3::X,
+        angular_velocity: DVec3::ZERO,
+    };
+    let p: KernelPose = pose_in(&a, &b);
+    assert!((p.translation - glam::Vec3::X).length() < 1e-6, "{p:?}");
+    // A's x axis is B's −y.
+    assert!(
+        (p.rotation.x_axis - glam::Vec3::NEG_Y).length() < 1e-6,
+        "{p:?}"
+    );
+    // Relative velocity: v_a − v_b − ω_b × (x_a − x_b) = (1,0,0) − (0,0,1)×(0,1,0) = (2, 0, 0) in
+    // the world, which is −2 along B's y.
+    assert!(
+        (p.linear_velocity - glam::Vec3::new(0.0, -2.0, 0.0)).length() < 1e-6,
+        "{p:?}"
+    );
+    assert!(
+        (p.angular_velocity - glam::Vec3::new(0.0, 0.0, -1.0)).length() < 1e-6,
+        "{p:?}"
+    );
+}
