@@ -98,6 +98,39 @@ pub fn step(
     handle: &HandleSample,
     sums: &PartialSums,
 ) -> FrameOutput {
+    step_with_parts(params, state, handle, sums, &OtherParts::NONE)
+}
+
+/// What the other moving parts do to this one in a frame ([`crate::pair`]): the sum of its pairs'
+/// wrenches on it (world frame, N and N·m about its origin) and whether any of their points or
+/// its own lay in a non-Free voxel of a pair.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct OtherParts {
+    /// Σ of the pair wrenches on this part.
+    pub wrench: Wrench,
+    /// Some point of a pair lay in a non-Free voxel (the free-space rule then no longer holds).
+    pub near: bool,
+}
+
+impl OtherParts {
+    /// No other part (the one-part scene).
+    pub const NONE: OtherParts = OtherParts {
+        wrench: Wrench::ZERO,
+        near: false,
+    };
+}
+
+/// [`step`] for a part among several: the pair wrench `others.wrench` is added to its contact
+/// wrench (so [`FrameOutput::contact_wrench`] holds both), and the device wrench is zero only when
+/// neither the static scene nor any pair has a point in a non-Free voxel. With
+/// [`OtherParts::NONE`] it is [`step`] bit for bit. Pure; does not allocate or block.
+pub fn step_with_parts(
+    params: &HapticParams,
+    state: &PartState,
+    handle: &HandleSample,
+    sums: &PartialSums,
+    others: &OtherParts,
+) -> FrameOutput {
     let mut out = FrameOutput::hold(state, sums);
     if !handle_is_valid(handle) {
         out.rejected_input = true;
@@ -109,7 +142,11 @@ pub fn step(
     }
     let gains = params.gains();
     let (coupling, coupling_clamped) = coupling_wrench(params, &gains, state, handle);
-    let contact = contact_wrench(params, &gains, sums);
+    let mut contact = contact_wrench(params, &gains, sums);
+    if *others != OtherParts::NONE {
+        contact.force += others.wrench.force;
+        contact.torque += others.wrench.torque;
+    }
     let brake = brake_wrench(params, &gains, state, sums);
     let net = Wrench {
         force: coupling.force + contact.force + brake.force,
@@ -124,7 +161,7 @@ pub fn step(
         out.non_finite = true;
         return out;
     }
-    let device_wrench = if sums.non_free == 0 {
+    let device_wrench = if sums.non_free == 0 && !others.near {
         Wrench::ZERO
     } else {
         Wrench {

@@ -38,7 +38,7 @@ pub mod state;
 pub mod sums;
 
 pub use classed::ClassedShell;
-pub use frame::{step, FrameOutput};
+pub use frame::{step, step_with_parts, FrameOutput, OtherParts};
 pub use kernel::{sample_all, sample_class, sample_classes};
 pub use params::{Gains, HapticParams, ParamsError, StabilityIndices};
 pub use state::{KernelPose, PartState};

@@ -52,6 +52,12 @@ pub fn may_touch(a: &PartState, radius_a: f64, b: &PartState, radius_b: f64, mar
     (a.position - b.position).length_squared() <= reach * reach
 }
 
+/// The share of each direction's contact wrench a pair applies: ½. Both samplings (A's points in
+/// B, B's in A) measure the same interpenetration, so their sum would double the stiffness a part
+/// feels against a static wall of the same depth (and the default gains are chosen for that
+/// wall, `crate::stability`). A power of two, so the scaling is exact.
+pub const PAIR_SHARE: f64 = 0.5;
+
 /// One pair's sums, both ways.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PairSums {
@@ -99,19 +105,19 @@ pub fn pair_wrenches(
     let to_world = |q: DQuat, w: Wrench| (q.normalize() * w.force, q.normalize() * w.torque);
     let (f_ab, tau_ab) = to_world(b.orientation, contact_wrench(params, gains, &sums.a_in_b));
     let (f_ba, tau_ba) = to_world(a.orientation, contact_wrench(params, gains, &sums.b_in_a));
-    let force = f_ab - f_ba;
+    let force = (f_ab - f_ba) * PAIR_SHARE;
     let lever = |from: DVec3, to: DVec3, f: DVec3| (to - from).cross(f);
     PairWrenches {
         on_a: Wrench {
             force,
-            torque: tau_ab - tau_ba - lever(a.position, b.position, f_ba),
+            torque: (tau_ab - tau_ba - lever(a.position, b.position, f_ba)) * PAIR_SHARE,
         },
         on_b: Wrench {
             // `f_ba − f_ab`, the exact negation of `force` (IEEE subtraction is antisymmetric for
             // unequal operands; equal ones give zero on both sides), so naming the parts the
             // other way round swaps the wrenches bit for bit.
-            force: f_ba - f_ab,
-            torque: tau_ba - tau_ab - lever(b.position, a.position, f_ab),
+            force: (f_ba - f_ab) * PAIR_SHARE,
+            torque: (tau_ba - tau_ab - lever(b.position, a.position, f_ab)) * PAIR_SHARE,
         },
     }
 }

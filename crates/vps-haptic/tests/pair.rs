@@ -8,10 +8,12 @@ use glam::{DQuat, DVec3, IVec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use vps_haptic::pair::{may_touch, pair_wrenches, pose_in, sample_pair, PairSums};
-use vps_haptic::{ClassedShell, HapticParams, KernelPose, PartState};
+use vps_haptic::{
+    step_with_parts, ClassedShell, HapticParams, KernelPose, OtherParts, PartState, PartialSums,
+};
 use vps_voxmap::{DenseGrid, GridSpec, Voxel};
 
-use crate::common::{cube_shell, S};
+use crate::common::{cube_shell, handle_at, S};
 
 /// Half the cube's side (m).
 const HALF: f64 = 0.02;
@@ -220,4 +222,68 @@ fn the_relative_pose_puts_a_in_bs_frame() {
         (p.angular_velocity - glam::Vec3::new(0.0, 0.0, -1.0)).length() < 1e-6,
         "{p:?}"
     );
+}
+
+#[test]
+fn two_hands_pressing_two_cubes_together_come_to_rest_without_drifting() {
+    // Two cubes 10 mm apart, each coupled to a hand held still 20 mm past the other's near face:
+    // the hands press the cubes into each other with equal and opposite pushes. The frame is the
+    // real one (`step_with_parts`, no static scene), the pair wrench the only contact. (With both
+    // directions' wrenches applied in full, `PAIR_SHARE = 1`, the same pair buzzes for ever at
+    // 56 mm/s: twice a wall's stiffness is past the default gains' stability bound.)
+    let (map, shell) = cube();
+    let params = HapticParams::default();
+    let gains = params.gains();
+    let mut a = at(DVec3::ZERO, DQuat::IDENTITY);
+    let mut b = at(DVec3::new(0.05, 0.0, 0.0), DQuat::IDENTITY);
+    let hand_a = handle_at(DVec3::new(0.02, 0.0, 0.0), DVec3::ZERO);
+    let hand_b = handle_at(DVec3::new(0.03, 0.0, 0.0), DVec3::ZERO);
+    let nothing_static = PartialSums::default();
+    let mut last_second = Vec::new();
+    for frame in 0..3000 {
+        let sums = sample_pair((&map, &shell, &a), (&map, &shell, &b));
+        let w = pair_wrenches(&params, &gains, &a, &b, &sums);
+        assert_opposite(w.on_a.force, w.on_b.force);
+        let near = sums.a_in_b.non_free + sums.b_in_a.non_free > 0;
+        let on_a = OtherParts {
+            wrench: w.on_a,
+            near,
+        };
+        let on_b = OtherParts {
+            wrench: w.on_b,
+            near,
+        };
+        let out_a = step_with_parts(&params, &a, &hand_a, &nothing_static, &on_a);
+        let out_b = step_with_parts(&params, &b, &hand_b, &nothing_static, &on_b);
+        assert!(!out_a.non_finite && !out_b.non_finite);
+        a = out_a.next_state;
+        b = out_b.next_state;
+        if frame >= 2000 {
+            last_second.push((a.position, b.position, out_a.device_wrench.force));
+        }
+    }
+    // Pressed together and held apart by the contact: each stops short of its hand, the gap
+    // between the cubes' faces closed to within the force layer (two voxels).
+    let gap = b.position.x - a.position.x - 2.0 * HALF;
+    assert!(gap < 0.0 && gap > -2.0 * S, "gap {gap} m: {a:?} {b:?}");
+    assert!(
+        a.position.x < 0.02 - 0.01 && b.position.x > 0.03 + 0.01,
+        "{a:?} {b:?}"
+    );
+    // The device feels the push.
+    assert!(last_second.last().unwrap().2.x < -0.1, "{last_second:?}");
+    // At rest: neither drifts over the last second, and the pair stays centred between the hands.
+    let (first, last) = (last_second[0], *last_second.last().unwrap());
+    assert!(
+        (last.0 - first.0).length() < 1e-6,
+        "A drifted {}",
+        last.0 - first.0
+    );
+    assert!(
+        (last.1 - first.1).length() < 1e-6,
+        "B drifted {}",
+        last.1 - first.1
+    );
+    let centre = (a.position.x + b.position.x) / 2.0;
+    assert!((centre - 0.025).abs() < 1e-3, "centre {centre}");
 }
