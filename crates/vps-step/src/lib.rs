@@ -168,7 +168,6 @@ pub fn read_structure(bytes: &[u8], solids: Option<&[String]>) -> Result<StepStr
     let instances = p21::parse_instances(&raw);
     drop(raw);
     let graph = structure::Graph::new(&instances);
-    let unit = graph.length_unit()?;
     let all = graph.solids()?;
     if all.is_empty() {
         return Err(StepError::Unsupported {
@@ -178,6 +177,7 @@ pub fn read_structure(bytes: &[u8], solids: Option<&[String]>) -> Result<StepStr
             line: None,
         });
     }
+    let unit = graph.length_unit(&all)?;
     let display = |s: &structure::Solid| -> String {
         if !s.name.is_empty() {
             s.name.clone()

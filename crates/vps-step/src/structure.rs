@@ -43,6 +43,8 @@ pub struct Solid {
     /// Where each placed copy of the solid goes, in file units (one identity when not in an
     /// assembly).
     pub placements: Vec<DMat4>,
+    /// The shape representation holding it, where one does.
+    pub representation: Option<u64>,
 }
 
 /// A read-only view of the parsed instances.
@@ -87,11 +89,30 @@ impl<'a> Graph<'a> {
         self.instances.line_of.get(&id).copied()
     }
 
-    /// The file's length unit: the one every `GLOBAL_UNIT_ASSIGNED_CONTEXT` names. Several
-    /// different ones (a mixed-unit assembly) or none is an error.
-    pub fn length_unit(&self) -> Result<LengthUnit, StepError> {
+    /// The length unit of `solids`: the one the `GLOBAL_UNIT_ASSIGNED_CONTEXT`s of their shape
+    /// representations name (other contexts, such as a PMI presentation's in inches beside a
+    /// part in millimetres, are not asked), or of every context in the file when no solid's
+    /// representation names one. Several different ones (a mixed-unit assembly) or none is an
+    /// error.
+    pub fn length_unit(&self, solids: &[Solid]) -> Result<LengthUnit, StepError> {
+        let mut contexts: Vec<u64> = solids
+            .iter()
+            .filter_map(|s| {
+                let rep = s.representation?;
+                self.records(rep)
+                    .iter()
+                    .find(|r| r.name.ends_with("REPRESENTATION"))
+                    .and_then(|r| params(r).get(2).and_then(reference))
+            })
+            .filter(|&c| self.record(c, "GLOBAL_UNIT_ASSIGNED_CONTEXT").is_some())
+            .collect();
+        contexts.sort_unstable();
+        contexts.dedup();
+        if contexts.is_empty() {
+            contexts = self.ids();
+        }
         let mut found: Vec<(LengthUnit, u64)> = Vec::new();
-        for id in self.ids() {
+        for id in contexts {
             let Some(p) = self.params(id, "GLOBAL_UNIT_ASSIGNED_CONTEXT") else {
                 continue;
             };
@@ -246,6 +267,7 @@ impl<'a> Graph<'a> {
                 outer,
                 voids,
                 placements,
+                representation: reps.first().copied(),
             });
         }
         Ok(solids)

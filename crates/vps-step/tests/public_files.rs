@@ -246,6 +246,17 @@ fn broken_files_are_refused_naming_the_line() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("no length unit"), "{e}");
+    // A second context in inches that no solid uses (as a PMI presentation's) is not asked: the
+    // solid stays in millimetres (before, the file was refused as mixed-unit).
+    let end = good.rfind("ENDSEC;").unwrap();
+    let extra = "#90001=( LENGTH_UNIT() NAMED_UNIT(*) SI_UNIT($,.METRE.) );\n\
+                 #90002=LENGTH_MEASURE_WITH_UNIT(LENGTH_MEASURE(25.4),#90001);\n\
+                 #90003=( CONVERSION_BASED_UNIT('INCH',#90002) LENGTH_UNIT() NAMED_UNIT(*) );\n\
+                 #90004=( GEOMETRIC_REPRESENTATION_CONTEXT(3) GLOBAL_UNIT_ASSIGNED_CONTEXT((#90003)) \
+                 REPRESENTATION_CONTEXT('pmi','') );\n";
+    let with_pmi_context = format!("{}{extra}{}", &good[..end], &good[end..]);
+    let m = read_step(with_pmi_context.as_bytes(), &StepOptions::new(1e-3)).unwrap();
+    assert_eq!(m.unit.name, "millimetre");
     // Not a tolerance.
     let e = read_step(good.as_bytes(), &StepOptions::new(0.0))
         .unwrap_err()
