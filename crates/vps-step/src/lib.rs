@@ -282,7 +282,14 @@ pub fn read_step(bytes: &[u8], options: &StepOptions) -> Result<StepModel, StepE
                          over the limit of {}: use a coarser tolerance",
                         options.chord_tolerance, options.max_triangles
                     ),
-                    other => format!("shell #{shell}: {other}"),
+                    other if names.len() > 1 => format!(
+                        "shell #{shell}: {other}; export this solid as STL from the CAD tool, or \
+                         read the others with `solids = [...]` (the file's solids: {})",
+                        names.join(", ")
+                    ),
+                    other => format!(
+                        "shell #{shell}: {other}; export it as STL from the CAD tool instead"
+                    ),
                 };
                 return Err(StepError::Solid {
                     name: name.clone(),

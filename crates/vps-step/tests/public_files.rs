@@ -197,7 +197,10 @@ fn solids_truck_cannot_mesh_are_refused_with_the_reason() {
         assert!(matches!(e, StepError::Solid { .. }), "{name}: {e:?}");
         let text = e.to_string();
         assert!(
-            text.contains("line 25") && text.contains("'Body'") && text.contains("do not close"),
+            text.contains("line 25")
+                && text.contains("'Body'")
+                && text.contains("do not close")
+                && text.contains("export it as STL"),
             "{name}: {text}"
         );
     }
