@@ -17,10 +17,7 @@ pub fn load_mesh(source: &str, units: Units, voxel_size: f64) -> Result<mesh_sou
         if units != Units::Metres {
             bail!("--units: {source} is a STEP file, which carries its own length unit");
         }
-        let step = vps_mesh::StepSettings {
-            chord_tolerance: voxel_size / 4.0,
-            ..vps_mesh::StepSettings::default()
-        };
+        let step = vps_mesh::StepSettings::quarter_voxel(voxel_size);
         return mesh_source::load_scaled_with(source, 1.0, &step);
     }
     mesh_source::load_scaled(source, units.metres())

@@ -86,6 +86,17 @@ pub const DEFAULT_STEP_MAX_TRIANGLES: usize = 20_000_000;
 /// quarter of its voxel size instead.
 pub const DEFAULT_STEP_CHORD_TOLERANCE: f64 = 0.5e-3;
 
+impl StepSettings {
+    /// The settings a scene reads a STEP file with at `voxel_size` (m) when it sets no
+    /// `chord_tolerance`: a quarter voxel, every solid.
+    pub fn quarter_voxel(voxel_size: f64) -> Self {
+        Self {
+            chord_tolerance: voxel_size / 4.0,
+            ..Self::default()
+        }
+    }
+}
+
 impl Default for StepSettings {
     fn default() -> Self {
         Self {
@@ -217,24 +228,8 @@ pub fn parse_step(
         max_triangles: settings.max_triangles,
         ..vps_step::StepOptions::new(settings.chord_tolerance)
     };
-    let model = vps_step::read_step(bytes, &options).map_err(|e| {
-        let line = match &e {
-            vps_step::StepError::Format { line, .. }
-            | vps_step::StepError::Unsupported { line, .. }
-            | vps_step::StepError::Solid { line, .. } => *line,
-            vps_step::StepError::Selection(_) => None,
-        };
-        // The line is in the prefix already; the error's own text repeats it otherwise.
-        let message = e.to_string();
-        let message = match line {
-            Some(l) => message
-                .strip_prefix(&format!("line {l}: "))
-                .map(str::to_string)
-                .unwrap_or(message),
-            None => message,
-        };
-        parse_error(file, line, message)
-    })?;
+    let model = vps_step::read_step(bytes, &options)
+        .map_err(|e| parse_error(file, e.line(), e.detail()))?;
     let mut mesh = TriMesh::default();
     for s in &model.solids {
         let base = mesh.vertices.len() as u32;

@@ -1083,10 +1083,13 @@ pub const MIN_CHORD_TOLERANCE: f64 = 1e-6;
 /// The most solid names one object may select.
 pub const MAX_SOLID_NAMES: usize = 1000;
 
-/// Whether `source` names a STEP file (`.step` / `.stp`, any case).
+/// Whether `source` names a STEP file: what the mesh loader reads as one (`.step` / `.stp`, any
+/// case, [`vps_mesh::MeshFormat::from_path`]).
 pub fn is_step_source(source: &str) -> bool {
-    let lower = source.to_ascii_lowercase();
-    lower.ends_with(".step") || lower.ends_with(".stp")
+    matches!(
+        vps_mesh::MeshFormat::from_path(Path::new(source)),
+        Ok(vps_mesh::MeshFormat::Step)
+    )
 }
 
 /// The STEP-related fields of one object (`part` or `static[i]`).

@@ -177,10 +177,13 @@ impl LoadedScene {
         let mut keys: Vec<(String, u64, String)> = Vec::new();
         // A STEP file is tessellated at its object's chord tolerance (default a quarter voxel).
         let voxel_size = file.voxels.voxel_size;
-        let step_settings = |solids: &Option<Vec<String>>, tolerance: Option<f64>| StepSettings {
-            chord_tolerance: tolerance.unwrap_or(voxel_size / 4.0),
-            solids: solids.clone(),
-            ..StepSettings::default()
+        let step_settings = |solids: &Option<Vec<String>>, tolerance: Option<f64>| {
+            let quarter = StepSettings::quarter_voxel(voxel_size);
+            StepSettings {
+                chord_tolerance: tolerance.unwrap_or(quarter.chord_tolerance),
+                solids: solids.clone(),
+                ..quarter
+            }
         };
         let mut table =
             |source: &str, units: f64, step: StepSettings, field: &str| -> Result<usize> {

@@ -77,11 +77,7 @@ pub struct StepSolid {
 impl StepSolid {
     /// The enclosed volume (m³): outer shell less voids.
     pub fn volume(&self) -> f64 {
-        tessellate::ShellMesh {
-            vertices: self.vertices.clone(),
-            triangles: self.triangles.clone(),
-        }
-        .volume()
+        tessellate::enclosed_volume(&self.vertices, &self.triangles)
     }
 }
 
@@ -99,11 +95,11 @@ pub struct StepModel {
     pub unread_instances: usize,
 }
 
-/// Why a STEP file was refused.
-#[derive(Debug, thiserror::Error)]
+/// Why a STEP file was refused. Its text is `line N: ` (where the line is known) followed by
+/// [`StepError::detail`].
+#[derive(Debug)]
 pub enum StepError {
     /// The exchange structure is malformed.
-    #[error("{}{message}", line.map(|l| format!("line {l}: ")).unwrap_or_default())]
     Format {
         /// 1-based line, where known.
         line: Option<usize>,
@@ -111,7 +107,6 @@ pub enum StepError {
         message: String,
     },
     /// The file uses something this reader does not handle.
-    #[error("{}not supported: {what}", line.map(|l| format!("line {l}: ")).unwrap_or_default())]
     Unsupported {
         /// What.
         what: String,
@@ -119,7 +114,6 @@ pub enum StepError {
         line: Option<usize>,
     },
     /// A solid could not be meshed.
-    #[error("{}solid '{name}' (#{id}): {reason}", line.map(|l| format!("line {l}: ")).unwrap_or_default())]
     Solid {
         /// Its name.
         name: String,
@@ -131,7 +125,6 @@ pub enum StepError {
         reason: String,
     },
     /// The options or the selection do not fit the file.
-    #[error("{0}")]
     Selection(String),
 }
 
@@ -143,7 +136,40 @@ impl StepError {
             message: message.into(),
         }
     }
+
+    /// The 1-based line of the file the error is about, where known.
+    pub fn line(&self) -> Option<usize> {
+        match self {
+            Self::Format { line, .. }
+            | Self::Unsupported { line, .. }
+            | Self::Solid { line, .. } => *line,
+            Self::Selection(_) => None,
+        }
+    }
+
+    /// What is wrong, without the line (for a caller that reports the line itself).
+    pub fn detail(&self) -> String {
+        match self {
+            Self::Format { message, .. } => message.clone(),
+            Self::Unsupported { what, .. } => format!("not supported: {what}"),
+            Self::Solid {
+                name, id, reason, ..
+            } => format!("solid '{name}' (#{id}): {reason}"),
+            Self::Selection(message) => message.clone(),
+        }
+    }
 }
+
+impl std::fmt::Display for StepError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if let Some(line) = self.line() {
+            write!(f, "line {line}: ")?;
+        }
+        f.write_str(&self.detail())
+    }
+}
+
+impl std::error::Error for StepError {}
 
 /// What a STEP file's entity graph says, before any geometry is tessellated: its unit, solids
 /// (selected by name), names and placements. [`read_step`] tessellates from it.

@@ -25,13 +25,7 @@ pub struct ShellMesh {
 impl ShellMesh {
     /// The enclosed volume (file units cubed; negative when the triangles face inwards).
     pub fn volume(&self) -> f64 {
-        self.triangles
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| self.vertices[i as usize]);
-                a.dot(b.cross(c)) / 6.0
-            })
-            .sum()
+        enclosed_volume(&self.vertices, &self.triangles)
     }
 
     /// The same surface facing the other way.
@@ -45,18 +39,36 @@ impl ShellMesh {
     /// Edges used other than once in each direction (0 for a closed, consistently oriented
     /// surface).
     pub fn open_edges(&self) -> usize {
-        let mut directed: HashMap<(u32, u32), i32> = HashMap::new();
-        for t in &self.triangles {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                *directed.entry((a, b)).or_default() += 1;
-            }
-        }
-        directed
-            .iter()
-            .filter(|(&(a, b), &n)| n != 1 || directed.get(&(b, a)) != Some(&1))
-            .count()
+        open_edge_count(&self.triangles)
     }
+}
+
+/// The volume `triangles` over `vertices` enclose (the vertices' unit cubed; negative when the
+/// triangles face inwards): the divergence theorem's sum of signed tetrahedra.
+pub fn enclosed_volume(vertices: &[DVec3], triangles: &[[u32; 3]]) -> f64 {
+    triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| vertices[i as usize]);
+            a.dot(b.cross(c)) / 6.0
+        })
+        .sum()
+}
+
+/// Directed edges of `triangles` used other than once, or whose reverse is not used exactly once
+/// (0 for a closed, consistently oriented surface).
+pub fn open_edge_count(triangles: &[[u32; 3]]) -> usize {
+    let mut directed: HashMap<(u32, u32), i32> = HashMap::new();
+    for t in triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *directed.entry((a, b)).or_default() += 1;
+        }
+    }
+    directed
+        .iter()
+        .filter(|(&(a, b), &n)| n != 1 || directed.get(&(b, a)) != Some(&1))
+        .count()
 }
 
 /// Why a shell could not be triangulated.
@@ -161,17 +173,21 @@ pub fn shell(
         let size = bounds_diagonal(&corners);
         let weld = tolerance * 1e-3;
         let coarse_tolerance = (size * 0.01).min(coarse_limit).max(tolerance);
-        let coarse = to_mesh(
-            &compressed
-                .robust_triangulation(coarse_tolerance)
-                .to_polygon(),
-            weld,
-        );
-        let estimate = (coarse.triangles.len() as f64 * coarse_tolerance / tolerance).ceil();
-        if estimate > max_triangles as f64 {
-            return Err(ShellFailure::TooMany {
-                triangles: estimate as usize,
-            });
+        // A shell small against its tolerance has no coarser pass: the fine one is the only one
+        // (its count is checked below).
+        if coarse_tolerance > tolerance {
+            let coarse = to_mesh(
+                &compressed
+                    .robust_triangulation(coarse_tolerance)
+                    .to_polygon(),
+                weld,
+            );
+            let estimate = (coarse.triangles.len() as f64 * coarse_tolerance / tolerance).ceil();
+            if estimate > max_triangles as f64 {
+                return Err(ShellFailure::TooMany {
+                    triangles: estimate as usize,
+                });
+            }
         }
         let triangulated = compressed.robust_triangulation(tolerance);
         let failed_faces = triangulated
