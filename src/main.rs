@@ -26,6 +26,7 @@ mod limits;
 mod memory_size;
 mod mesh_arg;
 mod output;
+mod parts_report;
 mod scene_view;
 mod service_config;
 mod session_io;

@@ -57,6 +57,12 @@ struct RunReport {
     /// The bridge device's counters, when the device was the bridge.
     #[serde(skip_serializing_if = "Option::is_none")]
     bridge: Option<BridgeCounters>,
+    /// Every moving part, the first first (absent in a one-part scene).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    parts: Vec<crate::parts_report::PartSummary>,
+    /// The pairs of parts, counted (absent in a one-part scene).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pairs: Option<vps_runtime::PairCounts>,
 }
 
 /// The files a session writes at its end, checked before the session starts so that a bad path
@@ -407,6 +413,8 @@ pub fn finish<C: Serialize>(
         device_counters: report.device_counters.clone(),
         cluster: cluster.map(serde_json::to_value).transpose()?,
         bridge: bridge.map(|m| m.counters()),
+        parts: crate::parts_report::part_summaries(assets, report),
+        pairs: (!report.other_parts.is_empty()).then_some(report.pairs),
     };
     if let Some(path) = &outputs.report {
         let text = serde_json::to_string_pretty(&out)? + "\n";
@@ -443,6 +451,9 @@ pub fn finish<C: Serialize>(
                  (a part held back by an obstacle stays away from the hand)",
                 crate::output::metres_4(gap)
             );
+        }
+        if let Some(pairs) = &out.pairs {
+            crate::parts_report::print_parts(&out.parts, pairs);
         }
         if let Some(c) = &out.bridge {
             println!(

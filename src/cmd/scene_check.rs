@@ -85,6 +85,21 @@ struct VoxelsReport {
     builtin_reason: Option<&'static str>,
 }
 
+/// One moving part of a scene of several.
+#[derive(Serialize)]
+struct PartCheck {
+    name: String,
+    source: String,
+    triangles: usize,
+    bounds_min_m: [f64; 3],
+    bounds_max_m: [f64; 3],
+    /// `sim`, `bridge:ADDR`, … as its `[part.device]` (or the scene's `[device]` for the first).
+    device: String,
+    /// Where its hand starts (m), the grip's position at frame 0 for the simulated hand.
+    start_m: Option<[f64; 3]>,
+    shell_points: usize,
+}
+
 #[derive(Serialize)]
 struct CheckReport {
     scene: String,
@@ -92,6 +107,13 @@ struct CheckReport {
     objects: Vec<ObjectReport>,
     part: ObjectReport,
     grip_m: [f64; 3],
+    /// Every moving part, the first first, in a scene of several (empty for one part).
+    parts: Vec<PartCheck>,
+    /// Every pair of parts, sampled both ways whenever their bounding spheres come within
+    /// `pair_margin_m` of each other.
+    pairs: Vec<[String; 2]>,
+    /// The broad phase's margin (m).
+    pair_margin_m: Option<f64>,
     voxel_size_m: f64,
     voxel_width_bits: u32,
     voxels: VoxelsReport,
@@ -168,6 +190,58 @@ fn millimetres(metres: f64) -> String {
     text.trim_end_matches('0').trim_end_matches('.').to_string()
 }
 
+/// Every moving part of a scene of several, the first first (`first_points`: its shell's
+/// points); empty for a one-part scene. Builds the other parts' shells.
+fn part_checks(
+    loaded: &LoadedScene,
+    first_points: usize,
+    voxel_size: f64,
+) -> Result<Vec<PartCheck>> {
+    if loaded.more_parts.is_empty() {
+        return Ok(Vec::new());
+    }
+    let method = loaded.file.voxels.shell_method.method();
+    let start = |h: &vps_session::HandPlan| match h {
+        vps_session::HandPlan::Path { waypoints, .. }
+        | vps_session::HandPlan::Corridor { waypoints, .. } => {
+            waypoints.first().map(|w| w.to_array())
+        }
+    };
+    let first_bounds = loaded.part.bounds();
+    let mut parts = vec![PartCheck {
+        name: loaded.part_name.clone(),
+        source: loaded.part_source.clone(),
+        triangles: loaded.part.triangle_count(),
+        bounds_min_m: first_bounds.min.to_array(),
+        bounds_max_m: first_bounds.max.to_array(),
+        device: loaded
+            .file
+            .device
+            .as_ref()
+            .map_or("sim".into(), |d| d.kind.clone()),
+        start_m: start(&loaded.hand()),
+        shell_points: first_points,
+    }];
+    for (k, p) in loaded.more_parts.iter().enumerate() {
+        let (shell, _) = vps_session::parts::grip_frame_shell(&p.mesh, p.grip, voxel_size, method)?;
+        let b = p.mesh.bounds();
+        parts.push(PartCheck {
+            name: p.name.clone(),
+            source: p.source.clone(),
+            triangles: p.mesh.triangle_count(),
+            bounds_min_m: b.min.to_array(),
+            bounds_max_m: b.max.to_array(),
+            device: loaded.file.more_parts[k]
+                .device
+                .as_ref()
+                .map_or("sim".into(), |d| d.kind.clone()),
+            start_m: start(&p.hand),
+            shell_points: shell.len(),
+        });
+    }
+    Ok(parts)
+}
+
 /// Runs `vps scene check`; `max_memory` (bytes) is the budget instead of half of physical memory.
 pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
     let budget = max_memory.unwrap_or_else(vps_voxelize::default_memory_budget);
@@ -209,7 +283,32 @@ pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
             && set.offset_layers))
             .then_some(BUILTIN_VOXELS_REASON),
     };
-    let frame_us = ns_per_point * shell.len() as f64 / 1e3;
+    let parts = part_checks(&loaded, shell.len(), voxels.voxel_size)?;
+    let pairs: Vec<[String; 2]> = parts
+        .iter()
+        .enumerate()
+        .flat_map(|(i, a)| {
+            parts[i + 1..]
+                .iter()
+                .map(|b| [a.name.clone(), b.name.clone()])
+        })
+        .collect();
+    // Every part's shell in the static scene, and every pair both ways (all in contact at once).
+    let points: usize = parts
+        .iter()
+        .map(|p| p.shell_points)
+        .sum::<usize>()
+        .max(shell.len())
+        + parts
+            .iter()
+            .enumerate()
+            .flat_map(|(i, a)| {
+                parts[i + 1..]
+                    .iter()
+                    .map(move |b| a.shell_points + b.shell_points)
+            })
+            .sum::<usize>();
+    let frame_us = ns_per_point * points as f64 / 1e3;
     let budget_us = 1000.0 * FRAME_BUDGET_FRACTION;
     let report = CheckReport {
         scene: loaded.label.clone(),
@@ -228,6 +327,10 @@ pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
             loaded.part.bounds(),
         ),
         grip_m: loaded.grip(&shell).to_array(),
+        pair_margin_m: (!parts.is_empty())
+            .then(|| vps_session::parts::pair_margin(voxels.voxel_size, voxels.offset_layers)),
+        parts,
+        pairs,
         voxel_size_m: voxels.voxel_size,
         voxel_width_bits: width.bits(),
         voxels: voxels_report,
@@ -251,7 +354,7 @@ pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
         memory_estimate: memory,
         viewer_memory_bytes,
         memory_budget_bytes: budget,
-        shell_points: shell.len(),
+        shell_points: points,
         kernel_contact_ns_per_point: ns_per_point,
         frame_compute_estimate_us: frame_us,
         frame_budget_us: budget_us,
@@ -288,6 +391,32 @@ pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
         "  grip (part coordinates, m): [{}]",
         report.grip_m.map(metres_4).join(", ")
     );
+    if !report.parts.is_empty() {
+        println!(
+            "moving parts: {}, each with its own hand or device",
+            report.parts.len()
+        );
+        for p in &report.parts {
+            println!(
+                "  part '{}': {} triangles, {} shell points, device {}, starts at [{}] m  {}",
+                printable(&p.name),
+                p.triangles,
+                p.shell_points,
+                printable(&p.device),
+                p.start_m.map_or("?".into(), |s| s.map(metres_4).join(", ")),
+                printable(&p.source)
+            );
+        }
+        for [a, b] in &report.pairs {
+            println!(
+                "  pair '{}' – '{}': each part's shell sampled in the other's own voxmap, both \
+                 ways, when their bounding spheres come within {} mm",
+                printable(a),
+                printable(b),
+                millimetres(report.pair_margin_m.unwrap_or(0.0))
+            );
+        }
+    }
     let v = &report.voxels;
     println!(
         "voxels: size {} mm ({}), width {} bits ({}), shell {} ({}), offset {} layers ({})",

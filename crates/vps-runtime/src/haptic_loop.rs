@@ -28,6 +28,7 @@
 
 use crate::clock::FrameClock;
 use crate::feed::{FeedFrame, RecentMax, StateFeedSender};
+use crate::parts::{MovingPart, PairCounts, PairPass, PartBody, PartReport, PartsSetup};
 use crate::pool::{panic_message, ClassPool, FrameSampler};
 use crate::rt::{request_realtime, RtGrant};
 use crate::stats::{FrameRecord, FrameStats, StatsSummary};
@@ -38,7 +39,10 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 use vps_device::{DeviceError, HapticDevice, Trace, TraceRecorder};
-use vps_haptic::{step, ClassedShell, HandleSample, HapticParams, KernelPose, PartState, Wrench};
+use vps_haptic::{
+    step_with_parts, ClassedShell, HandleSample, HapticParams, KernelPose, OtherParts, PartState,
+    PartialSums, Wrench,
+};
 use vps_voxmap::VoxelLookup;
 
 /// How the loop runs. The number of classes is the [`ClassedShell`]'s own.
@@ -157,6 +161,15 @@ pub struct LoopReport {
     pub trace_error: Option<String>,
     /// The device's own counters ([`HapticDevice::counters`]), read after the last write.
     pub device_counters: Option<serde_json::Value>,
+    /// The session's other moving parts (empty in a one-part session), in their order.
+    pub other_parts: Vec<PartReport>,
+    /// The pairs' counts (all zero in a one-part session).
+    pub pairs: PairCounts,
+    /// The first part's contact wrench from the other parts in the last frame (N, N·m about its
+    /// origin; zero in a one-part session).
+    pub last_pair_wrench: Wrench,
+    /// Frames where the first part was in contact with another part.
+    pub pair_contact_frames: u64,
 }
 
 /// A running session. Dropping it detaches the frame thread (set the stop flag first).
@@ -190,6 +203,8 @@ pub struct SessionSetup {
     pub feed: Option<StateFeedSender>,
     /// Set to end the session early (the device then gets zero).
     pub stop: Arc<AtomicBool>,
+    /// The other moving parts and every part's body (`None`: the one-part session).
+    pub parts: Option<PartsSetup>,
 }
 
 /// Starts a session on a new thread named `vps-frame` and returns at once. Validates the
@@ -220,9 +235,14 @@ pub fn spawn_loop_with(
         config,
         feed,
         stop,
+        parts,
     } = setup;
     params.validate("haptic parameters")?;
     config.validate(&params)?;
+    let parts = match parts {
+        None => None,
+        Some(p) => Some(RunningParts::new(p, &config)?),
+    };
     let running = RunningLoop {
         pool: sampler,
         params,
@@ -231,6 +251,7 @@ pub fn spawn_loop_with(
         config,
         feed,
         stop,
+        parts,
     };
     let thread = std::thread::Builder::new()
         .name("vps-frame".into())
@@ -259,6 +280,176 @@ struct RunningLoop {
     config: LoopConfig,
     feed: Option<StateFeedSender>,
     stop: Arc<AtomicBool>,
+    parts: Option<RunningParts>,
+}
+
+/// The other parts of a running session, their bodies and the pair pass.
+struct RunningParts {
+    first: PartBody,
+    others: Vec<RunningPart>,
+    margin: f64,
+    pass: PairPass,
+}
+
+/// One of the other parts while the session runs.
+struct RunningPart {
+    part: MovingPart,
+    state: PartState,
+    limits: vps_device::DeviceLimits,
+    handle: Option<HandleSample>,
+    sums: PartialSums,
+    /// This frame's next state and device wrench (saturated), written after every part's step.
+    next: Option<(PartState, Wrench)>,
+    report: PartReport,
+}
+
+impl RunningParts {
+    /// Validates every part's parameters and the margin. Allocates; setup-time only.
+    fn new(setup: PartsSetup, config: &LoopConfig) -> Result<RunningParts, RuntimeError> {
+        if !(setup.margin.is_finite() && setup.margin >= 0.0) {
+            return Err(RuntimeError::Config {
+                field: "parts.margin",
+                message: format!("{} m: must be finite and ≥ 0", setup.margin),
+            });
+        }
+        let bodies = std::iter::once(&setup.first).chain(setup.others.iter().map(|o| &o.body));
+        if let Some(bad) = bodies
+            .map(|b| b.radius)
+            .find(|r| !(r.is_finite() && *r >= 0.0))
+        {
+            return Err(RuntimeError::Config {
+                field: "parts.radius",
+                message: format!("{bad} m: a part's radius must be finite and ≥ 0"),
+            });
+        }
+        let mut others = Vec::with_capacity(setup.others.len());
+        for part in setup.others {
+            part.params
+                .validate(&format!("haptic parameters of part '{}'", part.name))?;
+            config.validate(&part.params)?;
+            let report = PartReport {
+                name: part.name.clone(),
+                device_name: part.device.name().to_string(),
+                final_state: part.initial,
+                final_handle: None,
+                wrenches_written: 0,
+                clamped_frames: 0,
+                non_finite_frames: 0,
+                rejected_frames: 0,
+                max_device_force: 0.0,
+                pair_contact_frames: 0,
+                last_pair_wrench: Wrench::ZERO,
+                device_counters: None,
+            };
+            others.push(RunningPart {
+                limits: part.device.limits(),
+                state: part.initial,
+                handle: None,
+                sums: PartialSums::default(),
+                next: None,
+                report,
+                part,
+            });
+        }
+        Ok(RunningParts {
+            pass: PairPass::new(others.len() + 1),
+            first: setup.first,
+            others,
+            margin: setup.margin,
+        })
+    }
+}
+
+impl RunningParts {
+    /// Every other part's static sums and step, and every pair's wrenches (the first part's in
+    /// `self.pass.others[0]`): the other parts' next states and device wrenches wait in
+    /// `next` for [`RunningParts::write`]. Returns a sampler's failure. Does not allocate; blocks
+    /// only as the samplers do (up to `deadline`).
+    fn sample(
+        &mut self,
+        first: &PartState,
+        first_params: &HapticParams,
+        deadline: Instant,
+    ) -> Option<String> {
+        for o in &mut self.others {
+            let pose = KernelPose::from_state(&o.state);
+            o.sums = o.part.sampler.compute(&pose, deadline).sums;
+            if let Some(failure) = o.part.sampler.failure() {
+                return Some(format!("part '{}': {failure}", o.part.name));
+            }
+        }
+        let (firsts, others) = (&self.first, &self.others);
+        self.pass.run(
+            others.len() + 1,
+            |k| match k {
+                0 => (first, firsts, first_params),
+                k => {
+                    let o = &others[k - 1];
+                    (&o.state, &o.part.body, &o.part.params)
+                }
+            },
+            self.margin,
+        );
+        for (o, with) in self.others.iter_mut().zip(&self.pass.others[1..]) {
+            let Some(handle) = o.handle else { continue };
+            let out = step_with_parts(&o.part.params, &o.state, &handle, &o.sums, with);
+            let wrench = o.limits.saturate(&out.device_wrench);
+            let r = &mut o.report;
+            r.clamped_frames += u64::from(wrench != out.device_wrench);
+            r.non_finite_frames += u64::from(out.non_finite);
+            r.rejected_frames += u64::from(out.rejected_input);
+            r.last_pair_wrench = with.wrench;
+            o.next = Some((out.next_state, wrench));
+        }
+        None
+    }
+
+    /// Writes every other part's device (zero when the watchdog tripped) and advances its state.
+    fn write(&mut self, watchdog_tripped: bool) -> Result<(), DeviceError> {
+        for o in &mut self.others {
+            let Some((next, wrench)) = o.next.take() else {
+                continue;
+            };
+            let wrench = if watchdog_tripped {
+                Wrench::ZERO
+            } else {
+                wrench
+            };
+            o.part.device.write(&wrench)?;
+            o.state = next;
+            let r = &mut o.report;
+            r.wrenches_written += 1;
+            r.max_device_force = r.max_device_force.max(wrench.force.length());
+        }
+        Ok(())
+    }
+
+    /// The other parts' reports, the pair counts, and the first part's last pair wrench and pair
+    /// contact frames. Reads each device's counters.
+    fn finish(mut self) -> (Vec<PartReport>, PairCounts, Wrench, u64) {
+        let contact = self.pass.contact_frames.clone();
+        let reports = self
+            .others
+            .iter_mut()
+            .zip(contact.iter().skip(1))
+            .map(|(o, &frames)| {
+                let mut r = o.report.clone();
+                r.final_state = o.state;
+                r.final_handle = o.handle;
+                r.pair_contact_frames = frames;
+                r.device_counters = catch_unwind(AssertUnwindSafe(|| o.part.device.counters()))
+                    .ok()
+                    .flatten();
+                r
+            })
+            .collect();
+        (
+            reports,
+            self.pass.counts,
+            self.pass.others[0].wrench,
+            contact[0],
+        )
+    }
 }
 
 /// Largest number of frames a trace recorder reserves up front.
@@ -342,12 +533,21 @@ impl RunningLoop {
                 }
             }
         };
-        // Release the hand whatever happened, first; a failure (or a panic) here cannot be
+        // Release the hands whatever happened, first; a failure (or a panic) here cannot be
         // reported any better.
         let _ = catch_unwind(AssertUnwindSafe(|| self.device.write(&Wrench::ZERO)));
+        if let Some(parts) = self.parts.as_mut() {
+            for o in &mut parts.others {
+                let _ = catch_unwind(AssertUnwindSafe(|| o.part.device.write(&Wrench::ZERO)));
+            }
+        }
         let device_counters = catch_unwind(AssertUnwindSafe(|| self.device.counters()))
             .ok()
             .flatten();
+        let (other_parts, pairs, last_pair_wrench, pair_contact_frames) = match self.parts {
+            None => (Vec::new(), PairCounts::default(), Wrench::ZERO, 0),
+            Some(parts) => parts.finish(),
+        };
         LoopReport {
             end,
             device_error,
@@ -359,6 +559,10 @@ impl RunningLoop {
             trace: cx.recorder.map(TraceRecorder::finish),
             trace_error: cx.trace_error,
             device_counters,
+            other_parts,
+            pairs,
+            last_pair_wrench,
+            pair_contact_frames,
         }
     }
 
@@ -379,14 +583,25 @@ impl RunningLoop {
                 cx.recorder = None;
             }
         }
+        if let Some(parts) = self.parts.as_mut() {
+            for o in &mut parts.others {
+                o.handle = Some(o.part.device.read(time)?);
+            }
+        }
         let pose = KernelPose::from_state(&self.state);
-        let gathered = self
-            .pool
-            .compute(&pose, tick.started + self.config.watchdog / 2);
+        let deadline = tick.started + self.config.watchdog / 2;
+        let gathered = self.pool.compute(&pose, deadline);
         if let Some(failure) = self.pool.failure() {
             return Ok(FrameFlow::End(SessionEnd::Panicked(failure)));
         }
-        let out = step(&self.params, &self.state, &handle, &gathered.sums);
+        let mut mine = OtherParts::NONE;
+        if let Some(parts) = self.parts.as_mut() {
+            if let Some(failure) = parts.sample(&self.state, &self.params, deadline) {
+                return Ok(FrameFlow::End(SessionEnd::Panicked(failure)));
+            }
+            mine = parts.pass.others[0];
+        }
+        let out = step_with_parts(&self.params, &self.state, &handle, &gathered.sums, &mine);
         let mut wrench = cx.limits.saturate(&out.device_wrench);
         let clamped = wrench != out.device_wrench;
         let watchdog_tripped = tick.started.elapsed() >= self.config.watchdog;
@@ -395,6 +610,9 @@ impl RunningLoop {
         }
         self.device.write(&wrench)?;
         self.state = out.next_state;
+        if let Some(parts) = self.parts.as_mut() {
+            parts.write(watchdog_tripped)?;
+        }
         let compute_ns = u64::try_from(tick.started.elapsed().as_nanos()).unwrap_or(u64::MAX);
         let period_error_ns = (!self.config.free_running).then(|| tick.lateness_ns());
         cx.stats.record(&FrameRecord {
@@ -487,6 +705,7 @@ mod tests {
             config,
             feed,
             stop,
+            parts: None,
         }
     }
 

@@ -3,6 +3,7 @@
 //!
 //! Module map:
 //! - [`haptic_loop`]: [`run_loop`] / [`spawn_loop`], [`LoopConfig`], [`LoopReport`].
+//! - [`parts`]: several moving parts in one session ([`PartsSetup`]), their pairs.
 //! - [`pool`]: [`ClassPool`], cyclic class shares on local threads, exact merge.
 //! - [`clock`]: [`FrameClock`], absolute deadlines, sleep-then-spin, missed-tick accounting.
 //! - [`rt`]: [`request_realtime`] (SCHED_FIFO, core pinning), [`RtGrant`].
@@ -17,6 +18,7 @@
 pub mod clock;
 pub mod feed;
 pub mod haptic_loop;
+pub mod parts;
 pub mod pool;
 pub mod rt;
 pub mod stats;
@@ -28,6 +30,7 @@ pub use haptic_loop::{
     run_loop, spawn_loop, spawn_loop_with, LoopConfig, LoopHandle, LoopReport, SessionEnd,
     SessionSetup,
 };
+pub use parts::{BodyVoxmap, MovingPart, PairCounts, PartBody, PartReport, PartsSetup};
 pub use pool::{ClassPool, FrameSampler, PoolResult};
 pub use rt::{pin_current_thread, request_realtime, KeepOffFrameCore, Placement, RtGrant};
 pub use stats::{FrameRecord, FrameStats, Percentiles, StatsSummary};

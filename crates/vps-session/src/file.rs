@@ -30,8 +30,13 @@ pub const DEFAULT_DETOUR_REACH: f64 = 0.8;
 pub struct SceneFile {
     /// Short name used in reports; default: the file's stem.
     pub name: Option<String>,
-    /// The dynamic part (required): `part = "SOURCE"` or a `[part]` table.
+    /// The dynamic part (required): `part = "SOURCE"`, a `[part]` table, or the first of several
+    /// `[[part]]` tables.
     pub part: PartSpec,
+    /// The first part's name (`name` in its `[[part]]` table), if given.
+    pub part_name: Option<String>,
+    /// The second and later `[[part]]`s, each with its own hand or device (empty: one part).
+    pub more_parts: Vec<MovingPartSpec>,
     /// Static objects (at least one), merged into one voxmap.
     pub objects: Vec<StaticObject>,
     /// The simulated hand's path: grip positions visited in order.
@@ -115,43 +120,65 @@ pub struct PartSpec {
     pub chord_tolerance: Option<f64>,
 }
 
-/// `part = "SOURCE"` (today's form) or a `[part]` table.
-fn part_spec<'de, D: Deserializer<'de>>(d: D) -> Result<PartSpec, D::Error> {
-    struct Visitor;
-    impl<'de> serde::de::Visitor<'de> for Visitor {
-        type Value = PartSpec;
-        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-            f.write_str("a mesh source string or a [part] table")
-        }
-        fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<PartSpec, E> {
-            Ok(PartSpec {
-                source: v.to_string(),
+/// One moving part as a scene file writes it: `part = "SOURCE"`, a `[part]` table, or one of
+/// several `[[part]]` tables (each may carry `name`, a `[part.hand]` path and a `[part.device]`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MovingPartSpec {
+    /// The part's name in reports (default: its source's file stem).
+    pub name: Option<String>,
+    /// The mesh and its placement in the part's frame.
+    pub part: PartSpec,
+    /// Its simulated hand's path (the session starts at rest at its first waypoint; one waypoint
+    /// holds the part still).
+    pub hand: Option<HandPath>,
+    /// Its device (default: the simulated hand on `hand`).
+    pub device: Option<DeviceSection>,
+}
+
+impl MovingPartSpec {
+    fn of_source(source: &str) -> MovingPartSpec {
+        MovingPartSpec {
+            name: None,
+            part: PartSpec {
+                source: source.to_string(),
                 units: Units::Metres,
                 scale: unit_scale(),
                 rotate_deg: [0.0; 3],
                 grip: None,
                 solids: None,
                 chord_tolerance: None,
-            })
+            },
+            hand: None,
+            device: None,
         }
-        fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<PartSpec, A::Error> {
-            #[derive(Deserialize)]
-            #[serde(deny_unknown_fields)]
-            struct Table {
-                source: String,
-                #[serde(default)]
-                units: Units,
-                #[serde(default = "unit_scale", deserialize_with = "scale_factors")]
-                scale: [f64; 3],
-                #[serde(default)]
-                rotate_deg: [f64; 3],
-                grip: Option<[f64; 3]>,
-                solids: Option<Vec<String>>,
-                #[serde(default, deserialize_with = "optional_length")]
-                chord_tolerance: Option<f64>,
-            }
-            let t = Table::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
-            Ok(PartSpec {
+    }
+}
+
+/// A `[part]` or `[[part]]` table.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PartTable {
+    name: Option<String>,
+    source: String,
+    #[serde(default)]
+    units: Units,
+    #[serde(default = "unit_scale", deserialize_with = "scale_factors")]
+    scale: [f64; 3],
+    #[serde(default)]
+    rotate_deg: [f64; 3],
+    grip: Option<[f64; 3]>,
+    solids: Option<Vec<String>>,
+    #[serde(default, deserialize_with = "optional_length")]
+    chord_tolerance: Option<f64>,
+    hand: Option<HandPath>,
+    device: Option<DeviceSection>,
+}
+
+impl From<PartTable> for MovingPartSpec {
+    fn from(t: PartTable) -> MovingPartSpec {
+        MovingPartSpec {
+            name: t.name,
+            part: PartSpec {
                 source: t.source,
                 units: t.units,
                 scale: t.scale,
@@ -159,7 +186,42 @@ fn part_spec<'de, D: Deserializer<'de>>(d: D) -> Result<PartSpec, D::Error> {
                 grip: t.grip,
                 solids: t.solids,
                 chord_tolerance: t.chord_tolerance,
-            })
+            },
+            hand: t.hand,
+            device: t.device,
+        }
+    }
+}
+
+/// `part = "SOURCE"`, a `[part]` table or `[[part]]` tables.
+fn part_specs<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<MovingPartSpec>, D::Error> {
+    struct Visitor;
+    impl<'de> serde::de::Visitor<'de> for Visitor {
+        type Value = Vec<MovingPartSpec>;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("a mesh source string, a [part] table or [[part]] tables")
+        }
+        fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Self::Value, E> {
+            Ok(vec![MovingPartSpec::of_source(v)])
+        }
+        fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<Self::Value, A::Error> {
+            let t = PartTable::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
+            Ok(vec![t.into()])
+        }
+        fn visit_seq<A: serde::de::SeqAccess<'de>>(
+            self,
+            mut seq: A,
+        ) -> Result<Self::Value, A::Error> {
+            let mut parts = Vec::new();
+            while let Some(t) = seq.next_element::<PartTable>()? {
+                if parts.len() == MAX_PARTS {
+                    return Err(serde::de::Error::custom(format!(
+                        "more than {MAX_PARTS} [[part]] tables"
+                    )));
+                }
+                parts.push(t.into());
+            }
+            Ok(parts)
         }
     }
     d.deserialize_any(Visitor)
@@ -167,12 +229,12 @@ fn part_spec<'de, D: Deserializer<'de>>(d: D) -> Result<PartSpec, D::Error> {
 
 impl<'de> Deserialize<'de> for PartField {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        part_spec(d).map(PartField)
+        part_specs(d).map(PartField)
     }
 }
 
-/// [`PartSpec`] in either of its two written forms.
-struct PartField(PartSpec);
+/// The moving parts in any of their written forms.
+struct PartField(Vec<MovingPartSpec>);
 
 /// A static object: a mesh source in `units`, scaled per axis, rotated, then translated.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
@@ -709,6 +771,54 @@ fn count_text(n: f64) -> String {
     }
 }
 
+/// Checks a hand path (`prefix` names it in errors: `hand`, `part[1].hand`).
+fn validate_hand(path: &str, prefix: &str, h: &HandPath) -> Result<(), SceneError> {
+    let bad = |field: &str, message: String| {
+        Err(field_error(path, &format!("{prefix}.{field}"), message))
+    };
+    if h.waypoints.is_empty() || h.waypoints.len() > MAX_WAYPOINTS {
+        return bad(
+            "waypoints",
+            format!(
+                "{} waypoints; 1..={MAX_WAYPOINTS} are allowed",
+                h.waypoints.len()
+            ),
+        );
+    }
+    if let Some(i) = h.waypoints.iter().position(|w| !position3(w)) {
+        return bad(
+            &format!("waypoints[{i}]"),
+            position_message(&h.waypoints[i]),
+        );
+    }
+    if !(h.speed.is_finite() && h.speed > 0.0 && h.speed <= 10.0) {
+        return bad("speed", format!("{:?} must be in (0, 10] m/s", h.speed));
+    }
+    let length: f64 = h
+        .waypoints
+        .windows(2)
+        .map(|w| DVec3::from_array(w[0]).distance(DVec3::from_array(w[1])))
+        .sum();
+    let seconds = length / h.speed;
+    if seconds > MAX_PATH_SECONDS {
+        return bad(
+            "speed",
+            format!(
+                "{:?} m/s over the {length:.3} m of the waypoints takes {seconds:.3e} s; at \
+                 most {MAX_PATH_SECONDS:.0e} s is allowed (use a larger speed)",
+                h.speed
+            ),
+        );
+    }
+    if !(h.hold_s.is_finite() && (0.0..=60.0).contains(&h.hold_s)) {
+        return bad("hold_s", format!("{:?} must be in [0, 60] s", h.hold_s));
+    }
+    Ok(())
+}
+
+/// Most moving parts a scene may hold.
+pub const MAX_PARTS: usize = 8;
+
 /// Rotations beyond this many degrees are refused as a likely typo (radians for degrees are fine).
 const MAX_ROTATION_DEG: f64 = 3600.0;
 
@@ -772,7 +882,7 @@ impl SceneFile {
                 }
             }
         })?;
-        let file = file.into_scene();
+        let file = file.into_scene(path)?;
         file.validate(path)?;
         Ok(file)
     }
@@ -796,6 +906,95 @@ impl SceneFile {
         width_from_bits(self.voxels.voxel_width, path, "voxels.voxel_width")
     }
 
+    /// Checks a part's fields (`prefix` names it in errors: `part`, `part[1]`).
+    fn validate_part(&self, path: &str, prefix: &str, part: &PartSpec) -> Result<(), SceneError> {
+        check_source(path, &format!("{prefix}.source"), &part.source)?;
+        check_step(
+            path,
+            prefix,
+            StepFields {
+                source: &part.source,
+                units: part.units,
+                solids: part.solids.as_deref(),
+                chord_tolerance: part.chord_tolerance,
+                voxel_size: self.voxels.voxel_size,
+            },
+        )?;
+        check_scale(path, &format!("{prefix}.scale"), &part.scale)?;
+        check_rotation(path, &format!("{prefix}.rotate_deg"), &part.rotate_deg)?;
+        if let Some(g) = &part.grip {
+            if !position3(g) {
+                return Err(field_error(
+                    path,
+                    &format!("{prefix}.grip"),
+                    position_message(g),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks the second and later `[[part]]`s: each has a hand or a device, names are unique.
+    fn validate_more_parts(&self, path: &str) -> Result<(), SceneError> {
+        if self.more_parts.len() + 1 > MAX_PARTS {
+            return Err(field_error(
+                path,
+                "part",
+                format!(
+                    "{} [[part]] tables; at most {MAX_PARTS} are allowed",
+                    self.more_parts.len() + 1
+                ),
+            ));
+        }
+        if !self.more_parts.is_empty() && self.corridor.is_some() {
+            return Err(field_error(
+                path,
+                "corridor",
+                "a scene of several [[part]]s drives each by its own [part.hand] or \
+                 [part.device]; a [corridor] is for one part",
+            ));
+        }
+        let mut names: Vec<&str> = self.part_name.as_deref().into_iter().collect();
+        for (k, m) in self.more_parts.iter().enumerate() {
+            let prefix = format!("part[{}]", k + 1);
+            self.validate_part(path, &prefix, &m.part)?;
+            if let Some(name) = &m.name {
+                if name.trim().is_empty() || name.chars().count() > 100 {
+                    return Err(field_error(
+                        path,
+                        &format!("{prefix}.name"),
+                        "must be 1..=100 characters, not blank",
+                    ));
+                }
+                if names.contains(&name.as_str()) {
+                    return Err(field_error(
+                        path,
+                        &format!("{prefix}.name"),
+                        format!("'{name}' names another part too; part names must differ"),
+                    ));
+                }
+                names.push(name);
+            }
+            let Some(h) = &m.hand else {
+                return Err(field_error(
+                    path,
+                    &format!("{prefix}.hand"),
+                    "each [[part]] after the first needs a [part.hand] path: where it starts \
+                     (its first waypoint) and, for the simulated hand, where it goes (one \
+                     waypoint holds it still)",
+                ));
+            };
+            validate_hand(path, &format!("{prefix}.hand"), h)?;
+            if let Some(d) = &m.device {
+                crate::device::DeviceChoice::parse(&d.kind).map_err(|message| {
+                    field_error(path, &format!("{prefix}.device.kind"), message)
+                })?;
+                d.bridge_settings(path)?;
+            }
+        }
+        Ok(())
+    }
+
     /// Checks every field's range; the error names the first field at fault.
     pub fn validate(&self, path: &str) -> Result<(), SceneError> {
         let bad = |field: &str, message: String| Err(field_error(path, field, message));
@@ -804,25 +1003,8 @@ impl SceneFile {
                 return bad("name", "must be 1..=200 characters".into());
             }
         }
-        check_source(path, "part.source", &self.part.source)?;
-        check_step(
-            path,
-            "part",
-            StepFields {
-                source: &self.part.source,
-                units: self.part.units,
-                solids: self.part.solids.as_deref(),
-                chord_tolerance: self.part.chord_tolerance,
-                voxel_size: self.voxels.voxel_size,
-            },
-        )?;
-        check_scale(path, "part.scale", &self.part.scale)?;
-        check_rotation(path, "part.rotate_deg", &self.part.rotate_deg)?;
-        if let Some(g) = &self.part.grip {
-            if !position3(g) {
-                return bad("part.grip", position_message(g));
-            }
-        }
+        self.validate_part(path, "part", &self.part)?;
+        self.validate_more_parts(path)?;
         if self.objects.is_empty() {
             return bad("static", "at least one [[static]] object is needed".into());
         }
@@ -867,49 +1049,7 @@ impl SceneFile {
             _ => {}
         }
         if let Some(h) = &self.hand {
-            if h.waypoints.is_empty() || h.waypoints.len() > MAX_WAYPOINTS {
-                return bad(
-                    "hand.waypoints",
-                    format!(
-                        "{} waypoints; 1..={MAX_WAYPOINTS} are allowed",
-                        h.waypoints.len()
-                    ),
-                );
-            }
-            if let Some(i) = h.waypoints.iter().position(|w| !position3(w)) {
-                return bad(
-                    &format!("hand.waypoints[{i}]"),
-                    position_message(&h.waypoints[i]),
-                );
-            }
-            if !(h.speed.is_finite() && h.speed > 0.0 && h.speed <= 10.0) {
-                return bad(
-                    "hand.speed",
-                    format!("{:?} must be in (0, 10] m/s", h.speed),
-                );
-            }
-            let length: f64 = h
-                .waypoints
-                .windows(2)
-                .map(|w| DVec3::from_array(w[0]).distance(DVec3::from_array(w[1])))
-                .sum();
-            let seconds = length / h.speed;
-            if seconds > MAX_PATH_SECONDS {
-                return bad(
-                    "hand.speed",
-                    format!(
-                        "{:?} m/s over the {length:.3} m of the waypoints takes {seconds:.3e} s; at \
-                         most {MAX_PATH_SECONDS:.0e} s is allowed (use a larger speed)",
-                        h.speed
-                    ),
-                );
-            }
-            if !(h.hold_s.is_finite() && (0.0..=60.0).contains(&h.hold_s)) {
-                return bad(
-                    "hand.hold_s",
-                    format!("{:?} must be in [0, 60] s", h.hold_s),
-                );
-            }
+            validate_hand(path, "hand", h)?;
         }
         if let Some(c) = &self.corridor {
             self.validate_corridor(path, c)?;
@@ -1199,18 +1339,50 @@ struct Wire {
 }
 
 impl Wire {
-    fn into_scene(self) -> SceneFile {
-        SceneFile {
+    /// The scene: the first part's own `[part.hand]` / `[part.device]` become the scene's
+    /// `hand` / `device` (where the top-level tables are not also given).
+    fn into_scene(self, path: &str) -> Result<SceneFile, SceneError> {
+        let mut parts = self.part.0.into_iter();
+        let Some(first) = parts.next() else {
+            return Err(field_error(
+                path,
+                "part",
+                "at least one [[part]] table is needed",
+            ));
+        };
+        let hand = match (first.hand, self.hand) {
+            (Some(_), Some(_)) => {
+                return Err(field_error(
+                    path,
+                    "hand",
+                    "the first part has its own [part.hand]; give it once",
+                ))
+            }
+            (own, top) => own.or(top),
+        };
+        let device = match (first.device, self.device) {
+            (Some(_), Some(_)) => {
+                return Err(field_error(
+                    path,
+                    "device",
+                    "the first part has its own [part.device]; give it once",
+                ))
+            }
+            (own, top) => own.or(top),
+        };
+        Ok(SceneFile {
             name: self.name,
-            part: self.part.0,
+            part: first.part,
+            part_name: first.name,
+            more_parts: parts.collect(),
             objects: self.objects,
-            hand: self.hand,
+            hand,
             corridor: self.corridor,
             voxels: self.voxels.into_settings(),
             workspace: self.workspace,
             haptic: self.haptic,
-            device: self.device,
-        }
+            device,
+        })
     }
 }
 

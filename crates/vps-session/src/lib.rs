@@ -10,7 +10,8 @@
 //! [`cache`] (the voxmap cache), [`scene`] (scene file → [`LoadedScene`] → [`SessionAssets`]),
 //! [`script`] (the simulated hand's scripts), [`start_pose`] (a part
 //! that starts inside a static object), [`device`] (the device a session is driven by),
-//! [`plan`] ([`SessionPlan`], signal handlers), [`sweep_file`] (the sweep file), [`error`]
+//! [`parts`] (the moving parts after the first, `[[part]]`), [`plan`] ([`SessionPlan`], signal
+//! handlers), [`sweep_file`] (the sweep file), [`error`]
 //! ([`SceneError`]).
 //!
 //! Units: metres, kilograms, seconds throughout; mesh files may declare cm, mm or inches.
@@ -27,6 +28,7 @@ pub mod file;
 pub mod hints;
 pub mod length;
 pub mod mesh_source;
+pub mod parts;
 pub mod plan;
 pub mod scene;
 pub mod script;

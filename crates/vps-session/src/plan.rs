@@ -36,6 +36,7 @@ impl SessionPlan {
                 config,
                 feed: None,
                 stop: Arc::new(AtomicBool::new(false)),
+                parts: None,
             },
             bridge: device.bridge,
         }
@@ -94,7 +95,8 @@ pub fn stop_on_signals() -> Result<SignalStop> {
 impl SessionAssets {
     /// Opens `device` (the simulated hand follows `script`; the others start at its first pose;
     /// the bridge is set up by [`SessionAssets::bridge`]) and plans a session with the scene's
-    /// parameters and `config`. Blocking (opens the device).
+    /// parameters and `config`; a scene of several parts opens every other part's device too
+    /// ([`SessionAssets::parts_setup`]). Blocking (opens the devices).
     pub fn plan(
         &self,
         device: &DeviceChoice,
@@ -102,6 +104,9 @@ impl SessionAssets {
         config: LoopConfig,
     ) -> Result<SessionPlan> {
         let opened = device.open(script, &self.bridge)?;
-        Ok(SessionPlan::new(self.params, opened, config))
+        let parts = self.parts_setup(&config)?;
+        let mut plan = SessionPlan::new(self.params, opened, config);
+        plan.setup.parts = parts;
+        Ok(plan)
     }
 }

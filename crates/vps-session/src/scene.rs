@@ -66,6 +66,10 @@ pub struct LoadedScene {
     /// part's shell points carry zero normals, so each is pushed along the scene's own surface
     /// normal, from either side, and never pulled in ([`LoadedScene::build_shell`]).
     pub part_two_sided: bool,
+    /// The first part's name in reports (`name` in its `[[part]]`, else its source's stem).
+    pub part_name: String,
+    /// The second and later moving parts (empty: a one-part scene).
+    pub more_parts: Vec<crate::parts::LoadedPart>,
     /// The scene's force model was switched to the distance model because the part has no
     /// inside (the file said `tangent-plane`, or nothing).
     pub force_model_switched: bool,
@@ -227,6 +231,15 @@ impl LoadedScene {
             step_settings(&file.part.solids, file.part.chord_tolerance),
             "part.source",
         )?;
+        let mut more_indices = Vec::with_capacity(file.more_parts.len());
+        for (k, m) in file.more_parts.iter().enumerate() {
+            more_indices.push(table(
+                &m.part.source,
+                m.part.units.metres(),
+                step_settings(&m.part.solids, m.part.chord_tolerance),
+                &format!("part[{}].source", k + 1),
+            )?);
+        }
         for &k in &which {
             meshes[k].statics += 1;
         }
@@ -235,6 +248,9 @@ impl LoadedScene {
             m.open_triangles = vps_reference::components::open_triangle_count(&m.mesh);
         }
         meshes[part_index].part = true;
+        for &k in &more_indices {
+            meshes[k].part = true;
+        }
         // Every object is a placed copy of its mesh: their memory is known before any is made
         // (and before the placed bounds are computed, O(vertices) per object).
         let copies = which
@@ -342,6 +358,20 @@ impl LoadedScene {
         warnings.extend(distant_grip_hint(&file, &part));
         let static_bounds: Vec<Aabb> = statics.iter().map(|o| o.bounds).collect();
         warnings.extend(distant_static_hints(&file, &static_bounds));
+        let mut more_parts = crate::parts::load_more_parts(
+            &file,
+            &label,
+            &base,
+            &meshes,
+            &more_indices,
+            &mut warnings,
+        )?;
+        let mut names = crate::parts::part_names(&file, &part_source, &more_parts).into_iter();
+        let part_name = names.next().unwrap_or_default();
+        more_parts
+            .iter_mut()
+            .zip(names)
+            .for_each(|(m, name)| m.name = name);
         let params = scene_params(&file, &label, &base)?;
         let device = match &file.device {
             Some(d) => DeviceChoice::parse(&d.kind)
@@ -364,6 +394,8 @@ impl LoadedScene {
             statics,
             static_sources,
             part,
+            part_name,
+            more_parts,
             part_two_sided,
             force_model_switched,
             part_source,
@@ -662,6 +694,18 @@ impl LoadedScene {
             progress,
             ..self.voxelize_options(voxel_size, width)
         };
+        self.build_voxmap_with(objects, opts, cache)
+    }
+
+    /// A voxmap of `objects` (m) with the voxelizer's options `opts` and the scene's distance
+    /// band when its force model has one, from `cache` when there. Blocking, parallel, allocates.
+    pub(crate) fn build_voxmap_with(
+        &self,
+        objects: &[TriMesh],
+        opts: VoxelizeOptions,
+        cache: &CachePolicy,
+    ) -> Result<BuiltVoxmap> {
+        let (voxel_size, width) = (opts.voxel_size, opts.width);
         let t = Instant::now();
         let standoff = self.file.voxels.standoff_at(voxel_size);
         let cached_at = match cache {
@@ -748,15 +792,11 @@ impl LoadedScene {
     /// A two-sided part's points ([`LoadedScene::part_two_sided`], with the distance model)
     /// carry zero normals.
     pub fn build_shell(&self, voxel_size: f64, method: ShellMethod) -> Result<PointShell> {
-        let mut shell = point_shell(&self.part, voxel_size, method)
-            .with_context(|| format!("{}: building the part's point shell", self.label))?;
+        let (mut shell, _) =
+            crate::parts::grip_frame_shell(&self.part, self.file.part.grip, voxel_size, method)
+                .with_context(|| format!("{}: building the part's point shell", self.label))?;
         if self.shell_two_sided() {
             two_sided(&mut shell);
-        }
-        let grip = self.grip(&shell);
-        if grip != shell.mass.center_of_mass {
-            let shift: Vec3 = (shell.mass.center_of_mass - grip).as_vec3();
-            shell.points.iter_mut().for_each(|p| *p += shift);
         }
         Ok(shell)
     }
@@ -822,6 +862,13 @@ impl LoadedScene {
         let scene_triangles = self.scene_triangles();
         let static_names = object_names(&self.static_sources);
         let shell_two_sided = self.shell_two_sided();
+        let more_parts = self.build_more_parts(voxel_size, method, width, &options.cache)?;
+        let part_body = if more_parts.is_empty() {
+            None
+        } else {
+            Some(self.build_body(&part_mesh, voxel_size, width, &options.cache)?)
+        };
+        let pair_margin = crate::parts::pair_margin(voxel_size, self.file.voxels.offset_layers);
         Ok(SessionAssets {
             name: self.name,
             label: self.label,
@@ -839,6 +886,10 @@ impl LoadedScene {
             static_names,
             part_mesh,
             shell_two_sided,
+            part_name: self.part_name,
+            part_body,
+            more_parts,
+            pair_margin,
         })
     }
 }
@@ -936,7 +987,7 @@ fn raise_to(bytes: u64) -> String {
 }
 
 /// Flags a mesh whose size is implausible after units, with a hint.
-fn plausible_size(bounds: &Aabb, field: &str, warnings: &mut Vec<String>) {
+pub(crate) fn plausible_size(bounds: &Aabb, field: &str, warnings: &mut Vec<String>) {
     let size = bounds.size().max_element();
     if size > LARGEST_PLAUSIBLE_MESH_M {
         warnings.push(format!(
@@ -1153,6 +1204,14 @@ pub struct SessionAssets {
     /// Whether the shell's points carry zero normals: a part with no inside under the distance
     /// force model ([`LoadedScene::part_two_sided`]); a resampled shell keeps it.
     pub shell_two_sided: bool,
+    /// The first part's name in reports.
+    pub part_name: String,
+    /// The first part's voxmap in its grip frame, built only when the scene has other parts.
+    pub part_body: Option<Arc<VoxelTree>>,
+    /// The moving parts after the first (empty: a one-part scene).
+    pub more_parts: Vec<crate::parts::PartAssets>,
+    /// The broad phase's margin between two parts' bounding spheres (m).
+    pub pair_margin: f64,
 }
 
 impl SessionAssets {

@@ -139,6 +139,7 @@ pub fn standard_setup(device: Box<dyn HapticDevice>, frames: u64) -> SessionSetu
         config: config_frames(frames),
         feed: None,
         stop: Arc::new(AtomicBool::new(false)),
+        parts: None,
     }
 }
 
