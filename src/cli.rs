@@ -538,6 +538,12 @@ pub struct RunArgs {
     /// Compute threads, the frame thread included.
     #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 1)]
     pub threads: usize,
+    /// Run the frames back to back instead of at 1 kHz on the wall clock (the simulated hand and
+    /// replays only): the same physics, frame for frame, with no tick ever missed and no
+    /// watchdog (nobody holds a device); for checks and tests that must not depend on the
+    /// machine's load.
+    #[arg(long)]
+    pub free_running: bool,
     /// Record the handle trace to this file.
     #[arg(long)]
     pub record: Option<PathBuf>,
@@ -963,6 +969,7 @@ impl Default for RunArgs {
             voxel_size: None,
             seconds: None,
             threads: 1,
+            free_running: false,
             record: None,
             study: None,
             study_every: 1,

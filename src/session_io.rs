@@ -266,14 +266,50 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
             .static_sources
             .iter()
             .chain([&loaded.part_source])
+            .chain(loaded.more_parts.iter().map(|p| &p.source))
             .filter(|s| !s.starts_with("builtin:"))
             .map(PathBuf::from),
     );
-    if let DeviceChoice::Replay(source) = &choice {
-        inputs.push(source.path.clone());
+    for device in std::iter::once(&choice).chain(loaded.more_parts.iter().map(|p| &p.device)) {
+        if let DeviceChoice::Replay(source) = device {
+            inputs.push(source.path.clone());
+        }
     }
     check_session_outputs(args, &inputs)?;
+    if !loaded.more_parts.is_empty() {
+        if args.record.is_some() || args.study.is_some() {
+            bail!(
+                "{}: --record and --study cover one moving part; for a scene of {} parts they \
+                 are not built yet (the session's report gives every part's figures: --json)",
+                loaded.label,
+                loaded.more_parts.len() + 1
+            );
+        }
+        if args.view.is_some() {
+            eprintln!(
+                "{}: warning: the viewer draws the first part ('{}') only; drawing every part \
+                 is not built yet",
+                loaded.label, loaded.part_name
+            );
+        }
+    }
+    if args.free_running {
+        let paced = std::iter::once(&choice)
+            .chain(loaded.more_parts.iter().map(|p| &p.device))
+            .find(|d| !matches!(d, DeviceChoice::Simulated | DeviceChoice::Replay(_)));
+        if let Some(device) = paced {
+            bail!(
+                "--free-running runs frames back to back: only for the simulated hand and \
+                 replays, not for a person's device ({device:?})"
+            );
+        }
+    }
     choice.check_available()?;
+    for p in &loaded.more_parts {
+        p.device
+            .check_available()
+            .with_context(|| format!("part '{}'", p.name))?;
+    }
     // Read before the voxmap is built (that can take minutes), so a bad file is reported at once.
     let haptic_file = args
         .haptic
@@ -294,7 +330,7 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
     };
     check_loop_period(&assets.params, &source)?;
     let script = assets.script()?;
-    let seconds = session_seconds(args.seconds, &choice, &script);
+    let seconds = session_seconds(args.seconds, &choice, assets.hands_duration(&script)?);
     if args.seconds.is_none() && choice == DeviceChoice::Simulated {
         eprintln!(
             "session: {seconds:.2} s, until the simulated hand's path ends (--seconds to change)"
@@ -305,7 +341,15 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
     let config = LoopConfig {
         frames: Some(frames),
         threads: args.threads.max(1),
-        realtime: true,
+        realtime: !args.free_running,
+        free_running: args.free_running,
+        // Back to back nobody holds a device: a slow frame (a loaded machine) must not zero the
+        // simulated hand's force, or the session would depend on the machine's load.
+        watchdog: if args.free_running {
+            FREE_RUNNING_WATCHDOG
+        } else {
+            LoopConfig::default().watchdog
+        },
         record_trace: args.record.is_some() || args.study.is_some(),
         ..LoopConfig::default()
     };
@@ -324,24 +368,24 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
     })
 }
 
+/// The watchdog of a `--free-running` session: long enough never to trip on a loaded machine.
+const FREE_RUNNING_WATCHDOG: std::time::Duration = std::time::Duration::from_secs(10);
+
 /// A session's length when `--seconds` is not given and the device is not a replay (whose trace
 /// sets it).
 pub const DEFAULT_SESSION_SECONDS: f64 = 30.0;
 
 /// How long a session runs (s): `--seconds` when given; else, for the simulated hand, until its
-/// path has ended (its last hold included: the last frame at or just past the script's
-/// duration, at most [`crate::limits::MAX_SESSION_SECONDS`]); else [`DEFAULT_SESSION_SECONDS`].
-pub fn session_seconds(
-    given: Option<f64>,
-    choice: &DeviceChoice,
-    script: &vps_device::Script,
-) -> f64 {
+/// path has ended (its last hold included: the last frame at or just past `path_seconds`, the
+/// longest simulated hand's script, at most [`crate::limits::MAX_SESSION_SECONDS`]); else
+/// [`DEFAULT_SESSION_SECONDS`].
+pub fn session_seconds(given: Option<f64>, choice: &DeviceChoice, path_seconds: f64) -> f64 {
     match (given, choice) {
         (Some(s), _) => s,
         (None, DeviceChoice::Simulated) => {
             // Frames at 0, dt, 2 dt, ...: the last one at or past the path's end.
             let dt = LoopConfig::default().period.as_secs_f64();
-            let ticks = (script.duration() / dt).ceil() + 1.0;
+            let ticks = (path_seconds / dt).ceil() + 1.0;
             (ticks * dt).min(crate::limits::MAX_SESSION_SECONDS)
         }
         (None, _) => DEFAULT_SESSION_SECONDS,

@@ -15,6 +15,7 @@ mod findings;
 mod hostile_output;
 mod import_cycles;
 mod inside_outside;
+mod parts;
 mod safe_stop;
 mod scene;
 mod scene_memory;

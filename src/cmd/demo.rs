@@ -56,7 +56,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let seconds = crate::session_io::session_seconds(
         args.seconds,
         &vps_session::DeviceChoice::Simulated,
-        &scene.script()?,
+        scene.hands_duration(&scene.script()?)?,
     );
     // One set of handlers for both sessions, installed before the scene is announced: a signal
     // from then on ends the demo (a session started after it stops at its first frame).

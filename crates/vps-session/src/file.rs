@@ -1826,4 +1826,115 @@ max = [0.4, 0.1, 0.2]
         let v = q * DVec3::Y;
         assert!((v - DVec3::X).length() < 1e-12, "{v}");
     }
+
+    /// Two `[[part]]` tables, each with its own hand, on a floor.
+    const TWO_PARTS: &str = r#"
+[[static]]
+source = "builtin:box"
+[[part]]
+name = "left"
+source = "builtin:box"
+scale = 0.4
+[part.hand]
+waypoints = [[-0.06, 0.0, 0.0], [-0.015, 0.0, 0.0]]
+[[part]]
+name = "right"
+source = "builtin:sphere"
+[part.hand]
+waypoints = [[0.06, 0.0, 0.0]]
+[part.device]
+kind = "bridge:127.0.0.1:7701"
+"#;
+
+    #[test]
+    fn several_parts_each_with_its_own_hand_or_device() {
+        let file = parse(TWO_PARTS).unwrap();
+        assert_eq!(file.part.source, "builtin:box");
+        assert_eq!(file.part.scale, [0.4; 3]);
+        assert_eq!(file.part_name.as_deref(), Some("left"));
+        assert_eq!(
+            file.hand.as_ref().map(|h| h.waypoints.len()),
+            Some(2),
+            "the first part's hand is the scene's"
+        );
+        assert_eq!(file.more_parts.len(), 1);
+        let right = &file.more_parts[0];
+        assert_eq!(right.name.as_deref(), Some("right"));
+        assert_eq!(right.part.source, "builtin:sphere");
+        assert_eq!(
+            right.hand.as_ref().unwrap().waypoints,
+            vec![[0.06, 0.0, 0.0]]
+        );
+        assert_eq!(right.device.as_ref().unwrap().kind, "bridge:127.0.0.1:7701");
+        // The one-part forms give no other parts.
+        assert!(parse(GOOD).unwrap().more_parts.is_empty());
+    }
+
+    #[test]
+    fn mistakes_in_several_parts_are_named() {
+        let second = "[[part]]\nname = \"right\"";
+        let cases: Vec<(String, &str, &str)> = vec![
+            (
+                TWO_PARTS.replace(
+                    "[part.hand]\nwaypoints = [[0.06, 0.0, 0.0]]\n",
+                    "",
+                ),
+                "part[1].hand",
+                "needs a [part.hand]",
+            ),
+            (
+                TWO_PARTS.replace("name = \"right\"", "name = \"left\""),
+                "part[1].name",
+                "names another part",
+            ),
+            (
+                format!("{TWO_PARTS}[hand]\nwaypoints = [[0.0, 0.0, 0.0]]\n"),
+                "hand",
+                "give it once",
+            ),
+            (
+                TWO_PARTS.replace("bridge:127.0.0.1:7701", "joystick"),
+                "part[1].device.kind",
+                "expected sim",
+            ),
+            (
+                TWO_PARTS.replace(second, &format!("{second}\ncolour = \"red\"")),
+                "part",
+                "unknown field",
+            ),
+            (
+                TWO_PARTS.replace("[[0.06, 0.0, 0.0]]", "[[0.06, 0.0, 1e9]]"),
+                "part[1].hand.waypoints[0]",
+                "",
+            ),
+            (
+                format!(
+                    "{TWO_PARTS}[corridor]\nfrom = [0.0, 0.0, 0.1]\nto = [0.1, 0.0, 0.1]\nspacing = 0.05\n"
+                ),
+                "corridor",
+                "for one part",
+            ),
+            (
+                format!(
+                    "{TWO_PARTS}{}",
+                    "[[part]]\nsource = \"builtin:box\"\n[part.hand]\nwaypoints = [[0.0, 0.0, 0.0]]\n"
+                        .repeat(MAX_PARTS - 1)
+                ),
+                "part",
+                "more than 8",
+            ),
+        ];
+        for (text, field, words) in cases {
+            let err = parse(&text).unwrap_err();
+            let message = err.to_string();
+            match &err {
+                SceneError::Field { field: f, .. } => assert!(
+                    f.starts_with(field),
+                    "expected field {field}, got {f}: {message}"
+                ),
+                other => panic!("expected a field error at {field}, got {other}"),
+            }
+            assert!(message.contains(words), "{field}: {message}");
+        }
+    }
 }

@@ -245,6 +245,18 @@ pub fn pair_margin(voxel_size: f64, offset_layers: u32) -> f64 {
 }
 
 impl SessionAssets {
+    /// The longest simulated hand's path (s): `first`'s (the first part's script) or, in a scene
+    /// of several parts, another part's simulated hand's. Finds corridor detours (reads the voxmap).
+    pub fn hands_duration(&self, first: &vps_device::script::Script) -> Result<f64> {
+        let mut longest = first.duration();
+        for p in &self.more_parts {
+            if p.device == DeviceChoice::Simulated {
+                longest = longest.max(p.hand.script(&self.tree)?.duration());
+            }
+        }
+        Ok(longest)
+    }
+
     /// The runtime's setup for the parts after the first: each part's device opened (a
     /// simulated hand on its own path), a local class pool of `config.threads` threads on the
     /// static voxmap for its shell, and every part's body. `None` in a one-part scene. Blocking

@@ -1,0 +1,181 @@
+//! Several moving parts through the binary: two 40 mm cubes, each a `[[part]]` held by its own
+//! simulated hand, pressed against each other. The two contact forces are exact negations of each
+//! other; at rest under equal and opposite pushes neither drifts; the session is bit-identical on
+//! one thread, three threads and two local worker processes; `vps scene check` lists the parts and
+//! the pair; a part after the first with no inside is refused.
+
+use vps_testkit::process::{json, Vps};
+
+/// Two cubes of 40 mm over a floor far below, the hands pushing each cube 5 mm past touching.
+const TWO_CUBES: &str = r#"
+name = "two cubes"
+[[static]]
+source = "builtin:box"
+scale = [4.0, 4.0, 0.5]
+translate = [0.0, 0.0, -0.3]
+
+[[part]]
+name = "left"
+source = "builtin:box"
+scale = 0.4
+[part.hand]
+waypoints = [[-0.06, 0.0, 0.0], [-0.015, 0.0, 0.0]]
+speed = 0.1
+hold_s = 0.1
+
+[[part]]
+name = "right"
+source = "builtin:box"
+scale = 0.4
+[part.hand]
+waypoints = [[0.06, 0.0, 0.0], [0.015, 0.0, 0.0]]
+speed = 0.1
+hold_s = 0.1
+
+[voxels]
+voxel_size = "4 mm"
+"#;
+
+fn sandbox() -> (Vps, String) {
+    let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
+    std::fs::write(vps.dir().join("two.toml"), TWO_CUBES).unwrap();
+    let scene = vps.path("two.toml");
+    (vps, scene)
+}
+
+fn vector(v: &serde_json::Value) -> [f64; 3] {
+    [0, 1, 2].map(|k| v[k].as_f64().expect("a number"))
+}
+
+/// Every component of `a` the exact negation of `b`'s (zeros: zero on both sides).
+fn assert_opposite(a: [f64; 3], b: [f64; 3]) {
+    for (x, y) in a.into_iter().zip(b) {
+        if x == 0.0 {
+            assert_eq!(y, 0.0, "{a:?} vs {b:?}");
+        } else {
+            assert_eq!(x.to_bits(), (-y).to_bits(), "{a:?} vs {b:?}");
+        }
+    }
+}
+
+#[test]
+fn two_hands_press_two_parts_equal_and_opposite_and_they_rest() {
+    let (vps, scene) = sandbox();
+    let session = |seconds: &str, extra: &[&str]| {
+        let mut args = vec![
+            "run",
+            "--scene",
+            &scene,
+            "--seconds",
+            seconds,
+            "--free-running",
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        json(&vps.run(&args))
+    };
+    let report = session("2", &[]);
+    let parts = report["parts"].as_array().expect("every part reported");
+    assert_eq!(parts.len(), 2, "{report}");
+    let (left, right) = (&parts[0], &parts[1]);
+    assert_eq!(
+        (&left["name"], &right["name"]),
+        (&"left".into(), &"right".into())
+    );
+    let force = |p: &serde_json::Value| vector(&p["last_pair_force_n"]);
+    assert!(
+        force(left)[0] < -0.05,
+        "the right cube pushes the left one back: {left}"
+    );
+    assert_opposite(force(left), force(right));
+    for p in parts {
+        assert!(p["pair_contact_frames"].as_u64().unwrap() > 1000, "{p}");
+        assert_eq!(p["non_finite_frames"], 0, "{p}");
+        assert_eq!(p["clamped_frames"], 0, "{p}");
+        assert!(p["final_speed_m_per_s"].as_f64().unwrap() < 1e-4, "{p}");
+    }
+    // Held apart: the grips are a cube's side (40 mm) plus at most the two force layers apart,
+    // short of where the hands are (30 mm apart).
+    let gap = vector(&right["final_position_m"])[0] - vector(&left["final_position_m"])[0];
+    assert!((0.04..0.06).contains(&gap), "grips {gap} m apart");
+    let pairs = &report["pairs"];
+    assert!(
+        pairs["skipped"].as_u64().unwrap() > 100,
+        "apart at first: {pairs}"
+    );
+    assert!(pairs["contact_frames"].as_u64().unwrap() > 1000, "{pairs}");
+
+    // At rest: one more second changes neither position by a micrometre.
+    let later = session("3", &[]);
+    for (a, b) in parts.iter().zip(later["parts"].as_array().unwrap()) {
+        let (p, q) = (
+            vector(&a["final_position_m"]),
+            vector(&b["final_position_m"]),
+        );
+        let drift = (0..3).map(|k| (p[k] - q[k]).abs()).fold(0.0, f64::max);
+        assert!(
+            drift < 1e-6,
+            "{} drifted {drift} m from 2 s to 3 s",
+            a["name"]
+        );
+    }
+
+    // The same session on three threads, and over two local worker processes splitting every
+    // frame, bit for bit (the JSON numbers round-trip exactly).
+    let threads = session("2", &["--threads", "3"]);
+    assert_eq!(threads["parts"], report["parts"]);
+    let clustered = json(&vps.run(&[
+        "cluster",
+        "--local-workers",
+        "2",
+        "--split",
+        "always",
+        "--max-stale-frames",
+        "0",
+        "--scene",
+        &scene,
+        "--seconds",
+        "2",
+        "--free-running",
+        "--json",
+    ]));
+    assert_eq!(clustered["parts"], report["parts"]);
+    for peer in clustered["cluster"]["peers"].as_array().unwrap() {
+        assert_eq!(peer["merged"], 2000, "every frame split: {peer}");
+    }
+}
+
+#[test]
+fn scene_check_lists_every_part_and_pair_and_refuses_a_sheet_as_a_second_part() {
+    let (vps, scene) = sandbox();
+    let check = json(&vps.run(&["scene", "check", &scene, "--json"]));
+    let names: Vec<&str> = check["parts"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["left", "right"], "{check}");
+    assert_eq!(check["pairs"], serde_json::json!([["left", "right"]]));
+    assert_eq!(
+        check["parts"][1]["start_m"],
+        serde_json::json!([0.06, 0.0, 0.0])
+    );
+    assert!(check["pair_margin_m"].as_f64().unwrap() > 0.0);
+
+    std::fs::write(
+        vps.dir().join("sheet.obj"),
+        "v 0 0 0\nv 0.04 0 0\nv 0 0.04 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    let text = TWO_CUBES.replace(
+        "name = \"right\"\nsource = \"builtin:box\"\nscale = 0.4",
+        "name = \"right\"\nsource = \"sheet.obj\"",
+    );
+    std::fs::write(vps.dir().join("sheet.toml"), text).unwrap();
+    let err = vps.fails(&["scene", "check", &vps.path("sheet.toml")]);
+    assert!(
+        err.contains("part[1].source") && err.contains("has no inside"),
+        "{err}"
+    );
+}
