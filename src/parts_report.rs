@@ -19,6 +19,10 @@ pub struct PartSummary {
     pub final_hand_position_m: Option<[f64; 3]>,
     /// Its speed after the last frame (m/s).
     pub final_speed_m_per_s: f64,
+    /// Wrenches written to its device (one per frame; the final zero not counted).
+    pub wrenches_written: u64,
+    /// Largest force magnitude written to its device (N).
+    pub max_device_force_n: f64,
     /// Frames whose wrench was clamped to its device's limits.
     pub clamped_frames: u64,
     /// Frames whose step gave a non-finite value.
@@ -42,6 +46,8 @@ pub fn part_summaries(assets: &SessionAssets, report: &LoopReport) -> Vec<PartSu
         final_position_m: report.final_state.position.to_array(),
         final_hand_position_m: report.final_handle.map(|h| h.position.to_array()),
         final_speed_m_per_s: report.final_state.linear_velocity.length(),
+        wrenches_written: report.stats.frames,
+        max_device_force_n: report.max_device_force,
         clamped_frames: report.stats.clamped_frames,
         non_finite_frames: report.stats.non_finite_frames,
         pair_contact_frames: report.pair_contact_frames,
@@ -55,6 +61,8 @@ pub fn part_summaries(assets: &SessionAssets, report: &LoopReport) -> Vec<PartSu
             final_position_m: p.final_state.position.to_array(),
             final_hand_position_m: p.final_handle.map(|h| h.position.to_array()),
             final_speed_m_per_s: p.final_state.linear_velocity.length(),
+            wrenches_written: p.wrenches_written,
+            max_device_force_n: p.max_device_force,
             clamped_frames: p.clamped_frames,
             non_finite_frames: p.non_finite_frames,
             pair_contact_frames: p.pair_contact_frames,

@@ -3,6 +3,9 @@
 //! and every wrench it decoded must equal, bit for bit, the one vps logged as sent
 //! (`--log-wrenches`, matched by frame number).
 //!
+//! Two C examples at once drive the two parts of a scene of two `[[part]]`s, one bridge each: each
+//! gets ≥ 2,500 wrenches, all finite and within the device limits.
+//!
 //! Also: a scene file's `[device]` mapping places the device in the scene through a live session,
 //! and a command-line flag overrides one of its keys; and the device SDK skeletons
 //! (clients/c/*_skeleton.c) compile cleanly as stubs without their SDKs.
@@ -434,4 +437,139 @@ fn a_single_triangle_part_is_pushed_out_of_a_block_never_in() {
         "the part's plane went {:.3} mm into the block",
         -lowest * 1e3
     );
+}
+
+/// Two cubes of 40 mm, each a `[[part]]` on its own bridge: the C example's device stroke
+/// (0.15 m along −Z, scaled by 0.2) turned towards the other cube, so the two hands press the
+/// cubes together and apart every 2 s.
+const TWO_BRIDGED_CUBES: &str = r#"
+name = "two bridged cubes"
+[[static]]
+source = "builtin:box"
+scale = [4.0, 4.0, 0.5]
+translate = [0.0, 0.0, -0.3]
+
+[[part]]
+name = "left"
+source = "builtin:box"
+scale = 0.4
+[part.hand]
+waypoints = [[-0.035, 0.0, 0.0]]
+[part.device]
+kind = "bridge:127.0.0.1:0"
+mapping = { scale = 0.2, rotate_deg = [0.0, -90.0, 0.0] }
+
+[[part]]
+name = "right"
+source = "builtin:box"
+scale = 0.4
+[part.hand]
+waypoints = [[0.035, 0.0, 0.0]]
+[part.device]
+kind = "bridge:127.0.0.1:0"
+mapping = { scale = 0.2, rotate_deg = [0.0, 90.0, 0.0] }
+
+[voxels]
+voxel_size = "5mm"
+"#;
+
+/// The dumped wrench lines (`FRAME` and six IEEE-754 hex words: force N, torque N·m) as numbers.
+fn dumped_wrenches(lines: &[String]) -> Vec<[f64; 6]> {
+    lines
+        .iter()
+        .map(|line| {
+            let words: Vec<f64> = line
+                .split(' ')
+                .skip(1)
+                .map(|w| f64::from_bits(u64::from_str_radix(w, 16).expect("a hex word")))
+                .collect();
+            words.try_into().expect("six words")
+        })
+        .collect()
+}
+
+#[test]
+fn two_c_clients_drive_two_parts_in_one_session() {
+    if !available("gcc") {
+        println!("SKIPPED: two C bridge clients (gcc not found)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let example = dir.path().join("example");
+    let status = Command::new("gcc")
+        .args(["-std=c99", "-O2", "-o"])
+        .arg(&example)
+        .arg(repo().join("clients/c/example.c"))
+        .arg("-lm")
+        .status()
+        .expect("gcc runs");
+    assert!(status.success(), "the C example compiles");
+    let scene = dir.path().join("two.toml");
+    std::fs::write(&scene, TWO_BRIDGED_CUBES).unwrap();
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_vps"));
+    cmd.args(["run", "--scene", scene.to_str().unwrap()])
+        .args(["--seconds", SESSION_SECONDS, "--json"])
+        .env("VPS_CACHE_DIR", cache_dir())
+        .stdout(Stdio::piped());
+    let (child, addrs) = vps_testkit::process::spawn_until_lines(
+        cmd,
+        "vps",
+        "device bridge listening on ",
+        2,
+        STARTUP_DEADLINE,
+    );
+    let addrs: Vec<SocketAddr> = addrs.iter().map(|a| a.parse().unwrap()).collect();
+    assert_ne!(addrs[0], addrs[1], "one port each");
+    // Both clients at once, one per part.
+    let clients: Vec<_> = addrs
+        .iter()
+        .enumerate()
+        .map(|(k, &addr)| {
+            let (example, dump) = (example.clone(), dir.path().join(format!("{k}.dump")));
+            std::thread::spawn(move || run_example(Command::new(example), addr, &dump))
+        })
+        .collect();
+    let results: Vec<(u64, Vec<String>)> = clients.into_iter().map(|c| c.join().unwrap()).collect();
+    let out = child.wait_with_output().expect("vps finishes");
+    assert!(out.status.success(), "vps run failed");
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON report");
+    let parts = report["parts"].as_array().expect("both parts reported");
+    assert_eq!(parts.len(), 2, "{report}");
+    for (part, (n, lines)) in parts.iter().zip(&results) {
+        let name = &part["name"];
+        assert!(*n >= MIN_WRENCHES, "{name}: only {n} wrenches");
+        let wrenches = dumped_wrenches(lines);
+        assert_eq!(
+            wrenches.len() as u64,
+            *n,
+            "{name}: one dump line per wrench"
+        );
+        let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        assert!(
+            wrenches.iter().all(|w| w.iter().all(|x| x.is_finite())),
+            "{name}: a non-finite wrench reached the device"
+        );
+        // The default device limits: 15 N, 0.1 N·m.
+        let max_force = wrenches.iter().map(|w| norm(&w[..3])).fold(0.0, f64::max);
+        let max_torque = wrenches.iter().map(|w| norm(&w[3..])).fold(0.0, f64::max);
+        assert!(
+            max_force <= 15.0 && max_torque <= 0.1,
+            "{name}: {max_force} N, {max_torque} N·m"
+        );
+        assert!(max_force > 0.0, "{name}: only zero wrenches");
+        eprintln!(
+            "{name}: {n} wrenches, largest {max_force:.3} N and {max_torque:.4} N·m, {} frames \
+             touching the other part",
+            part["pair_contact_frames"]
+        );
+        assert!(
+            part["pair_contact_frames"].as_u64().unwrap() > 100,
+            "{part}"
+        );
+        assert_eq!(part["non_finite_frames"], 0, "{part}");
+        assert!(
+            part["max_device_force_n"].as_f64().unwrap() <= 15.0,
+            "{part}"
+        );
+    }
 }

@@ -170,6 +170,8 @@ pub struct LoopReport {
     pub last_pair_wrench: Wrench,
     /// Frames where the first part was in contact with another part.
     pub pair_contact_frames: u64,
+    /// Largest force magnitude written to the device (N; the final zero included).
+    pub max_device_force: f64,
 }
 
 /// A running session. Dropping it detaches the frame thread (set the stop flag first).
@@ -475,6 +477,7 @@ struct FrameContext {
     recent_compute: RecentMax,
     recent_lateness: RecentMax,
     frame: u64,
+    max_device_force: f64,
 }
 
 impl RunningLoop {
@@ -505,6 +508,7 @@ impl RunningLoop {
             recent_compute: RecentMax::default(),
             recent_lateness: RecentMax::default(),
             frame: 0,
+            max_device_force: 0.0,
         };
         let mut device_error = None;
         let end = loop {
@@ -563,6 +567,7 @@ impl RunningLoop {
             pairs,
             last_pair_wrench,
             pair_contact_frames,
+            max_device_force: cx.max_device_force,
         }
     }
 
@@ -609,6 +614,7 @@ impl RunningLoop {
             wrench = Wrench::ZERO;
         }
         self.device.write(&wrench)?;
+        cx.max_device_force = cx.max_device_force.max(wrench.force.length());
         self.state = out.next_state;
         if let Some(parts) = self.parts.as_mut() {
             parts.write(watchdog_tripped)?;

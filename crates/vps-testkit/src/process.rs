@@ -161,11 +161,24 @@ impl Drop for Children {
 /// stderr line to the test's stderr as `[label] LINE` until the child closes it. Panics (after
 /// killing the child) when no such line comes in time.
 pub fn spawn_until_line(
-    mut cmd: Command,
+    cmd: Command,
     label: &str,
     marker: &str,
     patience: Duration,
 ) -> (Child, String) {
+    let (child, mut rests) = spawn_until_lines(cmd, label, marker, 1, patience);
+    (child, rests.remove(0))
+}
+
+/// [`spawn_until_line`] waiting for `count` lines holding `marker` (all within `patience`);
+/// returns the rests of those lines in order.
+pub fn spawn_until_lines(
+    mut cmd: Command,
+    label: &str,
+    marker: &str,
+    count: usize,
+    patience: Duration,
+) -> (Child, Vec<String>) {
     let mut child = cmd
         .stderr(Stdio::piped())
         .spawn()
@@ -174,24 +187,30 @@ pub fn spawn_until_line(
     let (tx, rx) = mpsc::channel();
     let (label, wanted) = (label.to_string(), marker.to_string());
     std::thread::spawn(move || {
-        let mut tx = Some(tx);
         for line in BufReader::new(stderr).lines().map_while(Result::ok) {
             if let Some(rest) = line.split(&wanted).nth(1) {
-                if let Some(tx) = tx.take() {
-                    let _ = tx.send(rest.trim().to_string());
-                }
+                let _ = tx.send(rest.trim().to_string());
             }
             eprintln!("[{label}] {line}");
         }
     });
-    match rx.recv_timeout(patience) {
-        Ok(rest) => (child, rest),
-        Err(_) => {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("{cmd:?} printed no {marker:?} line within {patience:?}");
+    let deadline = std::time::Instant::now() + patience;
+    let mut rests = Vec::with_capacity(count);
+    while rests.len() < count {
+        let left = deadline.saturating_duration_since(std::time::Instant::now());
+        match rx.recv_timeout(left) {
+            Ok(rest) => rests.push(rest),
+            Err(_) => {
+                let _ = child.kill();
+                let _ = child.wait();
+                panic!(
+                    "{cmd:?} printed {} of {count} {marker:?} lines within {patience:?}",
+                    rests.len()
+                );
+            }
         }
     }
+    (child, rests)
 }
 
 /// A child process whose stderr lines are collected (and echoed to the test's stderr as
