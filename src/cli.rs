@@ -843,6 +843,20 @@ pub enum BenchKind {
         #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 2)]
         threads: usize,
     },
+    /// Frame compute of a scene of several parts (default assets/scenes/two-hands.toml): the
+    /// first part alone, the second alone, both apart (the broad phase skipping the pair), both
+    /// apart with every pair sampled, and the scene's own touching session.
+    Parts {
+        /// The scene (of at least two `[[part]]`s).
+        #[command(flatten)]
+        scene: SceneArgs,
+        /// Frames per run, back to back.
+        #[arg(long, default_value_t = 3000)]
+        frames: u64,
+        /// Rounds: each configuration once per round, alternating.
+        #[arg(long, default_value_t = 3)]
+        rounds: u32,
+    },
     /// Frame compute of the paced demo session without and with a connected viewer.
     Viewer {
         /// Session length per run (s).

@@ -32,6 +32,12 @@ struct DemoReport {
     pinned_core: Option<usize>,
     braking_on: StatsSummary,
     braking_off: StatsSummary,
+    /// Every moving part of the braking-on session, in a scene of several (absent for one).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    parts: Vec<crate::parts_report::PartSummary>,
+    /// The pairs of that session, counted (absent for one part).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pairs: Option<vps_runtime::PairCounts>,
 }
 
 /// Runs the demo.
@@ -46,6 +52,13 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             ..args.scene.build_options(args.voxel_size)
         },
     )?;
+    if args.study.is_some() && !scene.more_parts.is_empty() {
+        anyhow::bail!(
+            "{}: --study covers one moving part; for a scene of {} parts it is not built yet",
+            scene.label,
+            scene.more_parts.len() + 1
+        );
+    }
     // Braking on for the first run whatever the scene says: the demo compares on with off.
     let params = HapticParams {
         braking: true,
@@ -138,6 +151,8 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             threads,
             realtime_granted: on.rt.fifo,
             pinned_core: on.rt.pinned_core,
+            parts: crate::parts_report::part_summaries(&scene, &on),
+            pairs: (!on.other_parts.is_empty()).then_some(on.pairs),
             braking_on: on.stats,
             braking_off: off.stats,
         });
@@ -157,6 +172,13 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         &off.stats,
         Some(PAPER_PR_NO_BRAKING),
     );
+    if !on.other_parts.is_empty() {
+        println!("the parts in the braking-on session:");
+        crate::parts_report::print_parts(
+            &crate::parts_report::part_summaries(&scene, &on),
+            &on.pairs,
+        );
+    }
     for line in crate::session_io::SESSION_LEGEND {
         println!("{line}");
     }

@@ -6,6 +6,7 @@ mod bench_fidelity;
 mod bench_host;
 mod bench_kernel;
 mod bench_loop;
+mod bench_parts;
 mod bench_scaling;
 mod bench_transport;
 mod bench_viewer;
@@ -92,6 +93,12 @@ pub fn dispatch(cli: Cli, matches: &ArgMatches) -> Result<()> {
                 threads,
                 ..
             } => bench_loop::run(&scene, voxel_size, points, frames, threads, json),
+            BenchKind::Parts {
+                scene,
+                frames,
+                rounds,
+                ..
+            } => bench_parts::run(&scene, frames, rounds, json),
             BenchKind::Viewer {
                 seconds, rounds, ..
             } => bench_viewer::run(seconds, rounds, json),

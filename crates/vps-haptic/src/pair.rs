@@ -11,10 +11,8 @@
 //! are exact in any grouping, [`crate::sums`]). Torques are about each part's own origin, and the
 //! pair's total torque about any point is zero up to `f64` rounding (angular momentum is kept).
 //!
-//! Not in this module yet: pre-contact braking between parts (pairs push, they do not brake), and
-//! everything around it (several `[[part]]`s in a scene file, a device per part, the loop, the
-//! cluster split of pairs, the viewer and studies per part): see the issue "Two hands and several
-//! moving parts".
+//! The frame loop runs it for every pair of a scene's moving parts (`vps_runtime::parts`). Not
+//! built yet: pre-contact braking between parts (pairs push, they do not brake).
 //!
 //! Pure functions; nothing here allocates or blocks.
 

@@ -1169,6 +1169,7 @@ impl HandPlan {
 /// Everything built once from a scene file that sessions run with: the voxmap, the part's point
 /// shell, the haptic parameters, the device choice and the hand's motion (plus the meshes, for a
 /// viewer). Many sessions may run on one `SessionAssets`; [`SessionAssets::plan`] plans one.
+#[derive(Clone)]
 pub struct SessionAssets {
     /// The scene's name.
     pub name: String,
