@@ -5,7 +5,7 @@
 //! Per frame: wait for the tick ([`FrameClock`]) → `device.read(tick time)` → [`KernelPose`] of the
 //! current state → the [`FrameSampler`] computes all classes, with a reply deadline half the
 //! watchdog budget after the frame started (when the frame thread woke for its tick, where the
-//! watchdog counts from too) → [`step`] → saturation to the device's
+//! watchdog counts from too) → [`step_with_parts`] (the pairs of several parts, [`crate::parts`]) → saturation to the device's
 //! [`DeviceLimits`](vps_device::DeviceLimits) (counted as clamped) → watchdog check →
 //! `device.write` → statistics → publish to the state feed (never blocks). With the local
 //! [`ClassPool`], pool threads and the frame thread claim classes, and the frame thread computes

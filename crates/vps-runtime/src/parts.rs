@@ -4,7 +4,7 @@
 //! The session's first part is the loop's own (its device, sampler and state as in a one-part
 //! session); [`PartsSetup`] adds the others ([`MovingPart`], each with its own device, parameters
 //! and static sampler) and every part's [`PartBody`] (its voxmap in its own body frame, its
-//! shell, its bounding radius). Per frame, after every part's static sums, [`PairPass::run`]
+//! shell, its bounding radius). Per frame, after every part's static sums, the pair pass
 //! visits the pairs `(i, j)`, `i < j`, in a fixed order; a pair whose bounding spheres (grown
 //! by the margin) do not overlap ([`vps_haptic::pair::may_touch`]) is skipped and costs nothing;
 //! the others are sampled both ways on the frame thread and their wrenches
