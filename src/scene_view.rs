@@ -17,7 +17,20 @@ pub fn viewer_content(assets: &SessionAssets, limits: SceneLimits) -> ViewerCont
         Some(Arc::new(assets.shell.clone())),
         limits,
     )
-    .with_meshes(assets.static_meshes.clone(), Some(assets.part_mesh.clone()));
+    .with_meshes(assets.static_meshes.clone(), Some(assets.part_mesh.clone()))
+    .with_other_parts(
+        assets
+            .more_parts
+            .iter()
+            .map(|p| {
+                let start = p
+                    .hand
+                    .script(&assets.tree)
+                    .map_or((DVec3::ZERO, glam::DQuat::IDENTITY), |s| s.sample(0.0));
+                (p.name.clone(), p.mesh.clone(), start)
+            })
+            .collect(),
+    );
     match assets.script() {
         Ok(script) => {
             // Every 10 ms of the path (the viewer thins it further when long).

@@ -276,22 +276,13 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
         }
     }
     check_session_outputs(args, &inputs)?;
-    if !loaded.more_parts.is_empty() {
-        if args.record.is_some() || args.study.is_some() {
-            bail!(
-                "{}: --record and --study cover one moving part; for a scene of {} parts they \
-                 are not built yet (the session's report gives every part's figures: --json)",
-                loaded.label,
-                loaded.more_parts.len() + 1
-            );
-        }
-        if args.view.is_some() {
-            eprintln!(
-                "{}: warning: the viewer draws the first part ('{}') only; drawing every part \
-                 is not built yet",
-                loaded.label, loaded.part_name
-            );
-        }
+    if !loaded.more_parts.is_empty() && (args.record.is_some() || args.study.is_some()) {
+        bail!(
+            "{}: --record and --study cover one moving part; for a scene of {} parts they are \
+             not built yet (the session's report gives every part's figures: --json)",
+            loaded.label,
+            loaded.more_parts.len() + 1
+        );
     }
     if args.free_running {
         let paced = std::iter::once(&choice)

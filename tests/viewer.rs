@@ -275,3 +275,110 @@ fn a_voxmap_file_is_served_offline() {
     let err = stderr(&missing);
     assert!(err.contains("/nonexistent/scene.vmap"), "{err}");
 }
+
+/// A session of two moving parts watched live: `/scene` names the other part and serves its mesh,
+/// every state gives its pose, and headless Chromium's page draws and lists it (skipped without
+/// Chromium).
+#[test]
+fn every_part_of_a_two_part_session_is_served_and_drawn() {
+    let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
+    let scene = r#"
+[[static]]
+source = "builtin:box"
+scale = [4.0, 4.0, 0.5]
+translate = [0.0, 0.0, -0.3]
+[[part]]
+name = "left"
+source = "builtin:box"
+scale = 0.4
+[part.hand]
+waypoints = [[-0.06, 0.0, 0.0], [-0.015, 0.0, 0.0]]
+speed = 0.01
+[[part]]
+name = "right"
+source = "builtin:sphere"
+scale = 0.4
+[part.hand]
+waypoints = [[0.06, 0.0, 0.0], [0.015, 0.0, 0.0]]
+speed = 0.01
+[voxels]
+voxel_size = "5 mm"
+"#;
+    std::fs::write(vps.dir().join("two.toml"), scene).unwrap();
+    let path = vps.path("two.toml");
+    let (_run, addr) = start_with_viewer(
+        &vps,
+        &[
+            "run",
+            "--scene",
+            &path,
+            "--seconds",
+            "300",
+            "--view",
+            "127.0.0.1:0",
+        ],
+        Duration::from_secs(300),
+    );
+    let meta: serde_json::Value =
+        serde_json::from_slice(&http_get(addr, "/scene", HTTP_TIMEOUT).unwrap().body).unwrap();
+    let others = meta["other_parts"]
+        .as_array()
+        .expect("the other part listed");
+    assert_eq!(others.len(), 1, "{meta}");
+    assert_eq!(others[0]["name"], "right");
+    assert_eq!(
+        others[0]["start"]["position_m"],
+        serde_json::json!([0.06, 0.0, 0.0])
+    );
+    let triangles = others[0]["mesh_triangles"].as_u64().unwrap();
+    assert!(triangles > 100, "the sphere's mesh: {triangles}");
+    let meshes = http_get(addr, "/scene/other_part_meshes", HTTP_TIMEOUT).unwrap();
+    assert_eq!(meshes.body.len() as u64, 36 * triangles);
+    let frame = wait_for("a live frame", Duration::from_secs(60), || {
+        let s = state(addr);
+        (s["status"] == "live").then(|| s["frame"].clone())
+    });
+    let right = &frame["others"][0]["position_m"];
+    let x = right[0].as_f64().unwrap();
+    assert!(
+        (0.014..=0.061).contains(&x),
+        "the right part on its path: {frame}"
+    );
+
+    if !Path::new(CHROMIUM).exists() {
+        eprintln!("SKIPPED the browser half: {CHROMIUM} is not installed");
+        return;
+    }
+    let profile = tempfile::tempdir().unwrap();
+    let mut browser = Browser::open(profile.path(), &format!("http://{addr}/?fps={PAGE_FPS}"));
+    let patience = Duration::from_secs(240);
+    let line = browser.wait_for("the other part in the pose panel", patience, |b| {
+        let pose = b.text("pose");
+        pose.lines()
+            .find(|l| l.starts_with("right "))
+            .map(str::to_string)
+    });
+    browser.wait_for("two draws of the scene", patience, |b| {
+        let draws = b.eval("Number(document.getElementById('view').dataset.draws || 0)");
+        (draws.as_u64().unwrap_or(0) >= 2).then_some(())
+    });
+    assert!(
+        browser.text("scene-info").contains("other parts: right"),
+        "{}",
+        browser.text("scene-info")
+    );
+    let png = browser.screenshot();
+    let shot = Path::new(env!("CARGO_TARGET_TMPDIR")).join("viewer-two-parts.png");
+    std::fs::write(&shot, &png).unwrap();
+    let (colours, _) = canvas_content(&png, 500);
+    assert!(colours > 50, "a blank or flat view: {colours} colours");
+    assert!(
+        browser.console_lines().is_empty(),
+        "{:?}",
+        browser.console_lines()
+    );
+    eprintln!(
+        "two-part viewer: {line}; {colours} colours (screenshot: {})",
+        shot.display()
+    );
+}

@@ -46,6 +46,30 @@ pub struct FeedFrame {
     pub period_error_ns: u64,
     /// The largest `period_error_ns` over the last 32 to 64 frames, this one included (ns).
     pub recent_max_period_error_ns: u64,
+    /// How many of `other_parts` hold a part (0 in a one-part session).
+    pub other_count: u32,
+    /// The other moving parts' poses after the frame, in the scene file's order (the first
+    /// `other_count`; the rest unused).
+    pub other_parts: [PartPose; MAX_OTHER_PARTS],
+}
+
+/// Most moving parts a session holds besides its first.
+pub const MAX_OTHER_PARTS: usize = 7;
+
+/// A moving part's pose (its grip frame) as a viewer draws it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PartPose {
+    /// Position of the grip (m).
+    pub position: glam::DVec3,
+    /// Orientation, body → world.
+    pub orientation: glam::DQuat,
+}
+
+impl FeedFrame {
+    /// The other parts' poses (the first [`FeedFrame::other_count`]).
+    pub fn others(&self) -> &[PartPose] {
+        &self.other_parts[..(self.other_count as usize).min(MAX_OTHER_PARTS)]
+    }
 }
 
 /// The running maximum of a per-frame figure over the last [`RecentMax::WINDOW`] to
@@ -149,6 +173,8 @@ impl FeedFrame {
             recent_max_compute_ns: 0,
             period_error_ns: 0,
             recent_max_period_error_ns: 0,
+            other_count: 0,
+            other_parts: [PartPose::default(); MAX_OTHER_PARTS],
         }
     }
 }

@@ -27,7 +27,7 @@
 //! simulated device runs identically in real-time and free-running mode.
 
 use crate::clock::FrameClock;
-use crate::feed::{FeedFrame, RecentMax, StateFeedSender};
+use crate::feed::{FeedFrame, PartPose, RecentMax, StateFeedSender, MAX_OTHER_PARTS};
 use crate::parts::{MovingPart, PairCounts, PairPass, PartBody, PartReport, PartsSetup};
 use crate::pool::{panic_message, ClassPool, FrameSampler};
 use crate::rt::{request_realtime, RtGrant};
@@ -324,6 +324,15 @@ impl RunningParts {
                 message: format!("{bad} m: a part's radius must be finite and ≥ 0"),
             });
         }
+        if setup.others.len() > MAX_OTHER_PARTS {
+            return Err(RuntimeError::Config {
+                field: "parts.others",
+                message: format!(
+                    "{} other parts; at most {MAX_OTHER_PARTS} are allowed",
+                    setup.others.len()
+                ),
+            });
+        }
         let mut others = Vec::with_capacity(setup.others.len());
         for part in setup.others {
             part.params
@@ -404,6 +413,19 @@ impl RunningParts {
             o.next = Some((out.next_state, wrench));
         }
         None
+    }
+
+    /// The other parts' poses for the state feed: their count and the poses (the rest default).
+    /// Does not allocate.
+    fn poses(&self) -> (u32, [PartPose; MAX_OTHER_PARTS]) {
+        let mut poses = [PartPose::default(); MAX_OTHER_PARTS];
+        for (pose, o) in poses.iter_mut().zip(&self.others) {
+            *pose = PartPose {
+                position: o.state.position,
+                orientation: o.state.orientation,
+            };
+        }
+        (self.others.len().min(MAX_OTHER_PARTS) as u32, poses)
     }
 
     /// Writes every other part's device (zero when the watchdog tripped) and advances its state.
@@ -636,6 +658,10 @@ impl RunningLoop {
         });
         if let Some(feed) = &self.feed {
             let c = cx.stats.counters();
+            let (other_count, other_parts) = self.parts.as_ref().map_or(
+                (0, [PartPose::default(); MAX_OTHER_PARTS]),
+                RunningParts::poses,
+            );
             feed.publish(FeedFrame {
                 frame: cx.frame,
                 time,
@@ -653,6 +679,8 @@ impl RunningLoop {
                 recent_max_compute_ns: cx.recent_compute.record(compute_ns),
                 period_error_ns: period_error_ns.unwrap_or(0),
                 recent_max_period_error_ns: cx.recent_lateness.record(period_error_ns.unwrap_or(0)),
+                other_count,
+                other_parts,
             });
         }
         Ok(FrameFlow::Next)

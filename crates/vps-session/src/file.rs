@@ -817,7 +817,7 @@ fn validate_hand(path: &str, prefix: &str, h: &HandPath) -> Result<(), SceneErro
 }
 
 /// Most moving parts a scene may hold.
-pub const MAX_PARTS: usize = 8;
+pub const MAX_PARTS: usize = vps_runtime::MAX_OTHER_PARTS + 1;
 
 /// Rotations beyond this many degrees are refused as a likely typo (radians for degrees are fine).
 const MAX_ROTATION_DEG: f64 = 3600.0;

@@ -27,6 +27,7 @@
   let mesh = null; // static meshes: {pos, nrm, count} (world frame), null without
   let partMesh = null; // the part's mesh (body frame), null without
   let sweptMesh = null; // a study's swept volume (world frame), null without
+  let otherMeshes = []; // the other moving parts' meshes (each in its own grip frame), in order
   let showSwept = true;
   let study = null; // a study's track (scene.study), null without
   let studyIndex = 0; // the study frame shown while no live frame is
@@ -86,6 +87,9 @@
   // ---- what to draw this frame, shared by both renderers ----
   const OVERLAY_COLOR = [0.95, 0.6, 0.2]; // Surface voxel boxes over meshes
   const PART_COLOR = [0.92, 0.9, 0.86];
+  const OTHER_PART_COLOR = [0.95, 0.74, 0.33]; // the other moving parts of a scene of several
+  // Where the other parts are drawn: the frame's poses, else where they start.
+  const otherPoses = (f) => (scene.other_parts || []).map((p, k) => (f && f.others && f.others[k]) || p.start);
   const PATH_COLOR = [0.35, 0.63, 1]; // the simulated hand's path
   const STUDY_PATH_COLOR = [0.3, 0.85, 0.45]; // a study's grip path
   const CLOSEST_COLOR = [1, 0.25, 0.25]; // a study's closest approach
@@ -384,7 +388,8 @@
       setScene() {
         gl.bindBuffer(gl.ARRAY_BUFFER, sceneBuf); gl.bufferData(gl.ARRAY_BUFFER, boxes, gl.STATIC_DRAW);
         gl.bindBuffer(gl.ARRAY_BUFFER, shellBuf); gl.bufferData(gl.ARRAY_BUFFER, shell, gl.STATIC_DRAW);
-        for (const [name, m] of [['scene', mesh], ['part', partMesh], ['swept', sweptMesh]]) {
+        const others = otherMeshes.map((m, k) => ['other' + k, m]);
+        for (const [name, m] of [['scene', mesh], ['part', partMesh], ['swept', sweptMesh], ...others]) {
           if (m) meshBufs[name] = { pos: buffer(m.pos), nrm: buffer(m.nrm), count: m.count };
         }
       },
@@ -419,9 +424,11 @@
         // where it starts.
         const shown = shownPart() || scene.part_start;
         if (shown) drawMesh(vp, 'part', poseMatrix(shown.orientation_xyzw, shown.position_m), { color: PART_COLOR });
+        otherPoses(null).forEach((p, k) => drawMesh(vp, 'other' + k, poseMatrix(p.orientation_xyzw, p.position_m), { color: OTHER_PART_COLOR }));
         drawSwept(vp);
         return;
       }
+      otherPoses(f).forEach((p, k) => drawMesh(vp, 'other' + k, poseMatrix(p.orientation_xyzw, p.position_m), { color: OTHER_PART_COLOR }));
       const pointSize = scene.shell_voxel_size_m * 0.8;
       const partPose = poseMatrix(f.part.orientation_xyzw, f.part.position_m);
       drawMesh(vp, 'part', partPose, { color: PART_COLOR });
@@ -507,6 +514,7 @@
         addFaces(mesh, IDENTITY, null, MAX_2D_TRIANGLES);
         const shown = shownPart() || scene.part_start;
         if (shown) addFaces(partMesh, poseMatrix(shown.orientation_xyzw, shown.position_m), PART_COLOR, MAX_2D_TRIANGLES / 4);
+        otherPoses(f).forEach((p, k) => addFaces(otherMeshes[k], poseMatrix(p.orientation_xyzw, p.position_m), OTHER_PART_COLOR, MAX_2D_TRIANGLES / 8));
         if (showSwept) addFaces(sweptMesh, IDENTITY, SWEPT_COLOR, MAX_2D_TRIANGLES / 4, 0.22);
         faces.sort((a, b) => b.depth - a.depth);
         for (const t of faces) {
@@ -650,6 +658,7 @@
         `torque ${v3(f.torque_nm)} N·m`,
         `contacts ${f.contacts} (shown ${f.contact_points.length}, interior ${f.interior_points.length})`,
         `touching ${f.touching}  penetrating ${f.penetrating}  watchdog ${f.watchdog_trips}`,
+        ...(scene && scene.other_parts ? scene.other_parts.map((p, k) => f.others && f.others[k] ? `${p.name}  ${v3(f.others[k].position_m)} m` : '') : []),
       ].join('\n');
       if (fresh) pushCharts(f);
     } else if (s.status === 'offline') {
@@ -812,13 +821,19 @@
       if (scene.mesh_triangles) mesh = withNormals(new Float32Array(await get('/scene/mesh', 'arrayBuffer')));
       if (scene.part_mesh_triangles) partMesh = withNormals(new Float32Array(await get('/scene/part_mesh', 'arrayBuffer')));
       if (scene.swept_mesh_triangles) sweptMesh = withNormals(new Float32Array(await get('/scene/swept_mesh', 'arrayBuffer')));
+      if (scene.other_parts && scene.other_parts.length) {
+        const all = new Float32Array(await get('/scene/other_part_meshes', 'arrayBuffer'));
+        let at = 0;
+        otherMeshes = scene.other_parts.map((p) => { const m = withNormals(all.slice(at, at + 9 * p.mesh_triangles)); at += 9 * p.mesh_triangles; return m; });
+      }
     } catch (e) {
       $('status').className = 'error'; $('status').textContent = `cannot load the scene: ${e.message}`; return;
     }
     $('scene-info').textContent = `${scene.label}: ${scene.surface_voxels} Surface voxels of ${(scene.voxel_size_m * 1000).toFixed(1)} mm, ` +
       `${scene.boxes} boxes of ${(scene.box_size_m * 1000).toFixed(1)} mm; part ${scene.shell_points_total} points` +
       (mesh ? `; meshes ${scene.mesh_triangles} of ${scene.mesh_triangles_total} triangles` : '') +
-      (partMesh ? `; part mesh ${scene.part_mesh_triangles} of ${scene.part_mesh_triangles_total}` : '');
+      (partMesh ? `; part mesh ${scene.part_mesh_triangles} of ${scene.part_mesh_triangles_total}` : '') +
+      (otherMeshes.length ? `; other parts: ${scene.other_parts.map((p) => p.name).join(', ')}` : '');
     // The voxel boxes are the view when there is no mesh, an overlay (off at first) when there is.
     setVoxels(!(mesh || partMesh));
     buildChunks();

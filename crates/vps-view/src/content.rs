@@ -104,6 +104,22 @@ pub struct SceneMeta {
     /// The study's swept-volume mesh triangles drawn (the length of `/scene/swept_mesh` is 36
     /// bytes per triangle, world frame); 0 without.
     pub swept_mesh_triangles: usize,
+    /// The other moving parts of a scene of several, in order (empty for one part): their
+    /// meshes follow each other in `/scene/other_part_meshes` (36 bytes per triangle, each in its
+    /// own grip frame), and each frame's `others` gives their poses in the same order.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub other_parts: Vec<OtherPartMeta>,
+}
+
+/// One of the other moving parts as the page draws it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct OtherPartMeta {
+    /// Its name.
+    pub name: String,
+    /// Its mesh's triangles drawn (after the previous parts' in `/scene/other_part_meshes`).
+    pub mesh_triangles: usize,
+    /// Where it starts (drawn until a session's first frame).
+    pub start: StartPose,
 }
 
 /// Most points of [`SceneMeta::hand_path_m`].
@@ -142,6 +158,9 @@ pub struct ViewerContent {
     pub part_mesh: Vec<[Vec3; 3]>,
     /// Drawn swept-volume triangles of a study (m, world frame); empty without.
     pub swept_mesh: Vec<[Vec3; 3]>,
+    /// Drawn triangles of the other moving parts, one part after another (m, each in its own
+    /// grip frame; [`SceneMeta::other_parts`] says how many each).
+    pub other_part_meshes: Vec<[Vec3; 3]>,
     /// What contact sampling needs; `None` without a part.
     pub contact: Option<ContactModel>,
     /// The bounds it was built with (the mesh budgets apply in [`ViewerContent::with_meshes`]).
@@ -193,6 +212,7 @@ impl ViewerContent {
             part_start: None,
             study: None,
             swept_mesh_triangles: 0,
+            other_parts: Vec::new(),
         };
         ViewerContent {
             meta,
@@ -201,6 +221,7 @@ impl ViewerContent {
             mesh: Vec::new(),
             part_mesh: Vec::new(),
             swept_mesh: Vec::new(),
+            other_part_meshes: Vec::new(),
             contact: shell.map(|shell| ContactModel { tree, shell }),
             limits,
         }
@@ -223,6 +244,30 @@ impl ViewerContent {
             position_m: start.0.to_array(),
             orientation_xyzw: start.1.to_array(),
         });
+        self
+    }
+
+    /// Adds the other moving parts of a scene of several: each `(name, mesh in its grip frame (m),
+    /// start pose)`, its mesh decimated to [`SceneLimits::max_part_triangles`]. Replaces parts
+    /// given before. Allocates about the meshes' size.
+    pub fn with_other_parts(
+        mut self,
+        parts: Vec<(String, TriMesh, (DVec3, glam::DQuat))>,
+    ) -> ViewerContent {
+        self.meta.other_parts.clear();
+        self.other_part_meshes.clear();
+        for (name, mesh, (position, orientation)) in parts {
+            let drawn = decimate(&mesh, self.limits.max_part_triangles);
+            self.meta.other_parts.push(OtherPartMeta {
+                name,
+                mesh_triangles: drawn.triangles.len(),
+                start: StartPose {
+                    position_m: position.to_array(),
+                    orientation_xyzw: orientation.to_array(),
+                },
+            });
+            self.other_part_meshes.extend(drawn.triangles);
+        }
         self
     }
 

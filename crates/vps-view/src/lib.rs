@@ -11,7 +11,8 @@
 //! Routes (see [`server`]): `/` the page, `/app.js` its script, `/scene` the viewer content's
 //! metadata (JSON, [`content::SceneMeta`]: the static scene and the part),
 //! `/scene/boxes` and `/scene/shell` (little-endian f32 xyz triples, m), `/scene/mesh`,
-//! `/scene/part_mesh` and `/scene/swept_mesh` (little-endian f32 triangle corners, m), `/state` the latest state (JSON),
+//! `/scene/part_mesh`, `/scene/swept_mesh` and `/scene/other_part_meshes` (little-endian f32
+//! triangle corners, m), `/state` the latest state (JSON),
 //! `/ws` the state stream (WebSocket, JSON text messages). Every request's `Host` and `Origin` are
 //! checked ([`access`]), connections are capped and slow headers timed out ([`ServerLimits`]).
 //!
@@ -51,7 +52,7 @@ pub mod state;
 pub mod study;
 
 pub use contacts::{sample_contacts, ContactSample};
-pub use content::{SceneLimits, ViewerContent};
+pub use content::{OtherPartMeta, SceneLimits, ViewerContent};
 pub use live::LiveViewer;
 pub use server::{ServerLimits, ViewerHandle, ViewerServer};
 pub use state::{FrameView, ViewState, ViewStatus};

@@ -4,7 +4,8 @@
 //!
 //! Routes: `/` (the page), `/app.js` (its script), `/scene` ([`crate::content::SceneMeta`] as JSON),
 //! `/scene/boxes` and `/scene/shell` (f32 triples, see [`crate::content::encode_points`]),
-//! `/scene/mesh`, `/scene/part_mesh` and `/scene/swept_mesh` (f32 triangle corners, see
+//! `/scene/mesh`, `/scene/part_mesh`, `/scene/swept_mesh` and `/scene/other_part_meshes` (f32
+//! triangle corners, see
 //! [`crate::mesh::encode_triangles`]), `/state`
 //! (the latest [`crate::ViewState`] as JSON), `/ws` (the same states pushed as text messages at
 //! [`crate::STATE_RATE_HZ`]; whatever a client sends is read and dropped, and a client message
@@ -91,6 +92,7 @@ struct Shared {
     mesh: Bytes,
     part_mesh: Bytes,
     swept_mesh: Bytes,
+    other_part_meshes: Bytes,
     states: watch::Receiver<Utf8Bytes>,
 }
 
@@ -138,6 +140,7 @@ impl ViewerServer {
             mesh: Bytes::from(encode_triangles(&scene.mesh)),
             part_mesh: Bytes::from(encode_triangles(&scene.part_mesh)),
             swept_mesh: Bytes::from(encode_triangles(&scene.swept_mesh)),
+            other_part_meshes: Bytes::from(encode_triangles(&scene.other_part_meshes)),
             states: state_rx,
         });
         let app = router(shared, AccessGuard { listening: local });
@@ -332,6 +335,7 @@ fn router(shared: Arc<Shared>, guard: AccessGuard) -> Router {
         .route("/scene/mesh", octets(|s| &s.mesh))
         .route("/scene/part_mesh", octets(|s| &s.part_mesh))
         .route("/scene/swept_mesh", octets(|s| &s.swept_mesh))
+        .route("/scene/other_part_meshes", octets(|s| &s.other_part_meshes))
         .route(
             "/state",
             get(|State(s): State<Arc<Shared>>| async move {

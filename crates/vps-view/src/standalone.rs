@@ -26,6 +26,7 @@ pub fn standalone_page(content: &ViewerContent) -> String {
         "/scene/mesh": base64(&encode_triangles(&content.mesh)),
         "/scene/part_mesh": base64(&encode_triangles(&content.part_mesh)),
         "/scene/swept_mesh": base64(&encode_triangles(&content.swept_mesh)),
+        "/scene/other_part_meshes": base64(&encode_triangles(&content.other_part_meshes)),
     });
     let state = ViewState {
         status: ViewStatus::Offline,

@@ -86,6 +86,10 @@ pub struct FrameView {
     pub contact_points: Vec<[f32; 4]>,
     /// Shell points in Interior voxels: `[x, y, z]` (m).
     pub interior_points: Vec<[f32; 3]>,
+    /// The other moving parts' poses, in the order of the scene's `other_parts` (empty for one
+    /// part).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub others: Vec<PoseView>,
 }
 
 impl FrameView {
@@ -115,6 +119,11 @@ impl FrameView {
                 .map(|c| [c.position.x, c.position.y, c.position.z, c.depth])
                 .collect(),
             interior_points: interior.iter().map(|c| c.position.to_array()).collect(),
+            others: frame
+                .others()
+                .iter()
+                .map(|p| PoseView::new(p.position, p.orientation))
+                .collect(),
         }
     }
 }
