@@ -176,3 +176,24 @@ pub(crate) fn distant_static_hints(file: &SceneFile, bounds: &[Aabb]) -> Vec<Str
     }
     hints
 }
+
+/// Meshes larger than this after units (m) are flagged: likely a file in mm read as metres.
+pub const LARGEST_PLAUSIBLE_MESH_M: f64 = 1000.0;
+/// Meshes smaller than this after units (m) are flagged: likely a file in metres read as mm.
+pub const SMALLEST_PLAUSIBLE_MESH_M: f64 = 0.001;
+
+/// Flags a mesh whose size is implausible after units, with a hint.
+pub(crate) fn plausible_size(bounds: &Aabb, field: &str, warnings: &mut Vec<String>) {
+    let size = bounds.size().max_element();
+    if size > LARGEST_PLAUSIBLE_MESH_M {
+        warnings.push(format!(
+            "{field}: the mesh is {size:.4e} m across (over 1 km): is the file in mm? set \
+             `units = \"mm\"` in {field}"
+        ));
+    } else if size < SMALLEST_PLAUSIBLE_MESH_M {
+        warnings.push(format!(
+            "{field}: the mesh is {size:.4e} m across (under 1 mm): is the file in metres with \
+             `units` set to mm, or in another unit? check `units` in {field}"
+        ));
+    }
+}

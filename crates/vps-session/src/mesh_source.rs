@@ -4,6 +4,7 @@
 use anyhow::{anyhow, Result};
 use glam::{DQuat, DVec3};
 use std::path::Path;
+use std::sync::Arc;
 use vps_mesh::{Aabb, TriMesh};
 
 /// A loaded mesh and a short human-readable description of where it came from.
@@ -131,4 +132,56 @@ pub fn resolve(source: &str, base: &Path) -> String {
     } else {
         base.join(source).display().to_string()
     }
+}
+
+/// A mesh a scene names, read and parsed once however many objects name it.
+pub struct SharedMesh {
+    /// `builtin:NAME` or the file path (resolved against the scene file's directory) as first
+    /// named.
+    pub source: String,
+    /// The mesh after its units (m), before any object's placement.
+    pub mesh: Arc<TriMesh>,
+    /// The static objects naming it.
+    pub statics: usize,
+    /// Whether the part names it.
+    pub part: bool,
+    /// Whether it is closed, and what is wrong when it is not ([`vps_mesh::mesh_health`]).
+    pub health: vps_mesh::MeshHealth,
+    /// Degenerate triangles the loader dropped.
+    pub degenerate_dropped: usize,
+    /// Triangles in its components that are not closed by the file's vertex indices, as the
+    /// voxelizer splits them (`vps_reference::components`): what a winding-number tree of it
+    /// holds. 0 when no static object names it.
+    pub open_triangles: usize,
+    /// For a STEP file: its unit, the solids read and the tessellation.
+    pub step: Option<vps_mesh::StepSummary>,
+}
+
+/// A name for each static object, for reports: its source's file stem (`housing` for
+/// `parts/housing.stl`, `box` for `builtin:box`), printable, with ` #i` (its index in the file)
+/// added where two objects would share a name.
+pub fn object_names(sources: &[String]) -> Vec<String> {
+    let stems: Vec<String> = sources
+        .iter()
+        .map(|s| {
+            let stem = match s.strip_prefix("builtin:") {
+                Some(name) => name.to_string(),
+                None => Path::new(s)
+                    .file_stem()
+                    .map_or_else(|| s.clone(), |x| x.to_string_lossy().into_owned()),
+            };
+            vps_files::printable(&stem).into_owned()
+        })
+        .collect();
+    stems
+        .iter()
+        .enumerate()
+        .map(|(i, stem)| {
+            if stems.iter().filter(|&other| other == stem).count() > 1 {
+                format!("{stem} #{i}")
+            } else {
+                stem.clone()
+            }
+        })
+        .collect()
 }

@@ -1,27 +1,26 @@
 //! Scenes of several moving parts (`[[part]]` tables): each part after the first loaded
 //! ([`LoadedPart`]) and built ([`PartAssets`]: its shell, parameters, hand, device and a voxmap of
-//! itself in its own body frame), and the runtime's [`PartsSetup`] made from them when a session
-//! is planned. The first part stays the session's own (its shell and device are
-//! [`SessionAssets`]'s as in a one-part scene); it gains a body voxmap too.
+//! itself in its own body frame), and the runtime's `PartsSetup` made from them when a session
+//! is planned (`SessionAssets::parts_setup`). The first part stays the session's own (its shell
+//! and device are `SessionAssets`'s as in a one-part scene); it gains a body voxmap too.
 //!
-//! Not here yet: the viewer and studies of the other parts, pair splitting over cluster workers.
+//! Not built yet: studies of several parts, splitting the other parts and the pairs over cluster
+//! workers.
 
 use crate::device::{BridgeSettings, DeviceChoice};
 use crate::error::field_error;
 use crate::file::{rotation, SceneFile};
-use crate::hints::has_no_inside;
-use crate::mesh_source::Placement;
-use crate::scene::{object_names, HandPlan, LoadedScene, SessionAssets, SharedMesh};
-use crate::CachePolicy;
-use anyhow::{Context, Result};
+use crate::hints::{has_no_inside, plausible_size};
+use crate::mesh_source::{object_names, Placement, SharedMesh};
+use crate::script::HandPlan;
+use anyhow::Result;
 use glam::{DVec3, Vec3};
 use std::path::Path;
 use std::sync::Arc;
 use vps_haptic::HapticParams;
 use vps_mesh::TriMesh;
-use vps_runtime::{ClassPool, LoopConfig, MovingPart, PartBody, PartsSetup};
 use vps_voxelize::{point_shell, ShellMethod};
-use vps_voxmap::{PointShell, VoxelTree, VoxelWidth};
+use vps_voxmap::{PointShell, VoxelTree};
 
 /// A moving part after the first, loaded and placed in its own frame.
 #[derive(Clone, Debug)]
@@ -75,7 +74,7 @@ pub(crate) fn load_more_parts(
             translate: DVec3::ZERO,
         }
         .apply(&mut mesh);
-        crate::scene::plausible_size(&mesh.bounds(), &field, warnings);
+        plausible_size(&mesh.bounds(), &field, warnings);
         let device = match &spec.device {
             Some(d) => DeviceChoice::parse(&d.kind)
                 .map_err(|m| field_error(label, &format!("{field}.device.kind"), m))?
@@ -182,119 +181,9 @@ pub fn body_radius(mesh: &TriMesh, shell: &PointShell) -> f64 {
         .fold(shell.max_radius(), f64::max)
 }
 
-impl LoadedScene {
-    /// A part's voxmap in its grip frame (`mesh` already moved there) at the scene's voxel
-    /// settings, with the scene's distance band when the force model has one; never cut by the
-    /// workspace. Cached like the scene's voxmap. Blocking, parallel, allocates.
-    pub(crate) fn build_body(
-        &self,
-        mesh: &TriMesh,
-        voxel_size: f64,
-        width: VoxelWidth,
-        cache: &CachePolicy,
-    ) -> Result<Arc<VoxelTree>> {
-        let opts = vps_voxelize::VoxelizeOptions {
-            workspace: None,
-            ..self.voxelize_options(voxel_size, width)
-        };
-        Ok(self
-            .build_voxmap_with(std::slice::from_ref(mesh), opts, cache)?
-            .tree)
-    }
-
-    /// Builds the parts after the first at `voxel_size` with `method`. Blocking, allocates.
-    pub(crate) fn build_more_parts(
-        &self,
-        voxel_size: f64,
-        method: ShellMethod,
-        width: VoxelWidth,
-        cache: &CachePolicy,
-    ) -> Result<Vec<PartAssets>> {
-        let mut built = Vec::with_capacity(self.more_parts.len());
-        for p in &self.more_parts {
-            let (shell, grip) = grip_frame_shell(&p.mesh, p.grip, voxel_size, method)
-                .with_context(|| {
-                    format!("{}: building part '{}''s point shell", self.label, p.name)
-                })?;
-            let mut mesh = p.mesh.clone();
-            mesh.vertices.iter_mut().for_each(|v| *v -= grip);
-            let body = self
-                .build_body(&mesh, voxel_size, width, cache)
-                .with_context(|| format!("{}: part '{}''s own voxmap", self.label, p.name))?;
-            built.push(PartAssets {
-                name: p.name.clone(),
-                params: self.params.with_scene(voxel_size, shell.max_radius())?,
-                radius: body_radius(&mesh, &shell),
-                shell,
-                mesh,
-                body,
-                hand: p.hand.clone(),
-                device: p.device.clone(),
-                bridge: p.bridge,
-            });
-        }
-        Ok(built)
-    }
-}
-
 /// The broad phase's margin (m): two parts' bounding spheres farther apart than this are not
 /// sampled. The force layer reaches at most `offset_layers` voxels beyond a surface and a
 /// distance band a few voxels; four more voxels cover both with room.
 pub fn pair_margin(voxel_size: f64, offset_layers: u32) -> f64 {
     f64::from(offset_layers + 4) * voxel_size
-}
-
-impl SessionAssets {
-    /// The longest simulated hand's path (s): `first`'s (the first part's script) or, in a scene
-    /// of several parts, another part's simulated hand's. Finds corridor detours (reads the voxmap).
-    pub fn hands_duration(&self, first: &vps_device::script::Script) -> Result<f64> {
-        let mut longest = first.duration();
-        for p in &self.more_parts {
-            if p.device == DeviceChoice::Simulated {
-                longest = longest.max(p.hand.script(&self.tree)?.duration());
-            }
-        }
-        Ok(longest)
-    }
-
-    /// The runtime's setup for the parts after the first: each part's device opened (a
-    /// simulated hand on its own path), a local class pool of `config.threads` threads on the
-    /// static voxmap for its shell, and every part's body. `None` in a one-part scene. Blocking
-    /// (opens devices), allocates.
-    pub fn parts_setup(&self, config: &LoopConfig) -> Result<Option<PartsSetup>> {
-        let (Some(first_body), false) = (&self.part_body, self.more_parts.is_empty()) else {
-            return Ok(None);
-        };
-        let mut others = Vec::with_capacity(self.more_parts.len());
-        for p in &self.more_parts {
-            let script = p.hand.script(&self.tree)?;
-            let opened = p
-                .device
-                .open(script, &p.bridge)
-                .with_context(|| format!("opening part '{}''s device", p.name))?;
-            let shell = crate::classed(&p.shell);
-            let pool = ClassPool::new(self.tree.clone(), shell.clone(), config.threads)?;
-            others.push(MovingPart {
-                name: p.name.clone(),
-                params: p.params,
-                device: opened.device,
-                initial: opened.initial,
-                sampler: Box::new(pool),
-                body: PartBody {
-                    map: p.body.clone(),
-                    shell,
-                    radius: p.radius,
-                },
-            });
-        }
-        Ok(Some(PartsSetup {
-            first: PartBody {
-                map: first_body.clone(),
-                shell: self.classed_shell(),
-                radius: body_radius(&self.part_mesh, &self.shell),
-            },
-            others,
-            margin: self.pair_margin,
-        }))
-    }
 }

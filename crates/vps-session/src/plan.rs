@@ -4,14 +4,19 @@
 //! handlers.
 
 use crate::device::{DeviceChoice, OpenedDevice};
+use crate::parts::body_radius;
 use crate::scene::SessionAssets;
+use anyhow::Context;
 use anyhow::Result;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use vps_device::script::Script;
 use vps_haptic::HapticParams;
 use vps_input::BridgeMonitor;
-use vps_runtime::{LoopConfig, SessionSetup, SignalStop, StateFeedSender};
+use vps_runtime::{
+    ClassPool, LoopConfig, MovingPart, PartBody, PartsSetup, SessionSetup, SignalStop,
+    StateFeedSender,
+};
 
 /// A session ready to run: the runtime's setup, still without the viewer feed and with a stop
 /// flag nobody else holds (the `into_*setup` methods give it those), and the bridge's monitor.
@@ -108,5 +113,60 @@ impl SessionAssets {
         let mut plan = SessionPlan::new(self.params, opened, config);
         plan.setup.parts = parts;
         Ok(plan)
+    }
+}
+
+impl SessionAssets {
+    /// The longest simulated hand's path (s): `first`'s (the first part's script) or, in a scene
+    /// of several parts, another part's simulated hand's. Finds corridor detours (reads the voxmap).
+    pub fn hands_duration(&self, first: &vps_device::script::Script) -> Result<f64> {
+        let mut longest = first.duration();
+        for p in &self.more_parts {
+            if p.device == DeviceChoice::Simulated {
+                longest = longest.max(p.hand.script(&self.tree)?.duration());
+            }
+        }
+        Ok(longest)
+    }
+
+    /// The runtime's setup for the parts after the first: each part's device opened (a
+    /// simulated hand on its own path), a local class pool of `config.threads` threads on the
+    /// static voxmap for its shell, and every part's body. `None` in a one-part scene. Blocking
+    /// (opens devices), allocates.
+    pub fn parts_setup(&self, config: &LoopConfig) -> Result<Option<PartsSetup>> {
+        let (Some(first_body), false) = (&self.part_body, self.more_parts.is_empty()) else {
+            return Ok(None);
+        };
+        let mut others = Vec::with_capacity(self.more_parts.len());
+        for p in &self.more_parts {
+            let script = p.hand.script(&self.tree)?;
+            let opened = p
+                .device
+                .open(script, &p.bridge)
+                .with_context(|| format!("opening part '{}''s device", p.name))?;
+            let shell = crate::classed(&p.shell);
+            let pool = ClassPool::new(self.tree.clone(), shell.clone(), config.threads)?;
+            others.push(MovingPart {
+                name: p.name.clone(),
+                params: p.params,
+                device: opened.device,
+                initial: opened.initial,
+                sampler: Box::new(pool),
+                body: PartBody {
+                    map: p.body.clone(),
+                    shell,
+                    radius: p.radius,
+                },
+            });
+        }
+        Ok(Some(PartsSetup {
+            first: PartBody {
+                map: first_body.clone(),
+                shell: self.classed_shell(),
+                radius: body_radius(&self.part_mesh, &self.shell),
+            },
+            others,
+            margin: self.pair_margin,
+        }))
     }
 }

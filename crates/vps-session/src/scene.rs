@@ -11,12 +11,16 @@ use crate::estimate::{
 };
 use crate::file::is_step_source;
 use crate::file::{rotation, ForceModelName, SceneFile};
+use crate::hints::plausible_size;
 use crate::hints::{
     coarse_voxel_flag, distant_grip_hint, distant_static_hints, distant_waypoint_hint,
     has_no_inside, open_mesh_hints, y_up_hint,
 };
+pub use crate::hints::{LARGEST_PLAUSIBLE_MESH_M, SMALLEST_PLAUSIBLE_MESH_M};
 use crate::mesh_source::{load_scaled_with, resolve, Placement};
-use crate::script::{laps_script, path_script};
+pub use crate::mesh_source::{object_names, SharedMesh};
+use crate::parts::{body_radius, grip_frame_shell, LoadedPart, PartAssets};
+pub use crate::script::HandPlan;
 use anyhow::{Context, Result};
 use glam::{DVec3, Vec3};
 use std::path::{Path, PathBuf};
@@ -32,11 +36,6 @@ use vps_voxmap::{PointShell, TreeConfig, VoxelTree, VoxelWidth};
 
 /// The scene `vps demo` and every session command use when no `--scene` is given.
 pub const DEFAULT_SCENE: &str = "builtin:bay-teapot";
-
-/// Meshes larger than this after units (m) are flagged: likely a file in mm read as metres.
-pub const LARGEST_PLAUSIBLE_MESH_M: f64 = 1000.0;
-/// Meshes smaller than this after units (m) are flagged: likely a file in metres read as mm.
-pub const SMALLEST_PLAUSIBLE_MESH_M: f64 = 0.001;
 
 /// A scene file parsed and its meshes loaded and placed. Building it reads every mesh file.
 pub struct LoadedScene {
@@ -69,7 +68,7 @@ pub struct LoadedScene {
     /// The first part's name in reports (`name` in its `[[part]]`, else its source's stem).
     pub part_name: String,
     /// The second and later moving parts (empty: a one-part scene).
-    pub more_parts: Vec<crate::parts::LoadedPart>,
+    pub more_parts: Vec<LoadedPart>,
     /// The scene's force model was switched to the distance model because the part has no
     /// inside (the file said `tangent-plane`, or nothing).
     pub force_model_switched: bool,
@@ -88,29 +87,6 @@ pub struct LoadedScene {
     /// The memory budget (bytes) the whole scene's estimate is checked against before anything
     /// is built ([`LoadedScene::memory_estimate`]): `--max-memory`, else half of physical memory.
     pub max_memory_bytes: u64,
-}
-
-/// A mesh a scene names, read and parsed once however many objects name it.
-pub struct SharedMesh {
-    /// `builtin:NAME` or the file path (resolved against the scene file's directory) as first
-    /// named.
-    pub source: String,
-    /// The mesh after its units (m), before any object's placement.
-    pub mesh: Arc<TriMesh>,
-    /// The static objects naming it.
-    pub statics: usize,
-    /// Whether the part names it.
-    pub part: bool,
-    /// Whether it is closed, and what is wrong when it is not ([`vps_mesh::mesh_health`]).
-    pub health: vps_mesh::MeshHealth,
-    /// Degenerate triangles the loader dropped.
-    pub degenerate_dropped: usize,
-    /// Triangles in its components that are not closed by the file's vertex indices, as the
-    /// voxelizer splits them (`vps_reference::components`): what a winding-number tree of it
-    /// holds. 0 when no static object names it.
-    pub open_triangles: usize,
-    /// For a STEP file: its unit, the solids read and the tessellation.
-    pub step: Option<vps_mesh::StepSummary>,
 }
 
 /// A `[[static]]` object: one of the scene's meshes and where it is placed.
@@ -902,35 +878,6 @@ fn two_sided(shell: &mut PointShell) {
     shell.normals.iter_mut().for_each(|n| *n = Vec3::ZERO);
 }
 
-/// A name for each static object, for reports: its source's file stem (`housing` for
-/// `parts/housing.stl`, `box` for `builtin:box`), printable, with ` #i` (its index in the file)
-/// added where two objects would share a name.
-pub fn object_names(sources: &[String]) -> Vec<String> {
-    let stems: Vec<String> = sources
-        .iter()
-        .map(|s| {
-            let stem = match s.strip_prefix("builtin:") {
-                Some(name) => name.to_string(),
-                None => Path::new(s)
-                    .file_stem()
-                    .map_or_else(|| s.clone(), |x| x.to_string_lossy().into_owned()),
-            };
-            vps_files::printable(&stem).into_owned()
-        })
-        .collect();
-    stems
-        .iter()
-        .enumerate()
-        .map(|(i, stem)| {
-            if stems.iter().filter(|&other| other == stem).count() > 1 {
-                format!("{stem} #{i}")
-            } else {
-                stem.clone()
-            }
-        })
-        .collect()
-}
-
 /// The error of a mesh that did not load, for `field` (`static[i].source`, `part.source`) of the
 /// scene file `label`: the loader's causes, each once; when the file is missing, where a relative
 /// `written` source was looked for.
@@ -984,22 +931,6 @@ fn budget_text(budget: u64) -> String {
 /// A `--max-memory` value (whole GiB) that holds `bytes`.
 fn raise_to(bytes: u64) -> String {
     format!("{}GiB", bytes.div_ceil(1 << 30).max(1))
-}
-
-/// Flags a mesh whose size is implausible after units, with a hint.
-pub(crate) fn plausible_size(bounds: &Aabb, field: &str, warnings: &mut Vec<String>) {
-    let size = bounds.size().max_element();
-    if size > LARGEST_PLAUSIBLE_MESH_M {
-        warnings.push(format!(
-            "{field}: the mesh is {size:.4e} m across (over 1 km): is the file in mm? set \
-             `units = \"mm\"` in {field}"
-        ));
-    } else if size < SMALLEST_PLAUSIBLE_MESH_M {
-        warnings.push(format!(
-            "{field}: the mesh is {size:.4e} m across (under 1 mm): is the file in metres with \
-             `units` set to mm, or in another unit? check `units` in {field}"
-        ));
-    }
 }
 
 fn fmt_size(v: DVec3) -> String {
@@ -1099,73 +1030,6 @@ impl Default for BuildOptions {
     }
 }
 
-/// How the simulated hand moves.
-#[derive(Clone, Debug, PartialEq)]
-pub enum HandPlan {
-    /// The standard session along corridor waypoints (m), detours within `reach` (m).
-    Corridor {
-        /// Waypoints (m).
-        waypoints: Vec<DVec3>,
-        /// How far a detour looks for a surface (m).
-        reach: f64,
-        /// Walks along the corridor.
-        laps: usize,
-    },
-    /// Grip positions (m) visited in order at `speed` (m/s), pausing `hold` (s) at each.
-    Path {
-        /// Waypoints (m).
-        waypoints: Vec<DVec3>,
-        /// Speed (m/s).
-        speed: f64,
-        /// Pause at each waypoint (s).
-        hold: f64,
-    },
-}
-
-impl HandPlan {
-    /// The script walked `laps` times (a corridor's detours are found in `tree`).
-    pub fn script_laps(&self, tree: &VoxelTree, laps: usize) -> Result<Script> {
-        match self {
-            HandPlan::Corridor {
-                waypoints, reach, ..
-            } => laps_script(tree, waypoints, *reach, laps),
-            HandPlan::Path {
-                waypoints,
-                speed,
-                hold,
-            } => path_script(waypoints, *speed, *hold, laps),
-        }
-    }
-
-    /// The script as the scene declares it (a corridor's `laps`, a path once).
-    pub fn script(&self, tree: &VoxelTree) -> Result<Script> {
-        let laps = match self {
-            HandPlan::Corridor { laps, .. } => *laps,
-            HandPlan::Path { .. } => 1,
-        };
-        self.script_laps(tree, laps)
-    }
-
-    /// The scene's script, its laps doubled until it lasts at least `seconds` (or the waypoint
-    /// limit is reached).
-    pub fn script_covering(&self, tree: &VoxelTree, seconds: f64) -> Result<Script> {
-        let (mut laps, count) = match self {
-            HandPlan::Corridor {
-                laps, waypoints, ..
-            } => (*laps, waypoints.len()),
-            HandPlan::Path { waypoints, .. } => (1, waypoints.len()),
-        };
-        let mut script = self.script_laps(tree, laps)?;
-        while script.duration() < seconds
-            && count.saturating_mul(laps * 2) <= crate::file::MAX_WAYPOINTS
-        {
-            laps *= 2;
-            script = self.script_laps(tree, laps)?;
-        }
-        Ok(script)
-    }
-}
-
 /// Everything built once from a scene file that sessions run with: the voxmap, the part's point
 /// shell, the haptic parameters, the device choice and the hand's motion (plus the meshes, for a
 /// viewer). Many sessions may run on one `SessionAssets`; [`SessionAssets::plan`] plans one.
@@ -1210,7 +1074,7 @@ pub struct SessionAssets {
     /// The first part's voxmap in its grip frame, built only when the scene has other parts.
     pub part_body: Option<Arc<VoxelTree>>,
     /// The moving parts after the first (empty: a one-part scene).
-    pub more_parts: Vec<crate::parts::PartAssets>,
+    pub more_parts: Vec<PartAssets>,
     /// The broad phase's margin between two parts' bounding spheres (m).
     pub pair_margin: f64,
 }
@@ -1288,6 +1152,61 @@ fn with_band_key(key: String, standoff: Option<f64>) -> String {
             h.update(&standoff.to_bits().to_le_bytes());
             h.finalize().to_hex().to_string()
         }
+    }
+}
+
+impl LoadedScene {
+    /// A part's voxmap in its grip frame (`mesh` already moved there) at the scene's voxel
+    /// settings, with the scene's distance band when the force model has one; never cut by the
+    /// workspace. Cached like the scene's voxmap. Blocking, parallel, allocates.
+    pub(crate) fn build_body(
+        &self,
+        mesh: &TriMesh,
+        voxel_size: f64,
+        width: VoxelWidth,
+        cache: &CachePolicy,
+    ) -> Result<Arc<VoxelTree>> {
+        let opts = vps_voxelize::VoxelizeOptions {
+            workspace: None,
+            ..self.voxelize_options(voxel_size, width)
+        };
+        Ok(self
+            .build_voxmap_with(std::slice::from_ref(mesh), opts, cache)?
+            .tree)
+    }
+
+    /// Builds the parts after the first at `voxel_size` with `method`. Blocking, allocates.
+    pub(crate) fn build_more_parts(
+        &self,
+        voxel_size: f64,
+        method: ShellMethod,
+        width: VoxelWidth,
+        cache: &CachePolicy,
+    ) -> Result<Vec<PartAssets>> {
+        let mut built = Vec::with_capacity(self.more_parts.len());
+        for p in &self.more_parts {
+            let (shell, grip) = grip_frame_shell(&p.mesh, p.grip, voxel_size, method)
+                .with_context(|| {
+                    format!("{}: building part '{}''s point shell", self.label, p.name)
+                })?;
+            let mut mesh = p.mesh.clone();
+            mesh.vertices.iter_mut().for_each(|v| *v -= grip);
+            let body = self
+                .build_body(&mesh, voxel_size, width, cache)
+                .with_context(|| format!("{}: part '{}''s own voxmap", self.label, p.name))?;
+            built.push(PartAssets {
+                name: p.name.clone(),
+                params: self.params.with_scene(voxel_size, shell.max_radius())?,
+                radius: body_radius(&mesh, &shell),
+                shell,
+                mesh,
+                body,
+                hand: p.hand.clone(),
+                device: p.device.clone(),
+                bridge: p.bridge,
+            });
+        }
+        Ok(built)
     }
 }
 

@@ -129,3 +129,70 @@ pub fn path_script(waypoints: &[DVec3], speed: f64, hold: f64, laps: usize) -> R
     }
     Ok(b.hold(0.2).build()?)
 }
+
+/// How the simulated hand moves.
+#[derive(Clone, Debug, PartialEq)]
+pub enum HandPlan {
+    /// The standard session along corridor waypoints (m), detours within `reach` (m).
+    Corridor {
+        /// Waypoints (m).
+        waypoints: Vec<DVec3>,
+        /// How far a detour looks for a surface (m).
+        reach: f64,
+        /// Walks along the corridor.
+        laps: usize,
+    },
+    /// Grip positions (m) visited in order at `speed` (m/s), pausing `hold` (s) at each.
+    Path {
+        /// Waypoints (m).
+        waypoints: Vec<DVec3>,
+        /// Speed (m/s).
+        speed: f64,
+        /// Pause at each waypoint (s).
+        hold: f64,
+    },
+}
+
+impl HandPlan {
+    /// The script walked `laps` times (a corridor's detours are found in `tree`).
+    pub fn script_laps(&self, tree: &VoxelTree, laps: usize) -> Result<Script> {
+        match self {
+            HandPlan::Corridor {
+                waypoints, reach, ..
+            } => laps_script(tree, waypoints, *reach, laps),
+            HandPlan::Path {
+                waypoints,
+                speed,
+                hold,
+            } => path_script(waypoints, *speed, *hold, laps),
+        }
+    }
+
+    /// The script as the scene declares it (a corridor's `laps`, a path once).
+    pub fn script(&self, tree: &VoxelTree) -> Result<Script> {
+        let laps = match self {
+            HandPlan::Corridor { laps, .. } => *laps,
+            HandPlan::Path { .. } => 1,
+        };
+        self.script_laps(tree, laps)
+    }
+
+    /// The scene's script, its laps doubled until it lasts at least `seconds` (or the waypoint
+    /// limit is reached).
+    pub fn script_covering(&self, tree: &VoxelTree, seconds: f64) -> Result<Script> {
+        let (mut laps, count) = match self {
+            HandPlan::Corridor {
+                laps, waypoints, ..
+            } => (*laps, waypoints.len()),
+            HandPlan::Path { waypoints, .. } => (1, waypoints.len()),
+        };
+        let mut script = self.script_laps(tree, laps)?;
+        while script.duration() < seconds
+            && count.saturating_mul(laps * 2) <= crate::file::MAX_WAYPOINTS
+        {
+            laps *= 2;
+            script = self.script_laps(tree, laps)?;
+        }
+        Ok(script)
+    }
+}
