@@ -3,16 +3,19 @@
 //! 100 µs ± 50 µs one-way delay and 1 % loss in each direction — on loopback, and with each worker
 //! on its own simulated host (a network namespace joined by its own veth pair) when this runs as
 //! root with `ip netns` (skipped with a message otherwise). Lost requests and replies only move shares to the local fallback: no device
-//! write is missed and every write is bit-identical, frame by frame, to the one-process run.
+//! write is missed and every write is bit-identical, frame by frame, to the one-process run; also
+//! for a session of two moving parts pressing into each other (both devices' writes).
 
 use std::net::{IpAddr, SocketAddr};
 use std::process::{Command, Stdio};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
-use vps_cluster::{ClusterReport, GatherConfig};
+use vps_cluster::fallback::StalePolicy;
+use vps_cluster::{run_coordinator_session, ClusterReport, GatherConfig};
 use vps_haptic::Wrench;
 use vps_netem::{Relay, RelayConfig, RelayStats};
+use vps_runtime::{run_loop, LoopReport, SessionSetup};
 use vps_testkit::cluster::*;
 use vps_testkit::process::Children;
 
@@ -30,6 +33,22 @@ fn session_behind_relay(
     listen_ip: IpAddr,
     hosts: &[WorkerHost],
 ) -> (Vec<Wrench>, ClusterReport, RelayStats) {
+    let (device, writes) = hand(0, Arc::new(AtomicBool::new(false)));
+    let (_, cluster, relay) = session_of_behind_relay(listen_ip, hosts, || {
+        (standard_setup(device, FRAMES), vec![writes])
+    });
+    let writes = relay.1[0].lock().unwrap().clone();
+    (writes, cluster, relay.0)
+}
+
+/// The session `make` sets up (with the logs of its devices' writes) over one worker per host,
+/// each dialling the relay bound to `listen_ip`, gathering exactly (no stale stand-ins): the
+/// loop's and the cluster's reports, and the relay's figures with the logs.
+fn session_of_behind_relay(
+    listen_ip: IpAddr,
+    hosts: &[WorkerHost],
+    make: impl FnOnce() -> (SessionSetup, Vec<Writes>),
+) -> (LoopReport, ClusterReport, (RelayStats, Vec<Writes>)) {
     let dir = tempfile::tempdir().unwrap();
     let (coordinator, certs) = loopback_coordinator(dir.path());
     let relay = Relay::start(RelayConfig {
@@ -67,21 +86,22 @@ fn session_behind_relay(
     coordinator
         .wait_for_workers(hosts.len(), Duration::from_secs(30))
         .unwrap();
-    let (device, writes) = hand(0, Arc::new(AtomicBool::new(false)));
-    let (_, cluster) = exact_cluster_session(
+    let (setup, writes) = make();
+    let (report, cluster) = run_coordinator_session(
         &coordinator,
         GatherConfig {
             log_every: None,
             // These tests exercise the split itself (`--split always`).
             predict: false,
+            stale: StalePolicy::NEVER,
             ..GatherConfig::default()
         },
-        device,
-        FRAMES,
-    );
+        setup,
+    )
+    .expect("cluster session");
+    assert_eq!(report.stats.watchdog_trips, 0);
     let relay_stats = relay.stop();
-    let writes = writes.lock().unwrap().clone();
-    (writes, cluster, relay_stats)
+    (report, cluster, (relay_stats, writes))
 }
 
 fn check(writes: &[Wrench], cluster: &ClusterReport, relay: &RelayStats) {
@@ -99,6 +119,55 @@ fn check(writes: &[Wrench], cluster: &ClusterReport, relay: &RelayStats) {
             "the relay never sends early: {relay:?}"
         );
     }
+    assert!(
+        relay.to_forward.dropped + relay.to_clients.dropped > 0,
+        "1 % loss over this many datagrams drops some: {relay:?}"
+    );
+}
+
+/// Two moving spheres pressing into each other on the wall: the first part's shares go over the
+/// lossy relay (the second part's static sums and the pair are the frame thread's own), and both
+/// devices' writes are bit-identical, frame by frame, to the one-process run.
+#[test]
+fn two_parts_behind_a_lossy_relay_change_no_bit() {
+    let one_process = {
+        let (first, a) = hand(0, Arc::new(AtomicBool::new(false)));
+        let (second, b) = second_hand();
+        let assets = assets();
+        let report = run_loop(
+            assets.map.clone(),
+            assets.shell.clone(),
+            two_part_setup(first, second, FRAMES),
+        )
+        .expect("one-process session");
+        assert!(
+            report.pair_contact_frames > 100,
+            "the spheres press: {report:?}"
+        );
+        [a, b].map(|w| w.lock().unwrap().clone())
+    };
+    let loopback: IpAddr = [127, 0, 0, 1].into();
+    let hosts: Vec<WorkerHost> = (0..WORKERS)
+        .map(|_| WorkerHost {
+            relay_ip: loopback,
+            launcher: Vec::new(),
+        })
+        .collect();
+    let (report, cluster, (relay, writes)) = session_of_behind_relay(loopback, &hosts, || {
+        let (first, a) = hand(0, Arc::new(AtomicBool::new(false)));
+        let (second, b) = second_hand();
+        (two_part_setup(first, second, FRAMES), vec![a, b])
+    });
+    assert_eq!(
+        report.pair_contact_frames,
+        report.other_parts[0].pair_contact_frames
+    );
+    for (got, want) in writes.iter().zip(&one_process) {
+        let got = got.lock().unwrap().clone();
+        assert_eq!(got.len() as u64, FRAMES + 1, "no missed device write");
+        assert_same_writes(&got, want);
+    }
+    assert!(cluster.peers.iter().all(|p| p.merged > 0), "{cluster:?}");
     assert!(
         relay.to_forward.dropped + relay.to_clients.dropped > 0,
         "1 % loss over this many datagrams drops some: {relay:?}"

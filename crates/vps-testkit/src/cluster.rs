@@ -220,3 +220,87 @@ pub fn spawn_worker(bin: &str, args: &LocalWorkerArgs) -> Child {
         .spawn()
         .expect("start vps worker")
 }
+
+/// How far along +x the second sphere of [`two_part_setup`] starts and rests from the first (m):
+/// a sphere's diameter less 5 mm, so the two spheres press into each other while both rest on
+/// the wall.
+pub const SECOND_OFFSET: f64 = 2.0 * SPHERE_RADIUS - 0.005;
+
+/// The second sphere's logging hand: [`approach_and_rest_on_wall`] moved [`SECOND_OFFSET`] along
+/// +x.
+pub fn second_hand() -> (Box<dyn HapticDevice>, Writes) {
+    use vps_device::script::{approach_and_rest, Pace};
+    use vps_device::{HandParams, SimulatedHand, SurfaceContact};
+    let shift = DVec3::X * SECOND_OFFSET;
+    let contact = SurfaceContact {
+        point: DVec3::new(0.05, 0.05, crate::scene::WALL_TOP + SPHERE_RADIUS) + shift,
+        normal: DVec3::Z,
+        orientation: DQuat::IDENTITY,
+    };
+    let pace = Pace {
+        speed: 0.1,
+        press_depth: 0.005,
+        dwell: 0.1,
+    };
+    let script = approach_and_rest(START + shift, &contact, &pace).expect("a valid script");
+    let hand = SimulatedHand::new(script, HandParams::default()).expect("a valid hand");
+    let (device, writes) = LoggingDevice::new(Box::new(hand));
+    (Box::new(device), writes)
+}
+
+/// The sphere's voxmap in its own body frame: 12³ voxels of [`VOXEL`] about its centre; Interior
+/// deeper than two voxels, Surface the two voxels inside its face, Proximity one voxel outside.
+pub fn sphere_body() -> vps_voxmap::DenseGrid {
+    use vps_voxmap::{DenseGrid, GridSpec, Voxel};
+    let origin = DVec3::splat(-6.0 * VOXEL);
+    let spec = GridSpec {
+        origin,
+        voxel_size: VOXEL,
+        dims: [12, 12, 12],
+    };
+    DenseGrid::from_fn(spec, |ijk: glam::IVec3| {
+        let r = (origin + (ijk.as_dvec3() + DVec3::splat(0.5)) * VOXEL).length();
+        if r < SPHERE_RADIUS - 2.0 * VOXEL {
+            Voxel::Interior
+        } else if r < SPHERE_RADIUS {
+            Voxel::Surface
+        } else if r < SPHERE_RADIUS + VOXEL {
+            Voxel::Proximity
+        } else {
+            Voxel::Free
+        }
+    })
+}
+
+/// The standard session with a second moving sphere ([`second_hand`]'s `second`) beside the
+/// first: both rest on the wall pressing into each other. The second part samples the wall on
+/// the frame thread (a one-thread local pool); both carry [`sphere_body`].
+pub fn two_part_setup(
+    device: Box<dyn HapticDevice>,
+    second: Box<dyn HapticDevice>,
+    frames: u64,
+) -> SessionSetup {
+    use vps_runtime::{ClassPool, MovingPart, PartBody, PartsSetup};
+    let shell = assets().shell.clone();
+    let body = PartBody {
+        map: Arc::new(sphere_body()),
+        shell: shell.clone(),
+        radius: 6.0 * VOXEL * 3f64.sqrt(),
+    };
+    let sampler = ClassPool::new(Arc::new(wall_tree()), shell, 1).expect("a pool");
+    SessionSetup {
+        parts: Some(PartsSetup {
+            first: body.clone(),
+            others: vec![MovingPart {
+                name: "second".into(),
+                params: params(),
+                device: second,
+                initial: PartState::at_rest(START + DVec3::X * SECOND_OFFSET, DQuat::IDENTITY),
+                sampler: Box::new(sampler),
+                body,
+            }],
+            margin: 2.0 * VOXEL,
+        }),
+        ..standard_setup(device, frames)
+    }
+}
