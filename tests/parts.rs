@@ -162,6 +162,11 @@ fn scene_check_lists_every_part_and_pair_and_refuses_a_sheet_as_a_second_part() 
         serde_json::json!([0.06, 0.0, 0.0])
     );
     assert!(check["pair_margin_m"].as_f64().unwrap() > 0.0);
+    let (pair, wall) = (
+        check["pair_stability_index"].as_f64().unwrap(),
+        check["wall_stability_index"].as_f64().unwrap(),
+    );
+    assert!(wall < pair && pair < 1.0, "pair {pair}, wall {wall}");
 
     std::fs::write(
         vps.dir().join("sheet.obj"),

@@ -98,6 +98,8 @@ struct PartCheck {
     /// Where its hand starts (m), the grip's position at frame 0 for the simulated hand.
     start_m: Option<[f64; 3]>,
     shell_points: usize,
+    /// Its shell's bounding radius about its grip (m).
+    shell_radius_m: f64,
 }
 
 #[derive(Serialize)]
@@ -114,6 +116,11 @@ struct CheckReport {
     pairs: Vec<[String; 2]>,
     /// The broad phase's margin (m).
     pair_margin_m: Option<f64>,
+    /// The first part's own linearised stability index against a wall (for comparison).
+    wall_stability_index: f64,
+    /// The worst linearised stability index of any pair pressed together (< 1: stable by the
+    /// bound; `vps_haptic::pair::pair_stability`); absent for one part.
+    pair_stability_index: Option<f64>,
     voxel_size_m: f64,
     voxel_width_bits: u32,
     voxels: VoxelsReport,
@@ -194,7 +201,7 @@ fn millimetres(metres: f64) -> String {
 /// points); empty for a one-part scene. Builds the other parts' shells.
 fn part_checks(
     loaded: &LoadedScene,
-    first_points: usize,
+    (first_points, first_radius): (usize, f64),
     voxel_size: f64,
 ) -> Result<Vec<PartCheck>> {
     if loaded.more_parts.is_empty() {
@@ -221,6 +228,7 @@ fn part_checks(
             .map_or("sim".into(), |d| d.kind.clone()),
         start_m: start(&loaded.hand()),
         shell_points: first_points,
+        shell_radius_m: first_radius,
     }];
     for (k, p) in loaded.more_parts.iter().enumerate() {
         let (shell, _) = vps_session::parts::grip_frame_shell(&p.mesh, p.grip, voxel_size, method)?;
@@ -237,9 +245,33 @@ fn part_checks(
                 .map_or("sim".into(), |d| d.kind.clone()),
             start_m: start(&p.hand),
             shell_points: shell.len(),
+            shell_radius_m: shell.max_radius(),
         });
     }
     Ok(parts)
+}
+
+/// The worst [`vps_haptic::pair::pair_stability`] index over every pair of `parts` with the
+/// scene's parameters at `voxel_size`; `None` for one part.
+fn pair_stability_index(
+    loaded: &LoadedScene,
+    parts: &[PartCheck],
+    voxel_size: f64,
+) -> Result<Option<f64>> {
+    let params = |p: &PartCheck| loaded.params.with_scene(voxel_size, p.shell_radius_m);
+    let mut worst: Option<f64> = None;
+    for (i, a) in parts.iter().enumerate() {
+        for b in &parts[i + 1..] {
+            let index = vps_haptic::pair::pair_stability(
+                &params(a)?,
+                &params(b)?,
+                vps_haptic::pair::PAIR_SHARE,
+            )
+            .worst();
+            worst = Some(worst.map_or(index, |w| w.max(index)));
+        }
+    }
+    Ok(worst)
 }
 
 /// Runs `vps scene check`; `max_memory` (bytes) is the budget instead of half of physical memory.
@@ -283,7 +315,11 @@ pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
             && set.offset_layers))
             .then_some(BUILTIN_VOXELS_REASON),
     };
-    let parts = part_checks(&loaded, shell.len(), voxels.voxel_size)?;
+    let parts = part_checks(
+        &loaded,
+        (shell.len(), shell.max_radius()),
+        voxels.voxel_size,
+    )?;
     let pairs: Vec<[String; 2]> = parts
         .iter()
         .enumerate()
@@ -327,6 +363,11 @@ pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
             loaded.part.bounds(),
         ),
         grip_m: loaded.grip(&shell).to_array(),
+        pair_stability_index: pair_stability_index(&loaded, &parts, voxels.voxel_size)?,
+        wall_stability_index: loaded
+            .params_for(voxels.voxel_size, &shell)?
+            .stability()
+            .worst(),
         pair_margin_m: (!parts.is_empty())
             .then(|| vps_session::parts::pair_margin(voxels.voxel_size, voxels.offset_layers)),
         parts,
@@ -405,6 +446,13 @@ pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
                 printable(&p.device),
                 p.start_m.map_or("?".into(), |s| s.map(metres_4).join(", ")),
                 printable(&p.source)
+            );
+        }
+        if let Some(index) = report.pair_stability_index {
+            println!(
+                "  pair stability index {index:.3} (the linear bound for two parts pressed \
+                 together; < 1 is stable; the first part on a wall: {:.3})",
+                report.wall_stability_index
             );
         }
         for [a, b] in &report.pairs {

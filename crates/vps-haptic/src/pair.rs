@@ -19,7 +19,8 @@
 use glam::{DQuat, DVec3};
 
 use crate::contact::contact_wrench;
-use crate::params::{Gains, HapticParams};
+use crate::params::{Gains, HapticParams, StabilityIndices};
+use crate::stability::stability_index;
 use crate::state::{KernelPose, PartState};
 use crate::sums::PartialSums;
 use crate::{sample_all, ClassedShell, Wrench};
@@ -55,6 +56,31 @@ pub fn may_touch(a: &PartState, radius_a: f64, b: &PartState, radius_b: f64, mar
 /// feels against a static wall of the same depth (and the default gains are chosen for that
 /// wall, `crate::stability`). A power of two, so the scaling is exact.
 pub const PAIR_SHARE: f64 = 0.5;
+
+/// The linearised stability indices of two parts pressed into each other, each held by its own
+/// coupling, the pair force applied with `share` of each direction ([`PAIR_SHARE`] in sessions)
+/// and the stiffness of `a`'s parameters (the loop's choice: the lower-numbered part's). With
+/// `x = x_a − x_b` and `N` points at the averaging threshold, the pair force on A is about
+/// `−2 s N K_ff x` and on B its negation, so the relative motion sees
+/// `ω² = max(k_T/m) + 2 s N K_ff (1/m_a + 1/m_b)` (the reduced mass) and the larger coupling
+/// damping; rotation likewise with `K_ff r_a²/I_a + K_ff r_b²/I_b`. For two equal parts the field
+/// term is `4 s` times a wall's: `s = ½` doubles it, `s = 1` quadruples it. Arithmetic only.
+pub fn pair_stability(a: &HapticParams, b: &HapticParams, share: f64) -> StabilityIndices {
+    let (ga, gb) = (a.gains(), b.gains());
+    let n = a.contact_average_threshold as f64;
+    let field = 2.0 * share * n * ga.k_ff;
+    let dt = a.dt;
+    let omega_t2 = (ga.k_t / a.mass).max(gb.k_t / b.mass) + field * (1.0 / a.mass + 1.0 / b.mass);
+    let damping_t = (ga.b_t / a.mass).max(gb.b_t / b.mass);
+    let lever = |p: &HapticParams, inertia: f64| p.max_radius * p.max_radius / inertia;
+    let omega_r2 = (ga.k_r / ga.inertia).max(gb.k_r / gb.inertia)
+        + field * (lever(a, ga.inertia) + lever(b, gb.inertia));
+    let damping_r = (ga.b_r / ga.inertia).max(gb.b_r / gb.inertia);
+    StabilityIndices {
+        translational: stability_index(omega_t2.sqrt() * dt, damping_t * dt),
+        rotational: stability_index(omega_r2.sqrt() * dt, damping_r * dt),
+    }
+}
 
 /// One pair's sums, both ways.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

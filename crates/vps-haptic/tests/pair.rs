@@ -287,3 +287,28 @@ fn two_hands_pressing_two_cubes_together_come_to_rest_without_drifting() {
     let centre = (a.position.x + b.position.x) / 2.0;
     assert!((centre - 0.025).abs() < 1e-3, "centre {centre}");
 }
+
+/// The pair's linear stability bound explains the share: two default parts of the test cubes'
+/// size pressed into each other are stable by the bound with half of each direction applied, and
+/// past it in rotation with all of both (which buzzed for ever in the measurement behind
+/// `PAIR_SHARE`); a pair is always harder than a wall.
+#[test]
+fn the_pair_bound_holds_at_half_share_and_fails_at_full_share() {
+    use vps_haptic::pair::{pair_stability, PAIR_SHARE};
+    let params = HapticParams::default()
+        .with_scene(S, HALF * 3f64.sqrt())
+        .unwrap();
+    let wall = params.stability();
+    let half = pair_stability(&params, &params, PAIR_SHARE);
+    let full = pair_stability(&params, &params, 1.0);
+    eprintln!("wall {wall:?}\nhalf {half:?}\nfull {full:?}");
+    assert!(half.worst() < 1.0, "{half:?}");
+    assert!(full.rotational > 1.0, "{full:?}");
+    assert!(half.translational > wall.translational && half.rotational > wall.rotational);
+    // A heavier partner lowers the relative motion's stiffness per mass (the reduced mass grows).
+    let heavy = HapticParams {
+        mass: params.mass * 10.0,
+        ..params
+    };
+    assert!(pair_stability(&params, &heavy, PAIR_SHARE).translational < half.translational);
+}
