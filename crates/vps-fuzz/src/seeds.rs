@@ -260,9 +260,34 @@ scene = "scenes/rig-teapot.toml"
     ]
 }
 
-/// Scene file seeds: the committed scene files (`configs/scenes/*.toml`, the worked example in
-/// `assets/scenes/`), and one using every optional section (`[hand]`, `[workspace]`, inline
-/// `[haptic]`, a bridge `[device]` with its mapping and timeout, lengths as strings).
+/// A scene of two `[[part]]`s, each with its own hand and a bridge device with a mapping.
+const TWO_PARTS_ON_BRIDGES: &str = r#"[[static]]
+source = "builtin:box"
+[[part]]
+name = "tool"
+source = "builtin:cylinder"
+grip = [0.0, 0.0, 0.05]
+[part.hand]
+waypoints = [[0.0, 0.0, 0.2]]
+[part.device]
+kind = "bridge:127.0.0.1:7700"
+mapping = { scale = 2.0, rotate_deg = [90.0, 0.0, 0.0] }
+[[part]]
+name = "part"
+source = "builtin:sphere"
+scale = [0.5, 0.5, 1.0]
+[part.hand]
+waypoints = [[0.1, 0.0, 0.2], [0.0, 0.0, 0.2]]
+speed = 0.05
+[part.device]
+kind = "bridge:127.0.0.1:7701"
+pose_timeout_ms = 100
+"#;
+
+/// Scene file seeds: the committed scene files (`configs/scenes/*.toml`, the worked examples in
+/// `assets/scenes/`), one using every optional section (`[hand]`, `[workspace]`, inline
+/// `[haptic]`, a bridge `[device]` with its mapping and timeout, lengths as strings), and one of
+/// two `[[part]]`s each on its own bridge.
 pub fn scene_toml() -> Vec<Vec<u8>> {
     let every_section = r#"name = "every-section"
 [part]
@@ -300,7 +325,9 @@ device_max_force = 4.0
         include_bytes!("../../../configs/scenes/bay-teapot.toml").to_vec(),
         include_bytes!("../../../configs/scenes/rig-teapot.toml").to_vec(),
         include_bytes!("../../../assets/scenes/bracket-in-bay.toml").to_vec(),
+        include_bytes!("../../../assets/scenes/two-hands.toml").to_vec(),
         format!("{every_section}{device}force_scale = 0.5\n").into_bytes(),
+        TWO_PARTS_ON_BRIDGES.as_bytes().to_vec(),
     ]
 }
 

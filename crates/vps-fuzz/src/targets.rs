@@ -118,6 +118,29 @@ fn scene_toml(bytes: &[u8]) -> Result<(), String> {
             .bridge_settings(SCENE_TOML)
             .map_err(|e| e.to_string())?;
     }
+    // Every part after the first was checked: a hand of finite waypoints, a device that parses.
+    assert!(
+        file.more_parts.len() < vps_session::file::MAX_PARTS,
+        "scene: {} parts accepted",
+        file.more_parts.len() + 1
+    );
+    for part in &file.more_parts {
+        let hand = part
+            .hand
+            .as_ref()
+            .expect("scene: a part after the first without a hand");
+        assert!(
+            hand.waypoints.iter().flatten().all(|c| c.is_finite()),
+            "scene: a part's waypoint is not finite"
+        );
+        if let Some(device) = &part.device {
+            vps_session::DeviceChoice::parse(&device.kind)
+                .expect("scene: a part's device kind was accepted unparsed");
+            device
+                .bridge_settings(SCENE_TOML)
+                .map_err(|e| e.to_string())?;
+        }
+    }
     if let Some(table) = file.haptic.as_ref().filter(|t| !t.contains_key("file")) {
         let inline = toml::to_string(table).map_err(|e| format!("{SCENE_TOML}: [haptic]: {e}"))?;
         vps_haptic::HapticParams::from_toml_str(&inline, "[haptic]")
