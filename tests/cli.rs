@@ -474,6 +474,17 @@ fn no_command_prints_json_without_json() {
     std::fs::create_dir(&certs).unwrap();
     let deploy = vps.path("layout");
     let s = scene.as_str();
+    // Two spheres over the box, for `bench parts`.
+    let two = vps.path("two.toml");
+    std::fs::write(
+        &two,
+        "[[static]]\nsource = \"builtin:box\"\n[voxels]\nvoxel_size = \"10mm\"\n\
+         [[part]]\nsource = \"builtin:sphere\"\n\
+         [part.hand]\nwaypoints = [[0.3, 0.0, 0.0], [0.0, 0.0, 0.0]]\nspeed = 0.5\n\
+         [[part]]\nsource = \"builtin:sphere\"\n\
+         [part.hand]\nwaypoints = [[0.0, 0.3, 0.0]]\n",
+    )
+    .unwrap();
     // (arguments, whether `--json` is cheap enough to run too)
     let commands: Vec<(Vec<&str>, bool)> = vec![
         (
@@ -629,6 +640,12 @@ fn no_command_prints_json_without_json() {
             false,
         ),
         (vec!["bench", "transport", "--frames", "100"], false),
+        (
+            vec![
+                "bench", "parts", "--scene", &two, "--frames", "50", "--rounds", "1",
+            ],
+            true,
+        ),
         (vec!["bench", "bridge", "--round-trips", "100"], false),
     ];
     for (args, json_too) in &commands {
