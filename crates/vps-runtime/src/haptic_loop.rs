@@ -28,7 +28,7 @@
 
 use crate::clock::FrameClock;
 use crate::feed::{FeedFrame, PartPose, RecentMax, StateFeedSender, MAX_OTHER_PARTS};
-use crate::parts::{MovingPart, PairCounts, PairPass, PartBody, PartReport, PartsSetup};
+use crate::parts::{PairCounts, PartReport, PartsSetup, RunningParts};
 use crate::pool::{panic_message, ClassPool, FrameSampler};
 use crate::rt::{request_realtime, RtGrant};
 use crate::stats::{FrameRecord, FrameStats, StatsSummary};
@@ -41,7 +41,7 @@ use std::time::{Duration, Instant};
 use vps_device::{DeviceError, HapticDevice, Trace, TraceRecorder};
 use vps_haptic::{
     step_with_parts, ClassedShell, HandleSample, HapticParams, KernelPose, OtherParts, PartState,
-    PartialSums, Wrench,
+    Wrench,
 };
 use vps_voxmap::VoxelLookup;
 
@@ -243,7 +243,7 @@ pub fn spawn_loop_with(
     config.validate(&params)?;
     let parts = match parts {
         None => None,
-        Some(p) => Some(RunningParts::new(p, &config)?),
+        Some(p) => Some(RunningParts::new(p, |part| config.validate(part))?),
     };
     let running = RunningLoop {
         pool: sampler,
@@ -283,197 +283,6 @@ struct RunningLoop {
     feed: Option<StateFeedSender>,
     stop: Arc<AtomicBool>,
     parts: Option<RunningParts>,
-}
-
-/// The other parts of a running session, their bodies and the pair pass.
-struct RunningParts {
-    first: PartBody,
-    others: Vec<RunningPart>,
-    margin: f64,
-    pass: PairPass,
-}
-
-/// One of the other parts while the session runs.
-struct RunningPart {
-    part: MovingPart,
-    state: PartState,
-    limits: vps_device::DeviceLimits,
-    handle: Option<HandleSample>,
-    sums: PartialSums,
-    /// This frame's next state and device wrench (saturated), written after every part's step.
-    next: Option<(PartState, Wrench)>,
-    report: PartReport,
-}
-
-impl RunningParts {
-    /// Validates every part's parameters and the margin. Allocates; setup-time only.
-    fn new(setup: PartsSetup, config: &LoopConfig) -> Result<RunningParts, RuntimeError> {
-        if !(setup.margin.is_finite() && setup.margin >= 0.0) {
-            return Err(RuntimeError::Config {
-                field: "parts.margin",
-                message: format!("{} m: must be finite and ≥ 0", setup.margin),
-            });
-        }
-        let bodies = std::iter::once(&setup.first).chain(setup.others.iter().map(|o| &o.body));
-        if let Some(bad) = bodies
-            .map(|b| b.radius)
-            .find(|r| !(r.is_finite() && *r >= 0.0))
-        {
-            return Err(RuntimeError::Config {
-                field: "parts.radius",
-                message: format!("{bad} m: a part's radius must be finite and ≥ 0"),
-            });
-        }
-        if setup.others.len() > MAX_OTHER_PARTS {
-            return Err(RuntimeError::Config {
-                field: "parts.others",
-                message: format!(
-                    "{} other parts; at most {MAX_OTHER_PARTS} are allowed",
-                    setup.others.len()
-                ),
-            });
-        }
-        let mut others = Vec::with_capacity(setup.others.len());
-        for part in setup.others {
-            part.params
-                .validate(&format!("haptic parameters of part '{}'", part.name))?;
-            config.validate(&part.params)?;
-            let report = PartReport {
-                name: part.name.clone(),
-                device_name: part.device.name().to_string(),
-                final_state: part.initial,
-                final_handle: None,
-                wrenches_written: 0,
-                clamped_frames: 0,
-                non_finite_frames: 0,
-                rejected_frames: 0,
-                max_device_force: 0.0,
-                pair_contact_frames: 0,
-                last_pair_wrench: Wrench::ZERO,
-                device_counters: None,
-            };
-            others.push(RunningPart {
-                limits: part.device.limits(),
-                state: part.initial,
-                handle: None,
-                sums: PartialSums::default(),
-                next: None,
-                report,
-                part,
-            });
-        }
-        Ok(RunningParts {
-            pass: PairPass::new(others.len() + 1),
-            first: setup.first,
-            others,
-            margin: setup.margin,
-        })
-    }
-}
-
-impl RunningParts {
-    /// Every other part's static sums and step, and every pair's wrenches (the first part's in
-    /// `self.pass.others[0]`): the other parts' next states and device wrenches wait in
-    /// `next` for [`RunningParts::write`]. Returns a sampler's failure. Does not allocate; blocks
-    /// only as the samplers do (up to `deadline`).
-    fn sample(
-        &mut self,
-        first: &PartState,
-        first_params: &HapticParams,
-        deadline: Instant,
-    ) -> Option<String> {
-        for o in &mut self.others {
-            let pose = KernelPose::from_state(&o.state);
-            o.sums = o.part.sampler.compute(&pose, deadline).sums;
-            if let Some(failure) = o.part.sampler.failure() {
-                return Some(format!("part '{}': {failure}", o.part.name));
-            }
-        }
-        let (firsts, others) = (&self.first, &self.others);
-        self.pass.run(
-            others.len() + 1,
-            |k| match k {
-                0 => (first, firsts, first_params),
-                k => {
-                    let o = &others[k - 1];
-                    (&o.state, &o.part.body, &o.part.params)
-                }
-            },
-            self.margin,
-        );
-        for (o, with) in self.others.iter_mut().zip(&self.pass.others[1..]) {
-            let Some(handle) = o.handle else { continue };
-            let out = step_with_parts(&o.part.params, &o.state, &handle, &o.sums, with);
-            let wrench = o.limits.saturate(&out.device_wrench);
-            let r = &mut o.report;
-            r.clamped_frames += u64::from(wrench != out.device_wrench);
-            r.non_finite_frames += u64::from(out.non_finite);
-            r.rejected_frames += u64::from(out.rejected_input);
-            r.last_pair_wrench = with.wrench;
-            o.next = Some((out.next_state, wrench));
-        }
-        None
-    }
-
-    /// The other parts' poses for the state feed: their count and the poses (the rest default).
-    /// Does not allocate.
-    fn poses(&self) -> (u32, [PartPose; MAX_OTHER_PARTS]) {
-        let mut poses = [PartPose::default(); MAX_OTHER_PARTS];
-        for (pose, o) in poses.iter_mut().zip(&self.others) {
-            *pose = PartPose {
-                position: o.state.position,
-                orientation: o.state.orientation,
-            };
-        }
-        (self.others.len().min(MAX_OTHER_PARTS) as u32, poses)
-    }
-
-    /// Writes every other part's device (zero when the watchdog tripped) and advances its state.
-    fn write(&mut self, watchdog_tripped: bool) -> Result<(), DeviceError> {
-        for o in &mut self.others {
-            let Some((next, wrench)) = o.next.take() else {
-                continue;
-            };
-            let wrench = if watchdog_tripped {
-                Wrench::ZERO
-            } else {
-                wrench
-            };
-            o.part.device.write(&wrench)?;
-            o.state = next;
-            let r = &mut o.report;
-            r.wrenches_written += 1;
-            r.max_device_force = r.max_device_force.max(wrench.force.length());
-        }
-        Ok(())
-    }
-
-    /// The other parts' reports, the pair counts, and the first part's last pair wrench and pair
-    /// contact frames. Reads each device's counters.
-    fn finish(mut self) -> (Vec<PartReport>, PairCounts, Wrench, u64) {
-        let contact = self.pass.contact_frames.clone();
-        let reports = self
-            .others
-            .iter_mut()
-            .zip(contact.iter().skip(1))
-            .map(|(o, &frames)| {
-                let mut r = o.report.clone();
-                r.final_state = o.state;
-                r.final_handle = o.handle;
-                r.pair_contact_frames = frames;
-                r.device_counters = catch_unwind(AssertUnwindSafe(|| o.part.device.counters()))
-                    .ok()
-                    .flatten();
-                r
-            })
-            .collect();
-        (
-            reports,
-            self.pass.counts,
-            self.pass.others[0].wrench,
-            contact[0],
-        )
-    }
 }
 
 /// Largest number of frames a trace recorder reserves up front.
@@ -563,9 +372,7 @@ impl RunningLoop {
         // reported any better.
         let _ = catch_unwind(AssertUnwindSafe(|| self.device.write(&Wrench::ZERO)));
         if let Some(parts) = self.parts.as_mut() {
-            for o in &mut parts.others {
-                let _ = catch_unwind(AssertUnwindSafe(|| o.part.device.write(&Wrench::ZERO)));
-            }
+            parts.release();
         }
         let device_counters = catch_unwind(AssertUnwindSafe(|| self.device.counters()))
             .ok()
@@ -611,9 +418,7 @@ impl RunningLoop {
             }
         }
         if let Some(parts) = self.parts.as_mut() {
-            for o in &mut parts.others {
-                o.handle = Some(o.part.device.read(time)?);
-            }
+            parts.read(time)?;
         }
         let pose = KernelPose::from_state(&self.state);
         let deadline = tick.started + self.config.watchdog / 2;
@@ -623,10 +428,10 @@ impl RunningLoop {
         }
         let mut mine = OtherParts::NONE;
         if let Some(parts) = self.parts.as_mut() {
-            if let Some(failure) = parts.sample(&self.state, &self.params, deadline) {
-                return Ok(FrameFlow::End(SessionEnd::Panicked(failure)));
+            match parts.sample(&self.state, &self.params, deadline) {
+                Ok(pairs) => mine = pairs,
+                Err(failure) => return Ok(FrameFlow::End(SessionEnd::Panicked(failure))),
             }
-            mine = parts.pass.others[0];
         }
         let out = step_with_parts(&self.params, &self.state, &handle, &gathered.sums, &mine);
         let mut wrench = cx.limits.saturate(&out.device_wrench);

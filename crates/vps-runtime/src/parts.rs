@@ -12,17 +12,25 @@
 //! part into [`OtherParts`], which [`vps_haptic::step_with_parts`] adds to each part's frame.
 //! The two forces of a pair are exact negations of each other.
 //!
+//! The loop holds them as `RunningParts` (each part's device, state, sums and counters, and the
+//! pair pass): read every device, sample, step, write every device, release every device with
+//! the exact zero wrench at the end.
+//!
 //! Not here yet: pair points split over cluster workers (a cluster session's other parts sample
 //! the static scene on local threads and their pairs on the frame thread), pre-contact braking
 //! between parts.
 
+use crate::feed::{PartPose, MAX_OTHER_PARTS};
 use crate::pool::FrameSampler;
+use crate::RuntimeError;
+use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::Arc;
-use vps_device::HapticDevice;
+use std::time::Instant;
+use vps_device::{DeviceError, DeviceLimits, HapticDevice};
 use vps_haptic::pair::{may_touch, pair_wrenches, pose_in, PairSums};
 use vps_haptic::{
-    sample_all, ClassedShell, HandleSample, HapticParams, KernelPose, OtherParts, PartState,
-    PartialSums, Wrench,
+    sample_all, step_with_parts, ClassedShell, HandleSample, HapticParams, KernelPose, OtherParts,
+    PartState, PartialSums, Wrench,
 };
 use vps_voxmap::VoxelLookup;
 
@@ -183,5 +191,353 @@ impl PairPass {
             *frames += u64::from(o.near);
         }
         self.counts.contact_frames += u64::from(any_contact);
+    }
+}
+
+/// The other parts of a running session, their bodies and the pair pass.
+pub(crate) struct RunningParts {
+    first: PartBody,
+    others: Vec<RunningPart>,
+    margin: f64,
+    pass: PairPass,
+}
+
+/// One of the other parts while the session runs.
+struct RunningPart {
+    part: MovingPart,
+    state: PartState,
+    limits: DeviceLimits,
+    handle: Option<HandleSample>,
+    sums: PartialSums,
+    /// This frame's next state and device wrench (saturated), written after every part's step.
+    next: Option<(PartState, Wrench)>,
+    report: PartReport,
+}
+
+impl RunningParts {
+    /// Validates every part's parameters (`loop_accepts`: the loop's own check of a part's
+    /// parameters, its period) and the margin. Allocates; setup-time only.
+    pub(crate) fn new(
+        setup: PartsSetup,
+        loop_accepts: impl Fn(&HapticParams) -> Result<(), RuntimeError>,
+    ) -> Result<RunningParts, RuntimeError> {
+        if !(setup.margin.is_finite() && setup.margin >= 0.0) {
+            return Err(RuntimeError::Config {
+                field: "parts.margin",
+                message: format!("{} m: must be finite and ≥ 0", setup.margin),
+            });
+        }
+        let bodies = std::iter::once(&setup.first).chain(setup.others.iter().map(|o| &o.body));
+        if let Some(bad) = bodies
+            .map(|b| b.radius)
+            .find(|r| !(r.is_finite() && *r >= 0.0))
+        {
+            return Err(RuntimeError::Config {
+                field: "parts.radius",
+                message: format!("{bad} m: a part's radius must be finite and ≥ 0"),
+            });
+        }
+        if setup.others.len() > MAX_OTHER_PARTS {
+            return Err(RuntimeError::Config {
+                field: "parts.others",
+                message: format!(
+                    "{} other parts; at most {MAX_OTHER_PARTS} are allowed",
+                    setup.others.len()
+                ),
+            });
+        }
+        let mut others = Vec::with_capacity(setup.others.len());
+        for part in setup.others {
+            part.params
+                .validate(&format!("haptic parameters of part '{}'", part.name))?;
+            loop_accepts(&part.params)?;
+            let report = PartReport {
+                name: part.name.clone(),
+                device_name: part.device.name().to_string(),
+                final_state: part.initial,
+                final_handle: None,
+                wrenches_written: 0,
+                clamped_frames: 0,
+                non_finite_frames: 0,
+                rejected_frames: 0,
+                max_device_force: 0.0,
+                pair_contact_frames: 0,
+                last_pair_wrench: Wrench::ZERO,
+                device_counters: None,
+            };
+            others.push(RunningPart {
+                limits: part.device.limits(),
+                state: part.initial,
+                handle: None,
+                sums: PartialSums::default(),
+                next: None,
+                report,
+                part,
+            });
+        }
+        Ok(RunningParts {
+            pass: PairPass::new(others.len() + 1),
+            first: setup.first,
+            others,
+            margin: setup.margin,
+        })
+    }
+
+    /// Reads every other part's device at `time` (s). Blocks as the devices do.
+    pub(crate) fn read(&mut self, time: f64) -> Result<(), DeviceError> {
+        for o in &mut self.others {
+            o.handle = Some(o.part.device.read(time)?);
+        }
+        Ok(())
+    }
+
+    /// Writes the exact zero wrench to every other part's device, whatever happens (a failure or
+    /// a panic of one device does not keep the others from theirs).
+    pub(crate) fn release(&mut self) {
+        for o in &mut self.others {
+            let _ = catch_unwind(AssertUnwindSafe(|| o.part.device.write(&Wrench::ZERO)));
+        }
+    }
+
+    /// Every other part's static sums and step, and every pair's wrenches: returns the first
+    /// part's pair wrench; the other parts' next states and device wrenches wait in `next` for
+    /// [`RunningParts::write`]. Errs with a sampler's failure. Does not allocate; blocks only as
+    /// the samplers do (up to `deadline`).
+    pub(crate) fn sample(
+        &mut self,
+        first: &PartState,
+        first_params: &HapticParams,
+        deadline: Instant,
+    ) -> Result<OtherParts, String> {
+        for o in &mut self.others {
+            let pose = KernelPose::from_state(&o.state);
+            o.sums = o.part.sampler.compute(&pose, deadline).sums;
+            if let Some(failure) = o.part.sampler.failure() {
+                return Err(format!("part '{}': {failure}", o.part.name));
+            }
+        }
+        let (firsts, others) = (&self.first, &self.others);
+        self.pass.run(
+            others.len() + 1,
+            |k| match k {
+                0 => (first, firsts, first_params),
+                k => {
+                    let o = &others[k - 1];
+                    (&o.state, &o.part.body, &o.part.params)
+                }
+            },
+            self.margin,
+        );
+        for (o, with) in self.others.iter_mut().zip(&self.pass.others[1..]) {
+            let Some(handle) = o.handle else { continue };
+            let out = step_with_parts(&o.part.params, &o.state, &handle, &o.sums, with);
+            let wrench = o.limits.saturate(&out.device_wrench);
+            let r = &mut o.report;
+            r.clamped_frames += u64::from(wrench != out.device_wrench);
+            r.non_finite_frames += u64::from(out.non_finite);
+            r.rejected_frames += u64::from(out.rejected_input);
+            r.last_pair_wrench = with.wrench;
+            o.next = Some((out.next_state, wrench));
+        }
+        Ok(self.pass.others[0])
+    }
+
+    /// The other parts' poses for the state feed: their count and the poses (the rest default).
+    /// Does not allocate.
+    pub(crate) fn poses(&self) -> (u32, [PartPose; MAX_OTHER_PARTS]) {
+        let mut poses = [PartPose::default(); MAX_OTHER_PARTS];
+        for (pose, o) in poses.iter_mut().zip(&self.others) {
+            *pose = PartPose {
+                position: o.state.position,
+                orientation: o.state.orientation,
+            };
+        }
+        (self.others.len().min(MAX_OTHER_PARTS) as u32, poses)
+    }
+
+    /// Writes every other part's device (zero when the watchdog tripped) and advances its state.
+    pub(crate) fn write(&mut self, watchdog_tripped: bool) -> Result<(), DeviceError> {
+        for o in &mut self.others {
+            let Some((next, wrench)) = o.next.take() else {
+                continue;
+            };
+            let wrench = if watchdog_tripped {
+                Wrench::ZERO
+            } else {
+                wrench
+            };
+            o.part.device.write(&wrench)?;
+            o.state = next;
+            let r = &mut o.report;
+            r.wrenches_written += 1;
+            r.max_device_force = r.max_device_force.max(wrench.force.length());
+        }
+        Ok(())
+    }
+
+    /// The other parts' reports, the pair counts, and the first part's last pair wrench and pair
+    /// contact frames. Reads each device's counters.
+    pub(crate) fn finish(mut self) -> (Vec<PartReport>, PairCounts, Wrench, u64) {
+        let contact = self.pass.contact_frames.clone();
+        let reports = self
+            .others
+            .iter_mut()
+            .zip(contact.iter().skip(1))
+            .map(|(o, &frames)| {
+                let mut r = o.report.clone();
+                r.final_state = o.state;
+                r.final_handle = o.handle;
+                r.pair_contact_frames = frames;
+                r.device_counters = catch_unwind(AssertUnwindSafe(|| o.part.device.counters()))
+                    .ok()
+                    .flatten();
+                r
+            })
+            .collect();
+        (
+            reports,
+            self.pass.counts,
+            self.pass.others[0].wrench,
+            contact[0],
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::haptic_loop::{run_loop, LoopConfig, SessionEnd, SessionSetup};
+    use crate::pool::ClassPool;
+    use glam::{DQuat, DVec3};
+    use std::sync::atomic::AtomicBool;
+    use std::time::Duration;
+    use vps_testkit::device::{LoggingDevice, Writes};
+    use vps_testkit::hand::{approach_and_rest_on_wall, START};
+    use vps_testkit::scene::{wall, VOXEL};
+    use vps_testkit::shell::{sphere_shell, SPHERE_RADIUS};
+
+    fn params() -> HapticParams {
+        HapticParams::default()
+            .with_scene(VOXEL, SPHERE_RADIUS)
+            .unwrap()
+    }
+
+    /// Two spheres of 30 mm starting 20 mm apart along x, both hands on the same motion onto the
+    /// wall (so the second is pulled into the first), `frames` frames; the second device fails
+    /// its read `fail_read_at` when given. Returns the report and both write logs.
+    fn two_spheres(frames: u64, fail_read_at: Option<u64>) -> (crate::LoopReport, [Writes; 2]) {
+        let shell = Arc::new(ClassedShell::new(&sphere_shell(300), 8));
+        let map = Arc::new(wall());
+        let body = PartBody {
+            map: map.clone(),
+            shell: shell.clone(),
+            radius: SPHERE_RADIUS,
+        };
+        let (first, a) = LoggingDevice::new(approach_and_rest_on_wall());
+        let (mut second, b) = LoggingDevice::new(approach_and_rest_on_wall());
+        second.fail_read_at = fail_read_at;
+        let config = LoopConfig {
+            frames: Some(frames),
+            free_running: true,
+            watchdog: Duration::from_secs(10),
+            ..LoopConfig::default()
+        };
+        let setup = SessionSetup {
+            params: params(),
+            device: Box::new(first),
+            initial: PartState::at_rest(START, DQuat::IDENTITY),
+            config,
+            feed: None,
+            stop: Arc::new(AtomicBool::new(false)),
+            parts: Some(PartsSetup {
+                first: body.clone(),
+                others: vec![MovingPart {
+                    name: "second".into(),
+                    params: params(),
+                    device: Box::new(second),
+                    // The same hand motion: the second part is pulled onto the first.
+                    initial: PartState::at_rest(START + DVec3::X * 0.02, DQuat::IDENTITY),
+                    sampler: Box::new(ClassPool::new(map, shell, 1).unwrap()),
+                    body,
+                }],
+                margin: 2.0 * VOXEL,
+            }),
+        };
+        let report = run_loop(
+            Arc::new(wall()),
+            setup.parts.as_ref().unwrap().first.shell.clone(),
+            setup,
+        )
+        .unwrap();
+        (report, [a, b])
+    }
+
+    /// Every part's device gets one wrench per frame and the exact zero wrench last, whether the
+    /// session ran its frames or another part's device failed mid-session.
+    #[test]
+    fn every_device_is_released_with_an_exact_zero_however_the_session_ends() {
+        let (report, writes) = two_spheres(300, None);
+        assert_eq!(report.end, SessionEnd::FramesDone);
+        assert_eq!(report.other_parts[0].wrenches_written, 300);
+        assert!(report.pairs.sampled > 0, "{:?}", report.pairs);
+        for w in &writes {
+            let w = w.lock().unwrap();
+            assert_eq!(w.len(), 301, "one per frame and the release");
+            assert_eq!(w.last(), Some(&Wrench::ZERO));
+        }
+        let (report, writes) = two_spheres(300, Some(120));
+        assert!(
+            matches!(report.end, SessionEnd::DeviceFailed(_)),
+            "{:?}",
+            report.end
+        );
+        for w in &writes {
+            assert_eq!(w.lock().unwrap().last(), Some(&Wrench::ZERO));
+        }
+    }
+
+    /// The pair pass skips a pair whose bounding spheres are apart and applies exactly opposite
+    /// forces to a pair in contact.
+    #[test]
+    fn the_pair_pass_skips_apart_pairs_and_pushes_touching_ones_apart_exactly() {
+        let body = PartBody {
+            map: Arc::new(vps_testkit::scene::wall()),
+            shell: Arc::new(ClassedShell::new(&sphere_shell(200), 4)),
+            radius: 0.1,
+        };
+        let p = params();
+        let at = |x: f64| PartState::at_rest(DVec3::new(x, 0.05, 0.05), DQuat::IDENTITY);
+        let mut pass = PairPass::new(2);
+        let (a, far) = (at(0.05), at(1.0));
+        pass.run(
+            2,
+            |k| {
+                if k == 0 {
+                    (&a, &body, &p)
+                } else {
+                    (&far, &body, &p)
+                }
+            },
+            0.0,
+        );
+        assert_eq!((pass.counts.sampled, pass.counts.skipped), (0, 1));
+        assert_eq!(pass.others, vec![OtherParts::NONE; 2]);
+        // The same wall voxmap carried by both "parts": each samples the other's wall.
+        let b = at(0.06);
+        pass.run(
+            2,
+            |k| {
+                if k == 0 {
+                    (&a, &body, &p)
+                } else {
+                    (&b, &body, &p)
+                }
+            },
+            0.0,
+        );
+        assert_eq!(pass.counts.sampled, 1);
+        let (fa, fb) = (pass.others[0].wrench.force, pass.others[1].wrench.force);
+        assert!(fa.length() > 0.0 && pass.others[0].near && pass.others[1].near);
+        assert_eq!(fa, -fb);
     }
 }
