@@ -670,7 +670,7 @@ impl LoadedScene {
             progress,
             ..self.voxelize_options(voxel_size, width)
         };
-        self.build_voxmap_with(objects, opts, cache)
+        self.build_voxmap_with(objects, opts, cache, "voxmap")
     }
 
     /// A voxmap of `objects` (m) with the voxelizer's options `opts` and the scene's distance
@@ -680,6 +680,7 @@ impl LoadedScene {
         objects: &[TriMesh],
         opts: VoxelizeOptions,
         cache: &CachePolicy,
+        what: &str,
     ) -> Result<BuiltVoxmap> {
         let (voxel_size, width) = (opts.voxel_size, opts.width);
         let t = Instant::now();
@@ -702,7 +703,7 @@ impl LoadedScene {
         };
         if let Some((path, expected)) = &cached_at {
             if let Some(tree) = read_cached(path, expected) {
-                eprintln!("voxmap: loaded from cache {}", path.display());
+                eprintln!("{what}: loaded from cache {}", path.display());
                 return Ok(BuiltVoxmap {
                     tree: Arc::new(tree),
                     voxelize_ms: t.elapsed().as_secs_f64() * 1e3,
@@ -731,19 +732,19 @@ impl LoadedScene {
         let origin = match cached_at {
             Some((path, expected)) => match write_cached(&path, &expected.key, &tree) {
                 Ok(()) => {
-                    eprintln!("voxmap: built, cached at {}", path.display());
+                    eprintln!("{what}: built, cached at {}", path.display());
                     VoxmapOrigin::Cache(path)
                 }
                 Err(err) => {
                     eprintln!(
-                        "voxmap: built; could not cache it at {}: {err}",
+                        "{what}: built; could not cache it at {}: {err}",
                         path.display()
                     );
                     VoxmapOrigin::Built
                 }
             },
             None => {
-                eprintln!("voxmap: built (cache off)");
+                eprintln!("{what}: built (cache off)");
                 VoxmapOrigin::Built
             }
         };
@@ -842,7 +843,13 @@ impl LoadedScene {
         let part_body = if more_parts.is_empty() {
             None
         } else {
-            Some(self.build_body(&part_mesh, voxel_size, width, &options.cache)?)
+            Some(self.build_body(
+                &self.part_name,
+                &part_mesh,
+                voxel_size,
+                width,
+                &options.cache,
+            )?)
         };
         let pair_margin = crate::parts::pair_margin(voxel_size, self.file.voxels.offset_layers);
         Ok(SessionAssets {
@@ -1158,9 +1165,11 @@ fn with_band_key(key: String, standoff: Option<f64>) -> String {
 impl LoadedScene {
     /// A part's voxmap in its grip frame (`mesh` already moved there) at the scene's voxel
     /// settings, with the scene's distance band when the force model has one; never cut by the
-    /// workspace. Cached like the scene's voxmap. Blocking, parallel, allocates.
+    /// workspace. Cached like the scene's voxmap; `name` (the part's) labels what is printed.
+    /// Blocking, parallel, allocates.
     pub(crate) fn build_body(
         &self,
+        name: &str,
         mesh: &TriMesh,
         voxel_size: f64,
         width: VoxelWidth,
@@ -1171,7 +1180,12 @@ impl LoadedScene {
             ..self.voxelize_options(voxel_size, width)
         };
         Ok(self
-            .build_voxmap_with(std::slice::from_ref(mesh), opts, cache)?
+            .build_voxmap_with(
+                std::slice::from_ref(mesh),
+                opts,
+                cache,
+                &format!("the voxmap of part '{name}'"),
+            )?
             .tree)
     }
 
@@ -1187,13 +1201,16 @@ impl LoadedScene {
         for p in &self.more_parts {
             let (shell, grip) = grip_frame_shell(&p.mesh, p.grip, voxel_size, method)
                 .with_context(|| {
-                    format!("{}: building part '{}''s point shell", self.label, p.name)
+                    format!(
+                        "{}: building the point shell of part '{}'",
+                        self.label, p.name
+                    )
                 })?;
             let mut mesh = p.mesh.clone();
             mesh.vertices.iter_mut().for_each(|v| *v -= grip);
             let body = self
-                .build_body(&mesh, voxel_size, width, cache)
-                .with_context(|| format!("{}: part '{}''s own voxmap", self.label, p.name))?;
+                .build_body(&p.name, &mesh, voxel_size, width, cache)
+                .with_context(|| format!("{}: the voxmap of part '{}'", self.label, p.name))?;
             built.push(PartAssets {
                 name: p.name.clone(),
                 params: self.params.with_scene(voxel_size, shell.max_radius())?,
