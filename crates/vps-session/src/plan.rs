@@ -143,7 +143,7 @@ impl SessionAssets {
             let opened = p
                 .device
                 .open(script, &p.bridge)
-                .with_context(|| format!("opening part '{}''s device", p.name))?;
+                .with_context(|| format!("opening the device of part '{}'", p.name))?;
             let shell = crate::classed(&p.shell);
             let pool = ClassPool::new(self.tree.clone(), shell.clone(), config.threads)?;
             others.push(MovingPart {
