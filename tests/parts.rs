@@ -184,3 +184,20 @@ fn scene_check_lists_every_part_and_pair_and_refuses_a_sheet_as_a_second_part() 
         "{err}"
     );
 }
+
+/// A part after the first larger than the whole scene (a slip of units) is refused naming it, as
+/// the first part is.
+#[test]
+fn a_second_part_larger_than_the_scene_is_refused() {
+    let (vps, _) = sandbox();
+    let text = TWO_CUBES.replace(
+        "name = \"right\"\nsource = \"builtin:box\"\nscale = 0.4",
+        "name = \"right\"\nsource = \"builtin:box\"\nscale = 400",
+    );
+    std::fs::write(vps.dir().join("huge.toml"), text).unwrap();
+    let err = vps.fails(&["scene", "check", &vps.path("huge.toml")]);
+    assert!(
+        err.contains("part[1]") && err.contains("larger than the whole scene"),
+        "{err}"
+    );
+}

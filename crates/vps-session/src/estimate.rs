@@ -159,7 +159,7 @@ pub struct SceneMemoryInputs {
     /// Triangles of the static objects whose inside the voxelizer finds by winding number
     /// (objects that are not closed, or all of them under a workspace), summed over objects.
     pub winding_triangles: u64,
-    /// The part's surface area (m²).
+    /// The moving parts' surface area, summed over every part (m²).
     pub part_area_m2: f64,
     /// The distance model's stand-off (m), `None` for the tangent-plane model.
     pub standoff_m: Option<f64>,

@@ -317,19 +317,7 @@ impl LoadedScene {
             .reduce(|a, b| a.union(&b))
             .unwrap_or(Aabb::EMPTY);
         let (part_size, scene_size) = (part.bounds().size(), scene_bounds.size());
-        if part_size.length() > scene_size.length() {
-            return Err(field_error(
-                &label,
-                "part",
-                format!(
-                    "the part ({}) is larger than the whole scene ({}); check `units` of the part \
-                     and of the [[static]] objects (m, cm, mm, in)",
-                    fmt_size(part_size),
-                    fmt_size(scene_size)
-                ),
-            )
-            .into());
-        }
+        check_part_fits(&label, "part", part_size, scene_size)?;
         warnings.extend(distant_waypoint_hint(&file, &scene_bounds, part_size));
         warnings.extend(distant_grip_hint(&file, &part));
         let static_bounds: Vec<Aabb> = statics.iter().map(|o| o.bounds).collect();
@@ -342,6 +330,10 @@ impl LoadedScene {
             &more_indices,
             &mut warnings,
         )?;
+        for (k, p) in more_parts.iter().enumerate() {
+            let field = format!("part[{}]", k + 1);
+            check_part_fits(&label, &field, p.mesh.bounds().size(), scene_size)?;
+        }
         let mut names = crate::parts::part_names(&file, &part_source, &more_parts).into_iter();
         let part_name = names.next().unwrap_or_default();
         more_parts
@@ -513,7 +505,11 @@ impl LoadedScene {
             placed_copies_bytes: placed,
             placed_triangles: self.scene_triangles() as u64,
             winding_triangles: self.winding_triangles(),
-            part_area_m2: self.part.area(),
+            // Every moving part's shell.
+            part_area_m2: self
+                .more_parts
+                .iter()
+                .fold(self.part.area(), |a, p| a + p.mesh.area()),
             standoff_m: self.file.voxels.standoff_at(voxel_size),
             viewer,
         };
@@ -938,6 +934,25 @@ fn budget_text(budget: u64) -> String {
 /// A `--max-memory` value (whole GiB) that holds `bytes`.
 fn raise_to(bytes: u64) -> String {
     format!("{}GiB", bytes.div_ceil(1 << 30).max(1))
+}
+
+/// Refuses a part (`field`) larger than the whole scene: a mistake of units, and its shell and
+/// voxmap would be sized by it.
+fn check_part_fits(label: &str, field: &str, part_size: DVec3, scene_size: DVec3) -> Result<()> {
+    if part_size.length() > scene_size.length() {
+        return Err(field_error(
+            label,
+            field,
+            format!(
+                "the part ({}) is larger than the whole scene ({}); check `units` of the part \
+                 and of the [[static]] objects (m, cm, mm, in)",
+                fmt_size(part_size),
+                fmt_size(scene_size)
+            ),
+        )
+        .into());
+    }
+    Ok(())
 }
 
 fn fmt_size(v: DVec3) -> String {
