@@ -406,94 +406,14 @@ impl RunningParts {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::haptic_loop::{run_loop, LoopConfig, SessionEnd, SessionSetup};
-    use crate::pool::ClassPool;
     use glam::{DQuat, DVec3};
-    use std::sync::atomic::AtomicBool;
-    use std::time::Duration;
-    use vps_testkit::device::{LoggingDevice, Writes};
-    use vps_testkit::hand::{approach_and_rest_on_wall, START};
-    use vps_testkit::scene::{wall, VOXEL};
+    use vps_testkit::scene::VOXEL;
     use vps_testkit::shell::{sphere_shell, SPHERE_RADIUS};
 
     fn params() -> HapticParams {
         HapticParams::default()
             .with_scene(VOXEL, SPHERE_RADIUS)
             .unwrap()
-    }
-
-    /// Two spheres of 30 mm starting 20 mm apart along x, both hands on the same motion onto the
-    /// wall (so the second is pulled into the first), `frames` frames; the second device fails
-    /// its read `fail_read_at` when given. Returns the report and both write logs.
-    fn two_spheres(frames: u64, fail_read_at: Option<u64>) -> (crate::LoopReport, [Writes; 2]) {
-        let shell = Arc::new(ClassedShell::new(&sphere_shell(300), 8));
-        let map = Arc::new(wall());
-        let body = PartBody {
-            map: map.clone(),
-            shell: shell.clone(),
-            radius: SPHERE_RADIUS,
-        };
-        let (first, a) = LoggingDevice::new(approach_and_rest_on_wall());
-        let (mut second, b) = LoggingDevice::new(approach_and_rest_on_wall());
-        second.fail_read_at = fail_read_at;
-        let config = LoopConfig {
-            frames: Some(frames),
-            free_running: true,
-            watchdog: Duration::from_secs(10),
-            ..LoopConfig::default()
-        };
-        let setup = SessionSetup {
-            params: params(),
-            device: Box::new(first),
-            initial: PartState::at_rest(START, DQuat::IDENTITY),
-            config,
-            feed: None,
-            stop: Arc::new(AtomicBool::new(false)),
-            parts: Some(PartsSetup {
-                first: body.clone(),
-                others: vec![MovingPart {
-                    name: "second".into(),
-                    params: params(),
-                    device: Box::new(second),
-                    // The same hand motion: the second part is pulled onto the first.
-                    initial: PartState::at_rest(START + DVec3::X * 0.02, DQuat::IDENTITY),
-                    sampler: Box::new(ClassPool::new(map, shell, 1).unwrap()),
-                    body,
-                }],
-                margin: 2.0 * VOXEL,
-            }),
-        };
-        let report = run_loop(
-            Arc::new(wall()),
-            setup.parts.as_ref().unwrap().first.shell.clone(),
-            setup,
-        )
-        .unwrap();
-        (report, [a, b])
-    }
-
-    /// Every part's device gets one wrench per frame and the exact zero wrench last, whether the
-    /// session ran its frames or another part's device failed mid-session.
-    #[test]
-    fn every_device_is_released_with_an_exact_zero_however_the_session_ends() {
-        let (report, writes) = two_spheres(300, None);
-        assert_eq!(report.end, SessionEnd::FramesDone);
-        assert_eq!(report.other_parts[0].wrenches_written, 300);
-        assert!(report.pairs.sampled > 0, "{:?}", report.pairs);
-        for w in &writes {
-            let w = w.lock().unwrap();
-            assert_eq!(w.len(), 301, "one per frame and the release");
-            assert_eq!(w.last(), Some(&Wrench::ZERO));
-        }
-        let (report, writes) = two_spheres(300, Some(120));
-        assert!(
-            matches!(report.end, SessionEnd::DeviceFailed(_)),
-            "{:?}",
-            report.end
-        );
-        for w in &writes {
-            assert_eq!(w.lock().unwrap().last(), Some(&Wrench::ZERO));
-        }
     }
 
     /// The pair pass skips a pair whose bounding spheres are apart and applies exactly opposite
