@@ -33,6 +33,9 @@ pub struct PartSummary {
     pub last_pair_force_n: [f64; 3],
     /// The other parts' torque on it in the last frame (N·m about its grip, world frame).
     pub last_pair_torque_nm: [f64; 3],
+    /// Its device's own counters (a bridge's datagram counts), when it keeps any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub device_counters: Option<serde_json::Value>,
 }
 
 /// Every part's summary (empty in a one-part session).
@@ -53,6 +56,7 @@ pub fn part_summaries(assets: &SessionAssets, report: &LoopReport) -> Vec<PartSu
         pair_contact_frames: report.pair_contact_frames,
         last_pair_force_n: report.last_pair_wrench.force.to_array(),
         last_pair_torque_nm: report.last_pair_wrench.torque.to_array(),
+        device_counters: report.device_counters.clone(),
     };
     std::iter::once(first)
         .chain(report.other_parts.iter().map(|p| PartSummary {
@@ -68,6 +72,7 @@ pub fn part_summaries(assets: &SessionAssets, report: &LoopReport) -> Vec<PartSu
             pair_contact_frames: p.pair_contact_frames,
             last_pair_force_n: p.last_pair_wrench.force.to_array(),
             last_pair_torque_nm: p.last_pair_wrench.torque.to_array(),
+            device_counters: p.device_counters.clone(),
         }))
         .collect()
 }

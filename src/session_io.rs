@@ -445,7 +445,8 @@ pub fn finish<C: Serialize>(
         final_position_m: report.final_state.position.to_array(),
         final_hand_position_m: report.final_handle.map(|h| h.position.to_array()),
         stats: report.stats.clone(),
-        device_counters: report.device_counters.clone(),
+        // A bridge's counters are `bridge` below (read through its monitor): given once.
+        device_counters: report.device_counters.clone().filter(|_| bridge.is_none()),
         cluster: cluster.map(serde_json::to_value).transpose()?,
         bridge: bridge.map(|m| m.counters()),
         parts: crate::parts_report::part_summaries(assets, report),

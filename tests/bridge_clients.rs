@@ -571,5 +571,13 @@ fn two_c_clients_drive_two_parts_in_one_session() {
             part["max_device_force_n"].as_f64().unwrap() <= 15.0,
             "{part}"
         );
+        // Each part's own bridge counted what its client sent and got.
+        let counters = &part["device_counters"];
+        assert_eq!(counters["garbage"], 0, "{counters}");
+        assert!(
+            counters["accepted"].as_u64().unwrap() >= MIN_WRENCHES,
+            "{counters}"
+        );
+        assert!(counters["sent"].as_u64().unwrap() >= *n, "{counters}");
     }
 }

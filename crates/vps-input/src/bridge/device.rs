@@ -263,6 +263,12 @@ impl HapticDevice for BridgeDevice {
         Ok(self.output)
     }
 
+    /// The bridge's datagram counts ([`BridgeCounters`]), as the session's report gives them
+    /// for every part's device.
+    fn counters(&self) -> Option<serde_json::Value> {
+        serde_json::to_value(BridgeDevice::counters(self)).ok()
+    }
+
     fn write(&mut self, wrench: &Wrench) -> Result<(), DeviceError> {
         if !wrench.force.is_finite() || !wrench.torque.is_finite() {
             return Err(DeviceError::NonFinite {
