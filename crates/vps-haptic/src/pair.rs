@@ -14,11 +14,15 @@
 //! The frame loop runs it for every pair of a scene's moving parts (`vps_runtime::parts`). Not
 //! built yet: pre-contact braking between parts (pairs push, they do not brake).
 //!
-//! Pure functions; nothing here allocates or blocks.
+//! [`PairPass`] is one frame's pair work for several parts (the broad phase, both samplings, the
+//! wrenches summed per part), as the frame loop runs it.
+//!
+//! Pure; nothing here blocks, and only [`PairPass::new`] allocates.
 
 use glam::{DQuat, DVec3};
 
 use crate::contact::contact_wrench;
+use crate::frame::OtherParts;
 use crate::params::{Gains, HapticParams, StabilityIndices};
 use crate::stability::stability_index;
 use crate::state::{KernelPose, PartState};
@@ -79,6 +83,112 @@ pub fn pair_stability(a: &HapticParams, b: &HapticParams, share: f64) -> Stabili
     StabilityIndices {
         translational: stability_index(omega_t2.sqrt() * dt, damping_t * dt),
         rotational: stability_index(omega_r2.sqrt() * dt, damping_r * dt),
+    }
+}
+
+/// A voxmap a part carries in its own body frame, sampled by another part's shell. Blanket
+/// implemented for every [`VoxelLookup`] (a `VoxelTree` in sessions, a `DenseGrid` in tests).
+pub trait BodyVoxmap: Send + Sync {
+    /// The merged sums of every class of `shell` at `pose` (in this voxmap's frame). Does not
+    /// allocate or block.
+    fn sample(&self, shell: &ClassedShell, pose: &KernelPose) -> PartialSums;
+}
+
+impl<L: VoxelLookup + Send + Sync> BodyVoxmap for L {
+    fn sample(&self, shell: &ClassedShell, pose: &KernelPose) -> PartialSums {
+        sample_all(self, shell, pose)
+    }
+}
+
+/// One part as the pair pass sees it: its state, parameters, own voxmap and shell (both in its
+/// body frame, origin at its grip) and the radius about its origin holding mesh and shell (m).
+#[derive(Clone, Copy)]
+pub struct PairPart<'a> {
+    /// Its state this frame.
+    pub state: &'a PartState,
+    /// Its haptic parameters.
+    pub params: &'a HapticParams,
+    /// Its own voxmap.
+    pub map: &'a dyn BodyVoxmap,
+    /// Its point shell.
+    pub shell: &'a ClassedShell,
+    /// Its bounding radius (m).
+    pub radius: f64,
+}
+
+/// The pairs of a session, counted.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct PairCounts {
+    /// Pairs sampled (both ways) over the session, after the broad phase.
+    pub sampled: u64,
+    /// Pairs the broad phase skipped.
+    pub skipped: u64,
+    /// Frames where some pair had a point in a non-Free voxel.
+    pub contact_frames: u64,
+}
+
+/// One frame's pair work for several parts: every pair that may touch ([`may_touch`]) sampled both
+/// ways ([`BodyVoxmap::sample`]) and its wrenches ([`pair_wrenches`], with the lower-numbered
+/// part's parameters) summed per part into an [`OtherParts`] (index 0 the session's first part),
+/// written in place, with the session's counts. The loop runs it every frame; a study recomputing
+/// a session of several parts must run it the same way.
+pub struct PairPass {
+    /// Per part, this frame's pair wrench sum and nearness.
+    pub others: Vec<OtherParts>,
+    /// The session's counts.
+    pub counts: PairCounts,
+    /// Per part, frames in contact with another part.
+    pub contact_frames: Vec<u64>,
+}
+
+impl PairPass {
+    /// A pass for `parts` parts. Allocates (the only allocation of the pass); setup-time only.
+    pub fn new(parts: usize) -> PairPass {
+        PairPass {
+            others: vec![OtherParts::NONE; parts],
+            counts: PairCounts::default(),
+            contact_frames: vec![0; parts],
+        }
+    }
+
+    /// Samples every pair of the `count` parts (`part(k)`; 0 the session's first) that
+    /// may touch, and leaves each part's summed pair wrench in `self.others`. Pairs are visited
+    /// in the order (0,1), (0,2), …, (1,2), …, so the sums are the same every run. Does not
+    /// allocate or block.
+    pub fn run<'a>(&mut self, count: usize, part: impl Fn(usize) -> PairPart<'a>, margin: f64) {
+        self.others.iter_mut().for_each(|o| *o = OtherParts::NONE);
+        let mut any_contact = false;
+        for i in 0..count {
+            for j in i + 1..count {
+                let (pa, pb) = (part(i), part(j));
+                let (a, b, params) = (pa.state, pb.state, pa.params);
+                if !may_touch(a, pa.radius, b, pb.radius, margin) {
+                    self.counts.skipped += 1;
+                    continue;
+                }
+                self.counts.sampled += 1;
+                let sums = PairSums {
+                    a_in_b: pb.map.sample(pa.shell, &pose_in(a, b)),
+                    b_in_a: pa.map.sample(pb.shell, &pose_in(b, a)),
+                };
+                let near = sums.a_in_b.non_free > 0 || sums.b_in_a.non_free > 0;
+                if !near {
+                    continue;
+                }
+                any_contact = true;
+                let w = pair_wrenches(params, &params.gains(), a, b, &sums);
+                for (k, on) in [(i, w.on_a), (j, w.on_b)] {
+                    let o = &mut self.others[k];
+                    o.wrench.force += on.force;
+                    o.wrench.torque += on.torque;
+                    o.near = true;
+                }
+            }
+        }
+        for (o, frames) in self.others.iter().zip(&mut self.contact_frames) {
+            *frames += u64::from(o.near);
+        }
+        self.counts.contact_frames += u64::from(any_contact);
     }
 }
 

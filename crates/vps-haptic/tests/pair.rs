@@ -312,3 +312,44 @@ fn the_pair_bound_holds_at_half_share_and_fails_at_full_share() {
     };
     assert!(pair_stability(&params, &heavy, PAIR_SHARE).translational < half.translational);
 }
+
+/// The pair pass (what the loop runs every frame for several parts) skips a pair whose bounding
+/// spheres are apart, costing no sampling, and gives a pair in contact exactly opposite forces,
+/// each part's in its own slot.
+#[test]
+fn the_pair_pass_skips_apart_pairs_and_pushes_touching_ones_apart_exactly() {
+    use vps_haptic::pair::{PairPart, PairPass};
+    let (map, shell) = cube();
+    let params = HapticParams::default();
+    let radius = HALF * 3f64.sqrt();
+    let part = |state| PairPart {
+        state,
+        params: &params,
+        map: &map,
+        shell: &shell,
+        radius,
+    };
+    let a = at(DVec3::ZERO, DQuat::IDENTITY);
+    let far = at(DVec3::new(1.0, 0.0, 0.0), DQuat::IDENTITY);
+    let mut pass = PairPass::new(2);
+    pass.run(2, |k| part(if k == 0 { &a } else { &far }), S);
+    assert_eq!((pass.counts.sampled, pass.counts.skipped), (0, 1));
+    assert_eq!(pass.others, vec![OtherParts::NONE; 2]);
+    let b = at(DVec3::new(0.0, 0.0, 2.0 * HALF - 0.004), DQuat::IDENTITY);
+    pass.run(2, |k| part(if k == 0 { &a } else { &b }), S);
+    assert_eq!(pass.counts.sampled, 1);
+    assert_eq!(pass.counts.contact_frames, 1);
+    let (on_a, on_b) = (pass.others[0], pass.others[1]);
+    assert!(on_a.near && on_b.near);
+    assert!(on_a.wrench.force.z < 0.0, "{on_a:?}");
+    assert_opposite(on_a.wrench.force, on_b.wrench.force);
+    // The pass is the pair's own wrenches, nothing more.
+    let w = pair_wrenches(
+        &params,
+        &params.gains(),
+        &a,
+        &b,
+        &sample_pair((&map, &shell, &a), (&map, &shell, &b)),
+    );
+    assert_eq!((on_a.wrench, on_b.wrench), (w.on_a, w.on_b));
+}

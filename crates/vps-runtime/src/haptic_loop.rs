@@ -28,7 +28,7 @@
 
 use crate::clock::FrameClock;
 use crate::feed::{FeedFrame, PartPose, RecentMax, StateFeedSender, MAX_OTHER_PARTS};
-use crate::parts::{PairCounts, PartReport, PartsSetup, RunningParts};
+use crate::parts::{PartReport, PartsSetup, RunningParts};
 use crate::pool::{panic_message, ClassPool, FrameSampler};
 use crate::rt::{request_realtime, RtGrant};
 use crate::stats::{FrameRecord, FrameStats, StatsSummary};
@@ -39,6 +39,7 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 use vps_device::{DeviceError, HapticDevice, Trace, TraceRecorder};
+use vps_haptic::pair::PairCounts;
 use vps_haptic::{
     step_with_parts, ClassedShell, HandleSample, HapticParams, KernelPose, OtherParts, PartState,
     Wrench,

@@ -32,11 +32,12 @@ pub use haptic_loop::{
     run_loop, spawn_loop, spawn_loop_with, LoopConfig, LoopHandle, LoopReport, SessionEnd,
     SessionSetup,
 };
-pub use parts::{BodyVoxmap, MovingPart, PairCounts, PartBody, PartReport, PartsSetup};
+pub use parts::{MovingPart, PartBody, PartReport, PartsSetup};
 pub use pool::{ClassPool, FrameSampler, PoolResult};
 pub use rt::{pin_current_thread, request_realtime, KeepOffFrameCore, Placement, RtGrant};
 pub use stats::{FrameRecord, FrameStats, Percentiles, StatsSummary};
 pub use stop::{SignalStop, StopSignal};
+pub use vps_haptic::pair::{BodyVoxmap, PairCounts};
 
 /// Why a session could not start or finish.
 #[derive(Debug, thiserror::Error)]

@@ -12,9 +12,10 @@
 //! part into [`OtherParts`], which [`vps_haptic::step_with_parts`] adds to each part's frame.
 //! The two forces of a pair are exact negations of each other.
 //!
-//! The loop holds them as `RunningParts` (each part's device, state, sums and counters, and the
-//! pair pass): read every device, sample, step, write every device, release every device with
-//! the exact zero wrench at the end.
+//! The pair pass itself is sans-IO (`vps_haptic::pair::PairPass`, with the [`BodyVoxmap`] trait
+//! and [`PairCounts`]). The loop holds the parts as `RunningParts` (each part's device, state,
+//! sums and counters, and the pair pass): read every device, sample, step, write every device,
+//! release every device with the exact zero wrench at the end.
 //!
 //! Not here yet: pair points split over cluster workers (a cluster session's other parts sample
 //! the static scene on local threads and their pairs on the frame thread), pre-contact braking
@@ -27,26 +28,11 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::Arc;
 use std::time::Instant;
 use vps_device::{DeviceError, DeviceLimits, HapticDevice};
-use vps_haptic::pair::{may_touch, pair_wrenches, pose_in, PairSums};
+use vps_haptic::pair::{BodyVoxmap, PairCounts, PairPart, PairPass};
 use vps_haptic::{
-    sample_all, step_with_parts, ClassedShell, HandleSample, HapticParams, KernelPose, OtherParts,
-    PartState, PartialSums, Wrench,
+    step_with_parts, ClassedShell, HandleSample, HapticParams, KernelPose, OtherParts, PartState,
+    PartialSums, Wrench,
 };
-use vps_voxmap::VoxelLookup;
-
-/// A voxmap a part carries in its own body frame, sampled by another part's shell. Blanket
-/// implemented for every [`VoxelLookup`] (a `VoxelTree` in sessions, a `DenseGrid` in tests).
-pub trait BodyVoxmap: Send + Sync {
-    /// The merged sums of every class of `shell` at `pose` (in this voxmap's frame). Does not
-    /// allocate or block.
-    fn sample(&self, shell: &ClassedShell, pose: &KernelPose) -> PartialSums;
-}
-
-impl<L: VoxelLookup + Send + Sync> BodyVoxmap for L {
-    fn sample(&self, shell: &ClassedShell, pose: &KernelPose) -> PartialSums {
-        sample_all(self, shell, pose)
-    }
-}
 
 /// What part-against-part contact needs of a part: its voxmap in its body frame (origin at its
 /// grip, the frame of its shell), its shell, and the radius of a sphere about its origin holding
@@ -59,6 +45,19 @@ pub struct PartBody {
     pub shell: Arc<ClassedShell>,
     /// Radius about the origin holding the part's mesh and shell (m, finite, ≥ 0).
     pub radius: f64,
+}
+
+impl PartBody {
+    /// This body as the pair pass sees it, at `state` with `params`.
+    pub fn pair_part<'a>(&'a self, state: &'a PartState, params: &'a HapticParams) -> PairPart<'a> {
+        PairPart {
+            state,
+            params,
+            map: &*self.map,
+            shell: &self.shell,
+            radius: self.radius,
+        }
+    }
 }
 
 /// A moving part besides the session's first: its own device (read and written every frame),
@@ -116,82 +115,6 @@ pub struct PartReport {
     pub last_pair_wrench: Wrench,
     /// Its device's own counters, read after the last write.
     pub device_counters: Option<serde_json::Value>,
-}
-
-/// The pairs of a session, counted.
-#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
-pub struct PairCounts {
-    /// Pairs sampled (both ways) over the session, after the broad phase.
-    pub sampled: u64,
-    /// Pairs the broad phase skipped.
-    pub skipped: u64,
-    /// Frames where some pair had a point in a non-Free voxel.
-    pub contact_frames: u64,
-}
-
-/// One frame's pair work: every part's [`OtherParts`] (index 0 the first part), written in place.
-pub(crate) struct PairPass {
-    /// Per part, this frame's pair wrench sum and nearness.
-    pub(crate) others: Vec<OtherParts>,
-    /// The session's counts.
-    pub(crate) counts: PairCounts,
-    /// Per part, frames in contact with another part.
-    pub(crate) contact_frames: Vec<u64>,
-}
-
-impl PairPass {
-    /// A pass for `parts` parts. Allocates; setup-time only.
-    pub(crate) fn new(parts: usize) -> PairPass {
-        PairPass {
-            others: vec![OtherParts::NONE; parts],
-            counts: PairCounts::default(),
-            contact_frames: vec![0; parts],
-        }
-    }
-
-    /// Samples every pair of the `count` parts (`part(k)`: state, body, parameters; 0 the first) that
-    /// may touch, and leaves each part's summed pair wrench in `self.others`. Pairs are visited
-    /// in the order (0,1), (0,2), …, (1,2), …, so the sums are the same every run. Does not
-    /// allocate or block.
-    pub(crate) fn run<'a>(
-        &mut self,
-        count: usize,
-        part: impl Fn(usize) -> (&'a PartState, &'a PartBody, &'a HapticParams),
-        margin: f64,
-    ) {
-        self.others.iter_mut().for_each(|o| *o = OtherParts::NONE);
-        let mut any_contact = false;
-        for i in 0..count {
-            for j in i + 1..count {
-                let ((a, body_a, params), (b, body_b, _)) = (part(i), part(j));
-                if !may_touch(a, body_a.radius, b, body_b.radius, margin) {
-                    self.counts.skipped += 1;
-                    continue;
-                }
-                self.counts.sampled += 1;
-                let sums = PairSums {
-                    a_in_b: body_b.map.sample(&body_a.shell, &pose_in(a, b)),
-                    b_in_a: body_a.map.sample(&body_b.shell, &pose_in(b, a)),
-                };
-                let near = sums.a_in_b.non_free > 0 || sums.b_in_a.non_free > 0;
-                if !near {
-                    continue;
-                }
-                any_contact = true;
-                let w = pair_wrenches(params, &params.gains(), a, b, &sums);
-                for (k, on) in [(i, w.on_a), (j, w.on_b)] {
-                    let o = &mut self.others[k];
-                    o.wrench.force += on.force;
-                    o.wrench.torque += on.torque;
-                    o.near = true;
-                }
-            }
-        }
-        for (o, frames) in self.others.iter().zip(&mut self.contact_frames) {
-            *frames += u64::from(o.near);
-        }
-        self.counts.contact_frames += u64::from(any_contact);
-    }
 }
 
 /// The other parts of a running session, their bodies and the pair pass.
@@ -320,10 +243,10 @@ impl RunningParts {
         self.pass.run(
             others.len() + 1,
             |k| match k {
-                0 => (first, firsts, first_params),
+                0 => firsts.pair_part(first, first_params),
                 k => {
                     let o = &others[k - 1];
-                    (&o.state, &o.part.body, &o.part.params)
+                    o.part.body.pair_part(&o.state, &o.part.params)
                 }
             },
             self.margin,
@@ -400,64 +323,5 @@ impl RunningParts {
             self.pass.others[0].wrench,
             contact[0],
         )
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use glam::{DQuat, DVec3};
-    use vps_testkit::scene::VOXEL;
-    use vps_testkit::shell::{sphere_shell, SPHERE_RADIUS};
-
-    fn params() -> HapticParams {
-        HapticParams::default()
-            .with_scene(VOXEL, SPHERE_RADIUS)
-            .unwrap()
-    }
-
-    /// The pair pass skips a pair whose bounding spheres are apart and applies exactly opposite
-    /// forces to a pair in contact.
-    #[test]
-    fn the_pair_pass_skips_apart_pairs_and_pushes_touching_ones_apart_exactly() {
-        let body = PartBody {
-            map: Arc::new(vps_testkit::scene::wall()),
-            shell: Arc::new(ClassedShell::new(&sphere_shell(200), 4)),
-            radius: 0.1,
-        };
-        let p = params();
-        let at = |x: f64| PartState::at_rest(DVec3::new(x, 0.05, 0.05), DQuat::IDENTITY);
-        let mut pass = PairPass::new(2);
-        let (a, far) = (at(0.05), at(1.0));
-        pass.run(
-            2,
-            |k| {
-                if k == 0 {
-                    (&a, &body, &p)
-                } else {
-                    (&far, &body, &p)
-                }
-            },
-            0.0,
-        );
-        assert_eq!((pass.counts.sampled, pass.counts.skipped), (0, 1));
-        assert_eq!(pass.others, vec![OtherParts::NONE; 2]);
-        // The same wall voxmap carried by both "parts": each samples the other's wall.
-        let b = at(0.06);
-        pass.run(
-            2,
-            |k| {
-                if k == 0 {
-                    (&a, &body, &p)
-                } else {
-                    (&b, &body, &p)
-                }
-            },
-            0.0,
-        );
-        assert_eq!(pass.counts.sampled, 1);
-        let (fa, fb) = (pass.others[0].wrench.force, pass.others[1].wrench.force);
-        assert!(fa.length() > 0.0 && pass.others[0].near && pass.others[1].near);
-        assert_eq!(fa, -fb);
     }
 }
