@@ -955,6 +955,15 @@ impl SceneFile {
             ));
         }
         let mut names: Vec<&str> = self.part_name.as_deref().into_iter().collect();
+        // Bridge ports given explicitly (port 0 picks a free one): one per part.
+        let bridge_of = |d: &Option<DeviceSection>| match d
+            .as_ref()
+            .map(|d| crate::device::DeviceChoice::parse(&d.kind))
+        {
+            Some(Ok(crate::device::DeviceChoice::Bridge(addr))) if addr.port() != 0 => Some(addr),
+            _ => None,
+        };
+        let mut bridges: Vec<std::net::SocketAddr> = bridge_of(&self.device).into_iter().collect();
         for (k, m) in self.more_parts.iter().enumerate() {
             let prefix = format!("part[{}]", k + 1);
             self.validate_part(path, &prefix, &m.part)?;
@@ -990,6 +999,19 @@ impl SceneFile {
                     field_error(path, &format!("{prefix}.device.kind"), message)
                 })?;
                 d.bridge_settings(path)?;
+            }
+            if let Some(addr) = bridge_of(&m.device) {
+                if bridges.contains(&addr) {
+                    return Err(field_error(
+                        path,
+                        &format!("{prefix}.device.kind"),
+                        format!(
+                            "bridge {addr} drives another part too: each part's bridge needs its \
+                             own port (or port 0, a free one)"
+                        ),
+                    ));
+                }
+                bridges.push(addr);
             }
         }
         Ok(())
@@ -1896,6 +1918,14 @@ kind = "bridge:127.0.0.1:7701"
                 TWO_PARTS.replace("bridge:127.0.0.1:7701", "joystick"),
                 "part[1].device.kind",
                 "expected sim",
+            ),
+            (
+                TWO_PARTS.replace(
+                    "source = \"builtin:box\"\nscale = 0.4\n",
+                    "source = \"builtin:box\"\nscale = 0.4\n[part.device]\nkind = \"bridge:127.0.0.1:7701\"\n",
+                ),
+                "part[1].device.kind",
+                "drives another part too",
             ),
             (
                 TWO_PARTS.replace(second, &format!("{second}\ncolour = \"red\"")),
