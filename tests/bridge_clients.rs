@@ -46,6 +46,20 @@ fn available(tool: &str) -> bool {
         .is_ok_and(|s| s.success())
 }
 
+/// The C example (clients/c/example.c) compiled into `dir`; returns the executable.
+fn compile_example(dir: &Path) -> PathBuf {
+    let example = dir.join("example");
+    let status = Command::new("gcc")
+        .args(["-std=c99", "-O2", "-o"])
+        .arg(&example)
+        .arg(repo().join("clients/c/example.c"))
+        .arg("-lm")
+        .status()
+        .expect("gcc runs");
+    assert!(status.success(), "the C example compiles");
+    example
+}
+
 /// Starts the session; returns the child and the bridge's address (read from its stderr).
 fn start_vps(log: &Path) -> (Child, SocketAddr) {
     start_vps_with(&[
@@ -359,15 +373,7 @@ fn a_single_triangle_part_is_pushed_out_of_a_block_never_in() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
-    let example = dir.path().join("example");
-    let status = Command::new("gcc")
-        .args(["-std=c99", "-O2", "-o"])
-        .arg(&example)
-        .arg(repo().join("clients/c/example.c"))
-        .arg("-lm")
-        .status()
-        .expect("gcc runs");
-    assert!(status.success(), "the C example compiles");
+    let example = compile_example(dir.path());
     std::fs::write(
         dir.path().join("triangle.obj"),
         "v -0.02 -0.02 0\nv 0.03 -0.02 0\nv -0.02 0.03 0\nf 1 2 3\n",
@@ -495,15 +501,7 @@ fn two_c_clients_drive_two_parts_in_one_session() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
-    let example = dir.path().join("example");
-    let status = Command::new("gcc")
-        .args(["-std=c99", "-O2", "-o"])
-        .arg(&example)
-        .arg(repo().join("clients/c/example.c"))
-        .arg("-lm")
-        .status()
-        .expect("gcc runs");
-    assert!(status.success(), "the C example compiles");
+    let example = compile_example(dir.path());
     let scene = dir.path().join("two.toml");
     std::fs::write(&scene, TWO_BRIDGED_CUBES).unwrap();
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_vps"));

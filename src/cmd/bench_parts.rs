@@ -56,14 +56,10 @@ const CONFIGURATIONS: [&str; 5] = [
 ];
 
 /// `assets` made into configuration `name`. Allocates.
-fn configured(assets: &SessionAssets, name: &str) -> Result<SessionAssets> {
+fn configured(assets: &SessionAssets, name: &str) -> SessionAssets {
     let mut a = assets.clone();
     let far = {
-        let start = match &a.hand {
-            HandPlan::Path { waypoints, .. } | HandPlan::Corridor { waypoints, .. } => {
-                waypoints.first().copied().unwrap_or(DVec3::ZERO)
-            }
-        };
+        let start = a.hand.first_waypoint().unwrap_or(DVec3::ZERO);
         HandPlan::Path {
             waypoints: vec![start + DVec3::X],
             speed: 0.1,
@@ -93,7 +89,7 @@ fn configured(assets: &SessionAssets, name: &str) -> Result<SessionAssets> {
         }
         _ => a.more_parts.truncate(1),
     }
-    Ok(a)
+    a
 }
 
 /// Runs the benchmark.
@@ -110,7 +106,7 @@ pub fn run(scene: &SceneArgs, frames: u64, rounds: u32, json: bool) -> Result<()
     let mut samples: Vec<Vec<(f64, f64, f64)>> = vec![Vec::new(); CONFIGURATIONS.len()];
     for _ in 0..rounds.max(1) {
         for (k, name) in CONFIGURATIONS.iter().enumerate() {
-            let a = configured(&assets, name)?;
+            let a = configured(&assets, name);
             let config = LoopConfig {
                 frames: Some(frames),
                 free_running: true,

@@ -208,12 +208,6 @@ fn part_checks(
         return Ok(Vec::new());
     }
     let method = loaded.file.voxels.shell_method.method();
-    let start = |h: &vps_session::HandPlan| match h {
-        vps_session::HandPlan::Path { waypoints, .. }
-        | vps_session::HandPlan::Corridor { waypoints, .. } => {
-            waypoints.first().map(|w| w.to_array())
-        }
-    };
     let first_bounds = loaded.part.bounds();
     let mut parts = vec![PartCheck {
         name: loaded.part_name.clone(),
@@ -226,7 +220,7 @@ fn part_checks(
             .device
             .as_ref()
             .map_or("sim".into(), |d| d.kind.clone()),
-        start_m: start(&loaded.hand()),
+        start_m: loaded.hand().first_waypoint().map(|w| w.to_array()),
         shell_points: first_points,
         shell_radius_m: first_radius,
     }];
@@ -243,7 +237,7 @@ fn part_checks(
                 .device
                 .as_ref()
                 .map_or("sim".into(), |d| d.kind.clone()),
-            start_m: start(&p.hand),
+            start_m: p.hand.first_waypoint().map(|w| w.to_array()),
             shell_points: shell.len(),
             shell_radius_m: shell.max_radius(),
         });

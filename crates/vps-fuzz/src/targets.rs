@@ -115,7 +115,7 @@ fn scene_toml(bytes: &[u8]) -> Result<(), String> {
     file.width(SCENE_TOML).map_err(|e| e.to_string())?;
     if let Some(device) = &file.device {
         device
-            .bridge_settings(SCENE_TOML)
+            .bridge_settings(SCENE_TOML, "device")
             .map_err(|e| e.to_string())?;
     }
     // Every part after the first was checked: a hand of finite waypoints, a device that parses.
@@ -137,7 +137,7 @@ fn scene_toml(bytes: &[u8]) -> Result<(), String> {
             vps_session::DeviceChoice::parse(&device.kind)
                 .expect("scene: a part's device kind was accepted unparsed");
             device
-                .bridge_settings(SCENE_TOML)
+                .bridge_settings(SCENE_TOML, "part[k].device")
                 .map_err(|e| e.to_string())?;
         }
     }

@@ -3,7 +3,7 @@
 //! simulated hand's path and the default device. See `docs/scenes.md` for every key. Parsing
 //! rejects unknown keys; every error names the file and the dotted field.
 
-use crate::device::BridgeSettings;
+use crate::device::{BridgeSettings, DeviceChoice};
 use crate::error::{field_error, SceneError};
 use crate::length::length;
 use glam::{DQuat, DVec3};
@@ -516,15 +516,15 @@ pub struct DeviceSection {
 
 impl DeviceSection {
     /// The bridge settings of this section (defaults where absent); errors name `path` and the
-    /// field.
-    pub fn bridge_settings(&self, path: &str) -> Result<BridgeSettings, SceneError> {
+    /// field under `table`, where the section sits (`device`, `part[1].device`).
+    pub fn bridge_settings(&self, path: &str, table: &str) -> Result<BridgeSettings, SceneError> {
         let mut settings = BridgeSettings::default();
         if let Some(mapping) = self.mapping {
             mapping.validate().map_err(|e| match e {
                 BridgeError::Config { field, message } => {
-                    field_error(path, &format!("device.{field}"), message)
+                    field_error(path, &format!("{table}.{field}"), message)
                 }
-                other => field_error(path, "device.mapping", other.to_string()),
+                other => field_error(path, &format!("{table}.mapping"), other.to_string()),
             })?;
             settings.mapping = mapping;
         }
@@ -532,7 +532,7 @@ impl DeviceSection {
             if !(ms.is_finite() && (2.0..=10_000.0).contains(&ms)) {
                 return Err(field_error(
                     path,
-                    "device.pose_timeout_ms",
+                    &format!("{table}.pose_timeout_ms"),
                     format!("{ms} must be finite and within [2, 10000] (ms)"),
                 ));
             }
@@ -544,11 +544,11 @@ impl DeviceSection {
         };
         limits.validate().map_err(|message| {
             let key = if message.contains("max_force") {
-                "device.max_force"
+                "max_force"
             } else {
-                "device.max_torque"
+                "max_torque"
             };
-            field_error(path, key, message)
+            field_error(path, &format!("{table}.{key}"), message)
         })?;
         settings.limits = limits;
         Ok(settings)
@@ -956,14 +956,15 @@ impl SceneFile {
         }
         let mut names: Vec<&str> = self.part_name.as_deref().into_iter().collect();
         // Bridge ports given explicitly (port 0 picks a free one): one per part.
-        let bridge_of = |d: &Option<DeviceSection>| match d
-            .as_ref()
-            .map(|d| crate::device::DeviceChoice::parse(&d.kind))
-        {
-            Some(Ok(crate::device::DeviceChoice::Bridge(addr))) if addr.port() != 0 => Some(addr),
+        let port_of = |choice: Option<DeviceChoice>| match choice {
+            Some(DeviceChoice::Bridge(addr)) if addr.port() != 0 => Some(addr),
             _ => None,
         };
-        let mut bridges: Vec<std::net::SocketAddr> = bridge_of(&self.device).into_iter().collect();
+        let first = self
+            .device
+            .as_ref()
+            .and_then(|d| DeviceChoice::parse(&d.kind).ok());
+        let mut bridges: Vec<std::net::SocketAddr> = port_of(first).into_iter().collect();
         for (k, m) in self.more_parts.iter().enumerate() {
             let prefix = format!("part[{}]", k + 1);
             self.validate_part(path, &prefix, &m.part)?;
@@ -994,13 +995,14 @@ impl SceneFile {
                 ));
             };
             validate_hand(path, &format!("{prefix}.hand"), h)?;
+            let mut choice = None;
             if let Some(d) = &m.device {
-                crate::device::DeviceChoice::parse(&d.kind).map_err(|message| {
+                choice = Some(DeviceChoice::parse(&d.kind).map_err(|message| {
                     field_error(path, &format!("{prefix}.device.kind"), message)
-                })?;
-                d.bridge_settings(path)?;
+                })?);
+                d.bridge_settings(path, &format!("{prefix}.device"))?;
             }
-            if let Some(addr) = bridge_of(&m.device) {
+            if let Some(addr) = port_of(choice) {
                 if bridges.contains(&addr) {
                     return Err(field_error(
                         path,
@@ -1154,9 +1156,9 @@ impl SceneFile {
             }
         }
         if let Some(d) = &self.device {
-            crate::device::DeviceChoice::parse(&d.kind)
+            DeviceChoice::parse(&d.kind)
                 .map_err(|message| field_error(path, "device.kind", message))?;
-            d.bridge_settings(path)?;
+            d.bridge_settings(path, "device")?;
         }
         Ok(())
     }
@@ -1792,7 +1794,7 @@ max = [0.4, 0.1, 0.2]
             .device
             .as_ref()
             .unwrap()
-            .bridge_settings("scene.toml")
+            .bridge_settings("scene.toml", "device")
             .unwrap();
         assert_eq!(bridge.pose_timeout, 0.2);
         assert_eq!(
@@ -1805,7 +1807,11 @@ max = [0.4, 0.1, 0.2]
             }
         );
         let plain = parse(&format!("{GOOD}\n[device]\nkind = \"sim\"\n")).unwrap();
-        let defaults = plain.device.unwrap().bridge_settings("scene.toml").unwrap();
+        let defaults = plain
+            .device
+            .unwrap()
+            .bridge_settings("scene.toml", "device")
+            .unwrap();
         assert_eq!(defaults, BridgeSettings::default());
         assert_eq!(defaults.limits, DeviceLimits::PAPER);
     }
@@ -1818,7 +1824,7 @@ max = [0.4, 0.1, 0.2]
             .unwrap()
             .device
             .unwrap()
-            .bridge_settings("scene.toml")
+            .bridge_settings("scene.toml", "device")
             .unwrap();
         assert_eq!(
             settings.limits,
@@ -1834,7 +1840,7 @@ max = [0.4, 0.1, 0.2]
         ] {
             let text = format!("{GOOD}\n[device]\n{line}\n");
             let err = parse(&text)
-                .and_then(|f| f.device.unwrap().bridge_settings("scene.toml"))
+                .and_then(|f| f.device.unwrap().bridge_settings("scene.toml", "device"))
                 .unwrap_err()
                 .to_string();
             assert!(err.contains(key) && err.contains("(0, "), "{line}: {err}");
@@ -1918,6 +1924,11 @@ kind = "bridge:127.0.0.1:7701"
                 TWO_PARTS.replace("bridge:127.0.0.1:7701", "joystick"),
                 "part[1].device.kind",
                 "expected sim",
+            ),
+            (
+                format!("{TWO_PARTS}pose_timeout_ms = 1.0\n"),
+                "part[1].device.pose_timeout_ms",
+                "within [2, 10000]",
             ),
             (
                 TWO_PARTS.replace(

@@ -8,8 +8,8 @@
 //! workers.
 
 use crate::device::{BridgeSettings, DeviceChoice};
-use crate::error::field_error;
-use crate::file::{rotation, SceneFile};
+use crate::error::{field_error, SceneError};
+use crate::file::{rotation, DeviceSection, SceneFile};
 use crate::hints::{has_no_inside, plausible_size};
 use crate::mesh_source::{object_names, Placement, SharedMesh};
 use crate::script::HandPlan;
@@ -75,16 +75,12 @@ pub(crate) fn load_more_parts(
         }
         .apply(&mut mesh);
         plausible_size(&mesh.bounds(), &field, warnings);
-        let device = match &spec.device {
-            Some(d) => DeviceChoice::parse(&d.kind)
-                .map_err(|m| field_error(label, &format!("{field}.device.kind"), m))?
-                .relative_to(base),
-            None => DeviceChoice::Simulated,
-        };
-        let bridge = match &spec.device {
-            Some(d) => d.bridge_settings(label)?,
-            None => BridgeSettings::default(),
-        };
+        let (device, bridge) = device_of(
+            spec.device.as_ref(),
+            label,
+            &format!("{field}.device"),
+            base,
+        )?;
         // Validated: every part after the first has a hand.
         let hand = spec.hand.as_ref().map_or(
             HandPlan::Path {
@@ -109,6 +105,24 @@ pub(crate) fn load_more_parts(
         });
     }
     Ok(parts)
+}
+
+/// The device a `[device]` section (`table`: where it sits, `device` or `part[k].device`) names,
+/// a replay file taken relative to `base`, and its bridge settings; the simulated hand with the
+/// default settings when there is none. Errors name the scene file `label` and the field.
+pub(crate) fn device_of(
+    section: Option<&DeviceSection>,
+    label: &str,
+    table: &str,
+    base: &Path,
+) -> Result<(DeviceChoice, BridgeSettings), SceneError> {
+    let Some(d) = section else {
+        return Ok((DeviceChoice::Simulated, BridgeSettings::default()));
+    };
+    let choice = DeviceChoice::parse(&d.kind)
+        .map_err(|m| field_error(label, &format!("{table}.kind"), m))?
+        .relative_to(base);
+    Ok((choice, d.bridge_settings(label, table)?))
 }
 
 /// Every part's name, the first's first: the name its `[[part]]` gives, else its source's file

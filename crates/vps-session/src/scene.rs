@@ -341,16 +341,8 @@ impl LoadedScene {
             .zip(names)
             .for_each(|(m, name)| m.name = name);
         let params = scene_params(&file, &label, &base)?;
-        let device = match &file.device {
-            Some(d) => DeviceChoice::parse(&d.kind)
-                .map_err(|m| field_error(&label, "device.kind", m))?
-                .relative_to(&base),
-            None => DeviceChoice::Simulated,
-        };
-        let bridge = match &file.device {
-            Some(d) => d.bridge_settings(&label)?,
-            None => BridgeSettings::default(),
-        };
+        let (device, bridge) =
+            crate::parts::device_of(file.device.as_ref(), &label, "device", &base)?;
         // Printed by many commands: its control characters escaped once, here.
         let name = vps_files::printable(&file.name.clone().unwrap_or(stem)).into_owned();
         Ok(LoadedScene {

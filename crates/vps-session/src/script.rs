@@ -154,6 +154,15 @@ pub enum HandPlan {
 }
 
 impl HandPlan {
+    /// The first waypoint (m): where the hand, and the part, start. `None` without waypoints.
+    pub fn first_waypoint(&self) -> Option<DVec3> {
+        match self {
+            HandPlan::Corridor { waypoints, .. } | HandPlan::Path { waypoints, .. } => {
+                waypoints.first().copied()
+            }
+        }
+    }
+
     /// The script walked `laps` times (a corridor's detours are found in `tree`).
     pub fn script_laps(&self, tree: &VoxelTree, laps: usize) -> Result<Script> {
         match self {

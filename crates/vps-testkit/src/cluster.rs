@@ -229,22 +229,8 @@ pub const SECOND_OFFSET: f64 = 2.0 * SPHERE_RADIUS - 0.005;
 /// The second sphere's logging hand: [`approach_and_rest_on_wall`] moved [`SECOND_OFFSET`] along
 /// +x.
 pub fn second_hand() -> (Box<dyn HapticDevice>, Writes) {
-    use vps_device::script::{approach_and_rest, Pace};
-    use vps_device::{HandParams, SimulatedHand, SurfaceContact};
-    let shift = DVec3::X * SECOND_OFFSET;
-    let contact = SurfaceContact {
-        point: DVec3::new(0.05, 0.05, crate::scene::WALL_TOP + SPHERE_RADIUS) + shift,
-        normal: DVec3::Z,
-        orientation: DQuat::IDENTITY,
-    };
-    let pace = Pace {
-        speed: 0.1,
-        press_depth: 0.005,
-        dwell: 0.1,
-    };
-    let script = approach_and_rest(START + shift, &contact, &pace).expect("a valid script");
-    let hand = SimulatedHand::new(script, HandParams::default()).expect("a valid hand");
-    let (device, writes) = LoggingDevice::new(Box::new(hand));
+    let hand = crate::hand::approach_and_rest_on_wall_shifted(DVec3::X * SECOND_OFFSET);
+    let (device, writes) = LoggingDevice::new(hand);
     (Box::new(device), writes)
 }
 

@@ -15,8 +15,14 @@ pub const START: DVec3 = DVec3::new(0.05, 0.05, 0.09);
 /// ([`crate::shell::sphere_shell`]) would touch the wall, presses 5 mm further (past the half
 /// voxel by which the field starts inside the Surface layer) and rests there for 0.1 s.
 pub fn approach_and_rest_on_wall() -> Box<dyn HapticDevice> {
+    approach_and_rest_on_wall_shifted(DVec3::ZERO)
+}
+
+/// [`approach_and_rest_on_wall`] with its start and contact point moved by `shift` (m, along the
+/// wall).
+pub fn approach_and_rest_on_wall_shifted(shift: DVec3) -> Box<dyn HapticDevice> {
     let contact = SurfaceContact {
-        point: DVec3::new(0.05, 0.05, WALL_TOP + SPHERE_RADIUS),
+        point: DVec3::new(0.05, 0.05, WALL_TOP + SPHERE_RADIUS) + shift,
         normal: DVec3::Z,
         orientation: DQuat::IDENTITY,
     };
@@ -25,6 +31,6 @@ pub fn approach_and_rest_on_wall() -> Box<dyn HapticDevice> {
         press_depth: 0.005,
         dwell: 0.1,
     };
-    let script = approach_and_rest(START, &contact, &pace).expect("a valid script");
+    let script = approach_and_rest(START + shift, &contact, &pace).expect("a valid script");
     Box::new(SimulatedHand::new(script, HandParams::default()).expect("a valid hand"))
 }
