@@ -568,6 +568,11 @@ pub struct RunArgs {
     /// Bridge device settings (only with `--device bridge[:ADDR]`).
     #[command(flatten)]
     pub bridge: BridgeArgs,
+    /// With `--device replay:FILE` and several moving parts: each other part replays its own
+    /// trace beside FILE (`crate::session_io::part_trace_path`) instead of its scene device
+    /// (`vps study` sets it; not a flag).
+    #[arg(skip)]
+    pub replay_every_part: bool,
 }
 
 /// Settings of the UDP device bridge (`--device bridge[:ADDR]`); see docs/devices.md. Each flag
@@ -991,6 +996,7 @@ impl Default for RunArgs {
             report: None,
             view: None,
             bridge: BridgeArgs::default(),
+            replay_every_part: false,
         }
     }
 }

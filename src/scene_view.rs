@@ -8,17 +8,10 @@ use vps_session::SessionAssets;
 use vps_view::{SceneLimits, ViewerContent};
 
 /// What the viewer draws of a session, within `limits`: its voxmap, shell and meshes, labelled
-/// with the scene's name, and the simulated hand's path with the part's start pose (when the
-/// scene's script can be made).
+/// with the scene's name, its other moving parts at their start poses, and the simulated hand's
+/// path with the part's start pose (when the scene's script can be made).
 pub fn viewer_content(assets: &SessionAssets, limits: SceneLimits) -> ViewerContent {
-    let content = ViewerContent::new(
-        assets.name.clone(),
-        assets.tree.clone(),
-        Some(Arc::new(assets.shell.clone())),
-        limits,
-    )
-    .with_meshes(assets.static_meshes.clone(), Some(assets.part_mesh.clone()))
-    .with_other_parts(
+    let content = part_content(assets, 0, limits).with_other_parts(
         assets
             .more_parts
             .iter()
@@ -31,7 +24,26 @@ pub fn viewer_content(assets: &SessionAssets, limits: SceneLimits) -> ViewerCont
             })
             .collect(),
     );
-    match assets.script() {
+    content
+}
+
+/// What a study's 3D view draws of moving part `part` (0 the first; `assets.more_parts[part − 1]`
+/// after): the static scene's voxmap and meshes, that part's mesh and shell, and its simulated
+/// hand's path with its start pose (when its script can be made). The other moving parts are not
+/// drawn: the study is of this part's path against the static objects.
+pub fn part_content(assets: &SessionAssets, part: usize, limits: SceneLimits) -> ViewerContent {
+    let (mesh, shell, script) = match part.checked_sub(1).and_then(|k| assets.more_parts.get(k)) {
+        None => (&assets.part_mesh, &assets.shell, assets.script()),
+        Some(p) => (&p.mesh, &p.shell, p.hand.script(&assets.tree)),
+    };
+    let content = ViewerContent::new(
+        assets.name.clone(),
+        assets.tree.clone(),
+        Some(Arc::new(shell.clone())),
+        limits,
+    )
+    .with_meshes(assets.static_meshes.clone(), Some(mesh.clone()));
+    match script {
         Ok(script) => {
             // Every 10 ms of the path (the viewer thins it further when long).
             let steps = (script.duration() / 0.01).ceil().clamp(1.0, 1e6) as usize;

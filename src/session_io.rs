@@ -81,8 +81,10 @@ pub struct SessionOutputs {
 }
 
 /// Every file a session of `args` writes, with the flag that named it (a study's folder: each
-/// file the study writes into it).
-fn named_outputs(args: &RunArgs) -> Vec<(&'static str, PathBuf)> {
+/// file the study writes into it). `part_files`: with several moving parts, each part's file name
+/// ([`vps_study::files::part_file_names`]): `--record` writes one trace per part
+/// ([`part_trace_path`]) and `--study` one folder per part.
+fn named_outputs(args: &RunArgs, part_files: &[String]) -> Vec<(&'static str, PathBuf)> {
     let mut outputs: Vec<(&'static str, PathBuf)> = [
         ("--report", &args.report),
         ("--record", &args.record),
@@ -98,7 +100,44 @@ fn named_outputs(args: &RunArgs) -> Vec<(&'static str, PathBuf)> {
                 .map(|p| ("--study", p)),
         );
     }
+    if part_files.len() > 1 {
+        if let Some(record) = &args.record {
+            outputs.extend(
+                part_files[1..]
+                    .iter()
+                    .map(|f| ("--record", part_trace_path(record, f))),
+            );
+        }
+        if let Some(dir) = &args.study {
+            for f in part_files {
+                outputs.extend(
+                    vps_study::files::study_paths(&dir.join(f))
+                        .into_iter()
+                        .map(|p| ("--study", p)),
+                );
+            }
+        }
+    }
     outputs
+}
+
+/// Where the trace of a session's moving part `part_file` (its file name,
+/// [`vps_study::files::part_file_names`]) is written beside the first part's trace `record`
+/// (`--record`), and read back from by `vps study`: `record`'s stem, a dot, the part's file
+/// name, then `record`'s extension (`s.trace` → `s.peg.trace`).
+pub fn part_trace_path(record: &Path, part_file: &str) -> PathBuf {
+    let stem = record.file_stem().map_or_else(
+        || std::ffi::OsString::from("trace"),
+        std::ffi::OsStr::to_os_string,
+    );
+    let mut name = stem;
+    name.push(".");
+    name.push(part_file);
+    if let Some(ext) = record.extension() {
+        name.push(".");
+        name.push(ext);
+    }
+    record.with_file_name(name)
 }
 
 /// The files a session of `args` reads that its command line names: the scene file, the haptic
@@ -120,13 +159,18 @@ fn command_line_inputs(args: &RunArgs) -> Vec<PathBuf> {
 }
 
 /// Checks every output of `args` against `inputs` and each other ([`check_outputs`]), making the
-/// study's folder first when `--study` names one that does not exist yet.
-fn check_session_outputs(args: &RunArgs, inputs: &[PathBuf]) -> Result<()> {
+/// study's folder (and with several parts each part's in it) first when missing.
+fn check_session_outputs(args: &RunArgs, inputs: &[PathBuf], part_files: &[String]) -> Result<()> {
     if let Some(dir) = &args.study {
         make_study_dir(dir)?;
+        if part_files.len() > 1 {
+            for f in part_files {
+                make_study_dir(&dir.join(f))?;
+            }
+        }
     }
     let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
-    let outputs = named_outputs(args);
+    let outputs = named_outputs(args, part_files);
     let outputs: Vec<(&str, &Path)> = outputs.iter().map(|(f, p)| (*f, p.as_path())).collect();
     check_outputs(&outputs, &inputs)
 }
@@ -158,7 +202,7 @@ impl SessionOutputs {
     /// Checks `--report`, `--record` and `--log-wrenches` of `args` (against the inputs its
     /// command line names and each other).
     pub fn reserve(args: &RunArgs) -> Result<SessionOutputs> {
-        check_session_outputs(args, &command_line_inputs(args))?;
+        check_session_outputs(args, &command_line_inputs(args), &[])?;
         Ok(SessionOutputs {
             report: args.report.clone(),
             record: args.record.clone(),
@@ -256,8 +300,32 @@ fn bridge_settings(
 /// Checks that the device of `args` is there, builds the scene, loads parameters and opens the
 /// device. A missing device is reported before the voxmap is built (that can take minutes).
 pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
-    let loaded = LoadedScene::load_within(&args.scene.scene, args.scene.memory_budget())?;
+    let mut loaded = LoadedScene::load_within(&args.scene.scene, args.scene.memory_budget())?;
     let choice = device_choice(args.device.as_deref(), &loaded.device)?;
+    let part_files = vps_study::files::part_file_names(
+        &std::iter::once(loaded.part_name.clone())
+            .chain(loaded.more_parts.iter().map(|p| p.name.clone()))
+            .collect::<Vec<_>>(),
+    );
+    if args.replay_every_part {
+        let DeviceChoice::Replay(first) = &choice else {
+            bail!("every part replays its own trace only beside a replayed first part");
+        };
+        for (p, file) in loaded.more_parts.iter_mut().zip(&part_files[1..]) {
+            let path = part_trace_path(&first.path, file);
+            if !path.exists() {
+                bail!(
+                    "part '{}' of {}: its trace {} is missing (a session of several parts \
+                     records each other part's trace beside the first's: --record {} wrote it)",
+                    p.name,
+                    loaded.label,
+                    path.display(),
+                    first.path.display()
+                );
+            }
+            p.device = DeviceChoice::Replay(vps_session::ReplaySource::new(path));
+        }
+    }
     // Now that the scene file is read: no output may be one of its meshes (or the trace its
     // device replays).
     let mut inputs = command_line_inputs(args);
@@ -275,15 +343,7 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
             inputs.push(source.path.clone());
         }
     }
-    check_session_outputs(args, &inputs)?;
-    if !loaded.more_parts.is_empty() && (args.record.is_some() || args.study.is_some()) {
-        bail!(
-            "{}: --record and --study cover one moving part; for a scene of {} parts they are \
-             not built yet (the session's report gives every part's figures: --json)",
-            loaded.label,
-            loaded.more_parts.len() + 1
-        );
-    }
+    check_session_outputs(args, &inputs, &part_files)?;
     if args.free_running {
         let paced = std::iter::once(&choice)
             .chain(loaded.more_parts.iter().map(|p| &p.device))
@@ -457,7 +517,7 @@ pub fn finish<C: Serialize>(
         write_file(path, text.as_bytes())?;
     }
     if let Some(path) = &outputs.record {
-        save_recording(report, path)?;
+        save_recording(assets, report, path)?;
     }
     if args.json {
         print_json(&out)?;
@@ -651,7 +711,9 @@ pub fn cluster_lines(r: &vps_cluster::ClusterReport) -> Vec<String> {
     lines
 }
 
-fn save_recording(report: &LoopReport, path: &Path) -> Result<()> {
+/// Saves the first part's trace to `path` and, with several moving parts, every other part's
+/// beside it ([`part_trace_path`]).
+fn save_recording(assets: &SessionAssets, report: &LoopReport, path: &Path) -> Result<()> {
     if let Some(why) = &report.trace_error {
         bail!("trace recording stopped early: {why}");
     }
@@ -662,6 +724,30 @@ fn save_recording(report: &LoopReport, path: &Path) -> Result<()> {
     let frames = trace.frames.len();
     save_trace(path, trace)?;
     eprintln!("recorded {frames} frames to {}", path.display());
+    if report.other_parts.is_empty() {
+        return Ok(());
+    }
+    let names: Vec<String> = std::iter::once(assets.part_name.clone())
+        .chain(report.other_parts.iter().map(|p| p.name.clone()))
+        .collect();
+    let files = vps_study::files::part_file_names(&names);
+    for (part, file) in report.other_parts.iter().zip(&files[1..]) {
+        if let Some(why) = &part.trace_error {
+            bail!("part '{}': trace recording stopped early: {why}", part.name);
+        }
+        let trace = part
+            .trace
+            .as_ref()
+            .with_context(|| format!("the loop returned no trace of part '{}'", part.name))?;
+        let beside = part_trace_path(path, file);
+        save_trace(&beside, trace)?;
+        eprintln!(
+            "recorded part '{}': {} frames to {}",
+            part.name,
+            trace.frames.len(),
+            beside.display()
+        );
+    }
     Ok(())
 }
 

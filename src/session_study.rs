@@ -1,17 +1,23 @@
 //! The assembly study of a session (the `vps-study` crate), made after it has ended and its
 //! device has been written zero, never on the frame thread: for `--study DIR` on the session
 //! commands and for `vps study` (`crate::cmd::study`). Prints the verdict for a person.
+//!
+//! A session of several moving parts is studied part by part: every part's path is recomputed
+//! together (the pairs too), then each part's study is written into `DIR/<part>/`
+//! ([`vps_study::files::part_file_names`]).
 
 use crate::output::print_json;
 use anyhow::{bail, Context, Result};
 use serde_json::{json, Value};
 use std::path::Path;
 use vps_device::trace::Trace;
+use vps_device::trace::Trace as HandleTrace;
 use vps_device::SimulatedHand;
 use vps_haptic::{HapticParams, PartState};
 use vps_runtime::LoopReport;
 use vps_session::SessionAssets;
-use vps_study::{run_study, Study, StudyInputs, Target};
+use vps_study::path::{recompute_paths, PathPart};
+use vps_study::{run_study, study_path, EvidenceInputs, Study, StudyInputs, Target};
 
 /// The clearance series holds every this many frames (10 ms at 1 kHz); the minimum is over every
 /// frame.
@@ -42,6 +48,31 @@ pub fn write_session_study(
         .part_start
         .context("--study: the loop's trace does not say where the part started")?;
     let initial = PartState::at_rest(start.position, start.orientation);
+    let mut others = Vec::with_capacity(report.other_parts.len());
+    for part in &report.other_parts {
+        if let Some(why) = &part.trace_error {
+            bail!(
+                "--study: part '{}''s trace stopped early ({why}); no study written",
+                part.name
+            );
+        }
+        let trace = part.trace.as_ref().with_context(|| {
+            format!(
+                "--study: the loop returned no trace of part '{}'",
+                part.name
+            )
+        })?;
+        let start = trace.part_start.with_context(|| {
+            format!(
+                "--study: part '{}''s trace does not say where it started",
+                part.name
+            )
+        })?;
+        others.push(OtherPartRun {
+            trace,
+            initial: PartState::at_rest(start.position, start.orientation),
+        });
+    }
     let source = format!("the session ({})", report.device_name);
     let run = StudyRun {
         assets,
@@ -51,6 +82,7 @@ pub fn write_session_study(
         source: &source,
         swept_voxel_size: None,
         stale_shares,
+        others,
     };
     // With --json, stdout holds the session's report alone: the study's words go to stderr.
     let print = if json {
@@ -61,15 +93,19 @@ pub fn write_session_study(
     write_study(&run, dir, every, print)
 }
 
-/// Where the hand was taking the part: the end of the scene's path when the trace is the
-/// simulated hand's (or a replay of one), else `None` (the hand's last position).
-fn target(assets: &SessionAssets, trace: &Trace) -> Result<Option<Target>> {
+/// Where the hand was taking part `part` (0 the first): the end of its path in the scene when
+/// its trace is the simulated hand's (or a replay of one), else `None` (the hand's last
+/// position).
+fn target(assets: &SessionAssets, part: usize, trace: &Trace) -> Result<Option<Target>> {
     let hand = SimulatedHand::NAME;
     let replayed = vps_device::trace::replayed_device(&trace.device) == Some(hand);
     if trace.device != hand && !replayed {
         return Ok(None);
     }
-    let script = assets.script()?;
+    let script = match part.checked_sub(1) {
+        None => assets.script()?,
+        Some(k) => assets.more_parts[k].hand.script(&assets.tree)?,
+    };
     let end = script.duration();
     Ok(Some(Target {
         position_m: script.sample(end).0,
@@ -78,25 +114,55 @@ fn target(assets: &SessionAssets, trace: &Trace) -> Result<Option<Target>> {
     }))
 }
 
-/// What the study was made with, for `study.json`.
-fn settings(run: &StudyRun<'_>) -> Value {
-    let (assets, trace) = (run.assets, run.trace);
+/// What the study of part `part` (0 the first) was made with, for `study.json`; `trace` is that
+/// part's.
+fn settings(run: &StudyRun<'_>, part: usize, trace: &Trace) -> Value {
+    let assets = run.assets;
     let band = vps_voxmap::VoxelLookup::distance_band(&*assets.tree);
-    json!({
+    let (shell_points, braking) = match part.checked_sub(1) {
+        None => (assets.shell.len(), run.params.braking),
+        Some(k) => {
+            let p = &assets.more_parts[k];
+            (p.shell.len(), p.params.braking)
+        }
+    };
+    let mut settings = json!({
         "scene": assets.label,
         "scene_name": assets.name,
         "voxel_size_m": assets.voxel_size,
         "force_model": if band.is_some() { "distance" } else { "tangent-plane" },
         "standoff_m": band.map(|b| b.standoff_m()),
-        "shell_points": assets.shell.len(),
-        "braking": run.params.braking,
+        "shell_points": shell_points,
+        "braking": braking,
         "device": trace.device,
         "frames": trace.frames.len(),
         "made_from": run.source,
         "command": std::env::args().collect::<Vec<_>>().join(" "),
         "clearance_series_every_frames": SERIES_EVERY_FRAMES,
         "cluster_stale_shares": run.stale_shares,
-    })
+    });
+    if !run.others.is_empty() {
+        settings["part"] = json!(part_names(assets)[part]);
+        settings["parts"] = json!(part_names(assets));
+        settings["pair_margin_m"] = json!(assets.pair_margin);
+    }
+    settings
+}
+
+/// Every moving part's name, the first first.
+fn part_names(assets: &SessionAssets) -> Vec<String> {
+    std::iter::once(assets.part_name.clone())
+        .chain(assets.more_parts.iter().map(|p| p.name.clone()))
+        .collect()
+}
+
+/// One of the other moving parts of a session to study: its trace and its state at the first
+/// frame.
+pub struct OtherPartRun<'a> {
+    /// Its handle trace, recorded with the first part's.
+    pub trace: &'a HandleTrace,
+    /// Its state at the first frame.
+    pub initial: PartState,
 }
 
 /// A session to study: what it ran on and with, and its trace.
@@ -117,6 +183,8 @@ pub struct StudyRun<'a> {
     /// (`--max-stale-frames`); the study computes every share, so with any its path may differ
     /// from the session's. 0 for a session on one host or a trace.
     pub stale_shares: u64,
+    /// The other moving parts, in the scene's order (empty: a one-part session).
+    pub others: Vec<OtherPartRun<'a>>,
 }
 
 /// Where a study's report goes.
@@ -131,48 +199,163 @@ pub enum Print {
 }
 
 /// Makes the study of `run`, writes its files into `dir` (path table every `every` frames) and
-/// prints its report as `print` says. Blocking, parallel.
+/// prints its report as `print` says; a session of several parts gets one study per part in
+/// `dir/<part>/`. Blocking, parallel.
 pub fn write_study(run: &StudyRun<'_>, dir: &Path, every: usize, print: Print) -> Result<()> {
-    let StudyRun {
-        assets,
-        trace,
-        initial,
-        source,
-        ..
-    } = *run;
-    let classed = assets.classed_shell();
+    if !run.others.is_empty() {
+        return write_parts_study(run, dir, every, print);
+    }
+    let classed = run.assets.classed_shell();
     let inputs = StudyInputs {
-        map: &*assets.tree,
+        map: &*run.assets.tree,
         shell: &classed,
         params: &run.params,
+        limits: run.assets.bridge.limits,
+        initial: run.initial,
+        trace: run.trace,
+        evidence: evidence(run, 0, run.trace)?,
+    };
+    let study = run_study(&inputs).with_context(|| format!("the study of {}", run.source))?;
+    let written = write_part_study(run, 0, run.trace, study, dir, every)?;
+    if print == Print::Json {
+        return print_json(&written.json);
+    }
+    let mut lines = written.lines;
+    lines.push(format!(
+        "study: {} files in {} (open report.html; study.json, path.csv, clearance.csv, \
+         contacts.csv, part.obj, swept.stl, swept.vmap; docs/study.md)",
+        written.files,
+        dir.display()
+    ));
+    print_lines(&lines, print)
+}
+
+/// The study of a session of several parts: every part's path recomputed together, then each
+/// part's study in `dir/<part>/`.
+fn write_parts_study(run: &StudyRun<'_>, dir: &Path, every: usize, print: Print) -> Result<()> {
+    let assets = run.assets;
+    if run.others.len() != assets.more_parts.len() {
+        bail!(
+            "the study of {}: {} traces for a scene of {} moving parts",
+            run.source,
+            run.others.len() + 1,
+            assets.more_parts.len() + 1
+        );
+    }
+    let names = part_names(assets);
+    let folders = vps_study::files::part_file_names(&names);
+    let traces: Vec<&Trace> = std::iter::once(run.trace)
+        .chain(run.others.iter().map(|o| o.trace))
+        .collect();
+    vps_study::check_traces(&traces).with_context(|| format!("the study of {}", run.source))?;
+    let first_body = assets
+        .part_body
+        .as_ref()
+        .context("the scene's first part has no voxmap of its own")?;
+    let shells: Vec<_> = std::iter::once(assets.classed_shell())
+        .chain(
+            assets
+                .more_parts
+                .iter()
+                .map(|p| vps_session::classed(&p.shell)),
+        )
+        .collect();
+    let mut parts = vec![PathPart {
+        shell: &shells[0],
+        params: &run.params,
         limits: assets.bridge.limits,
-        initial,
-        trace,
-        part_mesh: &assets.part_mesh,
+        initial: run.initial,
+        trace: run.trace,
+        body: &**first_body,
+        radius: vps_session::parts::body_radius(&assets.part_mesh, &assets.shell),
+    }];
+    for ((p, other), shell) in assets.more_parts.iter().zip(&run.others).zip(&shells[1..]) {
+        parts.push(PathPart {
+            shell,
+            params: &p.params,
+            limits: p.bridge.limits,
+            initial: other.initial,
+            trace: other.trace,
+            body: &*p.body,
+            radius: p.radius,
+        });
+    }
+    let started = std::time::Instant::now();
+    let paths = recompute_paths(&*assets.tree, &parts, assets.pair_margin);
+    let path_ms = started.elapsed().as_secs_f64() * 1e3;
+    let mut lines = Vec::new();
+    let mut studies = Vec::with_capacity(names.len());
+    for (k, (path, final_state)) in paths.into_iter().enumerate() {
+        let what = || format!("the study of part '{}' of {}", names[k], run.source);
+        let mut study =
+            study_path(&evidence(run, k, traces[k])?, path, final_state).with_context(what)?;
+        study.timings.path_ms = path_ms;
+        let folder = dir.join(&folders[k]);
+        let written = write_part_study(run, k, traces[k], study, &folder, every)?;
+        lines.push(format!("part '{}' ({}):", names[k], folder.display()));
+        lines.extend(written.lines.into_iter().map(|l| format!("  {l}")));
+        studies.push(json!({"name": names[k], "folder": folders[k], "study": written.json}));
+    }
+    if print == Print::Json {
+        return print_json(&json!({ "parts": studies }));
+    }
+    lines.push(format!(
+        "study: {} parts, each in its own folder of {} (open its report.html; docs/study.md); \
+         clearance is to the static objects, the other parts' force is in path.csv",
+        names.len(),
+        dir.display()
+    ));
+    print_lines(&lines, print)
+}
+
+/// What the study of part `part`'s path (0 the first; `trace` its trace) needs.
+fn evidence<'a>(run: &StudyRun<'a>, part: usize, trace: &Trace) -> Result<EvidenceInputs<'a>> {
+    let assets = run.assets;
+    Ok(EvidenceInputs {
+        part_mesh: part_mesh(assets, part),
         objects: &assets.static_meshes,
         object_names: &assets.static_names,
-        target: target(assets, trace)?,
+        target: target(assets, part, trace)?,
         clearance_every: SERIES_EVERY_FRAMES,
         reach_tolerance_m: assets.voxel_size,
         swept_voxel_size_m: Some(run.swept_voxel_size.unwrap_or(assets.voxel_size)),
-    };
-    let mut study = run_study(&inputs).with_context(|| format!("the study of {source}"))?;
-    let settings = settings(run);
-    let started = std::time::Instant::now();
-    let view = crate::study_view::report_view(assets, &study);
-    study.timings.report_view_ms = started.elapsed().as_secs_f64() * 1e3;
-    let written = vps_study::files::write_study(
-        dir,
-        &study,
-        &assets.part_mesh,
-        &settings,
-        every,
-        Some(&view),
-    )
-    .with_context(|| format!("writing the study into {}", dir.display()))?;
-    if print == Print::Json {
-        return print_json(&vps_study::files::study_json(&study, &settings, every));
+    })
+}
+
+/// Part `part`'s mesh in its grip frame (0 the first).
+fn part_mesh(assets: &SessionAssets, part: usize) -> &vps_mesh::TriMesh {
+    match part.checked_sub(1) {
+        None => &assets.part_mesh,
+        Some(k) => &assets.more_parts[k].mesh,
     }
+}
+
+/// One part's study, written.
+struct WrittenStudy {
+    /// Its report in words.
+    lines: Vec<String>,
+    /// Its `study.json`.
+    json: Value,
+    /// Files written.
+    files: usize,
+}
+
+/// Writes `study` (of part `part`, from `trace`) into `dir` with its report's 3D view. Blocking.
+fn write_part_study(
+    run: &StudyRun<'_>,
+    part: usize,
+    trace: &Trace,
+    mut study: Study,
+    dir: &Path,
+    every: usize,
+) -> Result<WrittenStudy> {
+    let settings = settings(run, part, trace);
+    let started = std::time::Instant::now();
+    let view = crate::study_view::report_view(run.assets, part, &study);
+    study.timings.report_view_ms = started.elapsed().as_secs_f64() * 1e3;
+    let mesh = part_mesh(run.assets, part);
+    let written = vps_study::files::write_study(dir, &study, mesh, &settings, every, Some(&view))
+        .with_context(|| format!("writing the study into {}", dir.display()))?;
     let mut lines = text_report(&study);
     if run.stale_shares > 0 {
         lines.push(format!(
@@ -182,12 +365,15 @@ pub fn write_study(run: &StudyRun<'_>, dir: &Path, every: usize, print: Print) -
             run.stale_shares
         ));
     }
-    lines.push(format!(
-        "study: {} files in {} (open report.html; study.json, path.csv, clearance.csv, \
-         contacts.csv, part.obj, swept.stl, swept.vmap; docs/study.md)",
-        written.len(),
-        dir.display()
-    ));
+    Ok(WrittenStudy {
+        lines,
+        json: vps_study::files::study_json(&study, &settings, every),
+        files: written.len(),
+    })
+}
+
+/// Prints `lines` as `print` says (never [`Print::Json`]).
+fn print_lines(lines: &[String], print: Print) -> Result<()> {
     for line in lines {
         match print {
             Print::TextToStderr => eprintln!("{line}"),

@@ -22,15 +22,16 @@ pub const REPORT_VIEW_LIMITS: SceneLimits = SceneLimits {
     max_part_triangles: 20_000,
 };
 
-/// The report's turnable 3D view of `study` made on `assets`: the viewer's page for the scene
-/// within [`REPORT_VIEW_LIMITS`], the study's track and swept volume to scrub along, its data
-/// inlined (one HTML document).
-pub fn report_view(assets: &SessionAssets, study: &Study) -> String {
+/// The report's turnable 3D view of `study` of moving part `part` (0 the first) made on
+/// `assets`: the viewer's page for the static scene and that part within [`REPORT_VIEW_LIMITS`]
+/// ([`crate::scene_view::part_content`]), the study's track and swept volume to scrub along, its
+/// data inlined (one HTML document).
+pub fn report_view(assets: &SessionAssets, part: usize, study: &Study) -> String {
     let swept = match &study.swept {
         Some(Ok(s)) => Some(&s.mesh),
         _ => None,
     };
-    let content = crate::scene_view::viewer_content(assets, REPORT_VIEW_LIMITS)
+    let content = crate::scene_view::part_content(assets, part, REPORT_VIEW_LIMITS)
         .with_study(track_of(study), swept);
     vps_view::standalone::standalone_page(&content)
 }

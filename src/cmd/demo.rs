@@ -52,13 +52,6 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             ..args.scene.build_options(args.voxel_size)
         },
     )?;
-    if args.study.is_some() && !scene.more_parts.is_empty() {
-        anyhow::bail!(
-            "{}: --study covers one moving part; for a scene of {} parts it is not built yet",
-            scene.label,
-            scene.more_parts.len() + 1
-        );
-    }
     // Braking on for the first run whatever the scene says: the demo compares on with off.
     let params = HapticParams {
         braking: true,

@@ -1,9 +1,11 @@
 //! `vps study TRACE --scene FILE -o DIR`: the assembly study of a recorded trace, on the scene it
-//! was recorded on (`crate::session_study`).
+//! was recorded on (`crate::session_study`). A scene of several moving parts reads each other
+//! part's trace beside TRACE (`crate::session_io::part_trace_path`, as `--record` wrote them) and
+//! writes one study per part.
 
 use crate::cli::{RunArgs, StudyArgs};
 use crate::session_io::prepare;
-use crate::session_study::{write_study, Print, StudyRun};
+use crate::session_study::{write_study, OtherPartRun, Print, StudyRun};
 use anyhow::{bail, Context, Result};
 use vps_session::DeviceChoice;
 
@@ -16,6 +18,7 @@ pub fn run(args: &StudyArgs) -> Result<()> {
         voxel_size: args.voxel_size,
         device: Some(format!("replay:{trace_path}")),
         study: Some(args.output.clone()),
+        replay_every_part: true,
         ..RunArgs::default()
     };
     // The same preparation as `vps replay`: scene, parameters, and the part at rest at the
@@ -28,6 +31,23 @@ pub fn run(args: &StudyArgs) -> Result<()> {
     let trace = source
         .trace()
         .with_context(|| format!("reading the trace {trace_path}"))?;
+    // With several moving parts, each other part's trace (read beside TRACE when the devices
+    // were opened) and its state at the first frame.
+    let others = match &prepared.plan.setup.parts {
+        None => Vec::new(),
+        Some(parts) => parts
+            .others
+            .iter()
+            .zip(&prepared.assets.more_parts)
+            .map(|(part, assets)| match &assets.device {
+                DeviceChoice::Replay(source) => Ok((source.trace()?, part.initial)),
+                _ => bail!(
+                    "vps study: part '{}' was not prepared as a replay",
+                    part.name
+                ),
+            })
+            .collect::<Result<Vec<_>>>()?,
+    };
     let run = StudyRun {
         assets: &prepared.assets,
         params: prepared.plan.setup.params,
@@ -36,6 +56,13 @@ pub fn run(args: &StudyArgs) -> Result<()> {
         source: &format!("the trace {trace_path}"),
         stale_shares: 0,
         swept_voxel_size: args.swept_voxel_size,
+        others: others
+            .iter()
+            .map(|(trace, initial)| OtherPartRun {
+                trace,
+                initial: *initial,
+            })
+            .collect(),
     };
     let print = if args.json { Print::Json } else { Print::Text };
     write_study(&run, &args.output, args.every, print)

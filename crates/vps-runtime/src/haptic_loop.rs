@@ -28,7 +28,7 @@
 
 use crate::clock::FrameClock;
 use crate::feed::{FeedFrame, PartPose, RecentMax, StateFeedSender, MAX_OTHER_PARTS};
-use crate::parts::{PartReport, PartsSetup, RunningParts};
+use crate::parts::{PartRecording, PartReport, PartsSetup, RunningParts};
 use crate::pool::{panic_message, ClassPool, FrameSampler};
 use crate::rt::{request_realtime, RtGrant};
 use crate::stats::{FrameRecord, FrameStats, StatsSummary};
@@ -67,7 +67,8 @@ pub struct LoopConfig {
     pub watchdog: Duration,
     /// Run frames back to back without waiting for ticks (tests, benchmarks). Default false.
     pub free_running: bool,
-    /// Record every handle sample into [`LoopReport::trace`]. Default false.
+    /// Record every handle sample into [`LoopReport::trace`] (and every other part's into its
+    /// [`PartReport::trace`]). Default false.
     pub record_trace: bool,
 }
 
@@ -244,7 +245,17 @@ pub fn spawn_loop_with(
     config.validate(&params)?;
     let parts = match parts {
         None => None,
-        Some(p) => Some(RunningParts::new(p, |part| config.validate(part))?),
+        Some(p) => {
+            let recording = config.record_trace.then(|| PartRecording {
+                period_s: config.period.as_secs_f64(),
+                reserve: config.frames.unwrap_or(0).min(MAX_TRACE_RESERVE) as usize,
+            });
+            Some(RunningParts::new(
+                p,
+                |part| config.validate(part),
+                recording,
+            )?)
+        }
     };
     let running = RunningLoop {
         pool: sampler,
@@ -419,7 +430,7 @@ impl RunningLoop {
             }
         }
         if let Some(parts) = self.parts.as_mut() {
-            parts.read(time)?;
+            parts.read(cx.frame, time)?;
         }
         let pose = KernelPose::from_state(&self.state);
         let deadline = tick.started + self.config.watchdog / 2;

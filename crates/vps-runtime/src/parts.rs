@@ -27,6 +27,7 @@ use crate::RuntimeError;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::Arc;
 use std::time::Instant;
+use vps_device::trace::{PartStart, Trace, TraceRecorder};
 use vps_device::{DeviceError, DeviceLimits, HapticDevice};
 use vps_haptic::pair::{BodyVoxmap, PairCounts, PairPart, PairPass};
 use vps_haptic::{
@@ -115,6 +116,21 @@ pub struct PartReport {
     pub last_pair_wrench: Wrench,
     /// Its device's own counters, read after the last write.
     pub device_counters: Option<serde_json::Value>,
+    /// Its handle trace, when the session recorded traces (`LoopConfig::record_trace`), with
+    /// where it started; frame `k` of every part's trace was read in the same frame.
+    #[serde(skip)]
+    pub trace: Option<Trace>,
+    /// Why its trace recording stopped early, if it did.
+    #[serde(skip)]
+    pub trace_error: Option<String>,
+}
+
+/// How the other parts' handle traces are recorded: the frame period (s) and the frames to
+/// reserve room for.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PartRecording {
+    pub(crate) period_s: f64,
+    pub(crate) reserve: usize,
 }
 
 /// The other parts of a running session, their bodies and the pair pass.
@@ -134,15 +150,18 @@ struct RunningPart {
     sums: PartialSums,
     /// This frame's next state and device wrench (saturated), written after every part's step.
     next: Option<(PartState, Wrench)>,
+    recorder: Option<TraceRecorder>,
     report: PartReport,
 }
 
 impl RunningParts {
     /// Validates every part's parameters (`loop_accepts`: the loop's own check of a part's
-    /// parameters, its period) and the margin. Allocates; setup-time only.
+    /// parameters, its period) and the margin; `recording`: record every other part's handle
+    /// trace too. Allocates; setup-time only.
     pub(crate) fn new(
         setup: PartsSetup,
         loop_accepts: impl Fn(&HapticParams) -> Result<(), RuntimeError>,
+        recording: Option<PartRecording>,
     ) -> Result<RunningParts, RuntimeError> {
         if !(setup.margin.is_finite() && setup.margin >= 0.0) {
             return Err(RuntimeError::Config {
@@ -187,8 +206,18 @@ impl RunningParts {
                 pair_contact_frames: 0,
                 last_pair_wrench: Wrench::ZERO,
                 device_counters: None,
+                trace: None,
+                trace_error: None,
             };
+            let recorder = recording.map(|r| {
+                TraceRecorder::with_capacity(part.device.name(), r.period_s, r.reserve)
+                    .with_part_start(PartStart {
+                        position: part.initial.position,
+                        orientation: part.initial.orientation,
+                    })
+            });
             others.push(RunningPart {
+                recorder,
                 limits: part.device.limits(),
                 state: part.initial,
                 handle: None,
@@ -206,10 +235,18 @@ impl RunningParts {
         })
     }
 
-    /// Reads every other part's device at `time` (s). Blocks as the devices do.
-    pub(crate) fn read(&mut self, time: f64) -> Result<(), DeviceError> {
+    /// Reads every other part's device at `time` (s) for frame `frame`, and records the sample
+    /// when recording. Blocks as the devices do; allocates only past the recorders' reserve.
+    pub(crate) fn read(&mut self, frame: u64, time: f64) -> Result<(), DeviceError> {
         for o in &mut self.others {
-            o.handle = Some(o.part.device.read(time)?);
+            let handle = o.part.device.read(time)?;
+            o.handle = Some(handle);
+            if let Some(rec) = o.recorder.as_mut() {
+                if let Err(e) = rec.record(frame, time, handle) {
+                    o.report.trace_error = Some(e.to_string());
+                    o.recorder = None;
+                }
+            }
         }
         Ok(())
     }
@@ -314,6 +351,7 @@ impl RunningParts {
                 r.device_counters = catch_unwind(AssertUnwindSafe(|| o.part.device.counters()))
                     .ok()
                     .flatten();
+                r.trace = o.recorder.take().map(TraceRecorder::finish);
                 r
             })
             .collect();

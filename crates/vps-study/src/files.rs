@@ -13,6 +13,9 @@
 //!
 //! Each file is written whole to a temporary file and renamed into place, so a failed write never
 //! leaves a half-written file; only regular files are ever replaced.
+//!
+//! A session of several moving parts is studied part by part, each part's files in a folder of
+//! its own named after it ([`part_file_names`]).
 
 use crate::Study;
 use serde_json::{json, Value};
@@ -38,12 +41,45 @@ pub const STUDY_FILES: [&str; 9] = [
     "report.html",
 ];
 
+/// A file name for each of `names` (the parts of one session, in order): each name with every
+/// character but ASCII letters, digits, `-` and `_` made `_` (at most 64 characters; `part` when
+/// none is left), then `-k` (its index, or the next free number) added to any that another part's already took, so the
+/// names are distinct and name no other folder (`..`, `/`). Used for each part's study folder
+/// and its trace file.
+pub fn part_file_names(names: &[String]) -> Vec<String> {
+    let mut taken: Vec<String> = Vec::with_capacity(names.len());
+    for (k, name) in names.iter().enumerate() {
+        let mut safe: String = name
+            .chars()
+            .take(64)
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                    c
+                } else {
+                    '_'
+                }
+            })
+            .collect();
+        if safe.chars().all(|c| c == '_') {
+            safe = "part".into();
+        }
+        let mut candidate = safe.clone();
+        let mut n = k;
+        while taken.contains(&candidate) {
+            candidate = format!("{safe}-{n}");
+            n += 1;
+        }
+        taken.push(candidate);
+    }
+    taken
+}
+
 /// The paths of the files a study writes into `dir`.
 pub fn study_paths(dir: &Path) -> Vec<PathBuf> {
     STUDY_FILES.iter().map(|name| dir.join(name)).collect()
 }
 
-const PATH_COLUMNS: [&str; 30] = [
+const PATH_COLUMNS: [&str; 33] = [
     "frame",
     "time_s",
     "part_x_m",
@@ -69,6 +105,9 @@ const PATH_COLUMNS: [&str; 30] = [
     "contact_force_x_n",
     "contact_force_y_n",
     "contact_force_z_n",
+    "other_parts_force_x_n",
+    "other_parts_force_y_n",
+    "other_parts_force_z_n",
     "contacts",
     "touching",
     "penetrating",
@@ -107,6 +146,7 @@ fn path_rows(study: &Study, every: usize) -> Vec<Vec<Value>> {
             row.extend(f.device_force_n.to_array().map(|v| json!(v)));
             row.extend(f.device_torque_nm.to_array().map(|v| json!(v)));
             row.extend(f.contact_force_n.to_array().map(|v| json!(v)));
+            row.extend(f.other_parts_force_n.to_array().map(|v| json!(v)));
             row.push(json!(f.contacts));
             row.push(json!(f.touching));
             row.push(json!(f.penetrating));
@@ -209,6 +249,7 @@ pub fn study_json(study: &Study, settings: &Value, every: usize) -> Value {
         "short_m": v.short_m,
         "reach_tolerance_m": v.tolerance_m,
         "held_by": name(v.held_by),
+        "held_by_other_parts": v.held_by_other_parts,
         "session_end_s": v.session_end_s,
         "path_completed": v.path_completed,
         "minimum_clearance": v.minimum_clearance.map(|(o, m)| json!({
@@ -319,7 +360,10 @@ pub fn write_study(
     let header: Vec<String> = PATH_COLUMNS.iter().map(|c| c.to_string()).collect();
     write_file(&paths[0], |out| write_csv(out, &header, &rows))?;
     write_file(&paths[1], |out| {
-        serde_json::to_writer(&mut *out, &json!({"columns": PATH_COLUMNS, "rows": rows}))?;
+        serde_json::to_writer(
+            &mut *out,
+            &json!({"columns": &PATH_COLUMNS[..], "rows": rows}),
+        )?;
         writeln!(out)
     })?;
     let mut header = vec!["frame".to_string(), "time_s".to_string()];
@@ -404,4 +448,24 @@ pub fn write_study(
     write_file(&paths[8], |out| out.write_all(page.as_bytes()))?;
     written.push(paths[8].clone());
     Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::part_file_names;
+
+    #[test]
+    fn part_file_names_are_distinct_and_stay_in_the_folder() {
+        let names: Vec<String> = ["wrench", "../etc", "a b", "a_b", "", "a_b-3", "ключ"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        let files = part_file_names(&names);
+        assert_eq!(
+            files,
+            ["wrench", "___etc", "a_b", "a_b-3", "part", "a_b-3-5", "part-6"]
+        );
+        let long = vec!["x".repeat(500)];
+        assert_eq!(part_file_names(&long)[0].len(), 64);
+    }
 }

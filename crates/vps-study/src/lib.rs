@@ -9,6 +9,11 @@
 //! the trace, the voxmap, the shell, the parameters and the meshes, so it can be regenerated or
 //! compared after a change.
 //!
+//! A session of several moving parts is studied part by part: [`recompute_paths`](path::recompute_paths)
+//! runs every part's path again together (the pairs too), then [`study_path`] makes each part's
+//! study of its own path against the static objects (clearance to the other moving parts is not
+//! measured; their force on the part is in the path).
+//!
 //! Module map: [`path`] (the part's path from a trace), [`clearance`] (exact clearance series and
 //! minimum), [`contacts`] (contact events), [`swept`] (the swept volume as voxels and a closed
 //! mesh), [`verdict`](mod@verdict) (the verdict line), [`report`] (the one-page HTML report),
@@ -30,7 +35,7 @@ pub mod verdict;
 
 pub use clearance::{ClearanceTrack, MinimumClearance, ObjectClearance};
 pub use contacts::ContactEvent;
-pub use path::PathFrame;
+pub use path::{PathFrame, PathPart};
 pub use verdict::{Target, Verdict};
 
 use std::time::Instant;
@@ -41,8 +46,8 @@ use vps_mesh::TriMesh;
 use vps_reference::{ReferenceError, RigidClearance};
 use vps_voxmap::VoxelLookup;
 
-/// Most frames a study covers: 66 min at 1 kHz, about 0.8 GiB of recomputed path
-/// ([`PathFrame`] is 208 bytes) besides the trace itself.
+/// Most frames a study covers, over all its parts together: 66 min of one part at 1 kHz, about
+/// 0.9 GiB of recomputed path ([`PathFrame`] is 232 bytes) besides the traces themselves.
 pub const MAX_STUDY_FRAMES: usize = 4_000_000;
 
 /// Why a study cannot be made.
@@ -60,6 +65,32 @@ pub enum StudyError {
     /// The trace has no frames.
     #[error("the trace has no frames: there is no path to study")]
     EmptyTrace,
+    /// The traces of a session of several parts cover too many frames together.
+    #[error(
+        "the {parts} parts' traces hold {frames} frames each, {total} together; a study covers \
+         at most {MAX_STUDY_FRAMES} (66 min of one part at 1 kHz): study a shorter session"
+    )]
+    TooLongTogether {
+        /// Parts.
+        parts: usize,
+        /// Frames in each trace.
+        frames: usize,
+        /// Frames of all parts together.
+        total: usize,
+    },
+    /// Two parts' traces of one session differ in length (they were not recorded together).
+    #[error(
+        "part {part}'s trace holds {frames} frames but the first part's {first}: the traces of \
+         a session of several parts are recorded together, one frame each per frame"
+    )]
+    TracesDiffer {
+        /// The part (0 the first).
+        part: usize,
+        /// Frames in its trace.
+        frames: usize,
+        /// Frames in the first part's trace.
+        first: usize,
+    },
     /// The part's or an object's mesh cannot be measured.
     #[error("the exact clearance cannot be measured: {0}")]
     Mesh(#[from] ReferenceError),
@@ -79,6 +110,13 @@ pub struct StudyInputs<'a, L: VoxelLookup> {
     pub initial: PartState,
     /// The handle trace of the session.
     pub trace: &'a Trace,
+    /// What the study of the recomputed path needs.
+    pub evidence: EvidenceInputs<'a>,
+}
+
+/// What the study of a part's path needs besides the path: the meshes to measure, the goal, and
+/// the series and swept volume's settings.
+pub struct EvidenceInputs<'a> {
     /// The part's mesh in its grip frame (m).
     pub part_mesh: &'a TriMesh,
     /// The static objects' meshes, placed (m).
@@ -138,15 +176,10 @@ fn ms_since(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
 
-/// Makes the study of `inputs`. Blocking, parallel (rayon), allocates.
+/// Makes the study of `inputs`: its path recomputed from the trace, then [`study_path`].
+/// Blocking, parallel (rayon), allocates.
 pub fn run_study<L: VoxelLookup>(inputs: &StudyInputs<'_, L>) -> Result<Study, StudyError> {
-    let last = inputs.trace.frames.last().ok_or(StudyError::EmptyTrace)?;
-    if inputs.trace.frames.len() > MAX_STUDY_FRAMES {
-        return Err(StudyError::TooLong {
-            frames: inputs.trace.frames.len(),
-        });
-    }
-    let mut timings = StudyTimings::default();
+    check_traces(&[inputs.trace])?;
     let t = Instant::now();
     let (path, final_state) = path::recompute_path(
         inputs.map,
@@ -156,7 +189,54 @@ pub fn run_study<L: VoxelLookup>(inputs: &StudyInputs<'_, L>) -> Result<Study, S
         inputs.initial,
         inputs.trace,
     );
-    timings.path_ms = ms_since(t);
+    let path_ms = ms_since(t);
+    let mut study = study_path(&inputs.evidence, path, final_state)?;
+    study.timings.path_ms = path_ms;
+    Ok(study)
+}
+
+/// Checks the traces of one session (one per part) before its paths are recomputed: none empty,
+/// all as long as the first, and at most [`MAX_STUDY_FRAMES`] frames together. Arithmetic only.
+pub fn check_traces(traces: &[&Trace]) -> Result<(), StudyError> {
+    let first = traces.first().map_or(0, |t| t.frames.len());
+    if first == 0 {
+        return Err(StudyError::EmptyTrace);
+    }
+    if let Some((part, t)) = traces
+        .iter()
+        .enumerate()
+        .find(|(_, t)| t.frames.len() != first)
+    {
+        return Err(StudyError::TracesDiffer {
+            part,
+            frames: t.frames.len(),
+            first,
+        });
+    }
+    if traces.len() == 1 && first > MAX_STUDY_FRAMES {
+        return Err(StudyError::TooLong { frames: first });
+    }
+    let total = first.saturating_mul(traces.len());
+    if total > MAX_STUDY_FRAMES {
+        return Err(StudyError::TooLongTogether {
+            parts: traces.len(),
+            frames: first,
+            total,
+        });
+    }
+    Ok(())
+}
+
+/// The study of a part's recomputed `path` (one frame per trace frame, not empty) ending in
+/// `final_state`: exact clearance to the static objects, contact events, verdict, swept volume.
+/// `timings.path_ms` is left 0 for the caller. Blocking, parallel (rayon), allocates.
+pub fn study_path(
+    inputs: &EvidenceInputs<'_>,
+    path: Vec<PathFrame>,
+    final_state: PartState,
+) -> Result<Study, StudyError> {
+    let last_hand = path.last().ok_or(StudyError::EmptyTrace)?.handle_position_m;
+    let mut timings = StudyTimings::default();
     let t = Instant::now();
     let measure = RigidClearance::new(inputs.part_mesh, inputs.objects)?;
     timings.trees_ms = ms_since(t);
@@ -172,7 +252,7 @@ pub fn run_study<L: VoxelLookup>(inputs: &StudyInputs<'_, L>) -> Result<Study, S
         .and_then(|f| clearance::nearest_object(&measure, f))
         .map(|(object, _)| object);
     let target = inputs.target.clone().unwrap_or_else(|| Target {
-        position_m: last.sample.position,
+        position_m: last_hand,
         what: "the hand's last position".into(),
         path_end_s: None,
     });

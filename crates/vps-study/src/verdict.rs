@@ -34,6 +34,9 @@ pub struct Verdict {
     pub tolerance_m: f64,
     /// The object pushing on the part at the end (its index), when the part ended in contact.
     pub held_by: Option<usize>,
+    /// Another moving part pushed on the part in the last frame (its force on the part,
+    /// `PathFrame::other_parts_force_n`, was not zero); always false with one moving part.
+    pub held_by_other_parts: bool,
     /// The session's last frame time (s).
     pub session_end_s: f64,
     /// The session ran to the end of the hand's path (`None` when the device follows no path).
@@ -75,6 +78,9 @@ pub fn verdict(
                 .total_cmp(&b.1.closest.distance_m)
                 .then(a.1.frame.cmp(&b.1.frame))
         });
+    let held_by_other_parts = path
+        .last()
+        .is_some_and(|f| f.other_parts_force_n != DVec3::ZERO);
     let [x, y, z] = final_position.to_array().map(|v| format!("{v:.4}"));
     let mut line = if reached {
         format!("reached {} (within {} of it)", target.what, mm(short_m))
@@ -84,6 +90,12 @@ pub fn verdict(
             mm(short_m),
             target.what,
             name(o)
+        )
+    } else if held_by_other_parts {
+        format!(
+            "held back at ({x}, {y}, {z}) m, {} short of {}, by another moving part",
+            mm(short_m),
+            target.what
         )
     } else {
         format!(
@@ -124,6 +136,7 @@ pub fn verdict(
         short_m,
         tolerance_m,
         held_by,
+        held_by_other_parts,
         session_end_s,
         path_completed,
         minimum_clearance,
