@@ -103,10 +103,22 @@ impl Cell {
     }
 }
 
+/// A study read back from its folder ([`track_from_folder`]).
+pub struct StudyFolder {
+    /// Its track to scrub.
+    pub track: StudyTrack,
+    /// Its swept volume, when the folder has one.
+    pub swept: Option<TriMesh>,
+    /// The scene it was made on (study.json's `settings.scene`; empty when absent).
+    pub scene: String,
+    /// The moving part it studied, in a scene of several (`settings.part`).
+    pub part: Option<String>,
+}
+
 /// The track and swept volume of the study in `dir` (its `study.json`, `path.json` and, when
-/// present, `swept.stl`), and the scene it was made on (study.json's `settings.scene`). Errors
-/// name the file and what is wrong with it.
-pub fn track_from_folder(dir: &Path) -> Result<(StudyTrack, Option<TriMesh>, String)> {
+/// present, `swept.stl`), the scene it was made on and, in a scene of several moving parts, the
+/// part. Errors name the file and what is wrong with it.
+pub fn track_from_folder(dir: &Path) -> Result<StudyFolder> {
     let summary_path = dir.join("study.json");
     let text = vps_files::read_regular_to_string(&summary_path, MAX_STUDY_JSON_BYTES)
         .with_context(|| format!("reading {}", summary_path.display()))?;
@@ -153,6 +165,7 @@ pub fn track_from_folder(dir: &Path) -> Result<(StudyTrack, Option<TriMesh>, Str
         .as_str()
         .unwrap_or_default()
         .to_string();
+    let part = summary["settings"]["part"].as_str().map(str::to_string);
 
     let path_file = dir.join("path.json");
     let text =
@@ -240,5 +253,10 @@ pub fn track_from_folder(dir: &Path) -> Result<(StudyTrack, Option<TriMesh>, Str
     } else {
         None
     };
-    Ok((track, swept, scene))
+    Ok(StudyFolder {
+        track,
+        swept,
+        scene,
+        part,
+    })
 }

@@ -2,7 +2,8 @@
 //! simulated hand, pressed against each other. The two contact forces are exact negations of each
 //! other; at rest under equal and opposite pushes neither drifts; the session is bit-identical on
 //! one thread, three threads and two local worker processes; `vps scene check` lists the parts and
-//! the pair; a part after the first with no inside is refused.
+//! the pair; a part after the first with no inside is refused; a session of two parts is studied
+//! part by part, live and from its two traces, to the bit.
 
 use vps_testkit::process::{json, Vps};
 
@@ -200,4 +201,157 @@ fn a_second_part_larger_than_the_scene_is_refused() {
         err.contains("part[1]") && err.contains("larger than the whole scene"),
         "{err}"
     );
+}
+
+/// The `name` column of a path table, as numbers.
+fn column(csv: &str, name: &str) -> Vec<f64> {
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().expect("a header").split(',').collect();
+    let k = header
+        .iter()
+        .position(|h| *h == name)
+        .unwrap_or_else(|| panic!("no column {name} in {header:?}"));
+    lines
+        .map(|l| l.split(',').nth(k).unwrap().parse().unwrap())
+        .collect()
+}
+
+#[test]
+fn a_session_of_two_parts_is_studied_part_by_part_to_the_bit_live_and_from_its_traces() {
+    let (vps, scene) = sandbox();
+    let (trace, live, later) = (vps.path("s.trace"), vps.path("live"), vps.path("later"));
+    let report = json(&vps.run(&[
+        "run",
+        "--scene",
+        &scene,
+        "--seconds",
+        "1.5",
+        "--free-running",
+        "--record",
+        &trace,
+        "--study",
+        &live,
+        "--json",
+    ]));
+    assert!(
+        vps.dir().join("s.right.trace").is_file(),
+        "the second part's trace is written beside the first's"
+    );
+    let made = json(&vps.run(&["study", &trace, "--scene", &scene, "-o", &later, "--json"]));
+    let studies = made["parts"].as_array().expect("one study per part");
+    let parts = report["parts"].as_array().unwrap();
+    assert_eq!(studies.len(), 2, "{made}");
+    let mut pair_forces = Vec::new();
+    for (part, study) in parts.iter().zip(studies) {
+        let name = part["name"].as_str().unwrap();
+        assert_eq!(study["name"], name);
+        assert_eq!(study["folder"], name);
+        // Recomputed from the two traces together, each part ends where the session left it, to
+        // the bit (JSON numbers round-trip exactly); the live study too.
+        let s = &study["study"];
+        assert_eq!(s["final_position_m"], part["final_position_m"], "{name}");
+        let read = |dir: &str, file: &str| {
+            std::fs::read_to_string(vps.dir().join(dir).join(name).join(file)).unwrap()
+        };
+        let live_json: serde_json::Value =
+            serde_json::from_str(&read("live", "study.json")).unwrap();
+        assert_eq!(
+            live_json["final_position_m"], part["final_position_m"],
+            "{name}"
+        );
+        assert_eq!(
+            read("live", "path.csv"),
+            read("later", "path.csv"),
+            "{name}"
+        );
+        assert_eq!(s["settings"]["part"], name);
+        // Pressed against each other at the end: each held back by the other part.
+        assert_eq!(s["held_by_other_parts"], true, "{s}");
+        assert!(
+            s["verdict"]
+                .as_str()
+                .unwrap()
+                .contains("by another moving part"),
+            "{}",
+            s["verdict"]
+        );
+        let csv = read("later", "path.csv");
+        pair_forces.push(column(&csv, "other_parts_force_x_n"));
+    }
+    // The pair force in the two studies' tables: equal and opposite at every frame.
+    let (left, right) = (&pair_forces[0], &pair_forces[1]);
+    assert_eq!(left.len(), right.len());
+    assert!(left.iter().any(|&f| f < -0.05), "the cubes pressed");
+    for (a, b) in left.iter().zip(right) {
+        assert!(*a == -*b, "{a} vs {b}");
+    }
+}
+
+#[test]
+fn a_study_of_two_parts_needs_both_traces_of_one_session_and_never_overwrites_an_input() {
+    let (vps, scene) = sandbox();
+    let record = |name: &str, seconds: &str| {
+        vps.run(&[
+            "run",
+            "--scene",
+            &scene,
+            "--seconds",
+            seconds,
+            "--free-running",
+            "--record",
+            &vps.path(name),
+        ]);
+    };
+    record("s.trace", "0.3");
+    record("short.trace", "0.2");
+    let study = |out: &str| {
+        vps.fails(&[
+            "study",
+            &vps.path("s.trace"),
+            "--scene",
+            &scene,
+            "-o",
+            &vps.path(out),
+        ])
+    };
+    // The second part's trace from another, shorter session: refused, naming both lengths.
+    std::fs::copy(
+        vps.dir().join("short.right.trace"),
+        vps.dir().join("s.right.trace"),
+    )
+    .unwrap();
+    let err = study("a");
+    assert!(
+        err.contains("part 1's trace holds 200 frames but the first part's 300"),
+        "{err}"
+    );
+    // Missing: refused, naming the part and the file it looked for.
+    std::fs::remove_file(vps.dir().join("s.right.trace")).unwrap();
+    let err = study("b");
+    assert!(
+        err.contains("part 'right'") && err.contains("s.right.trace") && err.contains("missing"),
+        "{err}"
+    );
+    // A recording whose second part's trace would land on the scene file itself: refused before
+    // the session, the scene left as it was.
+    std::fs::copy(vps.dir().join("two.toml"), vps.dir().join("x.right.trace")).unwrap();
+    let err = vps.fails(&[
+        "run",
+        "--scene",
+        &vps.path("x.right.trace"),
+        "--seconds",
+        "0.1",
+        "--free-running",
+        "--record",
+        &vps.path("x.trace"),
+    ]);
+    assert!(
+        err.contains("--record") && err.contains("x.right.trace"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(vps.dir().join("x.right.trace")).unwrap(),
+        TWO_CUBES
+    );
+    assert!(!vps.dir().join("x.trace").exists());
 }

@@ -3,7 +3,7 @@
 
 use crate::cli::ViewArgs;
 use crate::scene_view::viewer_content;
-use crate::study_view::track_from_folder;
+use crate::study_view::{track_from_folder, StudyFolder};
 use anyhow::{Context, Result};
 use std::sync::Arc;
 use vps_session::{CachePolicy, SessionAssets};
@@ -28,7 +28,26 @@ pub fn run(args: &ViewArgs) -> Result<()> {
             let assets = SessionAssets::open(scene, &options)?;
             let mut content = viewer_content(&assets, SceneLimits::default());
             if let Some(dir) = &args.study {
-                let (track, swept, studied) = track_from_folder(dir)?;
+                let StudyFolder {
+                    track,
+                    swept,
+                    scene: studied,
+                    part,
+                } = track_from_folder(dir)?;
+                // A study of one of several moving parts: that part on the slider, alone.
+                if let Some(name) = part {
+                    let k = std::iter::once(&assets.part_name)
+                        .chain(assets.more_parts.iter().map(|p| &p.name))
+                        .position(|n| *n == name)
+                        .with_context(|| {
+                            format!(
+                                "the study in {} is of part '{name}', which {} does not have",
+                                dir.display(),
+                                assets.label
+                            )
+                        })?;
+                    content = crate::scene_view::part_content(&assets, k, SceneLimits::default());
+                }
                 if !studied.is_empty() && studied != assets.label {
                     eprintln!(
                         "vps: warning: the study in {} was made on {studied}, not on {} (the \

@@ -4,8 +4,7 @@
 //! is planned (`SessionAssets::parts_setup`). The first part stays the session's own (its shell
 //! and device are `SessionAssets`'s as in a one-part scene); it gains a body voxmap too.
 //!
-//! Not built yet: studies of several parts, splitting the other parts and the pairs over cluster
-//! workers.
+//! Not built yet: splitting the other parts and the pairs over cluster workers.
 
 use crate::device::{BridgeSettings, DeviceChoice};
 use crate::error::{field_error, SceneError};
