@@ -18,37 +18,38 @@
 //! one-process run whoever computed each share, in every frame without such a stand-in
 //! ([`fallback::StalePolicy::NEVER`] rules them out).
 //!
-//! Module map: [`protocol`] (wire formats), [`tls`] (certificates, pinning verifiers, QUIC
-//! configs), [`assets`] ([`ClusterAssets`]: voxmap, classed shell, identity, worker cache),
-//! [`worker`] ([`run_worker`]), [`coordinator`] ([`Coordinator`]: endpoint, joins, one live
-//! connection per certificate), [`gather`] (the pure gather state machine: assignment, reply
-//! acceptance, benching, fallback plan, predicted split; no clock, socket or thread), [`shares`]
-//! ([`RemoteShares`]: the I/O driver around it), [`split`] and [`fallback`] (its pure arithmetic),
-//! [`metrics`] and [`report`] (live figures and the final report), [`bench_log`] and [`join_log`]
-//! (how often the log speaks of a worker going onto and off the bench, and of a worker's failed
-//! joins), [`close`] (close codes), [`session`] ([`run_coordinator_session`],
+//! Everything the cluster decides without waiting (the wire formats, the gather state machine,
+//! split and fallback arithmetic, the log-rate rules) is the sans-IO crate `vps-cluster-core`,
+//! whose modules are re-exported here under their old names: [`gather`], [`split`],
+//! [`fallback`], [`bench_log`], [`join_log`], and the codecs in [`protocol`]. This crate is its
+//! I/O driver.
+//!
+//! Module map: [`protocol`] (wire formats, and the join stream's framing on QUIC), [`tls`]
+//! (certificates, pinning verifiers, QUIC configs), [`assets`] ([`ClusterAssets`]: voxmap,
+//! classed shell, identity, worker cache), [`worker`] ([`run_worker`]), [`coordinator`]
+//! ([`Coordinator`]: endpoint, joins, one live connection per certificate), [`shares`]
+//! ([`RemoteShares`]: the I/O driver around the gather core), [`metrics`] and [`report`] (live
+//! figures and the final report), [`close`] (close codes), [`session`] ([`run_coordinator_session`],
 //! [`spawn_local_workers`]), [`udp_count`] (datagrams counted on the UDP socket before quinn sees
 //! them). The loopback impairment relay and the raw UDP baseline are in the `vps-netem` crate.
 
 #![warn(missing_docs)]
 
 pub mod assets;
-pub mod bench_log;
 pub mod close;
 pub mod coordinator;
 mod events;
-pub mod fallback;
-pub mod gather;
-pub mod join_log;
 pub mod metrics;
 pub mod protocol;
 pub mod report;
 pub mod session;
 pub mod shares;
-pub mod split;
 pub mod tls;
 pub mod udp_count;
 pub mod worker;
+
+// The sans-IO core's modules, under the names this crate has always given them.
+pub use vps_cluster_core::{bench_log, fallback, gather, join_log, split};
 
 pub use assets::ClusterAssets;
 pub use coordinator::{Coordinator, CoordinatorConfig};
@@ -108,4 +109,13 @@ pub enum ClusterError {
     /// The frame loop failed to start or finish.
     #[error(transparent)]
     Runtime(#[from] vps_runtime::RuntimeError),
+}
+
+impl From<vps_cluster_core::ConfigError> for ClusterError {
+    fn from(e: vps_cluster_core::ConfigError) -> ClusterError {
+        ClusterError::Config {
+            field: e.field,
+            message: e.message,
+        }
+    }
 }

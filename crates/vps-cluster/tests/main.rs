@@ -4,7 +4,6 @@
 
 mod cluster;
 mod common;
-mod gather;
 mod identity;
 mod session;
 mod tls_and_worker;

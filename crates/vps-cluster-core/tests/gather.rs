@@ -2,11 +2,11 @@
 //! `Instant`s a few microseconds apart.
 
 use std::time::{Duration, Instant};
-use vps_cluster::fallback::StalePolicy;
-use vps_cluster::gather::{
+use vps_cluster_core::fallback::StalePolicy;
+use vps_cluster_core::gather::{
     Acceptance, GatherCore, Policy, Shape, SplitDecision, Transition, FAR_PROBE_FACTOR,
 };
-use vps_cluster::protocol::FrameReply;
+use vps_cluster_core::protocol::FrameReply;
 use vps_haptic::PartialSums;
 
 const CLASSES: usize = 16;

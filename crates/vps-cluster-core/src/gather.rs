@@ -1,6 +1,6 @@
 //! The gather state machine, free of I/O: which classes each worker is asked for, which replies
 //! are accepted, who is benched, and what the coordinator computes itself when shares are missing.
-//! [`crate::shares::RemoteShares`] is the driver around it (sockets, channels, clocks, the local
+//! `vps_cluster::RemoteShares` is the driver around it (sockets, channels, clocks, the local
 //! thread pool, the metrics board), the way `quinn` drives `quinn-proto`.
 //!
 //! Nothing here reads a clock, touches a socket, spawns a thread or waits on a channel: times are
@@ -36,11 +36,11 @@ use crate::fallback::{plan_fallback, FallbackAction, MissingShare, StalePolicy};
 use crate::protocol::{mask_classes, FrameReply};
 use crate::report::SplitReport;
 use crate::split::{split_classes, Adapt, ShareOutcome};
-use crate::ClusterError;
+use crate::ConfigError;
 use std::time::{Duration, Instant};
 use vps_haptic::PartialSums;
 
-/// The rules of the gather (the part of [`crate::GatherConfig`] the core uses).
+/// The rules of the gather (the part of `vps_cluster::GatherConfig` the core uses).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Policy {
     /// Consecutive unmerged work shares before a worker is benched (≥ 1).
@@ -290,8 +290,8 @@ pub struct Fallback {
     pub stale: Vec<(u32, PartialSums)>,
 }
 
-fn config_err(field: &'static str) -> ClusterError {
-    ClusterError::Config {
+fn config_err(field: &'static str) -> ConfigError {
+    ConfigError {
         field,
         message: "must be at least 1".into(),
     }
@@ -328,7 +328,7 @@ pub struct GatherCore {
 impl GatherCore {
     /// A core with no workers. Errors when a count of `policy` is 0 or the class count is not
     /// in 1..=64.
-    pub fn new(policy: Policy, shape: Shape) -> Result<GatherCore, ClusterError> {
+    pub fn new(policy: Policy, shape: Shape) -> Result<GatherCore, ConfigError> {
         if policy.bench_after == 0 {
             return Err(config_err("bench_after"));
         }
@@ -342,7 +342,7 @@ impl GatherCore {
             return Err(config_err("disconnect_after"));
         }
         if !(1..=64).contains(&shape.class_points.len()) {
-            return Err(ClusterError::Config {
+            return Err(ConfigError {
                 field: "class_count",
                 message: format!("{} is outside 1..=64", shape.class_points.len()),
             });
