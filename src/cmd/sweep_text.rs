@@ -119,8 +119,12 @@ columns: model: force model (tangent: the paper's tangent-plane model on voxel l
 
 /// Per scene, the recommended setting: of the rows with accuracy figures, those with the lowest
 /// penetration ratio, of those the ones whose p99.9 fits [`BUDGET_US`] (all of them when none
-/// does, said so), of those the lowest force direction error p50 (fewer shell points on a tie).
-/// A scene none of whose rows touched an obstacle gets no recommendation, and says why.
+/// does, said so), of those the lowest force direction error p50 to the whole degree, then the
+/// smallest non-negative minimum exact separation (the closest the part came to the scene
+/// without entering it: the tightest clearance the setting resolves; the distance model's
+/// direction error is near 0° at every size, so this is what tells its sizes apart), then fewer
+/// shell points. A scene none of whose rows touched an obstacle gets no recommendation, and says
+/// why.
 pub fn recommendations(rows: &[SweepRow]) -> Vec<String> {
     let mut scenes: Vec<&str> = Vec::new();
     for r in rows {
@@ -159,12 +163,18 @@ pub fn recommendations(rows: &[SweepRow]) -> Vec<String> {
             .collect();
         let over_budget = fitting.is_empty();
         let pool = if over_budget { lowest } else { fitting };
+        let degrees = |r: &SweepRow| r.direction_error_deg_p50.map_or(f64::INFINITY, f64::round);
+        let separation = |r: &SweepRow| {
+            r.min_separation_mm
+                .filter(|&mm| mm >= 0.0)
+                .unwrap_or(f64::INFINITY)
+        };
         let best = pool
             .into_iter()
             .min_by(|a, b| {
-                a.direction_error_deg_p50
-                    .unwrap_or(f64::INFINITY)
-                    .total_cmp(&b.direction_error_deg_p50.unwrap_or(f64::INFINITY))
+                degrees(a)
+                    .total_cmp(&degrees(b))
+                    .then(separation(a).total_cmp(&separation(b)))
                     .then(a.shell_points.cmp(&b.shell_points))
             })
             .expect("a scene with measured rows has a best one");
@@ -176,7 +186,7 @@ pub fn recommendations(rows: &[SweepRow]) -> Vec<String> {
         lines.push(format!(
             "recommended for {name}: [voxels] force_model = \"{}\", voxel_size = \"{}mm\", \
              voxel_width = {}, shell_method = \"{}\"{own}: penetration ratio {}, force direction error p50 {:.1}° \
-             (p95 {}°), frame compute p99.9 {:.1} µs{}",
+             (p95 {}°), min exact separation {} mm, frame compute p99.9 {:.1} µs{}",
             best.force_model.name(),
             size_mm(best.voxel_size_mm),
             best.voxel_width,
@@ -184,6 +194,7 @@ pub fn recommendations(rows: &[SweepRow]) -> Vec<String> {
             figure(best.penetration_ratio, 4),
             best.direction_error_deg_p50.unwrap_or(f64::NAN),
             figure(best.direction_error_deg_p95, 1),
+            figure(best.min_separation_mm, 2),
             best.compute_p999_us,
             if over_budget {
                 format!(" (no row with that penetration ratio fits {BUDGET_US:.0} µs here)")
@@ -195,7 +206,9 @@ pub fn recommendations(rows: &[SweepRow]) -> Vec<String> {
     if !lines.is_empty() {
         lines.push(format!(
             "  rule: the lowest penetration ratio, then frame compute p99.9 within {BUDGET_US:.0} \
-             µs (60 % of the 1 ms period), then the lowest force direction error p50{}",
+             µs (60 % of the 1 ms period), then the lowest force direction error p50 to the \
+             whole degree, then the smallest non-negative min exact separation (the tightest \
+             clearance resolved), then fewer shell points{}",
             if cfg!(debug_assertions) {
                 "; this vps was built without --release, so its timings are no guide to a \
                  release build's"
@@ -257,6 +270,27 @@ mod tests {
         );
         assert!(
             lines[1].contains("rule: the lowest penetration ratio"),
+            "{lines:?}"
+        );
+    }
+
+    /// Direction errors within the same whole degree tie; the row whose part came closest to the
+    /// scene without entering it wins (a negative separation, inside it, never does).
+    #[test]
+    fn a_tie_in_direction_goes_to_the_tightest_clearance_resolved() {
+        let with = |size, dir, sep: f64| SweepRow {
+            min_separation_mm: Some(sep),
+            ..row(size, Some(0.0), Some(dir), 50.0)
+        };
+        let rows = [
+            with(10.0, 0.0, 4.3),
+            with(2.5, 0.3, 0.6),
+            with(1.25, 0.2, -0.1),
+            with(5.0, 1.6, 0.1),
+        ];
+        let lines = recommendations(&rows);
+        assert!(
+            lines[0].contains("voxel_size = \"2.5mm\"") && lines[0].contains("separation 0.60 mm"),
             "{lines:?}"
         );
     }

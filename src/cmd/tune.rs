@@ -1,6 +1,7 @@
 //! `vps tune`: measures this machine's frame compute time on a scene at voxel sizes from coarse to
 //! fine, proposes the finest size whose p99.9 stays under a budget, prints the accuracy the
-//! committed sweep measured at that size, and verifies the choice with a paced run.
+//! committed sweep measured at that size with the scene's force model and, beside it, with the
+//! other model (so the two can be compared), and verifies the choice with a paced run.
 //! SIGINT, SIGTERM and SIGHUP stop it: the running session's device is written zero, the report
 //! so far is printed (`complete: false`, `end` says why) and the exit status is `128 + N`.
 
@@ -11,6 +12,7 @@ use anyhow::{bail, Result};
 use serde::Serialize;
 use std::path::Path;
 use vps_runtime::{SessionEnd, SignalStop, StatsSummary};
+use vps_session::file::ForceModelName;
 use vps_session::{stop_on_signals, CachePolicy, LoadedScene};
 
 /// Candidate voxel sizes (mm), coarse to fine.
@@ -36,7 +38,11 @@ struct TuneReport {
     budget_us: f64,
     measured: Vec<Measured>,
     chosen_voxel_size_mm: Option<f64>,
+    /// The sweep table's row at the chosen size with the scene's own force model.
     predicted_accuracy: Option<SweepRow>,
+    /// The same row with the other force model, for comparison (its frame compute was measured
+    /// by the sweep, not by this tune).
+    other_model_accuracy: Option<SweepRow>,
     /// Why the sweep table could not be read, when it could not.
     #[serde(skip_serializing_if = "Option::is_none")]
     sweep_error: Option<String>,
@@ -74,22 +80,51 @@ fn sweep_name(path: Option<&Path>) -> String {
     })
 }
 
-/// The sweep table's row for this scene, method, voxel width and size: `Ok(None)` when the
-/// table has none, an error when the table cannot be read.
-fn sweep_row(
+/// The sweep table's rows for this scene, method, voxel width and size: with the scene's own
+/// force model, and with the other one (each `None` when the table has none); an error when the
+/// table cannot be read.
+fn sweep_rows(
     path: Option<&Path>,
     scene: &LoadedScene,
     size_mm: f64,
-) -> Result<Option<SweepRow>, String> {
+) -> Result<(Option<SweepRow>, Option<SweepRow>), String> {
     let table = read_sweep(path)?;
     let voxels = &scene.file.voxels;
-    Ok(table.rows.into_iter().find(|r| {
-        r.scene == scene.name
-            && r.method == voxels.shell_method
-            && r.voxel_width == u32::from(voxels.voxel_width)
-            && r.force_model == voxels.force_model
-            && (r.voxel_size_mm - size_mm).abs() < 1e-9
-    }))
+    let row = |model: ForceModelName| {
+        table
+            .rows
+            .iter()
+            .find(|r| {
+                r.scene == scene.name
+                    && r.method == voxels.shell_method
+                    && r.voxel_width == u32::from(voxels.voxel_width)
+                    && r.force_model == model
+                    && (r.voxel_size_mm - size_mm).abs() < 1e-9
+            })
+            .cloned()
+    };
+    Ok((row(voxels.force_model), row(other_model(voxels.force_model))))
+}
+
+/// The force model that is not `model`.
+fn other_model(model: ForceModelName) -> ForceModelName {
+    match model {
+        ForceModelName::TangentPlane => ForceModelName::Distance,
+        ForceModelName::Distance => ForceModelName::TangentPlane,
+    }
+}
+
+/// A sweep row's accuracy figures in words.
+fn accuracy_figures(r: &SweepRow) -> String {
+    format!(
+        "force direction error p50 {} deg, magnitude error p50 {}, penetration ratio {}, min \
+         exact separation {} mm, frame compute p50 {} µs in the sweep",
+        shown(r.direction_error_deg_p50),
+        shown(r.magnitude_error_p50),
+        shown(r.penetration_ratio),
+        shown(r.min_separation_mm),
+        format!("{:.1}", r.compute_p50_us)
+    )
 }
 
 /// Prints `report` (stopped by a signal while `what`) and fails with exit status `128 + N`.
@@ -142,6 +177,7 @@ pub fn run(args: &TuneArgs) -> Result<()> {
         measured: Vec::new(),
         chosen_voxel_size_mm: None,
         predicted_accuracy: None,
+        other_model_accuracy: None,
         sweep_error: None,
         verify_frames: args.verify_frames,
         verify_realtime_granted: None,
@@ -208,8 +244,11 @@ pub fn run(args: &TuneArgs) -> Result<()> {
         );
     };
     report.chosen_voxel_size_mm = Some(size_mm);
-    match sweep_row(args.sweep.as_deref(), &scene, size_mm) {
-        Ok(row) => report.predicted_accuracy = row,
+    match sweep_rows(args.sweep.as_deref(), &scene, size_mm) {
+        Ok((own, other)) => {
+            report.predicted_accuracy = own;
+            report.other_model_accuracy = other;
+        }
         Err(why) => report.sweep_error = Some(why),
     }
     let verify = run_sweep_session(&session, args.verify_frames, true, &signals)?;
@@ -232,13 +271,12 @@ pub fn run(args: &TuneArgs) -> Result<()> {
         vps_files::printable(&scene.name)
     );
     let table_name = sweep_name(args.sweep.as_deref());
+    let own = scene.file.voxels.force_model;
     match &report.predicted_accuracy {
         Some(r) => println!(
-            "accuracy at {size_mm} mm from {table_name}: force direction error p50 {} deg, magnitude error p50 {}, penetration ratio {}, min exact separation {} mm",
-            shown(r.direction_error_deg_p50),
-            shown(r.magnitude_error_p50),
-            shown(r.penetration_ratio),
-            shown(r.min_separation_mm)
+            "accuracy at {size_mm} mm from {table_name}, {} model (this scene's): {}",
+            own.name(),
+            accuracy_figures(r)
         ),
         None => match &report.sweep_error {
             Some(why) => println!(
@@ -251,6 +289,17 @@ pub fn run(args: &TuneArgs) -> Result<()> {
                 how_to_measure(&args.scene)
             ),
         },
+    }
+    if let Some(r) = &report.other_model_accuracy {
+        let other = other_model(own);
+        println!(
+            "  beside it, the {} model at {size_mm} mm: {}; to use it, set [voxels] force_model \
+             = \"{}\" (docs/scenes.md \"Force models\") and run vps tune again to measure its \
+             frame compute here",
+            other.name(),
+            accuracy_figures(r),
+            other.name()
+        );
     }
     crate::session_io::print_summary(
         &format!(
@@ -320,5 +369,26 @@ mod tests {
             read_sweep(None).unwrap().rows.len(),
             read_sweep(Some(&committed)).unwrap().rows.len()
         );
+    }
+
+    /// The built-in table holds both force models of the built-in scenes, so tune prints the
+    /// other model's accuracy beside the scene's own at every size it can choose.
+    #[test]
+    fn the_built_in_table_compares_both_models_of_the_built_in_scenes() {
+        for name in ["builtin:rig-teapot", "builtin:bay-teapot"] {
+            let scene = LoadedScene::load(name).unwrap();
+            let sizes: &[f64] = if name.contains("rig") {
+                &SIZES_MM
+            } else {
+                &SIZES_MM[..3]
+            };
+            for &size in sizes {
+                let (own, other) = sweep_rows(None, &scene, size).unwrap();
+                let (own, other) = (own.unwrap(), other.unwrap());
+                assert_eq!(own.force_model, scene.file.voxels.force_model, "{name} {size}");
+                assert_eq!(other.force_model, other_model(own.force_model), "{name} {size}");
+                assert!(accuracy_figures(&other).contains("force direction error p50"));
+            }
+        }
     }
 }
