@@ -164,23 +164,37 @@ fn sweep_and_tune_run_from_any_folder_with_only_the_binary() {
         .skip(1)
         .map(|l| l.split(',').nth(2).unwrap())
         .collect();
-    // 20 mm then 10 mm, each at 2, 4 and 8 bits with both methods.
-    assert_eq!(sizes.len(), 12, "{csv}");
-    assert!(sizes[..6].iter().all(|s| *s == "20.0"), "{csv}");
-    assert!(sizes[6..].iter().all(|s| *s == "10.0"), "{csv}");
+    // Each force model (the built-in sweep file sweeps both, tangent-plane first): 20 mm then
+    // 10 mm, each at 2, 4 and 8 bits with both methods.
+    assert_eq!(sizes.len(), 24, "{csv}");
+    let models: Vec<&str> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(4).unwrap())
+        .collect();
+    for (half, model) in [(0, "tangent-plane"), (12, "distance")] {
+        assert!(sizes[half..half + 6].iter().all(|s| *s == "20.0"), "{csv}");
+        assert!(
+            sizes[half + 6..half + 12].iter().all(|s| *s == "10.0"),
+            "{csv}"
+        );
+        assert!(models[half..half + 12].iter().all(|m| *m == model), "{csv}");
+    }
     let header = text.lines().next().unwrap();
     assert!(
         header.starts_with("scene") && header.contains("size mm") && header.contains("PR"),
         "{text}"
     );
     let rows = text.lines().filter(|l| l.starts_with("mine ")).count();
-    assert_eq!(rows, 12, "{text}");
+    assert_eq!(rows, 24, "{text}");
     // The scene's own setting (10 mm, the built-in 4-bit exact) is marked.
     assert_eq!(text.matches("* scene's own").count(), 1, "{text}");
     assert!(text.contains("-: not measured (null in --json)"), "{text}");
+    // Both models push along the exact normal here (direction error 0° to the whole degree):
+    // the distance model, whose part comes closer to the wall without entering it, is chosen.
     assert!(
         text.contains(
-            "recommended for mine: [voxels] force_model = \"tangent-plane\", voxel_size = \""
+            "recommended for mine: [voxels] force_model = \"distance\", voxel_size = \"10mm\""
         ) && text.contains("rule: the lowest penetration ratio"),
         "{text}"
     );
@@ -193,7 +207,7 @@ fn sweep_and_tune_run_from_any_folder_with_only_the_binary() {
         .unwrap();
     assert!(out.status.success(), "{}", stderr(&out));
     let table: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!(table["rows"].as_array().unwrap().len(), 12);
+    assert_eq!(table["rows"].as_array().unwrap().len(), 24);
 
     // Tune's choice is a timing on this (loaded) machine: when even 10 mm misses the budget it
     // fails saying so; either way its table of sizes is printed.

@@ -103,7 +103,10 @@ fn sweep_rows(
             })
             .cloned()
     };
-    Ok((row(voxels.force_model), row(other_model(voxels.force_model))))
+    Ok((
+        row(voxels.force_model),
+        row(other_model(voxels.force_model)),
+    ))
 }
 
 /// The force model that is not `model`.
@@ -279,10 +282,7 @@ pub fn run(args: &TuneArgs) -> Result<()> {
             accuracy_figures(r)
         ),
         None => match &report.sweep_error {
-            Some(why) => println!(
-                "accuracy: unknown: {why}; {}",
-                how_to_measure(&args.scene)
-            ),
+            Some(why) => println!("accuracy: unknown: {why}; {}", how_to_measure(&args.scene)),
             None => println!(
                 "accuracy: {table_name} has no row for {} at {size_mm} mm; {}",
                 vps_files::printable(&scene.name),
@@ -385,8 +385,15 @@ mod tests {
             for &size in sizes {
                 let (own, other) = sweep_rows(None, &scene, size).unwrap();
                 let (own, other) = (own.unwrap(), other.unwrap());
-                assert_eq!(own.force_model, scene.file.voxels.force_model, "{name} {size}");
-                assert_eq!(other.force_model, other_model(own.force_model), "{name} {size}");
+                assert_eq!(
+                    own.force_model, scene.file.voxels.force_model,
+                    "{name} {size}"
+                );
+                assert_eq!(
+                    other.force_model,
+                    other_model(own.force_model),
+                    "{name} {size}"
+                );
                 assert!(accuracy_figures(&other).contains("force direction error p50"));
             }
         }
