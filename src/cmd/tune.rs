@@ -121,12 +121,12 @@ fn other_model(model: ForceModelName) -> ForceModelName {
 fn accuracy_figures(r: &SweepRow) -> String {
     format!(
         "force direction error p50 {} deg, magnitude error p50 {}, penetration ratio {}, min \
-         exact separation {} mm, frame compute p50 {} µs in the sweep",
+         exact separation {} mm, frame compute p50 {:.1} µs in the sweep",
         shown(r.direction_error_deg_p50),
         shown(r.magnitude_error_p50),
         shown(r.penetration_ratio),
         shown(r.min_separation_mm),
-        format!("{:.1}", r.compute_p50_us)
+        r.compute_p50_us
     )
 }
 
