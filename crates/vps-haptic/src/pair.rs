@@ -11,8 +11,14 @@
 //! are exact in any grouping, [`crate::sums`]). Torques are about each part's own origin, and the
 //! pair's total torque about any point is zero up to `f64` rounding (angular momentum is kept).
 //!
-//! The frame loop runs it for every pair of a scene's moving parts (`vps_runtime::parts`). Not
-//! built yet: pre-contact braking between parts (pairs push, they do not brake).
+//! The frame loop runs it for every pair of a scene's moving parts (`vps_runtime::parts`).
+//!
+//! **Pre-contact braking between parts** ([`pair_braking`]): the static scene's braking
+//! ([`crate::contact::brake_wrench`]) applied to the pair's relative motion: each direction's
+//! Proximity points brake the approach of one part's origin towards the other with the pair's
+//! reduced mass, at most stopping it in one frame and never reversing it, half of each direction
+//! applied (as for contact), one force exactly opposite on the two parts, through each part's
+//! origin (no braking torque between parts).
 //!
 //! [`PairPass`] is one frame's pair work for several parts (the broad phase, both samplings, the
 //! wrenches summed per part), as the frame loop runs it.
@@ -176,7 +182,11 @@ impl PairPass {
                     continue;
                 }
                 any_contact = true;
-                let w = pair_wrenches(params, &params.gains(), a, b, &sums);
+                let mut w = pair_wrenches(params, &params.gains(), a, b, &sums);
+                let brake = pair_braking(params, pb.params.mass, a, b, &sums);
+                // `x + y` and `(−x) + (−y)` are exact negations, so the forces stay opposite.
+                w.on_a.force += brake.on_a;
+                w.on_b.force += brake.on_b;
                 for (k, on) in [(i, w.on_a), (j, w.on_b)] {
                     let o = &mut self.others[k];
                     o.wrench.force += on.force;
@@ -189,6 +199,65 @@ impl PairPass {
             *frames += u64::from(o.near);
         }
         self.counts.contact_frames += u64::from(any_contact);
+    }
+}
+
+/// The pre-contact braking forces of a pair (world frame, N, through each part's origin).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PairBrake {
+    /// On A.
+    pub on_a: DVec3,
+    /// On B: exactly `−on_a` (a zero component is a zero on both).
+    pub on_b: DVec3,
+}
+
+/// The braking of one direction: `sums` are one part's points in the other's voxmap (its frame),
+/// `v` the first part's origin's velocity relative to the other's frame, in that frame (m/s),
+/// `mu` the pair's reduced mass (kg). As [`crate::contact::brake_wrench`]: `u = S_f / |S_f|`,
+/// approach speed `v_n = v·u`, viscosity `b = μ v_n² / (2 dt S_q)` capped at `μ v_n / (dt |S_f|)`
+/// (one frame's impulse at most stops the approach), force `−b S_f`; zero when nothing approaches.
+fn brake_one_way(params: &HapticParams, mu: f64, v: DVec3, sums: &PartialSums) -> DVec3 {
+    let s_q = sums.brake_sq_si();
+    let s_f = sums.brake_force_si();
+    let s_f_len = s_f.length();
+    if !params.braking || sums.approaching == 0 || s_q <= 0.0 || s_f_len <= 0.0 {
+        return DVec3::ZERO;
+    }
+    let v_n = v.dot(s_f / s_f_len);
+    if v_n.is_nan() || v_n <= 0.0 {
+        return DVec3::ZERO;
+    }
+    let dt = params.dt;
+    let b = (mu * v_n * v_n / (2.0 * dt * s_q)).min(mu * v_n / (dt * s_f_len));
+    -b * s_f
+}
+
+/// The pair's pre-contact braking (see the module docs) from its sums, with `params` (the
+/// lower-numbered part's: its `braking` flag and `dt`) and the reduced mass of `params.mass` and
+/// `mass_b` (kg). With `f_ab` the braking force A's points get in B (world frame) and `f_ba` B's in
+/// A, the force on A is `(f_ab − f_ba) / 2` and on B `(f_ba − f_ab) / 2`, its exact negation; each
+/// half at most stops its direction's approach, so together they never reverse it. No torque
+/// (the force acts through each origin). Zero with braking off. Pure; does not allocate or block.
+pub fn pair_braking(
+    params: &HapticParams,
+    mass_b: f64,
+    a: &PartState,
+    b: &PartState,
+    sums: &PairSums,
+) -> PairBrake {
+    let mu = params.mass * mass_b / (params.mass + mass_b);
+    // Each origin's velocity relative to the other's moving frame, in that frame (as `pose_in`).
+    let relative = |x: &PartState, y: &PartState| {
+        let to_y = y.orientation.normalize().inverse();
+        to_y * (x.linear_velocity
+            - y.linear_velocity
+            - y.angular_velocity.cross(x.position - y.position))
+    };
+    let f_ab = b.orientation.normalize() * brake_one_way(params, mu, relative(a, b), &sums.a_in_b);
+    let f_ba = a.orientation.normalize() * brake_one_way(params, mu, relative(b, a), &sums.b_in_a);
+    PairBrake {
+        on_a: (f_ab - f_ba) * PAIR_SHARE,
+        on_b: (f_ba - f_ab) * PAIR_SHARE,
     }
 }
 

@@ -2,12 +2,15 @@
 //! itself in its own body frame and a point shell, pressed together at many poses. The pair's
 //! forces are equal and opposite to the bit, its total torque vanishes, naming the parts the other
 //! way round swaps the wrenches bit for bit, apart parts feel nothing, and the broad phase keeps
-//! apart pairs unsampled.
+//! apart pairs unsampled; a cube thrown at another is braked before it touches, the braking
+//! force exactly opposite on the two and never reversing their approach.
 
 use glam::{DQuat, DVec3, IVec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use vps_haptic::pair::{may_touch, pair_wrenches, pose_in, sample_pair, PairSums};
+use vps_haptic::pair::{
+    may_touch, pair_braking, pair_wrenches, pose_in, sample_pair, PairPart, PairPass, PairSums,
+};
 use vps_haptic::{
     step_with_parts, ClassedShell, HapticParams, KernelPose, OtherParts, PartState, PartialSums,
 };
@@ -352,4 +355,117 @@ fn the_pair_pass_skips_apart_pairs_and_pushes_touching_ones_apart_exactly() {
         &sample_pair((&map, &shell, &a), (&map, &shell, &b)),
     );
     assert_eq!((on_a.wrench, on_b.wrench), (w.on_a, w.on_b));
+}
+
+/// Two free cubes (no hands), B thrown at A at `speed` (m/s) from 15 mm away, integrated with the
+/// pair pass's forces alone: the smallest gap between their faces (m), and the largest drift of
+/// the pair's total momentum from its start (kg·m/s).
+fn throw(speed: f64, braking: bool) -> (f64, f64) {
+    let (map, shell) = cube();
+    let params = HapticParams {
+        braking,
+        ..HapticParams::default()
+    };
+    let (m, dt) = (params.mass, params.dt);
+    let mut states = [
+        at(DVec3::ZERO, DQuat::IDENTITY),
+        PartState {
+            linear_velocity: DVec3::new(-speed, 0.0, 0.0),
+            ..at(DVec3::new(2.0 * HALF + 0.015, 0.0, 0.0), DQuat::IDENTITY)
+        },
+    ];
+    let momentum = |s: &[PartState; 2]| (s[0].linear_velocity + s[1].linear_velocity) * m;
+    let start = momentum(&states);
+    let mut pass = PairPass::new(2);
+    let (mut least_gap, mut drift) = (f64::INFINITY, 0.0f64);
+    for _ in 0..300 {
+        let now = states;
+        pass.run(
+            2,
+            |k| PairPart {
+                state: &now[k],
+                params: &params,
+                map: &map,
+                shell: &shell,
+                radius: 0.04,
+            },
+            0.03,
+        );
+        assert_opposite(pass.others[0].wrench.force, pass.others[1].wrench.force);
+        for (s, o) in states.iter_mut().zip(&pass.others) {
+            s.linear_velocity += o.wrench.force / m * dt;
+            s.position += s.linear_velocity * dt;
+        }
+        least_gap = least_gap.min(states[1].position.x - states[0].position.x - 2.0 * HALF);
+        drift = drift.max((momentum(&states) - start).length());
+    }
+    (least_gap, drift)
+}
+
+#[test]
+fn a_cube_thrown_at_another_is_braked_before_it_touches() {
+    // Without braking the 1 m/s cube runs into the other's force layer before the contact
+    // force turns it; with braking the Proximity layer stops the approach first.
+    let (free_gap, free_drift) = throw(1.0, false);
+    let (braked_gap, braked_drift) = throw(1.0, true);
+    assert!(
+        free_gap < 0.0,
+        "unbraked, the faces overlap: gap {free_gap} m"
+    );
+    assert!(
+        braked_gap > 0.0 && braked_gap > free_gap,
+        "braked gap {braked_gap} m, unbraked {free_gap} m"
+    );
+    // Equal and opposite forces keep the pair's momentum (to rounding).
+    assert!(
+        free_drift < 1e-12 && braked_drift < 1e-12,
+        "{free_drift} {braked_drift}"
+    );
+}
+
+#[test]
+fn pair_braking_at_most_stops_the_approach_and_is_opposite_to_the_bit() {
+    let (map, shell) = cube();
+    let params = HapticParams::default();
+    // B's near face 2.5 mm off A's top face, in A's Proximity layer, approaching at 0.2 m/s;
+    // A turning slowly too (its frame moves under B's points).
+    let a = PartState {
+        angular_velocity: DVec3::new(0.0, 0.0, 0.3),
+        ..at(DVec3::ZERO, DQuat::IDENTITY)
+    };
+    let b = PartState {
+        linear_velocity: DVec3::new(0.0, 0.0, -0.2),
+        ..at(DVec3::new(0.0, 0.0, 2.0 * HALF + 0.0025), DQuat::IDENTITY)
+    };
+    let sums = sample_pair((&map, &shell, &a), (&map, &shell, &b));
+    assert!(
+        sums.b_in_a.approaching > 0 && sums.b_in_a.contacts == 0,
+        "{sums:?}"
+    );
+    let brake = pair_braking(&params, params.mass, &a, &b, &sums);
+    assert_opposite(brake.on_a, brake.on_b);
+    assert!(brake.on_b.z > 0.0, "B is pushed back up: {brake:?}");
+    // One frame's impulse on the two at most stops their approach along z.
+    let (m, dt) = (params.mass, params.dt);
+    let approach = -(b.linear_velocity.z - a.linear_velocity.z);
+    let after = approach - dt * (brake.on_b.z / m - brake.on_a.z / m);
+    assert!((0.0..approach).contains(&after), "{approach} → {after}");
+    // Off: nothing; moving apart: nothing.
+    let off = HapticParams {
+        braking: false,
+        ..params
+    };
+    assert_eq!(
+        pair_braking(&off, off.mass, &a, &b, &sums).on_a,
+        DVec3::ZERO
+    );
+    let leaving = PartState {
+        linear_velocity: DVec3::new(0.0, 0.0, 0.2),
+        ..b
+    };
+    let sums = sample_pair((&map, &shell, &a), (&map, &shell, &leaving));
+    assert_eq!(
+        pair_braking(&params, params.mass, &a, &leaving, &sums).on_a,
+        DVec3::ZERO
+    );
 }

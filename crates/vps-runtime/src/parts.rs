@@ -18,8 +18,7 @@
 //! release every device with the exact zero wrench at the end.
 //!
 //! Not here yet: pair points split over cluster workers (a cluster session's other parts sample
-//! the static scene on local threads and their pairs on the frame thread), pre-contact braking
-//! between parts.
+//! the static scene on local threads and their pairs on the frame thread).
 
 use crate::feed::{PartPose, MAX_OTHER_PARTS};
 use crate::pool::FrameSampler;
