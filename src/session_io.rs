@@ -116,6 +116,11 @@ fn named_outputs(args: &RunArgs, part_files: &[String]) -> Vec<(&'static str, Pa
                         .map(|p| ("--study", p)),
                 );
             }
+            outputs.extend(
+                vps_study::files::pair_paths(dir)
+                    .into_iter()
+                    .map(|p| ("--study", p)),
+            );
         }
     }
     outputs

@@ -16,6 +16,7 @@ use vps_device::SimulatedHand;
 use vps_haptic::{HapticParams, PartState};
 use vps_runtime::LoopReport;
 use vps_session::SessionAssets;
+use vps_study::pairs::pair_clearance;
 use vps_study::path::{recompute_paths, PathPart};
 use vps_study::{run_study, study_path, EvidenceInputs, Study, StudyInputs, Target};
 
@@ -283,13 +284,38 @@ fn write_parts_study(run: &StudyRun<'_>, dir: &Path, every: usize, print: Print)
     let started = std::time::Instant::now();
     let paths = recompute_paths(&*assets.tree, &parts, assets.pair_margin);
     let path_ms = started.elapsed().as_secs_f64() * 1e3;
-    let mut lines = Vec::new();
-    let mut studies = Vec::with_capacity(names.len());
+    let mut made = Vec::with_capacity(names.len());
     for (k, (path, final_state)) in paths.into_iter().enumerate() {
         let what = || format!("the study of part '{}' of {}", names[k], run.source);
         let mut study =
             study_path(&evidence(run, k, traces[k])?, path, final_state).with_context(what)?;
         study.timings.path_ms = path_ms;
+        made.push(study);
+    }
+    // The exact clearance between each pair of moving parts along their paths.
+    let mut pairs = Vec::new();
+    for i in 0..made.len() {
+        for j in i + 1..made.len() {
+            let clearance = pair_clearance(
+                (i, part_mesh(assets, i), &made[i].path),
+                (j, part_mesh(assets, j), &made[j].path),
+                SERIES_EVERY_FRAMES,
+            )
+            .with_context(|| {
+                format!(
+                    "the clearance between parts '{}' and '{}'",
+                    names[i], names[j]
+                )
+            })?;
+            pairs.push(clearance);
+        }
+    }
+    let times: Vec<f64> = made[0].path.iter().map(|f| f.time_s).collect();
+    vps_study::files::write_pairs(dir, &names, &pairs, &times, SERIES_EVERY_FRAMES)
+        .with_context(|| format!("writing the pairs' clearance into {}", dir.display()))?;
+    let mut lines = Vec::new();
+    let mut studies = Vec::with_capacity(names.len());
+    for (k, study) in made.into_iter().enumerate() {
         let folder = dir.join(&folders[k]);
         let written = write_part_study(run, k, traces[k], study, &folder, every)?;
         lines.push(format!("part '{}' ({}):", names[k], folder.display()));
@@ -297,11 +323,34 @@ fn write_parts_study(run: &StudyRun<'_>, dir: &Path, every: usize, print: Print)
         studies.push(json!({"name": names[k], "folder": folders[k], "study": written.json}));
     }
     if print == Print::Json {
-        return print_json(&json!({ "parts": studies }));
+        return print_json(&json!({
+            "parts": studies,
+            "pairs": vps_study::files::pairs_json(&names, &pairs, SERIES_EVERY_FRAMES)["pairs"],
+        }));
+    }
+    for p in &pairs {
+        match &p.minimum {
+            Some(m) if m.closest.distance_m == 0.0 => lines.push(format!(
+                "between parts '{}' and '{}': their meshes touched or crossed at t = {:.3} s \
+                 (frame {})",
+                names[p.a], names[p.b], m.time_s, m.frame
+            )),
+            Some(m) => lines.push(format!(
+                "between parts '{}' and '{}': least exact clearance {:.2} mm at t = {:.3} s \
+                 (frame {})",
+                names[p.a],
+                names[p.b],
+                m.closest.distance_m * 1e3,
+                m.time_s,
+                m.frame
+            )),
+            None => {}
+        }
     }
     lines.push(format!(
-        "study: {} parts, each in its own folder of {} (open its report.html; docs/study.md); \
-         clearance is to the static objects, the other parts' force is in path.csv",
+        "study: {} parts, each in its own folder of {} (open its report.html; docs/study.md), \
+         the clearance between the parts in pairs.json and pair_clearance.csv; the other parts' \
+         force on each part is in its path.csv",
         names.len(),
         dir.display()
     ));

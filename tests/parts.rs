@@ -278,6 +278,24 @@ fn a_session_of_two_parts_is_studied_part_by_part_to_the_bit_live_and_from_its_t
         let csv = read("later", "path.csv");
         pair_forces.push(column(&csv, "other_parts_force_x_n"));
     }
+    // The exact clearance between the two cubes: the same live and from the traces, its least
+    // over every frame no more than any of its series (docs/results/study_clearance.md checks it
+    // against FCL on the two-hands scene).
+    let pairs =
+        |dir: &str| std::fs::read_to_string(vps.dir().join(dir).join("pairs.json")).unwrap();
+    assert_eq!(pairs("live"), pairs("later"));
+    let least = made["pairs"][0]["least_m"]
+        .as_f64()
+        .expect("a least clearance");
+    let series = column(
+        &std::fs::read_to_string(vps.dir().join("later/pair_clearance.csv")).unwrap(),
+        "left-right_m",
+    );
+    assert!(
+        least >= 0.0 && series.iter().all(|&d| least <= d),
+        "{least} {series:?}"
+    );
+    assert!(least < 0.02, "pressed together: {least} m");
     // The pair force in the two studies' tables: equal and opposite at every frame.
     let (left, right) = (&pair_forces[0], &pair_forces[1]);
     assert_eq!(left.len(), right.len());

@@ -10,6 +10,10 @@ at every frame of DIR/path.csv and ask FCL for the distance to each static objec
 - vps's clearance series (DIR/clearance.csv, every 10th frame) with FCL's at the same frames;
 - vps's minimum over the whole path (study.json) with FCL's minimum over every frame, and the
   frame each says it happens at.
+And for a scene of two moving parts (assets/scenes/two-hands.toml): each part's mesh and path from
+its folder (DIR/<part>/part.obj, path.csv), both posed at every frame, FCL's distance between the
+two against vps's pair clearance (DIR/pair_clearance.csv every 10th frame, DIR/pairs.json's
+minimum over every frame).
 
 Usage: python3 docs/validation/study_clearance.py [--vps target/release/vps]
 Writes docs/results/study_clearance.json and docs/results/study_clearance.md.
@@ -134,16 +138,74 @@ def study_scene(vps, name, seconds, scratch):
     }
 
 
+def poses_of(path_csv):
+    with open(path_csv) as f:
+        rows = list(csv.DictReader(f))
+    return [
+        (np.array([float(r[f"part_{k}_m"]) for k in "xyz"]), [float(r[f"part_q{k}"]) for k in "xyzw"])
+        for r in rows
+    ]
+
+
+def pair_distance(a, pose_a, b, pose_b):
+    (pa, qa), (pb, qb) = pose_a, pose_b
+    x = fcl.CollisionObject(a, fcl.Transform(np.array([qa[3], qa[0], qa[1], qa[2]]), pa))
+    y = fcl.CollisionObject(b, fcl.Transform(np.array([qb[3], qb[0], qb[1], qb[2]]), pb))
+    d = fcl.distance(x, y, fcl.DistanceRequest(enable_nearest_points=True), fcl.DistanceResult())
+    return max(d, 0.0)
+
+
+def study_pairs(vps, scratch):
+    name, seconds = "two-hands", "5.4"
+    work = os.path.join(scratch, name)
+    shutil.copytree(os.path.join(ROOT, "assets", "scenes"), work)
+    scene = os.path.join(work, f"{name}.toml")
+    study = os.path.join(work, "study")
+    cmd = [vps, "run", "--scene", scene, "--seconds", seconds, "--free-running", "--study", study]
+    subprocess.run(cmd, check=True, capture_output=True, env={**os.environ, "VPS_CACHE_DIR": os.path.join(work, "cache")})
+    pairs = json.load(open(os.path.join(study, "pairs.json")))
+    a_name, b_name = pairs["parts"][0], pairs["parts"][1]
+    a = bvh(*load(os.path.join(study, a_name, "part.obj")))
+    b = bvh(*load(os.path.join(study, b_name, "part.obj")))
+    pa = poses_of(os.path.join(study, a_name, "path.csv"))
+    pb = poses_of(os.path.join(study, b_name, "path.csv"))
+    t0 = time.time()
+    every = np.array([pair_distance(a, x, b, y) for x, y in zip(pa, pb)])
+    fcl_s = time.time() - t0
+    with open(os.path.join(study, "pair_clearance.csv")) as f:
+        series = list(csv.DictReader(f))
+    column = f"{a_name}-{b_name}_m"
+    diffs = [abs(float(r[column]) - every[int(r["frame"])]) for r in series]
+    fcl_frame = int(np.argmin(every))
+    vps_min = pairs["pairs"][0]
+    return {
+        "scene": f"assets/scenes/{name}.toml",
+        "command": f"vps run --scene assets/scenes/{name}.toml --seconds {seconds} --free-running --study DIR",
+        "parts": [a_name, b_name],
+        "frames": len(pa),
+        "series_points_compared": len(diffs),
+        "series_max_abs_difference_m": max(diffs),
+        "vps_minimum_m": vps_min["least_m"],
+        "vps_minimum_frame": vps_min["frame"],
+        "fcl_minimum_m": float(every[fcl_frame]),
+        "fcl_minimum_frame": fcl_frame,
+        "minimum_abs_difference_m": abs(vps_min["least_m"] - float(every[fcl_frame])),
+        "fcl_seconds_every_frame": round(fcl_s, 2),
+    }
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--vps", default=os.path.join(ROOT, "target", "release", "vps"))
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as scratch:
         results = [study_scene(os.path.abspath(args.vps), n, s, scratch) for n, s in SCENES]
+        pair = study_pairs(os.path.abspath(args.vps), scratch)
     out = {
         "reference": f"python-fcl {getattr(fcl, '__version__', '?')} (FCL mesh-mesh distance), trimesh {trimesh.__version__}",
         "command": "python3 docs/validation/study_clearance.py",
         "scenes": results,
+        "pairs": [pair],
     }
     res = os.path.join(ROOT, "docs", "results")
     with open(os.path.join(res, "study_clearance.json"), "w") as f:
@@ -163,6 +225,19 @@ def main():
             f"| {r['vps_minimum_m'] * 1e3:.6f} mm ({r['vps_minimum_frame']}, {r['vps_minimum_object']}) "
             f"| {r['fcl_minimum_m'] * 1e3:.6f} mm ({r['fcl_minimum_frame']}, {r['fcl_minimum_object']}) "
             f"| {r['minimum_abs_difference_m']:.2e} m |"
+        )
+    lines += [
+        "",
+        "Between two moving parts (each posed by its own path; vps measures the second in the first's frame):",
+        "",
+        "| scene | parts | frames | series points | series max \\|vps − FCL\\| | vps minimum (frame) | FCL minimum over every frame (frame) | \\|difference\\| |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for r in out["pairs"]:
+        lines.append(
+            f"| {r['scene']} | {' – '.join(r['parts'])} | {r['frames']} | {r['series_points_compared']} "
+            f"| {r['series_max_abs_difference_m']:.2e} m | {r['vps_minimum_m'] * 1e3:.6f} mm ({r['vps_minimum_frame']}) "
+            f"| {r['fcl_minimum_m'] * 1e3:.6f} mm ({r['fcl_minimum_frame']}) | {r['minimum_abs_difference_m']:.2e} m |"
         )
     lines.append("")
     with open(os.path.join(res, "study_clearance.md"), "w") as f:

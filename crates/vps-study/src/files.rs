@@ -15,7 +15,8 @@
 //! leaves a half-written file; only regular files are ever replaced.
 //!
 //! A session of several moving parts is studied part by part, each part's files in a folder of
-//! its own named after it ([`part_file_names`]).
+//! its own named after it ([`part_file_names`]), and the clearance between each pair of parts
+//! beside those folders ([`write_pairs`]: `pairs.json`, `pair_clearance.csv`).
 
 use crate::Study;
 use serde_json::{json, Value};
@@ -72,6 +73,77 @@ pub fn part_file_names(names: &[String]) -> Vec<String> {
         taken.push(candidate);
     }
     taken
+}
+
+/// The files [`write_pairs`] writes beside the parts' folders, in the order written.
+pub const PAIR_FILES: [&str; 2] = ["pair_clearance.csv", "pairs.json"];
+
+/// The paths of the files [`write_pairs`] writes into `dir`.
+pub fn pair_paths(dir: &Path) -> Vec<PathBuf> {
+    PAIR_FILES.iter().map(|name| dir.join(name)).collect()
+}
+
+/// The pairs' clearance as JSON: per pair the two parts' names, the least exact clearance over
+/// every frame (m), its time and frame, and the two nearest points in the world (m).
+pub fn pairs_json(names: &[String], pairs: &[crate::pairs::PairClearance], every: usize) -> Value {
+    let rows: Vec<Value> = pairs
+        .iter()
+        .map(|p| {
+            let m = p.minimum.as_ref();
+            json!({
+                "a": names.get(p.a),
+                "b": names.get(p.b),
+                "least_m": m.map(|m| m.closest.distance_m),
+                "time_s": m.map(|m| m.time_s),
+                "frame": m.map(|m| m.frame),
+                "on_a_m": m.map(|m| m.closest.on_object_m.to_array()),
+                "on_b_m": m.map(|m| m.closest.on_part_m.to_array()),
+            })
+        })
+        .collect();
+    json!({
+        "format": "vps-study-pairs",
+        "version": 1,
+        "parts": names,
+        "series_every_frames": every,
+        "pairs": rows,
+    })
+}
+
+/// Writes the clearance between each pair of moving parts into `dir`: `pairs.json`
+/// ([`pairs_json`]) and `pair_clearance.csv` (frame, time and one column per pair, `A-B_m`, at the
+/// series frames; `times_s` the session's frame times). Returns the paths written. Blocking.
+pub fn write_pairs(
+    dir: &Path,
+    names: &[String],
+    pairs: &[crate::pairs::PairClearance],
+    times_s: &[f64],
+    every: usize,
+) -> io::Result<Vec<PathBuf>> {
+    let paths = pair_paths(dir);
+    let mut header = vec!["frame".to_string(), "time_s".to_string()];
+    let name = |k: usize| names.get(k).map_or("?", String::as_str);
+    header.extend(
+        pairs
+            .iter()
+            .map(|p| format!("{}-{}_m", name(p.a), name(p.b))),
+    );
+    let frames = pairs.first().map_or(&[][..], |p| &p.series_frames[..]);
+    let rows: Vec<Vec<Value>> = frames
+        .iter()
+        .enumerate()
+        .map(|(k, &i)| {
+            let mut row = vec![json!(i), json!(times_s.get(i))];
+            row.extend(pairs.iter().map(|p| json!(p.series_m[k])));
+            row
+        })
+        .collect();
+    write_file(&paths[0], |out| write_csv(out, &header, &rows))?;
+    write_file(&paths[1], |out| {
+        serde_json::to_writer_pretty(&mut *out, &pairs_json(names, pairs, every))?;
+        writeln!(out)
+    })?;
+    Ok(paths)
 }
 
 /// The paths of the files a study writes into `dir`.

@@ -11,10 +11,11 @@
 //!
 //! A session of several moving parts is studied part by part: [`recompute_paths`](path::recompute_paths)
 //! runs every part's path again together (the pairs too), then [`study_path`] makes each part's
-//! study of its own path against the static objects (clearance to the other moving parts is not
-//! measured; their force on the part is in the path).
+//! study of its own path against the static objects, and [`pairs::pair_clearance`] measures the
+//! exact clearance between each pair of moving parts along their paths.
 //!
-//! Module map: [`path`] (the part's path from a trace), [`clearance`] (exact clearance series and
+//! Module map: [`path`] (the part's path from a trace), [`pairs`] (clearance between two moving
+//! parts), [`clearance`] (exact clearance series and
 //! minimum), [`contacts`] (contact events), [`swept`] (the swept volume as voxels and a closed
 //! mesh), [`verdict`](mod@verdict) (the verdict line), [`report`] (the one-page HTML report),
 //! [`files`] (the study's files).
@@ -28,6 +29,7 @@
 pub mod clearance;
 pub mod contacts;
 pub mod files;
+pub mod pairs;
 pub mod path;
 pub mod report;
 pub mod swept;
