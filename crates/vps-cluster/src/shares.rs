@@ -345,7 +345,19 @@ impl RemoteShares {
                 return false;
             }
         };
-        let acceptance = self.core.accept(datagram.id, &reply, datagram.at);
+        self.accept_reply(&datagram, &reply, &metrics, sums)
+    }
+
+    /// Books the decoded `reply` of `datagram` from the worker whose metrics are `metrics`;
+    /// returns true when it settled a share awaited this frame.
+    fn accept_reply(
+        &mut self,
+        datagram: &Datagram,
+        reply: &FrameReply,
+        metrics: &Arc<PeerMetrics>,
+        sums: &mut PartialSums,
+    ) -> bool {
+        let acceptance = self.core.accept(datagram.id, reply, datagram.at);
         match acceptance {
             Acceptance::Unknown => self.board.bump(|b| &b.orphan_datagrams),
             Acceptance::Late => metrics.bump(|m| &m.late),
@@ -355,14 +367,14 @@ impl RemoteShares {
                 tracing::debug!(worker = datagram.id, "implausible reply dropped");
             }
             Acceptance::Probe { rtt } | Acceptance::Probed { rtt: Some(rtt), .. } => {
-                self.board.record_rtt(&metrics, nanos(rtt))
+                self.board.record_rtt(metrics, nanos(rtt))
             }
             Acceptance::Probed { rtt: None } => {
                 metrics.bump(|m| &m.invalid);
                 tracing::debug!(worker = datagram.id, "wrong probe reply");
             }
             Acceptance::Merged { rtt } => {
-                self.board.record_rtt(&metrics, nanos(rtt));
+                self.board.record_rtt(metrics, nanos(rtt));
                 sums.merge(&reply.sums);
                 metrics.bump(|m| &m.merged);
             }
@@ -415,11 +427,13 @@ impl RemoteShares {
     /// A reply that arrived after this frame's deadline: counted late, never merged; the answer
     /// to an unawaited probe is taken whenever it comes.
     fn accept_late(&mut self, datagram: Datagram) {
-        if FrameReply::decode(&datagram.bytes)
-            .is_ok_and(|r| self.core.answers_probe(datagram.id, r.seq))
-        {
-            self.accept(datagram, &mut PartialSums::default());
-            return;
+        let metrics = self.link(datagram.id).map(|l| l.metrics.clone());
+        // Decoded once: a probe's answer is booked from this decoding.
+        if let (Some(metrics), Ok(reply)) = (&metrics, FrameReply::decode(&datagram.bytes)) {
+            if self.core.answers_probe(datagram.id, reply.seq) {
+                self.accept_reply(&datagram, &reply, metrics, &mut PartialSums::default());
+                return;
+            }
         }
         match self.link(datagram.id) {
             Some(link) if self.core.late(datagram.id) => link.metrics.bump(|m| &m.late),
