@@ -93,7 +93,7 @@ fn named_outputs(args: &RunArgs, part_files: &[String]) -> Vec<(&'static str, Pa
     .into_iter()
     .filter_map(|(flag, path)| Some((flag, path.clone()?)))
     .collect();
-    if let Some(dir) = &args.study {
+    if let (Some(dir), true) = (&args.study, part_files.len() <= 1) {
         outputs.extend(
             vps_study::files::study_paths(dir)
                 .into_iter()

@@ -18,6 +18,7 @@ use vps_runtime::LoopReport;
 use vps_session::SessionAssets;
 use vps_study::pairs::pair_clearance;
 use vps_study::path::{recompute_paths, PathPart};
+use vps_study::report::{parts_index_html, PartEntry};
 use vps_study::{run_study, study_path, EvidenceInputs, Study, StudyInputs, Target};
 
 /// The clearance series holds every this many frames (10 ms at 1 kHz); the minimum is over every
@@ -311,7 +312,17 @@ fn write_parts_study(run: &StudyRun<'_>, dir: &Path, every: usize, print: Print)
         }
     }
     let times: Vec<f64> = made[0].path.iter().map(|f| f.time_s).collect();
-    vps_study::files::write_pairs(dir, &names, &pairs, &times, SERIES_EVERY_FRAMES)
+    let entries: Vec<PartEntry<'_>> = made
+        .iter()
+        .enumerate()
+        .map(|(k, s)| PartEntry {
+            name: &names[k],
+            folder: &folders[k],
+            verdict: &s.verdict.line,
+        })
+        .collect();
+    let index = parts_index_html(&assets.name, &entries, &names, &pairs);
+    vps_study::files::write_pairs(dir, &names, &pairs, &times, SERIES_EVERY_FRAMES, &index)
         .with_context(|| format!("writing the pairs' clearance into {}", dir.display()))?;
     let mut lines = Vec::new();
     let mut studies = Vec::with_capacity(names.len());
@@ -348,9 +359,9 @@ fn write_parts_study(run: &StudyRun<'_>, dir: &Path, every: usize, print: Print)
         }
     }
     lines.push(format!(
-        "study: {} parts, each in its own folder of {} (open its report.html; docs/study.md), \
-         the clearance between the parts in pairs.json and pair_clearance.csv; the other parts' \
-         force on each part is in its path.csv",
+        "study: {} parts in {} (open its report.html: every part's verdict, linked to its own \
+         study, and the clearance between the parts; pairs.json, pair_clearance.csv; \
+         docs/study.md); the other parts' force on each part is in its path.csv",
         names.len(),
         dir.display()
     ));

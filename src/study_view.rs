@@ -120,6 +120,13 @@ pub struct StudyFolder {
 /// part. Errors name the file and what is wrong with it.
 pub fn track_from_folder(dir: &Path) -> Result<StudyFolder> {
     let summary_path = dir.join("study.json");
+    if !summary_path.exists() && dir.join("pairs.json").exists() {
+        bail!(
+            "{} is the study of several moving parts: give one part's folder in it ({}/<part>)",
+            dir.display(),
+            dir.display()
+        );
+    }
     let text = vps_files::read_regular_to_string(&summary_path, MAX_STUDY_JSON_BYTES)
         .with_context(|| format!("reading {}", summary_path.display()))?;
     let summary: Value = serde_json::from_str(&text)

@@ -296,6 +296,14 @@ fn a_session_of_two_parts_is_studied_part_by_part_to_the_bit_live_and_from_its_t
         "{least} {series:?}"
     );
     assert!(least < 0.02, "pressed together: {least} m");
+    // The index page links each part's own report and lists the pair.
+    let index = std::fs::read_to_string(vps.dir().join("later/report.html")).unwrap();
+    assert!(
+        index.contains("<a href=\"left/report.html\">left</a>")
+            && index.contains("<a href=\"right/report.html\">right</a>")
+            && index.contains("<td>left – right</td>"),
+        "{index}"
+    );
     // The pair force in the two studies' tables: equal and opposite at every frame.
     let (left, right) = (&pair_forces[0], &pair_forces[1]);
     assert_eq!(left.len(), right.len());

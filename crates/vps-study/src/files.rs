@@ -75,8 +75,9 @@ pub fn part_file_names(names: &[String]) -> Vec<String> {
     taken
 }
 
-/// The files [`write_pairs`] writes beside the parts' folders, in the order written.
-pub const PAIR_FILES: [&str; 2] = ["pair_clearance.csv", "pairs.json"];
+/// The files [`write_pairs`] writes beside the parts' folders, in the order written
+/// (`report.html` the index of the parts' studies, [`crate::report::parts_index_html`]).
+pub const PAIR_FILES: [&str; 3] = ["pair_clearance.csv", "pairs.json", "report.html"];
 
 /// The paths of the files [`write_pairs`] writes into `dir`.
 pub fn pair_paths(dir: &Path) -> Vec<PathBuf> {
@@ -111,14 +112,16 @@ pub fn pairs_json(names: &[String], pairs: &[crate::pairs::PairClearance], every
 }
 
 /// Writes the clearance between each pair of moving parts into `dir`: `pairs.json`
-/// ([`pairs_json`]) and `pair_clearance.csv` (frame, time and one column per pair, `A-B_m`, at the
-/// series frames; `times_s` the session's frame times). Returns the paths written. Blocking.
+/// ([`pairs_json`]), `pair_clearance.csv` (frame, time and one column per pair, `A-B_m`, at the
+/// series frames; `times_s` the session's frame times) and `index_html` as `report.html` (the
+/// index of the parts' studies). Returns the paths written. Blocking.
 pub fn write_pairs(
     dir: &Path,
     names: &[String],
     pairs: &[crate::pairs::PairClearance],
     times_s: &[f64],
     every: usize,
+    index_html: &str,
 ) -> io::Result<Vec<PathBuf>> {
     let paths = pair_paths(dir);
     let mut header = vec!["frame".to_string(), "time_s".to_string()];
@@ -143,6 +146,7 @@ pub fn write_pairs(
         serde_json::to_writer_pretty(&mut *out, &pairs_json(names, pairs, every))?;
         writeln!(out)
     })?;
+    write_file(&paths[2], |out| out.write_all(index_html.as_bytes()))?;
     Ok(paths)
 }
 

@@ -361,3 +361,80 @@ pub fn report_html(study: &Study, settings: &Value, view_page: Option<&str>) -> 
     );
     html
 }
+
+/// One part of a session of several, as the index page lists it.
+pub struct PartEntry<'a> {
+    /// The part's name.
+    pub name: &'a str,
+    /// Its folder, relative to the index page.
+    pub folder: &'a str,
+    /// Its verdict line.
+    pub verdict: &'a str,
+}
+
+/// The `report.html` of a study of several moving parts, beside the parts' folders: the scene's
+/// name, each part's verdict with a link to its own `report.html`, and the least exact clearance
+/// between each pair of parts (`names` every part, the first first). Plain HTML, no script, nothing
+/// fetched.
+pub fn parts_index_html(
+    scene: &str,
+    parts: &[PartEntry<'_>],
+    names: &[String],
+    pairs: &[crate::pairs::PairClearance],
+) -> String {
+    let mut html = String::new();
+    let _ = write!(
+        html,
+        "<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\">\
+         <title>vps study: {t}</title><style>\
+         body{{font-family:sans-serif;max-width:800px;margin:1em auto;color:#222}}\
+         table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:2px 6px;\
+         text-align:left;font-size:.9em}}</style></head><body>\
+         <h1>Assembly study: {t}</h1><p>{n} moving parts, each studied against the static \
+         objects in its own folder; the clearance between the parts below.</p>\
+         <h2>Parts</h2><table id=\"parts\"><tr><th>part</th><th>verdict</th></tr>",
+        t = escape(scene),
+        n = parts.len()
+    );
+    for p in parts {
+        let _ = write!(
+            html,
+            "<tr><td><a href=\"{f}/report.html\">{name}</a></td><td>{v}</td></tr>",
+            f = escape(p.folder),
+            name = escape(p.name),
+            v = escape(p.verdict)
+        );
+    }
+    html.push_str(
+        "</table><h2>Clearance between the parts</h2><table id=\"pairs\"><tr><th>parts</th>\
+         <th>least exact clearance</th><th>at</th></tr>",
+    );
+    let name = |k: usize| escape(names.get(k).map_or("?", String::as_str));
+    for p in pairs {
+        let (least, at) = match &p.minimum {
+            Some(m) if m.closest.distance_m == 0.0 => (
+                "touched or crossed".to_string(),
+                format!("{:.3} s", m.time_s),
+            ),
+            Some(m) => (
+                format!("{:.3} mm", m.closest.distance_m * 1e3),
+                format!("{:.3} s (frame {})", m.time_s, m.frame),
+            ),
+            None => (
+                "not measured (a mesh without triangles)".into(),
+                String::new(),
+            ),
+        };
+        let _ = write!(
+            html,
+            "<tr><td>{} – {}</td><td>{least}</td><td>{at}</td></tr>",
+            name(p.a),
+            name(p.b)
+        );
+    }
+    html.push_str(
+        "</table><p>Every series: <code>pair_clearance.csv</code>; the figures: \
+         <code>pairs.json</code>.</p></body></html>\n",
+    );
+    html
+}
