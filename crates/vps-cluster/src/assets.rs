@@ -8,7 +8,7 @@ use crate::ClusterError;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use vps_haptic::{sample_class, ClassedShell, KernelPose, PartialSums};
+use vps_haptic::{sample_class_in, sample_mask, ClassedShell, KernelFrame, KernelPose, PartialSums};
 use vps_voxmap::file::{read_shell, read_voxmap, write_shell, write_voxmap};
 use vps_voxmap::{PointShell, VoxelTree};
 
@@ -95,10 +95,11 @@ impl ClusterAssets {
     /// current rayon pool (call inside `ThreadPool::install`). Exact: the same bits for any
     /// grouping. Does not allocate beyond rayon's own bookkeeping; blocks until done.
     pub fn sample_mask(&self, pose: &KernelPose, mask: u64) -> PartialSums {
+        let frame = KernelFrame::new(&*self.map, &self.shell, pose);
         (0..MAX_CLASSES)
             .into_par_iter()
             .filter(|c| mask >> c & 1 == 1)
-            .map(|c| sample_class(&*self.map, &self.shell, pose, c))
+            .map(|c| sample_class_in(&*self.map, &self.shell, &frame, c))
             .reduce(PartialSums::default, |mut a, b| {
                 a.merge(&b);
                 a
@@ -108,11 +109,7 @@ impl ClusterAssets {
     /// [`ClusterAssets::sample_mask`] on the calling thread alone: the same bits, no rayon
     /// hand-off (for one compute thread). Does not allocate; blocks until done.
     pub fn sample_mask_serial(&self, pose: &KernelPose, mask: u64) -> PartialSums {
-        let mut sums = PartialSums::default();
-        for c in crate::protocol::mask_classes(mask) {
-            sums.merge(&sample_class(&*self.map, &self.shell, pose, c));
-        }
-        sums
+        sample_mask(&*self.map, &self.shell, pose, mask)
     }
 
     /// The voxmap file bytes (`vps_voxmap::file` format).

@@ -39,7 +39,9 @@ pub mod sums;
 
 pub use classed::ClassedShell;
 pub use frame::{step, step_with_parts, FrameOutput, OtherParts};
-pub use kernel::{sample_all, sample_class, sample_classes};
+pub use kernel::{
+    sample_all, sample_class, sample_class_in, sample_classes, sample_mask, KernelFrame,
+};
 pub use params::{Gains, HapticParams, ParamsError, StabilityIndices};
 pub use state::{KernelPose, PartState};
 pub use sums::PartialSums;

@@ -511,3 +511,75 @@ fn tree_formats_give_the_sums_of_plain_lookups() {
         }
     }
 }
+
+/// A pose prepared once per frame ([`vps_haptic::KernelFrame`]) samples every class to the same
+/// bits as preparing it per class, and [`vps_haptic::sample_mask`] gives the merged classes of its
+/// mask: on the layered wall and on its distance band, at poses in contact, moving, and insane.
+#[test]
+fn a_frame_prepared_once_samples_every_class_to_the_same_bits() {
+    use vps_haptic::{sample_class_in, sample_mask, KernelFrame};
+    let shell = ClassedShell::new(&cube_shell(0.02, 12), 64);
+    let layered = half_space();
+    let band = half_space_band(0.001);
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let mut poses: Vec<KernelPose> = (0..20)
+        .map(|_| {
+            let state = PartState {
+                position: DVec3::new(
+                    rng.gen_range(-0.03..0.03),
+                    rng.gen_range(-0.03..0.03),
+                    rng.gen_range(0.0..0.03),
+                ),
+                orientation: DQuat::from_euler(
+                    glam::EulerRot::XYZ,
+                    rng.gen_range(-1.0..1.0),
+                    rng.gen_range(-1.0..1.0),
+                    rng.gen_range(-1.0..1.0),
+                ),
+                linear_velocity: DVec3::new(0.0, 0.0, -rng.gen_range(0.0..2.0)),
+                angular_velocity: DVec3::new(rng.gen_range(-3.0..3.0), 0.0, 0.0),
+            };
+            KernelPose::from_state(&state)
+        })
+        .collect();
+    let mut insane = poses[0];
+    insane.translation.x = f32::NAN;
+    poses.push(insane);
+    let mut touched = 0;
+    for pose in &poses {
+        let check = |map: &dyn Fn(u32) -> (PartialSums, PartialSums), mask_sums: PartialSums| {
+            let mut merged = PartialSums::default();
+            for class in 0..64 {
+                let (per_class, prepared) = map(class);
+                assert_eq!(per_class, prepared, "class {class} at {pose:?}");
+                if 0xA5A5_F00F_0123_4567u64 >> class & 1 == 1 {
+                    merged.merge(&per_class);
+                }
+            }
+            assert_eq!(merged, mask_sums, "{pose:?}");
+            merged.non_free
+        };
+        let mask = 0xA5A5_F00F_0123_4567u64;
+        let frame = KernelFrame::new(&layered, &shell, pose);
+        touched += check(
+            &|c| {
+                (
+                    sample_class(&layered, &shell, pose, c),
+                    sample_class_in(&layered, &shell, &frame, c),
+                )
+            },
+            sample_mask(&layered, &shell, pose, mask),
+        );
+        let frame = KernelFrame::new(&band, &shell, pose);
+        touched += check(
+            &|c| {
+                (
+                    sample_class(&band, &shell, pose, c),
+                    sample_class_in(&band, &shell, &frame, c),
+                )
+            },
+            sample_mask(&band, &shell, pose, mask),
+        );
+    }
+    assert!(touched > 0, "some poses touch the wall");
+}

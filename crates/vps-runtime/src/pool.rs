@@ -19,7 +19,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
-use vps_haptic::{sample_class, ClassedShell, KernelPose, PartialSums};
+use vps_haptic::{sample_class_in, ClassedShell, KernelFrame, KernelPose, PartialSums};
 use vps_voxmap::VoxelLookup;
 
 /// What the frame thread waits, beyond twice its own mean time per class, for a class a worker
@@ -158,8 +158,10 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
                 .spawn(move || {
                     for job in job_rx.iter() {
                         let work = catch_unwind(AssertUnwindSafe(|| {
+                            // Prepared once for the frame, used for every class this thread takes.
+                            let frame = KernelFrame::new(&*map, &shell, &job.pose);
                             while let Some(class) = cursor.claim(job.seq, classes) {
-                                let sums = sample_class(&*map, &shell, &job.pose, class);
+                                let sums = sample_class_in(&*map, &shell, &frame, class);
                                 // Full only if the frame thread stopped reading: drop the reply.
                                 let _ = reply_tx.try_send(Reply {
                                     seq: job.seq,
@@ -227,8 +229,9 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
         let mut missing = classes as usize;
         let own_started = Instant::now();
         let mut own = 0u32;
+        let frame = KernelFrame::new(&*self.map, &self.shell, pose);
         while let Some(class) = self.cursor.claim(seq, classes) {
-            sums.merge(&sample_class(&*self.map, &self.shell, pose, class));
+            sums.merge(&sample_class_in(&*self.map, &self.shell, &frame, class));
             self.done[class as usize] = true;
             missing -= 1;
             own += 1;
@@ -257,7 +260,7 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
             }
             missing -= self.take_replies(seq, &mut sums);
             if !self.done[class as usize] {
-                sums.merge(&sample_class(&*self.map, &self.shell, pose, class));
+                sums.merge(&sample_class_in(&*self.map, &self.shell, &frame, class));
                 self.done[class as usize] = true;
                 missing -= 1;
                 fallback_shares += 1;
