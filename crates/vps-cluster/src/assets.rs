@@ -8,7 +8,9 @@ use crate::ClusterError;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use vps_haptic::{sample_class_in, sample_mask, ClassedShell, KernelFrame, KernelPose, PartialSums};
+use vps_haptic::{
+    sample_class_in, sample_mask, ClassedShell, KernelFrame, KernelPose, PartialSums,
+};
 use vps_voxmap::file::{read_shell, read_voxmap, write_shell, write_voxmap};
 use vps_voxmap::{PointShell, VoxelTree};
 

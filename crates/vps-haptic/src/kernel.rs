@@ -126,7 +126,13 @@ pub(crate) fn sample_class_on<L: VoxelLookup>(
     class: u32,
     widest: Widest,
 ) -> PartialSums {
-    sample_class_with(map, shell, &KernelFrame::new(map, shell, pose), class, widest)
+    sample_class_with(
+        map,
+        shell,
+        &KernelFrame::new(map, shell, pose),
+        class,
+        widest,
+    )
 }
 
 /// One class with a prepared frame, on at most the `widest` copy of the block loop.
