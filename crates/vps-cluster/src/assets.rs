@@ -69,12 +69,31 @@ impl ClusterAssets {
     }
 
     /// Rebuilds the assets from received (or cached) file bytes and checks it against `identity`:
-    /// the voxmap's content hash and the shell file's BLAKE3 must match.
+    /// the voxmap's content hash and the shell file's BLAKE3 must match, and the files' lengths
+    /// and the class count be `identity`'s. The files are kept as received (not encoded again),
+    /// and `identity` is the assets' identity.
     pub fn from_files(
         identity: &AssetsIdentity,
         voxmap_file: Vec<u8>,
         shell_file: Vec<u8>,
     ) -> Result<ClusterAssets, ClusterError> {
+        if !(1..=MAX_CLASSES).contains(&identity.class_count) {
+            return Err(ClusterError::Config {
+                field: "class_count",
+                message: format!("{} is outside 1..={MAX_CLASSES}", identity.class_count),
+            });
+        }
+        if (voxmap_file.len() as u64, shell_file.len() as u64)
+            != (identity.voxmap_len, identity.shell_len)
+        {
+            return Err(ClusterError::Scene(format!(
+                "received {} voxmap and {} shell bytes where the identity says {} and {}",
+                voxmap_file.len(),
+                shell_file.len(),
+                identity.voxmap_len,
+                identity.shell_len
+            )));
+        }
         let map = read_voxmap(voxmap_file.as_slice())
             .map_err(|e| ClusterError::Scene(format!("received voxmap: {e}")))?;
         if map.content_hash() != identity.voxmap_hash {
@@ -89,8 +108,13 @@ impl ClusterAssets {
         }
         let shell = read_shell(shell_file.as_slice())
             .map_err(|e| ClusterError::Scene(format!("received shell: {e}")))?;
-        let scene = ClusterAssets::new(Arc::new(map), &shell, identity.class_count)?;
-        Ok(scene)
+        Ok(ClusterAssets {
+            map: Arc::new(map),
+            shell: Arc::new(ClassedShell::new(&shell, identity.class_count)),
+            identity: *identity,
+            voxmap_file,
+            shell_file,
+        })
     }
 
     /// The merged sums of the classes whose bits are set in `mask`, sampled in parallel on the
@@ -186,4 +210,53 @@ fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let tmp = path.with_extension("partial");
     std::fs::write(&tmp, bytes)?;
     std::fs::rename(tmp, path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vps_haptic::{sample_all, KernelPose};
+
+    /// Received files are kept byte for byte, the identity is the sender's, the sums are the
+    /// sender's; a length or class count other than the identity's is refused.
+    #[test]
+    fn received_files_are_kept_as_received_and_checked_against_the_identity() {
+        let sent = vps_testkit::cluster::assets();
+        let identity = sent.identity;
+        let got = ClusterAssets::from_files(
+            &identity,
+            sent.voxmap_file().to_vec(),
+            sent.shell_file().to_vec(),
+        )
+        .unwrap();
+        assert_eq!(got.identity, identity);
+        assert_eq!(got.voxmap_file(), sent.voxmap_file());
+        assert_eq!(got.shell_file(), sent.shell_file());
+        let pose = KernelPose::from_state(&vps_haptic::PartState::at_rest(
+            glam::DVec3::new(0.0, 0.0, 0.01),
+            glam::DQuat::IDENTITY,
+        ));
+        assert_eq!(
+            sample_all(&*got.map, &got.shell, &pose),
+            sample_all(&*sent.map, &sent.shell, &pose)
+        );
+        let mut longer = sent.voxmap_file().to_vec();
+        longer.push(0);
+        let err = ClusterAssets::from_files(&identity, longer, sent.shell_file().to_vec())
+            .err()
+            .unwrap();
+        assert!(err.to_string().contains("voxmap and"), "{err}");
+        let none = AssetsIdentity {
+            class_count: 0,
+            ..identity
+        };
+        let err = ClusterAssets::from_files(
+            &none,
+            sent.voxmap_file().to_vec(),
+            sent.shell_file().to_vec(),
+        )
+        .err()
+        .unwrap();
+        assert!(err.to_string().contains("class_count"), "{err}");
+    }
 }
