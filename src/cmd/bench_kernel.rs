@@ -1,7 +1,7 @@
 //! `vps bench kernel`: nanoseconds per point of the sampling kernel on one core, tree lookup
 //! included, for 10k, 100k and 1M points (by default), in free space and in full contact: the
 //! current kernel (per-point fixed point; AVX-512 blocks where the CPU has AVX-512F and DQ) and the
-//! previous one (the same kernel on at most AVX2, `vps_haptic::previous`), alternated batch by
+//! previous one (the same kernel on at most AVX2, `vps_haptic::avx2_only`), alternated batch by
 //! batch in one run so that their ratio holds on a loaded machine. Both give the same sums, bit
 //! for bit (checked before timing).
 //!
@@ -46,7 +46,7 @@ pub struct KernelFigure {
     pub points: usize,
     /// The current kernel.
     pub current: KernelTimes,
-    /// The previous kernel (the current one on at most AVX2, `vps_haptic::previous`), measured
+    /// The previous kernel (the current one on at most AVX2, `vps_haptic::avx2_only`), measured
     /// alternately.
     pub previous: KernelTimes,
     /// Previous over current ns per point in contact (median of the per-round ratios; > 1: the
@@ -137,7 +137,7 @@ fn has_avx2() -> bool {
     }
 }
 
-/// A whole-shell kernel: `vps_haptic::sample_all` or `vps_haptic::previous::sample_all`.
+/// A whole-shell kernel: `vps_haptic::sample_all` or `vps_haptic::avx2_only::sample_all`.
 type Kernel<L> = fn(&L, &ClassedShell, &KernelPose) -> PartialSums;
 
 /// Repetitions of `kernel` that take about `secs`.
@@ -197,7 +197,7 @@ fn alternated(
     pose: &KernelPose,
     secs: f64,
 ) -> (f64, f64, f64) {
-    let previous: Kernel<VoxelTree> = vps_haptic::previous::sample_all;
+    let previous: Kernel<VoxelTree> = vps_haptic::avx2_only::sample_all;
     let current: Kernel<VoxelTree> = sample_all;
     let reps = calibrate(previous, tree, shell, pose, secs);
     // Which kernel goes first alternates too, so that neither always runs on a cache the other
@@ -264,7 +264,7 @@ fn measure(n: usize, batch_seconds: f64) -> Result<KernelFigure> {
     let free = pose_at(&dense.spec, DVec3::new(slot * 1.5, slot / 2.0, slot / 2.0));
     let sums = sample_all(&tree, &shell, &contact);
     // The same kernel on another copy of the block loop: the same bits.
-    let old = vps_haptic::previous::sample_all(&tree, &shell, &contact);
+    let old = vps_haptic::avx2_only::sample_all(&tree, &shell, &contact);
     anyhow::ensure!(old == sums, "the previous and current kernels disagree");
     let (old_contact, new_contact, contact_speedup) =
         alternated(&tree, &shell, &contact, batch_seconds);

@@ -202,7 +202,7 @@ fn main() {
     };
     // A fourth argument `previous`: the previous kernel (the current one on at most AVX2).
     let kernel = if args.get(4).is_some_and(|a| a == "previous") {
-        vps_haptic::previous::sample_all::<VoxelTree>
+        vps_haptic::avx2_only::sample_all::<VoxelTree>
     } else {
         sample_all::<VoxelTree>
     };

@@ -15,7 +15,7 @@
 //! [`VoxelLookup::get_wide_block`]), then the class's last full block of 8 on the AVX2 intrinsics
 //! compiled with those features (rounding each sum's eight lanes to `i64` in one `vcvtps2qq`,
 //! counting with `popcnt`), then the portable tail. The same IEEE operations in the same order, no
-//! fused multiply-add. The AVX2 copy is also the previous kernel ([`crate::previous`]), so the
+//! fused multiply-add. The AVX2 copy is also the kernel on at most AVX2 ([`crate::avx2_only`]), so the
 //! AVX-512 copy's own choices sit behind its `WIDE` flag rather than in the shared code.
 //!
 //! Exactness (docs/architecture.md#exact-sums-and-the-cluster): each point's contribution is
@@ -74,7 +74,7 @@ pub fn sample_class<L: VoxelLookup>(
 pub(crate) enum Widest {
     /// AVX-512 (F, DQ) with POPCNT, else AVX2, else portable: the current kernel.
     Avx512,
-    /// AVX2, else portable: the kernel before the AVX-512 copy ([`crate::previous`]).
+    /// AVX2, else portable: the kernel before the AVX-512 copy ([`crate::avx2_only`]).
     Avx2,
 }
 

@@ -22,6 +22,8 @@
 
 #![warn(missing_docs)]
 
+#[doc(hidden)]
+pub mod avx2_only;
 pub mod classed;
 pub mod contact;
 pub mod coupling;
@@ -31,8 +33,6 @@ pub mod kernel;
 mod lanes;
 pub mod pair;
 pub mod params;
-#[doc(hidden)]
-pub mod previous;
 pub mod stability;
 pub mod state;
 pub mod sums;

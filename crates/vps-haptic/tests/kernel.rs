@@ -502,7 +502,7 @@ fn tree_formats_give_the_sums_of_plain_lookups() {
                         "{width:?} {config:?}"
                     );
                     assert_eq!(
-                        vps_haptic::previous::sample_all(&tree, &classed, &pose),
+                        vps_haptic::avx2_only::sample_all(&tree, &classed, &pose),
                         want,
                         "{width:?} {config:?}, previous kernel"
                     );
