@@ -190,12 +190,13 @@ fn sweep_and_tune_run_from_any_folder_with_only_the_binary() {
     // The scene's own setting (10 mm, the built-in 4-bit exact) is marked.
     assert_eq!(text.matches("* scene's own").count(), 1, "{text}");
     assert!(text.contains("-: not measured (null in --json)"), "{text}");
-    // Both models push along the exact normal here (direction error 0° to the whole degree):
-    // the distance model, whose part comes closer to the wall without entering it, is chosen.
+    // Which row is chosen depends on which rows' p99.9 fit the budget on this (loaded) machine,
+    // a timing: the rule itself is the unit test `a_tie_in_direction_goes_to_the_tightest_
+    // clearance_resolved`. Here: a recommendation naming a model and the clearance it resolves.
     assert!(
-        text.contains(
-            "recommended for mine: [voxels] force_model = \"distance\", voxel_size = \"10mm\""
-        ) && text.contains("rule: the lowest penetration ratio"),
+        text.contains("recommended for mine: [voxels] force_model = \"")
+            && text.contains("min exact separation")
+            && text.contains("rule: the lowest penetration ratio"),
         "{text}"
     );
     // `--json` alone: the table on stdout as JSON, and no text.
