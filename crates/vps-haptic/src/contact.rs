@@ -39,29 +39,47 @@ pub fn brake_wrench(
     state: &PartState,
     sums: &PartialSums,
 ) -> Wrench {
-    let s_q = sums.brake_sq_si();
-    let s_f = sums.brake_force_si();
-    let s_f_len = s_f.length();
-    if !params.braking || sums.approaching == 0 || s_q <= 0.0 || s_f_len <= 0.0 {
+    let Some(b) = brake_viscosity(params, params.mass, state.linear_velocity, sums) else {
         return Wrench::ZERO;
-    }
-    let v_n = state.linear_velocity.dot(s_f / s_f_len);
-    if v_n.is_nan() || v_n <= 0.0 {
-        return Wrench::ZERO;
-    }
-    let (m, dt) = (params.mass, params.dt);
-    let b = (m * v_n * v_n / (2.0 * dt * s_q)).min(m * v_n / (dt * s_f_len));
+    };
     let torque = if params.braking_torque {
         let t = -b * sums.brake_torque_si();
-        let max = gains.inertia * state.angular_velocity.length() / dt;
+        let max = gains.inertia * state.angular_velocity.length() / params.dt;
         clamp_length(t, max).0
     } else {
         DVec3::ZERO
     };
     Wrench {
-        force: -b * s_f,
+        force: -b * sums.brake_force_si(),
         torque,
     }
+}
+
+/// The braking viscosity `b` (N·s/m) of `sums`' Proximity points for a body of mass `mass` (kg)
+/// whose origin moves at `velocity` (m/s, in the frame the sums were sampled in): with
+/// `u = S_f / |S_f|` and `v_n = velocity·u`, `b = mass v_n² / (2 dt S_q)` capped at
+/// `mass v_n / (dt |S_f|)`, so that the force `−b S_f` at most stops the approach in one frame.
+/// `None` when braking is off, nothing approaches, or the body is not moving towards the points.
+/// The static scene's braking ([`brake_wrench`]) and a pair's (`crate::pair::pair_braking`, with
+/// the pair's reduced mass and relative velocity) both use it. Pure.
+pub(crate) fn brake_viscosity(
+    params: &HapticParams,
+    mass: f64,
+    velocity: DVec3,
+    sums: &PartialSums,
+) -> Option<f64> {
+    let s_q = sums.brake_sq_si();
+    let s_f = sums.brake_force_si();
+    let s_f_len = s_f.length();
+    if !params.braking || sums.approaching == 0 || s_q <= 0.0 || s_f_len <= 0.0 {
+        return None;
+    }
+    let v_n = velocity.dot(s_f / s_f_len);
+    if v_n.is_nan() || v_n <= 0.0 {
+        return None;
+    }
+    let dt = params.dt;
+    Some((mass * v_n * v_n / (2.0 * dt * s_q)).min(mass * v_n / (dt * s_f_len)))
 }
 
 /// `v` scaled down to length `max` if longer (to just under `max`, so rounding cannot leave it

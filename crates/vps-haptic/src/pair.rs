@@ -27,7 +27,7 @@
 
 use glam::{DQuat, DVec3};
 
-use crate::contact::contact_wrench;
+use crate::contact::{brake_viscosity, contact_wrench};
 use crate::frame::OtherParts;
 use crate::params::{Gains, HapticParams, StabilityIndices};
 use crate::stability::stability_index;
@@ -211,27 +211,6 @@ pub struct PairBrake {
     pub on_b: DVec3,
 }
 
-/// The braking of one direction: `sums` are one part's points in the other's voxmap (its frame),
-/// `v` the first part's origin's velocity relative to the other's frame, in that frame (m/s),
-/// `mu` the pair's reduced mass (kg). As [`crate::contact::brake_wrench`]: `u = S_f / |S_f|`,
-/// approach speed `v_n = v·u`, viscosity `b = μ v_n² / (2 dt S_q)` capped at `μ v_n / (dt |S_f|)`
-/// (one frame's impulse at most stops the approach), force `−b S_f`; zero when nothing approaches.
-fn brake_one_way(params: &HapticParams, mu: f64, v: DVec3, sums: &PartialSums) -> DVec3 {
-    let s_q = sums.brake_sq_si();
-    let s_f = sums.brake_force_si();
-    let s_f_len = s_f.length();
-    if !params.braking || sums.approaching == 0 || s_q <= 0.0 || s_f_len <= 0.0 {
-        return DVec3::ZERO;
-    }
-    let v_n = v.dot(s_f / s_f_len);
-    if v_n.is_nan() || v_n <= 0.0 {
-        return DVec3::ZERO;
-    }
-    let dt = params.dt;
-    let b = (mu * v_n * v_n / (2.0 * dt * s_q)).min(mu * v_n / (dt * s_f_len));
-    -b * s_f
-}
-
 /// The pair's pre-contact braking (see the module docs) from its sums, with `params` (the
 /// lower-numbered part's: its `braking` flag and `dt`) and the reduced mass of `params.mass` and
 /// `mass_b` (kg). With `f_ab` the braking force A's points get in B (world frame) and `f_ba` B's in
@@ -253,8 +232,12 @@ pub fn pair_braking(
             - y.linear_velocity
             - y.angular_velocity.cross(x.position - y.position))
     };
-    let f_ab = b.orientation.normalize() * brake_one_way(params, mu, relative(a, b), &sums.a_in_b);
-    let f_ba = a.orientation.normalize() * brake_one_way(params, mu, relative(b, a), &sums.b_in_a);
+    // One direction's braking force, in the frame its sums were sampled in: `−b S_f`.
+    let brake = |v: DVec3, sums: &PartialSums| {
+        brake_viscosity(params, mu, v, sums).map_or(DVec3::ZERO, |b| -b * sums.brake_force_si())
+    };
+    let f_ab = b.orientation.normalize() * brake(relative(a, b), &sums.a_in_b);
+    let f_ba = a.orientation.normalize() * brake(relative(b, a), &sums.b_in_a);
     PairBrake {
         on_a: (f_ab - f_ba) * PAIR_SHARE,
         on_b: (f_ba - f_ab) * PAIR_SHARE,
