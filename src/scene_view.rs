@@ -32,18 +32,15 @@ pub fn viewer_content(assets: &SessionAssets, limits: SceneLimits) -> ViewerCont
 /// hand's path with its start pose (when its script can be made). The other moving parts are not
 /// drawn: the study is of this part's path against the static objects.
 pub fn part_content(assets: &SessionAssets, part: usize, limits: SceneLimits) -> ViewerContent {
-    let (mesh, shell, script) = match part.checked_sub(1).and_then(|k| assets.more_parts.get(k)) {
-        None => (&assets.part_mesh, &assets.shell, assets.script()),
-        Some(p) => (&p.mesh, &p.shell, p.hand.script(&assets.tree)),
-    };
+    let p = assets.part(part).unwrap_or_else(|| assets.first_part());
     let content = ViewerContent::new(
         assets.name.clone(),
         assets.tree.clone(),
-        Some(Arc::new(shell.clone())),
+        Some(Arc::new(p.shell.clone())),
         limits,
     )
-    .with_meshes(assets.static_meshes.clone(), Some(mesh.clone()));
-    match script {
+    .with_meshes(assets.static_meshes.clone(), Some(p.mesh.clone()));
+    match p.hand.script(&assets.tree) {
         Ok(script) => {
             // Every 10 ms of the path (the viewer thins it further when long).
             let steps = (script.duration() / 0.01).ceil().clamp(1.0, 1e6) as usize;

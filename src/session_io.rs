@@ -307,11 +307,7 @@ fn bridge_settings(
 pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
     let mut loaded = LoadedScene::load_within(&args.scene.scene, args.scene.memory_budget())?;
     let choice = device_choice(args.device.as_deref(), &loaded.device)?;
-    let part_files = vps_study::files::part_file_names(
-        &std::iter::once(loaded.part_name.clone())
-            .chain(loaded.more_parts.iter().map(|p| p.name.clone()))
-            .collect::<Vec<_>>(),
-    );
+    let part_files = vps_study::files::part_file_names(&loaded.part_names());
     if args.replay_every_part {
         let DeviceChoice::Replay(first) = &choice else {
             bail!("every part replays its own trace only beside a replayed first part");
@@ -732,10 +728,7 @@ fn save_recording(assets: &SessionAssets, report: &LoopReport, path: &Path) -> R
     if report.other_parts.is_empty() {
         return Ok(());
     }
-    let names: Vec<String> = std::iter::once(assets.part_name.clone())
-        .chain(report.other_parts.iter().map(|p| p.name.clone()))
-        .collect();
-    let files = vps_study::files::part_file_names(&names);
+    let files = vps_study::files::part_file_names(&assets.part_names());
     for (part, file) in report.other_parts.iter().zip(&files[1..]) {
         if let Some(why) = &part.trace_error {
             bail!("part '{}': trace recording stopped early: {why}", part.name);

@@ -15,7 +15,7 @@ use vps_device::trace::Trace as HandleTrace;
 use vps_device::SimulatedHand;
 use vps_haptic::{HapticParams, PartState};
 use vps_runtime::LoopReport;
-use vps_session::SessionAssets;
+use vps_session::{PartView, SessionAssets};
 use vps_study::pairs::pair_clearance;
 use vps_study::path::{recompute_paths, PathPart};
 use vps_study::report::{parts_index_html, PartEntry};
@@ -98,16 +98,13 @@ pub fn write_session_study(
 /// Where the hand was taking part `part` (0 the first): the end of its path in the scene when
 /// its trace is the simulated hand's (or a replay of one), else `None` (the hand's last
 /// position).
-fn target(assets: &SessionAssets, part: usize, trace: &Trace) -> Result<Option<Target>> {
+fn target(run: &StudyRun<'_>, part: usize, trace: &Trace) -> Result<Option<Target>> {
     let hand = SimulatedHand::NAME;
     let replayed = vps_device::trace::replayed_device(&trace.device) == Some(hand);
     if trace.device != hand && !replayed {
         return Ok(None);
     }
-    let script = match part.checked_sub(1) {
-        None => assets.script()?,
-        Some(k) => assets.more_parts[k].hand.script(&assets.tree)?,
-    };
+    let script = run.part(part)?.hand.script(&run.assets.tree)?;
     let end = script.duration();
     Ok(Some(Target {
         position_m: script.sample(end).0,
@@ -118,16 +115,10 @@ fn target(assets: &SessionAssets, part: usize, trace: &Trace) -> Result<Option<T
 
 /// What the study of part `part` (0 the first) was made with, for `study.json`; `trace` is that
 /// part's.
-fn settings(run: &StudyRun<'_>, part: usize, trace: &Trace) -> Value {
+fn settings(run: &StudyRun<'_>, part: usize, trace: &Trace) -> Result<Value> {
     let assets = run.assets;
     let band = vps_voxmap::VoxelLookup::distance_band(&*assets.tree);
-    let (shell_points, braking) = match part.checked_sub(1) {
-        None => (assets.shell.len(), run.params.braking),
-        Some(k) => {
-            let p = &assets.more_parts[k];
-            (p.shell.len(), p.params.braking)
-        }
-    };
+    let (shell_points, braking) = (run.part(part)?.shell.len(), run.params_of(part)?.braking);
     let mut settings = json!({
         "scene": assets.label,
         "scene_name": assets.name,
@@ -144,18 +135,11 @@ fn settings(run: &StudyRun<'_>, part: usize, trace: &Trace) -> Value {
         "cluster_stale_shares": run.stale_shares,
     });
     if !run.others.is_empty() {
-        settings["part"] = json!(part_names(assets)[part]);
-        settings["parts"] = json!(part_names(assets));
+        settings["part"] = json!(run.part(part)?.name);
+        settings["parts"] = json!(assets.part_names());
         settings["pair_margin_m"] = json!(assets.pair_margin);
     }
-    settings
-}
-
-/// Every moving part's name, the first first.
-fn part_names(assets: &SessionAssets) -> Vec<String> {
-    std::iter::once(assets.part_name.clone())
-        .chain(assets.more_parts.iter().map(|p| p.name.clone()))
-        .collect()
+    Ok(settings)
 }
 
 /// One of the other moving parts of a session to study: its trace and its state at the first
@@ -187,6 +171,24 @@ pub struct StudyRun<'a> {
     pub stale_shares: u64,
     /// The other moving parts, in the scene's order (empty: a one-part session).
     pub others: Vec<OtherPartRun<'a>>,
+}
+
+impl<'a> StudyRun<'a> {
+    /// Moving part `k` of the session's scene (0 the first).
+    fn part(&self, k: usize) -> Result<PartView<'a>> {
+        self.assets
+            .part(k)
+            .with_context(|| format!("{} has no moving part {k}", self.assets.label))
+    }
+
+    /// Part `k`'s haptic parameters in the session: the first part's are the run's own (a demo
+    /// turns braking on, `--haptic` replaces them), the others' the scene's.
+    fn params_of(&self, k: usize) -> Result<&HapticParams> {
+        match k {
+            0 => Ok(&self.params),
+            k => Ok(self.part(k)?.params),
+        }
+    }
 }
 
 /// Where a study's report goes.
@@ -244,7 +246,7 @@ fn write_parts_study(run: &StudyRun<'_>, dir: &Path, every: usize, print: Print)
             assets.more_parts.len() + 1
         );
     }
-    let names = part_names(assets);
+    let names = assets.part_names();
     let folders = vps_study::files::part_file_names(&names);
     let traces: Vec<&Trace> = std::iter::once(run.trace)
         .chain(run.others.iter().map(|o| o.trace))
@@ -298,8 +300,8 @@ fn write_parts_study(run: &StudyRun<'_>, dir: &Path, every: usize, print: Print)
     for i in 0..made.len() {
         for j in i + 1..made.len() {
             let clearance = pair_clearance(
-                (i, part_mesh(assets, i), &made[i].path),
-                (j, part_mesh(assets, j), &made[j].path),
+                (i, run.part(i)?.mesh, &made[i].path),
+                (j, run.part(j)?.mesh, &made[j].path),
                 SERIES_EVERY_FRAMES,
             )
             .with_context(|| {
@@ -372,22 +374,14 @@ fn write_parts_study(run: &StudyRun<'_>, dir: &Path, every: usize, print: Print)
 fn evidence<'a>(run: &StudyRun<'a>, part: usize, trace: &Trace) -> Result<EvidenceInputs<'a>> {
     let assets = run.assets;
     Ok(EvidenceInputs {
-        part_mesh: part_mesh(assets, part),
+        part_mesh: run.part(part)?.mesh,
         objects: &assets.static_meshes,
         object_names: &assets.static_names,
-        target: target(assets, part, trace)?,
+        target: target(run, part, trace)?,
         clearance_every: SERIES_EVERY_FRAMES,
         reach_tolerance_m: assets.voxel_size,
         swept_voxel_size_m: Some(run.swept_voxel_size.unwrap_or(assets.voxel_size)),
     })
-}
-
-/// Part `part`'s mesh in its grip frame (0 the first).
-fn part_mesh(assets: &SessionAssets, part: usize) -> &vps_mesh::TriMesh {
-    match part.checked_sub(1) {
-        None => &assets.part_mesh,
-        Some(k) => &assets.more_parts[k].mesh,
-    }
 }
 
 /// One part's study, written.
@@ -409,11 +403,11 @@ fn write_part_study(
     dir: &Path,
     every: usize,
 ) -> Result<WrittenStudy> {
-    let settings = settings(run, part, trace);
+    let settings = settings(run, part, trace)?;
     let started = std::time::Instant::now();
     let view = crate::study_view::report_view(run.assets, part, &study);
     study.timings.report_view_ms = started.elapsed().as_secs_f64() * 1e3;
-    let mesh = part_mesh(run.assets, part);
+    let mesh = run.part(part)?.mesh;
     let written = vps_study::files::write_study(dir, &study, mesh, &settings, every, Some(&view))
         .with_context(|| format!("writing the study into {}", dir.display()))?;
     let mut lines = text_report(&study);

@@ -36,8 +36,9 @@ pub fn run(args: &ViewArgs) -> Result<()> {
                 } = track_from_folder(dir)?;
                 // A study of one of several moving parts: that part on the slider, alone.
                 if let Some(name) = part {
-                    let k = std::iter::once(&assets.part_name)
-                        .chain(assets.more_parts.iter().map(|p| &p.name))
+                    let k = assets
+                        .part_names()
+                        .iter()
                         .position(|n| *n == name)
                         .with_context(|| {
                             format!(

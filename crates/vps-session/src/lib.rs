@@ -40,7 +40,7 @@ pub use device::{BridgeSettings, DeviceChoice, OpenedDevice, ReplaySource};
 pub use error::SceneError;
 pub use file::SceneFile;
 pub use plan::{stop_on_signals, SessionPlan};
-pub use scene::{BuildOptions, HandPlan, LoadedScene, SessionAssets, DEFAULT_SCENE};
+pub use scene::{BuildOptions, HandPlan, LoadedScene, PartView, SessionAssets, DEFAULT_SCENE};
 
 use std::sync::Arc;
 use vps_haptic::ClassedShell;

@@ -103,6 +103,13 @@ pub struct StaticObject {
 }
 
 impl LoadedScene {
+    /// Every moving part's name, the first first. Allocates.
+    pub fn part_names(&self) -> Vec<String> {
+        std::iter::once(self.part_name.clone())
+            .chain(self.more_parts.iter().map(|p| p.name.clone()))
+            .collect()
+    }
+
     /// Loads `scene`: `builtin:NAME` (see [`BUILTIN_SCENES`](crate::file::BUILTIN_SCENES)) or a scene file path. Blocking:
     /// reads the scene and its mesh files. Errors name the file and the field.
     pub fn load(scene: &str) -> Result<LoadedScene> {
@@ -1152,6 +1159,55 @@ impl SessionAssets {
     pub fn classed_shell(&self) -> Arc<vps_haptic::ClassedShell> {
         crate::classed(&self.shell)
     }
+
+    /// The first moving part: the session's own shell, mesh, parameters and hand.
+    pub fn first_part(&self) -> PartView<'_> {
+        PartView {
+            name: &self.part_name,
+            mesh: &self.part_mesh,
+            shell: &self.shell,
+            params: &self.params,
+            hand: &self.hand,
+        }
+    }
+
+    /// Moving part `k` (0 the first, then `more_parts` in order); `None` past the last.
+    pub fn part(&self, k: usize) -> Option<PartView<'_>> {
+        match k.checked_sub(1) {
+            None => Some(self.first_part()),
+            Some(k) => self.more_parts.get(k).map(|p| PartView {
+                name: &p.name,
+                mesh: &p.mesh,
+                shell: &p.shell,
+                params: &p.params,
+                hand: &p.hand,
+            }),
+        }
+    }
+
+    /// Every moving part's name, the first first. Allocates.
+    pub fn part_names(&self) -> Vec<String> {
+        (0..=self.more_parts.len())
+            .filter_map(|k| self.part(k))
+            .map(|p| p.name.to_string())
+            .collect()
+    }
+}
+
+/// One moving part of a session's scene as reports, studies and the viewer see it, the first
+/// ([`SessionAssets::first_part`]) like the others ([`SessionAssets::part`]).
+#[derive(Clone, Copy)]
+pub struct PartView<'a> {
+    /// Its name in reports.
+    pub name: &'a str,
+    /// Its mesh in its grip frame (m).
+    pub mesh: &'a TriMesh,
+    /// Its point shell in its grip frame.
+    pub shell: &'a PointShell,
+    /// Its haptic parameters as the scene gives them.
+    pub params: &'a HapticParams,
+    /// Its hand's path: where it starts and, for the simulated hand, where it goes.
+    pub hand: &'a HandPlan,
 }
 
 /// The cache key of a voxmap that also carries a distance band with stand-off `standoff` (m): the
