@@ -28,8 +28,9 @@
 
 use crate::clock::FrameClock;
 use crate::feed::{FeedFrame, PartPose, RecentMax, StateFeedSender, MAX_OTHER_PARTS};
-use crate::parts::{PartRecording, PartReport, PartsSetup, RunningParts};
+use crate::parts::{PartReport, PartsSetup, RunningParts};
 use crate::pool::{panic_message, ClassPool, FrameSampler};
+use crate::recording::TraceRecording;
 use crate::rt::{request_realtime, RtGrant};
 use crate::stats::{FrameRecord, FrameStats, StatsSummary};
 use crate::RuntimeError;
@@ -246,10 +247,7 @@ pub fn spawn_loop_with(
     let parts = match parts {
         None => None,
         Some(p) => {
-            let recording = config.record_trace.then(|| PartRecording {
-                period_s: config.period.as_secs_f64(),
-                reserve: config.frames.unwrap_or(0).min(MAX_TRACE_RESERVE) as usize,
-            });
+            let recording = TraceRecording::of(config.record_trace, config.period, config.frames);
             Some(RunningParts::new(
                 p,
                 |part| config.validate(part),
@@ -297,9 +295,6 @@ struct RunningLoop {
     parts: Option<RunningParts>,
 }
 
-/// Largest number of frames a trace recorder reserves up front.
-const MAX_TRACE_RESERVE: u64 = 1 << 22;
-
 /// What one frame decided.
 enum FrameFlow {
     /// Run the next frame.
@@ -331,15 +326,12 @@ impl RunningLoop {
             RtGrant::default()
         };
         let period_s = self.config.period.as_secs_f64();
-        let recorder = self.config.record_trace.then(|| {
-            let reserve = self.config.frames.unwrap_or(0).min(MAX_TRACE_RESERVE) as usize;
-            TraceRecorder::with_capacity(self.device.name(), period_s, reserve).with_part_start(
-                vps_device::trace::PartStart {
-                    position: self.state.position,
-                    orientation: self.state.orientation,
-                },
-            )
-        });
+        let recorder = TraceRecording::of(
+            self.config.record_trace,
+            self.config.period,
+            self.config.frames,
+        )
+        .map(|r| r.recorder(self.device.name(), &self.state));
         let mut cx = FrameContext {
             clock: FrameClock::new(Instant::now(), self.config.period, self.config.spin_margin),
             period_s,

@@ -20,6 +20,7 @@ pub mod feed;
 pub mod haptic_loop;
 pub mod parts;
 pub mod pool;
+mod recording;
 pub mod rt;
 pub mod stats;
 pub mod stop;

@@ -22,11 +22,12 @@
 
 use crate::feed::{PartPose, MAX_OTHER_PARTS};
 use crate::pool::FrameSampler;
+use crate::recording::TraceRecording;
 use crate::RuntimeError;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::Arc;
 use std::time::Instant;
-use vps_device::trace::{PartStart, Trace, TraceRecorder};
+use vps_device::trace::{Trace, TraceRecorder};
 use vps_device::{DeviceError, DeviceLimits, HapticDevice};
 use vps_haptic::pair::{BodyVoxmap, PairCounts, PairPart, PairPass};
 use vps_haptic::{
@@ -124,14 +125,6 @@ pub struct PartReport {
     pub trace_error: Option<String>,
 }
 
-/// How the other parts' handle traces are recorded: the frame period (s) and the frames to
-/// reserve room for.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct PartRecording {
-    pub(crate) period_s: f64,
-    pub(crate) reserve: usize,
-}
-
 /// The other parts of a running session, their bodies and the pair pass.
 pub(crate) struct RunningParts {
     first: PartBody,
@@ -160,7 +153,7 @@ impl RunningParts {
     pub(crate) fn new(
         setup: PartsSetup,
         loop_accepts: impl Fn(&HapticParams) -> Result<(), RuntimeError>,
-        recording: Option<PartRecording>,
+        recording: Option<TraceRecording>,
     ) -> Result<RunningParts, RuntimeError> {
         if !(setup.margin.is_finite() && setup.margin >= 0.0) {
             return Err(RuntimeError::Config {
@@ -208,13 +201,7 @@ impl RunningParts {
                 trace: None,
                 trace_error: None,
             };
-            let recorder = recording.map(|r| {
-                TraceRecorder::with_capacity(part.device.name(), r.period_s, r.reserve)
-                    .with_part_start(PartStart {
-                        position: part.initial.position,
-                        orientation: part.initial.orientation,
-                    })
-            });
+            let recorder = recording.map(|r| r.recorder(part.device.name(), &part.initial));
             others.push(RunningPart {
                 recorder,
                 limits: part.device.limits(),
