@@ -26,6 +26,19 @@ fn escape(text: &str) -> String {
         .replace('"', "&quot;")
 }
 
+/// The start of a study page titled after the scene `title`, up to and with its heading: the
+/// shared style (body, tables) and `style`, the page's own rules.
+fn page_head(title: &str, style: &str) -> String {
+    let t = escape(title);
+    format!(
+        "<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\">\
+         <title>vps study: {t}</title><style>\
+         body{{font-family:sans-serif;max-width:800px;margin:1em auto;color:#222}}\
+         table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:2px 6px;\
+         text-align:left;font-size:.9em}}{style}</style></head><body><h1>Assembly study: {t}</h1>"
+    )
+}
+
 /// `(t, y)` points as an SVG plot with axes labels, `id` for tests; non-finite points are
 /// skipped.
 fn plot(id: &str, title: &str, unit: &str, points: &[(f64, f64)], colour: &str) -> String {
@@ -225,19 +238,12 @@ pub fn report_html(study: &Study, settings: &Value, view_page: Option<&str>) -> 
     let names = &study.object_names;
     let name = |o: usize| escape(names.get(o).map_or("?", String::as_str));
     let title = settings["scene_name"].as_str().unwrap_or("scene");
-    let mut html = String::new();
-    let _ = write!(
-        html,
-        "<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\">\
-         <title>vps study: {t}</title><style>\
-         body{{font-family:sans-serif;max-width:800px;margin:1em auto;color:#222}}\
-         #verdict{{font-size:1.15em;padding:.6em;background:#eef4ee;border-left:4px solid #2a2}}\
-         table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:2px 6px;\
-         text-align:left;font-size:.9em}}figure{{margin:1em 0}}figcaption{{font-size:.9em;color:#555}}\
-         </style></head><body><h1>Assembly study: {t}</h1><p id=\"verdict\">{verdict}</p>",
-        t = escape(title),
-        verdict = escape(&v.line)
+    let mut html = page_head(
+        title,
+        "#verdict{font-size:1.15em;padding:.6em;background:#eef4ee;border-left:4px solid #2a2}\
+         figure{margin:1em 0}figcaption{font-size:.9em;color:#555}",
     );
+    let _ = write!(html, "<p id=\"verdict\">{}</p>", escape(&v.line));
     if let Some(n) = settings["cluster_stale_shares"].as_u64().filter(|&n| n > 0) {
         let _ = write!(
             html,
@@ -382,18 +388,12 @@ pub fn parts_index_html(
     names: &[String],
     pairs: &[crate::pairs::PairClearance],
 ) -> String {
-    let mut html = String::new();
+    let mut html = page_head(scene, "");
     let _ = write!(
         html,
-        "<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\">\
-         <title>vps study: {t}</title><style>\
-         body{{font-family:sans-serif;max-width:800px;margin:1em auto;color:#222}}\
-         table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:2px 6px;\
-         text-align:left;font-size:.9em}}</style></head><body>\
-         <h1>Assembly study: {t}</h1><p>{n} moving parts, each studied against the static \
-         objects in its own folder; the clearance between the parts below.</p>\
+        "<p>{n} moving parts, each studied against the static objects in its own folder; the \
+         clearance between the parts below.</p>\
          <h2>Parts</h2><table id=\"parts\"><tr><th>part</th><th>verdict</th></tr>",
-        t = escape(scene),
         n = parts.len()
     );
     for p in parts {
