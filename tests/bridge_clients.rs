@@ -19,6 +19,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 use vps_testkit::process::spawn_until_line;
+use vps_testkit::table::csv_column;
 
 /// The session is long enough for both examples (3 s each) plus their start-up on a loaded
 /// machine; the examples run back to back after the bridge is listening.
@@ -412,14 +413,12 @@ fn a_single_triangle_part_is_pushed_out_of_a_block_never_in() {
     assert_eq!(report["stats"]["penetrating_frames"], 0, "{report}");
 
     let csv = std::fs::read_to_string(study.join("path.csv")).expect("the study's path.csv");
-    let mut lines = csv.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |name: &str| header.iter().position(|c| *c == name).unwrap();
-    let (z, fz) = (col("part_z_m"), col("contact_force_z_n"));
+    let (z, fz) = (
+        csv_column(&csv, "part_z_m"),
+        csv_column(&csv, "contact_force_z_n"),
+    );
     let (mut frames, mut pushed, mut lowest, mut most_down) = (0, 0, f64::INFINITY, 0.0f64);
-    for line in lines {
-        let cells: Vec<&str> = line.split(',').collect();
-        let (part_z, force_z): (f64, f64) = (cells[z].parse().unwrap(), cells[fz].parse().unwrap());
+    for (&part_z, &force_z) in z.iter().zip(&fz) {
         frames += 1;
         pushed += usize::from(force_z > 0.01);
         lowest = lowest.min(part_z);

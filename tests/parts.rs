@@ -6,6 +6,7 @@
 //! part by part, live and from its two traces, to the bit.
 
 use vps_testkit::process::{json, Vps};
+use vps_testkit::table::csv_column;
 
 /// Two cubes of 40 mm over a floor far below, the hands pushing each cube 5 mm past touching.
 const TWO_CUBES: &str = r#"
@@ -203,19 +204,6 @@ fn a_second_part_larger_than_the_scene_is_refused() {
     );
 }
 
-/// The `name` column of a path table, as numbers.
-fn column(csv: &str, name: &str) -> Vec<f64> {
-    let mut lines = csv.lines();
-    let header: Vec<&str> = lines.next().expect("a header").split(',').collect();
-    let k = header
-        .iter()
-        .position(|h| *h == name)
-        .unwrap_or_else(|| panic!("no column {name} in {header:?}"));
-    lines
-        .map(|l| l.split(',').nth(k).unwrap().parse().unwrap())
-        .collect()
-}
-
 #[test]
 fn a_session_of_two_parts_is_studied_part_by_part_to_the_bit_live_and_from_its_traces() {
     let (vps, scene) = sandbox();
@@ -276,7 +264,7 @@ fn a_session_of_two_parts_is_studied_part_by_part_to_the_bit_live_and_from_its_t
             s["verdict"]
         );
         let csv = read("later", "path.csv");
-        pair_forces.push(column(&csv, "other_parts_force_x_n"));
+        pair_forces.push(csv_column(&csv, "other_parts_force_x_n"));
     }
     // The exact clearance between the two cubes: the same live and from the traces, its least
     // over every frame no more than any of its series (docs/results/study_clearance.md checks it
@@ -287,7 +275,7 @@ fn a_session_of_two_parts_is_studied_part_by_part_to_the_bit_live_and_from_its_t
     let least = made["pairs"][0]["least_m"]
         .as_f64()
         .expect("a least clearance");
-    let series = column(
+    let series = csv_column(
         &std::fs::read_to_string(vps.dir().join("later/pair_clearance.csv")).unwrap(),
         "left-right_m",
     );

@@ -10,6 +10,7 @@ use std::path::Path;
 use vps_mesh::triangle_distance::triangle_distance;
 use vps_mesh::TriMesh;
 use vps_testkit::process::{json, stderr, Vps};
+use vps_testkit::table::csv_table;
 
 /// A [`Vps`] with the example scenes' files copied in.
 fn examples() -> Vps {
@@ -20,30 +21,6 @@ fn examples() -> Vps {
         std::fs::copy(&path, vps.dir().join(path.file_name().unwrap())).unwrap();
     }
     vps
-}
-
-/// The rows of a study's path.csv as numbers by column name (booleans as 0/1).
-fn path_rows(csv: &str) -> (Vec<String>, Vec<Vec<f64>>) {
-    let mut lines = csv.lines();
-    let header: Vec<String> = lines
-        .next()
-        .unwrap()
-        .split(',')
-        .map(str::to_string)
-        .collect();
-    let rows = lines
-        .map(|l| {
-            l.split(',')
-                .map(|c| match c {
-                    "true" => 1.0,
-                    "false" => 0.0,
-                    "" => f64::NAN,
-                    x => x.parse().unwrap(),
-                })
-                .collect()
-        })
-        .collect();
-    (header, rows)
 }
 
 /// The least distance between `part` at (`p`, `q`) and any of `statics`: every triangle pair.
@@ -124,7 +101,7 @@ fn check_example(vps: &Vps, scene: &str) {
         .unwrap()
         .mesh;
     let statics = loaded.placed_statics();
-    let (header, rows) = path_rows(&read(&format!("{study}/path.csv")));
+    let (header, rows) = csv_table(&read(&format!("{study}/path.csv")));
     let col = |name: &str| header.iter().position(|h| h == name).unwrap();
     let pose = |row: &[f64]| {
         let p = DVec3::new(
@@ -501,7 +478,7 @@ fn a_study_starts_the_part_where_the_recorded_session_did() {
     ]);
     assert!(out.status.success(), "{}", stderr(&out));
     let (header, rows) =
-        path_rows(&std::fs::read_to_string(vps.dir().join("moved/path.csv")).unwrap());
+        csv_table(&std::fs::read_to_string(vps.dir().join("moved/path.csv")).unwrap());
     let z = header.iter().position(|h| h == "part_z_m").unwrap();
     assert_eq!(rows[0][z], 0.135);
 }

@@ -10,6 +10,7 @@
 //! - [`obj`]: mesh files as test input (the OBJ text of a box).
 //! - [`scene_edit`]: bad variants of a good scene file's text, each with the field its error
 //!   must name.
+//! - [`table`]: the CSV tables the binary writes, read back as numbers by column name.
 //! - [`process`]: running the `vps` binary from the root package's tests with a private cache
 //!   directory (`VPS_CACHE_DIR`), so that tests never write into the user's cache.
 //! - `cluster` (feature `cluster`): the standard one-process session and a loopback coordinator,
@@ -32,3 +33,4 @@ pub mod process;
 pub mod scene;
 pub mod scene_edit;
 pub mod shell;
+pub mod table;
