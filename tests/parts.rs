@@ -45,6 +45,13 @@ fn sandbox() -> (Vps, String) {
     (vps, scene)
 }
 
+/// [`TWO_CUBES`] with the right part's source and scale replaced by `lines`.
+fn with_right_part(lines: &str) -> String {
+    let right = "name = \"right\"\nsource = \"builtin:box\"\nscale = 0.4";
+    assert!(TWO_CUBES.contains(right));
+    TWO_CUBES.replace(right, &format!("name = \"right\"\n{lines}"))
+}
+
 fn vector(v: &serde_json::Value) -> [f64; 3] {
     [0, 1, 2].map(|k| v[k].as_f64().expect("a number"))
 }
@@ -175,10 +182,7 @@ fn scene_check_lists_every_part_and_pair_and_refuses_a_sheet_as_a_second_part() 
         "v 0 0 0\nv 0.04 0 0\nv 0 0.04 0\nf 1 2 3\n",
     )
     .unwrap();
-    let text = TWO_CUBES.replace(
-        "name = \"right\"\nsource = \"builtin:box\"\nscale = 0.4",
-        "name = \"right\"\nsource = \"sheet.obj\"",
-    );
+    let text = with_right_part("source = \"sheet.obj\"");
     std::fs::write(vps.dir().join("sheet.toml"), text).unwrap();
     let err = vps.fails(&["scene", "check", &vps.path("sheet.toml")]);
     assert!(
@@ -192,10 +196,7 @@ fn scene_check_lists_every_part_and_pair_and_refuses_a_sheet_as_a_second_part() 
 #[test]
 fn a_second_part_larger_than_the_scene_is_refused() {
     let (vps, _) = sandbox();
-    let text = TWO_CUBES.replace(
-        "name = \"right\"\nsource = \"builtin:box\"\nscale = 0.4",
-        "name = \"right\"\nsource = \"builtin:box\"\nscale = 400",
-    );
+    let text = with_right_part("source = \"builtin:box\"\nscale = 400");
     std::fs::write(vps.dir().join("huge.toml"), text).unwrap();
     let err = vps.fails(&["scene", "check", &vps.path("huge.toml")]);
     assert!(
