@@ -146,13 +146,7 @@ fn two_parts_behind_a_lossy_relay_change_no_bit() {
         );
         [a, b].map(|w| w.lock().unwrap().clone())
     };
-    let loopback: IpAddr = [127, 0, 0, 1].into();
-    let hosts: Vec<WorkerHost> = (0..WORKERS)
-        .map(|_| WorkerHost {
-            relay_ip: loopback,
-            launcher: Vec::new(),
-        })
-        .collect();
+    let (loopback, hosts) = loopback_hosts();
     let (report, cluster, (relay, writes)) = session_of_behind_relay(loopback, &hosts, || {
         let (first, a) = hand(0, Arc::new(AtomicBool::new(false)));
         let (second, b) = second_hand();
@@ -176,15 +170,21 @@ fn two_parts_behind_a_lossy_relay_change_no_bit() {
 
 #[test]
 fn workers_behind_a_lossy_jittery_relay_on_loopback_change_no_bit() {
+    let (loopback, hosts) = loopback_hosts();
+    let (writes, cluster, relay) = session_behind_relay(loopback, &hosts);
+    check(&writes, &cluster, &relay);
+}
+
+/// The loopback address and [`WORKERS`] workers on this host reaching the relay there.
+fn loopback_hosts() -> (IpAddr, Vec<WorkerHost>) {
     let loopback: IpAddr = [127, 0, 0, 1].into();
-    let hosts: Vec<WorkerHost> = (0..WORKERS)
+    let hosts = (0..WORKERS)
         .map(|_| WorkerHost {
             relay_ip: loopback,
             launcher: Vec::new(),
         })
         .collect();
-    let (writes, cluster, relay) = session_behind_relay(loopback, &hosts);
-    check(&writes, &cluster, &relay);
+    (loopback, hosts)
 }
 
 /// A network namespace joined to this one by a veth pair; removed on drop.
