@@ -52,6 +52,12 @@ fn with_right_part(lines: &str) -> String {
     TWO_CUBES.replace(right, &format!("name = \"right\"\n{lines}"))
 }
 
+/// The error of `vps scene check` on [`with_right_part`]`(lines)`, which must fail.
+fn check_fails_with_right_part(vps: &Vps, lines: &str) -> String {
+    std::fs::write(vps.dir().join("variant.toml"), with_right_part(lines)).unwrap();
+    vps.fails(&["scene", "check", &vps.path("variant.toml")])
+}
+
 fn vector(v: &serde_json::Value) -> [f64; 3] {
     [0, 1, 2].map(|k| v[k].as_f64().expect("a number"))
 }
@@ -182,9 +188,7 @@ fn scene_check_lists_every_part_and_pair_and_refuses_a_sheet_as_a_second_part() 
         "v 0 0 0\nv 0.04 0 0\nv 0 0.04 0\nf 1 2 3\n",
     )
     .unwrap();
-    let text = with_right_part("source = \"sheet.obj\"");
-    std::fs::write(vps.dir().join("sheet.toml"), text).unwrap();
-    let err = vps.fails(&["scene", "check", &vps.path("sheet.toml")]);
+    let err = check_fails_with_right_part(&vps, "source = \"sheet.obj\"");
     assert!(
         err.contains("part[1].source") && err.contains("has no inside"),
         "{err}"
@@ -196,9 +200,7 @@ fn scene_check_lists_every_part_and_pair_and_refuses_a_sheet_as_a_second_part() 
 #[test]
 fn a_second_part_larger_than_the_scene_is_refused() {
     let (vps, _) = sandbox();
-    let text = with_right_part("source = \"builtin:box\"\nscale = 400");
-    std::fs::write(vps.dir().join("huge.toml"), text).unwrap();
-    let err = vps.fails(&["scene", "check", &vps.path("huge.toml")]);
+    let err = check_fails_with_right_part(&vps, "source = \"builtin:box\"\nscale = 400");
     assert!(
         err.contains("part[1]") && err.contains("larger than the whole scene"),
         "{err}"
