@@ -517,7 +517,6 @@ fn tree_formats_give_the_sums_of_plain_lookups() {
 /// mask: on the layered wall and on its distance band, at poses in contact, moving, and insane.
 #[test]
 fn a_frame_prepared_once_samples_every_class_to_the_same_bits() {
-    use vps_haptic::{sample_class_in, sample_mask, KernelFrame};
     let shell = ClassedShell::new(&cube_shell(0.02, 12), 64);
     let layered = half_space();
     let band = half_space_band(0.001);
@@ -547,39 +546,35 @@ fn a_frame_prepared_once_samples_every_class_to_the_same_bits() {
     poses.push(insane);
     let mut touched = 0;
     for pose in &poses {
-        let check = |map: &dyn Fn(u32) -> (PartialSums, PartialSums), mask_sums: PartialSums| {
-            let mut merged = PartialSums::default();
-            for class in 0..64 {
-                let (per_class, prepared) = map(class);
-                assert_eq!(per_class, prepared, "class {class} at {pose:?}");
-                if 0xA5A5_F00F_0123_4567u64 >> class & 1 == 1 {
-                    merged.merge(&per_class);
-                }
-            }
-            assert_eq!(merged, mask_sums, "{pose:?}");
-            merged.non_free
-        };
-        let mask = 0xA5A5_F00F_0123_4567u64;
-        let frame = KernelFrame::new(&layered, &shell, pose);
-        touched += check(
-            &|c| {
-                (
-                    sample_class(&layered, &shell, pose, c),
-                    sample_class_in(&layered, &shell, &frame, c),
-                )
-            },
-            sample_mask(&layered, &shell, pose, mask),
-        );
-        let frame = KernelFrame::new(&band, &shell, pose);
-        touched += check(
-            &|c| {
-                (
-                    sample_class(&band, &shell, pose, c),
-                    sample_class_in(&band, &shell, &frame, c),
-                )
-            },
-            sample_mask(&band, &shell, pose, mask),
-        );
+        touched += prepared_once_matches(&layered, &shell, pose);
+        touched += prepared_once_matches(&band, &shell, pose);
     }
     assert!(touched > 0, "some poses touch the wall");
+}
+
+/// Asserts, for `map` at `pose`, that every class sampled with the pose prepared once equals the
+/// class sampled on its own, and that a mask's sums are its classes' merged; returns the mask's
+/// non-Free point count.
+fn prepared_once_matches<L: vps_voxmap::VoxelLookup>(
+    map: &L,
+    shell: &ClassedShell,
+    pose: &KernelPose,
+) -> u64 {
+    use vps_haptic::{sample_class_in, sample_mask, KernelFrame};
+    let mask = 0xA5A5_F00F_0123_4567u64;
+    let frame = KernelFrame::new(map, shell, pose);
+    let mut merged = PartialSums::default();
+    for class in 0..64 {
+        let per_class = sample_class(map, shell, pose, class);
+        assert_eq!(
+            per_class,
+            sample_class_in(map, shell, &frame, class),
+            "class {class} at {pose:?}"
+        );
+        if mask >> class & 1 == 1 {
+            merged.merge(&per_class);
+        }
+    }
+    assert_eq!(merged, sample_mask(map, shell, pose, mask), "{pose:?}");
+    merged.non_free
 }
