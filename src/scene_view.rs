@@ -4,14 +4,14 @@
 
 use glam::DVec3;
 use std::sync::Arc;
-use vps_session::SessionAssets;
+use vps_session::{PartView, SessionAssets};
 use vps_view::{SceneLimits, ViewerContent};
 
 /// What the viewer draws of a session, within `limits`: its voxmap, shell and meshes, labelled
 /// with the scene's name, its other moving parts at their start poses, and the simulated hand's
 /// path with the part's start pose (when the scene's script can be made).
 pub fn viewer_content(assets: &SessionAssets, limits: SceneLimits) -> ViewerContent {
-    let content = part_content(assets, 0, limits).with_other_parts(
+    let content = part_content(assets, assets.first_part(), limits).with_other_parts(
         assets
             .more_parts
             .iter()
@@ -27,12 +27,11 @@ pub fn viewer_content(assets: &SessionAssets, limits: SceneLimits) -> ViewerCont
     content
 }
 
-/// What a study's 3D view draws of moving part `part` (0 the first; `assets.more_parts[part − 1]`
-/// after): the static scene's voxmap and meshes, that part's mesh and shell, and its simulated
-/// hand's path with its start pose (when its script can be made). The other moving parts are not
-/// drawn: the study is of this part's path against the static objects.
-pub fn part_content(assets: &SessionAssets, part: usize, limits: SceneLimits) -> ViewerContent {
-    let p = assets.part(part).unwrap_or_else(|| assets.first_part());
+/// What a study's 3D view draws of moving part `p` of `assets`: the static scene's voxmap and
+/// meshes, that part's mesh and shell, and its simulated hand's path with its start pose (when
+/// its script can be made). The other moving parts are not drawn: the study is of this part's
+/// path against the static objects.
+pub fn part_content(assets: &SessionAssets, p: PartView<'_>, limits: SceneLimits) -> ViewerContent {
     let content = ViewerContent::new(
         assets.name.clone(),
         assets.tree.clone(),

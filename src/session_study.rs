@@ -405,7 +405,7 @@ fn write_part_study(
 ) -> Result<WrittenStudy> {
     let settings = settings(run, part, trace)?;
     let started = std::time::Instant::now();
-    let view = crate::study_view::report_view(run.assets, part, &study);
+    let view = crate::study_view::report_view(run.assets, run.part(part)?, &study);
     study.timings.report_view_ms = started.elapsed().as_secs_f64() * 1e3;
     let mesh = run.part(part)?.mesh;
     let written = vps_study::files::write_study(dir, &study, mesh, &settings, every, Some(&view))

@@ -7,7 +7,7 @@ use serde::Deserialize;
 use serde_json::Value;
 use std::path::Path;
 use vps_mesh::TriMesh;
-use vps_session::SessionAssets;
+use vps_session::{PartView, SessionAssets};
 use vps_study::Study;
 use vps_view::study::track_frames;
 use vps_view::{ClosestApproach, SceneLimits, StudyTrack};
@@ -22,11 +22,10 @@ pub const REPORT_VIEW_LIMITS: SceneLimits = SceneLimits {
     max_part_triangles: 20_000,
 };
 
-/// The report's turnable 3D view of `study` of moving part `part` (0 the first) made on
-/// `assets`: the viewer's page for the static scene and that part within [`REPORT_VIEW_LIMITS`]
+/// The report's turnable 3D view of `study` of moving part `part` made on `assets`: the viewer's page for the static scene and that part within [`REPORT_VIEW_LIMITS`]
 /// ([`crate::scene_view::part_content`]), the study's track and swept volume to scrub along, its
 /// data inlined (one HTML document).
-pub fn report_view(assets: &SessionAssets, part: usize, study: &Study) -> String {
+pub fn report_view(assets: &SessionAssets, part: PartView<'_>, study: &Study) -> String {
     let swept = match &study.swept {
         Some(Ok(s)) => Some(&s.mesh),
         _ => None,

@@ -36,10 +36,9 @@ pub fn run(args: &ViewArgs) -> Result<()> {
                 } = track_from_folder(dir)?;
                 // A study of one of several moving parts: that part on the slider, alone.
                 if let Some(name) = part {
-                    let k = assets
-                        .part_names()
-                        .iter()
-                        .position(|n| *n == name)
+                    let part = (0..)
+                        .map_while(|k| assets.part(k))
+                        .find(|p| p.name == name)
                         .with_context(|| {
                             format!(
                                 "the study in {} is of part '{name}', which {} does not have",
@@ -47,7 +46,8 @@ pub fn run(args: &ViewArgs) -> Result<()> {
                                 assets.label
                             )
                         })?;
-                    content = crate::scene_view::part_content(&assets, k, SceneLimits::default());
+                    content =
+                        crate::scene_view::part_content(&assets, part, SceneLimits::default());
                 }
                 if !studied.is_empty() && studied != assets.label {
                     eprintln!(
