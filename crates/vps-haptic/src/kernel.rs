@@ -196,9 +196,10 @@ pub fn sample_classes<L: VoxelLookup>(
     pose: &KernelPose,
     classes: &[u32],
 ) -> PartialSums {
+    let frame = KernelFrame::new(map, shell, pose);
     let mut sums = PartialSums::default();
     for &class in classes {
-        sums.merge(&sample_class(map, shell, pose, class));
+        sums.merge(&sample_class_in(map, shell, &frame, class));
     }
     sums
 }

@@ -173,12 +173,15 @@ pub fn recompute_paths<L: VoxelLookup>(
     let mut paths: Vec<Vec<PathFrame>> = parts.iter().map(|_| Vec::with_capacity(frames)).collect();
     let mut pass = PairPass::new(parts.len());
     let mut outs = Vec::with_capacity(parts.len());
+    let mut sums = Vec::with_capacity(parts.len());
     for i in 0..frames {
-        let sums: Vec<_> = parts
-            .iter()
-            .zip(&states)
-            .map(|(p, s)| sample_all(map, p.shell, &KernelPose::from_state(s)))
-            .collect();
+        sums.clear();
+        sums.extend(
+            parts
+                .iter()
+                .zip(&states)
+                .map(|(p, s)| sample_all(map, p.shell, &KernelPose::from_state(s))),
+        );
         pass.run(
             parts.len(),
             |k| PairPart {
