@@ -14,7 +14,7 @@ use vps_cluster::{
     ClusterReport, Coordinator, CoordinatorConfig, GatherConfig, LocalWorkerArgs, PeerTls,
 };
 use vps_runtime::{KeepOffFrameCore, LoopReport, Placement, SignalStop};
-use vps_session::CLASS_COUNT;
+use vps_session::{SessionAssets, CLASS_COUNT};
 
 /// How long the coordinator waits for its workers to join before it starts.
 const JOIN_TIMEOUT: Duration = Duration::from_secs(20);
@@ -96,11 +96,7 @@ pub fn coordinate(
     };
     // Held whole to the end: its viewer serves the session.
     let live = prepared.go_live(session.view)?;
-    let cluster_assets = Arc::new(ClusterAssets::new(
-        live.assets.tree.clone(),
-        &live.assets.shell,
-        CLASS_COUNT,
-    )?);
+    let cluster_assets = Arc::new(cluster_assets(&live.assets)?);
     let coordinator = Coordinator::start(
         CoordinatorConfig {
             listen,
@@ -157,6 +153,28 @@ pub fn coordinate(
         signals: live.signals,
         placement,
     })
+}
+
+/// What the workers of a session of `assets` sample: the static scene's voxmap and the first
+/// part's shell and, in a scene of several parts, every part's shell and body voxmap (the workers
+/// then take every part's share of the scene and both directions of every pair). Allocates.
+fn cluster_assets(assets: &SessionAssets) -> Result<ClusterAssets> {
+    let scene = assets.tree.clone();
+    let Some(first_body) = assets.part_body.clone() else {
+        return Ok(ClusterAssets::new(scene, &assets.shell, CLASS_COUNT)?);
+    };
+    let shells: Vec<&vps_voxmap::PointShell> = std::iter::once(&assets.shell)
+        .chain(assets.more_parts.iter().map(|p| &p.shell))
+        .collect();
+    let bodies: Vec<Arc<vps_voxmap::VoxelTree>> = std::iter::once(first_body)
+        .chain(assets.more_parts.iter().map(|p| p.body.clone()))
+        .collect();
+    Ok(ClusterAssets::of_parts(
+        scene,
+        &shells,
+        &bodies,
+        CLASS_COUNT,
+    )?)
 }
 
 /// Runs `prepared` with `workers` local worker processes of `worker_threads` threads each, on

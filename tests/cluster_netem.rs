@@ -12,7 +12,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
 use vps_cluster::fallback::StalePolicy;
-use vps_cluster::{run_coordinator_session, ClusterReport, GatherConfig};
+use vps_cluster::{run_coordinator_session, ClusterAssets, ClusterReport, GatherConfig};
 use vps_haptic::Wrench;
 use vps_netem::{Relay, RelayConfig, RelayStats};
 use vps_runtime::{run_loop, LoopReport, SessionSetup};
@@ -34,7 +34,7 @@ fn session_behind_relay(
     hosts: &[WorkerHost],
 ) -> (Vec<Wrench>, ClusterReport, RelayStats) {
     let (device, writes) = hand(0, Arc::new(AtomicBool::new(false)));
-    let (_, cluster, relay) = session_of_behind_relay(listen_ip, hosts, || {
+    let (_, cluster, relay) = session_of_behind_relay(listen_ip, hosts, assets(), || {
         (standard_setup(device, FRAMES), vec![writes])
     });
     let writes = relay.1[0].lock().unwrap().clone();
@@ -47,10 +47,11 @@ fn session_behind_relay(
 fn session_of_behind_relay(
     listen_ip: IpAddr,
     hosts: &[WorkerHost],
+    assets: Arc<ClusterAssets>,
     make: impl FnOnce() -> (SessionSetup, Vec<Writes>),
 ) -> (LoopReport, ClusterReport, (RelayStats, Vec<Writes>)) {
     let dir = tempfile::tempdir().unwrap();
-    let (coordinator, certs) = loopback_coordinator(dir.path());
+    let (coordinator, certs) = loopback_coordinator_serving(dir.path(), assets);
     let relay = Relay::start(RelayConfig {
         listen: SocketAddr::new(listen_ip, 0),
         forward: coordinator.local_addr().unwrap(),
@@ -125,9 +126,9 @@ fn check(writes: &[Wrench], cluster: &ClusterReport, relay: &RelayStats) {
     );
 }
 
-/// Two moving spheres pressing into each other on the wall: the first part's shares go over the
-/// lossy relay (the second part's static sums and the pair are the frame thread's own), and both
-/// devices' writes are bit-identical, frame by frame, to the one-process run.
+/// Two moving spheres pressing into each other on the wall: every job's shares (both parts in
+/// the scene, both directions of the pair) go over the lossy relay, and both devices' writes are
+/// bit-identical, frame by frame, to the one-process run.
 #[test]
 fn two_parts_behind_a_lossy_relay_change_no_bit() {
     let one_process = {
@@ -135,8 +136,8 @@ fn two_parts_behind_a_lossy_relay_change_no_bit() {
         let (second, b) = second_hand();
         let assets = assets();
         let report = run_loop(
-            assets.map.clone(),
-            assets.shell.clone(),
+            assets.scene_map().clone(),
+            assets.first_shell().clone(),
             two_part_setup(first, second, FRAMES),
         )
         .expect("one-process session");
@@ -147,11 +148,18 @@ fn two_parts_behind_a_lossy_relay_change_no_bit() {
         [a, b].map(|w| w.lock().unwrap().clone())
     };
     let (loopback, hosts) = loopback_hosts();
-    let (report, cluster, (relay, writes)) = session_of_behind_relay(loopback, &hosts, || {
-        let (first, a) = hand(0, Arc::new(AtomicBool::new(false)));
-        let (second, b) = second_hand();
-        (two_part_setup(first, second, FRAMES), vec![a, b])
-    });
+    let (report, cluster, (relay, writes)) =
+        session_of_behind_relay(loopback, &hosts, two_part_assets(), || {
+            let (first, a) = hand(0, Arc::new(AtomicBool::new(false)));
+            let (second, b) = second_hand();
+            (two_part_setup(first, second, FRAMES), vec![a, b])
+        });
+    assert!(report.pairs.sampled > 100, "{:?}", report.pairs);
+    assert_eq!(
+        cluster.job_samples,
+        2 * FRAMES + 2 * report.pairs.sampled,
+        "the workers were given every job"
+    );
     assert_eq!(
         report.pair_contact_frames,
         report.other_parts[0].pair_contact_frames

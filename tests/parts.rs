@@ -158,6 +158,16 @@ fn two_hands_press_two_parts_equal_and_opposite_and_they_rest() {
     for peer in clustered["cluster"]["peers"].as_array().unwrap() {
         assert_eq!(peer["merged"], 2000, "every frame split: {peer}");
     }
+    // The workers took every job: both parts in the scene every frame, and both directions of
+    // every pair the broad phase kept (a share is merged only when all its jobs are in).
+    let sampled_pairs = clustered["pairs"]["sampled"].as_u64().unwrap();
+    assert!(sampled_pairs > 1000, "{}", clustered["pairs"]);
+    assert_eq!(
+        clustered["cluster"]["job_samples"].as_u64(),
+        Some(2 * 2000 + 2 * sampled_pairs),
+        "{}",
+        clustered["cluster"]
+    );
 }
 
 #[test]

@@ -8,8 +8,15 @@
 //! workers are named by their join id. So every rule below can be tested frame by frame without a
 //! network (`tests/gather.rs`).
 //!
+//! A frame samples one or more jobs ([`vps_haptic::job`]: the first part in the static scene,
+//! and in a session of several parts the others and the pairs): every work share is the same
+//! classes of every job, requested and answered job by job, merged when its last job is in; a
+//! probe asks for the first job alone. Each job's reply is checked against its own shell's and
+//! voxmap's [`Shape`] ([`GatherCore::add_target`]).
+//!
 //! One frame, in the order the driver calls it:
 //! 1. [`GatherCore::begin_frame`]: a new sequence number; replies carrying an older one are late.
+//!    [`GatherCore::set_jobs`]: the frame's jobs, when they change.
 //! 2. [`GatherCore::join`] / [`GatherCore::leave`]: membership changes queued since the last frame.
 //! 3. [`GatherCore::assign`]: the class split ([`crate::split::split_classes`]) between the
 //!    coordinator (weight 1) and the active workers (adapted weights, see [`crate::split`]); with
@@ -38,6 +45,7 @@ use crate::report::SplitReport;
 use crate::split::{split_classes, Adapt, ShareOutcome};
 use crate::ConfigError;
 use std::time::{Duration, Instant};
+use vps_haptic::job::{JobTarget, MAX_JOBS};
 use vps_haptic::PartialSums;
 
 /// The rules of the gather (the part of `vps_cluster::GatherConfig` the core uses).
@@ -117,7 +125,7 @@ pub struct OpenProbe {
 /// (see [`SplitDecision`]): every 100 ms with the default `probe_every` of 10 frames.
 pub const FAR_PROBE_FACTOR: u64 = 10;
 
-/// What the core needs to know of the shell and the voxmap to check replies.
+/// What the core needs to know of one job's shell and voxmap to check its replies.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Shape {
     /// Points in each class (its length is the class count, 1..=64).
@@ -128,13 +136,16 @@ pub struct Shape {
     pub max_radius: f64,
 }
 
-/// A worker's latest merged work reply: what may stand in for its share in a later frame.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// A worker's latest merged work reply: what may stand in for its share in a later frame of the
+/// same jobs.
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct HeldShare {
     /// The class mask the sums cover.
     pub classes: u64,
-    /// The sums the worker returned.
-    pub sums: PartialSums,
+    /// The frame's jobs.
+    pub jobs: Vec<JobTarget>,
+    /// The sums the worker returned, one per job.
+    pub sums: Vec<PartialSums>,
     /// The frame (sequence number) they were computed for.
     pub seq: u64,
 }
@@ -156,11 +167,16 @@ pub struct PeerState {
     pub probe_hits: u32,
     /// Bad replies since the last valid one.
     pub bad_replies: u32,
-    /// This frame: the classes asked for (0: nothing asked).
+    /// This frame: the classes asked for (0: nothing asked), of every job of the frame (of the
+    /// first job only for a probe).
     pub asked: u64,
+    /// This frame: the jobs answered so far (bit `k`: job `k` of [`GatherCore::jobs`]).
+    pub answered: u64,
+    /// This frame: the sums of the jobs answered, per job (room for every job).
+    pub sums: Vec<PartialSums>,
     /// This frame's request is a probe (checked, never merged).
     pub probing: bool,
-    /// This frame: the points in the classes asked for.
+    /// This frame: the points in the classes asked for (of the first job).
     pub points: u64,
     /// This frame: when the request left.
     pub sent_at: Option<Instant>,
@@ -192,6 +208,8 @@ impl PeerState {
             probe_hits: 0,
             bad_replies: 0,
             asked: 0,
+            answered: 0,
+            sums: vec![PartialSums::default(); MAX_JOBS],
             probing: false,
             points: 0,
             sent_at: None,
@@ -238,6 +256,9 @@ pub enum Acceptance {
     Late,
     /// For this frame, but nothing was asked or the request is already settled (a duplicate).
     Unrequested,
+    /// One job of a work share or probe of several jobs, in time and plausible: kept until the
+    /// share's last job arrives (then [`Acceptance::Merged`] or [`Acceptance::Probe`]).
+    Partial,
     /// For this frame, but the class mask or the sums are wrong: the share is settled as missing.
     Rejected,
     /// A probe answered in time: round trip `rtt`; never merged.
@@ -286,8 +307,9 @@ pub struct Fallback {
     pub recompute: u64,
     /// The workers whose shares are recomputed.
     pub recomputed: Vec<u32>,
-    /// The workers whose shares are stood in for, with the held sums to merge.
-    pub stale: Vec<(u32, PartialSums)>,
+    /// The workers whose shares are stood in for by their held sums (one per job,
+    /// [`GatherCore::held_sums`]).
+    pub stale: Vec<u32>,
 }
 
 fn config_err(field: &'static str) -> ConfigError {
@@ -301,7 +323,11 @@ fn config_err(field: &'static str) -> ConfigError {
 #[derive(Clone, Debug)]
 pub struct GatherCore {
     policy: Policy,
-    shape: Shape,
+    /// The shape of each job target the frames may name; the first is [`JobTarget::FIRST`]'s.
+    targets: Vec<(JobTarget, Shape)>,
+    /// This frame's jobs ([`GatherCore::set_jobs`]), each with its index in `targets`.
+    jobs: Vec<JobTarget>,
+    job_shapes: Vec<usize>,
     adapt: Adapt,
     seq: u64,
     /// In join order (ascending id), so the assignment is reproducible.
@@ -349,7 +375,9 @@ impl GatherCore {
         }
         Ok(GatherCore {
             policy,
-            shape,
+            targets: vec![(JobTarget::FIRST, shape)],
+            jobs: vec![JobTarget::FIRST],
+            job_shapes: vec![0],
             adapt: Adapt::default(),
             seq: 0,
             peers: Vec::new(),
@@ -364,6 +392,97 @@ impl GatherCore {
             probe_class: 0,
             window: Duration::MAX,
         })
+    }
+
+    /// Registers another job target the frames may name ([`vps_haptic::job`]) with the shape of
+    /// its shell and voxmap, which must have the first target's class count. Setup-time;
+    /// allocates. Re-registering a target replaces its shape.
+    pub fn add_target(&mut self, target: JobTarget, shape: Shape) -> Result<(), ConfigError> {
+        let classes = self.targets[0].1.class_points.len();
+        if shape.class_points.len() != classes {
+            return Err(ConfigError {
+                field: "class_count",
+                message: format!(
+                    "job target (shell {}, voxmap {}) has {} classes, the first {classes}",
+                    target.shell,
+                    target.map,
+                    shape.class_points.len()
+                ),
+            });
+        }
+        match self.targets.iter_mut().find(|(t, _)| *t == target) {
+            Some(known) => known.1 = shape,
+            None => self.targets.push((target, shape)),
+        }
+        Ok(())
+    }
+
+    /// Sets this frame's jobs (call between [`GatherCore::begin_frame`] and
+    /// [`GatherCore::assign`]; they stay until set again): 1..=[`MAX_JOBS`] registered targets,
+    /// no two alike, the first [`JobTarget::FIRST`] (probes ask for it alone). Errors, leaving
+    /// the jobs as they were, otherwise. Does not allocate.
+    pub fn set_jobs(&mut self, jobs: &[JobTarget]) -> Result<(), ConfigError> {
+        let bad = |message: String| {
+            Err(ConfigError {
+                field: "jobs",
+                message,
+            })
+        };
+        if jobs.is_empty() || jobs.len() > MAX_JOBS || jobs[0] != JobTarget::FIRST {
+            return bad(format!(
+                "{} jobs: 1..={MAX_JOBS} are allowed, the first part in the scene first",
+                jobs.len()
+            ));
+        }
+        for (k, job) in jobs.iter().enumerate() {
+            if jobs[..k].contains(job) {
+                return bad(format!("job {k} is named twice"));
+            }
+            if !self.targets.iter().any(|(t, _)| t == job) {
+                return bad(format!(
+                    "job {k} (shell {}, voxmap {}) is not one of the assets' targets",
+                    job.shell, job.map
+                ));
+            }
+        }
+        self.jobs.clear();
+        self.job_shapes.clear();
+        for job in jobs {
+            self.jobs.push(*job);
+            let shape = self.targets.iter().position(|(t, _)| t == job);
+            self.job_shapes.push(shape.unwrap_or(0));
+        }
+        Ok(())
+    }
+
+    /// This frame's jobs; a work request asks for every one, a probe for the first alone.
+    pub fn jobs(&self) -> &[JobTarget] {
+        &self.jobs
+    }
+
+    /// How many jobs worker `id`'s request of this frame names (0: none asked).
+    pub fn jobs_asked(&self, id: u32) -> usize {
+        match self.peer(id) {
+            Some(p) if p.asked == 0 => 0,
+            Some(p) if p.probing => 1,
+            Some(_) => self.jobs.len(),
+            None => 0,
+        }
+    }
+
+    /// The sums of worker `id`'s share this frame, one per job: what to merge after
+    /// [`Acceptance::Merged`]. Empty when `id` is unknown.
+    pub fn merged_sums(&self, id: u32) -> &[PartialSums] {
+        let n = self.jobs.len();
+        self.peer(id).map_or(&[], |p| &p.sums[..n])
+    }
+
+    /// The held sums of worker `id`, one per job of this frame: what stands in for its share
+    /// when the fallback plan lists it as stale ([`Fallback::stale`]). Empty when none is held.
+    pub fn held_sums(&self, id: u32) -> &[PartialSums] {
+        self.peer(id)
+            .and_then(|p| p.held.as_ref())
+            .map_or(&[], |h| &h.sums)
     }
 
     /// This frame's sequence number (0 before the first frame).
@@ -463,10 +582,11 @@ impl GatherCore {
     /// extra). Allocates the split's masks.
     pub fn assign(&mut self) -> u64 {
         self.active.clear();
-        let class_count = self.shape.class_points.len() as u32;
+        let class_count = self.targets[0].1.class_points.len() as u32;
         let (seq, probe_every) = (self.seq, self.policy.probe_every);
         for (i, peer) in self.peers.iter_mut().enumerate() {
             peer.asked = 0;
+            peer.answered = 0;
             peer.probing = false;
             peer.settled = false;
             peer.merged = false;
@@ -500,7 +620,7 @@ impl GatherCore {
         self.open_probes(masks[0]);
         for peer in &mut self.peers {
             peer.points = mask_classes(peer.asked)
-                .map(|c| self.shape.class_points[c as usize])
+                .map(|c| self.targets[0].1.class_points[c as usize])
                 .sum();
         }
         masks[0]
@@ -557,7 +677,7 @@ impl GatherCore {
         let slowest = remote.get(moved).map_or(Duration::ZERO, |r| r.1);
         self.split_stats.predicted_split_ns = nanos(cost(local).max(slowest));
         self.split_stats.predicted_local_ns =
-            nanos(c.saturating_mul(self.shape.class_points.len() as u32));
+            nanos(c.saturating_mul(self.targets[0].1.class_points.len() as u32));
         self.split_stats.shares_kept_local += (kept + moved) as u64;
         if moved == remote.len() {
             self.split_stats.kept_local_frames += 1;
@@ -583,7 +703,7 @@ impl GatherCore {
         };
         let local_all = self
             .per_class
-            .saturating_mul(self.shape.class_points.len() as u32);
+            .saturating_mul(self.targets[0].1.class_points.len() as u32);
         let window = self.window;
         for peer in &mut self.peers {
             let far = !local_all.is_zero()
@@ -674,28 +794,31 @@ impl GatherCore {
         self.peer(id).is_some()
     }
 
-    /// Judges a decoded reply from worker `id` that arrived at `at`. It is merged only when it
-    /// carries this frame's sequence number, answers a request not yet settled, echoes the
-    /// requested class mask and passes [`PartialSums::is_plausible`] and
-    /// [`PartialSums::torque_within`] for the share.
+    /// Judges a decoded reply from worker `id` that arrived at `at`. It is kept only when it
+    /// carries this frame's sequence number, answers a job of a request not yet settled (not
+    /// answered before), echoes the requested class mask and passes
+    /// [`PartialSums::is_plausible`] and [`PartialSums::torque_within`] for its job's share; the
+    /// share is merged when its last job is in. A reply for a job not asked settles the share as
+    /// rejected. Allocates only when a worker's first share is merged (its held copy).
     pub fn accept(&mut self, id: u32, reply: &FrameReply, at: Instant) -> Acceptance {
         let seq = self.seq;
-        let (max_depth, max_radius) = (self.shape.max_depth, self.shape.max_radius);
         let Some(index) = self.peers.iter().position(|p| p.id == id) else {
             return Acceptance::Unknown;
         };
+        let first = &self.targets[0].1;
         let peer = &mut self.peers[index];
         if let Some(probe) = peer.probe.as_mut().filter(|p| p.seq == reply.seq) {
             if probe.answer.is_some() {
                 return Acceptance::Unrequested;
             }
             let points = mask_classes(probe.classes)
-                .map(|c| self.shape.class_points[c as usize])
+                .map(|c| first.class_points[c as usize])
                 .sum();
             let valid = reply.classes == probe.classes
+                && reply.job == JobTarget::FIRST
                 && probe.expect.map_or(
-                    reply.sums.is_plausible(points, max_depth)
-                        && reply.sums.torque_within(max_radius, max_depth),
+                    reply.sums.is_plausible(points, first.max_depth)
+                        && reply.sums.torque_within(first.max_radius, first.max_depth),
                     |expect| expect == reply.sums,
                 );
             let rtt = probe
@@ -716,14 +839,31 @@ impl GatherCore {
         if peer.asked == 0 || peer.settled {
             return Acceptance::Unrequested;
         }
-        peer.settled = true;
-        let valid = reply.classes == peer.asked
-            && reply.sums.is_plausible(peer.points, max_depth)
-            && reply.sums.torque_within(max_radius, max_depth);
-        if !valid {
+        let asked_jobs = if peer.probing { 1 } else { self.jobs.len() };
+        let job = self.jobs[..asked_jobs].iter().position(|t| *t == reply.job);
+        if job.is_some_and(|k| peer.answered >> k & 1 == 1) {
+            return Acceptance::Unrequested;
+        }
+        let valid = job.is_some_and(|k| {
+            let shape = &self.targets[self.job_shapes[k]].1;
+            let points = mask_classes(peer.asked)
+                .map(|c| shape.class_points[c as usize])
+                .sum();
+            reply.classes == peer.asked
+                && reply.sums.is_plausible(points, shape.max_depth)
+                && reply.sums.torque_within(shape.max_radius, shape.max_depth)
+        });
+        let Some(job) = job.filter(|_| valid) else {
+            peer.settled = true;
             peer.bad_replies = peer.bad_replies.saturating_add(1);
             return Acceptance::Rejected;
+        };
+        peer.answered |= 1 << job;
+        peer.sums[job] = reply.sums;
+        if peer.answered.count_ones() as usize != asked_jobs {
+            return Acceptance::Partial;
         }
+        peer.settled = true;
         let rtt = peer
             .sent_at
             .map_or(Duration::ZERO, |sent| at.saturating_duration_since(sent));
@@ -734,11 +874,24 @@ impl GatherCore {
         } else {
             peer.merged = true;
             peer.rtt = rtt;
-            peer.held = Some(HeldShare {
-                classes: peer.asked,
-                sums: reply.sums,
-                seq,
-            });
+            let sums = &peer.sums[..asked_jobs];
+            match peer.held.as_mut() {
+                Some(held) => {
+                    held.classes = peer.asked;
+                    held.seq = seq;
+                    held.jobs.clone_from(&self.jobs);
+                    held.sums.clear();
+                    held.sums.extend_from_slice(sums);
+                }
+                None => {
+                    peer.held = Some(HeldShare {
+                        classes: peer.asked,
+                        jobs: self.jobs.clone(),
+                        sums: sums.to_vec(),
+                        seq,
+                    })
+                }
+            }
             Acceptance::Merged { rtt }
         }
     }
@@ -800,8 +953,10 @@ impl GatherCore {
             if !peer.settled {
                 self.transitions.push((peer.id, Transition::Lost));
             }
-            let stale_age = match peer.held {
-                Some(held) if held.classes == peer.asked => Some(self.seq - held.seq),
+            let stale_age = match &peer.held {
+                Some(held) if held.classes == peer.asked && held.jobs == self.jobs => {
+                    Some(self.seq - held.seq)
+                }
                 _ => None,
             };
             self.missing.push((
@@ -842,10 +997,8 @@ impl GatherCore {
         let plan = plan_fallback(&shares, left, per_class, self.policy.stale);
         for (&(index, _), action) in self.missing.iter().zip(plan) {
             let peer = &self.peers[index];
-            match (action, peer.held) {
-                (FallbackAction::ReuseStale, Some(held)) => {
-                    self.fallback.stale.push((peer.id, held.sums));
-                }
+            match (action, &peer.held) {
+                (FallbackAction::ReuseStale, Some(_)) => self.fallback.stale.push(peer.id),
                 _ => {
                     self.fallback.recompute |= peer.asked;
                     self.fallback.recomputed.push(peer.id);

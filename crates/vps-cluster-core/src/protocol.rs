@@ -9,23 +9,28 @@
 //! | 0..3 | `b"VPS"` | `b"VPS"` |
 //! | 3 | kind 1 | kind 2 |
 //! | 4..6 | [`PROTOCOL_VERSION`] u16 | same |
-//! | 6..8 | reserved, 0 | reserved, 0 |
+//! | 6 | the job's shell (a part index) | echoed |
+//! | 7 | the job's voxmap (0 the scene, `1 + k` part `k`'s body) | echoed |
 //! | 8..16 | seq u64 | seq u64 (echoed) |
 //! | 16..24 | class mask u64 | class mask u64 (echoed) |
 //! | 24.. | 18 × f32: rotation (9, column-major), translation (m), linear velocity (m/s), angular velocity (rad/s) | 13 × i128 then 6 × u64: the [`PartialSums`] fields in declaration order |
+//!
+//! A frame of several jobs ([`vps_haptic::job`]) sends one request per job to a worker, all with
+//! the same class mask; the worker answers each on its own.
 //!
 //! Join messages (reliable stream): each is a frame `len: u64` + body, see [`JoinMessage`]; the
 //! asset files (the voxmap and shell files of `vps_cluster::ClusterAssets`) travel as
 //! frames of their own (raw file bytes).
 
 use glam::{Mat3, Vec3};
-use vps_haptic::{KernelPose, PartialSums};
+use vps_haptic::{JobTarget, KernelPose, PartialSums};
 use vps_wire::SliceWriter;
 
 /// Version of the datagram and join formats and of what a class is; a worker with another version
 /// is refused. 2: classes are dealt in runs of points ([`vps_haptic::classed::run_length`]), so a
-/// class mask names other points than in version 1.
-pub const PROTOCOL_VERSION: u16 = 2;
+/// class mask names other points than in version 1. 3: a frame datagram names its job (shell
+/// and voxmap, bytes 6 and 7, reserved in version 2), and the assets are a list of files.
+pub const PROTOCOL_VERSION: u16 = 3;
 /// Largest class count a frame datagram can address (one bit per class).
 pub const MAX_CLASSES: u32 = 64;
 /// Size of an encoded [`FrameRequest`] (bytes).
@@ -62,33 +67,46 @@ pub enum DecodeError {
     Range(&'static str),
 }
 
-/// One frame's work order for one worker: sample the classes in `classes` at `pose`.
+/// One frame's work order for one worker: sample the classes in `classes` of the job `job` at
+/// `pose`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrameRequest {
     /// Frame sequence number (strictly increasing per coordinator).
     pub seq: u64,
     /// Bit `c` set: sample class `c`.
     pub classes: u64,
-    /// The part's pose and velocities (f32, as the kernel uses them).
+    /// Which shell in which voxmap (a worker checks it against its assets).
+    pub job: JobTarget,
+    /// The shell's pose and velocities in the voxmap's frame (f32, as the kernel uses them).
     pub pose: KernelPose,
 }
 
-/// A worker's answer: the merged sums of the requested classes.
+/// A worker's answer: the merged sums of the requested classes of one job.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct FrameReply {
     /// The request's sequence number.
     pub seq: u64,
     /// The request's class mask.
     pub classes: u64,
+    /// The request's job.
+    pub job: JobTarget,
     /// The sums over those classes.
     pub sums: PartialSums,
 }
 
-fn header(out: &mut [u8], kind: u8) {
+fn header(out: &mut [u8], kind: u8, job: JobTarget) {
     out[..3].copy_from_slice(MAGIC);
     out[3] = kind;
     out[4..6].copy_from_slice(&PROTOCOL_VERSION.to_le_bytes());
-    out[6..8].fill(0);
+    out[6] = job.shell;
+    out[7] = job.map;
+}
+
+fn job_of(bytes: &[u8]) -> JobTarget {
+    JobTarget {
+        shell: bytes[6],
+        map: bytes[7],
+    }
 }
 
 fn check_header(bytes: &[u8], kind: u8, expected: usize) -> Result<(), DecodeError> {
@@ -106,9 +124,6 @@ fn check_header(bytes: &[u8], kind: u8, expected: usize) -> Result<(), DecodeErr
     }
     if bytes[4..6] != PROTOCOL_VERSION.to_le_bytes() {
         return Err(DecodeError::Header("version"));
-    }
-    if bytes[6..8] != [0, 0] {
-        return Err(DecodeError::Header("reserved"));
     }
     Ok(())
 }
@@ -144,7 +159,7 @@ impl Reader<'_> {
 impl FrameRequest {
     /// Writes the 96-byte encoding into `out`. Does not allocate.
     pub fn encode(&self, out: &mut [u8; REQUEST_LEN]) {
-        header(out, KIND_REQUEST);
+        header(out, KIND_REQUEST, self.job);
         let mut w = SliceWriter::new(out, 8);
         w.put(&self.seq.to_le_bytes());
         w.put(&self.classes.to_le_bytes());
@@ -181,14 +196,19 @@ impl FrameRequest {
                 return Err(DecodeError::NonFinite(name));
             }
         }
-        Ok(FrameRequest { seq, classes, pose })
+        Ok(FrameRequest {
+            seq,
+            classes,
+            job: job_of(bytes),
+            pose,
+        })
     }
 }
 
 impl FrameReply {
     /// Writes the 280-byte encoding into `out`. Does not allocate.
     pub fn encode(&self, out: &mut [u8; REPLY_LEN]) {
-        header(out, KIND_REPLY);
+        header(out, KIND_REPLY, self.job);
         let s = &self.sums;
         let mut w = SliceWriter::new(out, 8);
         w.put(&self.seq.to_le_bytes());
@@ -238,7 +258,12 @@ impl FrameReply {
             non_free: r.u64(),
             sampled: r.u64(),
         };
-        Ok(FrameReply { seq, classes, sums })
+        Ok(FrameReply {
+            seq,
+            classes,
+            job: job_of(bytes),
+            sums,
+        })
     }
 }
 
@@ -249,8 +274,8 @@ pub fn mask_classes(mask: u64) -> impl Iterator<Item = u32> {
 
 /// Messages of the join exchange on the reliable stream, in order: worker → [`JoinMessage::Hello`];
 /// coordinator → [`JoinMessage::Welcome`] or [`JoinMessage::Reject`]; worker →
-/// [`JoinMessage::Need`]; coordinator → the needed asset files (voxmap first) as raw frames;
-/// worker → [`JoinMessage::Ready`].
+/// [`JoinMessage::Need`]; coordinator → the needed asset files (in [`AssetsIdentity::files`]
+/// order) as raw frames; worker → [`JoinMessage::Ready`].
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum JoinMessage {
     /// The worker's protocol version.
@@ -258,7 +283,7 @@ pub enum JoinMessage {
         /// [`PROTOCOL_VERSION`] of the worker.
         version: u16,
     },
-    /// The coordinator accepts the worker and names the assets (voxmap and classed shell).
+    /// The coordinator accepts the worker and names the assets (voxmaps and classed shells).
     Welcome {
         /// The id the coordinator gave this worker (logs and statistics).
         worker_id: u32,
@@ -272,29 +297,97 @@ pub enum JoinMessage {
     },
     /// Which asset files the worker lacks.
     Need {
-        /// Send the voxmap file.
-        voxmap: bool,
-        /// Send the point shell file.
-        shell: bool,
+        /// Bit `k` set: send file `k` of [`AssetsIdentity::files`] (no bit at or past their count).
+        files: u64,
     },
     /// The worker holds the assets and answers frame datagrams from now on.
     Ready,
 }
 
-/// What `vps_cluster::ClusterAssets` are, by content: nodes with these hashes hold the
-/// same voxmap and shell and split the shell into the same classes.
+/// What an asset file holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AssetKind {
+    /// A voxmap (`vps_voxmap::file::write_voxmap`); its hash is `VoxelTree::content_hash`.
+    Voxmap,
+    /// A point shell (`vps_voxmap::file::write_shell`); its hash is BLAKE3 of the file bytes.
+    Shell,
+}
+
+/// One asset file, by content.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AssetFile {
+    /// What it holds.
+    pub kind: AssetKind,
+    /// Its content hash (see [`AssetKind`]).
+    pub hash: [u8; 32],
+    /// Its size (bytes).
+    pub len: u64,
+}
+
+/// Most moving parts the assets can hold ([`vps_haptic::job::MAX_JOB_PARTS`]).
+pub const MAX_ASSET_PARTS: usize = vps_haptic::job::MAX_JOB_PARTS;
+
+/// What `vps_cluster::ClusterAssets` are, by content: nodes with these files hold the same
+/// voxmaps and shells and split every shell into the same classes.
+///
+/// `files` in this order, which is also the order of the transfer: the static scene's voxmap
+/// (voxmap 0 of [`vps_haptic::job`]), the `parts` moving parts' shells (shell 0, 1, …), and, in a
+/// session of more than one part, their body voxmaps (voxmap 1, 2, …).
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct AssetsIdentity {
-    /// `VoxelTree::content_hash` of the voxmap.
-    pub voxmap_hash: [u8; 32],
-    /// BLAKE3 of the point shell file bytes (`vps_voxmap::file::write_shell`).
-    pub shell_hash: [u8; 32],
-    /// Number of classes `C` (1..=64).
+    /// Number of classes `C` (1..=64) every shell is split into.
     pub class_count: u32,
-    /// Size of the voxmap file (bytes).
-    pub voxmap_len: u64,
-    /// Size of the shell file (bytes).
-    pub shell_len: u64,
+    /// The moving parts (1..=[`MAX_ASSET_PARTS`]).
+    pub parts: u8,
+    /// The files (see above): `1 + parts` files for one part, `1 + 2·parts` for more.
+    pub files: Vec<AssetFile>,
+}
+
+impl AssetsIdentity {
+    /// How many files `parts` moving parts need (see [`AssetsIdentity`]).
+    pub fn file_count(parts: u8) -> usize {
+        let parts = usize::from(parts);
+        if parts > 1 {
+            1 + 2 * parts
+        } else {
+            1 + parts
+        }
+    }
+
+    /// The kind file `k` must have among `file_count(parts)` files.
+    fn kind_at(parts: u8, k: usize) -> AssetKind {
+        if k == 0 || k > usize::from(parts) {
+            AssetKind::Voxmap
+        } else {
+            AssetKind::Shell
+        }
+    }
+
+    /// Checks the layout: class count in 1..=64, parts in 1..=[`MAX_ASSET_PARTS`], the file count
+    /// and every file's kind in place.
+    pub fn check(&self) -> Result<(), DecodeError> {
+        if !(1..=MAX_CLASSES).contains(&self.class_count) {
+            return Err(DecodeError::Range("class_count"));
+        }
+        if !(1..=MAX_ASSET_PARTS).contains(&usize::from(self.parts)) {
+            return Err(DecodeError::Range("parts"));
+        }
+        if self.files.len() != Self::file_count(self.parts) {
+            return Err(DecodeError::Range("file count"));
+        }
+        if (0..self.files.len()).any(|k| self.files[k].kind != Self::kind_at(self.parts, k)) {
+            return Err(DecodeError::Range("file kind"));
+        }
+        Ok(())
+    }
+
+    /// The bit mask of every file (for [`JoinMessage::Need`]).
+    pub fn all_files(&self) -> u64 {
+        match self.files.len() {
+            64.. => u64::MAX,
+            n => (1u64 << n) - 1,
+        }
+    }
 }
 
 const TAG_HELLO: u8 = 1;
@@ -302,7 +395,12 @@ const TAG_WELCOME: u8 = 2;
 const TAG_REJECT: u8 = 3;
 const TAG_NEED: u8 = 4;
 const TAG_READY: u8 = 5;
-const WELCOME_LEN: usize = 1 + 4 + 32 + 32 + 4 + 8 + 8;
+/// Welcome without its files: tag, worker id, class count, parts.
+const WELCOME_HEAD: usize = 1 + 4 + 4 + 1;
+/// One file in a welcome: kind, hash, length.
+const WELCOME_FILE: usize = 1 + 32 + 8;
+const KIND_VOXMAP: u8 = 1;
+const KIND_SHELL: u8 = 2;
 
 impl JoinMessage {
     /// The message body (without the length prefix). Allocates; join path only.
@@ -314,14 +412,19 @@ impl JoinMessage {
                 v
             }
             JoinMessage::Welcome { worker_id, assets } => {
-                let mut v = Vec::with_capacity(WELCOME_LEN);
+                let mut v = Vec::with_capacity(WELCOME_HEAD + WELCOME_FILE * assets.files.len());
                 v.push(TAG_WELCOME);
                 v.extend_from_slice(&worker_id.to_le_bytes());
-                v.extend_from_slice(&assets.voxmap_hash);
-                v.extend_from_slice(&assets.shell_hash);
                 v.extend_from_slice(&assets.class_count.to_le_bytes());
-                v.extend_from_slice(&assets.voxmap_len.to_le_bytes());
-                v.extend_from_slice(&assets.shell_len.to_le_bytes());
+                v.push(assets.parts);
+                for file in &assets.files {
+                    v.push(match file.kind {
+                        AssetKind::Voxmap => KIND_VOXMAP,
+                        AssetKind::Shell => KIND_SHELL,
+                    });
+                    v.extend_from_slice(&file.hash);
+                    v.extend_from_slice(&file.len.to_le_bytes());
+                }
                 v
             }
             JoinMessage::Reject { reason } => {
@@ -334,7 +437,11 @@ impl JoinMessage {
                 v.extend_from_slice(&reason.as_bytes()[..end]);
                 v
             }
-            JoinMessage::Need { voxmap, shell } => vec![TAG_NEED, *voxmap as u8, *shell as u8],
+            JoinMessage::Need { files } => {
+                let mut v = vec![TAG_NEED];
+                v.extend_from_slice(&files.to_le_bytes());
+                v
+            }
             JoinMessage::Ready => vec![TAG_READY],
         }
     }
@@ -363,40 +470,50 @@ impl JoinMessage {
                 })
             }
             TAG_WELCOME => {
-                exact(WELCOME_LEN)?;
+                if body.len() < WELCOME_HEAD {
+                    return Err(DecodeError::Length {
+                        got: body.len(),
+                        expected: WELCOME_HEAD,
+                    });
+                }
+                let parts = body[WELCOME_HEAD - 1];
+                if !(1..=MAX_ASSET_PARTS).contains(&usize::from(parts)) {
+                    return Err(DecodeError::Range("parts"));
+                }
+                let count = AssetsIdentity::file_count(parts);
+                exact(WELCOME_HEAD + WELCOME_FILE * count)?;
                 let mut r = Reader { bytes: rest, at: 0 };
                 let worker_id = u32::from_le_bytes(r.take());
-                let voxmap_hash = r.take();
-                let shell_hash = r.take();
                 let class_count = u32::from_le_bytes(r.take());
-                if !(1..=MAX_CLASSES).contains(&class_count) {
-                    return Err(DecodeError::Range("class_count"));
+                r.at += 1;
+                let mut files = Vec::with_capacity(count);
+                for _ in 0..count {
+                    let kind = match r.take::<1>()[0] {
+                        KIND_VOXMAP => AssetKind::Voxmap,
+                        KIND_SHELL => AssetKind::Shell,
+                        _ => return Err(DecodeError::Range("file kind")),
+                    };
+                    files.push(AssetFile {
+                        kind,
+                        hash: r.take(),
+                        len: r.u64(),
+                    });
                 }
-                Ok(JoinMessage::Welcome {
-                    worker_id,
-                    assets: AssetsIdentity {
-                        voxmap_hash,
-                        shell_hash,
-                        class_count,
-                        voxmap_len: r.u64(),
-                        shell_len: r.u64(),
-                    },
-                })
+                let assets = AssetsIdentity {
+                    class_count,
+                    parts,
+                    files,
+                };
+                assets.check()?;
+                Ok(JoinMessage::Welcome { worker_id, assets })
             }
             TAG_REJECT => Ok(JoinMessage::Reject {
                 reason: String::from_utf8_lossy(rest).into_owned(),
             }),
             TAG_NEED => {
-                exact(3)?;
-                let flag = |b: u8| match b {
-                    0 => Ok(false),
-                    1 => Ok(true),
-                    _ => Err(DecodeError::Range("need flag")),
-                };
-                Ok(JoinMessage::Need {
-                    voxmap: flag(rest[0])?,
-                    shell: flag(rest[1])?,
-                })
+                exact(9)?;
+                let mut r = Reader { bytes: rest, at: 0 };
+                Ok(JoinMessage::Need { files: r.u64() })
             }
             TAG_READY => {
                 exact(1)?;
@@ -449,14 +566,17 @@ mod tests {
         seq: u64,
         classes: u64,
     ) -> (FrameRequest, [u8; REQUEST_LEN], FrameReply, [u8; REPLY_LEN]) {
+        let job = JobTarget { shell: 2, map: 1 };
         let req = FrameRequest {
             seq,
             classes,
+            job,
             pose: pose(),
         };
         let reply = FrameReply {
             seq,
             classes,
+            job,
             sums: sums(),
         };
         let (mut req_buf, mut reply_buf) = ([0; REQUEST_LEN], [0; REPLY_LEN]);
@@ -500,7 +620,7 @@ mod tests {
             assert!(FrameReply::decode(&bytes).is_err());
             let _ = JoinMessage::decode(&bytes);
         }
-        for (i, name) in [(0, "magic"), (3, "kind"), (4, "version"), (7, "reserved")] {
+        for (i, name) in [(0, "magic"), (3, "kind"), (4, "version")] {
             let mut bad = rep;
             bad[i] ^= 0x40;
             assert!(
@@ -508,6 +628,24 @@ mod tests {
                 "{name}"
             );
         }
+    }
+
+    /// The job travels in bytes 6 and 7 of both datagrams, any values (the receiver checks
+    /// them against its assets).
+    #[test]
+    fn the_job_is_carried_and_echoed() {
+        let (_, mut req, _, mut rep) = encoded(9, 1);
+        assert_eq!((req[6], req[7], rep[6], rep[7]), (2, 1, 2, 1));
+        for buf in [&mut req[..], &mut rep[..]] {
+            buf[6] = 255;
+            buf[7] = 200;
+        }
+        let want = JobTarget {
+            shell: 255,
+            map: 200,
+        };
+        assert_eq!(FrameRequest::decode(&req).unwrap().job, want);
+        assert_eq!(FrameReply::decode(&rep).unwrap().job, want);
     }
 
     #[test]
@@ -518,6 +656,7 @@ mod tests {
         FrameRequest {
             seq: 1,
             classes: 1,
+            job: JobTarget::FIRST,
             pose: bad,
         }
         .encode(&mut buf);
@@ -529,26 +668,42 @@ mod tests {
 
     #[test]
     fn join_messages_round_trip_and_reject_bad_fields() {
-        let assets = AssetsIdentity {
-            voxmap_hash: [7; 32],
-            shell_hash: [9; 32],
-            class_count: 64,
-            voxmap_len: 123,
-            shell_len: 456,
+        let file = |kind, byte: u8| AssetFile {
+            kind,
+            hash: [byte; 32],
+            len: u64::from(byte) * 100,
         };
+        let assets = AssetsIdentity {
+            class_count: 64,
+            parts: 1,
+            files: vec![file(AssetKind::Voxmap, 7), file(AssetKind::Shell, 9)],
+        };
+        let two_parts = AssetsIdentity {
+            class_count: 8,
+            parts: 2,
+            files: vec![
+                file(AssetKind::Voxmap, 1),
+                file(AssetKind::Shell, 2),
+                file(AssetKind::Shell, 3),
+                file(AssetKind::Voxmap, 4),
+                file(AssetKind::Voxmap, 5),
+            ],
+        };
+        assert_eq!(two_parts.all_files(), 0b11111);
         for m in [
             JoinMessage::Hello { version: 3 },
             JoinMessage::Welcome {
                 worker_id: 5,
-                assets,
+                assets: assets.clone(),
+            },
+            JoinMessage::Welcome {
+                worker_id: 6,
+                assets: two_parts.clone(),
             },
             JoinMessage::Reject {
                 reason: "nope".into(),
             },
-            JoinMessage::Need {
-                voxmap: true,
-                shell: false,
-            },
+            JoinMessage::Need { files: 0b101 },
             JoinMessage::Ready,
         ] {
             let body = m.encode();
@@ -557,13 +712,14 @@ mod tests {
                 assert!(JoinMessage::decode(&body[..body.len() - 1]).is_err());
             }
         }
-        let mut welcome = JoinMessage::Welcome {
+        let welcome_of = |assets: AssetsIdentity| JoinMessage::Welcome {
             worker_id: 1,
-            assets: AssetsIdentity {
-                class_count: 65,
-                ..assets
-            },
-        }
+            assets,
+        };
+        let mut welcome = welcome_of(AssetsIdentity {
+            class_count: 65,
+            ..assets.clone()
+        })
         .encode();
         assert_eq!(
             JoinMessage::decode(&welcome),
@@ -571,6 +727,23 @@ mod tests {
         );
         welcome[0] = 99;
         assert!(JoinMessage::decode(&welcome).is_err());
+        // A file out of place, a part count the files do not follow, too many parts.
+        let mut swapped = two_parts.clone();
+        swapped.files.swap(2, 3);
+        assert_eq!(
+            JoinMessage::decode(&welcome_of(swapped).encode()),
+            Err(DecodeError::Range("file kind"))
+        );
+        let mut body = welcome_of(two_parts.clone()).encode();
+        body[WELCOME_HEAD - 1] = 1;
+        assert!(matches!(
+            JoinMessage::decode(&body),
+            Err(DecodeError::Length { .. })
+        ));
+        body[WELCOME_HEAD - 1] = 9;
+        assert_eq!(JoinMessage::decode(&body), Err(DecodeError::Range("parts")));
+        body[WELCOME_HEAD - 1] = 0;
+        assert_eq!(JoinMessage::decode(&body), Err(DecodeError::Range("parts")));
         assert!(JoinMessage::decode(&[TAG_NEED, 2, 0]).is_err());
         assert!(JoinMessage::decode(&[]).is_err());
         let long = JoinMessage::Reject {

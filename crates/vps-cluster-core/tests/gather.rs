@@ -7,6 +7,7 @@ use vps_cluster_core::gather::{
     Acceptance, GatherCore, Policy, Shape, SplitDecision, Transition, FAR_PROBE_FACTOR,
 };
 use vps_cluster_core::protocol::FrameReply;
+use vps_haptic::job::{body_map, JobTarget, SCENE_MAP};
 use vps_haptic::PartialSums;
 
 const CLASSES: usize = 16;
@@ -51,6 +52,7 @@ fn reply(seq: u64, classes: u64, tag: u64) -> FrameReply {
     FrameReply {
         seq,
         classes,
+        job: JobTarget::FIRST,
         sums: PartialSums {
             sampled: points(classes),
             non_free: tag.min(points(classes)),
@@ -214,8 +216,9 @@ fn stale_stand_ins_follow_the_policy() {
         // No time left and a costly class: recomputing cannot finish before the write.
         let plan = core.plan_fallback(Duration::ZERO, 100 * US);
         if want_stale {
-            assert_eq!(plan.stale, [(1, held.sums)]);
+            assert_eq!(plan.stale, [1]);
             assert_eq!(plan.recompute, 0);
+            assert_eq!(core.held_sums(1), [held.sums]);
         } else {
             assert!(plan.stale.is_empty(), "{stale:?} {frames_missed}");
             assert_eq!(plan.recompute, mask);
@@ -714,4 +717,165 @@ fn a_worker_costs_at_most_the_reply_window_in_the_prediction() {
     small.set_reply_window(400 * US);
     frame(&mut small, t);
     assert_eq!(small.decision(), SplitDecision::KeptLocal);
+}
+
+/// A core with one worker whose frames hold three jobs: the first part in the scene, the second
+/// part in the scene, and the first part's shell in the second part's body voxmap, whose shell
+/// has twice the points per class.
+fn three_jobs() -> (GatherCore, [JobTarget; 3]) {
+    let mut core = core_with(
+        Policy {
+            bench_after: 100,
+            ..policy()
+        },
+        &[1],
+    );
+    let second = JobTarget {
+        shell: 1,
+        map: SCENE_MAP,
+    };
+    let pair = JobTarget {
+        shell: 0,
+        map: body_map(1),
+    };
+    let doubled = Shape {
+        class_points: (1..=CLASSES as u64).map(|p| 2 * p).collect(),
+        max_depth: 0.01,
+        max_radius: 0.05,
+    };
+    core.add_target(second, doubled.clone()).unwrap();
+    core.add_target(pair, doubled).unwrap();
+    let jobs = [JobTarget::FIRST, second, pair];
+    core.set_jobs(&jobs).unwrap();
+    (core, jobs)
+}
+
+/// The reply to `job` of a share: `points` sampled (free space).
+fn job_reply(seq: u64, classes: u64, job: JobTarget, points: u64) -> FrameReply {
+    FrameReply {
+        job,
+        sums: PartialSums {
+            sampled: points,
+            ..PartialSums::default()
+        },
+        ..reply(seq, classes, 0)
+    }
+}
+
+#[test]
+fn a_share_of_several_jobs_is_merged_when_its_last_job_is_in_each_checked_by_its_own_shape() {
+    let (mut core, [first, second, pair]) = three_jobs();
+    let t0 = Instant::now();
+    frame(&mut core, t0);
+    let mask = asked(&core, 1);
+    assert_eq!(core.jobs_asked(1), 3);
+    let n = points(mask);
+    // Job by job, in any order: partial until the last.
+    assert_eq!(
+        core.accept(1, &job_reply(1, mask, pair, 2 * n), t0 + 5 * US),
+        Acceptance::Partial
+    );
+    assert_eq!(
+        core.accept(1, &job_reply(1, mask, pair, 2 * n), t0 + 6 * US),
+        Acceptance::Unrequested,
+        "a duplicate job"
+    );
+    assert_eq!(
+        core.accept(1, &job_reply(1, mask, first, n), t0 + 7 * US),
+        Acceptance::Partial
+    );
+    assert_eq!(
+        core.accept(1, &job_reply(1, mask, second, 2 * n), t0 + 9 * US),
+        Acceptance::Merged { rtt: 9 * US }
+    );
+    let sampled: Vec<u64> = core.merged_sums(1).iter().map(|s| s.sampled).collect();
+    assert_eq!(
+        sampled,
+        [n, 2 * n, 2 * n],
+        "one sum per job, in the frame's order"
+    );
+    core.settle(t0 + 100 * US);
+
+    // The second job's share counted with the first shell's points is implausible: rejected,
+    // the share settled as missing; so is a reply for a job the frame does not hold.
+    frame(&mut core, t0 + 1000 * US);
+    let mask = asked(&core, 1);
+    let n = points(mask);
+    assert_eq!(
+        core.accept(1, &job_reply(2, mask, second, 2 * n + 1), t0 + 1005 * US),
+        Acceptance::Rejected
+    );
+    assert_eq!(
+        core.accept(1, &job_reply(2, mask, first, n), t0 + 1006 * US),
+        Acceptance::Unrequested
+    );
+    core.settle(t0 + 1100 * US);
+    assert_eq!(core.missing().count(), 1);
+    frame(&mut core, t0 + 2000 * US);
+    let stranger = JobTarget { shell: 5, map: 0 };
+    assert_eq!(
+        core.accept(
+            1,
+            &job_reply(3, asked(&core, 1), stranger, 0),
+            t0 + 2005 * US
+        ),
+        Acceptance::Rejected
+    );
+}
+
+#[test]
+fn held_sums_stand_in_only_for_a_frame_of_the_same_jobs() {
+    let (mut core, jobs) = three_jobs();
+    let t0 = Instant::now();
+    frame(&mut core, t0);
+    let mask = asked(&core, 1);
+    let n = points(mask);
+    for (job, points) in jobs.iter().zip([n, 2 * n, 2 * n]) {
+        core.accept(1, &job_reply(1, mask, *job, points), t0 + 5 * US);
+    }
+    core.settle(t0 + 100 * US);
+    // Frame 2, same jobs, no reply, no time: the held sums stand in, one per job.
+    frame(&mut core, t0 + 1000 * US);
+    core.settle(t0 + 1100 * US);
+    let plan = core.plan_fallback(Duration::ZERO, 100 * US);
+    assert_eq!(plan.stale, [1]);
+    assert_eq!(core.held_sums(1).len(), 3);
+    // Frame 3: the pair left the broad phase; the held sums are of other jobs: recomputed.
+    core.begin_frame();
+    core.set_jobs(&jobs[..2]).unwrap();
+    core.assign();
+    core.sent(1, t0 + 2000 * US, true);
+    core.settle(t0 + 2100 * US);
+    let plan = core.plan_fallback(Duration::ZERO, 100 * US);
+    assert!(plan.stale.is_empty());
+    assert_eq!(plan.recompute, mask);
+}
+
+#[test]
+fn the_frames_jobs_must_be_known_distinct_and_start_with_the_first_part() {
+    let (mut core, [first, second, pair]) = three_jobs();
+    let unknown = JobTarget {
+        shell: 2,
+        map: SCENE_MAP,
+    };
+    for bad in [
+        &[][..],
+        &[second, first][..],
+        &[first, second, second][..],
+        &[first, unknown][..],
+        &[first; 65][..],
+    ] {
+        let err = core.set_jobs(bad).unwrap_err();
+        assert_eq!(err.field, "jobs", "{bad:?}");
+    }
+    assert_eq!(core.jobs(), [first, second, pair], "unchanged by a refusal");
+    let wrong_classes = Shape {
+        class_points: vec![1; CLASSES + 1],
+        max_depth: 0.01,
+        max_radius: 0.05,
+    };
+    assert_eq!(
+        core.add_target(unknown, wrong_classes).unwrap_err().field,
+        "class_count"
+    );
 }

@@ -456,22 +456,25 @@ async fn admit(
         &mut send,
         &JoinMessage::Welcome {
             worker_id: id,
-            assets: scene.identity,
+            assets: scene.identity.clone(),
         },
     )
     .await?;
-    let (voxmap, shell) = match read_join(&mut recv).await? {
-        JoinMessage::Need { voxmap, shell } => (voxmap, shell),
+    let needed = match read_join(&mut recv).await? {
+        JoinMessage::Need { files } => files,
         other => return Err(ClusterError::Join(format!("expected Need, got {other:?}"))),
     };
-    if voxmap {
-        write_frame(&mut send, scene.voxmap_file()).await?;
+    if needed & !scene.identity.all_files() != 0 {
+        return Err(ClusterError::Join(format!(
+            "the worker asked for files {needed:#x}; there are {}",
+            scene.identity.files.len()
+        )));
     }
-    if shell {
-        write_frame(&mut send, scene.shell_file()).await?;
+    for k in (0..scene.identity.files.len()).filter(|k| needed >> k & 1 == 1) {
+        write_frame(&mut send, scene.file(k)).await?;
     }
     match read_join(&mut recv).await? {
-        JoinMessage::Ready => Ok(voxmap || shell),
+        JoinMessage::Ready => Ok(needed != 0),
         other => Err(ClusterError::Join(format!("expected Ready, got {other:?}"))),
     }
 }

@@ -161,6 +161,7 @@ pub(crate) struct Board {
     pub(crate) fallback_shares: AtomicU64,
     pub(crate) stale_shares: AtomicU64,
     pub(crate) local_only_frames: AtomicU64,
+    pub(crate) job_samples: AtomicU64,
     pub(crate) orphan_datagrams: AtomicU64,
     /// Written by the network tasks (several threads): incremented with `fetch_add`.
     pub(crate) queue_full: AtomicU64,
@@ -182,6 +183,7 @@ impl Board {
             fallback_shares: AtomicU64::new(0),
             stale_shares: AtomicU64::new(0),
             local_only_frames: AtomicU64::new(0),
+            job_samples: AtomicU64::new(0),
             orphan_datagrams: AtomicU64::new(0),
             queue_full: AtomicU64::new(0),
             rtt_dropped: AtomicU64::new(0),
@@ -246,6 +248,7 @@ impl Board {
             fallback_shares: load(&self.fallback_shares),
             stale_shares: load(&self.stale_shares),
             local_only_frames: load(&self.local_only_frames),
+            job_samples: load(&self.job_samples),
             orphan_datagrams: load(&self.orphan_datagrams),
             queue_full_datagrams: load(&self.queue_full),
             rtt_samples_dropped: load(&self.rtt_dropped),

@@ -62,6 +62,9 @@ pub struct ClusterReport {
     pub stale_shares: u64,
     /// Frames in which no worker had work (everything local).
     pub local_only_frames: u64,
+    /// Sampling jobs gathered, summed over frames ([`vps_haptic::job`]): one a frame for one
+    /// part; with several, one per part and two per pair the broad phase kept.
+    pub job_samples: u64,
     /// Datagrams from workers that are no longer known.
     pub orphan_datagrams: u64,
     /// Datagrams dropped because the frame thread's queue was full.

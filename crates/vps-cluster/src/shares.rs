@@ -34,6 +34,12 @@
 //! ([`crate::fallback`]). The sums are then no longer those of one pose; `StalePolicy::NEVER`
 //! keeps them exact whatever the timing.
 //!
+//! Several parts ([`FrameSampler::compute_jobs`]): a frame of several jobs
+//! ([`vps_haptic::job`]: every part in the static scene, both directions of every pair the broad
+//! phase keeps) is split as one shell is: each party gets the same classes of every job, a
+//! worker one request datagram per job and one reply per job, merged when all are in; a missing
+//! share is recomputed for every job. Probes ask for the first job alone.
+//!
 //! Validation: a reply is used only if it decodes strictly, carries this frame's sequence number
 //! (older ones are counted late and dropped), echoes the requested class mask and passes
 //! [`PartialSums::is_plausible`] and [`PartialSums::torque_within`] for the share's point count,
@@ -51,6 +57,7 @@ use bytes::Bytes;
 use crossbeam::channel::{Receiver, RecvTimeoutError, TryRecvError};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
+use vps_haptic::job::{JobTarget, SampleJob, MAX_JOBS};
 use vps_haptic::{KernelPose, PartialSums};
 use vps_runtime::{FrameSampler, PoolResult};
 
@@ -141,6 +148,29 @@ pub struct RemoteShares {
     per_class: Duration,
     /// Scratch: workers to disconnect for bad replies (id, bad replies in a row).
     misbehaving: Vec<(u32, u32)>,
+    /// Scratch: this frame's job targets.
+    targets: Vec<JobTarget>,
+    /// A frame named a job the assets cannot sample: the session must end.
+    failure: Option<String>,
+}
+
+/// The shape of `target`'s shell and voxmap in `assets`, for checking replies.
+fn shape_of(assets: &ClusterAssets, target: JobTarget) -> Shape {
+    let (map, shell) = assets
+        .target(target)
+        .expect("the assets' own targets are theirs");
+    let s = map.spec().voxel_size;
+    let layered = PartialSums::max_contact_depth(s, map.width().surface_layers());
+    Shape {
+        class_points: (0..shell.class_count())
+            .map(|c| shell.class_len(c) as u64)
+            .collect(),
+        // A map with a distance band pushes by the band's depth at most.
+        max_depth: map
+            .distance_band()
+            .map_or(layered, |band| layered.max(band.max_contact_depth(s))),
+        max_radius: shell.max_radius(),
+    }
 }
 
 pub use crate::close::CLOSE_BAD_REPLIES;
@@ -175,23 +205,10 @@ impl RemoteShares {
                 message: "must be at least 1".into(),
             });
         }
-        let shape = Shape {
-            class_points: (0..assets.shell.class_count())
-                .map(|c| assets.shell.class_len(c) as u64)
-                .collect(),
-            max_depth: {
-                let s = assets.map.spec().voxel_size;
-                let layered =
-                    PartialSums::max_contact_depth(s, assets.map.width().surface_layers());
-                // A map with a distance band pushes by the band's depth at most.
-                assets
-                    .map
-                    .distance_band()
-                    .map_or(layered, |band| layered.max(band.max_contact_depth(s)))
-            },
-            max_radius: assets.shell.max_radius(),
-        };
-        let core = GatherCore::new(config.policy(), shape)?;
+        let mut core = GatherCore::new(config.policy(), shape_of(&assets, JobTarget::FIRST))?;
+        for target in assets.targets().into_iter().skip(1) {
+            core.add_target(target, shape_of(&assets, target))?;
+        }
         // The local pool is deliberately NOT kept off the frame core: it works only inside a
         // frame, while the frame thread blocks in `install` waiting for it, so on the frame core
         // it runs in the frame thread's place rather than against it; keeping it off would halve
@@ -222,6 +239,8 @@ impl RemoteShares {
             request: [0; REQUEST_LEN],
             per_class: Duration::ZERO,
             misbehaving: Vec::new(),
+            targets: Vec::with_capacity(MAX_JOBS),
+            failure: None,
         })
     }
 
@@ -299,9 +318,9 @@ impl RemoteShares {
         }
     }
 
-    /// Sends every request; returns how many are awaited. One small allocation per request
-    /// (the datagram buffer); never blocks.
-    fn send_requests(&mut self, pose: &KernelPose) -> usize {
+    /// Sends every request, one datagram per job asked; returns how many workers are awaited.
+    /// One small allocation per datagram (its buffer); never blocks.
+    fn send_requests(&mut self, jobs: &[SampleJob]) -> usize {
         let mut pending = 0;
         for i in 0..self.links.len() {
             let (id, asked) = {
@@ -313,25 +332,29 @@ impl RemoteShares {
             }
             let link = &self.links[i];
             debug_assert_eq!(link.id, id, "links and core peers are in the same order");
-            FrameRequest {
-                seq: self.core.seq(),
-                classes: asked,
-                pose: *pose,
-            }
-            .encode(&mut self.request);
             link.metrics.bump(|m| &m.requests);
             let at = Instant::now();
-            let sent = link
-                .conn
-                .send_datagram(Bytes::copy_from_slice(&self.request))
-                .is_ok();
+            let mut sent = true;
+            for job in &jobs[..self.core.jobs_asked(id)] {
+                FrameRequest {
+                    seq: self.core.seq(),
+                    classes: asked,
+                    job: job.target,
+                    pose: job.pose,
+                }
+                .encode(&mut self.request);
+                sent &= link
+                    .conn
+                    .send_datagram(Bytes::copy_from_slice(&self.request))
+                    .is_ok();
+            }
             pending += usize::from(self.core.sent(id, at, sent));
         }
         pending
     }
 
     /// Handles one datagram; returns true when it settled a share awaited this frame.
-    fn accept(&mut self, datagram: Datagram, sums: &mut PartialSums) -> bool {
+    fn accept(&mut self, datagram: Datagram, sums: &mut [PartialSums]) -> bool {
         let Some(metrics) = self.link(datagram.id).map(|l| l.metrics.clone()) else {
             self.board.bump(|b| &b.orphan_datagrams);
             return false;
@@ -355,7 +378,7 @@ impl RemoteShares {
         datagram: &Datagram,
         reply: &FrameReply,
         metrics: &Arc<PeerMetrics>,
-        sums: &mut PartialSums,
+        sums: &mut [PartialSums],
     ) -> bool {
         let acceptance = self.core.accept(datagram.id, reply, datagram.at);
         match acceptance {
@@ -373,9 +396,12 @@ impl RemoteShares {
                 metrics.bump(|m| &m.invalid);
                 tracing::debug!(worker = datagram.id, "wrong probe reply");
             }
+            Acceptance::Partial => {}
             Acceptance::Merged { rtt } => {
                 self.board.record_rtt(metrics, nanos(rtt));
-                sums.merge(&reply.sums);
+                for (sum, share) in sums.iter_mut().zip(self.core.merged_sums(datagram.id)) {
+                    sum.merge(share);
+                }
                 metrics.bump(|m| &m.merged);
             }
         }
@@ -386,7 +412,7 @@ impl RemoteShares {
     /// before it, then spins. Never waits on a tokio timer. Past the deadline (the local share
     /// may take that long) it still takes, without waiting, the replies already queued: they
     /// arrived while the frame thread was computing.
-    fn gather(&mut self, mut pending: usize, deadline: Instant, sums: &mut PartialSums) {
+    fn gather(&mut self, mut pending: usize, deadline: Instant, sums: &mut [PartialSums]) {
         while pending > 0 {
             let now = Instant::now();
             if now >= deadline {
@@ -431,7 +457,7 @@ impl RemoteShares {
         // Decoded once: a probe's answer is booked from this decoding.
         if let (Some(metrics), Ok(reply)) = (&metrics, FrameReply::decode(&datagram.bytes)) {
             if self.core.answers_probe(datagram.id, reply.seq) {
-                self.accept_reply(&datagram, &reply, metrics, &mut PartialSums::default());
+                self.accept_reply(&datagram, &reply, metrics, &mut []);
                 return;
             }
         }
@@ -481,13 +507,23 @@ impl RemoteShares {
     }
 
     /// Stands in for the missing shares ([`crate::fallback`]): recomputes them on local threads,
-    /// or, where that cannot finish `write_margin` before the write is due (`write_due`), merges
-    /// their sums from an earlier frame. Returns how many shares were recomputed.
-    fn fall_back(&mut self, pose: &KernelPose, write_due: Instant, sums: &mut PartialSums) -> u32 {
+    /// for every job, or, where that cannot finish `write_margin` before the write is due
+    /// (`write_due`), merges their sums from an earlier frame of the same jobs. Returns how many
+    /// shares were recomputed.
+    fn fall_back(
+        &mut self,
+        jobs: &[SampleJob],
+        write_due: Instant,
+        sums: &mut [PartialSums],
+    ) -> u32 {
         let left = write_due.saturating_duration_since(Instant::now());
-        let plan = self.core.plan_fallback(left, self.per_class);
-        for (id, held) in &plan.stale {
-            sums.merge(held);
+        // Copied (allocates only when shares are missing): the held sums are read from the core.
+        let plan = self.core.plan_fallback(left, self.per_class).clone();
+        let (recompute, recomputed) = (plan.recompute, plan.recomputed.len() as u32);
+        for id in &plan.stale {
+            for (sum, held) in sums.iter_mut().zip(self.core.held_sums(*id)) {
+                sum.merge(held);
+            }
             if let Some(link) = self.links.iter().find(|l| l.id == *id) {
                 link.metrics.bump(|m| &m.stale);
             }
@@ -498,9 +534,10 @@ impl RemoteShares {
                 link.metrics.bump(|m| &m.recomputed);
             }
         }
-        let (recompute, recomputed) = (plan.recompute, plan.recomputed.len() as u32);
         if recompute != 0 {
-            sums.merge(&self.sample(pose, recompute));
+            for (sum, job) in sums.iter_mut().zip(jobs) {
+                sum.merge(&self.sample(job, recompute));
+            }
         }
         recomputed
     }
@@ -511,69 +548,116 @@ fn nanos(d: Duration) -> u64 {
 }
 
 impl RemoteShares {
-    /// The sums of the classes in `mask`: on the frame thread itself with one local thread (no
-    /// hand-off), else on the local pool. Blocks until done; does not allocate.
-    fn sample(&self, pose: &KernelPose, mask: u64) -> PartialSums {
+    /// The sums of the classes in `mask` of `job`: on the frame thread itself with one local
+    /// thread (no hand-off), else on the local pool. Blocks until done; does not allocate.
+    fn sample(&self, job: &SampleJob, mask: u64) -> PartialSums {
         if self.config.local_threads == 1 {
-            self.assets.sample_mask_serial(pose, mask)
+            self.assets.sample_mask_serial(job.target, &job.pose, mask)
         } else {
-            self.pool.install(|| self.assets.sample_mask(pose, mask))
+            self.pool
+                .install(|| self.assets.sample_mask(job.target, &job.pose, mask))
         }
     }
-}
 
-impl FrameSampler for RemoteShares {
-    /// One frame: membership, assignment, requests, own share on local threads, gather until
-    /// `deadline`, fallback (recompute, or stand in with earlier sums). Allocates one datagram
-    /// buffer per request, the share split, and the fallback plan when shares are missing (and on
-    /// membership changes); blocks only on the reply channel (never past `deadline`) and on local
-    /// compute.
-    fn compute(&mut self, pose: &KernelPose, deadline: Instant) -> PoolResult {
+    /// One frame of `jobs` into `sums` (one per job): membership, assignment, requests, own
+    /// share on local threads, gather until `deadline`, fallback (recompute, or stand in with
+    /// earlier sums). Returns the shares recomputed locally. A job the assets cannot sample
+    /// ends the session ([`FrameSampler::failure`]). Allocates one datagram buffer per request,
+    /// the share split, and the fallback plan when shares are missing (and on membership
+    /// changes); blocks only on the reply channel (never past `deadline`) and on local compute.
+    fn compute_frame(
+        &mut self,
+        jobs: &[SampleJob],
+        deadline: Instant,
+        sums: &mut [PartialSums],
+    ) -> u32 {
         let entered = Instant::now();
+        sums.iter_mut().for_each(|s| *s = PartialSums::default());
         self.core.begin_frame();
+        self.targets.clear();
+        self.targets.extend(jobs.iter().map(|j| j.target));
+        if let Err(e) = self.core.set_jobs(&self.targets) {
+            self.failure = Some(format!("the cluster cannot sample this frame: {e}"));
+            return 0;
+        }
         self.update_membership();
         // Replies from earlier frames still queued: counted late, never merged.
-        let mut unused = PartialSums::default();
         while let Ok(stale) = self.datagrams.try_recv() {
-            self.accept(stale, &mut unused);
+            self.accept(stale, &mut []);
         }
         self.core
             .set_reply_window(deadline.saturating_duration_since(Instant::now()));
         let local = self.core.assign();
         self.publish_classes();
         self.board.set_split(self.core.split_stats());
-        let pending = self.send_requests(pose);
+        let pending = self.send_requests(jobs);
         let started = Instant::now();
         // An unawaited probe's class is computed on its own: the probe reply must equal it.
         let probe = self.core.probe_classes();
-        let mut sums = self.sample(pose, local & !probe);
+        for (sum, job) in sums.iter_mut().zip(jobs) {
+            *sum = self.sample(job, local & !probe);
+        }
         if probe != 0 {
-            let own = self.sample(pose, probe);
+            let own = self.sample(&jobs[0], probe);
             self.core.set_probe_result(&own);
-            sums.merge(&own);
+            sums[0].merge(&own);
         }
         if local != 0 {
             self.per_class = started.elapsed() / local.count_ones();
             self.core.set_local_cost(self.per_class);
         }
-        self.gather(pending, deadline, &mut sums);
+        self.gather(pending, deadline, sums);
         self.settle(deadline);
         // The write is due one reply window after the reply deadline (see `crate::fallback`).
         let write_due = deadline
             .checked_add(deadline.saturating_duration_since(entered))
             .unwrap_or(deadline);
-        let fallback_shares = self.fall_back(pose, write_due, &mut sums);
+        let fallback_shares = self.fall_back(jobs, write_due, sums);
         self.disconnect_misbehaving();
         self.board.bump(|b| &b.frames);
+        self.board.add(|b| &b.job_samples, jobs.len() as u64);
         self.board
             .add(|b| &b.fallback_shares, u64::from(fallback_shares));
         if self.core.active_workers() == 0 {
             self.board.bump(|b| &b.local_only_frames);
         }
+        fallback_shares
+    }
+}
+
+impl FrameSampler for RemoteShares {
+    /// One frame of the first part alone: membership, assignment, requests, own share on local
+    /// threads, gather until `deadline`, fallback (recompute, or stand in with earlier sums).
+    /// Allocates one datagram buffer per request, the share split, and the fallback plan when
+    /// shares are missing (and on membership changes); blocks only on the reply channel (never
+    /// past `deadline`) and on local compute.
+    fn compute(&mut self, pose: &KernelPose, deadline: Instant) -> PoolResult {
+        let job = [SampleJob {
+            target: JobTarget::FIRST,
+            pose: *pose,
+        }];
+        let mut first = [PartialSums::default()];
+        let fallback_shares = self.compute_frame(&job, deadline, &mut first);
         PoolResult {
-            sums,
+            sums: first[0],
             fallback_shares,
         }
+    }
+
+    /// Every job of a frame of several parts, split over the workers like one shell (see
+    /// [`RemoteShares::compute`]; one request datagram per job and worker).
+    fn compute_jobs(
+        &mut self,
+        jobs: &[SampleJob],
+        deadline: Instant,
+        sums: &mut [PartialSums],
+    ) -> Option<u32> {
+        Some(self.compute_frame(jobs, deadline, sums))
+    }
+
+    /// Allocates the message (only after a frame named a job the assets lack).
+    fn failure(&self) -> Option<String> {
+        self.failure.clone()
     }
 }
 

@@ -13,10 +13,10 @@
 //! until its stop flag is set. A refusal for good ([`ClusterError::Refused`]: a certificate not
 //! pinned on either side, an incompatible protocol) ends it with that error instead.
 
-use crate::assets::{AssetsCache, ClusterAssets, MAX_ASSET_FILE};
+use crate::assets::{AssetData, AssetsCache, ClusterAssets, MAX_ASSET_FILE};
 use crate::protocol::{
-    read_frame, read_join, write_join, FrameReply, FrameRequest, JoinMessage, PROTOCOL_VERSION,
-    REPLY_LEN,
+    read_frame, read_join, write_join, AssetKind, FrameReply, FrameRequest, JoinMessage,
+    PROTOCOL_VERSION, REPLY_LEN,
 };
 use crate::tls::{client_config, PeerTls, SERVER_NAME};
 use crate::{close, ClusterError};
@@ -26,6 +26,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
+use vps_haptic::job::MAX_JOBS;
 
 /// How a worker runs.
 #[derive(Clone, Debug)]
@@ -65,9 +66,10 @@ pub struct WorkerReport {
     pub requests: u64,
     /// Replies sent.
     pub replies: u64,
-    /// Requests dropped because a newer one was queued.
+    /// Requests dropped because a request of a newer frame was queued.
     pub superseded: u64,
-    /// Datagrams that failed to decode (garbage, truncated, wrong version).
+    /// Datagrams that failed to decode (garbage, truncated, wrong version) or named a job its
+    /// assets cannot sample.
     pub invalid_datagrams: u64,
     /// UDP datagrams on its socket that cannot be QUIC packets by their shape (raw garbage; see
     /// [`crate::udp_count`]).
@@ -177,21 +179,21 @@ async fn worker_main(
         tokio::select! {
             datagram = conn.read_datagram() => match datagram {
                 Ok(bytes) => {
-                    let mut newest = answer.decode(&bytes, &mut invalid);
-                    // Requests queued meanwhile: only the newest is answered (the coordinator
-                    // has given up on the older ones).
+                    answer.batch.clear();
+                    if let Some(request) = answer.decode(&bytes, &mut invalid) {
+                        answer.queue(request);
+                    }
+                    // Requests queued meanwhile: only the newest frame's are answered (the
+                    // coordinator has given up on the older ones).
                     while let Some(Ok(bytes)) = try_read_datagram(&conn) {
                         if let Some(request) = answer.decode(&bytes, &mut invalid) {
-                            answer.superseded += u64::from(newest.is_some());
-                            newest = Some(request);
+                            answer.queue(request);
                         }
                     }
-                    if let Some(request) = newest {
-                        if !answer.reply(&conn, &request) {
-                            break conn
-                                .close_reason()
-                                .map_or_else(|| "send failed".into(), |e| e.to_string());
-                        }
+                    if !answer.reply_all(&conn) {
+                        break conn
+                            .close_reason()
+                            .map_or_else(|| "send failed".into(), |e| e.to_string());
                     }
                 }
                 Err(e) => {
@@ -412,6 +414,8 @@ fn try_read_datagram(
 struct Answerer {
     scene: ClusterAssets,
     pool: Option<rayon::ThreadPool>,
+    /// The requests to answer now: the newest frame's, one per job.
+    batch: Vec<FrameRequest>,
     buf: [u8; REPLY_LEN],
     requests: u64,
     replies: u64,
@@ -435,6 +439,7 @@ impl Answerer {
         Ok(Answerer {
             scene,
             pool,
+            batch: Vec::with_capacity(MAX_JOBS),
             buf: [0; REPLY_LEN],
             requests: 0,
             replies: 0,
@@ -442,9 +447,19 @@ impl Answerer {
         })
     }
 
-    /// A frame request, or `None` (counted in `invalid`) for a malformed datagram.
+    /// A frame request, or `None` (counted in `invalid`) for a malformed datagram or one naming
+    /// a job these assets cannot sample.
     fn decode(&mut self, bytes: &[u8], invalid: &mut u64) -> Option<FrameRequest> {
         match FrameRequest::decode(bytes) {
+            Ok(request) if self.scene.target(request.job).is_none() => {
+                *invalid += 1;
+                tracing::debug!(
+                    "dropped a request for shell {} in voxmap {}: no such asset",
+                    request.job.shell,
+                    request.job.map
+                );
+                None
+            }
             Ok(request) => {
                 self.requests += 1;
                 Some(request)
@@ -457,17 +472,47 @@ impl Answerer {
         }
     }
 
+    /// Adds `request` to the batch to answer: a newer frame's replaces the batch (the older
+    /// requests are superseded), an older frame's is superseded, the same frame's joins it (up
+    /// to one per job). Does not allocate.
+    fn queue(&mut self, request: FrameRequest) {
+        match self.batch.last().map(|r| r.seq) {
+            Some(seq) if request.seq > seq => {
+                self.superseded += self.batch.len() as u64;
+                self.batch.clear();
+            }
+            Some(seq) if request.seq < seq => {
+                self.superseded += 1;
+                return;
+            }
+            _ => {}
+        }
+        if self.batch.len() < MAX_JOBS {
+            self.batch.push(request);
+        } else {
+            self.superseded += 1;
+        }
+    }
+
+    /// Answers every request of the batch; false when the connection is gone.
+    fn reply_all(&mut self, conn: &quinn::Connection) -> bool {
+        let batch = std::mem::take(&mut self.batch);
+        let ok = batch.iter().all(|request| self.reply(conn, request));
+        self.batch = batch;
+        ok
+    }
+
     /// Samples the requested classes and sends the reply; false when the connection is gone.
     fn reply(&mut self, conn: &quinn::Connection, request: &FrameRequest) -> bool {
+        let (job, pose, classes) = (request.job, &request.pose, request.classes);
         let sums = match &self.pool {
-            Some(pool) => pool.install(|| self.scene.sample_mask(&request.pose, request.classes)),
-            None => self
-                .scene
-                .sample_mask_serial(&request.pose, request.classes),
+            Some(pool) => pool.install(|| self.scene.sample_mask(job, pose, classes)),
+            None => self.scene.sample_mask_serial(job, pose, classes),
         };
         FrameReply {
             seq: request.seq,
-            classes: request.classes,
+            classes,
+            job,
             sums,
         }
         .encode(&mut self.buf);
@@ -503,42 +548,54 @@ async fn join(
         other => return Err(ClusterError::Join(format!("unexpected {other:?}"))),
     };
     // Reading, hashing and decoding a scene takes seconds for large ones: off the runtime's
-    // thread, so that the connection keeps answering (and sending keep-alives) meanwhile.
-    let cached = {
-        let cache = cache.clone();
+    // thread, so that the connection keeps answering (and sending keep-alives) meanwhile. A
+    // cached file that does not decode to its hash is fetched again.
+    let mut held: Vec<Option<(Vec<u8>, AssetData)>> = {
+        let (cache, identity) = (cache.clone(), identity.clone());
         blocking(move || {
-            match (
-                cache.voxmap(&identity.voxmap_hash),
-                cache.shell(&identity.shell_hash),
-            ) {
-                (Some(v), Some(s)) => ClusterAssets::from_files(&identity, v, s).ok(),
-                _ => None,
-            }
+            identity
+                .files
+                .iter()
+                .map(|file| {
+                    let bytes = cache.read(file)?;
+                    let data = ClusterAssets::decode_file(file, &bytes).ok()?;
+                    Some((bytes, data))
+                })
+                .collect()
         })
         .await?
     };
-    let transfer = cached.is_none();
-    write_join(
-        &mut send,
-        &JoinMessage::Need {
-            voxmap: transfer,
-            shell: transfer,
-        },
-    )
-    .await?;
-    let scene = match cached {
-        Some(scene) => scene,
-        None => {
-            let voxmap = read_file(&mut recv, identity.voxmap_len, "voxmap").await?;
-            let shell = read_file(&mut recv, identity.shell_len, "shell").await?;
-            let cache = cache.clone();
-            blocking(move || {
-                cache.store(&identity, &voxmap, &shell);
-                ClusterAssets::from_files(&identity, voxmap, shell)
-            })
-            .await??
+    let needed = held
+        .iter()
+        .enumerate()
+        .filter(|(_, h)| h.is_none())
+        .fold(0u64, |mask, (k, _)| mask | 1 << k);
+    write_join(&mut send, &JoinMessage::Need { files: needed }).await?;
+    for (k, slot) in held.iter_mut().enumerate() {
+        if slot.is_some() {
+            continue;
         }
-    };
+        let file = identity.files[k];
+        let what = match file.kind {
+            AssetKind::Voxmap => "voxmap",
+            AssetKind::Shell => "shell",
+        };
+        let bytes = read_file(&mut recv, file.len, what).await?;
+        let cache = cache.clone();
+        *slot = Some(
+            blocking(move || {
+                let data = ClusterAssets::decode_file(&file, &bytes)?;
+                cache.store(&file, &bytes);
+                Ok::<_, ClusterError>((bytes, data))
+            })
+            .await??,
+        );
+    }
+    let transfer = needed != 0;
+    let scene = blocking(move || {
+        ClusterAssets::from_decoded(&identity, held.into_iter().flatten().collect())
+    })
+    .await??;
     write_join(&mut send, &JoinMessage::Ready).await?;
     let _ = send.finish();
     Ok((scene, worker_id, transfer))

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use vps_cluster::fallback::StalePolicy;
 use vps_cluster::protocol::{FrameReply, FrameRequest, REPLY_LEN};
 use vps_cluster::GatherConfig;
-use vps_haptic::sample_all;
+use vps_haptic::{sample_all, JobTarget};
 use vps_runtime::FrameSampler;
 
 #[test]
@@ -20,7 +20,7 @@ fn two_workers_give_sums_bit_identical_to_one_process() {
 #[test]
 fn two_workers_give_distance_model_sums_bit_identical_to_one_process() {
     let assets = vps_testkit::cluster::band_assets();
-    assert!(assets.map.distance_band().is_some());
+    assert!(assets.scene_map().distance_band().is_some());
     two_workers_match_one_process(assets);
 }
 
@@ -34,7 +34,7 @@ fn two_workers_match_one_process(assets: std::sync::Arc<vps_cluster::ClusterAsse
     let poses = poses(40);
     let mut touched = false;
     for pose in &poses {
-        let want = sample_all(&*assets.map, &assets.shell, pose);
+        let want = sample_all(&**assets.scene_map(), assets.first_shell(), pose);
         touched |= want.contacts > 0 && want.approaching > 0;
         let got = shares.compute(pose, Instant::now() + DEADLINE);
         assert_eq!(got.sums, want);
@@ -70,7 +70,7 @@ fn a_worker_leaving_mid_run_changes_nothing_in_the_sums() {
         if i == 20 {
             workers.pop().unwrap().stop().unwrap();
         }
-        let want = sample_all(&*assets.map, &assets.shell, pose);
+        let want = sample_all(&**assets.scene_map(), assets.first_shell(), pose);
         assert_eq!(
             shares.compute(pose, Instant::now() + DEADLINE).sums,
             want,
@@ -171,7 +171,7 @@ fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
                         .num_threads(1)
                         .build()
                         .unwrap()
-                        .install(|| assets.sample_mask(&req.pose, req.classes));
+                        .install(|| assets.sample_mask(req.job, &req.pose, req.classes));
                     let send = |b: &[u8]| {
                         let _ = conn.send_datagram(bytes::Bytes::copy_from_slice(b));
                     };
@@ -179,6 +179,7 @@ fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
                     FrameReply {
                         seq: req.seq,
                         classes: req.classes,
+                        job: req.job,
                         sums: good,
                     }
                     .encode(&mut buf);
@@ -188,6 +189,7 @@ fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
                     FrameReply {
                         seq: req.seq,
                         classes: req.classes,
+                        job: req.job,
                         sums: implausible,
                     }
                     .encode(&mut buf);
@@ -196,6 +198,7 @@ fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
                     FrameReply {
                         seq: req.seq,
                         classes: req.classes,
+                        job: req.job,
                         sums: good,
                     }
                     .encode(&mut buf);
@@ -241,7 +244,7 @@ fn a_worker_that_keeps_sending_implausible_sums_is_disconnected() {
     let liar = {
         let assets = assets.clone();
         reply_with(&fake, conn.clone(), move |req| {
-            let mut sums = assets.sample_mask_serial(&req.pose, req.classes);
+            let mut sums = assets.sample_mask_serial(req.job, &req.pose, req.classes);
             sums.sampled += 1;
             Some(sums)
         })
@@ -297,7 +300,7 @@ fn answer(
         }
         answered += 1;
         std::thread::sleep(per_class * req.classes.count_ones());
-        Some(assets.sample_mask_serial(&req.pose, req.classes))
+        Some(assets.sample_mask_serial(req.job, &req.pose, req.classes))
     })
 }
 
@@ -325,6 +328,7 @@ fn reply_with(
                 FrameReply {
                     seq: req.seq,
                     classes: req.classes,
+                    job: req.job,
                     sums,
                 }
                 .encode(&mut buf);
@@ -354,7 +358,7 @@ fn run_with_one_slow_worker(
     let slow = answer_slowly(&fake, conn, assets.clone(), Duration::from_millis(1));
     let mut recomputed = Vec::new();
     for (i, pose) in poses(frames).iter().enumerate() {
-        let want = sample_all(&*assets.map, &assets.shell, pose);
+        let want = sample_all(&**assets.scene_map(), assets.first_shell(), pose);
         let got = shares.compute(pose, Instant::now() + Duration::from_millis(20));
         assert_eq!(got.sums, want, "frame {i}");
         recomputed.push(got.fallback_shares);
@@ -436,19 +440,19 @@ fn a_share_that_cannot_be_recomputed_in_time_is_stood_in_for_by_its_last_sums_fo
     // Frame 0: answered in time and merged.
     assert_eq!(
         got[0].sums,
-        sample_all(&*assets.map, &assets.shell, &poses[0])
+        sample_all(&**assets.scene_map(), assets.first_shell(), &poses[0])
     );
     // Frames 1–3: the odd classes' sums of frame 0 stand in (ages 1, 2, 3).
     for (result, pose) in got[1..4].iter().zip(&poses[1..4]) {
-        let mut want = assets.sample_mask_serial(pose, even);
-        want.merge(&assets.sample_mask_serial(&poses[0], odd));
+        let mut want = assets.sample_mask_serial(JobTarget::FIRST, pose, even);
+        want.merge(&assets.sample_mask_serial(JobTarget::FIRST, &poses[0], odd));
         assert_eq!(result.sums, want);
         assert_eq!(result.fallback_shares, 0, "stood in for, not recomputed");
     }
     // Frame 4: those sums would be 4 frames old, too old: recomputed, exact again.
     assert_eq!(
         got[4].sums,
-        sample_all(&*assets.map, &assets.shell, &poses[4])
+        sample_all(&**assets.scene_map(), assets.first_shell(), &poses[4])
     );
     assert_eq!(got[4].fallback_shares, 1);
     assert_eq!(
@@ -457,8 +461,8 @@ fn a_share_that_cannot_be_recomputed_in_time_is_stood_in_for_by_its_last_sums_fo
         "{report:?}"
     );
     assert_ne!(
-        sample_all(&*assets.map, &assets.shell, &poses[0]),
-        sample_all(&*assets.map, &assets.shell, &poses[3]),
+        sample_all(&**assets.scene_map(), assets.first_shell(), &poses[0]),
+        sample_all(&**assets.scene_map(), assets.first_shell(), &poses[3]),
         "the poses must differ for this test to mean anything"
     );
 }
@@ -471,7 +475,7 @@ fn with_stale_reuse_off_a_late_share_is_always_recomputed() {
     for (i, (result, pose)) in got.iter().zip(&poses).enumerate() {
         assert_eq!(
             result.sums,
-            sample_all(&*assets.map, &assets.shell, pose),
+            sample_all(&**assets.scene_map(), assets.first_shell(), pose),
             "frame {i}"
         );
     }

@@ -129,7 +129,7 @@ fn a_worker_survives_garbage_counts_it_and_uses_its_scene_cache() {
     };
     let addr = endpoint.local_addr().unwrap();
     let pose = poses(10)[7];
-    let want = sample_all(&*assets.map, &assets.shell, &pose);
+    let want = sample_all(&**assets.scene_map(), assets.first_shell(), &pose);
     assert!(want.contacts > 0);
     for round in 0..2 {
         let worker = ThreadWorker::spawn(WorkerConfig {
@@ -150,7 +150,7 @@ fn a_worker_survives_garbage_counts_it_and_uses_its_scene_cache() {
                 &mut send,
                 &JoinMessage::Welcome {
                     worker_id: 9,
-                    assets: assets.identity,
+                    assets: assets.identity.clone(),
                 },
             )
             .await
@@ -160,13 +160,12 @@ fn a_worker_survives_garbage_counts_it_and_uses_its_scene_cache() {
             assert_eq!(
                 need,
                 JoinMessage::Need {
-                    voxmap: transfer,
-                    shell: transfer
+                    files: if transfer { 0b11 } else { 0 }
                 }
             );
             if transfer {
-                write_frame(&mut send, assets.voxmap_file()).await.unwrap();
-                write_frame(&mut send, assets.shell_file()).await.unwrap();
+                write_frame(&mut send, assets.file(0)).await.unwrap();
+                write_frame(&mut send, assets.file(1)).await.unwrap();
             }
             assert_eq!(read_join(&mut recv).await.unwrap(), JoinMessage::Ready);
             // Raw UDP garbage at the worker's socket (counted by its shape, dropped by quinn),
@@ -186,6 +185,7 @@ fn a_worker_survives_garbage_counts_it_and_uses_its_scene_cache() {
             FrameRequest {
                 seq: 77,
                 classes: u64::MAX,
+                job: vps_haptic::JobTarget::FIRST,
                 pose,
             }
             .encode(&mut buf);
@@ -199,6 +199,14 @@ fn a_worker_survives_garbage_counts_it_and_uses_its_scene_cache() {
             nan[28..32].copy_from_slice(&f32::NAN.to_le_bytes());
             conn.send_datagram(bytes::Bytes::copy_from_slice(&nan))
                 .unwrap();
+            // A job the assets lack (a second part's shell, a body voxmap).
+            for (shell, map) in [(1, 0), (0, 1)] {
+                let mut stranger = buf;
+                stranger[6] = shell;
+                stranger[7] = map;
+                conn.send_datagram(bytes::Bytes::copy_from_slice(&stranger))
+                    .unwrap();
+            }
             conn.send_datagram(bytes::Bytes::copy_from_slice(&buf))
                 .unwrap();
             let reply = tokio::time::timeout(Duration::from_secs(5), conn.read_datagram())
@@ -212,7 +220,7 @@ fn a_worker_survives_garbage_counts_it_and_uses_its_scene_cache() {
         assert_eq!(reply.seq, 77);
         assert_eq!(reply.sums, want, "a worker's sums are the one-process sums");
         let report = worker.thread.join().unwrap().unwrap();
-        assert_eq!(report.invalid_datagrams, 7, "{report:?}");
+        assert_eq!(report.invalid_datagrams, 9, "{report:?}");
         assert_eq!(report.udp_not_quic, 3, "{report:?}");
         assert_eq!(report.udp_foreign, 3, "{report:?}");
         assert_eq!(report.requests, 1);

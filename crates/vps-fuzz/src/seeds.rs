@@ -413,9 +413,11 @@ pub fn cluster_datagram() -> Vec<Vec<u8>> {
         angular_velocity: Vec3::new(0.0, 0.0, 1.0),
     };
     let mut request = [0u8; vps_cluster::protocol::REQUEST_LEN];
+    let job = vps_haptic::JobTarget { shell: 1, map: 2 };
     FrameRequest {
         seq: 9,
         classes: 0b1011,
+        job,
         pose,
     }
     .encode(&mut request);
@@ -423,6 +425,7 @@ pub fn cluster_datagram() -> Vec<Vec<u8>> {
     FrameReply {
         seq: 9,
         classes: 0b1011,
+        job,
         sums: PartialSums::default(),
     }
     .encode(&mut reply);
@@ -432,33 +435,52 @@ pub fn cluster_datagram() -> Vec<Vec<u8>> {
 }
 
 /// Every join message kind, with its fields at their edges: versions 0, 1 and `u16::MAX`; a
-/// welcome to the first and the last worker id; an empty, a short and a long reason; every
-/// combination of the two needs.
+/// welcome to the first and the last worker id, of one part and of two; an empty, a short and a
+/// long reason; needs of no file, some and every bit.
 fn join_messages() -> Vec<JoinMessage> {
+    use vps_cluster::protocol::{AssetFile, AssetKind};
+    let file = |kind, byte: u8, len: u64| AssetFile {
+        kind,
+        hash: [byte; 32],
+        len,
+    };
     let scene = AssetsIdentity {
-        voxmap_hash: [1; 32],
-        shell_hash: [2; 32],
         class_count: 8,
-        voxmap_len: 1 << 20,
-        shell_len: 1 << 16,
+        parts: 1,
+        files: vec![
+            file(AssetKind::Voxmap, 1, 1 << 20),
+            file(AssetKind::Shell, 2, 1 << 16),
+        ],
+    };
+    let two_parts = AssetsIdentity {
+        class_count: 64,
+        parts: 2,
+        files: vec![
+            file(AssetKind::Voxmap, 1, 1 << 20),
+            file(AssetKind::Shell, 2, 1 << 16),
+            file(AssetKind::Shell, 3, 1 << 12),
+            file(AssetKind::Voxmap, 4, 1 << 14),
+            file(AssetKind::Voxmap, 5, 1 << 15),
+        ],
     };
     let mut all: Vec<JoinMessage> = [0, 1, u16::MAX]
         .map(|version| JoinMessage::Hello { version })
         .into();
     all.extend([0, u32::MAX].map(|worker_id| JoinMessage::Welcome {
         worker_id,
-        assets: scene,
+        assets: scene.clone(),
     }));
+    all.push(JoinMessage::Welcome {
+        worker_id: 7,
+        assets: two_parts,
+    });
     all.extend(
         ["", "scene mismatch", &"x".repeat(200)].map(|reason| JoinMessage::Reject {
             reason: reason.to_string(),
         }),
     );
-    for bits in 0..4u8 {
-        all.push(JoinMessage::Need {
-            voxmap: bits & 1 != 0,
-            shell: bits & 2 != 0,
-        });
+    for files in [0, 0b1, 0b10, 0b11, 0b11111, u64::MAX] {
+        all.push(JoinMessage::Need { files });
     }
     all.push(JoinMessage::Ready);
     all

@@ -17,7 +17,7 @@
 //! Module map: [`state`] (part state, kernel pose), [`classed`] (cyclic classes), [`kernel`]
 //! (sampling), [`sums`] (fixed-point sums), [`params`] and [`stability`] (parameters and the bound
 //! behind the default gains), [`contact`] (force field, braking), [`coupling`] (virtual coupling),
-//! [`dynamics`] (integration, tunnelling guard), [`frame`] (one frame), [`pair`] (contact between
+//! [`dynamics`] (integration, tunnelling guard), [`frame`] (one frame), [`job`] (a frame's sampling jobs), [`pair`] (contact between
 //! two moving parts, forces equal and opposite to the bit).
 
 #![warn(missing_docs)]
@@ -29,6 +29,7 @@ pub mod contact;
 pub mod coupling;
 pub mod dynamics;
 pub mod frame;
+pub mod job;
 pub mod kernel;
 mod lanes;
 pub mod pair;
@@ -39,6 +40,7 @@ pub mod sums;
 
 pub use classed::ClassedShell;
 pub use frame::{step, step_with_parts, FrameOutput, OtherParts};
+pub use job::{JobTarget, SampleJob};
 pub use kernel::{
     sample_all, sample_class, sample_class_in, sample_classes, sample_mask, KernelFrame,
 };

@@ -138,6 +138,10 @@ pub struct PairCounts {
 /// part's parameters) summed per part into an [`OtherParts`] (index 0 the session's first part),
 /// written in place, with the session's counts. The loop runs it every frame; a study recomputing
 /// a session of several parts must run it the same way.
+///
+/// In two steps when the sampling happens elsewhere (a cluster's workers):
+/// [`PairPass::broad_phase`] lists the pairs to sample, [`PairPass::apply`] takes their sums;
+/// [`PairPass::run`] is both with the sampling in between, on the calling thread.
 pub struct PairPass {
     /// Per part, this frame's pair wrench sum and nearness.
     pub others: Vec<OtherParts>,
@@ -145,54 +149,92 @@ pub struct PairPass {
     pub counts: PairCounts,
     /// Per part, frames in contact with another part.
     pub contact_frames: Vec<u64>,
+    /// This frame's pairs that may touch, from [`PairPass::broad_phase`].
+    touching: Vec<(usize, usize)>,
+    /// Their sums, in the same order (for [`PairPass::run`]).
+    sums: Vec<PairSums>,
 }
 
 impl PairPass {
     /// A pass for `parts` parts. Allocates (the only allocation of the pass); setup-time only.
     pub fn new(parts: usize) -> PairPass {
+        let pairs = parts * parts.saturating_sub(1) / 2;
         PairPass {
             others: vec![OtherParts::NONE; parts],
             counts: PairCounts::default(),
             contact_frames: vec![0; parts],
+            touching: Vec::with_capacity(pairs),
+            sums: Vec::with_capacity(pairs),
         }
     }
 
     /// Samples every pair of the `count` parts (`part(k)`; 0 the session's first) that
     /// may touch, and leaves each part's summed pair wrench in `self.others`. Pairs are visited
     /// in the order (0,1), (0,2), …, (1,2), …, so the sums are the same every run. Does not
-    /// allocate or block.
+    /// allocate (for up to the `parts` of [`PairPass::new`]) or block.
     pub fn run<'a>(&mut self, count: usize, part: impl Fn(usize) -> PairPart<'a>, margin: f64) {
-        self.others.iter_mut().for_each(|o| *o = OtherParts::NONE);
-        let mut any_contact = false;
+        self.broad_phase(count, &part, margin);
+        let mut sums = std::mem::take(&mut self.sums);
+        sums.clear();
+        sums.extend(self.touching.iter().map(|&(i, j)| {
+            let (pa, pb) = (part(i), part(j));
+            PairSums {
+                a_in_b: pb.map.sample(pa.shell, &pose_in(pa.state, pb.state)),
+                b_in_a: pa.map.sample(pb.shell, &pose_in(pb.state, pa.state)),
+            }
+        }));
+        self.apply(&part, &sums);
+        self.sums = sums;
+    }
+
+    /// The broad phase of this frame: the pairs `(i, j)`, `i < j`, of the `count` parts that may
+    /// touch, in the order (0,1), (0,2), …, (1,2), …; counts the others as skipped. Does not
+    /// allocate (for up to the `parts` of [`PairPass::new`]) or block.
+    pub fn broad_phase<'a>(
+        &mut self,
+        count: usize,
+        part: impl Fn(usize) -> PairPart<'a>,
+        margin: f64,
+    ) -> &[(usize, usize)] {
+        self.touching.clear();
         for i in 0..count {
             for j in i + 1..count {
                 let (pa, pb) = (part(i), part(j));
-                let (a, b, params) = (pa.state, pb.state, pa.params);
-                if !may_touch(a, pa.radius, b, pb.radius, margin) {
+                if may_touch(pa.state, pa.radius, pb.state, pb.radius, margin) {
+                    self.counts.sampled += 1;
+                    self.touching.push((i, j));
+                } else {
                     self.counts.skipped += 1;
-                    continue;
                 }
-                self.counts.sampled += 1;
-                let sums = PairSums {
-                    a_in_b: pb.map.sample(pa.shell, &pose_in(a, b)),
-                    b_in_a: pa.map.sample(pb.shell, &pose_in(b, a)),
-                };
-                let near = sums.a_in_b.non_free > 0 || sums.b_in_a.non_free > 0;
-                if !near {
-                    continue;
-                }
-                any_contact = true;
-                let mut w = pair_wrenches(params, &params.gains(), a, b, &sums);
-                let brake = pair_braking(params, pb.params.mass, a, b, &sums);
-                // `x + y` and `(−x) + (−y)` are exact negations, so the forces stay opposite.
-                w.on_a.force += brake.on_a;
-                w.on_b.force += brake.on_b;
-                for (k, on) in [(i, w.on_a), (j, w.on_b)] {
-                    let o = &mut self.others[k];
-                    o.wrench.force += on.force;
-                    o.wrench.torque += on.torque;
-                    o.near = true;
-                }
+            }
+        }
+        &self.touching
+    }
+
+    /// Applies the sums of this frame's pairs (`sums[k]` of the `k`-th pair of the latest
+    /// [`PairPass::broad_phase`]): each near pair's wrenches and braking summed per part into
+    /// `self.others`, the contact counts booked. Does not allocate or block.
+    pub fn apply<'a>(&mut self, part: impl Fn(usize) -> PairPart<'a>, sums: &[PairSums]) {
+        self.others.iter_mut().for_each(|o| *o = OtherParts::NONE);
+        let mut any_contact = false;
+        for (&(i, j), sums) in self.touching.iter().zip(sums) {
+            let (pa, pb) = (part(i), part(j));
+            let (a, b, params) = (pa.state, pb.state, pa.params);
+            let near = sums.a_in_b.non_free > 0 || sums.b_in_a.non_free > 0;
+            if !near {
+                continue;
+            }
+            any_contact = true;
+            let mut w = pair_wrenches(params, &params.gains(), a, b, sums);
+            let brake = pair_braking(params, pb.params.mass, a, b, sums);
+            // `x + y` and `(−x) + (−y)` are exact negations, so the forces stay opposite.
+            w.on_a.force += brake.on_a;
+            w.on_b.force += brake.on_b;
+            for (k, on) in [(i, w.on_a), (j, w.on_b)] {
+                let o = &mut self.others[k];
+                o.wrench.force += on.force;
+                o.wrench.torque += on.torque;
+                o.near = true;
             }
         }
         for (o, frames) in self.others.iter().zip(&mut self.contact_frames) {

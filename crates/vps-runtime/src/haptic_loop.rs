@@ -426,17 +426,20 @@ impl RunningLoop {
         }
         let pose = KernelPose::from_state(&self.state);
         let deadline = tick.started + self.config.watchdog / 2;
-        let gathered = self.pool.compute(&pose, deadline);
-        if let Some(failure) = self.pool.failure() {
-            return Ok(FrameFlow::End(SessionEnd::Panicked(failure)));
-        }
-        let mut mine = OtherParts::NONE;
-        if let Some(parts) = self.parts.as_mut() {
-            match parts.sample(&self.state, &self.params, deadline) {
-                Ok(pairs) => mine = pairs,
-                Err(failure) => return Ok(FrameFlow::End(SessionEnd::Panicked(failure))),
+        let (gathered, mine) = match self.parts.as_mut() {
+            None => {
+                let gathered = self.pool.compute(&pose, deadline);
+                if let Some(failure) = self.pool.failure() {
+                    return Ok(FrameFlow::End(SessionEnd::Panicked(failure)));
+                }
+                (gathered, OtherParts::NONE)
             }
-        }
+            Some(parts) => match parts.sample(&mut *self.pool, &self.state, &self.params, deadline)
+            {
+                Ok(both) => both,
+                Err(failure) => return Ok(FrameFlow::End(SessionEnd::Panicked(failure))),
+            },
+        };
         let out = step_with_parts(&self.params, &self.state, &handle, &gathered.sums, &mine);
         let mut wrench = cx.limits.saturate(&out.device_wrench);
         let clamped = wrench != out.device_wrench;

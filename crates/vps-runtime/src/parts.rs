@@ -17,11 +17,15 @@
 //! sums and counters, and the pair pass): read every device, sample, step, write every device,
 //! release every device with the exact zero wrench at the end.
 //!
-//! Not here yet: pair points split over cluster workers (a cluster session's other parts sample
-//! the static scene on local threads and their pairs on the frame thread).
+//! A frame's sampling is a list of jobs ([`vps_haptic::job`]): the first part in the static
+//! scene, every other part in it, then both directions of every pair the broad phase keeps.
+//! A sampler that takes jobs ([`FrameSampler::compute_jobs`], the cluster's gatherer) computes
+//! them all, split over its workers; otherwise the loop's own pool samples the first job, each
+//! other part's pool its own, and the pairs are sampled on the frame thread. The sums are exact
+//! integers either way, so every part's wrench is the same bits whoever sampled what.
 
 use crate::feed::{PartPose, MAX_OTHER_PARTS};
-use crate::pool::FrameSampler;
+use crate::pool::{FrameSampler, PoolResult};
 use crate::recording::TraceRecording;
 use crate::RuntimeError;
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -29,7 +33,8 @@ use std::sync::Arc;
 use std::time::Instant;
 use vps_device::trace::{Trace, TraceRecorder};
 use vps_device::{DeviceError, DeviceLimits, HapticDevice};
-use vps_haptic::pair::{BodyVoxmap, PairCounts, PairPart, PairPass};
+use vps_haptic::job::{body_map, JobTarget, SampleJob, MAX_JOBS, SCENE_MAP};
+use vps_haptic::pair::{pose_in, BodyVoxmap, PairCounts, PairPart, PairPass, PairSums};
 use vps_haptic::{
     step_with_parts, ClassedShell, HandleSample, HapticParams, KernelPose, OtherParts, PartState,
     PartialSums, Wrench,
@@ -131,6 +136,11 @@ pub(crate) struct RunningParts {
     others: Vec<RunningPart>,
     margin: f64,
     pass: PairPass,
+    /// This frame's sampling jobs (see the module docs) and their sums.
+    jobs: Vec<SampleJob>,
+    job_sums: Vec<PartialSums>,
+    /// Scratch: the sums of this frame's pairs, in the broad phase's order.
+    pair_sums: Vec<PairSums>,
 }
 
 /// One of the other parts while the session runs.
@@ -213,11 +223,16 @@ impl RunningParts {
                 part,
             });
         }
+        let parts = others.len() + 1;
+        let pairs = parts * (parts - 1) / 2;
         Ok(RunningParts {
-            pass: PairPass::new(others.len() + 1),
+            pass: PairPass::new(parts),
             first: setup.first,
             others,
             margin: setup.margin,
+            jobs: Vec::with_capacity(MAX_JOBS),
+            job_sums: vec![PartialSums::default(); MAX_JOBS],
+            pair_sums: Vec::with_capacity(pairs),
         })
     }
 
@@ -245,35 +260,57 @@ impl RunningParts {
         }
     }
 
-    /// Every other part's static sums and step, and every pair's wrenches: returns the first
-    /// part's pair wrench; the other parts' next states and device wrenches wait in `next` for
-    /// [`RunningParts::write`]. Errs with a sampler's failure. Does not allocate; blocks only as
-    /// the samplers do (up to `deadline`).
+    /// This frame's sampling: every job (see the module docs) on `sampler` when it takes jobs,
+    /// else the first on `sampler`, every other part's on its own pool and the pairs on this
+    /// thread; then every other part's step. Returns the first part's sums (with the shares
+    /// computed as fallback) and its pair wrench; the other parts' next states and device
+    /// wrenches wait in `next` for [`RunningParts::write`]. Errs with a sampler's failure. Does
+    /// not allocate; blocks only as the samplers do (up to `deadline`).
     pub(crate) fn sample(
         &mut self,
+        sampler: &mut dyn FrameSampler,
         first: &PartState,
         first_params: &HapticParams,
         deadline: Instant,
-    ) -> Result<OtherParts, String> {
-        for o in &mut self.others {
-            let pose = KernelPose::from_state(&o.state);
-            o.sums = o.part.sampler.compute(&pose, deadline).sums;
+    ) -> Result<(PoolResult, OtherParts), String> {
+        self.plan_jobs(first, first_params);
+        let fallback_shares = match sampler.compute_jobs(&self.jobs, deadline, &mut self.job_sums) {
+            Some(fallback_shares) => fallback_shares,
+            None => {
+                let first = sampler.compute(&self.jobs[0].pose, deadline);
+                self.job_sums[0] = first.sums;
+                self.sample_locally(deadline);
+                first.fallback_shares
+            }
+        };
+        if let Some(failure) = sampler.failure() {
+            return Err(failure);
+        }
+        for o in &self.others {
             if let Some(failure) = o.part.sampler.failure() {
                 return Err(format!("part '{}': {failure}", o.part.name));
             }
         }
+        let others_count = self.others.len();
+        for (o, sums) in self.others.iter_mut().zip(&self.job_sums[1..]) {
+            o.sums = *sums;
+        }
+        self.pair_sums.clear();
+        let pair_jobs = &self.job_sums[1 + others_count..self.jobs.len()];
+        self.pair_sums
+            .extend(pair_jobs.chunks_exact(2).map(|two| PairSums {
+                a_in_b: two[0],
+                b_in_a: two[1],
+            }));
         let (firsts, others) = (&self.first, &self.others);
-        self.pass.run(
-            others.len() + 1,
-            |k| match k {
-                0 => firsts.pair_part(first, first_params),
-                k => {
-                    let o = &others[k - 1];
-                    o.part.body.pair_part(&o.state, &o.part.params)
-                }
-            },
-            self.margin,
-        );
+        let part = |k: usize| match k {
+            0 => firsts.pair_part(first, first_params),
+            k => {
+                let o = &others[k - 1];
+                o.part.body.pair_part(&o.state, &o.part.params)
+            }
+        };
+        self.pass.apply(part, &self.pair_sums);
         for (o, with) in self.others.iter_mut().zip(&self.pass.others[1..]) {
             let Some(handle) = o.handle else { continue };
             let out = step_with_parts(&o.part.params, &o.state, &handle, &o.sums, with);
@@ -285,7 +322,75 @@ impl RunningParts {
             r.last_pair_wrench = with.wrench;
             o.next = Some((out.next_state, wrench));
         }
-        Ok(self.pass.others[0])
+        let first_sums = PoolResult {
+            sums: self.job_sums[0],
+            fallback_shares,
+        };
+        Ok((first_sums, self.pass.others[0]))
+    }
+
+    /// Lists this frame's jobs in `self.jobs`: the first part in the scene, each other part in
+    /// it, then for each pair `(i, j)` the broad phase keeps, `i`'s shell in `j`'s body voxmap
+    /// and `j`'s in `i`'s. Does not allocate (at most [`MAX_JOBS`] jobs: 8 parts).
+    fn plan_jobs(&mut self, first: &PartState, first_params: &HapticParams) {
+        self.jobs.clear();
+        let scene_job = |shell: usize, state: &PartState| SampleJob {
+            target: JobTarget {
+                shell: shell as u8,
+                map: SCENE_MAP,
+            },
+            pose: KernelPose::from_state(state),
+        };
+        self.jobs.push(scene_job(0, first));
+        for (k, o) in self.others.iter().enumerate() {
+            self.jobs.push(scene_job(k + 1, &o.state));
+        }
+        let (firsts, others) = (&self.first, &self.others);
+        let state = |k: usize| if k == 0 { first } else { &others[k - 1].state };
+        let part = |k: usize| match k {
+            0 => firsts.pair_part(first, first_params),
+            k => {
+                let o = &others[k - 1];
+                o.part.body.pair_part(&o.state, &o.part.params)
+            }
+        };
+        for &(i, j) in self.pass.broad_phase(others.len() + 1, part, self.margin) {
+            for (a, b) in [(i, j), (j, i)] {
+                self.jobs.push(SampleJob {
+                    target: JobTarget {
+                        shell: a as u8,
+                        map: body_map(b as u8),
+                    },
+                    pose: pose_in(state(a), state(b)),
+                });
+            }
+        }
+    }
+
+    /// Samples jobs 1.. locally: each other part in the scene on its own pool, the pairs on this
+    /// thread. Does not allocate; blocks as the pools do (up to `deadline`).
+    fn sample_locally(&mut self, deadline: Instant) {
+        for (job, sums) in self.jobs.iter().zip(self.job_sums.iter_mut()).skip(1) {
+            let JobTarget { shell, map } = job.target;
+            let shell = usize::from(shell);
+            *sums = if map == SCENE_MAP {
+                self.others[shell - 1]
+                    .part
+                    .sampler
+                    .compute(&job.pose, deadline)
+                    .sums
+            } else {
+                let body = |k: usize| {
+                    if k == 0 {
+                        &self.first
+                    } else {
+                        &self.others[k - 1].part.body
+                    }
+                };
+                let owner = usize::from(map - 1);
+                body(owner).map.sample(&body(shell).shell, &job.pose)
+            };
+        }
     }
 
     /// The other parts' poses for the state feed: their count and the poses (the rest default).

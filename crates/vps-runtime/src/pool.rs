@@ -19,7 +19,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
-use vps_haptic::{sample_class_in, ClassedShell, KernelFrame, KernelPose, PartialSums};
+use vps_haptic::{sample_class_in, ClassedShell, KernelFrame, KernelPose, PartialSums, SampleJob};
 use vps_voxmap::VoxelLookup;
 
 /// What the frame thread waits, beyond twice its own mean time per class, for a class a worker
@@ -302,6 +302,22 @@ pub trait FrameSampler: Send {
     /// The merged sums of every class at `pose`; shares not in by `deadline` are computed locally
     /// (or, for a cluster gatherer, stood in for by earlier sums where its policy allows).
     fn compute(&mut self, pose: &KernelPose, deadline: Instant) -> PoolResult;
+
+    /// The sums of every job of a frame of several parts ([`vps_haptic::job`]): `sums[k]` for
+    /// `jobs[k]`, `jobs[0]` being the first part in the static scene at the pose `compute` would
+    /// get; returns the shares computed locally because whoever had them missed the deadline.
+    /// `None` (the default): this sampler samples only the first part's shell in the static
+    /// scene (the local class pool), so the loop calls [`FrameSampler::compute`] and samples the
+    /// other jobs itself. A cluster gatherer splits every job's classes over its workers.
+    /// `sums` holds at least `jobs.len()` entries. Same timing contract as `compute`.
+    fn compute_jobs(
+        &mut self,
+        _jobs: &[SampleJob],
+        _deadline: Instant,
+        _sums: &mut [PartialSums],
+    ) -> Option<u32> {
+        None
+    }
 
     /// A failure of one of the sampler's own threads (a caught panic: which thread, the message)
     /// that must end the session; the frame loop checks it after every `compute`, before the

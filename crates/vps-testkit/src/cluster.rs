@@ -59,6 +59,14 @@ pub const LOOPBACK_WORKERS: usize = 4;
 /// pinned both ways (the [`LOOPBACK_WORKERS`] workers' are the only ones admitted, one live
 /// connection each).
 pub fn loopback_coordinator(dir: &std::path::Path) -> (Coordinator, LocalCerts) {
+    loopback_coordinator_serving(dir, assets())
+}
+
+/// [`loopback_coordinator`] serving `assets` (e.g. [`two_part_assets`]).
+pub fn loopback_coordinator_serving(
+    dir: &std::path::Path,
+    assets: Arc<ClusterAssets>,
+) -> (Coordinator, LocalCerts) {
     let certs = local_cluster_certs(dir, LOOPBACK_WORKERS).expect("certificates");
     let coordinator = Coordinator::start(
         CoordinatorConfig {
@@ -71,7 +79,7 @@ pub fn loopback_coordinator(dir: &std::path::Path) -> (Coordinator, LocalCerts) 
             .expect("coordinator certificates"),
             keep_off: None,
         },
-        assets(),
+        assets,
     )
     .expect("coordinator starts");
     (coordinator, certs)
@@ -179,8 +187,8 @@ pub fn one_process_writes_for(frames: u64) -> Vec<Wrench> {
     let assets = assets();
     let (device, writes) = hand(0, Arc::new(AtomicBool::new(false)));
     let report = run_loop(
-        assets.map.clone(),
-        assets.shell.clone(),
+        assets.scene_map().clone(),
+        assets.first_shell().clone(),
         standard_setup(device, frames),
     )
     .expect("one-process session");
@@ -234,6 +242,28 @@ pub fn second_hand() -> (Box<dyn HapticDevice>, Writes) {
     (Box::new(device), writes)
 }
 
+/// The cluster assets of [`two_part_setup`]: the wall, both parts' 600-point sphere shells and
+/// their [`sphere_body_tree`]s, in [`CLASSES`] classes.
+pub fn two_part_assets() -> Arc<ClusterAssets> {
+    let shell = sphere_shell(600);
+    let body = Arc::new(sphere_body_tree());
+    Arc::new(
+        ClusterAssets::of_parts(
+            Arc::new(wall_tree()),
+            &[&shell, &shell],
+            &[body.clone(), body],
+            CLASSES,
+        )
+        .expect("two-part assets"),
+    )
+}
+
+/// [`sphere_body`] as a voxel tree (uniform branching 2), as a session carries a body voxmap.
+pub fn sphere_body_tree() -> vps_voxmap::VoxelTree {
+    vps_voxmap::VoxelTree::from_dense(&sphere_body(), vps_voxmap::TreeConfig::uniform(2))
+        .expect("valid tree config")
+}
+
 /// The sphere's voxmap in its own body frame: 12³ voxels of [`VOXEL`] about its centre; Interior
 /// deeper than two voxels, Surface the two voxels inside its face, Proximity one voxel outside.
 pub fn sphere_body() -> vps_voxmap::DenseGrid {
@@ -260,16 +290,17 @@ pub fn sphere_body() -> vps_voxmap::DenseGrid {
 
 /// The standard session with a second moving sphere ([`second_hand`]'s `second`) beside the
 /// first: both rest on the wall pressing into each other. The second part samples the wall on
-/// the frame thread (a one-thread local pool); both carry [`sphere_body`].
+/// the frame thread (a one-thread local pool) unless the session's sampler takes every job (a
+/// cluster serving [`two_part_assets`]); both carry [`sphere_body_tree`].
 pub fn two_part_setup(
     device: Box<dyn HapticDevice>,
     second: Box<dyn HapticDevice>,
     frames: u64,
 ) -> SessionSetup {
     use vps_runtime::{ClassPool, MovingPart, PartBody, PartsSetup};
-    let shell = assets().shell.clone();
+    let shell = assets().first_shell().clone();
     let body = PartBody {
-        map: Arc::new(sphere_body()),
+        map: Arc::new(sphere_body_tree()),
         shell: shell.clone(),
         radius: 6.0 * VOXEL * 3f64.sqrt(),
     };

@@ -116,7 +116,7 @@ pub fn assert_exact_frames(
     deadline: Duration,
 ) {
     for (i, pose) in poses.iter().enumerate() {
-        let want = sample_all(&*scene.map, &scene.shell, pose);
+        let want = sample_all(&**scene.scene_map(), scene.first_shell(), pose);
         let got = shares.compute(pose, Instant::now() + deadline);
         assert_eq!(got.sums, want, "frame {i}: bad shares are recomputed");
     }
@@ -193,15 +193,9 @@ impl FakeWorker {
                 JoinMessage::Welcome { .. } => {}
                 other => return Err(format!("{other:?}")),
             }
-            write_join(
-                &mut send,
-                &JoinMessage::Need {
-                    voxmap: true,
-                    shell: true,
-                },
-            )
-            .await
-            .map_err(|e| e.to_string())?;
+            write_join(&mut send, &JoinMessage::Need { files: 0b11 })
+                .await
+                .map_err(|e| e.to_string())?;
             for _ in 0..2 {
                 read_frame(&mut recv, 1 << 30)
                     .await
