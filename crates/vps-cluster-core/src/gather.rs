@@ -516,6 +516,21 @@ impl GatherCore {
         self.split_stats.per_class_ns = nanos(per_class);
     }
 
+    /// The coordinator's latest measured cost of one class ([`GatherCore::set_local_cost`]).
+    pub fn local_cost(&self) -> Duration {
+        self.per_class
+    }
+
+    /// The transitions booked by the latest [`GatherCore::settle`].
+    pub fn transitions(&self) -> &[(u32, Transition)] {
+        &self.transitions
+    }
+
+    /// The fallback planned by the latest [`GatherCore::plan_fallback`].
+    pub fn fallback(&self) -> &Fallback {
+        &self.fallback
+    }
+
     /// The time this frame's replies are awaited, from the requests to the deadline: the most a
     /// worker's round trip can cost a frame before its share is recomputed locally (the
     /// prediction's cap). Unset: no cap.

@@ -4,7 +4,8 @@
 //! network and runtime crates); callers pass the times in (`Instant`s they read) and do the I/O.
 //! `vps-cluster` drives it over QUIC.
 //!
-//! Module map: [`protocol`] (the frame datagrams and join messages, strict decoding), [`gather`]
+//! Module map: [`protocol`] (the frame datagrams and join messages, strict decoding), [`frame`]
+//! (a frame as four events: start, own share done, each datagram, deadline), [`gather`]
 //! ([`GatherCore`]: per frame, class assignment, reply acceptance, benching, the fallback plan,
 //! the predicted split), [`split`] (dealing classes by adapted weights) and [`fallback`] (which
 //! missing shares are recomputed and which stood in for), [`report`] ([`SplitReport`]),
@@ -17,6 +18,7 @@
 
 pub mod bench_log;
 pub mod fallback;
+pub mod frame;
 pub mod gather;
 pub mod join_log;
 pub mod protocol;

@@ -879,3 +879,70 @@ fn the_frames_jobs_must_be_known_distinct_and_start_with_the_first_part() {
         "class_count"
     );
 }
+
+/// A frame driven by the four events alone: the plan and the requests, the own share, one good
+/// reply and one undecodable datagram, a late reply, and the outcome at the deadline.
+#[test]
+fn a_frame_runs_on_the_four_events() {
+    use vps_cluster_core::frame::{FrameStart, Handled, Request};
+    use vps_cluster_core::protocol::REPLY_LEN;
+    let mut core = core_with(policy(), &[1, 2]);
+    let t0 = Instant::now();
+    let stranger = JobTarget { shell: 3, map: 0 };
+    let bad = core.start_frame(FrameStart {
+        jobs: &[JobTarget::FIRST, stranger],
+        reply_window: 400 * US,
+    });
+    assert_eq!(bad.unwrap_err().field, "jobs");
+    assert_eq!(core.seq(), 0, "a refused frame decides nothing");
+    let plan = core
+        .start_frame(FrameStart {
+            jobs: &[JobTarget::FIRST],
+            reply_window: 400 * US,
+        })
+        .unwrap();
+    assert_eq!((plan.seq, plan.probe), (1, 0));
+    let requests: Vec<Request> = core.frame_requests().collect();
+    assert_eq!(requests.len(), 2);
+    let all = requests.iter().fold(plan.local, |m, r| {
+        assert_eq!(m & r.classes, 0, "each class once");
+        m | r.classes
+    });
+    assert_eq!(all, (1 << CLASSES) - 1);
+    for r in &requests {
+        assert_eq!(r.jobs, 1);
+        assert!(core.sent(r.peer, t0, true));
+    }
+    let cost = core.local_done(plan.local.count_ones(), 30 * US, None);
+    assert_eq!(cost, 30 * US / plan.local.count_ones());
+    let mut good = [0u8; REPLY_LEN];
+    reply(1, requests[0].classes, 0).encode(&mut good);
+    assert_eq!(
+        core.handle_datagram(1, &good, t0 + 50 * US),
+        Handled::Judged(Acceptance::Merged { rtt: 50 * US })
+    );
+    assert_eq!(core.merged_sums(1)[0].sampled, points(requests[0].classes));
+    assert!(matches!(
+        core.handle_datagram(2, b"garbage", t0 + 60 * US),
+        Handled::Malformed { known: true, .. }
+    ));
+    assert!(matches!(
+        core.handle_datagram(9, b"garbage", t0 + 60 * US),
+        Handled::Malformed { known: false, .. }
+    ));
+    let outcome = core.finish(t0 + 400 * US, Duration::from_secs(1));
+    assert_eq!(outcome.transitions, [(2, Transition::Lost)]);
+    assert_eq!(outcome.fallback.recompute, requests[1].classes);
+    assert_eq!(outcome.fallback.recomputed, [2]);
+    // Worker 2's answer after the deadline: late, never merged, not a bad reply.
+    let mut late = [0u8; REPLY_LEN];
+    reply(1, requests[1].classes, 0).encode(&mut late);
+    assert_eq!(
+        core.handle_late_datagram(2, &late, t0 + 500 * US),
+        Acceptance::Late
+    );
+    assert_eq!(
+        core.handle_late_datagram(9, &late, t0 + 500 * US),
+        Acceptance::Unknown
+    );
+}

@@ -49,7 +49,7 @@ pub mod udp_count;
 pub mod worker;
 
 // The sans-IO core's modules, under the names this crate has always given them.
-pub use vps_cluster_core::{bench_log, fallback, gather, join_log, split};
+pub use vps_cluster_core::{bench_log, fallback, frame, gather, join_log, split};
 
 pub use assets::ClusterAssets;
 pub use coordinator::{Coordinator, CoordinatorConfig};

@@ -50,13 +50,14 @@ use crate::events::{Control, Datagram};
 use crate::fallback::StalePolicy;
 use crate::gather::{Acceptance, GatherCore, Policy, Shape, Transition};
 use crate::metrics::{Board, PeerMetrics, Reporter};
-use crate::protocol::{FrameReply, FrameRequest, REQUEST_LEN};
+use crate::protocol::{FrameRequest, REQUEST_LEN};
 use crate::report::{ClusterReport, PeerReport};
 use crate::ClusterError;
 use bytes::Bytes;
 use crossbeam::channel::{Receiver, RecvTimeoutError, TryRecvError};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
+use vps_cluster_core::frame::{FrameStart, Handled, Request};
 use vps_haptic::job::{JobTarget, SampleJob, MAX_JOBS};
 use vps_haptic::{KernelPose, PartialSums};
 use vps_runtime::{FrameSampler, PoolResult};
@@ -144,8 +145,8 @@ pub struct RemoteShares {
     reporter: Reporter,
     slot: ReportSlot,
     request: [u8; REQUEST_LEN],
-    /// Local cost of one class, from the latest frame in which the coordinator had a share.
-    per_class: Duration,
+    /// Scratch: this frame's requests.
+    requests_scratch: Vec<Request>,
     /// Scratch: workers to disconnect for bad replies (id, bad replies in a row).
     misbehaving: Vec<(u32, u32)>,
     /// Scratch: this frame's job targets.
@@ -237,7 +238,7 @@ impl RemoteShares {
             reporter,
             slot: Arc::new(Mutex::new(None)),
             request: [0; REQUEST_LEN],
-            per_class: Duration::ZERO,
+            requests_scratch: Vec::new(),
             misbehaving: Vec::new(),
             targets: Vec::with_capacity(MAX_JOBS),
             failure: None,
@@ -306,7 +307,10 @@ impl RemoteShares {
 
     /// Publishes each worker's share size of this frame (0 while probing or benched).
     fn publish_classes(&self) {
-        for (link, peer) in self.links.iter().zip(self.core.peers()) {
+        for peer in self.core.peers() {
+            let Some(link) = self.link(peer.id) else {
+                continue;
+            };
             let classes = if peer.probing {
                 0
             } else {
@@ -318,27 +322,24 @@ impl RemoteShares {
         }
     }
 
-    /// Sends every request, one datagram per job asked; returns how many workers are awaited.
-    /// One small allocation per datagram (its buffer); never blocks.
-    fn send_requests(&mut self, jobs: &[SampleJob]) -> usize {
+    /// Sends every request of the plan (`seq`), one datagram per job asked; returns how many
+    /// workers are awaited. One small allocation per datagram (its buffer); never blocks.
+    fn send_requests(&mut self, seq: u64, jobs: &[SampleJob]) -> usize {
         let mut pending = 0;
-        for i in 0..self.links.len() {
-            let (id, asked) = {
-                let peer = &self.core.peers()[i];
-                (peer.id, peer.asked)
-            };
-            if asked == 0 {
+        let requests: &mut Vec<Request> = &mut self.requests_scratch;
+        requests.clear();
+        requests.extend(self.core.frame_requests());
+        for request in requests.iter() {
+            let Some(link) = self.links.iter().find(|l| l.id == request.peer) else {
                 continue;
-            }
-            let link = &self.links[i];
-            debug_assert_eq!(link.id, id, "links and core peers are in the same order");
+            };
             link.metrics.bump(|m| &m.requests);
             let at = Instant::now();
             let mut sent = true;
-            for job in &jobs[..self.core.jobs_asked(id)] {
+            for job in &jobs[..request.jobs] {
                 FrameRequest {
-                    seq: self.core.seq(),
-                    classes: asked,
+                    seq,
+                    classes: request.classes,
                     job: job.target,
                     pose: job.pose,
                 }
@@ -348,64 +349,66 @@ impl RemoteShares {
                     .send_datagram(Bytes::copy_from_slice(&self.request))
                     .is_ok();
             }
-            pending += usize::from(self.core.sent(id, at, sent));
+            pending += usize::from(self.core.sent(request.peer, at, sent));
         }
         pending
     }
 
-    /// Handles one datagram; returns true when it settled a share awaited this frame.
+    /// Handles one datagram that arrived before the deadline; returns true when it settled a
+    /// share awaited this frame (merging the share's sums into `sums`, one per job).
     fn accept(&mut self, datagram: Datagram, sums: &mut [PartialSums]) -> bool {
         let Some(metrics) = self.link(datagram.id).map(|l| l.metrics.clone()) else {
             self.board.bump(|b| &b.orphan_datagrams);
             return false;
         };
-        let reply = match FrameReply::decode(&datagram.bytes) {
-            Ok(reply) => reply,
-            Err(e) => {
+        let acceptance = match self
+            .core
+            .handle_datagram(datagram.id, &datagram.bytes, datagram.at)
+        {
+            Handled::Judged(acceptance) => acceptance,
+            Handled::Malformed { error, .. } => {
                 metrics.bump(|m| &m.malformed);
-                self.core.malformed(datagram.id);
-                tracing::debug!(worker = datagram.id, "malformed reply: {e}");
+                tracing::debug!(worker = datagram.id, "malformed reply: {error}");
                 return false;
             }
         };
-        self.accept_reply(&datagram, &reply, &metrics, sums)
+        self.book(datagram.id, acceptance, &metrics, sums);
+        acceptance.settles()
     }
 
-    /// Books the decoded `reply` of `datagram` from the worker whose metrics are `metrics`;
-    /// returns true when it settled a share awaited this frame.
-    fn accept_reply(
-        &mut self,
-        datagram: &Datagram,
-        reply: &FrameReply,
+    /// Mirrors what became of a reply from worker `id` in its metrics; a merged share's sums are
+    /// added to `sums`.
+    fn book(
+        &self,
+        id: u32,
+        acceptance: Acceptance,
         metrics: &Arc<PeerMetrics>,
         sums: &mut [PartialSums],
-    ) -> bool {
-        let acceptance = self.core.accept(datagram.id, reply, datagram.at);
+    ) {
         match acceptance {
             Acceptance::Unknown => self.board.bump(|b| &b.orphan_datagrams),
             Acceptance::Late => metrics.bump(|m| &m.late),
             Acceptance::Unrequested => metrics.bump(|m| &m.invalid),
             Acceptance::Rejected => {
                 metrics.bump(|m| &m.invalid);
-                tracing::debug!(worker = datagram.id, "implausible reply dropped");
+                tracing::debug!(worker = id, "implausible reply dropped");
             }
             Acceptance::Probe { rtt } | Acceptance::Probed { rtt: Some(rtt), .. } => {
                 self.board.record_rtt(metrics, nanos(rtt))
             }
             Acceptance::Probed { rtt: None } => {
                 metrics.bump(|m| &m.invalid);
-                tracing::debug!(worker = datagram.id, "wrong probe reply");
+                tracing::debug!(worker = id, "wrong probe reply");
             }
             Acceptance::Partial => {}
             Acceptance::Merged { rtt } => {
                 self.board.record_rtt(metrics, nanos(rtt));
-                for (sum, share) in sums.iter_mut().zip(self.core.merged_sums(datagram.id)) {
+                for (sum, share) in sums.iter_mut().zip(self.core.merged_sums(id)) {
                     sum.merge(share);
                 }
                 metrics.bump(|m| &m.merged);
             }
         }
-        acceptance.settles()
     }
 
     /// Waits for `pending` replies until `deadline`: sleeps on the channel until `spin_margin`
@@ -453,17 +456,12 @@ impl RemoteShares {
     /// A reply that arrived after this frame's deadline: counted late, never merged; the answer
     /// to an unawaited probe is taken whenever it comes.
     fn accept_late(&mut self, datagram: Datagram) {
-        let metrics = self.link(datagram.id).map(|l| l.metrics.clone());
-        // Decoded once: a probe's answer is booked from this decoding.
-        if let (Some(metrics), Ok(reply)) = (&metrics, FrameReply::decode(&datagram.bytes)) {
-            if self.core.answers_probe(datagram.id, reply.seq) {
-                self.accept_reply(&datagram, &reply, metrics, &mut []);
-                return;
-            }
-        }
-        match self.link(datagram.id) {
-            Some(link) if self.core.late(datagram.id) => link.metrics.bump(|m| &m.late),
-            _ => self.board.bump(|b| &b.orphan_datagrams),
+        let acceptance = self
+            .core
+            .handle_late_datagram(datagram.id, &datagram.bytes, datagram.at);
+        match self.link(datagram.id).map(|l| l.metrics.clone()) {
+            Some(metrics) => self.book(datagram.id, acceptance, &metrics, &mut []),
+            None => self.board.bump(|b| &b.orphan_datagrams),
         }
     }
 
@@ -490,11 +488,22 @@ impl RemoteShares {
         self.misbehaving = gone;
     }
 
-    /// Books the frame's outcome per worker in the core and mirrors its transitions to the
-    /// metrics.
-    fn settle(&mut self, deadline: Instant) {
-        let transitions = self.core.settle(deadline);
-        for &(id, transition) in transitions {
+    /// At the deadline: books the frame's outcome per worker in the core, mirrors its
+    /// transitions to the metrics and stands in for the missing shares ([`crate::fallback`]):
+    /// recomputes them on local threads, for every job, or, where that cannot finish before the
+    /// write is due (`write_due`), merges their sums from an earlier frame of the same jobs.
+    /// Returns how many shares were recomputed.
+    fn finish(
+        &mut self,
+        jobs: &[SampleJob],
+        deadline: Instant,
+        write_due: Instant,
+        sums: &mut [PartialSums],
+    ) -> u32 {
+        let left = write_due.saturating_duration_since(Instant::now());
+        self.core.finish(deadline, left);
+        // Read back through shared borrows: the held sums below are the core's too.
+        for &(id, transition) in self.core.transitions() {
             let Some(link) = self.links.iter().find(|l| l.id == id) else {
                 continue;
             };
@@ -504,22 +513,7 @@ impl RemoteShares {
                 Transition::Unbenched => link.metrics.set_benched(false),
             }
         }
-    }
-
-    /// Stands in for the missing shares ([`crate::fallback`]): recomputes them on local threads,
-    /// for every job, or, where that cannot finish `write_margin` before the write is due
-    /// (`write_due`), merges their sums from an earlier frame of the same jobs. Returns how many
-    /// shares were recomputed.
-    fn fall_back(
-        &mut self,
-        jobs: &[SampleJob],
-        write_due: Instant,
-        sums: &mut [PartialSums],
-    ) -> u32 {
-        let left = write_due.saturating_duration_since(Instant::now());
-        // Copied (allocates only when shares are missing): the held sums are read from the core.
-        let plan = self.core.plan_fallback(left, self.per_class).clone();
-        let (recompute, recomputed) = (plan.recompute, plan.recomputed.len() as u32);
+        let plan = self.core.fallback();
         for id in &plan.stale {
             for (sum, held) in sums.iter_mut().zip(self.core.held_sums(*id)) {
                 sum.merge(held);
@@ -534,6 +528,7 @@ impl RemoteShares {
                 link.metrics.bump(|m| &m.recomputed);
             }
         }
+        let (recompute, recomputed) = (plan.recompute, plan.recomputed.len() as u32);
         if recompute != 0 {
             for (sum, job) in sums.iter_mut().zip(jobs) {
                 sum.merge(&self.sample(job, recompute));
@@ -573,46 +568,47 @@ impl RemoteShares {
     ) -> u32 {
         let entered = Instant::now();
         sums.iter_mut().for_each(|s| *s = PartialSums::default());
-        self.core.begin_frame();
+        self.update_membership();
         self.targets.clear();
         self.targets.extend(jobs.iter().map(|j| j.target));
-        if let Err(e) = self.core.set_jobs(&self.targets) {
-            self.failure = Some(format!("the cluster cannot sample this frame: {e}"));
-            return 0;
-        }
-        self.update_membership();
+        let start = FrameStart {
+            jobs: &self.targets,
+            reply_window: deadline.saturating_duration_since(Instant::now()),
+        };
+        let plan = match self.core.start_frame(start) {
+            Ok(plan) => plan,
+            Err(e) => {
+                self.failure = Some(format!("the cluster cannot sample this frame: {e}"));
+                return 0;
+            }
+        };
         // Replies from earlier frames still queued: counted late, never merged.
         while let Ok(stale) = self.datagrams.try_recv() {
             self.accept(stale, &mut []);
         }
-        self.core
-            .set_reply_window(deadline.saturating_duration_since(Instant::now()));
-        let local = self.core.assign();
         self.publish_classes();
         self.board.set_split(self.core.split_stats());
-        let pending = self.send_requests(jobs);
+        let pending = self.send_requests(plan.seq, jobs);
         let started = Instant::now();
         // An unawaited probe's class is computed on its own: the probe reply must equal it.
-        let probe = self.core.probe_classes();
         for (sum, job) in sums.iter_mut().zip(jobs) {
-            *sum = self.sample(job, local & !probe);
+            *sum = self.sample(job, plan.local & !plan.probe);
         }
-        if probe != 0 {
-            let own = self.sample(&jobs[0], probe);
-            self.core.set_probe_result(&own);
-            sums[0].merge(&own);
+        let probe_sums = (plan.probe != 0).then(|| self.sample(&jobs[0], plan.probe));
+        if let Some(own) = &probe_sums {
+            sums[0].merge(own);
         }
-        if local != 0 {
-            self.per_class = started.elapsed() / local.count_ones();
-            self.core.set_local_cost(self.per_class);
-        }
+        self.core.local_done(
+            plan.local.count_ones(),
+            started.elapsed(),
+            probe_sums.as_ref(),
+        );
         self.gather(pending, deadline, sums);
-        self.settle(deadline);
         // The write is due one reply window after the reply deadline (see `crate::fallback`).
         let write_due = deadline
             .checked_add(deadline.saturating_duration_since(entered))
             .unwrap_or(deadline);
-        let fallback_shares = self.fall_back(jobs, write_due, sums);
+        let fallback_shares = self.finish(jobs, deadline, write_due, sums);
         self.disconnect_misbehaving();
         self.board.bump(|b| &b.frames);
         self.board.add(|b| &b.job_samples, jobs.len() as u64);
