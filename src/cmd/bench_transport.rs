@@ -89,9 +89,12 @@ pub fn run(frames: u64, spin_us: u64, json: bool) -> Result<()> {
             seconds: Some(frames as f64 / 1000.0),
             ..RunArgs::default()
         };
-        // Equal shares: the round trip of a fixed share is what is compared with raw UDP.
+        // Equal shares, split every frame: the round trip of a fixed share is what is compared
+        // with raw UDP (the predicted split would keep this small shell local and measure only
+        // its rare probes).
         let choice = GatherArgs {
             equal_shares: true,
+            split: crate::cli::SplitMode::Always,
             spin_us,
             ..GatherArgs::default()
         };

@@ -12,7 +12,7 @@
 //! told why and stops (a refusal: the two do not take turns).
 
 use crate::assets::ClusterAssets;
-use crate::events::{Control, Datagram};
+use crate::events::{Control, Datagram, Outgoing, OUTGOING_QUEUE};
 use crate::metrics::{Board, ClusterMetrics};
 use crate::protocol::{read_join, write_frame, write_join, JoinMessage, PROTOCOL_VERSION};
 use crate::shares::{GatherConfig, RemoteShares};
@@ -326,9 +326,12 @@ async fn serve(incoming: quinn::Incoming, links: Links) {
     tracing::info!("worker {id} at {remote} joined (scene sent: {scene_sent})");
     // Queue the join for the frame thread before counting it, so that a caller who sees the
     // count knows the frame thread will admit the worker at its next frame.
+    let (outgoing, requests) = tokio::sync::mpsc::channel(OUTGOING_QUEUE);
+    tokio::spawn(send_requests(conn.clone(), requests));
     let _ = links.control.send(Control::Joined {
         id,
         conn: conn.clone(),
+        outgoing,
         scene_sent,
     });
     links.counters.joined.fetch_add(1, Ordering::Relaxed);
@@ -355,6 +358,23 @@ async fn serve(incoming: quinn::Incoming, links: Links) {
     }
     links.counters.joined.fetch_sub(1, Ordering::Relaxed);
     let _ = links.control.send(Control::Closed { id });
+}
+
+/// Sends the frame thread's requests to one worker, in order, until the connection or the queue
+/// ends. A datagram quinn refuses (the connection closing) ends the task; the frame thread then
+/// finds the queue closed and counts its requests as not sent.
+async fn send_requests(
+    conn: quinn::Connection,
+    mut requests: tokio::sync::mpsc::Receiver<Outgoing>,
+) {
+    while let Some(request) = requests.recv().await {
+        if conn
+            .send_datagram(bytes::Bytes::copy_from_slice(&request))
+            .is_err()
+        {
+            break;
+        }
+    }
 }
 
 /// The newest connection of each certificate (by BLAKE3 of the end-entity certificate), with the

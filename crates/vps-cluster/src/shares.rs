@@ -46,14 +46,13 @@
 //! the voxel size and the shell's radius.
 
 use crate::assets::ClusterAssets;
-use crate::events::{Control, Datagram};
+use crate::events::{Control, Datagram, Outgoing};
 use crate::fallback::StalePolicy;
 use crate::gather::{Acceptance, GatherCore, Policy, Shape, Transition};
 use crate::metrics::{Board, PeerMetrics, Reporter};
 use crate::protocol::{FrameRequest, REQUEST_LEN};
 use crate::report::{ClusterReport, PeerReport};
 use crate::ClusterError;
-use bytes::Bytes;
 use crossbeam::channel::{Receiver, RecvTimeoutError, TryRecvError};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -126,6 +125,8 @@ pub type ReportSlot = Arc<Mutex<Option<ClusterReport>>>;
 struct Link {
     id: u32,
     conn: quinn::Connection,
+    /// Its requests' queue to its network task (never quinn from the frame thread).
+    outgoing: tokio::sync::mpsc::Sender<Outgoing>,
     metrics: Arc<PeerMetrics>,
 }
 
@@ -287,13 +288,22 @@ impl RemoteShares {
                 Control::Joined {
                     id,
                     conn,
+                    outgoing,
                     scene_sent,
                 } => {
                     let metrics = PeerMetrics::new(id, scene_sent);
                     self.board.track(&metrics);
                     self.core.join(id);
                     let at = self.links.partition_point(|l| l.id < id);
-                    self.links.insert(at, Link { id, conn, metrics });
+                    self.links.insert(
+                        at,
+                        Link {
+                            id,
+                            conn,
+                            outgoing,
+                            metrics,
+                        },
+                    );
                 }
                 Control::Closed { id } => {
                     self.core.leave(id);
@@ -322,8 +332,9 @@ impl RemoteShares {
         }
     }
 
-    /// Sends every request of the plan (`seq`), one datagram per job asked; returns how many
-    /// workers are awaited. One small allocation per datagram (its buffer); never blocks.
+    /// Queues every request of the plan (`seq`) for the workers' network tasks, one datagram per
+    /// job asked; returns how many workers are awaited. A full or closed queue counts as not
+    /// sent. Does not allocate (after the first frame) or block.
     fn send_requests(&mut self, seq: u64, jobs: &[SampleJob]) -> usize {
         let mut pending = 0;
         let requests: &mut Vec<Request> = &mut self.requests_scratch;
@@ -344,10 +355,7 @@ impl RemoteShares {
                     pose: job.pose,
                 }
                 .encode(&mut self.request);
-                sent &= link
-                    .conn
-                    .send_datagram(Bytes::copy_from_slice(&self.request))
-                    .is_ok();
+                sent &= link.outgoing.try_send(self.request).is_ok();
             }
             pending += usize::from(self.core.sent(request.peer, at, sent));
         }
@@ -557,9 +565,10 @@ impl RemoteShares {
     /// One frame of `jobs` into `sums` (one per job): membership, assignment, requests, own
     /// share on local threads, gather until `deadline`, fallback (recompute, or stand in with
     /// earlier sums). Returns the shares recomputed locally. A job the assets cannot sample
-    /// ends the session ([`FrameSampler::failure`]). Allocates one datagram buffer per request,
-    /// the share split, and the fallback plan when shares are missing (and on membership
-    /// changes); blocks only on the reply channel (never past `deadline`) and on local compute.
+    /// ends the session ([`FrameSampler::failure`]). Allocates the share split, and the fallback
+    /// plan when shares are missing (and on membership changes); requests go to the workers'
+    /// network tasks through bounded queues; blocks only on the reply channel (never past
+    /// `deadline`) and on local compute.
     fn compute_frame(
         &mut self,
         jobs: &[SampleJob],
@@ -624,9 +633,9 @@ impl RemoteShares {
 impl FrameSampler for RemoteShares {
     /// One frame of the first part alone: membership, assignment, requests, own share on local
     /// threads, gather until `deadline`, fallback (recompute, or stand in with earlier sums).
-    /// Allocates one datagram buffer per request, the share split, and the fallback plan when
-    /// shares are missing (and on membership changes); blocks only on the reply channel (never
-    /// past `deadline`) and on local compute.
+    /// Allocates the share split, and the fallback plan when shares are missing (and on
+    /// membership changes); blocks only on the reply channel (never past `deadline`) and on local
+    /// compute.
     fn compute(&mut self, pose: &KernelPose, deadline: Instant) -> PoolResult {
         let job = [SampleJob {
             target: JobTarget::FIRST,

@@ -296,8 +296,8 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
 /// an async timer. Called once per frame from the frame thread. The one allowed departure from
 /// "at `pose`": a cluster gatherer whose stale policy allows it may stand in for a late share with
 /// that share's sums from an earlier frame, and counts it (`vps_cluster::fallback`). The local
-/// pool neither allocates nor blocks beyond that bound; the cluster gatherer allocates a datagram
-/// buffer per request (see its `compute`).
+/// pool neither allocates nor blocks beyond that bound; the cluster gatherer allocates its share
+/// split each frame (see its `compute`).
 pub trait FrameSampler: Send {
     /// The merged sums of every class at `pose`; shares not in by `deadline` are computed locally
     /// (or, for a cluster gatherer, stood in for by earlier sums where its policy allows).
