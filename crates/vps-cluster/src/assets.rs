@@ -20,6 +20,27 @@ use vps_voxmap::{PointShell, VoxelTree};
 /// Largest asset file (voxmap or shell file) a worker accepts (bytes).
 pub const MAX_ASSET_FILE: u64 = 1 << 32;
 
+/// Largest total of a session's asset files a worker accepts (bytes): it holds them all at once.
+pub const MAX_ASSETS_TOTAL: u64 = 1 << 33;
+
+/// Refuses an identity whose files a worker would not accept: one over [`MAX_ASSET_FILE`], or
+/// all together over [`MAX_ASSETS_TOTAL`] (checked before any byte is received).
+pub fn check_sizes(identity: &AssetsIdentity) -> Result<(), ClusterError> {
+    if let Some(file) = identity.files.iter().find(|f| f.len > MAX_ASSET_FILE) {
+        return Err(ClusterError::Join(format!(
+            "an asset file of {} bytes exceeds the limit of {MAX_ASSET_FILE}",
+            file.len
+        )));
+    }
+    let total: u64 = identity.files.iter().map(|f| f.len).sum();
+    if total > MAX_ASSETS_TOTAL {
+        return Err(ClusterError::Join(format!(
+            "the asset files total {total} bytes, over the limit of {MAX_ASSETS_TOTAL}"
+        )));
+    }
+    Ok(())
+}
+
 /// Everything a cluster node needs to compute class shares of every job
 /// ([`vps_haptic::job`]): the voxmaps (0 the static scene's, `1 + k` moving part `k`'s body
 /// voxmap in a session of several parts), the moving parts' point shells split into classes, and
@@ -413,6 +434,33 @@ mod tests {
         };
         let err = ClusterAssets::from_files(&none, files()).err().unwrap();
         assert!(err.to_string().contains("class_count"), "{err}");
+    }
+
+    /// File sizes are checked one by one and together before any transfer.
+    #[test]
+    fn a_file_or_a_total_over_the_limits_is_refused() {
+        use crate::protocol::{AssetFile, AssetKind};
+        let file = |kind, len| AssetFile {
+            kind,
+            hash: [0; 32],
+            len,
+        };
+        let of = |lens: [u64; 5]| AssetsIdentity {
+            class_count: 8,
+            parts: 2,
+            files: vec![
+                file(AssetKind::Voxmap, lens[0]),
+                file(AssetKind::Shell, lens[1]),
+                file(AssetKind::Shell, lens[2]),
+                file(AssetKind::Voxmap, lens[3]),
+                file(AssetKind::Voxmap, lens[4]),
+            ],
+        };
+        assert!(check_sizes(&of([MAX_ASSET_FILE, 1, 1, 1, 1])).is_ok());
+        let err = check_sizes(&of([MAX_ASSET_FILE + 1, 1, 1, 1, 1])).unwrap_err();
+        assert!(err.to_string().contains("exceeds the limit"), "{err}");
+        let err = check_sizes(&of([MAX_ASSET_FILE, MAX_ASSET_FILE, 1, 1, 1])).unwrap_err();
+        assert!(err.to_string().contains("total"), "{err}");
     }
 
     /// Two parts: five files (scene, two shells, two bodies), every pair target, and a target

@@ -13,7 +13,7 @@
 //! until its stop flag is set. A refusal for good ([`ClusterError::Refused`]: a certificate not
 //! pinned on either side, an incompatible protocol) ends it with that error instead.
 
-use crate::assets::{AssetData, AssetsCache, ClusterAssets, MAX_ASSET_FILE};
+use crate::assets::{check_sizes, AssetData, AssetsCache, ClusterAssets, MAX_ASSET_FILE};
 use crate::protocol::{
     read_frame, read_join, write_join, AssetKind, FrameReply, FrameRequest, JoinMessage,
     PROTOCOL_VERSION, REPLY_LEN,
@@ -59,7 +59,7 @@ impl WorkerConfig {
 pub struct WorkerReport {
     /// The id the coordinator gave it.
     pub worker_id: u32,
-    /// The voxmap or shell file was transferred (not found in the cache). Named like the
+    /// An asset file (a voxmap or a shell) was transferred (not found in the cache). Named like the
     /// coordinator's `PeerReport::scene_sent`, a key of the session report.
     pub scene_transferred: bool,
     /// Valid frame requests received.
@@ -547,6 +547,7 @@ async fn join(
         }
         other => return Err(ClusterError::Join(format!("unexpected {other:?}"))),
     };
+    check_sizes(&identity)?;
     // Reading, hashing and decoding a scene takes seconds for large ones: off the runtime's
     // thread, so that the connection keeps answering (and sending keep-alives) meanwhile. A
     // cached file that does not decode to its hash is fetched again.
