@@ -130,6 +130,23 @@ pub struct PartReport {
     pub trace_error: Option<String>,
 }
 
+/// Part `k` of a running session as the pair pass sees it (0 the first part, at `first` with
+/// `first_params`; `k` the `k`-th of `others`).
+fn pair_parts<'a>(
+    first_body: &'a PartBody,
+    others: &'a [RunningPart],
+    first: &'a PartState,
+    first_params: &'a HapticParams,
+) -> impl Fn(usize) -> PairPart<'a> {
+    move |k| match k {
+        0 => first_body.pair_part(first, first_params),
+        k => {
+            let o = &others[k - 1];
+            o.part.body.pair_part(&o.state, &o.part.params)
+        }
+    }
+}
+
 /// The other parts of a running session, their bodies and the pair pass.
 pub(crate) struct RunningParts {
     first: PartBody,
@@ -302,14 +319,7 @@ impl RunningParts {
                 a_in_b: two[0],
                 b_in_a: two[1],
             }));
-        let (firsts, others) = (&self.first, &self.others);
-        let part = |k: usize| match k {
-            0 => firsts.pair_part(first, first_params),
-            k => {
-                let o = &others[k - 1];
-                o.part.body.pair_part(&o.state, &o.part.params)
-            }
-        };
+        let part = pair_parts(&self.first, &self.others, first, first_params);
         self.pass.apply(part, &self.pair_sums);
         for (o, with) in self.others.iter_mut().zip(&self.pass.others[1..]) {
             let Some(handle) = o.handle else { continue };
@@ -345,15 +355,9 @@ impl RunningParts {
         for (k, o) in self.others.iter().enumerate() {
             self.jobs.push(scene_job(k + 1, &o.state));
         }
-        let (firsts, others) = (&self.first, &self.others);
+        let others = &self.others;
         let state = |k: usize| if k == 0 { first } else { &others[k - 1].state };
-        let part = |k: usize| match k {
-            0 => firsts.pair_part(first, first_params),
-            k => {
-                let o = &others[k - 1];
-                o.part.body.pair_part(&o.state, &o.part.params)
-            }
-        };
+        let part = pair_parts(&self.first, others, first, first_params);
         for &(i, j) in self.pass.broad_phase(others.len() + 1, part, self.margin) {
             for (a, b) in [(i, j), (j, i)] {
                 self.jobs.push(SampleJob {

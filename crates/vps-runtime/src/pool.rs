@@ -32,7 +32,8 @@ pub const HEDGE_SLACK: Duration = Duration::from_micros(20);
 /// should be in within one class time.
 const HEDGE_CLASS_TIMES: u32 = 2;
 
-struct Job {
+/// A frame handed to the pool's threads: its sequence number and pose.
+struct WorkOrder {
     seq: u32,
     pose: KernelPose,
 }
@@ -44,7 +45,7 @@ struct Reply {
 }
 
 struct Worker {
-    jobs: Option<Sender<Job>>,
+    orders: Option<Sender<WorkOrder>>,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -145,7 +146,7 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
         let mut workers = Vec::with_capacity(threads - 1);
         let failure = Arc::new(OnceLock::new());
         for index in 1..threads {
-            let (job_tx, job_rx) = bounded::<Job>(1);
+            let (order_tx, order_rx) = bounded::<WorkOrder>(1);
             let (map, shell, cursor, reply_tx, failure) = (
                 map.clone(),
                 shell.clone(),
@@ -156,15 +157,15 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
             let thread = std::thread::Builder::new()
                 .name(format!("vps-pool-{index}"))
                 .spawn(move || {
-                    for job in job_rx.iter() {
+                    for order in order_rx.iter() {
                         let work = catch_unwind(AssertUnwindSafe(|| {
                             // Prepared once for the frame, used for every class this thread takes.
-                            let frame = KernelFrame::new(&*map, &shell, &job.pose);
-                            while let Some(class) = cursor.claim(job.seq, classes) {
+                            let frame = KernelFrame::new(&*map, &shell, &order.pose);
+                            while let Some(class) = cursor.claim(order.seq, classes) {
                                 let sums = sample_class_in(&*map, &shell, &frame, class);
                                 // Full only if the frame thread stopped reading: drop the reply.
                                 let _ = reply_tx.try_send(Reply {
-                                    seq: job.seq,
+                                    seq: order.seq,
                                     class,
                                     sums,
                                 });
@@ -183,7 +184,7 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
                 })
                 .map_err(RuntimeError::Spawn)?;
             workers.push(Worker {
-                jobs: Some(job_tx),
+                orders: Some(order_tx),
                 thread: Some(thread),
             });
         }
@@ -219,10 +220,10 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
         while self.replies.try_recv().is_ok() {}
         self.cursor.open(seq);
         for worker in &self.workers {
-            if let Some(tx) = &worker.jobs {
-                // Fails when the worker still holds an older job (it will find that frame closed
+            if let Some(tx) = &worker.orders {
+                // Fails when the worker still holds an older order (it will find that frame closed
                 // and skip it; this frame's classes go to the others) or has gone.
-                let _ = tx.try_send(Job { seq, pose: *pose });
+                let _ = tx.try_send(WorkOrder { seq, pose: *pose });
             }
         }
         let mut sums = PartialSums::default();
@@ -339,10 +340,10 @@ impl<L: VoxelLookup + Send + Sync + 'static> FrameSampler for ClassPool<L> {
 }
 
 impl<L: VoxelLookup + Send + Sync + 'static> Drop for ClassPool<L> {
-    /// Closes the job channels and joins the workers (each finishes at most one job).
+    /// Closes the order channels and joins the workers (each finishes at most one order).
     fn drop(&mut self) {
         for w in &mut self.workers {
-            w.jobs.take();
+            w.orders.take();
         }
         for w in &mut self.workers {
             if let Some(t) = w.thread.take() {
