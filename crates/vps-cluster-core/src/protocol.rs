@@ -1,5 +1,5 @@
 //! Wire formats, all hand-written fixed-layout little-endian with strict decoding (exact length,
-//! magic, kind, version, reserved bytes zero, finite floats). Nothing here trusts a length field
+//! magic, kind, version, finite floats, every field in its range). Nothing here trusts a length field
 //! beyond the caller's limit, and no decoder panics on any input.
 //!
 //! Per-frame datagrams (unreliable):
@@ -56,7 +56,7 @@ pub enum DecodeError {
         /// Bytes expected.
         expected: usize,
     },
-    /// Magic, kind, version or reserved bytes wrong.
+    /// Magic, kind, version or message tag wrong.
     #[error("bad header: {0}")]
     Header(&'static str),
     /// A float field is NaN or infinite.
