@@ -176,8 +176,6 @@ pub struct PeerState {
     pub sums: Vec<PartialSums>,
     /// This frame's request is a probe (checked, never merged).
     pub probing: bool,
-    /// This frame: the points in the classes asked for (of the first job).
-    pub points: u64,
     /// This frame: when the request left.
     pub sent_at: Option<Instant>,
     /// This frame: a reply (or a failed send) settled the request.
@@ -211,7 +209,6 @@ impl PeerState {
             answered: 0,
             sums: vec![PartialSums::default(); MAX_JOBS],
             probing: false,
-            points: 0,
             sent_at: None,
             settled: false,
             merged: false,
@@ -633,11 +630,6 @@ impl GatherCore {
             self.peers[i].asked = mask;
         }
         self.open_probes(masks[0]);
-        for peer in &mut self.peers {
-            peer.points = mask_classes(peer.asked)
-                .map(|c| self.targets[0].1.class_points[c as usize])
-                .sum();
-        }
         masks[0]
     }
 

@@ -313,6 +313,16 @@ pub enum AssetKind {
     Shell,
 }
 
+impl AssetKind {
+    /// The word for it in messages and the cache's file extension: `voxmap` or `shell`.
+    pub fn name(self) -> &'static str {
+        match self {
+            AssetKind::Voxmap => "voxmap",
+            AssetKind::Shell => "shell",
+        }
+    }
+}
+
 /// One asset file, by content.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct AssetFile {

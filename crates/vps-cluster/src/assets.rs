@@ -164,10 +164,7 @@ impl ClusterAssets {
     /// content hash (a voxmap's `VoxelTree::content_hash`, a shell file's BLAKE3). Blocking
     /// (decoding a large voxmap takes seconds), allocates.
     pub fn decode_file(file: &AssetFile, bytes: &[u8]) -> Result<AssetData, ClusterError> {
-        let what = match file.kind {
-            AssetKind::Voxmap => "voxmap",
-            AssetKind::Shell => "shell",
-        };
+        let what = file.kind.name();
         if bytes.len() as u64 != file.len {
             return Err(ClusterError::Scene(format!(
                 "received {} {what} bytes where the identity says {}",
@@ -348,13 +345,6 @@ pub struct AssetsCache {
     dir: Option<PathBuf>,
 }
 
-fn extension(kind: AssetKind) -> &'static str {
-    match kind {
-        AssetKind::Voxmap => "voxmap",
-        AssetKind::Shell => "shell",
-    }
-}
-
 impl AssetsCache {
     /// A cache in `dir`; `None` caches nothing (every join transfers every file).
     pub fn new(dir: Option<PathBuf>) -> AssetsCache {
@@ -364,7 +354,7 @@ impl AssetsCache {
     fn path(&self, file: &AssetFile) -> Option<PathBuf> {
         self.dir
             .as_ref()
-            .map(|d| d.join(format!("{}.{}", hex(&file.hash), extension(file.kind))))
+            .map(|d| d.join(format!("{}.{}", hex(&file.hash), file.kind.name())))
     }
 
     /// The cached bytes of `file`, if present with its length (its content is checked by the

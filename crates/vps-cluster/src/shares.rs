@@ -145,7 +145,6 @@ pub struct RemoteShares {
     board: Arc<Board>,
     reporter: Reporter,
     slot: ReportSlot,
-    request: [u8; REQUEST_LEN],
     /// Scratch: this frame's requests.
     requests_scratch: Vec<Request>,
     /// Scratch: workers to disconnect for bad replies (id, bad replies in a row).
@@ -238,7 +237,6 @@ impl RemoteShares {
             board,
             reporter,
             slot: Arc::new(Mutex::new(None)),
-            request: [0; REQUEST_LEN],
             requests_scratch: Vec::new(),
             misbehaving: Vec::new(),
             targets: Vec::with_capacity(MAX_JOBS),
@@ -337,11 +335,12 @@ impl RemoteShares {
     /// sent. Does not allocate (after the first frame) or block.
     fn send_requests(&mut self, seq: u64, jobs: &[SampleJob]) -> usize {
         let mut pending = 0;
-        let requests: &mut Vec<Request> = &mut self.requests_scratch;
+        let mut datagram: Outgoing = [0; REQUEST_LEN];
+        let mut requests = std::mem::take(&mut self.requests_scratch);
         requests.clear();
         requests.extend(self.core.frame_requests());
-        for request in requests.iter() {
-            let Some(link) = self.links.iter().find(|l| l.id == request.peer) else {
+        for request in &requests {
+            let Some(link) = self.link(request.peer) else {
                 continue;
             };
             link.metrics.bump(|m| &m.requests);
@@ -354,11 +353,12 @@ impl RemoteShares {
                     job: job.target,
                     pose: job.pose,
                 }
-                .encode(&mut self.request);
-                sent &= link.outgoing.try_send(self.request).is_ok();
+                .encode(&mut datagram);
+                sent &= link.outgoing.try_send(datagram).is_ok();
             }
             pending += usize::from(self.core.sent(request.peer, at, sent));
         }
+        self.requests_scratch = requests;
         pending
     }
 
@@ -512,7 +512,7 @@ impl RemoteShares {
         self.core.finish(deadline, left);
         // Read back through shared borrows: the held sums below are the core's too.
         for &(id, transition) in self.core.transitions() {
-            let Some(link) = self.links.iter().find(|l| l.id == id) else {
+            let Some(link) = self.link(id) else {
                 continue;
             };
             match transition {
@@ -526,13 +526,13 @@ impl RemoteShares {
             for (sum, held) in sums.iter_mut().zip(self.core.held_sums(*id)) {
                 sum.merge(held);
             }
-            if let Some(link) = self.links.iter().find(|l| l.id == *id) {
+            if let Some(link) = self.link(*id) {
                 link.metrics.bump(|m| &m.stale);
             }
             self.board.bump(|b| &b.stale_shares);
         }
         for id in &plan.recomputed {
-            if let Some(link) = self.links.iter().find(|l| l.id == *id) {
+            if let Some(link) = self.link(*id) {
                 link.metrics.bump(|m| &m.recomputed);
             }
         }

@@ -15,8 +15,8 @@
 
 use crate::assets::{check_sizes, AssetData, AssetsCache, ClusterAssets, MAX_ASSET_FILE};
 use crate::protocol::{
-    read_frame, read_join, write_join, AssetKind, FrameReply, FrameRequest, JoinMessage,
-    PROTOCOL_VERSION, REPLY_LEN,
+    read_frame, read_join, write_join, FrameReply, FrameRequest, JoinMessage, PROTOCOL_VERSION,
+    REPLY_LEN,
 };
 use crate::tls::{client_config, PeerTls, SERVER_NAME};
 use crate::{close, ClusterError};
@@ -577,11 +577,7 @@ async fn join(
             continue;
         }
         let file = identity.files[k];
-        let what = match file.kind {
-            AssetKind::Voxmap => "voxmap",
-            AssetKind::Shell => "shell",
-        };
-        let bytes = read_file(&mut recv, file.len, what).await?;
+        let bytes = read_file(&mut recv, file.len, file.kind.name()).await?;
         let cache = cache.clone();
         *slot = Some(
             blocking(move || {
