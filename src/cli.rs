@@ -783,13 +783,13 @@ pub struct DemoArgs {
     /// Print as JSON.
     #[arg(long)]
     pub json: bool,
-    /// Serve the live viewer on this address (e.g. 127.0.0.1:8080; port 0 picks a free one).
     /// Write an assembly study of the braking-on session into this folder (docs/study.md).
     #[arg(long, value_name = "DIR")]
     pub study: Option<PathBuf>,
     /// The study's path table holds every Nth frame (and the last).
     #[arg(long, value_name = "N", value_parser = parse_frame_stride, default_value_t = 1)]
     pub study_every: usize,
+    /// Serve the live viewer on this address (e.g. 127.0.0.1:8080; port 0 picks a free one).
     #[arg(long, value_name = "ADDR")]
     pub view: Option<std::net::SocketAddr>,
 }

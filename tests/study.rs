@@ -311,7 +311,7 @@ fn the_bracket_study_matches_the_session_and_a_brute_force_clearance() {
 /// (it works with no network: the viewer's script would fail loudly on a fetch from a file page).
 #[test]
 fn the_study_page_opens_offline_in_headless_chromium() {
-    use vps_view::browser::{canvas_content, Browser, CHROMIUM};
+    use vps_view::browser::{canvas_content, take_turn, Browser, CHROMIUM};
     if !Path::new(CHROMIUM).exists() {
         eprintln!(
             "SKIPPED the_study_page_opens_offline_in_headless_chromium: {CHROMIUM} is not \
@@ -319,6 +319,7 @@ fn the_study_page_opens_offline_in_headless_chromium() {
         );
         return;
     }
+    let _turn = take_turn();
     let vps = examples();
     let out = vps.run(&[
         "run",

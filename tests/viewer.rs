@@ -17,7 +17,7 @@ use std::path::Path;
 use std::process::Stdio;
 use std::time::Duration;
 use vps_testkit::process::{spawn_until_line, stderr, Vps};
-use vps_view::browser::{canvas_content, wait_for, Browser, Running, CHROMIUM};
+use vps_view::browser::{canvas_content, take_turn, wait_for, Browser, Running, CHROMIUM};
 use vps_view::client::http_get;
 const HTTP_TIMEOUT: Duration = Duration::from_secs(5);
 /// The page's draw rate (`?fps=`, default 30): a software renderer drawing at 30 per second takes
@@ -49,6 +49,7 @@ fn the_demo_is_watched_in_headless_chromium() {
         );
         return;
     }
+    let _turn = take_turn();
     // The session outlasts both browser phases on a loaded machine (with 60 s, a load average of
     // 16 on 2 cores ended it before the 2D phase); the demo is killed when the test ends.
     let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
@@ -306,6 +307,8 @@ voxel_size = "5 mm"
 "#;
     std::fs::write(vps.dir().join("two.toml"), scene).unwrap();
     let path = vps.path("two.toml");
+    // The browser half below needs the session live, so the turn is taken before it starts.
+    let _turn = take_turn();
     let (_run, addr) = start_with_viewer(
         &vps,
         &[

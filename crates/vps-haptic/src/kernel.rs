@@ -7,16 +7,22 @@
 //! point is in a Proximity voxel, each for all lanes at once with the other lanes masked to zero.
 //! A block in free space therefore costs its transform and lookups only.
 //!
-//! Three copies of a block, the same bits: the portable lane loops of module `lanes` (baseline
-//! x86-64 and other targets, and the zero-padded tail block of each class); where the CPU has
-//! AVX2, full blocks written with AVX2 intrinsics (`avx2::sample_block`); and where it also has
-//! AVX-512F, AVX-512DQ and POPCNT, the AVX-512 copy (`accumulate_avx512`): full blocks of 16
-//! points in 512-bit registers (`wide::sample_blocks`, lookups through
-//! [`VoxelLookup::get_wide_block`]), then the class's last full block of 8 on the AVX2 intrinsics
-//! compiled with those features (rounding each sum's eight lanes to `i64` in one `vcvtps2qq`,
-//! counting with `popcnt`), then the portable tail. The same IEEE operations in the same order, no
-//! fused multiply-add. The AVX2 copy is also the kernel on at most AVX2 ([`crate::avx2_only`]), so the
-//! AVX-512 copy's own choices sit behind its `WIDE` flag rather than in the shared code.
+//! Three copies of a block, the same bits, one file each, and one dispatcher here
+//! (`sample_class_with` picks by the CPU's features, `accumulate_lanes` runs the class's blocks):
+//! - `kernel/portable.rs`: lane loops over the arrays of module `lanes` (baseline x86-64 and
+//!   other targets, and the zero-padded tail block of every class);
+//! - `kernel/avx2.rs`: where the CPU has AVX2, full blocks of 8 written with AVX2 intrinsics
+//!   (`avx2::sample_block`);
+//! - `kernel/avx512.rs`: where it also has AVX-512F, AVX-512DQ and POPCNT (`accumulate_avx512`),
+//!   full blocks of 16 points in 512-bit registers (`avx512::sample_blocks`, lookups through
+//!   [`VoxelLookup::get_wide_block`]), then the class's last full block of 8 on the AVX2
+//!   intrinsics compiled with those features (rounding each sum's eight lanes to `i64` in one
+//!   `vcvtps2qq`, counting with `popcnt`), then the portable tail.
+//!
+//! The same IEEE operations in the same order, no fused multiply-add. The AVX2 copy is also the
+//! kernel on at most AVX2 ([`crate::avx2_only`]), so the AVX-512 copy's own choices sit behind its
+//! `AVX512` flag rather than in the shared code. The `distance` force model's block loop is
+//! `kernel/distance.rs` (portable and AVX2 copies).
 //!
 //! Exactness (docs/architecture.md#exact-sums-and-the-cluster): each point's contribution is
 //! computed in f32 (IEEE basic operations only, no fused multiply-add, so the same bits on every
@@ -35,14 +41,11 @@
 //! before it is flushed into the class's `i128` totals.
 
 use crate::classed::ClassedShell;
-use crate::lanes::{
-    add_cross_uniform, cross, differs_from_previous, dot, floor_i32, mat_vec, scale, scale_add,
-    F32s, Vec3s, LANES,
-};
+use crate::lanes::{F32s, Vec3s, LANES};
 use crate::state::KernelPose;
 use crate::sums::{PartialSums, AREA_SCALE, LENGTH_SCALE};
-use glam::{IVec3, Mat3};
-use vps_voxmap::{LayeredVoxel, LookupTask, Voxel, VoxelLookup};
+use glam::Mat3;
+use vps_voxmap::{LookupTask, VoxelLookup};
 
 /// The sums of class `class` of `shell` at `pose` against `map`.
 ///
@@ -508,7 +511,7 @@ pub fn runs_avx512_copy() -> bool {
     }
 }
 
-/// The AVX-512 copy: full blocks of 16 points in 512-bit registers (`wide::sample_blocks`), then
+/// The AVX-512 copy: full blocks of 16 points in 512-bit registers (`avx512::sample_blocks`), then
 /// [`accumulate_avx2`]'s block for a last full block of 8, with each sum's eight lanes rounded to
 /// `i64` by one AVX-512DQ conversion (`vcvtps2qq`, to nearest, ties to even: the same integers as
 /// the f64 rounding of the AVX2 copy) and counts by POPCNT. The same bits as the other copies.
@@ -546,10 +549,10 @@ unsafe fn accumulate_avx2<L: VoxelLookup>(
 }
 
 /// Picks the clamping or the plain copy of the block loop (the same bits; see the module docs).
-/// `AVX2`: full blocks through [`avx2::sample_block`] (only where the CPU has AVX2); `WIDE`: with
+/// `AVX2`: full blocks through [`avx2::sample_block`] (only where the CPU has AVX2); `AVX512`: with
 /// its AVX-512 rounding (only where the CPU has AVX-512F and DQ, and with `AVX2`).
 #[inline(always)]
-fn accumulate_any<L: VoxelLookup, const AVX2: bool, const WIDE: bool>(
+fn accumulate_any<L: VoxelLookup, const AVX2: bool, const AVX512: bool>(
     map: &L,
     frame: &GridFrame,
     points: Soa,
@@ -557,17 +560,17 @@ fn accumulate_any<L: VoxelLookup, const AVX2: bool, const WIDE: bool>(
     sums: &mut PartialSums,
 ) {
     if frame.needs_clamp {
-        accumulate_lanes::<L, true, AVX2, WIDE>(map, frame, points, normals, sums)
+        accumulate_lanes::<L, true, AVX2, AVX512>(map, frame, points, normals, sums)
     } else {
-        accumulate_lanes::<L, false, AVX2, WIDE>(map, frame, points, normals, sums)
+        accumulate_lanes::<L, false, AVX2, AVX512>(map, frame, points, normals, sums)
     }
 }
 
-/// The block loop (see the module docs); full blocks (with `WIDE`, blocks of 16 points while a
+/// The block loop (see the module docs); full blocks (with `AVX512`, blocks of 16 points while a
 /// chunk has them, then blocks of 8), then one zero-padded tail block; the lanes flushed every
 /// [`CHUNK_BLOCKS`] blocks of 8 points.
 #[inline(always)]
-fn accumulate_lanes<L: VoxelLookup, const CLAMP: bool, const AVX2: bool, const WIDE: bool>(
+fn accumulate_lanes<L: VoxelLookup, const CLAMP: bool, const AVX2: bool, const AVX512: bool>(
     map: &L,
     frame: &GridFrame,
     points: Soa,
@@ -589,41 +592,41 @@ fn accumulate_lanes<L: VoxelLookup, const CLAMP: bool, const AVX2: bool, const W
         #[allow(unused_mut)] // mutated on x86-64 only
         let mut begin_8 = begin;
         #[cfg(target_arch = "x86_64")]
-        if WIDE {
-            // Pairs of wide blocks first (`wide::sample_blocks`; a chunk is a whole number of
+        if AVX512 {
+            // Pairs of wide blocks first (`avx512::sample_blocks`; a chunk is a whole number of
             // pairs), then at most one wide block and one 8-lane block at the class's end.
-            while begin_8 + 2 * wide::WIDE_LANES <= end {
+            while begin_8 + 2 * avx512::WIDE_LANES <= end {
                 // SAFETY: as below, with `begin_8 + 2 · WIDE_LANES ≤ end`.
                 unsafe {
-                    wide::sample_blocks::<L, CLAMP, true>(
+                    avx512::sample_blocks::<L, CLAMP, true>(
                         map, frame, points, normals, begin_8, &mut last, &mut acc,
                     )
                 };
-                begin_8 += 2 * wide::WIDE_LANES;
+                begin_8 += 2 * avx512::WIDE_LANES;
             }
             // After the pairs fewer than two wide blocks are left: this runs at most once (a
             // `while`, as it was measured: an `if` here moved the loop's register allocation,
             // +3 % instructions on the loop's fine 4-bit shell).
-            while begin_8 + wide::WIDE_LANES <= end {
-                // SAFETY: `WIDE` is only requested from `accumulate_avx512`, which runs only where
+            while begin_8 + avx512::WIDE_LANES <= end {
+                // SAFETY: `AVX512` is only requested from `accumulate_avx512`, which runs only where
                 // the CPU has AVX-512F and DQ; `begin_8 + WIDE_LANES ≤ end ≤ n`, the shortest of
                 // the six arrays.
                 unsafe {
-                    wide::sample_blocks::<L, CLAMP, false>(
+                    avx512::sample_blocks::<L, CLAMP, false>(
                         map, frame, points, normals, begin_8, &mut last, &mut acc,
                     )
                 };
-                begin_8 += wide::WIDE_LANES;
+                begin_8 += avx512::WIDE_LANES;
             }
         }
         for start in (begin_8..end).step_by(LANES) {
             #[cfg(target_arch = "x86_64")]
             if AVX2 {
                 // SAFETY: AVX2 is only requested from `accumulate_avx2` and
-                // `accumulate_avx512`, which run only where the CPU has it (and, for `WIDE`, the
+                // `accumulate_avx512`, which run only where the CPU has it (and, for `AVX512`, the
                 // AVX-512 features of the latter); this is inlined into them.
                 unsafe {
-                    avx2::sample_block::<L, CLAMP, WIDE>(
+                    avx2::sample_block::<L, CLAMP, AVX512>(
                         map, frame, points, normals, start, &mut last, &mut acc,
                     )
                 };
@@ -695,271 +698,9 @@ impl ClassAccumulator {
     }
 }
 
-/// Lanes `start..start + valid` of `xs` (`valid ≤ LANES`), zero-padded.
-#[inline(always)]
-fn load(xs: Soa, start: usize, valid: usize) -> Vec3s {
-    let mut out = [[0.0; LANES]; 3];
-    for (o, x) in out.iter_mut().zip(xs) {
-        o[..valid].copy_from_slice(&x[start..start + valid]);
-    }
-    out
-}
-
-/// One block of `valid ≤ LANES` points starting at `start`: transform, floor, look up; then the
-/// contact and braking arithmetic for the whole block if any lane needs it. Padding lanes read as
-/// Free and contribute nothing.
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn sample_block<L: VoxelLookup, const CLAMP: bool>(
-    map: &L,
-    frame: &GridFrame,
-    points: Soa,
-    normals: Soa,
-    start: usize,
-    valid: usize,
-    last: &mut LastVoxel,
-    acc: &mut ClassAccumulator,
-) {
-    // (P − x) in 2^-8 m, then P in grid coordinates (the same bits as from metres: the scalings
-    // are powers of two) and its voxel.
-    let lever = mat_vec(&frame.rotation_lever, &load(points, start, valid));
-    let grid = scale_add(&lever, frame.inv_voxel_lever, frame.translation_grid);
-    let cell = [
-        floor_i32(&grid[0]),
-        floor_i32(&grid[1]),
-        floor_i32(&grid[2]),
-    ];
-    let (kinds, layers) = look_up(map, &cell, valid, last);
-    let Some(KindMasks {
-        surface,
-        proximity,
-        interior,
-    }) = acc.count_kinds(kinds)
-    else {
-        return;
-    };
-    let normal = mat_vec(&frame.rotation, &load(normals, start, valid));
-    if surface | interior != 0 {
-        acc.surface += count_bytes(surface);
-        // Interior points push as if one layer deeper than Surface layer 0 (the first Interior
-        // layer of a 2-bit map), instead of nothing.
-        let is_pushing = kinds.map(|k| k == Voxel::Surface.bits() || k == Voxel::Interior.bits());
-        let mut pushing_layers = layers;
-        for (l, k) in pushing_layers.iter_mut().zip(kinds) {
-            if k == Voxel::Interior.bits() {
-                *l = 1;
-            }
-        }
-        surface_block::<CLAMP>(
-            frame,
-            &lever,
-            &grid,
-            &cell,
-            &normal,
-            &is_pushing,
-            &pushing_layers,
-            acc,
-        );
-    }
-    if proximity != 0 {
-        let is_proximity = kinds.map(|k| k == Voxel::Proximity.bits());
-        brake_block::<CLAMP>(frame, &lever, &normal, &is_proximity, acc);
-    }
-}
-
-/// The voxel looked up last in a class, carried from block to block.
-#[derive(Clone, Copy)]
-struct LastVoxel {
-    cell: [i32; 3],
-    voxel: LayeredVoxel,
-}
-
-impl LastVoxel {
-    /// Lane `lane` of `cell`, with its kind bits and layer, as the voxel looked up last.
-    #[inline(always)]
-    fn remember(&mut self, cell: &[[i32; LANES]; 3], lane: usize, kind: u8, layer: u8) {
-        self.cell = [cell[0][lane], cell[1][lane], cell[2][lane]];
-        self.remember_voxel(kind, layer);
-    }
-
-    /// Kind bits `kind` and layer `layer` as the voxel looked up last (its cell set apart).
-    #[inline(always)]
-    fn remember_voxel(&mut self, kind: u8, layer: u8) {
-        self.voxel = voxel_of(kind, layer);
-    }
-
-    /// Before the first lookup: a cell outside every grid, which reads as Free anyway.
-    const NONE: LastVoxel = LastVoxel {
-        cell: [i32::MIN; 3],
-        voxel: LayeredVoxel {
-            kind: Voxel::Free,
-            layer: 0,
-        },
-    };
-}
-
-/// The kinds and layers of the block's voxels (lanes `valid..` read as Free).
-///
-/// A lane whose voxel equals the previous lane's (lane 0: the voxel looked up last, `last`) copies
-/// its result. When few lanes start a new voxel (a shell sampled finer than the voxmap), only those
-/// are looked up, one by one; otherwise the whole block is looked up at once with
-/// [`VoxelLookup::get_block`] (for the tree, one vectorised pass), padding lanes moved outside the
-/// grid.
-#[inline(always)]
-fn look_up<L: VoxelLookup>(
-    map: &L,
-    cell: &[[i32; LANES]; 3],
-    valid: usize,
-    last: &mut LastVoxel,
-) -> ([u8; LANES], [u8; LANES]) {
-    // Bit l: lane l is in another voxel than lane l − 1.
-    let fresh = differs_from_previous(cell, last.cell) & ((1u32 << valid) - 1);
-    look_up_fresh::<L, true>(map, cell, valid, fresh, last)
-}
-
-/// [`look_up`] with the lanes that start a new voxel given (bit `l` of `fresh`). `COPY`: the cells
-/// of a whole-block lookup are copied (padding lanes moved outside the grid) even for a full block,
-/// as the previous kernel does; the AVX-512 copy passes `false`, and a full block goes to
-/// [`VoxelLookup::get_block`] as it is.
-#[inline(always)]
-fn look_up_fresh<L: VoxelLookup, const COPY: bool>(
-    map: &L,
-    cell: &[[i32; LANES]; 3],
-    valid: usize,
-    fresh: u32,
-    last: &mut LastVoxel,
-) -> ([u8; LANES], [u8; LANES]) {
-    let (kinds, layers) = if fresh.count_ones() > FEW {
-        let block = if COPY || valid < LANES {
-            let mut cells = *cell;
-            for axis in &mut cells {
-                axis[valid..].fill(-1);
-            }
-            map.get_block(&cells)
-        } else {
-            map.get_block(cell)
-        };
-        (block.kinds, block.layers)
-    } else {
-        // Lane bytes of one u64: every lane starts as the last voxel; each fresh lane, in lane
-        // order, overwrites itself and the lanes after it, so a lane ends with the voxel of the
-        // nearest fresh lane at or before it (lane 0: `last`). Lanes `valid..` read 0.
-        const ONES: u64 = u64::from_le_bytes([1; LANES]);
-        let mut kinds = ONES * u64::from(last.voxel.kind.bits());
-        let mut layers = ONES * u64::from(last.voxel.layer);
-        debug_assert!(fresh >> valid == 0, "fresh lanes are valid lanes");
-        let mut rest = fresh;
-        while rest != 0 {
-            let l = rest.trailing_zeros() as usize;
-            rest &= rest - 1;
-            let v = map.get_layered(IVec3::new(cell[0][l], cell[1][l], cell[2][l]));
-            let from_l = u64::MAX << (8 * l);
-            kinds = (kinds & !from_l) | ((ONES * u64::from(v.kind.bits())) & from_l);
-            layers = (layers & !from_l) | ((ONES * u64::from(v.layer)) & from_l);
-        }
-        // Lanes 0..valid (none when `valid` is 0).
-        let in_block = u64::MAX
-            .checked_shr(8 * (LANES - valid) as u32)
-            .unwrap_or(0);
-        (
-            (kinds & in_block).to_le_bytes(),
-            (layers & in_block).to_le_bytes(),
-        )
-    };
-    if valid > 0 {
-        last.remember(cell, valid - 1, kinds[valid - 1], layers[valid - 1]);
-    }
-    (kinds, layers)
-}
-
-/// At most this many fresh lanes are looked up one by one ([`look_up_fresh`]).
-const FEW: u32 = 2;
-
-/// A [`LayeredVoxel`] from its kind bits and layer.
-#[inline(always)]
-fn voxel_of(kind: u8, layer: u8) -> LayeredVoxel {
-    LayeredVoxel {
-        kind: Voxel::from_bits(kind),
-        layer,
-    }
-}
-
-/// Contact arithmetic of a block: `d = max(0, N·(C − P) + ℓ) s` in Surface lanes, 0 elsewhere;
-/// adds `d N` (2^-40 m) and `(P − x) × d N` (2^-48 m²), each rounded per point, and counts
-/// `d > 0`. `lever` is `P − x` in 2^-8 m.
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn surface_block<const CLAMP: bool>(
-    frame: &GridFrame,
-    lever: &Vec3s,
-    grid: &Vec3s,
-    cell: &[[i32; LANES]; 3],
-    normal: &Vec3s,
-    is_surface: &[bool; LANES],
-    layers: &[u8; LANES],
-    acc: &mut ClassAccumulator,
-) {
-    // C − P in voxel units: the voxel centre (cell + 0.5) minus the grid position.
-    let mut to_centre = [[0.0; LANES]; 3];
-    for r in 0..3 {
-        for l in 0..LANES {
-            to_centre[r][l] = cell[r][l] as f32 + 0.5 - grid[r][l];
-        }
-    }
-    let plane = dot(normal, &to_centre);
-    // Depth in 2^-40 m.
-    let mut depth: F32s = [0.0; LANES];
-    for l in 0..LANES {
-        let d = plane[l] + f32::from(layers[l]);
-        depth[l] = if is_surface[l] && d > 0.0 {
-            d * frame.voxel_q
-        } else {
-            0.0
-        };
-    }
-    acc.contacts += depth.iter().filter(|&&d| d > 0.0).count() as u64;
-    let force_dir = scale(normal, &depth);
-    add3_fixed::<CLAMP>(&mut acc.depth_normal, &force_dir);
-    add3_fixed::<CLAMP>(&mut acc.depth_torque, &cross(lever, &force_dir));
-    acc.depth_blocks += 1;
-}
-
-/// Braking arithmetic of a block: `a = V·N` in approaching Proximity lanes (`V·N < 0`), 0
-/// elsewhere; adds `a²`, `a N` (2^-40 units) and `(P − x) × a N` (2^-48 units), each rounded per
-/// point, and counts the approaching lanes. `lever` is `P − x` in 2^-8 m.
-#[inline(always)]
-fn brake_block<const CLAMP: bool>(
-    frame: &GridFrame,
-    lever: &Vec3s,
-    normal: &Vec3s,
-    is_proximity: &[bool; LANES],
-    acc: &mut ClassAccumulator,
-) {
-    let velocity = add_cross_uniform(frame.linear_velocity, frame.angular_velocity_lever, lever);
-    let approach = dot(&velocity, normal);
-    // a · 2^40 and a² · 2^40.
-    let mut a: F32s = [0.0; LANES];
-    let mut a_sq: F32s = [0.0; LANES];
-    for l in 0..LANES {
-        let x = if is_proximity[l] && approach[l] < 0.0 {
-            approach[l]
-        } else {
-            0.0
-        };
-        a[l] = x * LENGTH_Q;
-        a_sq[l] = x * a[l];
-    }
-    acc.approaching += a.iter().filter(|&&x| x < 0.0).count() as u64;
-    add_fixed::<CLAMP>(&mut acc.brake_sq, &a_sq);
-    let brake_dir = scale(normal, &a);
-    add3_fixed::<CLAMP>(&mut acc.brake_force, &brake_dir);
-    add3_fixed::<CLAMP>(&mut acc.brake_torque, &cross(lever, &brake_dir));
-    acc.brake_blocks += 1;
-}
-
 /// The vector helpers of one SIMD copy of the block — `mat_vec`, `dot`, `cross`, `scale`,
 /// `add_cross_uniform` and `to_centre` over `[$f; 3]` — written once for both widths (`__m256` in
-/// [`avx2`], `__m512` in `wide`): the same IEEE operations in the same order as their namesakes in
+/// [`avx2`], `__m512` in `avx512`): the same IEEE operations in the same order as their namesakes in
 /// `lanes` and `surface_block`'s centre offset, so every copy gives the same bits.
 /// Arguments: the target feature, the f32 and i32 vector types, and the zero, broadcast, add,
 /// subtract, multiply and i32 → f32 conversion intrinsics.
@@ -1053,352 +794,14 @@ macro_rules! vec3_ops {
     };
 }
 
+#[cfg(target_arch = "x86_64")]
+mod avx512;
 mod distance;
+mod portable;
+use portable::{brake_block, load, look_up_fresh, sample_block, LastVoxel};
+
 #[cfg(target_arch = "x86_64")]
-mod wide;
-
-/// The full-block path of the AVX2 copy, written with AVX2 intrinsics: the portable lane loops
-/// leave much of the block arithmetic in 128-bit halves even when compiled for AVX2. Every
-/// operation is the portable one (same operands, same order, no fused multiply-add), so a block
-/// gives the same bits either way (a unit test checks it).
-#[cfg(target_arch = "x86_64")]
-mod avx2 {
-    use super::{
-        count_bytes, look_up_fresh, ClassAccumulator, GridFrame, I64s, KindMasks, LastVoxel, Soa,
-        LANES, LENGTH_Q, ROUNDER, ROUNDER_BITS, Y_MAX,
-    };
-    use glam::Mat3;
-    use std::arch::x86_64::*;
-    use vps_voxmap::{Voxel, VoxelLookup};
-
-    type V3 = [__m256; 3];
-
-    /// Lanes `start..start + LANES` of the three arrays. `UNCHECKED` (the AVX-512 copy): without
-    /// bounds checks, which `accumulate_lanes` makes once per class instead.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2; with `UNCHECKED`, `start + LANES` must be within every array.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn load<const UNCHECKED: bool>(xs: Soa, start: usize) -> V3 {
-        let mut out = [_mm256_setzero_ps(); 3];
-        for r in 0..3 {
-            let lanes = if UNCHECKED {
-                // SAFETY: `start + LANES` is within every array (this function's contract).
-                unsafe { xs[r].get_unchecked(start..start + LANES) }
-            } else {
-                &xs[r][start..start + LANES]
-            };
-            // SAFETY: `lanes` holds LANES f32 (32 bytes); unaligned load.
-            out[r] = unsafe { _mm256_loadu_ps(lanes.as_ptr()) };
-        }
-        out
-    }
-
-    vec3_ops!(
-        "avx2",
-        __m256,
-        __m256i,
-        _mm256_setzero_ps,
-        _mm256_set1_ps,
-        _mm256_add_ps,
-        _mm256_sub_ps,
-        _mm256_mul_ps,
-        _mm256_cvtepi32_ps
-    );
-
-    /// Number of lanes with `x > 0` (`GT`) or `x < 0`.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn count_positive(x: __m256) -> u64 {
-        let m = _mm256_cmp_ps::<_CMP_GT_OQ>(x, _mm256_setzero_ps());
-        u64::from(_mm256_movemask_ps(m).count_ones())
-    }
-
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn count_negative(x: __m256) -> u64 {
-        let m = _mm256_cmp_ps::<_CMP_LT_OQ>(x, _mm256_setzero_ps());
-        u64::from(_mm256_movemask_ps(m).count_ones())
-    }
-
-    /// `super::add_fixed`: `acc += bits(f64(y) + 1.5 · 2^52)` per lane, `y` clamped first with
-    /// `CLAMP` (`max` then `min`: NaN gives `-Y_MAX` as `f32::max` does). `WIDE`: the AVX-512
-    /// copy, [`add_rounded_avx512`].
-    ///
-    /// # Safety
-    /// The CPU must support AVX2, and AVX-512F and DQ with `WIDE`; inlined only into callers
-    /// compiled for them.
-    #[inline(always)]
-    pub(super) unsafe fn add_fixed<const CLAMP: bool, const WIDE: bool>(acc: &mut I64s, y: __m256) {
-        let y = if CLAMP {
-            _mm256_min_ps(
-                _mm256_max_ps(y, _mm256_set1_ps(-Y_MAX)),
-                _mm256_set1_ps(Y_MAX),
-            )
-        } else {
-            y
-        };
-        if WIDE {
-            // SAFETY: as this function's.
-            unsafe { add_rounded_avx512(acc, y) }
-        } else {
-            // SAFETY: as this function's.
-            unsafe { add_rounded_avx2(acc, y) }
-        }
-    }
-
-    /// `acc += round(y) + bits(1.5 · 2^52)` per lane (the carried form of `super::add_fixed`):
-    /// one conversion of the eight f32 lanes to `i64`, to nearest with ties to even, the same
-    /// integer as `bits(f64(y) + 1.5 · 2^52) − bits(1.5 · 2^52)` for every `|y| < 2^51` (`f64(y)`
-    /// is exact and both round the exact value to nearest, ties to even). `|y| ≤ Y_MAX` here: the
-    /// frame's bound or the clamp (see the module docs).
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512F and AVX-512DQ.
-    #[inline]
-    #[target_feature(enable = "avx512f,avx512dq")]
-    unsafe fn add_rounded_avx512(acc: &mut I64s, y: __m256) {
-        let rounded =
-            _mm512_cvt_roundps_epi64::<{ _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC }>(y);
-        let carried = _mm512_add_epi64(rounded, _mm512_set1_epi64(ROUNDER_BITS));
-        let p = acc.as_mut_ptr().cast::<__m512i>();
-        // SAFETY: `acc` is 8 i64 (64 bytes), loaded and stored unaligned.
-        unsafe { _mm512_storeu_si512(p, _mm512_add_epi64(_mm512_loadu_si512(p), carried)) };
-    }
-
-    /// `acc += bits(f64(y) + 1.5 · 2^52)` per lane, in two halves of four.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn add_rounded_avx2(acc: &mut I64s, y: __m256) {
-        let rounder = _mm256_set1_pd(ROUNDER);
-        let lo = _mm256_add_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(y)), rounder);
-        let hi = _mm256_add_pd(_mm256_cvtps_pd(_mm256_extractf128_ps::<1>(y)), rounder);
-        let p = acc.as_mut_ptr().cast::<__m256i>();
-        // SAFETY: `acc` is 8 i64 (64 bytes): two unaligned 32-byte halves.
-        unsafe {
-            _mm256_storeu_si256(
-                p,
-                _mm256_add_epi64(_mm256_loadu_si256(p), _mm256_castpd_si256(lo)),
-            );
-            _mm256_storeu_si256(
-                p.add(1),
-                _mm256_add_epi64(_mm256_loadu_si256(p.add(1)), _mm256_castpd_si256(hi)),
-            );
-        }
-    }
-
-    /// [`add_fixed`] per component.
-    ///
-    /// # Safety
-    /// As [`add_fixed`]'s.
-    #[inline(always)]
-    pub(super) unsafe fn add3_fixed<const CLAMP: bool, const WIDE: bool>(
-        acc: &mut [I64s; 3],
-        y: &V3,
-    ) {
-        for (a, v) in acc.iter_mut().zip(y) {
-            // SAFETY: as this function's.
-            unsafe { add_fixed::<CLAMP, WIDE>(a, *v) };
-        }
-    }
-
-    /// `super::brake_block` in 256-bit registers: `a = V·N` in the lanes of `mask` (all ones or
-    /// all zeros) that approach (`V·N < 0`), 0 elsewhere; adds `a²`, `a N` and `(P − x) × a N`
-    /// and counts the approaching lanes. `lever` is `P − x` in 2^-8 m. Shared by the
-    /// tangent-plane block (Proximity lanes) and the distance block (braking lanes).
-    ///
-    /// # Safety
-    /// As [`add_fixed`]'s.
-    #[inline(always)]
-    pub(super) unsafe fn brake_lanes<const CLAMP: bool, const WIDE: bool>(
-        frame: &GridFrame,
-        lever: &V3,
-        normal: &V3,
-        mask: __m256,
-        acc: &mut ClassAccumulator,
-    ) {
-        unsafe {
-            let velocity =
-                add_cross_uniform(frame.linear_velocity, frame.angular_velocity_lever, lever);
-            let approach = dot(&velocity, normal);
-            let approaching = _mm256_and_ps(
-                mask,
-                _mm256_cmp_ps::<_CMP_LT_OQ>(approach, _mm256_setzero_ps()),
-            );
-            let x = _mm256_and_ps(approaching, approach);
-            let a = _mm256_mul_ps(x, _mm256_set1_ps(LENGTH_Q));
-            let a_sq = _mm256_mul_ps(x, a);
-            acc.approaching += count_negative(a);
-            add_fixed::<CLAMP, WIDE>(&mut acc.brake_sq, a_sq);
-            let brake_dir = scale(normal, a);
-            add3_fixed::<CLAMP, WIDE>(&mut acc.brake_force, &brake_dir);
-            add3_fixed::<CLAMP, WIDE>(&mut acc.brake_torque, &cross(lever, &brake_dir));
-            acc.brake_blocks += 1;
-        }
-    }
-
-    /// Lanes of `kinds` equal to `kind`, as 32-bit masks.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn kind_is(kinds: __m256i, kind: Voxel) -> __m256i {
-        _mm256_cmpeq_epi32(kinds, _mm256_set1_epi32(i32::from(kind.bits())))
-    }
-
-    /// `ClassAccumulator::count_kinds` in 32-bit lanes, for the AVX-512 copy: the same counts,
-    /// and the masks with one bit per lane (bit `l`: lane `l`) instead of one byte.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2 and POPCNT.
-    #[inline]
-    #[target_feature(enable = "avx2,popcnt")]
-    unsafe fn count_kind_lanes(
-        acc: &mut ClassAccumulator,
-        kinds: &[u8; LANES],
-    ) -> Option<KindMasks> {
-        // SAFETY: `kinds` is 8 bytes, loaded unaligned.
-        let kind = _mm256_cvtepu8_epi32(unsafe { _mm_loadl_epi64(kinds.as_ptr().cast()) });
-        let lanes = |k: Voxel| _mm256_movemask_ps(_mm256_castsi256_ps(kind_is(kind, k))) as u64;
-        let (surface, proximity, interior) = (
-            lanes(Voxel::Surface),
-            lanes(Voxel::Proximity),
-            lanes(Voxel::Interior),
-        );
-        let non_free = surface | proximity | interior;
-        if non_free == 0 {
-            return None;
-        }
-        acc.non_free += u64::from(non_free.count_ones());
-        acc.interior += u64::from(interior.count_ones());
-        Some(KindMasks {
-            surface,
-            proximity,
-            interior,
-        })
-    }
-
-    /// `super::sample_block` for a full block at `start` (`start + LANES` within every array).
-    /// Not compiled for a target feature itself: always inlined into `accumulate_avx2` or
-    /// `accumulate_avx512`, whose features its intrinsics then use. `WIDE`: the AVX-512 rounding
-    /// ([`add_fixed`]).
-    ///
-    /// # Safety
-    /// The CPU must support AVX2, and with `WIDE` AVX-512F and AVX-512DQ.
-    // The arguments stay separate: bundled in one struct (map, frame, points, normals) they cost
-    // 5 % more instructions in contact (1k points: 16,396 → 17,287), by value or by reference.
-    #[allow(clippy::too_many_arguments)]
-    #[inline(always)]
-    pub(super) unsafe fn sample_block<L: VoxelLookup, const CLAMP: bool, const WIDE: bool>(
-        map: &L,
-        frame: &GridFrame,
-        points: Soa,
-        normals: Soa,
-        start: usize,
-        last: &mut LastVoxel,
-        acc: &mut ClassAccumulator,
-    ) {
-        unsafe {
-            // The AVX-512 copy skips the bounds checks: `start + LANES ≤ n`, the shortest of the
-            // six arrays (`accumulate_lanes`). The AVX2 copy stays the previous kernel's code.
-            let lever = mat_vec(&frame.rotation_lever, &load::<WIDE>(points, start));
-            let inv = _mm256_set1_ps(frame.inv_voxel_lever);
-            let mut grid: V3 = [_mm256_setzero_ps(); 3];
-            // floor, as `lanes::floor_i32`: truncate, then −1 where truncation rounded up.
-            // (`WIDE`: round down, then truncate.)
-            let mut cell = [_mm256_setzero_si256(); 3];
-            for r in 0..3 {
-                grid[r] = _mm256_add_ps(
-                    _mm256_mul_ps(lever[r], inv),
-                    _mm256_set1_ps(frame.translation_grid[r]),
-                );
-                cell[r] = if WIDE {
-                    // Rounded down first: the same cells wherever `lanes::floor_i32` gives a
-                    // cell inside an i32 grid (beyond ±2^31 both give cells outside every grid,
-                    // which read as Free).
-                    _mm256_cvttps_epi32(_mm256_floor_ps(grid[r]))
-                } else {
-                    let t = _mm256_cvttps_epi32(grid[r]);
-                    let up = _mm256_cmp_ps::<_CMP_LT_OQ>(grid[r], _mm256_cvtepi32_ps(t));
-                    _mm256_add_epi32(t, _mm256_castps_si256(up))
-                };
-            }
-            // Lanes whose cell differs from the previous lane's (lane 0: the last voxel's).
-            let shift = _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6);
-            let mut same = _mm256_set1_epi32(-1);
-            for (c, previous) in cell.iter().zip(last.cell) {
-                let prev = _mm256_blend_epi32::<1>(
-                    _mm256_permutevar8x32_epi32(*c, shift),
-                    _mm256_set1_epi32(previous),
-                );
-                same = _mm256_and_si256(same, _mm256_cmpeq_epi32(*c, prev));
-            }
-            let fresh = !(_mm256_movemask_ps(_mm256_castsi256_ps(same)) as u32) & 0xff;
-            let mut cells = [[0i32; LANES]; 3];
-            for r in 0..3 {
-                _mm256_storeu_si256(cells[r].as_mut_ptr().cast(), cell[r]);
-            }
-            let (kinds, layers) = if WIDE {
-                look_up_fresh::<L, false>(map, &cells, LANES, fresh, last)
-            } else {
-                look_up_fresh::<L, true>(map, &cells, LANES, fresh, last)
-            };
-            let masks = if WIDE {
-                if u64::from_le_bytes(kinds) == 0 {
-                    return;
-                }
-                count_kind_lanes(acc, &kinds)
-            } else {
-                acc.count_kinds(kinds)
-            };
-            let Some(KindMasks {
-                surface,
-                proximity,
-                interior,
-            }) = masks
-            else {
-                return;
-            };
-            let normal = mat_vec(&frame.rotation, &load::<WIDE>(normals, start));
-            let kind = _mm256_cvtepu8_epi32(_mm_loadl_epi64(kinds.as_ptr().cast()));
-            if surface | interior != 0 {
-                acc.surface += if WIDE {
-                    u64::from(surface.count_ones())
-                } else {
-                    count_bytes(surface)
-                };
-                let is_interior = kind_is(kind, Voxel::Interior);
-                let pushing = _mm256_or_si256(is_interior, kind_is(kind, Voxel::Surface));
-                // Interior points push as layer 1.
-                let layer = _mm256_blendv_epi8(
-                    _mm256_cvtepu8_epi32(_mm_loadl_epi64(layers.as_ptr().cast())),
-                    _mm256_set1_epi32(1),
-                    is_interior,
-                );
-                let d = _mm256_add_ps(
-                    dot(&normal, &to_centre(&cell, &grid)),
-                    _mm256_cvtepi32_ps(layer),
-                );
-                let keep = _mm256_and_ps(
-                    _mm256_castsi256_ps(pushing),
-                    _mm256_cmp_ps::<_CMP_GT_OQ>(d, _mm256_setzero_ps()),
-                );
-                let depth = _mm256_and_ps(keep, _mm256_mul_ps(d, _mm256_set1_ps(frame.voxel_q)));
-                acc.contacts += count_positive(depth);
-                let force_dir = scale(&normal, depth);
-                add3_fixed::<CLAMP, WIDE>(&mut acc.depth_normal, &force_dir);
-                add3_fixed::<CLAMP, WIDE>(&mut acc.depth_torque, &cross(&lever, &force_dir));
-                acc.depth_blocks += 1;
-            }
-            if proximity != 0 {
-                let is_proximity = _mm256_castsi256_ps(kind_is(kind, Voxel::Proximity));
-                brake_lanes::<CLAMP, WIDE>(frame, &lever, &normal, is_proximity, acc);
-            }
-        }
-    }
-}
+mod avx2;
 
 /// Tests: a one-class shell of the `n` points and normals in `soa` (x, y, z of the points, then
 /// of the normals), voxel-centre method, bounding radius `radius` (m).
@@ -1429,7 +832,7 @@ fn soa_shell(soa: &[Vec<f32>; 6], n: usize, voxel_size: f64, radius: f64) -> Cla
 mod tests {
     use super::*;
     use glam::{DVec3, Vec3};
-    use vps_voxmap::{DenseGrid, GridSpec};
+    use vps_voxmap::{DenseGrid, GridSpec, Voxel};
 
     /// The AVX2 and AVX-512 copies and the baseline copy of the hot loop give the same bits.
     #[test]

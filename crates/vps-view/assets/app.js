@@ -15,6 +15,8 @@
   const HISTORY = 300; // chart samples (10 s at 30 Hz)
   const FORCE_SCALE = 0.05; // m of arrow per N
   const TORQUE_SCALE = 10.0; // m of arrow per N·m
+  const FETCH_PATIENCE_MS = 30000; // longest wait for a request's answer (headers) before asking again
+  const FETCH_TRIES = 5; // requests of one scene file (a second apart) before the page reports an error
 
   // Page options from the query string: ?renderer=2d forces the 2D-canvas fallback; ?fps=N caps
   // the redraw rate (default 30).
@@ -675,7 +677,8 @@
   // Without WebSocket messages (blocked, or a proxy in the way) poll /state instead.
   async function poll() {
     if (performance.now() - lastMessageAt > 500) {
-      try { onState(await (await fetch('/state', { cache: 'no-store' })).json()); } catch (e) { /* server gone */ }
+      // A poll unanswered in FETCH_PATIENCE_MS is given up, so one lost request cannot stop polling.
+      try { onState(await (await fetch('/state', { cache: 'no-store', signal: AbortSignal.timeout(FETCH_PATIENCE_MS) })).json()); } catch (e) { /* server gone */ }
     }
     setTimeout(poll, 200);
   }
@@ -792,13 +795,30 @@
   async function start() {
     // The page's start phase, for tests and for a person debugging a page that draws nothing.
     const phase = (p) => { document.body.dataset.phase = p; };
+    // A request that fails (the network, or no answer, i.e. no headers, in FETCH_PATIENCE_MS) is
+    // asked again a second later, FETCH_TRIES times in all, before the page reports an error: a
+    // loaded server may close a kept-alive connection just as the next request goes out on it.
     const get = async (path, kind) => {
       if (EMBEDDED) return embedded(path);
-      phase(`fetching ${path}`);
-      const r = await fetch(path, { cache: 'no-store' });
-      if (!r.ok) throw new Error(`${path}: ${r.status}`);
-      phase(`reading ${path}`);
-      return r[kind]();
+      for (let attempt = 1; ; attempt++) {
+        phase(attempt === 1 ? `fetching ${path}` : `fetching ${path} (try ${attempt} of ${FETCH_TRIES})`);
+        const abort = new AbortController();
+        const timer = setTimeout(() => abort.abort(), FETCH_PATIENCE_MS);
+        let r;
+        try {
+          r = await fetch(path, { cache: 'no-store', signal: abort.signal });
+        } catch (e) {
+          const why = abort.signal.aborted ? `no answer in ${FETCH_PATIENCE_MS / 1000} s` : e.message;
+          if (attempt >= FETCH_TRIES) throw new Error(`${path}: ${why} (${FETCH_TRIES} tries)`);
+          await new Promise((done) => setTimeout(done, 1000));
+          continue;
+        } finally {
+          clearTimeout(timer);
+        }
+        if (!r.ok) throw new Error(`${path}: ${r.status}`);
+        phase(`reading ${path}`);
+        return r[kind]();
+      }
     };
     // The page's own copy of a route's data: JSON as it is, buffers decoded from base64.
     const embedded = (path) => {

@@ -41,6 +41,24 @@ pub struct Browser {
 /// thread, which software WebGL on a loaded 2-core machine has held for over a minute.
 pub const REPLY_PATIENCE: Duration = Duration::from_secs(240);
 
+/// One headless Chromium at a time in a process: see [`take_turn`].
+static TURN: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// A process-wide turn to drive a browser, held until dropped (from [`take_turn`]).
+pub struct BrowserTurn {
+    _held: std::sync::MutexGuard<'static, ()>,
+}
+
+/// Waits until no other test in this process holds a turn, then takes it. Browser tests take one
+/// before they start anything they time (a session with `--seconds`, a page): two Chromiums with
+/// software WebGL beside two sessions left a 2-core machine so loaded that a page's fetch went
+/// unanswered for minutes. A turn whose holder panicked is taken over.
+pub fn take_turn() -> BrowserTurn {
+    BrowserTurn {
+        _held: TURN.lock().unwrap_or_else(|poisoned| poisoned.into_inner()),
+    }
+}
+
 /// How many of the page's console lines a [`Browser`] keeps.
 pub const CONSOLE_KEPT: usize = 20;
 
@@ -114,7 +132,13 @@ impl Browser {
                 serde_json::json!({ "targetId": target }),
             );
         }
-        let target = self.call("Target.createTarget", serde_json::json!({ "url": url }));
+        // The page starts blank, is attached, brought to the front with focus emulated (a page
+        // in the background may have its timers throttled and its renderer's priority lowered),
+        // and only then navigated, so no console line of its start is missed.
+        let target = self.call(
+            "Target.createTarget",
+            serde_json::json!({ "url": "about:blank", "background": false }),
+        );
         self.target = target["targetId"].as_str().unwrap().to_string();
         let attached = self.call(
             "Target.attachToTarget",
@@ -124,6 +148,22 @@ impl Browser {
         self.console.clear();
         // Console messages and uncaught exceptions arrive as events from now on.
         self.call("Runtime.enable", serde_json::json!({}));
+        self.call(
+            "Emulation.setFocusEmulationEnabled",
+            serde_json::json!({ "enabled": true }),
+        );
+        self.call("Page.bringToFront", serde_json::json!({}));
+        self.call("Page.navigate", serde_json::json!({ "url": url }));
+        // Until the navigation commits, the page is the blank one, whose `readyState` is already
+        // "complete": callers would read an empty document.
+        let started = Instant::now();
+        while self.eval("location.href") == "about:blank" {
+            assert!(
+                started.elapsed() < REPLY_PATIENCE,
+                "{url}: not loaded after {REPLY_PATIENCE:?}"
+            );
+            std::thread::sleep(Duration::from_millis(50));
+        }
     }
 
     /// Sends one command (to the page once attached) and returns its result; events are skipped,
@@ -190,10 +230,15 @@ impl Browser {
         let phase = self.eval("document.body ? (document.body.dataset.phase || '') : ''");
         let renderer = self.text("render-mode");
         let draws = self.eval("Number(document.getElementById('view').dataset.draws || 0)");
+        let page = self.eval(
+            "JSON.stringify({ visibility: document.visibilityState, focus: document.hasFocus(), \
+             url: location.href, resources: performance.getEntriesByType('resource')\
+             .map((e) => `${e.name.replace(location.origin, '')} ${Math.round(e.startTime)}+${Math.round(e.duration)} ms`) })",
+        );
         let console: Vec<&str> = self.console.iter().map(String::as_str).collect();
         format!(
             "page status {status:?}, start phase {phase}, renderer {renderer:?}, draws {draws}, \
-             console: [{}]",
+             page {page}, console: [{}]",
             console.join(" | ")
         )
     }

@@ -1,5 +1,5 @@
 //! The AVX-512 copy's full blocks of [`WIDE_LANES`] points: the 8-lane block of the AVX-512 copy
-//! (`super::avx2::sample_block` with `WIDE`) on sixteen lanes, one `__m512` per lane array, so that
+//! (`super::avx2::sample_block` with `AVX512`) on sixteen lanes, one `__m512` per lane array, so that
 //! one block does two 8-lane blocks' independent work (two lookup chains in flight) with the same
 //! registers. Every operation is the 8-lane block's (same operands, same order, no fused
 //! multiply-add), lane masks in `__mmask16` registers instead of vector masks; a unit test checks
