@@ -16,7 +16,7 @@
 use glam::{DVec3, IVec3};
 use vps_device::{HandParams, HapticDevice, SimulatedHand};
 use vps_haptic::{sample_all, step, HapticParams, KernelPose, PartState};
-use vps_session::{classed, BuildOptions, SessionAssets, DEFAULT_SCENE};
+use vps_session::{BuildOptions, SessionAssets, DEFAULT_SCENE};
 use vps_voxelize::ShellMethod;
 use vps_voxmap::{Voxel, VoxelTree};
 
@@ -73,16 +73,17 @@ fn main() -> anyhow::Result<()> {
         },
     )?;
     if std::env::var("DROP_HANDLE").is_ok() {
-        let keep: Vec<bool> = scene
-            .shell
+        let mut shell = scene.shell.points().clone();
+        let keep: Vec<bool> = shell
             .points
             .iter()
             .map(|p| !(p.x < -0.024 && p.y.abs() < 0.005))
             .collect();
         let mut k = keep.iter();
-        scene.shell.normals.retain(|_| *k.next().unwrap());
+        shell.normals.retain(|_| *k.next().unwrap());
         let mut k = keep.iter();
-        scene.shell.points.retain(|_| *k.next().unwrap());
+        shell.points.retain(|_| *k.next().unwrap());
+        scene.shell = vps_session::PartShell::new(shell);
         println!("dropped handle: {} points left", scene.shell.len());
     }
     let width = match std::env::var("WIDTH").ok().as_deref() {
@@ -128,14 +129,14 @@ fn main() -> anyhow::Result<()> {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(1.0);
-    let base = HapticParams::default().with_scene(s, scene.shell.max_radius())?;
+    let base = HapticParams::default().with_scene(s, scene.shell.points().max_radius())?;
     let params = HapticParams {
         k_r: Some(base.gains().k_r * kr_scale),
         braking,
         braking_torque,
         ..HapticParams::default()
     }
-    .with_scene(s, scene.shell.max_radius())?;
+    .with_scene(s, scene.shell.points().max_radius())?;
     let g = params.gains();
     let si = params.stability();
     println!(
@@ -154,7 +155,7 @@ fn main() -> anyhow::Result<()> {
         g.inertia
     );
     let (mut lo, mut hi) = (glam::Vec3::splat(1.0), glam::Vec3::splat(-1.0));
-    for p in &scene.shell.points {
+    for p in &scene.shell.points().points {
         lo = lo.min(*p);
         hi = hi.max(*p);
     }
@@ -164,7 +165,7 @@ fn main() -> anyhow::Result<()> {
     );
     let script = scene.script()?;
     let frames = (script.duration().min(seconds) / params.dt).round() as u64;
-    let shell = classed(&scene.shell);
+    let shell = scene.shell.classed();
     let (start, q0) = script.sample(0.0);
     let trace: (u64, u64, u64) = std::env::var("TRACE")
         .ok()
@@ -210,7 +211,7 @@ fn main() -> anyhow::Result<()> {
             }
             last_force = Some(out.device_wrench.force);
             let r = pose.rotation.as_dmat3();
-            deep += scene.shell.points.iter().any(|p| {
+            deep += scene.shell.points().points.iter().any(|p| {
                 let v = tree.get_layered(spec.index_of(r * p.as_dvec3() + state.position));
                 v.kind == Voxel::Interior || (v.kind == Voxel::Surface && v.layer >= 1)
             }) as u64;
@@ -225,13 +226,8 @@ fn main() -> anyhow::Result<()> {
             // Interior points.
             let r = pose.rotation.as_dmat3();
             let mut detail = Vec::new();
-            for (i, (p, n)) in scene
-                .shell
-                .points
-                .iter()
-                .zip(&scene.shell.normals)
-                .enumerate()
-            {
+            let shell = scene.shell.points();
+            for (i, (p, n)) in shell.points.iter().zip(&shell.normals).enumerate() {
                 let world = r * p.as_dvec3() + state.position;
                 let ijk = spec.index_of(world);
                 if tree.get(ijk) == Voxel::Interior {
@@ -262,13 +258,12 @@ fn main() -> anyhow::Result<()> {
                 );
                 for (i, p, n, d, e, rel) in detail.iter().take(4) {
                     let vp = state.linear_velocity + state.angular_velocity.cross(r * p.as_dvec3());
-                    let opp = scene
-                        .shell
+                    let opp = shell
                         .points
                         .iter()
-                        .zip(&scene.shell.normals)
+                        .zip(&shell.normals)
                         .filter(|(q, _)| (**q - *p).length() < 1.5 * s as f32 && **q != *p)
-                        .map(|(_, m)| m.dot(scene.shell.normals[*i]))
+                        .map(|(_, m)| m.dot(shell.normals[*i]))
                         .fold(1.0f32, f32::min);
                     println!(
                         "   pt {i} body {:.4?} worldN {:.2?} V.N {:.3} thin(min n.n') {opp:.2} depth {d} vox exposed {e} pos-in-voxel {:.4?}",

@@ -14,7 +14,7 @@ use vps_cluster::{
     ClusterReport, Coordinator, CoordinatorConfig, GatherConfig, LocalWorkerArgs, PeerTls,
 };
 use vps_runtime::{KeepOffFrameCore, LoopReport, Placement, SignalStop};
-use vps_session::{SessionAssets, CLASS_COUNT};
+use vps_session::SessionAssets;
 
 /// How long the coordinator waits for its workers to join before it starts.
 const JOIN_TIMEOUT: Duration = Duration::from_secs(20);
@@ -160,21 +160,17 @@ pub fn coordinate(
 /// then take every part's share of the scene and both directions of every pair). Allocates.
 fn cluster_assets(assets: &SessionAssets) -> Result<ClusterAssets> {
     let scene = assets.tree.clone();
-    let Some(first_body) = assets.part_body.clone() else {
-        return Ok(ClusterAssets::new(scene, &assets.shell, CLASS_COUNT)?);
-    };
-    let shells: Vec<&vps_voxmap::PointShell> = std::iter::once(&assets.shell)
+    let shells: Vec<_> = std::iter::once(&assets.shell)
         .chain(assets.more_parts.iter().map(|p| &p.shell))
+        .map(|s| (s.points(), s.classed()))
         .collect();
+    let Some(first_body) = assets.part_body.clone() else {
+        return Ok(ClusterAssets::of_classed_parts(scene, &shells[..1], &[])?);
+    };
     let bodies: Vec<Arc<vps_voxmap::VoxelTree>> = std::iter::once(first_body)
         .chain(assets.more_parts.iter().map(|p| p.body.clone()))
         .collect();
-    Ok(ClusterAssets::of_parts(
-        scene,
-        &shells,
-        &bodies,
-        CLASS_COUNT,
-    )?)
+    Ok(ClusterAssets::of_classed_parts(scene, &shells, &bodies)?)
 }
 
 /// Runs `prepared` with `workers` local worker processes of `worker_threads` threads each, on

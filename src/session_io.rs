@@ -374,7 +374,7 @@ pub fn prepare(args: &RunArgs) -> Result<PreparedSession> {
     };
     let mut assets = SessionAssets::from_loaded(loaded, &options)?;
     if let Some(params) = haptic_file {
-        assets.params = params.with_scene(assets.voxel_size, assets.shell.max_radius())?;
+        assets.params = params.with_scene(assets.voxel_size, assets.shell.points().max_radius())?;
     }
     let source = match &args.haptic {
         Some(path) => path.display().to_string(),

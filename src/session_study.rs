@@ -257,12 +257,7 @@ fn write_parts_study(run: &StudyRun<'_>, dir: &Path, every: usize, print: Print)
         .as_ref()
         .context("the scene's first part has no voxmap of its own")?;
     let shells: Vec<_> = std::iter::once(assets.classed_shell())
-        .chain(
-            assets
-                .more_parts
-                .iter()
-                .map(|p| vps_session::classed(&p.shell)),
-        )
+        .chain(assets.more_parts.iter().map(|p| p.shell.classed()))
         .collect();
     let mut parts = vec![PathPart {
         shell: &shells[0],
@@ -271,7 +266,7 @@ fn write_parts_study(run: &StudyRun<'_>, dir: &Path, every: usize, print: Print)
         initial: run.initial,
         trace: run.trace,
         body: &**first_body,
-        radius: vps_session::parts::body_radius(&assets.part_mesh, &assets.shell),
+        radius: vps_session::parts::body_radius(&assets.part_mesh, assets.shell.points()),
     }];
     for ((p, other), shell) in assets.more_parts.iter().zip(&run.others).zip(&shells[1..]) {
         parts.push(PathPart {

@@ -11,8 +11,8 @@ use vps_haptic::HapticParams;
 use vps_runtime::{run_loop, LoopConfig, SignalStop};
 use vps_session::file::{ForceModelName, ShellMethodName};
 use vps_session::scene::BuiltVoxmap;
-use vps_session::{classed, DeviceChoice, LoadedScene, SessionPlan};
-use vps_voxmap::{PointShell, VoxelTree};
+use vps_session::{DeviceChoice, LoadedScene, PartShell, SessionPlan};
+use vps_voxmap::VoxelTree;
 
 /// What one setting's session runs with (its setup, not the run: [`run_sweep_session`] runs it): a
 /// voxmap, the part's shell on it, the parameters and the script.
@@ -21,8 +21,9 @@ pub struct SweepSession {
     pub tree: Arc<VoxelTree>,
     /// Voxelization wall time (ms).
     pub voxelize_ms: f64,
-    /// The part's shell.
-    pub shell: PointShell,
+    /// The part's shell and its classes (built once for the setting's session and accuracy
+    /// pass).
+    pub shell: PartShell,
     /// Parameters for this voxmap and shell.
     pub params: HapticParams,
     /// The scene's script on this voxmap, its laps repeated to last at least the session asked for.
@@ -44,7 +45,7 @@ pub fn session_on(
     Ok(SweepSession {
         tree: map.tree.clone(),
         voxelize_ms: map.voxelize_ms,
-        shell,
+        shell: PartShell::new(shell),
         params,
         script,
     })
@@ -71,7 +72,7 @@ pub fn run_sweep_session(
     let plan = SessionPlan::new(session.params, device, config);
     let report = run_loop(
         session.tree.clone(),
-        classed(&session.shell),
+        session.shell.classed(),
         plan.into_stopped_setup(None, signals),
     )?;
     if let Some(err) = &report.device_error {

@@ -28,7 +28,7 @@ use vps_session::sweep_file::{
     builtin_run_scene, SweepFile, SweepRun, BUILTIN_SWEEP_FILE, BUILTIN_SWEEP_NAME,
     MAX_SWEEP_FILE_BYTES,
 };
-use vps_session::{classed, stop_on_signals, CachePolicy, LoadedScene};
+use vps_session::{stop_on_signals, CachePolicy, LoadedScene};
 
 /// Runs the sweep. SIGINT, SIGTERM and SIGHUP stop it: the running session's device is written
 /// zero, the rows done so far are written (marked partial, with the reason) and the command fails
@@ -298,7 +298,7 @@ fn accuracy_pass(
     frames: u64,
     stride: u64,
 ) -> Result<Option<Accuracy>> {
-    let shell = classed(&session.shell);
+    let shell = session.shell.classed();
     let limits = hand.limits();
     // The distance model's force starts at its stand-off from the exact surface: the reference's
     // depths do too.
@@ -329,7 +329,7 @@ fn accuracy_pass(
             if touching.is_multiple_of(stride) {
                 let reference = reference_contact(
                     set.exact,
-                    &session.shell.points,
+                    &session.shell.points().points,
                     state.position,
                     state.orientation,
                     offset,

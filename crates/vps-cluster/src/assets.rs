@@ -99,6 +99,33 @@ impl ClusterAssets {
         class_count: u32,
     ) -> Result<ClusterAssets, ClusterError> {
         check_class_count(class_count)?;
+        let classed: Vec<(&PointShell, Arc<ClassedShell>)> = shells
+            .iter()
+            .map(|s| (*s, Arc::new(ClassedShell::new(s, class_count))))
+            .collect();
+        Self::of_classed_parts(scene, &classed, bodies)
+    }
+
+    /// [`ClusterAssets::of_parts`] for shells already split into classes (a session's own split,
+    /// shared rather than built again): each shell's points (the file the workers get, who split
+    /// it the same way) with its classes. Every split must have the same class count (1..=64).
+    /// Serialises every file once (allocates).
+    pub fn of_classed_parts(
+        scene: Arc<VoxelTree>,
+        shells: &[(&PointShell, Arc<ClassedShell>)],
+        bodies: &[Arc<VoxelTree>],
+    ) -> Result<ClusterAssets, ClusterError> {
+        let class_count = shells.first().map_or(0, |(_, c)| c.class_count());
+        check_class_count(class_count)?;
+        if let Some((_, other)) = shells.iter().find(|(_, c)| c.class_count() != class_count) {
+            return Err(ClusterError::Config {
+                field: "class_count",
+                message: format!(
+                    "the part shells are split into {class_count} and {} classes: one class count for every part",
+                    other.class_count()
+                ),
+            });
+        }
         let parts = shells.len();
         let expected_bodies = if parts > 1 { parts } else { 0 };
         if !(1..=MAX_ASSET_PARTS).contains(&parts) || bodies.len() != expected_bodies {
@@ -129,7 +156,7 @@ impl ClusterAssets {
         let (bytes, file) = encode_map(&maps[0])?;
         files.push(bytes);
         described.push(file);
-        for shell in shells {
+        for (shell, _) in shells {
             let mut bytes = Vec::new();
             write_shell(shell, &mut bytes)
                 .map_err(|e| ClusterError::Scene(format!("cannot encode a shell: {e}")))?;
@@ -146,10 +173,7 @@ impl ClusterAssets {
             described.push(file);
         }
         Ok(ClusterAssets {
-            shells: shells
-                .iter()
-                .map(|s| Arc::new(ClassedShell::new(s, class_count)))
-                .collect(),
+            shells: shells.iter().map(|(_, c)| c.clone()).collect(),
             maps,
             identity: AssetsIdentity {
                 class_count,

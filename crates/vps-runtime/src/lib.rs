@@ -4,7 +4,8 @@
 //! Module map:
 //! - [`haptic_loop`]: [`run_loop`] / [`spawn_loop`], [`LoopConfig`], [`LoopReport`].
 //! - [`parts`]: several moving parts in one session ([`PartsSetup`]), their pairs.
-//! - [`pool`]: [`ClassPool`], cyclic class shares on local threads, exact merge.
+//! - [`pool`]: [`ClassPool`], cyclic class shares on local threads, exact merge; its class
+//!   cursor is module `cursor` (lock-free, with a loom model test).
 //! - [`clock`]: [`FrameClock`], absolute deadlines, sleep-then-spin, missed-tick accounting.
 //! - [`rt`]: [`request_realtime`] (SCHED_FIFO, core pinning), [`RtGrant`].
 //! - [`stats`]: [`FrameStats`], [`StatsSummary`] (HDR histograms, penetration ratio).
@@ -16,6 +17,7 @@
 #![warn(missing_docs)]
 
 pub mod clock;
+mod cursor;
 pub mod feed;
 pub mod haptic_loop;
 pub mod parts;

@@ -12,10 +12,10 @@
 //! and dropped. Partial sums are integers, so the merged result is bit-identical for every thread
 //! count and whoever computed each class.
 
+use crate::cursor::Cursor;
 use crate::RuntimeError;
 use crossbeam::channel::{bounded, Receiver, Sender};
 use std::panic::{catch_unwind, AssertUnwindSafe};
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -57,39 +57,6 @@ pub struct PoolResult {
     /// Shares the calling thread computed because whoever had them missed the deadline (for the
     /// local pool: classes a worker had claimed; for a cluster: a worker's class set).
     pub fallback_shares: u32,
-}
-
-/// The frame's class cursor: `seq << 32 | next class`. A claim succeeds only while the stamp is
-/// the claimer's frame and classes remain, so a worker still busy with an old frame can never
-/// take a class of the new one with the old pose.
-struct Cursor(AtomicU64);
-
-impl Cursor {
-    /// Opens frame `seq` at class 0.
-    fn open(&self, seq: u32) {
-        self.0.store(u64::from(seq) << 32, Ordering::Release);
-    }
-
-    /// The next unclaimed class of frame `seq`, if any (lock-free; a failed compare-exchange
-    /// retries with the value it saw).
-    fn claim(&self, seq: u32, classes: u32) -> Option<u32> {
-        let mut current = self.0.load(Ordering::Acquire);
-        loop {
-            let (stamp, next) = ((current >> 32) as u32, current as u32);
-            if stamp != seq || next >= classes {
-                return None;
-            }
-            match self.0.compare_exchange_weak(
-                current,
-                current + 1,
-                Ordering::AcqRel,
-                Ordering::Acquire,
-            ) {
-                Ok(_) => return Some(next),
-                Err(seen) => current = seen,
-            }
-        }
-    }
 }
 
 /// The pool. Owned by one frame thread (`compute` takes `&mut self`).
@@ -139,7 +106,7 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
             });
         }
         let classes = shell.class_count();
-        let cursor = Arc::new(Cursor(AtomicU64::new(0)));
+        let cursor: Arc<Cursor> = Arc::new(Cursor::new());
         // Room for every class of a frame plus stale replies of the previous one (a worker
         // finishes at most one old class after the frame moves on): a reply never waits for room.
         let (reply_tx, replies) = bounded(classes as usize + 2 * threads);
@@ -357,7 +324,7 @@ impl<L: VoxelLookup + Send + Sync + 'static> Drop for ClassPool<L> {
 mod tests {
     use super::*;
     use glam::{DQuat, DVec3};
-    use std::sync::atomic::AtomicBool;
+    use std::sync::atomic::{AtomicBool, Ordering};
     use vps_haptic::{sample_all, PartState};
     use vps_testkit::scene::{wall, ArmedWall};
     use vps_testkit::shell::sphere_shell;
@@ -367,36 +334,6 @@ mod tests {
         assert_eq!(share_classes(7, 3, 0), vec![0, 3, 6]);
         assert_eq!(share_classes(7, 3, 2), vec![2, 5]);
         assert_eq!(share_classes(2, 4, 3), Vec::<u32>::new());
-    }
-
-    #[test]
-    fn each_class_is_claimed_once_per_frame_and_only_by_that_frame() {
-        let cursor = Arc::new(Cursor(AtomicU64::new(0)));
-        cursor.open(7);
-        let claimed: Vec<Vec<u32>> = std::thread::scope(|scope| {
-            let handles: Vec<_> = (0..4)
-                .map(|_| {
-                    let cursor = cursor.clone();
-                    scope.spawn(move || {
-                        let mut mine = Vec::new();
-                        while let Some(c) = cursor.claim(7, 1000) {
-                            mine.push(c);
-                        }
-                        mine
-                    })
-                })
-                .collect();
-            handles.into_iter().map(|h| h.join().unwrap()).collect()
-        });
-        let mut all: Vec<u32> = claimed.concat();
-        all.sort_unstable();
-        assert_eq!(all, (0..1000).collect::<Vec<u32>>());
-        // A claimer of an older or newer frame gets nothing, even with classes left.
-        cursor.open(8);
-        assert_eq!(cursor.claim(7, 1000), None);
-        assert_eq!(cursor.claim(9, 1000), None);
-        assert_eq!(cursor.claim(8, 1000), Some(0));
-        assert_eq!(cursor.claim(8, 1), None);
     }
 
     #[test]

@@ -55,3 +55,41 @@ pub const CLASS_COUNT: u32 = 64;
 pub fn classed(shell: &PointShell) -> Arc<ClassedShell> {
     Arc::new(ClassedShell::new(shell, CLASS_COUNT))
 }
+
+/// A moving part's point shell (in its grip frame) and the same shell split into
+/// [`CLASS_COUNT`] classes for the kernel, built together once: whatever samples the part (the
+/// loop's pools, a study, the cluster's assets) shares the one split. Immutable; a new shell is a
+/// new `PartShell`.
+#[derive(Clone)]
+pub struct PartShell {
+    points: PointShell,
+    classed: Arc<ClassedShell>,
+}
+
+impl PartShell {
+    /// Splits `points` into classes. Allocates; setup-time only.
+    pub fn new(points: PointShell) -> PartShell {
+        let classed = classed(&points);
+        PartShell { points, classed }
+    }
+
+    /// The points and normals (m, grip frame) with the part's mass properties.
+    pub fn points(&self) -> &PointShell {
+        &self.points
+    }
+
+    /// The shell split into [`CLASS_COUNT`] classes (shared, not copied).
+    pub fn classed(&self) -> Arc<ClassedShell> {
+        self.classed.clone()
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Whether the shell has no points.
+    pub fn is_empty(&self) -> bool {
+        self.points.len() == 0
+    }
+}

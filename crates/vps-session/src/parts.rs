@@ -12,6 +12,7 @@ use crate::file::{rotation, DeviceSection, SceneFile};
 use crate::hints::{has_no_inside, plausible_size};
 use crate::mesh_source::{object_names, Placement, SharedMesh};
 use crate::script::HandPlan;
+use crate::PartShell;
 use anyhow::Result;
 use glam::{DVec3, Vec3};
 use std::path::Path;
@@ -150,8 +151,8 @@ pub(crate) fn part_names(file: &SceneFile, first_source: &str, more: &[LoadedPar
 pub struct PartAssets {
     /// Its name in reports.
     pub name: String,
-    /// Its point shell in its grip frame.
-    pub shell: PointShell,
+    /// Its point shell in its grip frame and its classes.
+    pub shell: PartShell,
     /// Its haptic parameters (the scene's, with its own bounding radius).
     pub params: HapticParams,
     /// Its mesh in its grip frame (m).

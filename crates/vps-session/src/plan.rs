@@ -144,7 +144,7 @@ impl SessionAssets {
                 .device
                 .open(script, &p.bridge)
                 .with_context(|| format!("opening the device of part '{}'", p.name))?;
-            let shell = crate::classed(&p.shell);
+            let shell = p.shell.classed();
             let pool = ClassPool::new(self.tree.clone(), shell.clone(), config.threads)?;
             others.push(MovingPart {
                 name: p.name.clone(),
@@ -163,7 +163,7 @@ impl SessionAssets {
             first: PartBody {
                 map: first_body.clone(),
                 shell: self.classed_shell(),
-                radius: body_radius(&self.part_mesh, &self.shell),
+                radius: body_radius(&self.part_mesh, self.shell.points()),
             },
             others,
             margin: self.pair_margin,

@@ -21,6 +21,7 @@ use crate::mesh_source::{load_scaled_with, resolve, Placement};
 pub use crate::mesh_source::{object_names, SharedMesh};
 use crate::parts::{body_radius, grip_frame_shell, LoadedPart, PartAssets};
 pub use crate::script::HandPlan;
+use crate::PartShell;
 use anyhow::{Context, Result};
 use glam::{DVec3, Vec3};
 use std::path::{Path, PathBuf};
@@ -854,7 +855,7 @@ impl LoadedScene {
             tree: map.tree,
             voxelize_ms: map.voxelize_ms,
             voxmap_origin: map.origin,
-            shell,
+            shell: PartShell::new(shell),
             params,
             device: self.device,
             bridge: self.bridge,
@@ -1068,8 +1069,8 @@ pub struct SessionAssets {
     pub voxelize_ms: f64,
     /// Where the voxmap came from.
     pub voxmap_origin: VoxmapOrigin,
-    /// The part's point shell; its origin is the grip.
-    pub shell: PointShell,
+    /// The first part's point shell and its classes; its origin is the grip.
+    pub shell: PartShell,
     /// Haptic parameters for this voxmap and shell, validated.
     pub params: HapticParams,
     /// The scene's default device.
@@ -1145,7 +1146,7 @@ impl SessionAssets {
         self.params = self
             .params
             .with_scene(self.voxel_size, shell.max_radius())?;
-        self.shell = shell;
+        self.shell = PartShell::new(shell);
         Ok(shell_voxel)
     }
 
@@ -1155,9 +1156,9 @@ impl SessionAssets {
             .script_covering(&self.tree, frames as f64 * self.params.dt)
     }
 
-    /// The shell split into [`crate::CLASS_COUNT`] classes.
+    /// The first part's shell split into [`crate::CLASS_COUNT`] classes (built once, shared).
     pub fn classed_shell(&self) -> Arc<vps_haptic::ClassedShell> {
-        crate::classed(&self.shell)
+        self.shell.classed()
     }
 
     /// The first moving part: the session's own shell, mesh, parameters and hand.
@@ -1165,7 +1166,7 @@ impl SessionAssets {
         PartView {
             name: &self.part_name,
             mesh: &self.part_mesh,
-            shell: &self.shell,
+            shell: self.shell.points(),
             params: &self.params,
             hand: &self.hand,
         }
@@ -1178,7 +1179,7 @@ impl SessionAssets {
             Some(k) => self.more_parts.get(k).map(|p| PartView {
                 name: &p.name,
                 mesh: &p.mesh,
-                shell: &p.shell,
+                shell: p.shell.points(),
                 params: &p.params,
                 hand: &p.hand,
             }),
@@ -1278,7 +1279,7 @@ impl LoadedScene {
                 name: p.name.clone(),
                 params: self.params.with_scene(voxel_size, shell.max_radius())?,
                 radius: body_radius(&mesh, &shell),
-                shell,
+                shell: PartShell::new(shell),
                 mesh,
                 body,
                 hand: p.hand.clone(),

@@ -58,6 +58,6 @@ impl StartOverlap {
 impl SessionAssets {
     /// [`StartOverlap::of`] for this scene's voxmap and shell and the session's `script`.
     pub fn start_overlap(&self, script: &Script) -> StartOverlap {
-        StartOverlap::of(&self.tree, &self.shell, script)
+        StartOverlap::of(&self.tree, self.shell.points(), script)
     }
 }

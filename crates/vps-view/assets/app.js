@@ -12,14 +12,14 @@
   // {state, scene, files: {route: base64}} when the page carries its own data; null when served.
   const EMBEDDED = window.VPS_EMBEDDED || null;
   const canvas = $('view');
-  const HISTORY = 300; // chart samples (10 s at 30 Hz)
+  const HISTORY = 300; // chart samples (10 s at the default 30 states a second; ?fps=N applies N a second)
   const FORCE_SCALE = 0.05; // m of arrow per N
   const TORQUE_SCALE = 10.0; // m of arrow per N·m
   const FETCH_PATIENCE_MS = 30000; // longest wait for a request's answer (headers) before asking again
   const FETCH_TRIES = 5; // requests of one scene file (a second apart) before the page reports an error
 
   // Page options from the query string: ?renderer=2d forces the 2D-canvas fallback; ?fps=N caps
-  // the redraw rate (default 30).
+  // the redraw rate and the rate states are applied to the panel and charts (default 30).
   const params = new URLSearchParams(location.search);
   const MAX_FPS = Math.max(0.2, Number(params.get('fps')) || 30);
 
@@ -668,10 +668,27 @@
     }
     if (changed) requestDraw();
   }
+  // A WebSocket message is only kept; the newest is applied (parsed, the panel and charts
+  // updated) at most MAX_FPS times a second. Applying each of 30 states a second on a starved
+  // machine kept the page's main thread so busy that its fetches and timers waited minutes.
+  let pendingState = null, applyPending = false, lastApplyAt = -Infinity;
+  function receive(text) {
+    lastMessageAt = performance.now();
+    pendingState = text;
+    if (applyPending) return;
+    applyPending = true;
+    setTimeout(applyState, Math.max(0, lastApplyAt + 1000 / MAX_FPS - performance.now()));
+  }
+  function applyState() {
+    applyPending = false; lastApplyAt = performance.now();
+    const text = pendingState; pendingState = null;
+    if (text === null) return;
+    try { onState(JSON.parse(text)); } catch (e) { console.warn(e); }
+  }
   function connect() {
     let ws;
     try { ws = new WebSocket(`ws://${location.host}/ws`); } catch (e) { return; }
-    ws.onmessage = (ev) => { lastMessageAt = performance.now(); try { onState(JSON.parse(ev.data)); } catch (e) { console.warn(e); } };
+    ws.onmessage = (ev) => receive(ev.data);
     ws.onclose = () => setTimeout(connect, 1000);
   }
   // Without WebSocket messages (blocked, or a proxy in the way) poll /state instead.

@@ -1,0 +1,215 @@
+//! The class cursor of a [`crate::pool::ClassPool`] frame: one atomic word, `seq << 32 | next
+//! class`, that the frame thread opens and every thread of the pool claims classes from.
+//!
+//! A claim succeeds only while the word's stamp is the claimer's frame and classes remain, so a
+//! worker still busy with an old frame can never take a class of the new one with the old pose.
+//! Lock-free: a failed compare-exchange retries with the value it saw. The word's type is a
+//! parameter ([`Word`]) so that the same code runs on `std`'s atomic in the pool and on loom's in
+//! the model test below, which checks every interleaving (and every weak-memory outcome loom
+//! models) of two claimers and an opener.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// The atomic 64-bit word a [`Cursor`] is built on.
+pub(crate) trait Word {
+    /// A word holding `value`.
+    fn with(value: u64) -> Self;
+    /// [`AtomicU64::load`].
+    fn load(&self, order: Ordering) -> u64;
+    /// [`AtomicU64::swap`].
+    fn swap(&self, value: u64, order: Ordering) -> u64;
+    /// [`AtomicU64::compare_exchange_weak`].
+    fn compare_exchange_weak(
+        &self,
+        current: u64,
+        new: u64,
+        success: Ordering,
+        failure: Ordering,
+    ) -> Result<u64, u64>;
+}
+
+impl Word for AtomicU64 {
+    fn with(value: u64) -> Self {
+        AtomicU64::new(value)
+    }
+    fn load(&self, order: Ordering) -> u64 {
+        AtomicU64::load(self, order)
+    }
+    fn swap(&self, value: u64, order: Ordering) -> u64 {
+        AtomicU64::swap(self, value, order)
+    }
+    fn compare_exchange_weak(
+        &self,
+        current: u64,
+        new: u64,
+        success: Ordering,
+        failure: Ordering,
+    ) -> Result<u64, u64> {
+        AtomicU64::compare_exchange_weak(self, current, new, success, failure)
+    }
+}
+
+/// The frame's class cursor (see the module docs). Frame path: no allocation, no lock.
+pub(crate) struct Cursor<W: Word = AtomicU64>(W);
+
+impl<W: Word> Cursor<W> {
+    /// A cursor with no frame open (stamp 0, class 0).
+    pub(crate) fn new() -> Self {
+        Cursor(W::with(0))
+    }
+
+    /// Opens frame `seq` at class 0. A swap rather than a plain store, with the same effect (once
+    /// a frame): with every write a read-modify-write, loom's model of the word is exact (loom
+    /// 0.7 lets a compare-exchange read a value a concurrent plain store has already replaced,
+    /// tokio-rs/loom#254, and reported a double claim no real execution can make).
+    pub(crate) fn open(&self, seq: u32) {
+        self.0.swap(u64::from(seq) << 32, Ordering::AcqRel);
+    }
+
+    /// The next unclaimed class of frame `seq` (of `classes`), if any.
+    pub(crate) fn claim(&self, seq: u32, classes: u32) -> Option<u32> {
+        let mut current = self.0.load(Ordering::Acquire);
+        loop {
+            let (stamp, next) = ((current >> 32) as u32, current as u32);
+            if stamp != seq || next >= classes {
+                return None;
+            }
+            match self.0.compare_exchange_weak(
+                current,
+                current + 1,
+                Ordering::AcqRel,
+                Ordering::Acquire,
+            ) {
+                Ok(_) => return Some(next),
+                Err(seen) => current = seen,
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::Arc;
+
+    #[test]
+    fn each_class_is_claimed_once_per_frame_and_only_by_that_frame() {
+        let cursor: Arc<Cursor> = Arc::new(Cursor::new());
+        cursor.open(7);
+        let claimed: Vec<Vec<u32>> = std::thread::scope(|scope| {
+            let handles: Vec<_> = (0..4)
+                .map(|_| {
+                    let cursor = cursor.clone();
+                    scope.spawn(move || {
+                        let mut mine = Vec::new();
+                        while let Some(c) = cursor.claim(7, 1000) {
+                            mine.push(c);
+                        }
+                        mine
+                    })
+                })
+                .collect();
+            handles.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        let mut all: Vec<u32> = claimed.concat();
+        all.sort_unstable();
+        assert_eq!(all, (0..1000).collect::<Vec<u32>>());
+        // A claimer of an older or newer frame gets nothing, even with classes left.
+        cursor.open(8);
+        assert_eq!(cursor.claim(7, 1000), None);
+        assert_eq!(cursor.claim(9, 1000), None);
+        assert_eq!(cursor.claim(8, 1000), Some(0));
+        assert_eq!(cursor.claim(8, 1), None);
+    }
+
+    impl Word for loom::sync::atomic::AtomicU64 {
+        fn with(value: u64) -> Self {
+            loom::sync::atomic::AtomicU64::new(value)
+        }
+        fn load(&self, order: Ordering) -> u64 {
+            loom::sync::atomic::AtomicU64::load(self, order)
+        }
+        fn swap(&self, value: u64, order: Ordering) -> u64 {
+            loom::sync::atomic::AtomicU64::swap(self, value, order)
+        }
+        fn compare_exchange_weak(
+            &self,
+            current: u64,
+            new: u64,
+            success: Ordering,
+            failure: Ordering,
+        ) -> Result<u64, u64> {
+            loom::sync::atomic::AtomicU64::compare_exchange_weak(
+                self, current, new, success, failure,
+            )
+        }
+    }
+
+    type ModelCursor = Cursor<loom::sync::atomic::AtomicU64>;
+
+    /// Every interleaving of two claimers of frame 1 (three classes): each class is claimed by
+    /// exactly one of them, and the frame thread, claiming too, gets the rest.
+    #[test]
+    fn loom_two_claimers_share_the_classes_without_a_double_claim() {
+        loom::model(|| {
+            let cursor = loom::sync::Arc::new(ModelCursor::new());
+            cursor.open(1);
+            let workers: Vec<_> = (0..2)
+                .map(|_| {
+                    let cursor = cursor.clone();
+                    loom::thread::spawn(move || {
+                        let mut mine = Vec::new();
+                        while let Some(c) = cursor.claim(1, 3) {
+                            mine.push(c);
+                        }
+                        mine
+                    })
+                })
+                .collect();
+            let mut all: Vec<u32> = workers
+                .into_iter()
+                .flat_map(|w| w.join().unwrap())
+                .collect();
+            while let Some(c) = cursor.claim(1, 3) {
+                all.push(c);
+            }
+            all.sort_unstable();
+            assert_eq!(all, vec![0, 1, 2]);
+        });
+    }
+
+    /// Every interleaving of a worker still claiming for frame 1 while the frame thread opens
+    /// frame 2 and claims from it: the worker's claims are classes of frame 1 only (taken before
+    /// the open), and frame 2's classes are each claimed once, from 0, by the frame thread.
+    #[test]
+    fn loom_a_late_claimer_never_takes_a_class_of_the_next_frame() {
+        loom::model(|| {
+            let cursor = loom::sync::Arc::new(ModelCursor::new());
+            cursor.open(1);
+            let late = {
+                let cursor = cursor.clone();
+                loom::thread::spawn(move || {
+                    let mut mine = Vec::new();
+                    while let Some(c) = cursor.claim(1, 2) {
+                        mine.push(c);
+                    }
+                    mine
+                })
+            };
+            cursor.open(2);
+            let mut next = Vec::new();
+            while let Some(c) = cursor.claim(2, 2) {
+                next.push(c);
+            }
+            let old = late.join().unwrap();
+            assert_eq!(next, vec![0, 1], "frame 2's classes, each once");
+            assert!(old.len() <= 2, "{old:?}");
+            assert!(
+                old.iter().enumerate().all(|(k, &c)| c == k as u32),
+                "{old:?}"
+            );
+            // Frame 2 is fully claimed: the late claimer's frame is closed for good.
+            assert_eq!(cursor.claim(1, 2), None);
+        });
+    }
+}
