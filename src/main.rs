@@ -1,8 +1,11 @@
 //! `vps`: the command-line front end of voxel-sampling haptic rendering.
 //!
-//! Every subcommand is a thin shell over the library crates: `vps-mesh` (input), `vps-voxelize`
-//! (voxmaps and point shells), `vps-voxmap` (tree and files), `vps-haptic` (the frame),
-//! `vps-device` and `vps-runtime` (the 1 kHz loop).
+//! Every subcommand is a shell over the library crates (docs/architecture.md draws them):
+//! `vps-session` (scene files, their assets and a session's plan), `vps-runtime` (the 1 kHz
+//! loop), `vps-haptic` (the frame), `vps-cluster` (coordinator and workers), `vps-view` (the
+//! browser viewer), `vps-study` (a session's evidence), `vps-fidelity` (the analytic benchmark),
+//! and below them `vps-mesh`, `vps-step`, `vps-voxelize`, `vps-voxmap`, `vps-device` and
+//! `vps-input`.
 //!
 //! Layout: [`cli`] (the command line), `cmd/` (one module per subcommand; none imports another),
 //! and the support modules they share, which import no subcommand: [`session_io`] (sessions
@@ -11,10 +14,10 @@
 //! [`output`] (stdout, JSON, output files), [`exit`] (exit statuses),
 //! [`host`] (the machine's state beside benchmark figures), [`sweep_session`] (sessions of the
 //! sweep and tune), [`session_study`] (a session's assembly study), [`study_view`] (a study as
-//! the viewer's page scrubs it), [`scene_view`] (what the viewer draws of a scene), [`svg`]
-//! (plots), [`kernel_timing`] (the kernel timed for `scene check`),
-//! [`limits`] and [`memory_size`]
-//! (value parsers).
+//! the viewer's page scrubs it), [`scene_view`] (what the viewer draws of a scene),
+//! [`parts_report`] (the per-part lines of a report), [`mesh_arg`] (the mesh argument of
+//! `voxelize` and `shell`), [`svg`] (plots), [`kernel_timing`] (the kernel timed for `scene
+//! check`), [`limits`] and [`memory_size`] (value parsers).
 
 mod cli;
 mod cluster_session;
