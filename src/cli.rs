@@ -420,7 +420,7 @@ pub struct GatherArgs {
 pub enum SplitMode {
     /// Only when that is predicted to shorten the frame.
     Predict,
-    /// Every frame, to every worker not benched.
+    /// Every frame, to every worker not sidelined.
     Always,
 }
 

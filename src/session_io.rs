@@ -684,10 +684,10 @@ pub fn cluster_lines(r: &vps_cluster::ClusterReport) -> Vec<String> {
         lines.push("  no worker share was late or lost".into());
     }
     for p in &r.peers {
-        let state = match (p.connected, p.benched) {
+        let state = match (p.connected, p.sidelined) {
             (false, _) if p.disconnected_for_bad_replies => "disconnected for bad replies",
             (false, _) => "gone",
-            (true, true) => "connected, benched",
+            (true, true) => "connected, sidelined",
             (true, false) => "connected",
         };
         let rtt = if p.rtt_samples > 0 {

@@ -74,7 +74,7 @@ pub enum Handled {
 /// A frame's outcome at its deadline ([`GatherCore::finish`]).
 #[derive(Clone, Copy, Debug)]
 pub struct Outcome<'a> {
-    /// The workers whose standing changed (lost a share, benched, un-benched).
+    /// The workers whose standing changed (lost a share, sidelined, reinstated).
     pub transitions: &'a [(u32, Transition)],
     /// The missing shares: recomputed locally, or stood in for.
     pub fallback: &'a Fallback,

@@ -1,5 +1,5 @@
 //! The gather state machine, free of I/O: which classes each worker is asked for, which replies
-//! are accepted, who is benched, and what the coordinator computes itself when shares are missing.
+//! are accepted, who is sidelined, and what the coordinator computes itself when shares are missing.
 //! `vps_cluster::RemoteShares` is the driver around it (sockets, channels, clocks, the local
 //! thread pool, the metrics board), the way `quinn` drives `quinn-proto`.
 //!
@@ -22,14 +22,14 @@
 //!    coordinator (weight 1) and the active workers (adapted weights, see [`crate::split`]); with
 //!    [`Policy::predict`] each share goes out only when that is predicted to shorten the frame
 //!    ([`SplitDecision`]), and a worker without a share is sent an unawaited probe. Without it, a
-//!    benched worker is asked for one awaited probe class every [`Policy::probe_every`] frames.
+//!    sidelined worker is asked for one awaited probe class every [`Policy::probe_every`] frames.
 //!    Returns the coordinator's own class mask; [`GatherCore::requests`] lists what to send.
 //! 4. [`GatherCore::sent`]: when each request left (or that it could not be sent), and whether
 //!    its reply is awaited this frame. [`GatherCore::probe_classes`] /
 //!    [`GatherCore::set_probe_result`]: the local sums an unawaited probe is checked against.
 //! 5. [`GatherCore::accept`] / [`GatherCore::malformed`] / [`GatherCore::late`]: each reply.
-//! 6. [`GatherCore::settle`]: at the deadline, books the outcome per worker (weights, benching,
-//!    un-benching, round-trip estimates, unawaited probes answered since the last frame) and
+//! 6. [`GatherCore::settle`]: at the deadline, books the outcome per worker (weights, sidelining,
+//!    reinstating, round-trip estimates, unawaited probes answered since the last frame) and
 //!    lists the missing work shares.
 //! 7. [`GatherCore::plan_fallback`]: which missing shares are recomputed locally and which are
 //!    stood in for by held sums from an earlier frame ([`crate::fallback`]).
@@ -51,12 +51,12 @@ use vps_haptic::PartialSums;
 /// The rules of the gather (the part of `vps_cluster::GatherConfig` the core uses).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Policy {
-    /// Consecutive unmerged work shares before a worker is benched (≥ 1).
+    /// Consecutive unmerged work shares before a worker is sidelined (≥ 1).
     pub bench_after: u32,
-    /// A benched worker is probed every this many frames (≥ 1); with [`Policy::predict`], so is
+    /// A sidelined worker is probed every this many frames (≥ 1); with [`Policy::predict`], so is
     /// every worker given no share, and an unanswered probe is given up after as many frames.
     pub probe_every: u64,
-    /// Consecutive timely probe replies before a benched worker gets work again (≥ 1).
+    /// Consecutive timely probe replies before a sidelined worker gets work again (≥ 1).
     pub unbench_after: u32,
     /// Bad replies in a row after which a worker is to be disconnected (≥ 1).
     pub disconnect_after: u32,
@@ -84,7 +84,7 @@ pub struct Policy {
 /// the frame is local (`C·c` for all `C` classes).
 ///
 /// The samples come from merged work shares and from probes that no frame waits for: a worker
-/// given no share this frame (kept, benched, or not yet measured) is sent one class of the
+/// given no share this frame (kept, sidelined, or not yet measured) is sent one class of the
 /// coordinator's own share at most every [`Policy::probe_every`] frames (at once when it has no
 /// estimate), with one probe outstanding per worker. While its predicted fixed cost alone is no
 /// less than computing every class locally (`bᵢ ≥ C·c`: no share of it can shorten a frame), it
@@ -156,14 +156,14 @@ pub struct PeerState {
     /// The join id.
     pub id: u32,
     /// Given no work, only probes.
-    pub benched: bool,
+    pub sidelined: bool,
     /// Share weight relative to the coordinator's 1 (see [`crate::split`]).
     pub weight: f64,
     /// The latest merged work reply.
     pub held: Option<HeldShare>,
     /// Consecutive unmerged work shares.
     pub misses: u32,
-    /// Consecutive timely probe replies while benched.
+    /// Consecutive timely probe replies while sidelined.
     pub probe_hits: u32,
     /// Bad replies since the last valid one.
     pub bad_replies: u32,
@@ -199,7 +199,7 @@ impl PeerState {
     fn new(id: u32) -> PeerState {
         PeerState {
             id,
-            benched: false,
+            sidelined: false,
             weight: 1.0,
             held: None,
             misses: 0,
@@ -291,10 +291,10 @@ impl Acceptance {
 pub enum Transition {
     /// Its work share had no reply at all (no datagram settled it).
     Lost,
-    /// Benched: no more work until it answers probes.
-    Benched,
+    /// Sidelined: no more work until it answers probes.
+    Sidelined,
     /// Given work again after `unbench_after` timely probes.
-    Unbenched,
+    Reinstated,
 }
 
 /// The fallback for this frame's missing shares.
@@ -501,7 +501,7 @@ impl GatherCore {
         self.peers.iter_mut().find(|p| p.id == id)
     }
 
-    /// Workers given work this frame (joined, not benched), as of the latest [`GatherCore::assign`].
+    /// Workers given work this frame (joined, not sidelined), as of the latest [`GatherCore::assign`].
     pub fn active_workers(&self) -> usize {
         self.active.len()
     }
@@ -569,7 +569,7 @@ impl GatherCore {
         self.seq
     }
 
-    /// Admits worker `id` (un-benched, weight 1). A known id is left as it is. Allocates.
+    /// Admits worker `id` (reinstated, weight 1). A known id is left as it is. Allocates.
     pub fn join(&mut self, id: u32) {
         if self.peer(id).is_some() {
             return;
@@ -603,7 +603,7 @@ impl GatherCore {
             peer.settled = false;
             peer.merged = false;
             peer.sent_at = None;
-            if !peer.benched {
+            if !peer.sidelined {
                 self.active.push(i);
             } else if !self.policy.predict && seq.is_multiple_of(probe_every) {
                 let class = (seq / probe_every) % u64::from(class_count);
@@ -904,8 +904,8 @@ impl GatherCore {
     }
 
     /// Books the frame's outcome per worker at the reply `deadline`: a probe streak long enough
-    /// un-benches; a merged share adapts the weight against the time the worker had (request
-    /// sent to `deadline`); a missed share halves it, counts towards the bench and is listed for
+    /// reinstates; a merged share adapts the weight against the time the worker had (request
+    /// sent to `deadline`); a missed share halves it, counts towards sidelining and is listed for
     /// [`GatherCore::plan_fallback`]. Returns the transitions (worker id, what changed).
     pub fn settle(&mut self, deadline: Instant) -> &[(u32, Transition)] {
         self.missing.clear();
@@ -922,9 +922,9 @@ impl GatherCore {
                     Some(false) => self.split_stats.probes_failed += 1,
                     None => {}
                 }
-                if booked.is_some() && peer.benched && peer.probe_hits >= policy.unbench_after {
+                if booked.is_some() && peer.sidelined && peer.probe_hits >= policy.unbench_after {
                     unbench(peer, &self.adapt);
-                    self.transitions.push((peer.id, Transition::Unbenched));
+                    self.transitions.push((peer.id, Transition::Reinstated));
                 }
             }
             if peer.asked == 0 || (peer.probing && policy.predict) {
@@ -937,7 +937,7 @@ impl GatherCore {
                 }
                 if peer.probe_hits >= self.policy.unbench_after {
                     unbench(peer, &self.adapt);
-                    self.transitions.push((peer.id, Transition::Unbenched));
+                    self.transitions.push((peer.id, Transition::Reinstated));
                 }
                 continue;
             }
@@ -974,10 +974,10 @@ impl GatherCore {
                 },
             ));
             peer.misses += 1;
-            if peer.misses >= self.policy.bench_after && !peer.benched {
-                peer.benched = true;
+            if peer.misses >= self.policy.bench_after && !peer.sidelined {
+                peer.sidelined = true;
                 peer.probe_hits = 0;
-                self.transitions.push((peer.id, Transition::Benched));
+                self.transitions.push((peer.id, Transition::Sidelined));
             }
         }
         &self.transitions
@@ -1033,9 +1033,9 @@ fn nanos(d: Duration) -> u64 {
     d.as_nanos().min(u128::from(u64::MAX)) as u64
 }
 
-/// Gives a benched worker work again, with a cautious share that grows while it keeps up.
+/// Gives a sidelined worker work again, with a cautious share that grows while it keeps up.
 fn unbench(peer: &mut PeerState, adapt: &Adapt) {
-    peer.benched = false;
+    peer.sidelined = false;
     peer.weight = adapt.min_weight.max(0.5);
     peer.misses = 0;
     peer.probe_hits = 0;
@@ -1044,7 +1044,7 @@ fn unbench(peer: &mut PeerState, adapt: &Adapt) {
 /// Books `peer`'s outstanding unawaited `probe` at the settle of frame `seq` (reply deadline
 /// `deadline`), if it is answered, or unanswered for `probe_every` frames. A correct answer is a
 /// round-trip sample (less `per_class` for its one class) and, within the reply window its
-/// frame had, a timely probe towards un-benching; a wrong or missing one resets the streak, and
+/// frame had, a timely probe towards reinstating; a wrong or missing one resets the streak, and
 /// a missing one books the time it has waited, at most that window, as a sample. Returns whether it was answered
 /// correctly, `None` while it stays outstanding.
 fn book_probe(

@@ -6,23 +6,25 @@
 //!
 //! Module map: [`protocol`] (the frame datagrams and join messages, strict decoding), [`frame`]
 //! (a frame as four events: start, own share done, each datagram, deadline), [`gather`]
-//! ([`GatherCore`]: per frame, class assignment, reply acceptance, benching, the fallback plan,
+//! ([`GatherCore`]: per frame, class assignment, reply acceptance, sidelining, the fallback plan,
 //! the predicted split), [`split`] (dealing classes by adapted weights) and [`fallback`] (which
 //! missing shares are recomputed and which stood in for), [`report`] ([`SplitReport`]),
-//! [`bench_log`] and [`join_log`] (how often the log speaks of a worker going onto and off the
-//! bench, and of a worker's failed joins).
+//! [`sideline_log`] and [`join_log`] (how often the log speaks of a worker being sidelined and
+//! reinstated, and of a worker's failed joins). A worker is *sidelined* (given no share, only
+//! probes) after consecutive missed shares and *reinstated* after timely probes; "bench" means a
+//! benchmark only.
 //!
 //! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
 #![warn(missing_docs)]
 
-pub mod bench_log;
 pub mod fallback;
 pub mod frame;
 pub mod gather;
 pub mod join_log;
 pub mod protocol;
 pub mod report;
+pub mod sideline_log;
 pub mod split;
 
 pub use gather::GatherCore;

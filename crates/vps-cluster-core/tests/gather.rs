@@ -193,7 +193,7 @@ fn stale_stand_ins_follow_the_policy() {
         let mut core = core_with(
             Policy {
                 stale,
-                // Never benched here: the share keeps its classes.
+                // Never sidelined here: the share keeps its classes.
                 bench_after: 100,
                 ..policy()
             },
@@ -230,25 +230,25 @@ fn stale_stand_ins_follow_the_policy() {
 }
 
 #[test]
-fn a_silent_worker_is_benched_probed_and_unbenched() {
+fn a_silent_worker_is_sidelined_probed_and_reinstated() {
     let mut core = core_with(policy(), &[1]);
     let mut t = Instant::now();
     let mut next = |core: &mut GatherCore| {
         t += 1000 * US;
         (frame(core, t), t)
     };
-    // Two missed shares (bench_after = 2): benched.
+    // Two missed shares (bench_after = 2): sidelined.
     let (_, t0) = next(&mut core);
     assert_eq!(core.settle(t0 + 100 * US), [(1, Transition::Lost)]);
     let (_, t1) = next(&mut core);
     assert_eq!(
         core.settle(t1 + 100 * US),
-        [(1, Transition::Lost), (1, Transition::Benched)]
+        [(1, Transition::Lost), (1, Transition::Sidelined)]
     );
-    // Benched: the coordinator keeps every class; on every probe_every-th frame the worker is
+    // Sidelined: the coordinator keeps every class; on every probe_every-th frame the worker is
     // asked for one probe class, whose reply is checked but not merged.
     let mut probes = 0;
-    let mut unbenched_at = None;
+    let mut reinstated_at = None;
     for f in 0..8 {
         let (local, tf) = next(&mut core);
         assert_eq!(local, (1u64 << CLASSES) - 1, "frame {f}");
@@ -262,16 +262,16 @@ fn a_silent_worker_is_benched_probed_and_unbenched() {
             assert!(request.is_empty(), "{request:?}");
         }
         let transitions = core.settle(tf + 100 * US).to_vec();
-        if transitions == [(1, Transition::Unbenched)] {
-            unbenched_at = Some(f);
+        if transitions == [(1, Transition::Reinstated)] {
+            reinstated_at = Some(f);
             break;
         }
         assert!(transitions.is_empty(), "{transitions:?}");
     }
     assert_eq!(probes, 2, "unbench_after = 2 probes");
-    assert!(unbenched_at.is_some());
+    assert!(reinstated_at.is_some());
     let peer = core.peer(1).unwrap();
-    assert!(!peer.benched);
+    assert!(!peer.sidelined);
     assert_eq!(peer.weight, 0.5, "back with a cautious share");
     // Given work again.
     let (local, _) = next(&mut core);
@@ -288,8 +288,8 @@ fn a_probe_missed_restarts_the_streak() {
         frame(&mut core, t);
         core.settle(t + 100 * US);
     }
-    assert!(core.peer(1).unwrap().benched);
-    // Probe answered, probe missed, probe answered: still benched (2 in a row needed).
+    assert!(core.peer(1).unwrap().sidelined);
+    // Probe answered, probe missed, probe answered: still sidelined (2 in a row needed).
     let mut answered = [true, false, true].into_iter();
     for _ in 0..6 {
         t += 1000 * US;
@@ -302,7 +302,7 @@ fn a_probe_missed_restarts_the_streak() {
         }
         assert!(core.settle(t + 100 * US).is_empty());
     }
-    assert!(core.peer(1).unwrap().benched);
+    assert!(core.peer(1).unwrap().sidelined);
 }
 
 #[test]
@@ -474,7 +474,7 @@ fn a_small_shell_stays_local_when_the_round_trip_costs_more_than_it_saves() {
     assert_eq!((stats.kept_local_frames, stats.split_frames), (3, 0));
     assert_eq!(stats.predicted_local_ns, 16_000);
     assert_eq!(stats.worker_base_ns, 600_000);
-    // Nothing asked is nothing missing: no fallback, no miss, no bench.
+    // Nothing asked is nothing missing: no fallback, no miss, no sidelining.
     assert!(core.settle(t + 100 * US).is_empty());
     assert_eq!(core.plan_fallback(Duration::ZERO, US).recompute, 0);
 }
@@ -678,9 +678,9 @@ fn an_unanswered_probe_is_booked_as_its_frames_reply_window_after_probe_every_fr
 }
 
 #[test]
-fn a_benched_worker_is_unbenched_by_timely_unawaited_probes() {
+fn a_sidelined_worker_is_reinstated_by_timely_unawaited_probes() {
     // A costly shell (16 classes at 100 µs) and a worker whose probes come back in 100 µs, but
-    // whose work shares never do: measured, split, benched after 2 misses, then back after 2
+    // whose work shares never do: measured, split, sidelined after 2 misses, then back after 2
     // timely probes. No frame waits for a probe.
     let mut core = predictor(2, &[0]);
     core.set_local_cost(100 * US);
@@ -693,10 +693,10 @@ fn a_benched_worker_is_unbenched_by_timely_unawaited_probes() {
     }
     assert_eq!(
         transitions[..3],
-        [Transition::Lost, Transition::Lost, Transition::Benched],
+        [Transition::Lost, Transition::Lost, Transition::Sidelined],
         "{transitions:?}"
     );
-    assert_eq!(transitions[3], Transition::Unbenched, "{transitions:?}");
+    assert_eq!(transitions[3], Transition::Reinstated, "{transitions:?}");
     assert!(core.split_stats().split_frames >= 2);
 }
 

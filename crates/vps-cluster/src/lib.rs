@@ -21,7 +21,7 @@
 //! Everything the cluster decides without waiting (the wire formats, the gather state machine,
 //! split and fallback arithmetic, the log-rate rules) is the sans-IO crate `vps-cluster-core`,
 //! whose modules are re-exported here under their old names: [`gather`], [`split`],
-//! [`fallback`], [`bench_log`], [`join_log`], and the codecs in [`protocol`]. This crate is its
+//! [`fallback`], [`sideline_log`], [`join_log`], and the codecs in [`protocol`]. This crate is its
 //! I/O driver.
 //!
 //! Module map: [`protocol`] (wire formats, and the join stream's framing on QUIC), [`tls`]
@@ -49,7 +49,7 @@ pub mod udp_count;
 pub mod worker;
 
 // The sans-IO core's modules, under the names this crate has always given them.
-pub use vps_cluster_core::{bench_log, fallback, frame, gather, join_log, split};
+pub use vps_cluster_core::{fallback, frame, gather, join_log, sideline_log, split};
 
 pub use assets::ClusterAssets;
 pub use coordinator::{Coordinator, CoordinatorConfig};

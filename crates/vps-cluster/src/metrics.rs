@@ -4,8 +4,8 @@
 //!
 //! Threads: the frame thread is the only writer of the counters (so a bump is a relaxed load and
 //! store, no read-modify-write); the reporter thread (`vps-metrics`) owns the RTT histograms,
-//! publishes their percentiles every [`REPORT_TICK`], logs benched/un-benched transitions
-//! ([`crate::bench_log`]: the first at once, then at most one line per worker per 10 s) and a
+//! publishes their percentiles every [`REPORT_TICK`], logs sidelined/reinstated transitions
+//! ([`crate::sideline_log`]: the first at once, then at most one line per worker per 10 s) and a
 //! one-line summary per worker every `log_every` at `info` level. Nothing in this
 //! module blocks or allocates on the frame path except `PeerMetrics::new` (at join).
 //!
@@ -13,8 +13,8 @@
 //! other, so a snapshot taken mid-frame may mix adjacent frames (e.g. `requests` one ahead of
 //! `merged`). Final reports are taken after the frame loop and the reporter have stopped.
 
-use crate::bench_log::{BenchLine, BenchLog, BENCH_LOG_PERIOD};
 use crate::report::{ClusterReport, PeerReport, SplitReport};
+use crate::sideline_log::{SidelineLine, SidelineLog, SIDELINE_LOG_PERIOD};
 use crossbeam::queue::ArrayQueue;
 use hdrhistogram::Histogram;
 use std::collections::HashMap;
@@ -48,7 +48,7 @@ pub struct PeerMetrics {
     scene_sent: bool,
     connected: AtomicBool,
     disconnected_for_bad_replies: AtomicBool,
-    benched: AtomicBool,
+    sidelined: AtomicBool,
     pub(crate) requests: AtomicU64,
     pub(crate) merged: AtomicU64,
     pub(crate) late: AtomicU64,
@@ -56,25 +56,25 @@ pub struct PeerMetrics {
     pub(crate) malformed: AtomicU64,
     pub(crate) invalid: AtomicU64,
     pub(crate) recomputed: AtomicU64,
-    /// Classes asked of the worker in the latest frame (0 when benched).
+    /// Classes asked of the worker in the latest frame (0 when sidelined).
     pub(crate) classes: AtomicU64,
     /// Missing shares stood in for by an earlier frame's sums.
     pub(crate) stale: AtomicU64,
-    benched_times: AtomicU64,
-    unbenched_times: AtomicU64,
+    sidelined_times: AtomicU64,
+    reinstated_times: AtomicU64,
     rtt_samples: AtomicU64,
     rtt: [AtomicU64; 4],
 }
 
 impl PeerMetrics {
-    /// Fresh metrics of a connected, un-benched worker. Allocates (once per join).
+    /// Fresh metrics of a connected worker, not sidelined. Allocates (once per join).
     pub(crate) fn new(id: u32, scene_sent: bool) -> Arc<PeerMetrics> {
         Arc::new(PeerMetrics {
             id,
             scene_sent,
             connected: AtomicBool::new(true),
             disconnected_for_bad_replies: AtomicBool::new(false),
-            benched: AtomicBool::new(false),
+            sidelined: AtomicBool::new(false),
             requests: AtomicU64::new(0),
             merged: AtomicU64::new(0),
             late: AtomicU64::new(0),
@@ -84,8 +84,8 @@ impl PeerMetrics {
             recomputed: AtomicU64::new(0),
             classes: AtomicU64::new(0),
             stale: AtomicU64::new(0),
-            benched_times: AtomicU64::new(0),
-            unbenched_times: AtomicU64::new(0),
+            sidelined_times: AtomicU64::new(0),
+            reinstated_times: AtomicU64::new(0),
             rtt_samples: AtomicU64::new(0),
             rtt: Default::default(),
         })
@@ -101,13 +101,13 @@ impl PeerMetrics {
         bump(counter(self));
     }
 
-    /// Records a transition into or out of the bench. Frame thread only.
-    pub(crate) fn set_benched(&self, benched: bool) {
-        self.benched.store(benched, Ordering::Relaxed);
-        bump(if benched {
-            &self.benched_times
+    /// Records that the worker was sidelined (`true`) or reinstated (`false`). Frame thread only.
+    pub(crate) fn set_sidelined(&self, sidelined: bool) {
+        self.sidelined.store(sidelined, Ordering::Relaxed);
+        bump(if sidelined {
+            &self.sidelined_times
         } else {
-            &self.unbenched_times
+            &self.reinstated_times
         });
     }
 
@@ -137,9 +137,9 @@ impl PeerMetrics {
             recomputed: load(&self.recomputed),
             classes: load(&self.classes),
             stale: load(&self.stale),
-            benched_times: load(&self.benched_times),
-            unbenched_times: load(&self.unbenched_times),
-            benched: self.benched.load(Ordering::Relaxed),
+            sidelined_times: load(&self.sidelined_times),
+            reinstated_times: load(&self.reinstated_times),
+            sidelined: self.sidelined.load(Ordering::Relaxed),
             connected: self.connected.load(Ordering::Relaxed),
             disconnected_for_bad_replies: self.disconnected_for_bad_replies.load(Ordering::Relaxed),
             scene_sent: self.scene_sent,
@@ -334,7 +334,7 @@ impl Drop for Reporter {
 struct Tracked {
     peer: Arc<PeerMetrics>,
     rtt: Histogram<u64>,
-    bench_log: BenchLog,
+    sideline_log: SidelineLog,
 }
 
 fn report_loop(board: &Board, stop: &AtomicBool, log_every: Option<Duration>) {
@@ -368,7 +368,7 @@ fn tracked(peer: Arc<PeerMetrics>) -> Tracked {
         peer,
         // 2 significant digits: 1 % resolution; bounds are constants, so this cannot fail.
         rtt: Histogram::new_with_bounds(1, MAX_RTT_NS, 2).expect("valid histogram bounds"),
-        bench_log: BenchLog::default(),
+        sideline_log: SidelineLog::default(),
     }
 }
 
@@ -396,37 +396,37 @@ fn drain(board: &Board, peers: &mut HashMap<u32, Tracked>) {
     }
 }
 
-/// Logs a worker's bench transitions, at most one line per [`BENCH_LOG_PERIOD`] (see
-/// [`BenchLog`]); `stopping` logs what is pending.
+/// Logs a worker's sideline transitions, at most one line per [`SIDELINE_LOG_PERIOD`] (see
+/// [`SidelineLog`]); `stopping` logs what is pending.
 fn log_transitions(t: &mut Tracked, now: Instant, stopping: bool) {
     let load = |a: &AtomicU64| a.load(Ordering::Relaxed);
-    let line = t.bench_log.observe(
-        load(&t.peer.benched_times),
-        load(&t.peer.unbenched_times),
-        t.peer.benched.load(Ordering::Relaxed),
+    let line = t.sideline_log.observe(
+        load(&t.peer.sidelined_times),
+        load(&t.peer.reinstated_times),
+        t.peer.sidelined.load(Ordering::Relaxed),
         now,
         stopping,
     );
     let worker = t.peer.id;
     match line {
         None => {}
-        Some(BenchLine::Benched) => tracing::warn!(
+        Some(SidelineLine::Sidelined) => tracing::warn!(
             worker,
-            "benched (missed or invalid replies); its shares are computed locally"
+            "sidelined (missed or invalid replies); its shares are computed locally"
         ),
-        Some(BenchLine::Recovered) => tracing::info!(worker, "recovered: given work again"),
-        Some(BenchLine::Flapping {
-            benched,
+        Some(SidelineLine::Recovered) => tracing::info!(worker, "recovered: given work again"),
+        Some(SidelineLine::Flapping {
+            sidelined,
             recovered,
-            now_benched,
+            now_sidelined,
         }) => tracing::warn!(
             worker,
-            benched,
+            sidelined,
             recovered,
-            now_benched,
-            "in and out of the bench (late or invalid replies) since the last line, which is at \
-             most one per {} s; benched shares are computed locally",
-            BENCH_LOG_PERIOD.as_secs()
+            now_sidelined,
+            "sidelined and reinstated (late or invalid replies) since the last line, which is at \
+             most one per {} s; sidelined shares are computed locally",
+            SIDELINE_LOG_PERIOD.as_secs()
         ),
     }
 }
@@ -457,7 +457,7 @@ fn log_summary(board: &Board, peers: &HashMap<u32, Tracked>) {
             recomputed = r.recomputed,
             classes = r.classes,
             stale = r.stale,
-            benched = r.benched,
+            sidelined = r.sidelined,
             "worker"
         );
     }

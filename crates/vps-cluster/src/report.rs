@@ -27,12 +27,12 @@ pub struct PeerReport {
     pub invalid: u64,
     /// Work shares recomputed locally (lost, invalid or unsendable).
     pub recomputed: u64,
-    /// Times the worker was benched.
-    pub benched_times: u64,
-    /// Times a benched worker was given work again.
-    pub unbenched_times: u64,
-    /// Benched at the time of the report.
-    pub benched: bool,
+    /// Times the worker was sidelined.
+    pub sidelined_times: u64,
+    /// Times a sidelined worker was given work again.
+    pub reinstated_times: u64,
+    /// Sidelined at the time of the report.
+    pub sidelined: bool,
     /// Still connected at the time of the report.
     pub connected: bool,
     /// The coordinator closed its connection for bad replies ([`GatherConfig::disconnect_after`](crate::GatherConfig::disconnect_after)).
@@ -44,7 +44,7 @@ pub struct PeerReport {
     pub rtt_samples: u64,
     /// Request-to-reply time of timely, valid replies (ns), from an HDR histogram (1 % resolution).
     pub rtt_ns: Percentiles,
-    /// Classes asked of it in the latest frame (its adapted share; 0 while benched).
+    /// Classes asked of it in the latest frame (its adapted share; 0 while sidelined).
     pub classes: u64,
     /// Its missing shares stood in for by an earlier frame's sums ([`crate::fallback`]).
     pub stale: u64,

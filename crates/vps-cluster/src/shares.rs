@@ -21,7 +21,7 @@
 //! halved on a miss; see [`crate::split`]). With adaptation off
 //! ([`GatherConfig::adaptive_shares`]) every weight stays 1: class `c` goes to party
 //! `c mod (W + 1)`, party 0 being the coordinator. A worker whose share is not merged (no reply by the
-//! deadline, or an invalid reply) `bench_after` frames in a row is benched: it gets no work, only
+//! deadline, or an invalid reply) `bench_after` frames in a row is sidelined: it gets no work, only
 //! a one-class probe every `probe_every` frames whose result is checked but not used;
 //! `unbench_after` probes answered in time in a row give it work again. A worker that sends
 //! `disconnect_after` bad replies (undecodable, or implausible sums) with no valid one between
@@ -69,19 +69,19 @@ pub struct GatherConfig {
     /// How long before the deadline the frame thread stops sleeping on the reply channel and
     /// spins. Default 100 µs.
     pub spin_margin: Duration,
-    /// Consecutive unmerged shares before a worker is benched (≥ 1). Default 5.
+    /// Consecutive unmerged shares before a worker is sidelined (≥ 1). Default 5.
     pub bench_after: u32,
-    /// A benched worker is probed every this many frames (≥ 1). Default 10: a one-class request
-    /// every 10 ms costs nothing, and a worker benched by a short host stall is back within 30
+    /// A sidelined worker is probed every this many frames (≥ 1). Default 10: a one-class request
+    /// every 10 ms costs nothing, and a worker sidelined by a short host stall is back within 30
     /// frames (with 100, a 100k-point session on the project's 2-core VM spent 20–57 % of its
     /// frames without its worker in three runs of 3·10^4 frames, against 0.7–1.3 % with 10;
     /// docs/cluster.md).
     pub probe_every: u64,
-    /// Consecutive timely probe replies before a benched worker gets work again (≥ 1). Default 3.
+    /// Consecutive timely probe replies before a sidelined worker gets work again (≥ 1). Default 3.
     pub unbench_after: u32,
     /// Bad replies in a row (datagrams that fail to decode, or replies with implausible sums or
     /// the wrong classes), with no valid reply between them, after which the worker's
-    /// connection is closed (≥ 1; `u32::MAX`: never). Default 50: a benched worker still
+    /// connection is closed (≥ 1; `u32::MAX`: never). Default 50: a sidelined worker still
     /// answers a probe every `probe_every` frames, so a worker that only sends garbage is gone
     /// within 50 of its datagrams, while any valid reply (work or probe) resets the count.
     pub disconnect_after: u32,
@@ -97,7 +97,7 @@ pub struct GatherConfig {
     pub stale: StalePolicy,
     /// Send a worker its share only when that is predicted to shorten the frame, measuring the
     /// workers with probes no frame waits for ([`crate::gather::SplitDecision`]); off: the plain
-    /// split every frame, benched workers probed with awaited probes. Default on.
+    /// split every frame, sidelined workers probed with awaited probes. Default on.
     pub predict: bool,
 }
 
@@ -262,9 +262,9 @@ impl RemoteShares {
         self.board.report_with(peers)
     }
 
-    /// Workers currently given work (joined, connected, not benched).
+    /// Workers currently given work (joined, connected, not sidelined).
     pub fn active_workers(&self) -> usize {
-        self.core.peers().iter().filter(|p| !p.benched).count()
+        self.core.peers().iter().filter(|p| !p.sidelined).count()
     }
 
     fn link(&self, id: u32) -> Option<&Link> {
@@ -313,7 +313,7 @@ impl RemoteShares {
         }
     }
 
-    /// Publishes each worker's share size of this frame (0 while probing or benched).
+    /// Publishes each worker's share size of this frame (0 while probing or sidelined).
     fn publish_classes(&self) {
         for peer in self.core.peers() {
             let Some(link) = self.link(peer.id) else {
@@ -517,8 +517,8 @@ impl RemoteShares {
             };
             match transition {
                 Transition::Lost => link.metrics.bump(|m| &m.lost),
-                Transition::Benched => link.metrics.set_benched(true),
-                Transition::Unbenched => link.metrics.set_benched(false),
+                Transition::Sidelined => link.metrics.set_sidelined(true),
+                Transition::Reinstated => link.metrics.set_sidelined(false),
             }
         }
         let plan = self.core.fallback();

@@ -114,7 +114,7 @@ fn coordinator_with_one_fake(
 }
 
 #[test]
-fn a_silent_worker_is_benched_and_a_recovered_one_gets_work_again() {
+fn a_silent_worker_is_sidelined_and_a_recovered_one_gets_work_again() {
     let assets = assets();
     let (coordinator, fake, conn) = coordinator_with_one_fake(&assets);
     let config = GatherConfig {
@@ -127,14 +127,14 @@ fn a_silent_worker_is_benched_and_a_recovered_one_gets_work_again() {
     let poses = poses(30);
     // Silent for 6 frames (short deadline: nobody answers anyway).
     assert_exact_frames(&mut shares, &assets, &poses[..6], Duration::from_millis(2));
-    assert_eq!(shares.active_workers(), 0, "benched after 3 misses");
+    assert_eq!(shares.active_workers(), 0, "sidelined after 3 misses");
     // Now answer every request correctly from a thread.
     let answering = answer_slowly(&fake, conn.clone(), assets.clone(), Duration::ZERO);
     assert_exact_frames(&mut shares, &assets, &poses[6..], DEADLINE);
     let report = shares.report();
     let peer = &report.peers[0];
-    assert!(peer.benched_times >= 1, "{peer:?}");
-    assert!(!peer.benched, "recovered: {peer:?}");
+    assert!(peer.sidelined_times >= 1, "{peer:?}");
+    assert!(!peer.sidelined, "recovered: {peer:?}");
     assert!(peer.merged > 0, "{peer:?}");
     assert!(peer.lost >= 3, "{peer:?}");
     end_with_fake(shares, coordinator, answering);
@@ -218,7 +218,7 @@ fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
         "{peer:?}"
     );
     assert!(peer.invalid >= 3, "{peer:?}");
-    assert!(peer.benched_times >= 1, "{peer:?}");
+    assert!(peer.sidelined_times >= 1, "{peer:?}");
     assert_eq!(report.udp_not_quic, garbage.len() as u64, "{report:?}");
     assert_eq!(report.udp_foreign, shaped.len() as u64, "{report:?}");
     assert!(
@@ -341,7 +341,7 @@ fn reply_with(
 
 /// One fake worker needing 1 ms per class, `frames` frames with a 20 ms reply window, every
 /// frame's sums checked against the one-process sums. Returns each frame's recomputed shares and
-/// the worker's final report. Never benched, so only the share adaptation (when on) can help.
+/// the worker's final report. Never sidelined, so only the share adaptation (when on) can help.
 fn run_with_one_slow_worker(
     adaptive_shares: bool,
     frames: usize,
