@@ -28,26 +28,33 @@ pub(crate) trait Word {
     ) -> Result<u64, u64>;
 }
 
-impl Word for AtomicU64 {
-    fn with(value: u64) -> Self {
-        AtomicU64::new(value)
-    }
-    fn load(&self, order: Ordering) -> u64 {
-        AtomicU64::load(self, order)
-    }
-    fn swap(&self, value: u64, order: Ordering) -> u64 {
-        AtomicU64::swap(self, value, order)
-    }
-    fn compare_exchange_weak(
-        &self,
-        current: u64,
-        new: u64,
-        success: Ordering,
-        failure: Ordering,
-    ) -> Result<u64, u64> {
-        AtomicU64::compare_exchange_weak(self, current, new, success, failure)
-    }
+/// Implements [`Word`] for an atomic type with `AtomicU64`'s methods (std's, loom's).
+macro_rules! impl_word {
+    ($atomic:ty) => {
+        impl Word for $atomic {
+            fn with(value: u64) -> Self {
+                <$atomic>::new(value)
+            }
+            fn load(&self, order: Ordering) -> u64 {
+                <$atomic>::load(self, order)
+            }
+            fn swap(&self, value: u64, order: Ordering) -> u64 {
+                <$atomic>::swap(self, value, order)
+            }
+            fn compare_exchange_weak(
+                &self,
+                current: u64,
+                new: u64,
+                success: Ordering,
+                failure: Ordering,
+            ) -> Result<u64, u64> {
+                <$atomic>::compare_exchange_weak(self, current, new, success, failure)
+            }
+        }
+    };
 }
+
+impl_word!(AtomicU64);
 
 /// The frame's class cursor (see the module docs). Frame path: no allocation, no lock.
 pub(crate) struct Cursor<W: Word = AtomicU64>(W);
@@ -122,28 +129,7 @@ mod tests {
         assert_eq!(cursor.claim(8, 1), None);
     }
 
-    impl Word for loom::sync::atomic::AtomicU64 {
-        fn with(value: u64) -> Self {
-            loom::sync::atomic::AtomicU64::new(value)
-        }
-        fn load(&self, order: Ordering) -> u64 {
-            loom::sync::atomic::AtomicU64::load(self, order)
-        }
-        fn swap(&self, value: u64, order: Ordering) -> u64 {
-            loom::sync::atomic::AtomicU64::swap(self, value, order)
-        }
-        fn compare_exchange_weak(
-            &self,
-            current: u64,
-            new: u64,
-            success: Ordering,
-            failure: Ordering,
-        ) -> Result<u64, u64> {
-            loom::sync::atomic::AtomicU64::compare_exchange_weak(
-                self, current, new, success, failure,
-            )
-        }
-    }
+    impl_word!(loom::sync::atomic::AtomicU64);
 
     type ModelCursor = Cursor<loom::sync::atomic::AtomicU64>;
 
