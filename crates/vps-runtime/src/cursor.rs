@@ -99,6 +99,11 @@ mod tests {
     use super::*;
     use std::sync::Arc;
 
+    /// Every class of frame `seq` (of `classes`) this claimer gets, in order.
+    fn claim_all<W: Word>(cursor: &Cursor<W>, seq: u32, classes: u32) -> Vec<u32> {
+        std::iter::from_fn(|| cursor.claim(seq, classes)).collect()
+    }
+
     #[test]
     fn each_class_is_claimed_once_per_frame_and_only_by_that_frame() {
         let cursor: Arc<Cursor> = Arc::new(Cursor::new());
@@ -107,13 +112,7 @@ mod tests {
             let handles: Vec<_> = (0..4)
                 .map(|_| {
                     let cursor = cursor.clone();
-                    scope.spawn(move || {
-                        let mut mine = Vec::new();
-                        while let Some(c) = cursor.claim(7, 1000) {
-                            mine.push(c);
-                        }
-                        mine
-                    })
+                    scope.spawn(move || claim_all(&cursor, 7, 1000))
                 })
                 .collect();
             handles.into_iter().map(|h| h.join().unwrap()).collect()
@@ -143,22 +142,14 @@ mod tests {
             let workers: Vec<_> = (0..2)
                 .map(|_| {
                     let cursor = cursor.clone();
-                    loom::thread::spawn(move || {
-                        let mut mine = Vec::new();
-                        while let Some(c) = cursor.claim(1, 3) {
-                            mine.push(c);
-                        }
-                        mine
-                    })
+                    loom::thread::spawn(move || claim_all(&cursor, 1, 3))
                 })
                 .collect();
             let mut all: Vec<u32> = workers
                 .into_iter()
                 .flat_map(|w| w.join().unwrap())
                 .collect();
-            while let Some(c) = cursor.claim(1, 3) {
-                all.push(c);
-            }
+            all.extend(claim_all(&cursor, 1, 3));
             all.sort_unstable();
             assert_eq!(all, vec![0, 1, 2]);
         });
@@ -174,19 +165,10 @@ mod tests {
             cursor.open(1);
             let late = {
                 let cursor = cursor.clone();
-                loom::thread::spawn(move || {
-                    let mut mine = Vec::new();
-                    while let Some(c) = cursor.claim(1, 2) {
-                        mine.push(c);
-                    }
-                    mine
-                })
+                loom::thread::spawn(move || claim_all(&cursor, 1, 2))
             };
             cursor.open(2);
-            let mut next = Vec::new();
-            while let Some(c) = cursor.claim(2, 2) {
-                next.push(c);
-            }
+            let next = claim_all(&cursor, 2, 2);
             let old = late.join().unwrap();
             assert_eq!(next, vec![0, 1], "frame 2's classes, each once");
             assert!(old.len() <= 2, "{old:?}");
