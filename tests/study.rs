@@ -134,8 +134,12 @@ fn check_example(vps: &Vps, scene: &str) {
             "a frame at {d} m is nearer than the minimum {least} m"
         );
     }
-    // The swept volume holds the part at every checked pose (to within one voxel: its surface is
-    // the zero level of a field sampled at voxel centres).
+    // The swept volume holds the part at every checked pose, to within its surface's resolution:
+    // the field is sampled at voxel centres and Surface Nets puts one vertex in each cell the
+    // zero level crosses, so a point of the part's surface lies within a cell diagonal (√3
+    // voxels) of the mesh, plus the field's quarter voxel between poses. Sharp corners (the
+    // peg's) are rounded off by about a voxel: a fresh clone's run measured 1.016 voxels.
+    let bound = voxel * (3f64.sqrt() + 0.25);
     let swept = vps_mesh::load_mesh(vps.dir().join(format!("{study}/swept.stl")).as_path())
         .unwrap()
         .mesh;
@@ -145,7 +149,10 @@ fn check_example(vps: &Vps, scene: &str) {
         let (p, q) = pose(row);
         for v in &part.vertices {
             let d = region.signed_distance(q * *v + p).distance_m;
-            assert!(d <= voxel, "a part vertex {d} m outside the swept volume");
+            assert!(
+                d <= bound,
+                "a part vertex {d} m outside the swept volume (bound {bound} m)"
+            );
         }
     }
     let volume = summary["swept_volume"]["volume_m3"].as_f64().unwrap();
