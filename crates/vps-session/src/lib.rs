@@ -51,11 +51,6 @@ use vps_voxmap::PointShell;
 /// the classes are spread over threads or worker processes.
 pub const CLASS_COUNT: u32 = 64;
 
-/// The shell split into [`CLASS_COUNT`] classes. Allocates; setup-time only.
-pub fn classed(shell: &PointShell) -> Arc<ClassedShell> {
-    Arc::new(ClassedShell::new(shell, CLASS_COUNT))
-}
-
 /// A moving part's point shell (in its grip frame) and the same shell split into
 /// [`CLASS_COUNT`] classes for the kernel, built together once: whatever samples the part (the
 /// loop's pools, a study, the cluster's assets) shares the one split. Immutable; a new shell is a
@@ -69,7 +64,7 @@ pub struct PartShell {
 impl PartShell {
     /// Splits `points` into classes. Allocates; setup-time only.
     pub fn new(points: PointShell) -> PartShell {
-        let classed = classed(&points);
+        let classed = Arc::new(ClassedShell::new(&points, CLASS_COUNT));
         PartShell { points, classed }
     }
 
@@ -90,6 +85,6 @@ impl PartShell {
 
     /// Whether the shell has no points.
     pub fn is_empty(&self) -> bool {
-        self.points.len() == 0
+        self.points.is_empty()
     }
 }

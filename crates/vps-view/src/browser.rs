@@ -156,14 +156,9 @@ impl Browser {
         self.call("Page.navigate", serde_json::json!({ "url": url }));
         // Until the navigation commits, the page is the blank one, whose `readyState` is already
         // "complete": callers would read an empty document.
-        let started = Instant::now();
-        while self.eval("location.href") == "about:blank" {
-            assert!(
-                started.elapsed() < REPLY_PATIENCE,
-                "{url}: not loaded after {REPLY_PATIENCE:?}"
-            );
-            std::thread::sleep(Duration::from_millis(50));
-        }
+        self.wait_for(&format!("{url} loaded"), REPLY_PATIENCE, |b| {
+            (b.eval("location.href") != "about:blank").then_some(())
+        });
     }
 
     /// Sends one command (to the page once attached) and returns its result; events are skipped,
