@@ -3,6 +3,7 @@
 use crate::memory_size::parse_bytes;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
+use vps_app::{BridgeOverrides, GatherRequest, SceneRequest, SessionRequest};
 use vps_input::bridge::config::POSE_TIMEOUT_RANGE_S;
 use vps_input::bridge::mapping::{MAX_FORCE_SCALE, SCALE_RANGE};
 use vps_session::file::Units;
@@ -107,24 +108,18 @@ impl Default for SceneArgs {
 }
 
 impl SceneArgs {
-    /// How to build the scene: `voxel_size` (m) instead of the scene's when given.
-    pub fn build_options(&self, voxel_size: Option<f64>) -> vps_session::BuildOptions {
-        vps_session::BuildOptions {
-            voxel_size,
-            cache: if self.no_cache {
-                vps_session::CachePolicy::Off
-            } else {
-                vps_session::CachePolicy::from_env()
-            },
-            max_memory_bytes: self.max_memory,
-            ..vps_session::BuildOptions::default()
+    /// The scene as the application layer takes it.
+    pub fn request(&self) -> SceneRequest {
+        SceneRequest {
+            scene: self.scene.clone(),
+            no_cache: self.no_cache,
+            max_memory: self.max_memory,
         }
     }
 
-    /// The memory budget (bytes): `--max-memory`, else half of physical memory.
-    pub fn memory_budget(&self) -> u64 {
-        self.max_memory
-            .unwrap_or_else(vps_voxelize::default_memory_budget)
+    /// How to build the scene: `voxel_size` (m) instead of the scene's when given.
+    pub fn build_options(&self, voxel_size: Option<f64>) -> vps_session::BuildOptions {
+        self.request().build_options(voxel_size)
     }
 }
 
@@ -320,7 +315,7 @@ pub struct DeployInitArgs {
     pub worker: Vec<String>,
     /// A one-host rehearsal instead of --coordinator/--worker: a coordinator on 127.0.0.1 and N
     /// workers (1..=64) dialling it, every file ready to run from this machine.
-    #[arg(long, value_name = "N", conflicts_with_all = ["coordinator", "worker"], value_parser = crate::limits::parse_workers)]
+    #[arg(long, value_name = "N", conflicts_with_all = ["coordinator", "worker"], value_parser = vps_app::limits::parse_workers)]
     pub loopback: Option<usize>,
     /// The coordinator's UDP port (1..=65535), where --coordinator gives none and with
     /// --loopback.
@@ -342,7 +337,7 @@ pub struct WorkerArgs {
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
     /// The coordinator's address (IP:port). Required, here or in the config file.
-    #[arg(long, value_parser = crate::limits::parse_ip_port)]
+    #[arg(long, value_parser = vps_app::limits::parse_ip_port)]
     pub coordinator: Option<std::net::SocketAddr>,
     /// This worker's certificate, key and pinned coordinator certificates.
     #[command(flatten)]
@@ -351,7 +346,7 @@ pub struct WorkerArgs {
     #[arg(long)]
     pub cache: Option<PathBuf>,
     /// Compute threads (default: one per core).
-    #[arg(long, value_parser = crate::limits::parse_count)]
+    #[arg(long, value_parser = vps_app::limits::parse_count)]
     pub threads: Option<usize>,
     /// Exit (status 0) when the coordinator goes away instead of waiting for the next one.
     /// Without it the worker is a long-lived service: it re-joins (waits from 100 ms doubling
@@ -369,14 +364,14 @@ pub struct CoordinatorArgs {
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
     /// Address to listen on (UDP, QUIC).
-    #[arg(long, default_value = "0.0.0.0:7800", value_parser = crate::limits::parse_ip_port)]
+    #[arg(long, default_value = "0.0.0.0:7800", value_parser = vps_app::limits::parse_ip_port)]
     pub listen: std::net::SocketAddr,
     /// The coordinator's certificate, key and pinned worker certificates.
     #[command(flatten)]
     pub identity: IdentityArgs,
     /// Workers to wait for before the session starts (1..=64: one class of the shell at least
     /// each).
-    #[arg(long, default_value_t = 1, value_parser = crate::limits::parse_workers)]
+    #[arg(long, default_value_t = 1, value_parser = vps_app::limits::parse_workers)]
     pub workers: usize,
     /// How replies are gathered.
     #[command(flatten)]
@@ -399,13 +394,13 @@ pub struct GatherArgs {
     /// thread's core then does nothing else; use it only where each worker and the coordinator's
     /// network thread have cores of their own (two local workers on two cores: worst gather p99.9
     /// 0.2–0.5 → 4.1–4.2 ms).
-    #[arg(long, default_value_t = default_spin_us())]
+    #[arg(long, default_value_t = vps_app::request::default_spin_us())]
     pub spin_us: u64,
     /// A missing worker share whose local recompute cannot finish before the device write is due
     /// may be stood in for by its sums from up to this many frames earlier (degraded accuracy,
     /// counted as `stale_shares`); 0 always recomputes, so the wrench stays bit-identical to a
     /// one-process session whatever the timing.
-    #[arg(long, default_value_t = default_max_stale_frames())]
+    #[arg(long, default_value_t = vps_app::request::default_max_stale_frames())]
     pub max_stale_frames: u64,
     /// How the classes are split: `predict` sends a worker its share only when its predicted
     /// round trip plus compute shortens the frame, measuring it with probes no frame waits for
@@ -424,36 +419,29 @@ pub enum SplitMode {
     Always,
 }
 
-impl Default for GatherArgs {
-    /// The command-line defaults.
-    fn default() -> Self {
-        GatherArgs {
-            equal_shares: false,
-            spin_us: default_spin_us(),
-            max_stale_frames: default_max_stale_frames(),
-            split: SplitMode::Predict,
+impl GatherArgs {
+    /// The gather settings as the application layer takes them.
+    pub fn request(&self) -> GatherRequest {
+        GatherRequest {
+            equal_shares: self.equal_shares,
+            spin_us: self.spin_us,
+            max_stale_frames: self.max_stale_frames,
+            split: match self.split {
+                SplitMode::Predict => vps_app::SplitMode::Predict,
+                SplitMode::Always => vps_app::SplitMode::Always,
+            },
         }
     }
-}
-
-/// The gatherer's default spin margin ([`vps_cluster::GatherConfig`]), in µs.
-fn default_spin_us() -> u64 {
-    vps_cluster::GatherConfig::default().spin_margin.as_micros() as u64
-}
-
-/// The gatherer's default age limit for stale stand-ins ([`vps_cluster::fallback::StalePolicy`]).
-fn default_max_stale_frames() -> u64 {
-    vps_cluster::fallback::StalePolicy::default().max_age_frames
 }
 
 /// Arguments of `vps cluster`.
 #[derive(Args, Debug)]
 pub struct ClusterArgs {
     /// Worker processes to start on this host.
-    #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 2)]
+    #[arg(long, value_parser = vps_app::limits::parse_count, default_value_t = 2)]
     pub local_workers: usize,
     /// Compute threads per worker process.
-    #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 1)]
+    #[arg(long, value_parser = vps_app::limits::parse_count, default_value_t = 1)]
     pub worker_threads: usize,
     /// How replies are gathered.
     #[command(flatten)]
@@ -533,10 +521,10 @@ pub struct RunArgs {
     pub voxel_size: Option<f64>,
     /// Session length (s). Default: the simulated hand runs until its path has ended (its last
     /// hold included); a replay, the length of its trace; any other device, 30 s.
-    #[arg(long, value_parser = crate::limits::parse_seconds)]
+    #[arg(long, value_parser = vps_app::limits::parse_seconds)]
     pub seconds: Option<f64>,
     /// Compute threads, the frame thread included.
-    #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 1)]
+    #[arg(long, value_parser = vps_app::limits::parse_count, default_value_t = 1)]
     pub threads: usize,
     /// Run the frames back to back instead of at 1 kHz on the wall clock (the simulated hand and
     /// replays only): the same physics, frame for frame, with no tick ever missed and no
@@ -569,7 +557,7 @@ pub struct RunArgs {
     #[command(flatten)]
     pub bridge: BridgeArgs,
     /// With `--device replay:FILE` and several moving parts: each other part replays its own
-    /// trace beside FILE (`crate::session_io::part_trace_path`) instead of its scene device
+    /// trace beside FILE (`vps_app::session_files::part_trace_path`) instead of its scene device
     /// (`vps study` sets it; not a flag).
     #[arg(skip)]
     pub replay_every_part: bool,
@@ -774,11 +762,11 @@ pub struct DemoArgs {
     pub voxel_size: Option<f64>,
     /// Session time (s) of each of the two sessions; default: the scene's hand path to its end
     /// (its last hold included; about 70 s on the default scene).
-    #[arg(long, value_parser = crate::limits::parse_seconds)]
+    #[arg(long, value_parser = vps_app::limits::parse_seconds)]
     pub seconds: Option<f64>,
     /// Compute threads, the frame thread included. One is right for the teapot's few hundred
     /// points at 5 mm: handing a share to another thread costs more than computing it.
-    #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 1)]
+    #[arg(long, value_parser = vps_app::limits::parse_count, default_value_t = 1)]
     pub threads: usize,
     /// Print as JSON.
     #[arg(long)]
@@ -827,7 +815,7 @@ pub enum BenchKind {
         #[arg(long, value_delimiter = ',', default_value = "10000,100000,1000000")]
         points: Vec<usize>,
         /// Seconds per timing batch (5 batches per case, the median is reported).
-        #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 0.2)]
+        #[arg(long, value_parser = vps_app::limits::parse_seconds, default_value_t = 0.2)]
         seconds: f64,
     },
     /// The 1 kHz loop end to end over many frames with a large shell: missed deadlines, percentiles.
@@ -845,7 +833,7 @@ pub enum BenchKind {
         #[arg(long, default_value_t = 100_000)]
         frames: u64,
         /// Compute threads, the frame thread included.
-        #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 2)]
+        #[arg(long, value_parser = vps_app::limits::parse_count, default_value_t = 2)]
         threads: usize,
     },
     /// Frame compute of a scene of several parts (default assets/scenes/two-hands.toml): the
@@ -865,7 +853,7 @@ pub enum BenchKind {
     /// Frame compute of the paced demo session without and with a connected viewer.
     Viewer {
         /// Session length per run (s).
-        #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 10.0)]
+        #[arg(long, value_parser = vps_app::limits::parse_seconds, default_value_t = 10.0)]
         seconds: f64,
         /// Rounds of one run without and one with the viewer.
         #[arg(long, default_value_t = 3)]
@@ -880,13 +868,13 @@ pub enum BenchKind {
         #[arg(long, default_value_t = 100_000)]
         frames: u64,
         /// Worker processes.
-        #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 2)]
+        #[arg(long, value_parser = vps_app::limits::parse_count, default_value_t = 2)]
         workers: usize,
         /// Compute threads per worker process.
-        #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 1)]
+        #[arg(long, value_parser = vps_app::limits::parse_count, default_value_t = 1)]
         worker_threads: usize,
         /// Compute threads of the coordinator.
-        #[arg(long, value_parser = crate::limits::parse_count, default_value_t = 1)]
+        #[arg(long, value_parser = vps_app::limits::parse_count, default_value_t = 1)]
         threads: usize,
         /// The scene.
         #[command(flatten)]
@@ -902,7 +890,7 @@ pub enum BenchKind {
     /// doing `--busy-us` of work per 1 ms frame would miss with no haptics in it.
     Host {
         /// Length of the measurement (s).
-        #[arg(long, value_parser = crate::limits::parse_seconds, default_value_t = 100.0)]
+        #[arg(long, value_parser = vps_app::limits::parse_seconds, default_value_t = 100.0)]
         seconds: f64,
         /// Work per frame, spun (µs).
         #[arg(long, default_value_t = 500)]
@@ -942,7 +930,7 @@ pub enum BenchKind {
         frames: u64,
         /// Spin instead of sleeping for the last this many µs before the reply deadline (see
         /// `vps coordinator --help`).
-        #[arg(long, default_value_t = default_spin_us())]
+        #[arg(long, default_value_t = vps_app::request::default_spin_us())]
         spin_us: u64,
     },
     /// Total tree memory against N = 1..5 (the paper's Figure 6).
@@ -977,6 +965,37 @@ pub enum BenchKind {
         #[arg(long)]
         plot: Option<PathBuf>,
     },
+}
+
+impl RunArgs {
+    /// The session as the application layer takes it ([`vps_app::prepare`]).
+    pub fn request(&self) -> SessionRequest {
+        let b = &self.bridge;
+        SessionRequest {
+            scene: self.scene.request(),
+            device: self.device.clone(),
+            haptic: self.haptic.clone(),
+            voxel_size: self.voxel_size,
+            seconds: self.seconds,
+            threads: self.threads,
+            free_running: self.free_running,
+            record: self.record.clone(),
+            study: self.study.clone(),
+            study_every: self.study_every,
+            json: self.json,
+            report: self.report.clone(),
+            view: self.view,
+            bridge: BridgeOverrides {
+                map_scale: b.map_scale,
+                map_offset: b.map_offset,
+                map_rotate_deg: b.map_rotate_deg,
+                force_scale: b.force_scale,
+                pose_timeout_ms: b.pose_timeout_ms,
+                log_wrenches: b.log_wrenches.clone(),
+            },
+            replay_every_part: self.replay_every_part,
+        }
+    }
 }
 
 impl Default for RunArgs {

@@ -20,23 +20,13 @@
 //! check`), [`limits`] and [`memory_size`] (value parsers).
 
 mod cli;
-mod cluster_session;
 mod cmd;
-mod exit;
 mod host;
 mod kernel_timing;
-mod limits;
 mod memory_size;
 mod mesh_arg;
-mod output;
-mod parts_report;
-mod scene_view;
 mod service_config;
-mod session_io;
-mod session_study;
-mod study_view;
 mod svg;
-mod sweep_session;
 
 use clap::{CommandFactory, FromArgMatches};
 
@@ -59,13 +49,13 @@ fn main() {
     let cli = cli::Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     if let Err(err) = cmd::dispatch(cli, &matches) {
         // stdout's reader went away (`vps inspect x | head -1`): end quietly, as SIGPIPE would.
-        if err.is::<output::BrokenStdout>() {
-            std::process::exit(output::BROKEN_PIPE_STATUS);
+        if err.is::<vps_app::output::BrokenStdout>() {
+            std::process::exit(vps_app::output::BROKEN_PIPE_STATUS);
         }
         // A session that ended early has already written its report; its status says why
         // (src/exit.rs: 1 error, 101 panic, 128 + N signal N).
-        let code = exit::exit_code(&err);
-        let message = output::shown_error(&vps_session::error::error_chain_text(&err));
+        let code = vps_app::exit::exit_code(&err);
+        let message = vps_app::output::shown_error(&vps_session::error::error_chain_text(&err));
         if code == 1 {
             eprintln!("vps: error: {message}");
         } else {

@@ -26,7 +26,7 @@ const MAX_FILE_BYTES: u64 = 1 << 20;
 #[derive(Deserialize, Debug, Default, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct WorkerFile {
-    /// `--coordinator` (IP:port; checked by [`crate::limits::parse_ip_port`]).
+    /// `--coordinator` (IP:port; checked by [`vps_app::limits::parse_ip_port`]).
     pub coordinator: Option<String>,
     /// `--cert`.
     pub cert: Option<PathBuf>,
@@ -46,7 +46,7 @@ pub struct WorkerFile {
 #[derive(Deserialize, Debug, Default, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct CoordinatorFile {
-    /// `--listen` (IP:port; checked by [`crate::limits::parse_ip_port`]).
+    /// `--listen` (IP:port; checked by [`vps_app::limits::parse_ip_port`]).
     pub listen: Option<String>,
     /// `--cert`.
     pub cert: Option<PathBuf>,
@@ -166,8 +166,8 @@ fn checked<T>(
 pub fn resolve_worker(args: &mut WorkerArgs, matches: &ArgMatches) -> Result<()> {
     if let Some(path) = args.config.clone() {
         let f = load_worker(&path)?;
-        let threads = checked(&path, "threads", f.threads, crate::limits::parse_count)?;
-        let ip_port = crate::limits::parse_ip_port;
+        let threads = checked(&path, "threads", f.threads, vps_app::limits::parse_count)?;
+        let ip_port = vps_app::limits::parse_ip_port;
         let coordinator = checked(&path, "coordinator", f.coordinator, ip_port)?;
         take(
             matches,
@@ -198,8 +198,8 @@ pub fn resolve_worker(args: &mut WorkerArgs, matches: &ArgMatches) -> Result<()>
 pub fn resolve_coordinator(args: &mut CoordinatorArgs, matches: &ArgMatches) -> Result<()> {
     if let Some(path) = args.config.clone() {
         let f = load_coordinator(&path)?;
-        let seconds = checked(&path, "seconds", f.seconds, crate::limits::parse_seconds)?;
-        let threads = checked(&path, "threads", f.threads, crate::limits::parse_count)?;
+        let seconds = checked(&path, "seconds", f.seconds, vps_app::limits::parse_seconds)?;
+        let threads = checked(&path, "threads", f.threads, vps_app::limits::parse_count)?;
         // As in a scene file: a number is metres, a string needs a unit.
         let key = "voxel_size";
         let voxel_size = match f.voxel_size {
@@ -213,10 +213,10 @@ pub fn resolve_coordinator(args: &mut CoordinatorArgs, matches: &ArgMatches) -> 
             ),
         };
         let s = &mut args.session;
-        let listen = checked(&path, "listen", f.listen, crate::limits::parse_ip_port)?;
+        let listen = checked(&path, "listen", f.listen, vps_app::limits::parse_ip_port)?;
         take(matches, "listen", &mut args.listen, listen);
         take_identity(matches, &mut args.identity, &path, f.cert, f.key, f.pins);
-        let workers = checked(&path, "workers", f.workers, crate::limits::parse_workers)?;
+        let workers = checked(&path, "workers", f.workers, vps_app::limits::parse_workers)?;
         take(matches, "workers", &mut args.workers, workers);
         let scene = f.scene.map(|v| scene_beside(&path, v));
         take(matches, "scene", &mut s.scene.scene, scene);
@@ -663,7 +663,7 @@ mod tests {
         .to_string();
         assert!(err.contains("`listen`: `7800` is not IP:port"), "{err}");
         assert_eq!(
-            crate::limits::parse_ip_port("[::1]:7800"),
+            vps_app::limits::parse_ip_port("[::1]:7800"),
             Ok("[::1]:7800".parse().unwrap())
         );
     }

@@ -17,13 +17,13 @@
 //! Raw UDP: blocking sockets on 127.0.0.1, one echo thread, unpinned, pose-sized payload (138
 //! bytes), as in `vps bench transport`.
 
-use crate::output::print_report;
 use anyhow::{bail, Context, Result};
 use glam::{DQuat, DVec3};
 use serde::Serialize;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
+use vps_app::output::print_report;
 use vps_device::HapticDevice;
 use vps_haptic::{HandleSample, Wrench};
 use vps_input::bridge::protocol::POSE_IN_FLAGS_LEN;

@@ -7,12 +7,11 @@
 //! runs with its defaults: 1 ms period, 800 µs watchdog, replies awaited until 400 µs into the
 //! frame, real-time scheduling when granted.
 
-use crate::cli::{GatherArgs, RunArgs, SceneArgs};
-use crate::cluster_session::run_local_cluster;
-use crate::output::print_report;
-use crate::session_io::PreparedSession;
+use crate::cli::{GatherArgs, SceneArgs};
 use anyhow::Result;
 use serde::Serialize;
+use vps_app::output::print_report;
+use vps_app::{ClusterBackend, Prepared, SessionRequest, Workers};
 use vps_runtime::{LoopConfig, StatsSummary};
 use vps_session::{DeviceChoice, SessionAssets};
 use vps_voxelize::ShellMethod;
@@ -69,23 +68,19 @@ pub fn run(bench: ClusterBench, json: bool) -> Result<()> {
     };
     let shell_points = assets.shell.len();
     let plan = assets.plan(&DeviceChoice::Simulated, script, config)?;
-    let prepared = PreparedSession {
-        assets,
-        plan,
-        device: DeviceChoice::Simulated,
-    };
-    let session = RunArgs {
+    let session = SessionRequest {
         threads: bench.local_threads,
-        ..RunArgs::default()
+        ..SessionRequest::default()
     };
-    let run = run_local_cluster(
-        &session,
-        prepared,
-        bench.workers,
-        bench.worker_threads,
-        bench.gather,
-    )?;
-    crate::exit::require_complete(&run.report.end, Some(&run.signals))?;
+    let prepared = Prepared::from_plan(assets, plan, DeviceChoice::Simulated, session)?;
+    let run = prepared.run_coordinated(ClusterBackend {
+        workers: Workers::Local {
+            count: bench.workers,
+            threads: bench.worker_threads,
+        },
+        gather: bench.gather.request(),
+    })?;
+    vps_app::exit::require_complete(&run.report.end, Some(&run.signals))?;
     let cluster = run.cluster_json()?;
     print_report(
         "bench cluster: a paced session over local worker processes",

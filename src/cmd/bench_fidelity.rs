@@ -1,8 +1,8 @@
 //! `vps bench fidelity`: the analytic benchmark of `vps-fidelity` over the documented grid, as JSON.
 
 use crate::cli::FidelityModelArg;
-use crate::output::print_report;
 use anyhow::{bail, Result};
+use vps_app::output::print_report;
 use vps_fidelity::measure::{FidelityGrid, ForceModel};
 
 /// Runs the benchmark at `voxel_sizes` (m) for `models`, every width and shell method, `poses` per scene and

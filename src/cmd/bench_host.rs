@@ -9,10 +9,10 @@
 //! cannot avoid either: run it beside `vps bench loop` to tell the machine's misses from the
 //! loop's. (The duty cycle stays below the kernel's real-time throttling limit, 95 % by default.)
 
-use crate::output::print_report;
 use anyhow::Result;
 use serde::Serialize;
 use std::time::{Duration, Instant};
+use vps_app::output::print_report;
 use vps_netem::transport_bench::{percentiles, TransportPercentiles};
 use vps_runtime::RtGrant;
 

@@ -7,9 +7,9 @@
 //! independently of scene memory). Motion: the scene's script, its laps repeated to cover the run.
 
 use crate::cli::SceneArgs;
-use crate::output::print_report;
 use anyhow::Result;
 use serde::Serialize;
+use vps_app::output::print_report;
 use vps_runtime::{run_loop, LoopConfig, RtGrant, StatsSummary};
 use vps_session::{DeviceChoice, SessionAssets};
 use vps_voxelize::ShellMethod;
@@ -49,7 +49,7 @@ pub fn run(
     let plan = assets.plan(&DeviceChoice::Simulated, script, config)?;
     let (setup, signals) = plan.into_live_setup(None)?;
     let report = run_loop(assets.tree.clone(), assets.classed_shell(), setup)?;
-    crate::exit::require_complete(&report.end, Some(&signals))?;
+    vps_app::exit::require_complete(&report.end, Some(&signals))?;
     print_report(
         "bench loop: the 1 kHz loop over many frames",
         &LoopBench {

@@ -13,10 +13,10 @@
 //! parts' own static sampling, which two parts need whatever the broad phase does).
 
 use crate::cli::SceneArgs;
-use crate::output::print_report;
 use anyhow::{bail, Result};
 use glam::DVec3;
 use serde::Serialize;
+use vps_app::output::print_report;
 use vps_runtime::{run_loop, LoopConfig};
 use vps_session::{DeviceChoice, HandPlan, SessionAssets};
 
@@ -119,7 +119,7 @@ pub fn run(scene: &SceneArgs, frames: u64, rounds: u32, json: bool) -> Result<()
                 config,
             )?;
             let report = run_loop(a.tree.clone(), a.classed_shell(), plan.into_setup(None))?;
-            crate::exit::require_complete(&report.end, None)?;
+            vps_app::exit::require_complete(&report.end, None)?;
             let c = &report.stats.compute_ns;
             samples[k].push((
                 c.p50 as f64 / 1e3,

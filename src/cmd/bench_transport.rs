@@ -9,13 +9,12 @@
 //! three placements (unpinned, both threads on the last core, pinger on the first and echo on the
 //! last), because on a VM where the two threads run decides how fast they wake each other.
 
-use crate::cli::{GatherArgs, RunArgs};
-use crate::cluster_session::run_local_cluster;
-use crate::output::print_report;
-use crate::session_io::prepare;
 use anyhow::{Context, Result};
 use serde::Serialize;
 use std::time::Duration;
+use vps_app::output::print_report;
+use vps_app::prepare::prepare;
+use vps_app::{ClusterBackend, GatherRequest, SessionRequest, SplitMode, Workers};
 use vps_cluster::PeerReport;
 use vps_netem::transport_bench::{
     percentiles, raw_udp_round_trips, TransportPercentiles, UdpPlacement,
@@ -85,26 +84,32 @@ pub fn run(frames: u64, spin_us: u64, json: bool) -> Result<()> {
     let p999 = |i: usize| raw_udp_placements[i].percentiles.p999_ns.max(1) as f64;
     let mut gather = Vec::new();
     for workers in [1, 2] {
-        let session = RunArgs {
+        let session = SessionRequest {
             seconds: Some(frames as f64 / 1000.0),
-            ..RunArgs::default()
+            ..SessionRequest::default()
         };
         // Equal shares, split every frame: the round trip of a fixed share is what is compared
         // with raw UDP (the predicted split would keep this small shell local and measure only
         // its rare probes).
-        let choice = GatherArgs {
+        let gather_request = GatherRequest {
             equal_shares: true,
-            split: crate::cli::SplitMode::Always,
+            split: SplitMode::Always,
             spin_us,
-            ..GatherArgs::default()
+            ..GatherRequest::default()
         };
         let mut prepared = prepare(&session)?;
         let config = &mut prepared.plan.setup.config;
         config.free_running = true;
         config.realtime = false;
         config.watchdog = Duration::from_millis(10);
-        let run = run_local_cluster(&session, prepared, workers, 1, choice)?;
-        crate::exit::require_complete(&run.report.end, Some(&run.signals))?;
+        let run = prepared.run_coordinated(ClusterBackend {
+            workers: Workers::Local {
+                count: workers,
+                threads: 1,
+            },
+            gather: gather_request,
+        })?;
+        vps_app::exit::require_complete(&run.report.end, Some(&run.signals))?;
         let worst = run
             .cluster
             .peers

@@ -5,12 +5,13 @@
 //! (JSON). SIGINT, SIGTERM or SIGHUP stop the running session (the simulated device is written
 //! zero first); nothing is printed and the status is 128 + N, as for every benchmark.
 
-use crate::exit::require_complete;
-use crate::output::print_report;
-use crate::session_io::{attach_viewer, run_scripted, Scripted};
 use anyhow::{Context, Result};
 use serde::Serialize;
 use std::time::Duration;
+use vps_app::exit::require_complete;
+use vps_app::output::print_report;
+use vps_app::scene_view::attach_viewer;
+use vps_app::scripted::{run_scripted, Scripted};
 use vps_haptic::HapticParams;
 use vps_runtime::SignalStop;
 use vps_runtime::{Percentiles, StatsSummary};

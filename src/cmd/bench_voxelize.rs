@@ -1,7 +1,6 @@
 //! `vps bench voxelize` and `vps bench tree-memory`: voxelization time, peak memory, voxmap memory,
 //! tree lookup cost against the dense grid, and the paper's Figure 6 (memory against N).
 
-use crate::output::print_report;
 use anyhow::{Context, Result};
 use glam::IVec3;
 use rand::{Rng, SeedableRng};
@@ -9,6 +8,7 @@ use serde::Serialize;
 use std::hint::black_box;
 use std::path::Path;
 use std::time::Instant;
+use vps_app::output::print_report;
 use vps_session::mesh_source;
 use vps_voxelize::{voxelize_tree, voxelize_with_stats, VoxelizeOptions, VoxelizeStats};
 use vps_voxmap::{DenseGrid, TreeConfig, VoxelLookup, VoxelTree, VoxelWidth};

@@ -2,14 +2,13 @@
 //! (docs/architecture.md#exact-sums-and-the-cluster), thin shells over `vps-cluster`.
 
 use crate::cli::{ClusterArgs, CoordinatorArgs, WorkerArgs};
-use crate::cluster_session::{coordinate, run_local_cluster};
-use crate::exit::SessionExit;
 use crate::service_config::{expand_pins, resolve_coordinator, resolve_worker};
-use crate::session_io::{prepare, SessionOutputs};
 use anyhow::{bail, Result};
 use clap::ArgMatches;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
+use vps_app::exit::SessionExit;
+use vps_app::{prepare, Backend, ClusterBackend, Workers};
 use vps_cluster::{make_cert, run_worker_service, ClusterError, PeerTls, Rejoin, WorkerConfig};
 use vps_runtime::SignalStop;
 
@@ -88,17 +87,14 @@ pub fn coordinator(mut args: CoordinatorArgs, matches: &ArgMatches) -> Result<()
     // Mistakes in the certificates or the address are reported before the voxmap is built.
     let tls = PeerTls::load(cert, key, &pins)?;
     check_listen_address(args.listen)?;
-    let outputs = SessionOutputs::reserve(&args.session)?;
-    coordinate(
-        &args.session,
-        prepare(&args.session)?,
-        args.listen,
-        tls,
-        args.workers,
-        args.gather,
-        |_, _| Ok(None),
-    )?
-    .finish(&args.session, outputs)
+    prepare(&args.session.request())?.run(Backend::Cluster(ClusterBackend {
+        workers: Workers::Lan {
+            listen: args.listen,
+            tls,
+            count: args.workers,
+        },
+        gather: args.gather.request(),
+    }))
 }
 
 /// Whether a UDP socket can be bound on `listen` now (the port free, the address this host's):
@@ -117,17 +113,15 @@ fn check_listen_address(listen: std::net::SocketAddr) -> Result<()> {
 /// `vps cluster --local-workers N`: the coordinator plus N worker processes on loopback, with
 /// fresh certificates pinned both ways.
 pub fn local_cluster(args: &ClusterArgs) -> Result<()> {
-    crate::limits::check_thread_total(
+    vps_app::limits::check_thread_total(
         "--local-workers × --worker-threads",
         args.local_workers * args.worker_threads,
     )?;
-    let outputs = SessionOutputs::reserve(&args.session)?;
-    run_local_cluster(
-        &args.session,
-        prepare(&args.session)?,
-        args.local_workers,
-        args.worker_threads,
-        args.gather,
-    )?
-    .finish(&args.session, outputs)
+    prepare(&args.session.request())?.run(Backend::Cluster(ClusterBackend {
+        workers: Workers::Local {
+            count: args.local_workers,
+            threads: args.worker_threads,
+        },
+        gather: args.gather.request(),
+    }))
 }

@@ -4,11 +4,12 @@
 //! the penetration ratio of both.
 
 use crate::cli::DemoArgs;
-use crate::exit::{outcome, SessionExit};
-use crate::output::print_json;
-use crate::session_io::{print_summary, run_scripted, Scripted};
 use anyhow::Result;
 use serde::Serialize;
+use vps_app::exit::{outcome, SessionExit};
+use vps_app::finish::print_summary;
+use vps_app::output::print_json;
+use vps_app::scripted::{run_scripted, Scripted};
 use vps_haptic::HapticParams;
 use vps_runtime::StatsSummary;
 use vps_session::{stop_on_signals, SessionAssets};
@@ -34,7 +35,7 @@ struct DemoReport {
     braking_off: StatsSummary,
     /// Every moving part of the braking-on session, in a scene of several (absent for one).
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    parts: Vec<crate::parts_report::PartSummary>,
+    parts: Vec<vps_app::parts_report::PartSummary>,
     /// The pairs of that session, counted (absent for one part).
     #[serde(skip_serializing_if = "Option::is_none")]
     pairs: Option<vps_runtime::PairCounts>,
@@ -43,7 +44,7 @@ struct DemoReport {
 /// Runs the demo.
 pub fn run(args: &DemoArgs) -> Result<()> {
     if let Some(dir) = &args.study {
-        crate::session_io::reserve_study_dir(dir, &[])?;
+        vps_app::session_files::reserve_study_dir(dir, &[])?;
     }
     let scene = SessionAssets::open(
         &args.scene.scene,
@@ -59,7 +60,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     };
     let threads = args.threads.max(1);
     // Without --seconds, each session follows the scene's hand path to its end.
-    let seconds = crate::session_io::session_seconds(
+    let seconds = vps_app::prepare::session_seconds(
         args.seconds,
         &vps_session::DeviceChoice::Simulated,
         scene.hands_duration(&scene.script()?)?,
@@ -85,7 +86,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             threads
         );
     }
-    let viewer = crate::session_io::attach_viewer(args.view, &scene)?;
+    let viewer = vps_app::scene_view::attach_viewer(args.view, &scene)?;
     let feed = || viewer.as_ref().map(|v| v.feed());
     let session = |params: HapticParams, how: Scripted| {
         let report = run_scripted(
@@ -122,7 +123,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     };
     let off = session(off_params, Scripted::paced(false))?;
     if let Some(dir) = &args.study {
-        crate::session_study::write_session_study(
+        vps_app::study::write_session_study(
             dir,
             args.study_every,
             &scene,
@@ -144,7 +145,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             threads,
             realtime_granted: on.rt.fifo,
             pinned_core: on.rt.pinned_core,
-            parts: crate::parts_report::part_summaries(&scene, &on),
+            parts: vps_app::parts_report::part_summaries(&scene, &on),
             pairs: (!on.other_parts.is_empty()).then_some(on.pairs),
             braking_on: on.stats,
             braking_off: off.stats,
@@ -167,12 +168,12 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     );
     if !on.other_parts.is_empty() {
         println!("the parts in the braking-on session:");
-        crate::parts_report::print_parts(
-            &crate::parts_report::part_summaries(&scene, &on),
+        vps_app::parts_report::print_parts(
+            &vps_app::parts_report::part_summaries(&scene, &on),
             &on.pairs,
         );
     }
-    for line in crate::session_io::SESSION_LEGEND {
+    for line in vps_app::finish::SESSION_LEGEND {
         println!("{line}");
     }
     Ok(())

@@ -11,14 +11,14 @@
 //! new.
 
 use crate::cli::DeployInitArgs;
-use crate::limits::MAX_WORKERS;
-use crate::output::print_summary;
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::net::{IpAddr, Ipv4Addr, Ipv6Addr, SocketAddr};
 use std::path::{Path, PathBuf};
+use vps_app::limits::MAX_WORKERS;
+use vps_app::output::print_summary;
 use vps_cluster::tls::{fingerprint, load_cert, FINGERPRINT_COMMAND};
 
 /// The longest host name (it names a folder and a certificate).
@@ -253,7 +253,7 @@ fn parse_coordinator(text: &str, port: u16) -> Result<(String, SocketAddr)> {
         (_, Ok(ip)) => SocketAddr::new(ip, port),
         _ => {
             let with_port = format!("{address}:{port}");
-            let why = crate::limits::parse_ip_port(if address.contains(':') {
+            let why = vps_app::limits::parse_ip_port(if address.contains(':') {
                 address
             } else {
                 &with_port

@@ -1,10 +1,10 @@
 //! `vps inspect`: statistics of a `.vmap` or `.vshell` file (chosen by the file's magic bytes).
 
 use crate::cli::InspectArgs;
-use crate::output::{hex, mib, print_summary, KindCounts, ShellFigures};
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use std::io::Read;
+use vps_app::output::{hex, mib, print_summary, KindCounts, ShellFigures};
 use vps_voxmap::VoxelTree;
 
 #[derive(Serialize)]

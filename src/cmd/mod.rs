@@ -131,12 +131,12 @@ pub fn dispatch(cli: Cli, matches: &ArgMatches) -> Result<()> {
             }, json),
             BenchKind::Kernel {
                 points, seconds, ..
-            } => crate::output::print_report(
+            } => vps_app::output::print_report(
                 "bench kernel: ns per point of the sampling kernel, free space and full contact",
                 &bench_kernel::run(&points, seconds)?,
                 json,
             ),
-            BenchKind::Clearance => crate::output::print_report(
+            BenchKind::Clearance => vps_app::output::print_report(
                 "bench clearance: pegs pushed into holes of 0.1 to 2 voxels of clearance a side",
                 &vps_fidelity::clearance::run(&vps_fidelity::clearance::ClearanceGrid::full())?,
                 json,

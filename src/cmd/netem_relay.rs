@@ -3,9 +3,9 @@
 //! of the coordinator's.
 
 use crate::cli::NetemRelayArgs;
-use crate::output::print_json;
 use anyhow::Result;
 use std::time::{Duration, Instant};
+use vps_app::output::print_json;
 use vps_netem::{Relay, RelayConfig, RelayStats};
 
 /// How often a running relay prints its figures to stderr.

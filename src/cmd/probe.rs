@@ -1,10 +1,10 @@
 //! `vps probe`: the voxel kind at world points read from a CSV file.
 
 use crate::cli::ProbeArgs;
-use crate::output::{outln, print_json};
 use anyhow::{bail, Context, Result};
 use glam::DVec3;
 use serde::Serialize;
+use vps_app::output::{outln, print_json};
 
 #[derive(Serialize)]
 struct ProbeResult {

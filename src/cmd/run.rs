@@ -3,31 +3,13 @@
 //! handle traces to and from files.
 
 use crate::cli::{RecordArgs, ReplayArgs, RunArgs};
-use crate::output::print_json;
-use crate::session_io::{finish, prepare, LiveSession, SessionOutputs};
 use anyhow::{bail, Result};
-use vps_runtime::{run_loop, LoopReport};
+use vps_app::output::print_json;
+use vps_app::{prepare, Backend};
 
 /// Runs one paced session; records the handle trace to `record` when given.
 pub fn run(args: &RunArgs) -> Result<()> {
-    let outputs = SessionOutputs::reserve(args)?;
-    let LiveSession {
-        assets,
-        viewer: _viewer,
-        setup,
-        bridge,
-        signals,
-    } = prepare(args)?.go_live(args.view)?;
-    let report: LoopReport = run_loop(assets.tree.clone(), assets.classed_shell(), setup)?;
-    finish(
-        args,
-        outputs,
-        &signals,
-        &assets,
-        &report,
-        bridge.as_ref(),
-        None::<&()>,
-    )
+    prepare(&args.request())?.run(Backend::Local)
 }
 
 /// `vps record -o FILE ...`: [`run`] with `--record FILE`.
@@ -59,12 +41,12 @@ pub fn devices(json: bool) -> Result<()> {
         return print_json(&list);
     }
     if list.is_empty() {
-        crate::output::outln!(
+        vps_app::output::outln!(
             "no HID devices found on this machine (none attached, or /dev/hidraw* not readable)"
         )?;
     }
     for d in &list {
-        crate::output::outln!("{d}")?;
+        vps_app::output::outln!("{d}")?;
     }
     Ok(())
 }

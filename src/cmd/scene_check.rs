@@ -5,9 +5,9 @@
 //! effective voxel settings, where each came from (the scene file or the built-in default) and
 //! why.
 
-use crate::output::{metres_4, print_json};
 use anyhow::Result;
 use serde::Serialize;
+use vps_app::output::{metres_4, print_json};
 use vps_files::printable;
 use vps_mesh::Aabb;
 use vps_session::estimate::{size_text, SceneMemoryEstimate, VoxmapEstimate};

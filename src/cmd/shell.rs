@@ -2,9 +2,9 @@
 
 use crate::cli::{ShellArgs, ShellMethodArg};
 use crate::mesh_arg::{load_mesh, units_hint};
-use crate::output::{check_output_path, print_summary, ShellFigures};
 use anyhow::{Context, Result};
 use serde::Serialize;
+use vps_app::output::{check_output_path, print_summary, ShellFigures};
 use vps_voxelize::{point_shell_within, ShellMethod};
 
 #[derive(Serialize)]
@@ -40,7 +40,7 @@ pub fn run(args: &ShellArgs) -> Result<()> {
     check_output_path(
         "-o",
         &args.build.output,
-        &crate::output::mesh_inputs(&args.mesh),
+        &vps_app::output::mesh_inputs(&args.mesh),
     )?;
     let scene = load_mesh(&args.mesh, args.build.units, args.voxel_size)?;
     let budget = args

@@ -1,25 +1,26 @@
 //! `vps study TRACE --scene FILE -o DIR`: the assembly study of a recorded trace, on the scene it
-//! was recorded on (`crate::session_study`). A scene of several moving parts reads each other
-//! part's trace beside TRACE (`crate::session_io::part_trace_path`, as `--record` wrote them) and
+//! was recorded on (`vps_app::study`). A scene of several moving parts reads each other
+//! part's trace beside TRACE (`vps_app::session_files::part_trace_path`, as `--record` wrote them) and
 //! writes one study per part.
 
-use crate::cli::{RunArgs, StudyArgs};
-use crate::session_io::prepare;
-use crate::session_study::{write_study, OtherPartRun, Print, StudyRun};
+use crate::cli::StudyArgs;
 use anyhow::{bail, Context, Result};
+use vps_app::prepare::prepare;
+use vps_app::study::{write_study, OtherPartRun, Print, StudyRun};
+use vps_app::SessionRequest;
 use vps_session::DeviceChoice;
 
 /// `vps study TRACE --scene FILE -o DIR`.
 pub fn run(args: &StudyArgs) -> Result<()> {
     let trace_path = args.trace.display().to_string();
-    let session = RunArgs {
-        scene: args.scene.clone(),
+    let session = SessionRequest {
+        scene: args.scene.request(),
         haptic: args.haptic.clone(),
         voxel_size: args.voxel_size,
         device: Some(format!("replay:{trace_path}")),
         study: Some(args.output.clone()),
         replay_every_part: true,
-        ..RunArgs::default()
+        ..SessionRequest::default()
     };
     // The same preparation as `vps replay`: scene, parameters, and the part at rest at the
     // trace's first pose; the outputs are checked against every input first.

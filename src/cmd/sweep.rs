@@ -10,14 +10,14 @@
 //! done are written as a partial table (exit status 128 + N). See docs/sweep.md.
 
 use crate::cli::SweepArgs;
-use crate::exit::SessionExit;
-use crate::output::{check_outputs, write_file};
-use crate::sweep_session::{run_sweep_session, session_on, SweepRow, SweepSession, SweepTable};
 use anyhow::{Context, Result};
 use glam::DVec3;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 use std::time::Instant;
+use vps_app::exit::SessionExit;
+use vps_app::output::{check_outputs, write_file};
+use vps_app::sweep::{run_sweep_session, session_on, SweepRow, SweepSession, SweepTable};
 use vps_device::{HandParams, HapticDevice, SimulatedHand};
 use vps_haptic::{sample_all, step, HapticParams, KernelPose, PartState, Wrench};
 use vps_reference::{reference_contact, ExactScene};
@@ -186,7 +186,7 @@ fn no_contact_note(rows: &[SweepRow], quick: bool) -> Option<String> {
 /// The sweep was stopped by a signal during `what` (its device already written zero): writes
 /// the rows done, marked partial with the reason, and fails with exit status `128 + N`.
 fn stopped(args: &SweepArgs, rows: &[SweepRow], signals: &SignalStop, what: &str) -> Result<()> {
-    let (end, code) = crate::exit::outcome(&SessionEnd::Stopped, Some(signals));
+    let (end, code) = vps_app::exit::outcome(&SessionEnd::Stopped, Some(signals));
     let end = format!(
         "{end} during {what} (that row is left out; {} rows done)",
         rows.len()
@@ -489,13 +489,13 @@ fn write_outputs(args: &SweepArgs, table: &SweepTable) -> Result<()> {
     let json = serde_json::to_string_pretty(table)? + "\n";
     match &args.json {
         Some(path) if path == Path::new(JSON_TO_STDOUT) => {
-            crate::output::outln!("{}", json.trim_end())?
+            vps_app::output::outln!("{}", json.trim_end())?
         }
         Some(path) => write_file(path, json.as_bytes())?,
         None => {}
     }
     if args.json.as_deref() != Some(Path::new(JSON_TO_STDOUT)) {
-        crate::output::outln!("{}", super::sweep_text::table_text(table).trim_end())?;
+        vps_app::output::outln!("{}", super::sweep_text::table_text(table).trim_end())?;
     }
     if let Some(path) = &args.csv {
         write_file(path, csv(table)?.as_bytes())?;

@@ -4,10 +4,10 @@
 //! scene's own width and method (`default` rows) are drawn thicker.
 
 use crate::svg::{draw_legend, write_svg};
-use crate::sweep_session::SweepRow;
 use anyhow::{Context, Result};
 use plotters::prelude::*;
 use std::path::Path;
+use vps_app::sweep::SweepRow;
 
 /// A figure: file stem, y-axis label, the value of a row.
 type Figure = (&'static str, &'static str, fn(&SweepRow) -> Option<f64>);

@@ -6,11 +6,11 @@
 //! so far is printed (`complete: false`, `end` says why) and the exit status is `128 + N`.
 
 use crate::cli::TuneArgs;
-use crate::exit::{outcome, SessionExit};
-use crate::sweep_session::{run_sweep_session, session_on, SweepRow, SweepSession, SweepTable};
 use anyhow::{bail, Result};
 use serde::Serialize;
 use std::path::Path;
+use vps_app::exit::{outcome, SessionExit};
+use vps_app::sweep::{run_sweep_session, session_on, SweepRow, SweepSession, SweepTable};
 use vps_runtime::{SessionEnd, SignalStop, StatsSummary};
 use vps_session::file::ForceModelName;
 use vps_session::{stop_on_signals, CachePolicy, LoadedScene};
@@ -141,7 +141,7 @@ fn stopped(
     report.complete = false;
     report.end = format!("{end} while {what}");
     if args.json {
-        crate::output::print_json(&report)?;
+        vps_app::output::print_json(&report)?;
     } else {
         println!(
             "tune: {} (partial; the device was sent zero force)",
@@ -194,7 +194,7 @@ pub fn run(args: &TuneArgs) -> Result<()> {
             "{}: frame compute over {} free-running frames per voxel size (budget p99.9 ≤ \
              {budget_us:.0} µs); {}-bit voxels, {} shell points",
             vps_files::printable(&scene.name),
-            crate::output::grouped(args.frames),
+            vps_app::output::grouped(args.frames),
             width.bits(),
             match scene.file.voxels.shell_method {
                 vps_session::file::ShellMethodName::Centres => "voxel-centre",
@@ -221,7 +221,7 @@ pub fn run(args: &TuneArgs) -> Result<()> {
             println!(
                 "{:>7} mm {:>9} {:>9.1} µs {:>11.1} µs{}",
                 size_mm,
-                crate::output::grouped(session.shell.len() as u64),
+                vps_app::output::grouped(session.shell.len() as u64),
                 stats.compute_ns.p50 as f64 / 1e3,
                 p999,
                 if within { "" } else { "  over budget" }
@@ -261,7 +261,7 @@ pub fn run(args: &TuneArgs) -> Result<()> {
     report.verify_realtime_granted = Some(verify.rt.fifo);
     let verify = report.verify.insert(verify.stats).clone();
     if args.json {
-        return crate::output::print_json(&report);
+        return vps_app::output::print_json(&report);
     }
     let finer = if report.measured.len() < SIZES_MM.len() {
         "the next finer size was over budget"
@@ -301,7 +301,7 @@ pub fn run(args: &TuneArgs) -> Result<()> {
             other.name()
         );
     }
-    crate::session_io::print_summary(
+    vps_app::finish::print_summary(
         &format!(
             "verification: {} paced frames at {size_mm} mm",
             args.verify_frames

@@ -1,11 +1,11 @@
 //! `vps view FILE.vmap` or `vps view --scene FILE [--study DIR]`: the viewer offline, with no loop. (`--view
-//! ADDR` on the session commands attaches it to a session: `crate::session_io::attach_viewer`.)
+//! ADDR` on the session commands attaches it to a session: `vps_app::scene_view::attach_viewer`.)
 
 use crate::cli::ViewArgs;
-use crate::scene_view::viewer_content;
-use crate::study_view::{track_from_folder, StudyFolder};
 use anyhow::{Context, Result};
 use std::sync::Arc;
+use vps_app::scene_view::viewer_content;
+use vps_app::study_view::{track_from_folder, StudyFolder};
 use vps_session::{CachePolicy, SessionAssets};
 use vps_view::{SceneLimits, ViewerContent, ViewerServer};
 use vps_voxmap::file::{load_shell, load_voxmap};
@@ -47,7 +47,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
                             )
                         })?;
                     content =
-                        crate::scene_view::part_content(&assets, part, SceneLimits::default());
+                        vps_app::scene_view::part_content(&assets, part, SceneLimits::default());
                 }
                 if !studied.is_empty() && studied != assets.label {
                     eprintln!(

@@ -2,10 +2,10 @@
 
 use crate::cli::VoxelizeArgs;
 use crate::mesh_arg::{load_mesh, units_hint};
-use crate::output::{check_output_path, hex, mib, print_summary};
 use anyhow::{bail, Context, Result};
 use glam::DVec3;
 use serde::Serialize;
+use vps_app::output::{check_output_path, hex, mib, print_summary};
 use vps_mesh::Aabb;
 use vps_voxelize::{voxelize_tree, VoxelizeOptions};
 use vps_voxmap::{TreeConfig, VoxelWidth};
@@ -28,7 +28,7 @@ struct VoxelizeSummary {
     tree_ms: f64,
     tree_bytes: usize,
     peak_work_bytes: u64,
-    counts: crate::output::KindCounts,
+    counts: vps_app::output::KindCounts,
     hash: String,
 }
 
@@ -37,7 +37,7 @@ pub fn run(args: &VoxelizeArgs) -> Result<()> {
     check_output_path(
         "-o",
         &args.build.output,
-        &crate::output::mesh_inputs(&args.mesh),
+        &vps_app::output::mesh_inputs(&args.mesh),
     )?;
     let scene = load_mesh(&args.mesh, args.build.units, args.voxel_size)?;
     let health = vps_mesh::mesh_health(&scene.mesh);
@@ -89,7 +89,7 @@ pub fn run(args: &VoxelizeArgs) -> Result<()> {
         tree_ms,
         tree_bytes: tree.memory_bytes(),
         peak_work_bytes: stats.peak_work_bytes,
-        counts: crate::output::KindCounts::from(tree.counts()),
+        counts: vps_app::output::KindCounts::from(tree.counts()),
         hash: hex(&tree.content_hash()),
     };
     print_summary(&summary, args.build.json)

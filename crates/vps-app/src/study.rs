@@ -1,6 +1,6 @@
 //! The assembly study of a session (the `vps-study` crate), made after it has ended and its
 //! device has been written zero, never on the frame thread: for `--study DIR` on the session
-//! commands and for `vps study` (`crate::cmd::study`). Prints the verdict for a person.
+//! commands and for `vps study`. Prints the verdict for a person.
 //!
 //! A session of several moving parts is studied part by part: every part's path is recomputed
 //! together (the pairs too), then each part's study is written into `DIR/<part>/`

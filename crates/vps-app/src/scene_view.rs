@@ -1,11 +1,13 @@
 //! What the viewer draws of a session's scene ([`viewer_content`]): for the live viewer of a
-//! session (`crate::session_io::attach_viewer`), `vps view --scene` and a study's 3D view
+//! session ([`attach_viewer`]), `vps view --scene` and a study's 3D view
 //! (`crate::study_view`).
 
+use anyhow::Result;
 use glam::DVec3;
+use std::net::SocketAddr;
 use std::sync::Arc;
 use vps_session::{PartView, SessionAssets};
-use vps_view::{SceneLimits, ViewerContent};
+use vps_view::{LiveViewer, SceneLimits, ViewerContent};
 
 /// What the viewer draws of a session, within `limits`: its voxmap, shell and meshes, labelled
 /// with the scene's name, its other moving parts at their start poses, and the simulated hand's
@@ -50,4 +52,16 @@ pub fn part_content(assets: &SessionAssets, p: PartView<'_>, limits: SceneLimits
         }
         Err(_) => content,
     }
+}
+/// Starts a viewer of `assets` on `addr` when `--view` was given and prints its URL on stderr.
+pub fn attach_viewer(
+    addr: Option<SocketAddr>,
+    assets: &SessionAssets,
+) -> Result<Option<LiveViewer>> {
+    let Some(addr) = addr else {
+        return Ok(None);
+    };
+    let viewer = LiveViewer::start(addr, viewer_content(assets, SceneLimits::default()))?;
+    eprintln!("viewer: {}", viewer.url());
+    Ok(Some(viewer))
 }

@@ -1,10 +1,12 @@
-//! Coordinated sessions, shared by `vps coordinator`, `vps cluster` and the cluster benchmarks:
-//! a session whose frames are computed by workers over QUIC
+//! Coordinated sessions ([`Prepared::run_coordinated`]), shared by `vps coordinator`, `vps
+//! cluster` and the cluster benchmarks: a session whose frames are computed by workers over QUIC
 //! (docs/architecture.md#exact-sums-and-the-cluster), on a coordinator started here, with the
-//! workers on the LAN ([`coordinate`]) or spawned on this host ([`run_local_cluster`]).
+//! workers on the LAN ([`Workers::Lan`]) or spawned on this host ([`Workers::Local`]).
 
-use crate::cli::{GatherArgs, RunArgs};
-use crate::session_io::{finish, PreparedSession, SessionOutputs};
+use crate::finish::finish;
+use crate::prepare::Prepared;
+use crate::request::{GatherRequest, SessionRequest, SplitMode};
+use crate::session_files::SessionOutputs;
 use anyhow::{Context, Result};
 use std::net::SocketAddr;
 use std::sync::Arc;
@@ -33,6 +35,55 @@ pub struct CoordinatedRun {
     pub signals: SignalStop,
     /// What was kept off the frame thread's core (`None`: nothing, on one core or unpaced).
     pub placement: Option<Placement>,
+    /// What was asked for.
+    pub request: SessionRequest,
+    /// The files the session writes at its end, checked.
+    pub outputs: SessionOutputs,
+}
+
+/// Where a coordinated session's workers come from.
+pub enum Workers {
+    /// Workers on the LAN dial a coordinator listening on `listen`, with `tls` (its identity and
+    /// the pinned workers' certificates); the session starts once `count` have joined.
+    Lan {
+        /// The coordinator's UDP address.
+        listen: SocketAddr,
+        /// The coordinator's identity and the workers it admits.
+        tls: PeerTls,
+        /// Workers to wait for.
+        count: usize,
+    },
+    /// `count` worker processes of `threads` threads each, spawned on this host from this
+    /// executable, on loopback with fresh certificates pinned both ways.
+    Local {
+        /// Worker processes.
+        count: usize,
+        /// Compute threads per worker process.
+        threads: usize,
+    },
+}
+
+/// A coordinated session's workers and how their replies are gathered.
+pub struct ClusterBackend {
+    /// Where the workers come from.
+    pub workers: Workers,
+    /// How replies are gathered.
+    pub gather: GatherRequest,
+}
+
+impl Prepared {
+    /// Runs this session with the workers of `cluster`: its frames are split between the
+    /// coordinator's own threads and the workers, replies gathered within each frame's budget.
+    pub fn run_coordinated(self, cluster: ClusterBackend) -> Result<CoordinatedRun> {
+        match cluster.workers {
+            Workers::Lan { listen, tls, count } => {
+                coordinate(self, listen, tls, count, cluster.gather, |_, _| Ok(None))
+            }
+            Workers::Local { count, threads } => {
+                run_local_cluster(self, count, threads, cluster.gather)
+            }
+        }
+    }
 }
 
 impl CoordinatedRun {
@@ -56,11 +107,11 @@ impl CoordinatedRun {
 
     /// [`finish`] for a coordinated session: its report carries [`Self::cluster_json`] as
     /// `cluster`.
-    pub fn finish(self, args: &RunArgs, outputs: SessionOutputs) -> Result<()> {
+    pub fn finish(self) -> Result<()> {
         let cluster = self.cluster_json()?;
         finish(
-            args,
-            outputs,
+            &self.request,
+            self.outputs,
             &self.signals,
             &self.assets,
             &self.report,
@@ -74,16 +125,15 @@ impl CoordinatedRun {
 /// workers' certificates, loaded by the caller) once `workers` have joined; `spawn` starts local workers
 /// when asked, given the coordinator's address and what to keep off the frame thread's core
 /// (on a machine of more than one core, the coordinator's network and metrics threads are kept
-/// off it too). `session` gives the local threads and the viewer
+/// off it too). The request gives the local threads and the viewer
 /// address; `gather` the share adaptation ([`GatherConfig::adaptive_shares`]) and the spin margin
 /// ([`GatherConfig::spin_margin`]).
-pub fn coordinate(
-    session: &RunArgs,
-    prepared: PreparedSession,
+fn coordinate(
+    prepared: Prepared,
     listen: SocketAddr,
     tls: PeerTls,
     workers: usize,
-    gather: GatherArgs,
+    gather: GatherRequest,
     spawn: impl FnOnce(
         SocketAddr,
         Option<&KeepOffFrameCore>,
@@ -95,7 +145,7 @@ pub fn coordinate(
         None
     };
     // Held whole to the end: its viewer serves the session.
-    let live = prepared.go_live(session.view)?;
+    let live = prepared.go_live()?;
     let cluster_assets = Arc::new(cluster_assets(&live.assets)?);
     let coordinator = Coordinator::start(
         CoordinatorConfig {
@@ -126,9 +176,9 @@ pub fn coordinate(
         );
     }
     let gather = GatherConfig {
-        local_threads: session.threads.max(1),
+        local_threads: live.request.threads.max(1),
         adaptive_shares: !gather.equal_shares,
-        predict: gather.split == crate::cli::SplitMode::Predict,
+        predict: gather.split == SplitMode::Predict,
         spin_margin: Duration::from_micros(gather.spin_us),
         stale: vps_cluster::fallback::StalePolicy {
             max_age_frames: gather.max_stale_frames,
@@ -152,6 +202,8 @@ pub fn coordinate(
         bridge: live.bridge,
         signals: live.signals,
         placement,
+        request: live.request,
+        outputs: live.outputs,
     })
 }
 
@@ -174,20 +226,18 @@ fn cluster_assets(assets: &SessionAssets) -> Result<ClusterAssets> {
 }
 
 /// Runs `prepared` with `workers` local worker processes of `worker_threads` threads each, on
-/// loopback with fresh certificates pinned both ways (`session`: local threads, viewer).
-pub fn run_local_cluster(
-    session: &RunArgs,
-    prepared: PreparedSession,
+/// loopback with fresh certificates pinned both ways.
+fn run_local_cluster(
+    prepared: Prepared,
     workers: usize,
     worker_threads: usize,
-    gather: GatherArgs,
+    gather: GatherRequest,
 ) -> Result<CoordinatedRun> {
     let dir = std::env::temp_dir().join(format!("vps-cluster-{}", std::process::id()));
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let certs = local_cluster_certs(&dir, workers)?;
     let exe = std::env::current_exe().context("locating the vps executable")?;
     let result = coordinate(
-        session,
         prepared,
         "127.0.0.1:0".parse()?,
         PeerTls::load(

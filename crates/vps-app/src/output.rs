@@ -39,12 +39,14 @@ pub fn stdout_line(args: std::fmt::Arguments) -> Result<()> {
 
 /// `println!` that returns an error instead of panicking when stdout fails:
 /// `outln!("{x}")?`.
-macro_rules! outln {
+#[macro_export]
+#[doc(hidden)]
+macro_rules! __outln {
     ($($arg:tt)*) => {
         $crate::output::stdout_line(format_args!($($arg)*))
     };
 }
-pub(crate) use outln;
+pub use crate::__outln as outln;
 
 /// Prints `value` as pretty JSON on stdout.
 pub fn print_json<T: Serialize>(value: &T) -> Result<()> {
