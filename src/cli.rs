@@ -1028,3 +1028,13 @@ pub enum FidelityModelArg {
     /// The signed-distance band at its default stand-off (half a voxel).
     Distance,
 }
+
+impl FidelityModelArg {
+    /// The force model it names.
+    pub fn model(self) -> vps_fidelity::measure::ForceModel {
+        match self {
+            FidelityModelArg::TangentPlane => vps_fidelity::measure::ForceModel::TangentPlane,
+            FidelityModelArg::Distance => vps_fidelity::measure::ForceModel::DISTANCE,
+        }
+    }
+}

@@ -21,12 +21,9 @@
 
 mod cli;
 mod cmd;
-mod host;
-mod kernel_timing;
 mod memory_size;
 mod mesh_arg;
 mod service_config;
-mod svg;
 
 use clap::{CommandFactory, FromArgMatches};
 

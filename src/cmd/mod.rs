@@ -1,16 +1,5 @@
 //! One module per subcommand; [`dispatch`] routes the parsed command line.
 
-mod bench_bridge;
-mod bench_cluster;
-mod bench_fidelity;
-mod bench_host;
-mod bench_kernel;
-mod bench_loop;
-mod bench_parts;
-mod bench_scaling;
-mod bench_transport;
-mod bench_viewer;
-mod bench_voxelize;
 mod cluster;
 mod demo;
 mod deploy;
@@ -28,7 +17,7 @@ mod tune;
 mod view;
 mod voxelize;
 
-use crate::cli::{BenchKind, Cli, Command, DeployCommand, SceneCommand};
+use crate::cli::{BenchKind, Cli, Command, DeployCommand, FidelityModelArg, SceneCommand};
 use anyhow::Result;
 use clap::ArgMatches;
 
@@ -78,13 +67,13 @@ pub fn dispatch(cli: Cli, matches: &ArgMatches) -> Result<()> {
                 voxel_size,
                 repeat,
                 ..
-            } => bench_voxelize::run_voxelize(&mesh, voxel_size, repeat, json),
+            } => vps_bench::voxelize::run_voxelize(&mesh, voxel_size, repeat, json),
             BenchKind::TreeMemory {
                 mesh,
                 voxel_size,
                 plot,
                 ..
-            } => bench_voxelize::run_tree_memory(&mesh, voxel_size, plot.as_deref(), json),
+            } => vps_bench::voxelize::run_tree_memory(&mesh, voxel_size, plot.as_deref(), json),
             BenchKind::Loop {
                 scene,
                 voxel_size,
@@ -92,23 +81,23 @@ pub fn dispatch(cli: Cli, matches: &ArgMatches) -> Result<()> {
                 frames,
                 threads,
                 ..
-            } => bench_loop::run(&scene, voxel_size, points, frames, threads, json),
+            } => vps_bench::frame_loop::run(&scene.request(), voxel_size, points, frames, threads, json),
             BenchKind::Parts {
                 scene,
                 frames,
                 rounds,
                 ..
-            } => bench_parts::run(&scene, frames, rounds, json),
+            } => vps_bench::parts::run(&scene.request(), frames, rounds, json),
             BenchKind::Viewer {
                 seconds, rounds, ..
-            } => bench_viewer::run(seconds, rounds, json),
+            } => vps_bench::viewer::run(seconds, rounds, json),
             BenchKind::Transport {
                 frames, spin_us, ..
-            } => bench_transport::run(frames, spin_us, json),
-            BenchKind::Bridge { round_trips, .. } => bench_bridge::run(round_trips, json),
+            } => vps_bench::transport::run(frames, spin_us, json),
+            BenchKind::Bridge { round_trips, .. } => vps_bench::bridge::run(round_trips, json),
             BenchKind::Host {
                 seconds, busy_us, ..
-            } => bench_host::run(seconds, busy_us, json),
+            } => vps_bench::host::run(seconds, busy_us, json),
             BenchKind::Cluster {
                 points,
                 frames,
@@ -119,21 +108,21 @@ pub fn dispatch(cli: Cli, matches: &ArgMatches) -> Result<()> {
                 voxel_size,
                 gather,
                 ..
-            } => bench_cluster::run(bench_cluster::ClusterBench {
-                scene,
+            } => vps_bench::cluster::run(vps_bench::cluster::ClusterBench {
+                scene: scene.request(),
                 voxel_size,
                 points,
                 frames,
                 workers,
                 worker_threads,
                 local_threads: threads,
-                gather,
+                gather: gather.request(),
             }, json),
             BenchKind::Kernel {
                 points, seconds, ..
             } => vps_app::output::print_report(
                 "bench kernel: ns per point of the sampling kernel, free space and full contact",
-                &bench_kernel::run(&points, seconds)?,
+                &vps_bench::kernel::run(&points, seconds)?,
                 json,
             ),
             BenchKind::Clearance => vps_app::output::print_report(
@@ -146,7 +135,12 @@ pub fn dispatch(cli: Cli, matches: &ArgMatches) -> Result<()> {
                 poses,
                 models,
                 ..
-            } => bench_fidelity::run(voxel_sizes, poses, models, json),
+            } => vps_bench::fidelity::run(
+                voxel_sizes,
+                poses,
+                models.into_iter().map(FidelityModelArg::model).collect(),
+                json,
+            ),
             BenchKind::Scaling {
                 max,
                 points,
@@ -154,8 +148,8 @@ pub fn dispatch(cli: Cli, matches: &ArgMatches) -> Result<()> {
                 budget_us,
                 plot,
                 ..
-            } => bench_scaling::run(
-                &bench_scaling::ScalingBench {
+            } => vps_bench::scaling::run(
+                &vps_bench::scaling::ScalingBench {
                     max_units: max.unwrap_or_else(|| {
                         std::thread::available_parallelism().map_or(1, |n| n.get())
                     }),

@@ -36,6 +36,7 @@ pub mod scripted;
 pub mod session_files;
 pub mod study;
 pub mod study_view;
+pub mod svg;
 pub mod sweep;
 
 pub use cluster::{ClusterBackend, CoordinatedRun, Workers};

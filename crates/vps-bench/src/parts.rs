@@ -12,11 +12,11 @@
 //! The figure the broad phase answers for: `apart` against `first alone + second alone` (the two
 //! parts' own static sampling, which two parts need whatever the broad phase does).
 
-use crate::cli::SceneArgs;
 use anyhow::{bail, Result};
 use glam::DVec3;
 use serde::Serialize;
 use vps_app::output::print_report;
+use vps_app::SceneRequest;
 use vps_runtime::{run_loop, LoopConfig};
 use vps_session::{DeviceChoice, HandPlan, SessionAssets};
 
@@ -38,7 +38,7 @@ struct PartsBench {
     shell_points: Vec<usize>,
     frames: u64,
     rounds: u32,
-    host_idle: crate::host::HostIdle,
+    host_idle: crate::machine::HostIdle,
     rows: Vec<Row>,
     /// `apart` p50 ÷ (`first alone` p50 + `second alone` p50).
     apart_over_both_alone: f64,
@@ -93,7 +93,7 @@ fn configured(assets: &SessionAssets, name: &str) -> SessionAssets {
 }
 
 /// Runs the benchmark.
-pub fn run(scene: &SceneArgs, frames: u64, rounds: u32, json: bool) -> Result<()> {
+pub fn run(scene: &SceneRequest, frames: u64, rounds: u32, json: bool) -> Result<()> {
     let assets = SessionAssets::open(&scene.scene, &scene.build_options(None))?;
     if assets.more_parts.is_empty() {
         bail!(
@@ -102,7 +102,7 @@ pub fn run(scene: &SceneArgs, frames: u64, rounds: u32, json: bool) -> Result<()
             assets.label
         );
     }
-    let host_idle = crate::host::HostIdle::read();
+    let host_idle = crate::machine::HostIdle::read();
     let mut samples: Vec<Vec<(f64, f64, f64)>> = vec![Vec::new(); CONFIGURATIONS.len()];
     for _ in 0..rounds.max(1) {
         for (k, name) in CONFIGURATIONS.iter().enumerate() {

@@ -7,11 +7,11 @@
 //! runs with its defaults: 1 ms period, 800 µs watchdog, replies awaited until 400 µs into the
 //! frame, real-time scheduling when granted.
 
-use crate::cli::{GatherArgs, SceneArgs};
 use anyhow::Result;
 use serde::Serialize;
 use vps_app::output::print_report;
 use vps_app::{ClusterBackend, Prepared, SessionRequest, Workers};
+use vps_app::{GatherRequest, SceneRequest};
 use vps_runtime::{LoopConfig, StatsSummary};
 use vps_session::{DeviceChoice, SessionAssets};
 use vps_voxelize::ShellMethod;
@@ -20,7 +20,7 @@ use vps_voxelize::ShellMethod;
 #[derive(Clone, Debug)]
 pub struct ClusterBench {
     /// The scene.
-    pub scene: SceneArgs,
+    pub scene: SceneRequest,
     /// Voxel size instead of the scene's (m).
     pub voxel_size: Option<f64>,
     /// Approximate shell points.
@@ -34,7 +34,7 @@ pub struct ClusterBench {
     /// Compute threads of the coordinator (its own share and the fallback).
     pub local_threads: usize,
     /// Share adaptation and reply spinning.
-    pub gather: GatherArgs,
+    pub gather: GatherRequest,
 }
 
 #[derive(Serialize)]
@@ -47,7 +47,7 @@ struct ClusterBenchReport {
     local_threads: usize,
     frames_requested: u64,
     realtime_granted: bool,
-    host_idle: crate::host::HostIdle,
+    host_idle: crate::machine::HostIdle,
     stats: StatsSummary,
     /// Per-worker figures and `placement` (`CoordinatedRun::cluster_json`).
     cluster: serde_json::Value,
@@ -78,7 +78,7 @@ pub fn run(bench: ClusterBench, json: bool) -> Result<()> {
             count: bench.workers,
             threads: bench.worker_threads,
         },
-        gather: bench.gather.request(),
+        gather: bench.gather,
     })?;
     vps_app::exit::require_complete(&run.report.end, Some(&run.signals))?;
     let cluster = run.cluster_json()?;
@@ -109,7 +109,7 @@ pub fn run(bench: ClusterBench, json: bool) -> Result<()> {
         local_threads: bench.local_threads,
         frames_requested: bench.frames,
         realtime_granted: run.report.rt.fifo,
-        host_idle: crate::host::HostIdle::read(),
+        host_idle: crate::machine::HostIdle::read(),
         stats: run.report.stats,
         cluster,
         },

@@ -48,7 +48,7 @@ struct BridgeFigure {
 
 #[derive(Serialize)]
 struct BridgeReport {
-    host_idle: crate::host::HostIdle,
+    host_idle: crate::machine::HostIdle,
     raw_udp: BridgeFigure,
     bridge_immediate: BridgeFigure,
     bridge_paced_1khz: BridgeFigure,
@@ -227,7 +227,7 @@ pub fn run(round_trips: u64, json: bool) -> Result<()> {
     print_report(
         "bench bridge: device bridge round trip (pose out, wrench back) beside a raw UDP ping-pong",
         &BridgeReport {
-            host_idle: crate::host::HostIdle::read(),
+            host_idle: crate::machine::HostIdle::read(),
             immediate_p50_over_raw_udp_p50: ratio(
                 bridge_immediate.percentiles.p50_ns,
                 raw_udp.percentiles.p50_ns,

@@ -13,8 +13,8 @@
 //! the empty slot, every point in Free tiles. Both poses read the same tree in the same run. The
 //! case is built by `crate::kernel_timing` (`vps scene check` times the same contact case).
 
-use crate::host::load_average;
 use crate::kernel_timing::{band_scene, shell_radius_vox, sphere_band, sphere_shell, VOXEL_SIZE};
+use crate::machine::load_average;
 use anyhow::Result;
 use glam::{DQuat, DVec3};
 use serde::Serialize;

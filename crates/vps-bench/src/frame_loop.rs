@@ -6,10 +6,10 @@
 //! be finer than the voxmap; the kernel does not care, and this is how a user buys point count
 //! independently of scene memory). Motion: the scene's script, its laps repeated to cover the run.
 
-use crate::cli::SceneArgs;
 use anyhow::Result;
 use serde::Serialize;
 use vps_app::output::print_report;
+use vps_app::SceneRequest;
 use vps_runtime::{run_loop, LoopConfig, RtGrant, StatsSummary};
 use vps_session::{DeviceChoice, SessionAssets};
 use vps_voxelize::ShellMethod;
@@ -24,13 +24,13 @@ struct LoopBench {
     threads: usize,
     frames_requested: u64,
     rt: RtGrant,
-    host_idle: crate::host::HostIdle,
+    host_idle: crate::machine::HostIdle,
     stats: StatsSummary,
 }
 
 /// Runs the benchmark and prints JSON.
 pub fn run(
-    scene: &SceneArgs,
+    scene: &SceneRequest,
     voxel_size: Option<f64>,
     points: usize,
     frames: u64,
@@ -61,7 +61,7 @@ pub fn run(
             threads,
             frames_requested: frames,
             rt: report.rt,
-            host_idle: crate::host::HostIdle::read(),
+            host_idle: crate::machine::HostIdle::read(),
             stats: report.stats,
         },
         json,

@@ -52,7 +52,7 @@ struct GatherFigure {
 struct TransportReport {
     /// The coordinator's spin margin (`--spin-us`).
     spin_us: u64,
-    host_idle: crate::host::HostIdle,
+    host_idle: crate::machine::HostIdle,
     /// The unpinned ping-pong (the headline baseline).
     raw_udp: TransportPercentiles,
     raw_udp_round_trips: usize,
@@ -134,7 +134,7 @@ pub fn run(frames: u64, spin_us: u64, json: bool) -> Result<()> {
         "bench transport: gather round trip to local worker processes beside a raw UDP ping-pong",
         &TransportReport {
             spin_us,
-            host_idle: crate::host::HostIdle::read(),
+            host_idle: crate::machine::HostIdle::read(),
             raw_udp,
             raw_udp_round_trips: raw_udp_placements[0].round_trips,
             raw_udp_placements,

@@ -43,7 +43,7 @@ struct HostBench {
     seconds: f64,
     busy_us: u64,
     rt: RtGrant,
-    host_idle: crate::host::HostIdle,
+    host_idle: crate::machine::HostIdle,
     ticks: u64,
     /// Ticks whose start was a whole period late or more, or whose frame (start to the end of
     /// the busy stretch) lasted a period or more: the ticks a loop doing `busy_us` of work per
@@ -152,7 +152,7 @@ fn measure(length: Duration, busy_us: u64) -> HostBench {
                  start or a gap between two reads is time it did not run",
         seconds: (Instant::now() - start).as_secs_f64(),
         busy_us,
-        host_idle: crate::host::HostIdle::read(),
+        host_idle: crate::machine::HostIdle::read(),
         rt,
         ticks,
         disturbed_ticks: disturbed,

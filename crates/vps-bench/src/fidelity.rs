@@ -1,6 +1,5 @@
 //! `vps bench fidelity`: the analytic benchmark of `vps-fidelity` over the documented grid, as JSON.
 
-use crate::cli::FidelityModelArg;
 use anyhow::{bail, Result};
 use vps_app::output::print_report;
 use vps_fidelity::measure::{FidelityGrid, ForceModel};
@@ -9,12 +8,7 @@ use vps_fidelity::measure::{FidelityGrid, ForceModel};
 /// separation, and prints the report. Blocking, parallel.
 ///
 /// Errors: `--poses` outside 1..=64, a `--voxel-sizes` value outside [0.5 mm, 20 mm].
-pub fn run(
-    voxel_sizes: Vec<f64>,
-    poses: usize,
-    models: Vec<FidelityModelArg>,
-    json: bool,
-) -> Result<()> {
+pub fn run(voxel_sizes: Vec<f64>, poses: usize, models: Vec<ForceModel>, json: bool) -> Result<()> {
     if !(1..=64).contains(&poses) {
         bail!("--poses {poses} is out of range: allowed 1..=64");
     }
@@ -27,13 +21,7 @@ pub fn run(
     let grid = FidelityGrid {
         voxel_sizes_m: voxel_sizes,
         poses,
-        models: models
-            .iter()
-            .map(|m| match m {
-                FidelityModelArg::TangentPlane => ForceModel::TangentPlane,
-                FidelityModelArg::Distance => ForceModel::DISTANCE,
-            })
-            .collect(),
+        models,
         ..FidelityGrid::full()
     };
     print_report(
