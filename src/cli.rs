@@ -1,11 +1,12 @@
 //! Command-line definitions (clap). Lengths accept SI metres or a unit suffix (`5mm`).
 
-use crate::memory_size::parse_bytes;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
+use vps_app::limits::{
+    parse_bytes, parse_device, parse_force_scale, parse_frame_stride, parse_map_scale,
+    parse_pose_timeout_ms, parse_triple,
+};
 use vps_app::{BridgeOverrides, GatherRequest, SceneRequest, SessionRequest};
-use vps_input::bridge::config::POSE_TIMEOUT_RANGE_S;
-use vps_input::bridge::mapping::{MAX_FORCE_SCALE, SCALE_RANGE};
 use vps_session::file::Units;
 use vps_session::length::parse_length;
 
@@ -592,66 +593,6 @@ pub struct BridgeArgs {
     pub log_wrenches: Option<PathBuf>,
 }
 
-/// `--study-every`, `--every`: a whole number of frames in 1..=1000000.
-fn parse_frame_stride(text: &str) -> Result<usize, String> {
-    match text.trim().parse::<usize>() {
-        Ok(n) if (1..=1_000_000).contains(&n) => Ok(n),
-        _ => Err("a whole number of frames; allowed 1..=1000000".into()),
-    }
-}
-
-/// `--device`: one of the forms `vps_session::DeviceChoice::parse` accepts, checked before any
-/// work (the device itself is opened once the scene is built).
-fn parse_device(text: &str) -> Result<String, String> {
-    vps_session::DeviceChoice::parse(text).map(|_| text.to_string())
-}
-
-/// A finite number of `text` that `ok` accepts, else an error giving the allowed `range`.
-fn parse_in_range(text: &str, ok: impl Fn(f64) -> bool, range: &str) -> Result<f64, String> {
-    text.trim()
-        .parse::<f64>()
-        .ok()
-        .filter(|v| v.is_finite() && ok(*v))
-        .ok_or_else(|| format!("`{text}`: allowed {range}"))
-}
-
-/// `--map-scale`: scene metres per device metre, in the bridge's [`SCALE_RANGE`].
-fn parse_map_scale(text: &str) -> Result<f64, String> {
-    let range = format!("{} to {}", SCALE_RANGE.start(), SCALE_RANGE.end());
-    parse_in_range(text, |v| SCALE_RANGE.contains(&v), &range)
-}
-
-/// `--force-scale`: device force per scene force, in (0, [`MAX_FORCE_SCALE`]].
-fn parse_force_scale(text: &str) -> Result<f64, String> {
-    let range = format!("above 0, up to {MAX_FORCE_SCALE}");
-    parse_in_range(text, |v| v > 0.0 && v <= MAX_FORCE_SCALE, &range)
-}
-
-/// `--pose-timeout-ms`: the bridge's [`POSE_TIMEOUT_RANGE_S`], in ms.
-fn parse_pose_timeout_ms(text: &str) -> Result<f64, String> {
-    let (low, high) = (POSE_TIMEOUT_RANGE_S.start(), POSE_TIMEOUT_RANGE_S.end());
-    let range = format!("{} to {} (ms)", low * 1e3, high * 1e3);
-    parse_in_range(text, |v| POSE_TIMEOUT_RANGE_S.contains(&(v / 1e3)), &range)
-}
-
-/// Parses `X,Y,Z` (three finite numbers).
-fn parse_triple(text: &str) -> Result<[f64; 3], String> {
-    let parts: Vec<&str> = text.split(',').collect();
-    let [x, y, z] = parts[..] else {
-        return Err(format!("`{text}`: expected three numbers X,Y,Z"));
-    };
-    let mut out = [0.0; 3];
-    for (o, p) in out.iter_mut().zip([x, y, z]) {
-        *o = p
-            .trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| format!("`{p}` in `{text}` is not a finite number"))?;
-    }
-    Ok(out)
-}
-
 /// Where a mesh comes from: a file path or `builtin:NAME`.
 pub type MeshSource = String;
 
@@ -965,6 +906,49 @@ pub enum BenchKind {
         #[arg(long)]
         plot: Option<PathBuf>,
     },
+}
+
+impl DeployInitArgs {
+    /// The layout as `vps_deploy::layout` takes it.
+    pub fn request(&self) -> vps_deploy::layout::DeployRequest {
+        vps_deploy::layout::DeployRequest {
+            coordinator: self.coordinator.clone(),
+            worker: self.worker.clone(),
+            loopback: self.loopback,
+            port: self.port,
+            out: self.out.clone(),
+            json: self.json,
+        }
+    }
+}
+
+impl SweepArgs {
+    /// The sweep as `vps_bench::sweep` takes it.
+    pub fn request(&self) -> vps_bench::sweep::SweepRequest {
+        vps_bench::sweep::SweepRequest {
+            config: self.config.clone(),
+            json: self.json.clone(),
+            csv: self.csv.clone(),
+            plots: self.plots.clone(),
+            quick: self.quick,
+            scene: self.scene.clone(),
+        }
+    }
+}
+
+impl TuneArgs {
+    /// The tuning as `vps_bench::tune` takes it.
+    pub fn request(&self) -> vps_bench::tune::TuneRequest {
+        vps_bench::tune::TuneRequest {
+            scene: self.scene.clone(),
+            no_cache: self.no_cache,
+            budget_fraction: self.budget_fraction,
+            frames: self.frames,
+            verify_frames: self.verify_frames,
+            sweep: self.sweep.clone(),
+            json: self.json,
+        }
+    }
 }
 
 impl RunArgs {

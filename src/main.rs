@@ -21,7 +21,6 @@
 
 mod cli;
 mod cmd;
-mod memory_size;
 mod mesh_arg;
 mod service_config;
 

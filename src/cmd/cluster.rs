@@ -2,7 +2,7 @@
 //! (docs/architecture.md#exact-sums-and-the-cluster), thin shells over `vps-cluster`.
 
 use crate::cli::{ClusterArgs, CoordinatorArgs, WorkerArgs};
-use crate::service_config::{expand_pins, resolve_coordinator, resolve_worker};
+use crate::service_config::{resolve_coordinator, resolve_worker};
 use anyhow::{bail, Result};
 use clap::ArgMatches;
 use std::sync::atomic::AtomicBool;
@@ -10,6 +10,7 @@ use std::sync::Arc;
 use vps_app::exit::SessionExit;
 use vps_app::{prepare, Backend, ClusterBackend, Workers};
 use vps_cluster::{make_cert, run_worker_service, ClusterError, PeerTls, Rejoin, WorkerConfig};
+use vps_deploy::service_files::expand_pins;
 use vps_runtime::SignalStop;
 
 /// `vps cert`: a new self-signed certificate and key for a coordinator or worker.

@@ -2,18 +2,14 @@
 
 mod cluster;
 mod demo;
-mod deploy;
+
 mod inspect;
 mod netem_relay;
 mod probe;
 mod run;
-mod scene_check;
+
 mod shell;
 mod study;
-mod sweep;
-mod sweep_plots;
-mod sweep_text;
-mod tune;
 mod view;
 mod voxelize;
 
@@ -45,20 +41,20 @@ pub fn dispatch(cli: Cli, matches: &ArgMatches) -> Result<()> {
                 scene,
                 json,
                 max_memory,
-            } => scene_check::run(&scene, json, max_memory),
+            } => vps_app::scene_check::run(&scene, json, max_memory),
         },
         Command::Devices { json } => run::devices(json),
         Command::Cert { out, name } => cluster::cert(&out, &name),
         Command::Deploy(args) => match args.which {
-            DeployCommand::Init(args) => deploy::init(&args),
+            DeployCommand::Init(args) => vps_deploy::layout::init(&args.request()),
         },
         Command::Worker(args) => cluster::worker(args, &sub("worker")),
         Command::Coordinator(args) => cluster::coordinator(args, &sub("coordinator")),
         Command::Cluster(args) => cluster::local_cluster(&args),
         Command::NetemRelay(args) => netem_relay::run(&args),
         Command::View(args) => view::run(&args),
-        Command::Sweep(args) => sweep::run(&args),
-        Command::Tune(args) => tune::run(&args),
+        Command::Sweep(args) => vps_bench::sweep::run(&args.request()),
+        Command::Tune(args) => vps_bench::tune::run(&args.request()),
         Command::Bench(args) => {
             let json = args.json;
             match args.which {

@@ -13,7 +13,7 @@
 //! end: files and figures), [`session_files`] (the files a session writes, checked first),
 //! [`study`] (a session's assembly study), [`study_view`] (a study as the viewer's page scrubs
 //! it), [`scene_view`] (what the viewer draws of a scene), [`parts_report`] (the per-part lines
-//! of a report), [`sweep`] (the sessions of the sweep and tune), [`output`] (stdout, JSON, output
+//! of a report), [`output`] (stdout, JSON, output
 //! files), [`exit`] (exit statuses), [`limits`] (bounds on what a command line asks).
 //!
 //! Units: SI (m, s, N, N·m) unless a name says otherwise (`_ms`, `_us`, `_deg`).
@@ -25,19 +25,19 @@
 pub mod cluster;
 pub mod exit;
 pub mod finish;
+pub mod kernel_timing;
 pub mod limits;
 pub mod output;
 pub mod parts_report;
 pub mod prepare;
 pub mod request;
 pub mod run;
+pub mod scene_check;
 pub mod scene_view;
 pub mod scripted;
 pub mod session_files;
 pub mod study;
 pub mod study_view;
-pub mod svg;
-pub mod sweep;
 
 pub use cluster::{ClusterBackend, CoordinatedRun, Workers};
 pub use finish::finish;

@@ -1,6 +1,10 @@
-//! Bounds on the resources a command line names: thread and process counts by the machine's
-//! cores, session lengths by a finite maximum. Used as clap value parsers, so an error names the
+//! Bounds on what a command line asks: thread and process counts by the machine's cores, session
+//! lengths by a finite maximum, the bridge's mapping and timeouts by the bridge's own ranges,
+//! memory sizes, frame strides and coordinates. Used as clap value parsers, so an error names the
 //! flag and the value (clap adds them) and says the allowed range.
+
+use vps_input::bridge::config::POSE_TIMEOUT_RANGE_S;
+use vps_input::bridge::mapping::{MAX_FORCE_SCALE, SCALE_RANGE};
 
 /// Compute threads or worker processes per core at most: more only queue behind each other
 /// (`--threads 10000` started 10,003 threads and missed 4,031 of 1,000 deadlines).
@@ -93,6 +97,92 @@ pub fn parse_ip_port(text: &str) -> Result<std::net::SocketAddr, String> {
     })
 }
 
+/// `--study-every`, `--every`: a whole number of frames in 1..=1000000.
+pub fn parse_frame_stride(text: &str) -> Result<usize, String> {
+    match text.trim().parse::<usize>() {
+        Ok(n) if (1..=1_000_000).contains(&n) => Ok(n),
+        _ => Err("a whole number of frames; allowed 1..=1000000".into()),
+    }
+}
+
+/// `--device`: one of the forms `vps_session::DeviceChoice::parse` accepts, checked before any
+/// work (the device itself is opened once the scene is built).
+pub fn parse_device(text: &str) -> Result<String, String> {
+    vps_session::DeviceChoice::parse(text).map(|_| text.to_string())
+}
+
+/// A finite number of `text` that `ok` accepts, else an error giving the allowed `range`.
+pub fn parse_in_range(text: &str, ok: impl Fn(f64) -> bool, range: &str) -> Result<f64, String> {
+    text.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite() && ok(*v))
+        .ok_or_else(|| format!("`{text}`: allowed {range}"))
+}
+
+/// `--map-scale`: scene metres per device metre, in the bridge's [`SCALE_RANGE`].
+pub fn parse_map_scale(text: &str) -> Result<f64, String> {
+    let range = format!("{} to {}", SCALE_RANGE.start(), SCALE_RANGE.end());
+    parse_in_range(text, |v| SCALE_RANGE.contains(&v), &range)
+}
+
+/// `--force-scale`: device force per scene force, in (0, [`MAX_FORCE_SCALE`]].
+pub fn parse_force_scale(text: &str) -> Result<f64, String> {
+    let range = format!("above 0, up to {MAX_FORCE_SCALE}");
+    parse_in_range(text, |v| v > 0.0 && v <= MAX_FORCE_SCALE, &range)
+}
+
+/// `--pose-timeout-ms`: the bridge's [`POSE_TIMEOUT_RANGE_S`], in ms.
+pub fn parse_pose_timeout_ms(text: &str) -> Result<f64, String> {
+    let (low, high) = (POSE_TIMEOUT_RANGE_S.start(), POSE_TIMEOUT_RANGE_S.end());
+    let range = format!("{} to {} (ms)", low * 1e3, high * 1e3);
+    parse_in_range(text, |v| POSE_TIMEOUT_RANGE_S.contains(&(v / 1e3)), &range)
+}
+
+/// Parses `X,Y,Z` (three finite numbers).
+pub fn parse_triple(text: &str) -> Result<[f64; 3], String> {
+    let parts: Vec<&str> = text.split(',').collect();
+    let [x, y, z] = parts[..] else {
+        return Err(format!("`{text}`: expected three numbers X,Y,Z"));
+    };
+    let mut out = [0.0; 3];
+    for (o, p) in out.iter_mut().zip([x, y, z]) {
+        *o = p
+            .trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| format!("`{p}` in `{text}` is not a finite number"))?;
+    }
+    Ok(out)
+}
+
+/// Parses a memory size in bytes: a bare integer (bytes) or a number followed by `KiB`, `MiB`,
+/// `GiB`, `TiB` (powers of 1024) or `kB`, `MB`, `GB`, `TB` (powers of 1000), case-insensitive.
+/// The result is at least one byte, or an error saying what was wrong.
+pub fn parse_bytes(text: &str) -> Result<u64, String> {
+    let lower = text.to_ascii_lowercase();
+    let units: [(&str, f64); 9] = [
+        ("kib", 1024.0),
+        ("mib", 1024.0 * 1024.0),
+        ("gib", 1024.0 * 1024.0 * 1024.0),
+        ("tib", 1024.0 * 1024.0 * 1024.0 * 1024.0),
+        ("kb", 1e3),
+        ("mb", 1e6),
+        ("gb", 1e9),
+        ("tb", 1e12),
+        ("b", 1.0),
+    ];
+    let bytes = vps_units::scaled_number(&lower, &units)
+        .ok_or_else(|| format!("'{text}' is not a memory size (examples: 16GiB, 512MiB, 8GB)"))?;
+    if !bytes.is_finite() || bytes < 1.0 || bytes >= u64::MAX as f64 {
+        return Err(format!(
+            "'{text}' must be a memory size from 1 byte to 16 EiB"
+        ));
+    }
+    Ok(bytes as u64)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -114,6 +204,23 @@ mod tests {
         for bad in ["0", "-1", "nan", "inf", "1e300", "x"] {
             let err = parse_seconds(bad).unwrap_err();
             assert!(err.contains("> 0") && err.contains("1e7 s"), "{bad}: {err}");
+        }
+    }
+}
+
+#[cfg(test)]
+mod memory_size_tests {
+    use super::parse_bytes;
+
+    #[test]
+    fn memory_sizes() {
+        assert_eq!(parse_bytes("16GiB").unwrap(), 16 << 30);
+        assert_eq!(parse_bytes("512 MiB").unwrap(), 512 << 20);
+        assert_eq!(parse_bytes("8GB").unwrap(), 8_000_000_000);
+        assert_eq!(parse_bytes("1.5gib").unwrap(), 3 << 29);
+        assert_eq!(parse_bytes("4096").unwrap(), 4096);
+        for bad in ["", "GiB", "-1GiB", "0", "nan", "1e30TiB", "12 parsecs"] {
+            assert!(parse_bytes(bad).is_err(), "{bad} accepted");
         }
     }
 }

@@ -11,15 +11,15 @@
 //! and, in a second slot of the same size, nothing. Full contact: the shell centred in the band slot,
 //! every point in a Surface voxel of a mixed (non-tile) leaf. Free space: the same shell centred in
 //! the empty slot, every point in Free tiles. Both poses read the same tree in the same run. The
-//! case is built by `crate::kernel_timing` (`vps scene check` times the same contact case).
+//! case is built by `vps_app::kernel_timing` (`vps scene check` times the same contact case).
 
-use crate::kernel_timing::{band_scene, shell_radius_vox, sphere_band, sphere_shell, VOXEL_SIZE};
 use crate::machine::load_average;
 use anyhow::Result;
 use glam::{DQuat, DVec3};
 use serde::Serialize;
 use std::hint::black_box;
 use std::time::Instant;
+use vps_app::kernel_timing::{band_scene, shell_radius_vox, sphere_band, sphere_shell, VOXEL_SIZE};
 use vps_haptic::{sample_all, ClassedShell, KernelPose, PartState, PartialSums};
 use vps_voxmap::distance::DEFAULT_STANDOFF_VOXELS;
 use vps_voxmap::{GridSpec, VoxelLookup};

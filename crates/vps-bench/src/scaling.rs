@@ -13,13 +13,13 @@
 //! w workers + the coordinator's thread). One JSON report and, with `--plot`, one SVG of both.
 
 use crate::machine::load_average;
+use crate::svg::{draw_legend, write_svg};
 use anyhow::{bail, Context, Result};
 use plotters::prelude::*;
 use serde::Serialize;
 use std::path::Path;
 use std::process::Command;
 use vps_app::output::print_report;
-use vps_app::svg::{draw_legend, write_svg};
 
 /// What to measure.
 #[derive(Clone, Debug)]

@@ -5,15 +5,34 @@
 //! SIGINT, SIGTERM and SIGHUP stop it: the running session's device is written zero, the report
 //! so far is printed (`complete: false`, `end` says why) and the exit status is `128 + N`.
 
-use crate::cli::TuneArgs;
+use crate::sweep::session::{run_sweep_session, session_on, SweepRow, SweepSession, SweepTable};
 use anyhow::{bail, Result};
 use serde::Serialize;
 use std::path::Path;
 use vps_app::exit::{outcome, SessionExit};
-use vps_app::sweep::{run_sweep_session, session_on, SweepRow, SweepSession, SweepTable};
 use vps_runtime::{SessionEnd, SignalStop, StatsSummary};
 use vps_session::file::ForceModelName;
 use vps_session::{stop_on_signals, CachePolicy, LoadedScene};
+
+/// What `vps tune` is asked: the scene, the budget and the frames of each measurement.
+#[derive(Debug, Clone)]
+pub struct TuneRequest {
+    /// The scene (a scene file or `builtin:NAME`).
+    pub scene: String,
+    /// Always voxelize: neither read nor write the voxmap cache.
+    pub no_cache: bool,
+    /// The share of the 1 ms frame that frame compute p99.9 may take (0 to 1).
+    pub budget_fraction: f64,
+    /// Frames per free-running measurement.
+    pub frames: u64,
+    /// Frames of the paced verification run.
+    pub verify_frames: u64,
+    /// A sweep table (`vps sweep --json FILE`) for the predicted accuracy; `None`: the built-in
+    /// one.
+    pub sweep: Option<std::path::PathBuf>,
+    /// Print as JSON.
+    pub json: bool,
+}
 
 /// Candidate voxel sizes (mm), coarse to fine.
 const SIZES_MM: [f64; 5] = [10.0, 5.0, 2.5, 1.25, 0.625];
@@ -56,7 +75,7 @@ const MAX_SWEEP_TABLE_BYTES: u64 = 256 << 20;
 
 /// The built-in sweep table: docs/sweep/sweep.json as built into vps (the built-in scenes' rows),
 /// used without `--sweep`.
-const BUILTIN_SWEEP_TABLE: &str = include_str!("../../docs/sweep/sweep.json");
+const BUILTIN_SWEEP_TABLE: &str = include_str!("../../../docs/sweep/sweep.json");
 
 /// How the report names [`BUILTIN_SWEEP_TABLE`].
 const BUILTIN_SWEEP_TABLE_NAME: &str = "the built-in sweep table (docs/sweep/sweep.json)";
@@ -132,7 +151,7 @@ fn accuracy_figures(r: &SweepRow) -> String {
 
 /// Prints `report` (stopped by a signal while `what`) and fails with exit status `128 + N`.
 fn stopped(
-    args: &TuneArgs,
+    args: &TuneRequest,
     mut report: TuneReport,
     signals: &SignalStop,
     what: &str,
@@ -156,7 +175,7 @@ fn stopped(
 }
 
 /// Runs `vps tune`.
-pub fn run(args: &TuneArgs) -> Result<()> {
+pub fn run(args: &TuneRequest) -> Result<()> {
     if !(args.budget_fraction > 0.0 && args.budget_fraction <= 1.0) {
         bail!(
             "--budget-fraction {} must be in (0, 1]",

@@ -3,11 +3,11 @@
 //! (solid 2-bit, dashed 4-bit, dotted 8-bit) and the marker too (circle, triangle, cross); the
 //! scene's own width and method (`default` rows) are drawn thicker.
 
+use crate::svg::{draw_legend, write_svg};
+use crate::sweep::session::SweepRow;
 use anyhow::{Context, Result};
 use plotters::prelude::*;
 use std::path::Path;
-use vps_app::svg::{draw_legend, write_svg};
-use vps_app::sweep::SweepRow;
 
 /// A figure: file stem, y-axis label, the value of a row.
 type Figure = (&'static str, &'static str, fn(&SweepRow) -> Option<f64>);

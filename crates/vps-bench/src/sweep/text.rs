@@ -2,8 +2,8 @@
 //! measured, with what each `-` means), and per scene the recommended voxel settings with the rule
 //! that chose them. `--json` has every figure (a `-` is `null` there).
 
+use crate::sweep::session::{SweepRow, SweepTable};
 use vps_app::output::grouped;
-use vps_app::sweep::{SweepRow, SweepTable};
 use vps_session::file::{ForceModelName, ShellMethodName};
 
 /// The frame compute p99.9 (µs) a recommended row must fit: 60 % of the 1 ms period, as

@@ -20,7 +20,7 @@ where
         draw(&root)?;
         root.present()?;
     }
-    crate::output::write_file(path, svg.as_bytes())
+    vps_app::output::write_file(path, svg.as_bytes())
 }
 
 /// Draws the series' legend as the plots share it: a white box, 80 % opaque, with a black border.

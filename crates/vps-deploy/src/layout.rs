@@ -5,12 +5,11 @@
 //! `vps cert` makes them, named after the host; the key mode 0600), `pins/` with the certificates
 //! of the peers it admits (a coordinator its workers', a worker its coordinator's), and its
 //! `coordinator.toml` or `worker.toml` in the format of configs/ (relative paths, so the folder
-//! works wherever it is copied: src/service_config.rs takes them from the file's directory).
+//! works wherever it is copied: [`crate::service_files`] takes them from the file's directory).
 //! `README.txt` beside the folders says which command to run on which host. Nothing is ever
 //! overwritten: every path is checked before the first file is written, and each file is created
 //! new.
 
-use crate::cli::DeployInitArgs;
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -20,6 +19,24 @@ use std::path::{Path, PathBuf};
 use vps_app::limits::MAX_WORKERS;
 use vps_app::output::print_summary;
 use vps_cluster::tls::{fingerprint, load_cert, FINGERPRINT_COMMAND};
+
+/// What `vps deploy init` is asked: the hosts (or a one-host rehearsal), the port and the
+/// folder to write. Ranges are checked here ([`init`]) and by the command line's parsers.
+#[derive(Debug, Clone, Default)]
+pub struct DeployRequest {
+    /// The coordinator host, `NAME=IP[:PORT]`: the address its workers dial.
+    pub coordinator: Option<String>,
+    /// The worker hosts, each `NAME` or `NAME=ADDR`.
+    pub worker: Vec<String>,
+    /// A one-host rehearsal instead: a coordinator on 127.0.0.1 and this many workers (1..=64).
+    pub loopback: Option<usize>,
+    /// The coordinator's UDP port where `coordinator` gives none, and with `loopback`.
+    pub port: u16,
+    /// The folder to write (created; the files in it must not exist yet).
+    pub out: PathBuf,
+    /// Print what was written as JSON.
+    pub json: bool,
+}
 
 /// The longest host name (it names a folder and a certificate).
 const MAX_NAME_LEN: usize = 64;
@@ -159,16 +176,16 @@ impl std::fmt::Display for DeployLayout {
     }
 }
 
-/// `vps deploy init`: writes the layout of [`DeployInitArgs`] into its `--out` folder and prints
+/// `vps deploy init`: writes the layout of [`DeployRequest`] into its `--out` folder and prints
 /// what it wrote (text, or JSON with `--json`).
-pub fn init(args: &DeployInitArgs) -> Result<()> {
+pub fn init(args: &DeployRequest) -> Result<()> {
     let plan = plan(args)?;
     let layout = write_layout(&plan, &args.out)?;
     print_summary(&layout, args.json)
 }
 
 /// Reads the hosts of the command line.
-fn plan(args: &DeployInitArgs) -> Result<Plan> {
+fn plan(args: &DeployRequest) -> Result<Plan> {
     if let Some(n) = args.loopback {
         let dial = SocketAddr::new(IpAddr::V4(Ipv4Addr::LOCALHOST), args.port);
         let mut hosts = vec![HostPlan {

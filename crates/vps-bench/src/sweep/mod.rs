@@ -9,7 +9,7 @@
 //! SIGINT, SIGTERM and SIGHUP stop it: the running session's device is written zero and the rows
 //! done are written as a partial table (exit status 128 + N). See docs/sweep.md.
 
-use crate::cli::SweepArgs;
+use crate::sweep::session::{run_sweep_session, session_on, SweepRow, SweepSession, SweepTable};
 use anyhow::{Context, Result};
 use glam::DVec3;
 use std::path::{Path, PathBuf};
@@ -17,7 +17,6 @@ use std::sync::atomic::Ordering;
 use std::time::Instant;
 use vps_app::exit::SessionExit;
 use vps_app::output::{check_outputs, write_file};
-use vps_app::sweep::{run_sweep_session, session_on, SweepRow, SweepSession, SweepTable};
 use vps_device::{HandParams, HapticDevice, SimulatedHand};
 use vps_haptic::{sample_all, step, HapticParams, KernelPose, PartState, Wrench};
 use vps_reference::{reference_contact, ExactScene};
@@ -30,10 +29,31 @@ use vps_session::sweep_file::{
 };
 use vps_session::{stop_on_signals, CachePolicy, LoadedScene};
 
+pub mod plots;
+pub mod session;
+pub mod text;
+
+/// What `vps sweep` is asked: the sweep file, where its table goes and how much of it runs.
+#[derive(Debug, Clone, Default)]
+pub struct SweepRequest {
+    /// The sweep file (TOML); `None`: the built-in one.
+    pub config: Option<std::path::PathBuf>,
+    /// Write the table as JSON here; `-`: print it as JSON instead of text.
+    pub json: Option<std::path::PathBuf>,
+    /// Write the table as CSV here.
+    pub csv: Option<std::path::PathBuf>,
+    /// Write SVG plots into this folder.
+    pub plots: Option<std::path::PathBuf>,
+    /// Test-sized: each scene at its own voxel size and at twice it, sessions cut to 2 s.
+    pub quick: bool,
+    /// Sweep this scene (file or `builtin:NAME`) instead of the sweep file's runs.
+    pub scene: Option<String>,
+}
+
 /// Runs the sweep. SIGINT, SIGTERM and SIGHUP stop it: the running session's device is written
 /// zero, the rows done so far are written (marked partial, with the reason) and the command fails
 /// with exit status `128 + N`.
-pub fn run(args: &SweepArgs) -> Result<()> {
+pub fn run(args: &SweepRequest) -> Result<()> {
     let (config, config_name) = match &args.config {
         Some(path) => {
             let text = vps_files::read_regular_to_string(path, MAX_SWEEP_FILE_BYTES).with_context(
@@ -185,7 +205,7 @@ fn no_contact_note(rows: &[SweepRow], quick: bool) -> Option<String> {
 
 /// The sweep was stopped by a signal during `what` (its device already written zero): writes
 /// the rows done, marked partial with the reason, and fails with exit status `128 + N`.
-fn stopped(args: &SweepArgs, rows: &[SweepRow], signals: &SignalStop, what: &str) -> Result<()> {
+fn stopped(args: &SweepRequest, rows: &[SweepRow], signals: &SignalStop, what: &str) -> Result<()> {
     let (end, code) = vps_app::exit::outcome(&SessionEnd::Stopped, Some(signals));
     let end = format!(
         "{end} during {what} (that row is left out; {} rows done)",
@@ -485,7 +505,7 @@ fn csv(table: &SweepTable) -> Result<String> {
 /// Writes the JSON (to stdout with `--json`, else to its file), the CSV and the plots, and prints
 /// the table as text with its recommendation unless the JSON went to stdout; files are written
 /// atomically.
-fn write_outputs(args: &SweepArgs, table: &SweepTable) -> Result<()> {
+fn write_outputs(args: &SweepRequest, table: &SweepTable) -> Result<()> {
     let json = serde_json::to_string_pretty(table)? + "\n";
     match &args.json {
         Some(path) if path == Path::new(JSON_TO_STDOUT) => {
@@ -495,14 +515,14 @@ fn write_outputs(args: &SweepArgs, table: &SweepTable) -> Result<()> {
         None => {}
     }
     if args.json.as_deref() != Some(Path::new(JSON_TO_STDOUT)) {
-        vps_app::output::outln!("{}", super::sweep_text::table_text(table).trim_end())?;
+        vps_app::output::outln!("{}", text::table_text(table).trim_end())?;
     }
     if let Some(path) = &args.csv {
         write_file(path, csv(table)?.as_bytes())?;
     }
     if let Some(dir) = &args.plots {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        super::sweep_plots::plot_all(&table.rows, dir)?;
+        plots::plot_all(&table.rows, dir)?;
     }
     Ok(())
 }

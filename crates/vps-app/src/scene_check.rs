@@ -1,13 +1,13 @@
 //! `vps scene check FILE`: validates a scene without running it and prints what it will build:
 //! triangles and bounds (m) of every object and the part, the voxmap's estimated voxels and
 //! memory, the shell's point count, and whether a frame fits the budget on this machine (from the
-//! current sampling kernel's cost per point, measured briefly: [`vps_bench::kernel_timing`]); and the
+//! current sampling kernel's cost per point, measured briefly: [`crate::kernel_timing`]); and the
 //! effective voxel settings, where each came from (the scene file or the built-in default) and
 //! why.
 
+use crate::output::{metres_4, print_json};
 use anyhow::Result;
 use serde::Serialize;
-use vps_app::output::{metres_4, print_json};
 use vps_files::printable;
 use vps_mesh::Aabb;
 use vps_session::estimate::{size_text, SceneMemoryEstimate, VoxmapEstimate};
@@ -282,7 +282,7 @@ pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
             m.viewer_bytes
         });
     let shell = loaded.build_shell(voxels.voxel_size, voxels.shell_method.method())?;
-    let ns_per_point = vps_bench::kernel_timing::contact_ns_per_point(
+    let ns_per_point = crate::kernel_timing::contact_ns_per_point(
         shell.len().max(1),
         KERNEL_BATCH_SECONDS,
         voxels.standoff_at(voxels.voxel_size).is_some(),
