@@ -117,11 +117,6 @@ impl SceneArgs {
             max_memory: self.max_memory,
         }
     }
-
-    /// How to build the scene: `voxel_size` (m) instead of the scene's when given.
-    pub fn build_options(&self, voxel_size: Option<f64>) -> vps_session::BuildOptions {
-        self.request().build_options(voxel_size)
-    }
 }
 
 /// Arguments of `vps scene`.
@@ -906,6 +901,23 @@ pub enum BenchKind {
         #[arg(long)]
         plot: Option<PathBuf>,
     },
+}
+
+impl DemoArgs {
+    /// The demo's session as the application layer takes it ([`vps_app::demo::run`]).
+    pub fn request(&self) -> SessionRequest {
+        SessionRequest {
+            scene: self.scene.request(),
+            voxel_size: self.voxel_size,
+            seconds: self.seconds,
+            threads: self.threads,
+            json: self.json,
+            study: self.study.clone(),
+            study_every: self.study_every,
+            view: self.view,
+            ..SessionRequest::default()
+        }
+    }
 }
 
 impl DeployInitArgs {

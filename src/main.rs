@@ -1,23 +1,21 @@
-//! `vps`: the command-line front end of voxel-sampling haptic rendering.
+//! `vps`: the command-line front end of voxel-sampling haptic rendering: the command line,
+//! dispatch and printing, and nothing else (`tests/binary_layout.rs` holds it to 3,000 lines and
+//! checks that no command module builds a session).
 //!
-//! Every subcommand is a shell over the library crates (docs/architecture.md draws them):
-//! `vps-session` (scene files, their assets and a session's plan), `vps-runtime` (the 1 kHz
-//! loop), `vps-haptic` (the frame), `vps-cluster` (coordinator and workers), `vps-view` (the
-//! browser viewer), `vps-study` (a session's evidence), `vps-fidelity` (the analytic benchmark),
-//! and below them `vps-mesh`, `vps-step`, `vps-voxelize`, `vps-voxmap`, `vps-device` and
-//! `vps-input`.
+//! Every subcommand is a shell over the library crates (docs/architecture.md draws them): the
+//! application layer `vps-app` (a session prepared from a request and run locally or with
+//! workers, its end, report and study; `vps demo`; `vps scene check`), `vps-bench` (the
+//! benchmarks, sweep and tune), `vps-deploy` (the services' config files and `vps deploy init`),
+//! and below them `vps-session` (scene files and their assets), `vps-runtime` (the 1 kHz loop),
+//! `vps-haptic` (the frame), `vps-cluster` (coordinator and workers), `vps-view` (the browser
+//! viewer), `vps-study` (a session's evidence), `vps-fidelity` (the analytic benchmark),
+//! `vps-mesh`, `vps-step`, `vps-voxelize`, `vps-voxmap`, `vps-device` and `vps-input`.
 //!
-//! Layout: [`cli`] (the command line), `cmd/` (one module per subcommand; none imports another),
-//! and the support modules they share, which import no subcommand: [`session_io`] (sessions
-//! opened from the command line, their viewer, files and figures), [`cluster_session`]
-//! (coordinated sessions), [`service_config`] (`--config` files of the cluster services),
-//! [`output`] (stdout, JSON, output files), [`exit`] (exit statuses),
-//! [`host`] (the machine's state beside benchmark figures), [`sweep_session`] (sessions of the
-//! sweep and tune), [`session_study`] (a session's assembly study), [`study_view`] (a study as
-//! the viewer's page scrubs it), [`scene_view`] (what the viewer draws of a scene),
-//! [`parts_report`] (the per-part lines of a report), [`mesh_arg`] (the mesh argument of
-//! `voxelize` and `shell`), [`svg`] (plots), [`kernel_timing`] (the kernel timed for `scene
-//! check`), [`limits`] and [`memory_size`] (value parsers).
+//! Layout: [`cli`] (the command line; each session command's flags become a
+//! `vps_app::SessionRequest`), `cmd/` (one module per subcommand; none imports another), and the
+//! modules they share, which import no subcommand: [`service_config`] (a cluster service's
+//! `--config` file merged under its flags), [`mesh_arg`] (the mesh argument of `voxelize` and
+//! `shell`).
 
 mod cli;
 mod cmd;

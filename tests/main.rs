@@ -2,6 +2,7 @@
 //! module, so the workspace is linked once for them all instead of once per file. Run one
 //! file's tests with `cargo test --test integration FILE::`.
 
+mod binary_layout;
 mod bounds;
 mod bridge_clients;
 mod cli;

@@ -1,7 +1,6 @@
 //! One module per subcommand; [`dispatch`] routes the parsed command line.
 
 mod cluster;
-mod demo;
 
 mod inspect;
 mod netem_relay;
@@ -31,7 +30,7 @@ pub fn dispatch(cli: Cli, matches: &ArgMatches) -> Result<()> {
         Command::Shell(args) => shell::run(&args),
         Command::Inspect(args) => inspect::run(&args),
         Command::Probe(args) => probe::run(&args),
-        Command::Demo(args) => demo::run(&args),
+        Command::Demo(args) => vps_app::demo::run(&args.request()),
         Command::Run(args) => run::run(&args),
         Command::Record(args) => run::record(&args),
         Command::Replay(args) => run::replay(&args),

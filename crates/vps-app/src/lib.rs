@@ -8,7 +8,7 @@
 //! and study ([`study`]) and prints the figures.
 //!
 //! Module map: [`request`] (what is asked), [`prepare`](mod@prepare) (scene, device, plan),
-//! [`run`](mod@run) (backends), [`cluster`] (coordinated sessions), [`scripted`] (the simulated
+//! [`run`](mod@run) (backends), [`cluster`] (coordinated sessions), [`demo`] (`vps demo`: the main job), [`scripted`] (the simulated
 //! hand's scripted session of `vps demo` and the benchmarks), [`finish`](mod@finish) (a session's
 //! end: files and figures), [`session_files`] (the files a session writes, checked first),
 //! [`study`] (a session's assembly study), [`study_view`] (a study as the viewer's page scrubs
@@ -23,6 +23,7 @@
 #![warn(missing_docs)]
 
 pub mod cluster;
+pub mod demo;
 pub mod exit;
 pub mod finish;
 pub mod kernel_timing;

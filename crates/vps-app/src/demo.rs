@@ -3,13 +3,13 @@
 //! user, on the 1 kHz loop; then the same scripted session again with pre-contact braking off, for
 //! the penetration ratio of both.
 
-use crate::cli::DemoArgs;
+use crate::exit::{outcome, SessionExit};
+use crate::finish::print_summary;
+use crate::output::print_json;
+use crate::request::SessionRequest;
+use crate::scripted::{run_scripted, Scripted};
 use anyhow::Result;
 use serde::Serialize;
-use vps_app::exit::{outcome, SessionExit};
-use vps_app::finish::print_summary;
-use vps_app::output::print_json;
-use vps_app::scripted::{run_scripted, Scripted};
 use vps_haptic::HapticParams;
 use vps_runtime::StatsSummary;
 use vps_session::{stop_on_signals, SessionAssets};
@@ -35,16 +35,18 @@ struct DemoReport {
     braking_off: StatsSummary,
     /// Every moving part of the braking-on session, in a scene of several (absent for one).
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    parts: Vec<vps_app::parts_report::PartSummary>,
+    parts: Vec<crate::parts_report::PartSummary>,
     /// The pairs of that session, counted (absent for one part).
     #[serde(skip_serializing_if = "Option::is_none")]
     pairs: Option<vps_runtime::PairCounts>,
 }
 
-/// Runs the demo.
-pub fn run(args: &DemoArgs) -> Result<()> {
+/// Runs the demo on the request's scene (`scene`, `voxel_size`, `seconds`, `threads`, `view`,
+/// `study`, `study_every`, `json`; its device, outputs and overrides are not used: the simulated
+/// hand runs the scene's script). Blocks for both sessions.
+pub fn run(args: &SessionRequest) -> Result<()> {
     if let Some(dir) = &args.study {
-        vps_app::session_files::reserve_study_dir(dir, &[])?;
+        crate::session_files::reserve_study_dir(dir, &[])?;
     }
     let scene = SessionAssets::open(
         &args.scene.scene,
@@ -60,7 +62,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     };
     let threads = args.threads.max(1);
     // Without --seconds, each session follows the scene's hand path to its end.
-    let seconds = vps_app::prepare::session_seconds(
+    let seconds = crate::prepare::session_seconds(
         args.seconds,
         &vps_session::DeviceChoice::Simulated,
         scene.hands_duration(&scene.script()?)?,
@@ -86,7 +88,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             threads
         );
     }
-    let viewer = vps_app::scene_view::attach_viewer(args.view, &scene)?;
+    let viewer = crate::scene_view::attach_viewer(args.view, &scene)?;
     let feed = || viewer.as_ref().map(|v| v.feed());
     let session = |params: HapticParams, how: Scripted| {
         let report = run_scripted(
@@ -123,7 +125,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     };
     let off = session(off_params, Scripted::paced(false))?;
     if let Some(dir) = &args.study {
-        vps_app::study::write_session_study(
+        crate::study::write_session_study(
             dir,
             args.study_every,
             &scene,
@@ -145,7 +147,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             threads,
             realtime_granted: on.rt.fifo,
             pinned_core: on.rt.pinned_core,
-            parts: vps_app::parts_report::part_summaries(&scene, &on),
+            parts: crate::parts_report::part_summaries(&scene, &on),
             pairs: (!on.other_parts.is_empty()).then_some(on.pairs),
             braking_on: on.stats,
             braking_off: off.stats,
@@ -168,12 +170,12 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     );
     if !on.other_parts.is_empty() {
         println!("the parts in the braking-on session:");
-        vps_app::parts_report::print_parts(
-            &vps_app::parts_report::part_summaries(&scene, &on),
+        crate::parts_report::print_parts(
+            &crate::parts_report::part_summaries(&scene, &on),
             &on.pairs,
         );
     }
-    for line in vps_app::finish::SESSION_LEGEND {
+    for line in crate::finish::SESSION_LEGEND {
         println!("{line}");
     }
     Ok(())
