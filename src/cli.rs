@@ -6,7 +6,7 @@ use vps_app::limits::{
     parse_bytes, parse_device, parse_force_scale, parse_frame_stride, parse_map_scale,
     parse_pose_timeout_ms, parse_triple,
 };
-use vps_app::{BridgeOverrides, GatherRequest, SceneRequest, SessionRequest};
+use vps_app::{BridgeOverrides, SceneRequest, SessionRequest};
 use vps_session::file::Units;
 use vps_session::length::parse_length;
 
@@ -96,16 +96,6 @@ pub struct SceneArgs {
     /// and refused above it (bytes, or 16GiB, 512MiB, 8GB; default half of physical memory).
     #[arg(long, value_parser = parse_bytes, value_name = "SIZE")]
     pub max_memory: Option<u64>,
-}
-
-impl Default for SceneArgs {
-    fn default() -> Self {
-        SceneArgs {
-            scene: vps_session::DEFAULT_SCENE.into(),
-            no_cache: false,
-            max_memory: None,
-        }
-    }
 }
 
 impl SceneArgs {
@@ -390,13 +380,13 @@ pub struct GatherArgs {
     /// thread's core then does nothing else; use it only where each worker and the coordinator's
     /// network thread have cores of their own (two local workers on two cores: worst gather p99.9
     /// 0.2–0.5 → 4.1–4.2 ms).
-    #[arg(long, default_value_t = vps_app::request::default_spin_us())]
+    #[arg(long, default_value_t = default_spin_us())]
     pub spin_us: u64,
     /// A missing worker share whose local recompute cannot finish before the device write is due
     /// may be stood in for by its sums from up to this many frames earlier (degraded accuracy,
     /// counted as `stale_shares`); 0 always recomputes, so the wrench stays bit-identical to a
     /// one-process session whatever the timing.
-    #[arg(long, default_value_t = vps_app::request::default_max_stale_frames())]
+    #[arg(long, default_value_t = default_max_stale_frames())]
     pub max_stale_frames: u64,
     /// How the classes are split: `predict` sends a worker its share only when its predicted
     /// round trip plus compute shortens the frame, measuring it with probes no frame waits for
@@ -416,18 +406,30 @@ pub enum SplitMode {
 }
 
 impl GatherArgs {
-    /// The gather settings as the application layer takes them.
-    pub fn request(&self) -> GatherRequest {
-        GatherRequest {
-            equal_shares: self.equal_shares,
-            spin_us: self.spin_us,
-            max_stale_frames: self.max_stale_frames,
-            split: match self.split {
-                SplitMode::Predict => vps_app::SplitMode::Predict,
-                SplitMode::Always => vps_app::SplitMode::Always,
+    /// The gather settings these flags give ([`vps_cluster::GatherConfig`]'s defaults for the
+    /// rest).
+    pub fn config(&self) -> vps_cluster::GatherConfig {
+        vps_cluster::GatherConfig {
+            adaptive_shares: !self.equal_shares,
+            predict: self.split == SplitMode::Predict,
+            spin_margin: std::time::Duration::from_micros(self.spin_us),
+            stale: vps_cluster::fallback::StalePolicy {
+                max_age_frames: self.max_stale_frames,
+                ..Default::default()
             },
+            ..vps_cluster::GatherConfig::default()
         }
     }
+}
+
+/// The gatherer's default spin margin ([`vps_cluster::GatherConfig`]), in µs.
+fn default_spin_us() -> u64 {
+    vps_cluster::GatherConfig::default().spin_margin.as_micros() as u64
+}
+
+/// The gatherer's default age limit for stale stand-ins ([`vps_cluster::fallback::StalePolicy`]).
+fn default_max_stale_frames() -> u64 {
+    vps_cluster::fallback::StalePolicy::default().max_age_frames
 }
 
 /// Arguments of `vps cluster`.
@@ -497,7 +499,7 @@ pub struct StudyArgs {
     pub json: bool,
 }
 
-/// Arguments of `vps run`. `Default` matches the command-line defaults.
+/// Arguments of `vps run`.
 #[derive(Args, Debug, Clone)]
 pub struct RunArgs {
     /// The scene.
@@ -552,11 +554,6 @@ pub struct RunArgs {
     /// Bridge device settings (only with `--device bridge[:ADDR]`).
     #[command(flatten)]
     pub bridge: BridgeArgs,
-    /// With `--device replay:FILE` and several moving parts: each other part replays its own
-    /// trace beside FILE (`vps_app::session_files::part_trace_path`) instead of its scene device
-    /// (`vps study` sets it; not a flag).
-    #[arg(skip)]
-    pub replay_every_part: bool,
 }
 
 /// Settings of the UDP device bridge (`--device bridge[:ADDR]`); see docs/devices.md. Each flag
@@ -866,7 +863,7 @@ pub enum BenchKind {
         frames: u64,
         /// Spin instead of sleeping for the last this many µs before the reply deadline (see
         /// `vps coordinator --help`).
-        #[arg(long, default_value_t = vps_app::request::default_spin_us())]
+        #[arg(long, default_value_t = default_spin_us())]
         spin_us: u64,
     },
     /// Total tree memory against N = 1..5 (the paper's Figure 6).
@@ -989,28 +986,6 @@ impl RunArgs {
                 pose_timeout_ms: b.pose_timeout_ms,
                 log_wrenches: b.log_wrenches.clone(),
             },
-            replay_every_part: self.replay_every_part,
-        }
-    }
-}
-
-impl Default for RunArgs {
-    fn default() -> Self {
-        Self {
-            scene: SceneArgs::default(),
-            device: None,
-            haptic: None,
-            voxel_size: None,
-            seconds: None,
-            threads: 1,
-            free_running: false,
-            record: None,
-            study: None,
-            study_every: 1,
-            json: false,
-            report: None,
-            view: None,
-            bridge: BridgeArgs::default(),
             replay_every_part: false,
         }
     }

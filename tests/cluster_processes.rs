@@ -42,7 +42,7 @@ fn two_worker_processes_one_killed_mid_session_keep_every_write_bit_identical() 
     let (_, cluster) = exact_cluster_session(
         &coordinator,
         GatherConfig {
-            bench_after: 2,
+            sideline_after: 2,
             // These tests exercise the split itself (`--split always`).
             predict: false,
             ..GatherConfig::default()

@@ -61,7 +61,7 @@ fn a_killed_worker_rejoins_and_a_new_worker_joins_mid_session_without_changing_a
     let (_, cluster) = exact_cluster_session(
         &coordinator,
         GatherConfig {
-            bench_after: 2,
+            sideline_after: 2,
             log_every: None,
             // These tests exercise the split itself (`--split always`).
             predict: false,

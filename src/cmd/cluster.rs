@@ -88,14 +88,14 @@ pub fn coordinator(mut args: CoordinatorArgs, matches: &ArgMatches) -> Result<()
     // Mistakes in the certificates or the address are reported before the voxmap is built.
     let tls = PeerTls::load(cert, key, &pins)?;
     check_listen_address(args.listen)?;
-    prepare(&args.session.request())?.run(Backend::Cluster(ClusterBackend {
+    prepare(&args.session.request())?.run(Backend::Cluster(Box::new(ClusterBackend {
         workers: Workers::Lan {
             listen: args.listen,
             tls,
             count: args.workers,
         },
-        gather: args.gather.request(),
-    }))
+        gather: args.gather.config(),
+    })))
 }
 
 /// Whether a UDP socket can be bound on `listen` now (the port free, the address this host's):
@@ -118,11 +118,11 @@ pub fn local_cluster(args: &ClusterArgs) -> Result<()> {
         "--local-workers × --worker-threads",
         args.local_workers * args.worker_threads,
     )?;
-    prepare(&args.session.request())?.run(Backend::Cluster(ClusterBackend {
+    prepare(&args.session.request())?.run(Backend::Cluster(Box::new(ClusterBackend {
         workers: Workers::Local {
             count: args.local_workers,
             threads: args.worker_threads,
         },
-        gather: args.gather.request(),
-    }))
+        gather: args.gather.config(),
+    })))
 }

@@ -111,7 +111,7 @@ pub fn dispatch(cli: Cli, matches: &ArgMatches) -> Result<()> {
                 workers,
                 worker_threads,
                 local_threads: threads,
-                gather: gather.request(),
+                gather: gather.config(),
             }, json),
             BenchKind::Kernel {
                 points, seconds, ..

@@ -5,7 +5,7 @@
 
 use crate::finish::finish;
 use crate::prepare::Prepared;
-use crate::request::{GatherRequest, SessionRequest, SplitMode};
+use crate::request::SessionRequest;
 use crate::session_files::SessionOutputs;
 use anyhow::{Context, Result};
 use std::net::SocketAddr;
@@ -67,8 +67,8 @@ pub enum Workers {
 pub struct ClusterBackend {
     /// Where the workers come from.
     pub workers: Workers,
-    /// How replies are gathered.
-    pub gather: GatherRequest,
+    /// How replies are gathered; its `local_threads` is set from the request's `threads`.
+    pub gather: GatherConfig,
 }
 
 impl Prepared {
@@ -133,7 +133,7 @@ fn coordinate(
     listen: SocketAddr,
     tls: PeerTls,
     workers: usize,
-    gather: GatherRequest,
+    gather: GatherConfig,
     spawn: impl FnOnce(
         SocketAddr,
         Option<&KeepOffFrameCore>,
@@ -177,14 +177,7 @@ fn coordinate(
     }
     let gather = GatherConfig {
         local_threads: live.request.threads.max(1),
-        adaptive_shares: !gather.equal_shares,
-        predict: gather.split == SplitMode::Predict,
-        spin_margin: Duration::from_micros(gather.spin_us),
-        stale: vps_cluster::fallback::StalePolicy {
-            max_age_frames: gather.max_stale_frames,
-            ..Default::default()
-        },
-        ..GatherConfig::default()
+        ..gather
     };
     let (report, cluster) = run_coordinator_session(&coordinator, gather, live.setup)?;
     let placement = coordinator.placement();
@@ -231,7 +224,7 @@ fn run_local_cluster(
     prepared: Prepared,
     workers: usize,
     worker_threads: usize,
-    gather: GatherRequest,
+    gather: GatherConfig,
 ) -> Result<CoordinatedRun> {
     let dir = std::env::temp_dir().join(format!("vps-cluster-{}", std::process::id()));
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;

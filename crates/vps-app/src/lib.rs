@@ -43,5 +43,5 @@ pub mod study_view;
 pub use cluster::{ClusterBackend, CoordinatedRun, Workers};
 pub use finish::finish;
 pub use prepare::{prepare, LiveSession, Prepared};
-pub use request::{BridgeOverrides, GatherRequest, SceneRequest, SessionRequest, SplitMode};
+pub use request::{BridgeOverrides, SceneRequest, SessionRequest};
 pub use run::Backend;

@@ -1,6 +1,7 @@
 //! What a person asks of a session, with no command-line parser in it: the scene, the overrides
 //! of the scene file's settings, the session's length, threads and outputs
-//! ([`SessionRequest`]), and how a coordinator gathers its workers' replies ([`GatherRequest`]).
+//! ([`SessionRequest`]). (How a coordinator gathers its workers' replies is
+//! [`vps_cluster::GatherConfig`], taken as it is.)
 //! The binary's `cli` module fills these from its flags; tests and benchmarks build them directly.
 
 use std::net::SocketAddr;
@@ -134,49 +135,4 @@ impl Default for SessionRequest {
             replay_every_part: false,
         }
     }
-}
-
-/// When the coordinator sends work to its workers.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum SplitMode {
-    /// Only when that is predicted to shorten the frame.
-    #[default]
-    Predict,
-    /// Every frame, to every worker not sidelined.
-    Always,
-}
-
-/// How the coordinator's frame thread gathers its workers' replies. `Default` is
-/// [`vps_cluster::GatherConfig`]'s.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct GatherRequest {
-    /// Every worker an equal share instead of one adapted to its round trips.
-    pub equal_shares: bool,
-    /// Spin for the last this many µs before the reply deadline.
-    pub spin_us: u64,
-    /// A missing share may be stood in for by its sums from up to this many frames earlier.
-    pub max_stale_frames: u64,
-    /// When work is sent to the workers.
-    pub split: SplitMode,
-}
-
-impl Default for GatherRequest {
-    fn default() -> Self {
-        GatherRequest {
-            equal_shares: false,
-            spin_us: default_spin_us(),
-            max_stale_frames: default_max_stale_frames(),
-            split: SplitMode::Predict,
-        }
-    }
-}
-
-/// The gatherer's default spin margin ([`vps_cluster::GatherConfig`]), in µs.
-pub fn default_spin_us() -> u64 {
-    vps_cluster::GatherConfig::default().spin_margin.as_micros() as u64
-}
-
-/// The gatherer's default age limit for stale stand-ins ([`vps_cluster::fallback::StalePolicy`]).
-pub fn default_max_stale_frames() -> u64 {
-    vps_cluster::fallback::StalePolicy::default().max_age_frames
 }

@@ -12,8 +12,9 @@ use vps_runtime::run_loop;
 pub enum Backend {
     /// This process: the frame thread and the request's `threads − 1` helpers.
     Local,
-    /// A coordinator here and workers elsewhere ([`Prepared::run_coordinated`]).
-    Cluster(ClusterBackend),
+    /// A coordinator here and workers elsewhere ([`Prepared::run_coordinated`]); boxed, as it
+    /// carries the coordinator's TLS identity and gather settings.
+    Cluster(Box<ClusterBackend>),
 }
 
 impl Prepared {
@@ -44,7 +45,7 @@ impl Prepared {
                     None::<&()>,
                 )
             }
-            Backend::Cluster(cluster) => self.run_coordinated(cluster)?.finish(),
+            Backend::Cluster(cluster) => self.run_coordinated(*cluster)?.finish(),
         }
     }
 }

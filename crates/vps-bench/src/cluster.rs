@@ -10,8 +10,9 @@
 use anyhow::Result;
 use serde::Serialize;
 use vps_app::output::print_report;
+use vps_app::SceneRequest;
 use vps_app::{ClusterBackend, Prepared, SessionRequest, Workers};
-use vps_app::{GatherRequest, SceneRequest};
+use vps_cluster::GatherConfig;
 use vps_runtime::{LoopConfig, StatsSummary};
 use vps_session::{DeviceChoice, SessionAssets};
 use vps_voxelize::ShellMethod;
@@ -34,7 +35,7 @@ pub struct ClusterBench {
     /// Compute threads of the coordinator (its own share and the fallback).
     pub local_threads: usize,
     /// Share adaptation and reply spinning.
-    pub gather: GatherRequest,
+    pub gather: GatherConfig,
 }
 
 #[derive(Serialize)]
@@ -94,9 +95,9 @@ pub fn run(bench: ClusterBench, json: bool) -> Result<()> {
             bench.workers,
             bench.worker_threads,
             bench.local_threads,
-            bench.gather.spin_us,
-            bench.gather.max_stale_frames,
-            if bench.gather.equal_shares {
+            bench.gather.spin_margin.as_micros(),
+            bench.gather.stale.max_age_frames,
+            if !bench.gather.adaptive_shares {
                 " --equal-shares"
             } else {
                 ""

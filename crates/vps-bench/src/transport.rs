@@ -14,7 +14,8 @@ use serde::Serialize;
 use std::time::Duration;
 use vps_app::output::print_report;
 use vps_app::prepare::prepare;
-use vps_app::{ClusterBackend, GatherRequest, SessionRequest, SplitMode, Workers};
+use vps_app::{ClusterBackend, SessionRequest, Workers};
+use vps_cluster::GatherConfig;
 use vps_cluster::PeerReport;
 use vps_netem::transport_bench::{
     percentiles, raw_udp_round_trips, TransportPercentiles, UdpPlacement,
@@ -91,11 +92,11 @@ pub fn run(frames: u64, spin_us: u64, json: bool) -> Result<()> {
         // Equal shares, split every frame: the round trip of a fixed share is what is compared
         // with raw UDP (the predicted split would keep this small shell local and measure only
         // its rare probes).
-        let gather_request = GatherRequest {
-            equal_shares: true,
-            split: SplitMode::Always,
-            spin_us,
-            ..GatherRequest::default()
+        let gather_config = GatherConfig {
+            adaptive_shares: false,
+            predict: false,
+            spin_margin: Duration::from_micros(spin_us),
+            ..GatherConfig::default()
         };
         let mut prepared = prepare(&session)?;
         let config = &mut prepared.plan.setup.config;
@@ -107,7 +108,7 @@ pub fn run(frames: u64, spin_us: u64, json: bool) -> Result<()> {
                 count: workers,
                 threads: 1,
             },
-            gather: gather_request,
+            gather: gather_config,
         })?;
         vps_app::exit::require_complete(&run.report.end, Some(&run.signals))?;
         let worst = run

@@ -371,7 +371,7 @@ mod tests {
     #[test]
     fn a_missing_or_bad_sweep_file_is_named() {
         let dir = tempfile::tempdir().unwrap();
-        let missing = dir.path().join("docs/sweep/sweep.json");
+        let missing = dir.path().join("../../docs/sweep/sweep.json");
         let err = read_sweep(Some(&missing)).err().unwrap();
         assert!(
             err.contains(&format!("cannot read {}", missing.display())) && err.contains("--sweep"),
@@ -381,7 +381,7 @@ mod tests {
         std::fs::write(&bad, "[1, 2]").unwrap();
         let err = read_sweep(Some(&bad)).err().unwrap();
         assert!(err.contains("bad.json: not a sweep table"), "{err}");
-        let committed = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/sweep/sweep.json");
+        let committed = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/sweep/sweep.json");
         assert!(!read_sweep(Some(&committed)).unwrap().rows.is_empty());
         // The built-in table is the committed one.
         assert_eq!(

@@ -52,12 +52,12 @@ use vps_haptic::PartialSums;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Policy {
     /// Consecutive unmerged work shares before a worker is sidelined (≥ 1).
-    pub bench_after: u32,
+    pub sideline_after: u32,
     /// A sidelined worker is probed every this many frames (≥ 1); with [`Policy::predict`], so is
     /// every worker given no share, and an unanswered probe is given up after as many frames.
     pub probe_every: u64,
     /// Consecutive timely probe replies before a sidelined worker gets work again (≥ 1).
-    pub unbench_after: u32,
+    pub reinstate_after: u32,
     /// Bad replies in a row after which a worker is to be disconnected (≥ 1).
     pub disconnect_after: u32,
     /// Adapt each worker's share to its round trips; off: equal shares.
@@ -293,7 +293,7 @@ pub enum Transition {
     Lost,
     /// Sidelined: no more work until it answers probes.
     Sidelined,
-    /// Given work again after `unbench_after` timely probes.
+    /// Given work again after `reinstate_after` timely probes.
     Reinstated,
 }
 
@@ -352,14 +352,14 @@ impl GatherCore {
     /// A core with no workers. Errors when a count of `policy` is 0 or the class count is not
     /// in 1..=64.
     pub fn new(policy: Policy, shape: Shape) -> Result<GatherCore, ConfigError> {
-        if policy.bench_after == 0 {
-            return Err(config_err("bench_after"));
+        if policy.sideline_after == 0 {
+            return Err(config_err("sideline_after"));
         }
         if policy.probe_every == 0 {
             return Err(config_err("probe_every"));
         }
-        if policy.unbench_after == 0 {
-            return Err(config_err("unbench_after"));
+        if policy.reinstate_after == 0 {
+            return Err(config_err("reinstate_after"));
         }
         if policy.disconnect_after == 0 {
             return Err(config_err("disconnect_after"));
@@ -922,8 +922,8 @@ impl GatherCore {
                     Some(false) => self.split_stats.probes_failed += 1,
                     None => {}
                 }
-                if booked.is_some() && peer.sidelined && peer.probe_hits >= policy.unbench_after {
-                    unbench(peer, &self.adapt);
+                if booked.is_some() && peer.sidelined && peer.probe_hits >= policy.reinstate_after {
+                    reinstate(peer, &self.adapt);
                     self.transitions.push((peer.id, Transition::Reinstated));
                 }
             }
@@ -935,8 +935,8 @@ impl GatherCore {
                 if !answered {
                     peer.probe_hits = 0;
                 }
-                if peer.probe_hits >= self.policy.unbench_after {
-                    unbench(peer, &self.adapt);
+                if peer.probe_hits >= self.policy.reinstate_after {
+                    reinstate(peer, &self.adapt);
                     self.transitions.push((peer.id, Transition::Reinstated));
                 }
                 continue;
@@ -974,7 +974,7 @@ impl GatherCore {
                 },
             ));
             peer.misses += 1;
-            if peer.misses >= self.policy.bench_after && !peer.sidelined {
+            if peer.misses >= self.policy.sideline_after && !peer.sidelined {
                 peer.sidelined = true;
                 peer.probe_hits = 0;
                 self.transitions.push((peer.id, Transition::Sidelined));
@@ -1034,7 +1034,7 @@ fn nanos(d: Duration) -> u64 {
 }
 
 /// Gives a sidelined worker work again, with a cautious share that grows while it keeps up.
-fn unbench(peer: &mut PeerState, adapt: &Adapt) {
+fn reinstate(peer: &mut PeerState, adapt: &Adapt) {
     peer.sidelined = false;
     peer.weight = adapt.min_weight.max(0.5);
     peer.misses = 0;

@@ -15,9 +15,9 @@ const US: Duration = Duration::from_micros(1);
 
 fn policy() -> Policy {
     Policy {
-        bench_after: 2,
+        sideline_after: 2,
         probe_every: 2,
-        unbench_after: 2,
+        reinstate_after: 2,
         disconnect_after: 3,
         adaptive_shares: false,
         stale: StalePolicy::default(),
@@ -194,7 +194,7 @@ fn stale_stand_ins_follow_the_policy() {
             Policy {
                 stale,
                 // Never sidelined here: the share keeps its classes.
-                bench_after: 100,
+                sideline_after: 100,
                 ..policy()
             },
             &[1],
@@ -237,7 +237,7 @@ fn a_silent_worker_is_sidelined_probed_and_reinstated() {
         t += 1000 * US;
         (frame(core, t), t)
     };
-    // Two missed shares (bench_after = 2): sidelined.
+    // Two missed shares (sideline_after = 2): sidelined.
     let (_, t0) = next(&mut core);
     assert_eq!(core.settle(t0 + 100 * US), [(1, Transition::Lost)]);
     let (_, t1) = next(&mut core);
@@ -268,7 +268,7 @@ fn a_silent_worker_is_sidelined_probed_and_reinstated() {
         }
         assert!(transitions.is_empty(), "{transitions:?}");
     }
-    assert_eq!(probes, 2, "unbench_after = 2 probes");
+    assert_eq!(probes, 2, "reinstate_after = 2 probes");
     assert!(reinstated_at.is_some());
     let peer = core.peer(1).unwrap();
     assert!(!peer.sidelined);
@@ -359,7 +359,7 @@ fn a_zero_count_in_the_policy_is_refused() {
     };
     for bad in [
         Policy {
-            bench_after: 0,
+            sideline_after: 0,
             ..policy()
         },
         Policy {
@@ -367,7 +367,7 @@ fn a_zero_count_in_the_policy_is_refused() {
             ..policy()
         },
         Policy {
-            unbench_after: 0,
+            reinstate_after: 0,
             ..policy()
         },
         Policy {
@@ -725,7 +725,7 @@ fn a_worker_costs_at_most_the_reply_window_in_the_prediction() {
 fn three_jobs() -> (GatherCore, [JobTarget; 3]) {
     let mut core = core_with(
         Policy {
-            bench_after: 100,
+            sideline_after: 100,
             ..policy()
         },
         &[1],

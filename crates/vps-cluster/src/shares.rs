@@ -21,9 +21,9 @@
 //! halved on a miss; see [`crate::split`]). With adaptation off
 //! ([`GatherConfig::adaptive_shares`]) every weight stays 1: class `c` goes to party
 //! `c mod (W + 1)`, party 0 being the coordinator. A worker whose share is not merged (no reply by the
-//! deadline, or an invalid reply) `bench_after` frames in a row is sidelined: it gets no work, only
+//! deadline, or an invalid reply) `sideline_after` frames in a row is sidelined: it gets no work, only
 //! a one-class probe every `probe_every` frames whose result is checked but not used;
-//! `unbench_after` probes answered in time in a row give it work again. A worker that sends
+//! `reinstate_after` probes answered in time in a row give it work again. A worker that sends
 //! `disconnect_after` bad replies (undecodable, or implausible sums) with no valid one between
 //! them is disconnected (application close code [`CLOSE_BAD_REPLIES`]).
 //!
@@ -70,7 +70,7 @@ pub struct GatherConfig {
     /// spins. Default 100 µs.
     pub spin_margin: Duration,
     /// Consecutive unmerged shares before a worker is sidelined (≥ 1). Default 5.
-    pub bench_after: u32,
+    pub sideline_after: u32,
     /// A sidelined worker is probed every this many frames (≥ 1). Default 10: a one-class request
     /// every 10 ms costs nothing, and a worker sidelined by a short host stall is back within 30
     /// frames (with 100, a 100k-point session on the project's 2-core VM spent 20–57 % of its
@@ -78,7 +78,7 @@ pub struct GatherConfig {
     /// docs/cluster.md).
     pub probe_every: u64,
     /// Consecutive timely probe replies before a sidelined worker gets work again (≥ 1). Default 3.
-    pub unbench_after: u32,
+    pub reinstate_after: u32,
     /// Bad replies in a row (datagrams that fail to decode, or replies with implausible sums or
     /// the wrong classes), with no valid reply between them, after which the worker's
     /// connection is closed (≥ 1; `u32::MAX`: never). Default 50: a sidelined worker still
@@ -106,9 +106,9 @@ impl Default for GatherConfig {
         GatherConfig {
             local_threads: 1,
             spin_margin: Duration::from_micros(100),
-            bench_after: 5,
+            sideline_after: 5,
             probe_every: 10,
-            unbench_after: 3,
+            reinstate_after: 3,
             disconnect_after: 50,
             log_every: Some(Duration::from_secs(1)),
             adaptive_shares: true,
@@ -180,9 +180,9 @@ impl GatherConfig {
     /// The rules the pure core applies ([`crate::gather::Policy`]).
     pub fn policy(&self) -> Policy {
         Policy {
-            bench_after: self.bench_after,
+            sideline_after: self.sideline_after,
             probe_every: self.probe_every,
-            unbench_after: self.unbench_after,
+            reinstate_after: self.reinstate_after,
             disconnect_after: self.disconnect_after,
             adaptive_shares: self.adaptive_shares,
             stale: self.stale,

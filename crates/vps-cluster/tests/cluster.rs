@@ -118,9 +118,9 @@ fn a_silent_worker_is_sidelined_and_a_recovered_one_gets_work_again() {
     let assets = assets();
     let (coordinator, fake, conn) = coordinator_with_one_fake(&assets);
     let config = GatherConfig {
-        bench_after: 3,
+        sideline_after: 3,
         probe_every: 2,
-        unbench_after: 2,
+        reinstate_after: 2,
         ..split_always()
     };
     let mut shares = coordinator.shares(config).unwrap();
@@ -349,7 +349,7 @@ fn run_with_one_slow_worker(
     let assets = assets();
     let (coordinator, fake, conn) = coordinator_with_one_fake(&assets);
     let config = GatherConfig {
-        bench_after: u32::MAX,
+        sideline_after: u32::MAX,
         log_every: None,
         adaptive_shares,
         ..split_always()

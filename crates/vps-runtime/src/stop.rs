@@ -5,7 +5,7 @@
 //! second signal while the session stops sets the same flags again and cannot skip the zero write.
 //!
 //! Exit codes of a session command (listed in docs/sessions.md; set by the `vps` binary,
-//! `src/exit.rs`): 0 the session ran to its end, 1 an error (the device failed, a bad argument),
+//! `vps_app::exit`): 0 the session ran to its end, 1 an error (the device failed, a bad argument),
 //! 2 a command line refused or a worker refused for good, 101 a panic on the frame path (the
 //! device was sent zero first), `128 + N` stopped by signal N after the report was written
 //! ([`StopSignal::exit_code`]: 129 SIGHUP, 130 SIGINT, 143 SIGTERM).
