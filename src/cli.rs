@@ -961,7 +961,7 @@ impl TuneArgs {
 }
 
 impl RunArgs {
-    /// The session as the application layer takes it ([`vps_app::prepare`]).
+    /// The session as the application layer takes it ([`vps_app::prepare()`]).
     pub fn request(&self) -> SessionRequest {
         let b = &self.bridge;
         SessionRequest {

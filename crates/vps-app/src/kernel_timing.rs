@@ -26,7 +26,7 @@ const BATCHES: usize = 5;
 pub const MAX_TIMED_POINTS: usize = 200_000;
 
 /// Nanoseconds per point of the current kernel in full contact with `points` points (clamped to
-/// 1..=[`MAX_TIMED_POINTS`]), the median of [`BATCHES`] batches of about `batch_seconds` (s)
+/// 1..=[`MAX_TIMED_POINTS`]), the median of `BATCHES` (5) batches of about `batch_seconds` (s)
 /// each; with `distance`, of the `distance` force model (the same sphere carrying a
 /// signed-distance band, [`sphere_band`]). Allocates the synthetic scene (about 8 bytes per point
 /// of voxmap); blocks for about `(BATCHES + 1) × batch_seconds`.

@@ -2,9 +2,9 @@
 //! command of the `vps` binary and by its benchmarks.
 //!
 //! A [`SessionRequest`] (the scene and the command line's overrides, no parser in it) is made
-//! into a [`Prepared`] session by [`prepare`] (outputs checked, scene built once, device opened,
+//! into a [`Prepared`] session by [`prepare()`] (outputs checked, scene built once, device opened,
 //! loop settings fixed), which [`Prepared::run`] runs on a [`Backend`]: this process's threads or
-//! a coordinator with workers ([`cluster`]). Its end ([`finish`]) writes the recording, report
+//! a coordinator with workers ([`cluster`]). Its end ([`finish()`]) writes the recording, report
 //! and study ([`study`]) and prints the figures.
 //!
 //! Module map: [`request`] (what is asked), [`prepare`](mod@prepare) (scene, device, plan),

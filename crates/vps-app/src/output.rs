@@ -28,7 +28,7 @@ fn stdout_error(e: std::io::Error) -> anyhow::Error {
     }
 }
 
-/// Writes `args` and a newline to stdout; errors as [`stdout_error`]. Use through [`outln!`].
+/// Writes `args` and a newline to stdout; a closed pipe becomes [`BrokenStdout`]. Use through [`outln!`].
 pub fn stdout_line(args: std::fmt::Arguments) -> Result<()> {
     let mut out = std::io::stdout().lock();
     out.write_fmt(args)

@@ -111,7 +111,7 @@ pub struct SessionRequest {
     /// Bridge overrides.
     pub bridge: BridgeOverrides,
     /// With a replayed first part and several moving parts: each other part replays its own
-    /// trace beside the first's ([`crate::outputs::part_trace_path`]) instead of its scene device.
+    /// trace beside the first's ([`crate::session_files::part_trace_path`]) instead of its scene device.
     pub replay_every_part: bool,
 }
 

@@ -1,6 +1,6 @@
 //! Running a prepared session on a backend ([`Prepared::run`]): the loop on this process's own
 //! threads ([`Backend::Local`]) or split with workers ([`Backend::Cluster`]), then its end
-//! ([`crate::finish`]).
+//! ([`crate::finish()`]).
 
 use crate::cluster::ClusterBackend;
 use crate::finish::finish;

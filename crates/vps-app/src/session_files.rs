@@ -1,6 +1,6 @@
 //! The files a session writes (`--report`, `--record`, `--study`, `--log-wrenches`): checked
 //! before any work against the inputs the request names and each other, and again against the
-//! scene's mesh files once the scene file is read ([`crate::prepare`]); where each moving part's
+//! scene's mesh files once the scene file is read ([`crate::prepare()`]); where each moving part's
 //! trace goes beside the first's ([`part_trace_path`]).
 
 use crate::output::check_outputs;
@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 /// The files a session writes at its end, checked before the session starts so that a bad path
 /// fails before any work ([`check_outputs`]: each a regular file or a new path in a directory that
 /// takes new files, none of them an input the command line names or another output), and again
-/// against the scene's mesh files once the scene file is read ([`prepare`]); written atomically
+/// against the scene's mesh files once the scene file is read ([`crate::prepare()`]); written atomically
 /// at the end.
 #[derive(Default)]
 pub struct SessionOutputs {

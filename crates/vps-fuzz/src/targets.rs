@@ -114,11 +114,11 @@ fn scene_toml(bytes: &[u8]) -> Result<(), String> {
     );
     file.width(SCENE_TOML).map_err(|e| e.to_string())?;
     if let Some(device) = &file.device {
-        device
-            .bridge_settings(SCENE_TOML, "device")
+        vps_session::device::bridge_settings(device, SCENE_TOML, "device")
             .map_err(|e| e.to_string())?;
     }
-    // Every part after the first was checked: a hand of finite waypoints, a device that parses.
+    // Every part after the first was checked: a hand of finite waypoints, a device that parses
+    // (its settings' ranges are checked where a session's devices are made: above).
     assert!(
         file.more_parts.len() < vps_session::file::MAX_PARTS,
         "scene: {} parts accepted",
@@ -136,8 +136,7 @@ fn scene_toml(bytes: &[u8]) -> Result<(), String> {
         if let Some(device) = &part.device {
             vps_session::DeviceChoice::parse(&device.kind)
                 .expect("scene: a part's device kind was accepted unparsed");
-            device
-                .bridge_settings(SCENE_TOML, "part[k].device")
+            vps_session::device::bridge_settings(device, SCENE_TOML, "part[k].device")
                 .map_err(|e| e.to_string())?;
         }
     }

@@ -2,6 +2,8 @@
 //! opened ([`DeviceChoice::open`]); the bridge with its [`BridgeSettings`] (mapping, pose timeout,
 //! wrench log), returning its [`BridgeMonitor`] beside the device in an [`OpenedDevice`].
 
+use crate::error::{field_error, SceneError};
+use crate::file::DeviceSection;
 use anyhow::{Context, Result};
 use glam::DQuat;
 use std::net::UdpSocket;
@@ -12,7 +14,7 @@ use vps_device::trace::{load_trace, ReplayDevice, Trace};
 use vps_device::{DeviceLimits, HandParams, HapticDevice, SimulatedHand};
 use vps_haptic::PartState;
 use vps_input::{
-    list_devices, BridgeConfig, BridgeDevice, BridgeMonitor, InputError, SpaceMouse,
+    list_devices, BridgeConfig, BridgeDevice, BridgeError, BridgeMonitor, InputError, SpaceMouse,
     SpaceMouseConfig, WorkspaceMapping,
 };
 
@@ -20,8 +22,7 @@ use vps_input::{
 const SPACEMOUSE_HINT: &str =
     "opening a SpaceMouse (`vps devices` lists what this machine sees; /dev/hidraw* must be readable)";
 
-/// The default address of the UDP device bridge.
-pub const DEFAULT_BRIDGE_ADDR: &str = "127.0.0.1:7700";
+pub use vps_scene_file::device_kind::{DeviceKind, DEFAULT_BRIDGE_ADDR};
 
 /// How the UDP device bridge is set up when it is the session's device: the scene file's
 /// `[device]` `mapping` and `pose_timeout_ms`, overridden by command-line flags. Ignored by the
@@ -115,26 +116,14 @@ impl PartialEq for ReplaySource {
 }
 
 impl DeviceChoice {
-    /// Parses `sim`, `spacemouse`, `bridge[:ADDR]` or `replay:FILE`; the error says what is
-    /// allowed.
+    /// Parses `sim`, `spacemouse`, `bridge[:ADDR]` or `replay:FILE` ([`DeviceKind::parse`]);
+    /// the error says what is allowed.
     pub fn parse(text: &str) -> Result<DeviceChoice, String> {
-        Ok(match text.split_once(':') {
-            None if text == "sim" => DeviceChoice::Simulated,
-            None if text == "spacemouse" => DeviceChoice::SpaceMouse,
-            None if text == "bridge" => {
-                DeviceChoice::Bridge(DEFAULT_BRIDGE_ADDR.parse().expect("a valid address"))
-            }
-            Some(("bridge", addr)) => DeviceChoice::Bridge(addr.parse().map_err(|_| {
-                format!("bridge:{addr}: not an address like {DEFAULT_BRIDGE_ADDR}")
-            })?),
-            Some(("replay", path)) if !path.is_empty() => {
-                DeviceChoice::Replay(ReplaySource::new(path))
-            }
-            _ => {
-                return Err(format!(
-                    "'{text}': expected sim, spacemouse, bridge[:ADDR] or replay:FILE"
-                ))
-            }
+        Ok(match DeviceKind::parse(text)? {
+            DeviceKind::Simulated => DeviceChoice::Simulated,
+            DeviceKind::SpaceMouse => DeviceChoice::SpaceMouse,
+            DeviceKind::Bridge(addr) => DeviceChoice::Bridge(addr),
+            DeviceKind::Replay(path) => DeviceChoice::Replay(ReplaySource::new(path)),
         })
     }
 
@@ -259,6 +248,57 @@ impl DeviceChoice {
     }
 }
 
+/// The bridge settings of a `[device]` section (defaults where absent), its mapping, pose timeout
+/// and wrench limits checked against the device layer's ranges; errors name `path` and the field
+/// under `table`, where the section sits (`device`, `part[1].device`).
+pub fn bridge_settings(
+    d: &DeviceSection,
+    path: &str,
+    table: &str,
+) -> Result<BridgeSettings, SceneError> {
+    let mut settings = BridgeSettings::default();
+    if let Some(m) = d.mapping {
+        let identity = WorkspaceMapping::default();
+        let mapping = WorkspaceMapping {
+            scale: m.scale.unwrap_or(identity.scale),
+            rotate_deg: m.rotate_deg.unwrap_or(identity.rotate_deg),
+            offset: m.offset.unwrap_or(identity.offset),
+            force_scale: m.force_scale.unwrap_or(identity.force_scale),
+        };
+        mapping.validate().map_err(|e| match e {
+            BridgeError::Config { field, message } => {
+                field_error(path, &format!("{table}.{field}"), message)
+            }
+            other => field_error(path, &format!("{table}.mapping"), other.to_string()),
+        })?;
+        settings.mapping = mapping;
+    }
+    if let Some(ms) = d.pose_timeout_ms {
+        if !(ms.is_finite() && (2.0..=10_000.0).contains(&ms)) {
+            return Err(field_error(
+                path,
+                &format!("{table}.pose_timeout_ms"),
+                format!("{ms} must be finite and within [2, 10000] (ms)"),
+            ));
+        }
+        settings.pose_timeout = ms / 1e3;
+    }
+    let limits = DeviceLimits {
+        max_force: d.max_force.unwrap_or(DeviceLimits::PAPER.max_force),
+        max_torque: d.max_torque.unwrap_or(DeviceLimits::PAPER.max_torque),
+    };
+    limits.validate().map_err(|message| {
+        let key = if message.contains("max_force") {
+            "max_force"
+        } else {
+            "max_torque"
+        };
+        field_error(path, &format!("{table}.{key}"), message)
+    })?;
+    settings.limits = limits;
+    Ok(settings)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -298,5 +338,153 @@ mod tests {
         };
         assert!(Arc::ptr_eq(&first, &copied.trace().unwrap()));
         assert_eq!(copy, choice);
+    }
+}
+
+#[cfg(test)]
+mod device_section_tests {
+    use super::*;
+    use crate::file::SceneFile;
+
+    /// A scene file with every section a device test needs around it.
+    const GOOD: &str = r#"
+name = "t"
+part = "builtin:teapot"
+[[static]]
+source = "builtin:box"
+scale = [4.0, 1.0, 0.5]
+[corridor]
+from = [0.0, 0.0, 0.1]
+to = [0.3, 0.0, 0.1]
+spacing = 0.05
+"#;
+
+    /// Two moving parts, the second on the bridge.
+    const TWO_PARTS: &str = r#"
+[[static]]
+source = "builtin:box"
+[[part]]
+name = "left"
+source = "builtin:box"
+scale = 0.4
+[part.hand]
+waypoints = [[-0.06, 0.0, 0.0], [-0.015, 0.0, 0.0]]
+[[part]]
+name = "right"
+source = "builtin:sphere"
+[part.hand]
+waypoints = [[0.06, 0.0, 0.0]]
+[part.device]
+kind = "bridge:127.0.0.1:7701"
+"#;
+
+    #[test]
+    fn device_settings_out_of_range_are_refused_when_the_scene_is_loaded_naming_the_field() {
+        // The schema (vps-scene-file) reads these; their ranges are the device layer's, checked
+        // when the scene is loaded, before anything is built.
+        let cases = [
+            (
+                format!("{GOOD}\n[device]\nkind = \"bridge\"\npose_timeout_ms = 0\n"),
+                "`device.pose_timeout_ms`",
+            ),
+            (
+                format!("{GOOD}\n[device]\nkind = \"bridge\"\n[device.mapping]\nscale = 0.0\n"),
+                "`device.mapping.scale`",
+            ),
+            (
+                format!("{GOOD}\n[device]\n[device.mapping]\nforce_scale = -1.0\n"),
+                "`device.mapping.force_scale`",
+            ),
+            (
+                format!("{GOOD}\n[device]\nmax_torque = -1.0\n"),
+                "`device.max_torque`",
+            ),
+            (
+                format!("{TWO_PARTS}pose_timeout_ms = 1.0\n"),
+                "`part[1].device.pose_timeout_ms`",
+            ),
+        ];
+        let dir = tempfile::tempdir().unwrap();
+        for (k, (text, field)) in cases.iter().enumerate() {
+            assert!(parse(text).is_ok(), "the schema refused case {k}");
+            let path = dir.path().join(format!("scene{k}.toml"));
+            std::fs::write(&path, text).unwrap();
+            let err = crate::LoadedScene::load(path.to_str().unwrap())
+                .err()
+                .unwrap_or_else(|| panic!("case {k} ({field}) was loaded"));
+            let message = crate::error::error_chain_text(&err);
+            assert!(
+                message.contains(field) && message.contains("scene"),
+                "{field} not named in: {message}"
+            );
+        }
+    }
+
+    fn parse(text: &str) -> Result<SceneFile, SceneError> {
+        SceneFile::from_toml_str(text, "scene.toml")
+    }
+
+    #[test]
+    fn device_section_sets_up_the_bridge() {
+        let text = format!(
+            "{GOOD}\n[device]\nkind = \"bridge:127.0.0.1:7701\"\npose_timeout_ms = 200\n\
+             [device.mapping]\nscale = 4.0\nrotate_deg = [0, 0, 90]\noffset = [0.1, 0.0, 0.1]\n"
+        );
+        let file = parse(&text).unwrap();
+        let bridge = file
+            .device
+            .as_ref()
+            .map(|d| bridge_settings(d, "scene.toml", "device"))
+            .unwrap()
+            .unwrap();
+        assert_eq!(bridge.pose_timeout, 0.2);
+        assert_eq!(
+            bridge.mapping,
+            WorkspaceMapping {
+                scale: 4.0,
+                rotate_deg: [0.0, 0.0, 90.0],
+                offset: [0.1, 0.0, 0.1],
+                force_scale: 1.0,
+            }
+        );
+        let plain = parse(&format!("{GOOD}\n[device]\nkind = \"sim\"\n")).unwrap();
+        let defaults = plain
+            .device
+            .map(|d| bridge_settings(&d, "scene.toml", "device"))
+            .unwrap()
+            .unwrap();
+        assert_eq!(defaults, BridgeSettings::default());
+        assert_eq!(defaults.limits, DeviceLimits::PAPER);
+    }
+
+    #[test]
+    fn device_section_sets_the_wrench_limits_for_every_device() {
+        let text =
+            format!("{GOOD}\n[device]\nkind = \"sim\"\nmax_force = 8.0\nmax_torque = 0.05\n");
+        let settings = parse(&text)
+            .unwrap()
+            .device
+            .map(|d| bridge_settings(&d, "scene.toml", "device"))
+            .unwrap()
+            .unwrap();
+        assert_eq!(
+            settings.limits,
+            DeviceLimits {
+                max_force: 8.0,
+                max_torque: 0.05
+            }
+        );
+        for (line, key) in [
+            ("max_force = 0.0", "device.max_force"),
+            ("max_force = 2e4", "device.max_force"),
+            ("max_torque = -1.0", "device.max_torque"),
+        ] {
+            let text = format!("{GOOD}\n[device]\n{line}\n");
+            let err = parse(&text)
+                .and_then(|f| bridge_settings(&f.device.unwrap(), "scene.toml", "device"))
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(key) && err.contains("(0, "), "{line}: {err}");
+        }
     }
 }

@@ -24,16 +24,23 @@ pub mod cache;
 pub mod device;
 pub mod error;
 pub mod estimate;
-pub mod file;
 pub mod hints;
-pub mod length;
 pub mod mesh_source;
 pub mod parts;
 pub mod plan;
 pub mod scene;
 pub mod script;
 pub mod start_pose;
-pub mod sweep_file;
+
+/// The scene file's schema (from `vps-scene-file`).
+pub use vps_scene_file::file;
+/// Lengths with units (from `vps-scene-file`).
+pub use vps_scene_file::length;
+/// The sweep file's schema (from `vps-scene-file`).
+pub use vps_scene_file::sweep_file;
+
+// The scene file's part count and the runtime's are one bound.
+const _: () = assert!(file::MAX_PARTS == vps_runtime::MAX_OTHER_PARTS + 1);
 
 pub use cache::CachePolicy;
 pub use device::{BridgeSettings, DeviceChoice, OpenedDevice, ReplaySource};

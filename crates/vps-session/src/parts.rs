@@ -3,8 +3,6 @@
 //! itself in its own body frame), and the runtime's `PartsSetup` made from them when a session
 //! is planned (`SessionAssets::parts_setup`). The first part stays the session's own (its shell
 //! and device are `SessionAssets`'s as in a one-part scene); it gains a body voxmap too.
-//!
-//! Not built yet: splitting the other parts and the pairs over cluster workers.
 
 use crate::device::{BridgeSettings, DeviceChoice};
 use crate::error::{field_error, SceneError};
@@ -122,7 +120,7 @@ pub(crate) fn device_of(
     let choice = DeviceChoice::parse(&d.kind)
         .map_err(|m| field_error(label, &format!("{table}.kind"), m))?
         .relative_to(base);
-    Ok((choice, d.bridge_settings(label, table)?))
+    Ok((choice, crate::device::bridge_settings(d, label, table)?))
 }
 
 /// Every part's name, the first's first: the name its `[[part]]` gives, else its source's file

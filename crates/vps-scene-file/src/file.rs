@@ -3,14 +3,12 @@
 //! simulated hand's path and the default device. See `docs/scenes.md` for every key. Parsing
 //! rejects unknown keys; every error names the file and the dotted field.
 
-use crate::device::{BridgeSettings, DeviceChoice};
+use crate::device_kind::DeviceKind;
 use crate::error::{field_error, SceneError};
 use crate::length::length;
 use glam::{DQuat, DVec3};
 use serde::{Deserialize, Deserializer};
 use std::path::Path;
-use vps_device::DeviceLimits;
-use vps_input::{BridgeError, WorkspaceMapping};
 use vps_mesh::Aabb;
 use vps_voxelize::ShellMethod;
 use vps_voxmap::VoxelWidth;
@@ -499,9 +497,9 @@ pub struct DeviceSection {
     #[serde(default = "default_device")]
     pub kind: String,
     /// How the bridge's device frame maps into the scene and forces back (`scale`, `rotate_deg`,
-    /// `offset`, `force_scale`; see [`WorkspaceMapping`]). Used when the device is the bridge.
-    /// Default: the identity.
-    pub mapping: Option<WorkspaceMapping>,
+    /// `offset`, `force_scale`; ranges checked where the bridge's settings are made, in
+    /// `vps-session`). Used when the device is the bridge. Default: the identity.
+    pub mapping: Option<MappingSection>,
     /// A bridge device silent this long is held with zero output and re-anchored when it resumes
     /// (ms, in [2, 10000]). Used when the device is the bridge. Default 50.
     pub pose_timeout_ms: Option<f64>,
@@ -514,45 +512,19 @@ pub struct DeviceSection {
     pub max_torque: Option<f64>,
 }
 
-impl DeviceSection {
-    /// The bridge settings of this section (defaults where absent); errors name `path` and the
-    /// field under `table`, where the section sits (`device`, `part[1].device`).
-    pub fn bridge_settings(&self, path: &str, table: &str) -> Result<BridgeSettings, SceneError> {
-        let mut settings = BridgeSettings::default();
-        if let Some(mapping) = self.mapping {
-            mapping.validate().map_err(|e| match e {
-                BridgeError::Config { field, message } => {
-                    field_error(path, &format!("{table}.{field}"), message)
-                }
-                other => field_error(path, &format!("{table}.mapping"), other.to_string()),
-            })?;
-            settings.mapping = mapping;
-        }
-        if let Some(ms) = self.pose_timeout_ms {
-            if !(ms.is_finite() && (2.0..=10_000.0).contains(&ms)) {
-                return Err(field_error(
-                    path,
-                    &format!("{table}.pose_timeout_ms"),
-                    format!("{ms} must be finite and within [2, 10000] (ms)"),
-                ));
-            }
-            settings.pose_timeout = ms / 1e3;
-        }
-        let limits = DeviceLimits {
-            max_force: self.max_force.unwrap_or(DeviceLimits::PAPER.max_force),
-            max_torque: self.max_torque.unwrap_or(DeviceLimits::PAPER.max_torque),
-        };
-        limits.validate().map_err(|message| {
-            let key = if message.contains("max_force") {
-                "max_force"
-            } else {
-                "max_torque"
-            };
-            field_error(path, &format!("{table}.{key}"), message)
-        })?;
-        settings.limits = limits;
-        Ok(settings)
-    }
+/// A `[device.mapping]` table as written: each key left out takes the bridge's default (the
+/// identity).
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct MappingSection {
+    /// Scene metres per device metre.
+    pub scale: Option<f64>,
+    /// Rotation from device axes to scene axes, degrees about X, Y, Z (X applied first).
+    pub rotate_deg: Option<[f64; 3]>,
+    /// Scene position of the device's origin (m).
+    pub offset: Option<[f64; 3]>,
+    /// Device force per scene force (also applied to torques).
+    pub force_scale: Option<f64>,
 }
 
 fn unit_scale() -> [f64; 3] {
@@ -817,7 +789,7 @@ fn validate_hand(path: &str, prefix: &str, h: &HandPath) -> Result<(), SceneErro
 }
 
 /// Most moving parts a scene may hold.
-pub const MAX_PARTS: usize = vps_runtime::MAX_OTHER_PARTS + 1;
+pub const MAX_PARTS: usize = 8;
 
 /// Rotations beyond this many degrees are refused as a likely typo (radians for degrees are fine).
 const MAX_ROTATION_DEG: f64 = 3600.0;
@@ -956,14 +928,14 @@ impl SceneFile {
         }
         let mut names: Vec<&str> = self.part_name.as_deref().into_iter().collect();
         // Bridge ports given explicitly (port 0 picks a free one): one per part.
-        let port_of = |choice: Option<DeviceChoice>| match choice {
-            Some(DeviceChoice::Bridge(addr)) if addr.port() != 0 => Some(addr),
+        let port_of = |choice: Option<DeviceKind>| match choice {
+            Some(DeviceKind::Bridge(addr)) if addr.port() != 0 => Some(addr),
             _ => None,
         };
         let first = self
             .device
             .as_ref()
-            .and_then(|d| DeviceChoice::parse(&d.kind).ok());
+            .and_then(|d| DeviceKind::parse(&d.kind).ok());
         let mut bridges: Vec<std::net::SocketAddr> = port_of(first).into_iter().collect();
         for (k, m) in self.more_parts.iter().enumerate() {
             let prefix = format!("part[{}]", k + 1);
@@ -997,10 +969,9 @@ impl SceneFile {
             validate_hand(path, &format!("{prefix}.hand"), h)?;
             let mut choice = None;
             if let Some(d) = &m.device {
-                choice = Some(DeviceChoice::parse(&d.kind).map_err(|message| {
+                choice = Some(DeviceKind::parse(&d.kind).map_err(|message| {
                     field_error(path, &format!("{prefix}.device.kind"), message)
                 })?);
-                d.bridge_settings(path, &format!("{prefix}.device"))?;
             }
             if let Some(addr) = port_of(choice) {
                 if bridges.contains(&addr) {
@@ -1156,9 +1127,8 @@ impl SceneFile {
             }
         }
         if let Some(d) = &self.device {
-            DeviceChoice::parse(&d.kind)
+            DeviceKind::parse(&d.kind)
                 .map_err(|message| field_error(path, "device.kind", message))?;
-            d.bridge_settings(path, "device")?;
         }
         Ok(())
     }
@@ -1644,18 +1614,6 @@ max = [0.4, 0.1, 0.2]
         // (appended, field): the scene with `appended` after it names `field`.
         let appended = [
             ("\n[device]\nkind = \"joystick\"\n", "`device.kind`"),
-            (
-                "\n[device]\nkind = \"bridge\"\npose_timeout_ms = 0\n",
-                "`device.pose_timeout_ms`",
-            ),
-            (
-                "\n[device]\nkind = \"bridge\"\n[device.mapping]\nscale = 0.0\n",
-                "`device.mapping.scale`",
-            ),
-            (
-                "\n[device]\n[device.mapping]\nforce_scale = -1.0\n",
-                "`device.mapping.force_scale`",
-            ),
             ("\n[device]\n[device.mapping]\nscael = 2.0\n", "scael"),
             (
                 "\n[device]\n[device.mapping]\noffset = [0.0, 1.0]\n",
@@ -1784,70 +1742,6 @@ max = [0.4, 0.1, 0.2]
     }
 
     #[test]
-    fn device_section_sets_up_the_bridge() {
-        let text = format!(
-            "{GOOD}\n[device]\nkind = \"bridge:127.0.0.1:7701\"\npose_timeout_ms = 200\n\
-             [device.mapping]\nscale = 4.0\nrotate_deg = [0, 0, 90]\noffset = [0.1, 0.0, 0.1]\n"
-        );
-        let file = parse(&text).unwrap();
-        let bridge = file
-            .device
-            .as_ref()
-            .unwrap()
-            .bridge_settings("scene.toml", "device")
-            .unwrap();
-        assert_eq!(bridge.pose_timeout, 0.2);
-        assert_eq!(
-            bridge.mapping,
-            WorkspaceMapping {
-                scale: 4.0,
-                rotate_deg: [0.0, 0.0, 90.0],
-                offset: [0.1, 0.0, 0.1],
-                force_scale: 1.0,
-            }
-        );
-        let plain = parse(&format!("{GOOD}\n[device]\nkind = \"sim\"\n")).unwrap();
-        let defaults = plain
-            .device
-            .unwrap()
-            .bridge_settings("scene.toml", "device")
-            .unwrap();
-        assert_eq!(defaults, BridgeSettings::default());
-        assert_eq!(defaults.limits, DeviceLimits::PAPER);
-    }
-
-    #[test]
-    fn device_section_sets_the_wrench_limits_for_every_device() {
-        let text =
-            format!("{GOOD}\n[device]\nkind = \"sim\"\nmax_force = 8.0\nmax_torque = 0.05\n");
-        let settings = parse(&text)
-            .unwrap()
-            .device
-            .unwrap()
-            .bridge_settings("scene.toml", "device")
-            .unwrap();
-        assert_eq!(
-            settings.limits,
-            DeviceLimits {
-                max_force: 8.0,
-                max_torque: 0.05
-            }
-        );
-        for (line, key) in [
-            ("max_force = 0.0", "device.max_force"),
-            ("max_force = 2e4", "device.max_force"),
-            ("max_torque = -1.0", "device.max_torque"),
-        ] {
-            let text = format!("{GOOD}\n[device]\n{line}\n");
-            let err = parse(&text)
-                .and_then(|f| f.device.unwrap().bridge_settings("scene.toml", "device"))
-                .unwrap_err()
-                .to_string();
-            assert!(err.contains(key) && err.contains("(0, "), "{line}: {err}");
-        }
-    }
-
-    #[test]
     fn rotation_turns_x_then_y_then_z() {
         let q = rotation([90.0, 90.0, 0.0]);
         // X first: +Y goes to +Z; then Y: +Z goes to +X.
@@ -1924,11 +1818,6 @@ kind = "bridge:127.0.0.1:7701"
                 TWO_PARTS.replace("bridge:127.0.0.1:7701", "joystick"),
                 "part[1].device.kind",
                 "expected sim",
-            ),
-            (
-                format!("{TWO_PARTS}pose_timeout_ms = 1.0\n"),
-                "part[1].device.pose_timeout_ms",
-                "within [2, 10000]",
             ),
             (
                 TWO_PARTS.replace(
