@@ -23,6 +23,17 @@ pub fn load_mesh(source: &str, units: Units, voxel_size: f64) -> Result<mesh_sou
     mesh_source::load_scaled(source, units.metres())
 }
 
+/// [`load_mesh`] for a command that writes `build.output` (`-o`): the output path is checked
+/// first, against the mesh file it must not replace.
+pub fn load_mesh_for(
+    source: &str,
+    build: &crate::cli::BuildArgs,
+    voxel_size: f64,
+) -> Result<mesh_source::SceneMesh> {
+    vps_app::output::check_output_path("-o", &build.output, &vps_app::output::mesh_inputs(source))?;
+    load_mesh(source, build.units, voxel_size)
+}
+
 /// For an error of a mesh file read in metres: its size and the `--units` a CAD export in
 /// millimetres needs (empty otherwise).
 pub fn units_hint(mesh: &mesh_source::SceneMesh, units: Units) -> String {

@@ -1,10 +1,10 @@
 //! `vps shell`: mesh → `.vshell` point shell.
 
 use crate::cli::{ShellArgs, ShellMethodArg};
-use crate::mesh_arg::{load_mesh, units_hint};
+use crate::mesh_arg::{load_mesh_for, units_hint};
 use anyhow::{Context, Result};
 use serde::Serialize;
-use vps_app::output::{check_output_path, print_summary, ShellFigures};
+use vps_app::output::{print_summary, ShellFigures};
 use vps_voxelize::{point_shell_within, ShellMethod};
 
 #[derive(Serialize)]
@@ -37,12 +37,7 @@ pub fn method_of(arg: ShellMethodArg) -> ShellMethod {
 
 /// Runs the command.
 pub fn run(args: &ShellArgs) -> Result<()> {
-    check_output_path(
-        "-o",
-        &args.build.output,
-        &vps_app::output::mesh_inputs(&args.mesh),
-    )?;
-    let scene = load_mesh(&args.mesh, args.build.units, args.voxel_size)?;
+    let scene = load_mesh_for(&args.mesh, &args.build, args.voxel_size)?;
     let budget = args
         .build
         .max_memory

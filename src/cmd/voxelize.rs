@@ -1,11 +1,11 @@
 //! `vps voxelize`: mesh → `.vmap`.
 
 use crate::cli::VoxelizeArgs;
-use crate::mesh_arg::{load_mesh, units_hint};
+use crate::mesh_arg::{load_mesh_for, units_hint};
 use anyhow::{bail, Context, Result};
 use glam::DVec3;
 use serde::Serialize;
-use vps_app::output::{check_output_path, hex, mib, print_summary};
+use vps_app::output::{hex, mib, print_summary};
 use vps_mesh::Aabb;
 use vps_voxelize::{voxelize_tree, VoxelizeOptions};
 use vps_voxmap::{TreeConfig, VoxelWidth};
@@ -34,12 +34,7 @@ struct VoxelizeSummary {
 
 /// Runs the command.
 pub fn run(args: &VoxelizeArgs) -> Result<()> {
-    check_output_path(
-        "-o",
-        &args.build.output,
-        &vps_app::output::mesh_inputs(&args.mesh),
-    )?;
-    let scene = load_mesh(&args.mesh, args.build.units, args.voxel_size)?;
+    let scene = load_mesh_for(&args.mesh, &args.build, args.voxel_size)?;
     let health = vps_mesh::mesh_health(&scene.mesh);
     let Some(width) = VoxelWidth::from_bits(args.width) else {
         bail!("--width {}: must be 2, 4 or 8", args.width);

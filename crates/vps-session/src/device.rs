@@ -359,23 +359,16 @@ to = [0.3, 0.0, 0.1]
 spacing = 0.05
 "#;
 
-    /// Two moving parts, the second on the bridge.
-    const TWO_PARTS: &str = r#"
-[[static]]
-source = "builtin:box"
+    /// Two moving parts, the second on the bridge with too short a pose timeout.
+    const TWO_PARTS_SHORT_TIMEOUT: &str = r#"
+static = [{ source = "builtin:box" }]
 [[part]]
-name = "left"
 source = "builtin:box"
-scale = 0.4
-[part.hand]
-waypoints = [[-0.06, 0.0, 0.0], [-0.015, 0.0, 0.0]]
+hand = { waypoints = [[-0.06, 0.0, 0.0]] }
 [[part]]
-name = "right"
 source = "builtin:sphere"
-[part.hand]
-waypoints = [[0.06, 0.0, 0.0]]
-[part.device]
-kind = "bridge:127.0.0.1:7701"
+hand = { waypoints = [[0.06, 0.0, 0.0]] }
+device = { kind = "bridge:127.0.0.1:7701", pose_timeout_ms = 1.0 }
 "#;
 
     #[test]
@@ -400,7 +393,7 @@ kind = "bridge:127.0.0.1:7701"
                 "`device.max_torque`",
             ),
             (
-                format!("{TWO_PARTS}pose_timeout_ms = 1.0\n"),
+                TWO_PARTS_SHORT_TIMEOUT.to_string(),
                 "`part[1].device.pose_timeout_ms`",
             ),
         ];
