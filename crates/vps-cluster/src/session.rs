@@ -1,4 +1,4 @@
-//! Entry points for the CLI: a coordinator session on the runtime's frame loop, and local worker
+//! Entry points for the application layer (`vps-app`): a coordinator session on the runtime's frame loop, and local worker
 //! processes for `vps cluster --local-workers N`.
 
 use crate::coordinator::Coordinator;

@@ -359,60 +359,6 @@ to = [0.3, 0.0, 0.1]
 spacing = 0.05
 "#;
 
-    /// Two moving parts, the second on the bridge with too short a pose timeout.
-    const TWO_PARTS_SHORT_TIMEOUT: &str = r#"
-static = [{ source = "builtin:box" }]
-[[part]]
-source = "builtin:box"
-hand = { waypoints = [[-0.06, 0.0, 0.0]] }
-[[part]]
-source = "builtin:sphere"
-hand = { waypoints = [[0.06, 0.0, 0.0]] }
-device = { kind = "bridge:127.0.0.1:7701", pose_timeout_ms = 1.0 }
-"#;
-
-    #[test]
-    fn device_settings_out_of_range_are_refused_when_the_scene_is_loaded_naming_the_field() {
-        // The schema (vps-scene-file) reads these; their ranges are the device layer's, checked
-        // when the scene is loaded, before anything is built.
-        let cases = [
-            (
-                format!("{GOOD}\n[device]\nkind = \"bridge\"\npose_timeout_ms = 0\n"),
-                "`device.pose_timeout_ms`",
-            ),
-            (
-                format!("{GOOD}\n[device]\nkind = \"bridge\"\n[device.mapping]\nscale = 0.0\n"),
-                "`device.mapping.scale`",
-            ),
-            (
-                format!("{GOOD}\n[device]\n[device.mapping]\nforce_scale = -1.0\n"),
-                "`device.mapping.force_scale`",
-            ),
-            (
-                format!("{GOOD}\n[device]\nmax_torque = -1.0\n"),
-                "`device.max_torque`",
-            ),
-            (
-                TWO_PARTS_SHORT_TIMEOUT.to_string(),
-                "`part[1].device.pose_timeout_ms`",
-            ),
-        ];
-        let dir = tempfile::tempdir().unwrap();
-        for (k, (text, field)) in cases.iter().enumerate() {
-            assert!(parse(text).is_ok(), "the schema refused case {k}");
-            let path = dir.path().join(format!("scene{k}.toml"));
-            std::fs::write(&path, text).unwrap();
-            let err = crate::LoadedScene::load(path.to_str().unwrap())
-                .err()
-                .unwrap_or_else(|| panic!("case {k} ({field}) was loaded"));
-            let message = crate::error::error_chain_text(&err);
-            assert!(
-                message.contains(field) && message.contains("scene"),
-                "{field} not named in: {message}"
-            );
-        }
-    }
-
     fn parse(text: &str) -> Result<SceneFile, SceneError> {
         SceneFile::from_toml_str(text, "scene.toml")
     }
