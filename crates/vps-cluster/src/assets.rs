@@ -7,13 +7,10 @@
 
 use crate::protocol::{AssetFile, AssetKind, AssetsIdentity, MAX_ASSET_PARTS, MAX_CLASSES};
 use crate::ClusterError;
-use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use vps_haptic::job::{body_map, JobTarget, SCENE_MAP};
-use vps_haptic::{
-    sample_class_in, sample_mask, ClassedShell, KernelFrame, KernelPose, PartialSums,
-};
+use vps_haptic::{sample_mask, ClassedShell, KernelPose, PartialSums};
 use vps_voxmap::file::{read_shell, read_voxmap, write_shell, write_voxmap};
 use vps_voxmap::{PointShell, VoxelTree};
 
@@ -295,6 +292,13 @@ impl ClusterAssets {
         Some((map, shell))
     }
 
+    /// [`ClusterAssets::target`] as shared handles (for a class pool's threads); clones two `Arc`s.
+    pub fn target_arcs(&self, target: JobTarget) -> Option<(Arc<VoxelTree>, Arc<ClassedShell>)> {
+        let map = self.maps.get(usize::from(target.map))?;
+        let shell = self.shells.get(usize::from(target.shell))?;
+        Some((map.clone(), shell.clone()))
+    }
+
     /// Every job target these assets can sample: each part in the scene and, with several
     /// parts, each part's shell in every other part's body voxmap.
     pub fn targets(&self) -> Vec<JobTarget> {
@@ -319,33 +323,9 @@ impl ClusterAssets {
     }
 
     /// The merged sums of the classes whose bits are set in `mask` of the job `target` at
-    /// `pose`, sampled in parallel on the current rayon pool (call inside
-    /// `ThreadPool::install`); zero sums for a target these assets do not have. Exact: the same
-    /// bits for any grouping. Does not allocate beyond rayon's own bookkeeping; blocks until
-    /// done.
+    /// `pose`, on the calling thread (the reference a class pool's split must equal to the bit);
+    /// zero sums for a target these assets do not have. Does not allocate; blocks until done.
     pub fn sample_mask(&self, target: JobTarget, pose: &KernelPose, mask: u64) -> PartialSums {
-        let Some((map, shell)) = self.target(target) else {
-            return PartialSums::default();
-        };
-        let frame = KernelFrame::new(map, shell, pose);
-        (0..MAX_CLASSES)
-            .into_par_iter()
-            .filter(|c| mask >> c & 1 == 1)
-            .map(|c| sample_class_in(map, shell, &frame, c))
-            .reduce(PartialSums::default, |mut a, b| {
-                a.merge(&b);
-                a
-            })
-    }
-
-    /// [`ClusterAssets::sample_mask`] on the calling thread alone: the same bits, no rayon
-    /// hand-off (for one compute thread). Does not allocate; blocks until done.
-    pub fn sample_mask_serial(
-        &self,
-        target: JobTarget,
-        pose: &KernelPose,
-        mask: u64,
-    ) -> PartialSums {
         match self.target(target) {
             Some((map, shell)) => sample_mask(map, shell, pose, mask),
             None => PartialSums::default(),
@@ -496,16 +476,13 @@ mod tests {
         ));
         for target in sent.targets() {
             assert_eq!(
-                got.sample_mask_serial(target, &pose, u64::MAX),
-                sent.sample_mask_serial(target, &pose, u64::MAX)
+                got.sample_mask(target, &pose, u64::MAX),
+                sent.sample_mask(target, &pose, u64::MAX)
             );
         }
         let missing = JobTarget { shell: 2, map: 0 };
         assert!(got.target(missing).is_none());
-        assert_eq!(
-            got.sample_mask_serial(missing, &pose, 1),
-            PartialSums::default()
-        );
+        assert_eq!(got.sample_mask(missing, &pose, 1), PartialSums::default());
         assert!(
             ClusterAssets::of_parts(sent.scene_map().clone(), &[&shell, &shell], &[], 8).is_err()
         );

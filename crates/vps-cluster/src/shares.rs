@@ -5,8 +5,8 @@
 //!
 //! It is the I/O driver around the pure [`GatherCore`] ([`crate::gather`]), which makes every
 //! decision below: this module only sends the requests on the workers' `quinn::Connection`s,
-//! waits on the reply channel, reads the clock, computes on the local rayon pool and keeps the
-//! metrics board.
+//! waits on the reply channel, reads the clock, computes its own share and the fallback on the
+//! local class pool (`vps_runtime::ClassPool`, the loop's own sampler) and keeps the metrics board.
 //!
 //! Prediction (default, [`GatherConfig::predict`]): a worker gets its share only when the core
 //! predicts that this shortens the frame; a worker given none is sent a one-class probe that no
@@ -58,8 +58,9 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use vps_cluster_core::frame::{FrameStart, Handled, Request};
 use vps_haptic::job::{JobTarget, SampleJob, MAX_JOBS};
-use vps_haptic::{KernelPose, PartialSums};
-use vps_runtime::{FrameSampler, PoolResult};
+use vps_haptic::{ClassedShell, KernelPose, PartialSums};
+use vps_runtime::{ClassPool, FrameSampler, PoolResult};
+use vps_voxmap::VoxelTree;
 
 /// How the gatherer runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -137,7 +138,9 @@ pub struct RemoteShares {
     control: Receiver<Control>,
     datagrams: Receiver<Datagram>,
     config: GatherConfig,
-    pool: rayon::ThreadPool,
+    /// The coordinator's own share and the fallback of every job, on `local_threads` threads
+    /// (the frame thread and `local_threads − 1` pool threads).
+    pool: ClassPool<VoxelTree>,
     core: GatherCore,
     /// Joined workers, in join order.
     links: Vec<Link>,
@@ -210,19 +213,17 @@ impl RemoteShares {
         for target in assets.targets().into_iter().skip(1) {
             core.add_target(target, shape_of(&assets, target))?;
         }
-        // The local pool is deliberately NOT kept off the frame core: it works only inside a
-        // frame, while the frame thread blocks in `install` waiting for it, so on the frame core
-        // it runs in the frame thread's place rather than against it; keeping it off would halve
-        // the local share's parallelism on a 2-core machine. With one local thread it is never
-        // used (the frame thread computes its share itself) and its thread sleeps.
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(config.local_threads)
-            .thread_name(|i| format!("vps-local-{i}"))
-            .build()
-            .map_err(|e| ClusterError::Config {
+        // The local pool is deliberately NOT kept off the frame core: its threads work only
+        // inside a frame, beside the frame thread, which claims classes itself; keeping them off
+        // would halve the local share's parallelism on a 2-core machine. With one local thread
+        // the pool has no thread of its own: the frame thread computes its share itself.
+        let (first_map, first_shell) = first_target(&assets)?;
+        let pool = ClassPool::new(first_map, first_shell, config.local_threads).map_err(|e| {
+            ClusterError::Config {
                 field: "local_threads",
                 message: e.to_string(),
-            })?;
+            }
+        })?;
         let reporter = Reporter::start(board.clone(), config.log_every, keep_off)
             .map_err(|e| ClusterError::Network(format!("cannot start the metrics thread: {e}")))?;
         Ok(RemoteShares {
@@ -546,20 +547,42 @@ impl RemoteShares {
     }
 }
 
+/// How far ahead [`RemoteShares::sample`]'s deadline lies: never reached in a frame.
+const NO_DEADLINE: Duration = Duration::from_secs(3600);
+
+/// The scene's voxmap and the first part's shell: the local pool's own target.
+fn first_target(
+    assets: &ClusterAssets,
+) -> Result<(Arc<VoxelTree>, Arc<ClassedShell>), ClusterError> {
+    match (assets.maps.first(), assets.shells.first()) {
+        (Some(map), Some(shell)) => Ok((map.clone(), shell.clone())),
+        _ => Err(ClusterError::Config {
+            field: "assets",
+            message: "no voxmap or no shell to sample".into(),
+        }),
+    }
+}
+
 fn nanos(d: Duration) -> u64 {
     d.as_nanos().min(u128::from(u64::MAX)) as u64
 }
 
 impl RemoteShares {
-    /// The sums of the classes in `mask` of `job`: on the frame thread itself with one local
-    /// thread (no hand-off), else on the local pool. Blocks until done; does not allocate.
-    fn sample(&self, job: &SampleJob, mask: u64) -> PartialSums {
-        if self.config.local_threads == 1 {
-            self.assets.sample_mask_serial(job.target, &job.pose, mask)
-        } else {
-            self.pool
-                .install(|| self.assets.sample_mask(job.target, &job.pose, mask))
-        }
+    /// The sums of the classes in `mask` of `job` on the local class pool (the frame thread and
+    /// the pool's threads; with one local thread the frame thread alone); zero sums for a target
+    /// the assets lack. Blocks until done (no deadline: a share computed here is the frame's
+    /// last word); does not allocate.
+    fn sample(&mut self, job: &SampleJob, mask: u64) -> PartialSums {
+        let (Some(map), Some(shell)) = (
+            self.assets.maps.get(usize::from(job.target.map)),
+            self.assets.shells.get(usize::from(job.target.shell)),
+        ) else {
+            return PartialSums::default();
+        };
+        let no_deadline = Instant::now() + NO_DEADLINE;
+        self.pool
+            .compute_mask(map, shell, &job.pose, mask, no_deadline)
+            .sums
     }
 
     /// One frame of `jobs` into `sums` (one per job): membership, assignment, requests, own

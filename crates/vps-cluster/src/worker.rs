@@ -1,9 +1,10 @@
 //! `vps worker`: dials the coordinator, joins (receiving the voxmap and shell files unless cached), then answers
 //! frame datagrams with the partial sums of the classes each one asks for.
 //!
-//! Threads: one tokio current-thread runtime for the network, which also computes each share: on
-//! itself with one compute thread (a request is answered without any thread hand-off), or on a
-//! rayon pool of `threads` threads it waits for. It always answers the newest queued request and
+//! Threads: one tokio current-thread runtime for the network, which also computes each share on
+//! the local class pool (`vps_runtime::ClassPool`, the loop's own sampler): alone with one compute
+//! thread (a request is answered without any thread hand-off), else with the pool's `threads − 1`
+//! threads. It always answers the newest queued request and
 //! drops older ones (the coordinator has given up on them anyway). Malformed datagrams are counted
 //! and ignored.
 //!
@@ -27,6 +28,9 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 use vps_haptic::job::MAX_JOBS;
+use vps_haptic::PartialSums;
+use vps_runtime::ClassPool;
+use vps_voxmap::VoxelTree;
 
 /// How a worker runs.
 #[derive(Clone, Debug)]
@@ -408,12 +412,13 @@ fn try_read_datagram(
     }
 }
 
-/// Computes and sends replies on the network thread itself: with one compute thread the share is
-/// sampled right there (no thread hand-off between a request's arrival and its reply); with more,
-/// on a rayon pool the network thread waits for.
+/// Computes and sends replies on the network thread itself, sampling each share on the local
+/// class pool (`vps_runtime::ClassPool`, the loop's own sampler): the network thread claims
+/// classes with the pool's `threads − 1` threads; with one compute thread it samples alone (no
+/// thread hand-off between a request's arrival and its reply).
 struct Answerer {
     scene: ClusterAssets,
-    pool: Option<rayon::ThreadPool>,
+    pool: ClassPool<VoxelTree>,
     /// The requests to answer now: the newest frame's, one per job.
     batch: Vec<FrameRequest>,
     buf: [u8; REPLY_LEN],
@@ -424,18 +429,18 @@ struct Answerer {
 
 impl Answerer {
     fn new(scene: ClusterAssets, threads: usize) -> Result<Answerer, ClusterError> {
-        let pool = (threads > 1)
-            .then(|| {
-                rayon::ThreadPoolBuilder::new()
-                    .num_threads(threads)
-                    .thread_name(|i| format!("vps-worker-{i}"))
-                    .build()
-            })
-            .transpose()
-            .map_err(|e| ClusterError::Config {
+        let (Some(map), Some(shell)) = (scene.maps.first(), scene.shells.first()) else {
+            return Err(ClusterError::Config {
+                field: "assets",
+                message: "no voxmap or no shell to sample".into(),
+            });
+        };
+        let pool = ClassPool::new(map.clone(), shell.clone(), threads.max(1)).map_err(|e| {
+            ClusterError::Config {
                 field: "threads",
                 message: format!("cannot start the compute pool: {e}"),
-            })?;
+            }
+        })?;
         Ok(Answerer {
             scene,
             pool,
@@ -505,9 +510,16 @@ impl Answerer {
     /// Samples the requested classes and sends the reply; false when the connection is gone.
     fn reply(&mut self, conn: &quinn::Connection, request: &FrameRequest) -> bool {
         let (job, pose, classes) = (request.job, &request.pose, request.classes);
-        let sums = match &self.pool {
-            Some(pool) => pool.install(|| self.scene.sample_mask(job, pose, classes)),
-            None => self.scene.sample_mask_serial(job, pose, classes),
+        // `decode` dropped requests naming a job these assets lack.
+        let sums = match self.scene.target_arcs(job) {
+            Some((map, shell)) => {
+                // No deadline: the coordinator decides what is late.
+                let no_deadline = std::time::Instant::now() + Duration::from_secs(3600);
+                self.pool
+                    .compute_mask(&map, &shell, pose, classes, no_deadline)
+                    .sums
+            }
+            None => PartialSums::default(),
         };
         FrameReply {
             seq: request.seq,

@@ -167,11 +167,7 @@ fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
                 let mut buf = [0u8; REPLY_LEN];
                 while let Ok(bytes) = conn.read_datagram().await {
                     let req = FrameRequest::decode(&bytes).unwrap();
-                    let good = rayon::ThreadPoolBuilder::new()
-                        .num_threads(1)
-                        .build()
-                        .unwrap()
-                        .install(|| assets.sample_mask(req.job, &req.pose, req.classes));
+                    let good = assets.sample_mask(req.job, &req.pose, req.classes);
                     let send = |b: &[u8]| {
                         let _ = conn.send_datagram(bytes::Bytes::copy_from_slice(b));
                     };
@@ -244,7 +240,7 @@ fn a_worker_that_keeps_sending_implausible_sums_is_disconnected() {
     let liar = {
         let assets = assets.clone();
         reply_with(&fake, conn.clone(), move |req| {
-            let mut sums = assets.sample_mask_serial(req.job, &req.pose, req.classes);
+            let mut sums = assets.sample_mask(req.job, &req.pose, req.classes);
             sums.sampled += 1;
             Some(sums)
         })
@@ -300,7 +296,7 @@ fn answer(
         }
         answered += 1;
         std::thread::sleep(per_class * req.classes.count_ones());
-        Some(assets.sample_mask_serial(req.job, &req.pose, req.classes))
+        Some(assets.sample_mask(req.job, &req.pose, req.classes))
     })
 }
 
@@ -444,8 +440,8 @@ fn a_share_that_cannot_be_recomputed_in_time_is_stood_in_for_by_its_last_sums_fo
     );
     // Frames 1–3: the odd classes' sums of frame 0 stand in (ages 1, 2, 3).
     for (result, pose) in got[1..4].iter().zip(&poses[1..4]) {
-        let mut want = assets.sample_mask_serial(JobTarget::FIRST, pose, even);
-        want.merge(&assets.sample_mask_serial(JobTarget::FIRST, &poses[0], odd));
+        let mut want = assets.sample_mask(JobTarget::FIRST, pose, even);
+        want.merge(&assets.sample_mask(JobTarget::FIRST, &poses[0], odd));
         assert_eq!(result.sums, want);
         assert_eq!(result.fallback_shares, 0, "stood in for, not recomputed");
     }

@@ -1,4 +1,8 @@
-//! A fixed pool of local threads that samples a [`ClassedShell`] against a voxmap.
+//! A fixed pool of local threads that samples the classes of a [`ClassedShell`] against a voxmap
+//! by a deadline: the one local sampler of vps. The 1 kHz loop samples its part's whole shell
+//! with it ([`ClassPool::compute`]); a cluster coordinator samples its own share and its fallback
+//! of each job with it, and a worker the share a request names ([`ClassPool::compute_mask`]:
+//! any voxmap and shell, the classes of a mask).
 //!
 //! The classes of a frame are claimed one at a time from a shared cursor (an atomic counter
 //! stamped with the frame's sequence number) by the calling (frame) thread and by `T − 1` worker
@@ -32,10 +36,44 @@ pub const HEDGE_SLACK: Duration = Duration::from_micros(20);
 /// should be in within one class time.
 const HEDGE_CLASS_TIMES: u32 = 2;
 
-/// A frame handed to the pool's threads: its sequence number and pose.
-struct WorkOrder {
+/// A frame handed to the pool's threads: its sequence number, pose, what to sample and which
+/// classes (the first `count` of `classes`, claimed in that order). Cloning its two `Arc`s is the
+/// only cost of a hand-off; nothing is allocated.
+struct WorkOrder<L> {
     seq: u32,
     pose: KernelPose,
+    map: Arc<L>,
+    shell: Arc<ClassedShell>,
+    classes: ClassList,
+}
+
+/// Up to 64 class indices, in claim order.
+#[derive(Clone, Copy)]
+struct ClassList {
+    classes: [u8; 64],
+    count: u32,
+}
+
+impl ClassList {
+    /// The classes of `mask` below `class_count` (at most 64), lowest first.
+    fn of_mask(mask: u64, class_count: u32) -> ClassList {
+        let mut list = ClassList {
+            classes: [0; 64],
+            count: 0,
+        };
+        for class in 0..class_count.min(64) {
+            if mask >> class & 1 == 1 {
+                list.classes[list.count as usize] = class as u8;
+                list.count += 1;
+            }
+        }
+        list
+    }
+
+    /// The class claimed as the `index`-th.
+    fn class(&self, index: u32) -> u32 {
+        u32::from(self.classes[index as usize])
+    }
 }
 
 struct Reply {
@@ -44,8 +82,8 @@ struct Reply {
     sums: PartialSums,
 }
 
-struct Worker {
-    orders: Option<Sender<WorkOrder>>,
+struct Worker<L> {
+    orders: Option<Sender<WorkOrder<L>>>,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -64,10 +102,10 @@ pub struct ClassPool<L: VoxelLookup + Send + Sync + 'static> {
     map: Arc<L>,
     shell: Arc<ClassedShell>,
     cursor: Arc<Cursor>,
-    workers: Vec<Worker>,
+    workers: Vec<Worker<L>>,
     replies: Receiver<Reply>,
     /// Per class: its sums are merged into this frame's total.
-    done: Vec<bool>,
+    done: [bool; 64],
     seq: u32,
     /// The first worker panic (which thread, the message); set once by that worker.
     failure: Arc<OnceLock<String>>,
@@ -92,7 +130,8 @@ pub fn share_classes(class_count: u32, threads: usize, share: usize) -> Vec<u32>
 
 impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
     /// A pool of `threads` compute threads (the caller plus `threads − 1` workers named
-    /// `vps-pool-N`). Errors when `threads` is 0 or a thread cannot be spawned. Allocates and
+    /// `vps-pool-N`) whose [`ClassPool::compute`] samples `shell` in `map`. Errors when `threads`
+    /// is 0, `shell` has more than 64 classes, or a thread cannot be spawned. Allocates and
     /// spawns; not for the frame path.
     pub fn new(
         map: Arc<L>,
@@ -106,30 +145,33 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
             });
         }
         let classes = shell.class_count();
+        if classes > 64 {
+            return Err(RuntimeError::Config {
+                field: "class_count",
+                message: format!("{classes}: a pool samples at most 64 classes"),
+            });
+        }
         let cursor: Arc<Cursor> = Arc::new(Cursor::new());
         // Room for every class of a frame plus stale replies of the previous one (a worker
         // finishes at most one old class after the frame moves on): a reply never waits for room.
-        let (reply_tx, replies) = bounded(classes as usize + 2 * threads);
+        let (reply_tx, replies) = bounded(64 + 2 * threads);
         let mut workers = Vec::with_capacity(threads - 1);
         let failure = Arc::new(OnceLock::new());
         for index in 1..threads {
-            let (order_tx, order_rx) = bounded::<WorkOrder>(1);
-            let (map, shell, cursor, reply_tx, failure) = (
-                map.clone(),
-                shell.clone(),
-                cursor.clone(),
-                reply_tx.clone(),
-                failure.clone(),
-            );
+            let (order_tx, order_rx) = bounded::<WorkOrder<L>>(1);
+            let (cursor, reply_tx, failure) = (cursor.clone(), reply_tx.clone(), failure.clone());
             let thread = std::thread::Builder::new()
                 .name(format!("vps-pool-{index}"))
                 .spawn(move || {
                     for order in order_rx.iter() {
                         let work = catch_unwind(AssertUnwindSafe(|| {
+                            let (map, shell) = (&*order.map, &*order.shell);
                             // Prepared once for the frame, used for every class this thread takes.
-                            let frame = KernelFrame::new(&*map, &shell, &order.pose);
-                            while let Some(class) = cursor.claim(order.seq, classes) {
-                                let sums = sample_class_in(&*map, &shell, &frame, class);
+                            let frame = KernelFrame::new(map, shell, &order.pose);
+                            let list = order.classes;
+                            while let Some(index) = cursor.claim(order.seq, list.count) {
+                                let class = list.class(index);
+                                let sums = sample_class_in(map, shell, &frame, class);
                                 // Full only if the frame thread stopped reading: drop the reply.
                                 let _ = reply_tx.try_send(Reply {
                                     seq: order.seq,
@@ -161,7 +203,7 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
             cursor,
             workers,
             replies,
-            done: vec![false; classes as usize],
+            done: [false; 64],
             seq: 0,
             failure,
         })
@@ -172,17 +214,33 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
         self.workers.len() + 1
     }
 
-    /// Samples every class at `pose`: opens the frame's cursor, wakes the workers, claims and
+    /// Samples every class of the pool's own shell in its own voxmap at `pose`
+    /// ([`ClassPool::compute_mask`] with every class). Does not allocate or block.
+    pub fn compute(&mut self, pose: &KernelPose, deadline: Instant) -> PoolResult {
+        let (map, shell) = (self.map.clone(), self.shell.clone());
+        self.compute_mask(&map, &shell, pose, u64::MAX, deadline)
+    }
+
+    /// Samples the classes of `shell` whose bits are set in `mask` (those below its class count)
+    /// in `map` at `pose`: opens the frame's cursor, hands the frame to the workers, claims and
     /// computes classes here until none is left, waits (spinning) for the classes the workers
     /// still hold until the hedge time (twice this thread's mean class time this frame plus
     /// [`HEDGE_SLACK`] after its last class) or `deadline`, whichever is first, then computes
-    /// here any class still missing, one at a time, taking replies that arrive in between. Does
-    /// not allocate or block.
-    pub fn compute(&mut self, pose: &KernelPose, deadline: Instant) -> PoolResult {
+    /// here any class still missing, one at a time, taking replies that arrive in between. The
+    /// sums are exact: the same bits whoever computed each class. Does not allocate or block
+    /// (clones the two `Arc`s once per worker).
+    pub fn compute_mask(
+        &mut self,
+        map: &Arc<L>,
+        shell: &Arc<ClassedShell>,
+        pose: &KernelPose,
+        mask: u64,
+        deadline: Instant,
+    ) -> PoolResult {
         self.seq = self.seq.wrapping_add(1);
         let seq = self.seq;
-        let classes = self.shell.class_count();
-        self.done.iter_mut().for_each(|d| *d = false);
+        let list = ClassList::of_mask(mask, shell.class_count());
+        self.done = [false; 64];
         // Replies of earlier frames.
         while self.replies.try_recv().is_ok() {}
         self.cursor.open(seq);
@@ -190,16 +248,24 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
             if let Some(tx) = &worker.orders {
                 // Fails when the worker still holds an older order (it will find that frame closed
                 // and skip it; this frame's classes go to the others) or has gone.
-                let _ = tx.try_send(WorkOrder { seq, pose: *pose });
+                let _ = tx.try_send(WorkOrder {
+                    seq,
+                    pose: *pose,
+                    map: map.clone(),
+                    shell: shell.clone(),
+                    classes: list,
+                });
             }
         }
+        let (map, shell) = (&**map, &**shell);
         let mut sums = PartialSums::default();
-        let mut missing = classes as usize;
+        let mut missing = list.count as usize;
         let own_started = Instant::now();
         let mut own = 0u32;
-        let frame = KernelFrame::new(&*self.map, &self.shell, pose);
-        while let Some(class) = self.cursor.claim(seq, classes) {
-            sums.merge(&sample_class_in(&*self.map, &self.shell, &frame, class));
+        let frame = KernelFrame::new(map, shell, pose);
+        while let Some(index) = self.cursor.claim(seq, list.count) {
+            let class = list.class(index);
+            sums.merge(&sample_class_in(map, shell, &frame, class));
             self.done[class as usize] = true;
             missing -= 1;
             own += 1;
@@ -222,13 +288,14 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
             }
         }
         let mut fallback_shares = 0;
-        for class in 0..classes {
+        for index in 0..list.count {
             if missing == 0 {
                 break;
             }
             missing -= self.take_replies(seq, &mut sums);
+            let class = list.class(index);
             if !self.done[class as usize] {
-                sums.merge(&sample_class_in(&*self.map, &self.shell, &frame, class));
+                sums.merge(&sample_class_in(map, shell, &frame, class));
                 self.done[class as usize] = true;
                 missing -= 1;
                 fallback_shares += 1;
@@ -366,6 +433,53 @@ mod tests {
                 assert_eq!(&got.sums, want, "threads = {threads}");
             }
         }
+    }
+
+    #[test]
+    fn any_mask_of_any_shell_gives_the_serial_sums_on_any_thread_count() {
+        // The pool's own target is one shell; each call names another shell and a mask, as a
+        // cluster coordinator's share and a worker's request do.
+        let map = Arc::new(wall());
+        let own = Arc::new(ClassedShell::new(&sphere_shell(100), 8));
+        let other = Arc::new(ClassedShell::new(&sphere_shell(300), 64));
+        let mut s = PartState::at_rest(DVec3::new(0.05, 0.05, 0.058), DQuat::from_rotation_x(0.3));
+        s.linear_velocity = DVec3::new(0.01, 0.0, -0.2);
+        let pose = KernelPose::from_state(&s);
+        let masks = [
+            u64::MAX,
+            0,
+            1,
+            1 << 63,
+            0x5555_5555_5555_5555,
+            0xF0F0_0000_0000_F00F,
+        ];
+        for threads in 1..=3 {
+            let mut pool = ClassPool::new(map.clone(), own.clone(), threads).unwrap();
+            for mask in masks {
+                let want = vps_haptic::sample_mask(&*map, &other, &pose, mask);
+                let got = pool.compute_mask(
+                    &map,
+                    &other,
+                    &pose,
+                    mask,
+                    Instant::now() + Duration::from_secs(5),
+                );
+                assert_eq!(got.sums, want, "threads = {threads}, mask = {mask:#x}");
+            }
+            // And its own shell between the others' (the loop's call).
+            let own_sums = pool
+                .compute(&pose, Instant::now() + Duration::from_secs(5))
+                .sums;
+            assert_eq!(
+                own_sums,
+                sample_all(&*map, &own, &pose),
+                "threads = {threads}"
+            );
+        }
+        assert!(
+            vps_haptic::sample_mask(&*map, &other, &pose, u64::MAX).contacts > 0,
+            "the pose must touch the wall"
+        );
     }
 
     /// A 300-point sphere shell in 8 classes, and a pose at rest with its centre 1 cm above the
