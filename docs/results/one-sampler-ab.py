@@ -2,7 +2,10 @@
 # moved from rayon pools onto the runtime's ClassPool) on three runs, ROUNDS rounds, from the
 # repository root; prints one JSON line per run and writes them all to OUT. Usage:
 #   python3 docs/results/one-sampler-ab.py ROUNDS BEFORE_VPS AFTER_VPS OUT.json
-import json, subprocess, sys, time
+import os, sys
+sys.dont_write_bytecode = True  # no __pycache__ under docs/results
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from alternate_builds import alternate
 bins = {"before": sys.argv[2], "after": sys.argv[3]}
 modes = {
   # Split every frame; the coordinator and each worker on one thread (no pool thread either way).
@@ -12,26 +15,17 @@ modes = {
   # The 1 kHz loop's own pool: 100k points on two threads.
   "loop_100k_2_threads": ["bench", "loop", "--points", "100000", "--frames", "10000", "--threads", "2", "--json"],
 }
-rounds = int(sys.argv[1])
-out = {"runs": []}
-for r in range(rounds):
-    order = list(bins.items()) if r % 2 == 0 else list(bins.items())[::-1]
-    for mode, args in modes.items():
-        for name, exe in order:
-            t = time.time()
-            p = subprocess.run([exe] + args, capture_output=True, text=True, cwd=".")
-            if p.returncode != 0:
-                print(name, mode, "rc", p.returncode, p.stderr[-2000:]); sys.exit(1)
-            rep = json.loads(p.stdout)
-            s = rep["stats"]
-            row = {"round": r + 1, "build": name, "mode": mode, "frames": s["frames"],
-                   "missed_deadlines": s["missed_deadlines"],
-                   "compute_p50_ns": s["compute_ns"]["p50"], "compute_p999_ns": s["compute_ns"]["p999"],
-                   "wall_s": round(time.time() - t, 1)}
-            c = rep.get("cluster")
-            if c:
-                row["fallback_shares"] = c.get("fallback_shares")
-                row["peers"] = [{"p50_ns": q["rtt_ns"]["p50"], "p999_ns": q["rtt_ns"]["p999"], "samples": q["rtt_samples"], "late": q.get("late")} for q in c["peers"]]
-            print(json.dumps(row), flush=True)
-            out["runs"].append(row)
-json.dump(out, open(sys.argv[4], "w"), indent=1)
+
+
+def row_of(rep):
+    s = rep["stats"]
+    row = {"frames": s["frames"], "missed_deadlines": s["missed_deadlines"],
+           "compute_p50_ns": s["compute_ns"]["p50"], "compute_p999_ns": s["compute_ns"]["p999"]}
+    c = rep.get("cluster")
+    if c:
+        row["fallback_shares"] = c.get("fallback_shares")
+        row["peers"] = [{"p50_ns": q["rtt_ns"]["p50"], "p999_ns": q["rtt_ns"]["p999"], "samples": q["rtt_samples"], "late": q.get("late")} for q in c["peers"]]
+    return row
+
+
+alternate(bins, modes, int(sys.argv[1]), row_of, sys.argv[4])

@@ -30,14 +30,6 @@ impl Default for SceneRequest {
 }
 
 impl SceneRequest {
-    /// The scene `scene` (a file or `builtin:NAME`), cache on, the default budget.
-    pub fn new(scene: impl Into<String>) -> SceneRequest {
-        SceneRequest {
-            scene: scene.into(),
-            ..SceneRequest::default()
-        }
-    }
-
     /// How to build the scene: `voxel_size` (m) instead of the scene's when given.
     pub fn build_options(&self, voxel_size: Option<f64>) -> vps_session::BuildOptions {
         vps_session::BuildOptions {

@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use vps_haptic::job::{body_map, JobTarget, SCENE_MAP};
 use vps_haptic::{sample_mask, ClassedShell, KernelPose, PartialSums};
+use vps_runtime::ClassPool;
 use vps_voxmap::file::{read_shell, read_voxmap, write_shell, write_voxmap};
 use vps_voxmap::{PointShell, VoxelTree};
 
@@ -292,11 +293,35 @@ impl ClusterAssets {
         Some((map, shell))
     }
 
-    /// [`ClusterAssets::target`] as shared handles (for a class pool's threads); clones two `Arc`s.
-    pub fn target_arcs(&self, target: JobTarget) -> Option<(Arc<VoxelTree>, Arc<ClassedShell>)> {
+    /// [`ClusterAssets::target`] as the shared handles a class pool's threads take.
+    pub fn target_handles(
+        &self,
+        target: JobTarget,
+    ) -> Option<(&Arc<VoxelTree>, &Arc<ClassedShell>)> {
         let map = self.maps.get(usize::from(target.map))?;
         let shell = self.shells.get(usize::from(target.shell))?;
-        Some((map.clone(), shell.clone()))
+        Some((map, shell))
+    }
+
+    /// A class pool whose own target is the first job's (the first part in the scene) and which
+    /// samples any target of these assets: `threads` compute threads, the caller included.
+    /// Errors when these assets have no voxmap or no shell, or the pool cannot start (naming
+    /// `field`, the caller's thread-count setting).
+    pub fn class_pool(
+        &self,
+        threads: usize,
+        field: &'static str,
+    ) -> Result<ClassPool<VoxelTree>, ClusterError> {
+        let (map, shell) =
+            self.target_handles(JobTarget::FIRST)
+                .ok_or_else(|| ClusterError::Config {
+                    field: "assets",
+                    message: "no voxmap or no shell to sample".into(),
+                })?;
+        ClassPool::new(map.clone(), shell.clone(), threads).map_err(|e| ClusterError::Config {
+            field,
+            message: format!("cannot start the compute pool: {e}"),
+        })
     }
 
     /// Every job target these assets can sample: each part in the scene and, with several

@@ -58,7 +58,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use vps_cluster_core::frame::{FrameStart, Handled, Request};
 use vps_haptic::job::{JobTarget, SampleJob, MAX_JOBS};
-use vps_haptic::{ClassedShell, KernelPose, PartialSums};
+use vps_haptic::{KernelPose, PartialSums};
 use vps_runtime::{ClassPool, FrameSampler, PoolResult};
 use vps_voxmap::VoxelTree;
 
@@ -217,13 +217,7 @@ impl RemoteShares {
         // inside a frame, beside the frame thread, which claims classes itself; keeping them off
         // would halve the local share's parallelism on a 2-core machine. With one local thread
         // the pool has no thread of its own: the frame thread computes its share itself.
-        let (first_map, first_shell) = first_target(&assets)?;
-        let pool = ClassPool::new(first_map, first_shell, config.local_threads).map_err(|e| {
-            ClusterError::Config {
-                field: "local_threads",
-                message: e.to_string(),
-            }
-        })?;
+        let pool = assets.class_pool(config.local_threads, "local_threads")?;
         let reporter = Reporter::start(board.clone(), config.log_every, keep_off)
             .map_err(|e| ClusterError::Network(format!("cannot start the metrics thread: {e}")))?;
         Ok(RemoteShares {
@@ -547,22 +541,6 @@ impl RemoteShares {
     }
 }
 
-/// How far ahead [`RemoteShares::sample`]'s deadline lies: never reached in a frame.
-const NO_DEADLINE: Duration = Duration::from_secs(3600);
-
-/// The scene's voxmap and the first part's shell: the local pool's own target.
-fn first_target(
-    assets: &ClusterAssets,
-) -> Result<(Arc<VoxelTree>, Arc<ClassedShell>), ClusterError> {
-    match (assets.maps.first(), assets.shells.first()) {
-        (Some(map), Some(shell)) => Ok((map.clone(), shell.clone())),
-        _ => Err(ClusterError::Config {
-            field: "assets",
-            message: "no voxmap or no shell to sample".into(),
-        }),
-    }
-}
-
 fn nanos(d: Duration) -> u64 {
     d.as_nanos().min(u128::from(u64::MAX)) as u64
 }
@@ -573,16 +551,10 @@ impl RemoteShares {
     /// the assets lack. Blocks until done (no deadline: a share computed here is the frame's
     /// last word); does not allocate.
     fn sample(&mut self, job: &SampleJob, mask: u64) -> PartialSums {
-        let (Some(map), Some(shell)) = (
-            self.assets.maps.get(usize::from(job.target.map)),
-            self.assets.shells.get(usize::from(job.target.shell)),
-        ) else {
-            return PartialSums::default();
-        };
-        let no_deadline = Instant::now() + NO_DEADLINE;
-        self.pool
-            .compute_mask(map, shell, &job.pose, mask, no_deadline)
-            .sums
+        match self.assets.target_handles(job.target) {
+            Some((map, shell)) => self.pool.sample_mask(map, shell, &job.pose, mask),
+            None => PartialSums::default(),
+        }
     }
 
     /// One frame of `jobs` into `sums` (one per job): membership, assignment, requests, own

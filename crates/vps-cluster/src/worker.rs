@@ -429,18 +429,7 @@ struct Answerer {
 
 impl Answerer {
     fn new(scene: ClusterAssets, threads: usize) -> Result<Answerer, ClusterError> {
-        let (Some(map), Some(shell)) = (scene.maps.first(), scene.shells.first()) else {
-            return Err(ClusterError::Config {
-                field: "assets",
-                message: "no voxmap or no shell to sample".into(),
-            });
-        };
-        let pool = ClassPool::new(map.clone(), shell.clone(), threads.max(1)).map_err(|e| {
-            ClusterError::Config {
-                field: "threads",
-                message: format!("cannot start the compute pool: {e}"),
-            }
-        })?;
+        let pool = scene.class_pool(threads.max(1), "threads")?;
         Ok(Answerer {
             scene,
             pool,
@@ -511,14 +500,8 @@ impl Answerer {
     fn reply(&mut self, conn: &quinn::Connection, request: &FrameRequest) -> bool {
         let (job, pose, classes) = (request.job, &request.pose, request.classes);
         // `decode` dropped requests naming a job these assets lack.
-        let sums = match self.scene.target_arcs(job) {
-            Some((map, shell)) => {
-                // No deadline: the coordinator decides what is late.
-                let no_deadline = std::time::Instant::now() + Duration::from_secs(3600);
-                self.pool
-                    .compute_mask(&map, &shell, pose, classes, no_deadline)
-                    .sums
-            }
+        let sums = match self.scene.target_handles(job) {
+            Some((map, shell)) => self.pool.sample_mask(map, shell, pose, classes),
             None => PartialSums::default(),
         };
         FrameReply {

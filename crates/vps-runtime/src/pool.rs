@@ -221,6 +221,22 @@ impl<L: VoxelLookup + Send + Sync + 'static> ClassPool<L> {
         self.compute_mask(&map, &shell, pose, u64::MAX, deadline)
     }
 
+    /// [`ClassPool::compute_mask`] with no deadline of its own: the pool's threads are waited for
+    /// only as the hedge allows, then what is missing is computed here (a coordinator's own
+    /// share, a fallback, a worker's reply: the caller's clock decides what is late). Does not
+    /// allocate or block.
+    pub fn sample_mask(
+        &mut self,
+        map: &Arc<L>,
+        shell: &Arc<ClassedShell>,
+        pose: &KernelPose,
+        mask: u64,
+    ) -> PartialSums {
+        // Far past any frame: the hedge, not this, ends the wait.
+        let no_deadline = Instant::now() + Duration::from_secs(3600);
+        self.compute_mask(map, shell, pose, mask, no_deadline).sums
+    }
+
     /// Samples the classes of `shell` whose bits are set in `mask` (those below its class count)
     /// in `map` at `pose`: opens the frame's cursor, hands the frame to the workers, claims and
     /// computes classes here until none is left, waits (spinning) for the classes the workers

@@ -1447,19 +1447,22 @@ mod tests {
 #[cfg(test)]
 mod device_settings_tests {
     use super::*;
+    use vps_device::DeviceLimits;
+    use vps_input::WorkspaceMapping;
 
-    /// A scene file with every section a device test needs around it.
-    const GOOD: &str = r#"
-name = "t"
-part = "builtin:teapot"
-[[static]]
-source = "builtin:box"
-scale = [4.0, 1.0, 0.5]
-[corridor]
-from = [0.0, 0.0, 0.1]
-to = [0.3, 0.0, 0.1]
-spacing = 0.05
-"#;
+    /// A scene file with every section a device test needs around it: the built-in rig (it has
+    /// no `[device]` table, so a test appends one).
+    const GOOD: &str = crate::file::BUILTIN_SCENES[1].1;
+
+    fn parse(text: &str) -> Result<SceneFile, SceneError> {
+        SceneFile::from_toml_str(text, "scene.toml")
+    }
+
+    #[test]
+    fn the_base_scene_is_the_rig_and_has_no_device_table() {
+        assert_eq!(crate::file::BUILTIN_SCENES[1].0, "rig-teapot");
+        assert!(parse(GOOD).unwrap().device.is_none());
+    }
 
     /// Two moving parts, the second on the bridge with too short a pose timeout.
     const TWO_PARTS_SHORT_TIMEOUT: &str = r#"
@@ -1472,6 +1475,72 @@ source = "builtin:sphere"
 hand = { waypoints = [[0.06, 0.0, 0.0]] }
 device = { kind = "bridge:127.0.0.1:7701", pose_timeout_ms = 1.0 }
 "#;
+
+    #[test]
+    fn device_section_sets_up_the_bridge() {
+        let text = format!(
+            "{GOOD}\n[device]\nkind = \"bridge:127.0.0.1:7701\"\npose_timeout_ms = 200\n\
+             [device.mapping]\nscale = 4.0\nrotate_deg = [0, 0, 90]\noffset = [0.1, 0.0, 0.1]\n"
+        );
+        let file = parse(&text).unwrap();
+        let bridge = file
+            .device
+            .as_ref()
+            .map(|d| crate::device::bridge_settings(d, "scene.toml", "device"))
+            .unwrap()
+            .unwrap();
+        assert_eq!(bridge.pose_timeout, 0.2);
+        assert_eq!(
+            bridge.mapping,
+            WorkspaceMapping {
+                scale: 4.0,
+                rotate_deg: [0.0, 0.0, 90.0],
+                offset: [0.1, 0.0, 0.1],
+                force_scale: 1.0,
+            }
+        );
+        let plain = parse(&format!("{GOOD}\n[device]\nkind = \"sim\"\n")).unwrap();
+        let defaults = plain
+            .device
+            .map(|d| crate::device::bridge_settings(&d, "scene.toml", "device"))
+            .unwrap()
+            .unwrap();
+        assert_eq!(defaults, BridgeSettings::default());
+        assert_eq!(defaults.limits, DeviceLimits::PAPER);
+    }
+
+    #[test]
+    fn device_section_sets_the_wrench_limits_for_every_device() {
+        let text =
+            format!("{GOOD}\n[device]\nkind = \"sim\"\nmax_force = 8.0\nmax_torque = 0.05\n");
+        let settings = parse(&text)
+            .unwrap()
+            .device
+            .map(|d| crate::device::bridge_settings(&d, "scene.toml", "device"))
+            .unwrap()
+            .unwrap();
+        assert_eq!(
+            settings.limits,
+            DeviceLimits {
+                max_force: 8.0,
+                max_torque: 0.05
+            }
+        );
+        for (line, key) in [
+            ("max_force = 0.0", "device.max_force"),
+            ("max_force = 2e4", "device.max_force"),
+            ("max_torque = -1.0", "device.max_torque"),
+        ] {
+            let text = format!("{GOOD}\n[device]\n{line}\n");
+            let err = parse(&text)
+                .and_then(|f| {
+                    crate::device::bridge_settings(&f.device.unwrap(), "scene.toml", "device")
+                })
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(key) && err.contains("(0, "), "{line}: {err}");
+        }
+    }
 
     #[test]
     fn device_settings_out_of_range_are_refused_when_the_scene_is_loaded_naming_the_field() {
@@ -1501,10 +1570,7 @@ device = { kind = "bridge:127.0.0.1:7701", pose_timeout_ms = 1.0 }
         ];
         let dir = tempfile::tempdir().unwrap();
         for (k, (text, field)) in cases.iter().enumerate() {
-            assert!(
-                SceneFile::from_toml_str(text, "scene.toml").is_ok(),
-                "the schema refused case {k}"
-            );
+            assert!(parse(text).is_ok(), "the schema refused case {k}");
             let path = dir.path().join(format!("scene{k}.toml"));
             std::fs::write(&path, text).unwrap();
             let err = LoadedScene::load(path.to_str().unwrap())
