@@ -499,6 +499,23 @@ pub struct StudyArgs {
     pub json: bool,
 }
 
+/// The voxel size, length and threads of a session (`vps run` and the commands built on it,
+/// `vps demo`).
+#[derive(Args, Debug, Clone)]
+pub struct SessionSizeArgs {
+    /// Voxel edge length (m, or with a unit: 2mm), instead of the scene's `voxels.voxel_size`.
+    #[arg(long, value_parser = parse_length)]
+    pub voxel_size: Option<f64>,
+    /// Session length (s). Default: the simulated hand runs until its path has ended (its last
+    /// hold included; about 70 s on the default scene); a replay, the length of its trace; any
+    /// other device, 30 s.
+    #[arg(long, value_parser = vps_app::limits::parse_seconds)]
+    pub seconds: Option<f64>,
+    /// Compute threads, the frame thread included.
+    #[arg(long, value_parser = vps_app::limits::parse_count, default_value_t = 1)]
+    pub threads: usize,
+}
+
 /// Arguments of `vps run`.
 #[derive(Args, Debug, Clone)]
 pub struct RunArgs {
@@ -514,16 +531,9 @@ pub struct RunArgs {
     /// Defaults are derived when absent.
     #[arg(long, value_name = "FILE")]
     pub haptic: Option<PathBuf>,
-    /// Voxel size, instead of the scene's `voxels.voxel_size`.
-    #[arg(long, value_parser = parse_length)]
-    pub voxel_size: Option<f64>,
-    /// Session length (s). Default: the simulated hand runs until its path has ended (its last
-    /// hold included); a replay, the length of its trace; any other device, 30 s.
-    #[arg(long, value_parser = vps_app::limits::parse_seconds)]
-    pub seconds: Option<f64>,
-    /// Compute threads, the frame thread included.
-    #[arg(long, value_parser = vps_app::limits::parse_count, default_value_t = 1)]
-    pub threads: usize,
+    /// Voxel size, length and threads.
+    #[command(flatten)]
+    pub sizes: SessionSizeArgs,
     /// Run the frames back to back instead of at 1 kHz on the wall clock (the simulated hand and
     /// replays only): the same physics, frame for frame, with no tick ever missed and no
     /// watchdog (nobody holds a device); for checks and tests that must not depend on the
@@ -690,17 +700,11 @@ pub struct DemoArgs {
     /// The scene.
     #[command(flatten)]
     pub scene: SceneArgs,
-    /// Voxel edge length (m, or with unit), instead of the scene's.
-    #[arg(long, value_parser = parse_length)]
-    pub voxel_size: Option<f64>,
-    /// Session time (s) of each of the two sessions; default: the scene's hand path to its end
-    /// (its last hold included; about 70 s on the default scene).
-    #[arg(long, value_parser = vps_app::limits::parse_seconds)]
-    pub seconds: Option<f64>,
-    /// Compute threads, the frame thread included. One is right for the teapot's few hundred
-    /// points at 5 mm: handing a share to another thread costs more than computing it.
-    #[arg(long, value_parser = vps_app::limits::parse_count, default_value_t = 1)]
-    pub threads: usize,
+    /// Voxel size, length (of each of the two sessions) and threads. One thread is right for
+    /// the teapot's few hundred points at 5 mm: handing a share to another thread costs more
+    /// than computing it.
+    #[command(flatten)]
+    pub sizes: SessionSizeArgs,
     /// Print as JSON.
     #[arg(long)]
     pub json: bool,
@@ -905,9 +909,9 @@ impl DemoArgs {
     pub fn request(&self) -> SessionRequest {
         SessionRequest {
             scene: self.scene.request(),
-            voxel_size: self.voxel_size,
-            seconds: self.seconds,
-            threads: self.threads,
+            voxel_size: self.sizes.voxel_size,
+            seconds: self.sizes.seconds,
+            threads: self.sizes.threads,
             json: self.json,
             study: self.study.clone(),
             study_every: self.study_every,
@@ -968,9 +972,9 @@ impl RunArgs {
             scene: self.scene.request(),
             device: self.device.clone(),
             haptic: self.haptic.clone(),
-            voxel_size: self.voxel_size,
-            seconds: self.seconds,
-            threads: self.threads,
+            voxel_size: self.sizes.voxel_size,
+            seconds: self.sizes.seconds,
+            threads: self.sizes.threads,
             free_running: self.free_running,
             record: self.record.clone(),
             study: self.study.clone(),

@@ -105,11 +105,11 @@ pub fn resolve_coordinator(args: &mut CoordinatorArgs, matches: &ArgMatches) -> 
         take(
             matches,
             "voxel_size",
-            &mut s.voxel_size,
+            &mut s.sizes.voxel_size,
             voxel_size.map(Some),
         );
-        take(matches, "seconds", &mut s.seconds, seconds.map(Some));
-        take(matches, "threads", &mut s.threads, threads);
+        take(matches, "seconds", &mut s.sizes.seconds, seconds.map(Some));
+        take(matches, "threads", &mut s.sizes.threads, threads);
         let record = f.record.map(|p| Some(beside(&path, p)));
         take(matches, "record", &mut s.record, record);
         let report = f.report.map(|p| Some(beside(&path, p)));
@@ -191,6 +191,41 @@ mod tests {
         Ok(cli.command)
     }
 
+    /// `vps SERVICE --config CONFIG FLAGS...`, parsed and resolved.
+    fn with_config(service: &str, config: &Path, flags: &[&str]) -> Result<Command> {
+        let config = config.to_str().unwrap();
+        let argv: Vec<&str> = ["vps", service, "--config", config]
+            .iter()
+            .chain(flags)
+            .copied()
+            .collect();
+        parsed(&argv)
+    }
+
+    /// [`with_config`] for `vps coordinator`, which must succeed.
+    fn coordinator(config: &Path, flags: &[&str]) -> CoordinatorArgs {
+        match with_config("coordinator", config, flags).unwrap() {
+            Command::Coordinator(args) => args,
+            _ => panic!("not a coordinator"),
+        }
+    }
+
+    /// [`with_config`] for `vps worker`, which must succeed.
+    fn worker(config: &Path, flags: &[&str]) -> WorkerArgs {
+        match with_config("worker", config, flags).unwrap() {
+            Command::Worker(args) => args,
+            _ => panic!("not a worker"),
+        }
+    }
+
+    /// Writes `c.toml` in `dir`: a coordinator identity (`cert`, `key`, `pins`) and `rest`.
+    fn coordinator_file(dir: &Path, rest: &str) -> PathBuf {
+        let path = dir.join("c.toml");
+        let text = format!("cert = \"c\"\nkey = \"k\"\npins = [\"p\"]\n{rest}");
+        std::fs::write(&path, text).unwrap();
+        path
+    }
+
     #[test]
     fn the_committed_configs_load() {
         let c = load_coordinator(&repo("configs/coordinator.toml")).unwrap();
@@ -201,27 +236,17 @@ mod tests {
         assert_eq!(w.coordinator.as_deref(), Some("10.77.0.1:7800"));
         assert_eq!(w.cache, Some(PathBuf::from("/var/cache/vps")));
 
-        let path = repo("configs/coordinator.toml");
-        let Command::Coordinator(args) =
-            parsed(&["vps", "coordinator", "--config", path.to_str().unwrap()]).unwrap()
-        else {
-            panic!("not a coordinator")
-        };
+        let args = coordinator(&repo("configs/coordinator.toml"), &[]);
         assert_eq!(args.workers, 2);
         // Left to the scene: a voxel size here would override the scene file a user names in
         // `scene` (a 1 mm scene ran at 5 mm).
-        assert_eq!(args.session.voxel_size, None);
+        assert_eq!(args.session.sizes.voxel_size, None);
         assert_eq!(args.gather.spin_us, 100);
         assert_eq!(
             args.identity.cert,
             Some(PathBuf::from("/etc/vps/coordinator.crt"))
         );
-        let path = repo("configs/worker.toml");
-        let Command::Worker(args) =
-            parsed(&["vps", "worker", "--config", path.to_str().unwrap()]).unwrap()
-        else {
-            panic!("not a worker")
-        };
+        let args = worker(&repo("configs/worker.toml"), &[]);
         assert_eq!(
             args.identity.key,
             Some(PathBuf::from("/etc/vps/worker.key"))
@@ -249,13 +274,8 @@ mod tests {
     #[test]
     fn a_bad_value_names_the_file_and_the_key() {
         let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("c.toml");
-        std::fs::write(
-            &path,
-            "cert = \"c\"\nkey = \"k\"\npins = [\"p\"]\nseconds = -1\n",
-        )
-        .unwrap();
-        let err = parsed(&["vps", "coordinator", "--config", path.to_str().unwrap()])
+        let path = coordinator_file(dir.path(), "seconds = -1\n");
+        let err = with_config("coordinator", &path, &[])
             .unwrap_err()
             .to_string();
         assert!(
@@ -312,27 +332,13 @@ mod tests {
     #[test]
     fn a_voxel_size_with_a_unit_is_read_from_the_file() {
         let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("c.toml");
-        std::fs::write(
-            &path,
-            "cert = \"c\"\nkey = \"k\"\npins = [\"p\"]\nvoxel_size = \"2mm\"\n",
-        )
-        .unwrap();
-        let Command::Coordinator(args) =
-            parsed(&["vps", "coordinator", "--config", path.to_str().unwrap()]).unwrap()
-        else {
-            panic!("not a coordinator")
-        };
-        assert_eq!(args.session.voxel_size, Some(0.002));
+        let path = coordinator_file(dir.path(), "voxel_size = \"2mm\"\n");
+        let args = coordinator(&path, &[]);
+        assert_eq!(args.session.sizes.voxel_size, Some(0.002));
         // A string without a unit is refused, as in a scene file (it ran as 5 m voxels).
-        std::fs::write(
-            &path,
-            "cert = \"c\"\nkey = \"k\"\npins = [\"p\"]\nvoxel_size = \"5\"\n",
-        )
-        .unwrap();
-        let err = parsed(&["vps", "coordinator", "--config", path.to_str().unwrap()])
-            .err()
-            .unwrap()
+        let path = coordinator_file(dir.path(), "voxel_size = \"5\"\n");
+        let err = with_config("coordinator", &path, &[])
+            .unwrap_err()
             .to_string();
         assert!(
             err.contains("`voxel_size`") && err.contains("\"5\" has no unit"),
@@ -342,39 +348,19 @@ mod tests {
 
     #[test]
     fn a_flag_overrides_the_file() {
-        let path = repo("configs/coordinator.toml");
-        let Command::Coordinator(args) = parsed(&[
-            "vps",
-            "coordinator",
-            "--config",
-            path.to_str().unwrap(),
-            "--workers",
-            "5",
-            "--spin-us",
-            "7",
-            "--pin",
-            "/tmp/a.crt",
-        ])
-        .unwrap() else {
-            panic!("not a coordinator")
-        };
+        let args = coordinator(
+            &repo("configs/coordinator.toml"),
+            &["--workers", "5", "--spin-us", "7", "--pin", "/tmp/a.crt"],
+        );
         assert_eq!(args.workers, 5);
         assert_eq!(args.gather.spin_us, 7);
         assert_eq!(args.identity.pin, vec![PathBuf::from("/tmp/a.crt")]);
         // Keys not overridden still come from the file.
         assert_eq!(args.gather.max_stale_frames, 3);
-        let path = repo("configs/worker.toml");
-        let Command::Worker(args) = parsed(&[
-            "vps",
-            "worker",
-            "--config",
-            path.to_str().unwrap(),
-            "--coordinator",
-            "127.0.0.1:9",
-        ])
-        .unwrap() else {
-            panic!("not a worker")
-        };
+        let args = worker(
+            &repo("configs/worker.toml"),
+            &["--coordinator", "127.0.0.1:9"],
+        );
         assert_eq!(args.coordinator, Some("127.0.0.1:9".parse().unwrap()));
         assert_eq!(args.cache, Some(PathBuf::from("/var/cache/vps")));
     }
@@ -392,18 +378,14 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let etc = dir.path().join("etc");
         std::fs::create_dir(&etc).unwrap();
-        let worker = etc.join("worker.toml");
+        let worker_toml = etc.join("worker.toml");
         std::fs::write(
-            &worker,
+            &worker_toml,
             "coordinator = \"127.0.0.1:7800\"\ncert = \"worker.crt\"\nkey = \"keys/worker.key\"\n\
              pins = [\"pins\", \"/abs/c.crt\"]\ncache = \"../cache\"\n",
         )
         .unwrap();
-        let Command::Worker(args) =
-            parsed(&["vps", "worker", "--config", worker.to_str().unwrap()]).unwrap()
-        else {
-            panic!("not a worker")
-        };
+        let args = worker(&worker_toml, &[]);
         assert_eq!(args.identity.cert, Some(etc.join("worker.crt")));
         assert_eq!(args.identity.key, Some(etc.join("keys/worker.key")));
         assert_eq!(
@@ -412,26 +394,16 @@ mod tests {
         );
         assert_eq!(args.cache, Some(etc.join("../cache")));
 
-        let coordinator = etc.join("coordinator.toml");
+        let coordinator_toml = etc.join("coordinator.toml");
         std::fs::write(
-            &coordinator,
+            &coordinator_toml,
             "cert = \"c.crt\"\nkey = \"c.key\"\npins = [\"pins\"]\nscene = \"scenes/bay.toml\"\n\
              device = \"replay:traces/t.jsonl\"\nhaptic = \"haptic.toml\"\n\
              record = \"out/trace.jsonl\"\nreport = \"/var/lib/vps/report.json\"\n",
         )
         .unwrap();
         // A flag keeps its own meaning: relative to the working directory.
-        let Command::Coordinator(args) = parsed(&[
-            "vps",
-            "coordinator",
-            "--config",
-            coordinator.to_str().unwrap(),
-            "--key",
-            "here.key",
-        ])
-        .unwrap() else {
-            panic!("not a coordinator")
-        };
+        let args = coordinator(&coordinator_toml, &["--key", "here.key"]);
         assert_eq!(args.identity.cert, Some(etc.join("c.crt")));
         assert_eq!(args.identity.key, Some(PathBuf::from("here.key")));
         assert_eq!(args.identity.pin, vec![etc.join("pins")]);
@@ -448,19 +420,11 @@ mod tests {
 
         // builtin: scenes and other devices are not paths.
         std::fs::write(
-            &coordinator,
+            &coordinator_toml,
             "cert = \"c.crt\"\nkey = \"c.key\"\npins = [\"p.crt\"]\nscene = \"builtin:bay-teapot\"\ndevice = \"bridge:127.0.0.1:7700\"\n",
         )
         .unwrap();
-        let Command::Coordinator(args) = parsed(&[
-            "vps",
-            "coordinator",
-            "--config",
-            coordinator.to_str().unwrap(),
-        ])
-        .unwrap() else {
-            panic!("not a coordinator")
-        };
+        let args = coordinator(&coordinator_toml, &[]);
         assert_eq!(args.session.scene.scene, "builtin:bay-teapot");
         assert_eq!(
             args.session.device.as_deref(),
@@ -477,9 +441,7 @@ mod tests {
             "coordinator = \"coord.lan:7800\"\ncert = \"w.crt\"\nkey = \"w.key\"\npins = [\"c.crt\"]\n",
         )
         .unwrap();
-        let err = parsed(&["vps", "worker", "--config", worker.to_str().unwrap()])
-            .unwrap_err()
-            .to_string();
+        let err = with_config("worker", &worker, &[]).unwrap_err().to_string();
         assert!(
             err.contains(&format!(
                 "{}: `coordinator`: `coord.lan:7800` names a host: give its IP address and port",
@@ -493,14 +455,9 @@ mod tests {
         assert!(err.contains("host names are not resolved"), "{err}");
         let coordinator = dir.path().join("coordinator.toml");
         std::fs::write(&coordinator, "listen = \"7800\"\n").unwrap();
-        let err = parsed(&[
-            "vps",
-            "coordinator",
-            "--config",
-            coordinator.to_str().unwrap(),
-        ])
-        .unwrap_err()
-        .to_string();
+        let err = with_config("coordinator", &coordinator, &[])
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("`listen`: `7800` is not IP:port"), "{err}");
         assert_eq!(
             vps_app::limits::parse_ip_port("[::1]:7800"),

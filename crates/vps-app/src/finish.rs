@@ -64,7 +64,7 @@ pub fn finish<C: Serialize>(
 ) -> Result<()> {
     if let (Some(monitor), Some(path)) = (bridge, &args.bridge.log_wrenches) {
         let mut n = 0;
-        vps_voxmap::atomic::write_atomically(
+        vps_files::atomic::write_atomically(
             path,
             |w| {
                 n = monitor.write_wrench_log(w)?;

@@ -276,7 +276,7 @@ fn same_file(a: &Path, b: &Path) -> bool {
 /// Writes `bytes` to `path` atomically (a temporary file in the same directory, renamed into
 /// place): a failure leaves no truncated file. Errors name the path.
 pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
-    vps_voxmap::atomic::write_atomically(
+    vps_files::atomic::write_atomically(
         path,
         |w| w.write_all(bytes),
         |stage, e| std::io::Error::new(e.kind(), format!("{}: {e}", stage.name())),

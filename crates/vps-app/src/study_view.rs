@@ -8,6 +8,7 @@ use serde_json::Value;
 use std::path::Path;
 use vps_mesh::TriMesh;
 use vps_session::{PartView, SessionAssets};
+use vps_study::files::{path_column, PATH_COLUMNS};
 use vps_study::Study;
 use vps_view::study::track_frames;
 use vps_view::{ClosestApproach, SceneLimits, StudyTrack};
@@ -184,32 +185,23 @@ pub fn track_from_folder(dir: &Path) -> Result<StudyFolder> {
     let table: PathTable = serde_json::from_str(&text)
         .with_context(|| format!("{}: not a study's path table", path_file.display()))?;
     drop(text);
-    let column = |name: &str| -> Result<usize> {
+    // Found by name: a table from another version may have columns added or moved.
+    let column = |place: usize| -> Result<usize> {
+        let name = PATH_COLUMNS[place];
         table
             .columns
             .iter()
             .position(|c| c == name)
             .with_context(|| format!("{}: no column {name:?}", path_file.display()))
     };
-    let [frame, time, x, y, z, qx, qy, qz, qw, fx, fy, fz, clearance] = [
-        "frame",
-        "time_s",
-        "part_x_m",
-        "part_y_m",
-        "part_z_m",
-        "part_qx",
-        "part_qy",
-        "part_qz",
-        "part_qw",
-        "device_force_x_n",
-        "device_force_y_n",
-        "device_force_z_n",
-        "clearance_m",
-    ]
-    .map(column);
-    let (frame, time, clearance) = (frame?, time?, clearance?);
+    let frame = column(path_column::FRAME)?;
+    let time = column(path_column::TIME)?;
+    let clearance = column(path_column::CLEARANCE)?;
+    let [x, y, z] = path_column::PART_POSITION.map(column);
     let position = [x?, y?, z?];
+    let [qx, qy, qz, qw] = path_column::PART_ORIENTATION.map(column);
     let orientation = [qx?, qy?, qz?, qw?];
+    let [fx, fy, fz] = path_column::DEVICE_FORCE.map(column);
     let force = [fx?, fy?, fz?];
     let closest_row = closest.as_ref().and_then(|c| {
         table

@@ -7,7 +7,8 @@
 
 use crate::protocol::{AssetFile, AssetKind, AssetsIdentity, MAX_ASSET_PARTS, MAX_CLASSES};
 use crate::ClusterError;
-use std::path::{Path, PathBuf};
+use std::io::Write;
+use std::path::PathBuf;
 use std::sync::Arc;
 use vps_haptic::job::{body_map, JobTarget, SCENE_MAP};
 use vps_haptic::{sample_mask, ClassedShell, KernelPose, PartialSums};
@@ -403,17 +404,13 @@ impl AssetsCache {
         let (Some(dir), Some(path)) = (&self.dir, self.path(file)) else {
             return;
         };
-        let result = std::fs::create_dir_all(dir).and_then(|()| write_atomically(&path, bytes));
+        let result = std::fs::create_dir_all(dir).and_then(|()| {
+            vps_files::atomic::write_atomically(&path, |w| w.write_all(bytes), |_, e| e)
+        });
         if let Err(e) = result {
             tracing::warn!("cannot cache an asset file in {}: {e}", dir.display());
         }
     }
-}
-
-fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let tmp = path.with_extension("partial");
-    std::fs::write(&tmp, bytes)?;
-    std::fs::rename(tmp, path)
 }
 
 #[cfg(test)]

@@ -197,7 +197,7 @@ pub fn save_trace(path: &Path, trace: &Trace) -> Result<(), TraceError> {
         path: path.to_path_buf(),
         source,
     };
-    vps_voxmap::atomic::write_atomically(
+    vps_files::atomic::write_atomically(
         path,
         |out| write_trace(out, trace, path),
         |_, source| io(source),

@@ -9,6 +9,10 @@
 //! caller's size bound before allocating for it. Errors are [`std::io::Error`]s, so callers keep
 //! their own error types (which name the file) and only change how they open it.
 //!
+//! Outputs go the other way through [`atomic::write_atomically`]: written whole to a temporary
+//! file beside the destination and renamed over it, and only ever over a regular file or a new
+//! path ([`output_destination`]).
+//!
 //! Where this crate sits in vps: `docs/architecture.md#crates` at the repository root.
 
 #![warn(missing_docs)]
@@ -16,6 +20,8 @@
 use std::fs::{File, FileType, OpenOptions};
 use std::io::{self, Read};
 use std::path::{Path, PathBuf};
+
+pub mod atomic;
 
 /// One mebibyte (2^20 bytes), for writing size bounds.
 pub const MIB: u64 = 1 << 20;
@@ -250,10 +256,30 @@ fn clear_nonblocking(file: &File) -> io::Result<()> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use std::sync::mpsc;
     use std::time::Duration;
+
+    /// Two paths that are not regular files, made in `dir`: a named pipe and a link to
+    /// `/dev/null`.
+    pub(crate) struct NotFiles {
+        pub fifo: PathBuf,
+        pub to_null: PathBuf,
+    }
+
+    /// Makes [`NotFiles`] in `dir` (`mkfifo` and a symbolic link).
+    pub(crate) fn not_files(dir: &Path) -> NotFiles {
+        let fifo = dir.join("fifo");
+        assert!(std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success());
+        let to_null = dir.join("null.json");
+        std::os::unix::fs::symlink("/dev/null", &to_null).unwrap();
+        NotFiles { fifo, to_null }
+    }
 
     #[test]
     fn a_regular_file_reads_whole_up_to_the_bound() {
@@ -360,14 +386,7 @@ mod tests {
     #[test]
     fn an_output_that_is_a_pipe_a_device_a_directory_or_a_link_to_one_is_refused() {
         let dir = tempfile::tempdir().unwrap();
-        let fifo = dir.path().join("fifo");
-        assert!(std::process::Command::new("mkfifo")
-            .arg(&fifo)
-            .status()
-            .unwrap()
-            .success());
-        let to_null = dir.path().join("null.json");
-        std::os::unix::fs::symlink("/dev/null", &to_null).unwrap();
+        let NotFiles { fifo, to_null } = not_files(dir.path());
         let dangling = dir.path().join("dangling.json");
         std::os::unix::fs::symlink(dir.path().join("nowhere"), &dangling).unwrap();
         for (path, what) in [

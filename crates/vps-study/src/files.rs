@@ -155,7 +155,10 @@ pub fn study_paths(dir: &Path) -> Vec<PathBuf> {
     STUDY_FILES.iter().map(|name| dir.join(name)).collect()
 }
 
-const PATH_COLUMNS: [&str; 33] = [
+/// The columns of `path.csv` and `path.json`, in order (SI units in each name). A reader finds a
+/// column by name, not by place ([`path_column`] names the ones the viewer reads), so a table
+/// written by another version with columns added still reads.
+pub const PATH_COLUMNS: [&str; 33] = [
     "frame",
     "time_s",
     "part_x_m",
@@ -190,6 +193,22 @@ const PATH_COLUMNS: [&str; 33] = [
     "clearance_m",
     "speed_m_per_s",
 ];
+
+/// Places in [`PATH_COLUMNS`] of the columns a study's reader needs (the viewer's track).
+pub mod path_column {
+    /// `frame`: the frame number.
+    pub const FRAME: usize = 0;
+    /// `time_s`: seconds since the session started.
+    pub const TIME: usize = 1;
+    /// `part_x_m`, `part_y_m`, `part_z_m`: the part's position (m).
+    pub const PART_POSITION: [usize; 3] = [2, 3, 4];
+    /// `part_qx` .. `part_qw`: the part's orientation (unit quaternion).
+    pub const PART_ORIENTATION: [usize; 4] = [5, 6, 7, 8];
+    /// `device_force_x_n` .. `_z_n`: the force sent to the device (N).
+    pub const DEVICE_FORCE: [usize; 3] = [16, 17, 18];
+    /// `clearance_m`: the exact clearance (m).
+    pub const CLEARANCE: usize = 31;
+}
 
 /// One CSV field: quoted when it holds a comma, quote or line break.
 fn csv_field(text: &str) -> String {
@@ -253,7 +272,7 @@ fn write_csv(out: &mut dyn Write, header: &[String], rows: &[Vec<Value>]) -> io:
 }
 
 fn write_file(path: &Path, write: impl FnOnce(&mut dyn Write) -> io::Result<()>) -> io::Result<()> {
-    vps_voxmap::atomic::write_atomically(
+    vps_files::atomic::write_atomically(
         path,
         |out| write(out),
         |stage, e| {
@@ -528,7 +547,27 @@ pub fn write_study(
 
 #[cfg(test)]
 mod tests {
-    use super::part_file_names;
+    use super::{part_file_names, path_column, PATH_COLUMNS};
+
+    #[test]
+    fn the_named_path_columns_are_the_columns_written() {
+        let name = |i: usize| PATH_COLUMNS[i];
+        assert_eq!(name(path_column::FRAME), "frame");
+        assert_eq!(name(path_column::TIME), "time_s");
+        assert_eq!(
+            path_column::PART_POSITION.map(name),
+            ["part_x_m", "part_y_m", "part_z_m"]
+        );
+        assert_eq!(
+            path_column::PART_ORIENTATION.map(name),
+            ["part_qx", "part_qy", "part_qz", "part_qw"]
+        );
+        assert_eq!(
+            path_column::DEVICE_FORCE.map(name),
+            ["device_force_x_n", "device_force_y_n", "device_force_z_n"]
+        );
+        assert_eq!(name(path_column::CLEARANCE), "clearance_m");
+    }
 
     #[test]
     fn part_file_names_are_distinct_and_stay_in_the_folder() {

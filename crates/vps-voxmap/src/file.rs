@@ -27,9 +27,8 @@
 //! against the bytes left before anything is allocated; otherwise arrays grow only as their bytes
 //! actually arrive. Either way a corrupt count cannot trigger an allocation larger than the input.
 //! Any truncation, flipped byte or trailing data is an error. Writers replace files atomically
-//! ([`crate::atomic`]): a failed save leaves no truncated file.
+//! ([`vps_files::atomic`]): a failed save leaves no truncated file.
 
-use crate::atomic::{write_atomically, AtomicStage};
 use crate::distance;
 use crate::shell::ShellMethod;
 use crate::tree::{Arenas, TreeConfig, TreeError, VoxelTree};
@@ -38,6 +37,7 @@ use glam::{DVec3, Vec3};
 use std::fs::File;
 use std::io::{self, BufReader, BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
+use vps_files::atomic::{write_atomically, AtomicStage};
 
 /// Magic bytes opening a `.vmap` file.
 pub const VOXMAP_MAGIC: [u8; 8] = *b"VPSVMAP\0";

@@ -11,13 +11,11 @@
 //! - `tree` (mask, leaf, internal, root, accessor): the fixed-depth tree, constant-cost `get`.
 //! - [`shell`]: [`PointShell`], body-frame points with inward normals and mass properties.
 //! - [`file`](mod@file): the versioned `.vmap` and `.vshell` binary formats with content hashes.
-//! - [`atomic`]: atomic file replacement, behind [`file::save_voxmap`] and [`file::save_shell`].
 //!
 //! Where this crate sits in vps: `docs/architecture.md` at the repository root.
 
 #![warn(missing_docs)]
 
-pub mod atomic;
 pub mod dense;
 pub mod distance;
 pub mod file;

@@ -33,7 +33,7 @@ impl AtomicStage {
 /// returned as is; an I/O error of the other stages goes through `io_error`. On any error the
 /// temporary file is removed and `path` is untouched. Blocks on file I/O.
 ///
-/// Only a regular file or a new path is ever replaced ([`vps_files::output_destination`]): a
+/// Only a regular file or a new path is ever replaced ([`crate::output_destination`]): a
 /// symbolic link to a regular file has that file replaced (the link stays); a directory, named
 /// pipe, device, socket, or a link to one or to nothing, is refused (stage
 /// [`AtomicStage::Create`]) before anything is written.
@@ -43,7 +43,7 @@ pub fn write_atomically<E>(
     io_error: impl Fn(AtomicStage, io::Error) -> E,
 ) -> Result<(), E> {
     let destination =
-        vps_files::output_destination(path).map_err(|e| io_error(AtomicStage::Create, e))?;
+        crate::output_destination(path).map_err(|e| io_error(AtomicStage::Create, e))?;
     let path = destination.as_path();
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
@@ -121,14 +121,7 @@ mod tests {
     #[test]
     fn a_device_a_pipe_or_a_link_to_one_is_never_replaced() {
         let dir = tempfile::tempdir().unwrap();
-        let fifo = dir.path().join("fifo");
-        assert!(std::process::Command::new("mkfifo")
-            .arg(&fifo)
-            .status()
-            .unwrap()
-            .success());
-        let to_null = dir.path().join("null.json");
-        std::os::unix::fs::symlink("/dev/null", &to_null).unwrap();
+        let crate::tests::NotFiles { fifo, to_null } = crate::tests::not_files(dir.path());
         for path in [&fifo, &to_null] {
             let err = write_atomically(path, |w| w.write_all(b"new"), |_, e| e).unwrap_err();
             assert_eq!(err.kind(), io::ErrorKind::InvalidInput, "{path:?}: {err}");
