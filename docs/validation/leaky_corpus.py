@@ -3,7 +3,7 @@
 winding number (docs/voxelize.md, "Open and leaky meshes").
 
 The meshes are not in the repository (their licences vary or are unstated): this script fetches
-them from two public GitHub repositories at pinned commits (or reads them from --from DIR, a folder
+them from two public GitHub repositories at the commits pinned in leaky_corpus_sources.json (or reads them from --from DIR, a folder
 holding the files by name), keeps each as its file has it (vertex indices as written: seams whose
 sides repeat vertices are open), centres it and scales it to 0.1 m across its largest extent, and
 runs the same check as winding_number.py on it at 1 mm voxels: `vps voxelize` + `vps probe` at
@@ -27,25 +27,10 @@ import trimesh
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import winding_number as wn  # noqa: E402  (the same check, one implementation)
 
-COMMON = ("alecjacobson/common-3d-test-models", "8a4f8642acaf43f9cd7b67858a1502e1055ef202")
-LIBIGL = ("libigl/libigl-tutorial-data", "c1f9ede366d02e3531ecbaec5e3769312f31cccd")
-
-# (file, repository, path in it, where the model comes from as the repository says)
-CORPUS = [
-    ("stanford-bunny.obj", COMMON, "data/stanford-bunny.obj", "Stanford 3D Scanning Repository (scan: holes in the base)"),
-    ("teapot.obj", COMMON, "data/teapot.obj", "Martin Newell's teapot (patches not welded)"),
-    ("suzanne.obj", COMMON, "data/suzanne.obj", "Blender's Suzanne (open eye sockets)"),
-    ("beetle.obj", COMMON, "data/beetle.obj", "Ivan Sutherland's 1972 Volkswagen mesh"),
-    ("beetle-alt.obj", COMMON, "data/beetle-alt.obj", "a common alternative of the same"),
-    ("ogre.obj", COMMON, "data/ogre.obj", "Kiaran Ritchie's ogre"),
-    ("camelhead.off", LIBIGL, "camelhead.off", "libigl tutorial data: a camel's head cut at the neck"),
-    ("face.obj", LIBIGL, "face.obj", "libigl tutorial data: a face mask (a single open sheet)"),
-    ("halftunnel.off", LIBIGL, "halftunnel.off", "libigl tutorial data"),
-    ("lilium.obj", LIBIGL, "lilium.obj", "libigl tutorial data: a lily"),
-    ("lion.off", LIBIGL, "lion.off", "libigl tutorial data: a lion statue's head"),
-    ("snail.obj", LIBIGL, "snail.obj", "libigl tutorial data"),
-    ("truck.obj", LIBIGL, "truck.obj", "libigl tutorial data: a toy truck of many open parts"),
-]
+# Where each mesh comes from: file name, repository, pinned commit, path in it, and what the
+# repository says of the model (a manifest, like a lock file: the script fetches exactly these).
+with open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "leaky_corpus_sources.json")) as f:
+    CORPUS = [(m["file"], (m["repository"], m["commit"]), m["path"], m["origin"]) for m in json.load(f)]
 
 
 def fetch(name, repo, path, folder, cache):

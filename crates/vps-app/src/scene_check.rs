@@ -22,13 +22,32 @@ const FRAME_BUDGET_FRACTION: f64 = 0.6;
 /// Seconds per timing batch of the kernel measurement.
 const KERNEL_BATCH_SECONDS: f64 = 0.02;
 
+/// A mesh as a scene places it: where it came from, its triangles and its bounds (m).
 #[derive(Serialize)]
-struct ObjectReport {
-    field: String,
+struct PlacedMesh {
     source: String,
     triangles: usize,
     bounds_min_m: [f64; 3],
     bounds_max_m: [f64; 3],
+}
+
+impl PlacedMesh {
+    fn new(source: &str, triangles: usize, b: Aabb) -> Self {
+        PlacedMesh {
+            source: source.to_string(),
+            triangles,
+            bounds_min_m: b.min.to_array(),
+            bounds_max_m: b.max.to_array(),
+        }
+    }
+}
+
+/// A static object or the part, by the scene file's field (`static[0]`, `part`).
+#[derive(Serialize)]
+struct ObjectReport {
+    field: String,
+    #[serde(flatten)]
+    mesh: PlacedMesh,
 }
 
 /// A mesh read once for the objects naming it.
@@ -89,10 +108,8 @@ struct VoxelsReport {
 #[derive(Serialize)]
 struct PartCheck {
     name: String,
-    source: String,
-    triangles: usize,
-    bounds_min_m: [f64; 3],
-    bounds_max_m: [f64; 3],
+    #[serde(flatten)]
+    mesh: PlacedMesh,
     /// `sim`, `bridge:ADDR`, … as its `[part.device]` (or the scene's `[device]` for the first).
     device: String,
     /// Where its hand starts (m), the grip's position at frame 0 for the simulated hand.
@@ -148,10 +165,7 @@ struct CheckReport {
 fn object(field: String, source: &str, triangles: usize, b: Aabb) -> ObjectReport {
     ObjectReport {
         field,
-        source: source.to_string(),
-        triangles,
-        bounds_min_m: b.min.to_array(),
-        bounds_max_m: b.max.to_array(),
+        mesh: PlacedMesh::new(source, triangles, b),
     }
 }
 
@@ -208,13 +222,13 @@ fn part_checks(
         return Ok(Vec::new());
     }
     let method = loaded.file.voxels.shell_method.method();
-    let first_bounds = loaded.part.bounds();
     let mut parts = vec![PartCheck {
         name: loaded.part_name.clone(),
-        source: loaded.part_source.clone(),
-        triangles: loaded.part.triangle_count(),
-        bounds_min_m: first_bounds.min.to_array(),
-        bounds_max_m: first_bounds.max.to_array(),
+        mesh: PlacedMesh::new(
+            &loaded.part_source,
+            loaded.part.triangle_count(),
+            loaded.part.bounds(),
+        ),
         device: loaded
             .file
             .device
@@ -226,13 +240,9 @@ fn part_checks(
     }];
     for (k, p) in loaded.more_parts.iter().enumerate() {
         let (shell, _) = vps_session::parts::grip_frame_shell(&p.mesh, p.grip, voxel_size, method)?;
-        let b = p.mesh.bounds();
         parts.push(PartCheck {
             name: p.name.clone(),
-            source: p.source.clone(),
-            triangles: p.mesh.triangle_count(),
-            bounds_min_m: b.min.to_array(),
-            bounds_max_m: b.max.to_array(),
+            mesh: PlacedMesh::new(&p.source, p.mesh.triangle_count(), p.mesh.bounds()),
             device: loaded.file.more_parts[k]
                 .device
                 .as_ref()
@@ -414,10 +424,10 @@ pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
         println!(
             "  {:<10} {:>9} triangles  bounds (m) [{}] .. [{}]  {}",
             o.field,
-            o.triangles,
-            o.bounds_min_m.map(metres_4).join(", "),
-            o.bounds_max_m.map(metres_4).join(", "),
-            printable(&o.source)
+            o.mesh.triangles,
+            o.mesh.bounds_min_m.map(metres_4).join(", "),
+            o.mesh.bounds_max_m.map(metres_4).join(", "),
+            printable(&o.mesh.source)
         )
     };
     report.objects.iter().for_each(line);
@@ -435,11 +445,11 @@ pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
             println!(
                 "  part '{}': {} triangles, {} shell points, device {}, starts at [{}] m  {}",
                 printable(&p.name),
-                p.triangles,
+                p.mesh.triangles,
                 p.shell_points,
                 printable(&p.device),
                 p.start_m.map_or("?".into(), |s| s.map(metres_4).join(", ")),
-                printable(&p.source)
+                printable(&p.mesh.source)
             );
         }
         if let Some(index) = report.pair_stability_index {

@@ -10,22 +10,18 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// The atomic 64-bit word a [`Cursor`] is built on.
+/// The atomic 64-bit word a [`Cursor`] is built on: the three operations the cursor makes, each
+/// with its memory ordering.
 pub(crate) trait Word {
     /// A word holding `value`.
     fn with(value: u64) -> Self;
-    /// [`AtomicU64::load`].
-    fn load(&self, order: Ordering) -> u64;
-    /// [`AtomicU64::swap`].
-    fn swap(&self, value: u64, order: Ordering) -> u64;
-    /// [`AtomicU64::compare_exchange_weak`].
-    fn compare_exchange_weak(
-        &self,
-        current: u64,
-        new: u64,
-        success: Ordering,
-        failure: Ordering,
-    ) -> Result<u64, u64>;
+    /// Reads the word (`Acquire`).
+    fn read(&self) -> u64;
+    /// Replaces the word with `value` (a swap, `AcqRel`).
+    fn replace(&self, value: u64);
+    /// Adds one if the word still holds `current` (a weak compare-exchange, `AcqRel` on success,
+    /// `Acquire` on failure); on failure, the value seen.
+    fn step_from(&self, current: u64) -> Result<u64, u64>;
 }
 
 /// Implements [`Word`] for an atomic type with `AtomicU64`'s methods (std's, loom's).
@@ -35,20 +31,15 @@ macro_rules! impl_word {
             fn with(value: u64) -> Self {
                 <$atomic>::new(value)
             }
-            fn load(&self, order: Ordering) -> u64 {
-                <$atomic>::load(self, order)
+            fn read(&self) -> u64 {
+                self.load(Ordering::Acquire)
             }
-            fn swap(&self, value: u64, order: Ordering) -> u64 {
-                <$atomic>::swap(self, value, order)
+            fn replace(&self, value: u64) {
+                self.swap(value, Ordering::AcqRel);
             }
-            fn compare_exchange_weak(
-                &self,
-                current: u64,
-                new: u64,
-                success: Ordering,
-                failure: Ordering,
-            ) -> Result<u64, u64> {
-                <$atomic>::compare_exchange_weak(self, current, new, success, failure)
+            fn step_from(&self, current: u64) -> Result<u64, u64> {
+                let (success, failure) = (Ordering::AcqRel, Ordering::Acquire);
+                self.compare_exchange_weak(current, current + 1, success, failure)
             }
         }
     };
@@ -70,23 +61,18 @@ impl<W: Word> Cursor<W> {
     /// 0.7 lets a compare-exchange read a value a concurrent plain store has already replaced,
     /// tokio-rs/loom#254, and reported a double claim no real execution can make).
     pub(crate) fn open(&self, seq: u32) {
-        self.0.swap(u64::from(seq) << 32, Ordering::AcqRel);
+        self.0.replace(u64::from(seq) << 32);
     }
 
     /// The next unclaimed class of frame `seq` (of `classes`), if any.
     pub(crate) fn claim(&self, seq: u32, classes: u32) -> Option<u32> {
-        let mut current = self.0.load(Ordering::Acquire);
+        let mut current = self.0.read();
         loop {
             let (stamp, next) = ((current >> 32) as u32, current as u32);
             if stamp != seq || next >= classes {
                 return None;
             }
-            match self.0.compare_exchange_weak(
-                current,
-                current + 1,
-                Ordering::AcqRel,
-                Ordering::Acquire,
-            ) {
+            match self.0.step_from(current) {
                 Ok(_) => return Some(next),
                 Err(seen) => current = seen,
             }
