@@ -447,36 +447,22 @@ fn a_single_triangle_part_is_pushed_out_of_a_block_never_in() {
 /// Two cubes of 40 mm, each a `[[part]]` on its own bridge: the C example's device stroke
 /// (0.15 m along −Z, scaled by 0.2) turned towards the other cube, so the two hands press the
 /// cubes together and apart every 2 s.
-const TWO_BRIDGED_CUBES: &str = r#"
-name = "two bridged cubes"
-[[static]]
-source = "builtin:box"
-scale = [4.0, 4.0, 0.5]
-translate = [0.0, 0.0, -0.3]
-
-[[part]]
-name = "left"
-source = "builtin:box"
-scale = 0.4
-[part.hand]
-waypoints = [[-0.035, 0.0, 0.0]]
-[part.device]
-kind = "bridge:127.0.0.1:0"
-mapping = { scale = 0.2, rotate_deg = [0.0, -90.0, 0.0] }
-
-[[part]]
-name = "right"
-source = "builtin:box"
-scale = 0.4
-[part.hand]
-waypoints = [[0.035, 0.0, 0.0]]
-[part.device]
-kind = "bridge:127.0.0.1:0"
-mapping = { scale = 0.2, rotate_deg = [0.0, 90.0, 0.0] }
-
-[voxels]
-voxel_size = "5mm"
-"#;
+fn two_bridged_cubes() -> String {
+    let bridged = |side: f64| {
+        format!(
+            "[part.hand]\nwaypoints = [[{:?}, 0.0, 0.0]]\n[part.device]\nkind = \"bridge:127.0.0.1:0\"\n\
+             mapping = {{ scale = 0.2, rotate_deg = [0.0, {:?}, 0.0] }}\n",
+            0.035 * side,
+            90.0 * side
+        )
+    };
+    let scene = vps_testkit::parts::two_parts(
+        vps_testkit::parts::CUBE_40MM,
+        bridged,
+        "\n[voxels]\nvoxel_size = \"5mm\"\n",
+    );
+    format!("name = \"two bridged cubes\"\n{scene}")
+}
 
 /// The dumped wrench lines (`FRAME` and six IEEE-754 hex words: force N, torque N·m) as numbers.
 fn dumped_wrenches(lines: &[String]) -> Vec<[f64; 6]> {
@@ -502,7 +488,7 @@ fn two_c_clients_drive_two_parts_in_one_session() {
     let dir = tempfile::tempdir().unwrap();
     let example = compile_example(dir.path());
     let scene = dir.path().join("two.toml");
-    std::fs::write(&scene, TWO_BRIDGED_CUBES).unwrap();
+    std::fs::write(&scene, two_bridged_cubes()).unwrap();
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_vps"));
     cmd.args(["run", "--scene", scene.to_str().unwrap()])
         .args(["--seconds", SESSION_SECONDS, "--json"])

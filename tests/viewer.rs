@@ -16,6 +16,7 @@ use std::net::SocketAddr;
 use std::path::Path;
 use std::process::Stdio;
 use std::time::Duration;
+use vps_testkit::parts::approach;
 use vps_testkit::process::{spawn_until_line, stderr, Vps};
 use vps_view::browser::{canvas_content, take_turn, wait_for, Browser, Running, CHROMIUM};
 use vps_view::client::http_get;
@@ -283,28 +284,12 @@ fn a_voxmap_file_is_served_offline() {
 #[test]
 fn every_part_of_a_two_part_session_is_served_and_drawn() {
     let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
-    let scene = r#"
-[[static]]
-source = "builtin:box"
-scale = [4.0, 4.0, 0.5]
-translate = [0.0, 0.0, -0.3]
-[[part]]
-name = "left"
-source = "builtin:box"
-scale = 0.4
-[part.hand]
-waypoints = [[-0.06, 0.0, 0.0], [-0.015, 0.0, 0.0]]
-speed = 0.01
-[[part]]
-name = "right"
-source = "builtin:sphere"
-scale = 0.4
-[part.hand]
-waypoints = [[0.06, 0.0, 0.0], [0.015, 0.0, 0.0]]
-speed = 0.01
-[voxels]
-voxel_size = "5 mm"
-"#;
+    // A 40 mm cube and a 40 mm sphere, their hands slow enough to be watched.
+    let scene = vps_testkit::parts::two_parts(
+        "source = \"builtin:sphere\"\nscale = 0.4",
+        |side| format!("[part.hand]\n{}\nspeed = 0.01\n", approach(side)),
+        "[voxels]\nvoxel_size = \"5 mm\"\n",
+    );
     std::fs::write(vps.dir().join("two.toml"), scene).unwrap();
     let path = vps.path("two.toml");
     // The browser half below needs the session live, so the turn is taken before it starts.

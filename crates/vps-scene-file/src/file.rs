@@ -1749,28 +1749,28 @@ max = [0.4, 0.1, 0.2]
         assert!((v - DVec3::X).length() < 1e-12, "{v}");
     }
 
-    /// Two `[[part]]` tables, each with its own hand, on a floor.
-    const TWO_PARTS: &str = r#"
-[[static]]
-source = "builtin:box"
-[[part]]
-name = "left"
-source = "builtin:box"
-scale = 0.4
-[part.hand]
-waypoints = [[-0.06, 0.0, 0.0], [-0.015, 0.0, 0.0]]
-[[part]]
-name = "right"
-source = "builtin:sphere"
-[part.hand]
-waypoints = [[0.06, 0.0, 0.0]]
-[part.device]
-kind = "bridge:127.0.0.1:7701"
-"#;
+    /// Two `[[part]]` tables on a floor: the left a 40 mm box on its own hand, the right the
+    /// built-in sphere on its own hand (one waypoint) and its own bridge device.
+    fn two_parts() -> String {
+        use vps_testkit::parts::approach;
+        vps_testkit::parts::two_parts(
+            "source = \"builtin:sphere\"",
+            |side| {
+                if side < 0.0 {
+                    format!("[part.hand]\n{}\n", approach(side))
+                } else {
+                    "[part.hand]\nwaypoints = [[0.06, 0.0, 0.0]]\n\
+                     [part.device]\nkind = \"bridge:127.0.0.1:7701\"\n"
+                        .to_string()
+                }
+            },
+            "",
+        )
+    }
 
     #[test]
     fn several_parts_each_with_its_own_hand_or_device() {
-        let file = parse(TWO_PARTS).unwrap();
+        let file = parse(&two_parts()).unwrap();
         assert_eq!(file.part.source, "builtin:box");
         assert_eq!(file.part.scale, [0.4; 3]);
         assert_eq!(file.part_name.as_deref(), Some("left"));
@@ -1794,10 +1794,11 @@ kind = "bridge:127.0.0.1:7701"
 
     #[test]
     fn mistakes_in_several_parts_are_named() {
+        let base = two_parts();
         let second = "[[part]]\nname = \"right\"";
         let cases: Vec<(String, &str, &str)> = vec![
             (
-                TWO_PARTS.replace(
+                base.replace(
                     "[part.hand]\nwaypoints = [[0.06, 0.0, 0.0]]\n",
                     "",
                 ),
@@ -1805,22 +1806,22 @@ kind = "bridge:127.0.0.1:7701"
                 "needs a [part.hand]",
             ),
             (
-                TWO_PARTS.replace("name = \"right\"", "name = \"left\""),
+                base.replace("name = \"right\"", "name = \"left\""),
                 "part[1].name",
                 "names another part",
             ),
             (
-                format!("{TWO_PARTS}[hand]\nwaypoints = [[0.0, 0.0, 0.0]]\n"),
+                format!("{base}[hand]\nwaypoints = [[0.0, 0.0, 0.0]]\n"),
                 "hand",
                 "give it once",
             ),
             (
-                TWO_PARTS.replace("bridge:127.0.0.1:7701", "joystick"),
+                base.replace("bridge:127.0.0.1:7701", "joystick"),
                 "part[1].device.kind",
                 "expected sim",
             ),
             (
-                TWO_PARTS.replace(
+                base.replace(
                     "source = \"builtin:box\"\nscale = 0.4\n",
                     "source = \"builtin:box\"\nscale = 0.4\n[part.device]\nkind = \"bridge:127.0.0.1:7701\"\n",
                 ),
@@ -1828,25 +1829,25 @@ kind = "bridge:127.0.0.1:7701"
                 "drives another part too",
             ),
             (
-                TWO_PARTS.replace(second, &format!("{second}\ncolour = \"red\"")),
+                base.replace(second, &format!("{second}\ncolour = \"red\"")),
                 "part",
                 "unknown field",
             ),
             (
-                TWO_PARTS.replace("[[0.06, 0.0, 0.0]]", "[[0.06, 0.0, 1e9]]"),
+                base.replace("[[0.06, 0.0, 0.0]]", "[[0.06, 0.0, 1e9]]"),
                 "part[1].hand.waypoints[0]",
                 "",
             ),
             (
                 format!(
-                    "{TWO_PARTS}[corridor]\nfrom = [0.0, 0.0, 0.1]\nto = [0.1, 0.0, 0.1]\nspacing = 0.05\n"
+                    "{base}[corridor]\nfrom = [0.0, 0.0, 0.1]\nto = [0.1, 0.0, 0.1]\nspacing = 0.05\n"
                 ),
                 "corridor",
                 "for one part",
             ),
             (
                 format!(
-                    "{TWO_PARTS}{}",
+                    "{base}{}",
                     "[[part]]\nsource = \"builtin:box\"\n[part.hand]\nwaypoints = [[0.0, 0.0, 0.0]]\n"
                         .repeat(MAX_PARTS - 1)
                 ),
@@ -1855,6 +1856,7 @@ kind = "bridge:127.0.0.1:7701"
             ),
         ];
         for (text, field, words) in cases {
+            assert_ne!(text, base, "{field}: the edit left the scene as it was");
             let err = parse(&text).unwrap_err();
             let message = err.to_string();
             match &err {

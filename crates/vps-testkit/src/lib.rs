@@ -8,6 +8,7 @@
 //! - [`full_stdout`]: the check that a command writing to a full stdout fails cleanly.
 //! - [`hand`]: the scripted simulated hand that approaches the wall and rests on it.
 //! - [`obj`]: mesh files as test input (the OBJ text of a box).
+//! - [`parts`]: scenes of two moving parts (`left` and `right`) as scene-file text.
 //! - [`scene_edit`]: bad variants of a good scene file's text, each with the field its error
 //!   must name.
 //! - [`table`]: the CSV tables the binary writes, read back as numbers by column name.
@@ -29,6 +30,7 @@ pub mod device;
 pub mod full_stdout;
 pub mod hand;
 pub mod obj;
+pub mod parts;
 pub mod process;
 pub mod scene;
 pub mod scene_edit;
