@@ -5,57 +5,53 @@
 //! the pair; a part after the first with no inside is refused; a session of two parts is studied
 //! part by part, live and from its two traces, to the bit.
 
-use vps_testkit::process::{json, Vps};
+use std::process::Output;
+use vps_testkit::parts::{approach, two_parts, CUBE_40MM};
+use vps_testkit::process::{failed, json, stderr, Vps};
 use vps_testkit::table::csv_column;
 
-/// Two cubes of 40 mm over a floor far below, the hands pushing each cube 5 mm past touching.
-const TWO_CUBES: &str = r#"
-name = "two cubes"
-[[static]]
-source = "builtin:box"
-scale = [4.0, 4.0, 0.5]
-translate = [0.0, 0.0, -0.3]
+/// Two cubes of 40 mm over a floor far below, the hands pushing each cube 5 mm past touching,
+/// with the right part's source and scale lines replaced by `right` ([`CUBE_40MM`]: the second
+/// cube).
+fn two_cubes_with_right(right: &str) -> String {
+    let hand = |side| {
+        format!(
+            "[part.hand]\n{}\nspeed = 0.1\nhold_s = 0.1\n",
+            approach(side)
+        )
+    };
+    let scene = two_parts(right, hand, "\n[voxels]\nvoxel_size = \"4 mm\"\n");
+    format!("name = \"two cubes\"\n{scene}")
+}
 
-[[part]]
-name = "left"
-source = "builtin:box"
-scale = 0.4
-[part.hand]
-waypoints = [[-0.06, 0.0, 0.0], [-0.015, 0.0, 0.0]]
-speed = 0.1
-hold_s = 0.1
-
-[[part]]
-name = "right"
-source = "builtin:box"
-scale = 0.4
-[part.hand]
-waypoints = [[0.06, 0.0, 0.0], [0.015, 0.0, 0.0]]
-speed = 0.1
-hold_s = 0.1
-
-[voxels]
-voxel_size = "4 mm"
-"#;
+/// The two cubes: [`two_cubes_with_right`] of a [`CUBE_40MM`].
+fn two_cubes() -> String {
+    two_cubes_with_right(CUBE_40MM)
+}
 
 fn sandbox() -> (Vps, String) {
     let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
-    std::fs::write(vps.dir().join("two.toml"), TWO_CUBES).unwrap();
+    std::fs::write(vps.dir().join("two.toml"), two_cubes()).unwrap();
     let scene = vps.path("two.toml");
     (vps, scene)
 }
 
-/// [`TWO_CUBES`] with the right part's source and scale replaced by `lines`.
-fn with_right_part(lines: &str) -> String {
-    let right = "name = \"right\"\nsource = \"builtin:box\"\nscale = 0.4";
-    assert!(TWO_CUBES.contains(right));
-    TWO_CUBES.replace(right, &format!("name = \"right\"\n{lines}"))
+/// Runs `vps COMMAND --scene SCENE --seconds SECONDS --free-running MORE...` to its end.
+fn free_running(vps: &Vps, command: &str, scene: &str, seconds: &str, more: &[&str]) -> Output {
+    vps.session(
+        command,
+        scene,
+        seconds,
+        &[&["--free-running"], more].concat(),
+    )
 }
 
-/// The error of `vps scene check` on [`with_right_part`]`(lines)`, which must fail.
-fn check_fails_with_right_part(vps: &Vps, lines: &str) -> String {
-    std::fs::write(vps.dir().join("variant.toml"), with_right_part(lines)).unwrap();
-    vps.fails(&["scene", "check", &vps.path("variant.toml")])
+/// `vps scene check` on [`two_cubes_with_right`]`(lines)` must fail, its error holding every
+/// one of `words`.
+fn right_part_refused(vps: &Vps, lines: &str, words: &[&str]) {
+    std::fs::write(vps.dir().join("variant.toml"), two_cubes_with_right(lines)).unwrap();
+    let err = vps.fails(&["scene", "check", &vps.path("variant.toml")]);
+    assert!(words.iter().all(|w| err.contains(w)), "{words:?}: {err}");
 }
 
 fn vector(v: &serde_json::Value) -> [f64; 3] {
@@ -77,17 +73,13 @@ fn assert_opposite(a: [f64; 3], b: [f64; 3]) {
 fn two_hands_press_two_parts_equal_and_opposite_and_they_rest() {
     let (vps, scene) = sandbox();
     let session = |seconds: &str, extra: &[&str]| {
-        let mut args = vec![
+        json(&free_running(
+            &vps,
             "run",
-            "--scene",
             &scene,
-            "--seconds",
             seconds,
-            "--free-running",
-            "--json",
-        ];
-        args.extend_from_slice(extra);
-        json(&vps.run(&args))
+            &[&["--json"], extra].concat(),
+        ))
     };
     let report = session("2", &[]);
     let parts = report["parts"].as_array().expect("every part reported");
@@ -139,21 +131,21 @@ fn two_hands_press_two_parts_equal_and_opposite_and_they_rest() {
     // frame, bit for bit (the JSON numbers round-trip exactly).
     let threads = session("2", &["--threads", "3"]);
     assert_eq!(threads["parts"], report["parts"]);
-    let clustered = json(&vps.run(&[
-        "cluster",
+    let workers = [
         "--local-workers",
         "2",
         "--split",
         "always",
         "--max-stale-frames",
         "0",
-        "--scene",
+    ];
+    let clustered = json(&free_running(
+        &vps,
+        "cluster",
         &scene,
-        "--seconds",
         "2",
-        "--free-running",
-        "--json",
-    ]));
+        &[&workers, &["--json"][..]].concat(),
+    ));
     assert_eq!(clustered["parts"], report["parts"]);
     for peer in clustered["cluster"]["peers"].as_array().unwrap() {
         assert_eq!(peer["merged"], 2000, "every frame split: {peer}");
@@ -198,10 +190,10 @@ fn scene_check_lists_every_part_and_pair_and_refuses_a_sheet_as_a_second_part() 
         "v 0 0 0\nv 0.04 0 0\nv 0 0.04 0\nf 1 2 3\n",
     )
     .unwrap();
-    let err = check_fails_with_right_part(&vps, "source = \"sheet.obj\"");
-    assert!(
-        err.contains("part[1].source") && err.contains("has no inside"),
-        "{err}"
+    right_part_refused(
+        &vps,
+        "source = \"sheet.obj\"",
+        &["part[1].source", "has no inside"],
     );
 }
 
@@ -210,10 +202,10 @@ fn scene_check_lists_every_part_and_pair_and_refuses_a_sheet_as_a_second_part() 
 #[test]
 fn a_second_part_larger_than_the_scene_is_refused() {
     let (vps, _) = sandbox();
-    let err = check_fails_with_right_part(&vps, "source = \"builtin:box\"\nscale = 400");
-    assert!(
-        err.contains("part[1]") && err.contains("larger than the whole scene"),
-        "{err}"
+    right_part_refused(
+        &vps,
+        "source = \"builtin:box\"\nscale = 400",
+        &["part[1]", "larger than the whole scene"],
     );
 }
 
@@ -221,19 +213,8 @@ fn a_second_part_larger_than_the_scene_is_refused() {
 fn a_session_of_two_parts_is_studied_part_by_part_to_the_bit_live_and_from_its_traces() {
     let (vps, scene) = sandbox();
     let (trace, live, later) = (vps.path("s.trace"), vps.path("live"), vps.path("later"));
-    let report = json(&vps.run(&[
-        "run",
-        "--scene",
-        &scene,
-        "--seconds",
-        "1.5",
-        "--free-running",
-        "--record",
-        &trace,
-        "--study",
-        &live,
-        "--json",
-    ]));
+    let outputs = ["--record", &trace, "--study", &live, "--json"];
+    let report = json(&free_running(&vps, "run", &scene, "1.5", &outputs));
     assert!(
         vps.dir().join("s.right.trace").is_file(),
         "the second part's trace is written beside the first's"
@@ -317,20 +298,13 @@ fn a_session_of_two_parts_is_studied_part_by_part_to_the_bit_live_and_from_its_t
 #[test]
 fn a_study_of_two_parts_needs_both_traces_of_one_session_and_never_overwrites_an_input() {
     let (vps, scene) = sandbox();
-    let record = |name: &str, seconds: &str| {
-        vps.run(&[
-            "run",
-            "--scene",
-            &scene,
-            "--seconds",
-            seconds,
-            "--free-running",
-            "--record",
-            &vps.path(name),
-        ]);
+    let record = |scene: &str, name: &str, seconds: &str| {
+        free_running(&vps, "run", scene, seconds, &["--record", &vps.path(name)])
     };
-    record("s.trace", "0.3");
-    record("short.trace", "0.2");
+    for (name, seconds) in [("s.trace", "0.3"), ("short.trace", "0.2")] {
+        let out = record(&scene, name, seconds);
+        assert!(out.status.success(), "{name}: {}", stderr(&out));
+    }
     let study = |out: &str| {
         vps.fails(&[
             "study",
@@ -362,23 +336,14 @@ fn a_study_of_two_parts_needs_both_traces_of_one_session_and_never_overwrites_an
     // A recording whose second part's trace would land on the scene file itself: refused before
     // the session, the scene left as it was.
     std::fs::copy(vps.dir().join("two.toml"), vps.dir().join("x.right.trace")).unwrap();
-    let err = vps.fails(&[
-        "run",
-        "--scene",
-        &vps.path("x.right.trace"),
-        "--seconds",
-        "0.1",
-        "--free-running",
-        "--record",
-        &vps.path("x.trace"),
-    ]);
+    let err = failed(&record(&vps.path("x.right.trace"), "x.trace", "0.1"));
     assert!(
         err.contains("--record") && err.contains("x.right.trace"),
         "{err}"
     );
     assert_eq!(
         std::fs::read_to_string(vps.dir().join("x.right.trace")).unwrap(),
-        TWO_CUBES
+        two_cubes()
     );
     assert!(!vps.dir().join("x.trace").exists());
 }

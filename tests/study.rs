@@ -7,9 +7,10 @@
 
 use glam::{DQuat, DVec3};
 use std::path::Path;
+use std::process::Output;
 use vps_mesh::triangle_distance::triangle_distance;
 use vps_mesh::TriMesh;
-use vps_testkit::process::{json, stderr, Vps};
+use vps_testkit::process::{failed, json, stderr, Vps};
 use vps_testkit::table::csv_table;
 
 /// A [`Vps`] with the example scenes' files copied in.
@@ -21,6 +22,12 @@ fn examples() -> Vps {
         std::fs::copy(&path, vps.dir().join(path.file_name().unwrap())).unwrap();
     }
     vps
+}
+
+/// Runs `vps study TRACE --scene SCENE -o OUT MORE...`, the three names in the folder.
+fn study_trace(vps: &Vps, trace: &str, scene: &str, out: &str, more: &[&str]) -> Output {
+    let (trace, scene, out) = (vps.path(trace), vps.path(scene), vps.path(out));
+    vps.run(&[&["study", &trace, "--scene", &scene, "-o", &out], more].concat())
 }
 
 /// The least distance between `part` at (`p`, `q`) and any of `statics`: every triangle pair.
@@ -47,7 +54,8 @@ fn check_example(vps: &Vps, scene: &str) {
         format!("{scene}.jsonl"),
         format!("{scene}-report.json"),
     );
-    let scene_file = vps.path(&format!("{scene}.toml"));
+    let scene_name = format!("{scene}.toml");
+    let scene_file = vps.path(&scene_name);
     let out = vps.run(&[
         "run",
         "--scene",
@@ -159,14 +167,7 @@ fn check_example(vps: &Vps, scene: &str) {
     assert!(volume > 0.0 && summary["swept_volume"]["mesh_closed"] == true);
     // The same study from the trace alone.
     let again = format!("{scene}-again");
-    let out = vps.run(&[
-        "study",
-        &vps.path(&trace),
-        "--scene",
-        &scene_file,
-        "-o",
-        &vps.path(&again),
-    ]);
+    let out = study_trace(vps, &trace, &scene_name, &again, &[]);
     assert!(out.status.success(), "{}", stderr(&out));
     for file in [
         "path.csv",
@@ -191,29 +192,16 @@ fn check_example(vps: &Vps, scene: &str) {
 fn the_peg_in_hole_study_matches_the_session_and_a_brute_force_clearance() {
     let vps = examples();
     check_example(&vps, "peg-in-hole");
-    let summary = json(&vps.run(&[
-        "study",
-        &vps.path("peg-in-hole.jsonl"),
-        "--scene",
-        &vps.path("peg-in-hole.toml"),
-        "-o",
-        &vps.path("peg-json"),
-        "--json",
-    ]));
+    let (trace, scene) = ("peg-in-hole.jsonl", "peg-in-hole.toml");
+    let summary = json(&study_trace(&vps, trace, scene, "peg-json", &["--json"]));
     assert_eq!(summary["reached"], true, "{summary}");
     let least = summary["minimum_clearance"]["distance_m"].as_f64().unwrap();
     assert!(least > 0.0 && least < 0.001, "{summary}");
     assert_eq!(summary["minimum_clearance"]["object"], "peg-fixture");
     // A replay of the trace with --study: the same path and verdict (its device is "replay of
     // simulated-hand"; its goal is still the scene's last waypoint).
-    let out = vps.run(&[
-        "replay",
-        &vps.path("peg-in-hole.jsonl"),
-        "--scene",
-        &vps.path("peg-in-hole.toml"),
-        "--study",
-        &vps.path("peg-replay"),
-    ]);
+    let (trace, scene, replay) = (vps.path(trace), vps.path(scene), vps.path("peg-replay"));
+    let out = vps.run(&["replay", &trace, "--scene", &scene, "--study", &replay]);
     assert!(out.status.success(), "{}", stderr(&out));
     let replayed: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(vps.dir().join("peg-replay/study.json")).unwrap(),
@@ -259,16 +247,12 @@ fn the_peg_in_hole_study_matches_the_session_and_a_brute_force_clearance() {
         without_time("peg-in-hole-study")
     );
     // With --json the session's stdout is its report alone; the study's words go to stderr.
-    let out = vps.run(&[
+    let out = vps.session(
         "run",
-        "--scene",
-        &vps.path("peg-in-hole.toml"),
-        "--seconds",
+        &scene,
         "0.5",
-        "--json",
-        "--study",
-        &vps.path("peg-quiet"),
-    ]);
+        &["--json", "--study", &vps.path("peg-quiet")],
+    );
     let report = json(&out);
     assert_eq!(report["stats"]["frames"], 500);
     assert!(stderr(&out).contains("verdict: "), "{}", stderr(&out));
@@ -328,15 +312,8 @@ fn the_study_page_opens_offline_in_headless_chromium() {
     }
     let _turn = take_turn();
     let vps = examples();
-    let out = vps.run(&[
-        "run",
-        "--scene",
-        &vps.path("bracket-in-bay.toml"),
-        "--seconds",
-        "3",
-        "--study",
-        &vps.path("page"),
-    ]);
+    let scene = vps.path("bracket-in-bay.toml");
+    let out = vps.session("run", &scene, "3", &["--study", &vps.path("page")]);
     assert!(out.status.success(), "{}", stderr(&out));
     let page = vps.dir().join("page/report.html");
     let html = std::fs::read_to_string(&page).unwrap();
@@ -455,15 +432,8 @@ fn the_study_page_opens_offline_in_headless_chromium() {
 #[test]
 fn a_study_starts_the_part_where_the_recorded_session_did() {
     let vps = examples();
-    let out = vps.run(&[
-        "record",
-        "--scene",
-        &vps.path("peg-in-hole.toml"),
-        "--seconds",
-        "0.2",
-        "-o",
-        &vps.path("t.jsonl"),
-    ]);
+    let scene = vps.path("peg-in-hole.toml");
+    let out = vps.session("record", &scene, "0.2", &["-o", &vps.path("t.jsonl")]);
     assert!(out.status.success(), "{}", stderr(&out));
     let text = std::fs::read_to_string(vps.dir().join("t.jsonl")).unwrap();
     let (header, frames) = text.split_once('\n').unwrap();
@@ -476,14 +446,7 @@ fn a_study_starts_the_part_where_the_recorded_session_did() {
     // As if the part had started 15 mm higher than the hand's first reading.
     header["part_start"]["position"] = serde_json::json!([0.0, 0.0, 0.135]);
     std::fs::write(vps.dir().join("moved.jsonl"), format!("{header}\n{frames}")).unwrap();
-    let out = vps.run(&[
-        "study",
-        &vps.path("moved.jsonl"),
-        "--scene",
-        &vps.path("peg-in-hole.toml"),
-        "-o",
-        &vps.path("moved"),
-    ]);
+    let out = study_trace(&vps, "moved.jsonl", "peg-in-hole.toml", "moved", &[]);
     assert!(out.status.success(), "{}", stderr(&out));
     let (header, rows) =
         csv_table(&std::fs::read_to_string(vps.dir().join("moved/path.csv")).unwrap());
@@ -498,15 +461,8 @@ fn a_study_starts_the_part_where_the_recorded_session_did() {
 fn a_study_never_replaces_its_inputs() {
     let vps = examples();
     std::fs::write(vps.dir().join("notes.txt"), "keep me").unwrap();
-    let err = vps.fails(&[
-        "run",
-        "--scene",
-        &vps.path("peg-in-hole.toml"),
-        "--seconds",
-        "0.1",
-        "--study",
-        &vps.path("notes.txt"),
-    ]);
+    let scene = vps.path("peg-in-hole.toml");
+    let err = failed(&vps.session("run", &scene, "0.1", &["--study", &vps.path("notes.txt")]));
     assert!(err.contains("exists and is not a folder"), "{err}");
     assert_eq!(
         std::fs::read_to_string(vps.dir().join("notes.txt")).unwrap(),
@@ -514,34 +470,24 @@ fn a_study_never_replaces_its_inputs() {
     );
     // A trace named like a study file, in the study's folder.
     std::fs::create_dir(vps.dir().join("s")).unwrap();
-    let out = vps.run(&[
-        "record",
-        "--scene",
-        &vps.path("peg-in-hole.toml"),
-        "--seconds",
-        "0.1",
-        "-o",
-        &vps.path("s/path.csv"),
-    ]);
+    let out = vps.session("record", &scene, "0.1", &["-o", &vps.path("s/path.csv")]);
     assert!(out.status.success(), "{}", stderr(&out));
     let trace = std::fs::read(vps.dir().join("s/path.csv")).unwrap();
-    let err = vps.fails(&[
-        "study",
-        &vps.path("s/path.csv"),
-        "--scene",
-        &vps.path("peg-in-hole.toml"),
-        "-o",
-        &vps.path("s"),
-    ]);
+    let err = failed(&study_trace(
+        &vps,
+        "s/path.csv",
+        "peg-in-hole.toml",
+        "s",
+        &[],
+    ));
     assert!(err.contains("--study") && err.contains("path.csv"), "{err}");
     assert_eq!(std::fs::read(vps.dir().join("s/path.csv")).unwrap(), trace);
-    let err = vps.fails(&[
-        "study",
-        &vps.path("missing.jsonl"),
-        "--scene",
-        &vps.path("peg-in-hole.toml"),
-        "-o",
-        &vps.path("t"),
-    ]);
+    let err = failed(&study_trace(
+        &vps,
+        "missing.jsonl",
+        "peg-in-hole.toml",
+        "t",
+        &[],
+    ));
     assert!(err.contains("missing.jsonl"), "{err}");
 }

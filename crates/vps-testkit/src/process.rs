@@ -94,12 +94,30 @@ impl Vps {
         self.cmd().args(args).output().expect("vps runs")
     }
 
+    /// Runs `vps COMMAND --scene SCENE --seconds SECONDS MORE...` to completion: a session of a
+    /// set length (`run`, `record`, `cluster`, ...) on the scene file `SCENE`.
+    pub fn session(&self, command: &str, scene: &str, seconds: &str, more: &[&str]) -> Output {
+        let mut args = vec![command, "--scene", scene, "--seconds", seconds];
+        args.extend_from_slice(more);
+        self.run(&args)
+    }
+
     /// Runs `vps ARGS`, asserts that it failed, and returns its stderr.
     pub fn fails(&self, args: &[&str]) -> String {
         let out = self.run(args);
         assert!(!out.status.success(), "vps {args:?} succeeded");
         stderr(&out)
     }
+}
+
+/// The stderr of a command that must have failed; panics (with its stdout) where it succeeded.
+pub fn failed(out: &Output) -> String {
+    assert!(
+        !out.status.success(),
+        "the command succeeded: {}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    stderr(out)
 }
 
 /// The JSON document on a successful command's stdout; panics with its stderr if it failed.
