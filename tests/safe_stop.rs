@@ -38,9 +38,9 @@ fn vps() -> Command {
     cmd
 }
 
-/// Starts `vps run` on the bridge (port 0) for `seconds` and returns it with the bridge's
-/// address, read from its stderr.
-fn start_bridge_session(report: &std::path::Path, seconds: &str) -> (Vps, SocketAddr) {
+/// `vps run` on the bridge (port 0) for `seconds`, stdin and stdout null: the command of every
+/// bridge session here, its other flags still to come.
+fn bridge_run(seconds: &str) -> Command {
     let mut cmd = vps();
     cmd.args([
         "run",
@@ -48,11 +48,17 @@ fn start_bridge_session(report: &std::path::Path, seconds: &str) -> (Vps, Socket
         "bridge:127.0.0.1:0",
         "--seconds",
         seconds,
-        "--report",
     ])
-    .arg(report)
     .stdin(Stdio::null())
     .stdout(Stdio::null());
+    cmd
+}
+
+/// Starts `vps run` on the bridge (port 0) for `seconds` and returns it with the bridge's
+/// address, read from its stderr.
+fn start_bridge_session(report: &std::path::Path, seconds: &str) -> (Vps, SocketAddr) {
+    let mut cmd = bridge_run(seconds);
+    cmd.arg("--report").arg(report);
     let (child, addr) = spawn_until_line(cmd, "vps", "device bridge listening on ", DEADLINE);
     (Vps(child), addr.parse().expect("a socket address"))
 }
@@ -273,12 +279,8 @@ fn no_wrench_sent_exceeds_the_device_limits_by_an_ulp() {
         format!("{text}\n[device]\nmax_force = {max_force}\nmax_torque = {max_torque}\n"),
     )
     .unwrap();
-    let mut cmd = vps();
-    cmd.args(["run", "--device", "bridge:127.0.0.1:0", "--seconds", "600"])
-        .arg("--scene")
-        .arg(&scene)
-        .stdin(Stdio::null())
-        .stdout(Stdio::null());
+    let mut cmd = bridge_run("600");
+    cmd.arg("--scene").arg(&scene);
     let (child, addr) = spawn_until_line(cmd, "vps", "device bridge listening on ", DEADLINE);
     let _vps = Vps(child);
     let addr: SocketAddr = addr.parse().expect("a socket address");
@@ -339,18 +341,9 @@ fn a_sender_restarting_its_sequence_is_taken_back_after_the_pose_timeout() {
     use vps_input::bridge::protocol::{Datagram, Message, FLAG_CLUTCH};
     let dir = tempfile::tempdir().unwrap();
     let report_path = dir.path().join("report.json");
-    let mut cmd = vps();
-    cmd.args([
-        "run",
-        "--device",
-        "bridge:127.0.0.1:0",
-        "--seconds",
-        "600",
-        "--pose-timeout-ms",
-        "50",
-        "--report",
-    ])
-    .arg(&report_path);
+    let mut cmd = bridge_run("600");
+    cmd.args(["--pose-timeout-ms", "50", "--report"])
+        .arg(&report_path);
     let mut vps = WatchedProcess::spawn(cmd, "vps", DEADLINE);
     let marker = "device bridge listening on ";
     vps.wait_for(marker, 1);

@@ -83,6 +83,34 @@ fn run_measured(args: &[&str]) -> (Option<i32>, String, String, u64) {
     (code, out, err, usage.ru_maxrss as u64 * 1024)
 }
 
+/// Runs `vps ARGS`, which must be refused (exit status 1) with every one of `wants` on its
+/// stderr (shown cut to 2,000 bytes); returns its stderr and peak resident memory.
+fn refused(args: &[&str], wants: &[&str]) -> (String, u64) {
+    let (code, out, err, peak) = run_measured(args);
+    let shown = &err[..err.len().min(2000)];
+    assert_eq!(code, Some(1), "{out}{shown}");
+    for want in wants {
+        assert!(err.contains(want), "{want:?} not in: {shown}");
+    }
+    (err, peak)
+}
+
+/// The words of a refusal over `--max-memory 64MiB`.
+const OVER_BUDGET: &str = "over the budget of 64.0 MiB (--max-memory)";
+
+/// Runs `vps ARGS --max-memory 64MiB` on the built-in bay-teapot scene, which must be refused over
+/// the budget, with every one of `wants` on its stderr, before any voxmap is built; returns its
+/// stderr.
+fn refused_over_budget(args: &[&str], wants: &[&str]) -> String {
+    let args = [args, &["--max-memory", "64MiB"]].concat();
+    let (err, _) = refused(&args, &[&[OVER_BUDGET], wants].concat());
+    assert!(
+        !err.contains("voxmap: built"),
+        "built before refusing: {err}"
+    );
+    err
+}
+
 /// Twenty objects name one OBJ, in four spellings (relative, `./`, absolute, a symbolic link):
 /// the file is read and parsed once, `vps scene check` says so, and its peak memory exceeds that
 /// of the same scene with one object by far less than the 19 further placed copies would take.
@@ -184,69 +212,38 @@ fn the_whole_scene_estimate_is_printed_and_refused_over_max_memory() {
     // The bay's 593k triangles at about 250 bytes each.
     assert!(exact_bytes(distance) > 100 << 20);
 
-    let (code, out, err, _) = run_measured(&[
-        "scene",
-        "check",
-        "builtin:bay-teapot",
-        "--max-memory",
-        "64MiB",
-    ]);
-    assert_eq!(code, Some(1), "{out}{err}");
-    for want in [
-        "builtin:bay-teapot",
-        "needs an estimated",
-        "over the budget of 64.0 MiB (--max-memory)",
-        "raise the budget with --max-memory (e.g. --max-memory 1GiB)",
-    ] {
-        assert!(err.contains(want), "{want:?} not in: {err}");
-    }
-    let (code, out, err, _) = run_measured(&[
+    refused_over_budget(
+        &["scene", "check", "builtin:bay-teapot"],
+        &[
+            "builtin:bay-teapot",
+            "needs an estimated",
+            "raise the budget with --max-memory (e.g. --max-memory 1GiB)",
+        ],
+    );
+    let session = [
         "run",
         "--scene",
         "builtin:bay-teapot",
         "--no-cache",
         "--seconds",
         "1",
-        "--max-memory",
-        "64MiB",
-    ]);
-    assert_eq!(code, Some(1), "{out}{err}");
-    assert!(
-        err.contains("over the budget of 64.0 MiB (--max-memory)"),
-        "{err}"
-    );
-    assert!(
-        !err.contains("voxmap: built"),
-        "built before refusing: {err}"
-    );
+    ];
+    refused_over_budget(&session, &[]);
 }
 
 /// `vps view --scene` takes `--max-memory` as the session commands do: a scene over it is refused
 /// naming the estimate, the budget and the flag, before anything is built or served.
 #[test]
 fn view_refuses_a_scene_over_max_memory_before_building_it() {
-    let (code, out, err, _) = run_measured(&[
+    let view = [
         "view",
         "--scene",
         "builtin:bay-teapot",
         "--no-cache",
         "--addr",
         "127.0.0.1:0",
-        "--max-memory",
-        "64MiB",
-    ]);
-    assert_eq!(code, Some(1), "{out}{err}");
-    for want in [
-        "builtin:bay-teapot",
-        "needs an estimated",
-        "over the budget of 64.0 MiB (--max-memory)",
-    ] {
-        assert!(err.contains(want), "{want:?} not in: {err}");
-    }
-    assert!(
-        !err.contains("voxmap: built"),
-        "built before refusing: {err}"
-    );
+    ];
+    let err = refused_over_budget(&view, &["builtin:bay-teapot", "needs an estimated"]);
     assert!(
         !err.contains("viewer: http"),
         "served before refusing: {err}"
@@ -271,19 +268,14 @@ fn deep_nesting_and_token_floods_are_refused_before_parsing_in_bounded_memory() 
         ),
     )
     .unwrap();
-    let (code, out, err, _) = run_measured(&["scene", "check", nested.to_str().unwrap()]);
-    assert_eq!(code, Some(1), "{out}{}", &err[..err.len().min(2000)]);
-    for want in [
-        "nested.toml",
-        "nested more than 32 deep",
-        "passed on line 3",
-    ] {
-        assert!(
-            err.contains(want),
-            "{want:?} not in: {}",
-            &err[..err.len().min(2000)]
-        );
-    }
+    let (err, _) = refused(
+        &["scene", "check", nested.to_str().unwrap()],
+        &[
+            "nested.toml",
+            "nested more than 32 deep",
+            "passed on line 3",
+        ],
+    );
     assert!(err.len() < 1000, "{} bytes of error", err.len());
 
     let commas = dir.path().join("commas.toml");
@@ -301,15 +293,10 @@ fn deep_nesting_and_token_floods_are_refused_before_parsing_in_bounded_memory() 
         }
         file.write_all(b"]\n").unwrap();
     }
-    let (code, out, err, peak) = run_measured(&["scene", "check", commas.to_str().unwrap()]);
-    assert_eq!(code, Some(1), "{out}{}", &err[..err.len().min(2000)]);
-    for want in ["commas.toml", "TOML tokens", "passed on line 1"] {
-        assert!(
-            err.contains(want),
-            "{want:?} not in: {}",
-            &err[..err.len().min(2000)]
-        );
-    }
+    let (_, peak) = refused(
+        &["scene", "check", commas.to_str().unwrap()],
+        &["commas.toml", "TOML tokens", "passed on line 1"],
+    );
     // The file's text is held once (60 MiB); the parser's tokens would be 24 bytes a comma.
     assert!(
         peak < 4 * bytes as u64,
