@@ -439,30 +439,30 @@ pub fn cluster_datagram() -> Vec<Vec<u8>> {
 /// long reason; needs of no file, some and every bit.
 fn join_messages() -> Vec<JoinMessage> {
     use vps_cluster::protocol::{AssetFile, AssetKind};
-    let file = |kind, byte: u8, len: u64| AssetFile {
-        kind,
-        hash: [byte; 32],
-        len,
+    // Each file as (kind, the byte its hash repeats, length): the scene's voxmap and shell, then
+    // a second part's shell and two more voxmaps.
+    let files = [
+        (AssetKind::Voxmap, 1, 1 << 20),
+        (AssetKind::Shell, 2, 1 << 16),
+        (AssetKind::Shell, 3, 1 << 12),
+        (AssetKind::Voxmap, 4, 1 << 14),
+        (AssetKind::Voxmap, 5, 1 << 15),
+    ];
+    // The assets of `parts` parts and `class_count` classes: the first `count` files.
+    let identity = |class_count, parts, count| AssetsIdentity {
+        class_count,
+        parts,
+        files: files[..count]
+            .iter()
+            .map(|&(kind, byte, len)| AssetFile {
+                kind,
+                hash: [byte; 32],
+                len,
+            })
+            .collect(),
     };
-    let scene = AssetsIdentity {
-        class_count: 8,
-        parts: 1,
-        files: vec![
-            file(AssetKind::Voxmap, 1, 1 << 20),
-            file(AssetKind::Shell, 2, 1 << 16),
-        ],
-    };
-    let two_parts = AssetsIdentity {
-        class_count: 64,
-        parts: 2,
-        files: vec![
-            file(AssetKind::Voxmap, 1, 1 << 20),
-            file(AssetKind::Shell, 2, 1 << 16),
-            file(AssetKind::Shell, 3, 1 << 12),
-            file(AssetKind::Voxmap, 4, 1 << 14),
-            file(AssetKind::Voxmap, 5, 1 << 15),
-        ],
-    };
+    let scene = identity(8, 1, 2);
+    let two_parts = identity(64, 2, files.len());
     let mut all: Vec<JoinMessage> = [0, 1, u16::MAX]
         .map(|version| JoinMessage::Hello { version })
         .into();
