@@ -978,30 +978,7 @@ fn a_step_scene_checks_and_runs_and_its_mistakes_are_named() {
     }
     std::fs::write(
         scenes.join("three.toml"),
-        r#"[part]
-source = "../step/hollow_box_ap214_is.step"
-scale = 0.1                    # 10 mm across
-
-[[static]]
-source = "../step/cube_hole.step"
-
-[[static]]
-source = "../step/box_ap203.step"
-translate = [0.1, 0.0, 0.0]
-
-[voxels]
-voxel_size = "1mm"
-voxel_width = 4
-shell_method = "exact"
-
-[hand]
-waypoints = [[0.006, 0.0127, 0.04], [0.006, 0.0127, 0.0305], [0.012, 0.0127, 0.0305]]
-speed = 0.03
-hold_s = 0.2
-
-[device]
-kind = "sim"
-"#,
+        include_str!("fixtures/step-three-files.toml"),
     )
     .unwrap();
     let three = vps.path("scenes/three.toml");
