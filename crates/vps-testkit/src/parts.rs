@@ -2,8 +2,8 @@
 //! one builder for the tests of several parts (the scene file's schema, the binary's sessions,
 //! the viewer, two bridge clients), so each test states only what its scene changes.
 
-/// The floor of [`two_parts`]: the built-in box as a 4 m × 4 m slab, 5 cm thick, its top 5 cm
-/// below the origin (well below the parts, which meet at the origin).
+/// The floor of [`two_parts`]: the built-in box (0.1 m across, centred) as a 0.4 m × 0.4 m slab,
+/// 5 cm thick, its top 0.275 m below the origin (far below the parts, which meet there).
 pub const FLOOR: &str = "[[static]]
 source = \"builtin:box\"
 scale = [4.0, 4.0, 0.5]
