@@ -160,6 +160,13 @@ impl ExactScene {
         self.triangle_component[t as usize]
     }
 
+    /// Whether component `component` (`0..component_count()`) is a closed, consistently oriented
+    /// solid, whose distance is signed (else it is open and its distance unsigned). Panics when
+    /// `component` is out of range.
+    pub fn is_closed(&self, component: u32) -> bool {
+        self.objects[component as usize].closed
+    }
+
     /// Triangles in the scene.
     pub fn triangle_count(&self) -> usize {
         self.triangles.len()

@@ -20,8 +20,11 @@ use vps_voxmap::{GridSpec, TreeConfig, VoxelTree, VoxelWidth};
 
 /// Bumped whenever the key's inputs or the voxelizer's output change meaning. 2: open parts are
 /// classified by winding number and workspace cuts keep the inside (docs/voxelize.md, "Open and
-/// leaky meshes"), so maps cached by 1 may differ.
-const CACHE_FORMAT: &str = "vps-voxmap-cache-2";
+/// leaky meshes"), so maps cached by 1 may differ. 3: the distance band takes its signs from a
+/// map with no force-layer offset (samples deep inside a 4- or 8-bit map's Surface layers were
+/// stored as far outside, samples in a 2-bit map's offset rings as inside), so bands cached by 2
+/// may differ.
+const CACHE_FORMAT: &str = "vps-voxmap-cache-3";
 
 /// Where cached voxmaps live, or that caching is off.
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -6,19 +6,28 @@
 //!    reach `standoff + 127/64 s` (plus half a code of rounding) marks the cubes it overlaps, and the triangle
 //!    is listed with each (a compressed table: counts, offsets, indices).
 //! 2. **Samples.** In each marked cube (parallel, rayon), each listed triangle visits only the
-//!    samples inside its grown box and offers its exact distance (closest point on the triangle);
-//!    each sample keeps the nearest triangle (as OpenVDB's mesh-to-volume conversion does). The
+//!    samples within the reach of its box, nearest triangles to the cube's middle first, and offers
+//!    its exact distance (closest point on the triangle) where a lower bound (the distance to its
+//!    plane and to its box) does not already rule it out; each sample keeps the nearest triangle
+//!    of each nearby component (as OpenVDB's mesh-to-volume conversion keeps the nearest). The
 //!    nearest triangle then gives the sign: negative behind its angle-weighted pseudo-normal when
-//!    its component is closed ([`vps_reference::ExactScene::signed_to_triangle_at`]), and negative
-//!    wherever the voxmap's own classification says Interior (so an open mesh that the flood fill
-//!    closed is inside here too, and a point inside one solid but nearest another's surface is
-//!    inside). `e = d − standoff` is quantised to `s / 64` and saturated.
+//!    its component is closed ([`vps_reference::ExactScene::signed_to_triangle_at`]). A sample
+//!    that the inside map (the voxmap's classification with no force-layer offset: [`InsideMap`])
+//!    puts wholly inside a solid is negative whatever: an open mesh the flood fill closed is
+//!    inside here too, and a sample deep in a solid whose surface is beyond the reach is `−reach`
+//!    (deep) even when it is near another solid's surface. `e = d − standoff` is quantised to
+//!    `s / 64` and saturated.
 //! 3. **Unmarked cubes** lie farther than the reach from every triangle, so they hold no surface:
-//!    the voxmap's voxel at the cube's centre says whether the cube is deep inside (Interior) or far
+//!    the inside map's voxel at the cube's centre says whether the cube is deep inside or far
 //!    outside.
 //!
-//! Cost: per triangle, one closest-point computation per sample in its grown box (about
-//! `(2 reach / s + 1)³`); memory 4 bytes per cube of the grid for the directory and as much for
+//! Overlapping solids: where one solid's surface lies inside another and the enclosing solid's
+//! own surface is beyond the reach, the band holds the distance to the inner surface (a shallower
+//! depth than the union's), with that surface's normal.
+//!
+//! Cost: one 2-bit voxelization of the scene for the inside map; per triangle, a bound test per
+//! sample within its reach (about `(2 reach / s + 1)³` samples) and a closest-point computation
+//! where the bound leaves it a chance; memory 4 bytes per cube of the grid for the directory and as much for
 //! the triangle table's counts, 4 bytes per (triangle, cube) pair, and 729 bytes per stored cube,
 //! checked against the budget before any sample is computed.
 
@@ -71,6 +80,9 @@ pub enum BandBuildError {
     /// The meshes cannot be measured (no triangles, a bad index, a non-finite vertex).
     #[error("the distance band's exact reference: {0}")]
     Reference(#[from] vps_reference::ReferenceError),
+    /// The inside/outside classification the band takes its signs from could not be made.
+    #[error("the distance band's inside/outside classification: {0}")]
+    Inside(#[from] crate::VoxelizeError),
     /// The assembled band broke an invariant (a bug).
     #[error("the distance band: {0}")]
     Band(#[from] distance::BandError),
@@ -124,6 +136,7 @@ pub fn distance_band(
         });
     }
     let scene = ExactScene::new(meshes)?;
+    let inside = InsideMap::new(tree, meshes, max_memory_bytes)?;
     let [nx, ny, _] = cube_dims;
     let index =
         |c: [u32; 3]| (c[2] as usize * ny as usize + c[1] as usize) * nx as usize + c[0] as usize;
@@ -140,7 +153,7 @@ pub fn distance_band(
             ];
             (
                 i,
-                sample_cube(tree, &scene, lists.of(i), c, standoff_m, reach),
+                sample_cube(&inside, &scene, lists.of(i), c, standoff_m, reach),
             )
         })
         .collect();
@@ -155,12 +168,44 @@ pub fn distance_band(
         }
         // Farther than the reach from every triangle: uniform, as the voxmap says at its centre.
         let centre = glam::IVec3::from_array(c.map(|x| (x * CUBE_EDGE + CUBE_EDGE / 2) as i32));
-        if tree.get(centre) == Voxel::Interior {
+        if inside.at(centre) {
             CubeCodes::Deep
         } else {
             CubeCodes::Far
         }
     })?)
+}
+
+/// Which voxels lie wholly inside the scene's solids: the voxmap's classification with no force
+/// layer offset (2-bit, offset 0, on the same grid), where Interior means inside and clear of
+/// every triangle. The band's own map cannot say it: its offset rings turn voxels outside the
+/// surface into Interior (2-bit) and its depth layers turn voxels deep inside into Surface (4- and
+/// 8-bit). A sample farther than the band's reach from every triangle lies in no Surface voxel of
+/// this map, so for it the map is exact.
+struct InsideMap {
+    spec: GridSpec,
+    tree: VoxelTree,
+}
+
+impl InsideMap {
+    /// Voxelizes `meshes` again on `tree`'s grid (blocking, parallel; allocates a 2-bit tree).
+    fn new(tree: &VoxelTree, meshes: &[TriMesh], budget: u64) -> Result<InsideMap, BandBuildError> {
+        let spec = *tree.spec();
+        let opts = crate::VoxelizeOptions {
+            voxel_size: spec.voxel_size,
+            offset_layers: 0,
+            width: vps_voxmap::VoxelWidth::Two,
+            max_memory_bytes: budget,
+            ..crate::VoxelizeOptions::default()
+        };
+        let (tree, _) = crate::voxelize_tree_in(meshes, spec, &opts, tree.config())?;
+        Ok(InsideMap { spec, tree })
+    }
+
+    /// Whether voxel `ijk` lies wholly inside a solid.
+    fn at(&self, ijk: glam::IVec3) -> bool {
+        self.tree.get(ijk) == Voxel::Interior
+    }
 }
 
 /// For every cube, the triangles whose box grown by the reach overlaps a sample of the cube
@@ -283,14 +328,14 @@ fn for_each_cube_of_triangles(
 /// The 729 codes of cube `c` from its listed `triangles`, or its uniform kind when every code
 /// saturates the same way.
 fn sample_cube(
-    tree: &VoxelTree,
+    inside: &InsideMap,
     scene: &ExactScene,
     triangles: &[u32],
     c: [u32; 3],
     standoff_m: f64,
     reach: f64,
 ) -> CubeCodes {
-    let spec = tree.spec();
+    let spec = &inside.spec;
     let s = spec.voxel_size;
     let first = c.map(|x| i64::from(x * CUBE_EDGE));
     let centre = |i: usize, a: usize| spec.origin[a] + ((first[a] + i as i64) as f64 + 0.5) * s;
@@ -298,16 +343,17 @@ fn sample_cube(
     // the minimum over components of the signed distance to each one's nearest triangle).
     let mut best = vec![Nearest::default(); BRICK_CODES];
     let reach_sq = reach * reach;
-    for &t in triangles {
-        let tri = scene.triangle(t);
-        let component = scene.component_of(t);
-        // The distance to the triangle's plane bounds the distance to the triangle from below:
-        // a sample whose plane distance already exceeds its nearest so far (or the reach) skips
-        // the closest-point computation, which could not have changed anything. (A degenerate
-        // triangle has no plane: the bound is 0.)
-        let normal = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();
-        let plane_offset = normal.dot(tri[0]);
-        let range = sample_range(spec, &tri, reach);
+    // Nearest to the cube's middle first, so that each sample's nearest so far soon bounds the
+    // triangles still to come and most of them skip the closest-point computation. The order does
+    // not change the result: ties keep the lower-numbered triangle whatever comes first.
+    let middle = DVec3::from_array([0, 1, 2].map(|a| centre(BRICK_EDGE / 2, a)));
+    let mut listed: Vec<Listed> = triangles
+        .iter()
+        .map(|&t| Listed::new(scene, t, middle))
+        .collect();
+    listed.sort_unstable_by(|a, b| a.key.total_cmp(&b.key).then(a.t.cmp(&b.t)));
+    for l in &listed {
+        let range = sample_range(spec, &l.tri, reach);
         let local = [0, 1, 2].map(|a| {
             let lo = (range[a].0 - first[a]).max(0);
             let hi = (range[a].1 - first[a]).min(BRICK_EDGE as i64 - 1);
@@ -315,20 +361,31 @@ fn sample_cube(
         });
         for z in local[2].0..=local[2].1 {
             for y in local[1].0..=local[1].1 {
-                for x in local[0].0..=local[0].1 {
+                // Only the samples of this row within the reach of the triangle's box: a row
+                // segment (the box grown by the reach is a box; the reach is a rounded box).
+                let yz = DVec3::new(0.0, centre(y as usize, 1), centre(z as usize, 2));
+                let row_sq = l.box_distance_sq(DVec3::new(l.lo.x, yz.y, yz.z));
+                let left_sq = reach_sq * (1.0 + 1e-9) - row_sq;
+                if left_sq < 0.0 {
+                    continue;
+                }
+                let half = left_sq.sqrt() * (1.0 + 1e-9) + 1e-12;
+                let to = |x: f64| (x - spec.origin[0]) / s - 0.5 - first[0] as f64;
+                let x0 = (to(l.lo.x - half).ceil() as i64).max(local[0].0);
+                let x1 = (to(l.hi.x + half).floor() as i64).min(local[0].1);
+                for x in x0..=x1 {
                     let (x, y, z) = (x as usize, y as usize, z as usize);
                     let p = DVec3::new(centre(x, 0), centre(y, 1), centre(z, 2));
                     let nearest = &mut best[(z * BRICK_EDGE + y) * BRICK_EDGE + x];
-                    let plane = normal.dot(p) - plane_offset;
                     // A relative margin of 1e-9 keeps rounding from skipping a triangle the
                     // exact comparison below would have taken.
-                    let bound = nearest.improves_below(component).min(reach_sq);
-                    if plane * plane > bound * (1.0 + 1e-9) {
+                    let bound = nearest.improves_below(l.component).min(reach_sq);
+                    if l.lower_bound_sq(p) > bound * (1.0 + 1e-9) {
                         continue;
                     }
-                    let d_sq = closest_point(p, &tri).0.distance_squared(p);
+                    let d_sq = closest_point(p, &l.tri).0.distance_squared(p);
                     if d_sq <= reach_sq {
-                        nearest.offer(component, d_sq, t);
+                        nearest.offer(l.component, d_sq, l.t);
                     }
                 }
             }
@@ -344,19 +401,62 @@ fn sample_cube(
                     (first[1] + y as i64) as i32,
                     (first[2] + z as i64) as i32,
                 );
-                let interior = tree.get(ijk) == Voxel::Interior;
                 let p = DVec3::new(centre(x, 0), centre(y, 1), centre(z, 2));
-                let d = match best[i].signed_distance(scene, p) {
-                    None if interior => -reach,
-                    None => reach,
-                    Some(sd) if interior => -sd.abs(),
-                    Some(sd) => sd,
-                };
+                let d = best[i].signed_distance(scene, p, inside.at(ijk), reach);
                 codes[i] = distance::code_of(d - standoff_m, s);
             }
         }
     }
     CubeCodes::from_codes(codes)
+}
+
+/// A triangle listed for a cube, with what bounds its distance from below.
+struct Listed {
+    tri: [DVec3; 3],
+    t: u32,
+    component: u32,
+    /// Unit normal of the triangle's plane (zero for a degenerate triangle: no plane bound).
+    normal: DVec3,
+    /// `normal · tri[0]`.
+    plane_offset: f64,
+    /// The triangle's box (m).
+    lo: DVec3,
+    hi: DVec3,
+    /// Squared distance (m²) from the cube's middle sample to the box: the visiting order.
+    key: f64,
+}
+
+impl Listed {
+    fn new(scene: &ExactScene, t: u32, middle: DVec3) -> Listed {
+        let tri = scene.triangle(t);
+        let normal = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();
+        let lo = tri[0].min(tri[1]).min(tri[2]);
+        let hi = tri[0].max(tri[1]).max(tri[2]);
+        let mut listed = Listed {
+            tri,
+            t,
+            component: scene.component_of(t),
+            normal,
+            plane_offset: normal.dot(tri[0]),
+            lo,
+            hi,
+            key: 0.0,
+        };
+        listed.key = listed.box_distance_sq(middle);
+        listed
+    }
+
+    /// Squared distance (m²) from `p` to the triangle's box.
+    fn box_distance_sq(&self, p: DVec3) -> f64 {
+        ((self.lo - p).max(DVec3::ZERO) + (p - self.hi).max(DVec3::ZERO)).length_squared()
+    }
+
+    /// A lower bound of the squared distance (m²) from `p` to the triangle: the larger of the
+    /// distances to its plane and to its box.
+    fn lower_bound_sq(&self, p: DVec3) -> f64 {
+        let plane = self.normal.dot(p) - self.plane_offset;
+        (plane * plane).max(self.box_distance_sq(p))
+    }
 }
 
 /// Components tracked per sample; a sample near more distinct components than this keeps the
@@ -393,10 +493,12 @@ impl Nearest {
         }
     }
 
-    /// Triangle `t` of `component` at squared distance `d_sq`.
+    /// Triangle `t` of `component` at squared distance `d_sq`. For one component the result does
+    /// not depend on the order of the offers.
     fn offer(&mut self, component: u32, d_sq: f64, t: u32) {
         if let Some(e) = self.entries.iter_mut().find(|e| e.0 == component) {
-            if d_sq < e.1 {
+            // At equal distance the lower-numbered triangle, whatever the order of the offers.
+            if d_sq < e.1 || (d_sq == e.1 && t < e.2) {
                 *e = (component, d_sq, t);
             }
             return;
@@ -412,13 +514,134 @@ impl Nearest {
         }
     }
 
-    /// The minimum over the tracked components of the signed distance (m) from `p` to each one's
-    /// nearest triangle; `None` when no triangle was offered.
-    fn signed_distance(&self, scene: &ExactScene, p: DVec3) -> Option<f64> {
-        self.entries
-            .iter()
-            .filter(|e| e.0 != u32::MAX)
-            .map(|e| scene.signed_to_triangle_at(p, e.2).distance_m)
-            .min_by(f64::total_cmp)
+    /// The signed distance (m) of sample `p`, within `±reach`: the minimum over the tracked
+    /// components of the signed distance to each one's nearest triangle (negative inside a closed
+    /// component, unsigned for an open one). A sample the inside map calls `interior` is negative
+    /// whatever: an open component's distance is negated (the flood fill closed it), and when every
+    /// tracked component has it outside, the solid enclosing it has its surface beyond the reach
+    /// (`−reach`; e.g. deep in a box, near a ball sunk into the box). Nothing tracked: `±reach`.
+    fn signed_distance(&self, scene: &ExactScene, p: DVec3, interior: bool, reach: f64) -> f64 {
+        let (mut nearest, mut nearest_open) = (f64::INFINITY, f64::INFINITY);
+        for e in self.entries.iter().filter(|e| e.0 != u32::MAX) {
+            let d = scene.signed_to_triangle_at(p, e.2).distance_m;
+            nearest = nearest.min(d);
+            if !scene.is_closed(e.0) {
+                nearest_open = nearest_open.min(d);
+            }
+        }
+        match (interior, nearest.is_finite()) {
+            (false, true) => nearest,
+            (false, false) => reach,
+            (true, _) if nearest < 0.0 => nearest,
+            (true, _) if nearest_open.is_finite() => -nearest_open,
+            (true, _) => -reach,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{voxelize_tree, VoxelizeOptions};
+    use vps_voxmap::{TreeConfig, VoxelWidth};
+
+    /// Every sample's code against the exact scene's own signed distance
+    /// ([`ExactScene::signed_distance`]: a bounding-volume search per point, not the builder's
+    /// triangle-driven visit, and inside or out at any depth), on maps whose own kinds say little
+    /// of it: 2-bit with the force layer offset 2 voxels outward (Interior outside the surface) and
+    /// 4-bit (Surface depth layers deep inside). A box, a ball 15 mm above it and a tube beside
+    /// it, at two stand-offs. (Overlapping solids are not compared: where a solid's surface lies
+    /// inside another solid, the band holds the distance to that inner surface when the enclosing
+    /// solid's surface is beyond the reach, not the union's depth.) Cubes not stored must be uniform far or deep
+    /// as the exact distance says at every sample.
+    #[test]
+    fn every_sample_is_the_exact_signed_distance_quantised() {
+        let ball = vps_mesh::builtin::uv_sphere(0.03, 24, 12).transformed(
+            1.0,
+            glam::DQuat::IDENTITY,
+            DVec3::new(0.0, 0.0, 0.095),
+        );
+        let block = vps_mesh::builtin::by_name("box").unwrap();
+        let tube = vps_mesh::builtin::cylinder(0.02, 0.04, 24).transformed(
+            1.0,
+            glam::DQuat::IDENTITY,
+            DVec3::new(0.1, 0.0, 0.0),
+        );
+        let meshes = [block, ball, tube];
+        let scene = ExactScene::new(&meshes).unwrap();
+        let s = 0.004;
+        for width in [VoxelWidth::Two, VoxelWidth::Four] {
+            let opts = VoxelizeOptions {
+                voxel_size: s,
+                width,
+                offset_layers: 2,
+                ..VoxelizeOptions::default()
+            };
+            let (tree, _) = voxelize_tree(&meshes, &opts, TreeConfig::default()).unwrap();
+            let spec = *tree.spec();
+            for standoff in [0.5 * s, 0.125 * s] {
+                let band = distance_band(&tree, &meshes, standoff, 1 << 30).unwrap();
+                let reach = standoff + (f64::from(BAND_VOXELS) + 1.0 / 128.0) * s;
+                let [nx, ny, nz] = band.cube_dims();
+                let (mut samples, mut off_by_one) = (0usize, 0usize);
+                for c in
+                    (0..nz).flat_map(|z| (0..ny).flat_map(move |y| (0..nx).map(move |x| [x, y, z])))
+                {
+                    let c = c.map(|v| (v * CUBE_EDGE) as i32);
+                    let slot = band.slot_of_cell(c);
+                    for k in 0..BRICK_CODES {
+                        let l = [
+                            k % BRICK_EDGE,
+                            k / BRICK_EDGE % BRICK_EDGE,
+                            k / (BRICK_EDGE * BRICK_EDGE),
+                        ];
+                        let ijk = glam::IVec3::from_array([0, 1, 2].map(|a| c[a] + l[a] as i32));
+                        if (0..3).any(|a| ijk[a] >= spec.dims[a] as i32) {
+                            continue;
+                        }
+                        let p = spec.origin + (ijk.as_dvec3() + DVec3::splat(0.5)) * s;
+                        let d = scene.signed_distance(p).distance_m.clamp(-reach, reach);
+                        let expected = distance::code_of(d - standoff, s);
+                        let code = sample_code(&band, slot, c, k);
+                        let gap = (i32::from(code) - i32::from(expected)).abs();
+                        assert!(
+                            gap <= 1,
+                            "{width:?}, stand-off {standoff}: sample {ijk} at {p}: code {code}, \
+                             exact {expected} (d {d} m)"
+                        );
+                        samples += 1;
+                        off_by_one += usize::from(gap == 1);
+                    }
+                }
+                assert!(samples > 100_000, "{samples} samples");
+                // A code one off: two square roots of the same distance rounded to either side
+                // of a code boundary.
+                assert!(
+                    off_by_one * 10_000 <= samples,
+                    "{off_by_one} of {samples} one code off"
+                );
+            }
+        }
+    }
+
+    /// The code of sample `k` (x fastest) of the brick in directory slot `slot` of the cube whose
+    /// first voxel is `c`.
+    fn sample_code(band: &DistanceBand, slot: u32, c: [i32; 3], k: usize) -> i8 {
+        if slot == distance::SLOT_FAR {
+            return distance::CODE_FAR;
+        }
+        if slot == distance::SLOT_DEEP {
+            return distance::CODE_DEEP;
+        }
+        let l = [
+            k % BRICK_EDGE,
+            k / BRICK_EDGE % BRICK_EDGE,
+            k / (BRICK_EDGE * BRICK_EDGE),
+        ];
+        // The cell whose lower corner is the sample, or (on the apron) the one before it.
+        let base = [0, 1, 2].map(|a| c[a] + l[a].min(CUBE_EDGE as usize - 1) as i32);
+        let codes = band.cell_codes(slot, base);
+        let up = l.map(|v| usize::from(v == CUBE_EDGE as usize));
+        codes[up[2]][up[1]][up[0]]
     }
 }
