@@ -4,14 +4,15 @@
 //! gives the same bits either way (a unit test checks it).
 
 use super::{
-    count_bytes, look_up_fresh, ClassAccumulator, GridFrame, I64s, KindMasks, LastVoxel, Soa,
+    count_bytes, look_up_fresh, ClassAccumulator, ClassLoop, GridFrame, I64s, KindMasks, Soa,
     LANES, LENGTH_Q, ROUNDER, ROUNDER_BITS, Y_MAX,
 };
 use glam::Mat3;
 use std::arch::x86_64::*;
 use vps_voxmap::{Voxel, VoxelLookup};
 
-type V3 = [__m256; 3];
+/// One 256-bit vector per component.
+pub(super) type V3 = [__m256; 3];
 
 /// Lanes `start..start + LANES` of the three arrays. `UNCHECKED` (the AVX-512 copy): without
 /// bounds checks, which `accumulate_lanes` makes once per class instead.
@@ -223,24 +224,19 @@ unsafe fn count_kind_lanes(acc: &mut ClassAccumulator, kinds: &[u8; LANES]) -> O
 ///
 /// # Safety
 /// The CPU must support AVX2, and with `AVX512` AVX-512F and AVX-512DQ.
-// The arguments stay separate: bundled in one struct (map, frame, points, normals) they cost
-// 5 % more instructions in contact (1k points: 16,396 → 17,287), by value or by reference.
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(super) unsafe fn sample_block<L: VoxelLookup, const CLAMP: bool, const AVX512: bool>(
-    map: &L,
-    frame: &GridFrame,
-    points: Soa,
-    normals: Soa,
+    class: &mut ClassLoop<L>,
     start: usize,
-    last: &mut LastVoxel,
-    acc: &mut ClassAccumulator,
 ) {
     unsafe {
         // The AVX-512 copy skips the bounds checks: `start + LANES ≤ n`, the shortest of the
         // six arrays (`accumulate_lanes`). The AVX2 copy stays the previous kernel's code.
-        let lever = mat_vec(&frame.rotation_lever, &load::<AVX512>(points, start));
-        let inv = _mm256_set1_ps(frame.inv_voxel_lever);
+        let lever = mat_vec(
+            &class.frame.rotation_lever,
+            &load::<AVX512>(class.points, start),
+        );
+        let inv = _mm256_set1_ps(class.frame.inv_voxel_lever);
         let mut grid: V3 = [_mm256_setzero_ps(); 3];
         // floor, as `lanes::floor_i32`: truncate, then −1 where truncation rounded up.
         // (`AVX512`: round down, then truncate.)
@@ -248,7 +244,7 @@ pub(super) unsafe fn sample_block<L: VoxelLookup, const CLAMP: bool, const AVX51
         for r in 0..3 {
             grid[r] = _mm256_add_ps(
                 _mm256_mul_ps(lever[r], inv),
-                _mm256_set1_ps(frame.translation_grid[r]),
+                _mm256_set1_ps(class.frame.translation_grid[r]),
             );
             cell[r] = if AVX512 {
                 // Rounded down first: the same cells wherever `lanes::floor_i32` gives a
@@ -264,7 +260,7 @@ pub(super) unsafe fn sample_block<L: VoxelLookup, const CLAMP: bool, const AVX51
         // Lanes whose cell differs from the previous lane's (lane 0: the last voxel's).
         let shift = _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6);
         let mut same = _mm256_set1_epi32(-1);
-        for (c, previous) in cell.iter().zip(last.cell) {
+        for (c, previous) in cell.iter().zip(class.last.cell) {
             let prev = _mm256_blend_epi32::<1>(
                 _mm256_permutevar8x32_epi32(*c, shift),
                 _mm256_set1_epi32(previous),
@@ -277,17 +273,17 @@ pub(super) unsafe fn sample_block<L: VoxelLookup, const CLAMP: bool, const AVX51
             _mm256_storeu_si256(cells[r].as_mut_ptr().cast(), cell[r]);
         }
         let (kinds, layers) = if AVX512 {
-            look_up_fresh::<L, false>(map, &cells, LANES, fresh, last)
+            look_up_fresh::<L, false>(class.map, &cells, LANES, fresh, &mut class.last)
         } else {
-            look_up_fresh::<L, true>(map, &cells, LANES, fresh, last)
+            look_up_fresh::<L, true>(class.map, &cells, LANES, fresh, &mut class.last)
         };
         let masks = if AVX512 {
             if u64::from_le_bytes(kinds) == 0 {
                 return;
             }
-            count_kind_lanes(acc, &kinds)
+            count_kind_lanes(&mut class.acc, &kinds)
         } else {
-            acc.count_kinds(kinds)
+            class.acc.count_kinds(kinds)
         };
         let Some(KindMasks {
             surface,
@@ -297,10 +293,10 @@ pub(super) unsafe fn sample_block<L: VoxelLookup, const CLAMP: bool, const AVX51
         else {
             return;
         };
-        let normal = mat_vec(&frame.rotation, &load::<AVX512>(normals, start));
+        let normal = mat_vec(&class.frame.rotation, &load::<AVX512>(class.normals, start));
         let kind = _mm256_cvtepu8_epi32(_mm_loadl_epi64(kinds.as_ptr().cast()));
         if surface | interior != 0 {
-            acc.surface += if AVX512 {
+            class.acc.surface += if AVX512 {
                 u64::from(surface.count_ones())
             } else {
                 count_bytes(surface)
@@ -321,16 +317,22 @@ pub(super) unsafe fn sample_block<L: VoxelLookup, const CLAMP: bool, const AVX51
                 _mm256_castsi256_ps(pushing),
                 _mm256_cmp_ps::<_CMP_GT_OQ>(d, _mm256_setzero_ps()),
             );
-            let depth = _mm256_and_ps(keep, _mm256_mul_ps(d, _mm256_set1_ps(frame.voxel_q)));
-            acc.contacts += count_positive(depth);
+            let depth = _mm256_and_ps(keep, _mm256_mul_ps(d, _mm256_set1_ps(class.frame.voxel_q)));
+            class.acc.contacts += count_positive(depth);
             let force_dir = scale(&normal, depth);
-            add3_fixed::<CLAMP, AVX512>(&mut acc.depth_normal, &force_dir);
-            add3_fixed::<CLAMP, AVX512>(&mut acc.depth_torque, &cross(&lever, &force_dir));
-            acc.depth_blocks += 1;
+            add3_fixed::<CLAMP, AVX512>(&mut class.acc.depth_normal, &force_dir);
+            add3_fixed::<CLAMP, AVX512>(&mut class.acc.depth_torque, &cross(&lever, &force_dir));
+            class.acc.depth_blocks += 1;
         }
         if proximity != 0 {
             let is_proximity = _mm256_castsi256_ps(kind_is(kind, Voxel::Proximity));
-            brake_lanes::<CLAMP, AVX512>(frame, &lever, &normal, is_proximity, acc);
+            brake_lanes::<CLAMP, AVX512>(
+                class.frame,
+                &lever,
+                &normal,
+                is_proximity,
+                &mut class.acc,
+            );
         }
     }
 }

@@ -25,8 +25,8 @@
 //! operations in the same order, so the same bits, which a unit test checks). No allocation, no
 //! locks, no I/O.
 
-use super::{add3_fixed, brake_block, load, ClassAccumulator, GridFrame, Soa, CHUNK_BLOCKS};
-use crate::lanes::{cross, floor_i32, mat_vec, scale, scale_add, F32s, Vec3s, LANES};
+use super::{add3_fixed, brake_block, load, place, ClassAccumulator, GridFrame, Soa, CHUNK_BLOCKS};
+use crate::lanes::{cross, floor_i32, mat_vec, scale, F32s, Vec3s, LANES};
 use crate::sums::PartialSums;
 use vps_voxmap::distance::{
     DistanceBand, BAND_VOXELS, CODES_PER_VOXEL, CODE_DEEP, CODE_FAR, SLOT_FAR,
@@ -39,25 +39,47 @@ pub(crate) const MIN_GRADIENT: f32 = 0.25;
 /// Braking range beyond the stand-off (voxels): the band's counterpart of a Proximity voxel.
 const BRAKE_RANGE_VOXELS: f32 = 1.0;
 
-/// Adds the sums of one class's points against `band` to `sums`.
-pub(super) fn accumulate(
-    band: &DistanceBand,
-    standoff_voxels: f32,
-    frame: &GridFrame,
-    points: Soa,
-    normals: Soa,
-    sums: &mut PartialSums,
-) {
+/// One class sampled against a band: the per-call inputs of the block loop, the same for every
+/// block of the class.
+#[derive(Clone, Copy)]
+pub(super) struct BandClass<'a> {
+    /// The map's signed-distance band.
+    pub(super) band: &'a DistanceBand,
+    /// The band's stand-off (voxels; baked into its codes): `e < −standoff_voxels` is inside the
+    /// exact surface.
+    pub(super) standoff_voxels: f32,
+    /// The pose prepared for the grid.
+    pub(super) frame: &'a GridFrame,
+    /// The class's body-frame points; the shortest of the six arrays bounds the class.
+    pub(super) points: Soa<'a>,
+    /// The class's body-frame normals.
+    pub(super) normals: Soa<'a>,
+}
+
+/// Adds the sums of `class`'s points against its band to `sums`.
+pub(super) fn accumulate(class: BandClass, sums: &mut PartialSums) {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") && avx2::fits_lanes(band) {
+    if std::arch::is_x86_feature_detected!("avx2") && avx2::fits_lanes(class.band) {
         // SAFETY: the CPU supports AVX2 and the band's directory indices fit 32-bit lanes
         // (checked just above).
-        return unsafe { accumulate_avx2(band, standoff_voxels, frame, points, normals, sums) };
+        return unsafe {
+            accumulate_avx2(
+                class.band,
+                class.standoff_voxels,
+                class.frame,
+                class.points,
+                class.normals,
+                sums,
+            )
+        };
     }
-    accumulate_any::<false>(band, standoff_voxels, frame, points, normals, sums)
+    accumulate_any::<false>(class, sums)
 }
 
 /// [`accumulate_any`] compiled with AVX2 enabled, full blocks through [`avx2::sample_block`].
+/// The class comes as separate arguments, so that LLVM knows the frame and the band alias nothing
+/// the loop writes: read through references held in a [`BandClass`] in memory, they were read
+/// again for every block (`kernel_ir` example, `distance-free` mode: 33 % more instructions).
 ///
 /// # Safety
 /// The CPU must support AVX2 and [`avx2::fits_lanes`] must hold for `band`.
@@ -71,41 +93,35 @@ unsafe fn accumulate_avx2(
     normals: Soa,
     sums: &mut PartialSums,
 ) {
-    accumulate_any::<true>(band, standoff_voxels, frame, points, normals, sums)
+    let class = BandClass {
+        band,
+        standoff_voxels,
+        frame,
+        points,
+        normals,
+    };
+    accumulate_any::<true>(class, sums)
 }
 
 /// `AVX2`: full blocks through [`avx2::sample_block`] (only from [`accumulate_avx2`]). No AVX-512
 /// copy: compiled with AVX-512 enabled, this loop ran 40 % slower (measured with the
 /// `kernel_ir` example, `distance` mode).
 #[inline(always)]
-fn accumulate_any<const AVX2: bool>(
-    band: &DistanceBand,
-    standoff_voxels: f32,
-    frame: &GridFrame,
-    points: Soa,
-    normals: Soa,
-    sums: &mut PartialSums,
-) {
-    if frame.needs_clamp {
-        accumulate_lanes::<true, AVX2>(band, standoff_voxels, frame, points, normals, sums)
+fn accumulate_any<const AVX2: bool>(class: BandClass, sums: &mut PartialSums) {
+    if class.frame.needs_clamp {
+        accumulate_lanes::<true, AVX2>(class, sums)
     } else {
-        accumulate_lanes::<false, AVX2>(band, standoff_voxels, frame, points, normals, sums)
+        accumulate_lanes::<false, AVX2>(class, sums)
     }
 }
 
 #[inline(always)]
-fn accumulate_lanes<const CLAMP: bool, const AVX2: bool>(
-    band: &DistanceBand,
-    standoff_voxels: f32,
-    frame: &GridFrame,
-    points: Soa,
-    normals: Soa,
-    sums: &mut PartialSums,
-) {
+fn accumulate_lanes<const CLAMP: bool, const AVX2: bool>(class: BandClass, sums: &mut PartialSums) {
     let mut acc = ClassAccumulator::default();
-    let n = points
+    let n = class
+        .points
         .iter()
-        .chain(normals.iter())
+        .chain(class.normals.iter())
         .map(|a| a.len())
         .min()
         .unwrap_or(0);
@@ -121,44 +137,16 @@ fn accumulate_lanes<const CLAMP: bool, const AVX2: bool>(
             if AVX2 {
                 // SAFETY: `AVX2` is only set by `accumulate_avx2` (the CPU has AVX2, the band
                 // passed `fits_lanes`); `start + LANES ≤ full ≤ n`, the shortest array.
-                unsafe {
-                    avx2::sample_block::<CLAMP>(
-                        band,
-                        standoff_voxels,
-                        frame,
-                        points,
-                        normals,
-                        start,
-                        &mut acc,
-                    )
-                };
+                unsafe { avx2::sample_block::<CLAMP>(&class, start, &mut acc) };
                 continue;
             }
-            sample_block::<CLAMP>(
-                band,
-                standoff_voxels,
-                frame,
-                points,
-                normals,
-                start,
-                LANES,
-                &mut acc,
-            );
+            sample_block::<CLAMP>(&class, start, LANES, &mut acc);
         }
         acc.flush(sums);
         begin = end;
     }
     if full < n {
-        sample_block::<CLAMP>(
-            band,
-            standoff_voxels,
-            frame,
-            points,
-            normals,
-            full,
-            n - full,
-            &mut acc,
-        );
+        sample_block::<CLAMP>(&class, full, n - full, &mut acc);
     }
     acc.finish_into(sums);
 }
@@ -170,20 +158,14 @@ type Corners = [[[F32s; 2]; 2]; 2];
 /// for all lanes at once (lane loops the compiler vectorises; lanes outside the band masked to
 /// zero by selection, never by multiplication, so a non-finite value in a masked lane cannot
 /// reach the sums).
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn sample_block<const CLAMP: bool>(
-    band: &DistanceBand,
-    standoff_voxels: f32,
-    frame: &GridFrame,
-    points: Soa,
-    normals: Soa,
+    class: &BandClass,
     start: usize,
     valid: usize,
     acc: &mut ClassAccumulator,
 ) {
-    let lever = mat_vec(&frame.rotation_lever, &load(points, start, valid));
-    let grid = scale_add(&lever, frame.inv_voxel_lever, frame.translation_grid);
+    let (lever, grid) = place(class.frame, class.points, start, valid);
     // Samples sit at voxel centres: the cell's lower corner is floor(g − 1/2).
     let mut t = [[0.0f32; LANES]; 3];
     for a in 0..3 {
@@ -194,7 +176,7 @@ fn sample_block<const CLAMP: bool>(
     let base = [floor_i32(&t[0]), floor_i32(&t[1]), floor_i32(&t[2])];
     // The directory slot of each lane's cube (lanes past `valid` and outside the grid: far):
     // cube indices and the range test as lane arithmetic, then one load per lane in range.
-    let [nx, ny, nz] = band.cube_dims();
+    let [nx, ny, nz] = class.band.cube_dims();
     let mut index = [0u32; LANES];
     let mut inside = [false; LANES];
     for l in 0..LANES {
@@ -207,7 +189,7 @@ fn sample_block<const CLAMP: bool>(
     if !inside.iter().any(|&i| i) {
         return;
     }
-    let directory = band.directory();
+    let directory = class.band.directory();
     let slots: [u32; LANES] = std::array::from_fn(|l| {
         if inside[l] {
             directory
@@ -226,7 +208,9 @@ fn sample_block<const CLAMP: bool>(
     let mut corners: Corners = [[[[f32::from(CODE_FAR); LANES]; 2]; 2]; 2];
     for l in 0..LANES {
         if slots[l] != SLOT_FAR {
-            let codes = band.cell_codes(slots[l], [base[0][l], base[1][l], base[2][l]]);
+            let codes = class
+                .band
+                .cell_codes(slots[l], [base[0][l], base[1][l], base[2][l]]);
             for (z, plane) in codes.iter().enumerate() {
                 for (y, row) in plane.iter().enumerate() {
                     for (x, &c) in row.iter().enumerate() {
@@ -245,7 +229,7 @@ fn sample_block<const CLAMP: bool>(
     let (e, gradient) = value_and_gradient(&corners, &f);
     let far_code = f32::from(CODE_FAR);
     let deep_code = f32::from(CODE_DEEP);
-    let part_normal = mat_vec(&frame.rotation, &load(normals, start, valid));
+    let part_normal = mat_vec(&class.frame.rotation, &load(class.normals, start, valid));
     let mut direction: Vec3s = [[0.0; LANES]; 3];
     let mut depth: F32s = [0.0; LANES];
     let mut braking = [false; LANES];
@@ -280,15 +264,15 @@ fn sample_block<const CLAMP: bool>(
             };
         }
         depth[l] = if contact {
-            -e[l] * frame.voxel_q
+            -e[l] * class.frame.voxel_q
         } else if deep {
-            BAND_VOXELS * frame.voxel_q
+            BAND_VOXELS * class.frame.voxel_q
         } else {
             0.0
         };
         // Inside the exact surface (d < 0) counts as Interior, as a point in an Interior voxel
         // does for the tangent-plane model: the session's "penetrating".
-        let inside = contact && e[l] < -standoff_voxels;
+        let inside = contact && e[l] < -class.standoff_voxels;
         surface += u64::from(contact && !inside);
         interior += u64::from(deep || inside);
         near += u64::from(in_band || deep);
@@ -304,7 +288,7 @@ fn sample_block<const CLAMP: bool>(
         acc.depth_blocks += 1;
     }
     if braking.iter().any(|&b| b) {
-        brake_block::<CLAMP>(frame, &lever, &direction, &braking, acc);
+        brake_block::<CLAMP>(class.frame, &lever, &direction, &braking, acc);
     }
 }
 
@@ -345,28 +329,15 @@ fn value_and_gradient(c: &Corners, f: &Vec3s) -> (F32s, Vec3s) {
 /// block gives the same bits either way (a unit test checks it).
 #[cfg(target_arch = "x86_64")]
 pub(super) mod avx2 {
-    use super::super::avx2::{add3_fixed, brake_lanes, count_positive, load};
-    use super::super::{ClassAccumulator, GridFrame, Soa};
-    use super::{BRAKE_RANGE_VOXELS, LANES, MIN_GRADIENT};
-    use glam::Mat3;
+    use super::super::avx2::{
+        add3_fixed, brake_lanes, count_positive, cross, dot, load, mat_vec, scale, V3,
+    };
+    use super::super::ClassAccumulator;
+    use super::{BandClass, BRAKE_RANGE_VOXELS, LANES, MIN_GRADIENT};
     use std::arch::x86_64::*;
     use vps_voxmap::distance::{
         DistanceBand, BAND_VOXELS, BRICK_CODES, BRICK_EDGE, CODES_PER_VOXEL, CODE_DEEP, CODE_FAR,
     };
-
-    type V3 = [__m256; 3];
-
-    vec3_ops!(
-        "avx2",
-        __m256,
-        __m256i,
-        _mm256_setzero_ps,
-        _mm256_set1_ps,
-        _mm256_add_ps,
-        _mm256_sub_ps,
-        _mm256_mul_ps,
-        _mm256_cvtepi32_ps
-    );
 
     /// Whether the lane arithmetic can address `band`: every directory index fits an `i32`, and
     /// the grid has at least one cube per axis.
@@ -458,22 +429,20 @@ pub(super) mod avx2 {
     /// always inlined into `accumulate_avx2`, whose features its intrinsics then use.
     ///
     /// # Safety
-    /// The CPU must support AVX2; [`fits_lanes`] must hold for `band`; `start + LANES` must be
-    /// within every array (bounds are checked anyway).
-    #[allow(clippy::too_many_arguments)]
+    /// The CPU must support AVX2; [`fits_lanes`] must hold for the class's band; `start + LANES`
+    /// must be within every array (bounds are checked anyway).
     #[inline(always)]
     pub(in crate::kernel) unsafe fn sample_block<const CLAMP: bool>(
-        band: &DistanceBand,
-        standoff_voxels: f32,
-        frame: &GridFrame,
-        points: Soa,
-        normals: Soa,
+        class: &BandClass,
         start: usize,
         acc: &mut ClassAccumulator,
     ) {
         unsafe {
-            let lever = mat_vec(&frame.rotation_lever, &load::<false>(points, start));
-            let inv = _mm256_set1_ps(frame.inv_voxel_lever);
+            let lever = mat_vec(
+                &class.frame.rotation_lever,
+                &load::<false>(class.points, start),
+            );
+            let inv = _mm256_set1_ps(class.frame.inv_voxel_lever);
             let half = _mm256_set1_ps(0.5);
             // Samples sit at voxel centres: the cell's lower corner is floor(g − 1/2), floored
             // as `lanes::floor_i32` does (truncate, then −1 where truncation rounded up).
@@ -482,7 +451,7 @@ pub(super) mod avx2 {
             for r in 0..3 {
                 let grid = _mm256_add_ps(
                     _mm256_mul_ps(lever[r], inv),
-                    _mm256_set1_ps(frame.translation_grid[r]),
+                    _mm256_set1_ps(class.frame.translation_grid[r]),
                 );
                 t[r] = _mm256_sub_ps(grid, half);
                 let truncated = _mm256_cvttps_epi32(t[r]);
@@ -490,7 +459,7 @@ pub(super) mod avx2 {
                 base[r] = _mm256_add_epi32(truncated, _mm256_castps_si256(up));
             }
             // The directory slot of each lane's cube; lanes outside the grid read slot 0 (far).
-            let dims = band.cube_dims();
+            let dims = class.band.cube_dims();
             let mut cube = [_mm256_setzero_si256(); 3];
             let mut inside = _mm256_set1_epi32(-1);
             for r in 0..3 {
@@ -516,7 +485,7 @@ pub(super) mod avx2 {
             // `fits_lanes`); the others are not read.
             let slot_lanes = _mm256_mask_i32gather_epi32::<4>(
                 _mm256_setzero_si256(),
-                band.directory().as_ptr().cast(),
+                class.band.directory().as_ptr().cast(),
                 index,
                 inside,
             );
@@ -531,7 +500,7 @@ pub(super) mod avx2 {
             // alternated on one machine: gathering the codes took 15–45 % longer); the slots
             // themselves are gathered, which in free space beat eight loads (2.0 → 1.1 ns a
             // point, `vps bench kernel`).
-            let bytes = band.slot_codes().as_ptr();
+            let bytes = class.band.slot_codes().as_ptr();
             // The cell's lower corner in its brick (`slot · 729` added per lane below).
             let seven = _mm256_set1_epi32(7);
             let edge = _mm256_set1_epi32(BRICK_EDGE as i32);
@@ -617,7 +586,7 @@ pub(super) mod avx2 {
                 less(e, _mm256_set1_ps(BRAKE_RANGE_VOXELS)),
             );
             let own = _mm256_or_ps(_mm256_andnot_ps(trusted, all_ones()), deep);
-            let part_normal = mat_vec(&frame.rotation, &load::<false>(normals, start));
+            let part_normal = mat_vec(&class.frame.rotation, &load::<false>(class.normals, start));
             let pushing = _mm256_or_ps(_mm256_or_ps(contact, braking), deep);
             let mut direction: V3 = [zero; 3];
             for a in 0..3 {
@@ -625,14 +594,15 @@ pub(super) mod avx2 {
                 let d = _mm256_blendv_ps(scene, part_normal[a], own);
                 direction[a] = _mm256_and_ps(pushing, d);
             }
-            let voxel_q = _mm256_set1_ps(frame.voxel_q);
+            let voxel_q = _mm256_set1_ps(class.frame.voxel_q);
             let depth = _mm256_blendv_ps(
-                _mm256_and_ps(deep, _mm256_set1_ps(BAND_VOXELS * frame.voxel_q)),
+                _mm256_and_ps(deep, _mm256_set1_ps(BAND_VOXELS * class.frame.voxel_q)),
                 _mm256_mul_ps(_mm256_sub_ps(zero, e), voxel_q),
                 contact,
             );
             // Inside the exact surface (d < 0) counts as Interior.
-            let inside_surface = _mm256_and_ps(contact, less(e, _mm256_set1_ps(-standoff_voxels)));
+            let inside_surface =
+                _mm256_and_ps(contact, less(e, _mm256_set1_ps(-class.standoff_voxels)));
             let surface = count(_mm256_andnot_ps(inside_surface, contact));
             let interior = count(_mm256_or_ps(deep, inside_surface));
             acc.surface += surface;
@@ -646,7 +616,7 @@ pub(super) mod avx2 {
                 acc.depth_blocks += 1;
             }
             if _mm256_movemask_ps(braking) != 0 {
-                brake_lanes::<CLAMP, false>(frame, &lever, &direction, braking, acc);
+                brake_lanes::<CLAMP, false>(class.frame, &lever, &direction, braking, acc);
             }
         }
     }
@@ -752,20 +722,37 @@ mod tests {
                 needs_clamp,
                 ..GridFrame::new(&grid, &pose, &shell)
             };
-            let points = [&soa[0][..], &soa[1][..], &soa[2][..]];
-            let normals = [&soa[3][..], &soa[4][..], &soa[5][..]];
+            let class = BandClass {
+                band: &band,
+                standoff_voxels: standoff,
+                frame: &frame,
+                points: [&soa[0][..], &soa[1][..], &soa[2][..]],
+                normals: [&soa[3][..], &soa[4][..], &soa[5][..]],
+            };
             let mut portable = PartialSums::default();
-            accumulate_any::<false>(&band, standoff, &frame, points, normals, &mut portable);
+            accumulate_any::<false>(class, &mut portable);
             let mut avx2 = PartialSums::default();
             // SAFETY: AVX2 was detected and `fits_lanes` holds (asserted) above.
-            unsafe { accumulate_avx2(&band, standoff, &frame, points, normals, &mut avx2) };
+            unsafe {
+                accumulate_avx2(
+                    &band,
+                    standoff,
+                    &frame,
+                    class.points,
+                    class.normals,
+                    &mut avx2,
+                )
+            };
             assert_eq!(avx2, portable, "needs_clamp {needs_clamp}");
             // Point by point (every point a tail block of one): the same sums.
             let mut single = PartialSums::default();
             for i in 0..n {
-                let p = [&soa[0][i..=i], &soa[1][i..=i], &soa[2][i..=i]];
-                let q = [&soa[3][i..=i], &soa[4][i..=i], &soa[5][i..=i]];
-                accumulate_any::<false>(&band, standoff, &frame, p, q, &mut single);
+                let point = BandClass {
+                    points: [&soa[0][i..=i], &soa[1][i..=i], &soa[2][i..=i]],
+                    normals: [&soa[3][i..=i], &soa[4][i..=i], &soa[5][i..=i]],
+                    ..class
+                };
+                accumulate_any::<false>(point, &mut single);
             }
             assert_eq!(single, portable);
         }

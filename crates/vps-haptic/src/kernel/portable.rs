@@ -5,7 +5,8 @@
 //! no I/O.
 
 use super::{
-    add3_fixed, add_fixed, count_bytes, ClassAccumulator, GridFrame, KindMasks, Soa, LENGTH_Q,
+    add3_fixed, add_fixed, count_bytes, ClassAccumulator, ClassLoop, GridFrame, KindMasks, Soa,
+    LENGTH_Q,
 };
 use crate::lanes::{
     add_cross_uniform, cross, differs_from_previous, dot, floor_i32, mat_vec, scale, scale_add,
@@ -24,42 +25,43 @@ pub(super) fn load(xs: Soa, start: usize, valid: usize) -> Vec3s {
     out
 }
 
+/// Lanes `start..start + valid` of `points` (zero-padded) placed by `frame`: `P − x` in 2^-8 m,
+/// then `P` in grid coordinates (voxels; the same bits as from metres: the scalings are powers of
+/// two).
+#[inline(always)]
+pub(super) fn place(frame: &GridFrame, points: Soa, start: usize, valid: usize) -> (Vec3s, Vec3s) {
+    let lever = mat_vec(&frame.rotation_lever, &load(points, start, valid));
+    let grid = scale_add(&lever, frame.inv_voxel_lever, frame.translation_grid);
+    (lever, grid)
+}
+
 /// One block of `valid ≤ LANES` points starting at `start`: transform, floor, look up; then the
 /// contact and braking arithmetic for the whole block if any lane needs it. Padding lanes read as
 /// Free and contribute nothing.
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(super) fn sample_block<L: VoxelLookup, const CLAMP: bool>(
-    map: &L,
-    frame: &GridFrame,
-    points: Soa,
-    normals: Soa,
+    class: &mut ClassLoop<L>,
     start: usize,
     valid: usize,
-    last: &mut LastVoxel,
-    acc: &mut ClassAccumulator,
 ) {
-    // (P − x) in 2^-8 m, then P in grid coordinates (the same bits as from metres: the scalings
-    // are powers of two) and its voxel.
-    let lever = mat_vec(&frame.rotation_lever, &load(points, start, valid));
-    let grid = scale_add(&lever, frame.inv_voxel_lever, frame.translation_grid);
+    let (lever, grid) = place(class.frame, class.points, start, valid);
     let cell = [
         floor_i32(&grid[0]),
         floor_i32(&grid[1]),
         floor_i32(&grid[2]),
     ];
-    let (kinds, layers) = look_up(map, &cell, valid, last);
+    let (kinds, layers) = look_up(class.map, &cell, valid, &mut class.last);
     let Some(KindMasks {
         surface,
         proximity,
         interior,
-    }) = acc.count_kinds(kinds)
+    }) = class.acc.count_kinds(kinds)
     else {
         return;
     };
-    let normal = mat_vec(&frame.rotation, &load(normals, start, valid));
+    let normal = mat_vec(&class.frame.rotation, &load(class.normals, start, valid));
     if surface | interior != 0 {
-        acc.surface += count_bytes(surface);
+        class.acc.surface += count_bytes(surface);
         // Interior points push as if one layer deeper than Surface layer 0 (the first Interior
         // layer of a 2-bit map), instead of nothing.
         let is_pushing = kinds.map(|k| k == Voxel::Surface.bits() || k == Voxel::Interior.bits());
@@ -70,19 +72,19 @@ pub(super) fn sample_block<L: VoxelLookup, const CLAMP: bool>(
             }
         }
         surface_block::<CLAMP>(
-            frame,
+            class.frame,
             &lever,
             &grid,
             &cell,
             &normal,
             &is_pushing,
             &pushing_layers,
-            acc,
+            &mut class.acc,
         );
     }
     if proximity != 0 {
         let is_proximity = kinds.map(|k| k == Voxel::Proximity.bits());
-        brake_block::<CLAMP>(frame, &lever, &normal, &is_proximity, acc);
+        brake_block::<CLAMP>(class.frame, &lever, &normal, &is_proximity, &mut class.acc);
     }
 }
 
