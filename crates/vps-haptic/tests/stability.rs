@@ -120,36 +120,25 @@ enum Model {
 /// stand-off moves where the wall is, not how stiff it is).
 const STANDOFF: f64 = S / 8.0;
 
-/// Simulates `duration` s of the cube against the wall of `model` from `start` (at rest), the
-/// handle following `handle_z(t) -> (z, v_z)`; the settle window is the last `window` s.
+/// A run's course: the cube starts at rest at height `start_z` (m) and runs for `duration` s, the
+/// settle window being the last `window` s, while the handle follows `handle_z(t) -> (z, v_z)`.
+struct Course<F> {
+    start_z: f64,
+    duration: f64,
+    window: f64,
+    handle_z: F,
+}
+
+/// Simulates the cube against the wall of `model` along `course`.
 fn simulate(
     model: Model,
     params: &HapticParams,
     shell: &vps_voxmap::PointShell,
-    start_z: f64,
-    duration: f64,
-    window: f64,
-    handle_z: impl Fn(f64) -> (f64, f64),
+    course: Course<impl Fn(f64) -> (f64, f64)>,
 ) -> Run {
     match model {
-        Model::TangentPlane => simulate_on(
-            &half_space(),
-            params,
-            shell,
-            start_z,
-            duration,
-            window,
-            handle_z,
-        ),
-        Model::Distance => simulate_on(
-            &half_space_band(STANDOFF),
-            params,
-            shell,
-            start_z,
-            duration,
-            window,
-            handle_z,
-        ),
+        Model::TangentPlane => simulate_on(&half_space(), params, shell, course),
+        Model::Distance => simulate_on(&half_space_band(STANDOFF), params, shell, course),
     }
 }
 
@@ -157,11 +146,14 @@ fn simulate_on<L: vps_voxmap::VoxelLookup>(
     map: &L,
     params: &HapticParams,
     shell: &vps_voxmap::PointShell,
-    start_z: f64,
-    duration: f64,
-    window: f64,
-    handle_z: impl Fn(f64) -> (f64, f64),
+    course: Course<impl Fn(f64) -> (f64, f64)>,
 ) -> Run {
+    let Course {
+        start_z,
+        duration,
+        window,
+        handle_z,
+    } = course;
     let classed = ClassedShell::new(shell, 1);
     let per_point = ClassedShell::new(shell, shell.len() as u32);
     let mut state = PartState::at_rest(DVec3::new(OFF, OFF, start_z), DQuat::IDENTITY);
@@ -215,27 +207,31 @@ fn rest_on_wall(model: Model, params: &HapticParams, shell: &vps_voxmap::PointSh
         Model::TangentPlane => 0.0095,
         Model::Distance => 0.01 + STANDOFF,
     };
-    simulate(
-        model,
-        params,
-        shell,
+    let course = Course {
         start_z,
         duration,
-        0.2 * duration,
-        |_| (-0.01, 0.0),
-    )
+        window: 0.2 * duration,
+        handle_z: |_| (-0.01, 0.0),
+    };
+    simulate(model, params, shell, course)
 }
 
 /// The approach: the cube starts 10 mm above the wall, the handle descends at 0.1 m/s for 0.3 s to
 /// 10 mm below the surface and is then held; 1 s in all. Asserted: finite and never through.
 fn push_into_wall(model: Model, params: &HapticParams, shell: &vps_voxmap::PointShell) -> Run {
-    simulate(model, params, shell, 0.02, 1.0, 0.3, |t| {
-        if t < 0.3 {
-            (0.02 - 0.1 * t, -0.1)
-        } else {
-            (-0.01, 0.0)
-        }
-    })
+    let course = Course {
+        start_z: 0.02,
+        duration: 1.0,
+        window: 0.3,
+        handle_z: |t| {
+            if t < 0.3 {
+                (0.02 - 0.1 * t, -0.1)
+            } else {
+                (-0.01, 0.0)
+            }
+        },
+    };
+    simulate(model, params, shell, course)
 }
 
 /// Time (s) the part needs to cross one Proximity voxel under pre-contact braking: braking removes
