@@ -172,32 +172,14 @@ fn garbage_truncated_and_implausible_replies_are_counted_and_recomputed() {
                         let _ = conn.send_datagram(bytes::Bytes::copy_from_slice(b));
                     };
                     send(b"garbage");
-                    FrameReply {
-                        seq: req.seq,
-                        classes: req.classes,
-                        job: req.job,
-                        sums: good,
-                    }
-                    .encode(&mut buf);
+                    encode_reply(&req, good, &mut buf);
                     send(&buf[..REPLY_LEN - 1]);
                     let mut implausible = good;
                     implausible.sampled += 1;
-                    FrameReply {
-                        seq: req.seq,
-                        classes: req.classes,
-                        job: req.job,
-                        sums: implausible,
-                    }
-                    .encode(&mut buf);
+                    encode_reply(&req, implausible, &mut buf);
                     send(&buf);
                     // Correct sums after the share was rejected: too late, dropped.
-                    FrameReply {
-                        seq: req.seq,
-                        classes: req.classes,
-                        job: req.job,
-                        sums: good,
-                    }
-                    .encode(&mut buf);
+                    encode_reply(&req, good, &mut buf);
                     send(&buf);
                 }
             })
@@ -300,6 +282,17 @@ fn answer(
     })
 }
 
+/// The reply to `req` carrying `sums`, encoded into `buf`.
+fn encode_reply(req: &FrameRequest, sums: vps_haptic::PartialSums, buf: &mut [u8; REPLY_LEN]) {
+    FrameReply {
+        seq: req.seq,
+        classes: req.classes,
+        job: req.job,
+        sums,
+    }
+    .encode(buf);
+}
+
 /// A fake worker that answers each request with the sums `reply` gives (none: no answer) until
 /// its connection closes; returns how many replies it sent and why the connection closed.
 fn reply_with(
@@ -321,13 +314,7 @@ fn reply_with(
                 let Some(sums) = reply(&req) else {
                     continue;
                 };
-                FrameReply {
-                    seq: req.seq,
-                    classes: req.classes,
-                    job: req.job,
-                    sums,
-                }
-                .encode(&mut buf);
+                encode_reply(&req, sums, &mut buf);
                 let _ = conn.send_datagram(bytes::Bytes::copy_from_slice(&buf));
                 replies += 1;
             }
