@@ -18,15 +18,14 @@
 //! a tight one of an eighth.
 //! Blocking, allocating, parallel over runs (rayon).
 
+use crate::held::HeldPart;
 use crate::measure::ForceModel;
 use glam::{DQuat, DVec3};
 use rayon::prelude::*;
-use vps_haptic::{
-    sample_all, step, ClassedShell, HandleSample, HapticParams, KernelPose, PartState,
-};
+use vps_haptic::{HandleSample, HapticParams};
 use vps_mesh::builtin::{cuboid, cylinder};
 use vps_mesh::TriMesh;
-use vps_reference::{reference_contact, ExactScene};
+use vps_reference::ExactScene;
 use vps_voxelize::{point_shell, ShellMethod, VoxelWidth};
 
 /// The peg's half-width (m): 10 mm.
@@ -213,7 +212,6 @@ fn run_one(
     let exact = ExactScene::new(&walls).map_err(|e| err(e.to_string()))?;
     let shell =
         point_shell(&peg.mesh(), s, ShellMethod::ExactSurface).map_err(|e| err(e.to_string()))?;
-    let classed = ClassedShell::new(&shell, 1);
     let params = HapticParams::default()
         .with_scene(s, shell.max_radius())
         .map_err(|e| err(e.to_string()))?;
@@ -226,7 +224,8 @@ fn run_one(
     let start_z = 0.01 - bottom_below_origin;
     let end_z = -HOLE_DEPTH - 0.005 - bottom_below_origin;
     let offset = DVec3::new(5e-5, 5e-5, 0.0);
-    let mut state = PartState::at_rest(DVec3::new(0.0, 0.0, start_z) + offset, DQuat::IDENTITY);
+    let start = DVec3::new(0.0, 0.0, start_z) + offset;
+    let mut part = HeldPart::at_rest(&tree, &exact, &shell, &params, start, DQuat::IDENTITY);
     let (mut deepest, mut min_sep, mut penetrating) = (f64::MIN, f64::MAX, 0usize);
     for k in 0..FRAMES {
         let t = k as f64 * params.dt;
@@ -238,26 +237,12 @@ fn run_one(
             linear_velocity: DVec3::new(0.0, 0.0, if moving { -HAND_SPEED } else { 0.0 }),
             angular_velocity: DVec3::ZERO,
         };
-        let sums = sample_all(&tree, &classed, &KernelPose::from_state(&state));
-        let out = step(&params, &state, &handle, &sums);
-        state = out.next_state;
-        let r = reference_contact(
-            &exact,
-            &shell.points,
-            state.position,
-            state.orientation,
-            0.0,
-            2.0 * s,
-        );
+        let r = part.frame(&handle, 2.0 * s);
         if let Some(m) = r.min_separation_m {
             min_sep = min_sep.min(m);
         }
         penetrating += usize::from(r.penetrating_points > 0);
-        let lowest = shell
-            .points
-            .iter()
-            .map(|p| (state.orientation * p.as_dvec3() + state.position).z)
-            .fold(f64::MAX, f64::min);
+        let lowest = part.world_points().map(|p| p.z).fold(f64::MAX, f64::min);
         deepest = deepest.max(-lowest);
     }
     Ok(ClearanceRow {

@@ -7,6 +7,8 @@
 //!   corner, a peg in a hole with clearance, a cylinder in a 90° V wedge) and their poses.
 //! - [`clearance`]: a square and a round peg pushed into holes of sub-voxel to two-voxel
 //!   clearance through the haptic frame, both force models.
+//! - [`held`]: a part held by a simulated hand, stepped through the haptic frame and measured
+//!   against the exact meshes frame by frame (the clearance benchmark's, the tunnelling test's).
 //! - [`measure`]: one setting (voxel size, bits per voxel, shell method) measured over every scene,
 //!   and the sliding-box smoothness run; [`run`] over a grid of settings.
 //!
@@ -20,6 +22,7 @@
 #![warn(missing_docs)]
 
 pub mod clearance;
+pub mod held;
 pub mod measure;
 pub mod scenes;
 

@@ -5,22 +5,15 @@
 //! (2 offset layers) neither peg enters even a voxel of clearance a side (its force layer closes
 //! the gap). docs/fidelity.md has the full grid.
 
-use vps_fidelity::clearance::{run, ClearanceGrid, Peg};
-use vps_fidelity::measure::ForceModel;
+use vps_fidelity::clearance::{run, ClearanceGrid};
 
 #[test]
 fn the_distance_model_lets_a_fitting_peg_in_without_touching_the_walls() {
+    // The full grid's pegs and force models, at 2 mm voxels and three of its clearances.
     let rows = run(&ClearanceGrid {
         voxel_sizes_m: vec![0.002],
         clearances_voxels: vec![0.25, 0.5, 1.0],
-        pegs: vec![Peg::Square, Peg::Round],
-        models: vec![
-            ForceModel::TangentPlane,
-            ForceModel::DISTANCE,
-            ForceModel::Distance {
-                standoff_voxels: 0.125,
-            },
-        ],
+        ..ClearanceGrid::full()
     })
     .unwrap();
     for r in &rows {

@@ -4,12 +4,11 @@
 //! the rest of the run. No frame may have any shell point beyond the wall's far face.
 
 use glam::{DQuat, DVec3};
+use vps_fidelity::held::HeldPart;
 use vps_fidelity::measure::ForceModel;
-use vps_haptic::{
-    sample_all, step, ClassedShell, HandleSample, HapticParams, KernelPose, PartState,
-};
+use vps_haptic::{HandleSample, HapticParams};
 use vps_mesh::builtin::cuboid;
-use vps_reference::{reference_contact, ExactScene};
+use vps_reference::ExactScene;
 use vps_voxelize::{point_shell, ShellMethod, VoxelWidth};
 
 const S: f64 = 0.005;
@@ -28,7 +27,6 @@ fn a_part_struck_into_a_thin_wall_never_passes_it() {
     .unwrap();
     let exact = ExactScene::new(&walls).unwrap();
     let shell = point_shell(&cuboid(DVec3::splat(0.01)), S, ShellMethod::ExactSurface).unwrap();
-    let classed = ClassedShell::new(&shell, 1);
     let params = HapticParams::default()
         .with_scene(S, shell.max_radius())
         .unwrap();
@@ -39,7 +37,7 @@ fn a_part_struck_into_a_thin_wall_never_passes_it() {
         ] {
             let start = DVec3::new(-0.03, 0.0013, -0.0007);
             let stop_x = THICKNESS + 0.05;
-            let mut state = PartState::at_rest(start, q);
+            let mut part = HeldPart::at_rest(&map, &exact, &shell, &params, start, q);
             let (mut through, mut penetrating, mut deepest) = (0, 0, 0.0f64);
             for k in 0..600 {
                 let t = k as f64 * params.dt;
@@ -50,22 +48,9 @@ fn a_part_struck_into_a_thin_wall_never_passes_it() {
                     linear_velocity: DVec3::new(if x < stop_x { speed } else { 0.0 }, 0.0, 0.0),
                     angular_velocity: DVec3::ZERO,
                 };
-                let sums = sample_all(&map, &classed, &KernelPose::from_state(&state));
-                state = step(&params, &state, &handle, &sums).next_state;
-                let far = shell
-                    .points
-                    .iter()
-                    .map(|p| (state.orientation * p.as_dvec3() + state.position).x)
-                    .fold(f64::MIN, f64::max);
+                let r = part.frame(&handle, S);
+                let far = part.world_points().map(|p| p.x).fold(f64::MIN, f64::max);
                 through += usize::from(far > THICKNESS);
-                let r = reference_contact(
-                    &exact,
-                    &shell.points,
-                    state.position,
-                    state.orientation,
-                    0.0,
-                    S,
-                );
                 penetrating += usize::from(r.penetrating_points > 0);
                 deepest = deepest.max(r.max_penetration_m);
             }
