@@ -130,7 +130,8 @@ pub struct SceneMemoryEstimate {
     /// The voxmap's tree ([`VoxmapEstimate::tree_bytes`]).
     pub voxmap_bytes: u64,
     /// The distance band (distance force model only; 0 otherwise): the cube directory, the
-    /// bricks near the surface and the builder's triangle table.
+    /// bricks near the surface, the builder's triangle table and its inside map (a 2-bit tree of
+    /// the grid, whose voxelization's working memory is at most the voxelizer's, freed before).
     pub distance_band_bytes: u64,
     /// The exact reference the distance band is measured with (distance force model only).
     pub exact_reference_bytes: u64,
@@ -204,7 +205,13 @@ pub fn scene_memory(
             // (a triangle's box grown by the reach meets about 2³ cubes), 4 bytes each, and 8
             // bytes of offsets per cube.
             let pairs = 8.0 * (inputs.placed_triangles as f64).max(stored);
-            let band = 4.0 * cubes + stored * BRICK_CODES as f64 + 4.0 * pairs + 8.0 * cubes;
+            // The inside map the band takes its signs from: a 2-bit tree of the same grid.
+            let inside_map = voxmap.tree_bytes * 2.0 / f64::from(width.bits());
+            let band = 4.0 * cubes
+                + stored * BRICK_CODES as f64
+                + 4.0 * pairs
+                + 8.0 * cubes
+                + inside_map;
             (
                 bytes(band),
                 inputs
