@@ -135,8 +135,12 @@ pub fn distance_band(
             budget: max_memory_bytes,
         });
     }
-    let scene = ExactScene::new(meshes)?;
-    let inside = InsideMap::new(tree, meshes, max_memory_bytes)?;
+    // The exact scene's build is serial: it runs beside the inside map's voxelization.
+    let (scene, inside) = rayon::join(
+        || ExactScene::new(meshes),
+        || InsideMap::new(tree, meshes, max_memory_bytes),
+    );
+    let (scene, inside) = (scene?, inside?);
     let [nx, ny, _] = cube_dims;
     let index =
         |c: [u32; 3]| (c[2] as usize * ny as usize + c[1] as usize) * nx as usize + c[0] as usize;
@@ -206,6 +210,26 @@ impl InsideMap {
     fn at(&self, ijk: glam::IVec3) -> bool {
         self.tree.get(ijk) == Voxel::Interior
     }
+
+    /// Where voxel `ijk` lies.
+    fn placement(&self, ijk: glam::IVec3) -> Placement {
+        match self.tree.get(ijk) {
+            Voxel::Interior => Placement::Inside,
+            Voxel::Surface => Placement::OnSurface,
+            Voxel::Free | Voxel::Proximity => Placement::Outside,
+        }
+    }
+}
+
+/// Where a voxel lies, by the [`InsideMap`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Placement {
+    /// Wholly inside a solid (clear of every triangle).
+    Inside,
+    /// Crossed by a triangle.
+    OnSurface,
+    /// Wholly outside every solid (clear of every triangle).
+    Outside,
 }
 
 /// For every cube, the triangles whose box grown by the reach overlaps a sample of the cube
@@ -343,6 +367,21 @@ fn sample_cube(
     // the minimum over components of the signed distance to each one's nearest triangle).
     let mut best = vec![Nearest::default(); BRICK_CODES];
     let reach_sq = reach * reach;
+    // Where the inside map puts each sample's voxel. A sample wholly outside every solid has a
+    // positive distance to every component, so its signed distance is that of its nearest
+    // triangle of any component: one bound serves every component.
+    let placed: Vec<Placement> = (0..BRICK_CODES)
+        .map(|i| {
+            let l = [
+                i % BRICK_EDGE,
+                i / BRICK_EDGE % BRICK_EDGE,
+                i / (BRICK_EDGE * BRICK_EDGE),
+            ];
+            inside.placement(glam::IVec3::from_array(
+                [0, 1, 2].map(|a| (first[a] + l[a] as i64) as i32),
+            ))
+        })
+        .collect();
     // Nearest to the cube's middle first, so that each sample's nearest so far soon bounds the
     // triangles still to come and most of them skip the closest-point computation. The order does
     // not change the result: ties keep the lower-numbered triangle whatever comes first.
@@ -376,10 +415,15 @@ fn sample_cube(
                 for x in x0..=x1 {
                     let (x, y, z) = (x as usize, y as usize, z as usize);
                     let p = DVec3::new(centre(x, 0), centre(y, 1), centre(z, 2));
-                    let nearest = &mut best[(z * BRICK_EDGE + y) * BRICK_EDGE + x];
+                    let i = (z * BRICK_EDGE + y) * BRICK_EDGE + x;
+                    let nearest = &mut best[i];
                     // A relative margin of 1e-9 keeps rounding from skipping a triangle the
                     // exact comparison below would have taken.
-                    let bound = nearest.improves_below(l.component).min(reach_sq);
+                    let bound = match placed[i] {
+                        Placement::Outside => nearest.nearest_sq(),
+                        _ => nearest.improves_below(l.component),
+                    }
+                    .min(reach_sq);
                     if l.lower_bound_sq(p) > bound * (1.0 + 1e-9) {
                         continue;
                     }
@@ -396,13 +440,8 @@ fn sample_cube(
         for y in 0..BRICK_EDGE {
             for x in 0..BRICK_EDGE {
                 let i = (z * BRICK_EDGE + y) * BRICK_EDGE + x;
-                let ijk = glam::IVec3::new(
-                    (first[0] + x as i64) as i32,
-                    (first[1] + y as i64) as i32,
-                    (first[2] + z as i64) as i32,
-                );
                 let p = DVec3::new(centre(x, 0), centre(y, 1), centre(z, 2));
-                let d = best[i].signed_distance(scene, p, inside.at(ijk), reach);
+                let d = best[i].signed_distance(scene, p, placed[i], reach);
                 codes[i] = distance::code_of(d - standoff_m, s);
             }
         }
@@ -493,6 +532,15 @@ impl Nearest {
         }
     }
 
+    /// The squared distance (m²) of the nearest triangle offered, of any component (infinite when
+    /// none was).
+    fn nearest_sq(&self) -> f64 {
+        self.entries
+            .iter()
+            .map(|e| e.1)
+            .fold(f64::INFINITY, f64::min)
+    }
+
     /// Triangle `t` of `component` at squared distance `d_sq`. For one component the result does
     /// not depend on the order of the offers.
     fn offer(&mut self, component: u32, d_sq: f64, t: u32) {
@@ -520,9 +568,18 @@ impl Nearest {
     /// whatever: an open component's distance is negated (the flood fill closed it), and when every
     /// tracked component has it outside, the solid enclosing it has its surface beyond the reach
     /// (`−reach`; e.g. deep in a box, near a ball sunk into the box). Nothing tracked: `±reach`.
-    fn signed_distance(&self, scene: &ExactScene, p: DVec3, interior: bool, reach: f64) -> f64 {
+    fn signed_distance(&self, scene: &ExactScene, p: DVec3, placed: Placement, reach: f64) -> f64 {
+        let tracked = self.entries.iter().filter(|e| e.0 != u32::MAX);
+        if placed == Placement::Outside {
+            // Positive for every component: the nearest triangle's distance (its entry alone was
+            // kept up to date, the others may be stale).
+            return tracked
+                .min_by(|a, b| a.1.total_cmp(&b.1).then(a.2.cmp(&b.2)))
+                .map_or(reach, |e| scene.signed_to_triangle_at(p, e.2).distance_m);
+        }
+        let interior = placed == Placement::Inside;
         let (mut nearest, mut nearest_open) = (f64::INFINITY, f64::INFINITY);
-        for e in self.entries.iter().filter(|e| e.0 != u32::MAX) {
+        for e in tracked {
             let d = scene.signed_to_triangle_at(p, e.2).distance_m;
             nearest = nearest.min(d);
             if !scene.is_closed(e.0) {
