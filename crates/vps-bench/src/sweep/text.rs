@@ -123,7 +123,8 @@ columns: model: force model (tangent: the paper's tangent-plane model on voxel l
 /// smallest non-negative minimum exact separation (the closest the part came to the scene
 /// without entering it: the tightest clearance the setting resolves; the distance model's
 /// direction error is near 0° at every size, so this is what tells its sizes apart), then fewer
-/// shell points. A scene none of whose rows touched an obstacle gets no recommendation, and says
+/// shell points, then the smaller voxmap (the distance model's forces do not depend on the voxel
+/// width, so of its widths the narrowest). A scene none of whose rows touched an obstacle gets no recommendation, and says
 /// why.
 pub fn recommendations(rows: &[SweepRow]) -> Vec<String> {
     let mut scenes: Vec<&str> = Vec::new();
@@ -176,6 +177,7 @@ pub fn recommendations(rows: &[SweepRow]) -> Vec<String> {
                     .total_cmp(&degrees(b))
                     .then(separation(a).total_cmp(&separation(b)))
                     .then(a.shell_points.cmp(&b.shell_points))
+                    .then(a.voxmap_bytes.cmp(&b.voxmap_bytes))
             })
             .expect("a scene with measured rows has a best one");
         let own = if best.default && best.default_size {
@@ -208,7 +210,7 @@ pub fn recommendations(rows: &[SweepRow]) -> Vec<String> {
             "  rule: the lowest penetration ratio, then frame compute p99.9 within {BUDGET_US:.0} \
              µs (60 % of the 1 ms period), then the lowest force direction error p50 to the \
              whole degree, then the smallest non-negative min exact separation (the tightest \
-             clearance resolved), then fewer shell points{}",
+             clearance resolved), then fewer shell points, then the smaller voxmap{}",
             if cfg!(debug_assertions) {
                 "; this vps was built without --release, so its timings are no guide to a \
                  release build's"
@@ -293,6 +295,24 @@ mod tests {
             lines[0].contains("voxel_size = \"2.5mm\"") && lines[0].contains("separation 0.60 mm"),
             "{lines:?}"
         );
+    }
+
+    /// Rows equal in every figure but the voxmap's memory (the distance model at each width) go
+    /// to the smaller voxmap, whatever their order.
+    #[test]
+    fn a_tie_in_every_figure_goes_to_the_smaller_voxmap() {
+        let at = |bits: u32, bytes: usize| SweepRow {
+            voxel_width: bits,
+            voxmap_bytes: bytes,
+            ..row(5.0, Some(0.0), Some(1.0), 50.0)
+        };
+        for rows in [
+            [at(4, 3 << 20), at(2, 1 << 20), at(8, 9 << 20)],
+            [at(8, 9 << 20), at(4, 3 << 20), at(2, 1 << 20)],
+        ] {
+            let lines = recommendations(&rows);
+            assert!(lines[0].contains("voxel_width = 2,"), "{lines:?}");
+        }
     }
 
     /// A sweep without contact has `-` for its accuracy, explained, and no recommendation.
