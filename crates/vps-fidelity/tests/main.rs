@@ -4,5 +4,6 @@
 
 mod analytic;
 mod clearance;
+mod deep;
 mod edge_and_corner;
 mod tunnelling;
