@@ -207,11 +207,8 @@ pub fn scene_memory(
             let pairs = 8.0 * (inputs.placed_triangles as f64).max(stored);
             // The inside map the band takes its signs from: a 2-bit tree of the same grid.
             let inside_map = voxmap.tree_bytes * 2.0 / f64::from(width.bits());
-            let band = 4.0 * cubes
-                + stored * BRICK_CODES as f64
-                + 4.0 * pairs
-                + 8.0 * cubes
-                + inside_map;
+            let band =
+                4.0 * cubes + stored * BRICK_CODES as f64 + 4.0 * pairs + 8.0 * cubes + inside_map;
             (
                 bytes(band),
                 inputs
