@@ -12,7 +12,7 @@
 //!    of each nearby component (as OpenVDB's mesh-to-volume conversion keeps the nearest). The
 //!    nearest triangle then gives the sign: negative behind its angle-weighted pseudo-normal when
 //!    its component is closed ([`vps_reference::ExactScene::signed_to_triangle_at`]). A sample
-//!    that the inside map (the voxmap's classification with no force-layer offset: [`InsideMap`])
+//!    that the inside map (the voxmap's classification with no force-layer offset: `InsideMap`)
 //!    puts wholly inside a solid is negative whatever: an open mesh the flood fill closed is
 //!    inside here too, and a sample deep in a solid whose surface is beyond the reach is `−reach`
 //!    (deep) even when it is near another solid's surface. `e = d − standoff` is quantised to
