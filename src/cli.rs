@@ -849,7 +849,7 @@ pub enum BenchKind {
         models: Vec<FidelityModelArg>,
     },
     /// Pegs (square, round) pushed by the hand into holes with 0.1 to 2 voxels of clearance a
-    /// side, at 2 and 1 mm voxels, with the tangent-plane model and the distance model at half and an eighth of a voxel of
+    /// side, at 2 and 1 mm voxels, with the tangent-plane model and the distance model at half, an eighth and a sixteenth of a voxel of
     /// stand-off: whether each entered, the minimum
     /// exact separation and the penetrating frames (docs/fidelity.md, Clearance).
     Clearance,

@@ -80,7 +80,7 @@ pub struct ClearanceGrid {
 impl ClearanceGrid {
     /// The documented grid: 2 and 1 mm voxels, clearances 0.1, 0.25, 0.5, 1 and 2 voxels a side,
     /// both pegs, the tangent-plane model and the distance model at its default stand-off (half a
-    /// voxel) and at an eighth of a voxel (60 runs).
+    /// voxel), an eighth and a sixteenth of a voxel (80 runs).
     pub fn full() -> ClearanceGrid {
         ClearanceGrid {
             voxel_sizes_m: vec![0.002, 0.001],
@@ -91,6 +91,9 @@ impl ClearanceGrid {
                 ForceModel::DISTANCE,
                 ForceModel::Distance {
                     standoff_voxels: 0.125,
+                },
+                ForceModel::Distance {
+                    standoff_voxels: 0.0625,
                 },
             ],
         }
