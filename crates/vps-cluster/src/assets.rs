@@ -289,9 +289,8 @@ impl ClusterAssets {
     /// The voxmap and shell of `target`, or `None` when these assets have no such shell or
     /// voxmap (a request naming it is malformed).
     pub fn target(&self, target: JobTarget) -> Option<(&VoxelTree, &ClassedShell)> {
-        let map = self.maps.get(usize::from(target.map))?;
-        let shell = self.shells.get(usize::from(target.shell))?;
-        Some((map, shell))
+        self.target_handles(target)
+            .map(|(map, shell)| (&**map, &**shell))
     }
 
     /// [`ClusterAssets::target`] as the shared handles a class pool's threads take.

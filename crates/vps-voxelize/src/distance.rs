@@ -170,9 +170,10 @@ pub fn distance_band(
                 .map(|(_, codes)| codes)
                 .unwrap_or(CubeCodes::Far);
         }
-        // Farther than the reach from every triangle: uniform, as the voxmap says at its centre.
+        // Farther than the reach from every triangle: uniform, as the inside map says at its
+        // centre.
         let centre = glam::IVec3::from_array(c.map(|x| (x * CUBE_EDGE + CUBE_EDGE / 2) as i32));
-        if inside.at(centre) {
+        if inside.placement(centre) == Placement::Inside {
             CubeCodes::Deep
         } else {
             CubeCodes::Far
@@ -187,7 +188,6 @@ pub fn distance_band(
 /// 8-bit). A sample farther than the band's reach from every triangle lies in no Surface voxel of
 /// this map, so for it the map is exact.
 struct InsideMap {
-    spec: GridSpec,
     tree: VoxelTree,
 }
 
@@ -203,12 +203,12 @@ impl InsideMap {
             ..crate::VoxelizeOptions::default()
         };
         let (tree, _) = crate::voxelize_tree_in(meshes, spec, &opts, tree.config())?;
-        Ok(InsideMap { spec, tree })
+        Ok(InsideMap { tree })
     }
 
-    /// Whether voxel `ijk` lies wholly inside a solid.
-    fn at(&self, ijk: glam::IVec3) -> bool {
-        self.tree.get(ijk) == Voxel::Interior
+    /// The grid (the band's own).
+    fn spec(&self) -> &GridSpec {
+        self.tree.spec()
     }
 
     /// Where voxel `ijk` lies.
@@ -292,11 +292,19 @@ impl CubeTriangles {
     }
 }
 
-/// The sample index range (inclusive, per axis, possibly empty) within `reach` (m) of the box of
-/// `tri`: sample `i` sits at `(i + ½) s`.
-fn sample_range(spec: &GridSpec, tri: &[DVec3; 3], reach: f64) -> [(i64, i64); 3] {
-    let lo = tri[0].min(tri[1]).min(tri[2]) - DVec3::splat(reach);
-    let hi = tri[0].max(tri[1]).max(tri[2]) + DVec3::splat(reach);
+/// The corners of the box of `tri` (m).
+fn triangle_box(tri: &[DVec3; 3]) -> (DVec3, DVec3) {
+    (
+        tri[0].min(tri[1]).min(tri[2]),
+        tri[0].max(tri[1]).max(tri[2]),
+    )
+}
+
+/// The sample index range (inclusive, per axis, possibly empty) within `reach` (m) of the box
+/// `lo..=hi` (m): sample `i` sits at `(i + ½) s`.
+fn sample_range(spec: &GridSpec, lo: DVec3, hi: DVec3, reach: f64) -> [(i64, i64); 3] {
+    let lo = lo - DVec3::splat(reach);
+    let hi = hi + DVec3::splat(reach);
     [0, 1, 2].map(|a| {
         let to = |x: f64| (x - spec.origin[a]) / spec.voxel_size - 0.5;
         (to(lo[a]).ceil() as i64, to(hi[a]).floor() as i64)
@@ -328,7 +336,8 @@ fn for_each_cube_of_triangles(
             else {
                 continue;
             };
-            let range = sample_range(spec, &[v[0], v[1], v[2]], reach);
+            let (lo, hi) = triangle_box(&[v[0], v[1], v[2]]);
+            let range = sample_range(spec, lo, hi, reach);
             let cubes = [0, 1, 2].map(|a| {
                 let (first, last) = range[a];
                 let c0 = (first - 1).div_euclid(edge).max(0);
@@ -359,7 +368,7 @@ fn sample_cube(
     standoff_m: f64,
     reach: f64,
 ) -> CubeCodes {
-    let spec = &inside.spec;
+    let spec = inside.spec();
     let s = spec.voxel_size;
     let first = c.map(|x| i64::from(x * CUBE_EDGE));
     let centre = |i: usize, a: usize| spec.origin[a] + ((first[a] + i as i64) as f64 + 0.5) * s;
@@ -391,8 +400,10 @@ fn sample_cube(
         .map(|&t| Listed::new(scene, t, middle))
         .collect();
     listed.sort_unstable_by(|a, b| a.key.total_cmp(&b.key).then(a.t.cmp(&b.t)));
+    // A world x (m) as a sample index of this cube along x (fractional).
+    let to_local_x = |x: f64| (x - spec.origin[0]) / s - 0.5 - first[0] as f64;
     for l in &listed {
-        let range = sample_range(spec, &l.tri, reach);
+        let range = sample_range(spec, l.lo, l.hi, reach);
         let local = [0, 1, 2].map(|a| {
             let lo = (range[a].0 - first[a]).max(0);
             let hi = (range[a].1 - first[a]).min(BRICK_EDGE as i64 - 1);
@@ -402,16 +413,18 @@ fn sample_cube(
             for y in local[1].0..=local[1].1 {
                 // Only the samples of this row within the reach of the triangle's box: a row
                 // segment (the box grown by the reach is a box; the reach is a rounded box).
-                let yz = DVec3::new(0.0, centre(y as usize, 1), centre(z as usize, 2));
-                let row_sq = l.box_distance_sq(DVec3::new(l.lo.x, yz.y, yz.z));
+                let row_sq = l.box_distance_sq(DVec3::new(
+                    l.lo.x,
+                    centre(y as usize, 1),
+                    centre(z as usize, 2),
+                ));
                 let left_sq = reach_sq * (1.0 + 1e-9) - row_sq;
                 if left_sq < 0.0 {
                     continue;
                 }
                 let half = left_sq.sqrt() * (1.0 + 1e-9) + 1e-12;
-                let to = |x: f64| (x - spec.origin[0]) / s - 0.5 - first[0] as f64;
-                let x0 = (to(l.lo.x - half).ceil() as i64).max(local[0].0);
-                let x1 = (to(l.hi.x + half).floor() as i64).min(local[0].1);
+                let x0 = (to_local_x(l.lo.x - half).ceil() as i64).max(local[0].0);
+                let x1 = (to_local_x(l.hi.x + half).floor() as i64).min(local[0].1);
                 for x in x0..=x1 {
                     let (x, y, z) = (x as usize, y as usize, z as usize);
                     let p = DVec3::new(centre(x, 0), centre(y, 1), centre(z, 2));
@@ -469,8 +482,7 @@ impl Listed {
     fn new(scene: &ExactScene, t: u32, middle: DVec3) -> Listed {
         let tri = scene.triangle(t);
         let normal = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();
-        let lo = tri[0].min(tri[1]).min(tri[2]);
-        let hi = tri[0].max(tri[1]).max(tri[2]);
+        let (lo, hi) = triangle_box(&tri);
         let mut listed = Listed {
             tri,
             t,
