@@ -84,8 +84,16 @@ fn main() {
     ALLOC.set_request_cap((budget * 16) as usize);
     let mut reports: Vec<TargetReport> = Vec::new();
     println!(
-        "{:<17} {:>9} {:>9} {:>9} {:>6} {:>8} {:>12} {:>8}",
-        "target", "inputs", "accepted", "rejected", "panics", "unnamed", "peak/input", "seconds"
+        "{:<17} {:>9} {:>9} {:>9} {:>6} {:>8} {:>8} {:>12} {:>8}",
+        "target",
+        "inputs",
+        "accepted",
+        "rejected",
+        "panics",
+        "caught",
+        "unnamed",
+        "peak/input",
+        "seconds"
     );
     for (index, target) in targets.iter().enumerate() {
         if !wanted.contains(&"all") && !wanted.contains(&target.name) {
@@ -93,12 +101,13 @@ fn main() {
         }
         let r = run_target(target, index, args.inputs, args.seed, Some(&ALLOC), budget);
         println!(
-            "{:<17} {:>9} {:>9} {:>9} {:>6} {:>8} {:>10.2}MiB {:>8.1}",
+            "{:<17} {:>9} {:>9} {:>9} {:>6} {:>8} {:>8} {:>10.2}MiB {:>8.1}",
             r.target,
             r.inputs,
             r.accepted,
             r.rejected,
             r.panics,
+            r.caught_dependency_panics,
             r.unnamed_errors + r.empty_messages,
             r.max_peak_bytes.unwrap_or(0) as f64 / (1024.0 * 1024.0),
             r.seconds

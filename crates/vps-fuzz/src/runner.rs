@@ -25,6 +25,9 @@ pub struct TargetReport {
     /// Inputs that panicked, inside the parser or out of it (counted by the panic hook, so a panic
     /// a parser wrapper caught and turned into an error still counts).
     pub panics: u64,
+    /// Inputs whose only panics were in a third-party crate's source and were caught by a target
+    /// that catches them on purpose ([`Target::catches_dependency_panics`]): not findings.
+    pub caught_dependency_panics: u64,
     /// Rejections whose message is empty.
     pub empty_messages: u64,
     /// Rejections whose message lacks the target's required name (file or field).
@@ -55,6 +58,8 @@ impl TargetReport {
 }
 
 static PANICS: AtomicU64 = AtomicU64::new(0);
+/// Panics whose location is a crates.io dependency's source (`…/registry/src/…`).
+static DEPENDENCY_PANICS: AtomicU64 = AtomicU64::new(0);
 static LAST_PANIC: Mutex<Option<String>> = Mutex::new(None);
 
 static IN_INPUT: AtomicBool = AtomicBool::new(false);
@@ -70,6 +75,12 @@ pub fn install_quiet_panic_hook() {
                 return previous(info);
             }
             PANICS.fetch_add(1, Relaxed);
+            if info
+                .location()
+                .is_some_and(|l| l.file().contains("/registry/src/"))
+            {
+                DEPENDENCY_PANICS.fetch_add(1, Relaxed);
+            }
             let mut last = LAST_PANIC.lock().unwrap_or_else(|p| p.into_inner());
             *last = Some(info.to_string());
         }));
@@ -104,6 +115,7 @@ pub fn run_target(
     for i in 0..inputs {
         let input = mutator.input(seed, i);
         let panics_before = PANICS.load(Relaxed);
+        let dependency_panics_before = DEPENDENCY_PANICS.load(Relaxed);
         let baseline = alloc.map(|a| {
             a.set_current(target_index, i);
             a.reset_peak()
@@ -126,8 +138,16 @@ pub fn run_target(
             }
         }
         report.inputs += 1;
-        let panicked = PANICS.load(Relaxed) != panics_before;
-        if panicked || result.is_err() {
+        let panics = PANICS.load(Relaxed) - panics_before;
+        let dependency_panics = DEPENDENCY_PANICS.load(Relaxed) - dependency_panics_before;
+        let caught_in_dependency = target.catches_dependency_panics
+            && result.is_ok()
+            && panics > 0
+            && panics == dependency_panics;
+        if caught_in_dependency {
+            report.caught_dependency_panics += 1;
+            LAST_PANIC.lock().unwrap_or_else(|p| p.into_inner()).take();
+        } else if panics > 0 || result.is_err() {
             report.panics += 1;
             let last = LAST_PANIC.lock().unwrap_or_else(|p| p.into_inner()).take();
             note(

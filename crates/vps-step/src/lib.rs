@@ -15,6 +15,7 @@
 //! - [`p21`]: the exchange structure cut into entity instances (bounded, no recursion).
 //! - [`structure`]: units, solids, names and assembly placements from the entity graph.
 //! - [`tessellate`]: one shell to checked triangles.
+//! - [`guard`]: the bound on the kernel's surface subdivision (malformed B-splines fail fast).
 //!
 //! Reading allocates and may take seconds for large files: setup work, never frame-path work.
 //!
@@ -22,6 +23,7 @@
 
 #![warn(missing_docs)]
 
+pub mod guard;
 pub mod p21;
 pub mod structure;
 pub mod tessellate;
@@ -43,9 +45,10 @@ pub struct StepOptions {
     pub solids: Option<Vec<String>>,
     /// The most triangles one solid may need (estimated before the fine pass).
     pub max_triangles: usize,
-    /// The longest the geometry kernel may take to tessellate the file's solids. truck can loop
-    /// for ever on some malformed B-spline geometry; past this the read fails and the kernel's
-    /// thread is left to finish (or run until the process exits).
+    /// The longest the geometry kernel may take to tessellate the file's solids: a backstop, as
+    /// [`guard`] bounds the kernel's subdivision and evaluations (malformed B-spline geometry made
+    /// truck loop for ever before it). Past this the read fails and the kernel's thread is left to
+    /// finish (or run until the process exits).
     pub deadline: std::time::Duration,
 }
 
@@ -126,6 +129,12 @@ pub enum StepError {
     },
     /// The options or the selection do not fit the file.
     Selection(String),
+    /// The tessellation did not finish within [`StepOptions::deadline`] (a backstop: the bounds of
+    /// [`guard`] stop every malformed surface seen so far long before it).
+    Deadline {
+        /// The deadline (s).
+        seconds: f64,
+    },
 }
 
 impl StepError {
@@ -143,7 +152,7 @@ impl StepError {
             Self::Format { line, .. }
             | Self::Unsupported { line, .. }
             | Self::Solid { line, .. } => *line,
-            Self::Selection(_) => None,
+            Self::Selection(_) | Self::Deadline { .. } => None,
         }
     }
 
@@ -156,6 +165,10 @@ impl StepError {
                 name, id, reason, ..
             } => format!("solid '{name}' (#{id}): {reason}"),
             Self::Selection(message) => message.clone(),
+            Self::Deadline { seconds } => format!(
+                "the geometry kernel (truck) did not finish tessellating the file's solids within \
+                 {seconds} s: check the file in a CAD tool, or export the part as STL"
+            ),
         }
     }
 }
@@ -289,14 +302,8 @@ pub fn read_step(bytes: &[u8], options: &StepOptions) -> Result<StepModel, StepE
         })?;
     let shells = receive
         .recv_timeout(options.deadline)
-        .map_err(|_| StepError::Unsupported {
-            what: format!(
-                "the geometry kernel (truck) did not finish tessellating the file's solids within \
-                 {} s; it is known to loop on some malformed B-spline geometry: check the file in \
-                 a CAD tool, or export the part as STL",
-                options.deadline.as_secs_f64()
-            ),
-            line: None,
+        .map_err(|_| StepError::Deadline {
+            seconds: options.deadline.as_secs_f64(),
         })?;
     let mut solids = Vec::new();
     for (name, s) in &selected {

@@ -126,8 +126,9 @@ pub fn parse_instances(raw: &[RawInstance<'_>]) -> Instances {
     let mut line_of = HashMap::with_capacity(raw.len());
     let mut refused = Vec::new();
     for r in raw {
-        if has_overlong_integer(r.text) {
-            // The grammar panics on an integer beyond i64 (instead of refusing it).
+        if has_overlong_integer(r.text) || has_knots_beyond_its_points(r.text) {
+            // The grammar panics on an integer beyond i64 (instead of refusing it); the geometry
+            // kernel allocates a B-spline's knots as its multiplicities say, whatever they are.
             refused.push((r.id, r.line));
             continue;
         }
@@ -192,6 +193,54 @@ fn for_the_grammar(text: &str) -> std::borrow::Cow<'_, str> {
         i += 1;
     }
     std::borrow::Cow::Owned(out)
+}
+
+/// Whether `text` is a B-spline record (`B_SPLINE_CURVE_WITH_KNOTS`,
+/// `B_SPLINE_SURFACE_WITH_KNOTS`, alone or in a complex instance) whose plain integers (degrees and
+/// knot multiplicities: every integer outside strings that is not an `#id` or part of a real) add
+/// up to more than twice its `#` references plus 64. A valid record's multiplicities add up to its
+/// control points plus degree plus 1 per direction (ISO 10303-42), so this holds for none; a
+/// mutated multiplicity of 10⁹ made the geometry kernel (truck-geometry 0.5's
+/// `KnotVec::from_single_multi`) ask for gigabytes (found by fuzzing).
+fn has_knots_beyond_its_points(text: &str) -> bool {
+    if !text.contains("_WITH_KNOTS") {
+        return false;
+    }
+    let bytes = text.as_bytes();
+    let (mut references, mut integers) = (0u64, 0u64);
+    let mut i = 0;
+    while i < bytes.len() {
+        match bytes[i] {
+            b'\'' => {
+                let mut line = 0;
+                i = skip_string(bytes, i, &mut line).unwrap_or(bytes.len());
+            }
+            b'#' => {
+                references += 1;
+                i += 1;
+                while i < bytes.len() && bytes[i].is_ascii_digit() {
+                    i += 1;
+                }
+            }
+            b'0'..=b'9' => {
+                let start = i;
+                while i < bytes.len() && bytes[i].is_ascii_alphanumeric() {
+                    i += 1;
+                }
+                let after_point = start > 0 && bytes[start - 1] == b'.';
+                let real = after_point || bytes.get(i) == Some(&b'.');
+                let in_name = start > 0
+                    && (bytes[start - 1].is_ascii_alphabetic() || bytes[start - 1] == b'_');
+                if !real && !in_name {
+                    // Overlong integers are refused on their own; saturate here.
+                    let value = text[start..i].parse::<u64>().unwrap_or(u64::MAX);
+                    integers = integers.saturating_add(value);
+                }
+            }
+            _ => i += 1,
+        }
+    }
+    integers > references.saturating_mul(2).saturating_add(64)
 }
 
 /// Whether `text` holds, outside strings, a run of more than 18 digits not after a decimal
@@ -326,6 +375,22 @@ fn instance_id(text: &str) -> Option<u64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_b_spline_whose_multiplicities_pass_its_points_is_refused() {
+        let valid = "#40=B_SPLINE_CURVE_WITH_KNOTS('',3,(#41,#42,#43,#44),.UNSPECIFIED.,.F.,.F.,(4,4),(0.,1.),.UNSPECIFIED.)";
+        assert!(!has_knots_beyond_its_points(valid));
+        let surface = "#50=B_SPLINE_SURFACE_WITH_KNOTS('',1,1,((#51,#52),(#53,#54)),.UNSPECIFIED.,.F.,.F.,.F.,(2,2),(2,2),(0.,1.),(0.,1.),.UNSPECIFIED.)";
+        assert!(!has_knots_beyond_its_points(surface));
+        let rational = "#60=(BOUNDED_CURVE()B_SPLINE_CURVE(2,(#61,#62,#63),.UNSPECIFIED.,.F.,.F.)B_SPLINE_CURVE_WITH_KNOTS((3,3),(0.,1.),.UNSPECIFIED.)CURVE()GEOMETRIC_REPRESENTATION_ITEM()RATIONAL_B_SPLINE_CURVE((1.,0.7071,1.E+00))REPRESENTATION_ITEM(''))";
+        assert!(!has_knots_beyond_its_points(rational));
+        let mutated = valid.replace("(4,4)", "(4,1000000000)");
+        assert!(has_knots_beyond_its_points(&mutated));
+        // Other records are not looked at.
+        assert!(!has_knots_beyond_its_points(
+            "#1=CARTESIAN_POINT('',(1000000.,2.,3.))"
+        ));
+    }
 
     const HEADER: &str = "ISO-10303-21;\nHEADER;\nFILE_SCHEMA(('X'));\nENDSEC;\n";
 

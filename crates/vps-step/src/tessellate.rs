@@ -11,7 +11,11 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 use truck_meshalgo::prelude::*;
+use truck_stepio::r#in::alias::{Curve3D, Surface};
 use truck_stepio::r#in::Table;
+use truck_topology::compress::{CompressedEdge, CompressedFace, CompressedShell};
+
+use crate::guard::{DivisionBudget, Guarded, GuardedCurve, OutOfEvaluations, FIRST_PASS_POINTS};
 
 /// A shell as triangles, in file units.
 #[derive(Clone, Debug, Default)]
@@ -94,6 +98,12 @@ pub enum ShellFailure {
     },
     /// The triangles enclose no positive volume.
     NoVolume,
+    /// A face or edge could not be laid out within the bounds of [`crate::guard`] (its grid, its
+    /// evaluations, its polyline): not smooth at the tolerance, or malformed geometry.
+    Diverged {
+        /// What ran over: `a face on its NurbsSurface`, `an edge on its BSplineCurve`.
+        surface: String,
+    },
     /// More triangles than allowed.
     TooMany {
         /// The estimate or count.
@@ -139,6 +149,15 @@ impl std::fmt::Display for ShellFailure {
                 }
             }
             Self::NoVolume => write!(f, "its triangles enclose no volume"),
+            Self::Diverged { surface } => write!(
+                f,
+                "the geometry kernel could not lay out {surface} within the bounds vps sets on \
+                 tessellation (a face's grid: {} passes and at most half the triangle limit in \
+                 points; its surface evaluations; an edge's polyline: {} points): the geometry is \
+                 not smooth at the chord tolerance or is malformed",
+                crate::guard::MAX_PASSES,
+                crate::guard::EDGE_POINTS
+            ),
             Self::TooMany { triangles } => write!(f, "it needs about {triangles} triangles"),
         }
     }
@@ -159,10 +178,26 @@ pub fn shell(
     max_triangles: usize,
 ) -> Result<ShellMesh, ShellFailure> {
     let holder = table.shell.get(&shell).ok_or(ShellFailure::NotRead)?;
+    let budget_slot = std::sync::OnceLock::<std::sync::Arc<DivisionBudget>>::new();
     let run = || -> Result<(ShellMesh, usize, Vec<String>), ShellFailure> {
-        let compressed = table
+        // Each face's surface divided and evaluated under one budget ([`crate::guard`]): in the
+        // first pass at most `FIRST_PASS_POINTS` grid points a face, in the fine pass after it
+        // half the triangle limit (two triangles a cell); a face over its budget unwinds out of
+        // truck with `OutOfEvaluations`, caught below.
+        let shell_read = table
             .to_compressed_shell(holder)
             .map_err(|e| ShellFailure::Convert(e.to_string()))?;
+        let budget = DivisionBudget::new(
+            shell_read.faces.len(),
+            FIRST_PASS_POINTS.min(max_triangles / 2),
+        );
+        let _ = budget_slot.set(budget.clone());
+        let compressed = guarded(shell_read, &budget);
+        let diverged = || {
+            budget.exceeded().map(|e| ShellFailure::Diverged {
+                surface: what_ran_over(&e.surface),
+            })
+        };
         // A coarse pass (1 % of the shell's size) sizes the fine one: triangles grow about as
         // 1 / tolerance.
         let corners: Vec<DVec3> = compressed
@@ -182,6 +217,10 @@ pub fn shell(
                     .to_polygon(),
                 weld,
             );
+            if let Some(failure) = diverged() {
+                return Err(failure);
+            }
+            budget.start_pass(max_triangles / 2);
             let estimate = (coarse.triangles.len() as f64 * coarse_tolerance / tolerance).ceil();
             if estimate > max_triangles as f64 {
                 return Err(ShellFailure::TooMany {
@@ -190,12 +229,15 @@ pub fn shell(
             }
         }
         let triangulated = compressed.robust_triangulation(tolerance);
+        if let Some(failure) = diverged() {
+            return Err(failure);
+        }
         let failed_faces = triangulated
             .faces
             .iter()
             .zip(&compressed.faces)
             .filter(|(t, _)| t.surface.as_ref().is_none_or(|m| m.faces().is_empty()))
-            .map(|(_, face)| surface_kind(&format!("{:?}", face.surface)))
+            .map(|(_, face)| surface_kind(&format!("{:?}", face.surface.surface())))
             .collect();
         let mesh = to_mesh(&triangulated.to_polygon(), weld);
         if mesh.triangles.len() > max_triangles {
@@ -207,6 +249,14 @@ pub fn shell(
     };
     let (mesh, faces, failed_faces) = std::panic::catch_unwind(std::panic::AssertUnwindSafe(run))
         .unwrap_or_else(|p| {
+        if p.is::<OutOfEvaluations>() {
+            let surface = budget_slot
+                .get()
+                .and_then(|b| b.exceeded())
+                .map(|e| what_ran_over(&e.surface))
+                .unwrap_or_else(|| "a face".to_string());
+            return Err(ShellFailure::Diverged { surface });
+        }
         let what = p
             .downcast_ref::<&str>()
             .map(|s| s.to_string())
@@ -231,6 +281,34 @@ pub fn shell(
         Ok(mesh.flipped())
     } else {
         Err(ShellFailure::NoVolume)
+    }
+}
+
+/// `shell` with every face's surface and every edge's curve divided under `budget`.
+fn guarded(
+    shell: CompressedShell<Point3, Curve3D, Surface>,
+    budget: &std::sync::Arc<DivisionBudget>,
+) -> CompressedShell<Point3, GuardedCurve, Guarded> {
+    CompressedShell {
+        vertices: shell.vertices,
+        edges: shell
+            .edges
+            .into_iter()
+            .map(|edge| CompressedEdge {
+                vertices: edge.vertices,
+                curve: GuardedCurve::new(edge.curve, budget.clone()),
+            })
+            .collect(),
+        faces: shell
+            .faces
+            .into_iter()
+            .enumerate()
+            .map(|(i, face)| CompressedFace {
+                boundaries: face.boundaries,
+                orientation: face.orientation,
+                surface: Guarded::new(face.surface, i, budget.clone()),
+            })
+            .collect(),
     }
 }
 
@@ -294,6 +372,18 @@ fn surface_kind(debug: &str) -> String {
             other => other.to_string(),
         })
         .unwrap_or_else(|| "surface".to_string())
+}
+
+/// `a face on its NurbsSurface` or `an edge on its NurbsCurve`, from the debug text of what ran
+/// over the bounds of [`crate::guard`].
+fn what_ran_over(debug: &str) -> String {
+    let curve = debug
+        .split(|c: char| !c.is_ascii_alphanumeric())
+        .find(|w| w.ends_with("Curve"));
+    match curve {
+        Some(kind) if !debug.contains("Surface") => format!("an edge on its {kind}"),
+        _ => format!("a face on its {}", surface_kind(debug)),
+    }
 }
 
 /// The diagonal of the points' bounding box (0 for none).
