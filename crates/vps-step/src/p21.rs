@@ -196,9 +196,9 @@ fn for_the_grammar(text: &str) -> std::borrow::Cow<'_, str> {
 }
 
 /// Whether `text` is a B-spline record (`B_SPLINE_CURVE_WITH_KNOTS`,
-/// `B_SPLINE_SURFACE_WITH_KNOTS`, alone or in a complex instance) whose plain integers (degrees and
-/// knot multiplicities: every integer outside strings that is not an `#id` or part of a real) add
-/// up to more than twice its `#` references plus 64. A valid record's multiplicities add up to its
+/// `B_SPLINE_SURFACE_WITH_KNOTS`, alone or in a complex instance) with a negative plain integer,
+/// or whose plain integers (degrees and knot multiplicities: every integer outside strings that is
+/// not an `#id` or part of a real) add up to more than twice its `#` references plus 64. A valid record's multiplicities add up to its
 /// control points plus degree plus 1 per direction (ISO 10303-42), so this holds for none; a
 /// mutated multiplicity of 10⁹ made the geometry kernel (truck-geometry 0.5's
 /// `KnotVec::from_single_multi`) ask for gigabytes (found by fuzzing).
@@ -227,8 +227,15 @@ fn has_knots_beyond_its_points(text: &str) -> bool {
                 while i < bytes.len() && bytes[i].is_ascii_alphanumeric() {
                     i += 1;
                 }
-                let after_point = start > 0 && bytes[start - 1] == b'.';
-                let real = after_point || bytes.get(i) == Some(&b'.');
+                let before = |k: usize| start.checked_sub(k).map(|j| bytes[j]);
+                let after_point = before(1) == Some(b'.');
+                let signed = matches!(before(1), Some(b'-' | b'+'));
+                let exponent = signed && matches!(before(2), Some(b'E' | b'e'));
+                let real = after_point || exponent || bytes.get(i) == Some(&b'.');
+                if !real && before(1) == Some(b'-') {
+                    // A negative degree or multiplicity: the kernel reads it as a huge count.
+                    return true;
+                }
                 let in_name = start > 0
                     && (bytes[start - 1].is_ascii_alphabetic() || bytes[start - 1] == b'_');
                 if !real && !in_name {
@@ -386,6 +393,18 @@ mod tests {
         assert!(!has_knots_beyond_its_points(rational));
         let mutated = valid.replace("(4,4)", "(4,1000000000)");
         assert!(has_knots_beyond_its_points(&mutated));
+        // A negative multiplicity (input 451,411 of seed 2: `(4,1,1,-14)`).
+        assert!(has_knots_beyond_its_points(
+            &valid.replace("(4,4)", "(4,-4)")
+        ));
+        // Exponents are parts of reals, however many.
+        let knots: Vec<String> = (0..200).map(|k| format!("{k}.E+02")).collect();
+        let long = format!(
+            "#70=B_SPLINE_CURVE_WITH_KNOTS('',1,(#71,#72),.UNSPECIFIED.,.F.,.F.,(2,2),({}),.UNSPECIFIED.)",
+            knots.join(",")
+        );
+        assert!(!has_knots_beyond_its_points(&long));
+        assert!(!has_knots_beyond_its_points(&long.replace("E+02", "E-02")));
         // Other records are not looked at.
         assert!(!has_knots_beyond_its_points(
             "#1=CARTESIAN_POINT('',(1000000.,2.,3.))"
