@@ -11,15 +11,17 @@
 //!
 //! [`Guarded`] wraps each face's surface for the tessellator. For B-spline and NURBS surfaces it
 //! runs the same refinement (the same operations in the same order, so the same grid: a unit test
-//! compares it with truck's) but stops after [`MAX_PASSES`] passes or [`DivisionBudget`]'s points
-//! and records the face; the caller then refuses the shell. Every other surface kind is truck's
-//! own division.
+//! compares it with truck's) but stops after [`MAX_PASSES`] passes or [`DivisionBudget`]'s points;
+//! it also counts the face's surface evaluations. [`GuardedCurve`] bounds each B-spline edge's
+//! polyline. Over any bound the budget records what ran over and unwinds out of truck
+//! ([`OutOfEvaluations`]); the caller catches it and refuses the shell. Every other surface and
+//! curve kind is truck's own division.
 //!
 //! The grid bound matters as much as the passes: a mutated control point far away makes a
 //! surface legitimately huge against the tolerance, and truck's triangulator then spends time per
 //! triangle per boundary point (one fuzzed input spent minutes there under a 10⁷-point grid).
 
-use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
 use truck_meshalgo::prelude::*;
@@ -67,16 +69,8 @@ pub struct DivisionBudget {
     max_points: AtomicUsize,
     /// Evaluations left to each face in this pass.
     evaluations_left: Vec<AtomicU64>,
-    exceeded: AtomicBool,
-    /// Debug text of the first surface that ran over the budget.
+    /// Debug text of the first surface or curve that ran over a bound.
     first: Mutex<Option<String>>,
-}
-
-/// A face's grid ran over the budget.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct DivisionExceeded {
-    /// The surface's debug text (the caller names its kind).
-    pub surface: String,
 }
 
 impl DivisionBudget {
@@ -89,7 +83,6 @@ impl DivisionBudget {
             evaluations_left: (0..faces)
                 .map(|_| AtomicU64::new(FACE_EVALUATIONS))
                 .collect(),
-            exceeded: AtomicBool::new(false),
             first: Mutex::new(None),
         })
     }
@@ -102,8 +95,7 @@ impl DivisionBudget {
         }
     }
 
-    /// Takes `n` of face `face`'s evaluations; when they are not left, records `surface` and
-    /// unwinds (without the panic hook: not an error of vps) out of the tessellation.
+    /// Takes `n` of face `face`'s evaluations; when they are not left, stops at `surface`.
     fn spend(&self, face: usize, surface: &Surface, n: u64) {
         let Some(left) = self.evaluations_left.get(face) else {
             return;
@@ -114,8 +106,7 @@ impl DivisionBudget {
             })
             .is_err()
         {
-            self.record(surface);
-            std::panic::resume_unwind(Box::new(OutOfEvaluations));
+            self.stop(surface);
         }
     }
 
@@ -129,24 +120,21 @@ impl DivisionBudget {
         }
     }
 
-    /// The first surface that ran over the budget, if any did.
-    pub fn exceeded(&self) -> Option<DivisionExceeded> {
-        if !self.exceeded.load(Ordering::Acquire) {
-            return None;
-        }
-        let first = self.first.lock().map(|f| f.clone()).unwrap_or(None);
-        Some(DivisionExceeded {
-            surface: first.unwrap_or_default(),
-        })
+    /// The debug text of the first surface or curve that ran over a bound, if any did (the
+    /// caller names its kind).
+    pub fn ran_over(&self) -> Option<String> {
+        self.first.lock().ok().and_then(|first| first.clone())
     }
 
-    fn record(&self, what: &dyn std::fmt::Debug) {
+    /// Records `what` (unless something ran over first) and unwinds out of the tessellation with
+    /// [`OutOfEvaluations`] (by `resume_unwind`: no panic hook, as this is no error of vps).
+    fn stop(&self, what: &dyn std::fmt::Debug) -> ! {
         if let Ok(mut first) = self.first.lock() {
             if first.is_none() {
                 *first = Some(format!("{what:?}"));
             }
         }
-        self.exceeded.store(true, Ordering::Release);
+        std::panic::resume_unwind(Box::new(OutOfEvaluations))
     }
 }
 
@@ -219,8 +207,7 @@ impl ParameterDivision1D for GuardedCurve {
         let ends = (self.curve.subs(range.0), self.curve.subs(range.1));
         let mut out = (Vec::new(), Vec::new());
         if bounded_curve_division(&self.curve, range, ends, tol, 100, &mut out).is_err() {
-            self.budget.record(&self.curve);
-            std::panic::resume_unwind(Box::new(OutOfEvaluations));
+            self.budget.stop(&self.curve);
         }
         out
     }
@@ -275,7 +262,7 @@ fn bounded_curve_division<C: ParametricCurve<Point = Point3>>(
     )
 }
 
-/// The unwind payload of a face that ran out of evaluations.
+/// The unwind payload of a face or edge that ran over a bound of its [`DivisionBudget`].
 #[derive(Debug)]
 pub struct OutOfEvaluations;
 
@@ -302,9 +289,7 @@ impl Guarded {
     pub fn surface(&self) -> &Surface {
         &self.surface
     }
-}
 
-impl Guarded {
     /// `f` of the surface, one evaluation spent.
     fn point(&self, f: impl FnOnce(&Surface) -> Point3) -> Point3 {
         self.budget.spend(self.face, &self.surface, 1);
@@ -315,6 +300,12 @@ impl Guarded {
     fn vector(&self, f: impl FnOnce(&Surface) -> Vector3) -> Vector3 {
         self.budget.spend(self.face, &self.surface, 1);
         f(&self.surface)
+    }
+
+    /// Spends what a parameter search with `hint` costs ([`search_cost`]).
+    fn spend_search(&self, hint: &SPHint2D) {
+        let cost = search_cost(!matches!(hint, SPHint2D::None));
+        self.budget.spend(self.face, &self.surface, cost);
     }
 }
 
@@ -368,8 +359,7 @@ impl SearchParameter<D2> for Guarded {
         trials: usize,
     ) -> Option<(f64, f64)> {
         let hint = hint.into();
-        let cost = search_cost(!matches!(hint, SPHint2D::None));
-        self.budget.spend(self.face, &self.surface, cost);
+        self.spend_search(&hint);
         self.surface.search_parameter(point, hint, trials)
     }
 }
@@ -383,8 +373,7 @@ impl SearchNearestParameter<D2> for Guarded {
         trials: usize,
     ) -> Option<(f64, f64)> {
         let hint = hint.into();
-        let cost = search_cost(!matches!(hint, SPHint2D::None));
-        self.budget.spend(self.face, &self.surface, cost);
+        self.spend_search(&hint);
         self.surface.search_nearest_parameter(point, hint, trials)
     }
 }
@@ -407,10 +396,7 @@ impl ParameterDivision2D for Guarded {
             let max_points = self.budget.max_points.load(Ordering::Relaxed);
             match bounded_division(&self.surface, range, tol, max_points) {
                 Ok(division) => division,
-                Err(()) => {
-                    self.budget.record(&self.surface);
-                    std::panic::resume_unwind(Box::new(OutOfEvaluations));
-                }
+                Err(()) => self.budget.stop(&self.surface),
             }
         };
         self.budget

@@ -15,7 +15,7 @@
 //! - [`p21`]: the exchange structure cut into entity instances (bounded, no recursion).
 //! - [`structure`]: units, solids, names and assembly placements from the entity graph.
 //! - [`tessellate`]: one shell to checked triangles.
-//! - [`guard`]: the bound on the kernel's surface subdivision (malformed B-splines fail fast).
+//! - [`guard`]: bounds on the kernel's subdivision and evaluations (malformed B-splines fail fast).
 //!
 //! Reading allocates and may take seconds for large files: setup work, never frame-path work.
 //!

@@ -193,11 +193,6 @@ pub fn shell(
         );
         let _ = budget_slot.set(budget.clone());
         let compressed = guarded(shell_read, &budget);
-        let diverged = || {
-            budget.exceeded().map(|e| ShellFailure::Diverged {
-                surface: what_ran_over(&e.surface),
-            })
-        };
         // A coarse pass (1 % of the shell's size) sizes the fine one: triangles grow about as
         // 1 / tolerance.
         let corners: Vec<DVec3> = compressed
@@ -217,9 +212,6 @@ pub fn shell(
                     .to_polygon(),
                 weld,
             );
-            if let Some(failure) = diverged() {
-                return Err(failure);
-            }
             budget.start_pass(max_triangles / 2);
             let estimate = (coarse.triangles.len() as f64 * coarse_tolerance / tolerance).ceil();
             if estimate > max_triangles as f64 {
@@ -229,9 +221,6 @@ pub fn shell(
             }
         }
         let triangulated = compressed.robust_triangulation(tolerance);
-        if let Some(failure) = diverged() {
-            return Err(failure);
-        }
         let failed_faces = triangulated
             .faces
             .iter()
@@ -252,8 +241,8 @@ pub fn shell(
         if p.is::<OutOfEvaluations>() {
             let surface = budget_slot
                 .get()
-                .and_then(|b| b.exceeded())
-                .map(|e| what_ran_over(&e.surface))
+                .and_then(|b| b.ran_over())
+                .map(|debug| what_ran_over(&debug))
                 .unwrap_or_else(|| "a face".to_string());
             return Err(ShellFailure::Diverged { surface });
         }
