@@ -5,11 +5,11 @@
 //!    could lie within the band's reach of a triangle is marked: each triangle's box grown by the
 //!    reach `standoff + 127/64 s` (plus half a code of rounding) marks the cubes it overlaps, and the triangle
 //!    is listed with each (a compressed table: counts, offsets, indices).
-//! 2. **Samples.** In each marked cube (parallel, rayon), each listed triangle visits only the
-//!    samples within the reach of its box, nearest triangles to the cube's middle first, and offers
-//!    its exact distance (closest point on the triangle) where a lower bound (the distance to its
-//!    plane and to its box) does not already rule it out; each sample keeps the nearest triangle
-//!    of each nearby component (as OpenVDB's mesh-to-volume conversion keeps the nearest). The
+//! 2. **Samples.** In each marked cube (parallel, rayon), each listed triangle, nearest to the
+//!    cube's middle first, computes its squared distance to every sample of each row within the
+//!    reach of its box (branch-free, several samples per instruction: `row`) and offers it where
+//!    it could change what the sample keeps; each sample keeps the nearest triangle of each nearby
+//!    component (as OpenVDB's mesh-to-volume conversion keeps the nearest). The
 //!    nearest triangle then gives the sign: negative behind its angle-weighted pseudo-normal when
 //!    its component is closed ([`vps_reference::ExactScene::signed_to_triangle_at`]). A sample
 //!    that the inside map (the voxmap's classification with no force-layer offset: `InsideMap`)
@@ -25,15 +25,14 @@
 //! own surface is beyond the reach, the band holds the distance to the inner surface (a shallower
 //! depth than the union's), with that surface's normal.
 //!
-//! Cost: one 2-bit voxelization of the scene for the inside map; per triangle, a bound test per
-//! sample within its reach (about `(2 reach / s + 1)³` samples) and a closest-point computation
-//! where the bound leaves it a chance; memory 4 bytes per cube of the grid for the directory and as much for
-//! the triangle table's counts, 4 bytes per (triangle, cube) pair, and 729 bytes per stored cube,
-//! checked against the budget before any sample is computed.
+//! Cost: one 2-bit voxelization of the scene for the inside map; per triangle, a distance per
+//! sample of the rows within its reach (about `(2 reach / s + 1)³` samples); per sample, one exact
+//! closest point for the triangle it keeps; memory 4 bytes per cube of the grid for the directory
+//! and as much for the triangle table's counts, 4 bytes per (triangle, cube) pair, and 729 bytes
+//! per stored cube, checked against the budget before any sample is computed.
 
 use glam::DVec3;
 use rayon::prelude::*;
-use vps_mesh::closest_point::closest_point;
 use vps_mesh::TriMesh;
 use vps_reference::ExactScene;
 use vps_voxmap::distance::{
@@ -41,6 +40,9 @@ use vps_voxmap::distance::{
     MAX_STANDOFF_VOXELS,
 };
 use vps_voxmap::{GridSpec, Voxel, VoxelTree};
+
+mod row;
+use row::RowTriangle;
 
 /// Largest directory the band builds (cubes): 2^24, as the tree's leaf directory
 /// ([`vps_voxmap::DIRECTORY_MAX_BYTES`]).
@@ -144,6 +146,7 @@ pub fn distance_band(
     let [nx, ny, _] = cube_dims;
     let index =
         |c: [u32; 3]| (c[2] as usize * ny as usize + c[1] as usize) * nx as usize + c[0] as usize;
+    let with_avx2 = cpu_has_avx2();
     let marked: Vec<usize> = (0..lists.cube_count())
         .filter(|&i| !lists.of(i).is_empty())
         .collect();
@@ -157,7 +160,15 @@ pub fn distance_band(
             ];
             (
                 i,
-                sample_cube(&inside, &scene, lists.of(i), c, standoff_m, reach),
+                sample_cube(
+                    &inside,
+                    &scene,
+                    lists.of(i),
+                    c,
+                    standoff_m,
+                    reach,
+                    with_avx2,
+                ),
             )
         })
         .collect();
@@ -213,11 +224,7 @@ impl InsideMap {
 
     /// Where voxel `ijk` lies.
     fn placement(&self, ijk: glam::IVec3) -> Placement {
-        match self.tree.get(ijk) {
-            Voxel::Interior => Placement::Inside,
-            Voxel::Surface => Placement::OnSurface,
-            Voxel::Free | Voxel::Proximity => Placement::Outside,
-        }
+        Placement::of(self.tree.get(ijk))
     }
 }
 
@@ -230,6 +237,17 @@ enum Placement {
     OnSurface,
     /// Wholly outside every solid (clear of every triangle).
     Outside,
+}
+
+impl Placement {
+    /// Where a voxel of the inside map's kind `kind` lies.
+    fn of(kind: Voxel) -> Placement {
+        match kind {
+            Voxel::Interior => Placement::Inside,
+            Voxel::Surface => Placement::OnSurface,
+            Voxel::Free | Voxel::Proximity => Placement::Outside,
+        }
+    }
 }
 
 /// For every cube, the triangles whose box grown by the reach overlaps a sample of the cube
@@ -358,9 +376,60 @@ fn for_each_cube_of_triangles(
     }
 }
 
+/// Whether the CPU runs AVX2 (the samples' copy compiled for it).
+fn cpu_has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
 /// The 729 codes of cube `c` from its listed `triangles`, or its uniform kind when every code
-/// saturates the same way.
+/// saturates the same way: [`cube_codes`] compiled for AVX2 where `with_avx2` (only where the CPU
+/// has it, [`cpu_has_avx2`]), else for the baseline. The same codes either way (the row distances
+/// use no fused multiply-add).
 fn sample_cube(
+    inside: &InsideMap,
+    scene: &ExactScene,
+    triangles: &[u32],
+    c: [u32; 3],
+    standoff_m: f64,
+    reach: f64,
+    with_avx2: bool,
+) -> CubeCodes {
+    #[cfg(target_arch = "x86_64")]
+    if with_avx2 {
+        // SAFETY: `with_avx2` is only set where the CPU has AVX2 (`cpu_has_avx2`).
+        return unsafe { cube_codes_avx2(inside, scene, triangles, c, standoff_m, reach) };
+    }
+    let _ = with_avx2;
+    cube_codes(inside, scene, triangles, c, standoff_m, reach)
+}
+
+/// [`cube_codes`] compiled for AVX2 (the row distances four samples per instruction).
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn cube_codes_avx2(
+    inside: &InsideMap,
+    scene: &ExactScene,
+    triangles: &[u32],
+    c: [u32; 3],
+    standoff_m: f64,
+    reach: f64,
+) -> CubeCodes {
+    cube_codes(inside, scene, triangles, c, standoff_m, reach)
+}
+
+/// The codes of [`sample_cube`].
+#[inline(always)]
+fn cube_codes(
     inside: &InsideMap,
     scene: &ExactScene,
     triangles: &[u32],
@@ -379,6 +448,7 @@ fn sample_cube(
     // Where the inside map puts each sample's voxel. A sample wholly outside every solid has a
     // positive distance to every component, so its signed distance is that of its nearest
     // triangle of any component: one bound serves every component.
+    let mut map = inside.tree.accessor();
     let placed: Vec<Placement> = (0..BRICK_CODES)
         .map(|i| {
             let l = [
@@ -386,22 +456,26 @@ fn sample_cube(
                 i / BRICK_EDGE % BRICK_EDGE,
                 i / (BRICK_EDGE * BRICK_EDGE),
             ];
-            inside.placement(glam::IVec3::from_array(
+            Placement::of(map.get(glam::IVec3::from_array(
                 [0, 1, 2].map(|a| (first[a] + l[a] as i64) as i32),
-            ))
+            )))
         })
         .collect();
+    // Per sample outside every solid, the squared distance (m²) a triangle must be within for
+    // its offer to count: the reach, and the nearest so far. (Elsewhere the bound is per
+    // component: `Nearest::improves_below`.)
+    let mut limit = vec![reach_sq; BRICK_CODES];
     // Nearest to the cube's middle first, so that each sample's nearest so far soon bounds the
-    // triangles still to come and most of them skip the closest-point computation. The order does
-    // not change the result: ties keep the lower-numbered triangle whatever comes first.
+    // triangles still to come. The order does not change the result: ties keep the
+    // lower-numbered triangle whatever comes first.
     let middle = DVec3::from_array([0, 1, 2].map(|a| centre(BRICK_EDGE / 2, a)));
     let mut listed: Vec<Listed> = triangles
         .iter()
         .map(|&t| Listed::new(scene, t, middle))
         .collect();
     listed.sort_unstable_by(|a, b| a.key.total_cmp(&b.key).then(a.t.cmp(&b.t)));
-    // A world x (m) as a sample index of this cube along x (fractional).
-    let to_local_x = |x: f64| (x - spec.origin[0]) / s - 0.5 - first[0] as f64;
+    let xs: [f64; row::ROW] = std::array::from_fn(|x| centre(x, 0));
+    let mut row_sq = [0.0; row::ROW];
     for l in &listed {
         let range = sample_range(spec, l.lo, l.hi, reach);
         let local = [0, 1, 2].map(|a| {
@@ -411,66 +485,72 @@ fn sample_cube(
         });
         for z in local[2].0..=local[2].1 {
             for y in local[1].0..=local[1].1 {
-                // Only the samples of this row within the reach of the triangle's box: a row
-                // segment (the box grown by the reach is a box; the reach is a rounded box).
-                let row_sq = l.box_distance_sq(DVec3::new(
-                    l.lo.x,
-                    centre(y as usize, 1),
-                    centre(z as usize, 2),
-                ));
-                let left_sq = reach_sq * (1.0 + 1e-9) - row_sq;
-                if left_sq < 0.0 {
+                let (y, z) = (y as usize, z as usize);
+                // A row wholly beyond the reach of the triangle's box has nothing to offer.
+                // A row wholly beyond the reach of the triangle's box has nothing to offer.
+                let box_sq = l.box_distance_sq(DVec3::new(l.lo.x, centre(y, 1), centre(z, 2)));
+                if box_sq > reach_sq {
                     continue;
                 }
-                let half = left_sq.sqrt() * (1.0 + 1e-9) + 1e-12;
-                let x0 = (to_local_x(l.lo.x - half).ceil() as i64).max(local[0].0);
-                let x1 = (to_local_x(l.hi.x + half).floor() as i64).min(local[0].1);
-                for x in x0..=x1 {
-                    let (x, y, z) = (x as usize, y as usize, z as usize);
-                    let p = DVec3::new(centre(x, 0), centre(y, 1), centre(z, 2));
-                    let i = (z * BRICK_EDGE + y) * BRICK_EDGE + x;
-                    let nearest = &mut best[i];
-                    // A relative margin of 1e-9 keeps rounding from skipping a triangle the
-                    // exact comparison below would have taken.
-                    let bound = match placed[i] {
-                        Placement::Outside => nearest.nearest_sq(),
-                        _ => nearest.improves_below(l.component),
-                    }
-                    .min(reach_sq);
-                    if l.lower_bound_sq(p) > bound * (1.0 + 1e-9) {
+                // The whole row at once (the compiler vectorizes it), then the offers of the
+                // samples within the reach of the triangle's box along x; a sample beyond the
+                // reach of the triangle is beyond every sample's limit.
+                l.row
+                    .distances_sq(centre(y, 1), centre(z, 2), &xs, &mut row_sq);
+                let first_of_row = (z * BRICK_EDGE + y) * BRICK_EDGE;
+                let (x0, x1) = (local[0].0 as usize, local[0].1 as usize);
+                for (x, &d_sq) in row_sq.iter().enumerate().take(x1 + 1).skip(x0) {
+                    let i = first_of_row + x;
+                    let within = match placed[i] {
+                        Placement::Outside => d_sq <= limit[i],
+                        _ => d_sq <= best[i].improves_below(l.component).min(reach_sq),
+                    };
+                    if !within {
                         continue;
                     }
-                    let d_sq = closest_point(p, &l.tri).0.distance_squared(p);
-                    if d_sq <= reach_sq {
-                        nearest.offer(l.component, d_sq, l.t);
+                    let nearest = &mut best[i];
+                    nearest.offer(l.component, d_sq, l.t);
+                    if placed[i] == Placement::Outside {
+                        limit[i] = nearest.nearest_sq().min(reach_sq);
                     }
                 }
             }
         }
     }
+    // Beyond this distance from the surface a code saturates: `code_of` rounds `e / s · 64` and
+    // clamps at ±127, so half a code inside the clamp is already saturated.
+    let saturation = standoff_m + f64::from(BAND_VOXELS) * s;
+    let saturation_sq = saturation * saturation;
     let mut codes = Box::new([0i8; BRICK_CODES]);
     for z in 0..BRICK_EDGE {
         for y in 0..BRICK_EDGE {
             for x in 0..BRICK_EDGE {
                 let i = (z * BRICK_EDGE + y) * BRICK_EDGE + x;
-                let p = DVec3::new(centre(x, 0), centre(y, 1), centre(z, 2));
-                let d = best[i].signed_distance(scene, p, placed[i], reach);
-                codes[i] = distance::code_of(d - standoff_m, s);
+                // Wholly outside (inside) a solid and farther than the saturation from every
+                // tracked triangle: the code saturates far (deep) whatever the exact distance.
+                let saturated = match placed[i] {
+                    Placement::Outside => Some(distance::CODE_FAR),
+                    Placement::Inside => Some(distance::CODE_DEEP),
+                    Placement::OnSurface => None,
+                }
+                .filter(|_| best[i].nearest_sq() >= saturation_sq);
+                codes[i] = saturated.unwrap_or_else(|| {
+                    let p = DVec3::new(centre(x, 0), centre(y, 1), centre(z, 2));
+                    let d = best[i].signed_distance(scene, p, placed[i], reach);
+                    distance::code_of(d - standoff_m, s)
+                });
             }
         }
     }
     CubeCodes::from_codes(codes)
 }
 
-/// A triangle listed for a cube, with what bounds its distance from below.
+/// A triangle listed for a cube.
 struct Listed {
-    tri: [DVec3; 3],
     t: u32,
     component: u32,
-    /// Unit normal of the triangle's plane (zero for a degenerate triangle: no plane bound).
-    normal: DVec3,
-    /// `normal · tri[0]`.
-    plane_offset: f64,
+    /// The triangle prepared for rows of samples.
+    row: RowTriangle,
     /// The triangle's box (m).
     lo: DVec3,
     hi: DVec3,
@@ -481,14 +561,11 @@ struct Listed {
 impl Listed {
     fn new(scene: &ExactScene, t: u32, middle: DVec3) -> Listed {
         let tri = scene.triangle(t);
-        let normal = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();
         let (lo, hi) = triangle_box(&tri);
         let mut listed = Listed {
-            tri,
             t,
             component: scene.component_of(t),
-            normal,
-            plane_offset: normal.dot(tri[0]),
+            row: RowTriangle::new(tri),
             lo,
             hi,
             key: 0.0,
@@ -500,13 +577,6 @@ impl Listed {
     /// Squared distance (m²) from `p` to the triangle's box.
     fn box_distance_sq(&self, p: DVec3) -> f64 {
         ((self.lo - p).max(DVec3::ZERO) + (p - self.hi).max(DVec3::ZERO)).length_squared()
-    }
-
-    /// A lower bound of the squared distance (m²) from `p` to the triangle: the larger of the
-    /// distances to its plane and to its box.
-    fn lower_bound_sq(&self, p: DVec3) -> f64 {
-        let plane = self.normal.dot(p) - self.plane_offset;
-        (plane * plane).max(self.box_distance_sq(p))
     }
 }
 
@@ -530,6 +600,15 @@ impl Default for Nearest {
 }
 
 impl Nearest {
+    /// The squared distance (m²) of the nearest triangle offered, of any component (infinite when
+    /// none was).
+    fn nearest_sq(&self) -> f64 {
+        self.entries
+            .iter()
+            .map(|e| e.1)
+            .fold(f64::INFINITY, f64::min)
+    }
+
     /// The squared distance a triangle of `component` must be below for [`Nearest::offer`] to
     /// keep it: the component's nearest so far, else (a new component) the farthest entry's (an
     /// unused entry is infinitely far).
@@ -542,15 +621,6 @@ impl Nearest {
                 .map(|e| e.1)
                 .fold(f64::NEG_INFINITY, f64::max),
         }
-    }
-
-    /// The squared distance (m²) of the nearest triangle offered, of any component (infinite when
-    /// none was).
-    fn nearest_sq(&self) -> f64 {
-        self.entries
-            .iter()
-            .map(|e| e.1)
-            .fold(f64::INFINITY, f64::min)
     }
 
     /// Triangle `t` of `component` at squared distance `d_sq`. For one component the result does
