@@ -359,6 +359,10 @@ pub struct CoordinatorArgs {
     /// each).
     #[arg(long, default_value_t = 1, value_parser = vps_app::limits::parse_workers)]
     pub workers: usize,
+    /// How long to wait for the workers to join before giving up (seconds, 0.1..=3600): long
+    /// enough to start them by hand on their hosts.
+    #[arg(long, value_name = "SECONDS", default_value_t = vps_app::DEFAULT_JOIN_WAIT.as_secs_f64(), value_parser = vps_app::limits::parse_join_wait)]
+    pub join_wait: f64,
     /// How replies are gathered.
     #[command(flatten)]
     pub gather: GatherArgs,

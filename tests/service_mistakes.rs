@@ -231,12 +231,16 @@ fn without_rust_log_the_join_is_logged_on_both_sides() {
 #[test]
 fn a_coordinator_whose_workers_do_not_come_says_what_to_check() {
     let certs = Certs::new();
-    let out = certs.run_coordinator(&certs.coordinator.key, "127.0.0.1:0");
+    // `--join-wait` shortens the default 20 s wait (the message names the wait it had).
+    let mut args = certs.coordinator_args(&certs.coordinator.key, "127.0.0.1:0");
+    args.extend(["--join-wait".to_string(), "1.5".to_string()]);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let out = run(certs.path(), &certs.path().join("cache"), &args);
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(
         err.contains(
-            "only 0 of 1 worker(s) joined within 20 s (0 refused for an unpinned certificate"
+            "only 0 of 1 worker(s) joined within 1.5 s (0 refused for an unpinned certificate"
         ),
         "{err}"
     );
@@ -244,7 +248,29 @@ fn a_coordinator_whose_workers_do_not_come_says_what_to_check() {
         err.contains("start the workers (each dials 127.0.0.1:"),
         "{err}"
     );
+    assert!(err.contains("(or wait longer: `join_wait`)"), "{err}");
     assert!(!err.contains("network:"), "{err}");
+
+    // Out of range: refused naming the flag and the range, before anything is built.
+    let mut args = certs.coordinator_args(&certs.coordinator.key, "127.0.0.1:0");
+    args.extend(["--join-wait".to_string(), "0".to_string()]);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let out = run(certs.path(), &certs.path().join("cache"), &args);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("--join-wait"), "{err}");
+    assert!(err.contains("allowed 0.1..=3600 s"), "{err}");
+    // The same key in a config file: refused naming the file, the key and the range.
+    let config = certs.path().join("waits-too-long.toml");
+    std::fs::write(&config, "join_wait = 5000\n").unwrap();
+    let mut args = certs.coordinator_args(&certs.coordinator.key, "127.0.0.1:0");
+    args.extend(["--config".to_string(), text(&config)]);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let out = run(certs.path(), &certs.path().join("cache"), &args);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    let expected = format!("{}: `join_wait`: allowed 0.1..=3600 s", config.display());
+    assert!(err.contains(&expected), "{err}");
 }
 
 /// A worker whose coordinator is not there (nothing listens on the port it dials).

@@ -93,6 +93,7 @@ pub fn coordinator(mut args: CoordinatorArgs, matches: &ArgMatches) -> Result<()
             listen: args.listen,
             tls,
             count: args.workers,
+            join_wait: std::time::Duration::from_secs_f64(args.join_wait),
         },
         gather: args.gather.config(),
     })))

@@ -18,8 +18,9 @@ use vps_cluster::{
 use vps_runtime::{KeepOffFrameCore, LoopReport, Placement, SignalStop};
 use vps_session::SessionAssets;
 
-/// How long the coordinator waits for its workers to join before it starts.
-const JOIN_TIMEOUT: Duration = Duration::from_secs(20);
+/// How long a coordinator waits for its workers to join before it gives up, unless told
+/// otherwise (`--join-wait`); local workers (`Workers::Local`) always get this long.
+pub const DEFAULT_JOIN_WAIT: Duration = Duration::from_secs(20);
 
 /// What one coordinated session produced.
 pub struct CoordinatedRun {
@@ -52,6 +53,8 @@ pub enum Workers {
         tls: PeerTls,
         /// Workers to wait for.
         count: usize,
+        /// How long to wait for them ([`DEFAULT_JOIN_WAIT`] unless the user says).
+        join_wait: Duration,
     },
     /// `count` worker processes of `threads` threads each, spawned on this host from this
     /// executable, on loopback with fresh certificates pinned both ways.
@@ -76,9 +79,20 @@ impl Prepared {
     /// coordinator's own threads and the workers, replies gathered within each frame's budget.
     pub fn run_coordinated(self, cluster: ClusterBackend) -> Result<CoordinatedRun> {
         match cluster.workers {
-            Workers::Lan { listen, tls, count } => {
-                coordinate(self, listen, tls, count, cluster.gather, |_, _| Ok(None))
-            }
+            Workers::Lan {
+                listen,
+                tls,
+                count,
+                join_wait,
+            } => coordinate(
+                self,
+                listen,
+                tls,
+                count,
+                join_wait,
+                cluster.gather,
+                |_, _| Ok(None),
+            ),
             Workers::Local { count, threads } => {
                 run_local_cluster(self, count, threads, cluster.gather)
             }
@@ -133,6 +147,7 @@ fn coordinate(
     listen: SocketAddr,
     tls: PeerTls,
     workers: usize,
+    join_wait: Duration,
     gather: GatherConfig,
     spawn: impl FnOnce(
         SocketAddr,
@@ -159,7 +174,7 @@ fn coordinate(
     eprintln!("coordinator listening on {addr}, waiting for {workers} worker(s)");
     let _children = spawn(addr, keep_off.as_ref())?;
     if coordinator
-        .wait_for_workers_until(workers, JOIN_TIMEOUT, &live.setup.stop)
+        .wait_for_workers_until(workers, join_wait, &live.setup.stop)
         .is_err()
     {
         // Listening on every address (0.0.0.0): a worker dials one of this host's own.
@@ -169,9 +184,9 @@ fn coordinate(
             addr.to_string()
         };
         anyhow::bail!(
-            "only {} of {workers} worker(s) joined within {} s ({} refused for an unpinned certificate, logged above): start the workers (each dials {dialled}, its `coordinator`), pin each worker's certificate here and this coordinator's on each worker, or lower `workers`",
+            "only {} of {workers} worker(s) joined within {} s ({} refused for an unpinned certificate, logged above): start the workers (each dials {dialled}, its `coordinator`), pin each worker's certificate here and this coordinator's on each worker, or lower `workers` (or wait longer: `join_wait`)",
             coordinator.joined_workers(),
-            JOIN_TIMEOUT.as_secs(),
+            join_wait.as_secs_f64(),
             coordinator.refused_unpinned()
         );
     }
@@ -239,6 +254,7 @@ fn run_local_cluster(
             &certs.worker_pins(),
         )?,
         workers,
+        DEFAULT_JOIN_WAIT,
         gather,
         |addr, keep_off| {
             // Each worker its own certificate: the coordinator admits one live connection per

@@ -40,7 +40,7 @@ pub mod session_files;
 pub mod study;
 pub mod study_view;
 
-pub use cluster::{ClusterBackend, CoordinatedRun, Workers};
+pub use cluster::{ClusterBackend, CoordinatedRun, Workers, DEFAULT_JOIN_WAIT};
 pub use finish::finish;
 pub use prepare::{prepare, LiveSession, Prepared};
 pub use request::{BridgeOverrides, SceneRequest, SessionRequest};

@@ -82,6 +82,23 @@ pub fn parse_seconds(text: &str) -> Result<f64, String> {
     }
 }
 
+/// Longest `--join-wait` (s): an hour.
+pub const MAX_JOIN_WAIT_SECONDS: f64 = 3600.0;
+
+/// `--join-wait`: seconds a coordinator waits for its workers, 0.1..=[`MAX_JOIN_WAIT_SECONDS`].
+pub fn parse_join_wait(text: &str) -> Result<f64, String> {
+    let range = format!("allowed 0.1..={MAX_JOIN_WAIT_SECONDS} s");
+    let s: f64 = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("not a number; {range}"))?;
+    if (0.1..=MAX_JOIN_WAIT_SECONDS).contains(&s) {
+        Ok(s)
+    } else {
+        Err(range)
+    }
+}
+
 /// A socket address, IP:port (`192.168.1.10:7800`, `[fe80::1]:7800`). A host name is refused
 /// saying so: the cluster services never resolve names.
 pub fn parse_ip_port(text: &str) -> Result<std::net::SocketAddr, String> {

@@ -52,6 +52,8 @@ pub struct CoordinatorFile {
     pub pins: Option<Vec<PathBuf>>,
     /// `--workers`.
     pub workers: Option<usize>,
+    /// `--join-wait` (seconds).
+    pub join_wait: Option<f64>,
     /// `--scene`.
     pub scene: Option<String>,
     /// `--no-cache`.
