@@ -481,9 +481,10 @@ fn the_text_report_speaks_of_the_session() {
 
 /// `vps scene check` says which voxel settings the built-in defaults' reason is about: the bay sets
 /// only `voxel_size`. (The reason was printed unqualified even for a scene that already sets
-/// every key.) The defaults it shows are the sweep's recommendation, 4-bit voxels and
-/// exact-surface points (they were the paper's 2-bit voxel centres while scene check told the
-/// user to set 4 and "exact"), and the reason says how to get the paper's.
+/// every key.) The defaults it shows are the sweep's recommendation, the distance model, 4-bit
+/// voxels and exact-surface points (they were the paper's tangent-plane model on 2-bit voxel
+/// centres while scene check told the user to set 4 and "exact"), and the reason says how to get
+/// the paper's.
 #[test]
 fn scene_check_names_the_settings_left_to_the_defaults() {
     let bay = bay();
@@ -492,7 +493,8 @@ fn scene_check_names_the_settings_left_to_the_defaults() {
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         text.contains(
-            "why (built-in defaults, used here for voxel_width, shell_method, offset_layers): "
+            "why (built-in defaults, used here for voxel_width, shell_method, offset_layers, \
+             force_model): "
         ),
         "{text}"
     );
@@ -505,14 +507,17 @@ fn scene_check_names_the_settings_left_to_the_defaults() {
     );
     assert!(
         text.contains(
-            "for the paper's format set voxels.voxel_width = 2 and voxels.shell_method = \"centres\""
+            "for the paper's method set voxels.force_model = \"tangent-plane\", \
+             voxels.voxel_width = 2 and voxels.shell_method = \"centres\""
         ),
         "{text}"
     );
     assert!(!text.contains("-0.0000"), "{text}");
-    // The default 2 offset layers at 5 mm: openings under about 10 mm a side read as closed.
+    // The default model, distance, at 5 mm: contact starts half a voxel off the exact surface.
     assert!(
-        text.contains("clearance: the force layer stands 2 voxel(s), 10 mm, off every static"),
+        text.contains(
+            "force model: distance (built-in default): contact starts 2.5 mm from the exact surface"
+        ),
         "{text}"
     );
 
@@ -549,7 +554,7 @@ fn the_peg_enters_its_hole_with_the_distance_model_or_without_offset_layers() {
             None => text.clone(),
             Some(offset) => text.replace(
                 "force_model = \"distance\"\n",
-                &format!("offset_layers = {offset}\n"),
+                &format!("force_model = \"tangent-plane\"\noffset_layers = {offset}\n"),
             ),
         };
         std::fs::write(vps.dir().join(&name), edited).unwrap();

@@ -395,7 +395,7 @@ fn a_sweep_without_contact_says_why_its_accuracy_is_empty() {
 
 /// `force_models = ["tangent-plane", "distance"]` sweeps one scene with each model (the scene file
 /// states neither): rows in the order model, size; only the scene's own model (the built-in
-/// default, tangent-plane) is marked `default`; the distance rows carry a band (a larger voxmap
+/// default, distance) is marked `default`; the distance rows carry a band (a larger voxmap
 /// in memory is not asserted: the row counts the tree); the text names each row's model and the
 /// recommendation names the model it chose. An empty list is refused naming the field.
 #[test]
@@ -423,8 +423,8 @@ fn the_force_model_axis_sweeps_each_model() {
         .map(|r| r["force_model"].as_str().unwrap())
         .collect();
     assert_eq!(models, ["tangent-plane", "distance"], "{table}");
-    assert_eq!(rows[0]["default"], true, "{table}");
-    assert_eq!(rows[1]["default"], false, "{table}");
+    assert_eq!(rows[0]["default"], false, "{table}");
+    assert_eq!(rows[1]["default"], true, "{table}");
     let text = String::from_utf8_lossy(&out.stdout);
     let row_lines: Vec<&str> = text.lines().filter(|l| l.starts_with("mine ")).collect();
     assert_eq!(row_lines.len(), 2, "{text}");

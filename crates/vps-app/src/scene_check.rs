@@ -176,6 +176,7 @@ fn defaults_used(v: &VoxelsReport) -> Vec<&'static str> {
         ("voxel_width", v.voxel_width_bits.from),
         ("shell_method", v.shell_method.from),
         ("offset_layers", v.offset_layers.from),
+        ("force_model", v.force_model.from),
     ]
     .into_iter()
     .filter(|(_, from)| *from == BUILT_IN)
@@ -316,7 +317,8 @@ pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
         builtin_reason: (!(set.voxel_size
             && set.voxel_width
             && set.shell_method
-            && set.offset_layers))
+            && set.offset_layers
+            && set.force_model))
             .then_some(BUILTIN_VOXELS_REASON),
     };
     let parts = part_checks(

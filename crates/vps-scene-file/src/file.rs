@@ -313,7 +313,8 @@ pub struct VoxelSettings {
     /// ([`RECOMMENDED_SHELL_METHOD`]: the sweep's recommendation).
     pub shell_method: ShellMethodName,
     /// The force model: `tangent-plane` (the paper's, on the voxel layers) or `distance` (the
-    /// signed-distance band with a stand-off). Default `tangent-plane`.
+    /// signed-distance band with a stand-off). Default `distance` ([`RECOMMENDED_FORCE_MODEL`]:
+    /// the sweep's recommendation).
     pub force_model: ForceModelName,
     /// The `distance` model's stand-off (m): contact starts this far from the exact surface.
     /// `0..=` one voxel; `None`: half the voxel size
@@ -350,9 +351,14 @@ pub const RECOMMENDED_VOXEL_WIDTH: u8 = 4;
 /// (docs/sweep.md). The paper's is `shell_method = "centres"`.
 pub const RECOMMENDED_SHELL_METHOD: ShellMethodName = ShellMethodName::Exact;
 
-/// Why the built-in voxel defaults (5 mm, 4-bit, offset 2, exact-surface points) are what they
-/// are, for a scene file that leaves the keys out; `vps scene check` shows it.
-pub const BUILTIN_VOXELS_REASON: &str = "the sweep's recommendation (docs/sweep.md): 4-bit voxels with exact-surface shell points kept penetration ratio 0 at every swept size on both standard scenes, with the force direction error p50 falling as the voxels shrink; 5 mm voxels and 2 offset layers; for the paper's format set voxels.voxel_width = 2 and voxels.shell_method = \"centres\"";
+/// The built-in `voxels.force_model`: the signed-distance band, the sweep's recommendation
+/// (docs/sweep.md). The paper's is `force_model = "tangent-plane"`.
+pub const RECOMMENDED_FORCE_MODEL: ForceModelName = ForceModelName::Distance;
+
+/// Why the built-in voxel defaults (5 mm, 4-bit, offset 2, exact-surface points, the distance
+/// model) are what they are, for a scene file that leaves the keys out; `vps scene check` shows
+/// it.
+pub const BUILTIN_VOXELS_REASON: &str = "the sweep's recommendation (docs/sweep.md): the distance model keeps every shell point outside the exact scene (penetration ratio 0, a stand-off of half a voxel) with a smaller force direction error than the paper's tangent-plane model on both standard scenes; 4-bit voxels with exact-surface shell points kept penetration ratio 0 at every swept size with either model; 5 mm voxels and 2 offset layers; for the paper's method set voxels.force_model = \"tangent-plane\", voxels.voxel_width = 2 and voxels.shell_method = \"centres\"";
 
 impl Default for VoxelSettings {
     fn default() -> Self {
@@ -362,7 +368,7 @@ impl Default for VoxelSettings {
             offset_layers: 2,
             braking: None,
             shell_method: RECOMMENDED_SHELL_METHOD,
-            force_model: ForceModelName::TangentPlane,
+            force_model: RECOMMENDED_FORCE_MODEL,
             standoff: None,
             reason: None,
             set_in_file: VoxelKeysSet::default(),

@@ -1315,8 +1315,9 @@ mod tests {
         (dir, path)
     }
 
-    /// A part with no inside (one triangle) is rendered two-sided: the scene switches from the
-    /// tangent-plane model to the distance model with a warning, and its shell's normals are all
+    /// A part with no inside (one triangle) is rendered two-sided: on the distance model (the
+    /// default) as it is, and a scene that asks for the tangent-plane model switches to the
+    /// distance model with a warning; and its shell's normals are all
     /// zero (a resampled shell's too); the peg (a closed box) keeps the scene's model and unit
     /// normals.
     #[test]
@@ -1327,8 +1328,24 @@ mod tests {
             "v -20 -20 0\nv 30 -20 0\nv -20 30 0\nf 1 2 3\n",
         )
         .unwrap();
+        // With the built-in default, the distance model, the sheet needs no switch.
         let text = std::fs::read_to_string(&scene).unwrap();
         let sheet_scene = dir.path().join("sheet.toml");
+        std::fs::write(&sheet_scene, text.replace("peg.obj", "sheet.obj")).unwrap();
+        let sheet = LoadedScene::load(sheet_scene.to_str().unwrap()).unwrap();
+        assert!(sheet.part_two_sided && !sheet.force_model_switched);
+        assert_eq!(sheet.file.voxels.force_model, ForceModelName::Distance);
+        assert!(sheet
+            .warnings
+            .iter()
+            .all(|w| !w.starts_with("voxels.force_model")));
+
+        // A scene that asks for the tangent-plane model.
+        let text = text.replace(
+            "voxel_size = \"2mm\"\n",
+            "voxel_size = \"2mm\"\nforce_model = \"tangent-plane\"\n",
+        );
+        std::fs::write(&scene, &text).unwrap();
         std::fs::write(&sheet_scene, text.replace("peg.obj", "sheet.obj")).unwrap();
 
         let peg = LoadedScene::load(&scene).unwrap();
