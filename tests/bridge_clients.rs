@@ -22,7 +22,8 @@ use vps_testkit::process::spawn_until_line;
 use vps_testkit::table::csv_column;
 
 /// The session is long enough for both examples (3 s each) plus their start-up on a loaded
-/// machine; the examples run back to back after the bridge is listening.
+/// machine; the examples run back to back after the bridge is listening, and the test ends the
+/// session once they are done (`end_session`).
 const SESSION_SECONDS: &str = "20";
 /// Start-up of a debug `vps run` on a shared 2-core machine (voxelizing the scene) can be slow.
 const STARTUP_DEADLINE: Duration = Duration::from_secs(600);
@@ -59,6 +60,25 @@ fn compile_example(dir: &Path) -> PathBuf {
         .expect("gcc runs");
     assert!(status.success(), "the C example compiles");
     example
+}
+
+/// Ends a session once its clients are done, with SIGTERM (the safe stop: zero force first, then
+/// the report of the frames run), and returns its JSON report. `SESSION_SECONDS` is only a ceiling
+/// for a slow start-up; a session that already ran its length is taken as it ended.
+fn end_session(child: Child) -> serde_json::Value {
+    let sent = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .expect("kill runs");
+    assert!(sent.success(), "kill -TERM failed");
+    let out = child.wait_with_output().expect("vps finishes");
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON report");
+    match out.status.code() {
+        Some(143) => assert_eq!(report["end"], "stopped by SIGTERM", "{report}"),
+        Some(0) => assert_eq!(report["complete"], true, "{report}"),
+        other => panic!("vps run exited {other:?}: {report}"),
+    }
+    report
 }
 
 /// Starts the session; returns the child and the bridge's address (read from its stderr).
@@ -208,9 +228,7 @@ fn c_and_python_clients_decode_exactly_what_vps_sends() {
         results.push(("Python", run_example(cmd, addr, &dump)));
     }
 
-    let out = child.wait_with_output().expect("vps finishes");
-    assert!(out.status.success(), "vps run failed");
-    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON report");
+    let report = end_session(child);
     let bridge = &report["bridge"];
     assert_eq!(bridge["garbage"], 0, "{bridge}");
     assert_eq!(bridge["unlogged"], 0, "{bridge}");
@@ -513,9 +531,7 @@ fn two_c_clients_drive_two_parts_in_one_session() {
         })
         .collect();
     let results: Vec<(u64, Vec<String>)> = clients.into_iter().map(|c| c.join().unwrap()).collect();
-    let out = child.wait_with_output().expect("vps finishes");
-    assert!(out.status.success(), "vps run failed");
-    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON report");
+    let report = end_session(child);
     let parts = report["parts"].as_array().expect("both parts reported");
     assert_eq!(parts.len(), 2, "{report}");
     for (part, (n, lines)) in parts.iter().zip(&results) {
