@@ -389,11 +389,13 @@ pub const SESSION_LEGEND: &[&str] = &[
      missed its deadline (always 0 without workers)",
     "  compute: time from reading the device to writing its force, per frame (µs percentiles)",
     "  period error: how far a frame started from its scheduled 1 ms tick (paced sessions only)",
-    "  contact frames: frames in which at least one shell point pushed (a point in an obstacle's \
-     force layer, past its tangent plane)",
-    "  touching: frames with at least one shell point in an obstacle's force layer or inside it \
-     (pushing or not)",
-    "  penetrating: frames with at least one shell point inside an obstacle (past the force layer)",
+    "  contact frames: frames in which at least one shell point pushed (tangent-plane model: a \
+     point in an obstacle's force layer, past its tangent plane; distance model: a point nearer \
+     the exact surface than the stand-off)",
+    "  touching: frames with at least one shell point in an obstacle's force layer or inside it, \
+     pushing or not (distance model: nearer than the stand-off or inside)",
+    "  penetrating: frames with at least one shell point inside an obstacle (tangent-plane model: \
+     past the force layer; distance model: inside the exact surface)",
     "  penetration ratio: penetrating / touching frames, lower is better; the paper's: McNeely et \
      al. 1999, Table 2 (6.0e-5 with braking, 1.0e-3 without)",
     "  braking: pre-contact braking slows the part as it nears a surface (the paper's); the \
