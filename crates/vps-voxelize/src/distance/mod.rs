@@ -487,7 +487,6 @@ fn cube_codes(
             for y in local[1].0..=local[1].1 {
                 let (y, z) = (y as usize, z as usize);
                 // A row wholly beyond the reach of the triangle's box has nothing to offer.
-                // A row wholly beyond the reach of the triangle's box has nothing to offer.
                 let box_sq = l.box_distance_sq(DVec3::new(l.lo.x, centre(y, 1), centre(z, 2)));
                 if box_sq > reach_sq {
                     continue;
