@@ -119,22 +119,11 @@ pub fn run(point_counts: &[usize], batch_seconds: f64) -> Result<KernelReport> {
             cpus: std::thread::available_parallelism().map_or(1, |n| n.get()),
             load_before,
             load_after: load_average(),
-            avx2: has_avx2(),
+            avx2: vps_voxmap::cpu::has_avx2(),
             avx512: vps_haptic::kernel::runs_avx512_copy(),
         },
         figures,
     })
-}
-
-fn has_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
 }
 
 /// A whole-shell kernel: `vps_haptic::sample_all` or `vps_haptic::avx2_only::sample_all`.

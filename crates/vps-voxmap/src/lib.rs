@@ -16,6 +16,7 @@
 
 #![warn(missing_docs)]
 
+pub mod cpu;
 pub mod dense;
 pub mod distance;
 pub mod file;

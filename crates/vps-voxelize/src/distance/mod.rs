@@ -146,7 +146,13 @@ pub fn distance_band(
     let [nx, ny, _] = cube_dims;
     let index =
         |c: [u32; 3]| (c[2] as usize * ny as usize + c[1] as usize) * nx as usize + c[0] as usize;
-    let with_avx2 = cpu_has_avx2();
+    let sampler = CubeSampler {
+        inside: &inside,
+        scene: &scene,
+        standoff_m,
+        reach,
+        with_avx2: vps_voxmap::cpu::has_avx2(),
+    };
     let marked: Vec<usize> = (0..lists.cube_count())
         .filter(|&i| !lists.of(i).is_empty())
         .collect();
@@ -158,18 +164,7 @@ pub fn distance_band(
                 (i / nx as usize % ny as usize) as u32,
                 (i / (nx as usize * ny as usize)) as u32,
             ];
-            (
-                i,
-                sample_cube(
-                    &inside,
-                    &scene,
-                    lists.of(i),
-                    c,
-                    standoff_m,
-                    reach,
-                    with_avx2,
-                ),
-            )
+            (i, sampler.cube(lists.of(i), c))
         })
         .collect();
     let mut stored = stored.into_iter().peekable();
@@ -376,67 +371,53 @@ fn for_each_cube_of_triangles(
     }
 }
 
-/// Whether the CPU runs AVX2 (the samples' copy compiled for it).
-fn cpu_has_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
-/// The 729 codes of cube `c` from its listed `triangles`, or its uniform kind when every code
-/// saturates the same way: [`cube_codes`] compiled for AVX2 where `with_avx2` (only where the CPU
-/// has it, [`cpu_has_avx2`]), else for the baseline. The same codes either way (the row distances
-/// use no fused multiply-add).
-fn sample_cube(
-    inside: &InsideMap,
-    scene: &ExactScene,
-    triangles: &[u32],
-    c: [u32; 3],
+/// What every cube's samples are computed from, the same for one band.
+struct CubeSampler<'a> {
+    inside: &'a InsideMap,
+    scene: &'a ExactScene,
+    /// The stand-off baked into the codes (m).
     standoff_m: f64,
+    /// Beyond this distance (m) from every triangle a code saturates.
     reach: f64,
+    /// Whether the CPU has AVX2 ([`vps_voxmap::cpu::has_avx2`]): the AVX2 copy runs.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     with_avx2: bool,
-) -> CubeCodes {
-    #[cfg(target_arch = "x86_64")]
-    if with_avx2 {
-        // SAFETY: `with_avx2` is only set where the CPU has AVX2 (`cpu_has_avx2`).
-        return unsafe { cube_codes_avx2(inside, scene, triangles, c, standoff_m, reach) };
+}
+
+impl CubeSampler<'_> {
+    /// The 729 codes of cube `c` from its listed `triangles`, or its uniform kind when every code
+    /// saturates the same way: [`cube_codes`] compiled for AVX2 where the CPU has it, else for
+    /// the baseline. The same codes either way (the row distances use no fused multiply-add).
+    fn cube(&self, triangles: &[u32], c: [u32; 3]) -> CubeCodes {
+        #[cfg(target_arch = "x86_64")]
+        if self.with_avx2 {
+            // SAFETY: `with_avx2` is only set where the CPU has AVX2.
+            return unsafe { self.cube_avx2(triangles, c) };
+        }
+        cube_codes(self, triangles, c)
     }
-    let _ = with_avx2;
-    cube_codes(inside, scene, triangles, c, standoff_m, reach)
+
+    /// [`cube_codes`] compiled for AVX2 (the row distances four samples per instruction).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn cube_avx2(&self, triangles: &[u32], c: [u32; 3]) -> CubeCodes {
+        cube_codes(self, triangles, c)
+    }
 }
 
-/// [`cube_codes`] compiled for AVX2 (the row distances four samples per instruction).
-///
-/// # Safety
-/// The CPU must support AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn cube_codes_avx2(
-    inside: &InsideMap,
-    scene: &ExactScene,
-    triangles: &[u32],
-    c: [u32; 3],
-    standoff_m: f64,
-    reach: f64,
-) -> CubeCodes {
-    cube_codes(inside, scene, triangles, c, standoff_m, reach)
-}
-
-/// The codes of [`sample_cube`].
+/// The codes of [`CubeSampler::cube`].
 #[inline(always)]
-fn cube_codes(
-    inside: &InsideMap,
-    scene: &ExactScene,
-    triangles: &[u32],
-    c: [u32; 3],
-    standoff_m: f64,
-    reach: f64,
-) -> CubeCodes {
+fn cube_codes(sampler: &CubeSampler, triangles: &[u32], c: [u32; 3]) -> CubeCodes {
+    let CubeSampler {
+        inside,
+        scene,
+        standoff_m,
+        reach,
+        ..
+    } = *sampler;
     let spec = inside.spec();
     let s = spec.voxel_size;
     let first = c.map(|x| i64::from(x * CUBE_EDGE));

@@ -78,18 +78,6 @@ fn cpu_reads_wide() -> bool {
     }
 }
 
-/// Whether this CPU can run [`LeafDirectory::read_block`]'s AVX2 path.
-fn cpu_has_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
 impl LeafDirectory {
     /// The directory of `tree` (whose arenas must be canonical: built or validated), or `None`
     /// when it is too large (see [`DIRECTORY_ALLOWANCE_BYTES`]).
@@ -127,7 +115,7 @@ impl LeafDirectory {
                     };
                 }
             });
-        let gathers = cpu_has_avx2();
+        let gathers = crate::cpu::has_avx2();
         // The wide read gathers leaf words at signed 32-bit word offsets.
         let wide_gathers = cpu_reads_wide() && tree.leaf_words.len() <= i32::MAX as usize;
         Some(LeafDirectory {
