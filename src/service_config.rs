@@ -95,9 +95,12 @@ pub fn resolve_coordinator(args: &mut CoordinatorArgs, matches: &ArgMatches) -> 
         take_identity(matches, &mut args.identity, &path, f.cert, f.key, f.pins);
         let workers = checked(&path, "workers", f.workers, vps_app::limits::parse_workers)?;
         take(matches, "workers", &mut args.workers, workers);
-        let join_wait = checked(&path, "join_wait", f.join_wait, |s: &str| {
-            vps_app::limits::parse_join_wait(s)
-        })?;
+        let join_wait = checked(
+            &path,
+            "join_wait",
+            f.join_wait,
+            vps_app::limits::parse_join_wait,
+        )?;
         take(matches, "join_wait", &mut args.join_wait, join_wait);
         let scene = f.scene.map(|v| scene_beside(&path, v));
         take(matches, "scene", &mut s.scene.scene, scene);

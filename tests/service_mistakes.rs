@@ -65,8 +65,17 @@ impl Certs {
 
     /// Runs [`Certs::coordinator_args`] to its end in the directory (cache `DIR/cache`).
     fn run_coordinator(&self, key: &Path, listen: &str) -> Output {
+        self.run_coordinator_with(key, listen, &[])
+    }
+
+    /// [`Certs::run_coordinator`] with `more` arguments after the others.
+    fn run_coordinator_with(&self, key: &Path, listen: &str, more: &[&str]) -> Output {
         let args = self.coordinator_args(key, listen);
-        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let args: Vec<&str> = args
+            .iter()
+            .map(String::as_str)
+            .chain(more.iter().copied())
+            .collect();
         run(self.path(), &self.path().join("cache"), &args)
     }
 }
@@ -232,10 +241,8 @@ fn without_rust_log_the_join_is_logged_on_both_sides() {
 fn a_coordinator_whose_workers_do_not_come_says_what_to_check() {
     let certs = Certs::new();
     // `--join-wait` shortens the default 20 s wait (the message names the wait it had).
-    let mut args = certs.coordinator_args(&certs.coordinator.key, "127.0.0.1:0");
-    args.extend(["--join-wait".to_string(), "1.5".to_string()]);
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    let out = run(certs.path(), &certs.path().join("cache"), &args);
+    let key = &certs.coordinator.key;
+    let out = certs.run_coordinator_with(key, "127.0.0.1:0", &["--join-wait", "1.5"]);
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(
@@ -252,10 +259,7 @@ fn a_coordinator_whose_workers_do_not_come_says_what_to_check() {
     assert!(!err.contains("network:"), "{err}");
 
     // Out of range: refused naming the flag and the range, before anything is built.
-    let mut args = certs.coordinator_args(&certs.coordinator.key, "127.0.0.1:0");
-    args.extend(["--join-wait".to_string(), "0".to_string()]);
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    let out = run(certs.path(), &certs.path().join("cache"), &args);
+    let out = certs.run_coordinator_with(key, "127.0.0.1:0", &["--join-wait", "0"]);
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(err.contains("--join-wait"), "{err}");
@@ -263,10 +267,7 @@ fn a_coordinator_whose_workers_do_not_come_says_what_to_check() {
     // The same key in a config file: refused naming the file, the key and the range.
     let config = certs.path().join("waits-too-long.toml");
     std::fs::write(&config, "join_wait = 5000\n").unwrap();
-    let mut args = certs.coordinator_args(&certs.coordinator.key, "127.0.0.1:0");
-    args.extend(["--config".to_string(), text(&config)]);
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    let out = run(certs.path(), &certs.path().join("cache"), &args);
+    let out = certs.run_coordinator_with(key, "127.0.0.1:0", &["--config", &text(&config)]);
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(1), "{err}");
     let expected = format!("{}: `join_wait`: allowed 0.1..=3600 s", config.display());

@@ -82,17 +82,21 @@ pub fn parse_seconds(text: &str) -> Result<f64, String> {
     }
 }
 
+/// Shortest `--join-wait` (s).
+pub const MIN_JOIN_WAIT_SECONDS: f64 = 0.1;
+
 /// Longest `--join-wait` (s): an hour.
 pub const MAX_JOIN_WAIT_SECONDS: f64 = 3600.0;
 
-/// `--join-wait`: seconds a coordinator waits for its workers, 0.1..=[`MAX_JOIN_WAIT_SECONDS`].
+/// `--join-wait`: seconds a coordinator waits for its workers, [`MIN_JOIN_WAIT_SECONDS`]..=
+/// [`MAX_JOIN_WAIT_SECONDS`].
 pub fn parse_join_wait(text: &str) -> Result<f64, String> {
-    let range = format!("allowed 0.1..={MAX_JOIN_WAIT_SECONDS} s");
+    let range = format!("allowed {MIN_JOIN_WAIT_SECONDS}..={MAX_JOIN_WAIT_SECONDS} s");
     let s: f64 = text
         .trim()
         .parse()
         .map_err(|_| format!("not a number; {range}"))?;
-    if (0.1..=MAX_JOIN_WAIT_SECONDS).contains(&s) {
+    if (MIN_JOIN_WAIT_SECONDS..=MAX_JOIN_WAIT_SECONDS).contains(&s) {
         Ok(s)
     } else {
         Err(range)
