@@ -10,6 +10,8 @@
 //! - [`bvh`]: a median-split AABB tree with branch-and-bound nearest queries.
 //! - closest point on a triangle and its feature: [`vps_mesh::closest_point`].
 //! - [`components`]: connected components of a mesh and whether each is closed and oriented.
+//! - [`orient`]: triangles turned to face outward (for the winding number of meshes written
+//!   clockwise or in mixed order).
 //! - [`scene`]: [`ExactScene`], [`SignedDistance`].
 //! - [`contact`]: [`reference_contact`], [`ReferenceContact`].
 //! - [`clearance`]: [`RigidClearance`], the exact distance between a posed part's mesh and each
@@ -32,6 +34,7 @@ pub mod bvh;
 pub mod clearance;
 pub mod components;
 pub mod contact;
+pub mod orient;
 pub mod scene;
 pub mod winding;
 

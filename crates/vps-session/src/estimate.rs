@@ -137,7 +137,8 @@ pub struct SceneMemoryEstimate {
     pub exact_reference_bytes: u64,
     /// The voxelizer's winding-number trees (`vps_reference::winding::WindingTree`) for static
     /// objects that are not closed, or for every object when a workspace may cut them; 0
-    /// otherwise. An upper bound: a tree holds only an object's open part.
+    /// otherwise, with the copy of the triangles turned outward each is built from
+    /// (`vps_reference::orient`). An upper bound: a tree holds only an object's open part.
     pub winding_trees_bytes: u64,
     /// The part's point shell (about 1.5 points per voxel of its surface area).
     pub shell_bytes: u64,
@@ -217,9 +218,10 @@ pub fn scene_memory(
             )
         }
     };
-    let winding = vps_reference::winding::WindingTree::estimated_bytes(
-        usize::try_from(inputs.winding_triangles).unwrap_or(usize::MAX),
-    );
+    // The tree, and the triangles turned outward that it is built from.
+    let winding_triangles = usize::try_from(inputs.winding_triangles).unwrap_or(usize::MAX);
+    let winding = vps_reference::winding::WindingTree::estimated_bytes(winding_triangles)
+        .saturating_add(vps_reference::orient::estimated_bytes(winding_triangles));
     let shell_points = 1.5 * inputs.part_area_m2 / (voxel_size * voxel_size);
     let shell = bytes(shell_points * SHELL_BYTES_PER_POINT as f64);
     let viewer = if inputs.viewer {

@@ -1395,6 +1395,7 @@ mod tests {
         assert_eq!(
             est.winding_trees_bytes,
             vps_reference::winding::WindingTree::estimated_bytes(10)
+                + vps_reference::orient::estimated_bytes(10)
         );
         assert!(est.total_bytes > est.winding_trees_bytes);
     }

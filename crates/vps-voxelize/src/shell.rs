@@ -13,6 +13,7 @@ use glam::{DVec3, IVec3, Vec3};
 use rayon::prelude::*;
 use vps_mesh::closest_point::closest_point;
 use vps_mesh::TriMesh;
+use vps_reference::orient::outward_flips;
 use vps_voxmap::shell::ShellMethod;
 use vps_voxmap::{GridSpec, PointShell};
 
@@ -49,8 +50,9 @@ pub fn morton_key(ijk: [u32; 3]) -> u64 {
 /// each corner) probe 1.5, 2.5, then 3.5 voxels along ± its normal; a side scores Interior above
 /// Surface above Free, and the normal points to the side that scores higher at the first probe where they differ.
 /// Only when every probe ties (a sheet with no interior, or a part thinner than the probes resolve)
-/// does the winding decide (inward = minus the counter-clockwise normal). So badly oriented meshes
-/// such as tessellated Bezier teapots still get inward normals.
+/// does the winding decide: inward = minus the counter-clockwise normal of the triangle turned to
+/// face outward ([`vps_reference::orient::outward_flips`]; a flat sheet as written). So badly
+/// oriented meshes such as tessellated Bezier teapots still get inward normals.
 ///
 /// Mass properties: [`mass_properties`] when the mesh is closed and consistently oriented
 /// ([`is_closed_and_oriented`]); otherwise estimated from the voxelization (Interior voxels plus half
@@ -126,9 +128,31 @@ pub fn point_shell_within(
             -1
         }
     };
-    let inward: Vec<DVec3> = (0..mesh.triangle_count())
+    let probed: Vec<Option<DVec3>> = (0..mesh.triangle_count())
         .into_par_iter()
         .map(|t| triangle_inward_normal(mesh.triangle(t), spec.voxel_size, classify))
+        .collect();
+    // Where no probe tells, the winding decides, of the triangles turned to face outward (so a
+    // mesh written clockwise or in mixed order gets the normals of one written outward).
+    let flips = if probed.iter().any(Option::is_none) {
+        outward_flips(mesh)
+    } else {
+        Vec::new()
+    };
+    let inward: Vec<DVec3> = probed
+        .iter()
+        .enumerate()
+        .map(|(t, n)| {
+            n.unwrap_or_else(|| {
+                let [a, b, c] = mesh.triangle(t);
+                let wound_inward = -(b - a).cross(c - a);
+                if flips[t] {
+                    -wound_inward
+                } else {
+                    wound_inward
+                }
+            })
+        })
         .collect();
     let mut samples: Vec<(u64, Vec3, Vec3)> = groups
         .par_iter()
@@ -198,8 +222,13 @@ fn nearest_and_normal(
 }
 
 /// The inward normal of triangle `tri`, scaled by twice its area, oriented by probing the object's
-/// voxelization (`classify`: Interior 1, Surface 0, Free -1) as described at [`point_shell`].
-fn triangle_inward_normal(tri: [DVec3; 3], s: f64, classify: impl Fn(DVec3) -> i8) -> DVec3 {
+/// voxelization (`classify`: Interior 1, Surface 0, Free -1) as described at [`point_shell`];
+/// `None` when no probe tells the sides apart.
+fn triangle_inward_normal(
+    tri: [DVec3; 3],
+    s: f64,
+    classify: impl Fn(DVec3) -> i8,
+) -> Option<DVec3> {
     let wound_inward = -(tri[1] - tri[0]).cross(tri[2] - tri[0]);
     let unit = wound_inward.normalize_or_zero();
     let centroid = (tri[0] + tri[1] + tri[2]) / 3.0;
@@ -211,12 +240,12 @@ fn triangle_inward_normal(tri: [DVec3; 3], s: f64, classify: impl Fn(DVec3) -> i
     ];
     for origin in origins {
         match probe_side(origin, unit, s, &classify) {
-            Some(true) => return wound_inward,
-            Some(false) => return -wound_inward,
+            Some(true) => return Some(wound_inward),
+            Some(false) => return Some(-wound_inward),
             None => {}
         }
     }
-    wound_inward
+    None
 }
 
 /// Whether `normal` at `point` points inside (`Some(true)`), outside (`Some(false)`) or cannot be
@@ -263,8 +292,8 @@ mod tests {
         // A triangle in the plane x = 0 wound with outward normal -x (wrong): the probes fix it.
         let tri = [DVec3::ZERO, DVec3::Z, DVec3::Y];
         assert_eq!((tri[1] - tri[0]).cross(tri[2] - tri[0]), -DVec3::X);
-        assert_eq!(triangle_inward_normal(tri, 0.1, classify), -DVec3::X);
-        // Undecidable: the winding decides.
-        assert_eq!(triangle_inward_normal(tri, 0.1, |_| -1), DVec3::X);
+        assert_eq!(triangle_inward_normal(tri, 0.1, classify), Some(-DVec3::X));
+        // Undecidable: left to the winding.
+        assert_eq!(triangle_inward_normal(tri, 0.1, |_| -1), None);
     }
 }

@@ -6,7 +6,10 @@
 //! together, flood-filled exactly as before) and the rest (open). An open part is flood-filled too;
 //! then every voxel the fill reached (through a leak or from outside) becomes Interior where the
 //! generalized winding number at its centre is at least 0.5
-//! ([`vps_reference::winding::WindingTree`]), and stays Free otherwise. Voxels the fill did not
+//! ([`vps_reference::winding::WindingTree`]), and stays Free otherwise. The winding number is
+//! taken of the part's triangles turned to face outward
+//! ([`vps_reference::orient::oriented_outward`]), so a mesh written clockwise (w = −1 inside as
+//! written) or in mixed order keeps its inside. Voxels the fill did not
 //! reach stay Interior: sealed by Surface, they are inside whatever the triangles' orientation (a
 //! mesh with scrambled winding keeps the inside the flood fill found). A closed part whose window is cut by
 //! the grid's boundary is flood-filled from the walls as before, except that a wall voxel on a cut
@@ -21,6 +24,7 @@ use rayon::prelude::*;
 use std::borrow::Cow;
 use vps_mesh::TriMesh;
 use vps_reference::components::components;
+use vps_reference::orient::oriented_outward;
 use vps_reference::winding::{WindingTree, BETA};
 use vps_voxmap::GridSpec;
 
@@ -131,7 +135,7 @@ impl PartClass {
         }
         let needs_tree = open || cut.iter().flatten().any(|&c| c);
         Some(PartClass {
-            tree: needs_tree.then(|| WindingTree::new(mesh, BETA)),
+            tree: needs_tree.then(|| WindingTree::new(&oriented_outward(mesh), BETA)),
             open,
             cut,
             lo: clo,

@@ -113,6 +113,49 @@ fn open_box_is_interior_inside() {
     );
 }
 
+/// `m` with every triangle's last two corners swapped: written clockwise, as some exporters do.
+fn clockwise(m: &TriMesh) -> TriMesh {
+    let mut m = m.clone();
+    for t in &mut m.triangles {
+        *t = [t[0], t[2], t[1]];
+    }
+    m
+}
+
+#[test]
+fn an_open_box_written_clockwise_is_interior_inside() {
+    // As written, w is about −1 inside (the flood fill runs in through the missing face); turned
+    // outward first, it is about +1. Before, every reached voxel inside read Free.
+    assert_interior(&voxelize0(&clockwise(&box_without_top())));
+    // Half the triangles flipped: the same.
+    let mut mixed = box_without_top();
+    for t in mixed.triangles.iter_mut().step_by(2) {
+        *t = [t[0], t[2], t[1]];
+    }
+    assert_interior(&voxelize0(&mixed));
+}
+
+#[test]
+fn a_workspace_wall_through_a_box_written_clockwise_keeps_its_inside() {
+    // A closed box written clockwise: its cut walls seed the flood fill only where the winding
+    // number (of the triangles turned outward) says outside. Before, w = −1 inside let them seed
+    // and the inside read Free.
+    let opts = VoxelizeOptions {
+        voxel_size: S,
+        offset_layers: 0,
+        workspace: Some(vps_mesh::Aabb {
+            min: C + DVec3::new(-H + 2.0 * S, -0.2, -0.2),
+            max: C + DVec3::new(0.2, 0.2, 0.2),
+        }),
+        ..Default::default()
+    };
+    let m = clockwise(&cuboid(DVec3::splat(H))).transformed(1.0, glam::DQuat::IDENTITY, C);
+    let grid = voxelize(&[m], &opts).unwrap();
+    assert_eq!(grid.get(grid.spec.index_of(C)), Voxel::Interior);
+    let near_cut = C + DVec3::new(-H + 2.5 * S, 0.0, 0.0);
+    assert_eq!(grid.get(grid.spec.index_of(near_cut)), Voxel::Interior);
+}
+
 /// Every voxel deeper than one voxel inside the box is Interior, and the centre is.
 fn assert_interior(grid: &DenseGrid) {
     let inside = deep_inside(grid);
