@@ -315,7 +315,13 @@ fn to_mesh(poly: &PolygonMesh, weld: f64) -> ShellMesh {
         'search: for dx in -1..=1 {
             for dy in -1..=1 {
                 for dz in -1..=1 {
-                    let key = [cell[0] + dx, cell[1] + dy, cell[2] + dz];
+                    // Saturating: a position far beyond any part (a malformed file's 1e300)
+                    // floors to the ends of i64 (fuzz target `step`, input 18,909 of seed 0x5EED).
+                    let key = [
+                        cell[0].saturating_add(dx),
+                        cell[1].saturating_add(dy),
+                        cell[2].saturating_add(dz),
+                    ];
                     if let Some(list) = cells.get(&key) {
                         if let Some(&i) = list
                             .iter()

@@ -296,3 +296,20 @@ fn a_file_the_kernel_looped_on_is_refused_naming_the_surface() {
     let s = vps_step::read_structure(&bytes, None).unwrap();
     assert_eq!(s.selected.len(), 1);
 }
+
+#[test]
+fn a_file_with_a_position_beyond_any_part_is_read_without_overflow() {
+    // Fuzz target `step`, input 18,909 of seed 0x5EED (a mutation of one of the public files in
+    // assets/step): a coordinate so large that the welding grid's cell index floored to the end
+    // of i64 and the search of its neighbour cells overflowed (a panic in the test profile's
+    // overflow checks, a wrapped key in release). Whatever the read decides, it returns.
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/far-position.step");
+    let bytes = std::fs::read(path).unwrap();
+    let e = read_step(&bytes, &StepOptions::new(0.5e-3)).unwrap_err();
+    // Refused for what the geometry is (its far corner tears the cube's faces apart), not for a
+    // panic caught in vps's own welding.
+    let text = e.to_string();
+    for part in ["solid 'red_cube'", "do not close", "open edges"] {
+        assert!(text.contains(part), "{part}: {text}");
+    }
+}
