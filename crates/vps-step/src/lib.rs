@@ -23,6 +23,7 @@
 
 #![warn(missing_docs)]
 
+mod fill;
 pub mod guard;
 pub mod p21;
 pub mod structure;

@@ -13,7 +13,9 @@ use glam::DVec3;
 use truck_meshalgo::prelude::*;
 use truck_stepio::r#in::alias::{Curve3D, Surface};
 use truck_stepio::r#in::Table;
-use truck_topology::compress::{CompressedEdge, CompressedFace, CompressedShell};
+use truck_topology::compress::{
+    CompressedEdge, CompressedEdgeIndex, CompressedFace, CompressedShell,
+};
 
 use crate::guard::{DivisionBudget, Guarded, GuardedCurve, OutOfEvaluations, FIRST_PASS_POINTS};
 
@@ -221,14 +223,8 @@ pub fn shell(
             }
         }
         let triangulated = compressed.robust_triangulation(tolerance);
-        let failed_faces = triangulated
-            .faces
-            .iter()
-            .zip(&compressed.faces)
-            .filter(|(t, _)| t.surface.as_ref().is_none_or(|m| m.faces().is_empty()))
-            .map(|(_, face)| surface_kind(&format!("{:?}", face.surface.surface())))
-            .collect();
-        let mesh = to_mesh(&triangulated.to_polygon(), weld);
+        let surfaces: Vec<&Guarded> = compressed.faces.iter().map(|f| &f.surface).collect();
+        let (mesh, failed_faces) = assemble(&triangulated, &surfaces, weld);
         if mesh.triangles.len() > max_triangles {
             return Err(ShellFailure::TooMany {
                 triangles: mesh.triangles.len(),
@@ -305,14 +301,49 @@ fn guarded(
 /// one (truck repeats a position per face, sometimes a few ulps apart; welding them is what lets
 /// [`ShellMesh::open_edges`] see the seams). Degenerate triangles left by welding are dropped.
 fn to_mesh(poly: &PolygonMesh, weld: f64) -> ShellMesh {
-    let mut cells: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
-    let mut vertices: Vec<DVec3> = Vec::new();
-    let mut welded = Vec::with_capacity(poly.positions().len());
-    for p in poly.positions() {
-        let v = DVec3::new(p.x, p.y, p.z);
-        let cell = (v / weld).floor().as_i64vec3().to_array();
-        let mut found = None;
-        'search: for dx in -1..=1 {
+    let mut welder = Welder::new(weld);
+    let welded: Vec<u32> = poly
+        .positions()
+        .iter()
+        .map(|p| welder.index(DVec3::new(p.x, p.y, p.z)))
+        .collect();
+    let triangles = poly
+        .faces()
+        .triangle_iter()
+        .map(|t| [welded[t[0].pos], welded[t[1].pos], welded[t[2].pos]])
+        .filter(|t| !is_degenerate(*t))
+        .collect();
+    ShellMesh {
+        vertices: welder.vertices,
+        triangles,
+    }
+}
+
+/// Two corners of `t` are one vertex.
+fn is_degenerate(t: [u32; 3]) -> bool {
+    t[0] == t[1] || t[1] == t[2] || t[0] == t[2]
+}
+
+/// Positions made one vertex when closer than `weld`, through a hash of cells `weld` wide.
+struct Welder {
+    weld: f64,
+    cells: HashMap<[i64; 3], Vec<u32>>,
+    vertices: Vec<DVec3>,
+}
+
+impl Welder {
+    fn new(weld: f64) -> Welder {
+        Welder {
+            weld,
+            cells: HashMap::new(),
+            vertices: Vec::new(),
+        }
+    }
+
+    /// The vertex at `v`: one within `weld` of it, or a new one.
+    fn index(&mut self, v: DVec3) -> u32 {
+        let cell = (v / self.weld).floor().as_i64vec3().to_array();
+        for dx in -1..=1 {
             for dy in -1..=1 {
                 for dz in -1..=1 {
                     // Saturating: a position far beyond any part (a malformed file's 1e300)
@@ -322,36 +353,176 @@ fn to_mesh(poly: &PolygonMesh, weld: f64) -> ShellMesh {
                         cell[1].saturating_add(dy),
                         cell[2].saturating_add(dz),
                     ];
-                    if let Some(list) = cells.get(&key) {
+                    if let Some(list) = self.cells.get(&key) {
                         if let Some(&i) = list
                             .iter()
-                            .find(|&&i| vertices[i as usize].distance(v) <= weld)
+                            .find(|&&i| self.vertices[i as usize].distance(v) <= self.weld)
                         {
-                            found = Some(i);
-                            break 'search;
+                            return i;
                         }
                     }
                 }
             }
         }
-        let i = found.unwrap_or_else(|| {
-            vertices.push(v);
-            let i = (vertices.len() - 1) as u32;
-            cells.entry(cell).or_default().push(i);
-            i
-        });
-        welded.push(i);
+        self.vertices.push(v);
+        let i = (self.vertices.len() - 1) as u32;
+        self.cells.entry(cell).or_default().push(i);
+        i
     }
-    let triangles = poly
-        .faces()
-        .triangle_iter()
-        .map(|t| [welded[t[0].pos], welded[t[1].pos], welded[t[2].pos]])
-        .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+}
+
+/// The shell's triangles, welded, face by face: truck's where they cover the face (the edges its
+/// triangles use once are exactly the segments of the face's boundary polylines), else the face
+/// laid out by [`crate::fill::rectangle_face`] where it can be, turned to run its edges against
+/// its neighbours'. Returns the mesh and the surface kind of each face still not covered (left as
+/// truck made it: the shell will not close).
+fn assemble(
+    triangulated: &CompressedShell<Point3, PolylineCurve<Point3>, Option<PolygonMesh>>,
+    surfaces: &[&Guarded],
+    weld: f64,
+) -> (ShellMesh, Vec<String>) {
+    let mut welder = Welder::new(weld);
+    let mut triangles: Vec<[u32; 3]> = Vec::new();
+    let mut laid_out: Vec<Vec<[u32; 3]>> = Vec::new();
+    let mut failed = Vec::new();
+    for (face, surface) in triangulated.faces.iter().zip(surfaces) {
+        let mut own: Vec<[u32; 3]> = Vec::new();
+        if let Some(poly) = &face.surface {
+            let poly = if face.orientation {
+                poly.clone()
+            } else {
+                poly.inverse()
+            };
+            let index: Vec<u32> = poly
+                .positions()
+                .iter()
+                .map(|p| welder.index(DVec3::new(p.x, p.y, p.z)))
+                .collect();
+            own.extend(
+                poly.faces()
+                    .triangle_iter()
+                    .map(|t| [index[t[0].pos], index[t[1].pos], index[t[2].pos]])
+                    .filter(|t| !is_degenerate(*t)),
+            );
+        }
+        let loops: Vec<Vec<DVec3>> = face
+            .boundaries
+            .iter()
+            .map(|wire| loop_points(triangulated, wire))
+            .collect();
+        if !own.is_empty() && covers(&own, &loops, &mut welder) {
+            triangles.extend(own);
+            continue;
+        }
+        let filled = match loops.as_slice() {
+            [boundary] => crate::fill::rectangle_face(*surface, boundary),
+            _ => None,
+        };
+        match filled {
+            Some(face_triangles) => laid_out.push(
+                face_triangles
+                    .iter()
+                    .map(|t| t.map(|p| welder.index(p)))
+                    .filter(|t| !is_degenerate(*t))
+                    .collect(),
+            ),
+            None => {
+                failed.push(surface_kind(&format!("{:?}", surface.surface())));
+                triangles.extend(own);
+            }
+        }
+    }
+    // Each face laid out here turned to run its edges against its neighbours' (a face alone, like
+    // a whole torus, is turned with the shell by its volume's sign).
+    let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
+    let add_edges = |tris: &[[u32; 3]], directed: &mut HashMap<(u32, u32), u32>| {
+        for t in tris {
+            for k in 0..3 {
+                *directed.entry((t[k], t[(k + 1) % 3])).or_default() += 1;
+            }
+        }
+    };
+    add_edges(&triangles, &mut directed);
+    for mut face in laid_out {
+        let (mut same, mut against) = (0, 0);
+        for t in &face {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                same += usize::from(directed.contains_key(&(a, b)));
+                against += usize::from(directed.contains_key(&(b, a)));
+            }
+        }
+        if same > against {
+            for t in &mut face {
+                t.swap(1, 2);
+            }
+        }
+        add_edges(&face, &mut directed);
+        triangles.extend(face);
+    }
+    (
+        ShellMesh {
+            vertices: welder.vertices,
+            triangles,
+        },
+        failed,
+    )
+}
+
+/// Whether the edges `triangles` use once are exactly the segments of `loops` (welded by
+/// `welder`): the face is covered, with no hole and nothing beyond its boundary.
+fn covers(triangles: &[[u32; 3]], loops: &[Vec<DVec3>], welder: &mut Welder) -> bool {
+    let key = |a: u32, b: u32| (a.min(b), a.max(b));
+    let mut uses: HashMap<(u32, u32), u32> = HashMap::new();
+    for t in triangles {
+        for k in 0..3 {
+            *uses.entry(key(t[k], t[(k + 1) % 3])).or_default() += 1;
+        }
+    }
+    let mut boundary: std::collections::HashSet<(u32, u32)> = std::collections::HashSet::new();
+    for l in loops {
+        let index: Vec<u32> = l.iter().map(|&p| welder.index(p)).collect();
+        for k in 0..index.len() {
+            let (a, b) = (index[k], index[(k + 1) % index.len()]);
+            if a != b {
+                boundary.insert(key(a, b));
+            }
+        }
+    }
+    let once: std::collections::HashSet<(u32, u32)> = uses
+        .into_iter()
+        .filter(|&(_, n)| n == 1)
+        .map(|(e, _)| e)
         .collect();
-    ShellMesh {
-        vertices,
-        triangles,
+    once == boundary
+}
+
+/// The points of boundary wire `wire` of a face of `shell`, in order, each edge's polyline
+/// joined to the next (the joint once; the last point not repeating the first).
+fn loop_points(
+    shell: &CompressedShell<Point3, PolylineCurve<Point3>, Option<PolygonMesh>>,
+    wire: &[CompressedEdgeIndex],
+) -> Vec<DVec3> {
+    let mut points: Vec<DVec3> = Vec::new();
+    for e in wire {
+        let Some(edge) = shell.edges.get(e.index) else {
+            return Vec::new();
+        };
+        let mut line: Vec<DVec3> = edge
+            .curve
+            .iter()
+            .map(|p| DVec3::new(p.x, p.y, p.z))
+            .collect();
+        if !e.orientation {
+            line.reverse();
+        }
+        let skip = usize::from(points.last().is_some_and(|p| Some(p) == line.first()));
+        points.extend_from_slice(&line[skip.min(line.len())..]);
     }
+    if points.len() > 1 && points.first() == points.last() {
+        points.pop();
+    }
+    points
 }
 
 /// The STEP-like name of a surface from its debug text: the first word naming a surface
