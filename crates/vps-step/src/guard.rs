@@ -21,7 +21,7 @@
 //! surface legitimately huge against the tolerance, and truck's triangulator then spends time per
 //! triangle per boundary point (one fuzzed input spent minutes there under a 10⁷-point grid).
 
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
 use truck_meshalgo::prelude::*;
@@ -71,19 +71,24 @@ pub struct DivisionBudget {
     evaluations_left: Vec<AtomicU64>,
     /// Debug text of the first surface or curve that ran over a bound.
     first: Mutex<Option<String>>,
+    /// Set when the read's deadline has passed: the next evaluation unwinds.
+    cancelled: Arc<AtomicBool>,
 }
 
 impl DivisionBudget {
     /// For `faces` faces: at most `max_points` grid points per face (at least 4), [`MAX_PASSES`]
     /// passes, and [`FACE_EVALUATIONS`] evaluations a face plus
     /// [`EVALUATIONS_PER_GRID_POINT`] per point of its grids.
-    pub fn new(faces: usize, max_points: usize) -> Arc<Self> {
+    /// `cancelled`, once set, stops the pass at the next evaluation or edge division (the read's
+    /// deadline: its thread then ends instead of running on).
+    pub fn new(faces: usize, max_points: usize, cancelled: Arc<AtomicBool>) -> Arc<Self> {
         Arc::new(Self {
             max_points: AtomicUsize::new(max_points.max(4)),
             evaluations_left: (0..faces)
                 .map(|_| AtomicU64::new(FACE_EVALUATIONS))
                 .collect(),
             first: Mutex::new(None),
+            cancelled,
         })
     }
 
@@ -97,6 +102,9 @@ impl DivisionBudget {
 
     /// Takes `n` of face `face`'s evaluations; when they are not left, stops at `surface`.
     fn spend(&self, face: usize, surface: &Surface, n: u64) {
+        if self.cancelled.load(Ordering::Relaxed) {
+            std::panic::resume_unwind(Box::new(Cancelled));
+        }
         let Some(left) = self.evaluations_left.get(face) else {
             return;
         };
@@ -197,6 +205,9 @@ impl BoundedCurve for GuardedCurve {
 impl ParameterDivision1D for GuardedCurve {
     type Point = Point3;
     fn parameter_division(&self, range: (f64, f64), tol: f64) -> (Vec<f64>, Vec<Point3>) {
+        if self.budget.cancelled.load(Ordering::Relaxed) {
+            std::panic::resume_unwind(Box::new(Cancelled));
+        }
         let spline = matches!(
             self.curve,
             Curve3D::BSplineCurve(_) | Curve3D::NurbsCurve(_)
@@ -265,6 +276,10 @@ fn bounded_curve_division<C: ParametricCurve<Point = Point3>>(
 /// The unwind payload of a face or edge that ran over a bound of its [`DivisionBudget`].
 #[derive(Debug)]
 pub struct OutOfEvaluations;
+
+/// The unwind payload of a pass stopped because the read's deadline passed.
+#[derive(Debug)]
+pub struct Cancelled;
 
 /// Face `face`'s surface with its division and evaluations bounded by a shared
 /// [`DivisionBudget`]; every other operation is the surface's own.
@@ -498,6 +513,21 @@ mod tests {
             })
             .collect();
         BSplineSurface::new((knots.clone(), knots), points)
+    }
+
+    /// Once the read's deadline has set the flag, the next evaluation unwinds with `Cancelled`
+    /// (before, a read given up on ran on to its end).
+    #[test]
+    fn a_cancelled_budget_stops_at_the_next_evaluation() {
+        let cancelled = Arc::new(AtomicBool::new(false));
+        let budget = DivisionBudget::new(1, 100, cancelled.clone());
+        let surface = Guarded::new(Surface::BSplineSurface(Box::new(bumpy())), 0, budget);
+        let _ = surface.subs(0.5, 0.5);
+        cancelled.store(true, Ordering::Relaxed);
+        let stopped =
+            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| surface.subs(0.5, 0.5)))
+                .expect_err("unwinds");
+        assert!(stopped.is::<Cancelled>());
     }
 
     #[test]

@@ -131,7 +131,8 @@ pub enum StepError {
     /// The options or the selection do not fit the file.
     Selection(String),
     /// The tessellation did not finish within [`StepOptions::deadline`] (a backstop: the bounds of
-    /// [`guard`] stop every malformed surface seen so far long before it).
+    /// [`guard`] stop every malformed surface seen so far long before it). Its thread stops at its
+    /// next surface evaluation or edge division.
     Deadline {
         /// The deadline (s).
         seconds: f64,
@@ -283,6 +284,10 @@ pub fn read_step(bytes: &[u8], options: &StepOptions) -> Result<StepModel, StepE
     needed.dedup();
     let max_triangles = options.max_triangles;
     let (send, receive) = std::sync::mpsc::channel();
+    // Set at the deadline: the thread's tessellation stops at its next surface evaluation or edge
+    // division (every one goes through `guard`), so a read given up on does not run on.
+    let cancelled = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let cancel = cancelled.clone();
     std::thread::Builder::new()
         .name("vps-step tessellate".into())
         .spawn(move || {
@@ -290,8 +295,14 @@ pub fn read_step(bytes: &[u8], options: &StepOptions) -> Result<StepModel, StepE
                 needed
                     .into_iter()
                     .map(|id| {
-                        let mesh =
-                            tessellate::shell(&table, id, tolerance, coarse_limit, max_triangles);
+                        let mesh = tessellate::shell(
+                            &table,
+                            id,
+                            tolerance,
+                            coarse_limit,
+                            max_triangles,
+                            &cancel,
+                        );
                         (id, mesh)
                     })
                     .collect();
@@ -301,11 +312,12 @@ pub fn read_step(bytes: &[u8], options: &StepOptions) -> Result<StepModel, StepE
             what: format!("cannot start the tessellating thread: {e}"),
             line: None,
         })?;
-    let shells = receive
-        .recv_timeout(options.deadline)
-        .map_err(|_| StepError::Deadline {
+    let shells = receive.recv_timeout(options.deadline).map_err(|_| {
+        cancelled.store(true, std::sync::atomic::Ordering::Relaxed);
+        StepError::Deadline {
             seconds: options.deadline.as_secs_f64(),
-        })?;
+        }
+    })?;
     let mut solids = Vec::new();
     for (name, s) in &selected {
         for &shell in std::iter::once(&s.outer).chain(&s.voids) {

@@ -17,7 +17,11 @@ use truck_topology::compress::{
     CompressedEdge, CompressedEdgeIndex, CompressedFace, CompressedShell,
 };
 
-use crate::guard::{DivisionBudget, Guarded, GuardedCurve, OutOfEvaluations, FIRST_PASS_POINTS};
+use crate::guard::{
+    Cancelled, DivisionBudget, Guarded, GuardedCurve, OutOfEvaluations, FIRST_PASS_POINTS,
+};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 
 /// A shell as triangles, in file units.
 #[derive(Clone, Debug, Default)]
@@ -106,6 +110,8 @@ pub enum ShellFailure {
         /// What ran over: `a face on its NurbsSurface`, `an edge on its BSplineCurve`.
         surface: String,
     },
+    /// The read's deadline passed and stopped it.
+    Cancelled,
     /// More triangles than allowed.
     TooMany {
         /// The estimate or count.
@@ -161,6 +167,7 @@ impl std::fmt::Display for ShellFailure {
                 crate::guard::EDGE_POINTS
             ),
             Self::TooMany { triangles } => write!(f, "it needs about {triangles} triangles"),
+            Self::Cancelled => write!(f, "its tessellation was stopped at the read's deadline"),
         }
     }
 }
@@ -178,6 +185,7 @@ pub fn shell(
     tolerance: f64,
     coarse_limit: f64,
     max_triangles: usize,
+    cancelled: &Arc<AtomicBool>,
 ) -> Result<ShellMesh, ShellFailure> {
     let holder = table.shell.get(&shell).ok_or(ShellFailure::NotRead)?;
     let budget_slot = std::sync::OnceLock::<std::sync::Arc<DivisionBudget>>::new();
@@ -192,6 +200,7 @@ pub fn shell(
         let budget = DivisionBudget::new(
             shell_read.faces.len(),
             FIRST_PASS_POINTS.min(max_triangles / 2),
+            cancelled.clone(),
         );
         let _ = budget_slot.set(budget.clone());
         let compressed = guarded(shell_read, &budget);
@@ -224,7 +233,7 @@ pub fn shell(
         }
         let triangulated = compressed.robust_triangulation(tolerance);
         let surfaces: Vec<&Guarded> = compressed.faces.iter().map(|f| &f.surface).collect();
-        let (mesh, failed_faces) = assemble(&triangulated, &surfaces, weld);
+        let (mesh, failed_faces) = assemble(&triangulated, &surfaces, weld, cancelled);
         if mesh.triangles.len() > max_triangles {
             return Err(ShellFailure::TooMany {
                 triangles: mesh.triangles.len(),
@@ -234,6 +243,9 @@ pub fn shell(
     };
     let (mesh, faces, failed_faces) = std::panic::catch_unwind(std::panic::AssertUnwindSafe(run))
         .unwrap_or_else(|p| {
+        if p.is::<Cancelled>() {
+            return Err(ShellFailure::Cancelled);
+        }
         if p.is::<OutOfEvaluations>() {
             let surface = budget_slot
                 .get()
@@ -376,16 +388,21 @@ impl Welder {
 /// laid out by [`crate::fill::rectangle_face`] where it can be, turned to run its edges against
 /// its neighbours'. Returns the mesh and the surface kind of each face still not covered (left as
 /// truck made it: the shell will not close).
+/// Unwinds with [`Cancelled`] between faces once `cancelled` is set.
 fn assemble(
     triangulated: &CompressedShell<Point3, PolylineCurve<Point3>, Option<PolygonMesh>>,
     surfaces: &[&Guarded],
     weld: f64,
+    cancelled: &AtomicBool,
 ) -> (ShellMesh, Vec<String>) {
     let mut welder = Welder::new(weld);
     let mut triangles: Vec<[u32; 3]> = Vec::new();
     let mut laid_out: Vec<Vec<[u32; 3]>> = Vec::new();
     let mut failed = Vec::new();
     for (face, surface) in triangulated.faces.iter().zip(surfaces) {
+        if cancelled.load(std::sync::atomic::Ordering::Relaxed) {
+            std::panic::resume_unwind(Box::new(Cancelled));
+        }
         let mut own: Vec<[u32; 3]> = Vec::new();
         if let Some(poly) = &face.surface {
             let poly = if face.orientation {
