@@ -30,9 +30,14 @@ struct Placed {
 
 /// The triangles (counter-clockwise in (u, v); the caller orients them against the neighbouring
 /// faces) of a face on `surface` whose boundary is `boundary` (one closed loop of points, the
-/// last not repeating the first), or `None` when the boundary is not a rectangle in (u, v) or a
-/// point cannot be placed on the surface. Evaluates the surface about once per triangle.
-pub(crate) fn rectangle_face<S>(surface: &S, boundary: &[DVec3]) -> Option<Vec<[DVec3; 3]>>
+/// last not repeating the first), or `None` when the boundary is not a rectangle in (u, v), a
+/// point cannot be placed on the surface, or the layout would take more than `max_triangles`
+/// triangles (counted before any is made). Evaluates the surface about once per triangle.
+pub(crate) fn rectangle_face<S>(
+    surface: &S,
+    boundary: &[DVec3],
+    max_triangles: usize,
+) -> Option<Vec<[DVec3; 3]>>
 where
     S: ParametricSurface3D + SearchNearestParameter<D2, Point = Point3>,
 {
@@ -92,6 +97,11 @@ where
         let top = side(true, other, axis);
         if bottom.len() < 2 || top.len() < 2 {
             continue;
+        }
+        // Each strip between rows has at most as many triangles as its two rows have points.
+        let widest = bottom.len().max(top.len()) as u64;
+        if (first.len() as u64).saturating_mul(2 * widest) > max_triangles as u64 {
+            return None;
         }
         let columns: Vec<f64> = if bottom.len() >= top.len() {
             bottom.iter().map(|p| p.uv[other]).collect()
@@ -306,7 +316,9 @@ mod tests {
             DVec3::new(1.0, 1.0, 0.0),
             DVec3::new(0.0, 1.0, 0.0),
         ];
-        let triangles = rectangle_face(&plane, &square).expect("a rectangle");
+        let triangles = rectangle_face(&plane, &square, 100).expect("a rectangle");
+        // Over the triangle limit: not laid out.
+        assert!(rectangle_face(&plane, &square, 3).is_none());
         let area: f64 = triangles
             .iter()
             .map(|[p, q, r]| 0.5 * (*q - *p).cross(*r - *p).length())
@@ -317,7 +329,7 @@ mod tests {
             DVec3::new(1.0, 0.0, 0.0),
             DVec3::new(0.0, 1.0, 0.0),
         ];
-        assert!(rectangle_face(&plane, &triangle).is_none());
+        assert!(rectangle_face(&plane, &triangle, 100).is_none());
         // Every point on a side of the unit square, but the loop turns back along the bottom:
         // not the whole rectangle.
         let folded = [
@@ -327,6 +339,6 @@ mod tests {
             DVec3::new(1.0, 1.0, 0.0),
             DVec3::new(0.0, 1.0, 0.0),
         ];
-        assert!(rectangle_face(&plane, &folded).is_none());
+        assert!(rectangle_face(&plane, &folded, 100).is_none());
     }
 }

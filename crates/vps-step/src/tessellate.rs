@@ -233,7 +233,8 @@ pub fn shell(
         }
         let triangulated = compressed.robust_triangulation(tolerance);
         let surfaces: Vec<&Guarded> = compressed.faces.iter().map(|f| &f.surface).collect();
-        let (mesh, failed_faces) = assemble(&triangulated, &surfaces, weld, cancelled);
+        let (mesh, failed_faces) =
+            assemble(&triangulated, &surfaces, weld, max_triangles, cancelled);
         if mesh.triangles.len() > max_triangles {
             return Err(ShellFailure::TooMany {
                 triangles: mesh.triangles.len(),
@@ -393,6 +394,7 @@ fn assemble(
     triangulated: &CompressedShell<Point3, PolylineCurve<Point3>, Option<PolygonMesh>>,
     surfaces: &[&Guarded],
     weld: f64,
+    max_triangles: usize,
     cancelled: &AtomicBool,
 ) -> (ShellMesh, Vec<String>) {
     let mut welder = Welder::new(weld);
@@ -432,7 +434,7 @@ fn assemble(
             continue;
         }
         let filled = match loops.as_slice() {
-            [boundary] => crate::fill::rectangle_face(*surface, boundary),
+            [boundary] => crate::fill::rectangle_face(*surface, boundary, max_triangles),
             _ => None,
         };
         match filled {
