@@ -15,7 +15,10 @@
 //! - [`p21`]: the exchange structure cut into entity instances (bounded, no recursion).
 //! - [`structure`]: units, solids, names and assembly placements from the entity graph.
 //! - [`tessellate`]: one shell to checked triangles.
-//! - [`guard`]: bounds on the kernel's subdivision and evaluations (malformed B-splines fail fast).
+//! - [`guard`]: bounds on the kernel's subdivision and evaluations (malformed B-splines fail fast),
+//!   and the read's deadline.
+//! - `fill`: faces the kernel leaves empty laid out by vps where their boundary is a rectangle in
+//!   the surface's parameters (a cone to its apex, a whole torus).
 //!
 //! Reading allocates and may take seconds for large files: setup work, never frame-path work.
 //!
