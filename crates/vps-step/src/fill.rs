@@ -58,12 +58,6 @@ where
         let side = if high { hi[axis] } else { lo[axis] };
         (p.uv[axis] - side).abs() <= SIDE_EPS * range[axis]
     };
-    if !placed
-        .iter()
-        .all(|p| (0..2).any(|a| on(p, a, false) || on(p, a, true)))
-    {
-        return None;
-    }
     if !runs_round_once(&placed, lo, hi) {
         return None;
     }
@@ -142,29 +136,35 @@ where
     None
 }
 
-/// Whether the loop `placed` (every point on a side of the rectangle `lo`..`hi`) goes round the
-/// rectangle's perimeter once, in one direction, never turning back: only then is the face the
-/// whole rectangle.
+/// Whether every point of the loop `placed` lies on a side of the rectangle `lo`..`hi` and the
+/// loop goes round the rectangle's perimeter once, in one direction, never turning back: only
+/// then is the face the whole rectangle.
 fn runs_round_once(placed: &[Placed], lo: [f64; 2], hi: [f64; 2]) -> bool {
     let range = [hi[0] - lo[0], hi[1] - lo[1]];
     let perimeter = 2.0 * (range[0] + range[1]);
     let near = |x: f64, side: f64, axis: usize| (x - side).abs() <= SIDE_EPS * range[axis];
-    // Distance along the perimeter from (lo, lo), counter-clockwise in (u, v).
+    // Distance along the perimeter from (lo, lo), counter-clockwise in (u, v); `None` off the
+    // sides.
     let at = |p: &Placed| {
         let [u, v] = p.uv;
         if near(v, lo[1], 1) {
-            u - lo[0]
+            Some(u - lo[0])
         } else if near(u, hi[0], 0) {
-            range[0] + (v - lo[1])
+            Some(range[0] + (v - lo[1]))
         } else if near(v, hi[1], 1) {
-            range[0] + range[1] + (hi[0] - u)
+            Some(range[0] + range[1] + (hi[0] - u))
+        } else if near(u, lo[0], 0) {
+            Some(2.0 * range[0] + range[1] + (hi[1] - v))
         } else {
-            2.0 * range[0] + range[1] + (hi[1] - v)
+            None
         }
     };
+    let Some(along) = placed.iter().map(at).collect::<Option<Vec<f64>>>() else {
+        return false;
+    };
     let (mut forward, mut backward) = (0.0, 0.0);
-    for (i, p) in placed.iter().enumerate() {
-        let step = at(&placed[(i + 1) % placed.len()]) - at(p);
+    for (i, s) in along.iter().enumerate() {
+        let step = along[(i + 1) % along.len()] - s;
         forward += step.rem_euclid(perimeter);
         backward += (-step).rem_euclid(perimeter);
     }

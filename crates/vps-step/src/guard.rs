@@ -102,9 +102,7 @@ impl DivisionBudget {
 
     /// Takes `n` of face `face`'s evaluations; when they are not left, stops at `surface`.
     fn spend(&self, face: usize, surface: &Surface, n: u64) {
-        if self.cancelled.load(Ordering::Relaxed) {
-            std::panic::resume_unwind(Box::new(Cancelled));
-        }
+        unwind_if_cancelled(&self.cancelled);
         let Some(left) = self.evaluations_left.get(face) else {
             return;
         };
@@ -205,9 +203,7 @@ impl BoundedCurve for GuardedCurve {
 impl ParameterDivision1D for GuardedCurve {
     type Point = Point3;
     fn parameter_division(&self, range: (f64, f64), tol: f64) -> (Vec<f64>, Vec<Point3>) {
-        if self.budget.cancelled.load(Ordering::Relaxed) {
-            std::panic::resume_unwind(Box::new(Cancelled));
-        }
+        unwind_if_cancelled(&self.budget.cancelled);
         let spline = matches!(
             self.curve,
             Curve3D::BSplineCurve(_) | Curve3D::NurbsCurve(_)
@@ -280,6 +276,14 @@ pub struct OutOfEvaluations;
 /// The unwind payload of a pass stopped because the read's deadline passed.
 #[derive(Debug)]
 pub struct Cancelled;
+
+/// Unwinds out of the tessellation with [`Cancelled`] once `cancelled` is set (by
+/// `resume_unwind`: no panic hook).
+pub(crate) fn unwind_if_cancelled(cancelled: &AtomicBool) {
+    if cancelled.load(Ordering::Relaxed) {
+        std::panic::resume_unwind(Box::new(Cancelled));
+    }
+}
 
 /// Face `face`'s surface with its division and evaluations bounded by a shared
 /// [`DivisionBudget`]; every other operation is the surface's own.

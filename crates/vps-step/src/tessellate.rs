@@ -7,7 +7,7 @@
 //! oriented surface (every directed edge once, its reverse once) enclosing a positive volume, or
 //! the solid is refused with the reason.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use glam::DVec3;
 use truck_meshalgo::prelude::*;
@@ -18,7 +18,8 @@ use truck_topology::compress::{
 };
 
 use crate::guard::{
-    Cancelled, DivisionBudget, Guarded, GuardedCurve, OutOfEvaluations, FIRST_PASS_POINTS,
+    unwind_if_cancelled, Cancelled, DivisionBudget, Guarded, GuardedCurve, OutOfEvaluations,
+    FIRST_PASS_POINTS,
 };
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
@@ -315,17 +316,7 @@ fn guarded(
 /// [`ShellMesh::open_edges`] see the seams). Degenerate triangles left by welding are dropped.
 fn to_mesh(poly: &PolygonMesh, weld: f64) -> ShellMesh {
     let mut welder = Welder::new(weld);
-    let welded: Vec<u32> = poly
-        .positions()
-        .iter()
-        .map(|p| welder.index(DVec3::new(p.x, p.y, p.z)))
-        .collect();
-    let triangles = poly
-        .faces()
-        .triangle_iter()
-        .map(|t| [welded[t[0].pos], welded[t[1].pos], welded[t[2].pos]])
-        .filter(|t| !is_degenerate(*t))
-        .collect();
+    let triangles = welder.triangles(poly);
     ShellMesh {
         vertices: welder.vertices,
         triangles,
@@ -382,6 +373,20 @@ impl Welder {
         self.cells.entry(cell).or_default().push(i);
         i
     }
+
+    /// The triangles of `poly` over the welded vertices, those welding made degenerate dropped.
+    fn triangles(&mut self, poly: &PolygonMesh) -> Vec<[u32; 3]> {
+        let index: Vec<u32> = poly
+            .positions()
+            .iter()
+            .map(|p| self.index(DVec3::new(p.x, p.y, p.z)))
+            .collect();
+        poly.faces()
+            .triangle_iter()
+            .map(|t| [index[t[0].pos], index[t[1].pos], index[t[2].pos]])
+            .filter(|t| !is_degenerate(*t))
+            .collect()
+    }
 }
 
 /// The shell's triangles, welded, face by face: truck's where they cover the face (the edges its
@@ -389,7 +394,8 @@ impl Welder {
 /// laid out by [`crate::fill::rectangle_face`] where it can be, turned to run its edges against
 /// its neighbours'. Returns the mesh and the surface kind of each face still not covered (left as
 /// truck made it: the shell will not close).
-/// Unwinds with [`Cancelled`] between faces once `cancelled` is set.
+///
+/// Unwinds with [`crate::guard::Cancelled`] between faces once `cancelled` is set.
 fn assemble(
     triangulated: &CompressedShell<Point3, PolylineCurve<Point3>, Option<PolygonMesh>>,
     surfaces: &[&Guarded],
@@ -402,28 +408,12 @@ fn assemble(
     let mut laid_out: Vec<Vec<[u32; 3]>> = Vec::new();
     let mut failed = Vec::new();
     for (face, surface) in triangulated.faces.iter().zip(surfaces) {
-        if cancelled.load(std::sync::atomic::Ordering::Relaxed) {
-            std::panic::resume_unwind(Box::new(Cancelled));
-        }
-        let mut own: Vec<[u32; 3]> = Vec::new();
-        if let Some(poly) = &face.surface {
-            let poly = if face.orientation {
-                poly.clone()
-            } else {
-                poly.inverse()
-            };
-            let index: Vec<u32> = poly
-                .positions()
-                .iter()
-                .map(|p| welder.index(DVec3::new(p.x, p.y, p.z)))
-                .collect();
-            own.extend(
-                poly.faces()
-                    .triangle_iter()
-                    .map(|t| [index[t[0].pos], index[t[1].pos], index[t[2].pos]])
-                    .filter(|t| !is_degenerate(*t)),
-            );
-        }
+        unwind_if_cancelled(cancelled);
+        let own: Vec<[u32; 3]> = match &face.surface {
+            Some(poly) if face.orientation => welder.triangles(poly),
+            Some(poly) => welder.triangles(&poly.inverse()),
+            None => Vec::new(),
+        };
         let loops: Vec<Vec<DVec3>> = face
             .boundaries
             .iter()
@@ -453,11 +443,11 @@ fn assemble(
     }
     // Each face laid out here turned to run its edges against its neighbours' (a face alone, like
     // a whole torus, is turned with the shell by its volume's sign).
-    let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
-    let add_edges = |tris: &[[u32; 3]], directed: &mut HashMap<(u32, u32), u32>| {
+    let mut directed: HashSet<(u32, u32)> = HashSet::new();
+    let add_edges = |tris: &[[u32; 3]], directed: &mut HashSet<(u32, u32)>| {
         for t in tris {
             for k in 0..3 {
-                *directed.entry((t[k], t[(k + 1) % 3])).or_default() += 1;
+                directed.insert((t[k], t[(k + 1) % 3]));
             }
         }
     };
@@ -467,8 +457,8 @@ fn assemble(
         for t in &face {
             for k in 0..3 {
                 let (a, b) = (t[k], t[(k + 1) % 3]);
-                same += usize::from(directed.contains_key(&(a, b)));
-                against += usize::from(directed.contains_key(&(b, a)));
+                same += usize::from(directed.contains(&(a, b)));
+                against += usize::from(directed.contains(&(b, a)));
             }
         }
         if same > against {
@@ -498,7 +488,7 @@ fn covers(triangles: &[[u32; 3]], loops: &[Vec<DVec3>], welder: &mut Welder) -> 
             *uses.entry(key(t[k], t[(k + 1) % 3])).or_default() += 1;
         }
     }
-    let mut boundary: std::collections::HashSet<(u32, u32)> = std::collections::HashSet::new();
+    let mut boundary: HashSet<(u32, u32)> = HashSet::new();
     for l in loops {
         let index: Vec<u32> = l.iter().map(|&p| welder.index(p)).collect();
         for k in 0..index.len() {
@@ -508,7 +498,7 @@ fn covers(triangles: &[[u32; 3]], loops: &[Vec<DVec3>], welder: &mut Welder) -> 
             }
         }
     }
-    let once: std::collections::HashSet<(u32, u32)> = uses
+    let once: HashSet<(u32, u32)> = uses
         .into_iter()
         .filter(|&(_, n)| n == 1)
         .map(|(e, _)| e)
