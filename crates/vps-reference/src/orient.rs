@@ -240,10 +240,6 @@ mod tests {
     use glam::DQuat;
     use vps_mesh::builtin::{cuboid, uv_sphere};
 
-    fn reversed(t: [u32; 3]) -> [u32; 3] {
-        [t[0], t[2], t[1]]
-    }
-
     /// A closed box and a sphere, written inward, with every third triangle flipped back: turned
     /// outward they are two closed, consistently oriented solids of positive volume, and w is 1
     /// inside each.
@@ -253,7 +249,7 @@ mod tests {
         m.append(&uv_sphere(0.1, 12, 6).transformed(1.0, DQuat::IDENTITY, DVec3::X));
         for (i, t) in m.triangles.iter_mut().enumerate() {
             if i % 3 != 0 {
-                *t = reversed(*t);
+                *t = turned(*t, true);
             }
         }
         let out = oriented_outward(&m);
@@ -280,7 +276,7 @@ mod tests {
         assert!(outward_flips(&open).iter().all(|&f| !f));
         let mut inward = open.clone();
         for t in &mut inward.triangles {
-            *t = reversed(*t);
+            *t = turned(*t, true);
         }
         assert!(winding_number(&inward, DVec3::ZERO) < -0.5);
         assert!(outward_flips(&inward).iter().all(|&f| f));

@@ -144,12 +144,11 @@ pub fn point_shell_within(
         .enumerate()
         .map(|(t, n)| {
             n.unwrap_or_else(|| {
-                let [a, b, c] = mesh.triangle(t);
-                let wound_inward = -(b - a).cross(c - a);
+                let wound = wound_inward(mesh.triangle(t));
                 if flips[t] {
-                    -wound_inward
+                    -wound
                 } else {
-                    wound_inward
+                    wound
                 }
             })
         })
@@ -229,8 +228,8 @@ fn triangle_inward_normal(
     s: f64,
     classify: impl Fn(DVec3) -> i8,
 ) -> Option<DVec3> {
-    let wound_inward = -(tri[1] - tri[0]).cross(tri[2] - tri[0]);
-    let unit = wound_inward.normalize_or_zero();
+    let wound = wound_inward(tri);
+    let unit = wound.normalize_or_zero();
     let centroid = (tri[0] + tri[1] + tri[2]) / 3.0;
     let origins = [
         centroid,
@@ -240,12 +239,18 @@ fn triangle_inward_normal(
     ];
     for origin in origins {
         match probe_side(origin, unit, s, &classify) {
-            Some(true) => return Some(wound_inward),
-            Some(false) => return Some(-wound_inward),
+            Some(true) => return Some(wound),
+            Some(false) => return Some(-wound),
             None => {}
         }
     }
     None
+}
+
+/// Minus the counter-clockwise normal of `tri`, scaled by twice its area: inward if the triangle
+/// is wound counter-clockwise seen from outside.
+fn wound_inward(tri: [DVec3; 3]) -> DVec3 {
+    -(tri[1] - tri[0]).cross(tri[2] - tri[0])
 }
 
 /// Whether `normal` at `point` points inside (`Some(true)`), outside (`Some(false)`) or cannot be

@@ -140,17 +140,7 @@ fn a_workspace_wall_through_a_box_written_clockwise_keeps_its_inside() {
     // A closed box written clockwise: its cut walls seed the flood fill only where the winding
     // number (of the triangles turned outward) says outside. Before, w = −1 inside let them seed
     // and the inside read Free.
-    let opts = VoxelizeOptions {
-        voxel_size: S,
-        offset_layers: 0,
-        workspace: Some(vps_mesh::Aabb {
-            min: C + DVec3::new(-H + 2.0 * S, -0.2, -0.2),
-            max: C + DVec3::new(0.2, 0.2, 0.2),
-        }),
-        ..Default::default()
-    };
-    let m = clockwise(&cuboid(DVec3::splat(H))).transformed(1.0, glam::DQuat::IDENTITY, C);
-    let grid = voxelize(&[m], &opts).unwrap();
+    let grid = voxelize_cut_at_minus_x(&clockwise(&cuboid(DVec3::splat(H))));
     assert_eq!(grid.get(grid.spec.index_of(C)), Voxel::Interior);
     let near_cut = C + DVec3::new(-H + 2.5 * S, 0.0, 0.0);
     assert_eq!(grid.get(grid.spec.index_of(near_cut)), Voxel::Interior);
@@ -211,10 +201,9 @@ fn sparse_tree_equals_dense_grid_on_open_and_cut_meshes() {
     }
 }
 
-#[test]
-fn workspace_wall_through_a_closed_box_keeps_its_inside() {
-    // The workspace starts 2 voxels inside the box's -x face: its wall cuts the solid. Before, the
-    // flood fill ran in from that wall and the whole inside read Free.
+/// `m` moved to `C` and voxelized with no offset in a workspace that starts 2 voxels inside the
+/// test box's -x face: its wall cuts the solid.
+fn voxelize_cut_at_minus_x(m: &TriMesh) -> DenseGrid {
     let opts = VoxelizeOptions {
         voxel_size: S,
         offset_layers: 0,
@@ -224,8 +213,14 @@ fn workspace_wall_through_a_closed_box_keeps_its_inside() {
         }),
         ..Default::default()
     };
-    let m = cuboid(DVec3::splat(H)).transformed(1.0, glam::DQuat::IDENTITY, C);
-    let grid = voxelize(&[m], &opts).unwrap();
+    voxelize(&[m.transformed(1.0, glam::DQuat::IDENTITY, C)], &opts).unwrap()
+}
+
+#[test]
+fn workspace_wall_through_a_closed_box_keeps_its_inside() {
+    // The workspace starts 2 voxels inside the box's -x face: its wall cuts the solid. Before, the
+    // flood fill ran in from that wall and the whole inside read Free.
+    let grid = voxelize_cut_at_minus_x(&cuboid(DVec3::splat(H)));
     assert_eq!(grid.get(grid.spec.index_of(C)), Voxel::Interior);
     let near_cut = C + DVec3::new(-H + 2.5 * S, 0.0, 0.0);
     assert_eq!(grid.get(grid.spec.index_of(near_cut)), Voxel::Interior);
