@@ -25,7 +25,7 @@ use vps_voxmap::{Voxel, VoxelLookup, WIDE_BLOCK_LANES};
 /// Points per wide block: one 512-bit register of f32.
 pub(super) const WIDE_LANES: usize = WIDE_BLOCK_LANES;
 
-type V3 = [__m512; 3];
+pub(super) type V3 = [__m512; 3];
 
 /// Lanes `start..start + WIDE_LANES` of the three arrays, without bounds checks.
 ///
@@ -33,7 +33,7 @@ type V3 = [__m512; 3];
 /// The CPU must support AVX-512F; `start + WIDE_LANES` must be within every array.
 #[inline]
 #[target_feature(enable = "avx512f")]
-unsafe fn load(xs: Soa, start: usize) -> V3 {
+pub(super) unsafe fn load(xs: Soa, start: usize) -> V3 {
     let mut out = [_mm512_setzero_ps(); 3];
     for r in 0..3 {
         // SAFETY: `start + WIDE_LANES` is within every array (this function's contract): 64
@@ -57,7 +57,7 @@ vec3_ops!(
 
 /// Number of set lanes of a mask.
 #[inline(always)]
-fn count(mask: __mmask16) -> u64 {
+pub(super) fn count(mask: __mmask16) -> u64 {
     u64::from(mask.count_ones())
 }
 
@@ -70,7 +70,7 @@ fn count(mask: __mmask16) -> u64 {
 /// The CPU must support AVX-512F and AVX-512DQ.
 #[inline]
 #[target_feature(enable = "avx512f,avx512dq")]
-unsafe fn add_fixed<const CLAMP: bool>(acc: &mut I64s, y: __m512) {
+pub(super) unsafe fn add_fixed<const CLAMP: bool>(acc: &mut I64s, y: __m512) {
     let y = if CLAMP {
         _mm512_min_ps(
             _mm512_max_ps(y, _mm512_set1_ps(-Y_MAX)),
@@ -97,7 +97,7 @@ unsafe fn add_fixed<const CLAMP: bool>(acc: &mut I64s, y: __m512) {
 /// # Safety
 /// As [`add_fixed`]'s.
 #[inline(always)]
-unsafe fn add3_fixed<const CLAMP: bool>(acc: &mut [I64s; 3], y: &V3) {
+pub(super) unsafe fn add3_fixed<const CLAMP: bool>(acc: &mut [I64s; 3], y: &V3) {
     for (a, v) in acc.iter_mut().zip(y) {
         // SAFETY: as this function's.
         unsafe { add_fixed::<CLAMP>(a, *v) };
