@@ -110,11 +110,14 @@ pub(in crate::kernel) unsafe fn sample_blocks<const CLAMP: bool>(
     end: usize,
     acc: &mut ClassAccumulator,
 ) {
-    let mut start = begin;
+    // Software-pipelined by batches: batch k + 1's slots are gathered before batch k's
+    // arithmetic, and its codes after it, so that each batch's reads overlap other work.
     // Loops, not `array::from_fn`: a closure does not inherit the caller's target features.
     let mut located = [MaybeUninit::<Located>::uninit(); BATCH];
     let mut fetched = [MaybeUninit::<Fetched>::uninit(); BATCH];
-    while start < end {
+    let mut ready = 0;
+    let mut start = begin;
+    loop {
         let batch_end = (start + BATCH * WIDE_LANES).min(end);
         let mut count = 0;
         while start < batch_end {
@@ -125,14 +128,19 @@ pub(in crate::kernel) unsafe fn sample_blocks<const CLAMP: bool>(
             }
             start += WIDE_LANES;
         }
+        for block in &fetched[..ready] {
+            // SAFETY: the first `ready` were written in the previous round; the rest as this
+            // function's.
+            unsafe { finish_block::<CLAMP>(class, block.assume_init_ref(), acc) };
+        }
+        if count == 0 && start >= end {
+            return;
+        }
         for (block, out) in located[..count].iter().zip(&mut fetched) {
             // SAFETY: the first `count` were written just above; the rest as this function's.
             out.write(unsafe { read_rows(class, block.assume_init_ref()) });
         }
-        for block in &fetched[..count] {
-            // SAFETY: the first `count` were written just above; the rest as this function's.
-            unsafe { finish_block::<CLAMP>(class, block.assume_init_ref(), acc) };
-        }
+        ready = count;
     }
 }
 
