@@ -1,7 +1,7 @@
 //! Connected components of a triangle mesh (triangles sharing vertex indices) and whether each is a
 //! closed, consistently oriented surface (every directed edge used once, its reverse once).
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 use vps_mesh::union_find::{find, union};
 use vps_mesh::TriMesh;
 
@@ -24,7 +24,7 @@ pub fn components(mesh: &TriMesh) -> Vec<Component> {
         union(&mut parent, t[0], t[1]);
         union(&mut parent, t[0], t[2]);
     }
-    let mut by_root: HashMap<u32, usize> = HashMap::new();
+    let mut by_root: FxHashMap<u32, usize> = FxHashMap::default();
     let mut out: Vec<Component> = Vec::new();
     for (i, t) in mesh.triangles.iter().enumerate() {
         let root = find(&mut parent, t[0]);
@@ -66,7 +66,8 @@ pub fn open_triangle_count(mesh: &TriMesh) -> usize {
 
 /// Every directed edge of `triangles` appears exactly once and its reverse exactly once.
 fn is_closed_and_oriented(mesh: &TriMesh, triangles: &[u32]) -> bool {
-    let mut directed: HashMap<(u32, u32), u32> = HashMap::with_capacity(triangles.len() * 3);
+    let mut directed: FxHashMap<(u32, u32), u32> = FxHashMap::default();
+    directed.reserve(triangles.len() * 3);
     for &t in triangles {
         let tri = mesh.triangles[t as usize];
         for k in 0..3 {

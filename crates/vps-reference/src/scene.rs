@@ -5,7 +5,7 @@ use crate::bvh::{box_distance_sq, Bvh};
 use crate::components::components;
 use crate::ReferenceError;
 use glam::DVec3;
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 use vps_mesh::closest_point::{closest_point, Feature};
 use vps_mesh::{Aabb, TriMesh};
 
@@ -94,15 +94,27 @@ impl ExactScene {
             })
             .collect();
         let mut at_vertex = vec![DVec3::ZERO; mesh.vertices.len()];
-        let mut at_edge: HashMap<(u32, u32), DVec3> = HashMap::new();
+        // Each undirected edge's sum of its faces' normals (in triangle order), and per corner
+        // `k` of triangle `t` the sum of its edge from corner k to k + 1 (`3 t + k`).
+        let mut edge_index: FxHashMap<(u32, u32), u32> = FxHashMap::default();
+        edge_index.reserve(mesh.triangles.len() * 3 / 2);
+        let mut at_edge: Vec<DVec3> = Vec::with_capacity(mesh.triangles.len() * 3 / 2);
+        let mut edge_of = Vec::with_capacity(mesh.triangles.len() * 3);
         for (t, tri) in mesh.triangles.iter().enumerate() {
             let corners = mesh.triangle(t);
             for k in 0..3 {
                 let e1 = corners[(k + 1) % 3] - corners[k];
                 let e2 = corners[(k + 2) % 3] - corners[k];
                 at_vertex[tri[k] as usize] += faces[t] * e1.angle_between(e2).max(0.0);
-                let key = edge_key(tri[k], tri[(k + 1) % 3]);
-                *at_edge.entry(key).or_insert(DVec3::ZERO) += faces[t];
+                let next = at_edge.len() as u32;
+                let slot = *edge_index
+                    .entry(edge_key(tri[k], tri[(k + 1) % 3]))
+                    .or_insert(next);
+                if slot == next {
+                    at_edge.push(DVec3::ZERO);
+                }
+                at_edge[slot as usize] += faces[t];
+                edge_of.push(slot);
             }
         }
         for (t, tri) in mesh.triangles.iter().enumerate() {
@@ -111,8 +123,7 @@ impl ExactScene {
             self.vertex_normals
                 .push(tri.map(|v| at_vertex[v as usize].normalize_or(faces[t])));
             self.edge_normals.push(
-                [0, 1, 2]
-                    .map(|k| at_edge[&edge_key(tri[k], tri[(k + 1) % 3])].normalize_or(faces[t])),
+                [0, 1, 2].map(|k| at_edge[edge_of[3 * t + k] as usize].normalize_or(faces[t])),
             );
         }
         self.triangle_component.resize(self.triangles.len(), 0);

@@ -475,10 +475,10 @@ fn cube_codes(sampler: &CubeSampler, triangles: &[u32], c: [u32; 3]) -> CubeCode
                 // The whole row at once (the compiler vectorizes it), then the offers of the
                 // samples within the reach of the triangle's box along x; a sample beyond the
                 // reach of the triangle is beyond every sample's limit.
-                l.row
-                    .distances_sq(centre(y, 1), centre(z, 2), &xs, &mut row_sq);
-                let first_of_row = (z * BRICK_EDGE + y) * BRICK_EDGE;
                 let (x0, x1) = (local[0].0 as usize, local[0].1 as usize);
+                l.row
+                    .distances_sq(centre(y, 1), centre(z, 2), &xs, (x0, x1), &mut row_sq);
+                let first_of_row = (z * BRICK_EDGE + y) * BRICK_EDGE;
                 for (x, &d_sq) in row_sq.iter().enumerate().take(x1 + 1).skip(x0) {
                     let i = first_of_row + x;
                     let within = match placed[i] {

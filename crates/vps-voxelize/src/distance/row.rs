@@ -64,7 +64,16 @@ impl RowTriangle {
     /// a code is 1/64 of a voxel). The same bits whatever
     /// the instruction set it is compiled for (no fused multiply-add). Pure, no allocation.
     #[inline(always)]
-    pub(super) fn distances_sq(&self, y: f64, z: f64, xs: &[f64; ROW], out: &mut [f64; ROW]) {
+    /// Only the groups of [`LANES`] samples that hold one of `first..=last` are computed (the
+    /// others of `out` keep their values).
+    pub(super) fn distances_sq(
+        &self,
+        y: f64,
+        z: f64,
+        xs: &[f64; ROW],
+        (first, last): (usize, usize),
+        out: &mut [f64; ROW],
+    ) {
         // Everything that does not depend on x, per corner k: the rest of (p − corner k) · w for
         // the edge, the inward normal and (corner 0) the plane normal, and |p − corner k|² but x.
         let mut along = [0.0; 3];
@@ -83,7 +92,13 @@ impl RowTriangle {
         let height_rest = self.unit_normal.y * (y - self.corner[0].y)
             + self.unit_normal.z * (z - self.corner[0].z);
         // In groups of LANES samples, each step one operation on every lane.
-        for (xs, out) in xs.chunks_exact(LANES).zip(out.chunks_exact_mut(LANES)) {
+        let groups = first / LANES..last / LANES + 1;
+        for (xs, out) in xs
+            .chunks_exact(LANES)
+            .zip(out.chunks_exact_mut(LANES))
+            .take(groups.end)
+            .skip(groups.start)
+        {
             let mut edge_sq = [f64::INFINITY; LANES];
             // The least of the three side tests: the sample projects inside when it is ≥ 0.
             let mut side = [f64::INFINITY; LANES];
@@ -182,7 +197,7 @@ mod tests {
             let (y, z) = (random(0.02).y, random(0.02).z);
             let xs: [f64; ROW] = std::array::from_fn(|i| -0.02 + 0.005 * i as f64);
             let mut out = [0.0; ROW];
-            row.distances_sq(y, z, &xs, &mut out);
+            row.distances_sq(y, z, &xs, (0, ROW - 1), &mut out);
             for (x, d_sq) in xs.iter().zip(out) {
                 let p = DVec3::new(*x, y, z);
                 // Ericson's closest point, or a nearer point of an edge: on a nearly degenerate
