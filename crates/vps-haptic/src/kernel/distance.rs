@@ -519,37 +519,62 @@ pub(super) mod avx2 {
         end: usize,
         acc: &mut ClassAccumulator,
     ) {
-        let mut start = begin;
+        // Software-pipelined by batches: batch k + 1's slots are gathered before batch k's
+        // arithmetic, and its codes after it, so that each batch's reads overlap other work.
         // Loops, not `array::from_fn`: a closure does not inherit the caller's target features,
         // and its intrinsics would become calls.
+        let mut located = [MaybeUninit::<Located>::uninit(); BATCH];
         let mut fetched = [MaybeUninit::<Fetched>::uninit(); BATCH];
-        while start < end {
+        let mut ready = 0;
+        let mut start = begin;
+        loop {
             let batch_end = (start + BATCH * LANES).min(end);
             let mut count = 0;
             while start < batch_end {
                 // SAFETY: as this function's; `start + LANES ≤ end`.
-                if let Some(block) = unsafe { fetch_block(class, start) } {
-                    fetched[count].write(block);
+                if let Some(block) = unsafe { locate(class, start) } {
+                    located[count].write(block);
                     count += 1;
                 }
                 start += LANES;
             }
-            for block in &fetched[..count] {
-                // SAFETY: the first `count` were written just above; the block's own safety
-                // conditions are this function's.
+            for block in &fetched[..ready] {
+                // SAFETY: the first `ready` were written in the previous round; the block's own
+                // safety conditions are this function's.
                 unsafe { finish_block::<CLAMP>(class, block.assume_init_ref(), acc) };
             }
+            if count == 0 && start >= end {
+                return;
+            }
+            for (block, out) in located[..count].iter().zip(&mut fetched) {
+                // SAFETY: the first `count` were written just above; the rest as this function's.
+                out.write(unsafe { read_rows(class, block.assume_init_ref()) });
+            }
+            ready = count;
         }
     }
 
-    /// The reads of `super::sample_block` for a full block at `start`: the transform, the cell of
-    /// each lane, its directory slot and its eight codes. Not compiled for a target feature
-    /// itself: always inlined into `accumulate_avx2`, whose features its intrinsics then use.
+    /// A block placed and its directory slots read ([`locate`]), its codes not yet.
+    #[derive(Clone, Copy)]
+    struct Located {
+        start: usize,
+        lever: V3,
+        /// `g − ½` per axis (voxels).
+        t: V3,
+        /// `floor(t)`.
+        base: [__m256i; 3],
+        slots: __m256i,
+    }
+
+    /// The first reads of `super::sample_block` for a full block at `start`: the transform, the
+    /// cell of each lane and its directory slot; `None` when every lane is far. Not compiled for
+    /// a target feature itself: always inlined into `accumulate_avx2`, whose features its
+    /// intrinsics then use.
     ///
     /// # Safety
     /// As [`sample_blocks`], with `start + LANES` within every array.
     #[inline(always)]
-    unsafe fn fetch_block(class: &BandClass, start: usize) -> Option<Fetched> {
+    unsafe fn locate(class: &BandClass, start: usize) -> Option<Located> {
         unsafe {
             let lever = mat_vec(
                 &class.frame.rotation_lever,
@@ -605,6 +630,30 @@ pub(super) mod avx2 {
             if _mm256_testz_si256(slot_lanes, slot_lanes) != 0 {
                 return None;
             }
+            Some(Located {
+                start,
+                lever,
+                t,
+                base,
+                slots: slot_lanes,
+            })
+        }
+    }
+
+    /// The eight codes of each lane's cell of a located block.
+    ///
+    /// # Safety
+    /// As [`sample_blocks`].
+    #[inline(always)]
+    unsafe fn read_rows(class: &BandClass, located: &Located) -> Fetched {
+        unsafe {
+            let Located {
+                start,
+                lever,
+                t,
+                base,
+                slots: slot_lanes,
+            } = *located;
             // The four rows of the cell (each a corner and its +x neighbour in its lowest two
             // bytes) at `slot · 729 + in_brick + (dz · 9 + dy) · 9`, gathered: with the blocks
             // fetched in batches, gathers beat 32 scalar loads put together into vectors (6.8
@@ -641,7 +690,7 @@ pub(super) mod avx2 {
                 code_row(bytes, step(BRICK_EDGE * BRICK_EDGE)),
                 code_row(bytes, step(BRICK_EDGE * BRICK_EDGE + BRICK_EDGE)),
             ];
-            Some(Fetched {
+            Fetched {
                 start,
                 lever,
                 f: [
@@ -650,7 +699,7 @@ pub(super) mod avx2 {
                     _mm256_sub_ps(t[2], _mm256_cvtepi32_ps(base[2])),
                 ],
                 rows,
-            })
+            }
         }
     }
 
@@ -712,13 +761,20 @@ pub(super) mod avx2 {
                 less(e, _mm256_set1_ps(BRAKE_RANGE_VOXELS)),
             );
             let own = _mm256_or_ps(_mm256_andnot_ps(trusted, all_ones()), deep);
-            let part_normal = mat_vec(&class.frame.rotation, &load::<false>(class.normals, start));
             let pushing = _mm256_or_ps(_mm256_or_ps(contact, braking), deep);
             let mut direction: V3 = [zero; 3];
             for a in 0..3 {
-                let scene = _mm256_mul_ps(gradient[a], inv_len);
-                let d = _mm256_blendv_ps(scene, part_normal[a], own);
-                direction[a] = _mm256_and_ps(pushing, d);
+                direction[a] = _mm256_and_ps(pushing, _mm256_mul_ps(gradient[a], inv_len));
+            }
+            // The point's own normal where a pushing lane has no trusted scene normal (deep, or
+            // a short gradient): rotated only then (in contact, rarely).
+            let own_pushing = _mm256_and_ps(own, pushing);
+            if _mm256_movemask_ps(own_pushing) != 0 {
+                let part_normal =
+                    mat_vec(&class.frame.rotation, &load::<false>(class.normals, start));
+                for a in 0..3 {
+                    direction[a] = _mm256_blendv_ps(direction[a], part_normal[a], own_pushing);
+                }
             }
             let voxel_q = _mm256_set1_ps(class.frame.voxel_q);
             let depth = _mm256_blendv_ps(
