@@ -22,7 +22,8 @@
 //! The same IEEE operations in the same order, no fused multiply-add. The AVX2 copy is also the
 //! kernel on at most AVX2 ([`crate::avx2_only`]), so the AVX-512 copy's own choices sit behind its
 //! `AVX512` flag rather than in the shared code. The `distance` force model's block loop is
-//! `kernel/distance.rs` (portable and AVX2 copies).
+//! `kernel/distance.rs` (portable and AVX2 copies) and `kernel/distance/avx512.rs` (its AVX-512
+//! copy).
 //!
 //! Exactness (docs/architecture.md#exact-sums-and-the-cluster): each point's contribution is
 //! computed in f32 (IEEE basic operations only, no fused multiply-add, so the same bits on every

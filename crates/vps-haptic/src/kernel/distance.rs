@@ -21,7 +21,11 @@
 //! rounded to the sums' LSB at once, so any split of the shell gives the same sums bit for bit.
 //! Portable lane code; where the CPU has AVX2, full blocks go through [`avx2::sample_blocks`]
 //! (one gather of the directory slots and four of the codes per block, the arithmetic in 256-bit
-//! registers: the same operations in the same order, so the same bits, which a unit test checks).
+//! registers), and where it also has AVX-512F, AVX-512DQ and POPCNT, blocks of 16 through
+//! `avx512::sample_blocks` (the same on sixteen lanes): the same operations in the same order, so
+//! the same bits, which a unit test checks. Both run their blocks in batches, software-pipelined:
+//! the next batch's directory slots are gathered before this batch's arithmetic and its codes
+//! after, so that the reads overlap other work (docs/kernel.md, "The distance model's kernel").
 //! No allocation, no locks, no I/O.
 
 #[cfg(target_arch = "x86_64")]
@@ -484,14 +488,14 @@ pub(super) mod avx2 {
         )
     }
 
-    /// Blocks fetched before any is finished: their memory reads (a directory gather, then four
-    /// code gathers that depend on it) are in flight together instead of each block waiting for
-    /// its own before its arithmetic (`kernel_ir` example, `distance` mode, alternated with the
-    /// block-at-a-time loop: 9.0 → 6.8 ns a point in contact, free space unchanged; 4 or 16 blocks
-    /// gave the same).
+    /// Blocks per batch of [`sample_blocks`]' pipeline: their memory reads (a directory gather,
+    /// then four code gathers that depend on it) are in flight together instead of each block
+    /// waiting for its own before its arithmetic (`kernel_ir` example, `distance` mode,
+    /// alternated with the block-at-a-time loop: 9.0 → 6.8 ns a point in contact, free space
+    /// unchanged; 4 or 16 blocks gave the same).
     const BATCH: usize = 8;
 
-    /// What [`finish_block`] needs of a block, read by [`fetch_block`].
+    /// What [`finish_block`] needs of a block, read by [`read_rows`].
     #[derive(Clone, Copy)]
     struct Fetched {
         /// The block's first point.
@@ -504,10 +508,10 @@ pub(super) mod avx2 {
         rows: [__m256i; 4],
     }
 
-    /// The blocks of `begin..end` (a multiple of [`LANES`] points), [`BATCH`] blocks fetched
-    /// before those in the band are finished in order: the same operations on each block, and the
-    /// same order of additions to `acc`, as one [`fetch_block`] and [`finish_block`] after
-    /// another.
+    /// The blocks of `begin..end` (a multiple of [`LANES`] points) in batches of [`BATCH`],
+    /// software-pipelined ([`locate`] for the next batch, [`finish_block`] for this one,
+    /// [`read_rows`] for the next); those in the band are finished in order: the same operations
+    /// on each block, and the same order of additions to `acc`, as block after block.
     ///
     /// # Safety
     /// The CPU must support AVX2; [`fits_lanes`] must hold for the class's band; `end` must be
@@ -707,7 +711,7 @@ pub(super) mod avx2 {
     /// trilinear value and gradient, the contact, deep and braking lanes, their sums into `acc`.
     ///
     /// # Safety
-    /// As [`fetch_block`].
+    /// As [`sample_blocks`].
     #[inline(always)]
     unsafe fn finish_block<const CLAMP: bool>(
         class: &BandClass,

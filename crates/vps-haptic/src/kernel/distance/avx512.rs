@@ -21,11 +21,11 @@ use vps_voxmap::distance::{
     BAND_VOXELS, BRICK_CODES, BRICK_EDGE, CODES_PER_VOXEL, CODE_DEEP, CODE_FAR,
 };
 
-/// Wide blocks fetched before any is finished, so that their reads are in flight together (as
-/// the AVX2 copy's eight blocks of 8: the same 64 points).
+/// Wide blocks per batch of [`sample_blocks`]' pipeline (as the AVX2 copy's eight blocks of 8:
+/// the same 64 points; 2 and 8 measured the same).
 const BATCH: usize = 4;
 
-/// What [`finish_block`] needs of a wide block, read by [`fetch_block`].
+/// What [`finish_block`] needs of a wide block, read by [`read_rows`].
 #[derive(Clone, Copy)]
 struct Fetched {
     /// The block's first point.
@@ -96,9 +96,9 @@ fn value_and_gradient(c: &[[[__m512; 2]; 2]; 2], f: &V3) -> (__m512, V3) {
     )
 }
 
-/// The wide blocks of `begin..end` (a multiple of [`WIDE_LANES`] points), [`BATCH`] fetched
-/// before those in the band are finished in order: the same sums as the 8-lane blocks they cover
-/// (the sums are integers).
+/// The wide blocks of `begin..end` (a multiple of [`WIDE_LANES`] points) in batches of
+/// [`BATCH`], software-pipelined; those in the band are finished in order: the same sums as the
+/// 8-lane blocks they cover (the sums are integers).
 ///
 /// # Safety
 /// The CPU must support AVX-512F and AVX-512DQ; [`super::avx2::fits_lanes`] must hold for the
@@ -156,9 +156,9 @@ struct Located {
     slots: __m512i,
 }
 
-/// The reads of a wide block at `start`: the transform, each lane's cell, its directory slot and
-/// its eight codes (as [`super::avx2`]'s `fetch_block`, sixteen lanes). `None` when every lane
-/// is far (its slot is the far brick's, or it is outside the grid).
+/// The first reads of a wide block at `start`: the transform, each lane's cell and its directory
+/// slot (as [`super::avx2`]'s `locate`, sixteen lanes). `None` when every lane is far (its slot is
+/// the far brick's, or it is outside the grid).
 ///
 /// # Safety
 /// As [`sample_blocks`], with `start + WIDE_LANES` within every array.
@@ -287,7 +287,7 @@ unsafe fn read_rows(class: &BandClass, located: &Located) -> Fetched {
 /// and braking lanes, their sums into `acc` (as [`super::avx2`]'s `finish_block`).
 ///
 /// # Safety
-/// As [`fetch_block`].
+/// As [`sample_blocks`].
 #[inline(always)]
 unsafe fn finish_block<const CLAMP: bool>(
     class: &BandClass,
