@@ -564,17 +564,34 @@ impl Listed {
 /// nearest ones.
 const COMPONENTS_PER_SAMPLE: usize = 4;
 
-/// The nearest triangle of each of up to [`COMPONENTS_PER_SAMPLE`] components near one sample:
-/// (component, squared distance, triangle); unused entries have `u32::MAX` as component.
+/// The nearest triangle of each of up to [`COMPONENTS_PER_SAMPLE`] components near one sample;
+/// unused entries have `u32::MAX` as component.
 #[derive(Clone, Copy)]
 struct Nearest {
-    entries: [(u32, f64, u32); COMPONENTS_PER_SAMPLE],
+    entries: [Entry; COMPONENTS_PER_SAMPLE],
+}
+
+/// One component's nearest triangle offered to a sample.
+#[derive(Clone, Copy)]
+struct Entry {
+    /// Squared distance (m²); infinite when unused.
+    d_sq: f64,
+    component: u32,
+    triangle: u32,
+}
+
+impl Entry {
+    const UNUSED: Entry = Entry {
+        d_sq: f64::INFINITY,
+        component: u32::MAX,
+        triangle: u32::MAX,
+    };
 }
 
 impl Default for Nearest {
     fn default() -> Self {
         Nearest {
-            entries: [(u32::MAX, f64::INFINITY, u32::MAX); COMPONENTS_PER_SAMPLE],
+            entries: [Entry::UNUSED; COMPONENTS_PER_SAMPLE],
         }
     }
 }
@@ -585,7 +602,7 @@ impl Nearest {
     fn nearest_sq(&self) -> f64 {
         self.entries
             .iter()
-            .map(|e| e.1)
+            .map(|e| e.d_sq)
             .fold(f64::INFINITY, f64::min)
     }
 
@@ -593,12 +610,12 @@ impl Nearest {
     /// keep it: the component's nearest so far, else (a new component) the farthest entry's (an
     /// unused entry is infinitely far).
     fn improves_below(&self, component: u32) -> f64 {
-        match self.entries.iter().find(|e| e.0 == component) {
-            Some(e) => e.1,
+        match self.entries.iter().find(|e| e.component == component) {
+            Some(e) => e.d_sq,
             None => self
                 .entries
                 .iter()
-                .map(|e| e.1)
+                .map(|e| e.d_sq)
                 .fold(f64::NEG_INFINITY, f64::max),
         }
     }
@@ -606,10 +623,15 @@ impl Nearest {
     /// Triangle `t` of `component` at squared distance `d_sq`. For one component the result does
     /// not depend on the order of the offers.
     fn offer(&mut self, component: u32, d_sq: f64, t: u32) {
-        if let Some(e) = self.entries.iter_mut().find(|e| e.0 == component) {
+        let entry = Entry {
+            d_sq,
+            component,
+            triangle: t,
+        };
+        if let Some(e) = self.entries.iter_mut().find(|e| e.component == component) {
             // At equal distance the lower-numbered triangle, whatever the order of the offers.
-            if d_sq < e.1 || (d_sq == e.1 && t < e.2) {
-                *e = (component, d_sq, t);
+            if d_sq < e.d_sq || (d_sq == e.d_sq && t < e.triangle) {
+                *e = entry;
             }
             return;
         }
@@ -617,10 +639,10 @@ impl Nearest {
         if let Some(e) = self
             .entries
             .iter_mut()
-            .max_by(|a, b| a.1.total_cmp(&b.1))
-            .filter(|e| d_sq < e.1)
+            .max_by(|a, b| a.d_sq.total_cmp(&b.d_sq))
+            .filter(|e| d_sq < e.d_sq)
         {
-            *e = (component, d_sq, t);
+            *e = entry;
         }
     }
 
@@ -631,20 +653,22 @@ impl Nearest {
     /// tracked component has it outside, the solid enclosing it has its surface beyond the reach
     /// (`−reach`; e.g. deep in a box, near a ball sunk into the box). Nothing tracked: `±reach`.
     fn signed_distance(&self, scene: &ExactScene, p: DVec3, placed: Placement, reach: f64) -> f64 {
-        let tracked = self.entries.iter().filter(|e| e.0 != u32::MAX);
+        let tracked = self.entries.iter().filter(|e| e.component != u32::MAX);
         if placed == Placement::Outside {
             // Positive for every component: the nearest triangle's distance (its entry alone was
             // kept up to date, the others may be stale).
             return tracked
-                .min_by(|a, b| a.1.total_cmp(&b.1).then(a.2.cmp(&b.2)))
-                .map_or(reach, |e| scene.signed_to_triangle_at(p, e.2).distance_m);
+                .min_by(|a, b| a.d_sq.total_cmp(&b.d_sq).then(a.triangle.cmp(&b.triangle)))
+                .map_or(reach, |e| {
+                    scene.signed_to_triangle_at(p, e.triangle).distance_m
+                });
         }
         let interior = placed == Placement::Inside;
         let (mut nearest, mut nearest_open) = (f64::INFINITY, f64::INFINITY);
         for e in tracked {
-            let d = scene.signed_to_triangle_at(p, e.2).distance_m;
+            let d = scene.signed_to_triangle_at(p, e.triangle).distance_m;
             nearest = nearest.min(d);
-            if !scene.is_closed(e.0) {
+            if !scene.is_closed(e.component) {
                 nearest_open = nearest_open.min(d);
             }
         }
