@@ -69,6 +69,17 @@ pub struct KernelFigure {
     pub distance_over_tangent_contact: f64,
     /// Distance over tangent-plane ns per point in free space (median of the per-round ratios).
     pub distance_over_tangent_free: f64,
+    /// The tangent-plane kernel on at most AVX2 (`vps_haptic::avx2_only`), alternated batch by
+    /// batch with [`KernelFigure::distance_avx2`]: what a CPU without AVX-512 runs.
+    pub tangent_avx2: KernelTimes,
+    /// The `distance` force model on at most AVX2, alternated with
+    /// [`KernelFigure::tangent_avx2`].
+    pub distance_avx2: KernelTimes,
+    /// Distance over tangent-plane ns per point in contact, both on at most AVX2 (median of the
+    /// per-round ratios).
+    pub distance_over_tangent_contact_avx2: f64,
+    /// Distance over tangent-plane ns per point in free space, both on at most AVX2.
+    pub distance_over_tangent_free_avx2: f64,
     /// Points in contact with the distance model in the contact pose (should be all).
     pub distance_contact_fraction: f64,
     /// Memory of the distance band (bytes), beside `tree_bytes`.
@@ -210,15 +221,15 @@ fn alternated(
 }
 
 /// Tangent-plane and distance ns per point (medians) and the median of the per-round ratios
-/// distance / tangent-plane: `sample_all` on `tree` and on `band_tree` alternated.
+/// distance / tangent-plane: `kernel` on `tree` and on `band_tree` alternated.
 fn alternated_models(
+    kernel: Kernel<VoxelTree>,
     tree: &VoxelTree,
     band_tree: &VoxelTree,
     shell: &ClassedShell,
     pose: &KernelPose,
     secs: f64,
 ) -> (f64, f64, f64) {
-    let kernel: Kernel<VoxelTree> = sample_all;
     let reps = calibrate(kernel, tree, shell, pose, secs);
     let rounds: Vec<(f64, f64)> = (0..BATCHES)
         .map(|round| {
@@ -267,10 +278,39 @@ fn measure(n: usize, batch_seconds: f64) -> Result<KernelFigure> {
         sample_all(&band_tree, &shell, &free).non_free == 0,
         "the distance model's free pose touches"
     );
-    let (_, distance_contact, distance_over_tangent_contact) =
-        alternated_models(&tree, &band_tree, &shell, &contact, batch_seconds);
-    let (_, distance_free, distance_over_tangent_free) =
-        alternated_models(&tree, &band_tree, &shell, &free, batch_seconds);
+    anyhow::ensure!(
+        vps_haptic::avx2_only::sample_all(&band_tree, &shell, &contact) == band_sums,
+        "the distance model's copies disagree"
+    );
+    let current_kernel: Kernel<VoxelTree> = sample_all;
+    let avx2_kernel: Kernel<VoxelTree> = vps_haptic::avx2_only::sample_all;
+    let (_, distance_contact, distance_over_tangent_contact) = alternated_models(
+        current_kernel,
+        &tree,
+        &band_tree,
+        &shell,
+        &contact,
+        batch_seconds,
+    );
+    let (_, distance_free, distance_over_tangent_free) = alternated_models(
+        current_kernel,
+        &tree,
+        &band_tree,
+        &shell,
+        &free,
+        batch_seconds,
+    );
+    let (tangent_avx2_contact, distance_avx2_contact, distance_over_tangent_contact_avx2) =
+        alternated_models(
+            avx2_kernel,
+            &tree,
+            &band_tree,
+            &shell,
+            &contact,
+            batch_seconds,
+        );
+    let (tangent_avx2_free, distance_avx2_free, distance_over_tangent_free_avx2) =
+        alternated_models(avx2_kernel, &tree, &band_tree, &shell, &free, batch_seconds);
     let times = |contact: f64, free: f64| KernelTimes {
         contact_ns_per_point: contact,
         free_ns_per_point: free,
@@ -288,6 +328,10 @@ fn measure(n: usize, batch_seconds: f64) -> Result<KernelFigure> {
         distance: times(distance_contact, distance_free),
         distance_over_tangent_contact,
         distance_over_tangent_free,
+        tangent_avx2: times(tangent_avx2_contact, tangent_avx2_free),
+        distance_avx2: times(distance_avx2_contact, distance_avx2_free),
+        distance_over_tangent_contact_avx2,
+        distance_over_tangent_free_avx2,
         distance_contact_fraction: band_sums.contacts as f64 / n as f64,
         distance_band_bytes: band_bytes,
     })

@@ -172,6 +172,7 @@ fn sample_class_with<L: VoxelLookup>(
                         normals,
                     },
                     &mut sums,
+                    widest,
                 ),
                 _ => accumulate(map, frame, points, normals, &mut sums, widest),
             }

@@ -30,15 +30,17 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::avx512::WIDE_LANES;
-use super::{add3_fixed, brake_block, load, place, ClassAccumulator, GridFrame, Soa, CHUNK_BLOCKS};
-
-#[cfg(target_arch = "x86_64")]
-mod avx512;
+use super::{
+    add3_fixed, brake_block, load, place, ClassAccumulator, GridFrame, Soa, Widest, CHUNK_BLOCKS,
+};
 use crate::lanes::{cross, floor_i32, mat_vec, scale, F32s, Vec3s, LANES};
 use crate::sums::PartialSums;
 use vps_voxmap::distance::{
     DistanceBand, BAND_VOXELS, CODES_PER_VOXEL, CODE_DEEP, CODE_FAR, SLOT_FAR,
 };
+
+#[cfg(target_arch = "x86_64")]
+mod avx512;
 
 /// Shortest gradient (per voxel, 1 for an exact distance field) whose direction is trusted; below
 /// it the point's own normal is used.
@@ -64,8 +66,9 @@ pub(super) struct BandClass<'a> {
     pub(super) normals: Soa<'a>,
 }
 
-/// Adds the sums of `class`'s points against its band to `sums`.
-pub(super) fn accumulate(class: BandClass, sums: &mut PartialSums) {
+/// Adds the sums of `class`'s points against its band to `sums`, on the widest copy of the block
+/// loop up to `widest` that the CPU runs (the same bits on each).
+pub(super) fn accumulate(class: BandClass, sums: &mut PartialSums, widest: Widest) {
     #[cfg(target_arch = "x86_64")]
     if avx2::fits_lanes(class.band) {
         let BandClass {
@@ -75,7 +78,7 @@ pub(super) fn accumulate(class: BandClass, sums: &mut PartialSums) {
             points,
             normals,
         } = class;
-        if super::cpu_has_avx512() {
+        if widest == Widest::Avx512 && super::cpu_has_avx512() {
             // SAFETY: the CPU supports AVX2, AVX-512F, AVX-512DQ and POPCNT, and the band's
             // indices fit 32-bit lanes (both checked just above).
             return unsafe {
@@ -88,6 +91,8 @@ pub(super) fn accumulate(class: BandClass, sums: &mut PartialSums) {
             return unsafe { accumulate_avx2(band, standoff_voxels, frame, points, normals, sums) };
         }
     }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = widest;
     accumulate_any::<false, false>(class, sums)
 }
 
