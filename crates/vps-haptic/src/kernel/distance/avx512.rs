@@ -147,12 +147,15 @@ pub(in crate::kernel) unsafe fn sample_blocks<const CLAMP: bool>(
 /// A wide block placed and its directory slots read ([`locate`]), its codes not yet.
 #[derive(Clone, Copy)]
 struct Located {
+    /// The block's first point.
     start: usize,
+    /// Lever arms (m·2^-k, the frame's lever scale) of the block's points.
     lever: V3,
     /// `g − ½` per axis (voxels).
     t: V3,
     /// `floor(t)`.
     base: [__m512i; 3],
+    /// Each lane's directory slot (0, the far brick, outside the grid).
     slots: __m512i,
 }
 
