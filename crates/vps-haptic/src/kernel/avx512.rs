@@ -70,7 +70,7 @@ pub(super) fn count(mask: __mmask16) -> u64 {
 /// The CPU must support AVX-512F and AVX-512DQ.
 #[inline]
 #[target_feature(enable = "avx512f,avx512dq")]
-pub(super) unsafe fn add_fixed<const CLAMP: bool>(acc: &mut I64s, y: __m512) {
+unsafe fn add_fixed<const CLAMP: bool>(acc: &mut I64s, y: __m512) {
     let y = if CLAMP {
         _mm512_min_ps(
             _mm512_max_ps(y, _mm512_set1_ps(-Y_MAX)),
@@ -313,20 +313,40 @@ unsafe fn sample_located<const CLAMP: bool>(
             acc.depth_blocks += 2;
         }
         if proximity != 0 {
-            let velocity =
-                add_cross_uniform(frame.linear_velocity, frame.angular_velocity_lever, &lever);
-            let zero = _mm512_setzero_ps();
-            let approach = dot(&velocity, &normal);
-            let approaching = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(proximity, approach, zero);
-            let x = _mm512_maskz_mov_ps(approaching, approach);
-            let a = _mm512_mul_ps(x, _mm512_set1_ps(LENGTH_Q));
-            let a_sq = _mm512_mul_ps(x, a);
-            acc.approaching += count(_mm512_cmp_ps_mask::<_CMP_LT_OQ>(a, zero));
-            add_fixed::<CLAMP>(&mut acc.brake_sq, a_sq);
-            let brake_dir = scale(&normal, a);
-            add3_fixed::<CLAMP>(&mut acc.brake_force, &brake_dir);
-            add3_fixed::<CLAMP>(&mut acc.brake_torque, &cross(&lever, &brake_dir));
-            acc.brake_blocks += 2;
+            brake_lanes::<CLAMP>(frame, &lever, &normal, proximity, acc);
         }
+    }
+}
+
+/// `super::avx2::brake_lanes` on sixteen lanes: `a = V·N` in the lanes of `mask` that approach
+/// (`V·N < 0`), 0 elsewhere; adds `a²`, `a N` and `(P − x) × a N` and counts the approaching
+/// lanes. `lever` is `P − x` in the frame's lever scale. Shared by the tangent-plane wide block
+/// (Proximity lanes) and the distance model's (braking lanes).
+///
+/// # Safety
+/// As [`add_fixed`]'s.
+#[inline(always)]
+pub(super) unsafe fn brake_lanes<const CLAMP: bool>(
+    frame: &GridFrame,
+    lever: &V3,
+    normal: &V3,
+    mask: __mmask16,
+    acc: &mut ClassAccumulator,
+) {
+    unsafe {
+        let velocity =
+            add_cross_uniform(frame.linear_velocity, frame.angular_velocity_lever, lever);
+        let zero = _mm512_setzero_ps();
+        let approach = dot(&velocity, normal);
+        let approaching = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(mask, approach, zero);
+        let x = _mm512_maskz_mov_ps(approaching, approach);
+        let a = _mm512_mul_ps(x, _mm512_set1_ps(LENGTH_Q));
+        let a_sq = _mm512_mul_ps(x, a);
+        acc.approaching += count(_mm512_cmp_ps_mask::<_CMP_LT_OQ>(a, zero));
+        add_fixed::<CLAMP>(&mut acc.brake_sq, a_sq);
+        let brake_dir = scale(normal, a);
+        add3_fixed::<CLAMP>(&mut acc.brake_force, &brake_dir);
+        add3_fixed::<CLAMP>(&mut acc.brake_torque, &cross(lever, &brake_dir));
+        acc.brake_blocks += 2;
     }
 }

@@ -39,6 +39,48 @@ use vps_voxmap::distance::{
     DistanceBand, BAND_VOXELS, CODES_PER_VOXEL, CODE_DEEP, CODE_FAR, SLOT_FAR,
 };
 
+/// `lerp` and `value_and_gradient` of one SIMD copy of the block, written once for both widths
+/// (`__m256` in [`avx2`], `__m512` in `avx512`): the trilinear value and gradient of
+/// [`value_and_gradient`] with the same IEEE operations in the same order (two products, then the
+/// sum: no fused multiply-add), so every copy gives the same bits. Arguments: the target feature,
+/// the f32 vector type, and the broadcast, add, subtract and multiply intrinsics.
+#[cfg(target_arch = "x86_64")]
+macro_rules! trilinear_ops {
+    ($feature:literal, $f:ty, $set1:ident, $add:ident, $sub:ident, $mul:ident) => {
+        /// `a · wa + b · wb` per lane (two products, then the sum: no fused multiply-add).
+        #[inline]
+        #[target_feature(enable = $feature)]
+        fn lerp(a: $f, wa: $f, b: $f, wb: $f) -> $f {
+            $add($mul(a, wa), $mul(b, wb))
+        }
+
+        /// `super::value_and_gradient` in vector registers; `c[z][y][x]` the corner codes.
+        #[inline]
+        #[target_feature(enable = $feature)]
+        fn value_and_gradient(c: &[[[$f; 2]; 2]; 2], f: &[$f; 3]) -> ($f, [$f; 3]) {
+            let one = $set1(1.0);
+            let (fx, fy, fz) = (f[0], f[1], f[2]);
+            let (gx, gy, gz) = ($sub(one, fx), $sub(one, fy), $sub(one, fz));
+            let x00 = lerp(c[0][0][0], gx, c[0][0][1], fx);
+            let x10 = lerp(c[0][1][0], gx, c[0][1][1], fx);
+            let x01 = lerp(c[1][0][0], gx, c[1][0][1], fx);
+            let x11 = lerp(c[1][1][0], gx, c[1][1][1], fx);
+            let y0 = lerp(x00, gy, x10, fy);
+            let y1 = lerp(x01, gy, x11, fy);
+            let q = $set1(1.0 / CODES_PER_VOXEL);
+            let value = $mul(lerp(y0, gz, y1, fz), q);
+            let d00 = $sub(c[0][0][1], c[0][0][0]);
+            let d10 = $sub(c[0][1][1], c[0][1][0]);
+            let d01 = $sub(c[1][0][1], c[1][0][0]);
+            let d11 = $sub(c[1][1][1], c[1][1][0]);
+            let dx = lerp(lerp(d00, gy, d10, fy), gz, lerp(d01, gy, d11, fy), fz);
+            let dy = lerp($sub(x10, x00), gz, $sub(x11, x01), fz);
+            let dz = $sub(y1, y0);
+            (value, [$mul(dx, q), $mul(dy, q), $mul(dz, q)])
+        }
+    };
+}
+
 #[cfg(target_arch = "x86_64")]
 mod avx512;
 
@@ -429,13 +471,6 @@ pub(super) mod avx2 {
         unsafe { _mm256_i32gather_epi32::<1>(bytes.cast(), at) }
     }
 
-    /// `a · wa + b · wb` per lane (two products, then the sum: no fused multiply-add).
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn lerp(a: __m256, wa: __m256, b: __m256, wb: __m256) -> __m256 {
-        _mm256_add_ps(_mm256_mul_ps(a, wa), _mm256_mul_ps(b, wb))
-    }
-
     /// `a < b` per lane as an all-ones mask (ordered: false where either is NaN).
     #[inline]
     #[target_feature(enable = "avx2")]
@@ -457,41 +492,14 @@ pub(super) mod avx2 {
         u64::from(_mm256_movemask_ps(mask).count_ones())
     }
 
-    /// `super::value_and_gradient` in 256-bit registers; `c[z][y][x]` the corner codes.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn value_and_gradient(c: &[[[__m256; 2]; 2]; 2], f: &V3) -> (__m256, V3) {
-        let one = _mm256_set1_ps(1.0);
-        let (fx, fy, fz) = (f[0], f[1], f[2]);
-        let (gx, gy, gz) = (
-            _mm256_sub_ps(one, fx),
-            _mm256_sub_ps(one, fy),
-            _mm256_sub_ps(one, fz),
-        );
-        let x00 = lerp(c[0][0][0], gx, c[0][0][1], fx);
-        let x10 = lerp(c[0][1][0], gx, c[0][1][1], fx);
-        let x01 = lerp(c[1][0][0], gx, c[1][0][1], fx);
-        let x11 = lerp(c[1][1][0], gx, c[1][1][1], fx);
-        let y0 = lerp(x00, gy, x10, fy);
-        let y1 = lerp(x01, gy, x11, fy);
-        let q = _mm256_set1_ps(1.0 / CODES_PER_VOXEL);
-        let value = _mm256_mul_ps(lerp(y0, gz, y1, fz), q);
-        let d00 = _mm256_sub_ps(c[0][0][1], c[0][0][0]);
-        let d10 = _mm256_sub_ps(c[0][1][1], c[0][1][0]);
-        let d01 = _mm256_sub_ps(c[1][0][1], c[1][0][0]);
-        let d11 = _mm256_sub_ps(c[1][1][1], c[1][1][0]);
-        let dx = lerp(lerp(d00, gy, d10, fy), gz, lerp(d01, gy, d11, fy), fz);
-        let dy = lerp(_mm256_sub_ps(x10, x00), gz, _mm256_sub_ps(x11, x01), fz);
-        let dz = _mm256_sub_ps(y1, y0);
-        (
-            value,
-            [
-                _mm256_mul_ps(dx, q),
-                _mm256_mul_ps(dy, q),
-                _mm256_mul_ps(dz, q),
-            ],
-        )
-    }
+    trilinear_ops!(
+        "avx2",
+        __m256,
+        _mm256_set1_ps,
+        _mm256_add_ps,
+        _mm256_sub_ps,
+        _mm256_mul_ps
+    );
 
     /// Blocks per batch of [`sample_blocks`]' pipeline: their memory reads (a directory gather,
     /// then four code gathers that depend on it) are in flight together instead of each block

@@ -10,10 +10,9 @@
 //! wide block counts as two blocks for the carried rounding offset.
 
 use super::super::avx512::{
-    add3_fixed, add_cross_uniform, add_fixed, count, cross, dot, load, mat_vec, scale, V3,
-    WIDE_LANES,
+    add3_fixed, brake_lanes, count, cross, dot, load, mat_vec, scale, V3, WIDE_LANES,
 };
-use super::super::{ClassAccumulator, LENGTH_Q};
+use super::super::ClassAccumulator;
 use super::{BandClass, BRAKE_RANGE_VOXELS, MIN_GRADIENT};
 use std::arch::x86_64::*;
 use std::mem::MaybeUninit;
@@ -46,13 +45,6 @@ fn code<const LEFT: u32>(v: __m512i) -> __m512 {
     _mm512_cvtepi32_ps(_mm512_srai_epi32::<24>(_mm512_slli_epi32::<LEFT>(v)))
 }
 
-/// `a · wa + b · wb` per lane (two products, then the sum: no fused multiply-add).
-#[inline]
-#[target_feature(enable = "avx512f")]
-fn lerp(a: __m512, wa: __m512, b: __m512, wb: __m512) -> __m512 {
-    _mm512_add_ps(_mm512_mul_ps(a, wa), _mm512_mul_ps(b, wb))
-}
-
 /// `a < b` per lane (ordered: false where either is NaN).
 #[inline]
 #[target_feature(enable = "avx512f")]
@@ -60,41 +52,14 @@ fn less(a: __m512, b: __m512) -> __mmask16 {
     _mm512_cmp_ps_mask::<_CMP_LT_OQ>(a, b)
 }
 
-/// `super::value_and_gradient` in 512-bit registers; `c[z][y][x]` the corner codes.
-#[inline]
-#[target_feature(enable = "avx512f")]
-fn value_and_gradient(c: &[[[__m512; 2]; 2]; 2], f: &V3) -> (__m512, V3) {
-    let one = _mm512_set1_ps(1.0);
-    let (fx, fy, fz) = (f[0], f[1], f[2]);
-    let (gx, gy, gz) = (
-        _mm512_sub_ps(one, fx),
-        _mm512_sub_ps(one, fy),
-        _mm512_sub_ps(one, fz),
-    );
-    let x00 = lerp(c[0][0][0], gx, c[0][0][1], fx);
-    let x10 = lerp(c[0][1][0], gx, c[0][1][1], fx);
-    let x01 = lerp(c[1][0][0], gx, c[1][0][1], fx);
-    let x11 = lerp(c[1][1][0], gx, c[1][1][1], fx);
-    let y0 = lerp(x00, gy, x10, fy);
-    let y1 = lerp(x01, gy, x11, fy);
-    let q = _mm512_set1_ps(1.0 / CODES_PER_VOXEL);
-    let value = _mm512_mul_ps(lerp(y0, gz, y1, fz), q);
-    let d00 = _mm512_sub_ps(c[0][0][1], c[0][0][0]);
-    let d10 = _mm512_sub_ps(c[0][1][1], c[0][1][0]);
-    let d01 = _mm512_sub_ps(c[1][0][1], c[1][0][0]);
-    let d11 = _mm512_sub_ps(c[1][1][1], c[1][1][0]);
-    let dx = lerp(lerp(d00, gy, d10, fy), gz, lerp(d01, gy, d11, fy), fz);
-    let dy = lerp(_mm512_sub_ps(x10, x00), gz, _mm512_sub_ps(x11, x01), fz);
-    let dz = _mm512_sub_ps(y1, y0);
-    (
-        value,
-        [
-            _mm512_mul_ps(dx, q),
-            _mm512_mul_ps(dy, q),
-            _mm512_mul_ps(dz, q),
-        ],
-    )
-}
+trilinear_ops!(
+    "avx512f",
+    __m512,
+    _mm512_set1_ps,
+    _mm512_add_ps,
+    _mm512_sub_ps,
+    _mm512_mul_ps
+);
 
 /// The wide blocks of `begin..end` (a multiple of [`WIDE_LANES`] points) in batches of
 /// [`BATCH`], software-pipelined; those in the band are finished in order: the same sums as the
@@ -373,23 +338,7 @@ unsafe fn finish_block<const CLAMP: bool>(
             acc.depth_blocks += 2;
         }
         if braking != 0 {
-            // The AVX2 copy's `brake_lanes` on sixteen lanes.
-            let velocity = add_cross_uniform(
-                class.frame.linear_velocity,
-                class.frame.angular_velocity_lever,
-                &lever,
-            );
-            let approach = dot(&velocity, &direction);
-            let approaching = braking & less(approach, zero);
-            let x = _mm512_maskz_mov_ps(approaching, approach);
-            let a = _mm512_mul_ps(x, _mm512_set1_ps(LENGTH_Q));
-            let a_sq = _mm512_mul_ps(x, a);
-            acc.approaching += count(less(a, zero));
-            add_fixed::<CLAMP>(&mut acc.brake_sq, a_sq);
-            let brake_dir = scale(&direction, a);
-            add3_fixed::<CLAMP>(&mut acc.brake_force, &brake_dir);
-            add3_fixed::<CLAMP>(&mut acc.brake_torque, &cross(&lever, &brake_dir));
-            acc.brake_blocks += 2;
+            brake_lanes::<CLAMP>(class.frame, &lever, &direction, braking, acc);
         }
     }
 }
