@@ -78,6 +78,32 @@ struct DistanceBandBench {
     memory_ratio: f64,
     /// (4-bit voxelization + band build) over the 4-bit voxelization alone.
     build_time_ratio: f64,
+    /// Where the band build's time went (ms).
+    phases_ms: BandPhases,
+}
+
+/// [`vps_voxelize::distance::BandBuildPhases`] (ms).
+#[derive(Serialize)]
+struct BandPhases {
+    lists: f64,
+    exact_scene: f64,
+    inside_map: f64,
+    scene_and_inside: f64,
+    samples: f64,
+    assemble: f64,
+}
+
+impl From<vps_voxelize::distance::BandBuildPhases> for BandPhases {
+    fn from(p: vps_voxelize::distance::BandBuildPhases) -> BandPhases {
+        BandPhases {
+            lists: p.lists_ms,
+            exact_scene: p.exact_scene_ms,
+            inside_map: p.inside_map_ms,
+            scene_and_inside: p.scene_and_inside_ms,
+            samples: p.samples_ms,
+            assemble: p.assemble_ms,
+        }
+    }
 }
 
 #[derive(Serialize)]
@@ -219,7 +245,7 @@ pub fn run_voxelize(source: &str, voxel_size: f64, repeat: u32, json: bool) -> R
         let (tree, stats) = sparse_once(&scene.mesh, voxel_size, width)?;
         if width == VoxelWidth::Four {
             let t = Instant::now();
-            let band = vps_voxelize::distance::distance_band(
+            let (band, phases_ms) = vps_voxelize::distance::distance_band_timed(
                 &tree,
                 std::slice::from_ref(&scene.mesh),
                 voxel_size * vps_voxmap::distance::DEFAULT_STANDOFF_VOXELS,
@@ -234,6 +260,7 @@ pub fn run_voxelize(source: &str, voxel_size: f64, repeat: u32, json: bool) -> R
                 memory_ratio: (tree.memory_bytes() + band.memory_bytes()) as f64
                     / tree.memory_bytes() as f64,
                 build_time_ratio: (stats.total_ms + build_ms) / stats.total_ms,
+                phases_ms: phases_ms.into(),
             });
         }
         let layers = tree.layer_counts();

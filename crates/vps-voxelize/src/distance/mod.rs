@@ -33,6 +33,7 @@
 
 use glam::DVec3;
 use rayon::prelude::*;
+use std::time::Instant;
 use vps_mesh::TriMesh;
 use vps_reference::ExactScene;
 use vps_voxmap::distance::{
@@ -90,6 +91,26 @@ pub enum BandBuildError {
     Band(#[from] distance::BandError),
 }
 
+/// Where a band build's time went (wall-clock ms, one build): what `vps bench voxelize`
+/// reports beside the build's total.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BandBuildPhases {
+    /// Step 1: the cubes to store and their triangle lists (serial).
+    pub lists_ms: f64,
+    /// The exact scene (edge and vertex normals, components, search tree; serial), run beside
+    /// the inside map.
+    pub exact_scene_ms: f64,
+    /// The inside map: a 2-bit voxelization with no offset (parallel), run beside the exact
+    /// scene.
+    pub inside_map_ms: f64,
+    /// The two above together (the longer of them, on two or more threads).
+    pub scene_and_inside_ms: f64,
+    /// Step 2: every stored cube's samples (parallel).
+    pub samples_ms: f64,
+    /// Step 3 and the directory: the band assembled (serial).
+    pub assemble_ms: f64,
+}
+
 /// The band of `tree` (built from `meshes`, world frame, m) with the stand-off `standoff_m` (m,
 /// `0..=` one voxel) baked in, within `max_memory_bytes`. Blocking, parallel (rayon),
 /// allocates the band.
@@ -99,6 +120,18 @@ pub fn distance_band(
     standoff_m: f64,
     max_memory_bytes: u64,
 ) -> Result<DistanceBand, BandBuildError> {
+    distance_band_timed(tree, meshes, standoff_m, max_memory_bytes).map(|(band, _)| band)
+}
+
+/// [`distance_band`], with where its time went.
+pub fn distance_band_timed(
+    tree: &VoxelTree,
+    meshes: &[TriMesh],
+    standoff_m: f64,
+    max_memory_bytes: u64,
+) -> Result<(DistanceBand, BandBuildPhases), BandBuildError> {
+    let ms = |since: Instant| since.elapsed().as_secs_f64() * 1e3;
+    let mut phases = BandBuildPhases::default();
     let spec = *tree.spec();
     let s = spec.voxel_size;
     let max_m = MAX_STANDOFF_VOXELS * s;
@@ -120,6 +153,7 @@ pub fn distance_band(
     // Beyond this distance from every triangle a sample's code saturates whatever its exact
     // distance (1/128 voxel of rounding slack), so no triangle needs to visit it.
     let reach = standoff_m + (f64::from(BAND_VOXELS) + 1.0 / 128.0) * s;
+    let started = Instant::now();
     let lists =
         CubeTriangles::new(&spec, cube_dims, meshes, reach, max_memory_bytes).map_err(|bytes| {
             BandBuildError::OverBudget {
@@ -137,12 +171,23 @@ pub fn distance_band(
             budget: max_memory_bytes,
         });
     }
+    phases.lists_ms = ms(started);
     // The exact scene's build is serial: it runs beside the inside map's voxelization.
-    let (scene, inside) = rayon::join(
-        || ExactScene::new(meshes),
-        || InsideMap::new(tree, meshes, max_memory_bytes),
+    let started = Instant::now();
+    let ((scene, exact_scene_ms), (inside, inside_map_ms)) = rayon::join(
+        || {
+            let started = Instant::now();
+            (ExactScene::new(meshes), ms(started))
+        },
+        || {
+            let started = Instant::now();
+            (InsideMap::new(tree, meshes, max_memory_bytes), ms(started))
+        },
     );
+    (phases.exact_scene_ms, phases.inside_map_ms) = (exact_scene_ms, inside_map_ms);
+    phases.scene_and_inside_ms = ms(started);
     let (scene, inside) = (scene?, inside?);
+    let started = Instant::now();
     let [nx, ny, _] = cube_dims;
     let index =
         |c: [u32; 3]| (c[2] as usize * ny as usize + c[1] as usize) * nx as usize + c[0] as usize;
@@ -167,8 +212,10 @@ pub fn distance_band(
             (i, sampler.cube(lists.of(i), c))
         })
         .collect();
+    phases.samples_ms = ms(started);
+    let started = Instant::now();
     let mut stored = stored.into_iter().peekable();
-    Ok(distance::assemble(&spec, standoff_m, |c| {
+    let band = distance::assemble(&spec, standoff_m, |c| {
         let i = index(c);
         if stored.peek().is_some_and(|(j, _)| *j == i) {
             return stored
@@ -184,7 +231,9 @@ pub fn distance_band(
         } else {
             CubeCodes::Far
         }
-    })?)
+    })?;
+    phases.assemble_ms = ms(started);
+    Ok((band, phases))
 }
 
 /// Which voxels lie wholly inside the scene's solids: the voxmap's classification with no force
@@ -765,6 +814,36 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The phases are parts of the build, none counted twice: each within the whole, the two run
+    /// side by side within their joint time, and the serial ones with that joint time within
+    /// the build's wall time.
+    #[test]
+    fn the_build_phases_are_parts_of_the_build() {
+        let meshes = [vps_mesh::builtin::by_name("box").unwrap()];
+        let opts = VoxelizeOptions {
+            voxel_size: 0.004,
+            width: VoxelWidth::Four,
+            ..VoxelizeOptions::default()
+        };
+        let (tree, _) = voxelize_tree(&meshes, &opts, TreeConfig::default()).unwrap();
+        let started = Instant::now();
+        let (band, p) = distance_band_timed(&tree, &meshes, 0.002, 1 << 30).unwrap();
+        let wall_ms = started.elapsed().as_secs_f64() * 1e3;
+        assert!(band.brick_count() > 0);
+        let phases = [
+            p.lists_ms,
+            p.exact_scene_ms,
+            p.inside_map_ms,
+            p.scene_and_inside_ms,
+            p.samples_ms,
+            p.assemble_ms,
+        ];
+        assert!(phases.iter().all(|&ms| ms > 0.0 && ms <= wall_ms), "{p:?}");
+        assert!(p.exact_scene_ms.max(p.inside_map_ms) <= p.scene_and_inside_ms, "{p:?}");
+        let serial = p.lists_ms + p.scene_and_inside_ms + p.samples_ms + p.assemble_ms;
+        assert!(serial <= wall_ms, "{p:?}, wall {wall_ms} ms");
     }
 
     /// The code of sample `k` (x fastest) of the brick in directory slot `slot` of the cube whose
