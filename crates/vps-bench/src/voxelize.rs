@@ -65,7 +65,8 @@ struct SparseBench {
 /// The distance band's cost beside the 4-bit map it belongs to.
 #[derive(Serialize)]
 struct DistanceBandBench {
-    /// Time to build the band from the 4-bit tree and the triangles (ms).
+    /// Time to build the band from the 4-bit tree, the inside map its voxelization kept and the
+    /// triangles (ms), as a session builds it.
     build_ms: f64,
     /// Bricks (cubes of 8³ voxels stored near the surface).
     bricks: usize,
@@ -82,7 +83,8 @@ struct DistanceBandBench {
     phases_ms: BandPhases,
 }
 
-/// [`vps_voxelize::distance::BandBuildPhases`] (ms).
+/// [`vps_voxelize::distance::BandBuildPhases`] (ms); `inside_map` is 0 here (the voxelization's
+/// own map serves).
 #[derive(Serialize)]
 struct BandPhases {
     lists: f64,
@@ -242,11 +244,29 @@ pub fn run_voxelize(source: &str, voxel_size: f64, repeat: u32, json: bool) -> R
     let mut widths = Vec::new();
     let mut distance_band = None;
     for width in [VoxelWidth::Four, VoxelWidth::Eight] {
-        let (tree, stats) = sparse_once(&scene.mesh, voxel_size, width)?;
-        if width == VoxelWidth::Four {
+        // The 4-bit run as a session makes a distance voxmap: the band takes its signs from the
+        // inside map the voxelization kept (its peak working bytes include that map).
+        let (tree, stats, inside) = if width == VoxelWidth::Four {
+            let opts = VoxelizeOptions {
+                voxel_size,
+                width,
+                ..VoxelizeOptions::default()
+            };
+            let (tree, stats, inside) = vps_voxelize::voxelize_tree_keeping_inside(
+                std::slice::from_ref(&scene.mesh),
+                &opts,
+                TreeConfig::default(),
+            )?;
+            (tree, stats, Some(inside))
+        } else {
+            let (tree, stats) = sparse_once(&scene.mesh, voxel_size, width)?;
+            (tree, stats, None)
+        };
+        if let Some(inside) = &inside {
             let t = Instant::now();
-            let (band, phases_ms) = vps_voxelize::distance::distance_band_timed(
+            let (band, phases_ms) = vps_voxelize::distance::distance_band_with_inside(
                 &tree,
+                inside,
                 std::slice::from_ref(&scene.mesh),
                 voxel_size * vps_voxmap::distance::DEFAULT_STANDOFF_VOXELS,
                 vps_voxelize::default_memory_budget(),

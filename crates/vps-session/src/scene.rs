@@ -31,8 +31,11 @@ use vps_device::script::Script;
 use vps_haptic::HapticParams;
 use vps_mesh::StepSettings;
 use vps_mesh::{Aabb, TriMesh};
-use vps_voxelize::distance::distance_band;
-use vps_voxelize::{point_shell, tree_grid, voxelize_tree, ShellMethod, VoxelizeOptions};
+use vps_voxelize::distance::distance_band_with_inside;
+use vps_voxelize::{
+    point_shell, tree_grid, voxelize_tree, voxelize_tree_keeping_inside, ShellMethod,
+    VoxelizeOptions,
+};
 use vps_voxmap::{PointShell, TreeConfig, VoxelTree, VoxelWidth};
 
 /// The scene `vps demo` and every session command use when no `--scene` is given.
@@ -707,20 +710,33 @@ impl LoadedScene {
                 });
             }
         }
-        let (tree, _) =
-            voxelize_tree(objects, &opts, TreeConfig::default()).with_context(|| {
-                format!(
-                    "{}: voxelizing at {} mm, {}-bit",
-                    self.label,
-                    voxel_size * 1e3,
-                    width.bits()
-                )
-            })?;
+        let voxelizing = || {
+            format!(
+                "{}: voxelizing at {} mm, {}-bit",
+                self.label,
+                voxel_size * 1e3,
+                width.bits()
+            )
+        };
         let tree = match standoff {
-            None => tree,
+            None => {
+                voxelize_tree(objects, &opts, TreeConfig::default())
+                    .with_context(voxelizing)?
+                    .0
+            }
             Some(standoff) => {
-                let band = distance_band(&tree, objects, standoff, opts.max_memory_bytes)
-                    .map_err(|e| field_error(&self.label, "voxels.standoff", e.to_string()))?;
+                // The band takes its signs from the voxelization's own inside map.
+                let (tree, _, inside) =
+                    voxelize_tree_keeping_inside(objects, &opts, TreeConfig::default())
+                        .with_context(voxelizing)?;
+                let (band, _) = distance_band_with_inside(
+                    &tree,
+                    &inside,
+                    objects,
+                    standoff,
+                    opts.max_memory_bytes,
+                )
+                .map_err(|e| field_error(&self.label, "voxels.standoff", e.to_string()))?;
                 tree.with_distance_band(band)
             }
         };

@@ -45,10 +45,12 @@ pub use error::{VoxelizeError, MAX_SPARSE_VOXELS, MAX_VOXELS};
 pub use mass::{is_closed_and_oriented, mass_properties};
 pub use memory::{default_memory_budget, MemoryEstimate};
 pub use pipeline::{
-    clip_to_workspace, grid_for, tree_grid, voxelize, voxelize_in, voxelize_in_with_stats,
-    voxelize_tree, voxelize_tree_in, voxelize_with_stats, VoxelizeOptions,
+    clip_to_workspace, grid_for, inside_map_in, tree_grid, voxelize, voxelize_in,
+    voxelize_in_with_stats, voxelize_tree, voxelize_tree_in, voxelize_tree_keeping_inside,
+    voxelize_with_stats, VoxelizeOptions,
 };
 pub use shell::{point_shell, point_shell_within};
+pub use sparse::InsideMap;
 pub use stats::VoxelizeStats;
 pub use tri_box::triangle_box_overlap;
 pub use vps_voxmap::shell::ShellMethod;

@@ -8,6 +8,7 @@ use crate::flood_fill::{flood_fill, flood_fill_filtered};
 use crate::merge::{to_dense, MergedPlanes};
 use crate::offset::{offset, Layers};
 use crate::scan_convert::{scan_convert, Window};
+use crate::sparse::InsideMap;
 use crate::stats::VoxelizeStats;
 use crate::winding::{split_open, Part, PartClass};
 use glam::DVec3;
@@ -460,6 +461,55 @@ pub fn voxelize_tree_in(
     opts: &VoxelizeOptions,
     config: TreeConfig,
 ) -> Result<(VoxelTree, VoxelizeStats), VoxelizeError> {
+    sparse_tree_in(objects, spec, opts, config, false).map(|(tree, stats, _)| (tree, stats))
+}
+
+/// [`voxelize_tree`], also keeping the scene's [`InsideMap`] (its classification before
+/// proximity and the force-layer offset), from which
+/// [`crate::distance::distance_band_with_inside`] takes the band's signs without voxelizing the
+/// scene a second time. The map holds [`InsideMap::memory_bytes`] beside the tree until dropped
+/// (counted in the stats' peak working bytes).
+pub fn voxelize_tree_keeping_inside(
+    objects: &[TriMesh],
+    opts: &VoxelizeOptions,
+    config: TreeConfig,
+) -> Result<(VoxelTree, VoxelizeStats, InsideMap), VoxelizeError> {
+    check_voxel_size(opts.voxel_size)?;
+    check_objects(objects)?;
+    let spec = scene_grid(objects, opts, MAX_SPARSE_VOXELS)?;
+    let (tree, stats, inside) = sparse_tree_in(objects, spec, opts, config, true)?;
+    let inside = inside.ok_or_else(|| VoxelizeError::InvalidGrid {
+        reason: "the sparse voxelizer kept no inside map (a bug)".into(),
+    })?;
+    Ok((tree, stats, inside))
+}
+
+/// The [`InsideMap`] of `objects` on `spec` alone (scan, flood fill and merge of the sparse
+/// pipeline; no layers, no tree), within `max_memory_bytes`. Blocking, parallel (rayon).
+pub fn inside_map_in(
+    objects: &[TriMesh],
+    spec: GridSpec,
+    max_memory_bytes: u64,
+) -> Result<InsideMap, VoxelizeError> {
+    check_spec(&spec, MAX_SPARSE_VOXELS)?;
+    check_objects(objects)?;
+    crate::memory::check_budget(
+        crate::memory::estimate_sparse(objects, &spec, VoxelWidth::Two),
+        &spec,
+        max_memory_bytes,
+    )?;
+    let mut stats = VoxelizeStats::default();
+    Ok(crate::sparse::inside_map(objects, &spec, &mut stats))
+}
+
+/// [`voxelize_tree_in`], with the inside map when `keep_inside`.
+fn sparse_tree_in(
+    objects: &[TriMesh],
+    spec: GridSpec,
+    opts: &VoxelizeOptions,
+    config: TreeConfig,
+    keep_inside: bool,
+) -> Result<(VoxelTree, VoxelizeStats, Option<InsideMap>), VoxelizeError> {
     let start = Instant::now();
     check_spec(&spec, MAX_SPARSE_VOXELS)?;
     check_objects(objects)?;
@@ -480,14 +530,15 @@ pub fn voxelize_tree_in(
         dims: spec.dims,
         ..VoxelizeStats::default()
     };
-    let tree = crate::sparse::voxelize_sparse(objects, &spec, &plan, config, &mut stats)?;
+    let (tree, inside) =
+        crate::sparse::voxelize_sparse(objects, &spec, &plan, config, &mut stats, keep_inside)?;
     let [free, interior, surface, proximity] = tree.counts();
     stats.free_voxels = free;
     stats.interior_voxels = interior;
     stats.surface_voxels = surface;
     stats.proximity_voxels = proximity;
     stats.total_ms = ms(start);
-    Ok((tree, stats))
+    Ok((tree, stats, inside))
 }
 
 /// [`voxelize`] on a given grid: `spec` (its own voxel size wins over `opts.voxel_size`, and

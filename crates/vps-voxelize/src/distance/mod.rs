@@ -12,7 +12,7 @@
 //!    component (as OpenVDB's mesh-to-volume conversion keeps the nearest). The
 //!    nearest triangle then gives the sign: negative behind its angle-weighted pseudo-normal when
 //!    its component is closed ([`vps_reference::ExactScene::signed_to_triangle_at`]). A sample
-//!    that the inside map (the voxmap's classification with no force-layer offset: `InsideMap`)
+//!    that the inside map (the scene's classification with no force-layer offset: [`InsideMap`])
 //!    puts wholly inside a solid is negative whatever: an open mesh the flood fill closed is
 //!    inside here too, and a sample deep in a solid whose surface is beyond the reach is `−reach`
 //!    (deep) even when it is near another solid's surface. `e = d − standoff` is quantised to
@@ -25,12 +25,15 @@
 //! own surface is beyond the reach, the band holds the distance to the inner surface (a shallower
 //! depth than the union's), with that surface's normal.
 //!
-//! Cost: one 2-bit voxelization of the scene for the inside map; per triangle, a distance per
+//! Cost: the inside map (none when the voxelization that built the tree kept its own:
+//! [`crate::voxelize_tree_keeping_inside`], [`distance_band_with_inside`]; else the sparse
+//! pipeline's scan, flood fill and merge again, beside the exact scene's build); per triangle, a distance per
 //! sample of the rows within its reach (about `(2 reach / s + 1)³` samples); per sample, one exact
 //! closest point for the triangle it keeps; memory 4 bytes per cube of the grid for the directory
 //! and as much for the triangle table's counts, 4 bytes per (triangle, cube) pair, and 729 bytes
 //! per stored cube, checked against the budget before any sample is computed.
 
+use crate::InsideMap;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -86,6 +89,9 @@ pub enum BandBuildError {
     /// The inside/outside classification the band takes its signs from could not be made.
     #[error("the distance band's inside/outside classification: {0}")]
     Inside(#[from] crate::VoxelizeError),
+    /// The inside map given is not on the tree's grid (a bug in the caller).
+    #[error("the distance band: the inside map given is not on the voxmap's grid")]
+    InsideGrid,
     /// The assembled band broke an invariant (a bug).
     #[error("the distance band: {0}")]
     Band(#[from] distance::BandError),
@@ -100,8 +106,8 @@ pub struct BandBuildPhases {
     /// The exact scene (edge and vertex normals, components, search tree; serial), run beside
     /// the inside map.
     pub exact_scene_ms: f64,
-    /// The inside map: a 2-bit voxelization with no offset (parallel), run beside the exact
-    /// scene.
+    /// The inside map: the sparse voxelizer's scan, flood fill and merge (parallel), run beside
+    /// the exact scene; 0 when the voxelization's own map was given.
     pub inside_map_ms: f64,
     /// The two above together (the longer of them, on two or more threads).
     pub scene_and_inside_ms: f64,
@@ -126,6 +132,34 @@ pub fn distance_band(
 /// [`distance_band`], with where its time went.
 pub fn distance_band_timed(
     tree: &VoxelTree,
+    meshes: &[TriMesh],
+    standoff_m: f64,
+    max_memory_bytes: u64,
+) -> Result<(DistanceBand, BandBuildPhases), BandBuildError> {
+    band_timed(tree, None, meshes, standoff_m, max_memory_bytes)
+}
+
+/// [`distance_band`] with the signs taken from `inside`, the inside map the voxelization of
+/// `tree` kept ([`crate::voxelize_tree_keeping_inside`]) instead of a second voxelization of
+/// `meshes`: the same band, sooner. `inside` must be on `tree`'s grid. With where its time went
+/// (`inside_map_ms` 0).
+pub fn distance_band_with_inside(
+    tree: &VoxelTree,
+    inside: &InsideMap,
+    meshes: &[TriMesh],
+    standoff_m: f64,
+    max_memory_bytes: u64,
+) -> Result<(DistanceBand, BandBuildPhases), BandBuildError> {
+    if inside.spec() != tree.spec() {
+        return Err(BandBuildError::InsideGrid);
+    }
+    band_timed(tree, Some(inside), meshes, standoff_m, max_memory_bytes)
+}
+
+/// The band, with the inside map `given` or made here.
+fn band_timed(
+    tree: &VoxelTree,
+    given: Option<&InsideMap>,
     meshes: &[TriMesh],
     standoff_m: f64,
     max_memory_bytes: u64,
@@ -172,27 +206,39 @@ pub fn distance_band_timed(
         });
     }
     phases.lists_ms = ms(started);
-    // The exact scene's build is serial: it runs beside the inside map's voxelization.
+    // The exact scene's build is serial: it runs beside the inside map's voxelization when
+    // there is one to make.
     let started = Instant::now();
-    let ((scene, exact_scene_ms), (inside, inside_map_ms)) = rayon::join(
-        || {
-            let started = Instant::now();
-            (ExactScene::new(meshes), ms(started))
-        },
-        || {
-            let started = Instant::now();
-            (InsideMap::new(tree, meshes, max_memory_bytes), ms(started))
-        },
-    );
-    (phases.exact_scene_ms, phases.inside_map_ms) = (exact_scene_ms, inside_map_ms);
+    let exact_scene = || {
+        let started = Instant::now();
+        (ExactScene::new(meshes), ms(started))
+    };
+    let made: InsideMap;
+    let (scene, inside) = match given {
+        Some(inside) => {
+            let (scene, exact_scene_ms) = exact_scene();
+            phases.exact_scene_ms = exact_scene_ms;
+            (scene?, inside)
+        }
+        None => {
+            let ((scene, exact_scene_ms), (inside, inside_map_ms)) =
+                rayon::join(exact_scene, || {
+                    let started = Instant::now();
+                    let inside = crate::inside_map_in(meshes, spec, max_memory_bytes);
+                    (inside, ms(started))
+                });
+            (phases.exact_scene_ms, phases.inside_map_ms) = (exact_scene_ms, inside_map_ms);
+            made = inside?;
+            (scene?, &made)
+        }
+    };
     phases.scene_and_inside_ms = ms(started);
-    let (scene, inside) = (scene?, inside?);
     let started = Instant::now();
     let [nx, ny, _] = cube_dims;
     let index =
         |c: [u32; 3]| (c[2] as usize * ny as usize + c[1] as usize) * nx as usize + c[0] as usize;
     let sampler = CubeSampler {
-        inside: &inside,
+        inside,
         scene: &scene,
         standoff_m,
         reach,
@@ -226,7 +272,7 @@ pub fn distance_band_timed(
         // Farther than the reach from every triangle: uniform, as the inside map says at its
         // centre.
         let centre = glam::IVec3::from_array(c.map(|x| (x * CUBE_EDGE + CUBE_EDGE / 2) as i32));
-        if inside.placement(centre) == Placement::Inside {
+        if Placement::of(inside.get(centre)) == Placement::Inside {
             CubeCodes::Deep
         } else {
             CubeCodes::Far
@@ -236,43 +282,12 @@ pub fn distance_band_timed(
     Ok((band, phases))
 }
 
-/// Which voxels lie wholly inside the scene's solids: the voxmap's classification with no force
-/// layer offset (2-bit, offset 0, on the same grid), where Interior means inside and clear of
-/// every triangle. The band's own map cannot say it: its offset rings turn voxels outside the
-/// surface into Interior (2-bit) and its depth layers turn voxels deep inside into Surface (4- and
-/// 8-bit). A sample farther than the band's reach from every triangle lies in no Surface voxel of
-/// this map, so for it the map is exact.
-struct InsideMap {
-    tree: VoxelTree,
-}
-
-impl InsideMap {
-    /// Voxelizes `meshes` again on `tree`'s grid (blocking, parallel; allocates a 2-bit tree).
-    fn new(tree: &VoxelTree, meshes: &[TriMesh], budget: u64) -> Result<InsideMap, BandBuildError> {
-        let spec = *tree.spec();
-        let opts = crate::VoxelizeOptions {
-            voxel_size: spec.voxel_size,
-            offset_layers: 0,
-            width: vps_voxmap::VoxelWidth::Two,
-            max_memory_bytes: budget,
-            ..crate::VoxelizeOptions::default()
-        };
-        let (tree, _) = crate::voxelize_tree_in(meshes, spec, &opts, tree.config())?;
-        Ok(InsideMap { tree })
-    }
-
-    /// The grid (the band's own).
-    fn spec(&self) -> &GridSpec {
-        self.tree.spec()
-    }
-
-    /// Where voxel `ijk` lies.
-    fn placement(&self, ijk: glam::IVec3) -> Placement {
-        Placement::of(self.tree.get(ijk))
-    }
-}
-
-/// Where a voxel lies, by the [`InsideMap`].
+/// Where a voxel lies, by the [`InsideMap`] (the scene's classification before any force-layer
+/// offset, on the band's grid; Interior means inside and clear of every triangle). The band's own
+/// map cannot say it: its offset rings turn voxels outside the surface into Interior (2-bit) and
+/// its depth layers turn voxels deep inside into Surface (4- and 8-bit). A sample farther than
+/// the band's reach from every triangle lies in no Surface voxel of the inside map, so for it the
+/// map is exact.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Placement {
     /// Wholly inside a solid (clear of every triangle).
@@ -478,7 +493,6 @@ fn cube_codes(sampler: &CubeSampler, triangles: &[u32], c: [u32; 3]) -> CubeCode
     // Where the inside map puts each sample's voxel. A sample wholly outside every solid has a
     // positive distance to every component, so its signed distance is that of its nearest
     // triangle of any component: one bound serves every component.
-    let mut map = inside.tree.accessor();
     let placed: Vec<Placement> = (0..BRICK_CODES)
         .map(|i| {
             let l = [
@@ -486,7 +500,7 @@ fn cube_codes(sampler: &CubeSampler, triangles: &[u32], c: [u32; 3]) -> CubeCode
                 i / BRICK_EDGE % BRICK_EDGE,
                 i / (BRICK_EDGE * BRICK_EDGE),
             ];
-            Placement::of(map.get(glam::IVec3::from_array(
+            Placement::of(inside.get(glam::IVec3::from_array(
                 [0, 1, 2].map(|a| (first[a] + l[a] as i64) as i32),
             )))
         })
@@ -816,6 +830,125 @@ mod tests {
         }
     }
 
+    /// The inside map a voxelization keeps is the offset-free 2-bit classification of every
+    /// voxel (and Free beyond the grid), whatever the map's own width and offset; the band built
+    /// from it is the band built with its own; the tree is the one `voxelize_tree` makes; a map
+    /// of another grid is refused. A box, a ball above it, a tube beside it, and a box with one
+    /// triangle missing (open: the winding number closes it).
+    #[test]
+    fn the_kept_inside_map_gives_the_same_band() {
+        let ball = vps_mesh::builtin::uv_sphere(0.03, 24, 12).transformed(
+            1.0,
+            glam::DQuat::IDENTITY,
+            DVec3::new(0.0, 0.0, 0.095),
+        );
+        let tube = vps_mesh::builtin::cylinder(0.02, 0.04, 24).transformed(
+            1.0,
+            glam::DQuat::IDENTITY,
+            DVec3::new(0.1, 0.0, 0.0),
+        );
+        let mut open = vps_mesh::builtin::by_name("box").unwrap().transformed(
+            0.5,
+            glam::DQuat::IDENTITY,
+            DVec3::new(-0.1, 0.0, 0.0),
+        );
+        open.triangles.pop();
+        let meshes = [vps_mesh::builtin::by_name("box").unwrap(), ball, tube, open];
+        let s = 0.004;
+        for (width, offset_layers) in [(VoxelWidth::Two, 2), (VoxelWidth::Four, 1)] {
+            let opts = VoxelizeOptions {
+                voxel_size: s,
+                width,
+                offset_layers,
+                ..VoxelizeOptions::default()
+            };
+            let (tree, _, inside) =
+                crate::voxelize_tree_keeping_inside(&meshes, &opts, TreeConfig::default()).unwrap();
+            let (plain, _) = voxelize_tree(&meshes, &opts, TreeConfig::default()).unwrap();
+            assert_eq!(tree.content_hash(), plain.content_hash(), "{width:?}");
+            let spec = *tree.spec();
+            let reference_opts = VoxelizeOptions {
+                voxel_size: s,
+                width: VoxelWidth::Two,
+                offset_layers: 0,
+                ..VoxelizeOptions::default()
+            };
+            let (reference, _) =
+                crate::voxelize_tree_in(&meshes, spec, &reference_opts, TreeConfig::default())
+                    .unwrap();
+            let d = spec.dims.map(|v| v as i32);
+            let mut kinds = [0usize; 3];
+            for z in -1..=d[2] {
+                for y in -1..=d[1] {
+                    for x in -1..=d[0] {
+                        let ijk = glam::IVec3::new(x, y, z);
+                        let placed = Placement::of(inside.get(ijk));
+                        assert_eq!(placed, Placement::of(reference.get(ijk)), "{width:?} {ijk}");
+                        kinds[placed as usize] += 1;
+                    }
+                }
+            }
+            assert!(kinds.iter().all(|&k| k > 1000), "{kinds:?}");
+            let standoff = 0.5 * s;
+            let own = distance_band(&tree, &meshes, standoff, 1 << 30).unwrap();
+            let (kept, phases) =
+                distance_band_with_inside(&tree, &inside, &meshes, standoff, 1 << 30).unwrap();
+            assert_eq!(phases.inside_map_ms, 0.0);
+            assert_eq!(kept.directory(), own.directory(), "{width:?}");
+            assert_eq!(kept.slot_codes(), own.slot_codes(), "{width:?}");
+        }
+        // A box wide enough to hold whole chunks of interior (64³ voxels): the map's uniform
+        // chunks.
+        let big = [vps_mesh::builtin::by_name("box").unwrap().transformed(
+            7.0,
+            glam::DQuat::IDENTITY,
+            DVec3::ZERO,
+        )];
+        let opts = VoxelizeOptions {
+            voxel_size: 0.005,
+            offset_layers: 1,
+            ..VoxelizeOptions::default()
+        };
+        let (tree, _, inside) =
+            crate::voxelize_tree_keeping_inside(&big, &opts, TreeConfig::default()).unwrap();
+        let spec = *tree.spec();
+        let reference_opts = VoxelizeOptions {
+            voxel_size: 0.005,
+            offset_layers: 0,
+            ..VoxelizeOptions::default()
+        };
+        let (reference, _) =
+            crate::voxelize_tree_in(&big, spec, &reference_opts, TreeConfig::default()).unwrap();
+        let mut inside_voxels = 0usize;
+        for z in (-1..=spec.dims[2] as i32).step_by(3) {
+            for y in -1..=spec.dims[1] as i32 {
+                for x in -1..=spec.dims[0] as i32 {
+                    let ijk = glam::IVec3::new(x, y, z);
+                    let placed = Placement::of(inside.get(ijk));
+                    assert_eq!(placed, Placement::of(reference.get(ijk)), "big box {ijk}");
+                    inside_voxels += usize::from(placed == Placement::Inside);
+                }
+            }
+        }
+        assert!(inside_voxels > 64 * 64 * 64 / 3, "{inside_voxels}");
+        // A map of another grid.
+        let coarse = VoxelizeOptions {
+            voxel_size: 2.0 * s,
+            ..VoxelizeOptions::default()
+        };
+        let (_, _, other) =
+            crate::voxelize_tree_keeping_inside(&meshes, &coarse, TreeConfig::default()).unwrap();
+        let fine = VoxelizeOptions {
+            voxel_size: s,
+            ..VoxelizeOptions::default()
+        };
+        let (tree, _) = voxelize_tree(&meshes, &fine, TreeConfig::default()).unwrap();
+        assert!(matches!(
+            distance_band_with_inside(&tree, &other, &meshes, 0.5 * s, 1 << 30),
+            Err(BandBuildError::InsideGrid)
+        ));
+    }
+
     /// The phases are parts of the build, none counted twice: each within the whole, the two run
     /// side by side within their joint time, and the serial ones with that joint time within
     /// the build's wall time.
@@ -841,7 +974,10 @@ mod tests {
             p.assemble_ms,
         ];
         assert!(phases.iter().all(|&ms| ms > 0.0 && ms <= wall_ms), "{p:?}");
-        assert!(p.exact_scene_ms.max(p.inside_map_ms) <= p.scene_and_inside_ms, "{p:?}");
+        assert!(
+            p.exact_scene_ms.max(p.inside_map_ms) <= p.scene_and_inside_ms,
+            "{p:?}"
+        );
         let serial = p.lists_ms + p.scene_and_inside_ms + p.samples_ms + p.assemble_ms;
         assert!(serial <= wall_ms, "{p:?}, wall {wall_ms} ms");
     }

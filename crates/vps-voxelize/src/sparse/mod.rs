@@ -24,7 +24,7 @@ use object::{voxelize_object, ObjectChunk};
 use rayon::prelude::*;
 use std::time::Instant;
 use vps_mesh::TriMesh;
-use vps_voxmap::{GridSpec, TreeConfig, VoxelTree, VoxelWidth};
+use vps_voxmap::{GridSpec, TreeConfig, Voxel, VoxelTree, VoxelWidth};
 
 /// Most distance layers per side the sparse voxelizer labels in an 8-bit map (the code table holds
 /// 64): each layer widens every chunk's halo box by one voxel on each side.
@@ -63,16 +63,65 @@ fn merged_bytes(m: &Merged) -> usize {
     }
 }
 
-/// Voxelizes checked `objects` on checked `spec` into a tree of `config` and `opts.width`, filling
-/// `stats` (phases, peak working bytes; counts are left to the caller).
-pub(crate) fn voxelize_sparse(
+/// Which voxels of a grid lie wholly inside the scene's solids, which a triangle crosses and
+/// which lie wholly outside, before proximity and any force-layer offset: the sparse
+/// voxelizer's merged chunks. A 2-bit map with `offset_layers = 0` classifies every voxel the
+/// same way (Proximity aside); the distance band takes its signs from it
+/// ([`crate::distance::distance_band_with_inside`]).
+#[derive(Debug)]
+pub struct InsideMap {
+    spec: GridSpec,
+    grid: ChunkGrid,
+    chunks: Vec<Merged>,
+}
+
+impl InsideMap {
+    /// The grid.
+    pub fn spec(&self) -> &GridSpec {
+        &self.spec
+    }
+
+    /// [`Voxel::Interior`] for a voxel wholly inside a solid and clear of every triangle,
+    /// [`Voxel::Surface`] for one a triangle crosses, else [`Voxel::Free`] (outside the grid
+    /// too). Pure, no allocation.
+    pub fn get(&self, ijk: glam::IVec3) -> Voxel {
+        if !self.spec.contains(ijk) {
+            return Voxel::Free;
+        }
+        let v = ijk.as_uvec3().to_array().map(|x| x as usize);
+        let c = v.map(|x| x / CHUNK);
+        match &self.chunks[self.grid.index(c)] {
+            Merged::Free => Voxel::Free,
+            Merged::Interior => Voxel::Interior,
+            Merged::Mixed { interior, surface } => {
+                let [x, y, z] = [0, 1, 2].map(|a| v[a] - c[a] * CHUNK);
+                if interior.get(x, y, z) {
+                    Voxel::Interior
+                } else if surface.get(x, y, z) {
+                    Voxel::Surface
+                } else {
+                    Voxel::Free
+                }
+            }
+        }
+    }
+
+    /// Heap bytes held.
+    pub fn memory_bytes(&self) -> usize {
+        self.chunks.capacity() * std::mem::size_of::<Merged>()
+            + self.chunks.iter().map(merged_bytes).sum::<usize>()
+    }
+}
+
+/// The scene merged: every object scan-converted and flooded, merged chunk by chunk, Surface
+/// inside another object's Interior cleared. Fills `stats`' scan, fill and merge times; returns
+/// the chunks, the bytes of the chunk table, of the planes held, and the peak so far.
+fn merge_objects(
     objects: &[TriMesh],
     spec: &GridSpec,
-    plan: &Plan,
-    config: TreeConfig,
+    grid: &ChunkGrid,
     stats: &mut VoxelizeStats,
-) -> Result<VoxelTree, VoxelizeError> {
-    let grid = ChunkGrid::new(spec.dims);
+) -> (Vec<Merged>, usize, usize, usize) {
     let mut map: Vec<Merged> = (0..grid.count()).map(|_| Merged::Free).collect();
     let map_meta = map.capacity() * std::mem::size_of::<Merged>();
     let mut held = 0usize; // bytes of merged planes
@@ -80,7 +129,7 @@ pub(crate) fn voxelize_sparse(
 
     for part in crate::winding::split_open(objects) {
         let mut times = [0.0; 2];
-        let (chunks, work) = voxelize_object(&part.mesh, part.open, spec, &grid, &mut times);
+        let (chunks, work) = voxelize_object(&part.mesh, part.open, spec, grid, &mut times);
         stats.scan_ms += times[0];
         stats.fill_ms += times[1];
         let result_bytes: usize = chunks
@@ -105,6 +154,41 @@ pub(crate) fn voxelize_sparse(
             surface.combine(interior, |s, i| s & !i);
         }
     }
+    stats.merge_ms += ms(t);
+    (map, map_meta, held, peak)
+}
+
+/// The [`InsideMap`] of checked `objects` on checked `spec` (scan, fill and merge only), filling
+/// `stats`' phases and peak working bytes.
+pub(crate) fn inside_map(
+    objects: &[TriMesh],
+    spec: &GridSpec,
+    stats: &mut VoxelizeStats,
+) -> InsideMap {
+    let grid = ChunkGrid::new(spec.dims);
+    let (chunks, _, _, peak) = merge_objects(objects, spec, &grid, stats);
+    stats.peak_work_bytes = peak as u64;
+    InsideMap {
+        spec: *spec,
+        grid,
+        chunks,
+    }
+}
+
+/// Voxelizes checked `objects` on checked `spec` into a tree of `config` and `opts.width`, filling
+/// `stats` (phases, peak working bytes; counts are left to the caller); with `keep_inside`, also
+/// the [`InsideMap`] it was computed from (held beside the tree: counted in the peak).
+pub(crate) fn voxelize_sparse(
+    objects: &[TriMesh],
+    spec: &GridSpec,
+    plan: &Plan,
+    config: TreeConfig,
+    stats: &mut VoxelizeStats,
+    keep_inside: bool,
+) -> Result<(VoxelTree, Option<InsideMap>), VoxelizeError> {
+    let grid = ChunkGrid::new(spec.dims);
+    let (map, map_meta, held, mut peak) = merge_objects(objects, spec, &grid, stats);
+    let t = Instant::now();
 
     // Chunks that hold Surface and their 26 neighbours change; the rest keep their uniform value.
     let mut active = vec![false; grid.count()];
@@ -136,7 +220,19 @@ pub(crate) fn voxelize_sparse(
         .collect();
     let finals_meta = finals.capacity() * std::mem::size_of::<Final>();
     peak = peak.max(map_meta + held + final_bytes + scratch + finals_meta);
-    drop(map);
+    // The map stays for the caller, or goes before the tree is built.
+    let (inside, kept_bytes) = if keep_inside {
+        let inside = InsideMap {
+            spec: *spec,
+            grid,
+            chunks: map,
+        };
+        let bytes = inside.memory_bytes();
+        (Some(inside), bytes)
+    } else {
+        drop(map);
+        (None, 0)
+    };
     for (i, f) in computed {
         finals[i] = f;
     }
@@ -154,10 +250,10 @@ pub(crate) fn voxelize_sparse(
         }
     })?;
     let cube = (config.extent(1) as usize).pow(3) * rayon::current_num_threads();
-    peak = peak.max(finals_meta + final_bytes + cube + tree.memory_bytes());
+    peak = peak.max(finals_meta + final_bytes + cube + tree.memory_bytes() + kept_bytes);
     stats.output_ms += ms(t);
     stats.peak_work_bytes = peak as u64;
-    Ok(tree)
+    Ok((tree, inside))
 }
 
 /// Merges one object's chunk into the scene's (Interior > Surface > Free; Surface inside another
