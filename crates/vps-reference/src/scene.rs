@@ -5,6 +5,7 @@ use crate::bvh::{box_distance_sq, Bvh};
 use crate::components::components;
 use crate::ReferenceError;
 use glam::DVec3;
+use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 use vps_mesh::closest_point::{closest_point, Feature};
 use vps_mesh::{Aabb, TriMesh};
@@ -87,12 +88,22 @@ impl ExactScene {
                 orientation[t as usize] = part.orientation;
             }
         }
-        let faces: Vec<DVec3> = (0..mesh.triangle_count())
+        // Per triangle, in parallel: its oriented unit normal and its three corner angles (the
+        // sums below stay serial, in triangle order: the same bits on any number of threads).
+        let (faces, angles): (Vec<DVec3>, Vec<[f64; 3]>) = (0..mesh.triangle_count())
+            .into_par_iter()
             .map(|t| {
-                let [a, b, c] = mesh.triangle(t);
-                (b - a).cross(c - a).normalize_or_zero() * orientation[t]
+                let corners = mesh.triangle(t);
+                let [a, b, c] = corners;
+                let face = (b - a).cross(c - a).normalize_or_zero() * orientation[t];
+                let angle = [0, 1, 2].map(|k| {
+                    let e1 = corners[(k + 1) % 3] - corners[k];
+                    let e2 = corners[(k + 2) % 3] - corners[k];
+                    e1.angle_between(e2).max(0.0)
+                });
+                (face, angle)
             })
-            .collect();
+            .unzip();
         let mut at_vertex = vec![DVec3::ZERO; mesh.vertices.len()];
         // Each undirected edge's sum of its faces' normals (in triangle order), and per corner
         // `k` of triangle `t` the sum of its edge from corner k to k + 1 (`3 t + k`).
@@ -101,11 +112,8 @@ impl ExactScene {
         let mut at_edge: Vec<DVec3> = Vec::with_capacity(mesh.triangles.len() * 3 / 2);
         let mut edge_of = Vec::with_capacity(mesh.triangles.len() * 3);
         for (t, tri) in mesh.triangles.iter().enumerate() {
-            let corners = mesh.triangle(t);
             for k in 0..3 {
-                let e1 = corners[(k + 1) % 3] - corners[k];
-                let e2 = corners[(k + 2) % 3] - corners[k];
-                at_vertex[tri[k] as usize] += faces[t] * e1.angle_between(e2).max(0.0);
+                at_vertex[tri[k] as usize] += faces[t] * angles[t][k];
                 let next = at_edge.len() as u32;
                 let slot = *edge_index
                     .entry(edge_key(tri[k], tri[(k + 1) % 3]))
@@ -127,23 +135,31 @@ impl ExactScene {
             );
         }
         self.triangle_component.resize(self.triangles.len(), 0);
-        for part in parts {
-            let triangles: Vec<u32> = part.triangles.iter().map(|&t| t + base).collect();
+        // Each component's search tree, in parallel (each build is serial and deterministic).
+        let all = &self.triangles;
+        let objects: Vec<Object> = parts
+            .into_par_iter()
+            .map(|part| {
+                let triangles: Vec<u32> = part.triangles.iter().map(|&t| t + base).collect();
+                let boxes: Vec<Aabb> = triangles
+                    .iter()
+                    .map(|&t| triangle_bounds(&all[t as usize]))
+                    .collect();
+                let tree = Bvh::build(&boxes);
+                Object {
+                    bounds: tree.bounds(),
+                    triangles,
+                    tree,
+                    closed: part.closed,
+                }
+            })
+            .collect();
+        for object in objects {
             let component = self.objects.len() as u32;
-            for &t in &triangles {
+            for &t in &object.triangles {
                 self.triangle_component[t as usize] = component;
             }
-            let boxes: Vec<Aabb> = triangles
-                .iter()
-                .map(|&t| triangle_bounds(&self.triangles[t as usize]))
-                .collect();
-            let tree = Bvh::build(&boxes);
-            self.objects.push(Object {
-                bounds: tree.bounds(),
-                triangles,
-                tree,
-                closed: part.closed,
-            });
+            self.objects.push(object);
         }
     }
 

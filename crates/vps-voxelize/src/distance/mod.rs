@@ -513,11 +513,17 @@ fn cube_codes(sampler: &CubeSampler, triangles: &[u32], c: [u32; 3]) -> CubeCode
     // triangles still to come. The order does not change the result: ties keep the
     // lower-numbered triangle whatever comes first.
     let middle = DVec3::from_array([0, 1, 2].map(|a| centre(BRICK_EDGE / 2, a)));
-    let mut listed: Vec<Listed> = triangles
+    // Sorted as (key, triangle) pairs, then prepared in that order: the prepared triangles are
+    // large to move.
+    let mut order: Vec<(f64, u32)> = triangles
         .iter()
-        .map(|&t| Listed::new(scene, t, middle))
+        .map(|&t| {
+            let (lo, hi) = triangle_box(&scene.triangle(t));
+            (box_distance_sq(lo, hi, middle), t)
+        })
         .collect();
-    listed.sort_unstable_by(|a, b| a.key.total_cmp(&b.key).then(a.t.cmp(&b.t)));
+    order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let listed: Vec<Listed> = order.iter().map(|&(_, t)| Listed::new(scene, t)).collect();
     let xs: [f64; row::ROW] = std::array::from_fn(|x| centre(x, 0));
     let mut row_sq = [0.0; row::ROW];
     for l in &listed {
@@ -597,30 +603,30 @@ struct Listed {
     /// The triangle's box (m).
     lo: DVec3,
     hi: DVec3,
-    /// Squared distance (m²) from the cube's middle sample to the box: the visiting order.
-    key: f64,
 }
 
 impl Listed {
-    fn new(scene: &ExactScene, t: u32, middle: DVec3) -> Listed {
+    fn new(scene: &ExactScene, t: u32) -> Listed {
         let tri = scene.triangle(t);
         let (lo, hi) = triangle_box(&tri);
-        let mut listed = Listed {
+        Listed {
             t,
             component: scene.component_of(t),
             row: RowTriangle::new(tri),
             lo,
             hi,
-            key: 0.0,
-        };
-        listed.key = listed.box_distance_sq(middle);
-        listed
+        }
     }
 
     /// Squared distance (m²) from `p` to the triangle's box.
     fn box_distance_sq(&self, p: DVec3) -> f64 {
-        ((self.lo - p).max(DVec3::ZERO) + (p - self.hi).max(DVec3::ZERO)).length_squared()
+        box_distance_sq(self.lo, self.hi, p)
     }
+}
+
+/// Squared distance (m²) from `p` to the box `lo..=hi` (m).
+fn box_distance_sq(lo: DVec3, hi: DVec3, p: DVec3) -> f64 {
+    ((lo - p).max(DVec3::ZERO) + (p - hi).max(DVec3::ZERO)).length_squared()
 }
 
 /// Components tracked per sample; a sample near more distinct components than this keeps the
