@@ -180,6 +180,19 @@ impl ExactScene {
         self.signed_to_triangle(p, t, closest.distance(p), closed)
     }
 
+    /// [`ExactScene::signed_to_triangle_at`]'s distance alone (m): the same value, bit for bit,
+    /// with one closest point and no normal. Panics when `t` is out of range. Pure.
+    pub fn signed_distance_to_triangle(&self, p: DVec3, t: u32) -> f64 {
+        let (closest, feature) = closest_point(p, &self.triangles[t as usize]);
+        let distance = closest.distance(p);
+        let closed = self.objects[self.triangle_component[t as usize] as usize].closed;
+        if closed && (p - closest).dot(self.pseudo_normal(t as usize, feature)) < 0.0 {
+            -distance
+        } else {
+            distance
+        }
+    }
+
     /// The connected component (index, `0..component_count()`) triangle `t` belongs to. The
     /// scene's signed distance is the minimum over components of the signed distance to each
     /// component's nearest triangle. Panics when `t` is out of range.
@@ -270,11 +283,7 @@ impl ExactScene {
     fn signed_to_triangle(&self, p: DVec3, t: u32, distance: f64, solid: bool) -> SignedDistance {
         let t = t as usize;
         let (closest, feature) = closest_point(p, &self.triangles[t]);
-        let pseudo = match feature {
-            Feature::Face => self.face_normals[t],
-            Feature::Edge(k) => self.edge_normals[t][k as usize],
-            Feature::Vertex(k) => self.vertex_normals[t][k as usize],
-        };
+        let pseudo = self.pseudo_normal(t, feature);
         let away = p - closest;
         let sign = if solid && away.dot(pseudo) < 0.0 {
             -1.0
@@ -290,6 +299,17 @@ impl ExactScene {
             distance_m: sign * distance,
             closest,
             normal: normal.normalize_or(pseudo),
+        }
+    }
+}
+
+impl ExactScene {
+    /// The angle-weighted pseudo-normal of `feature` of triangle `t`.
+    fn pseudo_normal(&self, t: usize, feature: Feature) -> DVec3 {
+        match feature {
+            Feature::Face => self.face_normals[t],
+            Feature::Edge(k) => self.edge_normals[t][k as usize],
+            Feature::Vertex(k) => self.vertex_normals[t][k as usize],
         }
     }
 }

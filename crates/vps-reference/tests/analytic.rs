@@ -205,3 +205,34 @@ fn bad_meshes_are_errors() {
     let err = ExactScene::new(&[nan]).unwrap_err();
     assert!(err.to_string().contains("mesh 0, vertex 2"), "{err}");
 }
+
+/// The distance alone is `signed_to_triangle_at`'s distance bit for bit, on every triangle of a
+/// closed teapot-and-box scene and an open one (a box missing a triangle: unsigned), from points
+/// all around them (faces, edges and corners nearest; inside and out).
+#[test]
+fn the_distance_alone_is_the_signed_distance_s_bits() {
+    let mut open = cuboid(DVec3::splat(0.05));
+    open.triangles.pop();
+    let closed = [
+        teapot().transformed(1.0, DQuat::IDENTITY, DVec3::new(0.2, 0.0, 0.0)),
+        cuboid(DVec3::splat(0.05)),
+    ];
+    let mut negative = 0;
+    for meshes in [&closed[..], &[open][..]] {
+        let s = ExactScene::new(meshes).expect("valid meshes");
+        let count: usize = meshes.iter().map(TriMesh::triangle_count).sum();
+        let directions = fibonacci_directions(64);
+        for t in (0..count as u32).step_by(7) {
+            let [a, b, c] = s.triangle(t);
+            let centre = (a + b + c) / 3.0;
+            for (i, d) in directions.iter().enumerate() {
+                let p = centre + *d * (0.002 + 0.01 * (i % 5) as f64);
+                let alone = s.signed_distance_to_triangle(p, t);
+                let full = s.signed_to_triangle_at(p, t).distance_m;
+                assert_eq!(alone.to_bits(), full.to_bits(), "triangle {t}, p {p}");
+                negative += usize::from(alone < 0.0);
+            }
+        }
+    }
+    assert!(negative > 30, "{negative} points behind a triangle");
+}

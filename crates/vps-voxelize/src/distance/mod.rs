@@ -11,7 +11,7 @@
 //!    it could change what the sample keeps; each sample keeps the nearest triangle of each nearby
 //!    component (as OpenVDB's mesh-to-volume conversion keeps the nearest). The
 //!    nearest triangle then gives the sign: negative behind its angle-weighted pseudo-normal when
-//!    its component is closed ([`vps_reference::ExactScene::signed_to_triangle_at`]). A sample
+//!    its component is closed ([`vps_reference::ExactScene::signed_distance_to_triangle`]). A sample
 //!    that the inside map (the scene's classification with no force-layer offset: [`InsideMap`])
 //!    puts wholly inside a solid is negative whatever: an open mesh the flood fill closed is
 //!    inside here too, and a sample deep in a solid whose surface is beyond the reach is `−reach`
@@ -728,14 +728,12 @@ impl Nearest {
             // kept up to date, the others may be stale).
             return tracked
                 .min_by(|a, b| a.d_sq.total_cmp(&b.d_sq).then(a.triangle.cmp(&b.triangle)))
-                .map_or(reach, |e| {
-                    scene.signed_to_triangle_at(p, e.triangle).distance_m
-                });
+                .map_or(reach, |e| scene.signed_distance_to_triangle(p, e.triangle));
         }
         let interior = placed == Placement::Inside;
         let (mut nearest, mut nearest_open) = (f64::INFINITY, f64::INFINITY);
         for e in tracked {
-            let d = scene.signed_to_triangle_at(p, e.triangle).distance_m;
+            let d = scene.signed_distance_to_triangle(p, e.triangle);
             nearest = nearest.min(d);
             if !scene.is_closed(e.component) {
                 nearest_open = nearest_open.min(d);
