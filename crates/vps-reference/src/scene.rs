@@ -183,10 +183,11 @@ impl ExactScene {
     /// [`ExactScene::signed_to_triangle_at`]'s distance alone (m): the same value, bit for bit,
     /// with one closest point and no normal. Panics when `t` is out of range. Pure.
     pub fn signed_distance_to_triangle(&self, p: DVec3, t: u32) -> f64 {
-        let (closest, feature) = closest_point(p, &self.triangles[t as usize]);
-        let distance = closest.distance(p);
-        let closed = self.objects[self.triangle_component[t as usize] as usize].closed;
-        if closed && (p - closest).dot(self.pseudo_normal(t as usize, feature)) < 0.0 {
+        let t = t as usize;
+        let nearest = closest_point(p, &self.triangles[t]);
+        let distance = nearest.0.distance(p);
+        let closed = self.objects[self.triangle_component[t] as usize].closed;
+        if self.is_behind(p, t, nearest, closed) {
             -distance
         } else {
             distance
@@ -280,12 +281,33 @@ impl ExactScene {
             .map(|(i, d)| (object.triangles[i as usize], d))
     }
 
+    /// The angle-weighted pseudo-normal of `feature` of triangle `t`.
+    fn pseudo_normal(&self, t: usize, feature: Feature) -> DVec3 {
+        match feature {
+            Feature::Face => self.face_normals[t],
+            Feature::Edge(k) => self.edge_normals[t][k as usize],
+            Feature::Vertex(k) => self.vertex_normals[t][k as usize],
+        }
+    }
+
+    /// Whether `p` lies inside: behind the pseudo-normal at `closest`, the point of triangle `t`
+    /// nearest to it (on `feature`), of a `solid` component.
+    fn is_behind(
+        &self,
+        p: DVec3,
+        t: usize,
+        (closest, feature): (DVec3, Feature),
+        solid: bool,
+    ) -> bool {
+        solid && (p - closest).dot(self.pseudo_normal(t, feature)) < 0.0
+    }
+
     fn signed_to_triangle(&self, p: DVec3, t: u32, distance: f64, solid: bool) -> SignedDistance {
         let t = t as usize;
         let (closest, feature) = closest_point(p, &self.triangles[t]);
         let pseudo = self.pseudo_normal(t, feature);
         let away = p - closest;
-        let sign = if solid && away.dot(pseudo) < 0.0 {
+        let sign = if self.is_behind(p, t, (closest, feature), solid) {
             -1.0
         } else {
             1.0
@@ -299,17 +321,6 @@ impl ExactScene {
             distance_m: sign * distance,
             closest,
             normal: normal.normalize_or(pseudo),
-        }
-    }
-}
-
-impl ExactScene {
-    /// The angle-weighted pseudo-normal of `feature` of triangle `t`.
-    fn pseudo_normal(&self, t: usize, feature: Feature) -> DVec3 {
-        match feature {
-            Feature::Face => self.face_normals[t],
-            Feature::Edge(k) => self.edge_normals[t][k as usize],
-            Feature::Vertex(k) => self.vertex_normals[t][k as usize],
         }
     }
 }

@@ -447,10 +447,7 @@ pub fn voxelize_tree(
     opts: &VoxelizeOptions,
     config: TreeConfig,
 ) -> Result<(VoxelTree, VoxelizeStats), VoxelizeError> {
-    check_voxel_size(opts.voxel_size)?;
-    check_objects(objects)?;
-    let spec = scene_grid(objects, opts, MAX_SPARSE_VOXELS)?;
-    voxelize_tree_in(objects, spec, opts, config)
+    scene_tree(objects, opts, config, false).map(|(tree, stats, _)| (tree, stats))
 }
 
 /// [`voxelize_tree`] on a given grid `spec` (see [`voxelize_in`]; `opts.workspace` is not applied:
@@ -474,10 +471,7 @@ pub fn voxelize_tree_keeping_inside(
     opts: &VoxelizeOptions,
     config: TreeConfig,
 ) -> Result<(VoxelTree, VoxelizeStats, InsideMap), VoxelizeError> {
-    check_voxel_size(opts.voxel_size)?;
-    check_objects(objects)?;
-    let spec = scene_grid(objects, opts, MAX_SPARSE_VOXELS)?;
-    let (tree, stats, inside) = sparse_tree_in(objects, spec, opts, config, true)?;
+    let (tree, stats, inside) = scene_tree(objects, opts, config, true)?;
     let inside = inside.ok_or_else(|| VoxelizeError::InvalidGrid {
         reason: "the sparse voxelizer kept no inside map (a bug)".into(),
     })?;
@@ -500,6 +494,19 @@ pub fn inside_map_in(
     )?;
     let mut stats = VoxelizeStats::default();
     Ok(crate::sparse::inside_map(objects, &spec, &mut stats))
+}
+
+/// [`voxelize_tree`], with the inside map when `keep_inside`.
+fn scene_tree(
+    objects: &[TriMesh],
+    opts: &VoxelizeOptions,
+    config: TreeConfig,
+    keep_inside: bool,
+) -> Result<(VoxelTree, VoxelizeStats, Option<InsideMap>), VoxelizeError> {
+    check_voxel_size(opts.voxel_size)?;
+    check_objects(objects)?;
+    let spec = scene_grid(objects, opts, MAX_SPARSE_VOXELS)?;
+    sparse_tree_in(objects, spec, opts, config, keep_inside)
 }
 
 /// [`voxelize_tree_in`], with the inside map when `keep_inside`.

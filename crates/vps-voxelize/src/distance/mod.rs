@@ -766,18 +766,7 @@ mod tests {
     /// as the exact distance says at every sample.
     #[test]
     fn every_sample_is_the_exact_signed_distance_quantised() {
-        let ball = vps_mesh::builtin::uv_sphere(0.03, 24, 12).transformed(
-            1.0,
-            glam::DQuat::IDENTITY,
-            DVec3::new(0.0, 0.0, 0.095),
-        );
-        let block = vps_mesh::builtin::by_name("box").unwrap();
-        let tube = vps_mesh::builtin::cylinder(0.02, 0.04, 24).transformed(
-            1.0,
-            glam::DQuat::IDENTITY,
-            DVec3::new(0.1, 0.0, 0.0),
-        );
-        let meshes = [block, ball, tube];
+        let meshes = box_ball_tube();
         let scene = ExactScene::new(&meshes).unwrap();
         let s = 0.004;
         for width in [VoxelWidth::Two, VoxelWidth::Four] {
@@ -841,23 +830,13 @@ mod tests {
     /// triangle missing (open: the winding number closes it).
     #[test]
     fn the_kept_inside_map_gives_the_same_band() {
-        let ball = vps_mesh::builtin::uv_sphere(0.03, 24, 12).transformed(
-            1.0,
-            glam::DQuat::IDENTITY,
-            DVec3::new(0.0, 0.0, 0.095),
-        );
-        let tube = vps_mesh::builtin::cylinder(0.02, 0.04, 24).transformed(
-            1.0,
-            glam::DQuat::IDENTITY,
-            DVec3::new(0.1, 0.0, 0.0),
-        );
         let mut open = vps_mesh::builtin::by_name("box").unwrap().transformed(
             0.5,
             glam::DQuat::IDENTITY,
             DVec3::new(-0.1, 0.0, 0.0),
         );
         open.triangles.pop();
-        let meshes = [vps_mesh::builtin::by_name("box").unwrap(), ball, tube, open];
+        let meshes: Vec<TriMesh> = box_ball_tube().into_iter().chain([open]).collect();
         let s = 0.004;
         for (width, offset_layers) in [(VoxelWidth::Two, 2), (VoxelWidth::Four, 1)] {
             let opts = VoxelizeOptions {
@@ -870,29 +849,8 @@ mod tests {
                 crate::voxelize_tree_keeping_inside(&meshes, &opts, TreeConfig::default()).unwrap();
             let (plain, _) = voxelize_tree(&meshes, &opts, TreeConfig::default()).unwrap();
             assert_eq!(tree.content_hash(), plain.content_hash(), "{width:?}");
-            let spec = *tree.spec();
-            let reference_opts = VoxelizeOptions {
-                voxel_size: s,
-                width: VoxelWidth::Two,
-                offset_layers: 0,
-                ..VoxelizeOptions::default()
-            };
-            let (reference, _) =
-                crate::voxelize_tree_in(&meshes, spec, &reference_opts, TreeConfig::default())
-                    .unwrap();
-            let d = spec.dims.map(|v| v as i32);
-            let mut kinds = [0usize; 3];
-            for z in -1..=d[2] {
-                for y in -1..=d[1] {
-                    for x in -1..=d[0] {
-                        let ijk = glam::IVec3::new(x, y, z);
-                        let placed = Placement::of(inside.get(ijk));
-                        assert_eq!(placed, Placement::of(reference.get(ijk)), "{width:?} {ijk}");
-                        kinds[placed as usize] += 1;
-                    }
-                }
-            }
-            assert!(kinds.iter().all(|&k| k > 1000), "{kinds:?}");
+            let kinds = placements_against_offset_free(&meshes, &inside, 1);
+            assert!(kinds.iter().all(|&k| k > 1000), "{width:?}: {kinds:?}");
             let standoff = 0.5 * s;
             let own = distance_band(&tree, &meshes, standoff, 1 << 30).unwrap();
             let (kept, phases) =
@@ -913,28 +871,13 @@ mod tests {
             offset_layers: 1,
             ..VoxelizeOptions::default()
         };
-        let (tree, _, inside) =
+        let (_, _, inside) =
             crate::voxelize_tree_keeping_inside(&big, &opts, TreeConfig::default()).unwrap();
-        let spec = *tree.spec();
-        let reference_opts = VoxelizeOptions {
-            voxel_size: 0.005,
-            offset_layers: 0,
-            ..VoxelizeOptions::default()
-        };
-        let (reference, _) =
-            crate::voxelize_tree_in(&big, spec, &reference_opts, TreeConfig::default()).unwrap();
-        let mut inside_voxels = 0usize;
-        for z in (-1..=spec.dims[2] as i32).step_by(3) {
-            for y in -1..=spec.dims[1] as i32 {
-                for x in -1..=spec.dims[0] as i32 {
-                    let ijk = glam::IVec3::new(x, y, z);
-                    let placed = Placement::of(inside.get(ijk));
-                    assert_eq!(placed, Placement::of(reference.get(ijk)), "big box {ijk}");
-                    inside_voxels += usize::from(placed == Placement::Inside);
-                }
-            }
-        }
-        assert!(inside_voxels > 64 * 64 * 64 / 3, "{inside_voxels}");
+        let kinds = placements_against_offset_free(&big, &inside, 3);
+        assert!(
+            kinds[Placement::Inside as usize] > 64 * 64 * 64 / 3,
+            "{kinds:?}"
+        );
         // A map of another grid.
         let coarse = VoxelizeOptions {
             voxel_size: 2.0 * s,
@@ -984,6 +927,53 @@ mod tests {
         );
         let serial = p.lists_ms + p.scene_and_inside_ms + p.samples_ms + p.assemble_ms;
         assert!(serial <= wall_ms, "{p:?}, wall {wall_ms} ms");
+    }
+
+    /// A box, a ball 15 mm above it and a tube beside it.
+    fn box_ball_tube() -> [TriMesh; 3] {
+        let ball = vps_mesh::builtin::uv_sphere(0.03, 24, 12).transformed(
+            1.0,
+            glam::DQuat::IDENTITY,
+            DVec3::new(0.0, 0.0, 0.095),
+        );
+        let tube = vps_mesh::builtin::cylinder(0.02, 0.04, 24).transformed(
+            1.0,
+            glam::DQuat::IDENTITY,
+            DVec3::new(0.1, 0.0, 0.0),
+        );
+        [vps_mesh::builtin::by_name("box").unwrap(), ball, tube]
+    }
+
+    /// Asserts that `inside` places every voxel of its grid and of one ring beyond it (every
+    /// `z_step`-th plane) as a 2-bit map of `meshes` with no offset on that grid does; counts of
+    /// the placements, indexed by [`Placement`].
+    fn placements_against_offset_free(
+        meshes: &[TriMesh],
+        inside: &InsideMap,
+        z_step: usize,
+    ) -> [usize; 3] {
+        let spec = *inside.spec();
+        let opts = VoxelizeOptions {
+            voxel_size: spec.voxel_size,
+            width: VoxelWidth::Two,
+            offset_layers: 0,
+            ..VoxelizeOptions::default()
+        };
+        let (reference, _) =
+            crate::voxelize_tree_in(meshes, spec, &opts, TreeConfig::default()).unwrap();
+        let d = spec.dims.map(|v| v as i32);
+        let mut kinds = [0usize; 3];
+        for z in (-1..=d[2]).step_by(z_step) {
+            for y in -1..=d[1] {
+                for x in -1..=d[0] {
+                    let ijk = glam::IVec3::new(x, y, z);
+                    let placed = Placement::of(inside.get(ijk));
+                    assert_eq!(placed, Placement::of(reference.get(ijk)), "voxel {ijk}");
+                    kinds[placed as usize] += 1;
+                }
+            }
+        }
+        kinds
     }
 
     /// The code of sample `k` (x fastest) of the brick in directory slot `slot` of the cube whose
