@@ -153,23 +153,30 @@ pub fn ply() -> Vec<Vec<u8>> {
 }
 
 /// `.vmap` seeds: the box voxelized at 2 cm as 2-, 4- and 8-bit trees (file versions 1 and 2),
-/// with the default tree shape and a small uniform one.
+/// with the default tree shape and a small uniform one; the 4-bit one again with a signed-distance
+/// band of stand-off 2.5 mm (version 3, what the `distance` force model caches).
 pub fn vmap() -> Vec<Vec<u8>> {
     let cube = vps_mesh::builtin::by_name("box").expect("built-in box");
     let mut out = Vec::new();
-    for (width, config) in [
-        (VoxelWidth::Two, TreeConfig::default()),
-        (VoxelWidth::Two, TreeConfig::uniform(2)),
-        (VoxelWidth::Four, TreeConfig::uniform(2)),
-        (VoxelWidth::Eight, TreeConfig::uniform(2)),
+    for (width, config, band) in [
+        (VoxelWidth::Two, TreeConfig::default(), false),
+        (VoxelWidth::Two, TreeConfig::uniform(2), false),
+        (VoxelWidth::Four, TreeConfig::uniform(2), false),
+        (VoxelWidth::Eight, TreeConfig::uniform(2), false),
+        (VoxelWidth::Four, TreeConfig::default(), true),
     ] {
         let opts = VoxelizeOptions {
             voxel_size: 0.02,
             width,
             ..VoxelizeOptions::default()
         };
-        let (tree, _) = voxelize_tree(std::slice::from_ref(&cube), &opts, config)
-            .expect("voxelizing the seed box");
+        let objects = std::slice::from_ref(&cube);
+        let (mut tree, _) = voxelize_tree(objects, &opts, config).expect("voxelizing the seed box");
+        if band {
+            let band = vps_voxelize::distance::distance_band(&tree, objects, 0.0025, 1 << 30)
+                .expect("the seed box's distance band");
+            tree = tree.with_distance_band(band);
+        }
         let mut bytes = Vec::new();
         vps_voxmap::file::write_voxmap(&tree, &mut bytes).expect("encoding a seed voxmap");
         out.push(bytes);
@@ -518,7 +525,8 @@ fn cache_map(voxel_size: f64) -> (vps_voxmap::VoxelTree, vps_session::cache::Exp
 
 /// Cache entries (`cache-entry` target): the entry asked for with its record; the same map with
 /// no record and with the record of another entry; another entry's map (4 cm) with its own
-/// record and with a record forged to name the key asked for.
+/// record and with a record forged to name the key asked for; the map asked for carrying a
+/// distance band (stand-off 2.5 mm) that was not asked for, with its own record.
 pub fn cache_entry() -> Vec<Vec<u8>> {
     let entry = |tree: &vps_voxmap::VoxelTree, record: Option<String>| {
         let mut bytes = Vec::new();
@@ -532,12 +540,17 @@ pub fn cache_entry() -> Vec<Vec<u8>> {
     let record = vps_session::cache::record_text;
     let (tree, asked) = cache_map(0.02);
     let (other, theirs) = cache_map(0.04);
+    let cube = vps_mesh::builtin::by_name("box").expect("built-in box");
+    let band = vps_voxelize::distance::distance_band(&tree, &[cube], 0.0025, 1 << 30)
+        .expect("the seed box's distance band");
+    let banded = tree.clone().with_distance_band(band);
     vec![
         entry(&tree, Some(record(&asked.key, &tree))),
         entry(&tree, None),
         entry(&tree, Some(record(&theirs.key, &other))),
         entry(&other, Some(record(&theirs.key, &other))),
         entry(&other, Some(record(&asked.key, &other))),
+        entry(&banded, Some(record(&asked.key, &banded))),
     ]
 }
 

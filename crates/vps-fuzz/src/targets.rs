@@ -72,13 +72,47 @@ fn readers_agree<T, E: std::fmt::Display>(
     }
 }
 
+/// A `.vmap` through both readers; an accepted map that carries a distance band (version 3) is
+/// then read where the kernel reads it: its band's interpolated value on a lattice over the grid
+/// and one voxel beyond, each finite and within the band's depth (a decoded band whose directory
+/// or codes point outside its storage would panic here).
 fn vmap(bytes: &[u8]) -> Result<(), String> {
     readers_agree(
         "vmap",
         vps_voxmap::file::read_voxmap_sized(bytes, bytes.len() as u64),
         vps_voxmap::file::read_voxmap(bytes),
-        |a, b| a.content_hash() == b.content_hash(),
+        |a, b| {
+            if let Some(band) = a.distance_band() {
+                probe_band(band, a.spec());
+            }
+            a.content_hash() == b.content_hash()
+        },
     )
+}
+
+/// [`vmap`]'s read of an accepted band: 9³ points from one voxel below the grid to one above.
+fn probe_band(band: &vps_voxmap::distance::DistanceBand, spec: &vps_voxmap::GridSpec) {
+    const STEPS: u32 = 8;
+    let size = spec.voxel_size;
+    let low = spec.origin - glam::DVec3::splat(size);
+    let span =
+        glam::UVec3::from_array(spec.dims).as_dvec3() * size + glam::DVec3::splat(2.0 * size);
+    let limit = band.max_contact_depth(size) + band.standoff_m() + size;
+    for i in 0..=STEPS {
+        for j in 0..=STEPS {
+            for k in 0..=STEPS {
+                let f =
+                    glam::DVec3::new(f64::from(i), f64::from(j), f64::from(k)) / f64::from(STEPS);
+                if let Some(e) = band.standoff_distance_at(spec, low + f * span) {
+                    assert!(
+                        e.is_finite() && e.abs() <= limit,
+                        "vmap: the band reads {e} m at {:?} (limit {limit} m)",
+                        low + f * span
+                    );
+                }
+            }
+        }
+    }
 }
 
 fn vshell(bytes: &[u8]) -> Result<(), String> {

@@ -57,3 +57,36 @@ fn a_trace_header_promising_millions_of_frames_reserves_little() {
     assert!(err.contains("t.trace") && err.contains("16777216"), "{err}");
     assert!(peak < 4 << 20, "reading the header took {peak} bytes");
 }
+
+/// The `vmap` target starts from a version-3 map (a distance band) as well as the 2-, 4- and
+/// 8-bit maps without one, so the band's decoder and the kernel's reads of an accepted band are
+/// what its mutations reach; and the `cache-entry` target from an entry whose band was not asked
+/// for, which the cache refuses naming the band.
+#[test]
+fn the_map_seeds_include_a_distance_band() {
+    let banded: Vec<_> = vps_fuzz::seeds::vmap()
+        .iter()
+        .filter_map(|b| {
+            vps_voxmap::file::read_voxmap(&b[..])
+                .unwrap()
+                .distance_band()
+                .cloned()
+        })
+        .collect();
+    assert_eq!(banded.len(), 1);
+    assert_eq!(banded[0].standoff_m(), 0.0025);
+    assert!(banded[0].brick_count() > 0);
+
+    let targets = vps_fuzz::all_targets();
+    let cache = targets.iter().find(|t| t.name == "cache-entry").unwrap();
+    let rejections: Vec<String> = vps_fuzz::seeds::cache_entry()
+        .iter()
+        .filter_map(|entry| (cache.run)(entry).err())
+        .collect();
+    assert!(
+        rejections.iter().any(
+            |e| e.contains("holds a distance band of stand-off 0.0025 m, but no distance band")
+        ),
+        "{rejections:#?}"
+    );
+}
