@@ -332,6 +332,26 @@ fn every_part_of_a_two_part_session_is_served_and_drawn() {
         (0.014..=0.061).contains(&x),
         "the right part on its path: {frame}"
     );
+    // Its hand (the ghost) and what its own device is sent: once the parts press into each
+    // other (their hands close to 30 mm apart, the parts are 40 mm wide), a push to the right.
+    let hand_x = frame["others"][0]["handle"]["position_m"][0].as_f64();
+    assert!(
+        hand_x.is_some_and(|x| (0.014..=0.061).contains(&x)),
+        "the right hand on its path: {frame}"
+    );
+    let pressed = wait_for(
+        "the right part's device pushed",
+        Duration::from_secs(60),
+        || {
+            let s = state(addr);
+            let force = s["frame"]["others"][0]["force_n"][0].as_f64()?;
+            (force > 0.1).then_some(s["frame"].clone())
+        },
+    );
+    assert!(
+        pressed["force_n"][0].as_f64().unwrap() < 0.0,
+        "the left part is pushed the other way: {pressed}"
+    );
 
     if !Path::new(CHROMIUM).exists() {
         eprintln!("SKIPPED the browser half: {CHROMIUM} is not installed");
@@ -343,7 +363,7 @@ fn every_part_of_a_two_part_session_is_served_and_drawn() {
     let line = browser.wait_for("the other part in the pose panel", patience, |b| {
         let pose = b.text("pose");
         pose.lines()
-            .find(|l| l.starts_with("right "))
+            .find(|l| l.starts_with("right force "))
             .map(str::to_string)
     });
     browser.wait_for("two draws of the scene", patience, |b| {

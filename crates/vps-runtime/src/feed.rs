@@ -48,9 +48,9 @@ pub struct FeedFrame {
     pub recent_max_period_error_ns: u64,
     /// How many of `other_parts` hold a part (0 in a one-part session).
     pub other_count: u32,
-    /// The other moving parts' poses after the frame, in the scene file's order (the first
+    /// The other moving parts after the frame, in the scene file's order (the first
     /// `other_count`; the rest unused).
-    pub other_parts: [PartPose; MAX_OTHER_PARTS],
+    pub other_parts: [OtherPartFrame; MAX_OTHER_PARTS],
 }
 
 /// Most moving parts a session holds besides its first.
@@ -65,9 +65,23 @@ pub struct PartPose {
     pub orientation: glam::DQuat,
 }
 
+/// Another moving part's frame as a viewer draws it: where it is, where its hand is, and what its
+/// device was sent.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct OtherPartFrame {
+    /// The part's pose after the frame.
+    pub part: PartPose,
+    /// Its handle as read this frame (the ghost the part is coupled to); the part's own pose
+    /// until its device has answered once.
+    pub handle: PartPose,
+    /// The wrench written to its device this frame (N, N·m; saturated to its limits, zero when
+    /// the watchdog tripped and before its first write).
+    pub device_wrench: Wrench,
+}
+
 impl FeedFrame {
-    /// The other parts' poses (the first [`FeedFrame::other_count`]).
-    pub fn others(&self) -> &[PartPose] {
+    /// The other parts (the first [`FeedFrame::other_count`]).
+    pub fn others(&self) -> &[OtherPartFrame] {
         &self.other_parts[..(self.other_count as usize).min(MAX_OTHER_PARTS)]
     }
 }
@@ -174,7 +188,7 @@ impl FeedFrame {
             period_error_ns: 0,
             recent_max_period_error_ns: 0,
             other_count: 0,
-            other_parts: [PartPose::default(); MAX_OTHER_PARTS],
+            other_parts: [OtherPartFrame::default(); MAX_OTHER_PARTS],
         }
     }
 }

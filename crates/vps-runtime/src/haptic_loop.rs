@@ -27,7 +27,7 @@
 //! simulated device runs identically in real-time and free-running mode.
 
 use crate::clock::FrameClock;
-use crate::feed::{FeedFrame, PartPose, RecentMax, StateFeedSender, MAX_OTHER_PARTS};
+use crate::feed::{FeedFrame, OtherPartFrame, RecentMax, StateFeedSender, MAX_OTHER_PARTS};
 use crate::parts::{PartReport, PartsSetup, RunningParts};
 use crate::pool::{panic_message, ClassPool, FrameSampler};
 use crate::recording::TraceRecording;
@@ -471,8 +471,8 @@ impl RunningLoop {
         if let Some(feed) = &self.feed {
             let c = cx.stats.counters();
             let (other_count, other_parts) = self.parts.as_ref().map_or(
-                (0, [PartPose::default(); MAX_OTHER_PARTS]),
-                RunningParts::poses,
+                (0, [OtherPartFrame::default(); MAX_OTHER_PARTS]),
+                RunningParts::feed_frames,
             );
             feed.publish(FeedFrame {
                 frame: cx.frame,
@@ -873,6 +873,15 @@ mod tests {
     /// wall (so the second is pulled into the first), `frames` frames; the second device fails
     /// its read `fail_read_at` when given. Returns the report and both write logs.
     fn two_spheres(frames: u64, fail_read_at: Option<u64>) -> (LoopReport, [Writes; 2]) {
+        two_spheres_feeding(frames, fail_read_at, None)
+    }
+
+    /// [`two_spheres`], publishing every frame to `feed` when given.
+    fn two_spheres_feeding(
+        frames: u64,
+        fail_read_at: Option<u64>,
+        feed: Option<crate::feed::StateFeedSender>,
+    ) -> (LoopReport, [Writes; 2]) {
         use crate::parts::{MovingPart, PartBody, PartsSetup};
         let shell = Arc::new(ClassedShell::new(&sphere_shell(300), 8));
         let map = Arc::new(wall());
@@ -895,7 +904,7 @@ mod tests {
             device: Box::new(first),
             initial: PartState::at_rest(START, DQuat::IDENTITY),
             config,
-            feed: None,
+            feed,
             stop: Arc::new(AtomicBool::new(false)),
             parts: Some(PartsSetup {
                 first: body.clone(),
@@ -918,6 +927,32 @@ mod tests {
         )
         .unwrap();
         (report, [a, b])
+    }
+
+    /// The state feed carries the other part as its device saw it: the last frame's pose is the
+    /// report's final state, its handle the device's last reading, and its wrench the last one
+    /// written to that device before the release (non-zero: the part is pressed into the wall).
+    #[test]
+    fn the_feed_carries_each_other_part_s_pose_handle_and_device_wrench() {
+        let (sender, mut receiver) = crate::feed::state_feed();
+        let (report, writes) = two_spheres_feeding(300, None, Some(sender));
+        let last = receiver.latest().expect("the loop published");
+        assert_eq!(last.frame, 299);
+        assert_eq!(last.others().len(), 1);
+        let other = last.others()[0];
+        let second = &report.other_parts[0];
+        assert_eq!(other.part.position, second.final_state.position);
+        assert_eq!(other.part.orientation, second.final_state.orientation);
+        let handle = second.final_handle.expect("the second device was read");
+        assert_eq!(other.handle.position, handle.position);
+        assert_eq!(other.handle.orientation, handle.orientation);
+        let written = writes[1].lock().unwrap();
+        assert_eq!(other.device_wrench, written[written.len() - 2]);
+        assert_ne!(other.device_wrench, Wrench::ZERO);
+        assert_ne!(
+            other.device_wrench, last.device_wrench,
+            "the second part's own"
+        );
     }
 
     /// Every part's device gets one wrench per frame and the exact zero wrench last, whether the

@@ -29,7 +29,8 @@ pub mod stop;
 
 pub use clock::{schedule, FrameClock, Schedule, Tick};
 pub use feed::{
-    state_feed, FeedFrame, PartPose, RecentMax, StateFeedReceiver, StateFeedSender, MAX_OTHER_PARTS,
+    state_feed, FeedFrame, OtherPartFrame, PartPose, RecentMax, StateFeedReceiver, StateFeedSender,
+    MAX_OTHER_PARTS,
 };
 pub use haptic_loop::{
     run_loop, spawn_loop, spawn_loop_with, LoopConfig, LoopHandle, LoopReport, SessionEnd,

@@ -24,7 +24,7 @@
 //! other part's pool its own, and the pairs are sampled on the frame thread. The sums are exact
 //! integers either way, so every part's wrench is the same bits whoever sampled what.
 
-use crate::feed::{PartPose, MAX_OTHER_PARTS};
+use crate::feed::{OtherPartFrame, PartPose, MAX_OTHER_PARTS};
 use crate::pool::{FrameSampler, PoolResult};
 use crate::recording::TraceRecording;
 use crate::RuntimeError;
@@ -169,6 +169,8 @@ struct RunningPart {
     sums: PartialSums,
     /// This frame's next state and device wrench (saturated), written after every part's step.
     next: Option<(PartState, Wrench)>,
+    /// The wrench last written to its device (zero before the first write).
+    written: Wrench,
     recorder: Option<TraceRecorder>,
     report: PartReport,
 }
@@ -236,6 +238,7 @@ impl RunningParts {
                 handle: None,
                 sums: PartialSums::default(),
                 next: None,
+                written: Wrench::ZERO,
                 report,
                 part,
             });
@@ -397,17 +400,25 @@ impl RunningParts {
         }
     }
 
-    /// The other parts' poses for the state feed: their count and the poses (the rest default).
-    /// Does not allocate.
-    pub(crate) fn poses(&self) -> (u32, [PartPose; MAX_OTHER_PARTS]) {
-        let mut poses = [PartPose::default(); MAX_OTHER_PARTS];
-        for (pose, o) in poses.iter_mut().zip(&self.others) {
-            *pose = PartPose {
+    /// The other parts for the state feed: their count and each one's pose, handle and last
+    /// device wrench (the rest default). Call after [`RunningParts::write`]. Does not allocate.
+    pub(crate) fn feed_frames(&self) -> (u32, [OtherPartFrame; MAX_OTHER_PARTS]) {
+        let mut frames = [OtherPartFrame::default(); MAX_OTHER_PARTS];
+        for (frame, o) in frames.iter_mut().zip(&self.others) {
+            let part = PartPose {
                 position: o.state.position,
                 orientation: o.state.orientation,
             };
+            *frame = OtherPartFrame {
+                part,
+                handle: o.handle.map_or(part, |h| PartPose {
+                    position: h.position,
+                    orientation: h.orientation,
+                }),
+                device_wrench: o.written,
+            };
         }
-        (self.others.len().min(MAX_OTHER_PARTS) as u32, poses)
+        (self.others.len().min(MAX_OTHER_PARTS) as u32, frames)
     }
 
     /// Writes every other part's device (zero when the watchdog tripped) and advances its state.
@@ -422,6 +433,7 @@ impl RunningParts {
                 wrench
             };
             o.part.device.write(&wrench)?;
+            o.written = wrench;
             o.state = next;
             let r = &mut o.report;
             r.wrenches_written += 1;

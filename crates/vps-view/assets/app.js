@@ -105,13 +105,21 @@
     const t = Math.max(0, Math.min(1, (z - lo) / ((hi - lo) || 1)));
     return [0.35 + 0.25 * t, 0.45 + 0.2 * t, 0.55 - 0.15 * t];
   }
+  // The force and torque sent to each part's device, drawn from the part's grip: the first
+  // part's, then every other part's.
   function arrows(f) {
-    const c = f.part.position_m;
+    const pair = (c, force, torque) => [
+      { from: c, to: add(c, scale(force, FORCE_SCALE)), color: [0.25, 1, 0.38] },
+      { from: c, to: add(c, scale(torque, TORQUE_SCALE)), color: [1, 0.56, 0.19] },
+    ];
     return [
-      { from: c, to: add(c, scale(f.force_n, FORCE_SCALE)), color: [0.25, 1, 0.38] },
-      { from: c, to: add(c, scale(f.torque_nm, TORQUE_SCALE)), color: [1, 0.56, 0.19] },
+      ...pair(f.part.position_m, f.force_n, f.torque_nm),
+      ...(f.others || []).flatMap((o) => pair(o.position_m, o.force_n, o.torque_nm)),
     ];
   }
+  const GHOST_COLOR = [0.35, 0.63, 1]; // a hand's pose (the part is coupled to it)
+  // The other parts' handles (their ghosts) in this frame, each with its part's index.
+  const otherHandles = (f) => ((f && f.others) || []).map((o, k) => [o.handle, k]).filter(([h]) => h);
   // The part's pose as drawn: the live frame's, else the study's frame being shown, else null.
   function shownPart() {
     const f = state && state.frame;
@@ -445,8 +453,9 @@
       drawLines(vp, arrows(f));
       gl.enable(gl.DEPTH_TEST); gl.enable(gl.BLEND); gl.blendFunc(gl.SRC_ALPHA, gl.ONE_MINUS_SRC_ALPHA); gl.depthMask(false);
       const handlePose = poseMatrix(f.handle.orientation_xyzw, f.handle.position_m);
-      if (partMesh) drawMesh(vp, 'part', handlePose, { color: [0.35, 0.63, 1], alpha: 0.25 });
-      else drawBoxes(vp, shellBuf, shell.length / 3, pointSize, handlePose, { color: [0.35, 0.63, 1], alpha: 0.25 });
+      if (partMesh) drawMesh(vp, 'part', handlePose, { color: GHOST_COLOR, alpha: 0.25 });
+      else drawBoxes(vp, shellBuf, shell.length / 3, pointSize, handlePose, { color: GHOST_COLOR, alpha: 0.25 });
+      otherHandles(f).forEach(([h, k]) => drawMesh(vp, 'other' + k, poseMatrix(h.orientation_xyzw, h.position_m), { color: GHOST_COLOR, alpha: 0.25 }));
       gl.depthMask(true); gl.disable(gl.BLEND);
       drawSwept(vp);
     }
@@ -517,6 +526,7 @@
         const shown = shownPart() || scene.part_start;
         if (shown) addFaces(partMesh, poseMatrix(shown.orientation_xyzw, shown.position_m), PART_COLOR, MAX_2D_TRIANGLES / 4);
         otherPoses(f).forEach((p, k) => addFaces(otherMeshes[k], poseMatrix(p.orientation_xyzw, p.position_m), OTHER_PART_COLOR, MAX_2D_TRIANGLES / 8));
+        otherHandles(f).forEach(([h, k]) => addFaces(otherMeshes[k], poseMatrix(h.orientation_xyzw, h.position_m), GHOST_COLOR, MAX_2D_TRIANGLES / 16, 0.25));
         if (showSwept) addFaces(sweptMesh, IDENTITY, SWEPT_COLOR, MAX_2D_TRIANGLES / 4, 0.22);
         faces.sort((a, b) => b.depth - a.depth);
         for (const t of faces) {
@@ -551,7 +561,7 @@
         }
         if (!f) return;
         const size = scene.shell_voxel_size_m;
-        const shellPoses = partMesh && !showVoxels ? [] : [[f.handle, [0.35, 0.63, 1], 0.3], [f.part, [0.91, 0.91, 0.91], 1]];
+        const shellPoses = partMesh && !showVoxels ? [] : [[f.handle, GHOST_COLOR, 0.3], [f.part, [0.91, 0.91, 0.91], 1]];
         for (const [pose, color, alpha] of shellPoses) {
           const m = poseMatrix(pose.orientation_xyzw, pose.position_m);
           for (let i = 0; i < shell.length; i += 3) square(transform(m, [shell[i], shell[i + 1], shell[i + 2]]), size, color, alpha);
@@ -660,7 +670,7 @@
         `torque ${v3(f.torque_nm)} N·m`,
         `contacts ${f.contacts} (shown ${f.contact_points.length}, interior ${f.interior_points.length})`,
         `touching ${f.touching}  penetrating ${f.penetrating}  watchdog ${f.watchdog_trips}`,
-        ...(scene && scene.other_parts ? scene.other_parts.map((p, k) => f.others && f.others[k] ? `${p.name}  ${v3(f.others[k].position_m)} m` : '') : []),
+        ...(scene && scene.other_parts ? scene.other_parts.flatMap((p, k) => f.others && f.others[k] ? [`${p.name}  ${v3(f.others[k].position_m)} m`, `${p.name} force ${v3(f.others[k].force_n)} N`] : []) : []),
       ].join('\n');
       if (fresh) pushCharts(f);
     } else if (s.status === 'offline') {

@@ -106,7 +106,8 @@ pub struct SceneMeta {
     pub swept_mesh_triangles: usize,
     /// The other moving parts of a scene of several, in order (empty for one part): their
     /// meshes follow each other in `/scene/other_part_meshes` (36 bytes per triangle, each in its
-    /// own grip frame), and each frame's `others` gives their poses in the same order.
+    /// own grip frame), and each frame's `others` gives their poses, hands and device wrenches in
+    /// the same order.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub other_parts: Vec<OtherPartMeta>,
 }

@@ -55,7 +55,7 @@ pub use contacts::{sample_contacts, ContactSample};
 pub use content::{OtherPartMeta, SceneLimits, ViewerContent};
 pub use live::LiveViewer;
 pub use server::{ServerLimits, ViewerHandle, ViewerServer};
-pub use state::{FrameView, ViewState, ViewStatus};
+pub use state::{FrameView, OtherPartView, PoseView, ViewState, ViewStatus};
 pub use study::{ClosestApproach, StudyTrack};
 
 /// How often the viewer reads the feed and pushes a state to its clients (Hz).

@@ -86,10 +86,24 @@ pub struct FrameView {
     pub contact_points: Vec<[f32; 4]>,
     /// Shell points in Interior voxels: `[x, y, z]` (m).
     pub interior_points: Vec<[f32; 3]>,
-    /// The other moving parts' poses, in the order of the scene's `other_parts` (empty for one
-    /// part).
+    /// The other moving parts, in the order of the scene's `other_parts` (empty for one part).
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub others: Vec<PoseView>,
+    pub others: Vec<OtherPartView>,
+}
+
+/// Another moving part in a frame: its pose (`position_m`, `orientation_xyzw` at the top level,
+/// as [`FrameView::part`]), its handle (the ghost) and what its own device was sent.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct OtherPartView {
+    /// The part's pose (its grip frame).
+    #[serde(flatten)]
+    pub part: PoseView,
+    /// Its handle's pose (its ghost).
+    pub handle: PoseView,
+    /// Force sent to its device (N).
+    pub force_n: [f64; 3],
+    /// Torque sent to its device (N·m).
+    pub torque_nm: [f64; 3],
 }
 
 impl FrameView {
@@ -122,7 +136,12 @@ impl FrameView {
             others: frame
                 .others()
                 .iter()
-                .map(|p| PoseView::new(p.position, p.orientation))
+                .map(|o| OtherPartView {
+                    part: PoseView::new(o.part.position, o.part.orientation),
+                    handle: PoseView::new(o.handle.position, o.handle.orientation),
+                    force_n: o.device_wrench.force.to_array(),
+                    torque_nm: o.device_wrench.torque.to_array(),
+                })
                 .collect(),
         }
     }
