@@ -184,6 +184,7 @@ fn the_whole_scene_estimate_is_printed_and_refused_over_max_memory() {
         "voxelizer",
         "voxmap",
         "exact reference",
+        "parts' voxmaps",
         "viewer",
     ] {
         assert!(memory.contains(part), "{part} not in {memory}");
@@ -196,11 +197,14 @@ fn the_whole_scene_estimate_is_printed_and_refused_over_max_memory() {
         env!("CARGO_MANIFEST_DIR"),
         "/configs/scenes/bay-teapot.toml"
     );
-    let exact_bytes = |scene: &str| {
+    let estimated = |scene: &str, field: &str| {
         let (code, out, err, _) = run_measured(&["scene", "check", scene, "--json"]);
         assert_eq!(code, Some(0), "{out}{err}");
-        let key = "\"exact_reference_bytes\":";
-        let at = out.find(key).unwrap_or_else(|| panic!("no {key} in {out}")) + key.len();
+        let key = format!("\"{field}\":");
+        let at = out
+            .find(&key)
+            .unwrap_or_else(|| panic!("no {key} in {out}"))
+            + key.len();
         let digits: String = out[at..]
             .trim_start()
             .chars()
@@ -208,9 +212,13 @@ fn the_whole_scene_estimate_is_printed_and_refused_over_max_memory() {
             .collect();
         digits.parse::<u64>().unwrap()
     };
-    assert_eq!(exact_bytes(tangent), 0);
+    assert_eq!(estimated(tangent, "exact_reference_bytes"), 0);
     // The bay's 593k triangles at about 250 bytes each.
-    assert!(exact_bytes(distance) > 100 << 20);
+    assert!(estimated(distance, "exact_reference_bytes") > 100 << 20);
+    // The parts' own voxmaps: none for one part, both hands' parts in the two-hands scene.
+    assert_eq!(estimated(distance, "part_voxmaps_bytes"), 0);
+    let two_hands = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/scenes/two-hands.toml");
+    assert!(estimated(two_hands, "part_voxmaps_bytes") > 0);
 
     refused_over_budget(
         &["scene", "check", "builtin:bay-teapot"],

@@ -578,7 +578,7 @@ pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
     println!(
         "memory: about {} in all (estimate, within the budget of {}): meshes read {}, placed \
          copies {}, voxelizer {}, voxmap {}, distance band {}, exact reference {}, winding-number \
-         trees {}, shell {}; a viewer (--view) adds {}",
+         trees {}, shell {}, parts' voxmaps {}; a viewer (--view) adds {}",
         size_text(m.total_bytes),
         size_text(report.memory_budget_bytes),
         size_text(m.meshes_read_bytes),
@@ -589,6 +589,7 @@ pub fn run(scene: &str, json: bool, max_memory: Option<u64>) -> Result<()> {
         size_text(m.exact_reference_bytes),
         size_text(m.winding_trees_bytes),
         size_text(m.shell_bytes),
+        size_text(m.part_voxmaps_bytes),
         size_text(report.viewer_memory_bytes)
     );
     println!(

@@ -142,6 +142,12 @@ pub struct SceneMemoryEstimate {
     pub winding_trees_bytes: u64,
     /// The part's point shell (about 1.5 points per voxel of its surface area).
     pub shell_bytes: u64,
+    /// The moving parts' own voxmaps, what the other parts feel (a scene of several parts only;
+    /// 0 for one part): each part's tree ([`VoxmapEstimate::tree_bytes`] of its mesh alone) and,
+    /// with the distance model, its band's stored directory and bricks. They are built one after
+    /// another, each builder's working memory freed before the next and no larger than the
+    /// scene's (a part larger than the scene is refused), so only what is kept is counted.
+    pub part_voxmaps_bytes: u64,
     /// A viewer's copies of the meshes (0 without one): the copy handed over and the decimation's
     /// working copy.
     pub viewer_bytes: u64,
@@ -167,6 +173,46 @@ pub struct SceneMemoryInputs {
     pub standoff_m: Option<f64>,
     /// Whether a viewer will draw the meshes.
     pub viewer: bool,
+    /// The moving parts' own voxmaps, summed over parts (bytes; 0 for one part): [`part_voxmap_bytes`].
+    pub part_voxmaps_bytes: u64,
+}
+
+/// The stored part of a distance band on the grid of `voxmap` at `voxel_size` (m): the cube
+/// directory (4 bytes a cube) and the bricks of the cubes within the band's reach of the surface.
+fn band_stored(voxmap: &VoxmapEstimate, voxel_size: f64) -> (f64, f64) {
+    let edge = f64::from(CUBE_EDGE);
+    let cubes: f64 = voxmap.grid_dims.iter().map(|d| (d / edge).ceil()).product();
+    // Cubes within the band's reach of the surface: as the tree's leaves, widened by the band on
+    // both sides.
+    let reach = 2.0 * (f64::from(BAND_VOXELS) + 1.0);
+    let stored =
+        (voxmap.surface_area_m2 / (edge * voxel_size).powi(2) * 1.5 * (1.0 + reach / edge))
+            .min(cubes);
+    (cubes, stored)
+}
+
+/// What a moving part's own voxmap keeps (bytes): its tree, voxelized from `mesh` (m, its grip
+/// frame) alone with `opts` (no workspace), and with a distance band (`standoff_m` given) the
+/// band's directory and bricks. Allocation-free; O(triangles of `mesh`).
+pub fn part_voxmap_bytes(mesh: &TriMesh, opts: &VoxelizeOptions, standoff_m: Option<f64>) -> u64 {
+    let voxmap = estimate(std::slice::from_ref(mesh), opts, TreeConfig::default());
+    let band = match standoff_m {
+        None => 0.0,
+        Some(_) => {
+            let (cubes, stored) = band_stored(&voxmap, opts.voxel_size);
+            4.0 * cubes + stored * BRICK_CODES as f64
+        }
+    };
+    saturating_bytes(voxmap.tree_bytes + band)
+}
+
+/// `x` bytes as a whole count: saturated at `u64::MAX` (NaN too), 0 below 0.
+fn saturating_bytes(x: f64) -> u64 {
+    if x.is_nan() || x >= u64::MAX as f64 {
+        u64::MAX
+    } else {
+        x.max(0.0) as u64
+    }
 }
 
 /// The whole scene's memory for the voxmap `voxmap` (from [`estimate_triangles`]) at
@@ -177,13 +223,7 @@ pub fn scene_memory(
     voxel_size: f64,
     width: VoxelWidth,
 ) -> SceneMemoryEstimate {
-    let bytes = |x: f64| {
-        if x.is_nan() || x >= u64::MAX as f64 {
-            u64::MAX
-        } else {
-            x.max(0.0) as u64
-        }
-    };
+    let bytes = saturating_bytes;
     let voxelizer = vps_voxelize::memory::estimate_sparse_by_area(
         voxmap.grid_dims,
         voxel_size,
@@ -194,14 +234,7 @@ pub fn scene_memory(
     let (band, exact) = match inputs.standoff_m {
         None => (0, 0),
         Some(_) => {
-            let edge = f64::from(CUBE_EDGE);
-            let cubes: f64 = voxmap.grid_dims.iter().map(|d| (d / edge).ceil()).product();
-            // Cubes within the band's reach of the surface: as the tree's leaves, widened by the
-            // band on both sides.
-            let reach = 2.0 * (f64::from(BAND_VOXELS) + 1.0);
-            let stored =
-                (voxmap.surface_area_m2 / (edge * voxel_size).powi(2) * 1.5 * (1.0 + reach / edge))
-                    .min(cubes);
+            let (cubes, stored) = band_stored(voxmap, voxel_size);
             // The builder's table: about eight (triangle, cube) pairs per triangle or stored cube
             // (a triangle's box grown by the reach meets about 2³ cubes), 4 bytes each, and 8
             // bytes of offsets per cube.
@@ -240,6 +273,7 @@ pub fn scene_memory(
         winding,
         shell,
         viewer,
+        inputs.part_voxmaps_bytes,
     ]
     .iter()
     .fold(0u64, |t, &b| t.saturating_add(b));
@@ -252,6 +286,7 @@ pub fn scene_memory(
         exact_reference_bytes: exact,
         winding_trees_bytes: winding,
         shell_bytes: shell,
+        part_voxmaps_bytes: inputs.part_voxmaps_bytes,
         viewer_bytes: viewer,
         total_bytes: total,
     }
@@ -273,6 +308,32 @@ pub fn size_text(bytes: u64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A moving part's own voxmap as estimated is within a factor of three of what is built for
+    /// it (the sphere at 2 mm: its tree, and with a 1 mm stand-off its tree and distance band).
+    #[test]
+    fn a_part_s_own_voxmap_is_near_its_estimate() {
+        let mesh = vps_mesh::builtin::by_name("sphere").unwrap();
+        let opts = VoxelizeOptions {
+            voxel_size: 0.002,
+            workspace: None,
+            ..VoxelizeOptions::default()
+        };
+        let objects = std::slice::from_ref(&mesh);
+        let (tree, _) = vps_voxelize::voxelize_tree(objects, &opts, TreeConfig::default()).unwrap();
+        let band = vps_voxelize::distance::distance_band(&tree, objects, 0.001, 1 << 30).unwrap();
+        for (standoff, built) in [
+            (None, tree.memory_bytes()),
+            (Some(0.001), tree.memory_bytes() + band.memory_bytes()),
+        ] {
+            let est = part_voxmap_bytes(&mesh, &opts, standoff) as f64;
+            let built = built as f64;
+            assert!(
+                est > built / 3.0 && est < built * 3.0,
+                "stand-off {standoff:?}: estimate {est} built {built}"
+            );
+        }
+    }
 
     /// The estimate is within a factor of three of the tree the voxelizer builds for a sphere, and
     /// the grid count is near the padded bounds'.

@@ -6,8 +6,8 @@ use crate::cache::{cache_key, cache_path, read_cached, write_cached, CachePolicy
 use crate::device::{BridgeSettings, DeviceChoice};
 use crate::error::{field_error, SceneError};
 use crate::estimate::{
-    estimate_triangles, mesh_bytes, scene_memory, size_text, SceneMemoryEstimate,
-    SceneMemoryInputs, VoxmapEstimate, MAX_GRID_VOXELS, VOXMAP_MEMORY_BUDGET,
+    estimate_triangles, mesh_bytes, part_voxmap_bytes, scene_memory, size_text,
+    SceneMemoryEstimate, SceneMemoryInputs, VoxmapEstimate, MAX_GRID_VOXELS, VOXMAP_MEMORY_BUDGET,
 };
 use crate::file::is_step_source;
 use crate::file::{rotation, ForceModelName, SceneFile};
@@ -449,6 +449,7 @@ impl LoadedScene {
             ("exact reference", est.exact_reference_bytes, "static"),
             ("winding-number trees", est.winding_trees_bytes, "static"),
             ("point shell", est.shell_bytes, "part"),
+            ("parts' voxmaps", est.part_voxmaps_bytes, "part"),
             ("viewer", est.viewer_bytes, "static"),
         ];
         let field = parts.iter().max_by_key(|p| p.1).map_or("static", |p| p.2);
@@ -489,6 +490,27 @@ impl LoadedScene {
             .sum()
     }
 
+    /// What the moving parts' own voxmaps keep (bytes, summed): every part's, the first
+    /// included, in a scene of several parts; 0 for one part. Allocation-free; O(triangles of the
+    /// parts).
+    fn part_voxmaps_bytes(&self, voxel_size: f64, width: VoxelWidth) -> u64 {
+        if self.more_parts.is_empty() {
+            return 0;
+        }
+        let opts = vps_voxelize::VoxelizeOptions {
+            workspace: None,
+            ..self.voxelize_options(voxel_size, width)
+        };
+        let standoff = self.file.voxels.standoff_at(voxel_size);
+        self.more_parts
+            .iter()
+            .map(|p| &p.mesh)
+            .chain(std::iter::once(&self.part))
+            .fold(0u64, |t, mesh| {
+                t.saturating_add(part_voxmap_bytes(mesh, &opts, standoff))
+            })
+    }
+
     /// [`scene_memory`] for this scene and the voxmap estimate `voxmap`.
     fn memory_of(
         &self,
@@ -515,6 +537,7 @@ impl LoadedScene {
                 .fold(self.part.area(), |a, p| a + p.mesh.area()),
             standoff_m: self.file.voxels.standoff_at(voxel_size),
             viewer,
+            part_voxmaps_bytes: self.part_voxmaps_bytes(voxel_size, width),
         };
         scene_memory(&inputs, voxmap, voxel_size, width)
     }
@@ -1393,6 +1416,41 @@ mod tests {
         vps_voxmap::file::write_shell(&shell, &mut bytes).unwrap();
         let back = vps_voxmap::file::read_shell(bytes.as_slice()).unwrap();
         assert_eq!(back.normals, shell.normals);
+    }
+
+    /// The memory estimate counts the moving parts' own voxmaps in a scene of several parts (the
+    /// first part's and each other's, with their distance bands), and none for one part.
+    #[test]
+    fn the_estimate_counts_every_part_s_own_voxmap_in_a_scene_of_several() {
+        let dir = tempfile::tempdir().unwrap();
+        let hand = |side: f64| format!("[part.hand]\n{}\n", vps_testkit::parts::approach(side));
+        let tail = "[voxels]\nvoxel_size = \"5 mm\"\n";
+        let two =
+            vps_testkit::parts::two_parts("source = \"builtin:sphere\"\nscale = 0.4", hand, tail);
+        let path = dir.path().join("two.toml");
+        std::fs::write(&path, two).unwrap();
+        let scene = LoadedScene::load(&path.display().to_string()).unwrap();
+        let width = scene.width().unwrap();
+        let est = scene.memory_estimate(0.005, width, false).unwrap();
+        let opts = vps_voxelize::VoxelizeOptions {
+            workspace: None,
+            ..scene.voxelize_options(0.005, width)
+        };
+        let standoff = scene.file.voxels.standoff_at(0.005);
+        assert!(
+            standoff.is_some(),
+            "the distance model: each part's band counted"
+        );
+        let each =
+            [&scene.part, &scene.more_parts[0].mesh].map(|m| part_voxmap_bytes(m, &opts, standoff));
+        assert!(each.iter().all(|&b| b > 0), "{each:?}");
+        assert_eq!(est.part_voxmaps_bytes, each[0] + each[1]);
+        assert!(est.total_bytes >= est.part_voxmaps_bytes + est.voxmap_bytes);
+
+        let (_dir, one) = scene_dir("[[static]]\nsource = \"fixture.obj\"\nunits = \"mm\"\n");
+        let one = LoadedScene::load(&one).unwrap();
+        let est = one.memory_estimate(0.002, width, false).unwrap();
+        assert_eq!(est.part_voxmaps_bytes, 0);
     }
 
     /// The memory estimate counts the voxelizer's winding-number trees: none for the closed
