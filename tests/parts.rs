@@ -286,6 +286,48 @@ fn a_session_of_two_parts_is_studied_part_by_part_to_the_bit_live_and_from_its_t
             && index.contains("<td>left – right</td>"),
         "{index}"
     );
+    // The pair's contact events: every frame in which the other part pushed on the left one
+    // lies in an event, each event's peak is the largest of those pushes within it, at its
+    // peak frame, and the meshes were close then (the cubes stop a few voxels apart or less).
+    let left_csv = std::fs::read_to_string(vps.dir().join("later/left/path.csv")).unwrap();
+    let push: Vec<f64> = {
+        let axis = |a: &str| csv_column(&left_csv, &format!("other_parts_force_{a}_n"));
+        let (x, y, z) = (axis("x"), axis("y"), axis("z"));
+        (0..x.len())
+            .map(|i| (x[i] * x[i] + y[i] * y[i] + z[i] * z[i]).sqrt())
+            .collect()
+    };
+    let events = made["pairs"][0]["contacts"]
+        .as_array()
+        .expect("contact events");
+    assert!(!events.is_empty(), "the cubes pressed: {}", made["pairs"]);
+    let span = |e: &serde_json::Value, k: &str| e[k].as_u64().unwrap() as usize;
+    for (i, &f) in push.iter().enumerate() {
+        let within = events
+            .iter()
+            .any(|e| span(e, "start_frame") <= i && i <= span(e, "end_frame"));
+        assert!(
+            f == 0.0 || within,
+            "a push of {f} N at frame {i} outside every event"
+        );
+    }
+    for e in events {
+        let (start, end, peak) = (
+            span(e, "start_frame"),
+            span(e, "end_frame"),
+            span(e, "peak_frame"),
+        );
+        assert!(start <= peak && peak <= end, "{e}");
+        let largest = push[start..=end].iter().copied().fold(0.0, f64::max);
+        assert_eq!(e["peak_force_on_a_n"].as_f64().unwrap(), largest, "{e}");
+        assert_eq!(push[peak], largest, "{e}");
+        let gap = e["distance_at_peak_m"].as_f64().unwrap();
+        assert!((0.0..0.02).contains(&gap), "{e}");
+    }
+    assert!(
+        index.contains("<table id=\"pair-contacts\">") && index.contains(" N at "),
+        "{index}"
+    );
     // The pair force in the two studies' tables: equal and opposite at every frame.
     let (left, right) = (&pair_forces[0], &pair_forces[1]);
     assert_eq!(left.len(), right.len());

@@ -354,6 +354,24 @@ fn write_parts_study(run: &StudyRun<'_>, dir: &Path, every: usize, print: Print)
             )),
             None => {}
         }
+        if let Some(peak) = p
+            .contacts
+            .iter()
+            .max_by(|x, y| x.peak_force_on_a_n.total_cmp(&y.peak_force_on_a_n))
+        {
+            let first = &p.contacts[0];
+            lines.push(format!(
+                "  in contact {} time(s), the first from t = {:.3} to {:.3} s; the hardest push on \
+                 '{}' {:.2} N at t = {:.3} s (exact gap then {:.2} mm)",
+                p.contacts.len(),
+                first.start_s,
+                first.end_s,
+                names[p.a],
+                peak.peak_force_on_a_n,
+                peak.peak_s,
+                peak.distance_at_peak_m * 1e3
+            ));
+        }
     }
     lines.push(format!(
         "study: {} parts in {} (open its report.html: every part's verdict, linked to its own \

@@ -153,6 +153,8 @@ pub struct PairPass {
     touching: Vec<(usize, usize)>,
     /// Their sums, in the same order (for [`PairPass::run`]).
     sums: Vec<PairSums>,
+    /// This frame's pairs in contact, from [`PairPass::apply`].
+    near: Vec<(usize, usize)>,
 }
 
 impl PairPass {
@@ -165,7 +167,15 @@ impl PairPass {
             contact_frames: vec![0; parts],
             touching: Vec::with_capacity(pairs),
             sums: Vec::with_capacity(pairs),
+            near: Vec::with_capacity(pairs),
         }
+    }
+
+    /// The pairs `(i, j)`, `i < j`, in contact in the latest [`PairPass::apply`] (or
+    /// [`PairPass::run`]): `i`'s shell reached a non-free voxel of `j`'s voxmap, or `j`'s of
+    /// `i`'s. In the broad phase's order. Does not allocate.
+    pub fn near_pairs(&self) -> &[(usize, usize)] {
+        &self.near
     }
 
     /// Samples every pair of the `count` parts (`part(k)`; 0 the session's first) that
@@ -216,6 +226,7 @@ impl PairPass {
     /// `self.others`, the contact counts booked. Does not allocate or block.
     pub fn apply<'a>(&mut self, part: impl Fn(usize) -> PairPart<'a>, sums: &[PairSums]) {
         self.others.iter_mut().for_each(|o| *o = OtherParts::NONE);
+        self.near.clear();
         let mut any_contact = false;
         for (&(i, j), sums) in self.touching.iter().zip(sums) {
             let (pa, pb) = (part(i), part(j));
@@ -225,6 +236,7 @@ impl PairPass {
                 continue;
             }
             any_contact = true;
+            self.near.push((i, j));
             let mut w = pair_wrenches(params, &params.gains(), a, b, sums);
             let brake = pair_braking(params, pb.params.mass, a, b, sums);
             // `x + y` and `(−x) + (−y)` are exact negations, so the forces stay opposite.

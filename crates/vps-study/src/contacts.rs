@@ -12,6 +12,36 @@ use vps_reference::RigidClearance;
 /// Gaps of at most this many frames without contact do not end an event (20 ms at 1 kHz).
 pub const MERGE_GAP_FRAMES: usize = 20;
 
+/// The spans `(first, last)` of frames in contact (`in_contact`, one flag a frame), gaps of at
+/// most [`MERGE_GAP_FRAMES`] frames merged. Allocates the result.
+pub fn contact_spans(in_contact: impl IntoIterator<Item = bool>) -> Vec<(usize, usize)> {
+    let mut spans: Vec<(usize, usize)> = Vec::new();
+    for (i, touching) in in_contact.into_iter().enumerate() {
+        if !touching {
+            continue;
+        }
+        match spans.last_mut() {
+            Some((_, end)) if i - *end <= MERGE_GAP_FRAMES + 1 => *end = i,
+            _ => spans.push((i, i)),
+        }
+    }
+    spans
+}
+
+/// The frame of `start..=end` with the largest `force(frame)` (the first of equals) and that
+/// force.
+pub(crate) fn peak_of(start: usize, end: usize, force: impl Fn(usize) -> f64) -> (usize, f64) {
+    (start..=end)
+        .map(|i| (i, force(i)))
+        .fold((start, f64::NEG_INFINITY), |best, x| {
+            if x.1 > best.1 {
+                x
+            } else {
+                best
+            }
+        })
+}
+
 /// One contact event.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct ContactEvent {
@@ -42,28 +72,11 @@ pub struct ContactEvent {
 /// The contact events of `path`, their objects found with `clearance`. Blocking, parallel over
 /// events, allocates.
 pub fn contact_events(clearance: &RigidClearance, path: &[PathFrame]) -> Vec<ContactEvent> {
-    let mut spans: Vec<(usize, usize)> = Vec::new();
-    for (i, f) in path.iter().enumerate() {
-        if f.contacts == 0 {
-            continue;
-        }
-        match spans.last_mut() {
-            Some((_, end)) if i - *end <= MERGE_GAP_FRAMES + 1 => *end = i,
-            _ => spans.push((i, i)),
-        }
-    }
-    spans
+    contact_spans(path.iter().map(|f| f.contacts > 0))
         .par_iter()
         .map(|&(start, end)| {
-            let (peak_frame, peak_force_n) = (start..=end)
-                .map(|i| (i, path[i].contact_force_n.length()))
-                .fold((start, f64::NEG_INFINITY), |best, x| {
-                    if x.1 > best.1 {
-                        x
-                    } else {
-                        best
-                    }
-                });
+            let (peak_frame, peak_force_n) =
+                peak_of(start, end, |i| path[i].contact_force_n.length());
             let nearest = nearest_object(clearance, &path[peak_frame]);
             ContactEvent {
                 start_frame: start,

@@ -50,6 +50,10 @@ pub struct PathFrame {
     pub touching: bool,
     /// At least one shell point in an Interior voxel.
     pub penetrating: bool,
+    /// The other moving parts in contact with the part this frame, as bits: bit `k` for part `k`
+    /// of the session (0 the first), set when either part's shell reached a non-free voxel of
+    /// the other's voxmap (the pair pass's contact). 0 with one moving part.
+    pub parts_in_contact: u8,
 }
 
 impl PathFrame {
@@ -71,7 +75,14 @@ impl PathFrame {
             contacts: 0,
             touching: false,
             penetrating: false,
+            parts_in_contact: 0,
         }
+    }
+
+    /// Whether part `k` (0 the session's first) was in contact with this part this frame
+    /// ([`PathFrame::parts_in_contact`]).
+    pub fn in_contact_with(&self, k: usize) -> bool {
+        k < 8 && self.parts_in_contact & (1 << k) != 0
     }
 }
 
@@ -134,6 +145,7 @@ fn path_frame(
         contacts: out.contacts,
         touching: out.touching,
         penetrating: out.penetrating,
+        parts_in_contact: 0,
     }
 }
 
@@ -198,7 +210,19 @@ pub fn recompute_paths<L: VoxelLookup>(
             let f = &p.trace.frames[i];
             let others = &pass.others[k];
             let out = step_with_parts(p.params, &states[k], &f.sample, &sums[k], others);
-            paths[k].push(path_frame(f, &states[k], &out, &p.limits, others.wrench));
+            let mut frame = path_frame(f, &states[k], &out, &p.limits, others.wrench);
+            for &(a, b) in pass.near_pairs() {
+                let other = if a == k {
+                    b
+                } else if b == k {
+                    a
+                } else {
+                    continue;
+                };
+                // A session holds at most 8 parts (the scene file's limit).
+                frame.parts_in_contact |= 1u8.checked_shl(other as u32).unwrap_or(0);
+            }
+            paths[k].push(frame);
             outs.push(out.next_state);
         }
         states.copy_from_slice(&outs);

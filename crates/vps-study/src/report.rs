@@ -433,6 +433,31 @@ pub fn parts_index_html(
         );
     }
     html.push_str(
+        "</table><h2>Contact between the parts</h2><table id=\"pair-contacts\"><tr><th>parts</th>\
+         <th>from</th><th>to</th><th>peak force on the first</th><th>exact gap at the peak</th></tr>",
+    );
+    let mut any = false;
+    for p in pairs {
+        for e in &p.contacts {
+            any = true;
+            let _ = write!(
+                html,
+                "<tr><td>{} – {}</td><td>{:.3} s</td><td>{:.3} s</td><td>{:.2} N at {:.3} s</td>\
+                 <td>{:.3} mm</td></tr>",
+                name(p.a),
+                name(p.b),
+                e.start_s,
+                e.end_s,
+                e.peak_force_on_a_n,
+                e.peak_s,
+                e.distance_at_peak_m * 1e3
+            );
+        }
+    }
+    if !any {
+        html.push_str("<tr><td colspan=\"5\">no contact between the parts</td></tr>");
+    }
+    html.push_str(
         "</table><p>Every series: <code>pair_clearance.csv</code>; the figures: \
          <code>pairs.json</code>.</p></body></html>\n",
     );
