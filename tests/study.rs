@@ -502,3 +502,81 @@ fn a_study_never_replaces_its_inputs() {
     ));
     assert!(err.contains("missing.jsonl"), "{err}");
 }
+
+/// A study of a cluster session whose worker's shares were stood in for by an earlier frame's
+/// sums (`--max-stale-frames` above 0) says so: the session's count in `study.json`
+/// (`settings.cluster_stale_shares`), the caution on `report.html` and in the text; with stand-ins
+/// off, the count is 0 and there is no caution. The worker is made late on purpose: a part of
+/// about 730k shell points (a 140 mm cube at 0.4 mm) split with one local worker on one thread,
+/// whose half (about 365k points, over 1 ms of kernel time on any machine measured so far, where
+/// its reply has 0.4 ms) cannot come back in time, nor be recomputed here on one thread before the
+/// device write.
+#[test]
+fn a_study_of_a_cluster_session_with_stood_in_shares_carries_the_caution() {
+    let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
+    std::fs::write(
+        vps.dir().join("big.toml"),
+        "name = \"big-shell\"\n[part]\nsource = \"builtin:box\"\nscale = 1.4\n\
+         [[static]]\nsource = \"builtin:box\"\nscale = 1.5\ntranslate = [0.0, 0.0, -0.5]\n\
+         [voxels]\nvoxel_size = \"0.4 mm\"\n\
+         [hand]\nwaypoints = [[0.0, 0.0, 0.2], [0.0, 0.0, 0.15]]\nspeed = 0.05\n",
+    )
+    .unwrap();
+    let scene = vps.path("big.toml");
+    for stale in ["3", "0"] {
+        let (dir, report) = (
+            vps.path(&format!("s{stale}")),
+            vps.path(&format!("r{stale}.json")),
+        );
+        let out = vps.session(
+            "cluster",
+            &scene,
+            "0.5",
+            &[
+                "--local-workers",
+                "1",
+                "--worker-threads",
+                "1",
+                "--threads",
+                "1",
+                "--split",
+                "always",
+                "--max-stale-frames",
+                stale,
+                "--study",
+                &dir,
+                "--report",
+                &report,
+                "--json",
+            ],
+        );
+        assert!(out.status.success(), "{}", stderr(&out));
+        let report: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        let stood_in = report["cluster"]["stale_shares"].as_u64().unwrap();
+        let study: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(Path::new(&dir).join("study.json")).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(study["settings"]["cluster_stale_shares"], stood_in);
+        let page = std::fs::read_to_string(Path::new(&dir).join("report.html")).unwrap();
+        let text = stderr(&out);
+        if stale == "0" {
+            assert_eq!(stood_in, 0, "{report}");
+            assert!(!page.contains("id=\"caution\""));
+            assert!(!text.contains("caution"), "{text}");
+        } else {
+            assert!(
+                stood_in > 0,
+                "no share was stood in for: {}",
+                report["cluster"]
+            );
+            let said = format!("stood in for {stood_in} late shares");
+            assert!(
+                page.contains("id=\"caution\"") && page.contains(&said),
+                "{page}"
+            );
+            assert!(text.contains("caution: ") && text.contains(&said), "{text}");
+        }
+    }
+}
