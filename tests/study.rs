@@ -503,16 +503,19 @@ fn a_study_never_replaces_its_inputs() {
     assert!(err.contains("missing.jsonl"), "{err}");
 }
 
-/// A study of a cluster session whose worker's shares were stood in for by an earlier frame's
-/// sums (`--max-stale-frames` above 0) says so: the session's count in `study.json`
-/// (`settings.cluster_stale_shares`), the caution on `report.html` and in the text; with stand-ins
-/// off, the count is 0 and there is no caution. The worker is made late on purpose: a part of
-/// about 730k shell points (a 140 mm cube at 0.4 mm) split with one local worker on one thread,
-/// whose half (about 365k points, over 1 ms of kernel time on any machine measured so far, where
-/// its reply has 0.4 ms) cannot come back in time, nor be recomputed here on one thread before the
-/// device write.
+/// A study of a cluster session carries the session's own count of shares stood in for by an
+/// earlier frame's sums (`--max-stale-frames`): `study.json`'s `settings.cluster_stale_shares`
+/// equals the cluster report's `stale_shares`, and `report.html` and the text carry the caution
+/// exactly when it is above 0; with stand-ins off the count is 0 and there is no caution. The
+/// worker is made late on purpose (a part of about 730k shell points, a 140 mm cube at 0.4 mm,
+/// split with one local worker on one thread), but whether a late share is stood in for depends
+/// on the machine's timing: it needs an earlier reply that came in time. Release runs on the
+/// 2-core development machine stood in for 2 to 23 shares; a CI run of the test profile for none (its
+/// worker never answered in time), so the caution's text with a count is checked apart,
+/// deterministically (vps-app
+/// `study::tests::a_study_says_how_many_shares_its_session_s_cluster_stood_in_for`).
 #[test]
-fn a_study_of_a_cluster_session_with_stood_in_shares_carries_the_caution() {
+fn a_cluster_session_s_study_carries_its_count_of_stood_in_shares() {
     let vps = Vps::new(env!("CARGO_BIN_EXE_vps"));
     std::fs::write(
         vps.dir().join("big.toml"),
@@ -563,20 +566,12 @@ fn a_study_of_a_cluster_session_with_stood_in_shares_carries_the_caution() {
         let text = stderr(&out);
         if stale == "0" {
             assert_eq!(stood_in, 0, "{report}");
-            assert!(!page.contains("id=\"caution\""));
-            assert!(!text.contains("caution"), "{text}");
-        } else {
-            assert!(
-                stood_in > 0,
-                "no share was stood in for: {}",
-                report["cluster"]
-            );
-            let said = format!("stood in for {stood_in} late shares");
-            assert!(
-                page.contains("id=\"caution\"") && page.contains(&said),
-                "{page}"
-            );
-            assert!(text.contains("caution: ") && text.contains(&said), "{text}");
         }
+        eprintln!("--max-stale-frames {stale}: {stood_in} shares stood in for");
+        let said = format!("stood in for {stood_in} late shares");
+        assert_eq!(page.contains("id=\"caution\""), stood_in > 0, "{page}");
+        assert_eq!(page.contains(&said), stood_in > 0, "{page}");
+        assert_eq!(text.contains("caution: "), stood_in > 0, "{text}");
+        assert_eq!(text.contains(&said), stood_in > 0, "{text}");
     }
 }

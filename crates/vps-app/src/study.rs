@@ -501,3 +501,54 @@ fn text_report(study: &Study) -> Vec<String> {
     }
     lines
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scripted::{run_scripted, Scripted};
+    use vps_session::{BuildOptions, CachePolicy, LoadedScene};
+
+    /// The study of a session whose cluster stood in for late shares says how many: the count in
+    /// `study.json`'s `settings.cluster_stale_shares` and a caution naming it on `report.html`;
+    /// with none, 0 and no caution. (A real session's count reaches this through `finish`, from
+    /// the cluster report's `stale_shares`: `tests/study.rs` checks that they agree.)
+    #[test]
+    fn a_study_says_how_many_shares_its_session_s_cluster_stood_in_for() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = dir.path().join("scene.toml");
+        std::fs::write(
+            &scene,
+            "[part]\nsource = \"builtin:box\"\nscale = 0.2\n[[static]]\nsource = \"builtin:box\"\n\
+             translate = [0.0, 0.0, -0.1]\n[voxels]\nvoxel_size = \"5 mm\"\n\
+             [hand]\nwaypoints = [[0.0, 0.0, 0.05], [0.0, 0.0, 0.02]]\n",
+        )
+        .unwrap();
+        let options = BuildOptions {
+            cache: CachePolicy::Off,
+            progress: false,
+            ..BuildOptions::default()
+        };
+        let assets = LoadedScene::load(&scene.display().to_string())
+            .unwrap()
+            .build(&options)
+            .unwrap();
+        let how = Scripted {
+            paced: false,
+            record_trace: true,
+        };
+        let report = run_scripted(&assets, assets.params, 0.2, 1, how, None, None).unwrap();
+        for stood_in in [7u64, 0] {
+            let out = dir.path().join(format!("study-{stood_in}"));
+            write_session_study(&out, 10, &assets, assets.params, &report, stood_in, true).unwrap();
+            let study: Value =
+                serde_json::from_str(&std::fs::read_to_string(out.join("study.json")).unwrap())
+                    .unwrap();
+            assert_eq!(study["settings"]["cluster_stale_shares"], stood_in);
+            let page = std::fs::read_to_string(out.join("report.html")).unwrap();
+            let caution = "<p id=\"caution\">Caution: the session's cluster stood in for 7 late \
+                           shares";
+            assert_eq!(page.contains(caution), stood_in == 7, "{page}");
+            assert_eq!(page.contains("id=\"caution\""), stood_in > 0);
+        }
+    }
+}
