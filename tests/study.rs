@@ -510,8 +510,8 @@ fn a_study_never_replaces_its_inputs() {
 /// worker is made late on purpose (a part of about 730k shell points, a 140 mm cube at 0.4 mm,
 /// split with one local worker on one thread), but whether a late share is stood in for depends
 /// on the machine's timing: it needs an earlier reply that came in time. Release runs on the
-/// 2-core development machine stood in for 2 to 23 shares; a CI run of the test profile for none (its
-/// worker never answered in time), so the caution's text with a count is checked apart,
+/// 2-core development machine stood in for 2 to 23 shares; a CI run of the test profile for none
+/// (its worker never answered in time), so the caution's text with a count is checked apart,
 /// deterministically (vps-app
 /// `study::tests::a_study_says_how_many_shares_its_session_s_cluster_stood_in_for`).
 #[test]

@@ -36,7 +36,8 @@ pub struct PairClearance {
 }
 
 /// A span of frames during which two moving parts were in contact: either part's shell reached a
-/// non-free voxel of the other's voxmap (the frame loop's pair contact; [`PathFrame::in_contact_with`]).
+/// non-free voxel of the other's voxmap (the frame loop's pair contact;
+/// [`PathFrame::in_contact_with`]).
 /// Spans closer together than [`crate::contacts::MERGE_GAP_FRAMES`] frames are one event.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct PairContactEvent {
