@@ -191,6 +191,12 @@ fn band_stored(voxmap: &VoxmapEstimate, voxel_size: f64) -> (f64, f64) {
     (cubes, stored)
 }
 
+/// What a distance band keeps (bytes) with `cubes` cubes in its directory (4 bytes each) and
+/// `stored` of them holding a brick of codes ([`band_stored`]).
+fn band_kept_bytes(cubes: f64, stored: f64) -> f64 {
+    4.0 * cubes + stored * BRICK_CODES as f64
+}
+
 /// What a moving part's own voxmap keeps (bytes): its tree, voxelized from `mesh` (m, its grip
 /// frame) alone with `opts` (no workspace), and with a distance band (`standoff_m` given) the
 /// band's directory and bricks. Allocation-free; O(triangles of `mesh`).
@@ -200,7 +206,7 @@ pub fn part_voxmap_bytes(mesh: &TriMesh, opts: &VoxelizeOptions, standoff_m: Opt
         None => 0.0,
         Some(_) => {
             let (cubes, stored) = band_stored(&voxmap, opts.voxel_size);
-            4.0 * cubes + stored * BRICK_CODES as f64
+            band_kept_bytes(cubes, stored)
         }
     };
     saturating_bytes(voxmap.tree_bytes + band)
@@ -223,7 +229,6 @@ pub fn scene_memory(
     voxel_size: f64,
     width: VoxelWidth,
 ) -> SceneMemoryEstimate {
-    let bytes = saturating_bytes;
     let voxelizer = vps_voxelize::memory::estimate_sparse_by_area(
         voxmap.grid_dims,
         voxel_size,
@@ -241,10 +246,9 @@ pub fn scene_memory(
             let pairs = 8.0 * (inputs.placed_triangles as f64).max(stored);
             // The inside map the band takes its signs from: a 2-bit tree of the same grid.
             let inside_map = voxmap.tree_bytes * 2.0 / f64::from(width.bits());
-            let band =
-                4.0 * cubes + stored * BRICK_CODES as f64 + 4.0 * pairs + 8.0 * cubes + inside_map;
+            let band = band_kept_bytes(cubes, stored) + 4.0 * pairs + 8.0 * cubes + inside_map;
             (
-                bytes(band),
+                saturating_bytes(band),
                 inputs
                     .placed_triangles
                     .saturating_mul(EXACT_REFERENCE_BYTES_PER_TRIANGLE),
@@ -256,13 +260,13 @@ pub fn scene_memory(
     let winding = vps_reference::winding::WindingTree::estimated_bytes(winding_triangles)
         .saturating_add(vps_reference::orient::estimated_bytes(winding_triangles));
     let shell_points = 1.5 * inputs.part_area_m2 / (voxel_size * voxel_size);
-    let shell = bytes(shell_points * SHELL_BYTES_PER_POINT as f64);
+    let shell = saturating_bytes(shell_points * SHELL_BYTES_PER_POINT as f64);
     let viewer = if inputs.viewer {
         inputs.placed_copies_bytes.saturating_mul(2)
     } else {
         0
     };
-    let voxmap_bytes = bytes(voxmap.tree_bytes);
+    let voxmap_bytes = saturating_bytes(voxmap.tree_bytes);
     let total = [
         inputs.meshes_read_bytes,
         inputs.placed_copies_bytes,

@@ -99,18 +99,7 @@ pub fn pairs_json(names: &[String], pairs: &[crate::pairs::PairClearance], every
                 "frame": m.map(|m| m.frame),
                 "on_a_m": m.map(|m| m.closest.on_object_m.to_array()),
                 "on_b_m": m.map(|m| m.closest.on_part_m.to_array()),
-                "contacts": p.contacts.iter().map(|e| json!({
-                    "start_frame": e.start_frame,
-                    "end_frame": e.end_frame,
-                    "start_s": e.start_s,
-                    "end_s": e.end_s,
-                    "peak_force_on_a_n": e.peak_force_on_a_n,
-                    "peak_frame": e.peak_frame,
-                    "peak_s": e.peak_s,
-                    "distance_at_peak_m": e.distance_at_peak_m,
-                    "on_a_m": e.on_a_m.to_array(),
-                    "on_b_m": e.on_b_m.to_array(),
-                })).collect::<Vec<_>>(),
+                "contacts": p.contacts,
             })
         })
         .collect();
